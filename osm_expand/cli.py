@@ -1,0 +1,140 @@
+"""The ``osm-expand`` command: argument parsing, files, logging, exit codes.
+
+Exit codes: 0 success, 2 bad usage or unusable input (one line on stderr
+naming the file and the problem, nothing written), 1 an internal error.
+Results go to files or, with ``--json``, to stdout; everything else goes to
+stderr.
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import sys
+import time
+from collections.abc import Callable, Sequence
+from pathlib import Path
+
+from osm_expand.errors import InputError
+
+PROG = "osm-expand"
+OUTPUT_WRITERS = {".osm": "osm", ".geojson": "geojson", ".json": "geojson"}
+
+
+class _Parser(argparse.ArgumentParser):
+    def error(self, message: str) -> None:  # one line, exit 2
+        self.exit(2, f"{PROG}: error: {message} (see '{PROG} --help')\n")
+
+
+class _Log:
+    """Progress lines with elapsed time on stderr, silent with --quiet."""
+
+    def __init__(self, quiet: bool):
+        self.quiet = quiet
+        self.t0 = time.perf_counter()
+
+    def __call__(self, message: str) -> None:
+        if not self.quiet:
+            print(f"[{time.perf_counter() - self.t0:6.2f}s] {message}", file=sys.stderr, flush=True)
+
+
+def _add_input_options(p: argparse.ArgumentParser) -> None:
+    p.add_argument("city", help="OSM extract: .osm, .osm.gz, .osm.bz2 or .osm.pbf")
+    p.add_argument("--service", action="store_true", help="also keep highway=service roads")
+    p.add_argument("--paths", action="store_true", help="also keep footways, paths, tracks and cycleways")
+    p.add_argument("--json", action="store_true", help="print the report as one JSON object on stdout")
+    p.add_argument("-q", "--quiet", action="store_true", help="no progress on stderr")
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = _Parser(prog=PROG, description="Grow a real OpenStreetMap town.")
+    sub = parser.add_subparsers(dest="command", parser_class=_Parser, metavar="COMMAND")
+    simp = sub.add_parser("simplify", help="simplify a town's streets into junctions and whole streets",
+                          description="Simplify a town's street network (seed 004 §4.2) and write it.")
+    _add_input_options(simp)
+    simp.add_argument("-o", "--output", help="OUT.osm or OUT.geojson (default: CITY.simplified.osm beside the input)")
+    simp.add_argument("--cluster-radius", type=float, default=None, metavar="M",
+                      help="disc radius for fusing junction clusters, metres (default 10)")
+    return parser
+
+
+def _output_path(city: Path, output: str | None, default_suffix: str) -> tuple[Path, str]:
+    path = Path(output) if output else city.with_name(_stem(city) + default_suffix)
+    kind = OUTPUT_WRITERS.get(path.suffix.lower())
+    if kind is None:
+        raise InputError(f"{path}: unsupported output type (use .osm or .geojson)")
+    if not path.parent.exists() and str(path.parent) != "":
+        raise InputError(f"{path}: output directory does not exist")
+    if path.is_dir():
+        raise InputError(f"{path}: is a directory")
+    return path, kind
+
+
+def _stem(path: Path) -> str:
+    name = path.name
+    for suffix in (".osm.gz", ".osm.bz2", ".osm.pbf", ".osm", ".pbf", ".gz", ".bz2", ".xml"):
+        if name.lower().endswith(suffix):
+            return name[: -len(suffix)]
+    return path.stem
+
+
+def cmd_simplify(args: argparse.Namespace, log: _Log) -> dict:
+    from osm_expand.export import write_geojson, write_osm
+    from osm_expand.ingest import load
+    from simplify import SimplifyOptions, simplify
+
+    city = Path(args.city)
+    out, kind = _output_path(city, args.output, ".simplified.osm")
+    if args.cluster_radius is not None and not args.cluster_radius > 0:
+        raise InputError(f"--cluster-radius must be positive, got {args.cluster_radius}")
+    log(f"reading {city}")
+    net = load(city, service=args.service, paths=args.paths, buildings=False)
+    log(f"{len(net.streets)} streets, {len(net.xy)} street nodes; simplifying")
+    opts = SimplifyOptions() if args.cluster_radius is None else SimplifyOptions(cluster_radius=args.cluster_radius)
+    result = simplify(net, opts)
+    if not result.network.streets:
+        hint = "" if args.service else "; try --service"
+        raise InputError(f"{city}: no streets left after simplification "
+                         f"(every street is a dead end or isolated){hint}")
+    log(f"{result.report['junctions']} junctions, {result.report['streets']} streets; writing {out}")
+    (write_osm if kind == "osm" else write_geojson)(result.network, out)
+    return {"input": str(city), "output": str(out), **result.report}
+
+
+COMMANDS: dict[str, Callable[[argparse.Namespace, _Log], dict]] = {"simplify": cmd_simplify}
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    argv = list(sys.argv[1:] if argv is None else argv)
+    parser = build_parser()
+    if argv and argv[0] not in COMMANDS and not argv[0].startswith("-"):
+        print(f"{PROG}: error: growing a town is not available yet; use '{PROG} simplify {argv[0]}'",
+              file=sys.stderr)
+        return 2
+    args = parser.parse_args(argv)
+    if args.command is None:
+        parser.print_help(sys.stderr)
+        return 2
+    log = _Log(args.quiet)
+    try:
+        report = COMMANDS[args.command](args, log)
+    except InputError as exc:
+        print(f"{PROG}: {exc}", file=sys.stderr)
+        return 2
+    except KeyboardInterrupt:
+        print(f"{PROG}: interrupted", file=sys.stderr)
+        return 130
+    except Exception as exc:  # a bug: say so in one line, details on request
+        if os.environ.get("OSM_EXPAND_DEBUG"):
+            raise
+        print(f"{PROG}: internal error: {type(exc).__name__}: {exc} "
+              "(set OSM_EXPAND_DEBUG=1 for a traceback)", file=sys.stderr)
+        return 1
+    if args.json:
+        print(json.dumps(report, sort_keys=True))
+    log("done")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,6 @@
+"""Writers for the formats osm-expand produces; each writes atomically."""
+from osm_expand.export.atomic import atomic_write
+from osm_expand.export.geojson import write_geojson
+from osm_expand.export.osm import write_osm
+
+__all__ = ["atomic_write", "write_geojson", "write_osm"]

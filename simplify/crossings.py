@@ -1,0 +1,175 @@
+"""Pass 4 (004 §4.2.2): add the junctions OSM forgot.
+
+Segments that cross, touch or overlap without sharing a node get one, but
+only when both streets are on the same layer (same ``layer``, ``bridge`` and
+``tunnel``): a bridge over a street is not a junction. Candidate pairs come
+from an STRtree query, and the intersection arithmetic is vectorised.
+"""
+from __future__ import annotations
+
+from collections import defaultdict
+
+import numpy as np
+import shapely
+from scipy.cluster.hierarchy import DisjointSet
+from scipy.spatial import cKDTree
+
+from osm_expand.model import Street, StreetNetwork
+from simplify.options import SimplifyOptions
+from simplify.topology import append_nodes, clean_nodes, split_self_touching
+
+
+def segment_table(net: StreetNetwork) -> dict[str, np.ndarray]:
+    """One row per street segment: its nodes, street, position and layer key."""
+    keys: dict[tuple, int] = {}
+    u, v, street, pos, layer = [], [], [], [], []
+    for k, s in enumerate(net.streets):
+        n = len(s.nodes) - 1
+        u.append(s.nodes[:-1])
+        v.append(s.nodes[1:])
+        street.append(np.full(n, k))
+        pos.append(np.arange(n))
+        layer.append(np.full(n, keys.setdefault(s.layer_key, len(keys))))
+    cat = lambda parts: np.concatenate(parts).astype(np.intp) if parts else np.zeros(0, np.intp)  # noqa: E731
+    return {"u": cat(u), "v": cat(v), "street": cat(street), "pos": cat(pos), "layer": cat(layer)}
+
+
+def candidate_pairs(net: StreetNetwork, seg: dict[str, np.ndarray], tolerance: float) -> tuple[np.ndarray, np.ndarray]:
+    """Same-layer segment pairs closer than ``tolerance`` that share no node."""
+    a, b = net.xy[seg["u"]], net.xy[seg["v"]]
+    lines = shapely.linestrings(np.stack([a, b], axis=1))
+    tree = shapely.STRtree(lines)
+    p, q = tree.query(lines, predicate="dwithin", distance=tolerance)
+    keep = p < q
+    p, q = p[keep], q[keep]
+    same = seg["layer"][p] == seg["layer"][q]
+    up, vp, uq, vq = seg["u"][p], seg["v"][p], seg["u"][q], seg["v"][q]
+    shared = (up == uq) | (up == vq) | (vp == uq) | (vp == vq)
+    keep = same & ~shared
+    return p[keep], q[keep]
+
+
+def add_missing_intersections(net: StreetNetwork, opts: SimplifyOptions) -> tuple[StreetNetwork, int]:
+    """Returns the network and how many junctions were added or joined."""
+    seg = segment_table(net)
+    if len(seg["u"]) == 0:
+        return net, 0
+    p, q = candidate_pairs(net, seg, opts.touch_tolerance)
+    if len(p) == 0:
+        return net, 0
+    tol = opts.touch_tolerance
+    xy = net.xy
+    inserts: defaultdict[int, list[tuple[float, int]]] = defaultdict(list)
+    merges: list[tuple[int, int]] = []
+
+    # 1. a vertex touching another segment (T without a node, overlaps, duplicate nodes)
+    for this, other in ((p, q), (q, p)):
+        for end in ("u", "v"):
+            node = seg[end][this]
+            t, d = _project(xy[node], xy[seg["u"][other]], xy[seg["v"][other]])
+            close = d <= tol
+            seg_len = np.hypot(*(xy[seg["v"][other]] - xy[seg["u"][other]]).T)
+            margin = tol / np.maximum(seg_len, 1e-12)
+            interior = close & (t > margin) & (t < 1 - margin)
+            for s, tt, n in zip(other[interior], t[interior], node[interior]):
+                inserts[int(s)].append((float(tt), int(n)))
+            at_u = close & (t <= margin)
+            at_v = close & (t >= 1 - margin)
+            merges += list(zip(node[at_u].tolist(), seg["u"][other][at_u].tolist()))
+            merges += list(zip(node[at_v].tolist(), seg["v"][other][at_v].tolist()))
+
+    # 2. proper crossings in both interiors: a new node
+    t, s, ok = _crossing_params(xy[seg["u"][p]], xy[seg["v"][p]], xy[seg["u"][q]], xy[seg["v"][q]])
+    len_p = np.hypot(*(xy[seg["v"][p]] - xy[seg["u"][p]]).T)
+    len_q = np.hypot(*(xy[seg["v"][q]] - xy[seg["u"][q]]).T)
+    ok &= (t * len_p > tol) & ((1 - t) * len_p > tol) & (s * len_q > tol) & ((1 - s) * len_q > tol)
+    points = xy[seg["u"][p][ok]] + t[ok, None] * (xy[seg["v"][p][ok]] - xy[seg["u"][p][ok]])
+    new_ids = _dedupe_points(points, tol)
+    xy2, ids2, first = append_nodes(net, _representatives(points, new_ids))
+    for sp, sq, tp, tq, nid in zip(p[ok], q[ok], t[ok], s[ok], new_ids):
+        inserts[int(sp)].append((float(tp), first + int(nid)))
+        inserts[int(sq)].append((float(tq), first + int(nid)))
+
+    streets = _apply(net.streets, seg, inserts, _merge_map(merges))
+    changed = len(merges) + int(ok.sum()) + sum(len(v) for v in inserts.values())
+    return net.replace(xy=xy2, node_ids=ids2, streets=streets), changed
+
+
+def _project(pt: np.ndarray, a: np.ndarray, b: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Parameter along a→b of the closest point to ``pt``, and the distance."""
+    d = b - a
+    den = np.maximum((d * d).sum(axis=1), 1e-24)
+    t = np.clip(((pt - a) * d).sum(axis=1) / den, 0.0, 1.0)
+    closest = a + t[:, None] * d
+    return t, np.hypot(*(pt - closest).T)
+
+
+def _crossing_params(a1, b1, a2, b2):
+    d1, d2, w = b1 - a1, b2 - a2, a2 - a1
+    den = d1[:, 0] * d2[:, 1] - d1[:, 1] * d2[:, 0]
+    scale = np.hypot(*d1.T) * np.hypot(*d2.T)
+    ok = np.abs(den) > 1e-12 * np.maximum(scale, 1e-24)
+    safe = np.where(ok, den, 1.0)
+    t = (w[:, 0] * d2[:, 1] - w[:, 1] * d2[:, 0]) / safe
+    s = (w[:, 0] * d1[:, 1] - w[:, 1] * d1[:, 0]) / safe
+    ok &= (t >= 0) & (t <= 1) & (s >= 0) & (s <= 1)
+    return t, s, ok
+
+
+def _dedupe_points(points: np.ndarray, tol: float) -> np.ndarray:
+    """Label crossing points so that coincident ones (three streets at a point) share a node."""
+    n = len(points)
+    labels = np.arange(n)
+    if n < 2:
+        return labels
+    ds = DisjointSet(range(n))
+    for i, j in cKDTree(points).query_pairs(tol):
+        ds.merge(i, j)
+    roots = {r: i for i, r in enumerate(sorted({ds[i] for i in range(n)}))}
+    return np.array([roots[ds[i]] for i in range(n)], dtype=np.intp)
+
+
+def _representatives(points: np.ndarray, labels: np.ndarray) -> np.ndarray:
+    if len(points) == 0:
+        return np.zeros((0, 2))
+    out = np.zeros((labels.max() + 1, 2))
+    np.add.at(out, labels, points)
+    return out / np.bincount(labels)[:, None]
+
+
+def _merge_map(pairs: list[tuple[int, int]]) -> dict[int, int]:
+    """Node → representative (the smallest index) for coincident distinct nodes."""
+    if not pairs:
+        return {}
+    ds = DisjointSet()
+    for a, b in pairs:
+        ds.add(a)
+        ds.add(b)
+        ds.merge(a, b)
+    return {n: min(group) for group in ds.subsets() for n in group if n != min(group)}
+
+
+def _apply(streets, seg, inserts, remap: dict[int, int]) -> tuple[Street, ...]:
+    by_street: defaultdict[int, dict[int, list[tuple[float, int]]]] = defaultdict(dict)
+    for s, items in inserts.items():
+        by_street[int(seg["street"][s])][int(seg["pos"][s])] = sorted(items)
+    out: list[Street] = []
+    for k, street in enumerate(streets):
+        nodes = street.nodes
+        if k in by_street:
+            extra = by_street[k]
+            seq = []
+            for i, n in enumerate(nodes):
+                seq.append(n)
+                seq.extend(m for _, m in extra.get(i, ()))
+            nodes = tuple(seq)
+        if remap:
+            nodes = tuple(remap.get(n, n) for n in nodes)
+        if nodes is not street.nodes:
+            cleaned = clean_nodes(nodes)
+            if cleaned is None:
+                continue
+            out.extend(split_self_touching(street.with_nodes(cleaned)))
+        else:
+            out.append(street)
+    return tuple(out)

@@ -1,0 +1,127 @@
+"""Pass 7 (004 §4.2.5): merge street fragments into whole streets.
+
+OSM splits a street wherever a tag changes. At each junction, the street
+ends there are paired with the candidate closest to straight when the angle
+between them exceeds ``merge_angle``; a candidate with the same name wins
+over a straighter one with another name. Pairs are accepted best first and
+never close a loop, then chains of pairs become single streets. Streets on
+different layers never merge: a bridge stays a bridge.
+"""
+from __future__ import annotations
+
+from collections import defaultdict
+from itertools import combinations
+
+import numpy as np
+from scipy.cluster.hierarchy import DisjointSet
+
+from osm_expand.highways import rank
+from osm_expand.model import Street, StreetNetwork
+from simplify.options import SimplifyOptions
+from simplify.topology import heading, lengths
+
+End = tuple[int, bool]  # (street index, True for its first node)
+
+
+def end_angle(xy: np.ndarray, a: Street, a_start: bool, b: Street, b_start: bool, reach: float) -> float:
+    """Angle (degrees) between two streets leaving the same node: 180 is straight on."""
+    ha = heading(xy, a.nodes, a_start, reach)
+    hb = heading(xy, b.nodes, b_start, reach)
+    return float(np.degrees(np.arccos(np.clip(ha @ hb, -1.0, 1.0))))
+
+
+def merge_streets(net: StreetNetwork, opts: SimplifyOptions) -> tuple[StreetNetwork, int]:
+    """Returns the network and how many joins were made."""
+    streets = net.streets
+    ends_at: defaultdict[int, list[End]] = defaultdict(list)
+    for k, s in enumerate(streets):
+        if not s.is_closed:
+            ends_at[s.nodes[0]].append((k, True))
+            ends_at[s.nodes[-1]].append((k, False))
+    proposals = []
+    for node, ends in ends_at.items():
+        proposals += _best_pairs(net, ends, opts)
+    proposals.sort(key=lambda p: (-p[0], -p[1], p[2], p[3]))
+    chains = DisjointSet(range(len(streets)))
+    free_ends = {k: [s.nodes[0], s.nodes[-1]] for k, s in enumerate(streets)}
+    partner: dict[End, End] = {}
+    for _, _, e1, e2 in proposals:
+        if e1 in partner or e2 in partner or chains.connected(e1[0], e2[0]):
+            continue
+        node = streets[e1[0]].nodes[0 if e1[1] else -1]
+        a, b = list(free_ends[chains[e1[0]]]), list(free_ends[chains[e2[0]]])
+        a.remove(node)
+        b.remove(node)
+        if a[0] == b[0]:  # the joined street would be a closed loop
+            continue
+        chains.merge(e1[0], e2[0])
+        free_ends[chains[e1[0]]] = [a[0], b[0]]
+        partner[e1], partner[e2] = e2, e1
+    if not partner:
+        return net, 0
+    merged = [_join(net, group, partner) for group in _chain_groups(chains, len(streets))]
+    return net.replace(streets=tuple(merged)), len(partner) // 2
+
+
+def _best_pairs(net: StreetNetwork, ends: list[End], opts: SimplifyOptions):
+    """Disjoint end pairs at one node, straightest (and same-named) first."""
+    cands = []
+    for e1, e2 in combinations(ends, 2):
+        a, b = net.streets[e1[0]], net.streets[e2[0]]
+        if e1[0] == e2[0] or a.layer_key != b.layer_key:
+            continue
+        angle = end_angle(net.xy, a, e1[1], b, e2[1], opts.heading_reach)
+        if angle > opts.merge_angle:
+            same_name = bool(a.name) and a.name == b.name
+            cands.append((int(same_name), round(angle, 9), e1, e2))
+    cands.sort(key=lambda c: (-c[0], -c[1], c[2], c[3]))
+    used, out = set(), []
+    for c in cands:
+        if c[2] not in used and c[3] not in used:
+            used |= {c[2], c[3]}
+            out.append(c)
+    return out
+
+
+def _chain_groups(chains: DisjointSet, n: int) -> list[list[int]]:
+    groups: dict[int, list[int]] = {}
+    for k in range(n):
+        groups.setdefault(chains[k], []).append(k)
+    return sorted(groups.values(), key=lambda g: g[0])
+
+
+def _join(net: StreetNetwork, group: list[int], partner: dict[End, End]) -> Street:
+    """Walk a chain from its free end and concatenate the streets in order."""
+    if len(group) == 1:
+        return net.streets[group[0]]
+    start = next((k, first) for k in group for first in (True, False) if (k, first) not in partner)
+    nodes: list[int] = []
+    parts: list[Street] = []
+    k, entry_first = start
+    while True:
+        s = net.streets[k]
+        seq = s.nodes if entry_first else s.nodes[::-1]
+        nodes.extend(seq if not nodes else seq[1:])
+        parts.append(s)
+        exit_end = (k, not entry_first)
+        if exit_end not in partner:
+            break
+        k, entry_first = partner[exit_end]
+    return combine(net.xy, parts, tuple(nodes))
+
+
+def combine(xy: np.ndarray, parts: list[Street], nodes: tuple[int, ...]) -> Street:
+    """Attributes of the longest part, the class with most length, all OSM ids."""
+    lens = [lengths(xy, p.nodes) for p in parts]
+    main = parts[int(np.argmax(lens))]
+    named = [(ln, p.name) for ln, p in zip(lens, parts) if p.name]
+    by_class: defaultdict[str, float] = defaultdict(float)
+    for ln, p in zip(lens, parts):
+        by_class[p.highway] += ln
+    best_class = max(sorted(by_class), key=lambda h: (by_class[h], -rank(h)))
+    ids = tuple(dict.fromkeys(i for p in parts for i in p.osm_ids))
+    return Street(
+        nodes=nodes, highway=best_class, name=max(named)[1] if named else None,
+        layer=main.layer, bridge=main.bridge, tunnel=main.tunnel, junction=None,
+        lanes=main.lanes, width=main.width, osm_ids=ids,
+    )

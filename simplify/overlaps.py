@@ -1,0 +1,74 @@
+"""Pass 3 (004 §4.2.1): remove overlapping duplicates and small loops.
+
+Two street pieces joining the same two junctions are one road drawn twice
+(a lay-by, a split carriageway, two ways on the same nodes) when they stay
+within ``overlap_tolerance`` of each other; the less important one goes.
+Pieces that leave a junction and come back to it shorter than
+``small_loop_length`` go too. Pieces far apart (a real two-sided block) stay.
+"""
+from __future__ import annotations
+
+from collections import defaultdict
+
+import numpy as np
+import shapely
+
+from osm_expand.highways import rank
+from osm_expand.model import Street, StreetNetwork
+from simplify.options import SimplifyOptions
+from simplify.topology import clean_nodes, junction_mask, lengths, pieces
+
+
+def remove_overlaps(net: StreetNetwork, opts: SimplifyOptions) -> tuple[StreetNetwork, int]:
+    """Returns the network and how many pieces were removed."""
+    junction = junction_mask(net.streets, len(net.xy))
+    groups: defaultdict[tuple[int, int], list[tuple[int, int, int]]] = defaultdict(list)
+    drop: defaultdict[int, list[tuple[int, int]]] = defaultdict(list)
+    for k, street in enumerate(net.streets):
+        for a, b in pieces(street, junction):
+            u, v = street.nodes[a], street.nodes[b]
+            if u == v:
+                if lengths(net.xy, street.nodes[a:b + 1]) < opts.small_loop_length:
+                    drop[k].append((a, b))
+            else:
+                groups[(min(u, v), max(u, v))].append((k, a, b))
+    street_len = [lengths(net.xy, s.nodes) for s in net.streets]
+    for members in groups.values():
+        if len(members) > 1:
+            for k, a, b in _duplicates(net, members, street_len, opts.overlap_tolerance):
+                drop[k].append((a, b))
+    if not drop:
+        return net, 0
+    streets: list[Street] = []
+    for k, street in enumerate(net.streets):
+        streets.extend(cut_out(street, drop[k]) if k in drop else [street])
+    return net.replace(streets=tuple(streets)), sum(len(v) for v in drop.values())
+
+
+def _duplicates(net: StreetNetwork, members, street_len, tolerance: float):
+    """Members that duplicate the most important member of their group."""
+    order = sorted(members, key=lambda m: (rank(net.streets[m[0]].highway), -street_len[m[0]], m[0], m[1]))
+    keep = order[0]
+    keep_line = shapely.LineString(net.xy[list(net.streets[keep[0]].nodes[keep[1]:keep[2] + 1])])
+    others = order[1:]
+    lines = [shapely.LineString(net.xy[list(net.streets[k].nodes[a:b + 1])]) for k, a, b in others]
+    dist = shapely.hausdorff_distance(lines, keep_line)
+    return [m for m, d in zip(others, np.atleast_1d(dist)) if d <= tolerance]
+
+
+def cut_out(street: Street, ranges: list[tuple[int, int]]) -> list[Street]:
+    """The parts of ``street`` left after removing the given position ranges."""
+    nodes = street.nodes
+    parts, start = [], 0
+    for a, b in sorted(ranges):
+        if a > start:
+            parts.append(nodes[start:a + 1])
+        start = max(start, b)
+    if start < len(nodes) - 1:
+        parts.append(nodes[start:])
+    out = []
+    for part in parts:
+        cleaned = clean_nodes(part)
+        if cleaned is not None:
+            out.append(street.with_nodes(cleaned))
+    return out

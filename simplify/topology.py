@@ -1,0 +1,134 @@
+"""Junction bookkeeping shared by every simplification pass.
+
+A *junction* is a node that two or more distinct streets share. After
+:func:`split_self_touching` no street visits a node twice (a ring only
+repeats its first node at the end), so this single definition also covers
+the thesis's "twice in one street".
+"""
+from __future__ import annotations
+
+from collections.abc import Iterable, Sequence
+
+import numpy as np
+
+from osm_expand.model import Street, StreetNetwork
+
+
+def street_counts(streets: Sequence[Street], n_nodes: int) -> np.ndarray:
+    """How many distinct streets reference each node."""
+    if not streets:
+        return np.zeros(n_nodes, dtype=np.int32)
+    flat = np.concatenate([np.unique(np.asarray(s.nodes, dtype=np.intp)) for s in streets])
+    return np.bincount(flat, minlength=n_nodes).astype(np.int32)
+
+
+def junction_mask(streets: Sequence[Street], n_nodes: int) -> np.ndarray:
+    return street_counts(streets, n_nodes) >= 2
+
+
+def clean_nodes(nodes: Iterable[int]) -> tuple[int, ...] | None:
+    """Drop repeated consecutive nodes; None when nothing street-like is left."""
+    out: list[int] = []
+    for n in nodes:
+        if not out or out[-1] != n:
+            out.append(n)
+    if len(out) < 2 or (out[0] == out[-1] and len(out) < 4):
+        return None
+    return tuple(out)
+
+
+def split_self_touching(street: Street) -> list[Street]:
+    """Cut a street at every node it visits more than once.
+
+    The pieces visit each node once, except that a piece may be a ring; a
+    back-and-forth spike (a-b-a) disappears.
+    """
+    nodes = clean_nodes(street.nodes)
+    if nodes is None:
+        return []
+    seen: dict[int, int] = {}
+    for n in nodes:
+        seen[n] = seen.get(n, 0) + 1
+    closed = nodes[0] == nodes[-1]
+    repeated = {n for n, c in seen.items() if c > 1 and not (closed and n == nodes[0] and c == 2)}
+    if not repeated:
+        return [street.with_nodes(nodes)]
+    cuts = [0] + [i for i in range(1, len(nodes) - 1) if nodes[i] in repeated] + [len(nodes) - 1]
+    pieces = []
+    for a, b in zip(cuts, cuts[1:]):
+        piece = clean_nodes(nodes[a:b + 1])
+        if piece is not None:
+            pieces.append(street.with_nodes(piece))
+    return pieces
+
+
+def junction_positions(street: Street, junction: np.ndarray) -> list[int]:
+    """Positions along the street of its junction nodes, ends always included."""
+    nodes = street.nodes
+    last = len(nodes) - 1
+    return [i for i, n in enumerate(nodes) if i == 0 or i == last or junction[n]]
+
+
+def pieces(street: Street, junction: np.ndarray) -> list[tuple[int, int]]:
+    """Junction-to-junction (position) ranges of a street."""
+    pos = junction_positions(street, junction)
+    return list(zip(pos, pos[1:]))
+
+
+def lengths(xy: np.ndarray, nodes: Sequence[int]) -> float:
+    pts = xy[np.asarray(nodes, dtype=np.intp)]
+    return float(np.hypot(*np.diff(pts, axis=0).T).sum()) if len(pts) > 1 else 0.0
+
+
+def heading(xy: np.ndarray, nodes: Sequence[int], from_start: bool, reach: float) -> np.ndarray:
+    """Unit vector pointing from a street end into the street.
+
+    Taken towards the point ``reach`` metres along the street (or its far end)
+    so that a jittery first shape segment does not decide a merge.
+    """
+    seq = np.asarray(nodes if from_start else nodes[::-1], dtype=np.intp)
+    pts = xy[seq]
+    steps = np.hypot(*np.diff(pts, axis=0).T)
+    cum = np.concatenate([[0.0], np.cumsum(steps)])
+    k = int(np.searchsorted(cum, reach))
+    if k >= len(pts):
+        target = pts[-1]
+    else:
+        t = (reach - cum[k - 1]) / max(steps[k - 1], 1e-12)
+        target = pts[k - 1] + t * (pts[k] - pts[k - 1])
+    v = target - pts[0]
+    norm = float(np.hypot(*v))
+    return v / norm if norm > 0 else v
+
+
+def summary(net: StreetNetwork) -> dict[str, int]:
+    """Counts that every pass reports."""
+    counts = street_counts(net.streets, len(net.xy))
+    return {
+        "street_nodes": int((counts > 0).sum()),
+        "junctions": int((counts >= 2).sum()),
+        "streets": len(net.streets),
+    }
+
+
+def append_nodes(net: StreetNetwork, new_xy: np.ndarray) -> tuple[np.ndarray, np.ndarray, int]:
+    """Arrays with ``new_xy`` appended as synthetic nodes (OSM id 0); returns the first new index."""
+    first = len(net.xy)
+    if len(new_xy) == 0:
+        return net.xy, net.node_ids, first
+    xy = np.vstack([net.xy, np.asarray(new_xy, dtype=float).reshape(-1, 2)])
+    ids = np.concatenate([net.node_ids, np.zeros(len(new_xy), dtype=np.int64)])
+    return xy, ids, first
+
+
+def replace_nodes(streets: Sequence[Street], remap: dict[int, int]) -> tuple[Street, ...]:
+    """Streets with nodes renamed by ``remap``, cleaned and cut where they now touch themselves."""
+    out: list[Street] = []
+    for s in streets:
+        if not any(n in remap for n in s.nodes):
+            out.append(s)
+            continue
+        nodes = clean_nodes(remap.get(n, n) for n in s.nodes)
+        if nodes is not None:
+            out.extend(split_self_touching(s.with_nodes(nodes)))
+    return tuple(out)
