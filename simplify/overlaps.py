@@ -5,6 +5,10 @@ Two street pieces joining the same two junctions are one road drawn twice
 within ``overlap_tolerance`` of each other; the less important one goes.
 Pieces that leave a junction and come back to it shorter than
 ``small_loop_length`` go too. Pieces far apart (a real two-sided block) stay.
+
+A duplicate or loop can be the only cycle that keeps a stretch of road from
+being a dead end (a dual carriageway leading off the map, a turning loop).
+Callers pass such pieces, by their junction pair, in ``exempt``.
 """
 from __future__ import annotations
 
@@ -19,8 +23,14 @@ from simplify.options import SimplifyOptions
 from simplify.topology import clean_nodes, junction_mask, lengths, pieces
 
 
-def remove_overlaps(net: StreetNetwork, opts: SimplifyOptions) -> tuple[StreetNetwork, int]:
-    """Returns the network and how many pieces were removed."""
+PieceKey = tuple[int, int]
+#: Pieces closer than this (m) are the same line drawn twice and always go.
+IDENTICAL = 1.0
+
+
+def remove_overlaps(net: StreetNetwork, opts: SimplifyOptions,
+                    exempt: frozenset[PieceKey] = frozenset()) -> tuple[StreetNetwork, list[PieceKey]]:
+    """Returns the network and the junction pairs of the removed pieces."""
     junction = junction_mask(net.streets, len(net.xy))
     groups: defaultdict[tuple[int, int], list[tuple[int, int, int]]] = defaultdict(list)
     drop: defaultdict[int, list[tuple[int, int]]] = defaultdict(list)
@@ -28,21 +38,27 @@ def remove_overlaps(net: StreetNetwork, opts: SimplifyOptions) -> tuple[StreetNe
         for a, b in pieces(street, junction):
             u, v = street.nodes[a], street.nodes[b]
             if u == v:
-                if lengths(net.xy, street.nodes[a:b + 1]) < opts.small_loop_length:
+                if (u, u) not in exempt and lengths(net.xy, street.nodes[a:b + 1]) < opts.small_loop_length:
                     drop[k].append((a, b))
             else:
                 groups[(min(u, v), max(u, v))].append((k, a, b))
     street_len = [lengths(net.xy, s.nodes) for s in net.streets]
-    for members in groups.values():
+    for key, members in groups.items():
         if len(members) > 1:
-            for k, a, b in _duplicates(net, members, street_len, opts.overlap_tolerance):
+            # an exempt pair still loses exact copies: two streets on the same line cross everywhere
+            tolerance = IDENTICAL if key in exempt else opts.overlap_tolerance
+            for k, a, b in _duplicates(net, members, street_len, tolerance):
                 drop[k].append((a, b))
     if not drop:
-        return net, 0
+        return net, []
     streets: list[Street] = []
+    removed: list[PieceKey] = []
     for k, street in enumerate(net.streets):
         streets.extend(cut_out(street, drop[k]) if k in drop else [street])
-    return net.replace(streets=tuple(streets)), sum(len(v) for v in drop.values())
+        for a, b in drop.get(k, ()):
+            u, v = street.nodes[a], street.nodes[b]
+            removed.append((min(u, v), max(u, v)))
+    return net.replace(streets=tuple(streets)), removed
 
 
 def _duplicates(net: StreetNetwork, members, street_len, tolerance: float):

@@ -52,12 +52,12 @@ class _Run:
         """Overlaps and dead ends until neither changes anything."""
         removed = {"overlaps_removed": 0, "dead_ends_removed": 0}
         for _ in range(MAX_ROUNDS):
-            self.net, n_over = remove_overlaps(self.net, self.opts)
+            self.net, pieces = remove_overlaps_keeping_cycles(self.net, self.opts)
             self.net, dead = prune_dead_ends(self.net)
             self.dead_ends += dead
-            removed["overlaps_removed"] += n_over
+            removed["overlaps_removed"] += len(pieces)
             removed["dead_ends_removed"] += len(dead)
-            if not n_over and not dead:
+            if not pieces and not dead:
                 break
         return removed
 
@@ -79,9 +79,9 @@ def simplify(net: StreetNetwork, options: SimplifyOptions | None = None) -> Simp
     run.net, dead = prune_dead_ends(run.net)
     run.dead_ends += dead
     run.record("dead_ends", **dead_end_summary(dead))
-    run.net, n_over = remove_overlaps(run.net, opts)
+    run.net, pieces = remove_overlaps_keeping_cycles(run.net, opts)
     after = run.cleanup()
-    run.record("overlaps", overlaps_removed=n_over + after["overlaps_removed"],
+    run.record("overlaps", overlaps_removed=len(pieces) + after["overlaps_removed"],
                dead_ends_removed=after["dead_ends_removed"])
     run.step("roundabouts", collapse_roundabouts, "roundabouts")
     run.step("clusters", fuse_clusters, "clusters")
@@ -100,6 +100,30 @@ def simplify(net: StreetNetwork, options: SimplifyOptions | None = None) -> Simp
         **dead_end_summary(run.dead_ends),
     }
     return SimplifyResult(network=run.net, report=report, dead_ends=run.dead_ends)
+
+
+def remove_overlaps_keeping_cycles(net: StreetNetwork, opts: SimplifyOptions):
+    """Remove duplicates and small loops, except those whose removal would expose dead ends.
+
+    Dead-end pruning keeps exactly the streets on or between cycles. When a
+    removed piece was the only cycle holding a stretch of road, pruning
+    would now delete that road; such pieces are kept and the rest removed.
+    """
+    exempt: frozenset = frozenset()
+    for _ in range(MAX_ROUNDS):
+        trial, removed = remove_overlaps(net, opts, exempt)
+        if not removed:
+            return trial, removed
+        pruned, dead = prune_dead_ends(trial)
+        if not dead:
+            return trial, removed
+        lost = set(trial.used_nodes().tolist()) - set(pruned.used_nodes().tolist())
+        lost |= {d.attach for d in dead}
+        holding = {key for key in removed if key[0] in lost or key[1] in lost}
+        if not holding:
+            return trial, removed
+        exempt = exempt | holding
+    return remove_overlaps(net, opts, exempt)
 
 
 def _repair(run: _Run) -> int:

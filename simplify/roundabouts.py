@@ -27,6 +27,8 @@ def collapse_roundabouts(net: StreetNetwork, opts: SimplifyOptions) -> tuple[Str
     groups += [[k] for k, s in enumerate(net.streets)
                if k not in tagged and s.is_closed and s.junction not in ROUNDABOUT_TAGS
                and _diameter(net, [k]) <= opts.loop_max_diameter]
+    approaches = _approaches(net, groups)
+    groups = [g for g, n in zip(groups, approaches) if n >= 2]
     if not groups:
         return net, 0
     centres = np.array([_centre(net, g) for g in groups])
@@ -39,6 +41,30 @@ def collapse_roundabouts(net: StreetNetwork, opts: SimplifyOptions) -> tuple[Str
     gone = {k for g in groups for k in g}
     kept = tuple(s for k, s in enumerate(net.streets) if k not in gone)
     return net.replace(xy=xy, node_ids=ids, streets=replace_nodes(kept, remap)), len(groups)
+
+
+def _approaches(net: StreetNetwork, groups: list[list[int]]) -> list[int]:
+    """Per group, the street ends meeting its ring (a street passing through counts twice).
+
+    A ring with one approach is a turning loop: collapsing it would turn the
+    road into a dead end and delete it, so it stays.
+    """
+    ring_of: dict[int, int] = {}
+    member = set()
+    for g, group in enumerate(groups):
+        for k in group:
+            member.add(k)
+            ring_of.update((n, g) for n in net.streets[k].nodes)
+    count = [0] * len(groups)
+    for k, s in enumerate(net.streets):
+        if k in member:
+            continue
+        last = len(s.nodes) - 1
+        for i, n in enumerate(s.nodes):
+            g = ring_of.get(n)
+            if g is not None:
+                count[g] += 1 if i in (0, last) else 2
+    return count
 
 
 def _tagged_groups(streets: tuple[Street, ...]) -> list[list[int]]:
