@@ -88,7 +88,7 @@ def cmd_simplify(args: argparse.Namespace, log: _Log) -> dict:
     if args.cluster_radius is not None and not args.cluster_radius > 0:
         raise InputError(f"--cluster-radius must be positive, got {args.cluster_radius}")
     log(f"reading {city}")
-    net = load(city, service=args.service, paths=args.paths, buildings=False)
+    net = load(city, service=args.service, paths=args.paths, context=False)
     log(f"{len(net.streets)} streets, {len(net.xy)} street nodes; simplifying")
     opts = SimplifyOptions() if args.cluster_radius is None else SimplifyOptions(cluster_radius=args.cluster_radius)
     result = simplify(net, opts)

@@ -61,23 +61,24 @@ def check_readable(path: str | os.PathLike) -> Path:
 
 
 def load(path: str | os.PathLike, *, service: bool = False, paths: bool = False,
-         buildings: bool = True) -> StreetNetwork:
+         context: bool = True) -> StreetNetwork:
     """Read streets, water and buildings from ``path`` and project them to metres.
 
     ``service`` and ``paths`` add those highway classes to the default
-    drivable set (see :mod:`osm_expand.highways`).
+    drivable set (see :mod:`osm_expand.highways`). ``context=False`` reads
+    streets only, in a single pass (what ``osm-expand simplify`` needs).
     """
     p = check_readable(path)
     kept = highway_set(service=service, paths=paths)
     try:
         try:
-            raw, header_box = _read(str(p), kept, buildings, areas=True)
+            raw, header_box = _read(str(p), kept, context, areas=context)
         except RuntimeError as exc:
             if "out of order" not in str(exc):
                 raise
             # libosmium's multipolygon assembly needs sorted input; unsorted
             # files still give closed-way buildings and water.
-            raw, header_box = _read(str(p), kept, buildings, areas=False)
+            raw, header_box = _read(str(p), kept, context, areas=False)
     except InputError as exc:
         raise InputError(f"{p}: {exc}") from None
     except (RuntimeError, ValueError, OSError) as exc:
@@ -89,9 +90,9 @@ def load(path: str | os.PathLike, *, service: bool = False, paths: bool = False,
     return _build(raw, header_box)
 
 
-def _read(path: str, kept: frozenset[str], with_buildings: bool,
+def _read(path: str, kept: frozenset[str], context: bool,
           areas: bool) -> tuple[_Raw, tuple | None]:
-    keys = ["highway", "waterway", "natural", "water", "landuse"] + (["building"] if with_buildings else [])
+    keys = ["highway"] + (["waterway", "natural", "water", "landuse", "building"] if context else [])
     fp = osmium.FileProcessor(path).with_locations()
     if areas:
         fp = fp.with_areas(osmium.filter.KeyFilter(*keys))
@@ -105,10 +106,10 @@ def _read(path: str, kept: frozenset[str], with_buildings: bool,
     for obj in fp:
         if obj.is_way():
             _take_way(obj, kept, raw)
-            if not areas and obj.is_closed():
-                _take_closed_way(obj, raw, with_buildings)
+            if context and not areas and obj.is_closed():
+                _take_closed_way(obj, raw)
         elif obj.is_area():
-            _take_area(obj, raw, with_buildings)
+            _take_area(obj, raw)
     return raw, header_box
 
 
@@ -153,9 +154,9 @@ def _take_way(way, kept: frozenset[str], raw: _Raw) -> None:
         raw.coastline.extend(coords for _, coords in _way_runs(way)[0])
 
 
-def _take_area(area, raw: _Raw, with_buildings: bool) -> None:
+def _take_area(area, raw: _Raw) -> None:
     tags = area.tags
-    if with_buildings and tags.get("building", "no") != "no":
+    if tags.get("building", "no") != "no":
         for outer in area.outer_rings():
             ring = [(n.lon, n.lat) for n in outer]
             raw.buildings.append((ring, _number(tags.get("height")), _number(tags.get("building:levels")),
@@ -169,14 +170,14 @@ def _take_area(area, raw: _Raw, with_buildings: bool) -> None:
             raw.water_areas.append(rings)
 
 
-def _take_closed_way(way, raw: _Raw, with_buildings: bool) -> None:
+def _take_closed_way(way, raw: _Raw) -> None:
     """Area fallback for unsorted files: a closed way is its own outer ring."""
     runs, clipped = _way_runs(way)
     if clipped or not runs:
         return
     ring = runs[0][1]
     tags = way.tags
-    if with_buildings and tags.get("building", "no") != "no":
+    if tags.get("building", "no") != "no":
         raw.buildings.append((ring, _number(tags.get("height")), _number(tags.get("building:levels")), way.id))
     elif "water" in tags or any(tags.get(k) in v for k, v in WATER_AREA_TAGS.items()):
         raw.water_areas.append([ring])

@@ -116,3 +116,27 @@ def polyline_length(xy: np.ndarray) -> float:
     if len(xy) < 2:
         return 0.0
     return float(np.hypot(*np.diff(xy, axis=0).T).sum())
+
+
+def network_from_lines(lines: list, attrs: list[dict] | None = None,
+                       projection: LocalProjection | None = None) -> StreetNetwork:
+    """A network from polylines in metres; equal coordinates become one shared node.
+
+    For hand-built examples, tests and synthesised streets. ``attrs`` gives
+    per-line :class:`Street` fields (default: residential, layer 0).
+    """
+    proj = projection or LocalProjection(0.0, 0.0)
+    index: dict[tuple[float, float], int] = {}
+    streets = []
+    for k, line in enumerate(lines):
+        nodes = tuple(index.setdefault((float(x), float(y)), len(index)) for x, y in line)
+        fields = {"highway": "residential", **(attrs[k] if attrs else {})}
+        streets.append(Street(nodes=nodes, **fields))
+    xy = np.array(list(index.keys()), dtype=float).reshape(-1, 2)
+    if len(xy):
+        lon, lat = proj.to_lonlat(xy[:, 0], xy[:, 1])
+        bounds = (float(lon.min()), float(lat.min()), float(lon.max()), float(lat.max()))
+    else:
+        bounds = (proj.lon0, proj.lat0, proj.lon0, proj.lat0)
+    context = Context(projection=proj, bounds_lonlat=bounds, bounds_from_header=False)
+    return StreetNetwork(xy=xy, node_ids=np.zeros(len(xy), dtype=np.int64), streets=tuple(streets), context=context)

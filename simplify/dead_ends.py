@@ -14,7 +14,7 @@ import numpy as np
 
 from osm_expand.model import StreetNetwork
 from simplify.streetset import StreetSet
-from simplify.topology import lengths
+from simplify.topology import lengths, street_counts
 
 
 @dataclass(frozen=True)
@@ -26,7 +26,18 @@ class DeadEnd:
     highway: str
 
 
+def has_dead_end(net: StreetNetwork) -> bool:
+    """Vectorised check, so clean networks skip the incremental pass entirely."""
+    if not net.streets:
+        return False
+    counts = street_counts(net.streets, len(net.xy))
+    ends = np.array([(s.nodes[0], s.nodes[-1]) for s in net.streets if not s.is_closed], dtype=np.int64)
+    return bool(len(ends)) and bool((counts[ends] < 2).any())
+
+
 def prune_dead_ends(net: StreetNetwork) -> tuple[StreetNetwork, list[DeadEnd]]:
+    if not has_dead_end(net):
+        return net, []
     work = StreetSet(net.streets)
     removed: list[DeadEnd] = []
     queue = sorted(work.streets)

@@ -20,7 +20,7 @@ import shapely
 from osm_expand.highways import rank
 from osm_expand.model import Street, StreetNetwork
 from simplify.options import SimplifyOptions
-from simplify.topology import clean_nodes, junction_mask, lengths, pieces
+from simplify.topology import clean_nodes, junction_mask, lengths, piece_table
 
 
 PieceKey = tuple[int, int]
@@ -32,23 +32,18 @@ def remove_overlaps(net: StreetNetwork, opts: SimplifyOptions,
                     exempt: frozenset[PieceKey] = frozenset()) -> tuple[StreetNetwork, list[PieceKey]]:
     """Returns the network and the junction pairs of the removed pieces."""
     junction = junction_mask(net.streets, len(net.xy))
-    groups: defaultdict[tuple[int, int], list[tuple[int, int, int]]] = defaultdict(list)
+    table = piece_table(net.streets, junction)
     drop: defaultdict[int, list[tuple[int, int]]] = defaultdict(list)
-    for k, street in enumerate(net.streets):
-        for a, b in pieces(street, junction):
-            u, v = street.nodes[a], street.nodes[b]
-            if u == v:
-                if (u, u) not in exempt and lengths(net.xy, street.nodes[a:b + 1]) < opts.small_loop_length:
-                    drop[k].append((a, b))
-            else:
-                groups[(min(u, v), max(u, v))].append((k, a, b))
-    street_len = [lengths(net.xy, s.nodes) for s in net.streets]
-    for key, members in groups.items():
-        if len(members) > 1:
-            # an exempt pair still loses exact copies: two streets on the same line cross everywhere
-            tolerance = IDENTICAL if key in exempt else opts.overlap_tolerance
-            for k, a, b in _duplicates(net, members, street_len, tolerance):
-                drop[k].append((a, b))
+    for k, a, b, u in _loops(table):
+        street = net.streets[k]
+        if (u, u) not in exempt and lengths(net.xy, street.nodes[a:b + 1]) < opts.small_loop_length:
+            drop[k].append((a, b))
+    street_len = _LazyLengths(net)
+    for key, members in _parallel_groups(table).items():
+        # an exempt pair still loses exact copies: two streets on the same line cross everywhere
+        tolerance = IDENTICAL if key in exempt else opts.overlap_tolerance
+        for k, a, b in _duplicates(net, members, street_len, tolerance):
+            drop[k].append((a, b))
     if not drop:
         return net, []
     streets: list[Street] = []
@@ -59,6 +54,38 @@ def remove_overlaps(net: StreetNetwork, opts: SimplifyOptions,
             u, v = street.nodes[a], street.nodes[b]
             removed.append((min(u, v), max(u, v)))
     return net.replace(streets=tuple(streets)), removed
+
+
+def _loops(table: dict[str, np.ndarray]):
+    """Pieces that leave a junction and return to it: (street, a, b, node)."""
+    sel = np.flatnonzero(table["u"] == table["v"])
+    return zip(*(table[c][sel].tolist() for c in ("street", "a", "b", "u")))
+
+
+def _parallel_groups(table: dict[str, np.ndarray]) -> dict[PieceKey, list[tuple[int, int, int]]]:
+    """Pieces grouped by their (unordered) junction pair, only pairs joined more than once."""
+    u, v = table["u"], table["v"]
+    lo, hi = np.minimum(u, v), np.maximum(u, v)
+    ok = lo != hi
+    keys = lo * (int(max(hi.max(initial=0), 0)) + 1) + hi
+    _, inverse, counts = np.unique(keys, return_inverse=True, return_counts=True)
+    sel = np.flatnonzero(ok & (counts[inverse] > 1))
+    groups: defaultdict[PieceKey, list[tuple[int, int, int]]] = defaultdict(list)
+    for i in sel.tolist():
+        groups[(int(lo[i]), int(hi[i]))].append((int(table["street"][i]), int(table["a"][i]), int(table["b"][i])))
+    return groups
+
+
+class _LazyLengths:
+    """Street lengths, computed only for the few streets that have duplicates."""
+
+    def __init__(self, net: StreetNetwork):
+        self.net, self.cache = net, {}
+
+    def __getitem__(self, k: int) -> float:
+        if k not in self.cache:
+            self.cache[k] = lengths(self.net.xy, self.net.streets[k].nodes)
+        return self.cache[k]
 
 
 def _duplicates(net: StreetNetwork, members, street_len, tolerance: float):

@@ -18,8 +18,10 @@ def street_counts(streets: Sequence[Street], n_nodes: int) -> np.ndarray:
     """How many distinct streets reference each node."""
     if not streets:
         return np.zeros(n_nodes, dtype=np.int32)
-    flat = np.concatenate([np.unique(np.asarray(s.nodes, dtype=np.intp)) for s in streets])
-    return np.bincount(flat, minlength=n_nodes).astype(np.int32)
+    nodes = np.fromiter((n for s in streets for n in s.nodes), dtype=np.int64)
+    owner = np.repeat(np.arange(len(streets), dtype=np.int64), [len(s.nodes) for s in streets])
+    pairs = np.unique(owner * n_nodes + nodes)  # each (street, node) once
+    return np.bincount(pairs % n_nodes, minlength=n_nodes).astype(np.int32)
 
 
 def junction_mask(streets: Sequence[Street], n_nodes: int) -> np.ndarray:
@@ -73,6 +75,29 @@ def pieces(street: Street, junction: np.ndarray) -> list[tuple[int, int]]:
     """Junction-to-junction (position) ranges of a street."""
     pos = junction_positions(street, junction)
     return list(zip(pos, pos[1:]))
+
+
+def piece_table(streets: Sequence[Street], junction: np.ndarray) -> dict[str, np.ndarray]:
+    """Every junction-to-junction piece of every street, vectorised.
+
+    Columns: ``street``, positions ``a`` and ``b`` along it, end nodes ``u``, ``v``.
+    """
+    sizes = np.fromiter((len(s.nodes) for s in streets), dtype=np.int64, count=len(streets))
+    if not len(sizes):
+        empty = np.zeros(0, dtype=np.int64)
+        return {"street": empty, "a": empty, "b": empty, "u": empty, "v": empty}
+    offsets = np.concatenate([[0], np.cumsum(sizes)])
+    nodes = np.fromiter((n for s in streets for n in s.nodes), dtype=np.int64, count=int(offsets[-1]))
+    owner = np.repeat(np.arange(len(streets)), sizes)
+    bound = junction[nodes].copy()
+    bound[offsets[:-1]] = True
+    bound[offsets[1:] - 1] = True
+    idx = np.flatnonzero(bound)
+    same = owner[idx[1:]] == owner[idx[:-1]]
+    a_glob, b_glob = idx[:-1][same], idx[1:][same]
+    k = owner[a_glob]
+    return {"street": k, "a": a_glob - offsets[k], "b": b_glob - offsets[k],
+            "u": nodes[a_glob], "v": nodes[b_glob]}
 
 
 def lengths(xy: np.ndarray, nodes: Sequence[int]) -> float:

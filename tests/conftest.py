@@ -1,0 +1,32 @@
+"""Shared fixtures: the real OSM extracts, loaded and simplified once per session."""
+from __future__ import annotations
+
+from functools import lru_cache
+from pathlib import Path
+
+import pytest
+
+from osm_expand.ingest import load
+from osm_expand.model import StreetNetwork
+from simplify import SimplifyResult, simplify
+
+FIXTURES = Path(__file__).resolve().parent.parent / "fixtures"
+#: Fixtures with a drivable network that survives simplification.
+TOWNS = ["krems.osm.gz", "campo-grande.osm.gz", "monaco.osm.gz", "andorra.osm.pbf",
+         "north-bayreuth.osm.gz", "berlin-siegessaeule.osm.gz", "bautzen.osm", "West-Oakland.osm.bz2"]
+ALL = TOWNS + ["circle-bug.osm.gz"]
+
+
+@lru_cache(maxsize=None)
+def loaded(name: str, service: bool = False) -> StreetNetwork:
+    return load(FIXTURES / name, service=service, context=False)
+
+
+@lru_cache(maxsize=None)
+def simplified(name: str, service: bool = False) -> SimplifyResult:
+    return simplify(loaded(name, service))
+
+
+@pytest.fixture
+def fixtures_dir() -> Path:
+    return FIXTURES

@@ -1,0 +1,99 @@
+"""Ingest on the real extracts: streets, context, projection, clipped ways."""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from osm_expand.highways import DRIVABLE, highway_set, rank
+from osm_expand.ingest import _number, load
+from tests.conftest import ALL, FIXTURES, loaded
+
+
+@pytest.mark.parametrize("name", ALL)
+def test_every_fixture_loads_streets_in_metres(name):
+    net = loaded(name, service=True)
+    assert net.streets and len(net.xy) == len(net.node_ids)
+    assert np.isfinite(net.xy).all()
+    x0, y0, x1, y1 = net.context.bounds_xy
+    # the data lies around its bounds (ways crossing the edge keep their outside nodes)
+    mx, my = np.median(net.xy, axis=0)
+    assert x0 <= mx <= x1 and y0 <= my <= y1
+    assert all(s.highway in highway_set(service=True) for s in net.streets)
+
+
+def test_default_set_is_drivable_only():
+    net = loaded("krems.osm.gz")
+    assert {s.highway for s in net.streets} <= DRIVABLE
+    assert "service" in {s.highway for s in loaded("krems.osm.gz", service=True).streets}
+
+
+def test_clipped_ways_are_split_and_counted():
+    net = loaded("campo-grande.osm.gz")
+    assert net.stats["clipped_ways"] > 100
+    # ways with fewer than two nodes left are dropped, the rest keep their known nodes only
+    assert len(net.streets) < net.stats["input_ways"]
+    assert all(len(s.nodes) >= 2 for s in net.streets)
+
+
+def test_missing_bounds_are_computed_from_the_data():
+    net = loaded("monaco.osm.gz")
+    assert not net.context.bounds_from_header
+    lon0, lat0, lon1, lat1 = net.context.bounds_lonlat
+    assert 7.40 < lon0 < lon1 < 7.45 and 43.72 < lat0 < lat1 < 43.76
+    assert loaded("krems.osm.gz").context.bounds_from_header
+
+
+def test_projection_round_trips_to_a_millimetre():
+    net = loaded("andorra.osm.pbf")
+    proj = net.context.projection
+    lon, lat = proj.to_lonlat(net.xy[:, 0], net.xy[:, 1])
+    x, y = proj.to_xy(lon, lat)
+    assert np.abs(np.column_stack([x, y]) - net.xy).max() < 1e-3
+    assert "+proj=tmerc" in proj.proj_string
+
+
+def test_distances_are_metres():
+    # Krems: the old town's extract spans a few kilometres, not degrees
+    x0, y0, x1, y1 = loaded("krems.osm.gz").context.bounds_xy
+    assert 1_000 < x1 - x0 < 20_000 and 1_000 < y1 - y0 < 20_000
+
+
+def test_street_attributes_are_kept():
+    net = loaded("monaco.osm.gz")
+    tunnels = [s for s in net.streets if s.tunnel]
+    assert tunnels and any(s.layer < 0 for s in tunnels)
+    assert any(s.bridge for s in net.streets)
+    assert any(s.name == "Boulevard Charles III" for s in net.streets)
+    assert any(s.junction == "roundabout" for s in net.streets)
+
+
+def test_context_water_sea_and_buildings():
+    krems = load(FIXTURES / "krems.osm.gz")
+    assert krems.context.water and len(krems.context.buildings) > 1000
+    monaco = load(FIXTURES / "monaco.osm.gz")
+    assert monaco.context.sea, "coastline must close into sea"
+    # Monaco's harbour (Port Hercule) is sea; the Palace on the Rock is land
+    import shapely
+    proj = monaco.context.projection
+    sea = shapely.union_all(list(monaco.context.sea))
+    harbour = shapely.Point(*[v[0] for v in proj.to_xy(np.array([7.4235]), np.array([43.7350]))])
+    palace = shapely.Point(*[v[0] for v in proj.to_xy(np.array([7.4202]), np.array([43.7314]))])
+    assert sea.contains(harbour) and not sea.contains(palace)
+    heights = [b.height for b in load(FIXTURES / "berlin-siegessaeule.osm.gz").context.buildings if b.height]
+    assert heights and all(h > 0 for h in heights)
+
+
+def test_unsorted_file_falls_back_to_closed_way_areas():
+    net = load(FIXTURES / "circle-bug.osm.gz", service=True)
+    assert len(net.context.buildings) > 0
+
+
+@pytest.mark.parametrize("text,value", [("12", 12.0), ("12.5 m", 12.5), ("3,5", 3.5), ("40'", 12.192),
+                                        ("2;3", 2.0), ("tall", None), (None, None), ("", None)])
+def test_numeric_tags(text, value):
+    got = _number(text)
+    assert (got is None and value is None) or got == pytest.approx(value)
+
+
+def test_rank_orders_classes():
+    assert rank("motorway") < rank("motorway_link") < rank("trunk") < rank("residential") < rank("service")
