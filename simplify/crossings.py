@@ -34,19 +34,21 @@ def segment_table(net: StreetNetwork) -> dict[str, np.ndarray]:
     return {"u": cat(u), "v": cat(v), "street": cat(street), "pos": cat(pos), "layer": cat(layer)}
 
 
-def candidate_pairs(net: StreetNetwork, seg: dict[str, np.ndarray], tolerance: float) -> tuple[np.ndarray, np.ndarray]:
-    """Same-layer segment pairs closer than ``tolerance`` that share no node."""
+def candidate_pairs(net: StreetNetwork, seg: dict[str, np.ndarray],
+                    tolerance: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Same-layer segment pairs closer than ``tolerance``, and whether they share a node.
+
+    Pairs that share a node still matter when they fold back over each other.
+    """
     a, b = net.xy[seg["u"]], net.xy[seg["v"]]
     lines = shapely.linestrings(np.stack([a, b], axis=1))
     tree = shapely.STRtree(lines)
     p, q = tree.query(lines, predicate="dwithin", distance=tolerance)
-    keep = p < q
+    keep = (p < q) & (seg["layer"][p] == seg["layer"][q])
     p, q = p[keep], q[keep]
-    same = seg["layer"][p] == seg["layer"][q]
     up, vp, uq, vq = seg["u"][p], seg["v"][p], seg["u"][q], seg["v"][q]
     shared = (up == uq) | (up == vq) | (vp == uq) | (vp == vq)
-    keep = same & ~shared
-    return p[keep], q[keep]
+    return p, q, shared
 
 
 def add_missing_intersections(net: StreetNetwork, opts: SimplifyOptions) -> tuple[StreetNetwork, int]:
@@ -54,7 +56,7 @@ def add_missing_intersections(net: StreetNetwork, opts: SimplifyOptions) -> tupl
     seg = segment_table(net)
     if len(seg["u"]) == 0:
         return net, 0
-    p, q = candidate_pairs(net, seg, opts.touch_tolerance)
+    p, q, shared = candidate_pairs(net, seg, opts.touch_tolerance)
     if len(p) == 0:
         return net, 0
     tol = opts.touch_tolerance
@@ -67,7 +69,7 @@ def add_missing_intersections(net: StreetNetwork, opts: SimplifyOptions) -> tupl
         for end in ("u", "v"):
             node = seg[end][this]
             t, d = _project(xy[node], xy[seg["u"][other]], xy[seg["v"][other]])
-            close = d <= tol
+            close = (d <= tol) & (node != seg["u"][other]) & (node != seg["v"][other])
             seg_len = np.hypot(*(xy[seg["v"][other]] - xy[seg["u"][other]]).T)
             margin = tol / np.maximum(seg_len, 1e-12)
             interior = close & (t > margin) & (t < 1 - margin)
@@ -79,6 +81,7 @@ def add_missing_intersections(net: StreetNetwork, opts: SimplifyOptions) -> tupl
             merges += list(zip(node[at_v].tolist(), seg["v"][other][at_v].tolist()))
 
     # 2. proper crossings in both interiors: a new node
+    p, q = p[~shared], q[~shared]
     t, s, ok = _crossing_params(xy[seg["u"][p]], xy[seg["v"][p]], xy[seg["u"][q]], xy[seg["v"][q]])
     len_p = np.hypot(*(xy[seg["v"][p]] - xy[seg["u"][p]]).T)
     len_q = np.hypot(*(xy[seg["v"][q]] - xy[seg["u"][q]]).T)

@@ -30,6 +30,9 @@ class SimplifyOptions:
     #: Directions at a street end are measured towards the point this far
     #: (m) along the street, not along the first shape segment.
     heading_reach: float = 20.0
+    #: How far (m) along the Passing street a separated street's end moves
+    #: when cutting it back would delete it whole (004 §3.1, §4.2.6).
+    separation: float = 8.0
     #: A vertex this close (m) to another street's segment on the same layer
     #: touches it and becomes a junction; survives rounding to 1e-7 degrees.
     touch_tolerance: float = 0.05

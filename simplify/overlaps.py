@@ -2,7 +2,8 @@
 
 Two street pieces joining the same two junctions are one road drawn twice
 (a lay-by, a split carriageway, two ways on the same nodes) when they stay
-within ``overlap_tolerance`` of each other; the less important one goes.
+within ``overlap_tolerance`` of each other on the same layer; the less
+important one goes. A tunnel or bridge beside a surface road is not a copy.
 Pieces that leave a junction and come back to it shorter than
 ``small_loop_length`` go too. Pieces far apart (a real two-sided block) stay.
 
@@ -89,14 +90,23 @@ class _LazyLengths:
 
 
 def _duplicates(net: StreetNetwork, members, street_len, tolerance: float):
-    """Members that duplicate the most important member of their group."""
+    """Members within ``tolerance`` of a more important member that is kept.
+
+    Greedy in order of importance, so a group of three copies keeps one even
+    when a distinct, more important piece joins the same junctions.
+    """
     order = sorted(members, key=lambda m: (rank(net.streets[m[0]].highway), -street_len[m[0]], m[0], m[1]))
-    keep = order[0]
-    keep_line = shapely.LineString(net.xy[list(net.streets[keep[0]].nodes[keep[1]:keep[2] + 1])])
-    others = order[1:]
-    lines = [shapely.LineString(net.xy[list(net.streets[k].nodes[a:b + 1])]) for k, a, b in others]
-    dist = shapely.hausdorff_distance(lines, keep_line)
-    return [m for m, d in zip(others, np.atleast_1d(dist)) if d <= tolerance]
+    lines = [shapely.LineString(net.xy[list(net.streets[k].nodes[a:b + 1])]) for k, a, b in order]
+    layer = [net.streets[k].layer_key for k, _, _ in order]
+    kept: list[int] = []
+    dropped = []
+    for i, member in enumerate(order):
+        same_layer = [j for j in kept if layer[j] == layer[i]]  # a tunnel under a road is no copy of it
+        if same_layer and np.min(shapely.hausdorff_distance([lines[j] for j in same_layer], lines[i])) <= tolerance:
+            dropped.append(member)
+        else:
+            kept.append(i)
+    return dropped
 
 
 def cut_out(street: Street, ranges: list[tuple[int, int]]) -> list[Street]:

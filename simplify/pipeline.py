@@ -24,7 +24,7 @@ from simplify.merging import merge_streets
 from simplify.options import SimplifyOptions
 from simplify.overlaps import remove_overlaps
 from simplify.roundabouts import collapse_roundabouts
-from simplify.topology import junction_mask, summary
+from simplify.topology import clean_nodes, junction_mask, summary
 from simplify.two_street import enforce_two_streets
 
 MAX_ROUNDS = 8
@@ -88,8 +88,8 @@ def simplify(net: StreetNetwork, options: SimplifyOptions | None = None) -> Simp
     run.step("merging", merge_streets, "merges")
     run.net, counts = enforce_two_streets(run.net, opts)
     run.record("two_street", **counts, **run.cleanup())
-    rounds = _repair(run)
     run.net = _space_vertices(run.net, opts.min_vertex_spacing)
+    rounds = _repair(run)
     run.record("final", repair_rounds=rounds)
     report = {
         "input_ways": net.stats.get("input_ways", len(net.streets)),
@@ -150,5 +150,6 @@ def _space_vertices(net: StreetNetwork, spacing: float) -> StreetNetwork:
                 if close and last and not junction[keep[-1]] and len(keep) > 1:
                     keep.pop()
                 keep.append(n)
-        streets.append(s.with_nodes(keep) if len(keep) != len(s.nodes) else s)
+        valid = len(keep) != len(s.nodes) and clean_nodes(keep) is not None
+        streets.append(s.with_nodes(keep) if valid else s)
     return net.replace(streets=tuple(streets))

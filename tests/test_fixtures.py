@@ -1,0 +1,148 @@
+"""Simplification on every real extract: invariants, reduction, fidelity, layers."""
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+import shapely
+
+from osm_expand.export import write_geojson, write_osm
+from osm_expand.ingest import load
+from osm_expand.model import network_from_lines
+from simplify import SimplifyOptions, simplify
+from simplify.crossings import add_missing_intersections
+from simplify.intersections import extract_intersections
+from simplify.invariants import violations
+from simplify.quality import length_within, pruned_reference
+from simplify.topology import junction_mask
+from tests.conftest import TOWNS, loaded, simplified
+
+
+@pytest.mark.parametrize("name", TOWNS)
+def test_simplified_network_has_no_violations(name):
+    result = simplified(name)
+    assert result.network.streets
+    assert violations(result.network) == dict.fromkeys(violations(result.network), 0)
+
+
+@pytest.mark.parametrize("name", TOWNS)
+def test_osm_and_geojson_outputs_keep_the_invariants(name, tmp_path):
+    """Read our own files back (lon/lat, rounded to 1e-7) and check them again."""
+    net = simplified(name).network
+    write_osm(net, tmp_path / "out.osm")
+    back = load(tmp_path / "out.osm", context=False)
+    assert len(back.streets) == len(net.streets)
+    assert not any(violations(back).values())
+    assert junction_mask(back.streets, len(back.xy)).sum() == junction_mask(net.streets, len(net.xy)).sum()
+    write_geojson(net, tmp_path / "out.geojson")
+    doc = json.loads((tmp_path / "out.geojson").read_text())
+    lines = [f["geometry"]["coordinates"] for f in doc["features"]]
+    attrs = [{"layer": int(f["properties"].get("layer", 0)), "bridge": "bridge" in f["properties"],
+              "tunnel": "tunnel" in f["properties"]} for f in doc["features"]]
+    assert not any(violations(network_from_lines(lines, attrs)).values())
+
+
+@pytest.mark.parametrize("name", ["krems.osm.gz", "north-bayreuth.osm.gz"])
+def test_junctions_are_at_most_15_percent_of_input_street_nodes(name):
+    report = simplified(name).report
+    assert 1 - report["junctions"] / report["input_nodes"] >= 0.85
+
+
+def test_campo_grande_grid_keeps_its_real_junctions():
+    """Campo Grande is a dense grid: 57 % of its street nodes are real junctions already.
+
+    Simplification removes every shape node and fuses what it should, but it
+    must not delete the grid, so the reduction stays near 50 %.
+    """
+    report = simplified("campo-grande.osm.gz").report
+    input_junctions = report["passes"][0]["junctions"]
+    assert report["junctions"] < input_junctions
+    assert 1 - report["junctions"] / report["input_nodes"] >= 0.45
+
+
+@pytest.mark.parametrize("name", TOWNS)
+def test_the_town_stays_recognisable(name):
+    reference = pruned_reference(loaded(name))
+    assert length_within(reference, simplified(name).network, radius=25.0) >= 0.95
+
+
+# Real bridges and tunnels crossing streets without a shared node: (bridge/tunnel way, crossed way).
+LAYERED_CROSSINGS = {
+    "monaco.osm.gz": [(92627442, 155085108),   # Tunnel vers Nationale 7 under Boulevard de Belgique
+                      (80377817, 4229220),     # Avenue de Fontvieille tunnel under Boulevard Charles III
+                      (92627405, 161734079)],  # primary bridge over a secondary road
+    "andorra.osm.pbf": [(24364447, 6185726),   # Tunèl del Pont Pla under Carrer Sant Andreu
+                        (24405095, 175417668),  # bridge over Avinguda del Pessebre
+                        (6197727, 24493526)],  # Travessia d'Ordino bridge over Camí de Santa Bàrbara
+    "bautzen.osm": [(4774439, 709229756),      # A4 bridge over Hoyerswerdaer Straße
+                    (4774440, 318290582)],
+}
+
+
+def _crossing_point(net, a_id, b_id):
+    line = lambda way: shapely.MultiLineString(  # noqa: E731
+        [net.street_xy(s) for s in net.streets if way in s.osm_ids])
+    return line(a_id).intersection(line(b_id))
+
+
+def _joined_near(net, where, upper, lower) -> bool:
+    """Is there a junction near ``where`` shared by streets from both ways?"""
+    at = np.flatnonzero(junction_mask(net.streets, len(net.xy)))
+    near = at[shapely.dwithin(shapely.points(net.xy[at]), where, 15.0)]
+    for node in near.tolist():
+        ids = [set(s.osm_ids) for s in net.streets if node in s.nodes]
+        if any(upper in i for i in ids) and any(lower in i for i in ids):
+            return True
+    return False
+
+
+@pytest.mark.parametrize("name", sorted(LAYERED_CROSSINGS))
+def test_missing_intersection_pass_leaves_bridges_and_tunnels_alone(name):
+    source = loaded(name)
+    noded, _ = add_missing_intersections(extract_intersections(source), SimplifyOptions())
+    for upper, lower in LAYERED_CROSSINGS[name]:
+        where = _crossing_point(source, upper, lower)
+        assert not where.is_empty, "the named ways cross in the input"
+        assert not _joined_near(noded, where, upper, lower), (upper, lower)
+
+
+@pytest.mark.parametrize("name", ["monaco.osm.gz", "andorra.osm.pbf"])
+def test_simplified_bridges_and_tunnels_still_cross_without_a_junction(name):
+    """In Bautzen the bridges lead off the map and go with the dead ends; here they stay."""
+    source, result = loaded(name), simplified(name).network
+    surviving = 0
+    for upper, lower in LAYERED_CROSSINGS[name]:
+        where = _crossing_point(result, upper, lower)
+        if where.is_empty:  # one of the two went with a dead end
+            continue
+        surviving += 1
+        assert not _joined_near(result, where, upper, lower), (upper, lower)
+        assert not _joined_near(result, _crossing_point(source, upper, lower), upper, lower)
+    assert surviving >= 2
+
+
+def test_circle_bug_is_empty_by_default_and_clean_with_service():
+    assert not simplified("circle-bug.osm.gz").network.streets
+    net = simplified("circle-bug.osm.gz", service=True).network
+    assert net.streets and not any(violations(net).values())
+
+
+def test_same_input_same_result():
+    a = simplify(loaded("monaco.osm.gz"))
+    b = simplify(loaded("monaco.osm.gz"))
+    assert a.network.streets == b.network.streets
+    assert np.array_equal(a.network.xy, b.network.xy)
+    assert a.report == b.report
+
+
+def test_report_counts_every_pass():
+    report = simplified("krems.osm.gz").report
+    names = [p["pass"] for p in report["passes"]]
+    assert names[0] == "input" and names[-1] == "final"
+    for p in report["passes"]:
+        assert {"street_nodes", "junctions", "streets"} <= set(p)
+    assert report["dead_ends_removed"] > 0 and report["clipped_ways"] == 0
+    assert simplified("campo-grande.osm.gz").report["clipped_ways"] > 100
+    assert next(p for p in report["passes"] if p["pass"] == "roundabouts")["roundabouts"] > 0
+    assert next(p for p in report["passes"] if p["pass"] == "merging")["merges"] > 0

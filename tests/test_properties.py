@@ -1,0 +1,60 @@
+"""Property tests: any set of lines comes out of simplification satisfying the invariants."""
+from __future__ import annotations
+
+import shapely
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+
+from osm_expand.model import network_from_lines
+from simplify import simplify
+from simplify.crossings import add_missing_intersections
+from simplify.intersections import extract_intersections
+from simplify.invariants import violations
+from simplify.options import SimplifyOptions
+from simplify.overlaps import remove_overlaps
+
+coord = st.integers(min_value=0, max_value=60).map(lambda v: v * 10.0)  # a 600 m box, 10 m lattice
+point = st.tuples(coord, coord)
+polyline = st.lists(point, min_size=2, max_size=6)
+street_attrs = st.fixed_dictionaries({
+    "highway": st.sampled_from(["primary", "residential", "tertiary"]),
+    "layer": st.sampled_from([0, 0, 0, 1]),
+    "name": st.sampled_from([None, "A", "B"]),
+})
+line_sets = st.lists(st.tuples(polyline, street_attrs), min_size=1, max_size=25)
+
+SETTINGS = settings(max_examples=100, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+
+
+@SETTINGS
+@given(line_sets)
+def test_simplify_always_satisfies_the_invariants(items):
+    net = network_from_lines([p for p, _ in items], [a for _, a in items])
+    result = simplify(net)
+    assert violations(result.network) == dict.fromkeys(violations(result.network), 0)
+    # nothing is invented: every node of the output is an input node or lies on an input street
+    assert result.report["streets"] == len(result.network.streets)
+
+
+@SETTINGS
+@given(line_sets)
+def test_noding_leaves_no_unshared_crossing(items):
+    """After noding, what still touches is an exact duplicate, which the overlap pass removes."""
+    net = extract_intersections(network_from_lines([p for p, _ in items], [a for _, a in items]))
+    noded, _ = add_missing_intersections(net, SimplifyOptions())
+    # noding moves no street (a street folding back over itself loses the fold)
+    assert noded.total_length() <= net.total_length() + 0.5
+    before = shapely.union_all([shapely.LineString(net.street_xy(s)) for s in net.streets]).buffer(0.1)
+    assert all(before.contains(shapely.LineString(noded.street_xy(s))) for s in noded.streets)
+    cleaned, _ = remove_overlaps(noded, SimplifyOptions(overlap_tolerance=1e-6))
+    assert violations(cleaned)["crossings_without_junction"] == 0
+
+
+@SETTINGS
+@given(line_sets)
+def test_simplification_is_deterministic(items):
+    lines, attrs = [p for p, _ in items], [a for _, a in items]
+    a = simplify(network_from_lines(lines, attrs))
+    b = simplify(network_from_lines(lines, attrs))
+    assert a.network.streets == b.network.streets and a.report == b.report
+    assert (a.network.xy == b.network.xy).all()
