@@ -111,7 +111,10 @@ def main(argv: Sequence[str] | None = None) -> int:
         print(f"{PROG}: error: growing a town is not available yet; use '{PROG} simplify {argv[0]}'",
               file=sys.stderr)
         return 2
-    args = parser.parse_args(argv)
+    try:
+        args = parser.parse_args(argv)
+    except SystemExit as exc:  # --help, or a usage error already printed in one line
+        return int(exc.code or 0)
     if args.command is None:
         parser.print_help(sys.stderr)
         return 2

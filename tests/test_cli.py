@@ -1,0 +1,184 @@
+"""The command line: outputs, JSON report, exit codes and bad input."""
+from __future__ import annotations
+
+import json
+import shutil
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+from osm_expand import cli
+from tests.conftest import FIXTURES
+
+GOOD = FIXTURES / "krems.osm.gz"
+
+ONLY_A_BUILDING = """<?xml version='1.0' encoding='UTF-8'?>
+<osm version="0.6">
+ <node id="1" lat="48.0" lon="15.0"/><node id="2" lat="48.0001" lon="15.0"/>
+ <node id="3" lat="48.0001" lon="15.0001"/>
+ <way id="4"><nd ref="1"/><nd ref="2"/><nd ref="3"/><nd ref="1"/><tag k="building" v="yes"/></way>
+</osm>
+"""
+OUT_OF_RANGE = """<?xml version='1.0' encoding='UTF-8'?>
+<osm version="0.6">
+ <node id="1" lat="95.0" lon="15.0"/><node id="2" lat="48.0" lon="15.001"/>
+ <way id="3"><nd ref="1"/><nd ref="2"/><tag k="highway" v="residential"/></way>
+</osm>
+"""
+
+
+def run(argv, capsys):
+    code = cli.main([str(a) for a in argv])
+    out, err = capsys.readouterr()
+    return code, out, err
+
+
+@pytest.mark.parametrize("suffix", [".osm", ".geojson"])
+def test_simplify_writes_the_network_and_a_json_report(tmp_path, capsys, suffix):
+    out = tmp_path / f"krems{suffix}"
+    code, stdout, stderr = run(["simplify", GOOD, "-o", out, "--json"], capsys)
+    assert code == 0 and out.stat().st_size > 0
+    report = json.loads(stdout)  # stdout is exactly one JSON object
+    assert report["output"] == str(out) and report["junctions"] > 100
+    assert [p["pass"] for p in report["passes"]][-1] == "final"
+    assert "reading" in stderr and "done" in stderr
+    assert not list(tmp_path.glob(".*tmp"))  # no temporary file left behind
+
+
+def test_quiet_prints_nothing(tmp_path, capsys):
+    code, stdout, stderr = run(["simplify", GOOD, "-o", tmp_path / "k.osm", "-q"], capsys)
+    assert code == 0 and stdout == "" and stderr == ""
+
+
+def test_default_output_goes_beside_the_input(tmp_path, capsys):
+    city = tmp_path / "West-Oakland.osm.bz2"
+    shutil.copy(FIXTURES / "West-Oakland.osm.bz2", city)
+    assert run(["simplify", city, "-q"], capsys)[0] == 0
+    assert (tmp_path / "West-Oakland.simplified.osm").exists()
+
+
+def test_same_input_same_bytes(tmp_path, capsys):
+    for name in ("a", "b"):
+        for suffix in (".osm", ".geojson"):
+            assert run(["simplify", FIXTURES / "monaco.osm.gz", "-o", tmp_path / f"{name}{suffix}", "-q"], capsys)[0] == 0
+    assert (tmp_path / "a.osm").read_bytes() == (tmp_path / "b.osm").read_bytes()
+    assert (tmp_path / "a.geojson").read_bytes() == (tmp_path / "b.geojson").read_bytes()
+
+
+def test_geojson_is_rfc7946(tmp_path, capsys):
+    out = tmp_path / "m.geojson"
+    run(["simplify", FIXTURES / "monaco.osm.gz", "-o", out, "-q"], capsys)
+    doc = json.loads(out.read_text())
+    assert doc["type"] == "FeatureCollection" and "crs" not in doc
+    lon, lat = doc["features"][0]["geometry"]["coordinates"][0]
+    assert 7.3 < lon < 7.5 and 43.6 < lat < 43.8  # lon/lat order, WGS 84
+    assert {"highway", "layer"} <= set(doc["features"][0]["properties"])
+
+
+def test_osm_output_keeps_ids_and_tags(tmp_path, capsys):
+    import osmium
+
+    out = tmp_path / "m.osm"
+    run(["simplify", FIXTURES / "monaco.osm.gz", "-o", out, "-q"], capsys)
+    ways = [(w.id, dict(w.tags)) for w in osmium.FileProcessor(str(out), osmium.osm.WAY)]
+    assert any(i > 0 for i, _ in ways) and any(i < 0 for i, _ in ways)
+    assert all("highway" in t for _, t in ways)
+    assert any(t.get("tunnel") == "yes" for _, t in ways) and any("layer" in t for _, t in ways)
+    assert 'upload="never"' in out.read_text()[:300]
+
+
+def test_service_flag_rescues_a_service_only_town(tmp_path, capsys):
+    out = tmp_path / "c.osm"
+    code, _, err = run(["simplify", FIXTURES / "circle-bug.osm.gz", "-o", out], capsys)
+    assert code == 2 and "no streets left" in err and "--service" in err and not out.exists()
+    assert run(["simplify", FIXTURES / "circle-bug.osm.gz", "-o", out, "--service", "-q"], capsys)[0] == 0
+    assert out.exists()
+
+
+def _bad_inputs(tmp: Path) -> dict[str, Path]:
+    files = {
+        "missing": tmp / "nothing-here.osm",
+        "directory": tmp / "adir.osm",
+        "empty": tmp / "empty.osm",
+        "text": tmp / "notes.osm",
+        "truncated_gz": tmp / "cut.osm.gz",
+        "truncated_pbf": tmp / "cut.osm.pbf",
+        "no_streets": tmp / "building.osm",
+        "out_of_range": tmp / "range.osm",
+        "wrong_type": tmp / "city.csv",
+    }
+    files["directory"].mkdir()
+    files["empty"].write_bytes(b"")
+    files["text"].write_text("this is not OpenStreetMap data\n")
+    files["truncated_gz"].write_bytes((FIXTURES / "krems.osm.gz").read_bytes()[:200_000])
+    files["truncated_pbf"].write_bytes((FIXTURES / "andorra.osm.pbf").read_bytes()[:200_000])
+    files["no_streets"].write_text(ONLY_A_BUILDING)
+    files["out_of_range"].write_text(OUT_OF_RANGE)
+    files["wrong_type"].write_text("a,b\n1,2\n")
+    return files
+
+
+EXPECTED = {
+    "missing": "no such file", "directory": "is a directory", "empty": "file is empty",
+    "text": "not a readable OSM file", "truncated_gz": "not a readable OSM file",
+    "truncated_pbf": "not a readable OSM file", "no_streets": "no streets",
+    "out_of_range": "out of range", "wrong_type": "unsupported file type",
+}
+
+
+@pytest.mark.parametrize("case", sorted(EXPECTED))
+def test_bad_input_gives_one_line_exit_2_and_no_output(tmp_path, capsys, case):
+    path = _bad_inputs(tmp_path)[case]
+    out = tmp_path / "out.osm"
+    code, stdout, stderr = run(["simplify", path, "-o", out], capsys)
+    assert code == 2
+    lines = [ln for ln in stderr.splitlines() if not ln.startswith("[")]  # progress lines start with [
+    assert len(lines) == 1, stderr
+    assert str(path) in lines[0] and EXPECTED[case] in lines[0]
+    assert "Traceback" not in stderr and stdout == ""
+    assert not out.exists() and not list(tmp_path.glob(".out.osm*"))
+
+
+def test_a_failed_run_never_overwrites_a_good_output(tmp_path, capsys):
+    out = tmp_path / "k.osm"
+    run(["simplify", GOOD, "-o", out, "-q"], capsys)
+    good = out.read_bytes()
+    bad = tmp_path / "bad.osm.gz"
+    bad.write_bytes(GOOD.read_bytes()[:100_000])
+    assert run(["simplify", bad, "-o", out, "-q"], capsys)[0] == 2
+    assert out.read_bytes() == good
+
+
+@pytest.mark.parametrize("argv,needle", [
+    (["simplify"], "required"),
+    (["simplify", GOOD, "--cluster-radius", "-3"], "must be positive"),
+    (["simplify", GOOD, "--cluster-radius", "abc"], "invalid float"),
+    (["simplify", GOOD, "-o", "/nonexistent-dir/x.osm"], "output directory does not exist"),
+    (["simplify", GOOD, "-o", "out.txt"], "unsupported output type"),
+    (["frobnicate"], "not available yet"),
+])
+def test_usage_errors_are_one_line_exit_2(capsys, argv, needle):
+    code, _, stderr = run(argv, capsys)
+    assert code == 2 and needle in stderr and len(stderr.strip().splitlines()) == 1
+
+
+def test_internal_error_is_exit_1_without_traceback(monkeypatch, tmp_path, capsys):
+    import simplify
+
+    def broken(*_a, **_k):
+        raise ZeroDivisionError("boom")
+
+    monkeypatch.setattr(simplify, "simplify", broken)
+    code, _, stderr = run(["simplify", GOOD, "-o", tmp_path / "x.osm", "-q"], capsys)
+    assert code == 1 and "internal error" in stderr and "Traceback" not in stderr
+    assert not (tmp_path / "x.osm").exists()
+
+
+def test_console_script_is_installed(tmp_path):
+    exe = Path(sys.executable).with_name("osm-expand")
+    proc = subprocess.run([str(exe), "simplify", str(FIXTURES / "West-Oakland.osm.bz2"), "-o",
+                           str(tmp_path / "w.geojson"), "--json"], capture_output=True, text=True)
+    assert proc.returncode == 0, proc.stderr
+    assert json.loads(proc.stdout)["streets"] > 0
