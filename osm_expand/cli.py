@@ -55,6 +55,10 @@ def build_parser() -> argparse.ArgumentParser:
     simp.add_argument("-o", "--output", help="OUT.osm or OUT.geojson (default: CITY.simplified.osm beside the input)")
     simp.add_argument("--cluster-radius", type=float, default=None, metavar="M",
                       help="disc radius for fusing junction clusters, metres (default 10)")
+    stats = sub.add_parser("stats", help="street statistics of a town or of an osm-expand output",
+                           description="Junctions, Gravelius levels, spacing and angle statistics, "
+                                       "3-/4-way shares, dead ends and orientation entropy.")
+    _add_input_options(stats)
     return parser
 
 
@@ -101,7 +105,45 @@ def cmd_simplify(args: argparse.Namespace, log: _Log) -> dict:
     return {"input": str(city), "output": str(out), **result.report}
 
 
-COMMANDS: dict[str, Callable[[argparse.Namespace, _Log], dict]] = {"simplify": cmd_simplify}
+def cmd_stats(args: argparse.Namespace, log: _Log) -> dict:
+    from osm_expand.ingest import load
+    from simplify import simplify
+    from simplify.example import build_example
+    from simplify.invariants import is_valid
+    from simplify.statistics import example_statistics
+
+    city = Path(args.city)
+    log(f"reading {city}")
+    net = load(city, service=args.service, paths=args.paths, context=False)
+    dead_ends = None
+    if not is_valid(net):  # raw OSM: simplify first; an osm-expand output already is
+        log("simplifying")
+        result = simplify(net)
+        net, dead_ends = result.network, result.dead_ends
+        if not net.streets:
+            raise InputError(f"{city}: no streets left after simplification")
+    example = build_example(net, dead_ends or [])
+    stats = {"input": str(city), **example_statistics(example, None if dead_ends is None else len(dead_ends))}
+    if not args.json:
+        print(_stats_text(stats))
+    return stats
+
+
+def _stats_text(stats: dict) -> str:
+    lines = [f"{stats['input']}: {stats['junctions']} junctions, {stats['streets']} streets, "
+             f"{stats['total_length_km']} km, {stats['levels']} Gravelius levels",
+             f"  3-way {stats['three_way_share']:.1%}, 4-way {stats['four_way_share']:.1%}"
+             + (f", dead ends {stats['dead_end_share']:.1%}" if "dead_end_share" in stats else ""),
+             f"  orientation entropy {stats['orientation_entropy']} (order {stats['orientation_order']})",
+             "  level  streets  spacing mean/std (m)  turning std (deg)"]
+    for lv, s in stats["per_level"].items():
+        sp, tu = s["junction_spacing_m"], s["turning_angle_deg"]
+        lines.append(f"  {lv:>5}  {s['streets']:>7}  {sp.get('mean', 0):>9.1f} / {sp.get('std', 0):<9.1f}"
+                     f"  {tu.get('std', 0):>8.1f}")
+    return "\n".join(lines)
+
+
+COMMANDS: dict[str, Callable[[argparse.Namespace, _Log], dict]] = {"simplify": cmd_simplify, "stats": cmd_stats}
 
 
 def main(argv: Sequence[str] | None = None) -> int:

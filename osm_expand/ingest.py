@@ -7,6 +7,7 @@ reference nodes missing from a clipped extract are split at the gap.
 """
 from __future__ import annotations
 
+import json
 import math
 import os
 import re
@@ -20,10 +21,10 @@ import shapely
 from osm_expand.coastline import assemble_sea
 from osm_expand.errors import InputError
 from osm_expand.highways import highway_set
-from osm_expand.model import Building, Context, Street, StreetNetwork
+from osm_expand.model import Building, Context, Street, StreetNetwork, network_from_lines
 from osm_expand.projection import LocalProjection
 
-SUFFIXES = (".osm", ".osm.gz", ".osm.bz2", ".osm.pbf", ".pbf", ".xml", ".xml.gz", ".xml.bz2")
+SUFFIXES = (".osm", ".osm.gz", ".osm.bz2", ".osm.pbf", ".pbf", ".xml", ".xml.gz", ".xml.bz2", ".geojson")
 
 #: Default river widths (m) by ``waterway=*`` when no ``width`` tag says otherwise.
 WATERWAY_WIDTH = {"river": 20.0, "canal": 12.0, "stream": 3.0, "drain": 2.0, "ditch": 1.5}
@@ -69,6 +70,8 @@ def load(path: str | os.PathLike, *, service: bool = False, paths: bool = False,
     streets only, in a single pass (what ``osm-expand simplify`` needs).
     """
     p = check_readable(path)
+    if p.name.lower().endswith(".geojson"):
+        return load_geojson(p)
     kept = highway_set(service=service, paths=paths)
     try:
         try:
@@ -292,3 +295,38 @@ def _buildings(items, proj: LocalProjection) -> tuple[Building, ...]:
         if len(ring) >= 4:
             out.append(Building(ring=_project(ring, proj), height=height, levels=levels, osm_id=osm_id))
     return tuple(out)
+
+
+def load_geojson(path: Path) -> StreetNetwork:
+    """Read back a street network written by ``osm-expand`` as GeoJSON (LineString features)."""
+    try:
+        doc = json.loads(path.read_text(encoding="utf-8"))
+        features = [f for f in doc["features"] if (f.get("geometry") or {}).get("type") == "LineString"]
+        lines = [np.asarray(f["geometry"]["coordinates"], dtype=float)[:, :2] for f in features]
+    except (ValueError, KeyError, TypeError, IndexError, UnicodeDecodeError) as exc:
+        raise InputError(f"{path}: not a readable GeoJSON street network ({type(exc).__name__}: {exc})") from None
+    if not lines:
+        raise InputError(f"{path}: no LineString streets in the GeoJSON")
+    allpts = np.concatenate(lines)
+    if not np.isfinite(allpts).all() or np.abs(allpts[:, 0]).max() > 180 or np.abs(allpts[:, 1]).max() > 90:
+        raise InputError(f"{path}: coordinates out of range (GeoJSON must be lon/lat)")
+    bounds = _data_bounds(allpts)
+    proj = LocalProjection.centred_on(bounds)
+    projected = [np.column_stack(proj.to_xy(ln[:, 0], ln[:, 1])) for ln in lines]
+    attrs = [_geojson_attrs(f.get("properties") or {}) for f in features]
+    net = network_from_lines([[tuple(p) for p in ln] for ln in projected], attrs, projection=proj)
+    return net.replace(stats={"input_ways": len(lines), "input_nodes": len(net.xy), "clipped_ways": 0,
+                              "streets": len(lines)})
+
+
+def _geojson_attrs(props: dict) -> dict:
+    layer = _number(str(props.get("layer", 0)))
+    ids = props.get("osm_ids") or ()
+    return {
+        "highway": str(props.get("highway", "road")),
+        "name": props.get("name"),
+        "layer": int(layer) if layer is not None else 0,
+        "bridge": props.get("bridge") not in (None, "no", False),
+        "tunnel": props.get("tunnel") not in (None, "no", False),
+        "osm_ids": tuple(int(i) for i in ids if isinstance(i, int)),
+    }
