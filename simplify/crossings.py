@@ -87,11 +87,17 @@ def add_missing_intersections(net: StreetNetwork, opts: SimplifyOptions) -> tupl
     len_q = np.hypot(*(xy[seg["v"][q]] - xy[seg["u"][q]]).T)
     ok &= (t * len_p > tol) & ((1 - t) * len_p > tol) & (s * len_q > tol) & ((1 - s) * len_q > tol)
     points = xy[seg["u"][p][ok]] + t[ok, None] * (xy[seg["v"][p][ok]] - xy[seg["u"][p][ok]])
-    new_ids = _dedupe_points(points, tol)
-    xy2, ids2, first = append_nodes(net, _representatives(points, new_ids))
-    for sp, sq, tp, tq, nid in zip(p[ok], q[ok], t[ok], s[ok], new_ids):
-        inserts[int(sp)].append((float(tp), first + int(nid)))
-        inserts[int(sq)].append((float(tq), first + int(nid)))
+    labels = _dedupe_points(points, tol)
+    centres = _representatives(points, labels)
+    existing = _existing_vertex(xy, np.unique(np.concatenate([seg["u"][p], seg["v"][p], seg["u"][q], seg["v"][q]])),
+                                centres, tol)
+    fresh = existing < 0
+    xy2, ids2, first = append_nodes(net, centres[fresh])
+    node_of = existing.copy()
+    node_of[fresh] = first + np.arange(int(fresh.sum()))
+    for sp, sq, tp, tq, label in zip(p[ok], q[ok], t[ok], s[ok], labels):
+        inserts[int(sp)].append((float(tp), int(node_of[label])))
+        inserts[int(sq)].append((float(tq), int(node_of[label])))
 
     streets = _apply(net.streets, seg, inserts, _merge_map(merges))
     changed = len(merges) + int(ok.sum()) + sum(len(v) for v in inserts.values())
@@ -130,6 +136,17 @@ def _dedupe_points(points: np.ndarray, tol: float) -> np.ndarray:
         ds.merge(i, j)
     roots = {r: i for i, r in enumerate(sorted({ds[i] for i in range(n)}))}
     return np.array([roots[ds[i]] for i in range(n)], dtype=np.intp)
+
+
+def _existing_vertex(xy: np.ndarray, candidates: np.ndarray, points: np.ndarray, tol: float) -> np.ndarray:
+    """For each crossing point, a vertex already there (a third street's node), or -1."""
+    out = np.full(len(points), -1, dtype=np.int64)
+    if len(points) == 0 or len(candidates) == 0:
+        return out
+    dist, idx = cKDTree(xy[candidates]).query(points, distance_upper_bound=tol)
+    hit = np.isfinite(dist)
+    out[hit] = candidates[idx[hit]]
+    return out
 
 
 def _representatives(points: np.ndarray, labels: np.ndarray) -> np.ndarray:

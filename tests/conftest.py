@@ -4,11 +4,18 @@ from __future__ import annotations
 from functools import lru_cache
 from pathlib import Path
 
+import os
+
 import pytest
+from hypothesis import settings
 
 from osm_expand.ingest import load
 from osm_expand.model import StreetNetwork
 from simplify import SimplifyResult, simplify
+
+settings.register_profile("default", max_examples=100)
+settings.register_profile("thorough", max_examples=2000)
+settings.load_profile(os.environ.get("HYPOTHESIS_PROFILE", "default"))
 
 FIXTURES = Path(__file__).resolve().parent.parent / "fixtures"
 #: Fixtures with a drivable network that survives simplification.

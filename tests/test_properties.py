@@ -23,7 +23,8 @@ street_attrs = st.fixed_dictionaries({
 })
 line_sets = st.lists(st.tuples(polyline, street_attrs), min_size=1, max_size=25)
 
-SETTINGS = settings(max_examples=100, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+# 100 examples by default; HYPOTHESIS_PROFILE=thorough runs 2000 (see conftest.py)
+SETTINGS = settings(deadline=None, suppress_health_check=[HealthCheck.too_slow])
 
 
 @SETTINGS
