@@ -11,7 +11,7 @@ invariant or stops changing.
 from __future__ import annotations
 
 from collections.abc import Callable
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
@@ -127,14 +127,20 @@ def remove_overlaps_keeping_cycles(net: StreetNetwork, opts: SimplifyOptions):
 
 
 def _repair(run: _Run) -> int:
-    """Re-establish the invariants that moving nodes may have broken."""
-    for rounds in range(MAX_ROUNDS):
-        run.net, added = add_missing_intersections(run.net, run.opts)
-        run.net, counts = enforce_two_streets(run.net, run.opts)
-        removed = run.cleanup()
-        if not added and not any(counts.values()) and not any(removed.values()):
-            return rounds
-    return MAX_ROUNDS
+    """Re-establish the invariants that moving nodes may have broken.
+
+    Separation adds nodes and can, in rare tangles, keep meeting new
+    crossings; if the loop does not settle, it runs again cutting back only,
+    which removes and therefore always settles.
+    """
+    for opts in (run.opts, replace(run.opts, separation=0.0)):
+        for rounds in range(MAX_ROUNDS):
+            run.net, added = add_missing_intersections(run.net, opts)
+            run.net, counts = enforce_two_streets(run.net, opts)
+            removed = run.cleanup()
+            if not added and not any(counts.values()) and not any(removed.values()):
+                return rounds
+    return 2 * MAX_ROUNDS
 
 
 def _space_vertices(net: StreetNetwork, spacing: float) -> StreetNetwork:

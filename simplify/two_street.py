@@ -160,6 +160,8 @@ def _point_along(xy: np.ndarray, run: tuple[int, ...], dist: float) -> tuple[np.
 def _separate(work: StreetSet, nodes: _Nodes, node: int, k: int, hosts: list[int],
               opts: SimplifyOptions) -> bool:
     """Move street ``k``'s end from ``node`` onto the arm of a staying street it leans towards."""
+    if opts.separation <= 0:
+        return False
     xy = nodes.xy
     street = work.streets[k]
     own = street.nodes if street.nodes[0] == node else street.nodes[::-1]

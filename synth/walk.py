@@ -1,0 +1,213 @@
+"""The random walk of 004 §3.1 (after Aliaga et al. 2008): connect a junction cloud into streets.
+
+Each junction carries up to two *records*, one per street that went through
+it in the example: the street's Gravelius level, the mean and spread of its
+junction spacing and turning angle, and how many segments it had there (two
+when it passed through, one where it ended). Streets are drawn level by
+level, 0 first. A walk starts at a free record, preferably where a street
+ended, and steps to the most probable target:
+
+    P = exp(-½ ((L - μ_L)/σ_L)²) · exp(-½ ((θ - μ_θ)/σ_θ)²)
+
+with L the step length and θ the turn from the previous step (no angle term
+on a walk's first step). P is zero when the target has no free record of the
+walk's level, the step would cross a segment already drawn or an obstacle,
+or P falls below ``threshold``. The walk takes the *maximum*, as the thesis
+does (its figure 1), because sampling lowers both recall and precision; the
+seed decides the order in which walks start, which is what makes two runs
+differ. A record ending a street there takes one segment, so walks stop
+where the example's streets stopped.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+import shapely
+from scipy.spatial import cKDTree
+
+from synth.segment_index import SegmentIndex
+
+
+@dataclass(frozen=True)
+class WalkOptions:
+    #: Transitions less probable than this are never taken (004 §3.1).
+    threshold: float = 0.01
+    #: Candidates are searched within μ_L + reach · σ_L of the base junction.
+    reach: float = 3.0
+    #: Weigh targets by how much their stored street statistics resemble the walking street's.
+    consistency: bool = True
+
+
+@dataclass(frozen=True)
+class NodeCloud:
+    """Junctions to connect, with their two records each (level -1: no record)."""
+
+    xy: np.ndarray  # (N, 2)
+    level: np.ndarray  # (N, 2)
+    length_mean: np.ndarray
+    length_std: np.ndarray
+    angle_mean: np.ndarray
+    angle_std: np.ndarray
+    cap: np.ndarray  # (N, 2) segments allowed per record
+    cross_mean: np.ndarray | None = None  # (N, 2) acute angle to crossing streets (first steps)
+    cross_std: np.ndarray | None = None
+
+    def __len__(self) -> int:
+        return len(self.xy)
+
+
+@dataclass
+class WalkResult:
+    streets: list[tuple[int, list[int]]] = field(default_factory=list)  # (level, junction ids)
+
+    @property
+    def segments(self) -> set[tuple[int, int]]:
+        return {(min(a, b), max(a, b)) for _, path in self.streets for a, b in zip(path, path[1:])}
+
+
+class _Walker:
+    def __init__(self, cloud: NodeCloud, opts: WalkOptions, obstacles, cell: float):
+        self.c, self.opts = cloud, opts
+        self.tree = cKDTree(cloud.xy)
+        self.used = np.zeros_like(cloud.cap)
+        self.taken = np.zeros(cloud.cap.shape, dtype=bool)
+        self.index = SegmentIndex(cell)
+        self.edges: set[tuple[int, int]] = set()
+        self.drawn: dict[int, int] = {}  # a junction → a neighbour it is already joined to
+        self.obstacles = obstacles
+        if obstacles is not None:
+            shapely.prepare(obstacles)
+
+    def scores(self, cur: int, rec: int, prev: int | None, level: int, path: set[int]):
+        """Candidate targets, the record each would use, and their transition probabilities."""
+        c = self.c
+        mu, sd = c.length_mean[cur, rec], c.length_std[cur, rec]
+        cand = np.asarray(self.tree.query_ball_point(c.xy[cur], mu + self.opts.reach * sd), dtype=np.int64)
+        # a record is free if no walk took it, or the walk that took it ended there (it joins)
+        free = (c.level[cand] == level) & (self.used[cand] < c.cap[cand]) & (c.cap[cand] > 0)
+        keep = free.any(axis=1) & (cand != cur)
+        if path:
+            keep &= ~np.isin(cand, np.fromiter(path, dtype=np.int64, count=len(path)))
+        cand, free = cand[keep], free[keep]
+        if len(cand) == 0:
+            return cand, cand, np.zeros(0)
+        rec_c = self._pick_record(cand, free, cur, rec)
+        d = c.xy[cand] - c.xy[cur]
+        length = np.hypot(*d.T)
+        p = np.exp(-0.5 * ((length - mu) / sd) ** 2)
+        if prev is not None:
+            h = c.xy[cur] - c.xy[prev]
+            turn = np.degrees(np.arctan2(h[0] * d[:, 1] - h[1] * d[:, 0], d @ h))
+            p = p * np.exp(-0.5 * ((turn - c.angle_mean[cur, rec]) / c.angle_std[cur, rec]) ** 2)
+        if self.opts.consistency:
+            p = p * self._consistency(cur, rec, cand, rec_c)
+        return cand, rec_c, p
+
+    def _consistency(self, cur: int, rec: int, cand: np.ndarray, rec_c: np.ndarray) -> np.ndarray:
+        """How much a target's record looks like the walking street (1 when its statistics are equal)."""
+        c = self.c
+        dl = (c.length_mean[cand, rec_c] - c.length_mean[cur, rec]) / c.length_std[cur, rec]
+        da = (c.angle_mean[cand, rec_c] - c.angle_mean[cur, rec]) / c.angle_std[cur, rec]
+        return np.exp(-0.5 * (dl ** 2 + da ** 2))
+
+    def step(self, cur: int, rec: int, prev: int | None, level: int, path: set[int]) -> tuple[int, int] | None:
+        cand, rec_c, p = self.scores(cur, rec, prev, level, path)
+        for i in np.argsort(-p, kind="stable").tolist():
+            if p[i] < self.opts.threshold:
+                return None
+            target = int(cand[i])
+            if not self._blocked(cur, target):
+                return target, int(rec_c[i])
+        return None
+
+    def _pick_record(self, cand: np.ndarray, free: np.ndarray, cur: int, rec: int) -> np.ndarray:
+        """Of a target's free records of this level, the untaken one most like the walking street."""
+        c = self.c
+        diff = np.abs(c.length_mean[cand] - c.length_mean[cur, rec]) + np.abs(c.angle_mean[cand] - c.angle_mean[cur, rec])
+        diff = diff + np.where(self.taken[cand], 1e6, 0.0)
+        diff = np.where(free, np.nan_to_num(diff, nan=np.inf), np.inf)
+        return np.argmin(diff, axis=1)
+
+    def _blocked(self, a: int, b: int) -> bool:
+        if (min(a, b), max(a, b)) in self.edges:
+            return True
+        pa, pb = self.c.xy[a], self.c.xy[b]
+        if self.index.crosses(pa, pb, a, b):
+            return True
+        return self.obstacles is not None and self.obstacles.intersects(shapely.LineString([pa, pb]))
+
+    def connect(self, a: int, ra: int, b: int, rb: int) -> None:
+        self.used[a, ra] += 1
+        self.used[b, rb] += 1
+        self.taken[b, rb] = True
+        self.edges.add((min(a, b), max(a, b)))
+        self.drawn.setdefault(a, b)
+        self.drawn.setdefault(b, a)
+        self.index.add(self.c.xy[a], self.c.xy[b], a, b)
+
+    def extend(self, path: list[int], recs: list[int], level: int, avoid: set[int]) -> None:
+        """Walk on from the last junction of ``path`` while it has room; never revisit ``avoid``."""
+        on_path = avoid
+        while True:
+            cur, rec = path[-1], recs[-1]
+            if self.used[cur, rec] >= self.c.cap[cur, rec]:
+                return
+            prev = path[-2] if len(path) > 1 else None
+            nxt = self.step(cur, rec, prev, level, on_path)
+            if nxt is None:
+                return
+            target, trec = nxt
+            joins = bool(self.taken[target, trec])
+            self.connect(cur, rec, target, trec)
+            path.append(target)
+            recs.append(trec)
+            on_path.add(target)
+            if joins:  # met the end of an earlier walk of this street: the two are one street now
+                return
+
+
+def random_walk(cloud: NodeCloud, seed: int = 0, options: WalkOptions | None = None,
+                obstacles=None) -> WalkResult:
+    """Connect ``cloud`` into streets; same seed, same streets."""
+    opts = options or WalkOptions()
+    rng = np.random.default_rng(seed)
+    finite = cloud.length_mean[np.isfinite(cloud.length_mean) & (cloud.level >= 0)]
+    cell = float(np.median(finite)) if len(finite) else 100.0
+    walker = _Walker(cloud, opts, obstacles, max(cell, 1.0))
+    result = WalkResult()
+    for level in range(int(cloud.level.max(initial=-1)) + 1):
+        for j, r in _starts(cloud, level, rng):
+            if walker.taken[j, r]:
+                continue
+            walker.taken[j, r] = True
+            path, recs = [j], [r]
+            visited = {j}
+            walker.extend(path, recs, level, visited)
+            if cloud.cap[j, r] == 2 and walker.used[j, r] < 2:  # started mid-street: walk the other way too
+                # seed the backward walk with the first forward step reversed, so it keeps going straight
+                back = [path[1], j] if len(path) > 1 else [j]
+                back_recs = [recs[1], r] if len(path) > 1 else [r]
+                walker.extend(back, back_recs, level, visited)
+                path = _join_back(back, path)
+            if len(path) > 1:
+                result.streets.append((level, path))
+    return result
+
+
+def _join_back(back: list[int], path: list[int]) -> list[int]:
+    """The backward walk (which started at ``path[0]``, maybe after ``path[1]``) prepended to ``path``."""
+    skip = 2 if len(path) > 1 else 1
+    return back[skip:][::-1] + path
+
+
+def _starts(cloud: NodeCloud, level: int, rng: np.random.Generator) -> list[tuple[int, int]]:
+    """Records of this level, street ends first, each group in seeded random order."""
+    j, r = np.nonzero(cloud.level == level)
+    ends = cloud.cap[j, r] == 1
+    out = []
+    for group in (ends, ~ends):
+        idx = np.flatnonzero(group)
+        rng.shuffle(idx)
+        out += list(zip(j[idx].tolist(), r[idx].tolist()))
+    return out
