@@ -59,6 +59,11 @@ def build_parser() -> argparse.ArgumentParser:
                            description="Junctions, Gravelius levels, spacing and angle statistics, "
                                        "3-/4-way shares, dead ends and orientation entropy.")
     _add_input_options(stats)
+    rep = sub.add_parser("reproduce", help="re-walk a town's own junctions and score the result",
+                         description="Run the random walk on the example's junctions in place; recall and "
+                                     "precision of the town's junction-to-junction segments (004 §5.3).")
+    _add_input_options(rep)
+    rep.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
     return parser
 
 
@@ -143,7 +148,31 @@ def _stats_text(stats: dict) -> str:
     return "\n".join(lines)
 
 
-COMMANDS: dict[str, Callable[[argparse.Namespace, _Log], dict]] = {"simplify": cmd_simplify, "stats": cmd_stats}
+def cmd_reproduce(args: argparse.Namespace, log: _Log) -> dict:
+    from osm_expand.ingest import load
+    from simplify import simplify
+    from simplify.example import build_example
+    from synth.reproduce import reproduce
+
+    city = Path(args.city)
+    log(f"reading {city}")
+    net = load(city, service=args.service, paths=args.paths, context=False)
+    log("simplifying")
+    result = simplify(net)
+    if not result.network.streets:
+        raise InputError(f"{city}: no streets left after simplification")
+    example = build_example(result.network, result.dead_ends)
+    log(f"walking {len(example.junctions)} junctions (seed {args.seed})")
+    score = {"input": str(city), **reproduce(example, seed=args.seed)}
+    score["per_level"] = {str(k): v for k, v in score["per_level"].items()}
+    if not args.json:
+        print(f"{city}: recall {score['recall']:.3f}, precision {score['precision']:.3f} "
+              f"({score['segments_made']} segments walked, {score['segments_original']} in the town)")
+    return score
+
+
+COMMANDS: dict[str, Callable[[argparse.Namespace, _Log], dict]] = {
+    "simplify": cmd_simplify, "stats": cmd_stats, "reproduce": cmd_reproduce}
 
 
 def main(argv: Sequence[str] | None = None) -> int:

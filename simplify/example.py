@@ -46,8 +46,6 @@ class Example:
     angle_std: np.ndarray  # (J, 2)
     degree: np.ndarray  # (J,) segments meeting at the junction (2, 3 or 4)
     record_cap: np.ndarray  # (J, 2) segments each street has there: 2 passing, 1 ending, 0 none
-    cross_mean: np.ndarray  # (J, 2) mean angle (0-90°) at which the street meets the streets it crosses
-    cross_std: np.ndarray  # (J, 2)
     streets: list[StreetStats] = field(default_factory=list)
     dead_ends_per_level: dict[int, dict[str, float]] = field(default_factory=dict)
 
@@ -127,43 +125,13 @@ def build_example(net: StreetNetwork, dead_ends: list[DeadEnd] = ()) -> Example:
             cap[j, col] = 2 if (0 < i < last or s.is_closed) else 1
             degree[j] += cap[j, col]
     has = street >= 0
-    crossing = _crossing_angles(net, street, nodes)
-    summary = np.column_stack([summary, crossing])
     pick = lambda column: np.where(has, summary[np.maximum(street, 0), column], np.nan)  # noqa: E731
     level = np.where(has, np.array([s.level for s in stats] + [-1])[street], -1)
     return Example(
         network=net, junctions=nodes, street=street, level=level,
         length_mean=pick(0), length_std=pick(1), angle_mean=pick(2), angle_std=pick(3),
-        degree=degree, record_cap=cap, cross_mean=pick(4), cross_std=pick(5), streets=stats, dead_ends_per_level=_dead_ends_by_level(net, nodes, level, dead_ends),
+        degree=degree, record_cap=cap, streets=stats, dead_ends_per_level=_dead_ends_by_level(net, nodes, level, dead_ends),
     )
-
-
-def _line_direction(net: StreetNetwork, k: int, node: int) -> np.ndarray:
-    """Unit direction of street ``k`` through ``node`` (along its neighbouring shape points)."""
-    seq = net.streets[k].nodes
-    i = seq.index(node)
-    a = net.xy[seq[max(i - 1, 0)]]
-    b = net.xy[seq[min(i + 1, len(seq) - 1)]]
-    d = b - a
-    n = float(np.hypot(*d))
-    return d / n if n > 0 else d
-
-
-def _crossing_angles(net: StreetNetwork, street: np.ndarray, nodes: np.ndarray) -> np.ndarray:
-    """Per street: mean and std of the acute angle to the streets it meets."""
-    samples: dict[int, list[float]] = {}
-    for j, (a, b) in enumerate(street.tolist()):
-        if a < 0 or b < 0:
-            continue
-        da, db = _line_direction(net, a, int(nodes[j])), _line_direction(net, b, int(nodes[j]))
-        angle = float(np.degrees(np.arccos(np.clip(abs(da @ db), 0.0, 1.0))))
-        samples.setdefault(a, []).append(angle)
-        samples.setdefault(b, []).append(angle)
-    out = np.zeros((len(net.streets), 2))
-    out[:, 0], out[:, 1] = 90.0, 30.0
-    for k, v in samples.items():
-        out[k] = (np.mean(v), max(np.std(v) if len(v) > 2 else 20.0, MIN_ANGLE_STD))
-    return out
 
 
 def _dead_ends_by_level(net: StreetNetwork, nodes: np.ndarray, level: np.ndarray,
