@@ -21,8 +21,13 @@ would cross a segment already drawn or an obstacle, or P falls below
 1), because sampling lowers both recall and precision. A record ending a
 street takes one segment, so walks stop where the example's streets stopped;
 a walk reaching a record whose earlier walk ended there joins it and stops.
-Walks of a level start at street ends, clearest first step first; the seed
-breaks near-ties, which is what makes two runs differ.
+
+Within a level, steps are laid down most confident first: passes over every
+record with free room at thresholds 0.9, 0.6, 0.3, 0.1 and finally
+``threshold``, so an ambiguous choice is made only after the clear ones have
+claimed their junctions. Records are visited street ends first, clearest
+first step first; the seed breaks near-ties, which is what makes two runs
+differ. Streets are read off at the end as chains of linked records.
 """
 from __future__ import annotations
 
@@ -75,7 +80,7 @@ class _Walker:
         self.c, self.opts = cloud, opts
         self.tree = cKDTree(cloud.xy)
         self.used = np.zeros_like(cloud.cap)
-        self.taken = np.zeros(cloud.cap.shape, dtype=bool)
+        self.links: dict[tuple[int, int], list[tuple[int, int]]] = {}
         self.index = SegmentIndex(cell)
         self.edges: set[tuple[int, int]] = set()
         self.obstacles = obstacles
@@ -114,10 +119,11 @@ class _Walker:
         da = (c.angle_mean[cand, rec_c] - c.angle_mean[cur, rec]) / c.angle_std[cur, rec]
         return np.exp(-0.5 * (dl ** 2 + da ** 2))
 
-    def step(self, cur: int, rec: int, prev: int | None, level: int, path: set[int]) -> tuple[int, int] | None:
+    def step(self, cur: int, rec: int, prev: int | None, level: int, path: set[int],
+             threshold: float) -> tuple[int, int] | None:
         cand, rec_c, p = self.scores(cur, rec, prev, level, path)
         for i in np.argsort(-p, kind="stable").tolist():
-            if p[i] < self.opts.threshold:
+            if p[i] < threshold:
                 return None
             target = int(cand[i])
             if not self._blocked(cur, target):
@@ -128,7 +134,7 @@ class _Walker:
         """Of a target's free records of this level, the untaken one most like the walking street."""
         c = self.c
         diff = np.abs(c.length_mean[cand] - c.length_mean[cur, rec]) + np.abs(c.angle_mean[cand] - c.angle_mean[cur, rec])
-        diff = diff + np.where(self.taken[cand], 1e6, 0.0)
+        diff = diff + np.where(self.used[cand] > 0, 1e6, 0.0)
         diff = np.where(free, np.nan_to_num(diff, nan=np.inf), np.inf)
         return np.argmin(diff, axis=1)
 
@@ -143,29 +149,64 @@ class _Walker:
     def connect(self, a: int, ra: int, b: int, rb: int) -> None:
         self.used[a, ra] += 1
         self.used[b, rb] += 1
-        self.taken[b, rb] = True
+        self.links.setdefault((a, ra), []).append((b, rb))
+        self.links.setdefault((b, rb), []).append((a, ra))
         self.edges.add((min(a, b), max(a, b)))
         self.index.add(self.c.xy[a], self.c.xy[b], a, b)
 
-    def extend(self, path: list[int], recs: list[int], level: int, avoid: set[int]) -> None:
-        """Walk on from the last junction of ``path`` while it has room; never revisit ``avoid``."""
-        on_path = avoid
-        while True:
-            cur, rec = path[-1], recs[-1]
-            if self.used[cur, rec] >= self.c.cap[cur, rec]:
-                return
-            prev = path[-2] if len(path) > 1 else None
-            nxt = self.step(cur, rec, prev, level, on_path)
+    def chain_nodes(self, start: tuple[int, int]) -> set[int]:
+        """Junctions of the street (chain of records) that ``start`` belongs to."""
+        seen, todo = {start}, [start]
+        while todo:
+            for nxt in self.links.get(todo.pop(), ()):
+                if nxt not in seen:
+                    seen.add(nxt)
+                    todo.append(nxt)
+        return {j for j, _ in seen}
+
+    def walk_on(self, cur: int, rec: int, level: int, threshold: float) -> int:
+        """Extend the street at record (cur, rec) while steps reach ``threshold``; segments added."""
+        added = 0
+        on_street = self.chain_nodes((cur, rec))
+        while self.used[cur, rec] < self.c.cap[cur, rec]:
+            linked = self.links.get((cur, rec), ())
+            prev = linked[0][0] if linked else None
+            nxt = self.step(cur, rec, prev, level, on_street, threshold)
             if nxt is None:
-                return
+                break
             target, trec = nxt
-            joins = bool(self.taken[target, trec])
+            joins = self.used[target, trec] > 0
             self.connect(cur, rec, target, trec)
-            path.append(target)
-            recs.append(trec)
-            on_path.add(target)
-            if joins:  # met the end of an earlier walk of this street: the two are one street now
-                return
+            added += 1
+            if joins:  # met the end of another piece of this street: they are one street now
+                break
+            on_street.add(target)
+            cur, rec = target, trec
+        return added
+
+    def streets(self, level: int) -> list[list[int]]:
+        """The level's chains of linked records, as junction sequences."""
+        recs = [k for k in self.links if self.c.level[k] == level]
+        done: set[tuple[int, int]] = set()
+        out = []
+        for first in sorted(recs, key=lambda k: (len(self.links[k]) != 1, k)):
+            if first in done:
+                continue
+            path, prev, cur = [], None, first
+            while cur is not None and cur not in done:
+                done.add(cur)
+                path.append(cur[0])
+                nxt = [k for k in self.links[cur] if k != prev and k not in done]
+                prev, cur = cur, (nxt[0] if nxt else None)
+            if cur is not None and cur == first:  # a ring closes on itself
+                path.append(first[0])
+            if len(path) > 1:
+                out.append(path)
+        return out
+
+
+#: Steps are laid down most confident first: a pass at each threshold over every record.
+SCHEDULE = (0.9, 0.6, 0.3, 0.1)
 
 
 def random_walk(cloud: NodeCloud, seed: int = 0, options: WalkOptions | None = None,
@@ -177,29 +218,14 @@ def random_walk(cloud: NodeCloud, seed: int = 0, options: WalkOptions | None = N
     cell = float(np.median(finite)) if len(finite) else 100.0
     walker = _Walker(cloud, opts, obstacles, max(cell, 1.0))
     result = WalkResult()
+    thresholds = [t for t in SCHEDULE if t > opts.threshold] + [opts.threshold]
     for level in range(int(cloud.level.max(initial=-1)) + 1):
-        for j, r in _starts(cloud, level, rng, walker):
-            if walker.taken[j, r]:
-                continue
-            walker.taken[j, r] = True
-            path, recs = [j], [r]
-            visited = {j}
-            walker.extend(path, recs, level, visited)
-            if cloud.cap[j, r] == 2 and walker.used[j, r] < 2:  # started mid-street: walk the other way too
-                # seed the backward walk with the first forward step reversed, so it keeps going straight
-                back = [path[1], j] if len(path) > 1 else [j]
-                back_recs = [recs[1], r] if len(path) > 1 else [r]
-                walker.extend(back, back_recs, level, visited)
-                path = _join_back(back, path)
-            if len(path) > 1:
-                result.streets.append((level, path))
+        order = _starts(cloud, level, rng, walker)
+        for threshold in thresholds:
+            for j, r in order:
+                walker.walk_on(j, r, level, threshold)
+        result.streets += [(level, path) for path in walker.streets(level)]
     return result
-
-
-def _join_back(back: list[int], path: list[int]) -> list[int]:
-    """The backward walk (which started at ``path[0]``, maybe after ``path[1]``) prepended to ``path``."""
-    skip = 2 if len(path) > 1 else 1
-    return back[skip:][::-1] + path
 
 
 def _starts(cloud: NodeCloud, level: int, rng: np.random.Generator, walker: "_Walker") -> list[tuple[int, int]]:
