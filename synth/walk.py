@@ -40,6 +40,10 @@ from scipy.spatial import cKDTree
 from synth.segment_index import SegmentIndex
 
 
+#: The level of a border junction's record: a target for walks of every level.
+ANY_LEVEL = -2
+
+
 @dataclass(frozen=True)
 class WalkOptions:
     #: Transitions less probable than this are never taken (004 §3.1).
@@ -93,7 +97,8 @@ class _Walker:
         mu, sd = c.length_mean[cur, rec], c.length_std[cur, rec]
         cand = np.asarray(self.tree.query_ball_point(c.xy[cur], mu + self.opts.reach * sd), dtype=np.int64)
         # a record is free if no walk took it, or the walk that took it ended there (it joins)
-        free = (c.level[cand] == level) & (self.used[cand] < c.cap[cand]) & (c.cap[cand] > 0)
+        free = ((c.level[cand] == level) | (c.level[cand] == ANY_LEVEL)) \
+            & (self.used[cand] < c.cap[cand]) & (c.cap[cand] > 0)
         keep = free.any(axis=1) & (cand != cur)
         if path:
             keep &= ~np.isin(cand, np.fromiter(path, dtype=np.int64, count=len(path)))
@@ -117,7 +122,8 @@ class _Walker:
         c = self.c
         dl = (c.length_mean[cand, rec_c] - c.length_mean[cur, rec]) / c.length_std[cur, rec]
         da = (c.angle_mean[cand, rec_c] - c.angle_mean[cur, rec]) / c.angle_std[cur, rec]
-        return np.exp(-0.5 * (dl ** 2 + da ** 2))
+        factor = np.exp(-0.5 * (dl ** 2 + da ** 2))
+        return np.where(c.level[cand, rec_c] == ANY_LEVEL, 1.0, factor)  # border junctions: any street
 
     def step(self, cur: int, rec: int, prev: int | None, level: int, path: set[int],
              threshold: float) -> tuple[int, int] | None:
@@ -167,6 +173,8 @@ class _Walker:
     def walk_on(self, cur: int, rec: int, level: int, threshold: float) -> int:
         """Extend the street at record (cur, rec) while steps reach ``threshold``; segments added."""
         added = 0
+        if self.used[cur, rec] >= self.c.cap[cur, rec]:
+            return 0
         on_street = self.chain_nodes((cur, rec))
         while self.used[cur, rec] < self.c.cap[cur, rec]:
             linked = self.links.get((cur, rec), ())
@@ -175,7 +183,7 @@ class _Walker:
             if nxt is None:
                 break
             target, trec = nxt
-            joins = self.used[target, trec] > 0
+            joins = self.used[target, trec] > 0 or self.c.level[target, trec] == ANY_LEVEL
             self.connect(cur, rec, target, trec)
             added += 1
             if joins:  # met the end of another piece of this street: they are one street now

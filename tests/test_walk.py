@@ -131,3 +131,41 @@ def test_reproduce_command(capsys):
     assert cli.main(["reproduce", str(FIXTURES / "West-Oakland.osm.bz2"), "--json", "-q", "--seed", "2"]) == 0
     score = json.loads(capsys.readouterr().out)
     assert 0 <= score["recall"] <= 1 and 0 <= score["precision"] <= 1 and score["seed"] == 2
+
+
+def _grown_network(name: str, seed: int = 1):
+    import shapely as shp
+
+    from osm_expand.ingest import load
+    from synth.grow import grow
+
+    net = load(FIXTURES / name)
+    result = simplify(net)
+    ex = build_example(result.network, result.dead_ends)
+    lo, hi = ex.xy.min(axis=0), ex.xy.max(axis=0)
+    side = float((hi - lo).max())
+    region = shp.box(hi[0] + 200, (lo[1] + hi[1] - side) / 2, hi[0] + 200 + side, (lo[1] + hi[1] + side) / 2)
+    water = list(net.context.water) + list(net.context.sea)
+    obstacles = shp.union_all(water) if water else None
+    grown = grow(ex, region, obstacles=obstacles, seed=seed)
+    return grown, region, obstacles
+
+
+def test_growth_next_to_a_town_never_crosses_and_stays_dry():
+    from simplify.invariants import violations
+
+    for name in ("krems.osm.gz", "north-bayreuth.osm.gz"):
+        grown, region, water = _grown_network(name)
+        lines = [[tuple(p) for p in pl] for _, pl in grown.polylines()]
+        assert len(lines) > 50
+        net = network_from_lines(lines)
+        assert violations(net)["crossings_without_junction"] == 0
+        assert all(region.covers(shapely.LineString(line)) for line in lines)
+        if water is not None:
+            assert not any(water.intersects(shapely.LineString(line)) for line in lines)
+
+
+def test_growth_is_deterministic():
+    a, _, _ = _grown_network("krems.osm.gz", seed=7)
+    b, _, _ = _grown_network("krems.osm.gz", seed=7)
+    assert a.walk.streets == b.walk.streets
