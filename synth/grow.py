@@ -4,7 +4,8 @@ The example's junction cloud is copied into the region (translated onto its
 centre, optionally rotated), keeping only the junctions that land inside it
 and outside the obstacles (water, the old town). Old-town junctions with free
 slots can be added as *border* junctions: targets of any level, so the new
-district connects to the town. The random walk then draws the streets.
+district connects to the town. The random walk then draws the streets, and
+:mod:`synth.shape` gives them dead ends and curved shapes like the example's.
 """
 from __future__ import annotations
 
@@ -14,6 +15,7 @@ import numpy as np
 import shapely
 
 from simplify.example import Example
+from synth.shape import add_dead_ends, shaped_streets
 from synth.walk import ANY_LEVEL, NodeCloud, WalkOptions, WalkResult, random_walk
 
 
@@ -22,9 +24,10 @@ class GrowResult:
     cloud: NodeCloud
     walk: WalkResult
     source: np.ndarray  # per cloud junction: the example junction it copies (-1 for a border junction)
+    streets: list[tuple[int, np.ndarray]]  # (level, polyline) with shapes and dead ends restored
 
     def polylines(self) -> list[tuple[int, np.ndarray]]:
-        return [(level, self.cloud.xy[path]) for level, path in self.walk.streets]
+        return self.streets
 
 
 def place(example: Example, region, obstacles=None, rotation_deg: float = 0.0) -> tuple[np.ndarray, np.ndarray]:
@@ -43,13 +46,20 @@ def place(example: Example, region, obstacles=None, rotation_deg: float = 0.0) -
 
 def grow(example: Example, region, obstacles=None, border_xy: np.ndarray | None = None,
          border_slots: np.ndarray | None = None, seed: int = 0, rotation_deg: float = 0.0,
-         options: WalkOptions | None = None) -> GrowResult:
+         options: WalkOptions | None = None, shapes: bool = True) -> GrowResult:
     """Streets for ``region`` that look like the example's; same seed, same streets."""
     xy, source = place(example, region, obstacles, rotation_deg)
     cloud = _cloud(example, xy, source, border_xy, border_slots)
     walk = random_walk(cloud, seed=seed, options=options, obstacles=obstacles)
     n_border = 0 if border_xy is None else len(border_xy)
-    return GrowResult(cloud=cloud, walk=walk, source=np.concatenate([source, np.full(n_border, -1)]))
+    rng = np.random.default_rng([seed, 1])
+    if shapes:
+        points, stubs = add_dead_ends(example, cloud.xy, walk.streets, region, obstacles, rng)
+        streets = shaped_streets(example, points, walk.streets + stubs, obstacles, rng)
+    else:
+        streets = [(level, cloud.xy[path]) for level, path in walk.streets]
+    return GrowResult(cloud=cloud, walk=walk, source=np.concatenate([source, np.full(n_border, -1)]),
+                      streets=streets)
 
 
 def _cloud(ex: Example, xy, source, border_xy, border_slots) -> NodeCloud:

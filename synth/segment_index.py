@@ -22,12 +22,13 @@ class SegmentIndex:
         self.a = np.zeros((capacity, 2))
         self.b = np.zeros((capacity, 2))
         self.ends = np.zeros((capacity, 2), dtype=np.int64)
+        self.active = np.zeros(capacity, dtype=bool)
 
     def __len__(self) -> int:
         return self.n
 
     def _grow(self) -> None:
-        for name in ("a", "b", "ends"):
+        for name in ("a", "b", "ends", "active"):
             old = getattr(self, name)
             new = np.zeros((2 * len(old),) + old.shape[1:], dtype=old.dtype)
             new[: len(old)] = old
@@ -40,14 +41,19 @@ class SegmentIndex:
             for j in range(lo[1], hi[1] + 1):
                 yield (i, j)
 
-    def add(self, a: np.ndarray, b: np.ndarray, u: int, v: int) -> None:
+    def add(self, a: np.ndarray, b: np.ndarray, u: int, v: int) -> int:
+        """Store segment u–v (at a–b); returns its id for :meth:`remove`."""
         if self.n == len(self.a):
             self._grow()
         k = self.n
-        self.a[k], self.b[k], self.ends[k] = a, b, (u, v)
+        self.a[k], self.b[k], self.ends[k], self.active[k] = a, b, (u, v), True
         self.n += 1
         for c in self._cells(a, b):
             self.grid[c].append(k)
+        return k
+
+    def remove(self, k: int) -> None:
+        self.active[k] = False
 
     def crosses(self, a: np.ndarray, b: np.ndarray, u: int, v: int) -> bool:
         """Does segment u–v (at a–b) touch a stored segment anywhere but at a shared end node?"""
@@ -55,6 +61,7 @@ class SegmentIndex:
         if not ids:
             return False
         ids = np.fromiter(ids, dtype=np.int64)
+        ids = ids[self.active[ids]]
         ends, p, q = self.ends[ids], self.a[ids], self.b[ids]
         shared = (ends[:, 0] == u) | (ends[:, 0] == v) | (ends[:, 1] == u) | (ends[:, 1] == v)
         if shared.any():  # touching at the shared node is fine, running along each other is not
