@@ -13,17 +13,19 @@ with L the step length and θ the turn from the previous step (no angle term
 on a walk's first step), times a *consistency* factor beyond the thesis: a
 Gaussian of how far the target record's stored statistics are from the
 walking street's, so a walk keeps to junctions that came from a street like
-itself (on by default; it lifts reproduction by 3-7 points).
+itself (on by default; see the README for what it and snapping add).
 
 P is zero when the target has no free record of the walk's level, the step
-would cross a segment already drawn or an obstacle, or P falls below
-``threshold``. The walk takes the *maximum*, as the thesis does (its figure
+would cross a segment already drawn or an obstacle, pass a junction closer
+than the snapping distance without stopping there (002's snapping rule), or
+P falls below ``threshold``. Joining the loose end of a drawn piece of the
+same street also weighs the turn this makes there. The walk takes the *maximum*, as the thesis does (its figure
 1), because sampling lowers both recall and precision. A record ending a
 street takes one segment, so walks stop where the example's streets stopped;
 a walk reaching a record whose earlier walk ended there joins it and stops.
 
 Within a level, steps are laid down most confident first: passes over every
-record with free room at thresholds 0.9, 0.6, 0.3 and finally
+record with free room at thresholds 0.9, 0.6, 0.3, 0.1 and finally
 ``threshold``, so an ambiguous choice is made only after the clear ones have
 claimed their junctions. Records are visited street ends first, clearest
 first step first; the seed breaks near-ties, which is what makes two runs
@@ -46,13 +48,18 @@ ANY_LEVEL = -2
 
 @dataclass(frozen=True)
 class WalkOptions:
-    #: Transitions less probable than this are never taken (004 §3.1 gives no number; 0.1
-    #: measured best: lower thresholds add more wrong segments than right ones).
-    threshold: float = 0.1
+    #: Transitions less probable than this are never taken (004 §3.1 gives no number).
+    threshold: float = 0.01
     #: Candidates are searched within μ_L + reach · σ_L of the base junction.
     reach: float = 3.0
-    #: Weigh targets by how much their stored street statistics resemble the walking street's.
+    #: Weigh targets by how much their stored street statistics resemble the walking street's ...
     consistency: bool = True
+    #: ... measured in units of this many of the walking street's standard deviations.
+    consistency_width: float = 0.5
+    #: A step may not pass closer than this to another junction (m; 002's snapping rule) ...
+    snap: float = 20.0
+    #: ... nor closer than this share of its own length.
+    snap_share: float = 0.15
 
 
 @dataclass(frozen=True)
@@ -116,14 +123,29 @@ class _Walker:
             p = p * np.exp(-0.5 * ((turn - c.angle_mean[cur, rec]) / c.angle_std[cur, rec]) ** 2)
         if self.opts.consistency:
             p = p * self._consistency(cur, rec, cand, rec_c)
-        return cand, rec_c, p
+        return cand, rec_c, p * self._join_turn(cur, cand, rec_c)
+
+    def _join_turn(self, cur: int, cand: np.ndarray, rec_c: np.ndarray) -> np.ndarray:
+        """Joining the loose end of a drawn piece makes a turn there too; weigh it by that street's angles."""
+        c = self.c
+        factor = np.ones(len(cand))
+        for i in np.flatnonzero(self.used[cand, rec_c] == 1).tolist():
+            t, r = int(cand[i]), int(rec_c[i])
+            if c.level[t, r] == ANY_LEVEL:
+                continue
+            e = self.links[(t, r)][0][0]
+            h, d = c.xy[t] - c.xy[e], c.xy[cur] - c.xy[t]
+            turn = np.degrees(np.arctan2(h[0] * d[1] - h[1] * d[0], h @ d))
+            factor[i] = np.exp(-0.5 * ((turn - c.angle_mean[t, r]) / c.angle_std[t, r]) ** 2)
+        return factor
 
     def _consistency(self, cur: int, rec: int, cand: np.ndarray, rec_c: np.ndarray) -> np.ndarray:
         """How much a target's record looks like the walking street (1 when its statistics are equal)."""
         c = self.c
         dl = (c.length_mean[cand, rec_c] - c.length_mean[cur, rec]) / c.length_std[cur, rec]
         da = (c.angle_mean[cand, rec_c] - c.angle_mean[cur, rec]) / c.angle_std[cur, rec]
-        factor = np.exp(-0.5 * (dl ** 2 + da ** 2))
+        width = self.opts.consistency_width
+        factor = np.exp(-0.5 * (dl ** 2 + da ** 2) / width ** 2)
         return np.where(c.level[cand, rec_c] == ANY_LEVEL, 1.0, factor)  # border junctions: any street
 
     def step(self, cur: int, rec: int, prev: int | None, level: int, path: set[int],
@@ -145,8 +167,24 @@ class _Walker:
         diff = np.where(free, np.nan_to_num(diff, nan=np.inf), np.inf)
         return np.argmin(diff, axis=1)
 
+    def _passes_by(self, a: int, b: int) -> bool:
+        """Would a–b run past another junction so close that it should have stopped there?"""
+        pa, pb = self.c.xy[a], self.c.xy[b]
+        length = float(np.hypot(*(pb - pa)))
+        snap = min(self.opts.snap, self.opts.snap_share * length)
+        near = np.asarray(self.tree.query_ball_point((pa + pb) / 2, length / 2 + snap), dtype=np.int64)
+        near = near[(near != a) & (near != b)]
+        if len(near) == 0:
+            return False
+        d = pb - pa
+        t = np.clip(((self.c.xy[near] - pa) @ d) / max(d @ d, 1e-12), 0.0, 1.0)
+        gap = np.hypot(*(self.c.xy[near] - (pa + t[:, None] * d)).T)
+        return bool((gap < snap).any())
+
     def _blocked(self, a: int, b: int) -> bool:
         if (min(a, b), max(a, b)) in self.edges:
+            return True
+        if self._passes_by(a, b):
             return True
         pa, pb = self.c.xy[a], self.c.xy[b]
         if self.index.crosses(pa, pb, a, b):
@@ -215,7 +253,7 @@ class _Walker:
 
 
 #: Steps are laid down most confident first: a pass at each threshold over every record.
-SCHEDULE = (0.9, 0.6, 0.3)
+SCHEDULE = (0.9, 0.6, 0.3, 0.1)
 
 
 def random_walk(cloud: NodeCloud, seed: int = 0, options: WalkOptions | None = None,
