@@ -45,6 +45,7 @@ def test_simplify_writes_the_network_and_a_json_report(tmp_path, capsys, suffix)
     assert [p["pass"] for p in report["passes"]][-1] == "final"
     assert "reading" in stderr and "done" in stderr
     assert not list(tmp_path.glob(".*tmp"))  # no temporary file left behind
+    assert out.stat().st_mode & 0o044  # readable by others, like any file the user writes
 
 
 def test_quiet_prints_nothing(tmp_path, capsys):
