@@ -169,3 +169,36 @@ def test_growth_is_deterministic():
     a, _, _ = _grown_network("krems.osm.gz", seed=7)
     b, _, _ = _grown_network("krems.osm.gz", seed=7)
     assert a.walk.streets == b.walk.streets
+
+
+def _ks(a: np.ndarray, b: np.ndarray) -> float:
+    from scipy.stats import ks_2samp
+
+    return float(ks_2samp(a, b).statistic)
+
+
+def test_grown_streets_have_the_towns_spacing_and_turning():
+    """Kolmogorov–Smirnov distance to the source ≤ 0.15 (mean of three seeds)."""
+    for name in ("krems.osm.gz", "north-bayreuth.osm.gz"):
+        result = simplified(name)
+        source = build_example(result.network, result.dead_ends)
+        spacing, turning = [], []
+        for seed in (0, 1, 2):
+            grown, _, _ = _grown_network(name, seed=seed)
+            ex = build_example(network_from_lines([[tuple(p) for p in pl] for _, pl in grown.polylines()]))
+            cat = lambda e, a: np.concatenate([getattr(s, a) for s in e.streets])  # noqa: E731
+            spacing.append(_ks(cat(ex, "spacing"), cat(source, "spacing")))
+            turning.append(_ks(cat(ex, "turning"), cat(source, "turning")))
+        assert np.mean(spacing) <= 0.15, (name, spacing)
+        assert np.mean(turning) <= 0.15, (name, turning)
+
+
+def test_same_seed_same_bytes(tmp_path):
+    from osm_expand.export import write_geojson
+
+    for name in ("a", "b"):
+        grown, _, _ = _grown_network("krems.osm.gz", seed=11)
+        net = network_from_lines([[tuple(p) for p in pl] for _, pl in grown.polylines()],
+                                 [{"hierarchy": lv} for lv, _ in grown.polylines()])
+        write_geojson(net, tmp_path / f"{name}.geojson")
+    assert (tmp_path / "a.geojson").read_bytes() == (tmp_path / "b.geojson").read_bytes()
