@@ -160,10 +160,14 @@ class _Walker:
         return None
 
     def _pick_record(self, cand: np.ndarray, free: np.ndarray, cur: int, rec: int) -> np.ndarray:
-        """Of a target's free records of this level, the untaken one most like the walking street."""
+        """Of a target's free records of this level, the one most like the walking street.
+
+        A record already holding a piece of a street like this one is that
+        street's loose end: joining it continues the street. Untaken breaks ties.
+        """
         c = self.c
         diff = np.abs(c.length_mean[cand] - c.length_mean[cur, rec]) + np.abs(c.angle_mean[cand] - c.angle_mean[cur, rec])
-        diff = diff + np.where(self.used[cand] > 0, 1e6, 0.0)
+        diff = diff + np.where(self.used[cand] > 0, 1e-6, 0.0)
         diff = np.where(free, np.nan_to_num(diff, nan=np.inf), np.inf)
         return np.argmin(diff, axis=1)
 
