@@ -39,7 +39,7 @@ def merge_streets(net: StreetNetwork, opts: SimplifyOptions) -> tuple[StreetNetw
             ends_at[s.nodes[0]].append((k, True))
             ends_at[s.nodes[-1]].append((k, False))
     proposals = []
-    for node, ends in ends_at.items():
+    for ends in ends_at.values():
         proposals += _best_pairs(net, ends, opts)
     proposals.sort(key=lambda p: (-p[0], -p[1], p[2], p[3]))
     chains = DisjointSet(range(len(streets)))

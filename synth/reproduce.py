@@ -36,20 +36,17 @@ def example_segments(ex: Example) -> dict[tuple[int, int], int]:
 
 
 def score(truth: dict[tuple[int, int], int], walk: WalkResult) -> dict:
-    made = walk.segments
-    hits = made & set(truth)
-    per_level: dict[int, dict[str, float]] = {}
-    made_level = {(min(a, b), max(a, b)): lv for lv, p in walk.streets for a, b in zip(p, p[1:])}
-    totals: defaultdict[int, list[int]] = defaultdict(lambda: [0, 0, 0])
+    made = {(min(a, b), max(a, b)): lv for lv, p in walk.streets for a, b in zip(p, p[1:])}
+    hits = made.keys() & truth.keys()
+    tally: defaultdict[int, list[int]] = defaultdict(lambda: [0, 0, 0, 0])  # true, found, made, right
     for seg, lv in truth.items():
-        totals[lv][0] += 1
-        totals[lv][2] += seg in made
-    for seg, lv in made_level.items():
-        totals[lv][1] += 1
-    for lv, (n_true, n_made, n_hit) in sorted(totals.items()):
-        per_level[lv] = {"recall": n_hit / n_true if n_true else 1.0,
-                         "precision": (sum(1 for s, v in made_level.items() if v == lv and s in truth) / n_made)
-                         if n_made else 1.0}
+        tally[lv][0] += 1
+        tally[lv][1] += seg in made
+    for seg, lv in made.items():
+        tally[lv][2] += 1
+        tally[lv][3] += seg in truth
+    per_level = {lv: {"recall": found / n_true if n_true else 1.0, "precision": right / n_made if n_made else 1.0}
+                 for lv, (n_true, found, n_made, right) in sorted(tally.items())}
     return {
         "recall": len(hits) / len(truth) if truth else 1.0,
         "precision": len(hits) / len(made) if made else 1.0,

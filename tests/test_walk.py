@@ -14,7 +14,7 @@ from simplify import simplify
 from simplify.example import build_example
 from synth.reproduce import cloud_from_example, example_segments, reproduce
 from synth.segment_index import SegmentIndex
-from synth.walk import NodeCloud, WalkOptions, random_walk
+from synth.walk import NodeCloud, random_walk
 from tests.conftest import FIXTURES, simplified
 
 
