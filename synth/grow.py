@@ -50,7 +50,7 @@ def grow(example: Example, region, obstacles=None, border_xy: np.ndarray | None 
     """Streets for ``region`` that look like the example's; same seed, same streets."""
     xy, source = place(example, region, obstacles, rotation_deg)
     cloud = _cloud(example, xy, source, border_xy, border_slots)
-    walk = random_walk(cloud, seed=seed, options=options, obstacles=obstacles)
+    walk = random_walk(cloud, seed=seed, options=options or WalkOptions(complete=True), obstacles=obstacles)
     n_border = 0 if border_xy is None else len(border_xy)
     rng = np.random.default_rng([seed, 1])
     if shapes:

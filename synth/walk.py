@@ -60,6 +60,10 @@ class WalkOptions:
     snap: float = 20.0
     #: ... nor closer than this share of its own length.
     snap_share: float = 0.15
+    #: After all levels, a street left dangling, or a side street that never started from a
+    #: drawn junction, takes one step to a free junction of any level (growth: the example has
+    #: no dead ends and its side streets meet something; reproduction keeps the thesis's rule).
+    complete: bool = False
 
 
 @dataclass(frozen=True)
@@ -105,8 +109,8 @@ class _Walker:
         mu, sd = c.length_mean[cur, rec], c.length_std[cur, rec]
         cand = np.asarray(self.tree.query_ball_point(c.xy[cur], mu + self.opts.reach * sd), dtype=np.int64)
         # a record is free if no walk took it, or the walk that took it ended there (it joins)
-        free = ((c.level[cand] == level) | (c.level[cand] == ANY_LEVEL)) \
-            & (self.used[cand] < c.cap[cand]) & (c.cap[cand] > 0)
+        same = (c.level[cand] != -1) if level is None else ((c.level[cand] == level) | (c.level[cand] == ANY_LEVEL))
+        free = same & (self.used[cand] < c.cap[cand]) & (c.cap[cand] > 0)
         keep = free.any(axis=1) & (cand != cur)
         if path:
             keep &= ~np.isin(cand, np.fromiter(path, dtype=np.int64, count=len(path)))
@@ -121,7 +125,7 @@ class _Walker:
             h = c.xy[cur] - c.xy[prev]
             turn = np.degrees(np.arctan2(h[0] * d[:, 1] - h[1] * d[:, 0], d @ h))
             p = p * np.exp(-0.5 * ((turn - c.angle_mean[cur, rec]) / c.angle_std[cur, rec]) ** 2)
-        if self.opts.consistency:
+        if self.opts.consistency and level is not None:
             p = p * self._consistency(cur, rec, cand, rec_c)
         return cand, rec_c, p * self._join_turn(cur, cand, rec_c)
 
@@ -213,8 +217,11 @@ class _Walker:
                     todo.append(nxt)
         return {j for j, _ in seen}
 
-    def walk_on(self, cur: int, rec: int, level: int, threshold: float) -> int:
-        """Extend the street at record (cur, rec) while steps reach ``threshold``; segments added."""
+    def walk_on(self, cur: int, rec: int, level: int | None, threshold: float, max_steps: int = 1 << 30) -> int:
+        """Extend the street at record (cur, rec) while steps reach ``threshold``; segments added.
+
+        ``level=None`` accepts targets of any level (the completion step).
+        """
         added = 0
         if self.used[cur, rec] >= self.c.cap[cur, rec]:
             return 0
@@ -233,14 +240,15 @@ class _Walker:
                 break
             on_street.add(target)
             cur, rec = target, trec
+            if added >= max_steps:
+                break
         return added
 
-    def streets(self, level: int) -> list[list[int]]:
-        """The level's chains of linked records, as junction sequences."""
-        recs = [k for k in self.links if self.c.level[k] == level]
+    def streets(self) -> list[tuple[int, list[int]]]:
+        """Chains of linked records as (level of the chain's first record, junction sequence)."""
         done: set[tuple[int, int]] = set()
         out = []
-        for first in sorted(recs, key=lambda k: (len(self.links[k]) != 1, k)):
+        for first in sorted(self.links, key=lambda k: (int(self.c.level[k]), len(self.links[k]) != 1, k)):
             if first in done:
                 continue
             path, prev, cur = [], None, first
@@ -252,7 +260,7 @@ class _Walker:
             if cur is not None and cur == first:  # a ring closes on itself
                 path.append(first[0])
             if len(path) > 1:
-                out.append(path)
+                out.append((max(int(self.c.level[first]), 0), path))
         return out
 
 
@@ -275,7 +283,13 @@ def random_walk(cloud: NodeCloud, seed: int = 0, options: WalkOptions | None = N
         for threshold in thresholds:
             for j, r in order:
                 walker.walk_on(j, r, level, threshold)
-        result.streets += [(level, path) for path in walker.streets(level)]
+    if opts.complete:
+        on_street = (walker.used[:, ::-1] > 0)  # the junction's other record is drawn
+        dangling = (walker.used > 0) & (walker.used < cloud.cap)
+        unstarted = (walker.used == 0) & (cloud.cap == 1) & on_street & (cloud.level >= 0)
+        for j, r in np.argwhere(dangling | unstarted).tolist():
+            walker.walk_on(j, r, None, opts.threshold, max_steps=1)
+    result.streets = walker.streets()
     return result
 
 
