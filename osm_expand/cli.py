@@ -91,6 +91,7 @@ def cmd_simplify(args: argparse.Namespace, log: _Log) -> dict:
     from osm_expand.export import write_geojson, write_osm
     from osm_expand.ingest import load
     from simplify import SimplifyOptions, simplify
+    from simplify.invariants import violations
 
     city = Path(args.city)
     out, kind = _output_path(city, args.output, ".simplified.osm")
@@ -107,7 +108,11 @@ def cmd_simplify(args: argparse.Namespace, log: _Log) -> dict:
                          f"(every street is a dead end or isolated){hint}")
     log(f"{result.report['junctions']} junctions, {result.report['streets']} streets; writing {out}")
     (write_osm if kind == "osm" else write_geojson)(result.network, out)
-    return {"input": str(city), "output": str(out), **result.report}
+    broken = {k: v for k, v in violations(result.network).items() if v}
+    if broken:  # never expected: say so rather than hand over a flawed network silently
+        print(f"{PROG}: warning: {out}: simplified network still has {broken}; please report this input",
+              file=sys.stderr)
+    return {"input": str(city), "output": str(out), "violations": broken, **result.report}
 
 
 def cmd_stats(args: argparse.Namespace, log: _Log) -> dict:

@@ -16,7 +16,7 @@ from scipy.spatial import cKDTree
 
 from osm_expand.model import Street, StreetNetwork
 from simplify.options import SimplifyOptions
-from simplify.topology import append_nodes, junction_mask, replace_nodes
+from simplify.topology import append_nodes, junction_mask, replace_nodes, split_self_touching
 
 
 def fuse_clusters(net: StreetNetwork, opts: SimplifyOptions) -> tuple[StreetNetwork, int]:
@@ -43,7 +43,9 @@ def fuse_clusters(net: StreetNetwork, opts: SimplifyOptions) -> tuple[StreetNetw
     remap = {int(m): first + int(slot[label[i]]) for i, m in enumerate(nodes) if member[i]}
     streets = replace_nodes(net.streets, remap)
     new_nodes = set(range(first, first + len(multi)))
-    streets = tuple(_trim_near(s, xy, junction, new_nodes, opts.cluster_radius) for s in streets)
+    trimmed = (_trim_near(s, xy, junction, new_nodes, opts.cluster_radius) for s in streets)
+    # a small ring around the new junction can shrink to nothing: clean and cut again
+    streets = tuple(p for s in trimmed for p in split_self_touching(s))
     return net.replace(xy=xy, node_ids=ids, streets=streets), len(multi)
 
 

@@ -175,6 +175,8 @@ def _separate(work: StreetSet, nodes: _Nodes, node: int, k: int, hosts: list[int
             if dist < 1.0:
                 continue
             point, j = _point_along(xy, arm, dist)
+            if np.hypot(*(point - xy[arm[j + 1]])) < 1e-6:  # landed on a shape point: pull back a little
+                point, j = _point_along(xy, arm, dist * 0.9)
             g = (point - xy[node]) / max(float(np.hypot(*(point - xy[node]))), 1e-12)
             score = -float(g @ h)
             if best is None or score < best[0]:

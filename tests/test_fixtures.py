@@ -16,7 +16,7 @@ from simplify.intersections import extract_intersections
 from simplify.invariants import violations
 from simplify.quality import length_within, pruned_reference
 from simplify.topology import junction_mask
-from tests.conftest import TOWNS, loaded, simplified
+from tests.conftest import FIXTURES, TOWNS, loaded, simplified
 
 
 @pytest.mark.parametrize("name", TOWNS)
@@ -146,3 +146,10 @@ def test_report_counts_every_pass():
     assert simplified("campo-grande.osm.gz").report["clipped_ways"] > 100
     assert next(p for p in report["passes"] if p["pass"] == "roundabouts")["roundabouts"] > 0
     assert next(p for p in report["passes"] if p["pass"] == "merging")["merges"] > 0
+
+
+@pytest.mark.parametrize("name,service,paths", [("monaco.osm.gz", True, False), ("andorra.osm.pbf", True, True),
+                                                ("north-bayreuth.osm.gz", True, True)])
+def test_optional_street_classes_keep_the_invariants(name, service, paths):
+    net = simplify(load(FIXTURES / name, service=service, paths=paths, context=False)).network
+    assert not any(violations(net).values())

@@ -170,6 +170,15 @@ def test_close_junctions_fuse_distant_ones_do_not():
     assert fuse_clusters(far, OPTS)[1] == 0
 
 
+def test_a_small_ring_around_a_fused_junction_disappears_cleanly():
+    # two junctions 8 m apart, joined also by a tiny ring: fusing must not leave a [c, c] street
+    lines = [[(-100, 0), (0, 0), (8, 0), (100, 0)], [(0, -100), (0, 0)], [(8, 0), (8, 100)],
+             [(0, 0), (3, 3), (5, 3), (8, 0)]]
+    net = extract_intersections(network_from_lines(lines))
+    out, _ = fuse_clusters(net, OPTS)
+    assert all(a != b for s in out.streets for a, b in zip(s.nodes, s.nodes[1:]))
+
+
 # -- 7. merging ----------------------------------------------------------------
 
 def test_straight_fragments_merge_bent_ones_do_not():
