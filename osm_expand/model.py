@@ -15,9 +15,6 @@ import numpy as np
 
 from osm_expand.projection import LocalProjection
 
-#: Street attributes that export formats write as tags/properties.
-TAG_FIELDS = ("highway", "name", "layer", "bridge", "tunnel", "junction", "lanes", "width")
-
 
 @dataclass(frozen=True, slots=True)
 class Street:

@@ -58,10 +58,6 @@ class Example:
         """Free connection slots: a junction takes two streets, four segments."""
         return 4 - self.degree
 
-    @property
-    def max_level(self) -> int:
-        return int(self.level.max(initial=0))
-
 
 def street_stats(net: StreetNetwork, junction: np.ndarray, k: int) -> StreetStats:
     street = net.streets[k]

@@ -42,9 +42,6 @@ class StreetSet:
     def count(self, node: int) -> int:
         return len(self.at.get(node, ()))
 
-    def is_junction(self, node: int) -> bool:
-        return self.count(node) >= 2
-
     def ordered(self) -> tuple[Street, ...]:
         """Streets in insertion order, so results do not depend on hashing."""
         return tuple(self.streets[k] for k in sorted(self.streets))
