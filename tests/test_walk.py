@@ -202,3 +202,36 @@ def test_same_seed_same_bytes(tmp_path):
                                  [{"hierarchy": lv} for lv, _ in grown.polylines()])
         write_geojson(net, tmp_path / f"{name}.geojson")
     assert (tmp_path / "a.geojson").read_bytes() == (tmp_path / "b.geojson").read_bytes()
+
+
+def test_border_junctions_of_the_old_town_are_targets_of_any_level():
+    from synth.walk import ANY_LEVEL
+
+    xy = [(0, 0), (100, 0), (200, 0), (300, 0)]
+    c = cloud(xy, [1, 1, 1, 1], cap=[1, 2, 2, 1])
+    level = c.level.copy()
+    level[3, 0] = ANY_LEVEL  # an old-town junction with a free slot
+    c = NodeCloud(xy=c.xy, level=level, length_mean=c.length_mean, length_std=c.length_std,
+                  angle_mean=c.angle_mean, angle_std=c.angle_std, cap=c.cap)
+    assert (2, 3) in random_walk(c).segments
+
+
+def test_a_grown_district_connects_to_the_old_town():
+    import shapely as shp
+
+    from osm_expand.ingest import load
+    from synth.grow import grow
+
+    net = load(FIXTURES / "north-bayreuth.osm.gz")
+    result = simplify(net)
+    ex = build_example(result.network, result.dead_ends)
+    lo, hi = ex.xy.min(axis=0), ex.xy.max(axis=0)
+    side = float((hi - lo).max())
+    edge = (ex.slots > 0) & (ex.xy[:, 0] > hi[0] - 600)  # old-town junctions with room, on its east side
+    region = shp.union_all([shp.box(hi[0] + 50, (lo[1] + hi[1] - side) / 2, hi[0] + 50 + side, (lo[1] + hi[1] + side) / 2),
+                            shp.box(float(ex.xy[edge, 0].min()) - 1, lo[1], hi[0] + 60, hi[1])])
+    grown = grow(ex, region, obstacles=shp.union_all(list(net.context.water)), border_xy=ex.xy[edge],
+                 border_slots=ex.slots[edge], seed=1)
+    core = len(grown.cloud) - int(edge.sum())
+    links = [(a, b) for _, p in grown.walk.streets for a, b in zip(p, p[1:]) if (a >= core) != (b >= core)]
+    assert len(links) >= 1
