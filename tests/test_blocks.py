@@ -1,0 +1,51 @@
+"""Blocks by wall following: faces of the street graph, valid and disjoint."""
+from __future__ import annotations
+
+import pytest
+import shapely
+
+from osm_expand.blocks import blocks, faces
+from osm_expand.model import network_from_lines
+from tests.conftest import simplified
+
+
+def grid(n=3, step=100.0, origin=(0.0, 0.0)):
+    x0, y0 = origin
+    span = [i * step for i in range(n)]
+    lines = [[(x0 + x, y0 + y) for x in span] for y in span]
+    lines += [[(x0 + x, y0 + y) for y in span] for x in span]
+    return lines
+
+
+def test_a_grid_has_its_squares_as_blocks_and_one_outer_face():
+    net = network_from_lines(grid())
+    rings = faces(net)
+    assert len(rings) == 5  # four squares and the outside
+    found = blocks(net)
+    assert sorted(round(p.area) for p in found) == [10000] * 4
+
+
+def test_curved_streets_keep_their_shape_in_the_block():
+    # a square whose top street bulges 30 m: the block follows the bulge
+    lines = [[(0, 0), (100, 0)], [(100, 0), (100, 100)], [(100, 100), (50, 130), (0, 100)], [(0, 100), (0, 0)]]
+    (block,) = blocks(network_from_lines(lines))
+    assert block.area == pytest.approx(10000 + 100 * 30 / 2)
+
+
+def test_a_separate_network_inside_a_block_becomes_a_hole():
+    outer = grid(2, 1000.0)
+    inner = grid(2, 100.0, origin=(400.0, 400.0))
+    found = blocks(network_from_lines(outer + inner))
+    areas = sorted(round(p.area) for p in found)
+    assert areas == [10000, 1_000_000 - 10000]
+    assert sum(p.area for p in found) == pytest.approx(shapely.union_all(found).area)
+
+
+@pytest.mark.parametrize("name", ["krems.osm.gz", "campo-grande.osm.gz", "monaco.osm.gz", "andorra.osm.pbf",
+                                  "north-bayreuth.osm.gz"])
+def test_town_blocks_are_valid_and_disjoint(name):
+    net = simplified(name).network
+    found = blocks(net)
+    assert len(found) > 50
+    assert all(p.is_valid and p.area >= 100 for p in found)
+    assert sum(p.area for p in found) == pytest.approx(shapely.union_all(found).area, rel=1e-6)
