@@ -66,7 +66,6 @@ class _Run:
         self.record(name, **{key: n}, **self.cleanup())
 
 
-
 def simplify(net: StreetNetwork, options: SimplifyOptions | None = None) -> SimplifyResult:
     """Reduce an ingested network to junctions joined by whole streets (004 §4.2)."""
     opts = options or SimplifyOptions()
