@@ -2,5 +2,6 @@
 from osm_expand.export.atomic import atomic_write
 from osm_expand.export.geojson import write_geojson
 from osm_expand.export.osm import write_osm
+from osm_expand.export.urban import write_urbanenvironment
 
-__all__ = ["atomic_write", "write_geojson", "write_osm"]
+__all__ = ["atomic_write", "write_geojson", "write_osm", "write_urbanenvironment"]

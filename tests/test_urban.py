@@ -1,0 +1,71 @@
+"""The <urbanenvironment> writer: schema, geometry and georeferencing."""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from lxml import etree
+from pyproj import Transformer
+
+from osm_expand.export.urban import validate, write_urbanenvironment
+from osm_expand.model import network_from_lines
+from simplify.hierarchy import with_levels
+from simplify.invariants import violations
+from tests.conftest import simplified
+
+BOX = (np.array([[0.0, 0.0], [12.0, 0.0], [12.0, 8.0], [0.0, 8.0]]), 9.5)
+
+
+def _write(tmp_path, name="krems.osm.gz", file="town.xml"):
+    net = with_levels(simplified(name).network)
+    out = tmp_path / file
+    write_urbanenvironment(net, out, buildings=[BOX])
+    return net, out
+
+
+def test_output_validates_against_the_shipped_schema(tmp_path):
+    _, out = _write(tmp_path)
+    assert validate(out) == []
+    root = etree.parse(str(out)).getroot()
+    assert root.tag == "urbanenvironment" and [c.tag for c in root] == ["streets", "buildings"]
+    building = root.find("buildings/building")
+    assert building.get("height") == "9.50" and len(building.findall("node")) == 4
+
+
+def test_a_building_with_three_corners_is_rejected(tmp_path):
+    _, out = _write(tmp_path)
+    doc = etree.parse(str(out))
+    nodes = doc.getroot().find("buildings/building").findall("node")
+    nodes[0].getparent().remove(nodes[0])
+    doc.write(str(tmp_path / "bad.xml"))
+    assert validate(tmp_path / "bad.xml")
+
+
+def test_segments_are_the_streets_shapes_and_never_cross(tmp_path):
+    net, out = _write(tmp_path)
+    streets = etree.parse(str(out)).getroot().find("streets")
+    segs = [[(float(s.get("x1")), float(s.get("y1"))), (float(s.get("x2")), float(s.get("y2")))]
+            for st in streets for s in st]
+    assert len(segs) == sum(len(s.nodes) - 1 for s in net.streets)
+    attrs = [{"layer": int(st.get("layer")), "bridge": st.get("bridge") == "yes", "tunnel": st.get("tunnel") == "yes"}
+             for st in streets for _ in st]
+    assert not violations(network_from_lines(segs, attrs))["crossings_without_junction"]
+    assert {st.get("origin") for st in streets} == {"source"}
+    assert all(st.get("hierarchy") is not None for st in streets)
+
+
+def test_coordinates_can_be_georeferenced_again(tmp_path):
+    net, out = _write(tmp_path, "monaco.osm.gz")
+    root = etree.parse(str(out)).getroot()
+    back = Transformer.from_crs(root.get("projection"), "EPSG:4326", always_xy=True)
+    seg = root.find("streets/street/segment")
+    lon, lat = back.transform(float(seg.get("x1")), float(seg.get("y1")))
+    first = net.streets[0].nodes[0]
+    lon0, lat0 = net.context.projection.to_lonlat(net.xy[first, 0], net.xy[first, 1])
+    assert lon == pytest.approx(float(lon0), abs=1e-7) and lat == pytest.approx(float(lat0), abs=1e-7)
+    assert float(root.get("lon0")) == pytest.approx(7.42, abs=0.02)
+
+
+def test_same_network_same_bytes(tmp_path):
+    _, a = _write(tmp_path, file="a.xml")
+    _, b = _write(tmp_path, file="b.xml")
+    assert a.read_bytes() == b.read_bytes()
