@@ -1,7 +1,8 @@
 """Grow new streets in a region from a town's example (004 §4.3.2).
 
-The example's junction cloud is copied into the region (translated onto its
-centre, optionally rotated), keeping only the junctions that land inside it
+The example's junction cloud is copied into the region (its densest part, the
+junction with most junctions within the region's radius, on the region's
+centre; optionally rotated), keeping only the junctions that land inside it
 and outside the obstacles (water, the old town). Old-town junctions with free
 slots can be added as *border* junctions: targets of any level, so the new
 district connects to the town. The random walk then draws the streets, and
@@ -13,6 +14,7 @@ from dataclasses import dataclass
 
 import numpy as np
 import shapely
+from scipy.spatial import cKDTree
 
 from simplify.example import Example
 from synth.shape import add_dead_ends, shaped_streets
@@ -30,9 +32,16 @@ class GrowResult:
         return self.streets
 
 
+def _densest_centre(xy: np.ndarray, radius: float) -> np.ndarray:
+    """The junction with the most junctions within ``radius``: the part of the town worth copying."""
+    counts = cKDTree(xy).query_ball_point(xy, radius, return_length=True)
+    return xy[int(np.argmax(counts))]
+
+
 def place(example: Example, region, obstacles=None, rotation_deg: float = 0.0) -> tuple[np.ndarray, np.ndarray]:
-    """Copy the example's junctions onto the region's centre; the ones that fit, and their source ids."""
-    xy = example.xy - example.xy.mean(axis=0)
+    """Copy the example's junctions onto the region, densest part on its centre; those that fit, and their ids."""
+    radius = float(np.sqrt(shapely.area(region) / np.pi))
+    xy = example.xy - _densest_centre(example.xy, radius)
     a = np.radians(rotation_deg)
     rot = np.array([[np.cos(a), -np.sin(a)], [np.sin(a), np.cos(a)]])
     centre = np.array(shapely.centroid(region).coords[0])
@@ -46,20 +55,43 @@ def place(example: Example, region, obstacles=None, rotation_deg: float = 0.0) -
 
 def grow(example: Example, region, obstacles=None, border_xy: np.ndarray | None = None,
          border_slots: np.ndarray | None = None, seed: int = 0, rotation_deg: float = 0.0,
-         options: WalkOptions | None = None, shapes: bool = True) -> GrowResult:
-    """Streets for ``region`` that look like the example's; same seed, same streets."""
+         options: WalkOptions | None = None, shapes: bool = True,
+         old_streets: list[np.ndarray] = ()) -> GrowResult:
+    """Streets for ``region`` that look like the example's; same seed, same streets.
+
+    ``old_streets`` (polylines of the town) are never crossed; where one passes through a
+    border junction, the new streets may meet it there.
+    """
     xy, source = place(example, region, obstacles, rotation_deg)
     cloud = _cloud(example, xy, source, border_xy, border_slots)
-    walk = random_walk(cloud, seed=seed, options=options or WalkOptions(complete=True), obstacles=obstacles)
+    fixed = _fixed_segments(old_streets, cloud.xy[len(xy):], len(xy))
+    walk = random_walk(cloud, seed=seed, options=options or WalkOptions(complete=True), obstacles=obstacles,
+                       fixed=fixed)
     n_border = 0 if border_xy is None else len(border_xy)
     rng = np.random.default_rng([seed, 1])
     if shapes:
-        points, stubs = add_dead_ends(example, cloud.xy, walk.streets, region, obstacles, rng)
-        streets = shaped_streets(example, points, walk.streets + stubs, obstacles, rng)
+        points, stubs = add_dead_ends(example, cloud.xy, walk.streets, region, obstacles, rng, fixed)
+        streets = shaped_streets(example, points, walk.streets + stubs, obstacles, rng, fixed)
     else:
         streets = [(level, cloud.xy[path]) for level, path in walk.streets]
     return GrowResult(cloud=cloud, walk=walk, source=np.concatenate([source, np.full(n_border, -1)]),
                       streets=streets)
+
+
+def _fixed_segments(old_streets, border_xy: np.ndarray, first_border: int):
+    """Old streets as segments; ends at a border junction carry its cloud id, others unique negatives."""
+    ids = {(float(x), float(y)): first_border + k for k, (x, y) in enumerate(border_xy)}
+    out, fresh = [], -1
+    for line in old_streets:
+        names = []
+        for x, y in np.asarray(line, dtype=float):
+            key = (float(x), float(y))
+            if key not in ids:
+                ids[key] = fresh
+                fresh -= 1
+            names.append(ids[key])
+        out += [(line[i], line[i + 1], names[i], names[i + 1]) for i in range(len(line) - 1)]
+    return out
 
 
 def _cloud(ex: Example, xy, source, border_xy, border_slots) -> NodeCloud:

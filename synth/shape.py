@@ -49,18 +49,21 @@ def lay(profile: np.ndarray, a: np.ndarray, b: np.ndarray) -> np.ndarray:
     return pts
 
 
-def _index(xy: np.ndarray, chords: list[tuple[int, int]]) -> tuple[SegmentIndex, dict[tuple[int, int], int]]:
+def _index(xy: np.ndarray, chords: list[tuple[int, int]], fixed=()) -> tuple[SegmentIndex, dict[tuple[int, int], int]]:
+    """Segments drawn so far: the new chords, plus ``fixed`` ones (an old town) as (a, b, u, v)."""
     cell = float(np.median([np.hypot(*(xy[a] - xy[b])) for a, b in chords])) if chords else 100.0
     index = SegmentIndex(max(cell, 1.0))
+    for a, b, u, v in fixed:
+        index.add(np.asarray(a, dtype=float), np.asarray(b, dtype=float), u, v)
     ids = {(a, b): index.add(xy[a], xy[b], a, b) for a, b in chords}
     return index, ids
 
 
 def add_dead_ends(example: Example, xy: np.ndarray, streets: list[Street], region, obstacles,
-                  rng: np.random.Generator) -> tuple[np.ndarray, list[Street]]:
+                  rng: np.random.Generator, fixed=()) -> tuple[np.ndarray, list[Street]]:
     """The cloud with stub tips appended, and the stubs as two-junction streets."""
     chords = [(a, b) for _, path in streets for a, b in zip(path, path[1:])]
-    index, _ = _index(xy, chords)
+    index, _ = _index(xy, chords, fixed)
     degree = np.bincount(np.array(chords, dtype=np.int64).ravel(), minlength=len(xy)) if chords else np.zeros(len(xy))
     tips: list[np.ndarray] = []
     stubs: list[Street] = []
@@ -87,12 +90,12 @@ def add_dead_ends(example: Example, xy: np.ndarray, streets: list[Street], regio
 
 
 def shaped_streets(example: Example, xy: np.ndarray, streets: list[Street], obstacles,
-                   rng: np.random.Generator) -> list[tuple[int, np.ndarray]]:
+                   rng: np.random.Generator, fixed=()) -> list[tuple[int, np.ndarray]]:
     """Polylines for the streets, each segment shaped like an example piece of its level where it fits."""
     profiles = piece_profiles(example)
     chords = list(dict.fromkeys((a, b) for _, path in streets for a, b in zip(path, path[1:])))
     level_of = {(a, b): lv for lv, path in streets for a, b in zip(path, path[1:])}
-    index, ids = _index(xy, chords)
+    index, ids = _index(xy, chords, fixed)
     shapes: dict[tuple[int, int], np.ndarray] = {}
     next_id = len(xy)
     for a, b in chords:

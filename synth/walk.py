@@ -269,13 +269,19 @@ SCHEDULE = (0.9, 0.6, 0.3, 0.1)
 
 
 def random_walk(cloud: NodeCloud, seed: int = 0, options: WalkOptions | None = None,
-                obstacles=None) -> WalkResult:
-    """Connect ``cloud`` into streets; same seed, same streets."""
+                obstacles=None, fixed: list[tuple[np.ndarray, np.ndarray, int, int]] = ()) -> WalkResult:
+    """Connect ``cloud`` into streets; same seed, same streets.
+
+    ``fixed`` are segments already there (an old town's streets) that no step may cross,
+    as (a, b, u, v) with u, v the cloud ids of their ends where they are cloud junctions.
+    """
     opts = options or WalkOptions()
     rng = np.random.default_rng(seed)
     finite = cloud.length_mean[np.isfinite(cloud.length_mean) & (cloud.level >= 0)]
     cell = float(np.median(finite)) if len(finite) else 100.0
     walker = _Walker(cloud, opts, obstacles, max(cell, 1.0))
+    for a, b, u, v in fixed:
+        walker.index.add(np.asarray(a, dtype=float), np.asarray(b, dtype=float), u, v)
     result = WalkResult()
     thresholds = [t for t in SCHEDULE if t > opts.threshold] + [opts.threshold]
     for level in range(int(cloud.level.max(initial=-1)) + 1):

@@ -1,0 +1,179 @@
+"""The whole pipeline: grow a district next to a real town (``osm-expand CITY``).
+
+simplify → example → blocks → distance maps and site → random walk in the
+site (junctions of the old town's edge with free slots are targets, the old
+streets are never crossed) → one network of old and new streets.
+"""
+from __future__ import annotations
+
+from collections import Counter
+from dataclasses import dataclass, field, replace
+
+import numpy as np
+import shapely
+
+from osm_expand.blocks import blocks
+from osm_expand.errors import InputError
+from osm_expand.model import Street, StreetNetwork
+from osm_expand.sites import Site, SiteOptions, built_area, choose_site, distance_maps
+from simplify import simplify
+from simplify.example import Example, build_example
+from simplify.hierarchy import with_levels
+from synth.grow import grow
+
+
+@dataclass(frozen=True)
+class ExpandOptions:
+    seed: int = 0
+    direction: str | None = None  # N, NE, ..., or None / "auto"
+    at: tuple[float, float] | None = None  # site centre in metres
+    area: float | None = None  # m²; default: SiteOptions.area_share of the built-up area
+    site: SiteOptions = field(default_factory=SiteOptions)
+
+
+@dataclass
+class ExpandResult:
+    network: StreetNetwork  # old and new streets together
+    origins: list[str]  # per street: "source" or "grown"
+    site: Site
+    report: dict
+
+
+def expand(raw: StreetNetwork, options: ExpandOptions | None = None, progress=lambda msg: None) -> ExpandResult:
+    opts = options or ExpandOptions()
+    progress("simplifying")
+    simplified = simplify(raw)
+    source = with_levels(simplified.network)
+    if not source.streets:
+        raise InputError("no streets left after simplification (try --service)")
+    example = build_example(source, simplified.dead_ends)
+    progress("finding blocks and a site")
+    town_blocks = blocks(source)
+    area = opts.area or opts.site.area_share * built_area(source, town_blocks, opts.site).area
+    radius = float(np.sqrt(area / np.pi))
+    maps = distance_maps(source, town_blocks, margin=2.5 * radius, opts=opts.site)
+    site = choose_site(maps, area, opts.site, direction=opts.direction, at=opts.at)
+    if site is None:
+        raise InputError(f"no room for a district of {area:,.0f} m² around the town (try a smaller --area)")
+    progress("growing streets")
+    water = shapely.union_all([*raw.context.water, *raw.context.sea])
+    old_town = shapely.union_all([b.buffer(-1.0) for b in town_blocks])
+    obstacles = shapely.union_all([water, old_town])
+    border, slots = _border_junctions(example, site, radius)
+    near = shapely.STRtree([shapely.LineString(source.street_xy(s)) for s in source.streets])
+    reach = site.region.buffer(0.5 * radius)
+    old = [source.street_xy(source.streets[k]) for k in sorted(near.query(reach, predicate="intersects").tolist())]
+    grown = grow(example, site.region, obstacles=obstacles, border_xy=border, border_slots=slots,
+                 seed=opts.seed, old_streets=old)
+    network, origins = _combine(source, example, grown.polylines())
+    network, origins = _join_to_town(network, origins, border, old_town, water, reach=2 * _spacing(example))
+    new = [k for k, o in enumerate(origins) if o == "grown"]
+    report = {
+        "site_centre": [round(float(v), 1) for v in site.centre], "site_area_m2": round(area),
+        "source_streets": len(source.streets), "grown_streets": len(new),
+        "grown_length_km": round(sum(float(np.hypot(*np.diff(network.street_xy(network.streets[k]), axis=0).T).sum())
+                                     for k in new) / 1000, 3),
+        "connections": _connections(network, origins),
+    }
+    return ExpandResult(network=network, origins=origins, site=site, report=report)
+
+
+def _spacing(example: Example) -> float:
+    return float(np.nanmedian(example.length_mean)) if len(example.junctions) else 100.0
+
+
+def _border_junctions(example: Example, site: Site, radius: float) -> tuple[np.ndarray, np.ndarray]:
+    """Old-town junctions with a free slot within reach of the site."""
+    near = np.hypot(*(example.xy - site.centre).T) <= radius + 2 * _spacing(example)
+    pick = near & (example.slots > 0)
+    return example.xy[pick], example.slots[pick]
+
+
+def _class_by_level(source: StreetNetwork) -> dict[int, str]:
+    counts: dict[int, Counter] = {}
+    for s in source.streets:
+        counts.setdefault(s.hierarchy, Counter())[s.highway] += 1
+    return {lv: c.most_common(1)[0][0] for lv, c in counts.items()}
+
+
+def _combine(source: StreetNetwork, example: Example, polylines) -> tuple[StreetNetwork, list[str]]:
+    """Old streets plus new ones; a new street ending on an old junction shares its node."""
+    at_junction = {(float(x), float(y)): int(n) for n, (x, y) in zip(example.junctions, example.xy)}
+    highway = _class_by_level(source)
+    xy = [source.xy]
+    next_id = len(source.xy)
+    index: dict[tuple[float, float], int] = {}
+    streets = list(source.streets)
+    for level, pts in polylines:
+        nodes = []
+        for x, y in np.asarray(pts, dtype=float):
+            key = (float(x), float(y))
+            if key in at_junction:
+                nodes.append(at_junction[key])
+                continue
+            if key not in index:
+                index[key] = next_id
+                next_id += 1
+                xy.append(np.array([[x, y]]))
+            nodes.append(index[key])
+        streets.append(Street(nodes=tuple(nodes), highway=highway.get(level, "residential"),
+                              hierarchy=int(level), status="planned"))
+    all_xy = np.vstack(xy)
+    ids = np.concatenate([source.node_ids, np.zeros(len(all_xy) - len(source.xy), dtype=np.int64)])
+    origins = ["source"] * len(source.streets) + ["grown"] * (len(streets) - len(source.streets))
+    return replace(source, xy=all_xy, node_ids=ids, streets=tuple(streets)), origins
+
+
+#: A street joining the district to the town may bridge this much water (m): streams and ditches.
+MAX_BRIDGE = 30.0
+
+
+def _join_to_town(net: StreetNetwork, origins: list[str], border: np.ndarray, old_town, water,
+                  reach: float, most: int = 8) -> tuple[StreetNetwork, list[str]]:
+    """Join old-town edge junctions the walk did not reach to the nearest new junction.
+
+    The joining street crosses no street and no block; it may bridge up to
+    :data:`MAX_BRIDGE` metres of water, and is then tagged as a bridge.
+    """
+    from scipy.spatial import cKDTree
+
+    from synth.segment_index import SegmentIndex
+
+    grown_nodes = sorted({n for s, o in zip(net.streets, origins) if o == "grown" for n in s.nodes})
+    if not grown_nodes or not len(border):
+        return net, origins
+    index = SegmentIndex(max(reach / 2, 1.0))
+    for s in net.streets:
+        for a, b in zip(s.nodes, s.nodes[1:]):
+            index.add(net.xy[a], net.xy[b], a, b)
+    node_at = {(float(x), float(y)): n for n, (x, y) in enumerate(net.xy)}
+    tree = cKDTree(net.xy[grown_nodes])
+    streets, joined = list(net.streets), 0
+    already = {n for s, o in zip(net.streets, origins) if o == "grown" for n in (s.nodes[0], s.nodes[-1])}
+    for x, y in border:
+        b = node_at[(float(x), float(y))]
+        if b in already or joined >= most:
+            continue
+        dist, idx = tree.query(net.xy[b], k=min(8, len(grown_nodes)), distance_upper_bound=reach)
+        for d, i in zip(np.atleast_1d(dist), np.atleast_1d(idx)):
+            if not np.isfinite(d):
+                break
+            g = grown_nodes[int(i)]
+            # the street arrives at the old junction itself: contact within a few metres of it is no obstacle
+            line = shapely.LineString([net.xy[b], net.xy[g]]).difference(shapely.Point(net.xy[b]).buffer(5.0))
+            wet = float(water.intersection(line).length) if not water.is_empty else 0.0
+            if index.crosses(net.xy[b], net.xy[g], b, g) or old_town.intersects(line) or wet > MAX_BRIDGE:
+                continue
+            index.add(net.xy[b], net.xy[g], b, g)
+            streets.append(Street(nodes=(b, g), highway="residential", hierarchy=0, status="planned",
+                                  bridge=wet > 0, layer=1 if wet > 0 else 0))
+            joined += 1
+            break
+    return net.replace(streets=tuple(streets)), origins + ["grown"] * (len(streets) - len(net.streets))
+
+
+def _connections(net: StreetNetwork, origins: list[str]) -> int:
+    """New streets that end on a node of an old street."""
+    old_nodes = {n for s, o in zip(net.streets, origins) if o == "source" for n in s.nodes}
+    return sum(1 for s, o in zip(net.streets, origins) if o == "grown"
+               for n in (s.nodes[0], s.nodes[-1]) if n in old_nodes)
