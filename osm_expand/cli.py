@@ -67,11 +67,12 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
-def _output_path(city: Path, output: str | None, default_suffix: str) -> tuple[Path, str]:
+def _output_path(city: Path, output: str | None, default_suffix: str,
+                 writers: dict[str, str] = OUTPUT_WRITERS) -> tuple[Path, str]:
     path = Path(output) if output else city.with_name(_stem(city) + default_suffix)
-    kind = OUTPUT_WRITERS.get(path.suffix.lower())
+    kind = writers.get(path.suffix.lower())
     if kind is None:
-        raise InputError(f"{path}: unsupported output type (use .osm or .geojson)")
+        raise InputError(f"{path}: unsupported output type (use {' or '.join(sorted(writers))})")
     if not path.parent.exists() and str(path.parent) != "":
         raise InputError(f"{path}: output directory does not exist")
     if path.is_dir():
@@ -180,23 +181,94 @@ COMMANDS: dict[str, Callable[[argparse.Namespace, _Log], dict]] = {
     "simplify": cmd_simplify, "stats": cmd_stats, "reproduce": cmd_reproduce}
 
 
+EXPAND_WRITERS = {".xml": "urbanenvironment", ".osm": "osm", ".geojson": "geojson", ".json": "geojson"}
+FORMAT_SUFFIX = {"urbanenvironment": ".xml", "osm": ".osm", "geojson": ".geojson"}
+
+
+def build_expand_parser() -> argparse.ArgumentParser:
+    p = _Parser(prog=PROG, description="Grow a district next to a real town and write it "
+                                       "(osm-expand COMMAND --help for the other commands: simplify, stats, reproduce).")
+    _add_input_options(p)
+    p.add_argument("-o", "--output", help="output file (default: CITY.expanded.xml beside the input)")
+    p.add_argument("--format", choices=sorted(FORMAT_SUFFIX), help="output format (default: from -o, else urbanenvironment)")
+    p.add_argument("--preview", metavar="OUT.png|OUT.svg", help="also draw a map of the result")
+    p.add_argument("--seed", type=int, default=0, help="random seed; the same seed gives the same bytes")
+    p.add_argument("--direction", choices=["auto", "N", "NE", "E", "SE", "S", "SW", "W", "NW"], default="auto",
+                   help="grow on this side of the town (default: the best site anywhere)")
+    p.add_argument("--at", metavar="X,Y", help="site centre in metres of the local projection")
+    p.add_argument("--at-lonlat", metavar="LON,LAT", help="site centre in degrees")
+    p.add_argument("--area", type=float, metavar="M2", help="district area in m² (default: a quarter of the built-up area)")
+    return p
+
+
+def _pair(text: str, flag: str) -> tuple[float, float]:
+    try:
+        a, b = (float(v) for v in text.split(","))
+    except ValueError:
+        raise InputError(f"{flag} expects two numbers separated by a comma, got {text!r}") from None
+    return a, b
+
+
+def cmd_expand(args: argparse.Namespace, log: _Log) -> dict:
+    from osm_expand.expand import ExpandOptions, expand
+    from osm_expand.export import write_geojson, write_osm, write_urbanenvironment
+    from osm_expand.ingest import check_readable, load
+
+    city = Path(args.city)
+    default = FORMAT_SUFFIX[args.format or "urbanenvironment"]
+    out, kind = _output_path(city, args.output, ".expanded" + default, EXPAND_WRITERS)
+    kind = args.format or kind
+    if args.preview and Path(args.preview).suffix.lower() not in (".png", ".svg"):
+        raise InputError(f"{args.preview}: the preview must be .png or .svg")
+    if args.area is not None and not args.area > 0:
+        raise InputError(f"--area must be positive, got {args.area}")
+    at = _pair(args.at, "--at") if args.at else None
+    lonlat = _pair(args.at_lonlat, "--at-lonlat") if args.at_lonlat else None
+    if lonlat and not (-180 <= lonlat[0] <= 180 and -90 <= lonlat[1] <= 90):
+        raise InputError(f"--at-lonlat {lonlat[0]},{lonlat[1]} is not a longitude,latitude")
+    check_readable(city)
+    log(f"reading {city}")
+    raw = load(city, service=args.service, paths=args.paths)
+    if lonlat:
+        x, y = raw.context.projection.to_xy(lonlat[0], lonlat[1])
+        at = (float(x), float(y))
+    options = ExpandOptions(seed=args.seed, direction=None if args.direction == "auto" else args.direction,
+                            at=at, area=args.area)
+    result = expand(raw, options, progress=log)
+    log(f"{result.report['grown_streets']} new streets, {result.report['connections']} joins to the town; writing {out}")
+    if kind == "urbanenvironment":
+        write_urbanenvironment(result.network, out, origins=result.origins)
+    elif kind == "osm":
+        write_osm(result.network, out)
+    else:
+        write_geojson(result.network, out)
+    if args.preview:
+        from osm_expand.export.preview import write_preview
+
+        write_preview(result.network, result.origins, args.preview, result.site.region,
+                      title=f"{_stem(city)}: grown district (seed {args.seed})")
+        log(f"preview written to {args.preview}")
+    return {"input": str(city), "output": str(out), "format": kind, "seed": args.seed, **result.report}
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     argv = list(sys.argv[1:] if argv is None else argv)
     parser = build_parser()
     if argv and argv[0] not in COMMANDS and not argv[0].startswith("-"):
-        print(f"{PROG}: error: growing a town is not available yet; use '{PROG} simplify {argv[0]}'",
-              file=sys.stderr)
-        return 2
+        parser = build_expand_parser()
+        command = cmd_expand
+    else:
+        command = None
     try:
         args = parser.parse_args(argv)
     except SystemExit as exc:  # --help, or a usage error already printed in one line
         return int(exc.code or 0)
-    if args.command is None:
+    if command is None and args.command is None:
         parser.print_help(sys.stderr)
         return 2
     log = _Log(args.quiet)
     try:
-        report = COMMANDS[args.command](args, log)
+        report = (command or COMMANDS[args.command])(args, log)
     except InputError as exc:
         print(f"{PROG}: {exc}", file=sys.stderr)
         return 2

@@ -125,7 +125,7 @@ def _combine(source: StreetNetwork, example: Example, polylines) -> tuple[Street
 
 
 #: A street joining the district to the town may bridge this much water (m): streams and ditches.
-MAX_BRIDGE = 30.0
+MAX_BRIDGE = 15.0
 
 
 def _join_to_town(net: StreetNetwork, origins: list[str], border: np.ndarray, old_town, water,

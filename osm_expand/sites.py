@@ -9,8 +9,9 @@ empty disc centred there (better than 004's four-direction estimate).
 
 A site scores by closeness to the city and to water (1 when the district's
 disc touches them, falling off with the gap) and by room to spare, each in
-[0, 1] and weighted; only cells whose free radius holds a disc of the
-district's area qualify. ``direction`` restricts the search to a 90° sector
+[0, 1] and weighted; it loses its closeness to the city when the way there
+crosses water (the far bank of a river is not next to the town). Only cells
+whose free radius holds a disc of the district's area qualify. ``direction`` restricts the search to a 90° sector
 seen from the town's centre; ``at`` skips the search.
 """
 from __future__ import annotations
@@ -108,6 +109,7 @@ def choose_site(maps: DistanceMaps, area: float, opts: SiteOptions | None = None
         centre = np.asarray(at, dtype=float)
         return Site(centre=centre, area=area, region=shapely.Point(centre).buffer(radius, 64), score=float("nan"))
     score = _score(maps, radius, opts)
+    score = score - opts.city_weight * _across_water(maps, score)
     if direction and direction.upper() != "AUTO":
         score = np.where(_in_sector(maps, xs, ys, DIRECTIONS[direction.upper()]), score, -np.inf)
     best = int(np.argmax(score))
@@ -128,6 +130,27 @@ def _score(maps: DistanceMaps, radius: float, opts: SiteOptions) -> np.ndarray:
     room = np.clip((maps.free_radius - radius) / radius, 0.0, 1.0)
     score = opts.city_weight * near_city + opts.water_weight * near_water + opts.room_weight * room
     return np.where(maps.free_radius >= radius, score, -np.inf)
+
+
+def _across_water(maps: DistanceMaps, score: np.ndarray, samples: int = 32, top: int = 2000) -> np.ndarray:
+    """1 where the straight way from a cell to the nearest city cell crosses water, else 0.
+
+    A district on the far bank of a river is not next to the town, however
+    close it looks. Only the ``top`` best-scoring cells are checked.
+    """
+    out = np.zeros(maps.water.shape)
+    finite = np.flatnonzero(np.isfinite(score.ravel()))
+    if not maps.water.any() or not maps.city.any() or len(finite) == 0:
+        return out
+    _, (ci, cj) = distance_transform_edt(~maps.city, return_indices=True)
+    cand = finite[np.argsort(-score.ravel()[finite], kind="stable")[:top]]
+    i0, j0 = np.unravel_index(cand, maps.water.shape)
+    i1, j1 = ci.ravel()[cand], cj.ravel()[cand]
+    t = np.linspace(0.0, 1.0, samples)[:, None]
+    ii = np.rint(i0 + t * (i1 - i0)).astype(int)
+    jj = np.rint(j0 + t * (j1 - j0)).astype(int)
+    out.ravel()[cand] = maps.water[ii, jj].any(axis=0)
+    return out
 
 
 def _in_sector(maps: DistanceMaps, xs: np.ndarray, ys: np.ndarray, bearing_deg: float) -> np.ndarray:

@@ -158,7 +158,7 @@ def test_a_failed_run_never_overwrites_a_good_output(tmp_path, capsys):
     (["simplify", GOOD, "--cluster-radius", "abc"], "invalid float"),
     (["simplify", GOOD, "-o", "/nonexistent-dir/x.osm"], "output directory does not exist"),
     (["simplify", GOOD, "-o", "out.txt"], "unsupported output type"),
-    (["frobnicate"], "not available yet"),
+    (["frobnicate"], "no such file"),
 ])
 def test_usage_errors_are_one_line_exit_2(capsys, argv, needle):
     code, _, stderr = run(argv, capsys)
@@ -183,3 +183,42 @@ def test_console_script_is_installed(tmp_path):
                            str(tmp_path / "w.geojson"), "--json"], capture_output=True, text=True)
     assert proc.returncode == 0, proc.stderr
     assert json.loads(proc.stdout)["streets"] > 0
+
+
+def test_expand_writes_a_valid_district_and_a_preview(tmp_path, capsys):
+    from osm_expand.export.urban import validate
+
+    out, png = tmp_path / "krems.xml", tmp_path / "krems.png"
+    code, stdout, _ = run([FIXTURES / "krems.osm.gz", "-o", out, "--preview", png, "--json", "-q"], capsys)
+    assert code == 0 and validate(out) == [] and png.stat().st_size > 10_000
+    report = json.loads(stdout)
+    assert report["grown_streets"] > 20 and report["format"] == "urbanenvironment"
+
+
+def test_expand_default_output_is_beside_the_input(tmp_path, capsys):
+    city = tmp_path / "West-Oakland.osm.bz2"
+    shutil.copy(FIXTURES / "West-Oakland.osm.bz2", city)
+    assert run([city, "-q"], capsys)[0] == 0
+    assert (tmp_path / "West-Oakland.expanded.xml").exists()
+
+
+def test_expand_same_seed_same_bytes_other_seed_other_district(tmp_path, capsys):
+    for name, seed in (("a", 3), ("b", 3), ("c", 4)):
+        for fmt in ("xml", "osm", "geojson"):
+            assert run([FIXTURES / "monaco.osm.gz", "-o", tmp_path / f"{name}.{fmt}", "--seed", seed, "-q"], capsys)[0] == 0
+    for fmt in ("xml", "osm", "geojson"):
+        assert (tmp_path / f"a.{fmt}").read_bytes() == (tmp_path / f"b.{fmt}").read_bytes()
+    assert (tmp_path / "a.xml").read_bytes() != (tmp_path / "c.xml").read_bytes()
+
+
+@pytest.mark.parametrize("argv,needle", [
+    (["--area", "-5"], "must be positive"),
+    (["--at", "12"], "two numbers"),
+    (["--at-lonlat", "500,10"], "not a longitude,latitude"),
+    (["--preview", "x.pdf"], "must be .png or .svg"),
+    (["--direction", "UP"], "invalid choice"),
+    (["-o", "out.txt"], "unsupported output type"),
+])
+def test_expand_bad_options_are_one_line_exit_2(tmp_path, capsys, argv, needle):
+    code, _, stderr = run([FIXTURES / "West-Oakland.osm.bz2", *argv], capsys)
+    assert code == 2 and needle in stderr and len(stderr.strip().splitlines()) == 1
