@@ -234,7 +234,10 @@ def cmd_expand(args: argparse.Namespace, log: _Log) -> dict:
         at = (float(x), float(y))
     options = ExpandOptions(seed=args.seed, direction=None if args.direction == "auto" else args.direction,
                             at=at, area=args.area)
-    result = expand(raw, options, progress=log)
+    try:
+        result = expand(raw, options, progress=log)
+    except InputError as exc:
+        raise InputError(f"{city}: {exc}") from None
     log(f"{result.report['grown_streets']} new streets, {result.report['connections']} joins to the town; writing {out}")
     if kind == "urbanenvironment":
         write_urbanenvironment(result.network, out, origins=result.origins)

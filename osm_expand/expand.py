@@ -65,6 +65,9 @@ def expand(raw: StreetNetwork, options: ExpandOptions | None = None, progress=la
     old = [source.street_xy(source.streets[k]) for k in sorted(near.query(reach, predicate="intersects").tolist())]
     grown = grow(example, site.region, obstacles=obstacles, border_xy=border, border_slots=slots,
                  seed=opts.seed, old_streets=old)
+    if not grown.polylines():
+        raise InputError(f"too small to grow from: {len(example.junctions)} junctions in "
+                         f"{len(source.streets)} streets gave no new street")
     network, origins = _combine(source, example, grown.polylines())
     network, origins = _join_to_town(network, origins, border, old_town, water, reach=2 * _spacing(example))
     new = [k for k, o in enumerate(origins) if o == "grown"]

@@ -222,3 +222,11 @@ def test_expand_same_seed_same_bytes_other_seed_other_district(tmp_path, capsys)
 def test_expand_bad_options_are_one_line_exit_2(tmp_path, capsys, argv, needle):
     code, _, stderr = run([FIXTURES / "West-Oakland.osm.bz2", *argv], capsys)
     assert code == 2 and needle in stderr and len(stderr.strip().splitlines()) == 1
+
+
+def test_expand_explains_towns_it_cannot_grow(tmp_path, capsys):
+    for name, needle in (("circle-bug.osm.gz", "no streets left"), ("berlin-siegessaeule.osm.gz", "too small")):
+        out = tmp_path / "x.xml"
+        code, _, stderr = run([FIXTURES / name, "-o", out, "-q"], capsys)
+        assert code == 2 and needle in stderr and name in stderr and not out.exists()
+        assert len(stderr.strip().splitlines()) == 1
