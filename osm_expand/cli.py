@@ -88,10 +88,22 @@ def _stem(path: Path) -> str:
     return path.stem
 
 
+def _simplify_or_fail(city: Path, net, args: argparse.Namespace, options=None):
+    """Simplify, or fail in one line when nothing is left (every street a dead end)."""
+    from simplify import simplify
+
+    result = simplify(net, options)
+    if not result.network.streets:
+        hint = "" if args.service else "; try --service"
+        raise InputError(f"{city}: no streets left after simplification "
+                         f"(every street is a dead end or isolated){hint}")
+    return result
+
+
 def cmd_simplify(args: argparse.Namespace, log: _Log) -> dict:
     from osm_expand.export import write_geojson, write_osm
     from osm_expand.ingest import load
-    from simplify import SimplifyOptions, simplify
+    from simplify import SimplifyOptions
     from simplify.invariants import violations
 
     city = Path(args.city)
@@ -102,11 +114,7 @@ def cmd_simplify(args: argparse.Namespace, log: _Log) -> dict:
     net = load(city, service=args.service, paths=args.paths, context=False)
     log(f"{len(net.streets)} streets, {len(net.xy)} street nodes; simplifying")
     opts = SimplifyOptions() if args.cluster_radius is None else SimplifyOptions(cluster_radius=args.cluster_radius)
-    result = simplify(net, opts)
-    if not result.network.streets:
-        hint = "" if args.service else "; try --service"
-        raise InputError(f"{city}: no streets left after simplification "
-                         f"(every street is a dead end or isolated){hint}")
+    result = _simplify_or_fail(city, net, args, opts)
     log(f"{result.report['junctions']} junctions, {result.report['streets']} streets; writing {out}")
     (write_osm if kind == "osm" else write_geojson)(result.network, out)
     broken = {k: v for k, v in violations(result.network).items() if v}
@@ -118,7 +126,6 @@ def cmd_simplify(args: argparse.Namespace, log: _Log) -> dict:
 
 def cmd_stats(args: argparse.Namespace, log: _Log) -> dict:
     from osm_expand.ingest import load
-    from simplify import simplify
     from simplify.example import build_example
     from simplify.invariants import is_valid
     from simplify.statistics import example_statistics
@@ -129,10 +136,8 @@ def cmd_stats(args: argparse.Namespace, log: _Log) -> dict:
     dead_ends = None
     if not is_valid(net):  # raw OSM: simplify first; an osm-expand output already is
         log("simplifying")
-        result = simplify(net)
+        result = _simplify_or_fail(city, net, args)
         net, dead_ends = result.network, result.dead_ends
-        if not net.streets:
-            raise InputError(f"{city}: no streets left after simplification")
     example = build_example(net, dead_ends or [])
     stats = {"input": str(city), **example_statistics(example, None if dead_ends is None else len(dead_ends))}
     if not args.json:
@@ -156,7 +161,6 @@ def _stats_text(stats: dict) -> str:
 
 def cmd_reproduce(args: argparse.Namespace, log: _Log) -> dict:
     from osm_expand.ingest import load
-    from simplify import simplify
     from simplify.example import build_example
     from synth.reproduce import reproduce
 
@@ -164,9 +168,7 @@ def cmd_reproduce(args: argparse.Namespace, log: _Log) -> dict:
     log(f"reading {city}")
     net = load(city, service=args.service, paths=args.paths, context=False)
     log("simplifying")
-    result = simplify(net)
-    if not result.network.streets:
-        raise InputError(f"{city}: no streets left after simplification")
+    result = _simplify_or_fail(city, net, args)
     example = build_example(result.network, result.dead_ends)
     log(f"walking {len(example.junctions)} junctions (seed {args.seed})")
     score = {"input": str(city), **reproduce(example, seed=args.seed)}
@@ -210,7 +212,7 @@ def _pair(text: str, flag: str) -> tuple[float, float]:
 
 
 def cmd_expand(args: argparse.Namespace, log: _Log) -> dict:
-    from osm_expand.expand import ExpandOptions, expand
+    from osm_expand.pipeline import ExpandOptions, expand
     from osm_expand.export import write_geojson, write_osm, write_urbanenvironment
     from osm_expand.ingest import check_readable, load
 

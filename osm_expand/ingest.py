@@ -157,16 +157,26 @@ def _take_way(way, kept: frozenset[str], raw: _Raw) -> None:
         raw.coastline.extend(coords for _, coords in _way_runs(way)[0])
 
 
+def _area_kind(tags) -> str | None:
+    """"building", "water" or None for an area's tags."""
+    if tags.get("building", "no") != "no":
+        return "building"
+    if "water" in tags or any(tags.get(k) in v for k, v in WATER_AREA_TAGS.items()):
+        return "water"
+    return None
+
+
 def _take_area(area, raw: _Raw) -> None:
     tags = area.tags
-    if tags.get("building", "no") != "no":
+    kind = _area_kind(tags)
+    if kind == "building":
         for outer in area.outer_rings():
             ring = [(n.lon, n.lat) for n in outer]
             raw.buildings.append((ring, _number(tags.get("height")), _number(tags.get("building:levels")),
                                   area.orig_id()))
             break
         return
-    if "water" in tags or any(tags.get(k) in v for k, v in WATER_AREA_TAGS.items()):
+    if kind == "water":
         for outer in area.outer_rings():
             rings = [[(n.lon, n.lat) for n in outer]]
             rings += [[(n.lon, n.lat) for n in inner] for inner in area.inner_rings(outer)]
@@ -180,9 +190,10 @@ def _take_closed_way(way, raw: _Raw) -> None:
         return
     ring = runs[0][1]
     tags = way.tags
-    if tags.get("building", "no") != "no":
+    kind = _area_kind(tags)
+    if kind == "building":
         raw.buildings.append((ring, _number(tags.get("height")), _number(tags.get("building:levels")), way.id))
-    elif "water" in tags or any(tags.get(k) in v for k, v in WATER_AREA_TAGS.items()):
+    elif kind == "water":
         raw.water_areas.append([ring])
 
 

@@ -71,8 +71,9 @@ def distance_maps(net: StreetNetwork, blocks: list[shapely.Polygon], margin: flo
                   opts: SiteOptions | None = None) -> DistanceMaps:
     """Rasters around the town, ``margin`` metres beyond its streets on every side."""
     opts = opts or SiteOptions()
-    x0, y0 = net.xy[net.used_nodes()].min(axis=0) - margin
-    x1, y1 = net.xy[net.used_nodes()].max(axis=0) + margin
+    pts = net.xy[net.used_nodes()]
+    x0, y0 = pts.min(axis=0) - margin
+    x1, y1 = pts.max(axis=0) + margin
     cell = max(opts.cell, float(np.sqrt((x1 - x0) * (y1 - y0) / 4e6)))
     nx, ny = int(np.ceil((x1 - x0) / cell)), int(np.ceil((y1 - y0) / cell))
     xs, ys = np.meshgrid(x0 + (np.arange(nx) + 0.5) * cell, y0 + (np.arange(ny) + 0.5) * cell)

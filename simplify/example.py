@@ -19,7 +19,7 @@ import numpy as np
 from osm_expand.model import StreetNetwork
 from simplify.dead_ends import DeadEnd
 from simplify.hierarchy import with_levels
-from simplify.topology import junction_mask, junction_positions
+from simplify.topology import junction_mask, junction_stops, lengths
 
 #: Floors for the Gaussians so a street with few junctions is not infinitely picky.
 MIN_LENGTH_STD = 0.15  # as a share of the mean spacing
@@ -61,20 +61,15 @@ class Example:
 
 def street_stats(net: StreetNetwork, junction: np.ndarray, k: int) -> StreetStats:
     street = net.streets[k]
-    pos = [p for p in junction_positions(street, junction) if junction[street.nodes[p]]]
+    pos = junction_stops(street, junction)
     pts = net.xy[[street.nodes[p] for p in pos]]
     chords = np.diff(pts, axis=0)
     spacing = np.hypot(*chords.T) if len(chords) else np.zeros(0)
     heading = np.degrees(np.arctan2(chords[:, 1], chords[:, 0])) if len(chords) else np.zeros(0)
     turning = (np.diff(heading) + 180.0) % 360.0 - 180.0
-    arcs = np.array([_arc(net, street.nodes[a:b + 1]) for a, b in zip(pos, pos[1:])])
+    arcs = np.array([lengths(net.xy, street.nodes[a:b + 1]) for a, b in zip(pos, pos[1:])])
     tortuosity = np.divide(arcs, spacing, out=np.ones_like(arcs), where=spacing > 0)
     return StreetStats(level=street.hierarchy, spacing=spacing, turning=turning, tortuosity=tortuosity)
-
-
-def _arc(net: StreetNetwork, nodes) -> float:
-    pts = net.xy[list(nodes)]
-    return float(np.hypot(*np.diff(pts, axis=0).T).sum())
 
 
 def _summaries(stats: list[StreetStats]) -> np.ndarray:

@@ -11,7 +11,7 @@ from collections.abc import Iterable, Sequence
 
 import numpy as np
 
-from osm_expand.model import Street, StreetNetwork
+from osm_expand.model import Street, StreetNetwork, polyline_length
 
 
 def street_counts(streets: Sequence[Street], n_nodes: int) -> np.ndarray:
@@ -71,10 +71,9 @@ def junction_positions(street: Street, junction: np.ndarray) -> list[int]:
     return [i for i, n in enumerate(nodes) if i == 0 or i == last or junction[n]]
 
 
-def pieces(street: Street, junction: np.ndarray) -> list[tuple[int, int]]:
-    """Junction-to-junction (position) ranges of a street."""
-    pos = junction_positions(street, junction)
-    return list(zip(pos, pos[1:]))
+def junction_stops(street: Street, junction: np.ndarray) -> list[int]:
+    """Positions of the street's real junctions (its ends only when they are junctions)."""
+    return [p for p in junction_positions(street, junction) if junction[street.nodes[p]]]
 
 
 def piece_table(streets: Sequence[Street], junction: np.ndarray) -> dict[str, np.ndarray]:
@@ -101,8 +100,8 @@ def piece_table(streets: Sequence[Street], junction: np.ndarray) -> dict[str, np
 
 
 def lengths(xy: np.ndarray, nodes: Sequence[int]) -> float:
-    pts = xy[np.asarray(nodes, dtype=np.intp)]
-    return float(np.hypot(*np.diff(pts, axis=0).T).sum()) if len(pts) > 1 else 0.0
+    """Length (m) of the polyline through ``nodes``."""
+    return polyline_length(xy[np.asarray(nodes, dtype=np.intp)])
 
 
 def heading(xy: np.ndarray, nodes: Sequence[int], from_start: bool, reach: float) -> np.ndarray:

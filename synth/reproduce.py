@@ -11,7 +11,7 @@ from collections import defaultdict
 import numpy as np
 
 from simplify.example import Example
-from simplify.topology import junction_mask, junction_positions
+from simplify.topology import junction_mask, junction_stops
 from synth.walk import NodeCloud, WalkOptions, WalkResult, random_walk
 
 
@@ -28,7 +28,7 @@ def example_segments(ex: Example) -> dict[tuple[int, int], int]:
     jid[ex.junctions] = np.arange(len(ex.junctions))
     out: dict[tuple[int, int], int] = {}
     for s in net.streets:
-        ids = [int(jid[s.nodes[p]]) for p in junction_positions(s, junction) if junction[s.nodes[p]]]
+        ids = [int(jid[s.nodes[p]]) for p in junction_stops(s, junction)]
         for a, b in zip(ids, ids[1:]):
             if a != b:
                 out[(min(a, b), max(a, b))] = s.hierarchy

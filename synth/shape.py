@@ -16,7 +16,7 @@ import numpy as np
 import shapely
 
 from simplify.example import Example
-from simplify.topology import junction_mask, junction_positions
+from simplify.topology import junction_mask, junction_stops
 from synth.segment_index import SegmentIndex
 
 Street = tuple[int, list[int]]
@@ -28,7 +28,7 @@ def piece_profiles(example: Example) -> dict[int, list[np.ndarray]]:
     junction = junction_mask(net.streets, len(net.xy))
     out: dict[int, list[np.ndarray]] = {}
     for s in net.streets:
-        pos = [p for p in junction_positions(s, junction) if junction[s.nodes[p]]]
+        pos = junction_stops(s, junction)
         for a, b in zip(pos, pos[1:]):
             pts = net.xy[list(s.nodes[a:b + 1])]
             chord = pts[-1] - pts[0]

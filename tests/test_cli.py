@@ -230,3 +230,20 @@ def test_expand_explains_towns_it_cannot_grow(tmp_path, capsys):
         code, _, stderr = run([FIXTURES / name, "-o", out, "-q"], capsys)
         assert code == 2 and needle in stderr and name in stderr and not out.exists()
         assert len(stderr.strip().splitlines()) == 1
+
+
+@pytest.mark.parametrize("module", ["simplify", "synth", "osm_expand", "simplify.topology", "synth.walk"])
+def test_every_package_imports_first_without_a_cycle(module):
+    """simplify and synth build on osm_expand's model; the pipeline must not loop back at import."""
+    proc = subprocess.run([sys.executable, "-c", f"import {module}"], capture_output=True, text=True)
+    assert proc.returncode == 0, proc.stderr[-300:]
+
+
+def test_the_python_api_mirrors_the_cli():
+    import osm_expand
+    import synth
+    from simplify import simplify as simplify_stage
+
+    net = osm_expand.load(FIXTURES / "West-Oakland.osm.bz2")
+    result = osm_expand.expand(net, osm_expand.ExpandOptions(seed=2))
+    assert result.report["grown_streets"] > 0 and callable(synth.grow) and callable(simplify_stage)

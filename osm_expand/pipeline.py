@@ -45,7 +45,8 @@ def expand(raw: StreetNetwork, options: ExpandOptions | None = None, progress=la
     simplified = simplify(raw)
     source = with_levels(simplified.network)
     if not source.streets:
-        raise InputError("no streets left after simplification (try --service)")
+        raise InputError("no streets left after simplification (every street is a dead end or isolated); "
+                         "try --service")
     example = build_example(source, simplified.dead_ends)
     progress("finding blocks and a site")
     town_blocks = blocks(source)
