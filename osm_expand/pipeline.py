@@ -14,6 +14,7 @@ import shapely
 
 from osm_expand.blocks import blocks
 from osm_expand.errors import InputError
+from osm_expand.joins import connections, join_to_town
 from osm_expand.model import Street, StreetNetwork
 from osm_expand.sites import Site, SiteOptions, built_area, choose_site, distance_maps
 from simplify import simplify
@@ -51,6 +52,10 @@ def expand(raw: StreetNetwork, options: ExpandOptions | None = None, progress=la
     progress("finding blocks and a site")
     town_blocks = blocks(source)
     area = opts.area or opts.site.area_share * built_area(source, town_blocks, opts.site).area
+    spacing = _spacing(example)
+    if area < MIN_BLOCKS * spacing ** 2:
+        raise InputError(f"a district of {area:,.0f} m² would hold fewer than {MIN_BLOCKS} blocks at this town's "
+                         f"{spacing:.0f} m junction spacing; give --area of at least {MIN_BLOCKS * spacing ** 2:,.0f}")
     radius = float(np.sqrt(area / np.pi))
     maps = distance_maps(source, town_blocks, margin=2.5 * radius, opts=opts.site)
     site = choose_site(maps, area, opts.site, direction=opts.direction, at=opts.at)
@@ -70,16 +75,27 @@ def expand(raw: StreetNetwork, options: ExpandOptions | None = None, progress=la
         raise InputError(f"too small to grow from: {len(example.junctions)} junctions in "
                          f"{len(source.streets)} streets gave no new street")
     network, origins = _combine(source, example, grown.polylines())
-    network, origins = _join_to_town(network, origins, border, old_town, water, reach=2 * _spacing(example))
+    network, origins = join_to_town(network, origins, border, old_town, water, reach=2 * spacing, spread=2 * spacing)
     new = [k for k, o in enumerate(origins) if o == "grown"]
     report = {
         "site_centre": [round(float(v), 1) for v in site.centre], "site_area_m2": round(area),
-        "source_streets": len(source.streets), "grown_streets": len(new),
+        "spacing_m": round(spacing, 1), "source_streets": len(source.streets), "grown_streets": len(new),
+        "district_area_m2": round(district_area(network, origins)),
         "grown_length_km": round(sum(float(np.hypot(*np.diff(network.street_xy(network.streets[k]), axis=0).T).sum())
                                      for k in new) / 1000, 3),
-        "connections": _connections(network, origins),
+        "connections": connections(network, origins),
     }
     return ExpandResult(network=network, origins=origins, site=site, report=report)
+
+
+#: A district smaller than this many blocks (squares of the town's junction spacing) is refused.
+MIN_BLOCKS = 9
+
+
+def district_area(net: StreetNetwork, origins: list[str]) -> float:
+    """The area of the new district's outline: the convex hull of its streets (m²)."""
+    lines = [shapely.LineString(net.street_xy(s)) for s, o in zip(net.streets, origins) if o == "grown"]
+    return float(shapely.MultiLineString(lines).convex_hull.area) if lines else 0.0
 
 
 def _spacing(example: Example) -> float:
@@ -126,58 +142,3 @@ def _combine(source: StreetNetwork, example: Example, polylines) -> tuple[Street
     ids = np.concatenate([source.node_ids, np.zeros(len(all_xy) - len(source.xy), dtype=np.int64)])
     origins = ["source"] * len(source.streets) + ["grown"] * (len(streets) - len(source.streets))
     return replace(source, xy=all_xy, node_ids=ids, streets=tuple(streets)), origins
-
-
-#: A street joining the district to the town may bridge this much water (m): streams and ditches.
-MAX_BRIDGE = 15.0
-
-
-def _join_to_town(net: StreetNetwork, origins: list[str], border: np.ndarray, old_town, water,
-                  reach: float, most: int = 8) -> tuple[StreetNetwork, list[str]]:
-    """Join old-town edge junctions the walk did not reach to the nearest new junction.
-
-    The joining street crosses no street and no block; it may bridge up to
-    :data:`MAX_BRIDGE` metres of water, and is then tagged as a bridge.
-    """
-    from scipy.spatial import cKDTree
-
-    from synth.segment_index import SegmentIndex
-
-    grown_nodes = sorted({n for s, o in zip(net.streets, origins) if o == "grown" for n in s.nodes})
-    if not grown_nodes or not len(border):
-        return net, origins
-    index = SegmentIndex(max(reach / 2, 1.0))
-    for s in net.streets:
-        for a, b in zip(s.nodes, s.nodes[1:]):
-            index.add(net.xy[a], net.xy[b], a, b)
-    node_at = {(float(x), float(y)): n for n, (x, y) in enumerate(net.xy)}
-    tree = cKDTree(net.xy[grown_nodes])
-    streets, joined = list(net.streets), 0
-    already = {n for s, o in zip(net.streets, origins) if o == "grown" for n in (s.nodes[0], s.nodes[-1])}
-    for x, y in border:
-        b = node_at[(float(x), float(y))]
-        if b in already or joined >= most:
-            continue
-        dist, idx = tree.query(net.xy[b], k=min(8, len(grown_nodes)), distance_upper_bound=reach)
-        for d, i in zip(np.atleast_1d(dist), np.atleast_1d(idx)):
-            if not np.isfinite(d):
-                break
-            g = grown_nodes[int(i)]
-            # the street arrives at the old junction itself: contact within a few metres of it is no obstacle
-            line = shapely.LineString([net.xy[b], net.xy[g]]).difference(shapely.Point(net.xy[b]).buffer(5.0))
-            wet = float(water.intersection(line).length) if not water.is_empty else 0.0
-            if index.crosses(net.xy[b], net.xy[g], b, g) or old_town.intersects(line) or wet > MAX_BRIDGE:
-                continue
-            index.add(net.xy[b], net.xy[g], b, g)
-            streets.append(Street(nodes=(b, g), highway="residential", hierarchy=0, status="planned",
-                                  bridge=wet > 0, layer=1 if wet > 0 else 0))
-            joined += 1
-            break
-    return net.replace(streets=tuple(streets)), origins + ["grown"] * (len(streets) - len(net.streets))
-
-
-def _connections(net: StreetNetwork, origins: list[str]) -> int:
-    """New streets that end on a node of an old street."""
-    old_nodes = {n for s, o in zip(net.streets, origins) if o == "source" for n in s.nodes}
-    return sum(1 for s, o in zip(net.streets, origins) if o == "grown"
-               for n in (s.nodes[0], s.nodes[-1]) if n in old_nodes)

@@ -8,8 +8,10 @@ distance to anything unbuildable, which is exactly the radius of the largest
 empty disc centred there (better than 004's four-direction estimate).
 
 A site scores by closeness to the city and to water (1 when the district's
-disc touches them, falling off with the gap) and by room to spare, each in
-[0, 1] and weighted; it loses its closeness to the city when the way there
+disc touches them, falling off with the gap), by *contact* (the share of a
+ring ``contact_width`` wide around the disc that is town: a bay of the town
+beats a corner, and gives the joining streets somewhere to go) and by room to
+spare, each in [0, 1] and weighted; it loses its closeness to the city when the way there
 crosses water (the far bank of a river is not next to the town). Only cells
 whose free radius holds a disc of the district's area qualify. ``direction`` restricts the search to a 90° sector
 seen from the town's centre; ``at`` skips the search.
@@ -21,6 +23,7 @@ from dataclasses import dataclass
 import numpy as np
 import shapely
 from scipy.ndimage import distance_transform_edt
+from scipy.signal import fftconvolve
 
 from osm_expand.model import StreetNetwork
 
@@ -33,6 +36,8 @@ class SiteOptions:
     city_weight: float = 1.0
     water_weight: float = 0.5
     room_weight: float = 0.25
+    contact_weight: float = 1.0
+    contact_width: float = 200.0  # m: the ring around the district whose share of town is its contact
     street_buffer: float = 40.0  # m either side of a street that counts as city (frontage lots)
     area_share: float = 0.25  # default district area: this share of the town's built-up area
 
@@ -129,8 +134,24 @@ def _score(maps: DistanceMaps, radius: float, opts: SiteOptions) -> np.ndarray:
     else:
         near_water = np.zeros_like(near_city)
     room = np.clip((maps.free_radius - radius) / radius, 0.0, 1.0)
-    score = opts.city_weight * near_city + opts.water_weight * near_water + opts.room_weight * room
+    contact = _ring_share(maps.city, radius / maps.cell, (radius + opts.contact_width) / maps.cell)
+    score = (opts.city_weight * near_city + opts.contact_weight * contact + opts.water_weight * near_water
+             + opts.room_weight * room)
     return np.where(maps.free_radius >= radius, score, -np.inf)
+
+
+def _ring_share(mask: np.ndarray, inner: float, outer: float) -> np.ndarray:
+    """Per cell, the share of the ring ``inner``..``outer`` cells around it that is ``mask``.
+
+    A district in a bay of the town borders it along a long arc, and can be
+    joined to it by many streets; one touching a corner only by one.
+    """
+    r = int(np.ceil(outer))
+    dy, dx = np.mgrid[-r:r + 1, -r:r + 1]
+    dist = np.hypot(dx, dy)
+    ring = ((dist >= inner) & (dist <= outer)).astype(float)
+    share = fftconvolve(mask.astype(float), ring / ring.sum(), mode="same")
+    return np.clip(share, 0.0, 1.0)
 
 
 def _across_water(maps: DistanceMaps, score: np.ndarray, samples: int = 32, top: int = 2000) -> np.ndarray:

@@ -1,9 +1,9 @@
 """Grow new streets in a region from a town's example (004 §4.3.2).
 
-The example's junction cloud is copied into the region (its densest part, the
-junction with most junctions within the region's radius, on the region's
-centre; optionally rotated), keeping only the junctions that land inside it
-and outside the obstacles (water, the old town). Old-town junctions with free
+The example's junction cloud is copied into the region (its densest part on
+the region's centre, optionally rotated; further copies fill what the first
+left empty), keeping only the junctions that land inside it and outside the
+obstacles (water, the old town). Old-town junctions with free
 slots can be added as *border* junctions: targets of any level, so the new
 district connects to the town. The random walk then draws the streets, and
 :mod:`synth.shape` gives them dead ends and curved shapes like the example's.
@@ -32,25 +32,82 @@ class GrowResult:
         return self.streets
 
 
-def _densest_centre(xy: np.ndarray, radius: float) -> np.ndarray:
-    """The junction with the most junctions within ``radius``: the part of the town worth copying."""
+def _density_order(xy: np.ndarray, radius: float) -> np.ndarray:
+    """Junctions, most junctions within ``radius`` first: the parts of the town worth copying."""
     counts = cKDTree(xy).query_ball_point(xy, radius, return_length=True)
-    return xy[int(np.argmax(counts))]
+    return np.argsort(-counts, kind="stable")
+
+
+#: A copy's junction is kept only this many typical spacings from the junctions already placed.
+SEAM_GAP = 0.8
+#: The region counts as covered when no free point is further than this many spacings from a junction.
+COVERED = 1.5
+#: At most this many copies of the example fill one region.
+MAX_COPIES = 64
 
 
 def place(example: Example, region, obstacles=None, rotation_deg: float = 0.0) -> tuple[np.ndarray, np.ndarray]:
-    """Copy the example's junctions onto the region, densest part on its centre; those that fit, and their ids."""
+    """Copies of the example's junctions that fill the region; their positions and example ids.
+
+    The first copy puts the example's densest part on the region's centre.
+    While some free point of the region is more than :data:`COVERED` typical
+    spacings from every placed junction, another copy goes into the largest
+    such hole, centred on the next densest part of the example not used yet,
+    and keeps the junctions inside the hole that are at least
+    :data:`SEAM_GAP` spacings from those already placed. A town smaller than
+    the region is so tiled rather than dropped in as one island.
+    """
     radius = float(np.sqrt(shapely.area(region) / np.pi))
-    xy = example.xy - _densest_centre(example.xy, radius)
+    spacing = float(np.nanmedian(example.length_mean)) if len(example.xy) else radius
+    order = _density_order(example.xy, radius)
     a = np.radians(rotation_deg)
     rot = np.array([[np.cos(a), -np.sin(a)], [np.sin(a), np.cos(a)]])
-    centre = np.array(shapely.centroid(region).coords[0])
-    placed = xy @ rot.T + centre
-    pts = shapely.points(placed)
-    keep = shapely.contains(region, pts)
-    if obstacles is not None:
-        keep &= ~shapely.intersects(obstacles, pts)
-    return placed[keep], np.flatnonzero(keep)
+    free = _free_points(region, obstacles, spacing / 2)
+    placed, ids, used = np.empty((0, 2)), np.empty(0, dtype=np.int64), []
+    hole = np.array(shapely.centroid(region).coords[0]) if len(free) == 0 else None
+    hole_radius = radius
+    for _ in range(MAX_COPIES):
+        if hole is None:
+            hole = np.array(shapely.centroid(region).coords[0])
+        source = _next_source(example.xy, order, used, hole_radius)
+        used.append(source)
+        xy = (example.xy - example.xy[source]) @ rot.T + hole
+        keep = np.hypot(*(xy - hole).T) <= hole_radius + spacing / 2
+        keep &= _inside(region, obstacles, xy)
+        if len(placed):
+            keep &= cKDTree(placed).query(xy)[0] >= SEAM_GAP * spacing
+        placed, ids = np.vstack([placed, xy[keep]]), np.concatenate([ids, np.flatnonzero(keep)])
+        if not len(free) or not len(placed):
+            break
+        gap, _ = cKDTree(placed).query(free)
+        if gap.max() <= COVERED * spacing:
+            break
+        hole, hole_radius = free[int(np.argmax(gap))], float(gap.max())
+    return placed, ids
+
+
+def _next_source(xy: np.ndarray, order: np.ndarray, used: list[int], radius: float) -> int:
+    """The densest example junction at least ``radius`` from the centres already copied (else the densest)."""
+    if not used:
+        return int(order[0])
+    far = np.hypot(*(xy[order][:, None, :] - xy[used][None, :, :]).transpose(2, 0, 1)).min(axis=1) >= radius
+    return int(order[np.argmax(far)]) if far.any() else int(order[len(used) % len(order)])
+
+
+def _inside(region, obstacles, xy: np.ndarray) -> np.ndarray:
+    keep = shapely.contains_xy(region, xy[:, 0], xy[:, 1])
+    if obstacles is not None and not obstacles.is_empty:
+        shapely.prepare(obstacles)
+        keep &= ~shapely.intersects_xy(obstacles, xy[:, 0], xy[:, 1])
+    return keep
+
+
+def _free_points(region, obstacles, step: float) -> np.ndarray:
+    """A grid of points ``step`` apart over the region, outside the obstacles."""
+    x0, y0, x1, y1 = region.bounds
+    gx, gy = np.meshgrid(np.arange(x0 + step / 2, x1, step), np.arange(y0 + step / 2, y1, step))
+    pts = np.column_stack([gx.ravel(), gy.ravel()])
+    return pts[_inside(region, obstacles, pts)]
 
 
 def grow(example: Example, region, obstacles=None, border_xy: np.ndarray | None = None,
@@ -71,7 +128,7 @@ def grow(example: Example, region, obstacles=None, border_xy: np.ndarray | None 
     rng = np.random.default_rng([seed, 1])
     if shapes:
         points, stubs = add_dead_ends(example, cloud.xy, walk.streets, region, obstacles, rng, fixed)
-        streets = shaped_streets(example, points, walk.streets + stubs, obstacles, rng, fixed)
+        streets = shaped_streets(example, points, walk.streets + stubs, obstacles, rng, fixed, region)
     else:
         streets = [(level, cloud.xy[path]) for level, path in walk.streets]
     return GrowResult(cloud=cloud, walk=walk, source=np.concatenate([source, np.full(n_border, -1)]),

@@ -90,7 +90,7 @@ def add_dead_ends(example: Example, xy: np.ndarray, streets: list[Street], regio
 
 
 def shaped_streets(example: Example, xy: np.ndarray, streets: list[Street], obstacles,
-                   rng: np.random.Generator, fixed=()) -> list[tuple[int, np.ndarray]]:
+                   rng: np.random.Generator, fixed=(), region=None) -> list[tuple[int, np.ndarray]]:
     """Polylines for the streets, each segment shaped like an example piece of its level where it fits."""
     profiles = piece_profiles(example)
     chords = list(dict.fromkeys((a, b) for _, path in streets for a, b in zip(path, path[1:])))
@@ -107,6 +107,8 @@ def shaped_streets(example: Example, xy: np.ndarray, streets: list[Street], obst
         if len(pts) < 3 or not shapely.LineString(pts).is_simple:
             continue
         if obstacles is not None and obstacles.intersects(shapely.LineString(pts)):
+            continue
+        if region is not None and not region.covers(shapely.LineString(pts)):
             continue
         index.remove(ids[(a, b)])
         names = [a] + list(range(next_id, next_id + len(pts) - 2)) + [b]

@@ -198,7 +198,7 @@ def test_expand_writes_a_valid_district_and_a_preview(tmp_path, capsys):
 def test_expand_default_output_is_beside_the_input(tmp_path, capsys):
     city = tmp_path / "West-Oakland.osm.bz2"
     shutil.copy(FIXTURES / "West-Oakland.osm.bz2", city)
-    assert run([city, "-q"], capsys)[0] == 0
+    assert run([city, "-q", "--area", "200000"], capsys)[0] == 0
     assert (tmp_path / "West-Oakland.expanded.xml").exists()
 
 
@@ -225,7 +225,8 @@ def test_expand_bad_options_are_one_line_exit_2(tmp_path, capsys, argv, needle):
 
 
 def test_expand_explains_towns_it_cannot_grow(tmp_path, capsys):
-    for name, needle in (("circle-bug.osm.gz", "no streets left"), ("berlin-siegessaeule.osm.gz", "too small")):
+    for name, needle in (("circle-bug.osm.gz", "no streets left"), ("berlin-siegessaeule.osm.gz", "fewer than 9 blocks"),
+                         ("bautzen.osm", "give --area of at least"), ("West-Oakland.osm.bz2", "fewer than 9 blocks")):
         out = tmp_path / "x.xml"
         code, _, stderr = run([FIXTURES / name, "-o", out, "-q"], capsys)
         assert code == 2 and needle in stderr and name in stderr and not out.exists()
@@ -245,5 +246,5 @@ def test_the_python_api_mirrors_the_cli():
     from simplify import simplify as simplify_stage
 
     net = osm_expand.load(FIXTURES / "West-Oakland.osm.bz2")
-    result = osm_expand.expand(net, osm_expand.ExpandOptions(seed=2))
+    result = osm_expand.expand(net, osm_expand.ExpandOptions(seed=2, area=200_000.0))
     assert result.report["grown_streets"] > 0 and callable(synth.grow) and callable(simplify_stage)
