@@ -1,109 +1,118 @@
 """Joining the grown district to the old town.
 
 The random walk already ends some new streets on old-town junctions with
-free slots. What it leaves unjoined is joined here, the way towns actually
-grow into their edges, in two kinds of street:
+free slots. The rest of the joining is done here, the way towns actually grow
+into their edges: short straight streets from the district to
 
-* to an old *border junction* with a free slot that no new street reached;
-* as a *tee* onto an old street: from a loose end or a small junction of the
-  district straight to the nearest point of the old street, which gets a new
-  junction there (on an existing node of it when one is within
-  :data:`TEE_SNAP` metres).
+* an old *border junction* with a free slot, or
+* an old street, meeting it in a new *tee* junction.
 
-A joining street crosses no street and no old block; it may bridge up to
-:data:`MAX_BRIDGE` metres of water (it is then tagged as a bridge). Joins
-keep ``spread`` metres apart, so a district that borders the town along an arc
-is joined along all of it rather than by a bundle of streets in one place.
+Candidates are found from the town's side: every border junction, and points
+every ``spread / 2`` metres along the old streets near the district; each is
+linked to the nearest point of the district's streets (a new junction there
+too, unless an existing node is within :data:`SNAP` metres), and a tee is then
+squared onto the old street. Border junctions go first, then the shortest
+links. A link crosses no street and no old block, ends on no node that
+already has four streets, may bridge up to :data:`MAX_BRIDGE` metres of water
+(it is then tagged as a bridge), and keeps ``spread`` metres from other
+joins, so a district bordering the town along an arc is joined along it.
 """
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 import shapely
-from scipy.spatial import cKDTree
 
 from osm_expand.model import Street, StreetNetwork
-from synth.segment_index import SegmentIndex
 
 #: A joining street may bridge this much water (m): streams and ditches.
 MAX_BRIDGE = 15.0
-#: A tee this close to a node of the old street joins at that node (m).
-TEE_SNAP = 5.0
+#: A link end this close to an existing node uses the node (m).
+SNAP = 5.0
+#: Links shorter than this are not worth a street (m).
+MIN_LINK = 10.0
+
+
+@dataclass(frozen=True)
+class _Link:
+    length: float
+    border: bool
+    new_street: int  # index of the grown street the link leaves from
+    new_at: tuple[float, float]
+    old_street: int
+    old_at: tuple[float, float]
 
 
 class _Board:
-    """The combined network being joined, with a segment index for the no-crossing rule."""
+    """The combined network being joined: streets, degrees and the links added so far."""
 
-    def __init__(self, net: StreetNetwork, origins: list[str], old_town, water, cell: float):
+    def __init__(self, net: StreetNetwork, origins: list[str], old_town, water):
         self.net, self.old_town, self.water = net, old_town, water
         self.xy = [net.xy]
         self.n_nodes = len(net.xy)
         self.streets, self.origins = list(net.streets), list(origins)
-        self.index = SegmentIndex(max(cell, 1.0))
-        self.segment: dict[tuple[int, int], int] = {}
-        for s in self.streets:
-            for a, b in zip(s.nodes, s.nodes[1:]):
-                self.segment[(a, b)] = self.index.add(net.xy[a], net.xy[b], a, b)
+        self.lines = shapely.STRtree([shapely.LineString(net.street_xy(s)) for s in net.streets])
+        self.links: list[shapely.LineString] = []
+        self.degree = np.zeros(len(net.xy), dtype=np.int64)
+        for s in net.streets:
+            np.add.at(self.degree, list(s.nodes[:-1]) + list(s.nodes[1:]), 1)
+        self.degree = list(self.degree)
         self.joined_at: list[np.ndarray] = []
 
     def point(self, n: int) -> np.ndarray:
         return self.net.xy[n] if n < len(self.net.xy) else self.xy[1 + n - len(self.net.xy)][0]
 
-    def wet_length(self, g: int, p: np.ndarray, at: np.ndarray) -> float | None:
-        """Water crossed by a street from node ``g`` to point ``p`` (None: it may not be built)."""
-        line = shapely.LineString([self.point(g), p]).difference(shapely.Point(at).buffer(TEE_SNAP))
-        if line.is_empty or self.old_town.intersects(line):
-            return None
-        wet = float(self.water.intersection(line).length) if not self.water.is_empty else 0.0
-        return wet if wet <= MAX_BRIDGE else None
+    def snapped(self, k: int, at: np.ndarray) -> tuple[int | None, np.ndarray]:
+        """The node of street ``k`` within :data:`SNAP` of ``at`` (else None) and where the link ends."""
+        nodes = self.streets[k].nodes
+        pts = np.array([self.point(n) for n in nodes])
+        d = np.hypot(*(pts - at).T)
+        i = int(np.argmin(d))
+        return (nodes[i], pts[i]) if d[i] <= SNAP else (None, at)
 
-    def far_from_joins(self, p: np.ndarray, spread: float) -> bool:
-        return all(np.hypot(*(p - q)) >= spread for q in self.joined_at)
-
-    def join(self, g: int, b: int, wet: float) -> None:
-        self.segment[(b, g)] = self.index.add(self.point(b), self.point(g), b, g)
-        self.streets.append(Street(nodes=(b, g), highway="residential", hierarchy=0, status="planned",
-                                   bridge=wet > 0, layer=1 if wet > 0 else 0))
-        self.origins.append("grown")
-        self.joined_at.append(self.point(b))
-
-    def try_junction(self, g: int, b: int, spread: float) -> bool:
-        p = self.point(b)
-        if not self.far_from_joins(p, spread) or self.index.crosses(self.point(g), p, b, g):
-            return False
-        wet = self.wet_length(g, p, p)
-        if wet is None:
-            return False
-        self.join(g, b, wet)
-        return True
-
-    def try_tee(self, g: int, k: int, spread: float) -> bool:
-        """Join ``g`` to the nearest point of old street ``k``, splitting it there."""
+    def split(self, k: int, at: np.ndarray) -> int:
+        """A new node on street ``k`` at ``at`` (which lies on it)."""
         street = self.streets[k]
         pts = np.array([self.point(n) for n in street.nodes])
-        i, p = _nearest_on_polyline(pts, self.point(g))
-        a, b = street.nodes[i], street.nodes[i + 1]
-        for end in (a, b):
-            if np.hypot(*(self.point(end) - p)) <= TEE_SNAP:
-                return self.try_junction(g, end, spread)
-        if not self.far_from_joins(p, spread):
-            return False
-        wet = self.wet_length(g, p, p)
-        if wet is None:
-            return False
+        i = _nearest_on_polyline(pts, at)[0]
         n = self.n_nodes
-        old = self.segment.pop((a, b))
-        self.index.remove(old)
-        halves = [self.index.add(pts[i], p, a, n), self.index.add(p, pts[i + 1], n, b)]
-        if self.index.crosses(self.point(g), p, n, g):
-            for h in halves:
-                self.index.remove(h)
-            self.segment[(a, b)] = self.index.add(pts[i], pts[i + 1], a, b)
-            return False
-        self.segment[(a, n)], self.segment[(n, b)] = halves
-        self.xy.append(p[None, :])
+        self.xy.append(np.asarray(at, dtype=float)[None, :])
+        self.degree.append(2)
         self.n_nodes += 1
         self.streets[k] = street.with_nodes(street.nodes[: i + 1] + (n,) + street.nodes[i + 1:])
-        self.join(g, n, wet)
+        return n
+
+    def wet_length(self, line: shapely.LineString) -> float:
+        return float(self.water.intersection(line).length) if not self.water.is_empty else 0.0
+
+    def clear(self, a: np.ndarray, b: np.ndarray) -> bool:
+        """No street, link or old block on the way from ``a`` to ``b`` (their ends excepted)."""
+        length = float(np.hypot(*(b - a)))
+        inner = shapely.LineString([a + (b - a) * (0.5 / length), b - (b - a) * (0.5 / length)])
+        if len(self.lines.query(inner, predicate="intersects")) or any(inner.intersects(x) for x in self.links):
+            return False
+        return not self.old_town.intersects(inner)
+
+    def try_link(self, link: _Link, spread: float) -> bool:
+        g_node, g = self.snapped(link.new_street, np.array(link.new_at))
+        o_node, o = self.snapped(link.old_street, np.array(link.old_at))
+        if float(np.hypot(*(g - o))) < MIN_LINK or not all(np.hypot(*(o - q)) >= spread for q in self.joined_at):
+            return False
+        if any(n is not None and self.degree[n] >= 4 for n in (g_node, o_node)) or not self.clear(g, o):
+            return False
+        wet = self.wet_length(shapely.LineString([g, o]))
+        if wet > MAX_BRIDGE:
+            return False
+        g_node = self.split(link.new_street, g) if g_node is None else g_node
+        o_node = self.split(link.old_street, o) if o_node is None else o_node
+        self.degree[g_node] += 1
+        self.degree[o_node] += 1
+        self.links.append(shapely.LineString([g, o]))
+        self.streets.append(Street(nodes=(o_node, g_node), highway="residential", hierarchy=0, status="planned",
+                                   bridge=wet > 0, layer=1 if wet > 0 else 0))
+        self.origins.append("grown")
+        self.joined_at.append(o)
         return True
 
     def network(self) -> tuple[StreetNetwork, list[str]]:
@@ -123,67 +132,54 @@ def _nearest_on_polyline(pts: np.ndarray, q: np.ndarray) -> tuple[int, np.ndarra
 
 def join_to_town(net: StreetNetwork, origins: list[str], border: np.ndarray, old_town, water,
                  reach: float, spread: float, most: int = 8) -> tuple[StreetNetwork, list[str]]:
-    """Add up to ``most`` joining streets, border junctions first, then tees onto old streets."""
+    """Add joining streets until the district is joined at ``most`` places or no candidate is left."""
     grown = [k for k, o in enumerate(origins) if o == "grown"]
-    if not grown:
+    old = [k for k, o in enumerate(origins) if o == "source"]
+    if not grown or not old:
         return net, origins
-    board = _Board(net, origins, old_town, water, cell=reach / 2)
-    old_nodes = {n for s, o in zip(net.streets, origins) if o == "source" for n in s.nodes}
-    degree = _degrees(net.streets, grown)
-    ends = sorted(n for n, d in degree.items() if d <= 3 and n not in old_nodes)
-    ends_of_new = {n for k in grown for n in (net.streets[k].nodes[0], net.streets[k].nodes[-1])}
-    board.joined_at = [net.xy[n] for n in sorted(ends_of_new & old_nodes)]
-    if not ends:
-        return net, origins
-    tree = cKDTree(net.xy[ends])
-    _join_border_junctions(board, net, border, tree, ends, reach, spread, most)
-    _join_tees(board, net, origins, ends, degree, reach, spread, most)
+    board = _Board(net, origins, old_town, water)
+    old_nodes = {n for k in old for n in net.streets[k].nodes}
+    board.joined_at = [net.xy[n] for n in sorted({n for k in grown for n in net.streets[k].nodes} & old_nodes)]
+    for link in _candidates(net, grown, old, border, reach, spread):
+        if len(board.joined_at) >= most:
+            break
+        board.try_link(link, spread)
     return board.network()
 
 
-def _degrees(streets, which: list[int]) -> dict[int, int]:
-    """Segments meeting at each node of the given streets (shape points count 2)."""
-    degree: dict[int, int] = {}
-    for k in which:
-        for a, b in zip(streets[k].nodes, streets[k].nodes[1:]):
-            degree[a] = degree.get(a, 0) + 1
-            degree[b] = degree.get(b, 0) + 1
-    return degree
+def _candidates(net: StreetNetwork, grown: list[int], old: list[int], border: np.ndarray,
+                reach: float, spread: float) -> list[_Link]:
+    """Links from border junctions and from points along old streets to the nearest new street."""
+    new_lines = [shapely.LineString(net.street_xy(net.streets[k])) for k in grown]
+    old_lines = [shapely.LineString(net.street_xy(net.streets[k])) for k in old]
+    district = shapely.STRtree(new_lines)
+    old_tree = shapely.STRtree(old_lines)
+    starts: list[tuple[bool, int, shapely.Point]] = []
+    for x, y in np.asarray(border, dtype=float).reshape(-1, 2):
+        p = shapely.Point(x, y)
+        starts.append((True, int(old_tree.query_nearest(p)[0]), p))
+    near = np.unique(old_tree.query(new_lines, predicate="dwithin", distance=reach)[1])
+    for j in near.tolist():
+        line = old_lines[j]
+        for d in np.arange(0.0, line.length + 1e-9, spread / 2):
+            starts.append((False, j, line.interpolate(d)))
+    links = []
+    for border_start, j, p in starts:
+        k = int(district.query_nearest(p)[0])
+        g = _foot(new_lines[k], p)
+        o = p if border_start else _foot(old_lines[j], g)
+        length = float(g.distance(o))
+        if length <= reach:
+            links.append(_Link(length, border_start, grown[k], (g.x, g.y), old[j], (o.x, o.y)))
+    return sorted(links, key=lambda c: (not c.border, c.length, c.new_at, c.old_at))
 
 
-def _join_border_junctions(board: _Board, net: StreetNetwork, border: np.ndarray, tree: cKDTree,
-                           ends: list[int], reach: float, spread: float, most: int) -> None:
-    node_at = {(float(x), float(y)): n for n, (x, y) in enumerate(net.xy)}
-    for x, y in border:
-        if len(board.joined_at) >= most:
-            return
-        b = node_at[(float(x), float(y))]
-        dist, idx = tree.query(net.xy[b], k=min(8, len(ends)), distance_upper_bound=reach)
-        for d, i in zip(np.atleast_1d(dist), np.atleast_1d(idx)):
-            if not np.isfinite(d) or board.try_junction(ends[int(i)], b, spread):
-                break
-
-
-def _join_tees(board: _Board, net: StreetNetwork, origins: list[str], ends: list[int],
-               degree: dict[int, int], reach: float, spread: float, most: int) -> None:
-    """Loose ends first, then small junctions, nearest to the town first."""
-    old = [k for k, o in enumerate(origins) if o == "source"]
-    lines = shapely.STRtree([shapely.LineString(net.street_xy(net.streets[k])) for k in old])
-    pts = shapely.points(net.xy[ends])
-    gap = np.full(len(ends), np.inf)
-    (which, _), dist = lines.query_nearest(pts, max_distance=reach, return_distance=True)
-    np.minimum.at(gap, which, dist)
-    for j in np.lexsort((gap, [degree[n] for n in ends])):
-        if len(board.joined_at) >= most or gap[j] > reach:
-            continue
-        near = lines.query(pts[j], predicate="dwithin", distance=reach)
-        for k in sorted(near.tolist(), key=lambda k: lines.geometries[k].distance(pts[j]))[:3]:
-            if board.try_tee(ends[j], old[k], spread):
-                break
+def _foot(line: shapely.LineString, p: shapely.Point) -> shapely.Point:
+    """The point of ``line`` nearest to ``p``."""
+    return line.interpolate(line.project(p))
 
 
 def connections(net: StreetNetwork, origins: list[str]) -> int:
-    """Old-town nodes that new streets end on: how many places the district is joined at."""
+    """Old-town nodes on new streets: how many places the district is joined at."""
     old_nodes = {n for s, o in zip(net.streets, origins) if o == "source" for n in s.nodes}
-    return len({n for s, o in zip(net.streets, origins) if o == "grown"
-                for n in (s.nodes[0], s.nodes[-1]) if n in old_nodes})
+    return len({n for s, o in zip(net.streets, origins) if o == "grown" for n in s.nodes if n in old_nodes})
