@@ -74,6 +74,7 @@ def expand(raw: StreetNetwork, options: ExpandOptions | None = None, progress=la
     if not grown.polylines():
         raise InputError(f"too small to grow from: {len(example.junctions)} junctions in "
                          f"{len(source.streets)} streets gave no new street")
+    progress("joining the district to the town")
     network, origins = _combine(source, example, grown.polylines())
     network, origins = join_to_town(network, origins, border, old_town, water, reach=2 * spacing, spread=2 * spacing)
     new = [k for k, o in enumerate(origins) if o == "grown"]
