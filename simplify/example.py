@@ -44,7 +44,7 @@ class Example:
     length_std: np.ndarray  # (J, 2)
     angle_mean: np.ndarray  # (J, 2)
     angle_std: np.ndarray  # (J, 2)
-    degree: np.ndarray  # (J,) segments meeting at the junction (2, 3 or 4)
+    degree: np.ndarray  # (J,) segments meeting at the junction (2, 3 or 4 in a simplified network)
     record_cap: np.ndarray  # (J, 2) segments each street has there: 2 passing, 1 ending, 0 none
     streets: list[StreetStats] = field(default_factory=list)
     dead_ends_per_level: dict[int, dict[str, float]] = field(default_factory=dict)
@@ -56,7 +56,7 @@ class Example:
     @property
     def slots(self) -> np.ndarray:
         """Free connection slots: a junction takes two streets, four segments."""
-        return 4 - self.degree
+        return np.maximum(4 - self.degree, 0)
 
 
 def street_stats(net: StreetNetwork, junction: np.ndarray, k: int) -> StreetStats:
@@ -109,12 +109,13 @@ def build_example(net: StreetNetwork, dead_ends: list[DeadEnd] = ()) -> Example:
             j = slot_of[v]
             if j < 0 or (s.is_closed and i == last):
                 continue
+            segments = 2 if (0 < i < last or s.is_closed) else 1
+            degree[j] += segments  # the real degree, however many streets meet
             col = 0 if street[j, 0] < 0 else 1
             if col == 1 and street[j, 1] >= 0:
-                continue  # more than two streets: not a simplified network; keep the first two
+                continue  # more than two streets: not a simplified network; records for the first two
             street[j, col] = k
-            cap[j, col] = 2 if (0 < i < last or s.is_closed) else 1
-            degree[j] += cap[j, col]
+            cap[j, col] = segments
     has = street >= 0
     pick = lambda column: np.where(has, summary[np.maximum(street, 0), column], np.nan)  # noqa: E731
     level = np.where(has, np.array([s.level for s in stats] + [-1])[street], -1)

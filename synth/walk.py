@@ -64,6 +64,8 @@ class WalkOptions:
     #: drawn junction, takes one step to a free junction of any level (growth: the example has
     #: no dead ends and its side streets meet something; reproduction keeps the thesis's rule).
     complete: bool = False
+    #: A completion step meets the segments already at either end at no less than this angle (degrees).
+    min_side_angle: float = 35.0
 
 
 @dataclass(frozen=True)
@@ -99,6 +101,7 @@ class _Walker:
         self.links: dict[tuple[int, int], list[tuple[int, int]]] = {}
         self.index = SegmentIndex(cell)
         self.edges: set[tuple[int, int]] = set()
+        self.adjacent: dict[int, list[int]] = {}
         self.obstacles = obstacles
         if obstacles is not None:
             shapely.prepare(obstacles)
@@ -159,9 +162,24 @@ class _Walker:
             if p[i] < threshold:
                 return None
             target = int(cand[i])
-            if not self._blocked(cur, target):
-                return target, int(rec_c[i])
+            if self._blocked(cur, target) or (level is None and self._too_sharp(cur, target)):
+                continue
+            return target, int(rec_c[i])
         return None
+
+    def _too_sharp(self, a: int, b: int) -> bool:
+        """Would a–b leave a or reach b at a sliver angle to a segment already there?"""
+        limit = np.radians(self.opts.min_side_angle)
+        for u, v in ((a, b), (b, a)):
+            others = self.adjacent.get(u, ())
+            if not others:
+                continue
+            d = self.c.xy[v] - self.c.xy[u]
+            e = self.c.xy[np.asarray(others)] - self.c.xy[u]
+            cos = (e @ d) / np.maximum(np.hypot(*e.T) * np.hypot(*d), 1e-12)
+            if (np.arccos(np.clip(cos, -1.0, 1.0)) < limit).any():
+                return True
+        return False
 
     def _pick_record(self, cand: np.ndarray, free: np.ndarray, cur: int, rec: int) -> np.ndarray:
         """Of a target's free records of this level, the one most like the walking street.
@@ -205,6 +223,8 @@ class _Walker:
         self.links.setdefault((a, ra), []).append((b, rb))
         self.links.setdefault((b, rb), []).append((a, ra))
         self.edges.add((min(a, b), max(a, b)))
+        self.adjacent.setdefault(a, []).append(b)
+        self.adjacent.setdefault(b, []).append(a)
         self.index.add(self.c.xy[a], self.c.xy[b], a, b)
 
     def chain_nodes(self, start: tuple[int, int]) -> set[int]:
@@ -296,7 +316,51 @@ def random_walk(cloud: NodeCloud, seed: int = 0, options: WalkOptions | None = N
         for j, r in np.argwhere(dangling | unstarted).tolist():
             walker.walk_on(j, r, None, opts.threshold, max_steps=1)
     result.streets = walker.streets()
+    if opts.complete:
+        result.streets += _pair_up(walker)
     return result
+
+
+def _pair_up(walker: "_Walker") -> list[tuple[int, list[int]]]:
+    """Short side streets between junctions still short of their example's segment count.
+
+    A junction copied from a T has room for three segments; the walk may
+    leave it with two when the segment it needed went elsewhere. Two such
+    junctions within a plausible step of each other are joined by a street
+    of one segment, best match to their spacing first, if it crosses
+    nothing, passes no junction, and meets the segments at both ends at a
+    fair angle. These are streets of their own: they neither bend nor
+    lengthen the streets they meet.
+    """
+    c, opts = walker.c, walker.opts
+    room = (c.cap - walker.used).clip(min=0) * (c.level >= 0)
+    short = np.flatnonzero(room.sum(axis=1) > 0)
+    if len(short) < 2:
+        return []
+    rec = np.argmax(room[short], axis=1)
+    mu, sd = c.length_mean[short, rec], c.length_std[short, rec]
+    tree = cKDTree(c.xy[short])
+    pairs = tree.query_pairs(float(np.nanmax(mu + 2 * sd)), output_type="ndarray")
+    i, j = pairs[:, 0], pairs[:, 1]
+    length = np.hypot(*(c.xy[short[i]] - c.xy[short[j]]).T)
+    z = np.maximum(np.abs(length - mu[i]) / sd[i], np.abs(length - mu[j]) / sd[j])
+    ok = np.isfinite(z) & (np.exp(-0.5 * z ** 2) >= opts.threshold)
+    out = []
+    for k in np.lexsort((j[ok], i[ok], z[ok])).tolist():
+        a, b = int(short[i[ok][k]]), int(short[j[ok][k]])
+        ra, rb = int(np.argmax(c.cap[a] - walker.used[a])), int(np.argmax(c.cap[b] - walker.used[b]))
+        if walker.used[a, ra] >= c.cap[a, ra] or walker.used[b, rb] >= c.cap[b, rb]:
+            continue
+        if walker._blocked(a, b) or walker._too_sharp(a, b):
+            continue
+        walker.used[a, ra] += 1
+        walker.used[b, rb] += 1
+        walker.edges.add((min(a, b), max(a, b)))
+        walker.adjacent.setdefault(a, []).append(b)
+        walker.adjacent.setdefault(b, []).append(a)
+        walker.index.add(c.xy[a], c.xy[b], a, b)
+        out.append((int(max(c.level[a, ra], c.level[b, rb], 0)), [a, b]))
+    return out
 
 
 def _starts(cloud: NodeCloud, level: int, rng: np.random.Generator, walker: "_Walker") -> list[tuple[int, int]]:

@@ -1,6 +1,7 @@
 """The random walk: its rejection rules, no crossings, determinism, reproduction."""
 from __future__ import annotations
 
+import functools
 import json
 
 import numpy as np
@@ -133,6 +134,7 @@ def test_reproduce_command(capsys):
     assert 0 <= score["recall"] <= 1 and 0 <= score["precision"] <= 1 and score["seed"] == 2
 
 
+@functools.cache
 def _grown_network(name: str, seed: int = 1):
     import shapely as shp
 
@@ -193,6 +195,29 @@ def test_grown_streets_have_the_towns_spacing_and_turning():
         assert np.mean(turning) <= 0.15, (name, turning)
 
 
+def test_grown_junctions_are_three_and_four_way_like_the_towns():
+    """3-way and 4-way shares within 0.10 of the source (mean of three seeds).
+
+    Both sides are measured the same way: simplified (dead ends pruned,
+    continuations merged), then the example's junction degrees, as
+    ``osm-expand stats`` does for a town.
+    """
+    from simplify.statistics import example_statistics
+
+    for name in ("krems.osm.gz", "north-bayreuth.osm.gz"):
+        result = simplified(name)
+        source = example_statistics(build_example(result.network, result.dead_ends))
+        shares = []
+        for seed in (0, 1, 2):
+            grown, _, _ = _grown_network(name, seed=seed)
+            again = simplify(network_from_lines([[tuple(p) for p in pl] for _, pl in grown.polylines()]))
+            stats = example_statistics(build_example(again.network, again.dead_ends))
+            shares.append((stats["three_way_share"], stats["four_way_share"]))
+        three, four = np.mean(shares, axis=0)
+        assert abs(three - source["three_way_share"]) <= 0.10, (name, shares, source["three_way_share"])
+        assert abs(four - source["four_way_share"]) <= 0.10, (name, shares, source["four_way_share"])
+
+
 def test_same_seed_same_bytes(tmp_path):
     from osm_expand.export import write_geojson
 
@@ -235,3 +260,27 @@ def test_a_grown_district_connects_to_the_old_town():
     core = len(grown.cloud) - int(edge.sum())
     links = [(a, b) for _, p in grown.walk.streets for a, b in zip(p, p[1:]) if (a >= core) != (b >= core)]
     assert len(links) >= 1
+
+
+def _walker(c):
+    from synth.walk import WalkOptions, _Walker
+
+    return _Walker(c, WalkOptions(complete=True), None, 100.0)
+
+
+def test_junctions_short_of_their_segments_are_paired_by_a_side_street():
+    from synth.walk import _pair_up
+
+    c = cloud([(0, 0), (100, 0), (0, 300)], [0, 0, 0], cap=[1, 1, 1])
+    walker = _walker(c)
+    assert _pair_up(walker) == [(0, [0, 1])]  # 300 m is beyond reach for the third; paired ones are full
+    assert (walker.used[:2, 0] == 1).all() and walker.used[2, 0] == 0
+
+
+def test_a_side_street_at_a_sliver_angle_to_a_segment_is_refused():
+    from synth.walk import _pair_up
+
+    c = cloud([(0, 0), (100, 0), (300, 30)], [0, 0, 0], cap=[2, 1, 1])
+    walker = _walker(c)
+    walker.connect(0, 0, 2, 0)  # 0 → 2 runs about 8.5° from 0 → 1
+    assert _pair_up(walker) == []
