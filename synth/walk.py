@@ -340,7 +340,10 @@ def _pair_up(walker: "_Walker") -> list[tuple[int, list[int]]]:
     rec = np.argmax(room[short], axis=1)
     mu, sd = c.length_mean[short, rec], c.length_std[short, rec]
     tree = cKDTree(c.xy[short])
-    pairs = tree.query_pairs(float(np.nanmax(mu + 2 * sd)), output_type="ndarray")
+    near = tree.query_ball_point(c.xy[short], np.nan_to_num(mu + 2 * sd, nan=0.0))
+    i = np.repeat(np.arange(len(short)), [len(n) for n in near])
+    j = np.fromiter((k for n in near for k in n), dtype=np.int64, count=len(i))
+    pairs = np.unique(np.column_stack([np.minimum(i, j), np.maximum(i, j)])[i != j], axis=0).reshape(-1, 2)
     i, j = pairs[:, 0], pairs[:, 1]
     length = np.hypot(*(c.xy[short[i]] - c.xy[short[j]]).T)
     z = np.maximum(np.abs(length - mu[i]) / sd[i], np.abs(length - mu[j]) / sd[j])
