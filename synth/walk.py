@@ -65,7 +65,7 @@ class WalkOptions:
     #: no dead ends and its side streets meet something; reproduction keeps the thesis's rule).
     complete: bool = False
     #: A completion step meets the segments already at either end at no less than this angle (degrees).
-    min_side_angle: float = 35.0
+    min_side_angle: float = 25.0
 
 
 @dataclass(frozen=True)
