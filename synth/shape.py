@@ -49,6 +49,19 @@ def lay(profile: np.ndarray, a: np.ndarray, b: np.ndarray) -> np.ndarray:
     return pts
 
 
+#: Shape points closer than this to the previous one are dropped (m): OSM's 7 decimals are ~1 cm.
+MIN_SHAPE_STEP = 1.0
+
+
+def _thin(pts: np.ndarray, step: float = MIN_SHAPE_STEP) -> np.ndarray:
+    """The polyline without shape points closer than ``step`` to the last kept one or to its end."""
+    keep = [0]
+    for i in range(1, len(pts) - 1):
+        if np.hypot(*(pts[i] - pts[keep[-1]])) >= step and np.hypot(*(pts[-1] - pts[i])) >= step:
+            keep.append(i)
+    return pts[keep + [len(pts) - 1]]
+
+
 def _index(xy: np.ndarray, chords: list[tuple[int, int]], fixed=()) -> tuple[SegmentIndex, dict[tuple[int, int], int]]:
     """Segments drawn so far: the new chords, plus ``fixed`` ones (an old town) as (a, b, u, v)."""
     cell = float(np.median([np.hypot(*(xy[a] - xy[b])) for a, b in chords])) if chords else 100.0
@@ -103,7 +116,7 @@ def shaped_streets(example: Example, xy: np.ndarray, streets: list[Street], obst
         choices = profiles.get(level_of[(a, b)])
         if not choices:
             continue
-        pts = lay(choices[int(rng.integers(len(choices)))], xy[a], xy[b])
+        pts = _thin(lay(choices[int(rng.integers(len(choices)))], xy[a], xy[b]))
         if len(pts) < 3 or not shapely.LineString(pts).is_simple:
             continue
         if obstacles is not None and obstacles.intersects(shapely.LineString(pts)):

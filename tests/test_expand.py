@@ -70,3 +70,12 @@ def test_old_and_new_streets_meet_only_at_junctions(name):
 
     _, result = expanded(name)
     assert violations(result.network)["crossings_without_junction"] == 0
+
+
+@pytest.mark.parametrize("name", TOWNS)
+def test_no_segment_is_shorter_than_a_shape_step(name):
+    """Shorter ones would collapse at OSM's 7 decimals, or at the referee's 6."""
+    _, result = expanded(name)
+    for street, line in _grown_lines(result):
+        steps = np.hypot(*np.diff(np.asarray(line.coords), axis=0).T)
+        assert steps.min() >= 0.5, (street.hierarchy, steps.min())

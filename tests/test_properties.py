@@ -1,6 +1,7 @@
 """Property tests: any set of lines comes out of simplification satisfying the invariants."""
 from __future__ import annotations
 
+import numpy as np
 import shapely
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
@@ -59,3 +60,19 @@ def test_simplification_is_deterministic(items):
     b = simplify(network_from_lines(lines, attrs))
     assert a.network.streets == b.network.streets and a.report == b.report
     assert (a.network.xy == b.network.xy).all()
+
+
+@given(st.lists(st.tuples(st.floats(-1e4, 1e4), st.floats(-1e4, 1e4)), min_size=2, max_size=40),
+       st.floats(0.1, 50.0))
+def test_thinning_keeps_the_ends_and_spaces_the_rest(points, step):
+    from synth.shape import _thin
+
+    pts = np.asarray(points, dtype=float)
+    out = _thin(pts, step)
+    assert np.array_equal(out[0], pts[0]) and np.array_equal(out[-1], pts[-1])
+    inner = out[1:-1]
+    if len(inner):
+        gaps = np.hypot(*np.diff(out, axis=0).T)
+        assert (gaps >= step).all()
+    rows = {tuple(p) for p in pts.tolist()}
+    assert all(tuple(p) in rows for p in out.tolist())
