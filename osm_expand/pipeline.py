@@ -51,13 +51,14 @@ def expand(raw: StreetNetwork, options: ExpandOptions | None = None, progress=la
     example = build_example(source, simplified.dead_ends)
     progress("finding blocks and a site")
     town_blocks = blocks(source)
-    area = opts.area or opts.site.area_share * built_area(source, town_blocks, opts.site).area
+    built = built_area(source, town_blocks, opts.site)
+    area = opts.area or opts.site.area_share * built.area
     spacing = _spacing(example)
     if area < MIN_BLOCKS * spacing ** 2:
         raise InputError(f"a district of {area:,.0f} m² would hold fewer than {MIN_BLOCKS} blocks at this town's "
                          f"{spacing:.0f} m junction spacing; give --area of at least {MIN_BLOCKS * spacing ** 2:,.0f}")
     radius = float(np.sqrt(area / np.pi))
-    maps = distance_maps(source, town_blocks, margin=2.5 * radius, opts=opts.site)
+    maps = distance_maps(source, town_blocks, margin=2.5 * radius, opts=opts.site, built=built)
     site = choose_site(maps, area, opts.site, direction=opts.direction, at=opts.at)
     if site is None:
         raise InputError(f"no room for a district of {area:,.0f} m² around the town (try a smaller --area)")

@@ -73,8 +73,11 @@ def built_area(net: StreetNetwork, blocks: list[shapely.Polygon], opts: SiteOpti
 
 
 def distance_maps(net: StreetNetwork, blocks: list[shapely.Polygon], margin: float,
-                  opts: SiteOptions | None = None) -> DistanceMaps:
-    """Rasters around the town, ``margin`` metres beyond its streets on every side."""
+                  opts: SiteOptions | None = None, built: shapely.Geometry | None = None) -> DistanceMaps:
+    """Rasters around the town, ``margin`` metres beyond its streets on every side.
+
+    ``built`` is :func:`built_area` when the caller has it already.
+    """
     opts = opts or SiteOptions()
     pts = net.xy[net.used_nodes()]
     x0, y0 = pts.min(axis=0) - margin
@@ -84,7 +87,7 @@ def distance_maps(net: StreetNetwork, blocks: list[shapely.Polygon], margin: flo
     xs, ys = np.meshgrid(x0 + (np.arange(nx) + 0.5) * cell, y0 + (np.arange(ny) + 0.5) * cell)
     water_geom = shapely.union_all([*net.context.water, *net.context.sea])
     water = _raster(water_geom, xs, ys)
-    city = _raster(built_area(net, blocks, opts), xs, ys) & ~water
+    city = _raster(built if built is not None else built_area(net, blocks, opts), xs, ys) & ~water
     return DistanceMaps(
         origin=np.array([x0, y0]), cell=cell, water=water, city=city,
         water_distance=_distance(water, cell), city_distance=_distance(city, cell),
