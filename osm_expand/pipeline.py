@@ -53,7 +53,7 @@ def expand(raw: StreetNetwork, options: ExpandOptions | None = None, progress=la
     town_blocks = blocks(source)
     built = built_area(source, town_blocks, opts.site)
     area = opts.area or opts.site.area_share * built.area
-    spacing = _spacing(example)
+    spacing = example.spacing
     if area < MIN_BLOCKS * spacing ** 2:
         raise InputError(f"a district of {area:,.0f} m² would hold fewer than {MIN_BLOCKS} blocks at this town's "
                          f"{spacing:.0f} m junction spacing; give --area of at least {MIN_BLOCKS * spacing ** 2:,.0f}")
@@ -66,7 +66,7 @@ def expand(raw: StreetNetwork, options: ExpandOptions | None = None, progress=la
     water = shapely.union_all([*raw.context.water, *raw.context.sea])
     old_town = shapely.union_all([b.buffer(-1.0) for b in town_blocks])
     obstacles = shapely.union_all([water, old_town])
-    border, slots = _border_junctions(example, site, radius)
+    border, slots = _border_junctions(example, site, radius + 2 * spacing)
     near = shapely.STRtree([shapely.LineString(source.street_xy(s)) for s in source.streets])
     reach = site.region.buffer(0.5 * radius)
     old = [source.street_xy(source.streets[k]) for k in sorted(near.query(reach, predicate="intersects").tolist())]
@@ -100,13 +100,9 @@ def district_area(net: StreetNetwork, origins: list[str]) -> float:
     return float(shapely.MultiLineString(lines).convex_hull.area) if lines else 0.0
 
 
-def _spacing(example: Example) -> float:
-    return float(np.nanmedian(example.length_mean)) if len(example.junctions) else 100.0
-
-
-def _border_junctions(example: Example, site: Site, radius: float) -> tuple[np.ndarray, np.ndarray]:
-    """Old-town junctions with a free slot within reach of the site."""
-    near = np.hypot(*(example.xy - site.centre).T) <= radius + 2 * _spacing(example)
+def _border_junctions(example: Example, site: Site, reach: float) -> tuple[np.ndarray, np.ndarray]:
+    """Old-town junctions with a free slot within ``reach`` of the site's centre."""
+    near = np.hypot(*(example.xy - site.centre).T) <= reach
     pick = near & (example.slots > 0)
     return example.xy[pick], example.slots[pick]
 

@@ -54,6 +54,12 @@ class Example:
         return self.network.xy[self.junctions]
 
     @property
+    def spacing(self) -> float:
+        """The town's typical junction spacing (m): the median of its records' mean spacing; 100 without any."""
+        finite = self.length_mean[np.isfinite(self.length_mean)]
+        return float(np.median(finite)) if len(finite) else 100.0
+
+    @property
     def slots(self) -> np.ndarray:
         """Free connection slots: a junction takes two streets, four segments."""
         return np.maximum(4 - self.degree, 0)

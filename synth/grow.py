@@ -58,40 +58,34 @@ def place(example: Example, region, obstacles=None, rotation_deg: float = 0.0) -
     the region is so tiled rather than dropped in as one island.
     """
     radius = float(np.sqrt(shapely.area(region) / np.pi))
-    spacing = float(np.nanmedian(example.length_mean)) if len(example.xy) else radius
+    spacing = example.spacing
     order = _density_order(example.xy, radius)
     a = np.radians(rotation_deg)
     rot = np.array([[np.cos(a), -np.sin(a)], [np.sin(a), np.cos(a)]])
     free = _free_points(region, obstacles, spacing / 2)
-    placed, ids, used = np.empty((0, 2)), np.empty(0, dtype=np.int64), []
-    hole = np.array(shapely.centroid(region).coords[0]) if len(free) == 0 else None
-    hole_radius = radius
-    for _ in range(MAX_COPIES):
-        if hole is None:
-            hole = np.array(shapely.centroid(region).coords[0])
-        source = _next_source(example.xy, order, used, hole_radius)
-        used.append(source)
+    gap = np.full(len(free), np.inf)  # free point → nearest placed junction
+    from_copied = np.full(len(example.xy), np.inf)  # example junction → nearest centre copied so far
+    placed, ids = [], []
+    hole, hole_radius = np.array(shapely.centroid(region).coords[0]), radius
+    for copy in range(MAX_COPIES):
+        far = from_copied >= hole_radius
+        source = int(order[np.argmax(far[order])]) if far.any() else int(order[copy % len(order)])
+        from_copied = np.minimum(from_copied, np.hypot(*(example.xy - example.xy[source]).T))
         xy = (example.xy - example.xy[source]) @ rot.T + hole
-        keep = np.hypot(*(xy - hole).T) <= hole_radius + spacing / 2
-        keep &= _inside(region, obstacles, xy)
-        if len(placed):
-            keep &= cKDTree(placed).query(xy)[0] >= SEAM_GAP * spacing
-        placed, ids = np.vstack([placed, xy[keep]]), np.concatenate([ids, np.flatnonzero(keep)])
-        if not len(free) or not len(placed):
-            break
-        gap, _ = cKDTree(placed).query(free)
-        if gap.max() <= COVERED * spacing:
+        keep = (np.hypot(*(xy - hole).T) <= hole_radius + spacing / 2) & _inside(region, obstacles, xy)
+        if placed:
+            keep &= cKDTree(np.vstack(placed)).query(xy)[0] >= SEAM_GAP * spacing
+        if keep.any():
+            placed.append(xy[keep])
+            ids.append(np.flatnonzero(keep))
+            if len(free):
+                gap = np.minimum(gap, cKDTree(xy[keep]).query(free)[0])
+        if not len(free) or not placed or gap.max() <= COVERED * spacing:
             break
         hole, hole_radius = free[int(np.argmax(gap))], float(gap.max())
-    return placed, ids
-
-
-def _next_source(xy: np.ndarray, order: np.ndarray, used: list[int], radius: float) -> int:
-    """The densest example junction at least ``radius`` from the centres already copied (else the densest)."""
-    if not used:
-        return int(order[0])
-    far = np.hypot(*(xy[order][:, None, :] - xy[used][None, :, :]).transpose(2, 0, 1)).min(axis=1) >= radius
-    return int(order[np.argmax(far)]) if far.any() else int(order[len(used) % len(order)])
+    if not placed:
+        return np.empty((0, 2)), np.empty(0, dtype=np.int64)
+    return np.vstack(placed), np.concatenate(ids)
 
 
 def _inside(region, obstacles, xy: np.ndarray) -> np.ndarray:
