@@ -24,7 +24,8 @@ from dataclasses import dataclass
 import numpy as np
 import shapely
 
-from osm_expand.model import Street, StreetNetwork
+from osm_expand.model import Street, StreetNetwork, closest_on_segments
+from simplify.topology import MAX_DEGREE, append_nodes, segment_degree
 
 #: A joining street may bridge this much water (m): streams and ditches.
 MAX_BRIDGE = 15.0
@@ -49,66 +50,65 @@ class _Board:
 
     def __init__(self, net: StreetNetwork, origins: list[str], old_town, water):
         self.net, self.old_town, self.water = net, old_town, water
-        self.xy = [net.xy]
-        self.n_nodes = len(net.xy)
+        self.new_xy: list[np.ndarray] = []
         self.streets, self.origins = list(net.streets), list(origins)
         self.lines = shapely.STRtree([shapely.LineString(net.street_xy(s)) for s in net.streets])
         self.links: list[shapely.LineString] = []
-        self.degree = np.zeros(len(net.xy), dtype=np.int64)
-        for s in net.streets:
-            np.add.at(self.degree, list(s.nodes[:-1]) + list(s.nodes[1:]), 1)
-        self.degree = list(self.degree)
+        self.degree = segment_degree(net.streets, len(net.xy)).tolist()
         self.joined_at: list[np.ndarray] = []
 
     def point(self, n: int) -> np.ndarray:
-        return self.net.xy[n] if n < len(self.net.xy) else self.xy[1 + n - len(self.net.xy)][0]
+        return self.net.xy[n] if n < len(self.net.xy) else self.new_xy[n - len(self.net.xy)]
+
+    def street_xy(self, k: int) -> np.ndarray:
+        return np.array([self.point(n) for n in self.streets[k].nodes])
 
     def snapped(self, k: int, at: np.ndarray) -> tuple[int | None, np.ndarray]:
         """The node of street ``k`` within :data:`SNAP` of ``at`` (else None) and where the link ends."""
-        nodes = self.streets[k].nodes
-        pts = np.array([self.point(n) for n in nodes])
+        pts = self.street_xy(k)
         d = np.hypot(*(pts - at).T)
         i = int(np.argmin(d))
-        return (nodes[i], pts[i]) if d[i] <= SNAP else (None, at)
+        return (self.streets[k].nodes[i], pts[i]) if d[i] <= SNAP else (None, at)
 
     def split(self, k: int, at: np.ndarray) -> int:
         """A new node on street ``k`` at ``at`` (which lies on it)."""
-        street = self.streets[k]
-        pts = np.array([self.point(n) for n in street.nodes])
-        i = _nearest_on_polyline(pts, at)[0]
-        n = self.n_nodes
-        self.xy.append(np.asarray(at, dtype=float)[None, :])
+        pts = self.street_xy(k)
+        i = int(np.argmin(closest_on_segments(at, pts[:-1], pts[1:])[2]))
+        n = len(self.net.xy) + len(self.new_xy)
+        self.new_xy.append(np.asarray(at, dtype=float))
         self.degree.append(2)
-        self.n_nodes += 1
+        street = self.streets[k]
         self.streets[k] = street.with_nodes(street.nodes[: i + 1] + (n,) + street.nodes[i + 1:])
         return n
 
     def wet_length(self, line: shapely.LineString) -> float:
         return float(self.water.intersection(line).length) if not self.water.is_empty else 0.0
 
-    def clear(self, a: np.ndarray, b: np.ndarray) -> bool:
-        """No street, link or old block on the way from ``a`` to ``b`` (their ends excepted)."""
-        length = float(np.hypot(*(b - a)))
-        inner = shapely.LineString([a + (b - a) * (0.5 / length), b - (b - a) * (0.5 / length)])
-        if len(self.lines.query(inner, predicate="intersects")) or any(inner.intersects(x) for x in self.links):
+    def clear(self, line: shapely.LineString) -> bool:
+        """No old block on the link, and it meets streets and other links only at its two ends."""
+        if self.old_town.intersects(line):
             return False
-        return not self.old_town.intersects(inner)
+        hits = self.lines.geometries.take(self.lines.query(line, predicate="intersects"))
+        touches = shapely.intersection(line, [*hits, *self.links])
+        ends = shapely.MultiPoint(list(line.coords)).buffer(1e-6)
+        return bool((shapely.is_empty(touches) | shapely.covers(ends, touches)).all())
 
     def try_link(self, link: _Link, spread: float) -> bool:
         g_node, g = self.snapped(link.new_street, np.array(link.new_at))
         o_node, o = self.snapped(link.old_street, np.array(link.old_at))
         if float(np.hypot(*(g - o))) < MIN_LINK or not all(np.hypot(*(o - q)) >= spread for q in self.joined_at):
             return False
-        if any(n is not None and self.degree[n] >= 4 for n in (g_node, o_node)) or not self.clear(g, o):
+        line = shapely.LineString([g, o])
+        if any(n is not None and self.degree[n] >= MAX_DEGREE for n in (g_node, o_node)) or not self.clear(line):
             return False
-        wet = self.wet_length(shapely.LineString([g, o]))
+        wet = self.wet_length(line)
         if wet > MAX_BRIDGE:
             return False
         g_node = self.split(link.new_street, g) if g_node is None else g_node
         o_node = self.split(link.old_street, o) if o_node is None else o_node
         self.degree[g_node] += 1
         self.degree[o_node] += 1
-        self.links.append(shapely.LineString([g, o]))
+        self.links.append(line)
         self.streets.append(Street(nodes=(o_node, g_node), highway="residential", hierarchy=0, status="planned",
                                    bridge=wet > 0, layer=1 if wet > 0 else 0))
         self.origins.append("grown")
@@ -116,18 +116,8 @@ class _Board:
         return True
 
     def network(self) -> tuple[StreetNetwork, list[str]]:
-        xy = np.vstack(self.xy)
-        ids = np.concatenate([self.net.node_ids, np.zeros(len(xy) - len(self.net.xy), dtype=np.int64)])
+        xy, ids, _ = append_nodes(self.net, np.array(self.new_xy))
         return self.net.replace(xy=xy, node_ids=ids, streets=tuple(self.streets)), self.origins
-
-
-def _nearest_on_polyline(pts: np.ndarray, q: np.ndarray) -> tuple[int, np.ndarray]:
-    """The segment of a polyline nearest to ``q`` and the nearest point on it."""
-    a, d = pts[:-1], np.diff(pts, axis=0)
-    t = np.clip(np.einsum("ij,ij->i", q - a, d) / np.maximum(np.einsum("ij,ij->i", d, d), 1e-12), 0.0, 1.0)
-    foot = a + t[:, None] * d
-    i = int(np.argmin(np.hypot(*(foot - q).T)))
-    return i, foot[i]
 
 
 def join_to_town(net: StreetNetwork, origins: list[str], border: np.ndarray, old_town, water,
@@ -138,8 +128,7 @@ def join_to_town(net: StreetNetwork, origins: list[str], border: np.ndarray, old
     if not grown or not old:
         return net, origins
     board = _Board(net, origins, old_town, water)
-    old_nodes = {n for k in old for n in net.streets[k].nodes}
-    board.joined_at = [net.xy[n] for n in sorted({n for k in grown for n in net.streets[k].nodes} & old_nodes)]
+    board.joined_at = [net.xy[n] for n in sorted(_shared_nodes(net, origins))]
     for link in _candidates(net, grown, old, border, reach, spread):
         if len(board.joined_at) >= most:
             break
@@ -179,7 +168,12 @@ def _foot(line: shapely.LineString, p: shapely.Point) -> shapely.Point:
     return line.interpolate(line.project(p))
 
 
+def _shared_nodes(net: StreetNetwork, origins: list[str]) -> set[int]:
+    """Old-town nodes on new streets: where the district is joined."""
+    old = {n for s, o in zip(net.streets, origins) if o == "source" for n in s.nodes}
+    return {n for s, o in zip(net.streets, origins) if o == "grown" for n in s.nodes} & old
+
+
 def connections(net: StreetNetwork, origins: list[str]) -> int:
-    """Old-town nodes on new streets: how many places the district is joined at."""
-    old_nodes = {n for s, o in zip(net.streets, origins) if o == "source" for n in s.nodes}
-    return len({n for s, o in zip(net.streets, origins) if o == "grown" for n in s.nodes if n in old_nodes})
+    """How many places the district is joined at."""
+    return len(_shared_nodes(net, origins))

@@ -115,6 +115,15 @@ def polyline_length(xy: np.ndarray) -> float:
     return float(np.hypot(*np.diff(xy, axis=0).T).sum())
 
 
+def closest_on_segments(pt: np.ndarray, a: np.ndarray, b: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """For point(s) ``pt`` against segments a→b (broadcast): the parameter along
+    each segment of the closest point, that point, and the distance to it."""
+    d = b - a
+    t = np.clip(((pt - a) * d).sum(axis=-1) / np.maximum((d * d).sum(axis=-1), 1e-24), 0.0, 1.0)
+    foot = a + t[..., None] * d
+    return t, foot, np.hypot(*np.moveaxis(pt - foot, -1, 0))
+
+
 def network_from_lines(lines: list, attrs: list[dict] | None = None,
                        projection: LocalProjection | None = None) -> StreetNetwork:
     """A network from polylines in metres; equal coordinates become one shared node.

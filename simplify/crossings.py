@@ -14,7 +14,7 @@ import shapely
 from scipy.cluster.hierarchy import DisjointSet
 from scipy.spatial import cKDTree
 
-from osm_expand.model import Street, StreetNetwork
+from osm_expand.model import Street, StreetNetwork, closest_on_segments
 from simplify.options import SimplifyOptions
 from simplify.topology import append_nodes, clean_nodes, split_self_touching
 
@@ -68,7 +68,7 @@ def add_missing_intersections(net: StreetNetwork, opts: SimplifyOptions) -> tupl
     for this, other in ((p, q), (q, p)):
         for end in ("u", "v"):
             node = seg[end][this]
-            t, d = _project(xy[node], xy[seg["u"][other]], xy[seg["v"][other]])
+            t, _, d = closest_on_segments(xy[node], xy[seg["u"][other]], xy[seg["v"][other]])
             close = (d <= tol) & (node != seg["u"][other]) & (node != seg["v"][other])
             seg_len = np.hypot(*(xy[seg["v"][other]] - xy[seg["u"][other]]).T)
             margin = tol / np.maximum(seg_len, 1e-12)
@@ -102,15 +102,6 @@ def add_missing_intersections(net: StreetNetwork, opts: SimplifyOptions) -> tupl
     streets = _apply(net.streets, seg, inserts, _merge_map(merges))
     changed = len(merges) + int(ok.sum()) + sum(len(v) for v in inserts.values())
     return net.replace(xy=xy2, node_ids=ids2, streets=streets), changed
-
-
-def _project(pt: np.ndarray, a: np.ndarray, b: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Parameter along a→b of the closest point to ``pt``, and the distance."""
-    d = b - a
-    den = np.maximum((d * d).sum(axis=1), 1e-24)
-    t = np.clip(((pt - a) * d).sum(axis=1) / den, 0.0, 1.0)
-    closest = a + t[:, None] * d
-    return t, np.hypot(*(pt - closest).T)
 
 
 def _crossing_params(a1, b1, a2, b2):

@@ -19,7 +19,7 @@ import numpy as np
 from osm_expand.model import StreetNetwork
 from simplify.dead_ends import DeadEnd
 from simplify.hierarchy import with_levels
-from simplify.topology import junction_mask, junction_stops, lengths
+from simplify.topology import MAX_DEGREE, junction_mask, junction_stops, lengths
 
 #: Floors for the Gaussians so a street with few junctions is not infinitely picky.
 MIN_LENGTH_STD = 0.15  # as a share of the mean spacing
@@ -62,7 +62,7 @@ class Example:
     @property
     def slots(self) -> np.ndarray:
         """Free connection slots: a junction takes two streets, four segments."""
-        return np.maximum(4 - self.degree, 0)
+        return np.maximum(MAX_DEGREE - self.degree, 0)
 
 
 def street_stats(net: StreetNetwork, junction: np.ndarray, k: int) -> StreetStats:

@@ -24,6 +24,16 @@ def street_counts(streets: Sequence[Street], n_nodes: int) -> np.ndarray:
     return np.bincount(pairs % n_nodes, minlength=n_nodes).astype(np.int32)
 
 
+#: Segments a junction of a simplified network can take: two streets passing through.
+MAX_DEGREE = 4
+
+
+def segment_degree(streets: Sequence[Street], n_nodes: int) -> np.ndarray:
+    """Segments meeting at each node: a street passing through counts 2, one ending there 1."""
+    ends = [n for s in streets for n in (*s.nodes[:-1], *s.nodes[1:])]
+    return np.bincount(np.asarray(ends, dtype=np.int64), minlength=n_nodes)
+
+
 def junction_mask(streets: Sequence[Street], n_nodes: int) -> np.ndarray:
     return street_counts(streets, n_nodes) >= 2
 

@@ -39,6 +39,7 @@ import numpy as np
 import shapely
 from scipy.spatial import cKDTree
 
+from osm_expand.model import closest_on_segments
 from synth.segment_index import SegmentIndex
 
 
@@ -202,9 +203,7 @@ class _Walker:
         near = near[(near != a) & (near != b)]
         if len(near) == 0:
             return False
-        d = pb - pa
-        t = np.clip(((self.c.xy[near] - pa) @ d) / max(d @ d, 1e-12), 0.0, 1.0)
-        gap = np.hypot(*(self.c.xy[near] - (pa + t[:, None] * d)).T)
+        _, _, gap = closest_on_segments(self.c.xy[near], pa, pb)
         return bool((gap < snap).any())
 
     def _blocked(self, a: int, b: int) -> bool:
