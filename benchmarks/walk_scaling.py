@@ -11,9 +11,9 @@ from __future__ import annotations
 
 import argparse
 import time
+from dataclasses import replace
 from pathlib import Path
 
-import numpy as np
 
 from osm_expand.ingest import load
 from simplify import simplify
@@ -27,11 +27,10 @@ REPO = Path(__file__).resolve().parent.parent
 def tiled(cloud: NodeCloud, copies: int) -> NodeCloud:
     span = cloud.xy.max(axis=0) - cloud.xy.min(axis=0)
     step = float(span[0]) * 1.5 + 1000.0
-    stack = lambda a: np.concatenate([a] * copies)  # noqa: E731
-    xy = np.concatenate([cloud.xy + [k * step, 0.0] for k in range(copies)])
-    return NodeCloud(xy=xy, level=stack(cloud.level), length_mean=stack(cloud.length_mean),
-                     length_std=stack(cloud.length_std), angle_mean=stack(cloud.angle_mean),
-                     angle_std=stack(cloud.angle_std), cap=stack(cloud.cap))
+    out = cloud
+    for k in range(1, copies):
+        out = out.stacked(replace(cloud, xy=cloud.xy + [k * step, 0.0]))
+    return out
 
 
 def best_time(cloud: NodeCloud, repeat: int) -> float:

@@ -146,15 +146,15 @@ def _fixed_segments(old_streets, border_xy: np.ndarray, first_border: int):
 
 
 def _cloud(ex: Example, xy, source, border_xy, border_slots) -> NodeCloud:
-    fields = {name: getattr(ex, name)[source] for name in
-              ("level", "length_mean", "length_std", "angle_mean", "angle_std")}
-    cap = ex.record_cap[source]
-    if border_xy is not None and len(border_xy):
-        n = len(border_xy)
-        slots = np.ones(n, dtype=np.int64) if border_slots is None else np.asarray(border_slots)
-        xy = np.vstack([xy, border_xy])
-        fields["level"] = np.vstack([fields["level"], np.column_stack([np.full(n, ANY_LEVEL), np.full(n, -1)])])
-        for name in ("length_mean", "length_std", "angle_mean", "angle_std"):
-            fields[name] = np.vstack([fields[name], np.full((n, 2), np.nan)])
-        cap = np.vstack([cap, np.column_stack([np.minimum(slots, 2), np.zeros(n, dtype=np.int64)])])
-    return NodeCloud(xy=xy, cap=cap, **fields)
+    """The placed copies, then the border junctions: one record each, of any level."""
+    cloud = NodeCloud.from_example(ex, take=source, xy=xy)
+    if border_xy is None or not len(border_xy):
+        return cloud
+    n = len(border_xy)
+    slots = np.ones(n, dtype=np.int64) if border_slots is None else np.asarray(border_slots)
+    nan = np.full((n, 2), np.nan)
+    border = NodeCloud(xy=np.asarray(border_xy, dtype=float),
+                       level=np.column_stack([np.full(n, ANY_LEVEL), np.full(n, -1)]),
+                       length_mean=nan, length_std=nan, angle_mean=nan, angle_std=nan,
+                       cap=np.column_stack([np.minimum(slots, 2), np.zeros(n, dtype=np.int64)]))
+    return cloud.stacked(border)

@@ -16,8 +16,7 @@ from synth.walk import NodeCloud, WalkOptions, WalkResult, random_walk
 
 
 def cloud_from_example(ex: Example) -> NodeCloud:
-    return NodeCloud(xy=ex.xy.copy(), level=ex.level, length_mean=ex.length_mean, length_std=ex.length_std,
-                     angle_mean=ex.angle_mean, angle_std=ex.angle_std, cap=ex.record_cap)
+    return NodeCloud.from_example(ex)
 
 
 def example_segments(ex: Example) -> dict[tuple[int, int], int]:

@@ -84,6 +84,19 @@ class NodeCloud:
     def __len__(self) -> int:
         return len(self.xy)
 
+    @classmethod
+    def from_example(cls, ex, take: np.ndarray | None = None, xy: np.ndarray | None = None) -> "NodeCloud":
+        """The example's junctions (or those in ``take``, placed at ``xy``) with their records."""
+        pick = slice(None) if take is None else take
+        return cls(xy=(ex.xy[pick] if xy is None else xy).copy(), level=ex.level[pick],
+                   length_mean=ex.length_mean[pick], length_std=ex.length_std[pick],
+                   angle_mean=ex.angle_mean[pick], angle_std=ex.angle_std[pick], cap=ex.record_cap[pick])
+
+    def stacked(self, other: "NodeCloud") -> "NodeCloud":
+        """This cloud followed by ``other`` (junction ids of ``other`` shift by ``len(self)``)."""
+        return NodeCloud(**{f: np.concatenate([getattr(self, f), getattr(other, f)]) for f in
+                            ("xy", "level", "length_mean", "length_std", "angle_mean", "angle_std", "cap")})
+
 
 @dataclass
 class WalkResult:
@@ -217,14 +230,58 @@ class _Walker:
         return self.obstacles is not None and self.obstacles.intersects(shapely.LineString([pa, pb]))
 
     def connect(self, a: int, ra: int, b: int, rb: int) -> None:
-        self.used[a, ra] += 1
-        self.used[b, rb] += 1
+        """Draw a–b as a step of the street whose records (a, ra) and (b, rb) are linked."""
         self.links.setdefault((a, ra), []).append((b, rb))
         self.links.setdefault((b, rb), []).append((a, ra))
+        self.occupy(a, ra, b, rb)
+
+    def occupy(self, a: int, ra: int, b: int, rb: int) -> None:
+        """Draw segment a–b, taking a slot of record ra at a and rb at b."""
+        self.used[a, ra] += 1
+        self.used[b, rb] += 1
         self.edges.add((min(a, b), max(a, b)))
         self.adjacent.setdefault(a, []).append(b)
         self.adjacent.setdefault(b, []).append(a)
         self.index.add(self.c.xy[a], self.c.xy[b], a, b)
+
+    def pair_up(self) -> list[tuple[int, list[int]]]:
+        """Short side streets between junctions still short of their example's segment count.
+
+        A junction copied from a T has room for three segments; the walk may
+        leave it with two when the segment it needed went elsewhere. Two such
+        junctions within a plausible step of each other are joined by a street
+        of one segment, best match to their spacing first, if it crosses
+        nothing, passes no junction, and meets the segments at both ends at a
+        fair angle. These are streets of their own: they neither bend nor
+        lengthen the streets they meet.
+        """
+        c, opts = self.c, self.opts
+        room = (c.cap - self.used).clip(min=0) * (c.level >= 0)
+        short = np.flatnonzero(room.sum(axis=1) > 0)
+        if len(short) < 2:
+            return []
+        rec = np.argmax(room[short], axis=1)
+        mu, sd = c.length_mean[short, rec], c.length_std[short, rec]
+        tree = cKDTree(c.xy[short])
+        near = tree.query_ball_point(c.xy[short], np.nan_to_num(mu + 2 * sd, nan=0.0))
+        i = np.repeat(np.arange(len(short)), [len(n) for n in near])
+        j = np.fromiter((k for n in near for k in n), dtype=np.int64, count=len(i))
+        pairs = np.unique(np.column_stack([np.minimum(i, j), np.maximum(i, j)])[i != j], axis=0).reshape(-1, 2)
+        i, j = pairs[:, 0], pairs[:, 1]
+        length = np.hypot(*(c.xy[short[i]] - c.xy[short[j]]).T)
+        z = np.maximum(np.abs(length - mu[i]) / sd[i], np.abs(length - mu[j]) / sd[j])
+        ok = np.isfinite(z) & (np.exp(-0.5 * z ** 2) >= opts.threshold)
+        out = []
+        for k in np.lexsort((j[ok], i[ok], z[ok])).tolist():
+            a, b = int(short[i[ok][k]]), int(short[j[ok][k]])
+            ra, rb = int(np.argmax(c.cap[a] - self.used[a])), int(np.argmax(c.cap[b] - self.used[b]))
+            if self.used[a, ra] >= c.cap[a, ra] or self.used[b, rb] >= c.cap[b, rb]:
+                continue
+            if self._blocked(a, b) or self._too_sharp(a, b):
+                continue
+            self.occupy(a, ra, b, rb)
+            out.append((int(max(c.level[a, ra], c.level[b, rb], 0)), [a, b]))
+        return out
 
     def chain_nodes(self, start: tuple[int, int]) -> set[int]:
         """Junctions of the street (chain of records) that ``start`` belongs to."""
@@ -316,53 +373,8 @@ def random_walk(cloud: NodeCloud, seed: int = 0, options: WalkOptions | None = N
             walker.walk_on(j, r, None, opts.threshold, max_steps=1)
     result.streets = walker.streets()
     if opts.complete:
-        result.streets += _pair_up(walker)
+        result.streets += walker.pair_up()
     return result
-
-
-def _pair_up(walker: "_Walker") -> list[tuple[int, list[int]]]:
-    """Short side streets between junctions still short of their example's segment count.
-
-    A junction copied from a T has room for three segments; the walk may
-    leave it with two when the segment it needed went elsewhere. Two such
-    junctions within a plausible step of each other are joined by a street
-    of one segment, best match to their spacing first, if it crosses
-    nothing, passes no junction, and meets the segments at both ends at a
-    fair angle. These are streets of their own: they neither bend nor
-    lengthen the streets they meet.
-    """
-    c, opts = walker.c, walker.opts
-    room = (c.cap - walker.used).clip(min=0) * (c.level >= 0)
-    short = np.flatnonzero(room.sum(axis=1) > 0)
-    if len(short) < 2:
-        return []
-    rec = np.argmax(room[short], axis=1)
-    mu, sd = c.length_mean[short, rec], c.length_std[short, rec]
-    tree = cKDTree(c.xy[short])
-    near = tree.query_ball_point(c.xy[short], np.nan_to_num(mu + 2 * sd, nan=0.0))
-    i = np.repeat(np.arange(len(short)), [len(n) for n in near])
-    j = np.fromiter((k for n in near for k in n), dtype=np.int64, count=len(i))
-    pairs = np.unique(np.column_stack([np.minimum(i, j), np.maximum(i, j)])[i != j], axis=0).reshape(-1, 2)
-    i, j = pairs[:, 0], pairs[:, 1]
-    length = np.hypot(*(c.xy[short[i]] - c.xy[short[j]]).T)
-    z = np.maximum(np.abs(length - mu[i]) / sd[i], np.abs(length - mu[j]) / sd[j])
-    ok = np.isfinite(z) & (np.exp(-0.5 * z ** 2) >= opts.threshold)
-    out = []
-    for k in np.lexsort((j[ok], i[ok], z[ok])).tolist():
-        a, b = int(short[i[ok][k]]), int(short[j[ok][k]])
-        ra, rb = int(np.argmax(c.cap[a] - walker.used[a])), int(np.argmax(c.cap[b] - walker.used[b]))
-        if walker.used[a, ra] >= c.cap[a, ra] or walker.used[b, rb] >= c.cap[b, rb]:
-            continue
-        if walker._blocked(a, b) or walker._too_sharp(a, b):
-            continue
-        walker.used[a, ra] += 1
-        walker.used[b, rb] += 1
-        walker.edges.add((min(a, b), max(a, b)))
-        walker.adjacent.setdefault(a, []).append(b)
-        walker.adjacent.setdefault(b, []).append(a)
-        walker.index.add(c.xy[a], c.xy[b], a, b)
-        out.append((int(max(c.level[a, ra], c.level[b, rb], 0)), [a, b]))
-    return out
 
 
 def _starts(cloud: NodeCloud, level: int, rng: np.random.Generator, walker: "_Walker") -> list[tuple[int, int]]:

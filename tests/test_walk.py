@@ -269,18 +269,14 @@ def _walker(c):
 
 
 def test_junctions_short_of_their_segments_are_paired_by_a_side_street():
-    from synth.walk import _pair_up
-
     c = cloud([(0, 0), (100, 0), (0, 300)], [0, 0, 0], cap=[1, 1, 1])
     walker = _walker(c)
-    assert _pair_up(walker) == [(0, [0, 1])]  # 300 m is beyond reach for the third; paired ones are full
+    assert walker.pair_up() == [(0, [0, 1])]  # 300 m is beyond reach for the third; paired ones are full
     assert (walker.used[:2, 0] == 1).all() and walker.used[2, 0] == 0
 
 
 def test_a_side_street_at_a_sliver_angle_to_a_segment_is_refused():
-    from synth.walk import _pair_up
-
     c = cloud([(0, 0), (100, 0), (300, 30)], [0, 0, 0], cap=[2, 1, 1])
     walker = _walker(c)
     walker.connect(0, 0, 2, 0)  # 0 → 2 runs about 8.5° from 0 → 1
-    assert _pair_up(walker) == []
+    assert walker.pair_up() == []
