@@ -331,13 +331,9 @@ def load_geojson(path: Path) -> StreetNetwork:
 
 
 def _geojson_attrs(props: dict) -> dict:
-    layer = _number(str(props.get("layer", 0)))
+    """A feature's properties read as OSM tags (booleans as "true"/"false"), by the same rules."""
+    tags = {k: str(v).lower() if isinstance(v, bool) else str(v)
+            for k, v in props.items() if v is not None and not isinstance(v, (list, dict))}
+    tags.setdefault("highway", "road")
     ids = props.get("osm_ids") or ()
-    return {
-        "highway": str(props.get("highway", "road")),
-        "name": props.get("name"),
-        "layer": int(layer) if layer is not None else 0,
-        "bridge": props.get("bridge") not in (None, "no", False),
-        "tunnel": props.get("tunnel") not in (None, "no", False),
-        "osm_ids": tuple(int(i) for i in ids if isinstance(i, int)),
-    }
+    return {**_street_attrs(0, tags), "osm_ids": tuple(int(i) for i in ids if isinstance(i, int))}

@@ -42,6 +42,8 @@ def candidate_pairs(net: StreetNetwork, seg: dict[str, np.ndarray],
     """
     a, b = net.xy[seg["u"]], net.xy[seg["v"]]
     lines = shapely.linestrings(np.stack([a, b], axis=1))
+    zero = (a == b).all(axis=1)
+    lines[zero] = shapely.points(a[zero])  # a zero-length line is invisible to the index; its point is not
     tree = shapely.STRtree(lines)
     p, q = tree.query(lines, predicate="dwithin", distance=tolerance)
     keep = (p < q) & (seg["layer"][p] == seg["layer"][q])

@@ -24,7 +24,7 @@ from simplify.merging import merge_streets
 from simplify.options import SimplifyOptions
 from simplify.overlaps import remove_overlaps
 from simplify.roundabouts import collapse_roundabouts
-from simplify.topology import clean_nodes, junction_mask, replace_nodes, summary
+from simplify.topology import clean_nodes, junction_mask, summary
 from simplify.two_street import enforce_two_streets
 
 MAX_ROUNDS = 8
@@ -87,7 +87,7 @@ def simplify(net: StreetNetwork, options: SimplifyOptions | None = None) -> Simp
     run.step("merging", merge_streets, "merges")
     run.net, counts = enforce_two_streets(run.net, opts)
     run.record("two_street", **counts, **run.cleanup())
-    run.net = _space_vertices(_merge_coincident_nodes(run.net), opts.min_vertex_spacing)
+    run.net = _space_vertices(run.net, opts.min_vertex_spacing)
     rounds = _repair(run)
     run.record("final", repair_rounds=rounds)
     report = {
@@ -140,22 +140,6 @@ def _repair(run: _Run) -> int:
             if not added and not any(counts.values()) and not any(removed.values()):
                 return rounds
     return 2 * MAX_ROUNDS
-
-
-def _merge_coincident_nodes(net: StreetNetwork) -> StreetNetwork:
-    """Nodes at exactly the same place become one, so no street has a zero-length segment."""
-    from scipy.spatial import cKDTree
-
-    used = net.used_nodes()
-    pairs = cKDTree(net.xy[used]).query_pairs(1e-9, output_type="ndarray")
-    if len(pairs) == 0:
-        return net
-    remap: dict[int, int] = {}
-    for a, b in sorted(pairs.tolist()):
-        lo, hi = int(used[a]), int(used[b])
-        root = remap.get(lo, lo)
-        remap[hi] = min(root, remap.get(hi, hi))
-    return net.replace(streets=replace_nodes(net.streets, remap))
 
 
 def _space_vertices(net: StreetNetwork, spacing: float) -> StreetNetwork:
