@@ -89,15 +89,21 @@ def _stem(path: Path) -> str:
 
 
 def _simplify_or_fail(city: Path, net, args: argparse.Namespace, options=None):
-    """Simplify, or fail in one line when nothing is left (every street a dead end)."""
-    from simplify import simplify
+    """Simplify, or fail in one line naming the file when nothing is left."""
+    from osm_expand.pipeline import simplified_or_fail
 
-    result = simplify(net, options)
-    if not result.network.streets:
-        hint = "" if args.service else "; try --service"
-        raise InputError(f"{city}: no streets left after simplification "
-                         f"(every street is a dead end or isolated){hint}")
-    return result
+    try:
+        return simplified_or_fail(net, options)
+    except InputError as exc:
+        raise _in_file(city, exc, args) from None
+
+
+def _in_file(city: Path, exc: InputError, args: argparse.Namespace) -> InputError:
+    """The error, naming the file; when nothing survived simplification, what might help."""
+    from osm_expand.pipeline import NOTHING_LEFT
+
+    hint = "; try --service" if str(exc) == NOTHING_LEFT and not args.service else ""
+    return InputError(f"{city}: {exc}{hint}")
 
 
 def cmd_simplify(args: argparse.Namespace, log: _Log) -> dict:
@@ -239,7 +245,7 @@ def cmd_expand(args: argparse.Namespace, log: _Log) -> dict:
     try:
         result = expand(raw, options, progress=log)
     except InputError as exc:
-        raise InputError(f"{city}: {exc}") from None
+        raise _in_file(city, exc, args) from None
     log(f"{result.report['grown_streets']} new streets, {result.report['connections']} joins to the town; writing {out}")
     if kind == "urbanenvironment":
         write_urbanenvironment(result.network, out, origins=result.origins)

@@ -15,7 +15,7 @@ import shapely
 from osm_expand.blocks import blocks
 from osm_expand.errors import InputError
 from osm_expand.joins import connections, join_to_town
-from osm_expand.model import Street, StreetNetwork
+from osm_expand.model import Street, StreetNetwork, polyline_length
 from osm_expand.sites import Site, SiteOptions, built_area, choose_site, distance_maps
 from simplify import simplify
 from simplify.example import Example, build_example
@@ -40,14 +40,23 @@ class ExpandResult:
     report: dict
 
 
+#: What :func:`simplified_or_fail` says when nothing is left.
+NOTHING_LEFT = "no streets left after simplification (every street is a dead end or isolated)"
+
+
+def simplified_or_fail(raw: StreetNetwork, options=None):
+    """:func:`simplify.simplify`, or :class:`InputError` when no street survives it."""
+    result = simplify(raw, options)
+    if not result.network.streets:
+        raise InputError(NOTHING_LEFT)
+    return result
+
+
 def expand(raw: StreetNetwork, options: ExpandOptions | None = None, progress=lambda msg: None) -> ExpandResult:
     opts = options or ExpandOptions()
     progress("simplifying")
-    simplified = simplify(raw)
+    simplified = simplified_or_fail(raw)
     source = with_levels(simplified.network)
-    if not source.streets:
-        raise InputError("no streets left after simplification (every street is a dead end or isolated); "
-                         "try --service")
     example = build_example(source, simplified.dead_ends)
     progress("finding blocks and a site")
     town_blocks = blocks(source)
@@ -64,7 +73,7 @@ def expand(raw: StreetNetwork, options: ExpandOptions | None = None, progress=la
         raise InputError(f"no room for a district of {area:,.0f} m² around the town (try a smaller --area)")
     progress("growing streets")
     water = shapely.union_all([*raw.context.water, *raw.context.sea])
-    old_town = shapely.union_all([b.buffer(-1.0) for b in town_blocks])
+    old_town = shapely.union_all(shapely.buffer(np.asarray(town_blocks, dtype=object), -1.0))
     obstacles = shapely.union_all([water, old_town])
     border, slots = _border_junctions(example, site, radius + 2 * spacing)
     near = shapely.STRtree([shapely.LineString(source.street_xy(s)) for s in source.streets])
@@ -83,8 +92,7 @@ def expand(raw: StreetNetwork, options: ExpandOptions | None = None, progress=la
         "site_centre": [round(float(v), 1) for v in site.centre], "site_area_m2": round(area),
         "spacing_m": round(spacing, 1), "source_streets": len(source.streets), "grown_streets": len(new),
         "district_area_m2": round(district_area(network, origins)),
-        "grown_length_km": round(sum(float(np.hypot(*np.diff(network.street_xy(network.streets[k]), axis=0).T).sum())
-                                     for k in new) / 1000, 3),
+        "grown_length_km": round(sum(polyline_length(network.street_xy(network.streets[k])) for k in new) / 1000, 3),
         "connections": connections(network, origins),
     }
     return ExpandResult(network=network, origins=origins, site=site, report=report)

@@ -51,6 +51,7 @@ class DistanceMaps:
     water_distance: np.ndarray  # m
     city_distance: np.ndarray  # m
     free_radius: np.ndarray  # m to the nearest water or city cell
+    nearest_city: np.ndarray  # (2, rows, cols) row and column of each cell's nearest city cell
 
     def centres(self) -> tuple[np.ndarray, np.ndarray]:
         ny, nx = self.water.shape
@@ -88,10 +89,15 @@ def distance_maps(net: StreetNetwork, blocks: list[shapely.Polygon], margin: flo
     water_geom = shapely.union_all([*net.context.water, *net.context.sea])
     water = _raster(water_geom, xs, ys)
     city = _raster(built if built is not None else built_area(net, blocks, opts), xs, ys) & ~water
+    if city.any():
+        city_cells, nearest = distance_transform_edt(~city, return_indices=True)
+        city_distance, nearest = city_cells * cell, nearest.astype(np.int32)
+    else:
+        city_distance, nearest = np.full(city.shape, np.inf), np.zeros((2, *city.shape), dtype=np.int32)
     return DistanceMaps(
         origin=np.array([x0, y0]), cell=cell, water=water, city=city,
-        water_distance=_distance(water, cell), city_distance=_distance(city, cell),
-        free_radius=_distance(water | city, cell),
+        water_distance=_distance(water, cell), city_distance=city_distance,
+        free_radius=_distance(water | city, cell), nearest_city=nearest,
     )
 
 
@@ -167,7 +173,7 @@ def _across_water(maps: DistanceMaps, score: np.ndarray, samples: int = 32, top:
     finite = np.flatnonzero(np.isfinite(score.ravel()))
     if not maps.water.any() or not maps.city.any() or len(finite) == 0:
         return out
-    _, (ci, cj) = distance_transform_edt(~maps.city, return_indices=True)
+    ci, cj = maps.nearest_city
     cand = finite[np.argsort(-score.ravel()[finite], kind="stable")[:top]]
     i0, j0 = np.unravel_index(cand, maps.water.shape)
     i1, j1 = ci.ravel()[cand], cj.ravel()[cand]
