@@ -26,13 +26,16 @@ class DeadEnd:
     highway: str
 
 
+def dead_end_count(net: StreetNetwork, counts: np.ndarray | None = None) -> int:
+    """Open street ends that no other street shares (``counts``: :func:`street_counts`, if at hand)."""
+    counts = street_counts(net.streets, len(net.xy)) if counts is None else counts
+    ends = np.array([(s.nodes[0], s.nodes[-1]) for s in net.streets if not s.is_closed], dtype=np.int64)
+    return int((counts[ends.ravel()] < 2).sum())
+
+
 def has_dead_end(net: StreetNetwork) -> bool:
     """Vectorised check, so clean networks skip the incremental pass entirely."""
-    if not net.streets:
-        return False
-    counts = street_counts(net.streets, len(net.xy))
-    ends = np.array([(s.nodes[0], s.nodes[-1]) for s in net.streets if not s.is_closed], dtype=np.int64)
-    return bool(len(ends)) and bool((counts[ends] < 2).any())
+    return dead_end_count(net) > 0
 
 
 def prune_dead_ends(net: StreetNetwork) -> tuple[StreetNetwork, list[DeadEnd]]:

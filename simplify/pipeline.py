@@ -78,10 +78,7 @@ def simplify(net: StreetNetwork, options: SimplifyOptions | None = None) -> Simp
     run.net, dead = prune_dead_ends(run.net)
     run.dead_ends += dead
     run.record("dead_ends", **dead_end_summary(dead))
-    run.net, pieces = remove_overlaps_keeping_cycles(run.net, opts)
-    after = run.cleanup()
-    run.record("overlaps", overlaps_removed=len(pieces) + after["overlaps_removed"],
-               dead_ends_removed=after["dead_ends_removed"])
+    run.record("overlaps", **run.cleanup())
     run.step("roundabouts", collapse_roundabouts, "roundabouts")
     run.step("clusters", fuse_clusters, "clusters")
     run.step("merging", merge_streets, "merges")

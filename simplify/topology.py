@@ -74,16 +74,9 @@ def split_self_touching(street: Street) -> list[Street]:
     return pieces
 
 
-def junction_positions(street: Street, junction: np.ndarray) -> list[int]:
-    """Positions along the street of its junction nodes, ends always included."""
-    nodes = street.nodes
-    last = len(nodes) - 1
-    return [i for i, n in enumerate(nodes) if i == 0 or i == last or junction[n]]
-
-
 def junction_stops(street: Street, junction: np.ndarray) -> list[int]:
     """Positions of the street's real junctions (its ends only when they are junctions)."""
-    return [p for p in junction_positions(street, junction) if junction[street.nodes[p]]]
+    return [i for i, n in enumerate(street.nodes) if junction[n]]
 
 
 def piece_table(streets: Sequence[Street], junction: np.ndarray) -> dict[str, np.ndarray]:
