@@ -24,7 +24,7 @@ from simplify.merging import merge_streets
 from simplify.options import SimplifyOptions
 from simplify.overlaps import remove_overlaps
 from simplify.roundabouts import collapse_roundabouts
-from simplify.topology import clean_nodes, junction_mask, summary
+from simplify.topology import clean_nodes, junction_mask, spaced_points, summary
 from simplify.two_street import enforce_two_streets
 
 MAX_ROUNDS = 8
@@ -140,18 +140,12 @@ def _repair(run: _Run) -> int:
 
 
 def _space_vertices(net: StreetNetwork, spacing: float) -> StreetNetwork:
-    """Drop shape points closer than ``spacing`` to the previous kept point; junctions stay."""
+    """Drop shape points closer than ``spacing`` to their kept neighbours; junctions stay."""
     junction = junction_mask(net.streets, len(net.xy))
     streets = []
     for s in net.streets:
-        keep = [s.nodes[0]]
-        for i, n in enumerate(s.nodes[1:], start=1):
-            last = i == len(s.nodes) - 1
-            close = np.hypot(*(net.xy[n] - net.xy[keep[-1]])) < spacing
-            if not close or junction[n] or last:
-                if close and last and not junction[keep[-1]] and len(keep) > 1:
-                    keep.pop()
-                keep.append(n)
+        nodes = np.asarray(s.nodes)
+        keep = nodes[spaced_points(net.xy[nodes], spacing, junction[nodes])].tolist()
         valid = len(keep) != len(s.nodes) and clean_nodes(keep) is not None
         streets.append(s.with_nodes(keep) if valid else s)
     return net.replace(streets=tuple(streets))

@@ -74,6 +74,25 @@ def split_self_touching(street: Street) -> list[Street]:
     return pieces
 
 
+def spaced_points(pts: np.ndarray, step: float, fixed: np.ndarray | None = None) -> list[int]:
+    """Indices of a polyline's points to keep so that no step is shorter than ``step``.
+
+    The ends and the ``fixed`` points (junctions) always stay; any other
+    point stays only when it is ``step`` or more from the last point kept and
+    from the next point that must stay.
+    """
+    n = len(pts)
+    must = np.zeros(n, dtype=bool) if fixed is None else np.asarray(fixed, dtype=bool).copy()
+    must[[0, n - 1]] = True
+    next_must = np.minimum.accumulate(np.where(must, np.arange(n), n)[::-1])[::-1]
+    keep = [0]
+    for i in range(1, n - 1):
+        if must[i] or (np.hypot(*(pts[i] - pts[keep[-1]])) >= step
+                       and np.hypot(*(pts[next_must[i + 1]] - pts[i])) >= step):
+            keep.append(i)
+    return keep + [n - 1] if n > 1 else keep
+
+
 def junction_stops(street: Street, junction: np.ndarray) -> list[int]:
     """Positions of the street's real junctions (its ends only when they are junctions)."""
     return [i for i, n in enumerate(street.nodes) if junction[n]]

@@ -16,7 +16,7 @@ import numpy as np
 import shapely
 
 from simplify.example import Example
-from simplify.topology import junction_mask, junction_stops
+from simplify.topology import junction_mask, junction_stops, spaced_points
 from synth.segment_index import SegmentIndex
 
 Street = tuple[int, list[int]]
@@ -49,17 +49,8 @@ def lay(profile: np.ndarray, a: np.ndarray, b: np.ndarray) -> np.ndarray:
     return pts
 
 
-#: Shape points closer than this to the previous one are dropped (m): OSM's 7 decimals are ~1 cm.
+#: Shape points closer than this to their kept neighbours are dropped (m): OSM's 7 decimals are ~1 cm.
 MIN_SHAPE_STEP = 1.0
-
-
-def _thin(pts: np.ndarray, step: float = MIN_SHAPE_STEP) -> np.ndarray:
-    """The polyline without shape points closer than ``step`` to the last kept one or to its end."""
-    keep = [0]
-    for i in range(1, len(pts) - 1):
-        if np.hypot(*(pts[i] - pts[keep[-1]])) >= step and np.hypot(*(pts[-1] - pts[i])) >= step:
-            keep.append(i)
-    return pts[keep + [len(pts) - 1]]
 
 
 def _index(xy: np.ndarray, chords: list[tuple[int, int]], fixed=()) -> tuple[SegmentIndex, dict[tuple[int, int], int]]:
@@ -116,7 +107,8 @@ def shaped_streets(example: Example, xy: np.ndarray, streets: list[Street], obst
         choices = profiles.get(level_of[(a, b)])
         if not choices:
             continue
-        pts = _thin(lay(choices[int(rng.integers(len(choices)))], xy[a], xy[b]))
+        pts = lay(choices[int(rng.integers(len(choices)))], xy[a], xy[b])
+        pts = pts[spaced_points(pts, MIN_SHAPE_STEP)]
         if len(pts) < 3 or not shapely.LineString(pts).is_simple:
             continue
         if obstacles is not None and obstacles.intersects(shapely.LineString(pts)):

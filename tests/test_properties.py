@@ -65,10 +65,10 @@ def test_simplification_is_deterministic(items):
 @given(st.lists(st.tuples(st.floats(-1e4, 1e4), st.floats(-1e4, 1e4)), min_size=2, max_size=40),
        st.floats(0.1, 50.0))
 def test_thinning_keeps_the_ends_and_spaces_the_rest(points, step):
-    from synth.shape import _thin
+    from simplify.topology import spaced_points
 
     pts = np.asarray(points, dtype=float)
-    out = _thin(pts, step)
+    out = pts[spaced_points(pts, step)]
     assert np.array_equal(out[0], pts[0]) and np.array_equal(out[-1], pts[-1])
     inner = out[1:-1]
     if len(inner):
