@@ -25,7 +25,6 @@ from synth.walk import ANY_LEVEL, NodeCloud, WalkOptions, WalkResult, random_wal
 class GrowResult:
     cloud: NodeCloud
     walk: WalkResult
-    source: np.ndarray  # per cloud junction: the example junction it copies (-1 for a border junction)
     streets: list[tuple[int, np.ndarray]]  # (level, polyline) with shapes and dead ends restored
 
     def polylines(self) -> list[tuple[int, np.ndarray]]:
@@ -118,15 +117,13 @@ def grow(example: Example, region, obstacles=None, border_xy: np.ndarray | None 
     fixed = _fixed_segments(old_streets, cloud.xy[len(xy):], len(xy))
     walk = random_walk(cloud, seed=seed, options=options or WalkOptions(complete=True), obstacles=obstacles,
                        fixed=fixed)
-    n_border = 0 if border_xy is None else len(border_xy)
     rng = np.random.default_rng([seed, 1])
     if shapes:
         points, stubs = add_dead_ends(example, cloud.xy, walk.streets, region, obstacles, rng, fixed)
         streets = shaped_streets(example, points, walk.streets + stubs, obstacles, rng, fixed, region)
     else:
         streets = [(level, cloud.xy[path]) for level, path in walk.streets]
-    return GrowResult(cloud=cloud, walk=walk, source=np.concatenate([source, np.full(n_border, -1)]),
-                      streets=streets)
+    return GrowResult(cloud=cloud, walk=walk, streets=streets)
 
 
 def _fixed_segments(old_streets, border_xy: np.ndarray, first_border: int):

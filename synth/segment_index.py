@@ -24,9 +24,6 @@ class SegmentIndex:
         self.ends = np.zeros((capacity, 2), dtype=np.int64)
         self.active = np.zeros(capacity, dtype=bool)
 
-    def __len__(self) -> int:
-        return self.n
-
     def _grow(self) -> None:
         for name in ("a", "b", "ends", "active"):
             old = getattr(self, name)

@@ -116,11 +116,12 @@ class _Walker:
         self.index = SegmentIndex(cell)
         self.edges: set[tuple[int, int]] = set()
         self.adjacent: dict[int, list[int]] = {}
+        self.on_street = np.zeros(len(cloud.xy), dtype=bool)  # junctions of the street being walked
         self.obstacles = obstacles
         if obstacles is not None:
             shapely.prepare(obstacles)
 
-    def scores(self, cur: int, rec: int, prev: int | None, level: int, path: set[int]):
+    def scores(self, cur: int, rec: int, prev: int | None, level: int):
         """Candidate targets, the record each would use, and their transition probabilities."""
         c = self.c
         mu, sd = c.length_mean[cur, rec], c.length_std[cur, rec]
@@ -129,8 +130,7 @@ class _Walker:
         same = (c.level[cand] != -1) if level is None else ((c.level[cand] == level) | (c.level[cand] == ANY_LEVEL))
         free = same & (self.used[cand] < c.cap[cand]) & (c.cap[cand] > 0)
         keep = free.any(axis=1) & (cand != cur)
-        if path:
-            keep &= ~np.isin(cand, np.fromiter(path, dtype=np.int64, count=len(path)))
+        keep &= ~self.on_street[cand]  # a street does not come back to itself
         cand, free = cand[keep], free[keep]
         if len(cand) == 0:
             return cand, cand, np.zeros(0)
@@ -169,9 +169,9 @@ class _Walker:
         factor = np.exp(-0.5 * (dl ** 2 + da ** 2) / width ** 2)
         return np.where(c.level[cand, rec_c] == ANY_LEVEL, 1.0, factor)  # border junctions: any street
 
-    def step(self, cur: int, rec: int, prev: int | None, level: int, path: set[int],
+    def step(self, cur: int, rec: int, prev: int | None, level: int,
              threshold: float) -> tuple[int, int] | None:
-        cand, rec_c, p = self.scores(cur, rec, prev, level, path)
+        cand, rec_c, p = self.scores(cur, rec, prev, level)
         for i in np.argsort(-p, kind="stable").tolist():
             if p[i] < threshold:
                 return None
@@ -301,11 +301,12 @@ class _Walker:
         added = 0
         if self.used[cur, rec] >= self.c.cap[cur, rec]:
             return 0
-        on_street = self.chain_nodes((cur, rec))
+        marked = list(self.chain_nodes((cur, rec)))
+        self.on_street[marked] = True
         while self.used[cur, rec] < self.c.cap[cur, rec]:
             linked = self.links.get((cur, rec), ())
             prev = linked[0][0] if linked else None
-            nxt = self.step(cur, rec, prev, level, on_street, threshold)
+            nxt = self.step(cur, rec, prev, level, threshold)
             if nxt is None:
                 break
             target, trec = nxt
@@ -314,10 +315,12 @@ class _Walker:
             added += 1
             if joins:  # met the end of another piece of this street: they are one street now
                 break
-            on_street.add(target)
+            self.on_street[target] = True
+            marked.append(target)
             cur, rec = target, trec
             if added >= max_steps:
                 break
+        self.on_street[marked] = False
         return added
 
     def streets(self) -> list[tuple[int, list[int]]]:
@@ -386,7 +389,7 @@ def _starts(cloud: NodeCloud, level: int, rng: np.random.Generator, walker: "_Wa
     j, r = np.nonzero(cloud.level == level)
     margin = np.zeros(len(j))
     for i, (jj, rr) in enumerate(zip(j.tolist(), r.tolist())):
-        _, _, p = walker.scores(jj, rr, None, level, set())
+        _, _, p = walker.scores(jj, rr, None, level)
         top = np.sort(p)[::-1][:2]
         margin[i] = (top[0] - (top[1] if len(top) > 1 else 0.0)) if len(top) else 0.0
     margin += rng.uniform(0.0, 0.05, len(j))
