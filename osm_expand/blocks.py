@@ -114,9 +114,12 @@ def _disjoint(polys: list[shapely.Polygon]) -> list[tuple[int, shapely.Polygon]]
     if not polys:
         return []
     polys = list(polys)
-    a, b = shapely.STRtree(polys).query(polys, predicate="intersects")
+    tree = shapely.STRtree(polys)
+    # faces that only share edges touch; overlapping or nested ones are the pairs to settle
+    pairs = np.unique(np.concatenate([np.stack(tree.query(polys, predicate=p), axis=1)
+                                      for p in ("overlaps", "contains", "within")]), axis=0)
     drop, holes = set(), {}
-    for i, j in zip(a.tolist(), b.tolist()):
+    for i, j in pairs.tolist():
         if i >= j:
             continue
         shared = polys[i].intersection(polys[j]).area

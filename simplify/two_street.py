@@ -26,7 +26,7 @@ from osm_expand.model import Street, StreetNetwork
 from simplify.merging import combine, end_angle
 from simplify.options import SimplifyOptions
 from simplify.streetset import StreetSet
-from simplify.topology import heading, lengths
+from simplify.topology import append_nodes, heading, lengths
 
 
 class _Nodes:
@@ -52,9 +52,8 @@ def enforce_two_streets(net: StreetNetwork, opts: SimplifyOptions) -> tuple[Stre
             _resolve(work, nodes, node, opts, counts)
     if nodes.n == len(net.xy):
         return net.replace(streets=work.ordered()), counts
-    added = nodes.n - len(net.xy)
-    ids = np.concatenate([net.node_ids, np.zeros(added, dtype=np.int64)])
-    return net.replace(xy=nodes.xy[:nodes.n].copy(), node_ids=ids, streets=work.ordered()), counts
+    xy, ids, _ = append_nodes(net, nodes.xy[len(net.xy):nodes.n])
+    return net.replace(xy=xy, node_ids=ids, streets=work.ordered()), counts
 
 
 def _importance(xy: np.ndarray, street: Street, k: int) -> tuple:
