@@ -119,8 +119,10 @@ def grow(example: Example, region, obstacles=None, border_xy: np.ndarray | None 
                        fixed=fixed)
     rng = np.random.default_rng([seed, 1])
     if shapes:
-        points, stubs = add_dead_ends(example, cloud.xy, walk.streets, region, obstacles, rng, fixed)
-        streets = shaped_streets(example, points, walk.streets + stubs, obstacles, rng, fixed, region)
+        points, stubs = add_dead_ends(example, cloud.xy, walk.streets, region, obstacles, rng,
+                                      walk.drawn, walk.segment)
+        streets = shaped_streets(example, points, walk.streets + stubs, obstacles, rng, walk.drawn, walk.segment,
+                                 region)
     else:
         streets = [(level, cloud.xy[path]) for level, path in walk.streets]
     return GrowResult(cloud=cloud, walk=walk, streets=streets)

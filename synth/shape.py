@@ -53,21 +53,14 @@ def lay(profile: np.ndarray, a: np.ndarray, b: np.ndarray) -> np.ndarray:
 MIN_SHAPE_STEP = 1.0
 
 
-def _index(xy: np.ndarray, chords: list[tuple[int, int]], fixed=()) -> tuple[SegmentIndex, dict[tuple[int, int], int]]:
-    """Segments drawn so far: the new chords, plus ``fixed`` ones (an old town) as (a, b, u, v)."""
-    cell = float(np.median([np.hypot(*(xy[a] - xy[b])) for a, b in chords])) if chords else 100.0
-    index = SegmentIndex(max(cell, 1.0))
-    for a, b, u, v in fixed:
-        index.add(np.asarray(a, dtype=float), np.asarray(b, dtype=float), u, v)
-    ids = {(a, b): index.add(xy[a], xy[b], a, b) for a, b in chords}
-    return index, ids
-
-
 def add_dead_ends(example: Example, xy: np.ndarray, streets: list[Street], region, obstacles,
-                  rng: np.random.Generator, fixed=()) -> tuple[np.ndarray, list[Street]]:
-    """The cloud with stub tips appended, and the stubs as two-junction streets."""
+                  rng: np.random.Generator, index: SegmentIndex,
+                  segment: dict[tuple[int, int], int]) -> tuple[np.ndarray, list[Street]]:
+    """The cloud with stub tips appended, and the stubs as two-junction streets.
+
+    ``index`` holds every segment drawn so far (``segment`` their ids); the stubs are added to both.
+    """
     chords = [(a, b) for _, path in streets for a, b in zip(path, path[1:])]
-    index, _ = _index(xy, chords, fixed)
     degree = np.bincount(np.array(chords, dtype=np.int64).ravel(), minlength=len(xy)) if chords else np.zeros(len(xy))
     tips: list[np.ndarray] = []
     stubs: list[Street] = []
@@ -86,7 +79,7 @@ def add_dead_ends(example: Example, xy: np.ndarray, streets: list[Street], regio
             if not region.covers(stub) or (obstacles is not None and obstacles.intersects(stub)) \
                     or index.crosses(xy[n], tip, n, tip_id):
                 continue
-            index.add(xy[n], tip, n, tip_id)
+            segment[(n, tip_id)] = segment[(tip_id, n)] = index.add(xy[n], tip, n, tip_id)
             degree[n] += 1
             tips.append(tip)
             stubs.append((lv, [n, tip_id]))
@@ -94,12 +87,15 @@ def add_dead_ends(example: Example, xy: np.ndarray, streets: list[Street], regio
 
 
 def shaped_streets(example: Example, xy: np.ndarray, streets: list[Street], obstacles,
-                   rng: np.random.Generator, fixed=(), region=None) -> list[tuple[int, np.ndarray]]:
-    """Polylines for the streets, each segment shaped like an example piece of its level where it fits."""
+                   rng: np.random.Generator, index: SegmentIndex, segment: dict[tuple[int, int], int],
+                   region=None) -> list[tuple[int, np.ndarray]]:
+    """Polylines for the streets, each segment shaped like an example piece of its level where it fits.
+
+    ``index`` holds every segment drawn (``segment`` their ids); a shaped one replaces its chord there.
+    """
     profiles = piece_profiles(example)
     chords = list(dict.fromkeys((a, b) for _, path in streets for a, b in zip(path, path[1:])))
     level_of = {(a, b): lv for lv, path in streets for a, b in zip(path, path[1:])}
-    index, ids = _index(xy, chords, fixed)
     shapes: dict[tuple[int, int], np.ndarray] = {}
     next_id = len(xy)
     for a, b in chords:
@@ -115,10 +111,10 @@ def shaped_streets(example: Example, xy: np.ndarray, streets: list[Street], obst
             continue
         if region is not None and not region.covers(shapely.LineString(pts)):
             continue
-        index.remove(ids[(a, b)])
+        index.remove(segment[(a, b)])
         names = [a] + list(range(next_id, next_id + len(pts) - 2)) + [b]
         if any(index.crosses(p, q, u, v) for p, q, u, v in zip(pts, pts[1:], names, names[1:])):
-            ids[(a, b)] = index.add(xy[a], xy[b], a, b)  # keep it straight
+            segment[(a, b)] = segment[(b, a)] = index.add(xy[a], xy[b], a, b)  # keep it straight
             continue
         next_id += len(pts) - 2
         for p, q, u, v in zip(pts, pts[1:], names, names[1:]):

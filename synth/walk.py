@@ -101,6 +101,10 @@ class NodeCloud:
 @dataclass
 class WalkResult:
     streets: list[tuple[int, list[int]]] = field(default_factory=list)  # (level, junction ids)
+    #: Every segment drawn, and the fixed ones, for later stages that must not cross them either ...
+    drawn: SegmentIndex | None = None
+    #: ... with the id of each drawn segment a–b in it, under (a, b) and (b, a).
+    segment: dict[tuple[int, int], int] = field(default_factory=dict)
 
     @property
     def segments(self) -> set[tuple[int, int]]:
@@ -116,6 +120,7 @@ class _Walker:
         self.index = SegmentIndex(cell)
         self.edges: set[tuple[int, int]] = set()
         self.adjacent: dict[int, list[int]] = {}
+        self.segment: dict[tuple[int, int], int] = {}
         self.on_street = np.zeros(len(cloud.xy), dtype=bool)  # junctions of the street being walked
         self.obstacles = obstacles
         if obstacles is not None:
@@ -242,7 +247,7 @@ class _Walker:
         self.edges.add((min(a, b), max(a, b)))
         self.adjacent.setdefault(a, []).append(b)
         self.adjacent.setdefault(b, []).append(a)
-        self.index.add(self.c.xy[a], self.c.xy[b], a, b)
+        self.segment[(a, b)] = self.segment[(b, a)] = self.index.add(self.c.xy[a], self.c.xy[b], a, b)
 
     def pair_up(self) -> list[tuple[int, list[int]]]:
         """Short side streets between junctions still short of their example's segment count.
@@ -361,7 +366,6 @@ def random_walk(cloud: NodeCloud, seed: int = 0, options: WalkOptions | None = N
     walker = _Walker(cloud, opts, obstacles, max(cell, 1.0))
     for a, b, u, v in fixed:
         walker.index.add(np.asarray(a, dtype=float), np.asarray(b, dtype=float), u, v)
-    result = WalkResult()
     thresholds = [t for t in SCHEDULE if t > opts.threshold] + [opts.threshold]
     for level in range(int(cloud.level.max(initial=-1)) + 1):
         order = _starts(cloud, level, rng, walker)
@@ -374,10 +378,8 @@ def random_walk(cloud: NodeCloud, seed: int = 0, options: WalkOptions | None = N
         unstarted = (walker.used == 0) & (cloud.cap == 1) & on_street & (cloud.level >= 0)
         for j, r in np.argwhere(dangling | unstarted).tolist():
             walker.walk_on(j, r, None, opts.threshold, max_steps=1)
-    result.streets = walker.streets()
-    if opts.complete:
-        result.streets += walker.pair_up()
-    return result
+    streets = walker.streets() + (walker.pair_up() if opts.complete else [])
+    return WalkResult(streets=streets, drawn=walker.index, segment=walker.segment)
 
 
 def _starts(cloud: NodeCloud, level: int, rng: np.random.Generator, walker: "_Walker") -> list[tuple[int, int]]:
