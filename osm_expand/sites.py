@@ -54,10 +54,7 @@ class DistanceMaps:
     nearest_city: np.ndarray  # (2, rows, cols) row and column of each cell's nearest city cell
 
     def centres(self) -> tuple[np.ndarray, np.ndarray]:
-        ny, nx = self.water.shape
-        xs = self.origin[0] + (np.arange(nx) + 0.5) * self.cell
-        ys = self.origin[1] + (np.arange(ny) + 0.5) * self.cell
-        return np.meshgrid(xs, ys)
+        return _cell_centres(self.origin, self.cell, self.water.shape)
 
 
 @dataclass(frozen=True)
@@ -85,7 +82,7 @@ def distance_maps(net: StreetNetwork, blocks: list[shapely.Polygon], margin: flo
     x1, y1 = pts.max(axis=0) + margin
     cell = max(opts.cell, float(np.sqrt((x1 - x0) * (y1 - y0) / 4e6)))
     nx, ny = int(np.ceil((x1 - x0) / cell)), int(np.ceil((y1 - y0) / cell))
-    xs, ys = np.meshgrid(x0 + (np.arange(nx) + 0.5) * cell, y0 + (np.arange(ny) + 0.5) * cell)
+    xs, ys = _cell_centres(np.array([x0, y0]), cell, (ny, nx))
     water_geom = shapely.union_all([*net.context.water, *net.context.sea])
     water = _raster(water_geom, xs, ys)
     city = _raster(built if built is not None else built_area(net, blocks, opts), xs, ys) & ~water
@@ -99,6 +96,11 @@ def distance_maps(net: StreetNetwork, blocks: list[shapely.Polygon], margin: flo
         water_distance=_distance(water, cell), city_distance=city_distance,
         free_radius=_distance(water | city, cell), nearest_city=nearest,
     )
+
+
+def _cell_centres(origin: np.ndarray, cell: float, shape: tuple[int, int]) -> tuple[np.ndarray, np.ndarray]:
+    ny, nx = shape
+    return np.meshgrid(origin[0] + (np.arange(nx) + 0.5) * cell, origin[1] + (np.arange(ny) + 0.5) * cell)
 
 
 def _raster(geom, xs: np.ndarray, ys: np.ndarray) -> np.ndarray:
@@ -118,11 +120,10 @@ def choose_site(maps: DistanceMaps, area: float, opts: SiteOptions | None = None
                 direction: str | None = None, at: tuple[float, float] | None = None) -> Site | None:
     """The best cell for a district of ``area`` m², or None when nothing has room."""
     opts = opts or SiteOptions()
+    if at is not None:
+        return _disc(np.asarray(at, dtype=float), area, float("nan"))
     radius = float(np.sqrt(area / np.pi))
     xs, ys = maps.centres()
-    if at is not None:
-        centre = np.asarray(at, dtype=float)
-        return Site(centre=centre, area=area, region=shapely.Point(centre).buffer(radius, 64), score=float("nan"))
     score = _score(maps, radius, opts)
     score = score - opts.city_weight * _across_water(maps, score)
     if direction and direction.upper() != "AUTO":
@@ -130,8 +131,11 @@ def choose_site(maps: DistanceMaps, area: float, opts: SiteOptions | None = None
     best = int(np.argmax(score))
     if not np.isfinite(score.flat[best]):
         return None
-    centre = np.array([xs.flat[best], ys.flat[best]])
-    return Site(centre=centre, area=area, region=shapely.Point(centre).buffer(radius, 64), score=float(score.flat[best]))
+    return _disc(np.array([xs.flat[best], ys.flat[best]]), area, float(score.flat[best]))
+
+
+def _disc(centre: np.ndarray, area: float, score: float) -> Site:
+    return Site(centre=centre, area=area, region=shapely.Point(centre).buffer(np.sqrt(area / np.pi), 64), score=score)
 
 
 def _score(maps: DistanceMaps, radius: float, opts: SiteOptions) -> np.ndarray:
