@@ -18,10 +18,11 @@ import numpy as np
 from lxml import etree
 
 from osm_expand.export.atomic import atomic_write
+from osm_expand.export.features import street_tags
 from osm_expand.model import StreetNetwork
 
 #: One building: its four corners (metres, in order around it) and its height (m).
-Building = tuple[np.ndarray, float]
+Footprint = tuple[np.ndarray, float]
 
 
 def schema() -> etree.XMLSchema:
@@ -34,22 +35,18 @@ def _fmt(v: float) -> str:
 
 
 def _street_attrs(net: StreetNetwork, k: int, origin: str) -> dict[str, str]:
+    """The street's tags (:func:`street_tags`) that the schema knows, layer, bridge and tunnel always."""
     s = net.streets[k]
-    attrs = {"id": str(k), "highway": s.highway, "origin": origin, "layer": str(s.layer),
-             "bridge": "yes" if s.bridge else "no", "tunnel": "yes" if s.tunnel else "no"}
-    if s.name:
-        attrs["name"] = s.name
-    if s.hierarchy >= 0:
-        attrs["hierarchy"] = str(s.hierarchy)
-    if s.width is not None:
-        attrs["width"] = f"{s.width:g}"
+    tags = {"layer": "0", "bridge": "no", "tunnel": "no", **street_tags(s)}
+    attrs = {"id": str(k), "highway": s.highway, "origin": origin}
+    attrs.update({key: tags[key] for key in ("layer", "bridge", "tunnel", "name", "hierarchy", "width") if key in tags})
     if s.year is not None:
         attrs["year"] = str(s.year)
     return attrs
 
 
 def write_urbanenvironment(net: StreetNetwork, path: str | os.PathLike,
-                           buildings: Sequence[Building] = (), origins: Sequence[str] | None = None) -> None:
+                           buildings: Sequence[Footprint] = (), origins: Sequence[str] | None = None) -> None:
     """Write streets (and buildings) as ``<urbanenvironment>``; ``origins`` marks streets source/grown."""
     proj = net.context.projection
     with atomic_write(path, "wb") as fh, etree.xmlfile(fh, encoding="UTF-8") as xf:
