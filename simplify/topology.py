@@ -126,23 +126,26 @@ def lengths(xy: np.ndarray, nodes: Sequence[int]) -> float:
     return polyline_length(xy[np.asarray(nodes, dtype=np.intp)])
 
 
+def point_along(xy: np.ndarray, nodes: Sequence[int], dist: float) -> tuple[np.ndarray, int]:
+    """The point ``dist`` metres along the polyline through ``nodes`` (its end if shorter),
+    and the index of the segment it lies on."""
+    pts = xy[np.asarray(nodes, dtype=np.intp)]
+    cum = np.concatenate([[0.0], np.cumsum(np.hypot(*np.diff(pts, axis=0).T))])
+    j = int(np.clip(np.searchsorted(cum, dist) - 1, 0, len(pts) - 2))
+    if dist >= cum[-1]:
+        return pts[-1], len(pts) - 2
+    t = (dist - cum[j]) / max(cum[j + 1] - cum[j], 1e-12)
+    return pts[j] + t * (pts[j + 1] - pts[j]), j
+
+
 def heading(xy: np.ndarray, nodes: Sequence[int], from_start: bool, reach: float) -> np.ndarray:
     """Unit vector pointing from a street end into the street.
 
     Taken towards the point ``reach`` metres along the street (or its far end)
     so that a jittery first shape segment does not decide a merge.
     """
-    seq = np.asarray(nodes if from_start else nodes[::-1], dtype=np.intp)
-    pts = xy[seq]
-    steps = np.hypot(*np.diff(pts, axis=0).T)
-    cum = np.concatenate([[0.0], np.cumsum(steps)])
-    k = int(np.searchsorted(cum, reach))
-    if k >= len(pts):
-        target = pts[-1]
-    else:
-        t = (reach - cum[k - 1]) / max(steps[k - 1], 1e-12)
-        target = pts[k - 1] + t * (pts[k] - pts[k - 1])
-    v = target - pts[0]
+    seq = nodes if from_start else nodes[::-1]
+    v = point_along(xy, seq, reach)[0] - xy[seq[0]]
     norm = float(np.hypot(*v))
     return v / norm if norm > 0 else v
 

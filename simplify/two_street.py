@@ -26,7 +26,7 @@ from osm_expand.model import Street, StreetNetwork
 from simplify.merging import combine, end_angle
 from simplify.options import SimplifyOptions
 from simplify.streetset import StreetSet
-from simplify.topology import append_nodes, heading, lengths
+from simplify.topology import append_nodes, heading, lengths, point_along
 
 
 class _Nodes:
@@ -145,17 +145,6 @@ def _arms(street: Street, node: int) -> list[tuple[int, ...]]:
     return [run for run in (seq[i:], seq[:i + 1][::-1]) if len(run) >= 2]
 
 
-def _point_along(xy: np.ndarray, run: tuple[int, ...], dist: float) -> tuple[np.ndarray, int]:
-    """The point ``dist`` metres along ``run`` and the index of the segment it lies on."""
-    for j in range(len(run) - 1):
-        a, b = xy[run[j]], xy[run[j + 1]]
-        step = float(np.hypot(*(b - a)))
-        if dist <= step:
-            return a + (b - a) * (dist / step), j
-        dist -= step
-    return xy[run[-1]], len(run) - 2
-
-
 def _separate(work: StreetSet, nodes: _Nodes, node: int, k: int, hosts: list[int],
               opts: SimplifyOptions) -> bool:
     """Move street ``k``'s end from ``node`` onto the arm of a staying street it leans towards."""
@@ -173,9 +162,9 @@ def _separate(work: StreetSet, nodes: _Nodes, node: int, k: int, hosts: list[int
             dist = min(opts.separation, room)
             if dist < 1.0:
                 continue
-            point, j = _point_along(xy, arm, dist)
+            point, j = point_along(xy, arm, dist)
             if np.hypot(*(point - xy[arm[j + 1]])) < 1e-6:  # landed on a shape point: pull back a little
-                point, j = _point_along(xy, arm, dist * 0.9)
+                point, j = point_along(xy, arm, dist * 0.9)
             g = (point - xy[node]) / max(float(np.hypot(*(point - xy[node]))), 1e-12)
             score = -float(g @ h)
             if best is None or score < best[0]:
