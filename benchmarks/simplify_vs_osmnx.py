@@ -101,7 +101,7 @@ def import_osmnx(streets_only: bool = False) -> Work:
     import networkx as nx
     import osmnx as ox
 
-    from osm_expand.highways import highway_set
+    from osm_expand.model.highways import highway_set
 
     kept = highway_set()
 

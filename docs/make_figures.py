@@ -14,7 +14,7 @@ import numpy as np  # noqa: E402
 
 from osm_expand.ingest import load  # noqa: E402
 from simplify import simplify  # noqa: E402
-from simplify.topology import junction_mask  # noqa: E402
+from osm_expand.model.topology import junction_mask  # noqa: E402
 
 
 def draw(source: str, target: str) -> None:

@@ -1,13 +1,27 @@
-"""Read an OSM extract into a :class:`StreetNetwork` (the only stage that reads OSM).
+"""Read an OSM extract into a :class:`City` (the only stage that reads OSM).
 
 pyosmium streams the file with a node-location index, and its C++ filters
-drop everything that is not a street, water or building before Python sees
-it, so memory and time scale with the streets, not the file. Ways that
-reference nodes missing from a clipped extract are split at the gap.
+drop everything that is not a street, water, building or mapped land area
+before Python sees it, so memory and time scale with the town, not the file.
+
+What is kept, as mapped (ids, tags and shapes):
+
+- streets: ways of the selected ``highway=*`` classes (see
+  :mod:`osm_expand.model.highways`); ways that reference nodes missing from a
+  clipped extract are split at the gap and counted;
+- buildings: closed ways and multipolygon relations with ``building=*``,
+  with every ring's node ids, so they can be written back as mapped;
+- water: water areas and multipolygons, waterway lines buffered by their
+  width, coastline closed against the bounds into sea;
+- mapped areas (:data:`AREA_KEYS`): land use, leisure, aeroway, military and
+  natural vegetation polygons, for the unbuildable land and land use;
+- the map's year: that of its newest way or relation.
+
+Node coordinates that are not numbers (``lat="nan"``) or lie outside the
+globe are an :class:`~osm_expand.errors.InputError` naming the file.
 """
 from __future__ import annotations
 
-import json
 import math
 import os
 import re
@@ -20,15 +34,23 @@ import shapely
 
 from osm_expand.coastline import assemble_sea
 from osm_expand.errors import InputError
-from osm_expand.highways import highway_set
-from osm_expand.model import Building, Context, Street, StreetNetwork, network_from_lines
-from osm_expand.projection import LocalProjection
+from osm_expand.model import Building, City, Context, MappedArea, Street, StreetNetwork
+from osm_expand.model.highways import highway_set
+from osm_expand.model.projection import LocalProjection
 
-SUFFIXES = (".osm", ".osm.gz", ".osm.bz2", ".osm.pbf", ".pbf", ".xml", ".xml.gz", ".xml.bz2", ".geojson")
+OSM_SUFFIXES = (".osm", ".osm.gz", ".osm.bz2", ".osm.pbf", ".pbf", ".xml.gz", ".xml.bz2")
+#: Files ``load`` reads: OSM extracts, and the tool's own GeoJSON and urbanenvironment outputs.
+SUFFIXES = OSM_SUFFIXES + (".xml", ".geojson", ".json")
 
 #: Default river widths (m) by ``waterway=*`` when no ``width`` tag says otherwise.
 WATERWAY_WIDTH = {"river": 20.0, "canal": 12.0, "stream": 3.0, "drain": 2.0, "ditch": 1.5}
 WATER_AREA_TAGS = {"natural": {"water"}, "waterway": {"riverbank", "dock"}, "landuse": {"reservoir", "basin"}}
+#: Mapped areas kept for later stages: key → the values kept (None: every value).
+AREA_KEYS: dict[str, frozenset[str] | None] = {
+    "landuse": None, "leisure": None, "aeroway": None, "military": None,
+    "amenity": frozenset({"grave_yard"}),
+    "natural": frozenset({"wood", "scrub", "heath", "grassland", "wetland", "beach", "bare_rock"}),
+}
 _UNDEFINED = 2147483647  # libosmium's undefined coordinate
 
 
@@ -38,14 +60,18 @@ class _Raw:
 
     streets: list[tuple[list[int], list[tuple[float, float]], dict]] = field(default_factory=list)
     clipped_ways: int = 0
+    input_ways: int = 0
     waterways: list[tuple[list[tuple[float, float]], float]] = field(default_factory=list)
     water_areas: list[list[list[tuple[float, float]]]] = field(default_factory=list)
     coastline: list[list[tuple[float, float]]] = field(default_factory=list)
-    buildings: list[tuple[list[tuple[float, float]], float | None, float | None, int]] = field(default_factory=list)
-    input_ways: int = 0
+    #: (rings as (node ids, lon/lat), tags, osm type, osm id)
+    buildings: list[tuple[list[tuple[list[int], list[tuple[float, float]]]], dict, str, int]] = field(default_factory=list)
+    clipped_buildings: int = 0
+    areas: list[tuple[list[list[tuple[float, float]]], str, str, int]] = field(default_factory=list)
+    newest: int = 0  # the newest object's timestamp (seconds since 1970)
 
 
-def check_readable(path: str | os.PathLike) -> Path:
+def check_readable(path: str | os.PathLike, suffixes: tuple[str, ...] = SUFFIXES) -> Path:
     """Fail early, in one line, on paths osmium would choke on or misread."""
     p = Path(path)
     if not p.exists():
@@ -56,48 +82,68 @@ def check_readable(path: str | os.PathLike) -> Path:
         raise InputError(f"{p}: permission denied")
     if p.stat().st_size == 0:
         raise InputError(f"{p}: file is empty")
-    if not p.name.lower().endswith(SUFFIXES):
-        raise InputError(f"{p}: unsupported file type (expected {', '.join(SUFFIXES[:4])})")
+    if not p.name.lower().endswith(suffixes):
+        raise InputError(f"{p}: unsupported file type (expected {', '.join(OSM_SUFFIXES[:4])})")
     return p
 
 
-def load(path: str | os.PathLike, *, service: bool = False, paths: bool = False,
-         context: bool = True) -> StreetNetwork:
-    """Read streets, water and buildings from ``path`` and project them to metres.
+def load(path: str | os.PathLike, *, service: bool = False, paths: bool = False, context: bool = True) -> City:
+    """Read a town from ``path``: streets, buildings, water and mapped areas, in metres.
 
-    ``service`` and ``paths`` add those highway classes to the default
-    drivable set (see :mod:`osm_expand.highways`). ``context=False`` reads
-    streets only, in a single pass (what ``osm-expand simplify`` needs).
+    Parameters
+    ----------
+    path : path
+        An OSM extract (``.osm``, ``.osm.gz``, ``.osm.bz2``, ``.osm.pbf``),
+        or a GeoJSON or ``<urbanenvironment>`` file written by osm-expand.
+    service, paths : bool
+        Add ``highway=service`` and footways/paths/tracks to the drivable set.
+    context : bool
+        ``False`` reads streets only, in one pass (all ``simplify`` needs).
+
+    Returns
+    -------
+    City
+        The town as mapped, projected to a transverse Mercator centred on it.
     """
     p = check_readable(path)
-    if p.name.lower().endswith(".geojson"):
-        return load_geojson(p)
+    name = p.name.lower()
+    if name.endswith((".geojson", ".json")) or (name.endswith(".xml") and _is_urbanenvironment(p)):
+        from osm_expand.readback import load_output
+
+        return load_output(p)
     kept = highway_set(service=service, paths=paths)
     try:
         try:
-            raw, header_box = _read(str(p), kept, context, areas=context)
+            raw, header_box = _read(str(p), kept, context, relations=context)
         except RuntimeError as exc:
             if "out of order" not in str(exc):
                 raise
             # libosmium's multipolygon assembly needs sorted input; unsorted
-            # files still give closed-way buildings and water.
-            raw, header_box = _read(str(p), kept, context, areas=False)
+            # files still give their closed-way buildings, water and areas.
+            raw, header_box = _read(str(p), kept, context, relations=False)
     except InputError as exc:
         raise InputError(f"{p}: {exc}") from None
+    except osmium.InvalidLocationError as exc:
+        raise InputError(f"{p}: a node has an invalid location ({exc})") from None
     except (RuntimeError, ValueError, OSError) as exc:
         msg = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
         raise InputError(f"{p}: not a readable OSM file ({msg})") from None
     if not raw.streets:
-        raise InputError(f"{p}: no streets of the selected highway classes"
-                         + ("" if service else " (try --service)"))
+        raise InputError(f"{p}: no streets of the selected highway classes" + ("" if service else " (try --service)"))
     return _build(raw, header_box)
 
 
-def _read(path: str, kept: frozenset[str], context: bool,
-          areas: bool) -> tuple[_Raw, tuple | None]:
-    keys = ["highway"] + (["waterway", "natural", "water", "landuse", "building"] if context else [])
+def _is_urbanenvironment(p: Path) -> bool:
+    with open(p, "rb") as fh:
+        head = fh.read(400)
+    return b"<urbanenvironment" in head
+
+
+def _read(path: str, kept: frozenset[str], context: bool, relations: bool) -> tuple[_Raw, tuple | None]:
+    keys = ["highway"] + (["waterway", "natural", "water", "building", *AREA_KEYS] if context else [])
+    keys = list(dict.fromkeys(keys))
     fp = osmium.FileProcessor(path).with_locations()
-    if areas:
+    if relations:
         fp = fp.with_areas(osmium.filter.KeyFilter(*keys))
     fp = (fp.with_filter(osmium.filter.EntityFilter(osmium.osm.WAY | osmium.osm.AREA))
           .with_filter(osmium.filter.KeyFilter(*keys)))
@@ -108,12 +154,19 @@ def _read(path: str, kept: frozenset[str], context: bool,
     raw = _Raw()
     for obj in fp:
         if obj.is_way():
+            raw.newest = max(raw.newest, _seconds(obj))
             _take_way(obj, kept, raw)
-            if context and not areas and obj.is_closed():
+            if context and obj.is_closed():
                 _take_closed_way(obj, raw)
-        elif obj.is_area():
-            _take_area(obj, raw)
+        elif obj.is_area() and not obj.from_way():  # closed ways are taken above, as ways
+            raw.newest = max(raw.newest, _seconds(obj))
+            _take_relation_area(obj, raw)
     return raw, header_box
+
+
+def _seconds(obj) -> int:
+    ts = obj.timestamp
+    return int(ts.timestamp()) if ts is not None and ts.year > 1970 else 0
 
 
 def _way_runs(way) -> tuple[list[tuple[list[int], list[tuple[float, float]]]], bool]:
@@ -146,7 +199,7 @@ def _take_way(way, kept: frozenset[str], raw: _Raw) -> None:
         raw.input_ways += 1
         runs, clipped = _way_runs(way)
         raw.clipped_ways += clipped
-        attrs = _street_attrs(way.id, tags)
+        attrs = street_attrs(way.id, tags)
         raw.streets.extend((refs, coords, attrs) for refs, coords in runs)
         return
     ww = tags.get("waterway")
@@ -157,47 +210,57 @@ def _take_way(way, kept: frozenset[str], raw: _Raw) -> None:
         raw.coastline.extend(coords for _, coords in _way_runs(way)[0])
 
 
-def _area_kind(tags) -> str | None:
-    """"building", "water" or None for an area's tags."""
+def _area_kind(tags) -> tuple[str, str] | None:
+    """("building", ""), ("water", ""), (key, value) of a kept mapped area, or None."""
     if tags.get("building", "no") != "no":
-        return "building"
+        return ("building", "")
     if "water" in tags or any(tags.get(k) in v for k, v in WATER_AREA_TAGS.items()):
-        return "water"
+        return ("water", "")
+    for key, values in AREA_KEYS.items():
+        value = tags.get(key)
+        if value is not None and (values is None or value in values):
+            return (key, value)
     return None
 
 
-def _take_area(area, raw: _Raw) -> None:
-    tags = area.tags
-    kind = _area_kind(tags)
-    if kind == "building":
-        for outer in area.outer_rings():
-            ring = [(n.lon, n.lat) for n in outer]
-            raw.buildings.append((ring, _number(tags.get("height")), _number(tags.get("building:levels")),
-                                  area.orig_id()))
-            break
-        return
-    if kind == "water":
-        for outer in area.outer_rings():
-            rings = [[(n.lon, n.lat) for n in outer]]
-            rings += [[(n.lon, n.lat) for n in inner] for inner in area.inner_rings(outer)]
-            raw.water_areas.append(rings)
-
-
 def _take_closed_way(way, raw: _Raw) -> None:
-    """Area fallback for unsorted files: a closed way is its own outer ring."""
-    runs, clipped = _way_runs(way)
-    if clipped or not runs:
-        return
-    ring = runs[0][1]
+    """A closed way is its own outer ring: buildings, water areas and mapped areas."""
     tags = way.tags
     kind = _area_kind(tags)
-    if kind == "building":
-        raw.buildings.append((ring, _number(tags.get("height")), _number(tags.get("building:levels")), way.id))
-    elif kind == "water":
+    if kind is None or "highway" in tags:
+        return
+    runs, clipped = _way_runs(way)
+    if clipped or not runs:
+        raw.clipped_buildings += kind[0] == "building"
+        return
+    refs, ring = runs[0]
+    if kind[0] == "building":
+        raw.buildings.append(([(refs, ring)], dict(tags), "way", way.id))
+    elif kind[0] == "water":
         raw.water_areas.append([ring])
+    else:
+        raw.areas.append(([ring], kind[0], kind[1], way.id))
 
 
-def _street_attrs(way_id: int, tags) -> dict:
+def _take_relation_area(area, raw: _Raw) -> None:
+    kind = _area_kind(area.tags)
+    if kind is None:
+        return
+    outers = []
+    for outer in area.outer_rings():
+        rings = [outer] + list(area.inner_rings(outer))
+        outers.append([([n.ref for n in r], [(n.lon, n.lat) for n in r]) for r in rings])
+    if kind[0] == "building":
+        for rings in outers:  # one building per outer ring, all carrying the relation's id
+            raw.buildings.append((rings, dict(area.tags), "relation", area.orig_id()))
+    elif kind[0] == "water":
+        raw.water_areas.extend([coords for _, coords in rings] for rings in outers)
+    else:
+        raw.areas.extend(([coords for _, coords in rings], kind[0], kind[1], area.orig_id()) for rings in outers)
+
+
+def street_attrs(way_id: int, tags) -> dict:
+    """The typed :class:`Street` fields of a way's tags (and the tags themselves)."""
     layer = _number(tags.get("layer"))
     return {
         "highway": tags.get("highway"),
@@ -209,6 +272,7 @@ def _street_attrs(way_id: int, tags) -> dict:
         "lanes": _number(tags.get("lanes")),
         "width": _number(tags.get("width")),
         "osm_ids": (way_id,),
+        "tags": tuple(dict(tags).items()),
     }
 
 
@@ -228,24 +292,36 @@ def _number(text: str | None) -> float | None:
     return value if math.isfinite(value) else None
 
 
-def _build(raw: _Raw, header_box: tuple | None) -> StreetNetwork:
+def _build(raw: _Raw, header_box: tuple | None) -> City:
     ids, lonlat, streets_idx = _index_nodes(raw.streets)
     bounds = header_box or _data_bounds(lonlat)
     proj = LocalProjection.centred_on(bounds)
-    x, y = proj.to_xy(lonlat[:, 0], lonlat[:, 1])
-    xy = np.column_stack([x, y])
-    streets = tuple(Street(nodes=nodes, **attrs) for nodes, (_, _, attrs) in zip(streets_idx, raw.streets))
-    context = Context(
-        projection=proj,
-        bounds_lonlat=tuple(float(v) for v in bounds),
-        bounds_from_header=header_box is not None,
+    xy = _project(lonlat, proj)
+    streets = tuple(Street(nodes=nodes, id=k, **attrs)
+                    for k, (nodes, (_, _, attrs)) in enumerate(zip(streets_idx, raw.streets)))
+    context = Context(projection=proj, bounds_lonlat=tuple(float(v) for v in bounds),
+                      bounds_from_header=header_box is not None)
+    stats = {"input_ways": raw.input_ways, "input_nodes": int(len(ids)), "clipped_ways": raw.clipped_ways,
+             "streets": len(streets), "buildings": len(raw.buildings), "clipped_buildings": raw.clipped_buildings}
+    network = StreetNetwork(xy=xy, node_ids=ids, streets=streets, context=context, stats=stats)
+    year = _year(raw.newest)
+    return City(
+        network=network,
+        buildings=_buildings(raw.buildings, proj),
         water=_water_polygons(raw, proj),
         sea=assemble_sea(_project_lines(raw.coastline, proj), _bounds_box(bounds, proj)),
-        buildings=_buildings(raw.buildings, proj),
+        areas=_areas(raw.areas, proj),
+        year=year,
+        stats=stats,
     )
-    stats = {"input_ways": raw.input_ways, "input_nodes": int(len(ids)),
-             "clipped_ways": raw.clipped_ways, "streets": len(streets)}
-    return StreetNetwork(xy=xy, node_ids=ids, streets=streets, context=context, stats=stats)
+
+
+def _year(seconds: int) -> int | None:
+    if not seconds:
+        return None
+    import datetime
+
+    return datetime.datetime.fromtimestamp(seconds, datetime.timezone.utc).year
 
 
 def _index_nodes(streets) -> tuple[np.ndarray, np.ndarray, list[tuple[int, ...]]]:
@@ -272,10 +348,7 @@ def _data_bounds(lonlat: np.ndarray) -> tuple[float, float, float, float]:
 
 def _bounds_box(bounds, proj: LocalProjection):
     lon0, lat0, lon1, lat1 = bounds
-    lons = np.array([lon0, lon1, lon1, lon0])
-    lats = np.array([lat0, lat0, lat1, lat1])
-    x, y = proj.to_xy(lons, lats)
-    return shapely.Polygon(np.column_stack([x, y]))
+    return shapely.Polygon(_project(np.array([[lon0, lat0], [lon1, lat0], [lon1, lat1], [lon0, lat1]]), proj))
 
 
 def _project(coords, proj: LocalProjection) -> np.ndarray:
@@ -288,52 +361,38 @@ def _project_lines(lines, proj: LocalProjection) -> list[np.ndarray]:
     return [_project(c, proj) for c in lines if len(c) >= 2]
 
 
+def _polygon(rings, proj: LocalProjection) -> shapely.Geometry | None:
+    shell, *holes = [_project(r, proj) for r in rings]
+    if len(shell) < 4:
+        return None
+    poly = shapely.Polygon(shell, [h for h in holes if len(h) >= 4])
+    return poly if poly.is_valid else shapely.make_valid(poly)
+
+
 def _water_polygons(raw: _Raw, proj: LocalProjection) -> tuple:
-    polys = []
-    for rings in raw.water_areas:
-        shell, *holes = [_project(r, proj) for r in rings]
-        if len(shell) >= 4:
-            poly = shapely.Polygon(shell, [h for h in holes if len(h) >= 4])
-            polys.append(poly if poly.is_valid else shapely.make_valid(poly))
+    polys = [p for p in (_polygon(rings, proj) for rings in raw.water_areas) if p is not None and not p.is_empty]
     for coords, width in raw.waterways:
         polys.append(shapely.buffer(shapely.LineString(_project(coords, proj)), width / 2, cap_style="flat"))
     return tuple(polys)
 
 
-def _buildings(items, proj: LocalProjection) -> tuple[Building, ...]:
+def _areas(items, proj: LocalProjection) -> tuple[MappedArea, ...]:
     out = []
-    for ring, height, levels, osm_id in items:
-        if len(ring) >= 4:
-            out.append(Building(ring=_project(ring, proj), height=height, levels=levels, osm_id=osm_id))
+    for rings, key, value, osm_id in items:
+        poly = _polygon(rings, proj)
+        if poly is not None and not poly.is_empty and poly.area > 0:
+            out.append(MappedArea(polygon=poly, key=key, value=value, osm_id=osm_id))
     return tuple(out)
 
 
-def load_geojson(path: Path) -> StreetNetwork:
-    """Read back a street network written by ``osm-expand`` as GeoJSON (LineString features)."""
-    try:
-        doc = json.loads(path.read_text(encoding="utf-8"))
-        features = [f for f in doc["features"] if (f.get("geometry") or {}).get("type") == "LineString"]
-        lines = [np.asarray(f["geometry"]["coordinates"], dtype=float)[:, :2] for f in features]
-    except (ValueError, KeyError, TypeError, IndexError, UnicodeDecodeError) as exc:
-        raise InputError(f"{path}: not a readable GeoJSON street network ({type(exc).__name__}: {exc})") from None
-    if not lines:
-        raise InputError(f"{path}: no LineString streets in the GeoJSON")
-    allpts = np.concatenate(lines)
-    if not np.isfinite(allpts).all() or np.abs(allpts[:, 0]).max() > 180 or np.abs(allpts[:, 1]).max() > 90:
-        raise InputError(f"{path}: coordinates out of range (GeoJSON must be lon/lat)")
-    bounds = _data_bounds(allpts)
-    proj = LocalProjection.centred_on(bounds)
-    projected = [np.column_stack(proj.to_xy(ln[:, 0], ln[:, 1])) for ln in lines]
-    attrs = [_geojson_attrs(f.get("properties") or {}) for f in features]
-    net = network_from_lines([[tuple(p) for p in ln] for ln in projected], attrs, projection=proj)
-    return net.replace(stats={"input_ways": len(lines), "input_nodes": len(net.xy), "clipped_ways": 0,
-                              "streets": len(lines)})
-
-
-def _geojson_attrs(props: dict) -> dict:
-    """A feature's properties read as OSM tags (booleans as "true"/"false"), by the same rules."""
-    tags = {k: str(v).lower() if isinstance(v, bool) else str(v)
-            for k, v in props.items() if v is not None and not isinstance(v, (list, dict))}
-    tags.setdefault("highway", "road")
-    ids = props.get("osm_ids") or ()
-    return {**_street_attrs(0, tags), "osm_ids": tuple(int(i) for i in ids if isinstance(i, int))}
+def _buildings(items, proj: LocalProjection) -> tuple[Building, ...]:
+    out = []
+    for rings, tags, osm_type, osm_id in items:
+        if len(rings[0][1]) < 4:
+            continue
+        out.append(Building(
+            rings=tuple(_project(coords, proj) for _, coords in rings),
+            node_ids=tuple(np.asarray(refs, dtype=np.int64) for refs, _ in rings),
+            height=_number(tags.get("height")), levels=_number(tags.get("building:levels")),
+            osm_id=osm_id, osm_type=osm_type, tags=tuple(tags.items())))
+    return tuple(out)

@@ -1,31 +1,37 @@
-"""Joining the grown district to the old town.
+"""Joining grown streets to the town: the one step after any growth pattern.
 
-The random walk already ends some new streets on old-town junctions with
-free slots. The rest of the joining is done here, the way towns actually grow
-into their edges: short straight streets from the district to
+The new streets enter the city's network first; a new street that ends on a
+node of the town (it carries that node's exact coordinates) shares the node.
+The rest of the joining is done the way towns actually grow into their
+edges: short straight *joining streets* from the district to
 
-* an old *border junction* with a free slot, or
-* an old street, meeting it in a new *tee* junction.
+* a node of the town with a free slot (a junction, or a street's end), or
+* a street of the town, meeting it in a new *tee* junction.
 
-Candidates are found from the town's side: every border junction, and points
-every ``spread / 2`` metres along the old streets near the district; each is
-linked to the nearest point of the district's streets (a new junction there
+A tee inserts the new node into the town's way (as JOSM does when a way is
+drawn onto another): the way keeps its id, tags and shape, and gains a node.
+
+Candidates are found from the town's side: every border node, and points
+every ``spread / 2`` metres along the town's streets near the district;
+each is linked to the nearest point of the new streets (a new junction there
 too, unless an existing node is within :data:`SNAP` metres), and a tee is then
-squared onto the old street. Border junctions go first, then the shortest
-links. A link crosses no street and no old block, ends on no node that
-already has four streets, may bridge up to :data:`MAX_BRIDGE` metres of water
-(it is then tagged as a bridge), and keeps ``spread`` metres from other
-joins, so a district bordering the town along an arc is joined along it.
+squared onto the old street. Border nodes go first, then the shortest links.
+A link crosses no street and nothing occupied (blocks, unbuildable land,
+buildings), ends on no node that already has four segments, may bridge up to
+:data:`MAX_BRIDGE` metres of water (it is then tagged as a bridge), and keeps
+``spread`` metres from other joins, so a district bordering the town along an
+arc is joined along it.
 """
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
 import shapely
 
-from osm_expand.model import Street, StreetNetwork, closest_on_segments
-from simplify.topology import MAX_DEGREE, append_nodes, segment_degree
+from osm_expand.model import City, Origin, Status, Street, StreetNetwork, closest_on_segments
+from osm_expand.model.topology import MAX_DEGREE, append_nodes, segment_degree
 
 #: A joining street may bridge this much water (m): streams and ditches.
 MAX_BRIDGE = 15.0
@@ -36,26 +42,48 @@ MIN_LINK = 10.0
 
 
 @dataclass(frozen=True)
+class JoinReport:
+    """Where the new streets meet the town."""
+
+    joins: int  #: nodes of the town that new streets end on or pass through
+    links: int  #: joining streets added
+    tees: int  #: of which end on a town street in a new node
+    at: np.ndarray  #: (joins, 2) metres
+
+    def to_dict(self) -> dict:
+        return {"joins": self.joins, "joining_streets": self.links, "tees": self.tees,
+                "at": [[round(float(x), 1), round(float(y), 1)] for x, y in self.at]}
+
+
+def add_streets(city: City, lines: Sequence[np.ndarray], attrs: Sequence[dict]) -> City:
+    """The city with new streets along ``lines``; ends on a town node's exact coordinates share it."""
+    return city.replace(network=city.network.with_new_streets(lines, attrs))
+
+
+@dataclass(frozen=True)
 class _Link:
     length: float
     border: bool
-    new_street: int  # index of the grown street the link leaves from
+    new_street: int  # index of the new street the link leaves from
     new_at: tuple[float, float]
     old_street: int
     old_at: tuple[float, float]
 
 
 class _Board:
-    """The combined network being joined: streets, degrees and the links added so far."""
+    """The network being joined: streets, degrees and the links added so far."""
 
-    def __init__(self, net: StreetNetwork, origins: list[str], old_town, water):
-        self.net, self.old_town, self.water = net, old_town, water
+    def __init__(self, net: StreetNetwork, occupied: shapely.Geometry, water: shapely.Geometry,
+                 year: int | None, era: str | None):
+        self.net, self.occupied, self.water, self.year, self.era = net, occupied, water, year, era
         self.new_xy: list[np.ndarray] = []
-        self.streets, self.origins = list(net.streets), list(origins)
+        self.streets = list(net.streets)
         self.lines = shapely.STRtree([shapely.LineString(net.street_xy(s)) for s in net.streets])
         self.links: list[shapely.LineString] = []
         self.degree = segment_degree(net.streets, len(net.xy)).tolist()
         self.joined_at: list[np.ndarray] = []
+        self.tees = 0
+        self.next_id = net.next_street_id()
 
     def point(self, n: int) -> np.ndarray:
         return self.net.xy[n] if n < len(self.net.xy) else self.new_xy[n - len(self.net.xy)]
@@ -71,7 +99,7 @@ class _Board:
         return (self.streets[k].nodes[i], pts[i]) if d[i] <= SNAP else (None, at)
 
     def split(self, k: int, at: np.ndarray) -> int:
-        """A new node on street ``k`` at ``at`` (which lies on it)."""
+        """A new node on street ``k`` at ``at`` (which lies on it), inserted into its node list."""
         pts = self.street_xy(k)
         i = int(np.argmin(closest_on_segments(at, pts[:-1], pts[1:])[2]))
         n = len(self.net.xy) + len(self.new_xy)
@@ -85,8 +113,8 @@ class _Board:
         return float(self.water.intersection(line).length) if not self.water.is_empty else 0.0
 
     def clear(self, line: shapely.LineString) -> bool:
-        """No old block on the link, and it meets streets and other links only at its two ends."""
-        if self.old_town.intersects(line):
+        """Nothing occupied on the link, and it meets streets and other links only at its two ends."""
+        if self.occupied.intersects(shapely.LineString(_trim(np.asarray(line.coords), 1.0))):
             return False
         hits = self.lines.geometries.take(self.lines.query(line, predicate="intersects"))
         touches = shapely.intersection(line, [*hits, *self.links])
@@ -105,46 +133,93 @@ class _Board:
         if wet > MAX_BRIDGE:
             return False
         g_node = self.split(link.new_street, g) if g_node is None else g_node
-        o_node = self.split(link.old_street, o) if o_node is None else o_node
+        if o_node is None:
+            o_node = self.split(link.old_street, o)
+            self.tees += 1
         self.degree[g_node] += 1
         self.degree[o_node] += 1
         self.links.append(line)
-        self.streets.append(Street(nodes=(o_node, g_node), highway="residential", hierarchy=0, status="planned",
-                                   bridge=wet > 0, layer=1 if wet > 0 else 0))
-        self.origins.append("grown")
+        self.streets.append(Street(nodes=(o_node, g_node), highway="residential", hierarchy=0, status=Status.PLANNED,
+                                   bridge=wet > 0, layer=1 if wet > 0 else 0, id=self.next_id, origin=Origin.JOIN,
+                                   year=self.year, era=self.era))
+        self.next_id += 1
         self.joined_at.append(o)
         return True
 
-    def network(self) -> tuple[StreetNetwork, list[str]]:
+    def network(self) -> StreetNetwork:
         xy, ids, _ = append_nodes(self.net, np.array(self.new_xy))
-        return self.net.replace(xy=xy, node_ids=ids, streets=tuple(self.streets)), self.origins
+        return self.net.replace(xy=xy, node_ids=ids, streets=tuple(self.streets))
 
 
-def join_to_town(net: StreetNetwork, origins: list[str], border: np.ndarray, old_town, water,
-                 reach: float, spread: float, most: int = 8) -> tuple[StreetNetwork, list[str]]:
-    """Add joining streets until the district is joined at ``most`` places or no candidate is left."""
-    grown = [k for k, o in enumerate(origins) if o == "grown"]
-    old = [k for k, o in enumerate(origins) if o == "source"]
-    if not grown or not old:
-        return net, origins
-    board = _Board(net, origins, old_town, water)
-    board.joined_at = [net.xy[n] for n in sorted(_shared_nodes(net, origins))]
-    for link in _candidates(net, grown, old, border, reach, spread):
+def _trim(pts: np.ndarray, by: float) -> np.ndarray:
+    """A two-point segment shortened by ``by`` metres at each end (its ends may touch what they join)."""
+    a, b = pts[0], pts[-1]
+    length = float(np.hypot(*(b - a)))
+    if length <= 2 * by:
+        return np.array([(a + b) / 2, (a + b) / 2 + 1e-9])
+    u = (b - a) / length
+    return np.array([a + by * u, b - by * u])
+
+
+def join_to_town(city: City, new: Sequence[int], *, reach: float, spread: float, most: int = 8,
+                 year: int | None = None, era: str | None = None) -> tuple[City, JoinReport]:
+    """Add joining streets from the streets ``new`` (indices) to the town until it is joined at ``most`` places.
+
+    Parameters
+    ----------
+    city : City
+        With the new streets already in its network (:func:`add_streets`).
+    new : sequence of int
+        Indices of the new streets in ``city.network.streets``.
+    reach : float
+        Longest joining street (m).
+    spread : float
+        Joins keep this far apart (m).
+    most : int
+        Stop once the district is joined at this many places.
+    year, era
+        Stamped on the joining streets.
+
+    Returns
+    -------
+    (City, JoinReport)
+    """
+    net = city.network
+    new = list(new)
+    old = [k for k, s in enumerate(net.streets) if s.origin == Origin.SOURCE]
+    if not new or not old:
+        return city, _report(net, new, 0, 0)
+    board = _Board(net, city.occupied, city.water_geometry(), year, era)
+    board.joined_at = [net.xy[n] for n in sorted(_shared_nodes(net, new))]
+    border = _border(net, old)
+    for link in _candidates(net, new, old, border, reach, spread):
         if len(board.joined_at) >= most:
             break
         board.try_link(link, spread)
-    return board.network()
+    joined = board.network()
+    added = list(range(len(net.streets), len(joined.streets)))
+    return city.replace(network=joined), _report(joined, new + added, len(added), board.tees)
 
 
-def _candidates(net: StreetNetwork, grown: list[int], old: list[int], border: np.ndarray,
+def _border(net: StreetNetwork, old: list[int]) -> np.ndarray:
+    """Ends of the town's streets that are open: dead ends and junctions with a free slot."""
+    degree = segment_degree(net.streets, len(net.xy))
+    ends = {n for k in old for n in (net.streets[k].nodes[0], net.streets[k].nodes[-1])}
+    pick = sorted(n for n in ends if degree[n] < MAX_DEGREE)
+    return net.xy[pick].reshape(-1, 2)
+
+
+def _candidates(net: StreetNetwork, new: list[int], old: list[int], border: np.ndarray,
                 reach: float, spread: float) -> list[_Link]:
-    """Links from border junctions and from points along old streets to the nearest new street."""
-    new_lines = [shapely.LineString(net.street_xy(net.streets[k])) for k in grown]
+    """Links from border nodes and from points along old streets to the nearest new street."""
+    new_lines = [shapely.LineString(net.street_xy(net.streets[k])) for k in new]
     old_lines = [shapely.LineString(net.street_xy(net.streets[k])) for k in old]
     district = shapely.STRtree(new_lines)
     old_tree = shapely.STRtree(old_lines)
+    hull = shapely.MultiLineString(new_lines).convex_hull.buffer(reach)
     starts: list[tuple[bool, int, shapely.Point]] = []
-    for x, y in np.asarray(border, dtype=float).reshape(-1, 2):
+    near_border = border[shapely.contains_xy(hull, border[:, 0], border[:, 1])] if len(border) else border
+    for x, y in near_border:
         p = shapely.Point(x, y)
         starts.append((True, int(old_tree.query_nearest(p)[0]), p))
     near = np.unique(old_tree.query(new_lines, predicate="dwithin", distance=reach)[1])
@@ -159,7 +234,7 @@ def _candidates(net: StreetNetwork, grown: list[int], old: list[int], border: np
         o = p if border_start else _foot(old_lines[j], g)
         length = float(g.distance(o))
         if length <= reach:
-            links.append(_Link(length, border_start, grown[k], (g.x, g.y), old[j], (o.x, o.y)))
+            links.append(_Link(length, border_start, new[k], (g.x, g.y), old[j], (o.x, o.y)))
     return sorted(links, key=lambda c: (not c.border, c.length, c.new_at, c.old_at))
 
 
@@ -168,12 +243,13 @@ def _foot(line: shapely.LineString, p: shapely.Point) -> shapely.Point:
     return line.interpolate(line.project(p))
 
 
-def _shared_nodes(net: StreetNetwork, origins: list[str]) -> set[int]:
-    """Old-town nodes on new streets: where the district is joined."""
-    old = {n for s, o in zip(net.streets, origins) if o == "source" for n in s.nodes}
-    return {n for s, o in zip(net.streets, origins) if o == "grown" for n in s.nodes} & old
+def _shared_nodes(net: StreetNetwork, new: Sequence[int]) -> set[int]:
+    """Nodes of the town on the new streets: where they are joined."""
+    mine = set(new)
+    old = {n for k, s in enumerate(net.streets) if k not in mine and s.origin == Origin.SOURCE for n in s.nodes}
+    return {n for k in mine for n in net.streets[k].nodes} & old
 
 
-def connections(net: StreetNetwork, origins: list[str]) -> int:
-    """How many places the district is joined at."""
-    return len(_shared_nodes(net, origins))
+def _report(net: StreetNetwork, new: Sequence[int], links: int, tees: int) -> JoinReport:
+    shared = sorted(_shared_nodes(net, new))
+    return JoinReport(joins=len(shared), links=links, tees=tees, at=net.xy[shared].reshape(-1, 2))

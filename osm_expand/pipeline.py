@@ -1,150 +1,198 @@
 """The whole pipeline: grow a district next to a real town (``osm-expand CITY``).
 
-simplify → example → blocks → distance maps and site → random walk in the
-site (junctions of the old town's edge with free slots are targets, the old
-streets are never crossed) → one network of old and new streets.
+learn the town (simplify → example) → blocks of the town as mapped →
+unbuildable land → distance maps and ranked sites → a growth pattern grows
+streets in the best site → the shared joining step joins them to the real
+streets; a district joined by fewer than :data:`MIN_JOINS` streets is no
+success, and the next site is tried.
+
+The result is the whole city: the town as mapped plus the district, each
+street marked with its origin. The simplified network and the example are
+how the town was learned; they are returned beside it, never as the town.
 """
 from __future__ import annotations
 
-from collections import Counter
-from dataclasses import dataclass, field, replace
+from collections.abc import Callable
+from dataclasses import dataclass, field
 
 import numpy as np
 import shapely
 
+import simplify.pipeline as simplification
 from osm_expand.blocks import blocks
 from osm_expand.errors import InputError
-from osm_expand.joins import connections, join_to_town
-from osm_expand.model import Street, StreetNetwork, polyline_length
-from osm_expand.sites import Site, SiteOptions, built_area, choose_site, distance_maps
-from simplify import simplify
+from osm_expand.heights import with_heights
+from osm_expand.joins import JoinReport, add_streets, join_to_town
+from osm_expand.land import LandOptions, unbuildable
+from osm_expand.model import City, Origin, Status, StreetNetwork, polyline_length
+from osm_expand.sites import Site, SiteOptions, built_area, choose_sites, distance_maps
 from simplify.example import Example, build_example
 from simplify.hierarchy import with_levels
-from synth.grow import grow
+from simplify.options import SimplifyOptions
+from synth.growth import GrowthPattern, RandomWalk
+
+#: A district smaller than this many blocks (squares of the town's junction spacing) is refused.
+MIN_BLOCKS = 9
+#: The largest district: this many times the town's built-up area (bounds the work and the memory).
+MAX_AREA_SHARE = 4.0
+#: A district joined to the town by fewer streets than this is not a success.
+MIN_JOINS = 2
+#: Sites tried, best first, before giving up.
+SITES_TRIED = 5
+#: What :func:`simplified_or_fail` says when nothing is left.
+NOTHING_LEFT = "no streets left after simplification (every street is a dead end or isolated)"
+
+Progress = Callable[[str], None]
 
 
 @dataclass(frozen=True)
 class ExpandOptions:
+    """Where and how the district grows (keyword-only fields; defaults are the CLI's)."""
+
     seed: int = 0
-    direction: str | None = None  # N, NE, ..., or None / "auto"
-    at: tuple[float, float] | None = None  # site centre in metres
-    area: float | None = None  # m²; default: SiteOptions.area_share of the built-up area
+    direction: str | None = None  #: N, NE, ..., or None for the best site anywhere
+    at: tuple[float, float] | None = None  #: site centre in metres
+    area: float | None = None  #: m²; default: ``site.area_share`` of the built-up area
+    beyond_bounds: bool = False  #: allow the site outside the map's data bounds
     site: SiteOptions = field(default_factory=SiteOptions)
+    land: LandOptions = field(default_factory=LandOptions)
 
 
-@dataclass
-class ExpandResult:
-    network: StreetNetwork  # old and new streets together
-    origins: list[str]  # per street: "source" or "grown"
-    site: Site
+@dataclass(frozen=True)
+class Learned:
+    """How the town was learned: its simplified network and the example (004 §4.2, §3.1)."""
+
+    simplified: StreetNetwork
+    example: Example
     report: dict
 
 
-#: What :func:`simplified_or_fail` says when nothing is left.
-NOTHING_LEFT = "no streets left after simplification (every street is a dead end or isolated)"
+@dataclass(frozen=True)
+class ExpandResult:
+    city: City  #: the town as mapped and the new district
+    site: Site
+    learned: Learned
+    joins: JoinReport
+    report: dict
 
 
-def simplified_or_fail(raw: StreetNetwork, options=None):
+def simplified_or_fail(raw: StreetNetwork, options: SimplifyOptions | None = None):
     """:func:`simplify.simplify`, or :class:`InputError` when no street survives it."""
-    result = simplify(raw, options)
+    result = simplification.simplify(raw, options)
     if not result.network.streets:
         raise InputError(NOTHING_LEFT)
     return result
 
 
-def expand(raw: StreetNetwork, options: ExpandOptions | None = None, progress=lambda msg: None) -> ExpandResult:
+def learn(city: City) -> Learned:
+    """The town's example: simplified streets with Gravelius levels and per-junction statistics."""
+    result = simplified_or_fail(city.network)
+    source = with_levels(result.network)
+    return Learned(simplified=source, example=build_example(source, result.dead_ends), report=result.report)
+
+
+def prepare(city: City, land: LandOptions | None = None) -> City:
+    """The city with its blocks (from the streets as mapped), unbuildable land and building heights."""
+    return with_heights(city).replace(blocks=tuple(blocks(city.network, year=None)),
+                                      unbuildable=unbuildable(city, land))
+
+
+def expand(city: City, options: ExpandOptions | None = None, *, pattern: GrowthPattern | None = None,
+           progress: Progress = lambda message: None) -> ExpandResult:
+    """Grow a district next to the town and join it to the real streets.
+
+    Parameters
+    ----------
+    city : City
+        The town as read by :func:`osm_expand.load`.
+    options : ExpandOptions
+        Seed, where and how big.
+    pattern : GrowthPattern, optional
+        How streets grow; default the random walk over the town's own example.
+    progress : callable
+        Told the name of each stage as it starts.
+
+    Returns
+    -------
+    ExpandResult
+        The whole city (the town as mapped and the district), the site, how
+        the town was learned, the joins and a JSON-ready report.
+
+    Raises
+    ------
+    InputError
+        A town too small to learn from, an area out of range, no room, or a
+        district that cannot be joined to the town.
+    """
     opts = options or ExpandOptions()
-    progress("simplifying")
-    simplified = simplified_or_fail(raw)
-    source = with_levels(simplified.network)
-    example = build_example(source, simplified.dead_ends)
-    progress("finding blocks and a site")
-    town_blocks = blocks(source)
-    built = built_area(source, town_blocks, opts.site)
-    area = opts.area or opts.site.area_share * built.area
-    spacing = example.spacing
-    if area < MIN_BLOCKS * spacing ** 2:
-        raise InputError(f"a district of {area:,.0f} m² would hold fewer than {MIN_BLOCKS} blocks at this town's "
-                         f"{spacing:.0f} m junction spacing; give --area of at least {MIN_BLOCKS * spacing ** 2:,.0f}")
+    progress("simplifying the town into an example")
+    learned = learn(city)
+    progress("finding blocks, unbuildable land and a site")
+    city = prepare(city, opts.land)
+    built = built_area(city.network, [b.polygon for b in city.blocks], opts.site)
+    area = _district_area(opts, built.area, learned.example.spacing)
     radius = float(np.sqrt(area / np.pi))
-    maps = distance_maps(source, town_blocks, margin=2.5 * radius, opts=opts.site, built=built)
-    site = choose_site(maps, area, opts.site, direction=opts.direction, at=opts.at)
-    if site is None:
-        raise InputError(f"no room for a district of {area:,.0f} m² around the town (try a smaller --area)")
-    progress("growing streets")
-    water = shapely.union_all([*raw.context.water, *raw.context.sea])
-    old_town = shapely.union_all(shapely.buffer(np.asarray(town_blocks, dtype=object), -1.0))
-    obstacles = shapely.union_all([water, old_town])
-    border, slots = _border_junctions(example, site, radius + 2 * spacing)
-    near = shapely.STRtree([shapely.LineString(source.street_xy(s)) for s in source.streets])
-    reach = site.region.buffer(0.5 * radius)
-    old = [source.street_xy(source.streets[k]) for k in sorted(near.query(reach, predicate="intersects").tolist())]
-    grown = grow(example, site.region, obstacles=obstacles, border_xy=border, border_slots=slots,
-                 seed=opts.seed, old_streets=old)
-    if not grown.polylines():
-        raise InputError(f"too small to grow from: {len(example.junctions)} junctions in "
-                         f"{len(source.streets)} streets gave no new street")
-    progress("joining the district to the town")
-    network, origins = _combine(source, example, grown.polylines())
-    network, origins = join_to_town(network, origins, border, old_town, water, reach=2 * spacing, spread=2 * spacing)
-    new = [k for k, o in enumerate(origins) if o == "grown"]
-    report = {
-        "site_centre": [round(float(v), 1) for v in site.centre], "site_area_m2": round(area),
-        "spacing_m": round(spacing, 1), "source_streets": len(source.streets), "grown_streets": len(new),
-        "district_area_m2": round(district_area(network, origins)),
-        "grown_length_km": round(sum(polyline_length(network.street_xy(network.streets[k])) for k in new) / 1000, 3),
-        "connections": connections(network, origins),
-    }
-    return ExpandResult(network=network, origins=origins, site=site, report=report)
+    maps = distance_maps(city, margin=2.5 * radius, opts=opts.site, built=built, beyond_bounds=opts.beyond_bounds)
+    sites = choose_sites(maps, area, opts.site, direction=opts.direction, at=opts.at, most=SITES_TRIED)
+    if not sites:
+        hint = "" if opts.beyond_bounds else ", or --beyond-bounds to grow outside them"
+        raise InputError(f"no room for a district of {area:.0f} m² inside the map's bounds; "
+                         f"try a smaller --area{hint}")
+    pattern = pattern or RandomWalk(learned.example)
+    spacing = learned.example.spacing
+    tried = []
+    for attempt, site in enumerate(sites):
+        progress(f"growing streets ({pattern.name}) at site {attempt + 1}")
+        grown, joins = _grow_at(city, site, pattern, np.random.default_rng([opts.seed, attempt]), spacing)
+        if joins.joins >= MIN_JOINS:
+            break
+        tried.append(f"site {attempt + 1}: {joins.joins} joins")
+    else:
+        raise InputError(f"the district cannot be joined to the town by {MIN_JOINS} streets at any of the "
+                         f"{len(sites)} best sites ({'; '.join(tried)}); try --at or another --direction")
+    report = _report(grown, site, area, spacing, joins, attempt)
+    return ExpandResult(city=grown, site=site, learned=learned, joins=joins, report=report)
 
 
-#: A district smaller than this many blocks (squares of the town's junction spacing) is refused.
-MIN_BLOCKS = 9
+def _district_area(opts: ExpandOptions, built: float, spacing: float) -> float:
+    """The district's area (m²), checked against the town's size before any work."""
+    area = opts.area or opts.site.area_share * built
+    smallest, largest = MIN_BLOCKS * spacing ** 2, MAX_AREA_SHARE * built
+    if area < smallest:
+        raise InputError(f"a district of {area:.0f} m² would hold fewer than {MIN_BLOCKS} blocks at this town's "
+                         f"{spacing:.0f} m junction spacing; give --area of at least {np.ceil(smallest):.0f}")
+    if area > largest:
+        raise InputError(f"--area {area:.0f} is larger than {MAX_AREA_SHARE:g} times the town's built-up area; "
+                         f"give --area of at most {np.floor(largest):.0f}")
+    return area
 
 
-def district_area(net: StreetNetwork, origins: list[str]) -> float:
-    """The area of the new district's outline: the convex hull of its streets (m²)."""
-    lines = [shapely.LineString(net.street_xy(s)) for s, o in zip(net.streets, origins) if o == "grown"]
+def _grow_at(city: City, site: Site, pattern: GrowthPattern, rng: np.random.Generator,
+             spacing: float) -> tuple[City, JoinReport]:
+    growth = pattern.grow(city, site.region, rng)
+    attrs = [{"highway": s.highway, "hierarchy": s.hierarchy, "bridge": s.bridge, "layer": s.layer,
+              "origin": Origin.GROWN, "status": Status.PLANNED, "year": city.year} for s in growth.streets]
+    grown = add_streets(city, [s.xy for s in growth.streets], attrs)
+    new = list(range(len(city.network.streets), len(grown.network.streets)))
+    return join_to_town(grown, new, reach=2 * spacing, spread=2 * spacing, year=city.year)
+
+
+def district_area(city: City) -> float:
+    """The area of the new district's outline: the convex hull of its new streets (m²)."""
+    lines = [shapely.LineString(city.network.street_xy(city.network.streets[k])) for k in city.new_streets()]
     return float(shapely.MultiLineString(lines).convex_hull.area) if lines else 0.0
 
 
-def _border_junctions(example: Example, site: Site, reach: float) -> tuple[np.ndarray, np.ndarray]:
-    """Old-town junctions with a free slot within ``reach`` of the site's centre."""
-    near = np.hypot(*(example.xy - site.centre).T) <= reach
-    pick = near & (example.slots > 0)
-    return example.xy[pick], example.slots[pick]
-
-
-def _class_by_level(source: StreetNetwork) -> dict[int, str]:
-    counts: dict[int, Counter] = {}
-    for s in source.streets:
-        counts.setdefault(s.hierarchy, Counter())[s.highway] += 1
-    return {lv: c.most_common(1)[0][0] for lv, c in counts.items()}
-
-
-def _combine(source: StreetNetwork, example: Example, polylines) -> tuple[StreetNetwork, list[str]]:
-    """Old streets plus new ones; a new street ending on an old junction shares its node."""
-    at_junction = {(float(x), float(y)): int(n) for n, (x, y) in zip(example.junctions, example.xy)}
-    highway = _class_by_level(source)
-    xy = [source.xy]
-    next_id = len(source.xy)
-    index: dict[tuple[float, float], int] = {}
-    streets = list(source.streets)
-    for level, pts in polylines:
-        nodes = []
-        for x, y in np.asarray(pts, dtype=float):
-            key = (float(x), float(y))
-            if key in at_junction:
-                nodes.append(at_junction[key])
-                continue
-            if key not in index:
-                index[key] = next_id
-                next_id += 1
-                xy.append(np.array([[x, y]]))
-            nodes.append(index[key])
-        streets.append(Street(nodes=tuple(nodes), highway=highway.get(level, "residential"),
-                              hierarchy=int(level), status="planned"))
-    all_xy = np.vstack(xy)
-    ids = np.concatenate([source.node_ids, np.zeros(len(all_xy) - len(source.xy), dtype=np.int64)])
-    origins = ["source"] * len(source.streets) + ["grown"] * (len(streets) - len(source.streets))
-    return replace(source, xy=all_xy, node_ids=ids, streets=tuple(streets)), origins
+def _report(city: City, site: Site, area: float, spacing: float, joins: JoinReport, attempt: int) -> dict:
+    net = city.network
+    new = city.new_streets()
+    grown = [k for k in new if net.streets[k].origin == Origin.GROWN]
+    return {
+        "site_centre": [round(float(v), 1) for v in site.centre], "site_area_m2": round(area),
+        "site_rank": attempt + 1, "spacing_m": round(spacing, 1),
+        "source_streets": sum(1 for s in net.streets if s.origin == Origin.SOURCE),
+        "source_buildings": len(city.buildings), "grown_streets": len(grown),
+        "district_area_m2": round(district_area(city)),
+        "grown_length_km": round(sum(polyline_length(net.street_xy(net.streets[k])) for k in new) / 1000, 3),
+        "connections": joins.joins, "joins": joins.to_dict(),
+    }

@@ -7,6 +7,11 @@ distance to water, the distance to the city, and the *free radius*: the
 distance to anything unbuildable, which is exactly the radius of the largest
 empty disc centred there (better than 004's four-direction estimate).
 
+Land outside the map's data bounds is unknown, not free: unless
+``beyond_bounds``, it counts as unbuildable, so the site lies inside the
+bounds. Unbuildable land (:mod:`osm_expand.land`: cemeteries, parks,
+railway land, existing buildings, ...) is an obstacle like water.
+
 A site scores by closeness to the city and to water (1 when the district's
 disc touches them, falling off with the gap), by *contact* (the share of a
 ring ``contact_width`` wide around the disc that is town: a bay of the town
@@ -14,7 +19,9 @@ beats a corner, and gives the joining streets somewhere to go) and by room to
 spare, each in [0, 1] and weighted; it loses its closeness to the city when the way there
 crosses water (the far bank of a river is not next to the town). Only cells
 whose free radius holds a disc of the district's area qualify. ``direction`` restricts the search to a 90° sector
-seen from the town's centre; ``at`` skips the search.
+seen from the town's centre; ``at`` skips the search. :func:`choose_sites` ranks
+several sites at least a district's radius apart, best first, so the
+pipeline can try the next when the best cannot be joined to the town.
 """
 from __future__ import annotations
 
@@ -25,7 +32,8 @@ import shapely
 from scipy.ndimage import distance_transform_edt
 from scipy.signal import fftconvolve
 
-from osm_expand.model import StreetNetwork
+from osm_expand.errors import InputError
+from osm_expand.model import City, StreetNetwork
 
 DIRECTIONS = {"E": 0, "NE": 45, "N": 90, "NW": 135, "W": 180, "SW": 225, "S": 270, "SE": 315}
 
@@ -48,9 +56,10 @@ class DistanceMaps:
     cell: float
     water: np.ndarray  # bool (rows = y, cols = x)
     city: np.ndarray  # bool
+    blocked: np.ndarray  # bool: unbuildable land, and outside the bounds unless beyond_bounds
     water_distance: np.ndarray  # m
     city_distance: np.ndarray  # m
-    free_radius: np.ndarray  # m to the nearest water or city cell
+    free_radius: np.ndarray  # m to the nearest water, city or blocked cell
     nearest_city: np.ndarray  # (2, rows, cols) row and column of each cell's nearest city cell
 
     def centres(self) -> tuple[np.ndarray, np.ndarray]:
@@ -66,35 +75,57 @@ class Site:
 
 
 def built_area(net: StreetNetwork, blocks: list[shapely.Polygon], opts: SiteOptions) -> shapely.Geometry:
+    """The town's built-up area: its blocks, and every street buffered by ``street_buffer`` metres."""
     streets = [shapely.LineString(net.street_xy(s)) for s in net.streets]
     return shapely.union_all([*blocks, shapely.buffer(shapely.MultiLineString(streets), opts.street_buffer)])
 
 
-def distance_maps(net: StreetNetwork, blocks: list[shapely.Polygon], margin: float,
-                  opts: SiteOptions | None = None, built: shapely.Geometry | None = None) -> DistanceMaps:
+#: The raster never has more cells than this (the cell grows instead).
+MAX_CELLS = 4e6
+
+
+def distance_maps(city: City, margin: float, opts: SiteOptions | None = None,
+                  built: shapely.Geometry | None = None, *, beyond_bounds: bool = False) -> DistanceMaps:
     """Rasters around the town, ``margin`` metres beyond its streets on every side.
 
-    ``built`` is :func:`built_area` when the caller has it already.
+    Parameters
+    ----------
+    city : City
+        With its blocks (and unbuildable land) set.
+    margin : float
+        Metres of land around the streets to rasterise.
+    opts : SiteOptions
+    built : shapely geometry, optional
+        :func:`built_area`, when the caller has it already.
+    beyond_bounds : bool
+        Land outside the map's bounds counts as free (default: unknown, so blocked).
     """
     opts = opts or SiteOptions()
+    net = city.network
     pts = net.xy[net.used_nodes()]
     x0, y0 = pts.min(axis=0) - margin
     x1, y1 = pts.max(axis=0) + margin
-    cell = max(opts.cell, float(np.sqrt((x1 - x0) * (y1 - y0) / 4e6)))
+    if not beyond_bounds:  # no need to rasterise what is blocked anyway
+        bx0, by0, bx1, by1 = city.bounds_xy
+        x0, y0, x1, y1 = max(x0, bx0 - opts.cell), max(y0, by0 - opts.cell), min(x1, bx1 + opts.cell), min(y1, by1 + opts.cell)
+    cell = max(opts.cell, float(np.sqrt((x1 - x0) * (y1 - y0) / MAX_CELLS)))
     nx, ny = int(np.ceil((x1 - x0) / cell)), int(np.ceil((y1 - y0) / cell))
     xs, ys = _cell_centres(np.array([x0, y0]), cell, (ny, nx))
-    water_geom = shapely.union_all([*net.context.water, *net.context.sea])
-    water = _raster(water_geom, xs, ys)
-    city = _raster(built if built is not None else built_area(net, blocks, opts), xs, ys) & ~water
-    if city.any():
-        city_cells, nearest = distance_transform_edt(~city, return_indices=True)
+    water = _raster(city.water_geometry(), xs, ys)
+    blocks = [b.polygon for b in city.blocks]
+    city_mask = _raster(built if built is not None else built_area(net, blocks, opts), xs, ys) & ~water
+    blocked = _raster(city.unbuildable, xs, ys)
+    if not beyond_bounds:
+        blocked |= ~_raster(city.bounds_polygon, xs, ys)
+    if city_mask.any():
+        city_cells, nearest = distance_transform_edt(~city_mask, return_indices=True)
         city_distance, nearest = city_cells * cell, nearest.astype(np.int32)
     else:
-        city_distance, nearest = np.full(city.shape, np.inf), np.zeros((2, *city.shape), dtype=np.int32)
+        city_distance, nearest = np.full(city_mask.shape, np.inf), np.zeros((2, *city_mask.shape), dtype=np.int32)
     return DistanceMaps(
-        origin=np.array([x0, y0]), cell=cell, water=water, city=city,
+        origin=np.array([x0, y0]), cell=cell, water=water, city=city_mask, blocked=blocked,
         water_distance=_distance(water, cell), city_distance=city_distance,
-        free_radius=_distance(water | city, cell), nearest_city=nearest,
+        free_radius=_distance(water | city_mask | blocked, cell), nearest_city=nearest,
     )
 
 
@@ -116,22 +147,52 @@ def _distance(mask: np.ndarray, cell: float) -> np.ndarray:
     return distance_transform_edt(~mask) * cell
 
 
-def choose_site(maps: DistanceMaps, area: float, opts: SiteOptions | None = None,
-                direction: str | None = None, at: tuple[float, float] | None = None) -> Site | None:
-    """The best cell for a district of ``area`` m², or None when nothing has room."""
+def choose_sites(maps: DistanceMaps, area: float, opts: SiteOptions | None = None, *,
+                 direction: str | None = None, at: tuple[float, float] | None = None, most: int = 5) -> list[Site]:
+    """The best places for a district of ``area`` m², best first; empty when nothing has room.
+
+    Parameters
+    ----------
+    maps : DistanceMaps
+    area : float
+        m².
+    opts : SiteOptions
+    direction : {"N", "NE", "E", "SE", "S", "SW", "W", "NW"}, optional
+        Keep the site in the 90° sector on that side of the town's centre.
+    at : (x, y), optional
+        Use this centre (metres) and skip the search.
+    most : int
+        How many sites to return; each is at least a district's radius from the better ones.
+    """
     opts = opts or SiteOptions()
     if at is not None:
-        return _disc(np.asarray(at, dtype=float), area, float("nan"))
+        return [_disc(np.asarray(at, dtype=float), area, float("nan"))]
+    if direction is not None and direction.upper() not in DIRECTIONS:
+        raise InputError(f"direction must be one of {', '.join(DIRECTIONS)}, got {direction!r}")
     radius = float(np.sqrt(area / np.pi))
     xs, ys = maps.centres()
     score = _score(maps, radius, opts)
     score = score - opts.city_weight * _across_water(maps, score)
     if direction and direction.upper() != "AUTO":
         score = np.where(_in_sector(maps, xs, ys, DIRECTIONS[direction.upper()]), score, -np.inf)
-    best = int(np.argmax(score))
-    if not np.isfinite(score.flat[best]):
-        return None
-    return _disc(np.array([xs.flat[best], ys.flat[best]]), area, float(score.flat[best]))
+    flat = score.ravel()
+    ranked = np.flatnonzero(np.isfinite(flat))
+    ranked = ranked[np.argsort(-flat[ranked], kind="stable")]
+    sites: list[Site] = []
+    for i in ranked.tolist():
+        centre = np.array([xs.flat[i], ys.flat[i]])
+        if all(np.hypot(*(centre - s.centre)) >= radius for s in sites):
+            sites.append(_disc(centre, area, float(flat[i])))
+            if len(sites) >= most:
+                break
+    return sites
+
+
+def choose_site(maps: DistanceMaps, area: float, opts: SiteOptions | None = None,
+                direction: str | None = None, at: tuple[float, float] | None = None) -> Site | None:
+    """The best site (:func:`choose_sites`), or None when nothing has room."""
+    sites = choose_sites(maps, area, opts, direction=direction, at=at, most=1)
+    return sites[0] if sites else None
 
 
 def _disc(centre: np.ndarray, area: float, score: float) -> Site:

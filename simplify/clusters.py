@@ -16,7 +16,7 @@ from scipy.spatial import cKDTree
 
 from osm_expand.model import Street, StreetNetwork
 from simplify.options import SimplifyOptions
-from simplify.topology import append_nodes, junction_mask, replace_nodes, split_self_touching
+from osm_expand.model.topology import append_nodes, junction_mask, replace_nodes, split_self_touching
 
 
 def fuse_clusters(net: StreetNetwork, opts: SimplifyOptions) -> tuple[StreetNetwork, int]:

@@ -16,7 +16,7 @@ from scipy.spatial import cKDTree
 
 from osm_expand.model import Street, StreetNetwork, closest_on_segments
 from simplify.options import SimplifyOptions
-from simplify.topology import append_nodes, clean_nodes, split_self_touching
+from osm_expand.model.topology import append_nodes, clean_nodes, split_self_touching
 
 
 def segment_table(net: StreetNetwork) -> dict[str, np.ndarray]:

@@ -14,7 +14,7 @@ import numpy as np
 
 from osm_expand.model import StreetNetwork
 from simplify.streetset import StreetSet
-from simplify.topology import lengths, street_counts
+from osm_expand.model.topology import lengths, street_counts
 
 
 @dataclass(frozen=True)

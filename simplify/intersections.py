@@ -7,7 +7,7 @@ two streets" is the only junction rule. Shape points are kept as geometry.
 from __future__ import annotations
 
 from osm_expand.model import StreetNetwork
-from simplify.topology import split_self_touching
+from osm_expand.model.topology import split_self_touching
 
 
 def extract_intersections(net: StreetNetwork) -> StreetNetwork:

@@ -12,7 +12,7 @@ import shapely
 from osm_expand.model import StreetNetwork
 from simplify.crossings import candidate_pairs, segment_table
 from simplify.dead_ends import dead_end_count
-from simplify.topology import street_counts
+from osm_expand.model.topology import street_counts
 
 
 def violations(net: StreetNetwork) -> dict[str, int]:

@@ -15,10 +15,10 @@ from itertools import combinations
 import numpy as np
 from scipy.cluster.hierarchy import DisjointSet
 
-from osm_expand.highways import rank
+from osm_expand.model.highways import rank
 from osm_expand.model import Street, StreetNetwork
 from simplify.options import SimplifyOptions
-from simplify.topology import heading, lengths
+from osm_expand.model.topology import heading, lengths
 
 End = tuple[int, bool]  # (street index, True for its first node)
 

@@ -18,10 +18,10 @@ from collections import defaultdict
 import numpy as np
 import shapely
 
-from osm_expand.highways import rank
+from osm_expand.model.highways import rank
 from osm_expand.model import Street, StreetNetwork
 from simplify.options import SimplifyOptions
-from simplify.topology import clean_nodes, junction_mask, lengths, piece_table
+from osm_expand.model.topology import clean_nodes, junction_mask, lengths, piece_table
 
 
 PieceKey = tuple[int, int]

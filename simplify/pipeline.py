@@ -24,7 +24,7 @@ from simplify.merging import merge_streets
 from simplify.options import SimplifyOptions
 from simplify.overlaps import remove_overlaps
 from simplify.roundabouts import collapse_roundabouts
-from simplify.topology import clean_nodes, junction_mask, spaced_points, summary
+from osm_expand.model.topology import clean_nodes, junction_mask, spaced_points, summary
 from simplify.two_street import enforce_two_streets
 
 MAX_ROUNDS = 8

@@ -15,7 +15,7 @@ from scipy.cluster.hierarchy import DisjointSet
 
 from osm_expand.model import Street, StreetNetwork
 from simplify.options import SimplifyOptions
-from simplify.topology import append_nodes, replace_nodes
+from osm_expand.model.topology import append_nodes, replace_nodes
 
 ROUNDABOUT_TAGS = frozenset({"roundabout", "circular"})
 

@@ -10,12 +10,14 @@ district connects to the town. The random walk then draws the streets, and
 """
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
 import shapely
 from scipy.spatial import cKDTree
 
+from osm_expand.model import match_points
 from simplify.example import Example
 from synth.shape import add_dead_ends, shaped_streets
 from synth.walk import ANY_LEVEL, NodeCloud, WalkOptions, WalkResult, random_walk
@@ -103,21 +105,50 @@ def _free_points(region, obstacles, step: float) -> np.ndarray:
     return pts[_inside(region, obstacles, pts)]
 
 
-def grow(example: Example, region, obstacles=None, border_xy: np.ndarray | None = None,
-         border_slots: np.ndarray | None = None, seed: int = 0, rotation_deg: float = 0.0,
-         options: WalkOptions | None = None, shapes: bool = True,
-         old_streets: list[np.ndarray] = ()) -> GrowResult:
+def grow(example: Example, region: shapely.Geometry, *, obstacles: shapely.Geometry | None = None,
+         border_xy: np.ndarray | None = None, border_slots: np.ndarray | None = None,
+         seed: int | np.random.Generator = 0, rotation_deg: float = 0.0, options: WalkOptions | None = None,
+         shapes: bool = True, old_streets: Sequence[np.ndarray] = ()) -> GrowResult:
     """Streets for ``region`` that look like the example's; same seed, same streets.
 
-    ``old_streets`` (polylines of the town) are never crossed; where one passes through a
-    border junction, the new streets may meet it there.
+    Parameters
+    ----------
+    example : Example
+        What the town's streets are like (:func:`simplify.example.build_example`).
+    region : shapely geometry
+        Where to grow (metres).
+    obstacles : shapely geometry, optional
+        What no street may touch: water, the old town's blocks, unbuildable land.
+    border_xy : (b, 2) float array, optional
+        Nodes of the town near the region that new streets may end on
+        (targets of every level); their exact coordinates come back in the
+        polylines of the streets that end there.
+    border_slots : (b,) int array, optional
+        Free segments at each border node (default 1).
+    seed : int or numpy Generator
+        Same seed, same streets.
+    rotation_deg : float
+        Turn the copied junction cloud by this much (degrees, counter-clockwise).
+    options : WalkOptions
+        Default: the walk with the completion steps growth needs.
+    shapes : bool
+        Give streets the example's shapes and dead ends back.
+    old_streets : sequence of (n, 2) float arrays
+        The town's streets near the region: never crossed; where one passes
+        through a border node, new streets may meet it there.
+
+    Returns
+    -------
+    GrowResult
+        The cloud, the walk and the streets as (level, polyline) pairs.
     """
+    walk_rng, shape_rng = np.random.default_rng(seed).spawn(2)
     xy, source = place(example, region, obstacles, rotation_deg)
     cloud = _cloud(example, xy, source, border_xy, border_slots)
     fixed = _fixed_segments(old_streets, cloud.xy[len(xy):], len(xy))
-    walk = random_walk(cloud, seed=seed, options=options or WalkOptions(complete=True), obstacles=obstacles,
+    walk = random_walk(cloud, seed=walk_rng, options=options or WalkOptions(complete=True), obstacles=obstacles,
                        fixed=fixed)
-    rng = np.random.default_rng([seed, 1])
+    rng = shape_rng
     if shapes:
         points, stubs = add_dead_ends(example, cloud.xy, walk.streets, region, obstacles, rng,
                                       walk.drawn, walk.segment)
@@ -129,18 +160,16 @@ def grow(example: Example, region, obstacles=None, border_xy: np.ndarray | None 
 
 
 def _fixed_segments(old_streets, border_xy: np.ndarray, first_border: int):
-    """Old streets as segments; ends at a border junction carry its cloud id, others unique negatives."""
-    ids = {(float(x), float(y)): first_border + k for k, (x, y) in enumerate(border_xy)}
+    """Old streets as segments; ends at a border node carry its cloud id, others unique negatives."""
     out, fresh = [], -1
     for line in old_streets:
-        names = []
-        for x, y in np.asarray(line, dtype=float):
-            key = (float(x), float(y))
-            if key not in ids:
-                ids[key] = fresh
-                fresh -= 1
-            names.append(ids[key])
-        out += [(line[i], line[i + 1], names[i], names[i + 1]) for i in range(len(line) - 1)]
+        line = np.asarray(line, dtype=float)
+        border = match_points(line, border_xy)
+        loose = border < 0
+        names = border + first_border
+        names[loose] = np.arange(fresh, fresh - int(loose.sum()), -1)
+        fresh -= int(loose.sum())
+        out += [(line[i], line[i + 1], int(names[i]), int(names[i + 1])) for i in range(len(line) - 1)]
     return out
 
 

@@ -11,7 +11,7 @@ from collections import defaultdict
 import numpy as np
 
 from simplify.example import Example
-from simplify.topology import junction_mask, junction_stops
+from osm_expand.model.topology import junction_mask, junction_stops
 from synth.walk import NodeCloud, WalkOptions, WalkResult, random_walk
 
 

@@ -16,7 +16,7 @@ import numpy as np
 import shapely
 
 from simplify.example import Example
-from simplify.topology import junction_mask, junction_stops, spaced_points
+from osm_expand.model.topology import junction_mask, junction_stops, spaced_points
 from synth.segment_index import SegmentIndex
 
 Street = tuple[int, list[int]]

@@ -15,7 +15,7 @@ from simplify.crossings import add_missing_intersections
 from simplify.intersections import extract_intersections
 from simplify.invariants import violations
 from simplify.quality import length_within, pruned_reference
-from simplify.topology import junction_mask
+from osm_expand.model.topology import junction_mask
 from tests.conftest import FIXTURES, TOWNS, loaded, simplified
 
 

@@ -4,7 +4,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from osm_expand.highways import DRIVABLE, highway_set, rank
+from osm_expand.model.highways import DRIVABLE, highway_set, rank
 from osm_expand.ingest import _number, load
 from tests.conftest import ALL, FIXTURES, loaded
 

@@ -14,7 +14,7 @@ from simplify.invariants import violations
 from simplify.merging import merge_streets
 from simplify.overlaps import remove_overlaps
 from simplify.roundabouts import collapse_roundabouts
-from simplify.topology import junction_mask, street_counts
+from osm_expand.model.topology import junction_mask, street_counts
 from simplify.two_street import enforce_two_streets
 
 OPTS = SimplifyOptions()

@@ -65,7 +65,7 @@ def test_simplification_is_deterministic(items):
 @given(st.lists(st.tuples(st.floats(-1e4, 1e4), st.floats(-1e4, 1e4)), min_size=2, max_size=40),
        st.floats(0.1, 50.0))
 def test_thinning_keeps_the_ends_and_spaces_the_rest(points, step):
-    from simplify.topology import spaced_points
+    from osm_expand.model.topology import spaced_points
 
     pts = np.asarray(points, dtype=float)
     out = pts[spaced_points(pts, step)]

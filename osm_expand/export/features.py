@@ -1,13 +1,26 @@
-"""What every export says about a street, in one place."""
+"""What every export says about a street or a building, in one place.
+
+The town's own streets and buildings keep their OSM tags as mapped; what
+the tool made gets tags from its typed fields. Everything carries its
+origin, so a user can select the new district with one expression:
+``"origin" = 'grown'`` in GeoJSON, the :data:`ORIGIN_KEY` tag in OSM, the
+``origin`` attribute in the XML.
+"""
 from __future__ import annotations
 
 import numpy as np
 
-from osm_expand.model import Street, StreetNetwork
+from osm_expand.model import Building, City, Origin, Street
+
+#: OSM tag key that says where an object came from: ``source`` (the town as mapped), ``grown``,
+#: ``join`` (a street joining the district to the town) or ``engine`` (built in the simulated years).
+ORIGIN_KEY = "osm_expand:origin"
+#: OSM tag key of the year an object was built in the simulation.
+YEAR_KEY = "osm_expand:year"
 
 
 def street_tags(street: Street) -> dict[str, str]:
-    """OSM-style tags for a street; absent or default values are left out."""
+    """OSM-style tags from a street's typed fields; absent or default values are left out."""
     tags = {"highway": street.highway}
     if street.name:
         tags["name"] = street.name
@@ -28,8 +41,49 @@ def street_tags(street: Street) -> dict[str, str]:
     return tags
 
 
-def lonlat_of_used(net: StreetNetwork) -> tuple[np.ndarray, np.ndarray]:
-    """Used node indices and their lon/lat, rounded to OSM's 1e-7 degrees."""
-    used = net.used_nodes()
-    lon, lat = net.context.projection.to_lonlat(net.xy[used, 0], net.xy[used, 1])
-    return used, np.round(np.column_stack([lon, lat]), 7)
+def osm_street_tags(street: Street) -> dict[str, str]:
+    """The tags a street is written with: as mapped for the town's, typed fields for new ones, and its origin."""
+    if street.origin == Origin.SOURCE and street.tags:
+        tags = dict(street.tags)
+    else:
+        tags = street_tags(street)
+    return {**tags, **history_tags(street.origin, street.year, street.era)}
+
+
+def history_tags(origin: Origin, year: int | None, era: str | None = None) -> dict[str, str]:
+    """Origin always; year and era for what the tool made."""
+    tags = {ORIGIN_KEY: str(origin)}
+    if origin != Origin.SOURCE:
+        if year is not None:
+            tags[YEAR_KEY] = str(year)
+        if era:
+            tags["osm_expand:era"] = era
+    return tags
+
+
+def building_tags(b: Building) -> dict[str, str]:
+    """A building's tags: as mapped for the town's, from the model for generated ones, and its origin."""
+    if b.origin == Origin.SOURCE and b.tags:
+        tags = dict(b.tags)
+    else:
+        tags = {"building": "yes"}
+        if b.height:
+            tags["height"] = f"{b.height:.1f}"
+        if b.levels:
+            tags["building:levels"] = f"{b.levels:g}"
+        if b.land_use:
+            tags["osm_expand:landuse"] = b.land_use
+    return {**tags, **history_tags(b.origin, b.year)}
+
+
+def to_lonlat(city: City, xy: np.ndarray) -> np.ndarray:
+    """(n, 2) metres → (n, 2) lon/lat rounded to OSM's 1e-7 degrees."""
+    xy = np.asarray(xy, dtype=float).reshape(-1, 2)
+    lon, lat = city.projection.to_lonlat(xy[:, 0], xy[:, 1])
+    return np.round(np.column_stack([lon, lat]), 7)
+
+
+def lonlat_of_used(city: City) -> tuple[np.ndarray, np.ndarray]:
+    """Used street-node indices and their lon/lat."""
+    used = city.network.used_nodes()
+    return used, to_lonlat(city, city.network.xy[used])

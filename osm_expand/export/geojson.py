@@ -1,32 +1,73 @@
-"""GeoJSON output (RFC 7946): lon/lat WGS 84, one LineString feature per street."""
+"""GeoJSON output (RFC 7946): lon/lat WGS 84; streets as LineStrings, buildings as Polygons.
+
+Every feature has an ``origin`` property (``source``, ``grown``, ``join``,
+``engine``), so ``"origin" != 'source'`` selects everything new in QGIS. The
+town's streets and buildings carry their OSM tags as mapped and their
+``osm_id(s)``; new ones their typed attributes and ``year``.
+"""
 from __future__ import annotations
 
 import json
 import os
 
+import numpy as np
+
 from osm_expand.export.atomic import atomic_write
-from osm_expand.export.features import lonlat_of_used, street_tags
-from osm_expand.model import StreetNetwork
+from osm_expand.export.features import ORIGIN_KEY, YEAR_KEY, building_tags, osm_street_tags, to_lonlat
+from osm_expand.model import City, Origin
 
 
-def geojson_document(net: StreetNetwork) -> dict:
-    used, lonlat = lonlat_of_used(net)
-    where = {n: i for i, n in enumerate(used.tolist())}
+def _model_props(tags: dict[str, str]) -> dict:
+    """OSM-style tags with the origin and year keys as plain ``origin`` and ``year`` properties."""
+    props = {k: v for k, v in tags.items() if not k.startswith("osm_expand:")}
+    props["origin"] = tags[ORIGIN_KEY]
+    if YEAR_KEY in tags:
+        props["year"] = int(tags[YEAR_KEY])
+    if "osm_expand:era" in tags:
+        props["era"] = tags["osm_expand:era"]
+    return props
+
+
+def geojson_document(city: City) -> dict:
+    net = city.network
+    used = net.used_nodes()
+    lonlat = np.zeros((len(net.xy), 2))
+    lonlat[used] = to_lonlat(city, net.xy[used])
     features = []
-    for k, street in enumerate(net.streets):
-        coords = [lonlat[where[n]].tolist() for n in street.nodes]
-        props = street_tags(street)
-        if street.layer == 0:
-            props["layer"] = "0"
+    for street in net.streets:
+        props = _model_props(osm_street_tags(street))
+        props.setdefault("layer", str(street.layer))
+        if street.hierarchy >= 0:
+            props["hierarchy"] = street.hierarchy
+        if street.origin != Origin.SOURCE:
+            props["status"] = str(street.status)
         props["osm_ids"] = list(street.osm_ids)
-        features.append({"type": "Feature", "id": k,
-                         "geometry": {"type": "LineString", "coordinates": coords},
+        features.append({"type": "Feature", "id": f"street/{street.id}",
+                         "geometry": {"type": "LineString", "coordinates": lonlat[list(street.nodes)].tolist()},
                          "properties": props})
+    for k, b in enumerate(city.buildings):
+        props = _model_props(building_tags(b))
+        if b.height:
+            props["height"] = round(float(b.height), 2)
+        if b.osm_id > 0:
+            props["osm_id"] = b.osm_id
+            props["osm_type"] = b.osm_type
+        rings = [_ring_lonlat(city, r, outer=(i == 0)) for i, r in enumerate(b.rings)]
+        features.append({"type": "Feature", "id": f"building/{k}",
+                         "geometry": {"type": "Polygon", "coordinates": rings}, "properties": props})
     return {"type": "FeatureCollection", "features": features}
 
 
-def write_geojson(net: StreetNetwork, path: str | os.PathLike) -> None:
-    doc = geojson_document(net)
+def _ring_lonlat(city: City, ring: np.ndarray, outer: bool) -> list:
+    """A closed ring in lon/lat, counter-clockwise when outer and clockwise when a hole (RFC 7946 §3.1.6)."""
+    ll = to_lonlat(city, ring)
+    x, y = ll[:, 0], ll[:, 1]
+    ccw = float(np.dot(x[:-1], y[1:]) - np.dot(x[1:], y[:-1])) > 0
+    return (ll if ccw == outer else ll[::-1]).tolist()
+
+
+def write_geojson(city: City, path: str | os.PathLike) -> None:
+    doc = geojson_document(city)
     with atomic_write(path, "w") as fh:
         json.dump(doc, fh, ensure_ascii=False, separators=(",", ":"))
         fh.write("\n")

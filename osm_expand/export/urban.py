@@ -2,27 +2,31 @@
 
 Streets are lists of ``segment x1 y1 x2 y2`` in local metres (x east, y
 north), one segment per pair of consecutive shape points, so curved streets
-stay curved; buildings are four ``node x y`` and a ``height``. Only optional
-attributes are added: on the root the PROJ string and origin that
-georeference the coordinates, on each street its id, name, class,
-hierarchy, origin (``source`` or ``grown``), layer, bridge, tunnel, width and
-year. The XSD ships with the package (``osm_expand/schemas``).
+stay curved; buildings are four ``node x y`` and a ``height``. The town's
+own buildings are written as the minimum rotated rectangle of their
+footprint. Only optional attributes are added: on the root the PROJ string
+and origin that georeference the coordinates; on each street its id, OSM id,
+name, class, hierarchy, origin (``source``, ``grown``, ``join``,
+``engine``), layer, bridge, tunnel, width, status, year and era; on each
+building its origin, OSM id, year, floors and land use. The XSD ships with
+the package (``osm_expand/schemas``).
 """
 from __future__ import annotations
 
 import os
-from collections.abc import Sequence
 from importlib import resources
 
 import numpy as np
+import shapely
 from lxml import etree
 
 from osm_expand.export.atomic import atomic_write
 from osm_expand.export.features import street_tags
-from osm_expand.model import StreetNetwork
+from osm_expand.model import Building, City, Origin, Street
+from osm_expand.model.geometry import minimum_rectangle
 
-#: One building: its four corners (metres, in order around it) and its height (m).
-Footprint = tuple[np.ndarray, float]
+#: A building with no height gets this one (m); :mod:`osm_expand.heights` fills heights before export.
+FALLBACK_HEIGHT = 6.0
 
 
 def schema() -> etree.XMLSchema:
@@ -34,36 +38,66 @@ def _fmt(v: float) -> str:
     return f"{v:.3f}"
 
 
-def _street_attrs(net: StreetNetwork, k: int, origin: str) -> dict[str, str]:
-    """The street's tags (:func:`street_tags`) that the schema knows, layer, bridge and tunnel always."""
-    s = net.streets[k]
+def _street_attrs(s: Street) -> dict[str, str]:
+    """The street's attributes that the schema knows; layer, bridge and tunnel always."""
     tags = {"layer": "0", "bridge": "no", "tunnel": "no", **street_tags(s)}
-    attrs = {"id": str(k), "highway": s.highway, "origin": origin}
+    attrs = {"id": str(s.id), "highway": s.highway, "origin": str(s.origin)}
+    if s.origin == Origin.SOURCE and s.osm_ids and s.osm_ids[0] > 0:
+        attrs["osm_id"] = str(s.osm_ids[0])
     attrs.update({key: tags[key] for key in ("layer", "bridge", "tunnel", "name", "hierarchy", "width") if key in tags})
+    if s.origin != Origin.SOURCE:
+        attrs["status"] = str(s.status)
     if s.year is not None:
         attrs["year"] = str(s.year)
+    if s.era:
+        attrs["era"] = s.era
     return attrs
 
 
-def write_urbanenvironment(net: StreetNetwork, path: str | os.PathLike,
-                           buildings: Sequence[Footprint] = (), origins: Sequence[str] | None = None) -> None:
-    """Write streets (and buildings) as ``<urbanenvironment>``; ``origins`` marks streets source/grown."""
-    proj = net.context.projection
+def _building_attrs(b: Building) -> dict[str, str]:
+    attrs = {"height": f"{b.height if b.height and b.height > 0 else FALLBACK_HEIGHT:.2f}", "origin": str(b.origin)}
+    if b.osm_id > 0:
+        attrs["osm_id"] = str(b.osm_id)
+    if b.year is not None:
+        attrs["year"] = str(b.year)
+    if b.levels and b.origin != Origin.SOURCE:
+        attrs["floors"] = f"{b.levels:g}"
+    if b.land_use:
+        attrs["landuse"] = b.land_use
+    return attrs
+
+
+def four_corners(b: Building) -> np.ndarray | None:
+    """The four corners the XML gives a building: its footprint when that is a rectangle already
+    (generated ones), else the minimum rotated rectangle; None when it has no area."""
+    ring = np.asarray(b.ring, dtype=float)
+    if b.origin != Origin.SOURCE and len(ring) == 5:
+        return ring[:4]
+    return minimum_rectangle(ring)
+
+
+def write_urbanenvironment(city: City, path: str | os.PathLike) -> None:
+    """Write the whole city (streets and buildings) as ``<urbanenvironment>``, atomically."""
+    net = city.network
+    proj = city.projection
     with atomic_write(path, "wb") as fh, etree.xmlfile(fh, encoding="UTF-8") as xf:
         xf.write_declaration()
         with xf.element("urbanenvironment", projection=proj.proj_string,
                         lon0=f"{proj.lon0:.7f}", lat0=f"{proj.lat0:.7f}"):
             with xf.element("streets"):
-                for k, street in enumerate(net.streets):
-                    el = etree.Element("street", _street_attrs(net, k, origins[k] if origins else "source"))
+                for street in net.streets:
+                    el = etree.Element("street", _street_attrs(street))
                     pts = net.street_xy(street)
                     for (x1, y1), (x2, y2) in zip(pts[:-1], pts[1:]):
                         etree.SubElement(el, "segment", x1=_fmt(x1), y1=_fmt(y1), x2=_fmt(x2), y2=_fmt(y2))
                     xf.write(el)
             with xf.element("buildings"):
-                for corners, height in buildings:
-                    el = etree.Element("building", height=f"{height:.2f}")
-                    for x, y in np.asarray(corners, dtype=float)[:4]:
+                for b in city.buildings:
+                    corners = four_corners(b)
+                    if corners is None or shapely.Polygon(corners).area < 1.0:
+                        continue  # a footprint without area (a mapping error) has no rectangle
+                    el = etree.Element("building", _building_attrs(b))
+                    for x, y in corners:
                         etree.SubElement(el, "node", x=_fmt(x), y=_fmt(y))
                     xf.write(el)
 

@@ -11,7 +11,8 @@ from collections.abc import Iterable, Sequence
 
 import numpy as np
 
-from osm_expand.model import Street, StreetNetwork, polyline_length
+from osm_expand.model.geometry import polyline_length
+from osm_expand.model.network import Street, StreetNetwork
 
 
 def street_counts(streets: Sequence[Street], n_nodes: int) -> np.ndarray:

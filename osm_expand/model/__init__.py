@@ -1,0 +1,18 @@
+"""The model every stage shares: the city, its streets, and the helpers all packages need.
+
+``simplify`` and ``synth`` import only from here (and :mod:`osm_expand.errors`):
+
+- :mod:`~osm_expand.model.city` — :class:`City`, :class:`Building`, :class:`Block`, :class:`MappedArea`
+- :mod:`~osm_expand.model.network` — :class:`Street`, :class:`StreetNetwork`, :class:`Origin`, :class:`Status`
+- :mod:`~osm_expand.model.topology` — junctions, pieces and degrees of a network
+- :mod:`~osm_expand.model.geometry` — lengths, closest points, node matching, rectangles
+- :mod:`~osm_expand.model.highways` — which ``highway=*`` values are streets, and their rank
+- :mod:`~osm_expand.model.projection` — the local metric projection
+"""
+from osm_expand.model.city import Block, Building, City, MappedArea
+from osm_expand.model.geometry import closest_on_segments, match_points, polyline_length
+from osm_expand.model.network import Context, Origin, Status, Street, StreetNetwork, network_from_lines
+from osm_expand.model.projection import LocalProjection
+
+__all__ = ["Block", "Building", "City", "Context", "LocalProjection", "MappedArea", "Origin", "Status", "Street",
+           "StreetNetwork", "closest_on_segments", "match_points", "network_from_lines", "polyline_length"]

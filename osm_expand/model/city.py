@@ -1,0 +1,138 @@
+"""The city: the real town as mapped, and everything the tool adds to it.
+
+A :class:`City` is what every stage after ingest reads and returns: its
+street network holds every street of the town as mapped (ids, tags, shapes
+and dead ends kept) plus the streets the tool grew, each with its origin and
+year; beside it the town's buildings, water, sea and mapped land use, the
+blocks, and the current year. The simplified network and the example that
+synthesis learns from are derived from a city and kept beside it by the
+pipeline; they are never handed back as the town.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field, replace
+from functools import cached_property
+from typing import Any
+
+import numpy as np
+import shapely
+
+from osm_expand.model.network import Context, Origin, StreetNetwork, Tags
+from osm_expand.model.projection import LocalProjection
+
+
+@dataclass(frozen=True, eq=False)
+class Building:
+    """A building footprint: the town's own (as mapped) or one the tool made.
+
+    ``rings`` holds the outer ring first, then holes, each ``(n, 2)`` metres
+    and closed. For the town's buildings ``node_ids`` holds the OSM node id
+    of every ring point (so the footprint can be written back as mapped) and
+    ``osm_type``/``osm_id`` the way or relation it came from.
+    """
+
+    rings: tuple[np.ndarray, ...]
+    height: float | None = None  #: metres, from ``height`` (source) or the economy (generated)
+    levels: float | None = None  #: from ``building:levels``, or the floors the model gave it
+    osm_id: int = 0
+    osm_type: str = "way"  #: "way" or "relation"
+    node_ids: tuple[np.ndarray, ...] = ()
+    tags: Tags = ()
+    origin: Origin = Origin.SOURCE
+    year: int | None = None
+    land_use: str | None = None
+    lot: int | None = None
+
+    @property
+    def ring(self) -> np.ndarray:
+        """The outer ring."""
+        return self.rings[0]
+
+    @property
+    def polygon(self) -> shapely.Polygon:
+        return shapely.Polygon(self.rings[0], self.rings[1:])
+
+
+@dataclass(frozen=True, eq=False)
+class MappedArea:
+    """An area mapped in OSM that later stages care about: land use, leisure, aeroway, military."""
+
+    polygon: shapely.Geometry  #: metres
+    key: str  #: the tag that made it interesting, e.g. ``landuse``
+    value: str  #: its value, e.g. ``cemetery``
+    osm_id: int = 0
+
+
+@dataclass(frozen=True, eq=False)
+class Block:
+    """A block: a face of the street graph (004 §4.3) that knows the streets around it.
+
+    ``street_ids[i]`` is the id of the street that the exterior edge from
+    point i to point i+1 lies on, so lots can find their frontage.
+    """
+
+    polygon: shapely.Polygon
+    street_ids: tuple[int, ...]
+    id: int = -1
+    origin: Origin = Origin.SOURCE
+    year: int | None = None
+
+
+@dataclass(frozen=True)
+class City:
+    """The town and everything added to it; stages return a new City, never mutate one."""
+
+    network: StreetNetwork  #: every street: the town's as mapped, and the new ones
+    buildings: tuple[Building, ...] = ()
+    water: tuple[shapely.Geometry, ...] = ()  #: water areas and rivers buffered to their width
+    sea: tuple[shapely.Geometry, ...] = ()  #: assembled from coastline
+    areas: tuple[MappedArea, ...] = ()
+    blocks: tuple[Block, ...] = ()
+    year: int | None = None  #: the current year (the map's, from its newest object, at ingest)
+    unbuildable: shapely.Geometry | None = None  #: land nothing new may take (see :mod:`osm_expand.land`)
+    stats: dict[str, Any] = field(default_factory=dict)  #: what ingest counted
+
+    @property
+    def context(self) -> Context:
+        return self.network.context
+
+    @property
+    def projection(self) -> LocalProjection:
+        return self.network.context.projection
+
+    @property
+    def bounds_xy(self) -> tuple[float, float, float, float]:
+        """The bounds of the map's data in metres: what lies outside is unknown land."""
+        return self.network.context.bounds_xy
+
+    @property
+    def bounds_polygon(self) -> shapely.Polygon:
+        """The data bounds as a polygon in metres (the projected corners of the lon/lat box)."""
+        proj = self.projection
+        lon0, lat0, lon1, lat1 = self.context.bounds_lonlat
+        lon = np.array([lon0, lon1, lon1, lon0])
+        lat = np.array([lat0, lat0, lat1, lat1])
+        return shapely.Polygon(np.column_stack(proj.to_xy(lon, lat)))
+
+    def replace(self, **changes: Any) -> "City":
+        return replace(self, **changes)
+
+    def water_geometry(self) -> shapely.Geometry:
+        """Water and sea as one geometry (empty when there is none)."""
+        return shapely.union_all([*self.water, *self.sea])
+
+    @cached_property
+    def occupied(self) -> shapely.Geometry:
+        """Where no new street may go: water, sea, unbuildable land, and the blocks (shrunk 1 m, so
+        streets may run along their edges)."""
+        blocks = shapely.buffer(np.array([b.polygon for b in self.blocks], dtype=object), -1.0)
+        parts = [*self.water, *self.sea, *blocks.tolist()]
+        if self.unbuildable is not None:
+            parts.append(self.unbuildable)
+        geom = shapely.union_all(parts)
+        shapely.prepare(geom)
+        return geom
+
+    def new_streets(self) -> list[int]:
+        """Indices (into ``network.streets``) of the streets the tool made."""
+        return [k for k, s in enumerate(self.network.streets) if s.is_new]

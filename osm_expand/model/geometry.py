@@ -1,0 +1,140 @@
+"""Small geometry kernels every stage shares (metres, NumPy arrays)."""
+from __future__ import annotations
+
+import numpy as np
+from scipy.spatial import cKDTree
+
+
+def polyline_length(xy: np.ndarray) -> float:
+    """Length of a polyline.
+
+    Parameters
+    ----------
+    xy : (n, 2) float array
+        Points in metres.
+
+    Returns
+    -------
+    float
+        Metres; 0 for fewer than two points.
+
+    Examples
+    --------
+    >>> polyline_length(np.array([[0.0, 0.0], [3.0, 4.0], [3.0, 5.0]]))
+    6.0
+    >>> polyline_length(np.zeros((0, 2)))
+    0.0
+    """
+    if len(xy) < 2:
+        return 0.0
+    return float(np.hypot(*np.diff(xy, axis=0).T).sum())
+
+
+def closest_on_segments(pt: np.ndarray, a: np.ndarray, b: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The closest point of segments a→b to point(s) ``pt`` (broadcast).
+
+    Parameters
+    ----------
+    pt, a, b : (..., 2) float arrays
+        Points and segment ends in metres; shapes broadcast.
+
+    Returns
+    -------
+    t : (...) float array
+        Parameter of the closest point along each segment, in [0, 1].
+    foot : (..., 2) float array
+        The closest point.
+    distance : (...) float array
+        Metres from ``pt`` to ``foot``.
+
+    Examples
+    --------
+    >>> t, foot, d = closest_on_segments(np.array([5.0, 3.0]), np.array([0.0, 0.0]), np.array([10.0, 0.0]))
+    >>> float(t), foot.tolist(), float(d)
+    (0.5, [5.0, 0.0], 3.0)
+    """
+    d = b - a
+    t = np.clip(((pt - a) * d).sum(axis=-1) / np.maximum((d * d).sum(axis=-1), 1e-24), 0.0, 1.0)
+    foot = a + t[..., None] * d
+    return t, foot, np.hypot(*np.moveaxis(pt - foot, -1, 0))
+
+
+def match_points(points: np.ndarray, known: np.ndarray, tolerance: float = 0.0) -> np.ndarray:
+    """Which known point each point is (within ``tolerance`` metres), or -1.
+
+    The one helper that turns coordinates back into nodes: synthesised
+    streets that end on a town's node carry that node's exact coordinates.
+
+    Parameters
+    ----------
+    points : (m, 2) float array
+    known : (n, 2) float array
+    tolerance : float
+        Metres; 0 means equal coordinates.
+
+    Returns
+    -------
+    (m,) int64 array
+        Index into ``known`` of the nearest known point within the
+        tolerance (the first of equal ones), -1 where there is none.
+
+    Examples
+    --------
+    >>> match_points(np.array([[1.0, 1.0], [5.0, 5.0]]), np.array([[0.0, 0.0], [1.0, 1.0]])).tolist()
+    [1, -1]
+    >>> match_points(np.zeros((0, 2)), np.zeros((0, 2))).tolist()
+    []
+    """
+    points = np.asarray(points, dtype=float).reshape(-1, 2)
+    known = np.asarray(known, dtype=float).reshape(-1, 2)
+    out = np.full(len(points), -1, dtype=np.int64)
+    if not len(points) or not len(known):
+        return out
+    if tolerance <= 0.0:
+        index: dict[tuple[float, float], int] = {}
+        for i, key in enumerate(map(tuple, known.tolist())):
+            index.setdefault(key, i)
+        return np.fromiter((index.get(key, -1) for key in map(tuple, points.tolist())), dtype=np.int64,
+                           count=len(points))
+    dist, idx = cKDTree(known).query(points, distance_upper_bound=tolerance)
+    hit = np.isfinite(dist)
+    out[hit] = idx[hit]
+    return out
+
+
+def minimum_rectangle(ring: np.ndarray) -> np.ndarray | None:
+    """The minimum-area rectangle around a footprint: four corners, counter-clockwise.
+
+    Parameters
+    ----------
+    ring : (n, 2) float array
+        A footprint's outer ring in metres (closed or not).
+
+    Returns
+    -------
+    (4, 2) float array, or None
+        Exactly rectangular corners (built from one edge direction and its
+        normal, not rounded by a polygon library), or None for a footprint
+        with no area.
+    """
+    import shapely
+
+    pts = np.unique(np.asarray(ring, dtype=float).reshape(-1, 2), axis=0)
+    if len(pts) < 3:
+        return None
+    hull = np.asarray(shapely.MultiPoint(pts).convex_hull.exterior.coords) if len(pts) >= 3 else pts
+    if len(hull) < 4:
+        return None
+    edges = np.diff(hull, axis=0)
+    lengths = np.hypot(*edges.T)
+    edges, lengths = edges[lengths > 0], lengths[lengths > 0]
+    u = edges / lengths[:, None]  # (k, 2) candidate directions
+    v = np.column_stack([-u[:, 1], u[:, 0]])
+    along, across = hull @ u.T, hull @ v.T  # (h, k)
+    lo_u, hi_u, lo_v, hi_v = along.min(0), along.max(0), across.min(0), across.max(0)
+    area = (hi_u - lo_u) * (hi_v - lo_v)
+    k = int(np.argmin(area))
+    if not area[k] > 0:
+        return None
+    corners = np.array([[lo_u[k], lo_v[k]], [hi_u[k], lo_v[k]], [hi_u[k], hi_v[k]], [lo_u[k], hi_v[k]]])
+    return corners[:, :1] * u[k] + corners[:, 1:] * v[k]

@@ -1,0 +1,207 @@
+"""Streets and the street network: nodes in metres, streets over them.
+
+Nodes live in a single ``(N, 2)`` float64 array of metres in a local
+transverse Mercator projection; streets are ordered node-index sequences that
+keep the full OSM shape between junctions. Stages never mutate a network:
+they build a new one with :meth:`StreetNetwork.replace` so that every pass
+stays a pure function.
+"""
+from __future__ import annotations
+
+import enum
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field, replace
+from typing import Any
+
+import numpy as np
+
+from osm_expand.errors import InputError
+from osm_expand.model.geometry import match_points, polyline_length
+from osm_expand.model.projection import LocalProjection
+
+
+class Origin(enum.StrEnum):
+    """Where a street, block or building came from."""
+
+    SOURCE = "source"  #: the real town, as mapped in OpenStreetMap
+    GROWN = "grown"  #: a district grown by a growth pattern
+    JOIN = "join"  #: a street joining grown streets to the town
+    ENGINE = "engine"  #: built by the engine during the simulated years
+
+    @classmethod
+    def parse(cls, value: str) -> "Origin":
+        return _parse(cls, value, "origin")
+
+
+class Status(enum.StrEnum):
+    """Planned streets exist on the map; they become built when traffic uses them (002 §2)."""
+
+    BUILT = "built"
+    PLANNED = "planned"
+
+    @classmethod
+    def parse(cls, value: str) -> "Status":
+        return _parse(cls, value, "status")
+
+
+def _parse(cls: type[enum.StrEnum], value: str, what: str):
+    try:
+        return cls(value)
+    except ValueError:
+        raise InputError(f"{what} must be one of {', '.join(m.value for m in cls)}, got {value!r}") from None
+
+
+Tags = tuple[tuple[str, str], ...]
+
+
+@dataclass(frozen=True, slots=True)
+class Street:
+    """One street: an ordered run of node indices plus its attributes.
+
+    ``nodes`` includes shape points, not only junctions. A closed street
+    (a ring) repeats its first node at the end. ``id`` is stable for the
+    life of a city (unique among a city's streets; the pieces of a street
+    in a derived network such as the simplified one share it). ``tags`` are
+    the way's OSM tags as mapped (empty for streets the tool made); the
+    typed fields are what the stages read.
+    """
+
+    nodes: tuple[int, ...]
+    highway: str
+    name: str | None = None
+    layer: int = 0
+    bridge: bool = False
+    tunnel: bool = False
+    junction: str | None = None
+    lanes: float | None = None
+    width: float | None = None  #: metres
+    osm_ids: tuple[int, ...] = ()
+    hierarchy: int = -1  #: Gravelius level; -1 unknown
+    status: Status = Status.BUILT
+    year: int | None = None  #: the year it was built (None: before the history)
+    id: int = -1
+    origin: Origin = Origin.SOURCE
+    era: str | None = None  #: the era of the history it was built in
+    tags: Tags = ()
+
+    @property
+    def layer_key(self) -> tuple[int, bool, bool]:
+        """Streets cross only at a junction when their layer keys are equal."""
+        return (self.layer, self.bridge, self.tunnel)
+
+    @property
+    def is_closed(self) -> bool:
+        return len(self.nodes) > 2 and self.nodes[0] == self.nodes[-1]
+
+    @property
+    def is_new(self) -> bool:
+        """Made by the tool (grown, joining, or built by the engine), not mapped."""
+        return self.origin != Origin.SOURCE
+
+    def with_nodes(self, nodes: tuple[int, ...] | list[int]) -> "Street":
+        return replace(self, nodes=tuple(nodes))
+
+
+@dataclass(frozen=True)
+class Context:
+    """Where a network lies on the earth: its projection and the bounds of its data."""
+
+    projection: LocalProjection
+    bounds_lonlat: tuple[float, float, float, float]  #: (lon0, lat0, lon1, lat1)
+    bounds_from_header: bool
+
+    @property
+    def bounds_xy(self) -> tuple[float, float, float, float]:
+        """The bounds in metres: (x0, y0, x1, y1) around the projected corners."""
+        lon0, lat0, lon1, lat1 = self.bounds_lonlat
+        xs, ys = self.projection.to_xy(np.array([lon0, lon1, lon0, lon1]), np.array([lat0, lat0, lat1, lat1]))
+        return (float(xs.min()), float(ys.min()), float(xs.max()), float(ys.max()))
+
+
+@dataclass(frozen=True)
+class StreetNetwork:
+    """Nodes in metres, streets over them, and where they lie.
+
+    ``node_ids`` holds each node's OSM id (0 for nodes the tool made).
+    """
+
+    xy: np.ndarray  #: (N, 2) float64, metres
+    node_ids: np.ndarray  #: (N,) int64
+    streets: tuple[Street, ...]
+    context: Context
+    stats: dict[str, Any] = field(default_factory=dict)
+
+    def replace(self, **changes: Any) -> "StreetNetwork":
+        return replace(self, **changes)
+
+    def street_xy(self, street: Street) -> np.ndarray:
+        return self.xy[np.asarray(street.nodes, dtype=np.intp)]
+
+    def used_nodes(self) -> np.ndarray:
+        """Sorted indices of the nodes that some street references."""
+        if not self.streets:
+            return np.zeros(0, dtype=np.intp)
+        return np.unique(np.concatenate([np.asarray(s.nodes, dtype=np.intp) for s in self.streets]))
+
+    def total_length(self) -> float:
+        return float(sum(polyline_length(self.street_xy(s)) for s in self.streets))
+
+    def next_street_id(self) -> int:
+        """An id no street of this network has."""
+        return max((s.id for s in self.streets), default=-1) + 1
+
+    def with_new_streets(self, lines: Sequence[np.ndarray], attrs: Sequence[Mapping[str, Any]]) -> "StreetNetwork":
+        """This network plus streets along ``lines`` (metres), each with the given :class:`Street` fields.
+
+        A point with exactly the coordinates of a node of this network is
+        that node; points shared by the new lines become one new node. New
+        streets get fresh ids; new nodes get OSM id 0.
+        """
+        if not len(lines):
+            return self
+        pts = np.concatenate([np.asarray(ln, dtype=float).reshape(-1, 2) for ln in lines])
+        known = match_points(pts, self.xy)
+        fresh = known < 0
+        keys = [tuple(p) for p in pts[fresh].tolist()]
+        order: dict[tuple[float, float], int] = {}
+        for key in keys:
+            order.setdefault(key, len(self.xy) + len(order))
+        known[fresh] = [order[key] for key in keys]
+        xy = np.vstack([self.xy, np.array(list(order), dtype=float).reshape(-1, 2)])
+        ids = np.concatenate([self.node_ids, np.zeros(len(order), dtype=np.int64)])
+        first, streets = self.next_street_id(), list(self.streets)
+        start = 0
+        for k, (line, fields) in enumerate(zip(lines, attrs)):
+            n = len(line)
+            nodes = tuple(int(v) for v in known[start:start + n])
+            start += n
+            streets.append(Street(nodes=nodes, **{"highway": "residential", "id": first + k, **fields}))
+        return self.replace(xy=xy, node_ids=ids, streets=tuple(streets))
+
+
+def network_from_lines(lines: Sequence, attrs: Sequence[Mapping[str, Any]] | None = None,
+                       projection: LocalProjection | None = None) -> StreetNetwork:
+    """A network from polylines in metres; equal coordinates become one shared node.
+
+    For hand-built examples, tests and networks read from files that only
+    have coordinates. ``attrs`` gives per-line :class:`Street` fields
+    (default: residential, layer 0).
+
+    Examples
+    --------
+    >>> net = network_from_lines([[(0, 0), (100, 0)], [(100, 0), (100, 100)]])
+    >>> len(net.xy), [s.nodes for s in net.streets]
+    (3, [(0, 1), (1, 2)])
+    >>> len(network_from_lines([]).streets)
+    0
+    """
+    proj = projection or LocalProjection(0.0, 0.0)
+    arrays = [np.asarray(line, dtype=float).reshape(-1, 2) for line in lines]
+    if arrays:
+        lon, lat = proj.to_lonlat(*np.concatenate(arrays).T)
+        bounds = (float(lon.min()), float(lat.min()), float(lon.max()), float(lat.max()))
+    else:
+        bounds = (proj.lon0, proj.lat0, proj.lon0, proj.lat0)
+    empty = StreetNetwork(xy=np.zeros((0, 2)), node_ids=np.zeros(0, dtype=np.int64), streets=(),
+                          context=Context(projection=proj, bounds_lonlat=bounds, bounds_from_header=False))
+    return empty.with_new_streets(arrays, attrs or [{}] * len(arrays))

@@ -1,0 +1,138 @@
+"""Read osm-expand's own outputs back: GeoJSON (lon/lat) and ``<urbanenvironment>`` (metres).
+
+So that ``stats`` and ``compare`` take any file the tool writes. Streets
+keep their attributes (class, name, layer, origin, year, ...); buildings come
+back as footprints with their height and origin.
+"""
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+from lxml import etree
+
+from osm_expand.errors import InputError
+from osm_expand.ingest import _number, street_attrs
+from osm_expand.model import Building, City, LocalProjection, Origin, Status, network_from_lines
+
+#: Street attributes of the formats that are not OSM tags.
+_MODEL_KEYS = ("origin", "year", "era", "status", "hierarchy", "osm_ids", "osm_id", "id")
+
+
+def load_output(path: Path) -> City:
+    """A :class:`City` from a GeoJSON or ``<urbanenvironment>`` file written by osm-expand."""
+    if path.name.lower().endswith((".geojson", ".json")):
+        return _from_geojson(path)
+    return _from_urbanenvironment(path)
+
+
+def _model_fields(props: dict) -> dict:
+    """Origin, status, year, era and hierarchy of a feature or element, checked."""
+    out: dict = {}
+    try:
+        if props.get("origin") is not None:
+            out["origin"] = Origin(str(props["origin"]))
+        if props.get("status") is not None:
+            out["status"] = Status(str(props["status"]))
+        if props.get("year") not in (None, ""):
+            out["year"] = int(props["year"])
+        if props.get("hierarchy") not in (None, ""):
+            out["hierarchy"] = int(props["hierarchy"])
+    except (ValueError, TypeError) as exc:
+        raise InputError(f"bad attribute ({exc})") from None
+    if props.get("era"):
+        out["era"] = str(props["era"])
+    return out
+
+
+def _street_fields(props: dict) -> dict:
+    """A feature's properties read as OSM tags (booleans as "true"/"false"), by the ingest rules."""
+    tags = {k: str(v).lower() if isinstance(v, bool) else str(v)
+            for k, v in props.items() if v is not None and not isinstance(v, (list, dict)) and k not in _MODEL_KEYS}
+    tags.setdefault("highway", "road")
+    ids = props.get("osm_ids") or ([props["osm_id"]] if props.get("osm_id") else [])
+    fields = {**street_attrs(0, tags), **_model_fields(props)}
+    fields["osm_ids"] = tuple(int(i) for i in ids if isinstance(i, int) or str(i).lstrip("-").isdigit())
+    if fields.get("origin", Origin.SOURCE) != Origin.SOURCE:
+        fields["tags"] = ()
+    return fields
+
+
+def _city(lines: list[np.ndarray], attrs: list[dict], buildings: list[Building], proj: LocalProjection) -> City:
+    net = network_from_lines(lines, attrs, projection=proj)
+    stats = {"input_ways": len(lines), "input_nodes": len(net.xy), "clipped_ways": 0, "streets": len(lines)}
+    return City(network=net.replace(stats=stats), buildings=tuple(buildings), stats=stats)
+
+
+def _from_geojson(path: Path) -> City:
+    try:
+        doc = json.loads(path.read_text(encoding="utf-8"))
+        features = [f for f in doc["features"] if f.get("geometry")]
+        lines = [np.asarray(f["geometry"]["coordinates"], dtype=float)[:, :2]
+                 for f in features if f["geometry"]["type"] == "LineString"]
+        props = [f.get("properties") or {} for f in features if f["geometry"]["type"] == "LineString"]
+        polygons = [(f["geometry"], f.get("properties") or {}) for f in features
+                    if f["geometry"]["type"] in ("Polygon", "MultiPolygon")]
+    except (ValueError, KeyError, TypeError, IndexError, UnicodeDecodeError, AttributeError) as exc:
+        raise InputError(f"{path}: not a readable GeoJSON street network ({type(exc).__name__}: {exc})") from None
+    if not lines:
+        raise InputError(f"{path}: no LineString streets in the GeoJSON")
+    allpts = np.concatenate(lines)
+    if not np.isfinite(allpts).all() or np.abs(allpts[:, 0]).max() > 180 or np.abs(allpts[:, 1]).max() > 90:
+        raise InputError(f"{path}: coordinates out of range (GeoJSON must be lon/lat)")
+    lo, hi = allpts.min(axis=0), allpts.max(axis=0)
+    proj = LocalProjection.centred_on((float(lo[0]), float(lo[1]), float(hi[0]), float(hi[1])))
+    to_xy = lambda a: np.column_stack(proj.to_xy(a[:, 0], a[:, 1]))  # noqa: E731
+    try:
+        attrs = [_street_fields(p) for p in props]
+    except InputError as exc:
+        raise InputError(f"{path}: {exc}") from None
+    buildings = []
+    for geom, p in polygons:
+        polys = geom["coordinates"] if geom["type"] == "MultiPolygon" else [geom["coordinates"]]
+        for rings in polys:
+            buildings.append(Building(rings=tuple(to_xy(np.asarray(r, dtype=float)[:, :2]) for r in rings),
+                                      height=_number(str(p.get("height", ""))), osm_id=int(p.get("osm_id") or 0),
+                                      origin=Origin(p.get("origin", "source"))))
+    return _city([to_xy(ln) for ln in lines], attrs, buildings, proj)
+
+
+def _from_urbanenvironment(path: Path) -> City:
+    try:
+        root = etree.parse(str(path), etree.XMLParser(resolve_entities=False, no_network=True, huge_tree=True)).getroot()
+        proj = LocalProjection(float(root.get("lon0", 0.0)), float(root.get("lat0", 0.0)))
+        lines, attrs = [], []
+        for st in root.iterfind("streets/street"):
+            segs = np.array([[float(sg.get(k)) for k in ("x1", "y1", "x2", "y2")] for sg in st.iterfind("segment")])
+            props = dict(st.attrib)
+            if props.get("osm_id"):
+                props["osm_ids"] = [int(props["osm_id"])]
+            fields = _street_fields(props)
+            for run in _chains(segs):
+                lines.append(run)
+                attrs.append(fields)
+        buildings = [
+            Building(rings=(np.array([[float(n.get("x")), float(n.get("y"))] for n in (*b.iterfind("node"),
+                                                                                       b.find("node"))]),),
+                     height=float(b.get("height")), osm_id=int(b.get("osm_id", 0)),
+                     origin=Origin(b.get("origin", "source")), year=int(b.get("year")) if b.get("year") else None)
+            for b in root.iterfind("buildings/building")]
+    except (etree.XMLSyntaxError, ValueError, TypeError) as exc:
+        raise InputError(f"{path}: not a readable urbanenvironment file ({exc})") from None
+    except InputError as exc:
+        raise InputError(f"{path}: {exc}") from None
+    if not lines:
+        raise InputError(f"{path}: no streets in the urbanenvironment file")
+    return _city(lines, attrs, buildings, proj)
+
+
+def _chains(segs: np.ndarray) -> list[np.ndarray]:
+    """Consecutive segments that meet end to start, as polylines."""
+    if not len(segs):
+        return []
+    breaks = np.flatnonzero(np.any(segs[1:, :2] != segs[:-1, 2:], axis=1)) + 1
+    out = []
+    for part in np.split(segs, breaks):
+        out.append(np.vstack([part[:, :2], part[-1:, 2:]]))
+    return out
