@@ -38,7 +38,7 @@ import shapely
 
 from osm_expand.errors import InputError
 from osm_expand.measures import (DISTRIBUTIONS, LineSet, Measure, MeasureOptions, NetworkMeasures,
-                                 measure_network)
+                                 measure_named, measure_network)
 
 __all__ = ["FidelityOptions", "FidelityReport", "MeasureVerdict", "TownReference", "compare", "fidelity",
            "judge", "ks_distance", "real_parts", "town_reference"]
@@ -108,7 +108,7 @@ class MeasureVerdict:
                 "district": _num(self.district_level), "town": _num(self.town_level)}
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, eq=False)
 class TownReference:
     """The town measured whole and in its real parts, ready to judge districts of ``area`` m².
 
@@ -124,7 +124,7 @@ class TownReference:
     sorted_town: tuple[np.ndarray, ...]  # the town's distributions, sorted
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, eq=False)
 class FidelityReport:
     """The verdict on one district (see the module docstring for the rules)."""
 
@@ -148,7 +148,7 @@ class FidelityReport:
         return self.density_ok and self.off <= math.ceil(self.typical_off)
 
     def verdict(self, measure: Measure | str) -> MeasureVerdict:
-        return self.verdicts[_ORDER.index(Measure(measure))]
+        return self.verdicts[_ORDER.index(measure_named(measure))]
 
     def part_verdicts(self, k: int) -> tuple[MeasureVerdict, ...]:
         """Real part ``k`` judged like a district against the other parts."""
@@ -187,12 +187,15 @@ def ks_distance(a: np.ndarray, b_sorted: np.ndarray) -> float:
     The statistic in [0, 1]; 1 when exactly one sample is empty, NaN when both are.
     """
     a = np.sort(np.asarray(a, dtype=np.float64))
-    if len(a) == 0 or len(b_sorted) == 0:
-        return float("nan") if len(a) == len(b_sorted) else 1.0
-    x = np.concatenate([a, b_sorted])
-    fa = np.searchsorted(a, x, side="right") / len(a)
-    fb = np.searchsorted(b_sorted, x, side="right") / len(b_sorted)
-    return float(np.abs(fa - fb).max())
+    b = np.asarray(b_sorted, dtype=np.float64)
+    if len(a) == 0 or len(b) == 0:
+        return float("nan") if len(a) == len(b) else 1.0
+    # the supremum is reached at a sample value; at each distinct value both CDFs count ties in
+    last_a = np.flatnonzero(np.r_[a[1:] != a[:-1], True])
+    last_b = np.flatnonzero(np.r_[b[1:] != b[:-1], True])
+    at_a = (last_a + 1) / len(a) - np.searchsorted(b, a[last_a], side="right") / len(b)
+    at_b = np.searchsorted(a, b[last_b], side="right") / len(a) - (last_b + 1) / len(b)
+    return float(max(np.abs(at_a).max(), np.abs(at_b).max()))
 
 
 def real_parts(town_lines: Sequence[np.ndarray] | LineSet, area: float, *, n: int = 16,
@@ -232,7 +235,8 @@ def real_parts(town_lines: Sequence[np.ndarray] | LineSet, area: float, *, n: in
 
 
 def town_reference(town_lines: Sequence[np.ndarray] | LineSet, area: float, *, parts: int = 16,
-                   rng: np.random.Generator | int, options: FidelityOptions | None = None,
+                   rng: np.random.Generator | int, town: NetworkMeasures | None = None,
+                   options: FidelityOptions | None = None,
                    measure_options: MeasureOptions | None = None) -> TownReference:
     """Measure the town whole and in ``parts`` real parts of ``area`` m² (reusable for many districts).
 
@@ -242,6 +246,8 @@ def town_reference(town_lines: Sequence[np.ndarray] | LineSet, area: float, *, p
     area : m², the district's area.
     parts : real parts, at least ``options.min_parts``.
     rng : generator (or seed) for the parts' centres.
+    town : the town measured whole (``measure_network(town_lines)``) when
+        the caller has it already; measured here otherwise.
 
     Returns
     -------
@@ -251,7 +257,8 @@ def town_reference(town_lines: Sequence[np.ndarray] | LineSet, area: float, *, p
     if parts < opts.min_parts:
         raise InputError(f"fidelity needs at least {opts.min_parts} real parts, got {parts}")
     lines = LineSet.from_lines(town_lines)
-    town = measure_network(lines, options=measure_options)
+    if town is None:
+        town = measure_network(lines, options=measure_options)
     sorted_town = tuple(np.sort(town.value(m)) for m in DISTRIBUTIONS)
     windows = real_parts(lines, area, n=parts, rng=rng, sides=opts.disc_sides)
     measured = tuple(measure_network(lines, window=w, options=measure_options) for w in windows)
@@ -275,8 +282,8 @@ def _limits(part_values: np.ndarray, opts: FidelityOptions) -> tuple[np.ndarray,
     low, high = np.zeros(len(_ORDER)), np.zeros(len(_ORDER))
     high[_IS_DISTRIBUTION] = np.fmax(ks, opts.ks_floor)
     low[~_IS_DISTRIBUTION], high[~_IS_DISTRIBUTION] = lo, hi
-    low[_IS_SHARE] -= opts.share_margin
-    high[_IS_SHARE] += opts.share_margin
+    low[_IS_SHARE] = np.maximum(low[_IS_SHARE] - opts.share_margin, 0.0)
+    high[_IS_SHARE] = np.minimum(high[_IS_SHARE] + opts.share_margin, 1.0)
     return low, high
 
 

@@ -93,7 +93,7 @@ from scipy.spatial import cKDTree
 from osm_expand.errors import InputError
 
 __all__ = ["DISTRIBUTIONS", "SCALARS", "LineSet", "Measure", "MeasureOptions", "NetworkMeasures",
-           "measure_network", "orientation_entropy"]
+           "measure_named", "measure_network", "orientation_entropy"]
 
 
 class Measure(StrEnum):
@@ -116,6 +116,14 @@ class Measure(StrEnum):
 
 DISTRIBUTIONS: tuple[Measure, ...] = tuple(Measure)[:8]
 SCALARS: tuple[Measure, ...] = tuple(Measure)[8:]
+
+
+def measure_named(name: Measure | str) -> Measure:
+    """The :class:`Measure` called ``name``; :class:`InputError` listing the valid names otherwise."""
+    try:
+        return Measure(name)
+    except ValueError:
+        raise InputError(f"unknown measure {name!r} (valid: {', '.join(m.value for m in Measure)})") from None
 
 
 @dataclass(frozen=True)
@@ -158,7 +166,7 @@ class MeasureOptions:
                 raise InputError(f"measures option {f.name} must be positive, got {value!r}")
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, eq=False)
 class NetworkMeasures:
     """The measures of one network in one window (see the module docstring).
 
@@ -192,7 +200,7 @@ class NetworkMeasures:
 
     def value(self, measure: Measure | str) -> np.ndarray | float:
         """One measure by name: an array for a distribution, a float for a scalar."""
-        return getattr(self, Measure(measure).value)
+        return getattr(self, measure_named(measure).value)
 
     def counts(self) -> dict[str, float]:
         """The plain counts, JSON-ready."""
@@ -204,7 +212,7 @@ class NetworkMeasures:
 # ---------------------------------------------------------------- input lines
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, eq=False)
 class LineSet:
     """Polylines gathered once, so that many windows can be measured on them.
 
@@ -265,7 +273,7 @@ class LineSet:
 # ---------------------------------------------------------------- the graph
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, eq=False)
 class _Graph:
     """Nodes, deduplicated segments and the edges (chains) over them."""
 
@@ -302,9 +310,12 @@ class _Graph:
 
 def _nodes(coords: np.ndarray, precision: float) -> tuple[np.ndarray, np.ndarray]:
     """Node id of every point (equal after rounding to ``precision``) and the nodes' coordinates."""
+    if len(coords) == 0:
+        return np.zeros(0, dtype=np.int64), np.zeros((0, 2))
     q = np.rint(coords / precision).astype(np.int64)
-    key = (q[:, 0] + (1 << 31)) * (1 << 32) + (q[:, 1] + (1 << 31))
-    uniq, first, inverse = np.unique(key, return_index=True, return_inverse=True)
+    q -= q.min(axis=0)
+    key = q[:, 0] * (int(q[:, 1].max()) + 1) + q[:, 1]  # < 2⁶³ for any town: 1000 km is 1e8 cm
+    _, first, inverse = np.unique(key, return_index=True, return_inverse=True)
     return inverse.reshape(-1), coords[first]
 
 

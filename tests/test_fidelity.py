@@ -12,7 +12,8 @@ from hypothesis import strategies as st
 from scipy.stats import ks_2samp
 
 from osm_expand.errors import InputError
-from osm_expand.fidelity import FidelityOptions, compare, judge, ks_distance, real_parts, town_reference
+from osm_expand.fidelity import (FidelityOptions, compare, fidelity, judge, ks_distance, real_parts,
+                                 town_reference)
 from osm_expand.measures import DISTRIBUTIONS, LineSet, Measure, MeasureOptions, measure_network, orientation_entropy
 from tests.conftest import loaded
 
@@ -240,6 +241,8 @@ def test_ks_distance_is_scipys_two_sample_statistic():
         a, b = rng.gamma(2, 50, n), rng.gamma(2.2, 45, k)
         b[:3] = a[:3]  # ties between the samples
         assert ks_distance(a, np.sort(b)) == pytest.approx(ks_2samp(a, b).statistic)
+        x, y = rng.integers(0, 4, n).astype(float), rng.integers(0, 6, k).astype(float)  # ties everywhere
+        assert ks_distance(x, np.sort(y)) == pytest.approx(ks_2samp(x, y).statistic)
     assert ks_distance(np.zeros(0), np.ones(3)) == 1.0 and math.isnan(ks_distance(np.zeros(0), np.zeros(0)))
 
 
@@ -338,6 +341,29 @@ def test_the_report_is_json_and_the_same_for_the_same_seed(krems):
     assert one["off"] == sum(not v["ok"] for v in one["measures"].values())
 
 
+def test_a_district_joined_to_the_town_is_judged_with_its_joins_open(krems):
+    # the district: Krems's streets in a disc, its streets cut at the disc ending on "old town" nodes
+    window = shapely.Point(krems.coords.mean(axis=0)).buffer(600.0)
+    cut = shapely.get_parts(shapely.intersection(krems.geoms, window))
+    lines = [shapely.get_coordinates(g) for g in cut if g.geom_type == "LineString" and not g.is_empty]
+    ends = np.array([p for ln in lines for p in (ln[0], ln[-1]) if window.exterior.distance(shapely.Point(p)) < 1e-6])
+    inner = window.buffer(10.0)  # a window the district does not touch: only the joins make open ends
+    report = fidelity(lines, krems, window=inner, open_points=ends, rng=np.random.default_rng(4))
+    alone = measure_network(lines, window=inner)
+    assert report.district.open_ends == len(np.unique(ends.round(2), axis=0)) > 0
+    assert report.district.dead_ends == alone.dead_ends - report.district.open_ends
+    same = judge(measure_network(lines, window=inner, open_points=ends),
+                 town_reference(krems, inner.area, rng=np.random.default_rng(4)))
+    assert same.to_dict() == report.to_dict()
+
+
 def test_fewer_than_sixteen_parts_is_an_input_error(krems):
     with pytest.raises(InputError, match="at least 16 real parts"):
         town_reference(krems, KREMS_DISTRICT, parts=8, rng=0)
+
+
+def test_an_unknown_measure_name_lists_the_valid_ones():
+    m = measure_network(grid(3))
+    assert m.value("density") == m.density
+    with pytest.raises(InputError, match="valid: edge_length, circuity"):
+        m.value("sinuosity")
