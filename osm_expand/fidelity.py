@@ -76,8 +76,10 @@ class FidelityOptions:
             raise InputError("fidelity option scalar_low must not exceed scalar_high")
         if self.ks_floor < 0 or self.share_margin < 0:
             raise InputError("fidelity options ks_floor and share_margin must not be negative")
-        if self.min_parts < 2 or self.disc_sides < 8:
-            raise InputError("fidelity option min_parts must be at least 2 and disc_sides at least 8")
+        if self.min_parts < 2:
+            raise InputError(f"fidelity option min_parts must be at least 2, got {self.min_parts}")
+        if self.disc_sides < 8 or self.disc_sides % 4:
+            raise InputError(f"fidelity option disc_sides must be a multiple of 4, at least 8, got {self.disc_sides}")
 
 
 @dataclass(frozen=True)
@@ -208,7 +210,7 @@ def real_parts(town_lines: Sequence[np.ndarray] | LineSet, area: float, *, n: in
     area : m², each disc's area (the district's).
     n : how many discs.
     rng : generator (or seed); centres are drawn uniformly by street length.
-    sides : the discs are regular polygons with this many sides, of exactly ``area``.
+    sides : the discs are regular polygons with this many sides (a multiple of 4), of exactly ``area``.
 
     Returns
     -------

@@ -467,9 +467,11 @@ def _junction_angles(node: np.ndarray, angle: np.ndarray) -> np.ndarray:
     group_start = np.flatnonzero(np.r_[True, nd[1:] != nd[:-1]])
     size = np.diff(np.r_[group_start, len(nd)])
     nxt = np.arange(len(nd)) + 1
-    nxt[group_start + size - 1] = group_start  # the last end of a node wraps to its first
-    gap = np.degrees(an[nxt] - an) % 360.0
-    return gap[np.repeat(size, size) > 1]
+    last = group_start + size - 1
+    nxt[last] = group_start
+    gap = an[nxt] - an
+    gap[last] += 2 * np.pi  # the last end wraps round to the first: the gaps sum to 360° even when ends coincide
+    return np.degrees(gap[np.repeat(size, size) > 1])
 
 
 def _pairs_within_groups(group: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

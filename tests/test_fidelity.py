@@ -232,6 +232,23 @@ def test_every_junction_is_ringed_by_360_degrees_and_strokes_cover_every_street(
     assert np.all(m.circuity >= 1 - 1e-9)
 
 
+walks = st.lists(st.lists(st.tuples(st.integers(0, 20), st.integers(0, 20)), min_size=2, max_size=12),
+                min_size=1, max_size=8)
+
+
+@given(walks, st.booleans())
+def test_lines_on_a_lattice_clipped_or_not_keep_their_length_in_strokes(paths, closed):
+    # lines on a 50 m lattice share points where they meet, run over each other and close into rings
+    lines = [np.array(p + p[:1] if closed else p, dtype=float) * 50.0 for p in paths]
+    window = shapely.Point(500.0, 500.0).buffer(420.0)
+    for win in (None, window):
+        m = measure_network(lines, window=win)
+        assert m.stroke_length.sum() == pytest.approx(m.length)
+        assert m.junction_angle.sum() == pytest.approx(360.0 * m.junctions)
+        assert m.edge_length.sum() <= m.length + 1e-6
+        assert m.cut_edges <= m.edges and (win is not None or m.open_ends == 0)
+
+
 # ---------------------------------------------------------------- the verdict
 
 
