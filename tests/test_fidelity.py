@@ -171,6 +171,17 @@ def test_edges_run_from_junction_to_junction_across_lines():
     assert m.circuity == pytest.approx([130.0 / math.hypot(50, 80)])
 
 
+def test_loose_segments_measure_as_the_polylines_they_make():
+    # the tool's XML has only segments: shared end points make the same graph as the polylines
+    lines = grid(5) + ring(80.0, n=40) + zigzag(6)
+    loose = [ln[k:k + 2] for ln in lines for k in range(len(ln) - 1)]
+    whole, parts = measure_network(lines), measure_network(loose[::-1])
+    assert (parts.junctions, parts.dead_ends, parts.edges, parts.blocks) == (
+        whole.junctions, whole.dead_ends, whole.edges, whole.blocks)
+    for d in DISTRIBUTIONS:
+        np.testing.assert_allclose(np.sort(parts.value(d)), np.sort(whole.value(d)), atol=1e-9)
+
+
 def test_a_bridge_without_a_shared_point_is_no_junction():
     m = measure_network([np.array([[-50.0, 0.0], [50.0, 0.0]]), np.array([[0.0, -50.0], [0.0, 50.0]])])
     assert (m.junctions, m.dead_ends, m.edges) == (0, 4, 2)
