@@ -11,7 +11,7 @@ Graph, from the lines alone
 ``node_precision`` (1 cm): two lines that share a point share a node; a
 bridge crossing a street without a shared point is no junction. Repeated
 segments (a street drawn twice) count once. The *degree* of a node is the
-number of segment ends there. *Junctions* have degree ≥ 3, *dead ends*
+number of segment ends there (a street passing through counts 2). *Junctions* have degree ≥ 3, *dead ends*
 degree 1; degree-2 nodes are shape points. *Edges* are the maximal chains of
 segments between nodes that are not shape points; a closed chain of shape
 points (a ring with no junction) is one edge too.
@@ -21,8 +21,8 @@ lines to the ``window`` (degree-1 nodes within ``open_tolerance`` of its
 boundary) and the caller's ``open_points`` (where a grown district meets the
 old town; any node there). An edge with an open end is *cut*.
 
-The measures (seed 004 §3, §5.2–5.3 and the fidelity issue)
------------------------------------------------------------
+The measures (the fidelity issue; seed 004 §5.2–5.3 asks a district to look like its town)
+-----------------------------------------------------------------------------------------
 Distributions (1-D arrays):
 
 - ``edge_length`` (m): arc length of every edge that is not cut.
@@ -64,8 +64,8 @@ Scalars (floats, NaN when undefined):
   Without a window, the window is the lines' convex hull grown by
   ``hull_margin``.
 - ``orientation_entropy`` (nats): Boeing (2019), "Urban spatial order:
-  street network orientation, configuration, and entropy", Appl. Netw. Sci.
-  4:67, eq. 1: the Shannon entropy of compass bearings in 36 bins of 10°
+  street network orientation, configuration, and entropy", Applied Network
+  Science 4:67: the Shannon entropy of compass bearings in 36 bins of 10°
   centred on 0°, 10°, … (as osmnx's ``orientation_entropy``), every
   segment counted in both directions and weighted by its length. A grid
   aligned with the axes has ln 4 ≈ 1.386, uniform bearings ln 36 ≈ 3.584.
