@@ -1,24 +1,40 @@
-"""The ``osm-expand`` command: argument parsing, files, logging, exit codes.
+"""The ``osm-expand`` command: argument parsing, files, progress, exit codes.
 
-Exit codes: 0 success, 2 bad usage or unusable input (one line on stderr
-naming the file and the problem, nothing written), 1 an internal error.
-Results go to files or, with ``--json``, to stdout; everything else goes to
-stderr.
+``osm-expand CITY [options]`` grows the town; ``osm-expand COMMAND ...`` runs
+one of :data:`COMMANDS`. Exit codes: 0 success, 2 bad usage or unusable
+input (one line on stderr naming the file and the problem, nothing written),
+1 an internal error. Everything that can be checked before the work is
+checked first. Results go to files or, with ``--json``, to stdout;
+progress goes to stderr (a progress bar; ``-q`` silences it).
 """
 from __future__ import annotations
 
 import argparse
 import json
 import os
+import re
 import sys
 import time
 from collections.abc import Callable, Sequence
+from importlib.metadata import PackageNotFoundError, version
 from pathlib import Path
 
 from osm_expand.errors import InputError
 
 PROG = "osm-expand"
 OUTPUT_WRITERS = {".osm": "osm", ".geojson": "geojson", ".json": "geojson"}
+EXPAND_WRITERS = {".xml": "urbanenvironment", ".osm": "osm", ".geojson": "geojson", ".json": "geojson"}
+FORMAT_SUFFIX = {"urbanenvironment": ".xml", "osm": ".osm", "geojson": ".geojson"}
+#: Options whose value may start with a minus sign (a negative coordinate).
+_COORDINATE_OPTIONS = ("--at", "--at-lonlat")
+_NUMBERS = re.compile(r"^-?\d*\.?\d+(e-?\d+)?(,-?\d*\.?\d+(e-?\d+)?)*$", re.IGNORECASE)
+
+
+def _version() -> str:
+    try:
+        return version("osm-expand")
+    except PackageNotFoundError:  # running from a source tree that is not installed
+        return "unknown"
 
 
 class _Parser(argparse.ArgumentParser):
@@ -26,16 +42,36 @@ class _Parser(argparse.ArgumentParser):
         self.exit(2, f"{PROG}: error: {message} (see '{PROG} --help')\n")
 
 
-class _Log:
-    """Progress lines with elapsed time on stderr, silent with --quiet."""
+class Progress:
+    """Progress on stderr: a tqdm bar over the stages on a terminal, a timed line per stage otherwise;
+    silent with --quiet."""
 
-    def __init__(self, quiet: bool):
+    def __init__(self, quiet: bool, stages: int = 0):
         self.quiet = quiet
         self.t0 = time.perf_counter()
+        self.bar = None
+        self.started = False
+        if not quiet and stages and sys.stderr.isatty():
+            from tqdm import tqdm
+
+            self.bar = tqdm(total=stages, file=sys.stderr, unit="stage", leave=False, dynamic_ncols=True,
+                            bar_format="{percentage:3.0f}%|{bar:20}| {n_fmt}/{total_fmt} [{elapsed}] {desc}")
 
     def __call__(self, message: str) -> None:
-        if not self.quiet:
+        if self.quiet:
+            return
+        if self.bar is None:
             print(f"[{time.perf_counter() - self.t0:6.2f}s] {message}", file=sys.stderr, flush=True)
+            return
+        if self.started and self.bar.n < self.bar.total:  # the stage before this one is done
+            self.bar.update(1)
+        self.started = True
+        self.bar.set_description_str(message)
+
+    def close(self) -> None:
+        if self.bar is not None:
+            self.bar.close()
+            self.bar = None
 
 
 def _add_input_options(p: argparse.ArgumentParser) -> None:
@@ -46,7 +82,18 @@ def _add_input_options(p: argparse.ArgumentParser) -> None:
     p.add_argument("-q", "--quiet", action="store_true", help="no progress on stderr")
 
 
+def _seed(text: str) -> int:
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"--seed must be a whole number, got {text!r}") from None
+    if value < 0:
+        raise argparse.ArgumentTypeError(f"--seed must be 0 or more, got {value}")
+    return value
+
+
 def build_parser() -> argparse.ArgumentParser:
+    """The sub-commands' parser (``osm-expand COMMAND ...``)."""
     parser = _Parser(prog=PROG, description="Grow a real OpenStreetMap town.")
     sub = parser.add_subparsers(dest="command", parser_class=_Parser, metavar="COMMAND")
     simp = sub.add_parser("simplify", help="simplify a town's streets into junctions and whole streets",
@@ -63,8 +110,52 @@ def build_parser() -> argparse.ArgumentParser:
                          description="Run the random walk on the example's junctions in place; recall and "
                                      "precision of the town's junction-to-junction segments (004 §5.3).")
     _add_input_options(rep)
-    rep.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
+    rep.add_argument("--seed", type=_seed, default=0, help="random seed (default 0)")
+    comp = sub.add_parser("compare", help="is network A as alike to B as B's own districts are?",
+                          description="Judge A as a district of B: 13 measures of street networks against "
+                                      "real parts of B of A's size (any file the tool reads).")
+    _add_input_options(comp)
+    comp.add_argument("other", help="the town to compare with (B)")
+    comp.add_argument("--seed", type=_seed, default=0, help="random seed for the real parts (default 0)")
     return parser
+
+
+def build_expand_parser() -> argparse.ArgumentParser:
+    """The main command's parser (``osm-expand CITY ...``); its help lists the other commands too."""
+    commands = "\n".join(f"  osm-expand {name} {usage}" for name, usage in COMMAND_USAGE.items())
+    p = _Parser(prog=PROG, usage=f"{PROG} CITY [options]\n       {PROG} COMMAND ... (see below)",
+                formatter_class=argparse.RawDescriptionHelpFormatter,
+                description="Grow a real OpenStreetMap town: osm-expand CITY reads the town, learns its "
+                            "streets, grows a district that looks like it, joins it to the real streets, and "
+                            "writes the whole town with its new district.",
+                epilog=f"other commands (osm-expand COMMAND --help for each):\n{commands}")
+    p.add_argument("--version", action="version", version=f"{PROG} {_version()}")
+    _add_input_options(p)
+    p.add_argument("-o", "--output", help="output file: .xml (urbanenvironment), .osm or .geojson "
+                                          "(default: CITY.expanded.xml beside the input)")
+    p.add_argument("--format", choices=sorted(FORMAT_SUFFIX), help="output format (default: from -o, else urbanenvironment)")
+    p.add_argument("--preview", metavar="OUT.png|OUT.svg", help="also draw a map of the result")
+    p.add_argument("--seed", type=_seed, default=0, help="random seed (0 or more); the same seed gives the same bytes")
+    p.add_argument("--direction", choices=["auto", "N", "NE", "E", "SE", "S", "SW", "W", "NW"], default="auto",
+                   help="grow on this side of the town (default: the best site anywhere)")
+    p.add_argument("--at", metavar="X,Y", help="site centre in metres of the local projection")
+    p.add_argument("--at-lonlat", metavar="LON,LAT", help="site centre in degrees (longitude first)")
+    p.add_argument("--area", type=float, metavar="M2",
+                   help="district area in m² (default: a quarter of the built-up area; at most four times it)")
+    p.add_argument("--beyond-bounds", action="store_true",
+                   help="let the district grow outside the map's bounds (land there is unknown)")
+    p.add_argument("--unbuildable", metavar="KEY=VALUE,...",
+                   help="mapped areas nobody may build on, replacing the default list "
+                        "(landuse=cemetery,leisure=park,aeroway=*,...; '' for none)")
+    return p
+
+
+COMMAND_USAGE = {
+    "simplify": "CITY [-o OUT.osm|OUT.geojson] [--json]   the town's streets simplified (004 §4.2)",
+    "stats": "FILE [--json]                           street statistics of a town or an output",
+    "reproduce": "CITY [--seed N] [--json]               re-walk the town's junctions, scored",
+    "compare": "A B [--seed N] [--json]                 is A as alike to B as B's own districts are?",
+}
 
 
 def _output_path(city: Path, output: str | None, default_suffix: str,
@@ -73,16 +164,27 @@ def _output_path(city: Path, output: str | None, default_suffix: str,
     kind = writers.get(path.suffix.lower())
     if kind is None:
         raise InputError(f"{path}: unsupported output type (use {' or '.join(sorted(writers))})")
-    if not path.parent.exists() and str(path.parent) != "":
-        raise InputError(f"{path}: output directory does not exist")
+    _writable(path)
+    return path, kind
+
+
+def _writable(path: Path) -> None:
+    """Fail before any work when ``path`` cannot be written."""
+    from osm_expand.export.atomic import check_writable
+
     if path.is_dir():
         raise InputError(f"{path}: is a directory")
-    return path, kind
+    if not path.parent.exists() and str(path.parent) != "":
+        raise InputError(f"{path}: output directory does not exist")
+    try:
+        check_writable(path)
+    except OSError as exc:
+        raise InputError(f"{path}: cannot write there, the folder is not writable ({exc.strerror})") from None
 
 
 def _stem(path: Path) -> str:
     name = path.name
-    for suffix in (".osm.gz", ".osm.bz2", ".osm.pbf", ".osm", ".pbf", ".gz", ".bz2", ".xml"):
+    for suffix in (".osm.gz", ".osm.bz2", ".osm.pbf", ".osm", ".pbf", ".gz", ".bz2", ".xml", ".geojson"):
         if name.lower().endswith(suffix):
             return name[: -len(suffix)]
     return path.stem
@@ -106,9 +208,10 @@ def _in_file(city: Path, exc: InputError, args: argparse.Namespace) -> InputErro
     return InputError(f"{city}: {exc}{hint}")
 
 
-def cmd_simplify(args: argparse.Namespace, log: _Log) -> dict:
+def cmd_simplify(args: argparse.Namespace, log: Progress) -> dict:
     from osm_expand.export import write_geojson, write_osm
     from osm_expand.ingest import load
+    from osm_expand.model import City
     from simplify import SimplifyOptions
     from simplify.invariants import violations
 
@@ -117,12 +220,12 @@ def cmd_simplify(args: argparse.Namespace, log: _Log) -> dict:
     if args.cluster_radius is not None and not args.cluster_radius > 0:
         raise InputError(f"--cluster-radius must be positive, got {args.cluster_radius}")
     log(f"reading {city}")
-    net = load(city, service=args.service, paths=args.paths, context=False)
+    net = load(city, service=args.service, paths=args.paths, context=False).network
     log(f"{len(net.streets)} streets, {len(net.xy)} street nodes; simplifying")
     opts = SimplifyOptions() if args.cluster_radius is None else SimplifyOptions(cluster_radius=args.cluster_radius)
     result = _simplify_or_fail(city, net, args, opts)
     log(f"{result.report['junctions']} junctions, {result.report['streets']} streets; writing {out}")
-    (write_osm if kind == "osm" else write_geojson)(result.network, out)
+    (write_osm if kind == "osm" else write_geojson)(City(network=result.network), out)
     broken = {k: v for k, v in violations(result.network).items() if v}
     if broken:  # never expected: say so rather than hand over a flawed network silently
         print(f"{PROG}: warning: {out}: simplified network still has {broken}; please report this input",
@@ -130,7 +233,7 @@ def cmd_simplify(args: argparse.Namespace, log: _Log) -> dict:
     return {"input": str(city), "output": str(out), "violations": broken, **result.report}
 
 
-def cmd_stats(args: argparse.Namespace, log: _Log) -> dict:
+def cmd_stats(args: argparse.Namespace, log: Progress) -> dict:
     from osm_expand.ingest import load
     from simplify.example import build_example
     from simplify.invariants import is_valid
@@ -138,9 +241,9 @@ def cmd_stats(args: argparse.Namespace, log: _Log) -> dict:
 
     city = Path(args.city)
     log(f"reading {city}")
-    net = load(city, service=args.service, paths=args.paths, context=False)
+    net = load(city, service=args.service, paths=args.paths, context=False).network
     dead_ends = None
-    if not is_valid(net):  # raw OSM: simplify first; an osm-expand output already is
+    if not is_valid(net):  # a town as mapped: simplify first; a simplified output already is
         log("simplifying")
         result = _simplify_or_fail(city, net, args)
         net, dead_ends = result.network, result.dead_ends
@@ -165,14 +268,14 @@ def _stats_text(stats: dict) -> str:
     return "\n".join(lines)
 
 
-def cmd_reproduce(args: argparse.Namespace, log: _Log) -> dict:
+def cmd_reproduce(args: argparse.Namespace, log: Progress) -> dict:
     from osm_expand.ingest import load
     from simplify.example import build_example
     from synth.reproduce import reproduce
 
     city = Path(args.city)
     log(f"reading {city}")
-    net = load(city, service=args.service, paths=args.paths, context=False)
+    net = load(city, service=args.service, paths=args.paths, context=False).network
     log("simplifying")
     result = _simplify_or_fail(city, net, args)
     example = build_example(result.network, result.dead_ends)
@@ -185,28 +288,33 @@ def cmd_reproduce(args: argparse.Namespace, log: _Log) -> dict:
     return score
 
 
-COMMANDS: dict[str, Callable[[argparse.Namespace, _Log], dict]] = {
-    "simplify": cmd_simplify, "stats": cmd_stats, "reproduce": cmd_reproduce}
+def cmd_compare(args: argparse.Namespace, log: Progress) -> dict:
+    from osm_expand.fidelity import compare
+    from osm_expand.ingest import load
+
+    a, b = Path(args.city), Path(args.other)
+    lines = []
+    for path in (a, b):
+        log(f"reading {path}")
+        net = load(path, service=args.service, paths=args.paths, context=False).network
+        lines.append([net.street_xy(s) for s in net.streets])
+    log("measuring")
+    report = compare(lines[0], lines[1], rng=args.seed).to_dict()
+    if not args.json:
+        print(_compare_text(a, b, report))
+    return {"a": str(a), "b": str(b), "seed": args.seed, **report}
 
 
-EXPAND_WRITERS = {".xml": "urbanenvironment", ".osm": "osm", ".geojson": "geojson", ".json": "geojson"}
-FORMAT_SUFFIX = {"urbanenvironment": ".xml", "osm": ".osm", "geojson": ".geojson"}
+def _compare_text(a: Path, b: Path, report: dict) -> str:
+    lines = [f"{a} as a district of {b}: off on {report['off']} of 13 measures "
+             f"(a typical real part of {b.name}: {report['typical_off']})"]
+    for name, v in report["measures"].items():
+        lines.append(f"  {'ok ' if v['ok'] else 'OFF'} {name:<20} {v['value']}  [{v['low']}, {v['high']}]")
+    return "\n".join(lines)
 
 
-def build_expand_parser() -> argparse.ArgumentParser:
-    p = _Parser(prog=PROG, description="Grow a district next to a real town and write it "
-                                       "(osm-expand COMMAND --help for the other commands: simplify, stats, reproduce).")
-    _add_input_options(p)
-    p.add_argument("-o", "--output", help="output file (default: CITY.expanded.xml beside the input)")
-    p.add_argument("--format", choices=sorted(FORMAT_SUFFIX), help="output format (default: from -o, else urbanenvironment)")
-    p.add_argument("--preview", metavar="OUT.png|OUT.svg", help="also draw a map of the result")
-    p.add_argument("--seed", type=int, default=0, help="random seed; the same seed gives the same bytes")
-    p.add_argument("--direction", choices=["auto", "N", "NE", "E", "SE", "S", "SW", "W", "NW"], default="auto",
-                   help="grow on this side of the town (default: the best site anywhere)")
-    p.add_argument("--at", metavar="X,Y", help="site centre in metres of the local projection")
-    p.add_argument("--at-lonlat", metavar="LON,LAT", help="site centre in degrees")
-    p.add_argument("--area", type=float, metavar="M2", help="district area in m² (default: a quarter of the built-up area)")
-    return p
+COMMANDS: dict[str, Callable[[argparse.Namespace, Progress], dict]] = {
+    "simplify": cmd_simplify, "stats": cmd_stats, "reproduce": cmd_reproduce, "compare": cmd_compare}
 
 
 def _pair(text: str, flag: str) -> tuple[float, float]:
@@ -217,84 +325,151 @@ def _pair(text: str, flag: str) -> tuple[float, float]:
     return a, b
 
 
-def cmd_expand(args: argparse.Namespace, log: _Log) -> dict:
-    from osm_expand.pipeline import ExpandOptions, expand
-    from osm_expand.export import write_geojson, write_osm, write_urbanenvironment
-    from osm_expand.ingest import check_readable, load
+def _site_point(args: argparse.Namespace, city) -> tuple[float, float] | None:
+    """``--at`` / ``--at-lonlat`` in metres, checked against the map's bounds."""
+    if args.at_lonlat:
+        lon, lat = args.at_lonlat
+        text = f"{lon:g},{lat:g}"
+        lon0, lat0, lon1, lat1 = city.context.bounds_lonlat
+        inside = lambda x, y: lon0 <= x <= lon1 and lat0 <= y <= lat1  # noqa: E731
+        if inside(lat, lon) and not inside(lon, lat):
+            raise InputError(f"--at-lonlat {text}: latitude and longitude look swapped; "
+                             f"give longitude first: {lat:g},{lon:g}")
+        if not inside(lon, lat) and not args.beyond_bounds:
+            raise InputError(f"--at-lonlat {text} is outside the map (lon {lon0:.5f}..{lon1:.5f}, "
+                             f"lat {lat0:.5f}..{lat1:.5f}); use --beyond-bounds to grow outside it")
+        x, y = city.projection.to_xy(lon, lat)
+        return float(x), float(y)
+    if args.at:
+        x, y = args.at
+        x0, y0, x1, y1 = city.bounds_xy
+        if not args.beyond_bounds and not (x0 <= x <= x1 and y0 <= y <= y1):
+            raise InputError(f"--at {x:g},{y:g} is outside the map (x {x0:.0f}..{x1:.0f}, y {y0:.0f}..{y1:.0f} m); "
+                             "use --beyond-bounds to grow outside it")
+        return x, y
+    return None
 
+
+def _check_points(args: argparse.Namespace) -> None:
+    """Parse ``--at`` and ``--at-lonlat`` (before any work); their bounds are checked once the map is read."""
+    if args.at:
+        args.at = _pair(args.at, "--at")
+    if args.at_lonlat:
+        args.at_lonlat = lon, lat = _pair(args.at_lonlat, "--at-lonlat")
+        if not (-180 <= lon <= 180 and -90 <= lat <= 90):
+            if -180 <= lat <= 180 and -90 <= lon <= 90:
+                raise InputError(f"--at-lonlat {lon:g},{lat:g}: latitude and longitude look swapped; "
+                                 f"give longitude first: {lat:g},{lon:g}")
+            raise InputError(f"--at-lonlat {lon:g},{lat:g} is not a longitude,latitude")
+
+
+def _expand_outputs(args: argparse.Namespace) -> tuple[Path, str, Path | None]:
+    """The output path and format, and the preview path, all checked before any work."""
     city = Path(args.city)
+    if args.format and args.output:
+        suffix_kind = EXPAND_WRITERS.get(Path(args.output).suffix.lower())
+        if suffix_kind is not None and suffix_kind != args.format:
+            raise InputError(f"--format {args.format} contradicts the output {args.output} "
+                             f"(a {Path(args.output).suffix} file is {suffix_kind}); change one of them")
     default = FORMAT_SUFFIX[args.format or "urbanenvironment"]
     out, kind = _output_path(city, args.output, ".expanded" + default, EXPAND_WRITERS)
-    kind = args.format or kind
-    if args.preview and Path(args.preview).suffix.lower() not in (".png", ".svg"):
-        raise InputError(f"{args.preview}: the preview must be .png or .svg")
-    if args.area is not None and not args.area > 0:
-        raise InputError(f"--area must be positive, got {args.area}")
-    at = _pair(args.at, "--at") if args.at else None
-    lonlat = _pair(args.at_lonlat, "--at-lonlat") if args.at_lonlat else None
-    if lonlat and not (-180 <= lonlat[0] <= 180 and -90 <= lonlat[1] <= 90):
-        raise InputError(f"--at-lonlat {lonlat[0]},{lonlat[1]} is not a longitude,latitude")
-    check_readable(city)
-    log(f"reading {city}")
-    raw = load(city, service=args.service, paths=args.paths)
-    if lonlat:
-        x, y = raw.context.projection.to_xy(lonlat[0], lonlat[1])
-        at = (float(x), float(y))
-    options = ExpandOptions(seed=args.seed, direction=None if args.direction == "auto" else args.direction,
-                            at=at, area=args.area)
-    try:
-        result = expand(raw, options, progress=log)
-    except InputError as exc:
-        raise _in_file(city, exc, args) from None
-    log(f"{result.report['grown_streets']} new streets, {result.report['connections']} joins to the town; writing {out}")
-    if kind == "urbanenvironment":
-        write_urbanenvironment(result.network, out, origins=result.origins)
-    elif kind == "osm":
-        write_osm(result.network, out)
-    else:
-        write_geojson(result.network, out)
+    preview = None
     if args.preview:
-        from osm_expand.export.preview import write_preview
+        preview = Path(args.preview)
+        if preview.suffix.lower() not in (".png", ".svg"):
+            raise InputError(f"{args.preview}: the preview must be .png or .svg")
+        _writable(preview)
+    return out, args.format or kind, preview
 
-        write_preview(result.network, result.origins, args.preview, result.site.region,
-                      title=f"{_stem(city)}: grown district (seed {args.seed})")
-        log(f"preview written to {args.preview}")
-    return {"input": str(city), "output": str(out), "format": kind, "seed": args.seed, **result.report}
+
+def cmd_expand(args: argparse.Namespace, log: Progress) -> dict:
+    from osm_expand.ingest import check_readable, load
+    from osm_expand.land import LandOptions, parse_rules
+    from osm_expand.pipeline import ExpandOptions, expand
+
+    city_path = check_readable(args.city)
+    out, kind, preview = _expand_outputs(args)
+    if args.area is not None and not (args.area > 0 and args.area < float("inf")):
+        raise InputError(f"--area must be positive (m²), got {args.area:g}")
+    land = LandOptions() if args.unbuildable is None else LandOptions(unbuildable=parse_rules(args.unbuildable))
+    _check_points(args)
+    log(f"reading {city_path}")
+    city = load(city_path, service=args.service, paths=args.paths)
+    options = ExpandOptions(seed=args.seed, direction=None if args.direction == "auto" else args.direction,
+                            at=_site_point(args, city), area=args.area, beyond_bounds=args.beyond_bounds, land=land)
+    try:
+        result = expand(city, options, progress=log)
+    except InputError as exc:
+        raise _in_file(city_path, exc, args) from None
+    report = result.report
+    log(f"{report['grown_streets']} new streets, {report['connections']} joins to the town; writing {out}")
+    _write(result, out, kind, preview, title=f"{_stem(city_path)}: the town and a grown district (seed {args.seed})")
+    return {"input": str(city_path), "output": str(out), "format": kind, "seed": args.seed,
+            **({"preview": str(preview)} if preview else {}), **report}
+
+
+def _write(result, out: Path, kind: str, preview: Path | None, title: str) -> None:
+    """The output and the preview, all or nothing."""
+    from osm_expand.export import all_or_nothing, write_geojson, write_osm, write_urbanenvironment
+
+    writer = {"urbanenvironment": write_urbanenvironment, "osm": write_osm, "geojson": write_geojson}[kind]
+    with all_or_nothing():
+        writer(result.city, out)
+        if preview is not None:
+            from osm_expand.export.preview import write_preview
+
+            write_preview(result.city, preview, result.site.region, title=title)
+
+
+#: Stages the main command reports (reading, learning, site, growing, writing; "done" ends the last).
+EXPAND_STAGES = 5
+
+
+def _join_negative_values(argv: list[str]) -> list[str]:
+    """``--at -76.5,39.3`` → ``--at=-76.5,39.3``: argparse would read the value as an option."""
+    out, i = [], 0
+    while i < len(argv):
+        if argv[i] in _COORDINATE_OPTIONS and i + 1 < len(argv) and _NUMBERS.match(argv[i + 1]):
+            out.append(f"{argv[i]}={argv[i + 1]}")
+            i += 2
+            continue
+        out.append(argv[i])
+        i += 1
+    return out
 
 
 def main(argv: Sequence[str] | None = None) -> int:
-    argv = list(sys.argv[1:] if argv is None else argv)
-    parser = build_parser()
-    if argv and argv[0] not in COMMANDS and not argv[0].startswith("-"):
-        parser = build_expand_parser()
-        command = cmd_expand
+    argv = _join_negative_values(list(sys.argv[1:] if argv is None else argv))
+    if argv and argv[0] in COMMANDS:
+        parser, command = build_parser(), None
     else:
-        command = None
+        parser, command = build_expand_parser(), cmd_expand
     try:
         args = parser.parse_args(argv)
-    except SystemExit as exc:  # --help, or a usage error already printed in one line
+    except SystemExit as exc:  # --help, --version, or a usage error already printed in one line
         return int(exc.code or 0)
-    if command is None and args.command is None:
-        parser.print_help(sys.stderr)
-        return 2
-    log = _Log(args.quiet)
+    log = Progress(args.quiet, EXPAND_STAGES if command is cmd_expand else 0)
     try:
         report = (command or COMMANDS[args.command])(args, log)
     except InputError as exc:
+        log.close()
         print(f"{PROG}: {exc}", file=sys.stderr)
         return 2
     except KeyboardInterrupt:
+        log.close()
         print(f"{PROG}: interrupted", file=sys.stderr)
         return 130
     except Exception as exc:  # a bug: say so in one line, details on request
+        log.close()
         if os.environ.get("OSM_EXPAND_DEBUG"):
             raise
         print(f"{PROG}: internal error: {type(exc).__name__}: {exc} "
               "(set OSM_EXPAND_DEBUG=1 for a traceback)", file=sys.stderr)
         return 1
+    log("done")
+    log.close()
     if args.json:
         print(json.dumps(report, sort_keys=True))
-    log("done")
     return 0
 
 

@@ -152,6 +152,7 @@ def _read(path: str, kept: frozenset[str], context: bool, relations: bool) -> tu
     if box.valid():
         header_box = (box.bottom_left.lon, box.bottom_left.lat, box.top_right.lon, box.top_right.lat)
     raw = _Raw()
+    assembled: set[int] = set()
     for obj in fp:
         if obj.is_way():
             raw.newest = max(raw.newest, _seconds(obj))
@@ -160,8 +161,82 @@ def _read(path: str, kept: frozenset[str], context: bool, relations: bool) -> tu
                 _take_closed_way(obj, raw)
         elif obj.is_area() and not obj.from_way():  # closed ways are taken above, as ways
             raw.newest = max(raw.newest, _seconds(obj))
+            assembled.add(obj.orig_id())
             _take_relation_area(obj, raw)
+    if context:
+        _salvage_multipolygons(path, keys, assembled, raw)
     return raw, header_box
+
+
+Ring = tuple[list[int], list[tuple[float, float]]]
+
+
+def _salvage_multipolygons(path: str, keys: list[str], assembled: set[int], raw: _Raw) -> None:
+    """Multipolygons libosmium left out, rebuilt from the member ways the file has.
+
+    A clipped extract often lacks a member of a big multipolygon (an inner
+    ring of a river, say); libosmium then builds no area at all, and the
+    Danube would be missing from Krems. Here the closed rings that the
+    members present still form are kept (one more read of the file, only
+    when such a relation exists).
+    """
+    relations = []
+    for rel in osmium.FileProcessor(path, osmium.osm.RELATION).with_filter(osmium.filter.KeyFilter(*keys)):
+        if rel.tags.get("type") == "multipolygon" and rel.id not in assembled and _area_kind(rel.tags):
+            relations.append((rel.id, dict(rel.tags), [(m.ref, m.role) for m in rel.members if m.type == "w"]))
+            raw.newest = max(raw.newest, _seconds(rel))
+    if not relations:
+        return
+    wanted = {ref for _, _, members in relations for ref, _ in members}
+    ways: dict[int, Ring] = {}
+    fp = (osmium.FileProcessor(path).with_locations().with_filter(osmium.filter.EntityFilter(osmium.osm.WAY))
+          .with_filter(osmium.filter.IdFilter(wanted)))
+    for way in fp:
+        runs, clipped = _way_runs(way)
+        if runs and not clipped:
+            ways[way.id] = runs[0]
+    for rel_id, tags, members in relations:
+        outers = _closed_rings([ways[r] for r, role in members if r in ways and role != "inner"])
+        inners = _closed_rings([ways[r] for r, role in members if r in ways and role == "inner"])
+        for outer in outers:
+            shell = shapely.Polygon(outer[1])
+            holes = [i for i in inners if shell.contains(shapely.Point(i[1][0]))]
+            _take_rings([outer, *holes], tags, rel_id, raw)
+
+
+def _closed_rings(parts: list[Ring]) -> list[Ring]:
+    """Member ways joined end to end into closed rings (open chains are dropped)."""
+    rings, todo = [], list(parts)
+    while todo:
+        refs, coords = list(todo[0][0]), list(todo[0][1])
+        todo.pop(0)
+        grew = True
+        while refs[0] != refs[-1] and grew:
+            grew = False
+            for k, (r, c) in enumerate(todo):
+                if r[0] == refs[-1]:
+                    refs, coords = refs + r[1:], coords + c[1:]
+                elif r[-1] == refs[-1]:
+                    refs, coords = refs + r[-2::-1], coords + c[-2::-1]
+                else:
+                    continue
+                todo.pop(k)
+                grew = True
+                break
+        if refs[0] == refs[-1] and len(refs) >= 4:
+            rings.append((refs, coords))
+    return rings
+
+
+def _take_rings(rings: list[Ring], tags: dict, rel_id: int, raw: _Raw) -> None:
+    """One outer ring (and its holes) of a multipolygon relation, by its kind."""
+    kind = _area_kind(tags)
+    if kind[0] == "building":
+        raw.buildings.append((rings, tags, "relation", rel_id))
+    elif kind[0] == "water":
+        raw.water_areas.append([coords for _, coords in rings])
+    else:
+        raw.areas.append(([coords for _, coords in rings], kind[0], kind[1], rel_id))
 
 
 def _seconds(obj) -> int:
@@ -243,20 +318,12 @@ def _take_closed_way(way, raw: _Raw) -> None:
 
 
 def _take_relation_area(area, raw: _Raw) -> None:
-    kind = _area_kind(area.tags)
-    if kind is None:
+    if _area_kind(area.tags) is None:
         return
-    outers = []
+    tags = dict(area.tags)
     for outer in area.outer_rings():
         rings = [outer] + list(area.inner_rings(outer))
-        outers.append([([n.ref for n in r], [(n.lon, n.lat) for n in r]) for r in rings])
-    if kind[0] == "building":
-        for rings in outers:  # one building per outer ring, all carrying the relation's id
-            raw.buildings.append((rings, dict(area.tags), "relation", area.orig_id()))
-    elif kind[0] == "water":
-        raw.water_areas.extend([coords for _, coords in rings] for rings in outers)
-    else:
-        raw.areas.extend(([coords for _, coords in rings], kind[0], kind[1], area.orig_id()) for rings in outers)
+        _take_rings([([n.ref for n in r], [(n.lon, n.lat) for n in r]) for r in rings], tags, area.orig_id(), raw)
 
 
 def street_attrs(way_id: int, tags) -> dict:

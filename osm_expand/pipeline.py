@@ -18,14 +18,14 @@ from dataclasses import dataclass, field
 import numpy as np
 import shapely
 
-import simplify.pipeline as simplification
 from osm_expand.blocks import blocks
 from osm_expand.errors import InputError
 from osm_expand.heights import with_heights
 from osm_expand.joins import JoinReport, add_streets, join_to_town
 from osm_expand.land import LandOptions, unbuildable
 from osm_expand.model import City, Origin, Status, StreetNetwork, polyline_length
-from osm_expand.sites import Site, SiteOptions, built_area, choose_sites, distance_maps
+from osm_expand.sites import Site, SiteOptions, choose_sites, distance_maps
+from simplify import simplify
 from simplify.example import Example, build_example
 from simplify.hierarchy import with_levels
 from simplify.options import SimplifyOptions
@@ -78,7 +78,7 @@ class ExpandResult:
 
 def simplified_or_fail(raw: StreetNetwork, options: SimplifyOptions | None = None):
     """:func:`simplify.simplify`, or :class:`InputError` when no street survives it."""
-    result = simplification.simplify(raw, options)
+    result = simplify(raw, options)
     if not result.network.streets:
         raise InputError(NOTHING_LEFT)
     return result
@@ -129,10 +129,11 @@ def expand(city: City, options: ExpandOptions | None = None, *, pattern: GrowthP
     learned = learn(city)
     progress("finding blocks, unbuildable land and a site")
     city = prepare(city, opts.land)
-    built = built_area(city.network, [b.polygon for b in city.blocks], opts.site)
-    area = _district_area(opts, built.area, learned.example.spacing)
+    maps = distance_maps(city, opts.site, margin=_margin(city), beyond_bounds=opts.beyond_bounds)
+    area = _district_area(opts, maps.built_area, learned.example.spacing)
     radius = float(np.sqrt(area / np.pi))
-    maps = distance_maps(city, margin=2.5 * radius, opts=opts.site, built=built, beyond_bounds=opts.beyond_bounds)
+    if opts.beyond_bounds and 2.5 * radius > _margin(city):
+        maps = distance_maps(city, opts.site, margin=2.5 * radius, beyond_bounds=True)
     sites = choose_sites(maps, area, opts.site, direction=opts.direction, at=opts.at, most=SITES_TRIED)
     if not sites:
         hint = "" if opts.beyond_bounds else ", or --beyond-bounds to grow outside them"
@@ -154,16 +155,22 @@ def expand(city: City, options: ExpandOptions | None = None, *, pattern: GrowthP
     return ExpandResult(city=grown, site=site, learned=learned, joins=joins, report=report)
 
 
+def _margin(city: City) -> float:
+    """Land rasterised around the town's streets: half the town's diagonal (m)."""
+    pts = city.network.xy[city.network.used_nodes()]
+    return 0.5 * float(np.hypot(*(pts.max(axis=0) - pts.min(axis=0))))
+
+
 def _district_area(opts: ExpandOptions, built: float, spacing: float) -> float:
     """The district's area (m²), checked against the town's size before any work."""
     area = opts.area or opts.site.area_share * built
     smallest, largest = MIN_BLOCKS * spacing ** 2, MAX_AREA_SHARE * built
     if area < smallest:
         raise InputError(f"a district of {area:.0f} m² would hold fewer than {MIN_BLOCKS} blocks at this town's "
-                         f"{spacing:.0f} m junction spacing; give --area of at least {np.ceil(smallest):.0f}")
+                         f"{spacing:.0f} m junction spacing; try --area {np.ceil(smallest):.0f} (or more)")
     if area > largest:
-        raise InputError(f"--area {area:.0f} is larger than {MAX_AREA_SHARE:g} times the town's built-up area; "
-                         f"give --area of at most {np.floor(largest):.0f}")
+        raise InputError(f"--area {area:.0f} is more than {MAX_AREA_SHARE:g} times the town's built-up area "
+                         f"({built:.0f} m²); the district may be at most --area {np.floor(largest):.0f}")
     return area
 
 

@@ -1,27 +1,35 @@
 """Where the town should grow: distance maps and the expansion site (004 §4.3.1).
 
-The town and its surroundings are rasterised at ``cell`` metres: water (water
-areas, buffered rivers, sea) and city (blocks, and every street buffered by
-half a block's depth). Euclidean distance transforms give, per cell, the
-distance to water, the distance to the city, and the *free radius*: the
-distance to anything unbuildable, which is exactly the radius of the largest
-empty disc centred there (better than 004's four-direction estimate).
+The town and its surroundings are rasterised at ``cell`` metres:
 
-Land outside the map's data bounds is unknown, not free: unless
-``beyond_bounds``, it counts as unbuildable, so the site lies inside the
-bounds. Unbuildable land (:mod:`osm_expand.land`: cemeteries, parks,
-railway land, existing buildings, ...) is an obstacle like water.
+- *water*: water areas, buffered rivers, sea;
+- *city*, the built-up area: the blocks, and every street buffered by
+  ``street_buffer`` metres, opened morphologically by that buffer, so a lone
+  road through the fields (a strip twice the buffer wide) is not town while
+  the town's body is; its area is the town's *built-up area*;
+- *outside*: land beyond the map's data bounds, which is unknown rather than
+  free (unless ``beyond_bounds``);
+- *unbuildable*: land nothing new may take (:mod:`osm_expand.land`: parks,
+  cemeteries, railway land, existing buildings, ...).
+
+Euclidean distance transforms give, per cell, the distance to water, the
+distance to the city, and the *free radius*: the distance to water, city or
+the outside, which is exactly the radius of the largest disc centred there
+that touches none of them (better than 004's four-direction estimate).
+Unbuildable land may lie inside a site (a district grows around a farmstead
+or a park; its streets avoid them), but at most ``max_unbuildable`` of it.
 
 A site scores by closeness to the city and to water (1 when the district's
 disc touches them, falling off with the gap), by *contact* (the share of a
 ring ``contact_width`` wide around the disc that is town: a bay of the town
-beats a corner, and gives the joining streets somewhere to go) and by room to
-spare, each in [0, 1] and weighted; it loses its closeness to the city when the way there
-crosses water (the far bank of a river is not next to the town). Only cells
-whose free radius holds a disc of the district's area qualify. ``direction`` restricts the search to a 90° sector
-seen from the town's centre; ``at`` skips the search. :func:`choose_sites` ranks
-several sites at least a district's radius apart, best first, so the
-pipeline can try the next when the best cannot be joined to the town.
+beats a corner, and gives the joining streets somewhere to go) and by room
+to spare, each in [0, 1] and weighted, less its unbuildable share; it loses
+its closeness to the city when the way there crosses water (the far bank of
+a river is not next to the town). ``direction`` restricts the search to a
+90° sector seen from the town's centre; ``at`` skips the search.
+:func:`choose_sites` ranks several sites at least a district's radius apart,
+best first, so the pipeline can try the next when the best cannot be joined
+to the town.
 """
 from __future__ import annotations
 
@@ -29,104 +37,114 @@ from dataclasses import dataclass
 
 import numpy as np
 import shapely
-from scipy.ndimage import distance_transform_edt
+from scipy.ndimage import binary_opening, distance_transform_edt
 from scipy.signal import fftconvolve
 
 from osm_expand.errors import InputError
-from osm_expand.model import City, StreetNetwork
+from osm_expand.model import City
 
 DIRECTIONS = {"E": 0, "NE": 45, "N": 90, "NW": 135, "W": 180, "SW": 225, "S": 270, "SE": 315}
+#: The raster never has more cells than this (the cell grows instead).
+MAX_CELLS = 4e6
 
 
 @dataclass(frozen=True)
 class SiteOptions:
-    cell: float = 10.0  # raster cell (m); grows for very large towns to keep the raster under ~4 M cells
-    city_weight: float = 1.0
-    water_weight: float = 0.5
-    room_weight: float = 0.25
-    contact_weight: float = 1.0
-    contact_width: float = 200.0  # m: the ring around the district whose share of town is its contact
-    street_buffer: float = 40.0  # m either side of a street that counts as city (frontage lots)
-    area_share: float = 0.25  # default district area: this share of the town's built-up area
+    #: Raster cell (m); grows for very large maps to keep the raster under :data:`MAX_CELLS`.
+    cell: float = 10.0
+    city_weight: float = 1.0  #: weight of closeness to the town
+    water_weight: float = 0.5  #: weight of closeness to water (004: towns grow along rivers)
+    room_weight: float = 0.25  #: weight of free room beyond the district's radius
+    contact_weight: float = 1.0  #: weight of the share of the ring around the site that is town
+    contact_width: float = 200.0  #: m: the ring around the district whose share of town is its contact
+    street_buffer: float = 40.0  #: m either side of a street that counts as built-up (frontage lots)
+    area_share: float = 0.25  #: default district area: this share of the town's built-up area
+    max_unbuildable: float = 0.25  #: a site may hold at most this share of unbuildable land
+    unbuildable_weight: float = 1.0  #: score lost per share of unbuildable land in the site
 
 
 @dataclass(frozen=True)
 class DistanceMaps:
-    origin: np.ndarray  # (x, y) of the lower-left cell corner
-    cell: float
-    water: np.ndarray  # bool (rows = y, cols = x)
-    city: np.ndarray  # bool
-    blocked: np.ndarray  # bool: unbuildable land, and outside the bounds unless beyond_bounds
-    water_distance: np.ndarray  # m
-    city_distance: np.ndarray  # m
-    free_radius: np.ndarray  # m to the nearest water, city or blocked cell
-    nearest_city: np.ndarray  # (2, rows, cols) row and column of each cell's nearest city cell
+    origin: np.ndarray  #: (x, y) of the lower-left cell corner, metres
+    cell: float  #: metres
+    water: np.ndarray  #: bool (rows = y, cols = x)
+    city: np.ndarray  #: bool: the built-up area
+    outside: np.ndarray  #: bool: beyond the map's bounds (all False with ``beyond_bounds``)
+    unbuildable: np.ndarray  #: bool
+    water_distance: np.ndarray  #: m
+    city_distance: np.ndarray  #: m
+    free_radius: np.ndarray  #: m to the nearest water, city or outside cell
+    nearest_city: np.ndarray  #: (2, rows, cols) row and column of each cell's nearest city cell
 
     def centres(self) -> tuple[np.ndarray, np.ndarray]:
         return _cell_centres(self.origin, self.cell, self.water.shape)
+
+    @property
+    def built_area(self) -> float:
+        """The town's built-up area (m²)."""
+        return float(self.city.sum()) * self.cell ** 2
 
 
 @dataclass(frozen=True)
 class Site:
     centre: np.ndarray
     area: float
-    region: shapely.Polygon  # where the district may grow: a disc of ``area`` around the centre
+    region: shapely.Polygon  #: where the district may grow: a disc of ``area`` around the centre
     score: float
 
 
-def built_area(net: StreetNetwork, blocks: list[shapely.Polygon], opts: SiteOptions) -> shapely.Geometry:
-    """The town's built-up area: its blocks, and every street buffered by ``street_buffer`` metres."""
-    streets = [shapely.LineString(net.street_xy(s)) for s in net.streets]
-    return shapely.union_all([*blocks, shapely.buffer(shapely.MultiLineString(streets), opts.street_buffer)])
-
-
-#: The raster never has more cells than this (the cell grows instead).
-MAX_CELLS = 4e6
-
-
-def distance_maps(city: City, margin: float, opts: SiteOptions | None = None,
-                  built: shapely.Geometry | None = None, *, beyond_bounds: bool = False) -> DistanceMaps:
-    """Rasters around the town, ``margin`` metres beyond its streets on every side.
+def distance_maps(city: City, opts: SiteOptions | None = None, *, margin: float = 0.0,
+                  beyond_bounds: bool = False) -> DistanceMaps:
+    """Rasters of the town and its surroundings.
 
     Parameters
     ----------
     city : City
-        With its blocks (and unbuildable land) set.
-    margin : float
-        Metres of land around the streets to rasterise.
+        With its blocks and unbuildable land set (:func:`osm_expand.pipeline.prepare`).
     opts : SiteOptions
-    built : shapely geometry, optional
-        :func:`built_area`, when the caller has it already.
+    margin : float
+        Metres of land around the town's streets to rasterise; the map's
+        bounds limit it unless ``beyond_bounds``.
     beyond_bounds : bool
-        Land outside the map's bounds counts as free (default: unknown, so blocked).
+        Land outside the map's bounds counts as free (default: unknown, so a site may not take it).
     """
     opts = opts or SiteOptions()
     net = city.network
     pts = net.xy[net.used_nodes()]
     x0, y0 = pts.min(axis=0) - margin
     x1, y1 = pts.max(axis=0) + margin
-    if not beyond_bounds:  # no need to rasterise what is blocked anyway
+    if not beyond_bounds:  # no need to rasterise what a site may not take anyway
         bx0, by0, bx1, by1 = city.bounds_xy
-        x0, y0, x1, y1 = max(x0, bx0 - opts.cell), max(y0, by0 - opts.cell), min(x1, bx1 + opts.cell), min(y1, by1 + opts.cell)
+        x0, y0 = max(x0, bx0 - opts.cell), max(y0, by0 - opts.cell)
+        x1, y1 = min(x1, bx1 + opts.cell), min(y1, by1 + opts.cell)
     cell = max(opts.cell, float(np.sqrt((x1 - x0) * (y1 - y0) / MAX_CELLS)))
     nx, ny = int(np.ceil((x1 - x0) / cell)), int(np.ceil((y1 - y0) / cell))
     xs, ys = _cell_centres(np.array([x0, y0]), cell, (ny, nx))
     water = _raster(city.water_geometry(), xs, ys)
-    blocks = [b.polygon for b in city.blocks]
-    city_mask = _raster(built if built is not None else built_area(net, blocks, opts), xs, ys) & ~water
-    blocked = _raster(city.unbuildable, xs, ys)
-    if not beyond_bounds:
-        blocked |= ~_raster(city.bounds_polygon, xs, ys)
+    city_mask = _built_up(city, xs, ys, cell, opts) & ~water
+    outside = np.zeros_like(water) if beyond_bounds else ~_raster(city.bounds_polygon, xs, ys)
     if city_mask.any():
         city_cells, nearest = distance_transform_edt(~city_mask, return_indices=True)
         city_distance, nearest = city_cells * cell, nearest.astype(np.int32)
     else:
         city_distance, nearest = np.full(city_mask.shape, np.inf), np.zeros((2, *city_mask.shape), dtype=np.int32)
     return DistanceMaps(
-        origin=np.array([x0, y0]), cell=cell, water=water, city=city_mask, blocked=blocked,
-        water_distance=_distance(water, cell), city_distance=city_distance,
-        free_radius=_distance(water | city_mask | blocked, cell), nearest_city=nearest,
+        origin=np.array([x0, y0]), cell=cell, water=water, city=city_mask, outside=outside,
+        unbuildable=_raster(city.unbuildable, xs, ys), water_distance=_distance(water, cell),
+        city_distance=city_distance, free_radius=_distance(water | city_mask | outside, cell), nearest_city=nearest,
     )
+
+
+def _built_up(city: City, xs: np.ndarray, ys: np.ndarray, cell: float, opts: SiteOptions) -> np.ndarray:
+    """Blocks, and the street buffers opened so that lone roads through the fields drop out."""
+    net = city.network
+    streets = shapely.MultiLineString([net.street_xy(s) for s in net.streets])
+    buffered = _raster(shapely.buffer(streets, opts.street_buffer), xs, ys)
+    r = max(int(round(opts.street_buffer / cell)), 1)
+    dy, dx = np.mgrid[-r:r + 1, -r:r + 1]
+    body = binary_opening(buffered, structure=np.hypot(dx, dy) <= r)
+    blocks = _raster(shapely.union_all([b.polygon for b in city.blocks]), xs, ys) if city.blocks else body & False
+    return body | blocks
 
 
 def _cell_centres(origin: np.ndarray, cell: float, shape: tuple[int, int]) -> tuple[np.ndarray, np.ndarray]:
@@ -135,10 +153,24 @@ def _cell_centres(origin: np.ndarray, cell: float, shape: tuple[int, int]) -> tu
 
 
 def _raster(geom, xs: np.ndarray, ys: np.ndarray) -> np.ndarray:
+    """Cells whose centre lies in ``geom``, rasterised by PIL's polygon filler (scan lines, in C)."""
+    from PIL import Image, ImageDraw
+
     if geom is None or geom.is_empty:
         return np.zeros(xs.shape, dtype=bool)
-    shapely.prepare(geom)
-    return shapely.contains_xy(geom, xs, ys)
+    ny, nx = xs.shape
+    x0, y0 = xs[0, 0], ys[0, 0]
+    cell = float(xs[0, 1] - x0) if nx > 1 else float(ys[1, 0] - y0)
+    image = Image.new("1", (nx, ny), 0)
+    draw = ImageDraw.Draw(image)
+    to_px = lambda ring: [tuple(p) for p in ((np.asarray(ring.coords) - (x0, y0)) / cell).tolist()]  # noqa: E731
+    for poly in shapely.get_parts(shapely.get_parts(geom)):
+        if poly.geom_type != "Polygon" or poly.is_empty:
+            continue
+        draw.polygon(to_px(poly.exterior), fill=1)
+        for hole in poly.interiors:
+            draw.polygon(to_px(hole), fill=0)
+    return np.asarray(image, dtype=bool)
 
 
 def _distance(mask: np.ndarray, cell: float) -> np.ndarray:
@@ -147,15 +179,24 @@ def _distance(mask: np.ndarray, cell: float) -> np.ndarray:
     return distance_transform_edt(~mask) * cell
 
 
+#: A site's disc may grow to these multiples of the district's radius to find its area of free land.
+RADIUS_STEPS = (1.0, 1.25, 1.5, 2.0)
+
+
 def choose_sites(maps: DistanceMaps, area: float, opts: SiteOptions | None = None, *,
                  direction: str | None = None, at: tuple[float, float] | None = None, most: int = 5) -> list[Site]:
-    """The best places for a district of ``area`` m², best first; empty when nothing has room.
+    """The best places for a district of ``area`` m² of free land, best first; empty when nothing has room.
+
+    A site is a disc around a cell holding ``area`` m² of free land (not
+    water, town or outside the map): the district's radius, or up to twice
+    it (:data:`RADIUS_STEPS`) where the disc wraps around the town's edge or
+    a shore, so the site takes the shape of the free land around the town.
 
     Parameters
     ----------
     maps : DistanceMaps
     area : float
-        m².
+        m² of free land the district needs.
     opts : SiteOptions
     direction : {"N", "NE", "E", "SE", "S", "SW", "W", "NW"}, optional
         Keep the site in the 90° sector on that side of the town's centre.
@@ -165,15 +206,16 @@ def choose_sites(maps: DistanceMaps, area: float, opts: SiteOptions | None = Non
         How many sites to return; each is at least a district's radius from the better ones.
     """
     opts = opts or SiteOptions()
+    radius = float(np.sqrt(area / np.pi))
     if at is not None:
-        return [_disc(np.asarray(at, dtype=float), area, float("nan"))]
+        centre = np.asarray(at, dtype=float)
+        return [_disc(centre, _radius_at(maps, centre, area, radius), area, float("nan"))]
     if direction is not None and direction.upper() not in DIRECTIONS:
         raise InputError(f"direction must be one of {', '.join(DIRECTIONS)}, got {direction!r}")
-    radius = float(np.sqrt(area / np.pi))
     xs, ys = maps.centres()
-    score = _score(maps, radius, opts)
+    score, disc_radius = _best_radius(maps, area, radius, opts)
     score = score - opts.city_weight * _across_water(maps, score)
-    if direction and direction.upper() != "AUTO":
+    if direction:
         score = np.where(_in_sector(maps, xs, ys, DIRECTIONS[direction.upper()]), score, -np.inf)
     flat = score.ravel()
     ranked = np.flatnonzero(np.isfinite(flat))
@@ -182,10 +224,37 @@ def choose_sites(maps: DistanceMaps, area: float, opts: SiteOptions | None = Non
     for i in ranked.tolist():
         centre = np.array([xs.flat[i], ys.flat[i]])
         if all(np.hypot(*(centre - s.centre)) >= radius for s in sites):
-            sites.append(_disc(centre, area, float(flat[i])))
+            sites.append(_disc(centre, float(disc_radius.flat[i]), area, float(flat[i])))
             if len(sites) >= most:
                 break
     return sites
+
+
+def _best_radius(maps: DistanceMaps, area: float, radius: float, opts: SiteOptions) -> tuple[np.ndarray, np.ndarray]:
+    """Per cell, the score of the smallest disc (of :data:`RADIUS_STEPS`) holding ``area`` of free land."""
+    hard = maps.water | maps.city | maps.outside
+    best = np.full(hard.shape, -np.inf)
+    best_radius = np.full(hard.shape, np.nan)
+    for step in RADIUS_STEPS:
+        r = step * radius
+        free = _ring_share(~hard, 0.0, r / maps.cell) * np.pi * r * r  # beyond the raster is not free
+        score = _score(maps, r, opts) - 0.25 * (step - 1.0)  # the tighter disc is the better district
+        fits = (free >= area) & ~hard & np.isneginf(best)
+        best = np.where(fits, score, best)
+        best_radius = np.where(fits, r, best_radius)
+    return best, best_radius
+
+
+def _radius_at(maps: DistanceMaps, centre: np.ndarray, area: float, radius: float) -> float:
+    """The smallest disc of :data:`RADIUS_STEPS` around a given centre that holds ``area`` of free land."""
+    xs, ys = maps.centres()
+    hard = maps.water | maps.city | maps.outside
+    d = np.hypot(xs - centre[0], ys - centre[1])
+    for step in RADIUS_STEPS:
+        r = step * radius
+        if float((~hard & (d <= r)).sum()) * maps.cell ** 2 >= area:
+            return r
+    return RADIUS_STEPS[-1] * radius
 
 
 def choose_site(maps: DistanceMaps, area: float, opts: SiteOptions | None = None,
@@ -195,12 +264,13 @@ def choose_site(maps: DistanceMaps, area: float, opts: SiteOptions | None = None
     return sites[0] if sites else None
 
 
-def _disc(centre: np.ndarray, area: float, score: float) -> Site:
-    return Site(centre=centre, area=area, region=shapely.Point(centre).buffer(np.sqrt(area / np.pi), 64), score=score)
+def _disc(centre: np.ndarray, radius: float, area: float, score: float) -> Site:
+    return Site(centre=centre, area=area, region=shapely.Point(centre).buffer(radius, 64), score=score)
 
 
 def _score(maps: DistanceMaps, radius: float, opts: SiteOptions) -> np.ndarray:
-    """1 for a disc that touches the city (or water), falling off with the gap; room beyond need adds a little."""
+    """1 for a disc that touches the city (or water), falling off with the gap; room beyond need adds a
+    little; unbuildable land inside costs. -inf where the disc holds too much unbuildable land."""
     gap_city = np.maximum(maps.city_distance - radius, 0.0)
     near_city = np.exp(-gap_city / radius)
     if maps.water.any():
@@ -209,22 +279,42 @@ def _score(maps: DistanceMaps, radius: float, opts: SiteOptions) -> np.ndarray:
         near_water = np.zeros_like(near_city)
     room = np.clip((maps.free_radius - radius) / radius, 0.0, 1.0)
     contact = _ring_share(maps.city, radius / maps.cell, (radius + opts.contact_width) / maps.cell)
+    taken = _ring_share(maps.unbuildable, 0.0, radius / maps.cell)
     score = (opts.city_weight * near_city + opts.contact_weight * contact + opts.water_weight * near_water
-             + opts.room_weight * room)
-    return np.where(maps.free_radius >= radius, score, -np.inf)
+             + opts.room_weight * room - opts.unbuildable_weight * taken)
+    return np.where(taken <= opts.max_unbuildable, score, -np.inf)
+
+
+#: Shares over rings wider than this many cells are convolved on a coarser grid (they are smooth).
+COARSE_AT = 24
 
 
 def _ring_share(mask: np.ndarray, inner: float, outer: float) -> np.ndarray:
     """Per cell, the share of the ring ``inner``..``outer`` cells around it that is ``mask``.
 
     A district in a bay of the town borders it along a long arc, and can be
-    joined to it by many streets; one touching a corner only by one.
+    joined to it by many streets; one touching a corner only by one. With
+    ``inner`` 0 it is the share of the disc. Cells beyond the raster count
+    as not ``mask``. Large rings are convolved on a grid ``f`` times coarser
+    (block means), which changes the share by about a cell's width over the
+    ring's, and is resampled back.
     """
-    r = int(np.ceil(outer))
+    if not mask.any():
+        return np.zeros(mask.shape)
+    f = max(int(outer // COARSE_AT), 1)
+    ny, nx = mask.shape
+    coarse = mask.astype(float)
+    if f > 1:
+        padded = np.zeros((-(-ny // f) * f, -(-nx // f) * f))
+        padded[:ny, :nx] = coarse
+        coarse = padded.reshape(padded.shape[0] // f, f, padded.shape[1] // f, f).mean(axis=(1, 3))
+    r = int(np.ceil(outer / f))
     dy, dx = np.mgrid[-r:r + 1, -r:r + 1]
     dist = np.hypot(dx, dy)
-    ring = ((dist >= inner) & (dist <= outer)).astype(float)
-    share = fftconvolve(mask.astype(float), ring / ring.sum(), mode="same")
+    ring = ((dist >= inner / f) & (dist <= outer / f)).astype(float)
+    share = fftconvolve(coarse, ring / ring.sum(), mode="same")
+    if f > 1:
+        share = np.repeat(np.repeat(share, f, axis=0), f, axis=1)[:ny, :nx]
     return np.clip(share, 0.0, 1.0)
 
 

@@ -177,11 +177,12 @@ class _Walker:
     def step(self, cur: int, rec: int, prev: int | None, level: int,
              threshold: float) -> tuple[int, int] | None:
         cand, rec_c, p = self.scores(cur, rec, prev, level)
-        for i in np.argsort(-p, kind="stable").tolist():
-            if p[i] < threshold:
-                return None
+        order = np.argsort(-p, kind="stable")
+        order = order[p[order] >= threshold]
+        passing = self._passes_by(cur, cand[order])
+        for i, by in zip(order.tolist(), passing.tolist()):
             target = int(cand[i])
-            if self._blocked(cur, target) or (level is None and self._too_sharp(cur, target)):
+            if by or self._blocked(cur, target) or (level is None and self._too_sharp(cur, target)):
                 continue
             return target, int(rec_c[i])
         return None
@@ -212,22 +213,25 @@ class _Walker:
         diff = np.where(free, np.nan_to_num(diff, nan=np.inf), np.inf)
         return np.argmin(diff, axis=1)
 
-    def _passes_by(self, a: int, b: int) -> bool:
-        """Would a–b run past another junction so close that it should have stopped there?"""
-        pa, pb = self.c.xy[a], self.c.xy[b]
-        length = float(np.hypot(*(pb - pa)))
-        snap = min(self.opts.snap, self.opts.snap_share * length)
-        near = np.asarray(self.tree.query_ball_point((pa + pb) / 2, length / 2 + snap), dtype=np.int64)
-        near = near[(near != a) & (near != b)]
+    def _passes_by(self, a: int, targets: np.ndarray) -> np.ndarray:
+        """Per target b: would a–b run past another junction so close that it should have stopped there?"""
+        targets = np.asarray(targets, dtype=np.int64)
+        if not len(targets):
+            return np.zeros(0, dtype=bool)
+        pa, pb = self.c.xy[a], self.c.xy[targets]
+        length = np.hypot(*(pb - pa).T)
+        snap = np.minimum(self.opts.snap, self.opts.snap_share * length)
+        near = np.asarray(self.tree.query_ball_point(pa, float((length + snap).max())), dtype=np.int64)
+        near = near[near != a]
         if len(near) == 0:
-            return False
-        _, _, gap = closest_on_segments(self.c.xy[near], pa, pb)
-        return bool((gap < snap).any())
+            return np.zeros(len(targets), dtype=bool)
+        _, _, gap = closest_on_segments(self.c.xy[near][:, None, :], pa, pb[None, :, :])  # (near, targets)
+        close = (gap < snap[None, :]) & (near[:, None] != targets[None, :])
+        return close.any(axis=0)
 
     def _blocked(self, a: int, b: int) -> bool:
+        """Is a–b drawn already, or would it cross a segment or an obstacle? (Passing by is checked apart.)"""
         if (min(a, b), max(a, b)) in self.edges:
-            return True
-        if self._passes_by(a, b):
             return True
         pa, pb = self.c.xy[a], self.c.xy[b]
         if self.index.crosses(pa, pb, a, b):
@@ -282,7 +286,7 @@ class _Walker:
             ra, rb = int(np.argmax(c.cap[a] - self.used[a])), int(np.argmax(c.cap[b] - self.used[b]))
             if self.used[a, ra] >= c.cap[a, ra] or self.used[b, rb] >= c.cap[b, rb]:
                 continue
-            if self._blocked(a, b) or self._too_sharp(a, b):
+            if self._passes_by(a, np.array([b]))[0] or self._blocked(a, b) or self._too_sharp(a, b):
                 continue
             self.occupy(a, ra, b, rb)
             out.append((int(max(c.level[a, ra], c.level[b, rb], 0)), [a, b]))

@@ -26,7 +26,7 @@ ALL = TOWNS + ["circle-bug.osm.gz"]
 
 @lru_cache(maxsize=None)
 def loaded(name: str, service: bool = False) -> StreetNetwork:
-    return load(FIXTURES / name, service=service, context=False)
+    return load(FIXTURES / name, service=service, context=False).network
 
 
 @lru_cache(maxsize=None)

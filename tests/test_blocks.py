@@ -22,20 +22,20 @@ def test_a_grid_has_its_squares_as_blocks_and_one_outer_face():
     rings = faces(net)
     assert len(rings) == 5  # four squares and the outside
     found = blocks(net)
-    assert sorted(round(p.area) for p in found) == [10000] * 4
+    assert sorted(round(b.polygon.area) for b in found) == [10000] * 4
 
 
 def test_curved_streets_keep_their_shape_in_the_block():
     # a square whose top street bulges 30 m: the block follows the bulge
     lines = [[(0, 0), (100, 0)], [(100, 0), (100, 100)], [(100, 100), (50, 130), (0, 100)], [(0, 100), (0, 0)]]
     (block,) = blocks(network_from_lines(lines))
-    assert block.area == pytest.approx(10000 + 100 * 30 / 2)
+    assert block.polygon.area == pytest.approx(10000 + 100 * 30 / 2)
 
 
 def test_a_separate_network_inside_a_block_becomes_a_hole():
     outer = grid(2, 1000.0)
     inner = grid(2, 100.0, origin=(400.0, 400.0))
-    found = blocks(network_from_lines(outer + inner))
+    found = [b.polygon for b in blocks(network_from_lines(outer + inner))]
     areas = sorted(round(p.area) for p in found)
     assert areas == [10000, 1_000_000 - 10000]
     assert sum(p.area for p in found) == pytest.approx(shapely.union_all(found).area)
@@ -45,7 +45,39 @@ def test_a_separate_network_inside_a_block_becomes_a_hole():
                                   "north-bayreuth.osm.gz"])
 def test_town_blocks_are_valid_and_disjoint(name):
     net = simplified(name).network
-    found = blocks(net)
+    found = [b.polygon for b in blocks(net)]
     assert len(found) > 50
     assert all(p.is_valid and p.area >= 100 for p in found)
     assert sum(p.area for p in found) == pytest.approx(shapely.union_all(found).area, rel=1e-6)
+
+
+def test_each_edge_of_a_block_knows_its_street():
+    lines = [[(0, 0), (100, 0)], [(100, 0), (100, 100)], [(100, 100), (50, 130), (0, 100)], [(0, 100), (0, 0)]]
+    net = network_from_lines(lines)
+    (block,) = blocks(net)
+    ring = block.polygon.exterior.coords
+    assert len(block.street_ids) == len(ring) - 1
+    for (a, b), k in zip(zip(ring[:-1], ring[1:]), block.street_ids):
+        street = next(s for s in net.streets if s.id == k)
+        assert shapely.LineString(net.street_xy(street)).buffer(1e-6).covers(shapely.LineString([a, b]))
+
+
+def test_dead_ends_of_the_town_as_mapped_bound_no_block():
+    """A cul-de-sac inside a block (the town as mapped, not simplified) leaves the block whole."""
+    square = [[(0.0, 0.0), (100.0, 0.0), (100.0, 20.0), (100.0, 100.0)], [(100.0, 100.0), (0.0, 100.0)],
+              [(0.0, 100.0), (0.0, 50.0), (0.0, 0.0)]]
+    culs = [[(0.0, 50.0), (40.0, 50.0)], [(100.0, 20.0), (60.0, 20.0), (60.0, 40.0)], [(60.0, 20.0), (70.0, 10.0)]]
+    (block,) = blocks(network_from_lines(square + culs))
+    assert block.polygon.area == pytest.approx(10000.0)
+
+
+@pytest.mark.parametrize("name", ["krems.osm.gz", "north-bayreuth.osm.gz"])
+def test_blocks_of_the_town_as_mapped_are_valid_disjoint_and_cover_the_simplified_ones(name):
+    from tests.conftest import loaded
+
+    real = [b.polygon for b in blocks(loaded(name))]
+    assert len(real) > 50 and all(p.is_valid for p in real)
+    union = shapely.union_all(real)
+    assert sum(p.area for p in real) == pytest.approx(union.area, rel=1e-6)
+    simple = shapely.union_all([b.polygon for b in blocks(simplified(name).network)])
+    assert union.intersection(simple).area >= 0.8 * simple.area

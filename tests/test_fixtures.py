@@ -9,7 +9,7 @@ import shapely
 
 from osm_expand.export import write_geojson, write_osm
 from osm_expand.ingest import load
-from osm_expand.model import network_from_lines
+from osm_expand.model import City, network_from_lines
 from simplify import SimplifyOptions, simplify
 from simplify.crossings import add_missing_intersections
 from simplify.intersections import extract_intersections
@@ -30,12 +30,12 @@ def test_simplified_network_has_no_violations(name):
 def test_osm_and_geojson_outputs_keep_the_invariants(name, tmp_path):
     """Read our own files back (lon/lat, rounded to 1e-7) and check them again."""
     net = simplified(name).network
-    write_osm(net, tmp_path / "out.osm")
-    back = load(tmp_path / "out.osm", context=False)
+    write_osm(City(network=net), tmp_path / "out.osm")
+    back = load(tmp_path / "out.osm", context=False).network
     assert len(back.streets) == len(net.streets)
     assert not any(violations(back).values())
     assert junction_mask(back.streets, len(back.xy)).sum() == junction_mask(net.streets, len(net.xy)).sum()
-    write_geojson(net, tmp_path / "out.geojson")
+    write_geojson(City(network=net), tmp_path / "out.geojson")
     doc = json.loads((tmp_path / "out.geojson").read_text())
     lines = [f["geometry"]["coordinates"] for f in doc["features"]]
     attrs = [{"layer": int(f["properties"].get("layer", 0)), "bridge": "bridge" in f["properties"],
@@ -151,5 +151,5 @@ def test_report_counts_every_pass():
 @pytest.mark.parametrize("name,service,paths", [("monaco.osm.gz", True, False), ("andorra.osm.pbf", True, True),
                                                 ("north-bayreuth.osm.gz", True, True)])
 def test_optional_street_classes_keep_the_invariants(name, service, paths):
-    net = simplify(load(FIXTURES / name, service=service, paths=paths, context=False)).network
+    net = simplify(load(FIXTURES / name, service=service, paths=paths, context=False).network).network
     assert not any(violations(net).values())

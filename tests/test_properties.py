@@ -34,8 +34,13 @@ def test_simplify_always_satisfies_the_invariants(items):
     net = network_from_lines([p for p, _ in items], [a for _, a in items])
     result = simplify(net)
     assert violations(result.network) == dict.fromkeys(violations(result.network), 0)
-    # nothing is invented: every node of the output is an input node or lies on an input street
-    assert result.report["streets"] == len(result.network.streets)
+    # nothing is invented: every node of the output lies on an input street or within the largest
+    # distance a pass may move it (a roundabout's centre: 40 m; a fused cluster's: 10 m discs chained)
+    out = result.network
+    if out.streets:
+        before = shapely.union_all([shapely.LineString(net.street_xy(s)) for s in net.streets])
+        used = out.xy[out.used_nodes()]
+        assert shapely.distance(before, shapely.points(used)).max() <= 50.0
 
 
 @SETTINGS

@@ -1,4 +1,4 @@
-"""The <urbanenvironment> writer: schema, geometry and georeferencing."""
+"""The <urbanenvironment> writer: schema, geometry, georeferencing, and reading it back."""
 from __future__ import annotations
 
 import numpy as np
@@ -7,18 +7,23 @@ from lxml import etree
 from pyproj import Transformer
 
 from osm_expand.export.urban import validate, write_urbanenvironment
-from osm_expand.model import network_from_lines
+from osm_expand.ingest import load
+from osm_expand.model import Building, City, Origin, network_from_lines
 from simplify.hierarchy import with_levels
 from simplify.invariants import violations
 from tests.conftest import simplified
 
-BOX = (np.array([[0.0, 0.0], [12.0, 0.0], [12.0, 8.0], [0.0, 8.0]]), 9.5)
+BOX = Building(rings=(np.array([[0.0, 0.0], [12.0, 0.0], [12.0, 8.0], [0.0, 8.0], [0.0, 0.0]]),), height=9.5,
+               origin=Origin.ENGINE, year=2030)
+#: A mapped footprint, not a rectangle: the XML gets its minimum rotated rectangle.
+L_SHAPE = Building(rings=(np.array([[0.0, 0.0], [20.0, 0.0], [20.0, 5.0], [5.0, 5.0], [5.0, 20.0], [0.0, 20.0],
+                                    [0.0, 0.0]]) + 500.0,), height=None, levels=3, osm_id=77)
 
 
 def _write(tmp_path, name="krems.osm.gz", file="town.xml"):
     net = with_levels(simplified(name).network)
     out = tmp_path / file
-    write_urbanenvironment(net, out, buildings=[BOX])
+    write_urbanenvironment(City(network=net, buildings=(BOX, L_SHAPE)), out)
     return net, out
 
 
@@ -27,8 +32,19 @@ def test_output_validates_against_the_shipped_schema(tmp_path):
     assert validate(out) == []
     root = etree.parse(str(out)).getroot()
     assert root.tag == "urbanenvironment" and [c.tag for c in root] == ["streets", "buildings"]
-    building = root.find("buildings/building")
-    assert building.get("height") == "9.50" and len(building.findall("node")) == 4
+    box, mapped = root.findall("buildings/building")
+    assert box.get("height") == "9.50" and len(box.findall("node")) == 4
+    assert box.get("origin") == "engine" and box.get("year") == "2030"
+    assert mapped.get("origin") == "source" and mapped.get("osm_id") == "77"
+
+
+def test_a_mapped_footprint_becomes_its_minimum_rectangle(tmp_path):
+    _, out = _write(tmp_path)
+    mapped = etree.parse(str(out)).getroot().findall("buildings/building")[1]
+    pts = np.array([[float(n.get("x")), float(n.get("y"))] for n in mapped.findall("node")])
+    sides = np.roll(pts, -1, axis=0) - pts
+    assert sorted(np.round(np.hypot(*sides.T), 3)) == [20.0, 20.0, 20.0, 20.0]
+    assert float(mapped.get("height")) == pytest.approx(6.0)  # no height tag: the writer's fallback
 
 
 def test_a_building_with_three_corners_is_rejected(tmp_path):
@@ -63,6 +79,16 @@ def test_coordinates_can_be_georeferenced_again(tmp_path):
     lon0, lat0 = net.context.projection.to_lonlat(net.xy[first, 0], net.xy[first, 1])
     assert lon == pytest.approx(float(lon0), abs=1e-7) and lat == pytest.approx(float(lat0), abs=1e-7)
     assert float(root.get("lon0")) == pytest.approx(7.42, abs=0.02)
+
+
+def test_the_xml_reads_back_as_the_same_streets_and_buildings(tmp_path):
+    net, out = _write(tmp_path)
+    back = load(out)
+    assert len(back.network.streets) == len(net.streets)
+    assert [s.highway for s in back.network.streets] == [s.highway for s in net.streets]
+    assert np.allclose(back.network.total_length(), net.total_length(), rtol=1e-6)
+    assert [b.origin for b in back.buildings] == [Origin.ENGINE, Origin.SOURCE]
+    assert back.projection.lon0 == pytest.approx(net.context.projection.lon0, abs=1e-7)
 
 
 def test_same_network_same_bytes(tmp_path):

@@ -30,7 +30,8 @@ def run(argv, capsys):
 
 
 def one_line(err: str) -> str:
-    lines = [ln for ln in err.strip().splitlines() if ln.strip()]
+    """The one error line (progress lines, which start with "[", may come before it)."""
+    lines = [ln for ln in err.strip().splitlines() if ln.strip() and not ln.startswith("[")]
     assert len(lines) == 1, err
     assert "Traceback" not in err
     return lines[0]
@@ -160,10 +161,32 @@ def test_the_svg_preview_is_the_same_bytes_for_the_same_seed(tmp_path, capsys):
 
 
 def test_long_stages_show_a_progress_bar_and_quiet_silences_it(tmp_path):
+    """On a terminal a tqdm bar; in a log a timed line per stage; with -q nothing."""
+    import fcntl
+    import os
+    import pty
+    import struct
+    import termios
+
     exe = Path(sys.executable).with_name("osm-expand")
     argv = [str(exe), str(KREMS), "-o", str(tmp_path / "k.xml")]
-    loud = subprocess.run(argv, capture_output=True, text=True)
-    assert loud.returncode == 0, loud.stderr
-    assert "%|" in loud.stderr or "it/s" in loud.stderr or "s/it" in loud.stderr  # a tqdm bar
+    leader, follower = pty.openpty()
+    fcntl.ioctl(follower, termios.TIOCSWINSZ, struct.pack("HHHH", 24, 100, 0, 0))  # a 100-column terminal
+    proc = subprocess.Popen(argv, stdout=subprocess.DEVNULL, stderr=follower)
+    os.close(follower)
+    seen = b""
+    while True:  # read while it runs: a full terminal buffer would stall it
+        try:
+            chunk = os.read(leader, 65536)
+        except OSError:  # the terminal closed with the process
+            break
+        if not chunk:
+            break
+        seen += chunk
+    os.close(leader)
+    assert proc.wait() == 0
+    assert b"%|" in seen and b"5/5" in seen  # the bar over the stages, finished
+    logged = subprocess.run(argv, capture_output=True, text=True)
+    assert logged.returncode == 0 and "growing streets" in logged.stderr and "%|" not in logged.stderr
     quiet = subprocess.run(argv + ["-q"], capture_output=True, text=True)
     assert quiet.returncode == 0 and quiet.stderr == "" and quiet.stdout == ""

@@ -5,6 +5,7 @@ import functools
 import json
 
 import numpy as np
+import pytest
 import shapely
 from hypothesis import given, settings
 from hypothesis import strategies as st
@@ -117,15 +118,20 @@ def test_same_seed_same_walk_different_seed_different_walk():
     assert a.streets == b.streets and a.streets != c.streets
 
 
-def test_reproduction_is_at_least_as_good_as_the_thesis():
-    """004 §5.3 reports 70 ± 5 %; the walk here must not fall below the thesis's lower bound."""
-    for name in ("krems.osm.gz", "north-bayreuth.osm.gz"):
-        result = simplified(name)
-        ex = build_example(result.network, result.dead_ends)
-        scores = [reproduce(ex, seed) for seed in range(3)]
-        assert np.mean([s["recall"] for s in scores]) >= 0.62
-        assert np.mean([s["precision"] for s in scores]) >= 0.70
-        assert len(example_segments(ex)) == scores[0]["segments_original"]
+#: Mean recall and precision of seeds 0-2, just under what was measured (Krems 0.817 / 0.939,
+#: north-bayreuth 0.883 / 0.959): a regression of a point fails. 004 §5.3 reports 70 ± 5 %.
+REPRODUCTION_FLOOR = {"krems.osm.gz": (0.80, 0.93), "north-bayreuth.osm.gz": (0.87, 0.95)}
+
+
+@pytest.mark.parametrize("name", sorted(REPRODUCTION_FLOOR))
+def test_reproduction_keeps_its_measured_recall_and_precision(name):
+    result = simplified(name)
+    ex = build_example(result.network, result.dead_ends)
+    scores = [reproduce(ex, seed) for seed in range(3)]
+    recall, precision = REPRODUCTION_FLOOR[name]
+    assert np.mean([s["recall"] for s in scores]) >= recall
+    assert np.mean([s["precision"] for s in scores]) >= precision
+    assert len(example_segments(ex)) == scores[0]["segments_original"]
 
 
 def test_reproduce_command(capsys):
@@ -134,23 +140,25 @@ def test_reproduce_command(capsys):
     assert 0 <= score["recall"] <= 1 and 0 <= score["precision"] <= 1 and score["seed"] == 2
 
 
-@functools.cache
-def _grown_network(name: str, seed: int = 1):
+def _grow(name: str, seed: int = 1):
     import shapely as shp
 
     from osm_expand.ingest import load
     from synth.grow import grow
 
-    net = load(FIXTURES / name)
-    result = simplify(net)
+    city = load(FIXTURES / name)
+    result = simplify(city.network)
     ex = build_example(result.network, result.dead_ends)
     lo, hi = ex.xy.min(axis=0), ex.xy.max(axis=0)
     side = float((hi - lo).max())
     region = shp.box(hi[0] + 200, (lo[1] + hi[1] - side) / 2, hi[0] + 200 + side, (lo[1] + hi[1] + side) / 2)
-    water = list(net.context.water) + list(net.context.sea)
+    water = list(city.water) + list(city.sea)
     obstacles = shp.union_all(water) if water else None
     grown = grow(ex, region, obstacles=obstacles, seed=seed)
     return grown, region, obstacles
+
+
+_grown_network = functools.cache(_grow)
 
 
 def test_growth_next_to_a_town_never_crosses_and_stays_dry():
@@ -168,9 +176,13 @@ def test_growth_next_to_a_town_never_crosses_and_stays_dry():
 
 
 def test_growth_is_deterministic():
-    a, _, _ = _grown_network("krems.osm.gz", seed=7)
-    b, _, _ = _grown_network("krems.osm.gz", seed=7)
+    """Two independent runs (no cache between them) with one seed draw the same streets."""
+    a, _, _ = _grow("krems.osm.gz", seed=7)
+    b, _, _ = _grow("krems.osm.gz", seed=7)
     assert a.walk.streets == b.walk.streets
+    assert all(np.array_equal(p, q) for (_, p), (_, q) in zip(a.polylines(), b.polylines()))
+    c, _, _ = _grow("krems.osm.gz", seed=8)
+    assert c.walk.streets != a.walk.streets
 
 
 def _ks(a: np.ndarray, b: np.ndarray) -> float:
@@ -220,12 +232,13 @@ def test_grown_junctions_are_three_and_four_way_like_the_towns():
 
 def test_same_seed_same_bytes(tmp_path):
     from osm_expand.export import write_geojson
+    from osm_expand.model import City
 
     for name in ("a", "b"):
-        grown, _, _ = _grown_network("krems.osm.gz", seed=11)
+        grown, _, _ = _grow("krems.osm.gz", seed=11)  # grown afresh each time
         net = network_from_lines([[tuple(p) for p in pl] for _, pl in grown.polylines()],
                                  [{"hierarchy": lv} for lv, _ in grown.polylines()])
-        write_geojson(net, tmp_path / f"{name}.geojson")
+        write_geojson(City(network=net), tmp_path / f"{name}.geojson")
     assert (tmp_path / "a.geojson").read_bytes() == (tmp_path / "b.geojson").read_bytes()
 
 
@@ -247,15 +260,15 @@ def test_a_grown_district_connects_to_the_old_town():
     from osm_expand.ingest import load
     from synth.grow import grow
 
-    net = load(FIXTURES / "north-bayreuth.osm.gz")
-    result = simplify(net)
+    city = load(FIXTURES / "north-bayreuth.osm.gz")
+    result = simplify(city.network)
     ex = build_example(result.network, result.dead_ends)
     lo, hi = ex.xy.min(axis=0), ex.xy.max(axis=0)
     side = float((hi - lo).max())
     edge = (ex.slots > 0) & (ex.xy[:, 0] > hi[0] - 600)  # old-town junctions with room, on its east side
     region = shp.union_all([shp.box(hi[0] + 50, (lo[1] + hi[1] - side) / 2, hi[0] + 50 + side, (lo[1] + hi[1] + side) / 2),
                             shp.box(float(ex.xy[edge, 0].min()) - 1, lo[1], hi[0] + 60, hi[1])])
-    grown = grow(ex, region, obstacles=shp.union_all(list(net.context.water)), border_xy=ex.xy[edge],
+    grown = grow(ex, region, obstacles=shp.union_all(list(city.water)), border_xy=ex.xy[edge],
                  border_slots=ex.slots[edge], seed=1)
     core = len(grown.cloud) - int(edge.sum())
     links = [(a, b) for _, p in grown.walk.streets for a, b in zip(p, p[1:]) if (a >= core) != (b >= core)]

@@ -143,7 +143,7 @@ def _buildings(city: City, nodes: _Nodes, ways: list, new_id: _NewIds) -> list[t
                 way_id = new_id()
                 ways.append((way_id, ring, {}))
                 members.append((way_id, "outer" if k == 0 else "inner"))
-        out.append((rel_id, members, building_tags(parts[0])))
+        out.append((rel_id, members, {"type": "multipolygon", **building_tags(parts[0])}))
     return out
 
 
