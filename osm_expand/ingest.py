@@ -34,7 +34,7 @@ import shapely
 
 from osm_expand.coastline import assemble_sea
 from osm_expand.errors import InputError
-from osm_expand.model import Building, City, Context, MappedArea, Street, StreetNetwork
+from osm_expand.model import Building, City, Context, MappedArea, Street, StreetNetwork, UnplacedWay
 from osm_expand.model.highways import highway_set
 from osm_expand.model.projection import LocalProjection
 
@@ -67,6 +67,8 @@ class _Raw:
     #: (rings as (node ids, lon/lat), tags, osm type, osm id)
     buildings: list[tuple[list[tuple[list[int], list[tuple[float, float]]]], dict, str, int]] = field(default_factory=list)
     clipped_buildings: int = 0
+    #: ways kept as mapped but without a drawable shape: (id, refs, located refs and lon/lat, tags)
+    unplaced: list[tuple[int, list[int], list[tuple[int, tuple[float, float]]], dict]] = field(default_factory=list)
     areas: list[tuple[list[list[tuple[float, float]]], str, str, int]] = field(default_factory=list)
     newest: int = 0  # the newest object's timestamp (seconds since 1970)
 
@@ -274,6 +276,9 @@ def _take_way(way, kept: frozenset[str], raw: _Raw) -> None:
         raw.input_ways += 1
         runs, clipped = _way_runs(way)
         raw.clipped_ways += clipped
+        if not runs:  # not one stretch of two known nodes: kept as mapped, drawn nowhere
+            _take_unplaced(way, raw)
+            return
         attrs = street_attrs(way.id, tags)
         raw.streets.extend((refs, coords, attrs) for refs, coords in runs)
         return
@@ -283,6 +288,12 @@ def _take_way(way, kept: frozenset[str], raw: _Raw) -> None:
         raw.waterways.extend((coords, width) for _, coords in _way_runs(way)[0])
     elif tags.get("natural") == "coastline":
         raw.coastline.extend(coords for _, coords in _way_runs(way)[0])
+
+
+def _take_unplaced(way, raw: _Raw) -> None:
+    """A way of the town whose nodes the extract mostly lacks: written back as mapped, not drawn."""
+    located = [(nd.ref, (nd.location.lon, nd.location.lat)) for nd in way.nodes if nd.location.valid()]
+    raw.unplaced.append((way.id, [nd.ref for nd in way.nodes], located, dict(way.tags)))
 
 
 def _area_kind(tags) -> tuple[str, str] | None:
@@ -306,7 +317,9 @@ def _take_closed_way(way, raw: _Raw) -> None:
         return
     runs, clipped = _way_runs(way)
     if clipped or not runs:
-        raw.clipped_buildings += kind[0] == "building"
+        if kind[0] == "building":
+            raw.clipped_buildings += 1
+            _take_unplaced(way, raw)
         return
     refs, ring = runs[0]
     if kind[0] == "building":
@@ -369,7 +382,8 @@ def _build(raw: _Raw, header_box: tuple | None) -> City:
     context = Context(projection=proj, bounds_lonlat=tuple(float(v) for v in bounds),
                       bounds_from_header=header_box is not None)
     stats = {"input_ways": raw.input_ways, "input_nodes": int(len(ids)), "clipped_ways": raw.clipped_ways,
-             "streets": len(streets), "buildings": len(raw.buildings), "clipped_buildings": raw.clipped_buildings}
+             "streets": len(streets), "buildings": len(raw.buildings), "clipped_buildings": raw.clipped_buildings,
+             "unplaced_ways": len(raw.unplaced)}
     network = StreetNetwork(xy=xy, node_ids=ids, streets=streets, context=context, stats=stats)
     year = _year(raw.newest)
     return City(
@@ -378,6 +392,9 @@ def _build(raw: _Raw, header_box: tuple | None) -> City:
         water=_water_polygons(raw, proj),
         sea=assemble_sea(_project_lines(raw.coastline, proj), _bounds_box(bounds, proj)),
         areas=_areas(raw.areas, proj),
+        unplaced=tuple(UnplacedWay(osm_id=i, refs=tuple(refs), located=tuple(r for r, _ in known),
+                                   xy=_project([ll for _, ll in known], proj), tags=tuple(tags.items()))
+                       for i, refs, known, tags in raw.unplaced),
         year=year,
         stats=stats,
     )

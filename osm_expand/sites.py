@@ -140,7 +140,7 @@ def _built_up(city: City, xs: np.ndarray, ys: np.ndarray, cell: float, opts: Sit
     net = city.network
     streets = shapely.MultiLineString([net.street_xy(s) for s in net.streets])
     buffered = _raster(shapely.buffer(streets, opts.street_buffer), xs, ys)
-    r = max(int(round(opts.street_buffer / cell)), 1)
+    r = int(round(opts.street_buffer / cell)) + 1  # wider than a lone road's strip, however it rasterises
     dy, dx = np.mgrid[-r:r + 1, -r:r + 1]
     body = binary_opening(buffered, structure=np.hypot(dx, dy) <= r)
     blocks = _raster(shapely.union_all([b.polygon for b in city.blocks]), xs, ys) if city.blocks else body & False

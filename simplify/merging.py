@@ -10,6 +10,7 @@ different layers never merge: a bridge stays a bridge.
 from __future__ import annotations
 
 from collections import defaultdict
+from dataclasses import replace
 from itertools import combinations
 
 import numpy as np
@@ -111,7 +112,12 @@ def _join(net: StreetNetwork, group: list[int], partner: dict[End, End]) -> Stre
 
 
 def combine(xy: np.ndarray, parts: list[Street], nodes: tuple[int, ...]) -> Street:
-    """Attributes of the longest part, the class with most length, all OSM ids."""
+    """One street from consecutive parts: every field of the longest part, the class with most length,
+    the name of the longest named part, all OSM ids.
+
+    The merged street is no longer one mapped way, so its OSM tags go (the
+    typed fields carry what the stages need); a roundabout tag no longer holds.
+    """
     lens = [lengths(xy, p.nodes) for p in parts]
     main = parts[int(np.argmax(lens))]
     named = [(ln, p.name) for ln, p in zip(lens, parts) if p.name]
@@ -120,8 +126,5 @@ def combine(xy: np.ndarray, parts: list[Street], nodes: tuple[int, ...]) -> Stre
         by_class[p.highway] += ln
     best_class = max(sorted(by_class), key=lambda h: (by_class[h], -rank(h)))
     ids = tuple(dict.fromkeys(i for p in parts for i in p.osm_ids))
-    return Street(
-        nodes=nodes, highway=best_class, name=max(named)[1] if named else None,
-        layer=main.layer, bridge=main.bridge, tunnel=main.tunnel, junction=None,
-        lanes=main.lanes, width=main.width, osm_ids=ids,
-    )
+    return replace(main, nodes=nodes, highway=best_class, name=max(named)[1] if named else None, junction=None,
+                   osm_ids=ids, tags=() if len(parts) > 1 else main.tags)

@@ -271,3 +271,20 @@ def test_grid_without_nodes_becomes_a_clean_network():
     assert [p["pass"] for p in result.report["passes"]] == [
         "input", "intersections", "missing_intersections", "dead_ends", "overlaps", "roundabouts",
         "clusters", "merging", "two_street", "final"]
+
+
+def test_merging_keeps_every_field_of_the_longest_part():
+    """combine used to rebuild a Street field by field and reset hierarchy, status, year, origin and id."""
+    from osm_expand.model import Origin, Status
+    from simplify.merging import combine
+
+    net = network_from_lines([[(0, 0), (100, 0)], [(100, 0), (300, 0)]],
+                             [{"name": "A", "hierarchy": 2, "status": Status.PLANNED, "year": 1901,
+                               "origin": Origin.GROWN, "era": "old", "width": 7.0},
+                              {"highway": "primary", "hierarchy": 1, "status": Status.BUILT, "year": 1950,
+                               "origin": Origin.GROWN, "era": "new", "width": 12.0}])
+    a, b = net.streets
+    merged = combine(net.xy, [a, b], a.nodes + b.nodes[1:])
+    assert (merged.hierarchy, merged.status, merged.year, merged.era, merged.width, merged.id) == \
+        (1, Status.BUILT, 1950, "new", 12.0, b.id)
+    assert merged.name == "A" and merged.highway == "primary" and merged.origin == Origin.GROWN

@@ -12,6 +12,9 @@
   and the file says ``upload="never"`` so JOSM will not upload them.
 - Buildings are written as mapped: closed ways with their own nodes, and
   multipolygon relations with their rings as member ways.
+- Ways a clipped extract leaves without a drawable shape (a street with one
+  node inside the map, a building cut by its edge) are written back as they
+  were mapped, with references to the nodes the extract lacks.
 - ``<bounds>`` cover the map's bounds and every node written.
 - Objects are sorted as ``osmium sort`` does (nodes, ways, relations; by id).
 """
@@ -24,7 +27,7 @@ import numpy as np
 from lxml import etree
 
 from osm_expand.export.atomic import atomic_write
-from osm_expand.export.features import building_tags, osm_street_tags, to_lonlat
+from osm_expand.export.features import ORIGIN_KEY, building_tags, osm_street_tags, to_lonlat
 from osm_expand.model import Building, City
 
 GENERATOR = "osm-expand"
@@ -69,6 +72,9 @@ def write_osm(city: City, path: str | os.PathLike) -> None:
     for way_id, street in zip(_way_ids(city, next_way), net.streets):
         ways.append((way_id, street_node[list(street.nodes)].tolist(), osm_street_tags(street)))
     relations = _buildings(city, nodes, ways, next_way)
+    for way in city.unplaced:  # as mapped: its missing nodes stay missing, as in the input
+        nodes.add(np.asarray(way.located, dtype=np.int64), to_lonlat(city, way.xy))
+        ways.append((way.osm_id, list(way.refs), {**dict(way.tags), ORIGIN_KEY: "source"}))
     node_ids, lonlat = nodes.table()
     with atomic_write(path, "wb") as fh, etree.xmlfile(fh, encoding="UTF-8") as xf:
         xf.write_declaration()

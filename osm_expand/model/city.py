@@ -64,6 +64,18 @@ class MappedArea:
 
 
 @dataclass(frozen=True, eq=False)
+class UnplacedWay:
+    """A way of the town that a clipped extract leaves without a drawable shape (fewer than two
+    consecutive nodes inside it): no stage uses it, the OSM output gives it back as mapped."""
+
+    osm_id: int
+    refs: tuple[int, ...]  #: every node id, as mapped (most of them missing from the extract)
+    located: tuple[int, ...]  #: the node ids the extract has
+    xy: np.ndarray  #: (len(located), 2) metres
+    tags: Tags = ()
+
+
+@dataclass(frozen=True, eq=False)
 class Block:
     """A block: a face of the street graph (004 §4.3) that knows the streets around it.
 
@@ -88,6 +100,7 @@ class City:
     sea: tuple[shapely.Geometry, ...] = ()  #: assembled from coastline
     areas: tuple[MappedArea, ...] = ()
     blocks: tuple[Block, ...] = ()
+    unplaced: tuple[UnplacedWay, ...] = ()  #: mapped ways without a drawable shape, given back as mapped
     year: int | None = None  #: the current year (the map's, from its newest object, at ingest)
     unbuildable: shapely.Geometry | None = None  #: land nothing new may take (see :mod:`osm_expand.land`)
     stats: dict[str, Any] = field(default_factory=dict)  #: what ingest counted
