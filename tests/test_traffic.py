@@ -66,6 +66,18 @@ def test_a_dual_carriageway_is_one_neighbour_and_a_road_ending_inside_is_none():
     assert len(nb) == 4
 
 
+def test_a_road_running_on_beyond_the_box_enters_where_it_crosses_the_outline():
+    xy, edges, hw = cross([((0, 300), (900, 300), "trunk"), ((900, 300), (1400, 500), "trunk"),
+                           ((1400, 500), (1400, 3000), "trunk")])
+    nb = neighbour_cities(xy, edges, hw, BOX, np.random.default_rng(0))
+    assert len(nb) == 5
+    k = int(np.argmin(np.abs(nb.entry_xy[:, 1] - 340)))
+    assert nb.entry_xy[k] == pytest.approx([1000.0, 340.0])            # 900,300 → 1400,500 at x = 1000
+    assert xy[nb.exit_node[k]].tolist() == [900.0, 300.0]              # the node inside, not 3 km out
+    heading = np.array([500.0, 200.0]) / np.hypot(500, 200)
+    assert nb.xy[k] == pytest.approx(nb.entry_xy[k] + 5000 * heading)
+
+
 def test_a_river_crossing_the_box_adds_two_water_neighbours():
     xy, edges, hw = cross()
     river = shapely.box(400, -1500, 480, 1500)  # 80 m wide, north to south

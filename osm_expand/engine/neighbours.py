@@ -4,8 +4,9 @@ Seed 003 feeds its traffic simulation with a list of notional, unsimulated
 neighbouring cities ``nc`` beyond the map border (§3.1, figure 3a); every
 pair of them trades over *trade routes* (§3.4, see :mod:`.trade`). For a
 real town the neighbours are read off the map: a motorway, trunk, primary or
-secondary road that ends on (or within ``exit_margin`` of) the bounds leads
-to a neighbour, and so does a river or sea that crosses the bounds (a water
+secondary road that leaves the map leads to a neighbour (a major segment
+crossing the bounds, or a major road's dead end within ``exit_margin`` of
+them), and so does a river or sea that crosses the bounds (a water
 neighbour, reached by ship over 003's water lattice). Exits closer than
 ``cluster_radius`` to each other (the two carriageways of one road, a fork
 at the border) are one neighbour. Each neighbour is placed
@@ -69,9 +70,11 @@ class NeighbourOptions:
     #: Highway classes whose map exits lead to a neighbouring city (the issue's
     #: "motorway/trunk/primary/secondary"); ``*_link`` ramps are not exits.
     exit_classes: tuple[str, ...] = ("motorway", "trunk", "primary", "secondary")
-    #: An end of such a road within this distance (m) of the bounds, or beyond
-    #: them, leaves the map. Clipped extracts end ways at the first node past
-    #: the box, or one short of it; 50 m covers one shape-point step.
+    #: A major road's dead end this close (m) to the bounds, inside or out,
+    #: leaves the map; a segment crossing the bounds attaches at its outer node when that
+    #: is this close beyond them (else at its inner node). Clipped extracts
+    #: end ways at the first node past the box or one short of it; 50 m
+    #: covers one shape-point step.
     exit_margin: float = 50.0
     #: Exits closer than this (m) are one neighbour: dual carriageways and the
     #: arms of a junction at the border lie 10–60 m apart; roads 200 m apart
@@ -121,7 +124,7 @@ class NeighbourOptions:
             raise InputError(f"neighbours.min_outward is a cosine in [-1, 1], got {self.min_outward}")
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, eq=False)
 class Neighbours:
     """The neighbouring cities ``nc`` of one town, sorted by angle around the centre.
 
@@ -196,15 +199,16 @@ def _onto_bounds(points: NDArray[np.float64], b: NDArray[np.float64]) -> NDArray
     return out
 
 
-def _ray_to_bounds(centre: NDArray[np.float64], direction: NDArray[np.float64],
+def _ray_to_bounds(start: NDArray[np.float64], direction: NDArray[np.float64],
                    b: NDArray[np.float64]) -> NDArray[np.float64]:
-    """Where rays from ``centre`` (inside the box) along unit ``direction`` (K, 2) leave it."""
+    """Where rays from ``start`` ((2,) or (K, 2), inside the box) along ``direction`` (K, 2) leave it."""
+    start = np.broadcast_to(start, direction.shape)
     with np.errstate(divide="ignore", invalid="ignore"):
-        tx = np.where(direction[:, 0] > 0, (b[2] - centre[0]) / direction[:, 0],
-                      np.where(direction[:, 0] < 0, (b[0] - centre[0]) / direction[:, 0], np.inf))
-        ty = np.where(direction[:, 1] > 0, (b[3] - centre[1]) / direction[:, 1],
-                      np.where(direction[:, 1] < 0, (b[1] - centre[1]) / direction[:, 1], np.inf))
-    return centre + np.minimum(tx, ty)[:, None] * direction
+        tx = np.where(direction[:, 0] > 0, (b[2] - start[:, 0]) / direction[:, 0],
+                      np.where(direction[:, 0] < 0, (b[0] - start[:, 0]) / direction[:, 0], np.inf))
+        ty = np.where(direction[:, 1] > 0, (b[3] - start[:, 1]) / direction[:, 1],
+                      np.where(direction[:, 1] < 0, (b[1] - start[:, 1]) / direction[:, 1], np.inf))
+    return start + np.minimum(tx, ty)[:, None] * direction
 
 
 def _unit(v: NDArray[np.float64]) -> NDArray[np.float64]:
@@ -243,33 +247,55 @@ def _no_exits() -> _Exits:
 
 def _road_exits(xy: NDArray[np.float64], edges: NDArray[np.intp], highway: NDArray[np.str_],
                 b: NDArray[np.float64], options: NeighbourOptions) -> _Exits:
-    """Ends of major roads at the border, one per cluster of nearby ends."""
+    """Where major roads leave the map, one per cluster of nearby exits.
+
+    Two kinds of exit: a major segment with one end inside the box and the
+    other on or beyond it (entry: where it crosses the outline; it attaches
+    at its outer node when that lies within ``exit_margin`` of the box, as a
+    clipped extract's last node does, else at its inner node), and a major
+    road's dead end within ``exit_margin`` of the outline, inside or out
+    (a road cut just short of the box, or running along just outside it).
+    """
     major = np.isin(highway, np.asarray(options.exit_classes, dtype=str))
     medges = edges[major]
+    rank_of = {c: k for k, c in enumerate(options.exit_classes)}
+    seg_rank = np.array([rank_of[c] for c in highway[major]], dtype=float)
+    inset = _inset(xy, b)
+    inside = inset > 0
+    # crossing segments
+    cross = inside[medges[:, 0]] != inside[medges[:, 1]]
+    first_in = inside[medges[cross, 0]]
+    inner = np.where(first_in, medges[cross, 0], medges[cross, 1])
+    outer = np.where(first_in, medges[cross, 1], medges[cross, 0])
+    step = xy[outer] - xy[inner]
+    cross_entry = _ray_to_bounds(xy[inner], step, b)
+    cross_node = np.where(inset[outer] >= -options.exit_margin, outer, inner)
+    cross_heading = _unit(step)
+    # dead ends at the border (inside or out)
     degree = np.bincount(medges.ravel(), minlength=len(xy))
     ends = medges.ravel()
-    at_end = (degree[ends] == 1) & (_inset(xy[ends], b) <= options.exit_margin)
-    if not at_end.any():
+    slot = np.flatnonzero((degree[ends] == 1) & (np.abs(inset[ends]) <= options.exit_margin))
+    dead = ends[slot]
+    dead_heading = _unit(xy[dead] - xy[ends[slot ^ 1]])  # flat pairs: slot ^ 1 is the other end
+    node = np.r_[cross_node, dead].astype(np.int64)
+    if len(node) == 0:
         return _no_exits()
-    slot = np.flatnonzero(at_end)
-    node = ends[slot]
-    other = medges.ravel()[slot ^ 1]  # the segment's other end (pairs are stored flat: 2k, 2k+1)
-    seg_class = highway[major][slot // 2]
-    normal = _outward_normal(xy[node], b)
-    heading = _unit(xy[node] - xy[other])
+    entry = np.r_[cross_entry, _onto_bounds(xy[dead], b)]
+    heading = np.r_[cross_heading, dead_heading]
+    rank = np.r_[seg_rank[cross], seg_rank[slot // 2]]
+    normal = _outward_normal(entry, b)
     outward = (heading * normal).sum(axis=1) >= options.min_outward
     direction = np.where(outward[:, None], heading, normal)
-    # one neighbour per cluster: its most important road (class order), then the outermost end
-    label = _clusters(xy[node], options.cluster_radius)
-    class_rank = np.array([options.exit_classes.index(c) for c in seg_class])
-    order = np.lexsort((node, _inset(xy[node], b), class_rank, label))
+    # one neighbour per cluster, attached at its most important road (class order, then node id)
+    label = _clusters(entry, options.cluster_radius)
+    order = np.lexsort((node, rank, label))
     first = order[np.r_[True, np.diff(label[order]) != 0]]
     mean_dir = np.zeros((label.max() + 1, 2))
     np.add.at(mean_dir, label, direction)
     dirs = _unit(mean_dir[label[first]])
     dirs = np.where((np.hypot(dirs[:, 0], dirs[:, 1]) > 0)[:, None], dirs, direction[first])
-    return _Exits(_onto_bounds(xy[node[first]], b), dirs, node[first].astype(np.int64),
-                  np.full(len(first), NeighbourKind.ROAD.value, dtype="<U5"), class_rank[first].astype(float))
+    return _Exits(entry[first], dirs, node[first],
+                  np.full(len(first), NeighbourKind.ROAD.value, dtype="<U5"), rank[first])
 
 
 def _water_exits(water: Sequence[shapely.Geometry], b: NDArray[np.float64],

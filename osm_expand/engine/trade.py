@@ -97,7 +97,7 @@ class TradeOptions:
             raise InputError(f"trade: need 0 ≤ b_min ≤ b_max, got {self.b_min}, {self.b_max}")
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, eq=False)
 class TradeRoute:
     """One trade route ``P_{i,j}``: a path over segments, its length and its traffic.
 
@@ -119,7 +119,7 @@ class TradeRoute:
     traffic: float = 0.0
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, eq=False)
 class TradeState:
     """All trade routes of a town and each pair's demand ``t``.
 
