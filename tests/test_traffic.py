@@ -14,8 +14,9 @@ from hypothesis import strategies as st
 from osm_expand.engine.neighbours import (NeighbourKind, NeighbourOptions, initial_pairs,
                                           neighbour_cities, neighbour_pairs)
 from osm_expand.engine.trade import (TradeOptions, add_route, assign_increase, extend_segments,
-                                     new_trade_state, pair_capacity, redistribute, remap_segments,
-                                     segment_capacity, segments_with_room, trade_report)
+                                     initial_trade_state, new_trade_state, pair_capacity, redistribute,
+                                     remap_segments, route_between, segment_capacity, segments_with_room,
+                                     trade_report)
 from osm_expand.engine.trips import (TripOptions, extend_trip_state, new_trip_state, remap_trip_state,
                                      residents_from_blocks, residents_from_lots, shortest_route,
                                      step_trips, travel_costs, trip_graph, update_status, update_widths,
@@ -275,6 +276,26 @@ def test_algorithm_2_never_overloads_a_segment_and_accounts_for_every_unit(width
         assert state.carried(pair) + short == pytest.approx(total, abs=1e-6)
         assert (state.segment_traffic() <= cap + 1e-6).all()
         assert all(r.traffic >= 0 for r in state.routes)
+
+
+def test_first_routes_run_over_major_roads_between_the_exits():
+    # the cross, plus a residential link from the east end to the north end
+    xy, edges, hw = cross([((1000, 0), (0, 1000), "residential")])
+    nb = neighbour_cities(xy, edges, hw, BOX, np.random.default_rng(0))
+    length = np.hypot(*(xy[edges[:, 1]] - xy[edges[:, 0]]).T)
+    major = hw != "residential"
+    state, missing = initial_trade_state(edges, length, major, nb.exit_node, neighbour_pairs(nb))
+    assert len(state.routes) == 6 and len(missing) == 0
+    assert all(r.length == pytest.approx(2000.0) and len(r.segments) == 2 for r in state.routes)
+    # with the east arm cut off the major network, its three pairs are missing
+    cut = major.copy()
+    cut[0] = False
+    state, missing = initial_trade_state(edges, length, cut, nb.exit_node, neighbour_pairs(nb))
+    assert len(state.routes) == 3 and len(missing) == 3 and (missing == 0).any(axis=1).all()
+    # P_A over roads with room: the lighter of two parallel segments, none when blocked
+    par = np.array([[0, 1], [0, 1], [1, 2]])
+    assert route_between(par, np.array([5.0, 3.0, 1.0]), np.ones(3, bool), 0, 2).tolist() == [1, 2]
+    assert route_between(par, np.array([5.0, 3.0, 1.0]), np.array([True, True, False]), 0, 2) is None
 
 
 # --------------------------------------------------------------------------- trips (002 §3.2)

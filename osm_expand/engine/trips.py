@@ -29,8 +29,9 @@ the same graph back while the network is unchanged.
 Incremental re-sampling (002 §3.2): each step, trips are recomputed for all
 new segments (no trips yet), all segments whose residents changed, and a
 share ``sample_rate`` of the rest; a re-sampled segment's old trips leave
-the traffic, its new ones enter. Trips are sampled as a multinomial over
-destinations, so identical trips become one path with a larger volume, and
+the traffic, its new ones enter. Destinations are drawn independently per
+trip (a multinomial over the attractions), identical trips become one path
+with a larger volume, and
 the volume of one simulated trip grows with the town so the total stays near
 ``target_trips`` (002: "less discrete trips with a higher volume"). Where
 002 keeps a dynamic all-pairs matrix, we run batched
@@ -49,7 +50,7 @@ from __future__ import annotations
 
 import enum
 from collections.abc import Sequence
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import NDArray
@@ -579,7 +580,11 @@ def _decay(cost: NDArray[np.float64], options: TripOptions) -> NDArray[np.float6
 
 def _due(state: TripState, residents: NDArray[np.float64], rng: np.random.Generator,
          options: TripOptions, full: bool) -> tuple[NDArray[np.int64], int, int, int]:
-    """Segments to re-sample this step, in priority order; and the counts of new, changed, deferred."""
+    """Segments to re-sample this step (sorted) and how many are new, changed and deferred.
+
+    Priority when more are due than ``max_sources``: new, then changed, then
+    the random share, each group in random order.
+    """
     new = ~state.sampled
     delta = np.abs(residents - state.sampled_residents)
     changed = state.sampled & (delta > np.maximum(1.0, options.resident_change * state.sampled_residents))
