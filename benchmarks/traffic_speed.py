@@ -28,7 +28,7 @@ import time
 
 import numpy as np
 
-from osm_expand.engine.trade import add_route, assign_increase, new_trade_state, segment_capacity
+from osm_expand.engine.trade import add_route, new_trade_state, segment_capacity, trade_year
 from osm_expand.engine.trips import (TripOptions, extend_trip_state, new_trip_state, step_trips,
                                      trip_graph, update_status, update_widths)
 
@@ -97,8 +97,7 @@ def run(segments: int, years: int, seed: int) -> dict:
         width, pending = update_widths(width, trips.traffic, built, built_year, pending, year=year, options=options)
         mid = time.perf_counter()
         cap = segment_capacity(width)[: trade.n_segments]
-        for pair in pairs:
-            trade, _ = assign_increase(trade, pair, 40.0, cap)
+        trade, _, _ = trade_year(trade, pairs, 40.0, cap)
         end = time.perf_counter()
         trip_times.append(mid - start)
         trade_times.append(end - mid)

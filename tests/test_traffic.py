@@ -16,7 +16,7 @@ from osm_expand.engine.neighbours import (NeighbourKind, NeighbourOptions, initi
 from osm_expand.engine.trade import (TradeOptions, add_route, assign_increase, extend_segments,
                                      initial_trade_state, new_trade_state, pair_capacity, redistribute,
                                      remap_segments, route_between, segment_capacity, segments_with_room,
-                                     trade_report)
+                                     trade_report, trade_year)
 from osm_expand.engine.trips import (TripOptions, extend_trip_state, new_trip_state, remap_trip_state,
                                      residents_from_blocks, residents_from_lots, shortest_route,
                                      step_trips, travel_costs, trip_graph, update_status, update_widths,
@@ -223,6 +223,28 @@ def test_shortfall_is_zero_when_capacity_suffices_so_nothing_is_built():
     # an unmet demand is asked again: a fall of 50 leaves t = 650, still 50 short
     state, short = assign_increase(state, (0, 1), -50.0, cap)
     assert short == pytest.approx(50.0)
+
+
+def test_a_trade_year_asks_the_major_road_step_only_when_capacity_runs_out():
+    state, cap = worked_example()
+    asked = []
+
+    def propose(st, pair, short):
+        asked.append((pair, round(short, 6)))
+        return add_route(st, pair, [2, 3], 2000.0), cap
+
+    # +300 for both pairs: (1, 2) has 700 − 0 on its route → fits; (0, 1) has 600 → fits
+    state, cap2, year = trade_year(state, [(1, 2), (0, 1)], 300.0, cap, propose=propose)
+    assert asked == [] and year.as_dict() == dict(pairs=2, short=0, shortfall=0.0, routes_added=0, unresolved=0)
+    # another +300: (1, 2) → 800 on s3/s4 (cap 700) short by 100 — the proposer's route [2, 3]
+    # shares s3, so it adds nothing; then (0, 1) → 600 fits exactly on A.
+    state, cap2, year = trade_year(state, [(1, 2), (0, 1)], 300.0, cap, propose=propose)
+    assert asked == [((1, 2), 100.0)]
+    assert (year.short, year.routes_added, year.unresolved) == (1, 1, 1)
+    assert state.carried((0, 1)) == pytest.approx(600.0) and state.carried((1, 2)) == pytest.approx(700.0)
+    # without a proposer the shortfall stays, counted
+    _, _, year = trade_year(state, [(1, 2)], 0.0, cap)
+    assert (year.short, year.unresolved, year.shortfall) == (1, 1, pytest.approx(100.0))
 
 
 def test_trade_report_counts_short_pairs_and_saturated_and_overloaded_routes():

@@ -49,7 +49,7 @@ changes other than by appending, map the routes with :func:`remap_segments`.
 """
 from __future__ import annotations
 
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field, replace
 from types import MappingProxyType
 
@@ -65,6 +65,7 @@ __all__ = [
     "TradeReport",
     "TradeRoute",
     "TradeState",
+    "TradeYear",
     "add_route",
     "assign_increase",
     "available_capacity",
@@ -80,6 +81,7 @@ __all__ = [
     "segment_capacity",
     "segments_with_room",
     "trade_report",
+    "trade_year",
 ]
 
 Pair = tuple[int, int]
@@ -195,6 +197,45 @@ class TradeReport:
     def as_dict(self) -> dict[str, float | int]:
         """Plain JSON-ready values."""
         return {k: getattr(self, k) for k in self.__dataclass_fields__}
+
+
+@dataclass(frozen=True)
+class TradeYear:
+    """What one year of Algorithm 2 did, for the ``--json`` report (sum these over an era).
+
+    Attributes
+    ----------
+    pairs : int
+        Pairs simulated.
+    short : int
+        Pairs whose routes could not carry ``t(t)`` (capacity ran out).
+    shortfall : float
+        Σ of their shortfalls, traffic units.
+    routes_added : int
+        New trade routes the major-road step supplied (P_A or P_B).
+    unresolved : int
+        Pairs still short at the end of the year.
+    """
+
+    pairs: int = 0
+    short: int = 0
+    shortfall: float = 0.0
+    routes_added: int = 0
+    unresolved: int = 0
+
+    def as_dict(self) -> dict[str, float | int]:
+        """Plain JSON-ready values."""
+        return {k: getattr(self, k) for k in self.__dataclass_fields__}
+
+    def __add__(self, other: "TradeYear") -> "TradeYear":
+        return TradeYear(*(getattr(self, k) + getattr(other, k) for k in self.__dataclass_fields__))
+
+
+#: The major-road step, as :func:`trade_year` calls it: given the state (the
+#: pair's routes saturated), the pair and its shortfall, return the state with
+#: the winning route added (segment table remapped or extended as needed)
+#: and the new per-segment capacities, or None when nothing can be built.
+Proposer = Callable[[TradeState, Pair, float], "tuple[TradeState, NDArray[np.float64]] | None"]
 
 
 # --------------------------------------------------------------------------- helpers
@@ -531,6 +572,55 @@ def trade_report(state: TradeState, segment_capacity: NDArray[np.floating]) -> T
         routes_over_capacity=int(sum(over_routes)),
         segments_over_capacity=int(over.sum()),
     )
+
+
+def trade_year(state: TradeState, pairs: Sequence[Sequence[int]], increase: float | Mapping[Pair, float],
+               segment_capacity: NDArray[np.floating], *,
+               propose: Proposer | None = None) -> tuple[TradeState, NDArray[np.float64], TradeYear]:
+    """One pass of 003 Algorithm 2 over all pairs (the TRAFFICSIMULATION step of Algorithm 1).
+
+    For each pair in order: :func:`assign_increase`; if it falls short,
+    ``propose`` (PROPOSEFROMMAJOR / PROPOSEFROMNEW / WINNER /
+    TRADEROUTESEGMENTGRAPH) adds a route, and ``t(t)`` is redistributed
+    greedily again over the pair's routes.
+
+    Parameters
+    ----------
+    state : TradeState
+    pairs : sequence of (u, v)
+        Pairs in simulation order.
+    increase : float or mapping pair → float
+        ``t(t) − t(t−1)``, one number for every pair (003: one traffic
+        function per city) or per pair.
+    segment_capacity : (E,) float
+        ``O2·width`` per segment.
+    propose : callable, optional
+        See :data:`Proposer`; without it shortfalls stay unresolved.
+
+    Returns
+    -------
+    state : TradeState
+    segment_capacity : (E',) float64
+        The capacities after any roads the proposer built.
+    year : TradeYear
+    """
+    cap = np.asarray(segment_capacity, dtype=np.float64)
+    counts = TradeYear()
+    for pair in pairs:
+        key = _pair(pair)
+        inc = increase.get(key, 0.0) if isinstance(increase, Mapping) else float(increase)
+        state, short = assign_increase(state, key, inc, cap)
+        added = 0
+        if short > 0:
+            counts = counts + TradeYear(short=1, shortfall=short)
+            built = propose(state, key, short) if propose is not None else None
+            if built is not None:
+                before = len(state.routes)
+                state, cap = built[0], np.asarray(built[1], dtype=np.float64)
+                added = len(state.routes) - before
+                state, short = redistribute(state, key, state.demand[key], cap)
+        counts = counts + TradeYear(pairs=1, routes_added=added, unresolved=int(short > 0))
+    return state, cap, counts
 
 
 # --------------------------------------------------------------------------- finding routes
