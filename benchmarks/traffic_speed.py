@@ -16,8 +16,9 @@ each simulated year:
   each over ~40 segments).
 
 Times are wall-clock seconds for the year's whole traffic part (graph
-rebuild included), best and median over the years; the machine has 2
-shared cores, so run it on an idle machine for numbers to compare.
+rebuild included), best and median over the years, and the median CPU
+seconds of this process (less sensitive to other jobs on the 2 shared
+cores); run it on an idle machine for wall-clock numbers to compare.
 """
 from __future__ import annotations
 
@@ -78,7 +79,7 @@ def run(segments: int, years: int, seed: int) -> dict:
     width = np.full(e, 7.5)
     pending = np.full(e, -1, np.int64)
     trade, pairs = trade_setup(edges, rng)
-    per_year, trip_times, trade_times, sources = [], [], [], []
+    per_year, cpu_year, trip_times, trade_times, sources = [], [], [], [], []
     for year in range(1, years + 1):
         added = max(1, e // 100)
         xy, edges = grow(xy, edges, added, rng)
@@ -89,7 +90,7 @@ def run(segments: int, years: int, seed: int) -> dict:
         built_year = np.r_[built_year, np.zeros(added, np.int64)]
         width = np.r_[width, np.full(added, 7.5)]
         pending = np.r_[pending, np.full(added, -1, np.int64)]
-        start = time.perf_counter()
+        start, cpu = time.perf_counter(), time.process_time()
         graph = trip_graph(xy, edges, previous=graph, options=options)
         trips = extend_trip_state(trips, len(edges))
         trips, report = step_trips(trips, graph, residents, rng, options=options)
@@ -102,11 +103,13 @@ def run(segments: int, years: int, seed: int) -> dict:
         trip_times.append(mid - start)
         trade_times.append(end - mid)
         per_year.append(end - start)
+        cpu_year.append(time.process_time() - cpu)
         sources.append(report.sources)
         e = len(edges)
     return {
         "segments": int(e), "first_fill_s": round(fill, 3), "first_fill_trips": first.trips,
         "year_best_s": round(min(per_year), 3), "year_median_s": round(float(np.median(per_year)), 3),
+        "year_cpu_median_s": round(float(np.median(cpu_year)), 3),
         "trips_median_s": round(float(np.median(trip_times)), 3),
         "trade_median_s": round(float(np.median(trade_times)), 4),
         "sources_per_year": int(np.median(sources)),
@@ -125,11 +128,12 @@ def main(argv: list[str] | None = None) -> int:
         json.dump({"years": args.years, "results": rows}, sys.stdout)
         print()
         return 0
-    print(f"{'segments':>9} {'fill s':>7} {'year best':>10} {'year median':>12} "
+    print(f"{'segments':>9} {'fill s':>7} {'year best':>10} {'year median':>12} {'year cpu':>9} "
           f"{'trips':>7} {'trade':>7} {'sources':>8}")
     for r in rows:
         print(f"{r['segments']:>9} {r['first_fill_s']:>7.2f} {r['year_best_s']:>10.3f} {r['year_median_s']:>12.3f} "
-              f"{r['trips_median_s']:>7.3f} {r['trade_median_s']:>7.4f} {r['sources_per_year']:>8}")
+              f"{r['year_cpu_median_s']:>9.3f} {r['trips_median_s']:>7.3f} {r['trade_median_s']:>7.4f} "
+              f"{r['sources_per_year']:>8}")
     return 0
 
 

@@ -34,6 +34,9 @@ What the seed leaves open, and the choice made here:
   (the last ``t`` asked of it, met or not) and runs Algorithm 2 on the sum.
   A shortfall the major-road step could not resolve is therefore asked for
   again next year rather than forgotten.
+- *Notation.* The seed writes the saturation once with a lower-case
+  ``t_A(P_{i,j}) = 0``; it is the same ``T_A`` (the text's own definition
+  just before it), not the traffic function ``t(t)``.
 - *Capacity below the traffic* (after a width shrinks, a segment splits or
   O2 changes with the era): a route's availability is clamped at 0, never
   negative; such routes are counted as over capacity in the report.
@@ -41,7 +44,8 @@ What the seed leaves open, and the choice made here:
 :func:`initial_trade_state` finds each pair's first route ``P_{i,1}`` over
 the real town's major roads (003 §3.2.2: found, not built, where the roads
 exist); :func:`route_between` is the same minimum-weight search, also the
-core of §3.4.2's ``P_A`` over major roads with room.
+core of §3.4.2's ``P_A`` over major roads with room. :func:`trade_year`
+runs Algorithm 2 over all pairs with the major-road step as a callback.
 
 The state is immutable: every operation returns a new :class:`TradeState`.
 Segment ids are positions in the caller's segment table; when that table

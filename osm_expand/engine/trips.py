@@ -125,7 +125,7 @@ class TripOptions:
     resident_change: float = 0.05
     #: At most this many segments are re-sampled per step (new, then changed,
     #: then the random share); the rest wait. Keeps a year ≤ 0.3 s at 3,000
-    #: segments (a Dijkstra from one source costs about 1 ms there);
+    #: segments (one source costs about 0.5 ms of CPU there, 0.9 ms at 10,000);
     #: ``step_trips(full=True)`` ignores it (the first fill).
     max_sources: int = 250
     #: Sources per Dijkstra call: bounds the (batch × 3E) distance matrix.
