@@ -800,7 +800,9 @@ def update_widths(width: NDArray[np.floating], traffic: NDArray[np.floating], bu
     built : (E,) bool
         Built (True) or planned.
     built_year : (E,) int
-        Year each street was built.
+        Year each street was built. Give the real town's streets a year
+        before the first simulated one: a street "built this year" gets a
+        temporary width from its traffic, which would overwrite a mapped width.
     pending_since : (E,) int
         Year a wait started, -1 for none (start with all -1).
     year : int
