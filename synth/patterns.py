@@ -478,23 +478,22 @@ class _Context:
             self.first_dir = _direction(graph.xy[u] - self.xy)
             self.bridge_tried = False
         nb = np.asarray(self.neighbours, dtype=np.int64)
-        self.incident_dirs = _angles(graph.xy[nb] - self.xy) if len(nb) else np.zeros(0)
+        self.incident_dirs = _angles(graph.xy[nb] - self.xy) if len(nb) else []
 
 
 def _direction(v: NDArray[np.float64]) -> float | None:
     return math.atan2(v[1], v[0]) if (v[0] or v[1]) else None
 
 
-def _angles(v: NDArray[np.float64]) -> NDArray[np.float64]:
-    return np.arctan2(v[:, 1], v[:, 0])
+def _angles(v: NDArray[np.float64]) -> list[float]:
+    """Directions (rad) of the rows of ``v`` (a handful: the streets at one crossing)."""
+    return [math.atan2(y, x) for x, y in v.tolist()]
 
 
-def _min_angle_between(theta: float, dirs: NDArray[np.float64]) -> float:
+def _min_angle_between(theta: float, dirs: list[float]) -> float:
     """Smallest absolute difference (rad) between ``theta`` and the directions ``dirs``."""
-    if len(dirs) == 0:
-        return math.pi
-    d = np.abs((dirs - theta + math.pi) % (2 * math.pi) - math.pi)
-    return float(d.min())
+    two_pi = 2 * math.pi
+    return min((abs((d - theta + math.pi) % two_pi - math.pi) for d in dirs), default=math.pi)
 
 
 def _resolve(graph: StreetGraph, start: Start) -> Start | None:
@@ -531,7 +530,9 @@ def propose(graph: StreetGraph, start: Start, *, angle: float, length: float,
     list of StreetProposal
         In evaluation order Snap, Shorten, Extend, Default; only enabled
         methods that apply (Snap needs a crossing near the end, Shorten and
-        Extend an intersection).
+        Extend an intersection). :func:`grow_streets` makes them lazily and
+        skips Shorten, Extend and Default when their direction already
+        breaks rule b at the start; this function lists them all.
     """
     ctx = _Context(graph, start)
     cand = _Candidates.gather(graph, ctx.xy, ctx.xy + length * np.array([math.cos(angle), math.sin(angle)]), options)
@@ -552,6 +553,8 @@ class _Candidates:
     uv: NDArray[np.int64]
     nodes: NDArray[np.int64]
     node_xy: NDArray[np.float64]
+    lo: NDArray[np.float64] = field(default_factory=lambda: np.zeros((0, 2)))
+    hi: NDArray[np.float64] = field(default_factory=lambda: np.zeros((0, 2)))
 
     @classmethod
     def gather(cls, graph: StreetGraph, p: NDArray[np.float64], e: NDArray[np.float64],
@@ -563,7 +566,8 @@ class _Candidates:
         uv = graph.edges[ids]
         nodes = np.unique(uv)
         xy = graph.xy
-        return cls(ids, xy[uv[:, 0]], xy[uv[:, 1]], uv, nodes, xy[nodes])
+        a, b = xy[uv[:, 0]], xy[uv[:, 1]]
+        return cls(ids, a, b, uv, nodes, xy[nodes], np.minimum(a, b), np.maximum(a, b))
 
     def nearest_node(self, q: NDArray[np.float64], radius: float, exclude: int) -> int:
         """The crossing nearest to q within radius (lowest id on ties), not ``exclude``; -1 if none."""
@@ -687,11 +691,13 @@ def check_proposal(graph: StreetGraph, start: Start, proposal: StreetProposal, *
                    forbidden: shapely.Geometry | None = None) -> Rule | None:
     """The first rule a proposal breaks, or None if it is valid (000 §4.2.6 a–g, water, bridges).
 
-    Rules are tested in this order: start point spacing (e), length (c, a
-    bridge's limit being ``max_bridge_length_m``), degree (g), angle (b),
-    triangle (f), end spacing (e), crossing (a), street distance (d),
-    forbidden area, water (end in water; crossing water with bridges off),
-    then for a bridge: the start's one attempt, spacing to other bridges.
+    Rules are tested in this order: spacing of a start that splits a
+    segment (e), length (c), degree (g), angle at both ends (b), triangle
+    (f), spacing of a new end crossing (e), crossing (a), street distance
+    (d), forbidden area, water (ending in it; crossing it with bridges off),
+    then for a bridge: the start's one attempt, ``max_bridge_length_m``,
+    spacing to other bridges. A street longer than ``max_length_m`` but no
+    longer than ``max_bridge_length_m`` passes c only if it is a bridge.
 
     Parameters
     ----------
@@ -720,7 +726,9 @@ def _check(graph: StreetGraph, ctx: _Context, prop: StreetProposal, cand: _Candi
     if ctx.node < 0 and cand.any_node_within(p, options.min_cc_distance_m):
         return _Verdict(Rule.CC_DISTANCE)
     # c) length (the upper bound waits for the water test when a bridge may be longer)
-    longest = max(options.max_length_m, options.max_bridge_length_m) if options.bridges_enabled else options.max_length_m
+    longest = options.max_length_m
+    if options.bridges_enabled:
+        longest = max(longest, options.max_bridge_length_m)
     if length < options.min_length_m or length > longest:
         return _Verdict(Rule.LENGTH)
     # g) degree at both ends
@@ -783,7 +791,12 @@ def _street_rules(p: NDArray[np.float64], q: NDArray[np.float64], cand: _Candida
     """Rule a (no crossing of a non-incident street) and rule d (distance ≥ min_distance to one)."""
     if len(cand.ids) == 0:
         return None
-    keep = cand.keep(excluded)
+    reach = min_distance + ON_TOLERANCE   # only segments whose box comes this near can cross or come close
+    lo, hi = np.minimum(p, q) - reach, np.maximum(p, q) + reach
+    keep = ((cand.lo[:, 0] <= hi[0]) & (cand.hi[:, 0] >= lo[0]) & (cand.lo[:, 1] <= hi[1])
+            & (cand.hi[:, 1] >= lo[1]))
+    for s in excluded:
+        keep &= cand.ids != s
     a, b = cand.a[keep], cand.b[keep]
     if len(a) == 0:
         return None
@@ -794,7 +807,8 @@ def _street_rules(p: NDArray[np.float64], q: NDArray[np.float64], cand: _Candida
     return None
 
 
-def _point_segment_distance(x: NDArray[np.float64], a: NDArray[np.float64], b: NDArray[np.float64]) -> NDArray[np.float64]:
+def _point_segment_distance(x: NDArray[np.float64], a: NDArray[np.float64],
+                            b: NDArray[np.float64]) -> NDArray[np.float64]:
     """Distance (m) from points x to segments a–b, broadcast over the leading axes."""
     d = b - a
     t = np.clip(((x - a) * d).sum(-1) / np.maximum((d * d).sum(-1), 1e-24), 0.0, 1.0)
@@ -908,7 +922,8 @@ def _draw_default(ctx: _Context, sampler: _Sampler, options: PatternOptions, cen
 
 # --------------------------------------------------------------------------- bridges by rays (000 §4.2.3)
 
-def _ray_bridge(ctx: _Context, options: PatternOptions, areas: _Areas, rng: np.random.Generator) -> StreetProposal | None:
+def _ray_bridge(ctx: _Context, options: PatternOptions, areas: _Areas,
+                rng: np.random.Generator) -> StreetProposal | None:
     """000 §4.2.3: from a crossing near water, the ray that crosses water in the shortest span."""
     if areas.water is None or options.bridge_rays == 0 or not options.bridges_enabled:
         return None
@@ -917,7 +932,8 @@ def _ray_bridge(ctx: _Context, options: PatternOptions, areas: _Areas, rng: np.r
         return None
     step = options.bridge_sample_step_m
     n = int(options.max_bridge_length_m // step)
-    theta = rng.random() * 2 * math.pi / options.bridge_rays + np.arange(options.bridge_rays) * 2 * math.pi / options.bridge_rays
+    fan = 2 * math.pi / options.bridge_rays
+    theta = (rng.random() + np.arange(options.bridge_rays)) * fan
     dist = step * np.arange(1, n + 1)
     x = p[0] + np.cos(theta)[:, None] * dist
     y = p[1] + np.sin(theta)[:, None] * dist

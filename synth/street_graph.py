@@ -415,7 +415,8 @@ def _cell_of(p: NDArray[np.float64], cell: float) -> tuple[int, int]:
     return int(np.floor(p[0] / cell)), int(np.floor(p[1] / cell))
 
 
-def _point_segment_distance(p: NDArray[np.float64], a: NDArray[np.float64], b: NDArray[np.float64]) -> NDArray[np.float64]:
+def _point_segment_distance(p: NDArray[np.float64], a: NDArray[np.float64],
+                            b: NDArray[np.float64]) -> NDArray[np.float64]:
     d = b - a
     t = np.clip(((p - a) * d).sum(-1) / np.maximum((d * d).sum(-1), 1e-24), 0.0, 1.0)
     return np.hypot(*np.moveaxis(p - (a + t[..., None] * d), -1, 0))

@@ -107,7 +107,8 @@ class NucleiOptions:
             if getattr(self, key) < 0:
                 raise InputError(f"nuclei option {key}: must be ≥ 0, got {getattr(self, key)!r}")
         if not 0.0 <= self.edge_margin_fraction <= 0.5:
-            raise InputError(f"nuclei option edge_margin_fraction: must lie in [0, 0.5], got {self.edge_margin_fraction!r}")
+            raise InputError("nuclei option edge_margin_fraction: must lie in [0, 0.5], "
+                             f"got {self.edge_margin_fraction!r}")
         if self.merge_distance_m < 0:
             raise InputError(f"nuclei option merge_distance_m: must be ≥ 0, got {self.merge_distance_m!r}")
 
@@ -232,7 +233,8 @@ def _nuclei_arrays(nuclei: Sequence[Nucleus]) -> tuple[NDArray[np.float64], NDAr
     return xy, strength
 
 
-def candidate_rank(candidates_xy: ArrayLike, nuclei: Sequence[Nucleus]) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+def candidate_rank(candidates_xy: ArrayLike,
+                   nuclei: Sequence[Nucleus]) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """RANK(z) = |z − q_N| · (1 − STRENGTH(q_N)), q_N the nearest nucleus (003 §3.3.2).
 
     Parameters
