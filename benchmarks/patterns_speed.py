@@ -65,7 +65,8 @@ def main() -> None:
     for step in range(args.steps):
         t0 = time.perf_counter()
         z = candidate_points(g, spawned_mask=g.spawned, ell=20.0, max_degree=options.max_degree,
-                             segment_mask=~g.bridge, exclude_points=failed)
+                             temporary_points=options.segment_starts, segment_mask=~g.bridge,
+                             exclude_points=failed)
         t1 = time.perf_counter()
         starts = z.take(rank_candidates(z.xy, nuclei, take=args.take))
         t2, c2 = time.perf_counter(), time.process_time()

@@ -192,6 +192,11 @@ class PatternOptions:
     #: Streets grown from one start (003 §3.3.2 grows from G(t) nodes: one each by default; 000's queue
     #: grows until max_degree — set this to max_degree for that).
     streets_per_start: int = 1
+    #: May streets start at points on segments (003 §3.3.2's temporary nodes)? A world-space grid
+    #: should grow only from crossings, as 000's queue does: a start anywhere along a road puts the
+    #: lattice out of phase and the blocks never close. The engine passes this to
+    #: ``candidate_points(..., temporary_points=...)``; ``grow_streets`` skips such starts when False.
+    segment_starts: bool = True
     #: Centre space only: bend a tangential street by asin(L / 2R) towards the centre so that its end
     #: lies on the start's circle, as 002's radial pattern puts it ("on a circle around the center").
     ring_chords: bool = True
@@ -273,13 +278,15 @@ ORGANIC = PatternOptions()
 
 #: Weber's grid pattern (002 §3.1): angle deviation 0 (discrete straight/left/right in crossing
 #: space), two length ranges: long blocks straight on (120 m), short ones across (60 m), ±10 %.
-#: min_angle 60° keeps only right angles; min distances are half a short block.
+#: min_angle 60° keeps only right angles; min distances are half a short block. Grids grow from
+#: crossings only, up to three streets each (000's queue grows a crossing to max_degree), so
+#: that the blocks close.
 GRID = PatternOptions(
     angle_space=AngleSpace.CROSSING, angle_pdf=((180.0, 2.0), (90.0, 1.0), (270.0, 1.0)),
     angle_pdf_kind=PdfKind.DISCRETE, angle_spread_deg=0.0, length_mode=LengthMode.ORIENTATION,
     length_from_orientation=((0.0, 120.0), (90.0, 60.0), (180.0, 120.0), (270.0, 60.0)),
     length_jitter=0.1, min_angle_deg=60.0, min_length_m=30.0, max_length_m=160.0,
-    min_cs_distance_m=25.0, min_cc_distance_m=20.0,
+    min_cs_distance_m=25.0, min_cc_distance_m=20.0, streets_per_start=3, segment_starts=False,
 )
 
 #: Weber's radial pattern (002 §3.1): the next node lies on a ray to or from the centre (0°, 180°
@@ -308,7 +315,7 @@ GRID_19TH_CENTURY = PatternOptions(
     angle_pdf_kind=PdfKind.DISCRETE, angle_spread_deg=0.0, length_mode=LengthMode.ORIENTATION,
     length_from_orientation=((0.0, 110.0), (90.0, 70.0), (180.0, 110.0), (270.0, 70.0)),
     length_jitter=0.05, min_angle_deg=60.0, min_length_m=30.0, max_length_m=150.0,
-    min_cs_distance_m=30.0, min_cc_distance_m=20.0,
+    min_cs_distance_m=30.0, min_cc_distance_m=20.0, streets_per_start=3, segment_starts=False,
 )
 
 #: A North-American grid in world space: the Chicago block, 1/8 × 1/16 mile ≈ 200 × 100 m.
@@ -980,7 +987,8 @@ def grow_streets(graph: StreetGraph, starts: StartPoints | ArrayLike | Sequence[
         Node ids, or objects with ``node`` (-1 for a point on a segment),
         ``segment`` and ``xy`` arrays (e.g. the ranked candidates of
         :func:`osm_expand.engine.nuclei.candidate_points`). A segment start
-        whose segment was split earlier in the call is found again by position.
+        whose segment was split earlier in the call is found again by position;
+        segment starts are skipped when the pattern's ``segment_starts`` is False.
     options : PatternOptions
         The era's street pattern.
     rng : numpy.random.Generator
@@ -1009,6 +1017,8 @@ def grow_streets(graph: StreetGraph, starts: StartPoints | ArrayLike | Sequence[
     grown = np.zeros(len(start_list), dtype=bool)
     start_node = np.full(len(start_list), -1, dtype=np.int64)
     for i, raw in enumerate(start_list):
+        if raw.node < 0 and not options.segment_starts:
+            continue
         start = _resolve(graph, raw)
         if start is None:
             continue

@@ -388,6 +388,13 @@ def test_a_start_on_a_segment_is_split_only_when_a_street_grows():
     assert fail.failed_xy.tolist() == [[50.0, 0.0]]
 
 
+def test_patterns_without_segment_starts_skip_them():
+    g = graph([(0, 0), (100, 0)], [(0, 1)])
+    step = grow_streets(g, [Start.on_segment(0, (50, 0)), Start.at_node(g, 0)],
+                        options=fixed(90.0, segment_starts=False), rng=np.random.default_rng(0))
+    assert step.grown.tolist() == [False, True] and len(step.failed_xy) == 0 and len(step.split_node) == 0
+
+
 def test_a_segment_start_is_found_again_after_an_earlier_split():
     g = graph([(0, 0), (200, 0)], [(0, 1)])
     starts = [Start.on_segment(0, (50, 0)), Start.on_segment(0, (150, 0))]
@@ -447,6 +454,7 @@ def test_candidates_skip_masked_segments_and_failed_points():
     z = candidate_points((xy, [[0, 1]]), spawned_mask=[True, True], ell=20.0, exclude_points=[[40, 1]])
     assert z.xy[:, 0].tolist() == [20.0, 60.0, 80.0]
     assert len(candidate_points((xy, [[0, 1]]), spawned_mask=[True, True], ell=20.0, segment_mask=[False])) == 0
+    assert len(candidate_points((xy, [[0, 1]]), spawned_mask=[True, True], ell=20.0, temporary_points=False)) == 0
 
 
 def test_rank_is_distance_to_the_nearest_nucleus_times_one_minus_strength():
@@ -538,7 +546,7 @@ def simulate(xy, edges, options, seed, years=4, take=15, water=None):
     grown: set[int] = set()
     for year in range(years):
         z = candidate_points(g, spawned_mask=g.spawned, ell=20.0, max_degree=options.max_degree,
-                             exclude_points=failed)
+                             temporary_points=options.segment_starts, exclude_points=failed)
         step = grow_streets(g, z.take(rank_candidates(z.xy, nuclei, take=take)), options=options, rng=rng,
                             centre=nuclei[0].xy, time=float(year), water=water)
         failed = np.concatenate([failed, step.failed_xy])
@@ -597,3 +605,31 @@ def _direction(g, node, seg):
     u, v = g.edges[seg]
     d = g.xy[v if u == node else u] - g.xy[node]
     return math.atan2(d[1], d[0])
+
+
+# ------------------------------------------------------------------ degenerate inputs and errors
+
+def test_library_errors_name_the_problem():
+    g = stub()
+    with pytest.raises(InputError, match="start node ids"):
+        grow_streets(g, [5], options=BASE, rng=np.random.default_rng(0))
+    with pytest.raises(InputError, match="ell"):
+        candidate_points(g, spawned_mask=g.spawned, ell=0.0)
+    with pytest.raises(InputError, match="spawned_mask"):
+        candidate_points(g, spawned_mask=[False], ell=20.0)
+    with pytest.raises(InputError, match="take"):
+        rank_candidates(np.zeros((1, 2)), [Nucleus((0.0, 0.0), 1.0, NucleusKind.CENTRE)], take=-1)
+    with pytest.raises(InputError, match="junction_strength"):
+        NucleiOptions(junction_strength=1.5)
+
+
+def test_empty_inputs_give_empty_results():
+    g = stub()
+    step = grow_streets(g, [], options=BASE, rng=np.random.default_rng(0))
+    assert len(step.new_segments) == 0 and len(step.grown) == 0 and g.n_segments == 1
+    z = candidate_points((np.zeros((0, 2)), np.zeros((0, 2), dtype=int)), spawned_mask=np.zeros(0, bool))
+    assert len(z) == 0 and z.xy.shape == (0, 2)
+    assert rank_candidates(z.xy, [Nucleus((0.0, 0.0), 1.0, NucleusKind.CENTRE)], take=5).tolist() == []
+    nuclei = find_nuclei(np.zeros((0, 2)), np.zeros((0, 2), dtype=int), bounds=(0, 0, 1000, 600))
+    assert nuclei == [Nucleus((500.0, 300.0), 1.0, NucleusKind.CENTRE)]    # no major roads: the map's middle
+    assert StreetGraph.from_segments(np.zeros((0, 2)), np.zeros((0, 2), dtype=int)).n_segments == 0

@@ -152,7 +152,8 @@ def _graph_arrays(graph_or_arrays: Any) -> tuple[NDArray[np.float64], NDArray[np
 
 
 def candidate_points(graph_or_arrays: Any, *, spawned_mask: ArrayLike, ell: float = 20.0,
-                     max_degree: int | None = None, segment_mask: ArrayLike | None = None,
+                     max_degree: int | None = None, temporary_points: bool = True,
+                     segment_mask: ArrayLike | None = None,
                      exclude_points: ArrayLike | None = None, exclude_radius: float | None = None) -> Candidates:
     """The candidate set Z of 003 §3.3.2.
 
@@ -172,6 +173,9 @@ def candidate_points(graph_or_arrays: Any, *, spawned_mask: ArrayLike, ell: floa
         ℓ, the pathfinding lattice spacing (m); 003 §3.2.2 uses 20 m.
     max_degree : int, optional
         Nodes of at least this degree are left out (nothing can grow there).
+    temporary_points : bool
+        Add the temporary points at all (False: crossings only; pass the era
+        pattern's ``segment_starts``: world-space grids grow from crossings).
     segment_mask : array_like of bool, shape (E,), optional
         Segments that may carry temporary points (e.g. not bridges). Default all.
     exclude_points : array_like, shape (F, 2), optional
@@ -179,7 +183,7 @@ def candidate_points(graph_or_arrays: Any, *, spawned_mask: ArrayLike, ell: floa
         places where growth failed before (``GrowthStep.failed_xy``), which
         would otherwise top the ranking every year and stall growth.
     exclude_radius : float, optional
-        Default ℓ / 2 (m): temporary points are at least ℓ apart.
+        Default ℓ / 2 (m): temporary points on one segment are at least 0.77ℓ apart.
 
     Returns
     -------
@@ -208,6 +212,8 @@ def candidate_points(graph_or_arrays: Any, *, spawned_mask: ArrayLike, ell: floa
     count = np.where(length >= 2.0 * ell, np.floor(length / (1.25 * ell)), 0).astype(np.int64)
     if segment_mask is not None:
         count[~np.asarray(segment_mask, dtype=bool).reshape(-1)] = 0
+    if not temporary_points:
+        count[:] = 0
     seg = np.repeat(np.arange(len(edges)), count)
     i = np.arange(len(seg)) - np.repeat(np.cumsum(count) - count, count) + 1
     t = i / (count[seg] + 1.0)
