@@ -633,3 +633,17 @@ def test_empty_inputs_give_empty_results():
     nuclei = find_nuclei(np.zeros((0, 2)), np.zeros((0, 2), dtype=int), bounds=(0, 0, 1000, 600))
     assert nuclei == [Nucleus((500.0, 300.0), 1.0, NucleusKind.CENTRE)]    # no major roads: the map's middle
     assert StreetGraph.from_segments(np.zeros((0, 2)), np.zeros((0, 2), dtype=int)).n_segments == 0
+
+
+def test_angle_pdfs_discrete_continuous_and_gaussian():
+    from synth.patterns import _Sampler
+    rng = np.random.default_rng(0)
+    tri = _Sampler(PatternOptions(angle_pdf=((0, 0), (90, 1), (180, 0), (270, 0)), angle_pdf_kind="continuous"))
+    a = np.array([tri.angle(rng) for _ in range(4000)])
+    assert ((a >= 0) & (a <= 180)).all() and abs(a.mean() - 90) < 2 and abs(a.std() - 180 / math.sqrt(24)) < 2
+    gauss = _Sampler(PatternOptions(angle_pdf=((90, 1),), angle_pdf_kind="gaussian", angle_spread_deg=10))
+    g = np.array([gauss.angle(rng) for _ in range(4000)])
+    assert abs(g.mean() - 90) < 1 and abs(g.std() - 10) < 0.5
+    disc = _Sampler(PatternOptions(angle_pdf=((0, 3), (90, 1)), angle_pdf_kind="discrete"))
+    d = np.array([disc.angle(rng) for _ in range(4000)])
+    assert set(d.tolist()) == {0.0, 90.0} and abs((d == 0).mean() - 0.75) < 0.03
