@@ -824,7 +824,7 @@ class PathGraph:
         table[[int(k) for k in kinds]] = True
         lat = table[self.lat_kind]
         extra = table[self.kind]
-        if street_ok is not None:
+        if street_ok is not None and len(street_ok):
             extra &= (self.segment < 0) | np.asarray(street_ok, dtype=bool)[np.maximum(self.segment, 0)]
         return lat, extra
 
@@ -844,7 +844,7 @@ class PathGraph:
         copy of the whole matrix is made)."""
         base, ex, pos = self._base(kinds)
         bad = np.zeros(0, dtype=np.int64)
-        if street_ok is not None:
+        if street_ok is not None and len(street_ok):
             seg = self.segment[ex]
             bad = pos[(seg >= 0) & ~np.asarray(street_ok, dtype=bool)[np.maximum(seg, 0)]]
         saved = base.data[bad].copy()
