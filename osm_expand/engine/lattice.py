@@ -45,8 +45,16 @@ temporary nodes) plus *stitches*: short new-road edges from the street
 points on the shell and on terrain blocks to nearby live land vertices, and
 between shell points (003 Fig. 9), none crossing or grazing a street,
 entering a built-up block or touching water. Edge costs are multiplied by
-C1…C6 (003 §3.4.2) by kind. G′ is stored as directed edge arrays sorted by
-their tail, so a CSR matrix over any subset of edges is a cheap mask.
+C1…C6 (003 §3.4.2) by kind. The lattice part of G′ stays a table (vertex ×
+direction); the other edges are short arrays. Its CSR matrix is laid out
+with a fixed number of slots per lattice vertex, so it is built without
+sorting millions of edges, and cached.
+
+The water and forbidden rasters should be drawn generously (a cell is water
+when water touches it, e.g. buffer the polygons by half a cell's diagonal
+before testing cell centres): the lattice sees water only where the raster
+says so, and a stream thinner than a cell that falls between cell centres
+would get a road across it without a bridge.
 """
 from __future__ import annotations
 
@@ -91,8 +99,6 @@ class EdgeKind(IntEnum):
     BUILT_HARBOUR = 7  #: existing harbour segment, C4
 
 
-#: Kinds that are existing street segments.
-STREET_KINDS = (EdgeKind.MAJOR, EdgeKind.MINOR, EdgeKind.BUILT_HARBOUR)
 #: Kinds a road can be built on (the others are waterways and harbours).
 ROAD_KINDS = (EdgeKind.LAND, EdgeKind.BRIDGE, EdgeKind.STITCH, EdgeKind.MAJOR, EdgeKind.MINOR)
 
@@ -184,10 +190,12 @@ class Lattice:
     edge from vertex v along half-direction k (``directions[k]``, k < D/2)
     is ``unit_kind[k, v]`` (:data:`NO_EDGE` when there is none) with weight
     ``unit_weight[k, v]``: one grid per direction, so building the lattice
-    and removing B work on whole contiguous grids and nothing is sorted. Bridges of several steps are
-    separate arrays. The fine raster (``spacing / samples``) keeps the water,
-    forbidden and built-up masks for later checks. Never mutated:
-    :meth:`with_built_up` returns a new one.
+    and removing B work on whole contiguous grids and nothing is sorted.
+    Bridges of several steps are separate arrays. ``directed_kind`` /
+    ``directed_weight`` hold the same live edges seen from both ends, for G′.
+    The fine raster (``spacing / samples``) keeps the water, forbidden and
+    built-up masks for later checks. Never mutated: :meth:`with_built_up`
+    returns a new one.
     """
 
     origin: np.ndarray  #: (2,) m, position of vertex 0

@@ -90,7 +90,9 @@ class MajorRoadOptions:
     bypass_streets: str = "exterior"
     smoothing_step: float = 40.0  #: m, resampling before smoothing (2ℓ: corners cut by ~13 m)
     chaikin_iterations: int = 2  #: 000: Chaikin "to somewhat smoothen the result"
-    straight_tolerance: float = 1.0  #: degrees; smoothed points turning less are dropped
+    #: m, smoothed polylines are thinned (Douglas–Peucker) within this: fewer shape points,
+    #: which 000 §4.2.7 wants so that streets may later join the road
+    simplify_tolerance: float = 0.5
     demolish_margin: float = 2.0  #: m beyond half the road's width that a rebuilding road clears
     water_routes: bool = False  #: allow waterways and harbours (trade by boat; not a road)
 
@@ -131,7 +133,9 @@ class MajorRoadPlan:
     road_type: RoadType
     width: float  #: m, A(t): the width of new stretches and of widened segments
     new_roads: tuple[NewRoad, ...]  #: new stretches, in route order
-    reused: np.ndarray  #: (k,) segment ids the road runs along (they become major)
+    #: (k,) segment ids the road runs along, in route order (they become major). Where a new
+    #: stretch joins a segment inside (NewRoad.*_segment) the road follows only part of it
+    reused: np.ndarray
     widen: np.ndarray  #: (w,) extendible reused segments narrower than ``width``
     demolished: np.ndarray  #: (d,) segment ids removed (rebuilding city road)
     demolished_lots: np.ndarray  #: (l,) lot indices removed (rebuilding city road)
@@ -243,12 +247,13 @@ def _resample(xy: np.ndarray, step: float) -> np.ndarray:
     return np.concatenate([xy[start] + t[:, None] * seg[start], xy[-1:]])
 
 
-def _drop_straight(xy: np.ndarray, tolerance_deg: float) -> np.ndarray:
-    if len(xy) < 3:
+def _simplified(xy: np.ndarray, tolerance: float) -> np.ndarray:
+    """Douglas–Peucker within ``tolerance`` m; the ends stay."""
+    if len(xy) < 3 or tolerance <= 0:
         return xy
-    keep = np.ones(len(xy), dtype=bool)
-    keep[1:-1] = np.degrees(_turns(xy)) >= tolerance_deg
-    return xy[keep]
+    out = shapely.get_coordinates(shapely.simplify(shapely.LineString(xy), tolerance))
+    out[0], out[-1] = xy[0], xy[-1]
+    return out
 
 
 def _turns(xy: np.ndarray) -> np.ndarray:
@@ -264,7 +269,7 @@ def max_turn(xy: np.ndarray) -> float:
 
 
 def smooth_polyline(xy: np.ndarray, pinned: np.ndarray, *, step: float = 40.0, iterations: int = 2,
-                    straight_tolerance: float = 1.0) -> tuple[np.ndarray, np.ndarray]:
+                    tolerance: float = 0.5) -> tuple[np.ndarray, np.ndarray]:
     """Smooth a polyline between its pinned points (000 §4.2.7).
 
     Parameters
@@ -277,8 +282,8 @@ def smooth_polyline(xy: np.ndarray, pinned: np.ndarray, *, step: float = 40.0, i
         Resampling distance (m) before the centroid pass.
     iterations
         Chaikin iterations after the centroid pass.
-    straight_tolerance
-        Degrees; smoothed points that turn less are dropped.
+    tolerance
+        Metres; the smoothed polyline is thinned (Douglas–Peucker) within this.
 
     Returns
     -------
@@ -293,8 +298,7 @@ def smooth_polyline(xy: np.ndarray, pinned: np.ndarray, *, step: float = 40.0, i
     at = np.flatnonzero(pins)
     parts, flags = [xy[:1]], [np.array([True])]
     for a, b in zip(at[:-1], at[1:]):
-        run = _drop_straight(chaikin(centroid_smoothing(_resample(xy[a:b + 1], step)), iterations),
-                             straight_tolerance)
+        run = _simplified(chaikin(centroid_smoothing(_resample(xy[a:b + 1], step)), iterations), tolerance)
         parts.append(run[1:])
         flag = np.zeros(len(run) - 1, dtype=bool)
         flag[-1] = True
@@ -335,10 +339,13 @@ def plan_major_road(graph: PathGraph, route: Route, road_type: RoadType | str, w
         raise InputError(f"plan_major_road: width must be positive, got {width}")
     segs = graph.segments
     rebuild = kind is RoadType.REBUILDING_CITY
-    # per edge: keep (existing street kept as it is), bridge, or new
+    # per edge: an existing street kept as it is, a new bridge, or new road; a rebuilding
+    # road keeps only the major roads and bridges it follows and rebuilds over minor streets
     street = route.segment >= 0
-    kept = street & (segs.major[np.maximum(route.segment, 0)] | segs.bridge[np.maximum(route.segment, 0)]
-                     if rebuild else street)
+    kept = street.copy()
+    if rebuild:
+        seg = np.maximum(route.segment, 0)
+        kept &= segs.major[seg] | segs.bridge[seg]
     bridge = route.kind == EdgeKind.BRIDGE
     reused = _unique_in_order(route.segment[kept])
     new_roads: list[NewRoad] = []
@@ -355,7 +362,7 @@ def plan_major_road(graph: PathGraph, route: Route, road_type: RoadType | str, w
         xy = route.xy[edge:end + 1]
         if not bridge[edge]:
             pins = _pins(graph, route, edge, end) if rebuild else np.zeros(len(xy), dtype=bool)
-            xy = _smoothed(graph, xy, pins, route.segment[edge:end], width, rebuild, opts)
+            xy = _smoothed(graph, xy, pins, rebuild, opts)
         new_roads.append(_new_road(graph, route.vertices[edge], route.vertices[end], xy, bool(bridge[edge])))
         edge = end
     demolished_lots = np.zeros(0, dtype=np.int64)
@@ -376,24 +383,19 @@ def _unique_in_order(values: np.ndarray) -> np.ndarray:
 def _pins(graph: PathGraph, route: Route, start: int, end: int) -> np.ndarray:
     """Inside a rebuilt stretch: street nodes where a major road the route does not follow meets it."""
     segs = graph.segments
-    vertices = route.vertices[start:end + 1]
-    node = vertices - graph.n_lattice
+    node = route.vertices[start:end + 1] - graph.n_lattice
     is_node = (node >= 0) & (node < len(segs.xy))
-    pins = np.zeros(len(vertices), dtype=bool)
-    on_route = set(route.segment[route.segment >= 0].tolist())
     major = np.flatnonzero(segs.major)
-    other = major[~np.isin(major, list(on_route))]
-    meets = np.isin(node, segs.uv[other].ravel()) & is_node
-    pins |= meets
-    return pins
+    crossing = major[~np.isin(major, route.segment)]  # major roads the route does not run along
+    return is_node & np.isin(node, segs.uv[crossing].ravel())
 
 
-def _smoothed(graph: PathGraph, xy: np.ndarray, pins: np.ndarray, segment: np.ndarray, width: float,
-              rebuild: bool, opts: MajorRoadOptions) -> np.ndarray:
+def _smoothed(graph: PathGraph, xy: np.ndarray, pins: np.ndarray, rebuild: bool,
+              opts: MajorRoadOptions) -> np.ndarray:
     """The smoothest of (centroid + Chaikin, Chaikin, as found) that stays dry and crosses no street
     it must not (for a rebuilding road: no major road or bridge away from its pins)."""
     tries = [smooth_polyline(xy, pins, step=opts.smoothing_step, iterations=opts.chaikin_iterations,
-                             straight_tolerance=opts.straight_tolerance)[0]]
+                             tolerance=opts.simplify_tolerance)[0]]
     pinned = pins.copy()
     pinned[0] = pinned[-1] = True
     at = np.flatnonzero(pinned)

@@ -30,7 +30,7 @@ leaves a narrow ellipse around the plain route.
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from enum import StrEnum
 from typing import Sequence
 
@@ -45,7 +45,7 @@ __all__ = ["RoutingOptions", "Route", "turn_penalty", "find_route", "route_over_
            "choose", "route_score"]
 
 #: cost of the free transitions of the expanded graph (kept positive for scipy)
-_EPS = 1e-7
+_EPS = 1e-9
 
 
 @dataclass(frozen=True)
@@ -167,7 +167,7 @@ def _best_route(graph: PathGraph, matrix: csr_matrix, lat: np.ndarray, extra: np
     plain = _walk_back(pred, source, target)
     plain_route = _route(graph, plain, lat, extra, 0.0)
     penalties = _bin_penalties(opts)
-    bins = _bins(plain_route_headings(plain_route), opts.heading_bins)
+    bins = _bins(_headings(plain_route), opts.heading_bins)
     plain_turns = float(penalties[(bins[1:] - bins[:-1]) % opts.heading_bins].sum())
     if opts.turn_height == 0 or plain_turns == 0:
         return _route(graph, plain, lat, extra, plain_turns)
@@ -193,15 +193,14 @@ def _best_route(graph: PathGraph, matrix: csr_matrix, lat: np.ndarray, extra: np
     return _with_turn_cost(route, max(total - float(route.edge_weight.sum()), 0.0))
 
 
-def plain_route_headings(route: Route) -> np.ndarray:
+def _headings(route: Route) -> np.ndarray:
     """Heading (radians) of each edge of a route."""
     d = np.diff(route.xy, axis=0)
     return np.arctan2(d[:, 1], d[:, 0])
 
 
 def _with_turn_cost(route: Route, turn_cost: float) -> Route:
-    return Route(vertices=route.vertices, xy=route.xy, kind=route.kind, segment=route.segment,
-                 edge_length=route.edge_length, edge_weight=route.edge_weight, turn_cost=turn_cost)
+    return replace(route, turn_cost=turn_cost)
 
 
 def _walk_back(pred: np.ndarray, source: int, target: int) -> list[int]:
@@ -281,7 +280,7 @@ def _expanded_search(graph: PathGraph, lat: np.ndarray, extra: np.ndarray, regio
     groups.append((np.repeat(base + 2 * k, k), (base[:, None] + k + i).ravel(), np.full(n * k, _EPS)))
     expanded = _sorted_csr(n * per, groups)
     start = local[source] * per + 2 * k
-    dist, pred = dijkstra(expanded, indices=start, return_predecessors=True, limit=limit + 2 * k * _EPS)
+    dist, pred = dijkstra(expanded, indices=start, return_predecessors=True, limit=limit + 2 * n * _EPS)
     arrivals = local[target] * per + i
     best = int(arrivals[np.argmin(dist[arrivals])])
     if not np.isfinite(dist[best]):
