@@ -494,14 +494,17 @@ def test_krems_new_major_roads_stay_dry_and_bridge_only_where_they_must(krems):
     xy = segs.xy[exits]
     west, north, south_east = exits[np.argmin(xy[:, 0])], exits[np.argmax(xy[:, 1])], exits[np.argmin(xy[:, 1])]
     built_something = 0
-    for a, b in [(west, north), (north, south_east), (west, south_east)]:
+    streets = shapely.STRtree(segs.lines())
+    trips = [(west, north, RoadType.CITY), (north, south_east, RoadType.CITY), (west, south_east, RoadType.CITY),
+             (west, north, RoadType.BYPASS)]
+    for a, b, road_type in trips:
         s, t = g.node_vertex(a), g.node_vertex(b)
-        new = propose_route(g, s, t, RoadType.CITY)
+        new = propose_route(g, s, t, road_type)
         reroute = route_over_major_roads(g, s, t)
         assert new is not None
         if reroute is not None:
             assert new.cost <= reroute.cost + 1e-6  # G′ contains every re-route
-        plan = plan_major_road(g, new, RoadType.CITY, 12.0)
+        plan = plan_major_road(g, new, road_type, 12.0)
         built_something += len(plan.new_roads)
         for road in plan.new_roads:
             dense = np.concatenate([np.linspace(p, q, 40) for p, q in zip(road.xy[:-1], road.xy[1:])])
@@ -511,5 +514,9 @@ def test_krems_new_major_roads_stay_dry_and_bridge_only_where_they_must(krems):
                 assert wet.any() and not wet[0] and not wet[-1]  # over water, landing on land
             else:
                 assert not wet.any()  # no street in water
+            line = shapely.LineString(road.xy)  # it meets streets only at its ends (junctions)
+            meet = shapely.get_coordinates(shapely.intersection(segs.lines()[streets.query(line)], line))
+            assert np.min(np.hypot(*(meet[:, None] - road.xy[[0, -1]]).transpose(2, 0, 1)), axis=1,
+                          initial=np.inf).max(initial=0.0) < 0.01
         assert plan.bridges <= 1
     assert built_something > 0

@@ -347,6 +347,9 @@ def plan_major_road(graph: PathGraph, route: Route, road_type: RoadType | str, w
         seg = np.maximum(route.segment, 0)
         kept &= segs.major[seg] | segs.bridge[seg]
     bridge = route.kind == EdgeKind.BRIDGE
+    # a new stretch ends at every street point it meets (a junction), except that a
+    # rebuilding road runs on over the minor streets it replaces
+    junction = route.vertices >= graph.n_lattice
     reused = _unique_in_order(route.segment[kept])
     new_roads: list[NewRoad] = []
     demolished = np.zeros(0, dtype=np.int64)
@@ -357,7 +360,7 @@ def plan_major_road(graph: PathGraph, route: Route, road_type: RoadType | str, w
             continue
         end = edge + 1
         if not bridge[edge]:
-            while end < len(route.kind) and not kept[end] and not bridge[end]:
+            while end < len(route.kind) and not kept[end] and not bridge[end] and (rebuild or not junction[end]):
                 end += 1
         xy = route.xy[edge:end + 1]
         if not bridge[edge]:
