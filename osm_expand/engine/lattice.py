@@ -292,6 +292,17 @@ class Lattice:
         003 §3.4.2: B can only expand, so removal is permanent: the result's
         ``built_up`` and ``unit_removed`` are supersets of this one's. Water,
         harbour and bridge edges stay (003 removes land edges only).
+
+        Parameters
+        ----------
+        area
+            B (e.g. :attr:`BuiltUpArea.area`), shapely geometry in metres; it
+            is joined to the B already removed. None or empty: no change.
+
+        Returns
+        -------
+        Lattice
+            A new lattice (``self`` when nothing changes).
         """
         if area is None or area.is_empty:
             return self
@@ -605,7 +616,20 @@ class Segments:
     @classmethod
     def from_lines(cls, lines: Sequence[np.ndarray], *, major: Sequence[bool], width: Sequence[float],
                    bridge: Sequence[bool] | None = None, available: Sequence[float] | None = None) -> "Segments":
-        """Segments from polylines (one attribute value per polyline); equal points become one node."""
+        """Segments from polylines; points equal to the micrometre become one node.
+
+        Parameters
+        ----------
+        lines
+            Polylines, each ``(M, 2)`` metres; every consecutive pair of points is a segment.
+        major, width, bridge, available
+            One value per polyline, given to all its segments (``bridge``
+            default False, ``available`` default None: unlimited).
+
+        Returns
+        -------
+        Segments
+        """
         pts = [np.asarray(line, dtype=float).reshape(-1, 2) for line in lines]
         counts = np.array([len(p) - 1 for p in pts])
         every = np.concatenate(pts) if pts else np.zeros((0, 2))
@@ -639,11 +663,23 @@ class Segments:
 
 
 def segment_sides(segments: Segments, built_blocks: shapely.Geometry | None) -> np.ndarray:
-    """How many sides (0, 1, 2) of each segment touch a built-up block, ``(S,)`` int.
+    """How many sides of each segment touch a built-up block.
 
     Tested half a width plus 2 m to the left and right of the midpoint. A
     segment with at most one built-up side is on the shell or a terrain
     block: *extendible* (003 §3.4.2, C6) and a place to stitch to.
+
+    Parameters
+    ----------
+    segments
+        The segment graph.
+    built_blocks
+        Union of the built-up blocks (:attr:`BuiltUpArea.blocks`); None: none.
+
+    Returns
+    -------
+    numpy.ndarray
+        ``(S,)`` int in {0, 1, 2}.
     """
     if built_blocks is None or built_blocks.is_empty or not len(segments.uv):
         return np.zeros(len(segments.uv), dtype=np.int64)
@@ -823,10 +859,19 @@ class PathGraph:
 
     def masks(self, kinds: Sequence[EdgeKind] = ROAD_KINDS,
               street_ok: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
-        """Allowed lattice entries ``(V, D)`` and allowed other edges ``(E,)``.
+        """Which edges a route may use.
 
-        ``kinds``: the edge kinds a route may use; ``street_ok``: per segment,
-        whether its pieces may be used (None: all).
+        Parameters
+        ----------
+        kinds
+            The edge kinds allowed.
+        street_ok
+            ``(S,)`` bool per segment, whether its pieces may be used (None: all).
+
+        Returns
+        -------
+        (lattice, other)
+            ``(V, D)`` bool over ``lat_kind`` and ``(E,)`` bool over the other edges.
         """
         table = np.zeros(256, dtype=bool)
         table[[int(k) for k in kinds]] = True
@@ -909,7 +954,14 @@ class PathGraph:
         return csr_matrix((data, indices, indptr), shape=(n, n)), ex, pos
 
     def step(self, u: int, v: int, lat: np.ndarray, extra: np.ndarray) -> dict[str, float]:
-        """The cheapest allowed edge u → v: kind, segment, length, weight, heading."""
+        """The cheapest allowed edge u → v (``lat``, ``extra`` from :meth:`masks`).
+
+        Returns
+        -------
+        dict
+            ``kind``, ``segment`` (−1 if none), ``length`` (m), ``weight``,
+            ``heading`` (radians); :class:`InputError` when there is no such edge.
+        """
         best: dict[str, float] | None = None
         if u < self.n_lattice and v < self.n_lattice:
             nx = self.lattice.shape[1]
@@ -917,7 +969,8 @@ class PathGraph:
             hit = np.flatnonzero((self.lattice.directions[:, 0] == d[0]) & (self.lattice.directions[:, 1] == d[1]))
             if len(hit) and lat[u, hit[0]]:
                 k = int(hit[0])
-                best = {"kind": int(self.lat_kind[u, k]), "segment": -1, "length": float(self.lattice.direction_length[k]),
+                best = {"kind": int(self.lat_kind[u, k]), "segment": -1,
+                        "length": float(self.lattice.direction_length[k]),
                         "weight": float(self.lat_weight[u, k]), "heading": float(self.direction_heading[k])}
         lo, hi = np.searchsorted(self.src, [u, u + 1])
         for e in (lo + np.flatnonzero((self.dst[lo:hi] == v) & extra[lo:hi])).tolist():

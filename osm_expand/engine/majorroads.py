@@ -43,8 +43,8 @@ from osm_expand.engine.routing import Route, RoutingOptions, find_route
 from osm_expand.errors import InputError
 
 __all__ = ["RoadType", "BypassStreets", "MajorRoadOptions", "NewRoad", "MajorRoadPlan", "parse_road_type",
-           "allowed_streets", "capacity_ok", "propose_route", "plan_major_road", "smooth_polyline", "centroid_smoothing",
-           "chaikin", "max_turn"]
+           "allowed_streets", "capacity_ok", "propose_route", "plan_major_road", "smooth_polyline",
+           "centroid_smoothing", "chaikin", "max_turn"]
 
 
 class RoadType(StrEnum):
@@ -148,7 +148,22 @@ class MajorRoadPlan:
 
 def allowed_streets(graph: PathGraph, road_type: RoadType | str, *,
                     options: MajorRoadOptions | None = None) -> np.ndarray | None:
-    """Which segments a road of this type may run along, ``(S,)`` bool, or None for all."""
+    """Which segments a road of this type may run along (000 §4.2.7).
+
+    Parameters
+    ----------
+    graph
+        G′ (for which segments are extendible).
+    road_type
+        :class:`RoadType`; only a bypass is restricted.
+    options
+        ``bypass_streets`` of :class:`MajorRoadOptions`.
+
+    Returns
+    -------
+    numpy.ndarray or None
+        ``(S,)`` bool, or None when every segment may be used.
+    """
     opts = options or MajorRoadOptions()
     if parse_road_type(road_type) is not RoadType.BYPASS:
         return None
@@ -203,7 +218,20 @@ def propose_route(graph: PathGraph, source: int, target: int, road_type: RoadTyp
 
 
 def capacity_ok(graph: PathGraph, demand: float) -> np.ndarray:
-    """Segments that can carry ``demand`` more traffic: enough ``available`` capacity, or extendible."""
+    """Segments that can carry ``demand`` more traffic (000 §4.2.8).
+
+    Parameters
+    ----------
+    graph
+        G′ (segments with ``available`` capacity, and which are extendible).
+    demand
+        Traffic units.
+
+    Returns
+    -------
+    numpy.ndarray
+        ``(S,)`` bool: ``available ≥ demand``, or extendible (can be widened).
+    """
     segs = graph.segments
     if segs.available is None:
         return np.ones(len(segs.uv), dtype=bool)
@@ -215,6 +243,17 @@ def capacity_ok(graph: PathGraph, demand: float) -> np.ndarray:
 
 def centroid_smoothing(xy: np.ndarray) -> np.ndarray:
     """000 §4.2.7: pairs of consecutive segments become their triangle's centroid; ends stay.
+
+    Parameters
+    ----------
+    xy
+        ``(M, 2)`` polyline of n = M − 1 segments, metres.
+
+    Returns
+    -------
+    numpy.ndarray
+        ``(⌊n/2⌋ + 2, 2)``: the first point, one centroid per pair
+        {l1, l2}, {l3, l4}, …, the last point (an odd last segment is in no pair).
 
     >>> centroid_smoothing(np.array([[0., 0.], [3., 3.], [6., 0.]])).tolist()
     [[0.0, 0.0], [3.0, 1.0], [6.0, 0.0]]
@@ -228,7 +267,23 @@ def centroid_smoothing(xy: np.ndarray) -> np.ndarray:
 
 
 def chaikin(xy: np.ndarray, iterations: int) -> np.ndarray:
-    """Chaikin corner cutting (quarter points), keeping both ends."""
+    """Chaikin corner cutting: each segment gives its quarter points; both ends stay.
+
+    Parameters
+    ----------
+    xy
+        ``(M, 2)`` polyline, metres.
+    iterations
+        How many times to cut.
+
+    Returns
+    -------
+    numpy.ndarray
+        The polyline; each iteration turns M points into 2M − 2.
+
+    >>> chaikin(np.array([[0., 0.], [4., 0.], [4., 4.]]), 1).tolist()
+    [[0.0, 0.0], [3.0, 0.0], [4.0, 1.0], [4.0, 4.0]]
+    """
     for _ in range(iterations):
         if len(xy) < 3:
             break
