@@ -77,13 +77,9 @@ def krems_map() -> tuple[tuple[float, float, float, float], Raster, Segments, li
     segs = Segments.from_lines([net.street_xy(s) for s in net.streets], major=major,
                                width=[12.0 if m else 6.0 for m in major], bridge=[s.bridge for s in net.streets])
     (x0, y0), (x1, y1) = net.xy.min(axis=0) - 100, net.xy.max(axis=0) + 100
-    cell = 10.0
-    wet = shapely.buffer(shapely.union_all(net.context.water), cell * 0.71)
-    shapely.prepare(wet)
-    xs, ys = np.meshgrid(x0 + (np.arange(int((x1 - x0) / cell) + 1) + 0.5) * cell,
-                         y0 + (np.arange(int((y1 - y0) / cell) + 1) + 0.5) * cell)
-    water = Raster(shapely.contains_xy(wet, xs, ys), (float(x0), float(y0)), cell)
-    return (float(x0), float(y0), float(x1), float(y1)), water, segs, blocks(net)
+    extent = (float(x0), float(y0), float(x1), float(y1))
+    water = Raster.from_geometry(shapely.union_all(net.context.water), extent, cell=10.0)
+    return extent, water, segs, blocks(net)
 
 
 def run(name: str, extent, water: Raster, segs: Segments, faces: list, repeat: int) -> None:

@@ -197,6 +197,14 @@ def test_b_never_shrinks(discs):
     assert (again.unit_removed >= lat.unit_removed).all()
 
 
+def test_a_raster_from_geometry_keeps_a_stream_thinner_than_a_cell():
+    stream = shapely.LineString([(0, 52), (200, 57)]).buffer(1.5)  # 3 m wide, between cell centres
+    r = Raster.from_geometry(stream, (0, 0, 200, 100), cell=10.0)
+    row, col, _ = r.cell_index(np.full(21, 100.0), np.linspace(0, 100, 21))
+    assert r.values[row, col].any()
+    assert not r.values[0].any() and not r.values[-1].any()
+
+
 def test_built_up_area_follows_equation_1():
     segs = Segments.from_lines(grid_lines(0, 0, 2, 100) + [np.array([[200, 100], [600, 100]])],
                                major=[False] * 7, width=[6.0] * 7)
@@ -475,10 +483,7 @@ def krems():
     x1, y1 = net.xy.max(axis=0) + 100
     extent = (x0, y0, x1, y1)
     water = shapely.union_all(net.context.water)
-    # rasterised generously (half a cell's diagonal) so that no stream is lost
-    wet = shapely.buffer(water, 10.0 * 0.71)
-    shapely.prepare(wet)
-    water_raster = raster(lambda x, y: shapely.contains_xy(wet, x, y), extent, cell=10.0)
+    water_raster = Raster.from_geometry(water, extent, cell=10.0)
     built = built_up_area(blocks(net), segs, water=water)
     lat = build_lattice(extent, water=water_raster).with_built_up(built.area)
     g = pathfinding_graph(lat, segs, built)

@@ -50,11 +50,11 @@ direction); the other edges are short arrays. Its CSR matrix is laid out
 with a fixed number of slots per lattice vertex, so it is built without
 sorting millions of edges, and cached.
 
-The water and forbidden rasters should be drawn generously (a cell is water
-when water touches it, e.g. buffer the polygons by half a cell's diagonal
-before testing cell centres): the lattice sees water only where the raster
-says so, and a stream thinner than a cell that falls between cell centres
-would get a road across it without a bridge.
+The water and forbidden rasters should be drawn generously
+(:meth:`Raster.from_geometry`: a cell is water when water comes within half
+its diagonal): the lattice sees water only where the raster says so, and a
+stream thinner than a cell that falls between cell centres would get a road
+across it without a bridge.
 """
 from __future__ import annotations
 
@@ -120,6 +120,35 @@ class Raster:
         if np.ndim(self.values) != 2 or not self.cell > 0:
             raise InputError(f"raster: need a 2-D array and a positive cell size, got shape "
                              f"{np.shape(self.values)} and cell {self.cell}")
+
+    @classmethod
+    def from_geometry(cls, geom: shapely.Geometry | None, extent: tuple[float, float, float, float],
+                      cell: float = 10.0) -> "Raster":
+        """A boolean raster of the cells that ``geom`` touches (or comes within half a cell's
+        diagonal of, so that no thin river is lost between cell centres).
+
+        Parameters
+        ----------
+        geom
+            Polygons (e.g. water), metres; None: an all-false raster.
+        extent
+            ``(xmin, ymin, xmax, ymax)`` metres, covered by whole cells from the lower-left corner.
+        cell
+            Cell side, metres.
+
+        Returns
+        -------
+        Raster
+        """
+        x0, y0, x1, y1 = map(float, extent)
+        cols, rows = int(np.ceil((x1 - x0) / cell)) + 1, int(np.ceil((y1 - y0) / cell)) + 1
+        values = np.zeros((rows, cols), dtype=bool)
+        if geom is not None and not geom.is_empty:
+            grown = shapely.buffer(geom, cell * np.sqrt(0.5), quad_segs=2)
+            shapely.prepare(grown)
+            xs, ys = np.meshgrid(x0 + (np.arange(cols) + 0.5) * cell, y0 + (np.arange(rows) + 0.5) * cell)
+            values = shapely.contains_xy(grown, xs, ys)
+        return cls(values, (x0, y0), cell)
 
     def cell_index(self, x: np.ndarray, y: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Row, column of the cell holding each point, and whether it is inside the raster."""
