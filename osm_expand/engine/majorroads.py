@@ -207,7 +207,7 @@ def propose_route(graph: PathGraph, source: int, target: int, road_type: RoadTyp
     if kind is RoadType.SMOOTH_CITY:
         routing = RoutingOptions(turn_centre=routing.turn_centre, turn_width=routing.turn_width,
                                  turn_height=routing.turn_height * opts.smooth_turn_factor,
-                                 heading_bins=routing.heading_bins, first_margin=routing.first_margin)
+                                 heading_bins=routing.heading_bins, corridor_width=routing.corridor_width)
     kinds = list(ROAD_KINDS)
     if opts.water_routes:
         kinds += [EdgeKind.WATER, EdgeKind.HARBOUR, EdgeKind.BUILT_HARBOUR]

@@ -25,8 +25,9 @@ The expanded graph is built only over the vertices that can lie on an
 optimal route: with ``d_s``, ``d_t`` the plain (turn-free, hence lower-bound)
 distances from source and target and ``U`` the penalised cost of the plain
 shortest path (a feasible route), a vertex v can be on the best route only
-if ``d_s(v) + d_t(v) ≤ U``. This pruning is exact, and in open country it
-leaves a narrow ellipse around the plain route.
+if ``d_s(v) + d_t(v) ≤ U``. This pruning is exact. U is first lowered by a
+search in a corridor ``corridor_width`` wide along the plain route, so that
+the exact search covers only a narrow ellipse around the best route.
 """
 from __future__ import annotations
 
@@ -37,6 +38,7 @@ from typing import Sequence
 import numpy as np
 from scipy.sparse import csr_matrix
 from scipy.sparse.csgraph import dijkstra
+from scipy.spatial import cKDTree
 
 from osm_expand.engine.lattice import ROAD_KINDS, EdgeKind, PathGraph
 from osm_expand.errors import InputError
@@ -64,9 +66,9 @@ class RoutingOptions:
     #: heading bins K of the expanded graph: 16 → 22.5° (turns are measured to ±11°); the
     #: 120 lattice directions of r = 8 fall into them
     heading_bins: int = 16
-    #: the first search covers vertices within this many S_p of the plain shortest cost
-    #: (a route needing more turn cost than that triggers a second, exact, wider search)
-    first_margin: float = 1.0
+    #: m, the first (cheap, inexact) search keeps within this of the plain shortest route;
+    #: its cost bounds the exact second search (5ℓ)
+    corridor_width: float = 100.0
 
     def __post_init__(self) -> None:
         if not (self.turn_width > 0 and self.turn_height >= 0):
@@ -177,20 +179,34 @@ def _best_route(graph: PathGraph, matrix: csr_matrix, lat: np.ndarray, extra: np
     from_target = dijkstra(matrix, indices=target, limit=bound + tolerance)  # G′ is symmetric
     through = from_source + from_target
     best: tuple[list[int], float] = (plain, bound)
-    # first a narrow region; if its best beats its own margin it is optimal, else widen to that best
-    margin = min(bound, lower + opts.first_margin * opts.turn_height)
-    while True:
-        region = np.flatnonzero(through <= margin + tolerance)
+    # a cheap first search in a corridor along the plain route gives a good feasible cost,
+    # which shrinks the exact region (d_s + d_t ≤ that cost) of the second search
+    candidates = np.flatnonzero(through <= bound + tolerance)
+    near = cKDTree(_densified(graph.xy[plain], opts.corridor_width)).query(
+        graph.xy[candidates], distance_upper_bound=opts.corridor_width)[0]
+    corridor = candidates[np.isfinite(near)]
+    found = _expanded_search(graph, lat, extra, corridor, source, target, penalties, opts.heading_bins,
+                             bound + tolerance)
+    if found is not None and found[1] < best[1]:
+        best = found
+    region = np.flatnonzero(through <= best[1] + tolerance)
+    if not np.isin(region, corridor).all():  # else the corridor search was already exact
         found = _expanded_search(graph, lat, extra, region, source, target, penalties, opts.heading_bins,
                                  best[1] + tolerance)
         if found is not None and found[1] < best[1]:
             best = found
-        if best[1] <= margin + tolerance or margin >= bound:
-            break
-        margin = best[1]
     vertices, total = best
     route = _route(graph, vertices, lat, extra, 0.0)
     return _with_turn_cost(route, max(total - float(route.edge_weight.sum()), 0.0))
+
+
+def _densified(xy: np.ndarray, step: float) -> np.ndarray:
+    """Points along a polyline at most ``step`` apart (its vertices included)."""
+    seg = np.diff(xy, axis=0)
+    count = np.maximum(np.ceil(np.hypot(*seg.T) / step).astype(np.int64), 1)
+    start = np.repeat(np.arange(len(seg)), count)
+    t = np.arange(int(count.sum())) - np.repeat(np.cumsum(count) - count, count)
+    return np.concatenate([xy[start] + (t / count[start])[:, None] * seg[start], xy[-1:]])
 
 
 def _headings(route: Route) -> np.ndarray:
