@@ -311,6 +311,30 @@ def test_on_an_open_field_the_penalised_route_turns_once():
     assert route.turn_cost == pytest.approx(150.0)
 
 
+@settings(max_examples=10, deadline=None)
+@given(st.integers(0, 2**32 - 1))
+def test_pruned_search_finds_the_same_cost_as_searching_everything(seed):
+    from osm_expand.engine.routing import _bin_penalties, _expanded_search
+    rng = np.random.default_rng(seed)
+    extent = (0, 0, 600, 600)
+    centres, radii = rng.uniform(50, 550, (6, 2)), rng.uniform(20, 90, 6)
+    blobs = raster(lambda x, y: (np.hypot(x[..., None] - centres[:, 0], y[..., None] - centres[:, 1])
+                                 < radii).any(axis=-1), extent, cell=10.0)
+    lat = build_lattice(extent, forbidden=blobs, options=LatticeOptions(radius=int(rng.integers(1, 4))))
+    g = pathfinding_graph(lat, Segments(np.zeros((0, 2)), np.zeros((0, 2), int), np.zeros(0, bool), np.zeros(0),
+                                        np.zeros(0, bool)))
+    live = g.live_vertices()
+    s, t = (int(v) for v in rng.choice(live, 2, replace=False))
+    opts = RoutingOptions(turn_height=float(rng.uniform(20, 400)))
+    route = find_route(g, s, t, options=opts)
+    lat_ok, extra_ok = g.masks()
+    full = _expanded_search(g, lat_ok, extra_ok, np.arange(g.n_vertices), s, t, _bin_penalties(opts),
+                            opts.heading_bins, np.inf)
+    assert (route is None) == (full is None)
+    if route is not None:
+        assert route.cost == pytest.approx(full[1], abs=1e-5)
+
+
 # ---------------------------------------------------------------- smoothing
 
 
