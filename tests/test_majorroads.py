@@ -461,6 +461,9 @@ def test_a_rebuilding_city_road_demolishes_minor_streets_but_no_major_road():
     assert len(plan.demolished) > 0
     assert not segs.major[plan.demolished].any()
     assert len(plan.demolished_lots) > 0
+    # what meets the road where it starts and ends is not in its way
+    at_ends = np.flatnonzero(np.isin(segs.uv, route.vertices[[0, -1]] - g.n_lattice).any(axis=1))
+    assert not np.isin(np.setdiff1d(at_ends, route.segment), plan.demolished).any()
     city = plan_major_road(g, route, RoadType.CITY, 12.0)
     assert len(city.demolished) == 0 and len(city.demolished_lots) == 0
 

@@ -424,7 +424,7 @@ def plan_major_road(graph: PathGraph, route: Route, road_type: RoadType | str, w
         new_roads.append(_new_road(graph, route.vertices[edge], route.vertices[end], xy, bool(bridge[edge])))
         edge = end
     demolished_lots = np.zeros(0, dtype=np.int64)
-    if rebuild and new_roads:
+    if rebuild and any(not r.bridge for r in new_roads):
         demolished, demolished_lots = _demolition(graph, new_roads, width, lots, opts)
     widen = reused[graph.extendible[reused] & (segs.width[reused] < width)] if len(reused) else reused
     return MajorRoadPlan(road_type=kind, width=float(width), new_roads=tuple(new_roads), reused=reused, widen=widen,
@@ -503,14 +503,26 @@ def _new_road(graph: PathGraph, start: int, end: int, xy: np.ndarray, bridge: bo
 
 def _demolition(graph: PathGraph, roads: list[NewRoad], width: float, lots: np.ndarray | None,
                 opts: MajorRoadOptions) -> tuple[np.ndarray, np.ndarray]:
-    """Minor, non-bridge segments and lots under a rebuilding road's corridor (000 §4.2.7)."""
-    corridor = shapely.union_all([shapely.buffer(shapely.LineString(r.xy), 0.5 * width + opts.demolish_margin,
-                                                 cap_style="flat") for r in roads if not r.bridge])
+    """Minor, non-bridge segments and lots under a rebuilding road's corridor (000 §4.2.7).
+
+    The corridor is the road buffered by half its width plus a margin, less a
+    disc of that radius around each end: the streets that meet the road
+    where it is pinned (junctions with major roads, bridge ends, the ends of
+    the route) are not in its way.
+    """
+    half = 0.5 * width + opts.demolish_margin
+    pieces = [r for r in roads if not r.bridge]
+    ends = shapely.points(np.concatenate([r.xy[[0, -1]] for r in pieces]))
+    corridor = shapely.difference(
+        shapely.union_all([shapely.buffer(shapely.LineString(r.xy), half, cap_style="flat") for r in pieces]),
+        shapely.union_all(shapely.buffer(ends, half)))
     segs = graph.segments
     gone = np.zeros(0, dtype=np.int64)
     if len(segs.uv) and not corridor.is_empty:
         hit = shapely.STRtree(segs.lines()).query(corridor, predicate="intersects")
-        gone = np.sort(hit[~segs.major[hit] & ~segs.bridge[hit]]).astype(np.int64)
+        hit = hit[~segs.major[hit] & ~segs.bridge[hit]]
+        inside = shapely.length(shapely.intersection(segs.lines()[hit], corridor))
+        gone = np.sort(hit[inside > 1.0]).astype(np.int64)  # more than grazing its edge
     lots_gone = np.zeros(0, dtype=np.int64)
     if lots is not None and len(lots) and not corridor.is_empty:
         lots_gone = np.sort(shapely.STRtree(np.asarray(lots)).query(corridor, predicate="intersects")).astype(np.int64)
