@@ -29,6 +29,19 @@ construction).
 After building, the extendible segments the road runs along are widened to
 A(t) (003 §3.4.2). The result is a plain :class:`MajorRoadPlan`; the caller
 applies it to the city model.
+
+A year of the loop (003 Algorithm 2), for a pair of neighbouring cities whose
+trade routes lack ``demand`` capacity, with this year's R(t) and O1…O4::
+
+    lattice = build_lattice(extent, water=Raster.from_geometry(water, extent))  # once per map
+    built = built_up_area(blocks, segments, water=water, previous=built)        # each year
+    lattice = lattice.with_built_up(built.area)
+    graph = pathfinding_graph(lattice, segments, built, costs=EdgeCosts(...))   # C1…C6
+    s, t = graph.node_vertex(node_a), graph.node_vertex(node_b)
+    reroute = route_over_major_roads(graph, s, t, demand=demand, options=turns)
+    new = propose_route(graph, s, t, era_road_type, demand=demand, routing=turns)
+    if choose(new, reroute, o3=o3, o4=o4) is Choice.NEW:
+        plan = plan_major_road(graph, new, era_road_type, width=a_of_t, lots=lots)
 """
 from __future__ import annotations
 
