@@ -69,17 +69,17 @@ def synthetic_map(side: float) -> tuple[tuple[float, float, float, float], Raste
 
 
 def krems_map() -> tuple[tuple[float, float, float, float], Raster, Segments, list]:
-    from osm_expand.blocks import blocks
-    from osm_expand.highways import rank
+    """Krems: its streets (tertiary and above major), faces as blocks, the Danube."""
     from osm_expand.ingest import load
     net = load(REPO / "fixtures" / "krems.osm.gz")
-    major = [rank(s.highway) <= 4.5 for s in net.streets]
+    major = [s.highway.removesuffix("_link") in {"motorway", "trunk", "primary", "secondary", "tertiary"}
+             for s in net.streets]
     segs = Segments.from_lines([net.street_xy(s) for s in net.streets], major=major,
                                width=[12.0 if m else 6.0 for m in major], bridge=[s.bridge for s in net.streets])
     (x0, y0), (x1, y1) = net.xy.min(axis=0) - 100, net.xy.max(axis=0) + 100
     extent = (float(x0), float(y0), float(x1), float(y1))
     water = Raster.from_geometry(shapely.union_all(net.context.water), extent, cell=10.0)
-    return extent, water, segs, blocks(net)
+    return extent, water, segs, list(shapely.get_parts(shapely.polygonize(list(segs.lines()))))
 
 
 def run(name: str, extent, water: Raster, segs: Segments, faces: list, repeat: int) -> None:

@@ -497,21 +497,25 @@ def test_bad_choices_and_parameters_raise_input_errors():
 # ---------------------------------------------------------------- Krems (real data)
 
 
+#: highway classes taken as major roads on Krems (tertiary and above)
+MAJOR_HIGHWAYS = {"motorway", "trunk", "primary", "secondary", "tertiary"}
+
+
 @pytest.fixture(scope="module")
 def krems():
-    from osm_expand.blocks import blocks
-    from osm_expand.highways import rank
-    from conftest import loaded
-    net = loaded("krems.osm.gz")
-    major = [rank(s.highway) <= 4.5 for s in net.streets]  # tertiary and above
+    from conftest import FIXTURES
+    from osm_expand.ingest import load
+    net = load(FIXTURES / "krems.osm.gz")  # with its water
+    major = [s.highway.removesuffix("_link") in MAJOR_HIGHWAYS for s in net.streets]
     segs = Segments.from_lines([net.street_xy(s) for s in net.streets], major=major,
                                width=[12.0 if m else 6.0 for m in major], bridge=[s.bridge for s in net.streets])
     x0, y0 = net.xy.min(axis=0) - 100
     x1, y1 = net.xy.max(axis=0) + 100
     extent = (x0, y0, x1, y1)
     water = shapely.union_all(net.context.water)
+    assert shapely.area(water) > 1e6  # the Danube
     water_raster = Raster.from_geometry(water, extent, cell=10.0)
-    built = built_up_area(blocks(net), segs, water=water)
+    built = built_up_area(blocks_of(segs), segs, water=water)
     lat = build_lattice(extent, water=water_raster).with_built_up(built.area)
     g = pathfinding_graph(lat, segs, built)
     degree = np.bincount(segs.uv[segs.major].ravel(), minlength=len(segs.xy))
