@@ -71,14 +71,18 @@ def synthetic_map(side: float) -> tuple[tuple[float, float, float, float], Raste
 def krems_map() -> tuple[tuple[float, float, float, float], Raster, Segments, list]:
     """Krems: its streets (tertiary and above major), faces as blocks, the Danube."""
     from osm_expand.ingest import load
-    net = load(REPO / "fixtures" / "krems.osm.gz")
+    town = load(REPO / "fixtures" / "krems.osm.gz")
+    if hasattr(town, "water_geometry"):  # a City
+        net, wet = town.network, town.water_geometry()
+    else:  # a StreetNetwork, before the city model
+        net, wet = town, shapely.union_all([*town.context.water, *town.context.sea])
     major = [s.highway.removesuffix("_link") in {"motorway", "trunk", "primary", "secondary", "tertiary"}
              for s in net.streets]
     segs = Segments.from_lines([net.street_xy(s) for s in net.streets], major=major,
                                width=[12.0 if m else 6.0 for m in major], bridge=[s.bridge for s in net.streets])
     (x0, y0), (x1, y1) = net.xy.min(axis=0) - 100, net.xy.max(axis=0) + 100
     extent = (float(x0), float(y0), float(x1), float(y1))
-    water = Raster.from_geometry(shapely.union_all(net.context.water), extent, cell=10.0)
+    water = Raster.from_geometry(wet, extent, cell=10.0)
     return extent, water, segs, list(shapely.get_parts(shapely.polygonize(list(segs.lines()))))
 
 

@@ -497,6 +497,13 @@ def test_bad_choices_and_parameters_raise_input_errors():
 # ---------------------------------------------------------------- Krems (real data)
 
 
+def network_and_water(town):
+    """The street network and the water of what ``load`` returns (a City, or a StreetNetwork before it)."""
+    if hasattr(town, "water_geometry"):
+        return town.network, town.water_geometry()
+    return town, shapely.union_all([*town.context.water, *town.context.sea])
+
+
 #: highway classes taken as major roads on Krems (tertiary and above)
 MAJOR_HIGHWAYS = {"motorway", "trunk", "primary", "secondary", "tertiary"}
 
@@ -505,14 +512,13 @@ MAJOR_HIGHWAYS = {"motorway", "trunk", "primary", "secondary", "tertiary"}
 def krems():
     from conftest import FIXTURES
     from osm_expand.ingest import load
-    net = load(FIXTURES / "krems.osm.gz")  # with its water
+    net, water = network_and_water(load(FIXTURES / "krems.osm.gz"))
     major = [s.highway.removesuffix("_link") in MAJOR_HIGHWAYS for s in net.streets]
     segs = Segments.from_lines([net.street_xy(s) for s in net.streets], major=major,
                                width=[12.0 if m else 6.0 for m in major], bridge=[s.bridge for s in net.streets])
     x0, y0 = net.xy.min(axis=0) - 100
     x1, y1 = net.xy.max(axis=0) + 100
     extent = (x0, y0, x1, y1)
-    water = shapely.union_all(net.context.water)
     assert shapely.area(water) > 1e6  # the Danube
     water_raster = Raster.from_geometry(water, extent, cell=10.0)
     built = built_up_area(blocks_of(segs), segs, water=water)
