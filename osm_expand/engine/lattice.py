@@ -1,0 +1,1263 @@
+"""The pathfinding lattice G, the built-up area B and the stitched graph G′.
+
+Seed 003 §3.2.2 (Fig. 3b/c) and §3.4.2 (Eq. 1, Fig. 9); seed 000 §4.2.3 and
+§4.2.7.
+
+**G** is a regular lattice of vertices ``spacing`` (ℓ = 20 m) apart. Each
+vertex connects to the nearest other vertex in every lattice direction within
+``radius`` r = 8: the primitive vectors (dx, dy) (gcd 1) with
+dx² + dy² ≤ r², 120 of them. Vertices are land, water or forbidden (from
+raster masks). Marching along each edge (``samples_per_spacing`` samples per
+ℓ) classifies it:
+
+- *land*: every sample on land; weight ``length · max(1, O1 · slope)`` with
+  the largest slope between samples (flat without a height raster); dropped
+  above ``slope_cutoff``;
+- *water*: every sample on water (routes for boats; roads do not use them);
+- *harbour*: between adjacent land and water vertices, one change of medium;
+- *bridge*: land to land over one stretch of water (000 §4.2.3): a unit edge
+  land→water→land, or a straight run of k unit edges along one direction
+  (land→water, water…, water→land) up to ``max_bridge_length``. Of the
+  crossings from a vertex only those at most ``bridge_slack`` times its
+  shortest crossing are kept (000 keeps the shortest ray, i.e. a bridge
+  roughly perpendicular to the bank; the slack lets a road keep its line).
+
+Forbidden samples end an edge; forbidden vertices have no edges. The whole
+lattice is built with array slicing: for a direction and a sample offset the
+samples of *every* vertex are one strided slice of a fine raster, so there is
+no Python loop over vertices.
+
+**B** (003 Eq. 1) is ``FILL(S) \\ ∪ FILL(B_T) ∪ NB(S) ∪ ∪ NB(B_T)``: the
+built-up blocks plus a neighbourhood of every street on the shell or on a
+terrain block. Terrain blocks are those larger than ``terrain_block_area``
+(003's "simple block-area classifier") or holding water (000's water
+blocks). Streets between two built-up blocks lie inside built-up blocks, so
+B is computed as the built-up blocks plus ``neighbourhood`` metres around
+every street, and joined to the previous B: it never shrinks.
+:meth:`Lattice.with_built_up` removes every land edge that traverses B from
+the lattice for good (003: "permanently remove all land edges that traverse
+B"); water, harbour and bridge edges stay.
+
+**G′** (:func:`pathfinding_graph`) is that lattice plus the street segments
+(major and minor; long segments on the shell get a point every
+``split_spacing`` m so that a road can join them anywhere, like 003 §3.3's
+temporary nodes) plus *stitches*: short new-road edges from the street
+points on the shell and on terrain blocks to nearby live land vertices, and
+between shell points (003 Fig. 9), none crossing or grazing a street,
+entering a built-up block or touching water. Edge costs are multiplied by
+C1…C6 (003 §3.4.2) by kind. The lattice part of G′ stays a table (vertex ×
+direction); the other edges are short arrays. Its CSR matrix is laid out
+with a fixed number of slots per lattice vertex, so it is built without
+sorting millions of edges, and cached.
+
+The water and forbidden rasters should be drawn generously
+(:meth:`Raster.from_geometry`: a cell is water when water comes within half
+its diagonal): the lattice sees water only where the raster says so, and a
+stream thinner than a cell that falls between cell centres would get a road
+across it without a bridge.
+"""
+from __future__ import annotations
+
+from contextlib import contextmanager
+from dataclasses import dataclass, field, replace
+from enum import IntEnum
+from math import gcd
+from typing import Iterator, Sequence
+
+import numpy as np
+import shapely
+from scipy.sparse import csr_matrix
+from scipy.spatial import cKDTree
+
+from osm_expand.errors import InputError
+
+__all__ = [
+    "VertexClass", "EdgeKind", "Raster", "LatticeOptions", "Lattice", "build_lattice",
+    "lattice_directions", "Segments", "BuiltUpOptions", "BuiltUpArea", "built_up_area",
+    "segment_sides", "EdgeCosts", "GraphOptions", "PathGraph", "pathfinding_graph",
+]
+
+
+class VertexClass(IntEnum):
+    """Class of a lattice vertex (003 §3.2.2: L_L, L_W, L_F)."""
+
+    LAND = 0
+    WATER = 1
+    FORBIDDEN = 2
+
+
+class EdgeKind(IntEnum):
+    """Kind of an edge of G′; the cost coefficient of each is in :class:`EdgeCosts`."""
+
+    LAND = 0  #: new road over land (lattice)
+    WATER = 1  #: waterway (lattice)
+    HARBOUR = 2  #: unbuilt harbour, land ↔ water (lattice), C3
+    BRIDGE = 3  #: unbuilt bridge (lattice), C5
+    STITCH = 4  #: new road joining the lattice to a street, or two shell streets
+    MAJOR = 5  #: existing major road segment, C1
+    MINOR = 6  #: existing minor road segment, C2
+    BUILT_HARBOUR = 7  #: existing harbour segment, C4
+
+
+#: Kinds a road can be built on (the others are waterways and harbours).
+ROAD_KINDS = (EdgeKind.LAND, EdgeKind.BRIDGE, EdgeKind.STITCH, EdgeKind.MAJOR, EdgeKind.MINOR)
+
+# unit-edge profiles along the marched samples
+_MIXED, _L, _W, _LW, _WL, _LWL = 0, 1, 2, 3, 4, 5
+
+
+@dataclass(frozen=True)
+class Raster:
+    """A raster over the map: ``values[i, j]`` covers the cell whose lower-left
+    corner is ``origin + (j, i) · cell`` (rows run north, as in
+    :class:`osm_expand.sites.DistanceMaps`)."""
+
+    values: np.ndarray  #: (rows, cols) bool or float
+    origin: tuple[float, float]  #: m, lower-left corner of cell (0, 0)
+    cell: float  #: m, cell side
+
+    def __post_init__(self) -> None:
+        if np.ndim(self.values) != 2 or not self.cell > 0:
+            raise InputError(f"raster: need a 2-D array and a positive cell size, got shape "
+                             f"{np.shape(self.values)} and cell {self.cell}")
+
+    @classmethod
+    def from_geometry(cls, geom: shapely.Geometry | None, extent: tuple[float, float, float, float],
+                      cell: float = 10.0) -> "Raster":
+        """A boolean raster of the cells that ``geom`` touches (or comes within half a cell's
+        diagonal of, so that no thin river is lost between cell centres).
+
+        Parameters
+        ----------
+        geom
+            Polygons (e.g. water), metres; None: an all-false raster.
+        extent
+            ``(xmin, ymin, xmax, ymax)`` metres, covered by whole cells from the lower-left corner.
+        cell
+            Cell side, metres.
+
+        Returns
+        -------
+        Raster
+        """
+        x0, y0, x1, y1 = map(float, extent)
+        cols, rows = int(np.ceil((x1 - x0) / cell)) + 1, int(np.ceil((y1 - y0) / cell)) + 1
+        values = np.zeros((rows, cols), dtype=bool)
+        if geom is not None and not geom.is_empty:
+            grown = shapely.buffer(geom, cell * np.sqrt(0.5), quad_segs=2)
+            shapely.prepare(grown)
+            xs, ys = np.meshgrid(x0 + (np.arange(cols) + 0.5) * cell, y0 + (np.arange(rows) + 0.5) * cell)
+            values = shapely.contains_xy(grown, xs, ys)
+        return cls(values, (x0, y0), cell)
+
+    def cell_index(self, x: np.ndarray, y: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Row, column of the cell holding each point, and whether it is inside the raster."""
+        col = np.floor((np.asarray(x) - self.origin[0]) / self.cell).astype(np.int64)
+        row = np.floor((np.asarray(y) - self.origin[1]) / self.cell).astype(np.int64)
+        rows, cols = self.values.shape
+        inside = (row >= 0) & (row < rows) & (col >= 0) & (col < cols)
+        return np.clip(row, 0, rows - 1), np.clip(col, 0, cols - 1), inside
+
+
+@dataclass(frozen=True)
+class LatticeOptions:
+    """Tunables of the pathfinding lattice G (003 §3.2.2; 000 §4.2.3)."""
+
+    spacing: float = 20.0  #: m, lattice spacing ℓ (003 §3.2.2)
+    radius: int = 8  #: lattice units, neighbourhood radius r: directions (dx, dy) with dx² + dy² ≤ r² (003)
+    #: samples per ℓ when marching along an edge (the fine raster is ℓ / this; 2 → 10 m,
+    #: the resolution of osm_expand.sites' water raster)
+    samples_per_spacing: int = 2
+    #: O1: weight = length · max(1, O1 · slope) (003 §3.2.2); 000 uses 0.3 per degree of
+    #: inclination, i.e. 0.3 · 180/π per radian ≈ per unit of slope for small slopes
+    slope_weight: float = 17.19
+    slope_cutoff: float = 0.577  #: rise/run; steeper land edges are dropped (000: α_max = π/6 → tan = 0.577)
+    max_bridge_length: float = 600.0  #: m; the Danube at Krems is ~300 m wide, allow oblique crossings
+    #: keep a bridge only if at most this times the shortest crossing from either end
+    #: (000 keeps only the shortest, i.e. ~perpendicular; 1.25 allows ±37°)
+    bridge_slack: float = 1.25
+
+    def __post_init__(self) -> None:
+        _positive(self, ("spacing", "slope_weight", "slope_cutoff", "max_bridge_length"))
+        if self.radius < 1 or self.samples_per_spacing < 1:
+            raise InputError("lattice: radius and samples_per_spacing must be at least 1")
+        if self.bridge_slack < 1.0:
+            raise InputError(f"lattice: bridge_slack must be ≥ 1, got {self.bridge_slack}")
+
+
+def _positive(opts: object, names: Sequence[str]) -> None:
+    for name in names:
+        value = getattr(opts, name)
+        if not value > 0:
+            raise InputError(f"{type(opts).__name__}.{name} must be positive, got {value}")
+
+
+def lattice_directions(radius: int) -> np.ndarray:
+    """The primitive lattice directions within ``radius``, ``(D, 2)`` int.
+
+    The first half (dy > 0, or dy = 0 and dx > 0) sorted by angle, then their
+    negations in the same order, so direction ``k + D/2`` is direction ``k``
+    reversed. radius 1 → 4 directions, 2 → 8 (the king's moves and no knight's
+    as 2² + 1² > 2²; see ``test_majorroads``), 8 → 120.
+    """
+    half = [(dx, dy) for dx in range(-radius, radius + 1) for dy in range(0, radius + 1)
+            if (dy > 0 or dx > 0) and dx * dx + dy * dy <= radius * radius and gcd(abs(dx), dy) == 1]
+    half.sort(key=lambda d: np.arctan2(d[1], d[0]))
+    first = np.array(half, dtype=np.int64).reshape(-1, 2)
+    return np.concatenate([first, -first])
+
+
+#: ``unit_kind`` value of a missing edge.
+NO_EDGE = 255
+
+
+@dataclass(frozen=True)
+class Lattice:
+    """The pathfinding graph G as tables over the vertex grid.
+
+    Vertex ``i · nx + j`` sits at ``origin + (j, i) · spacing``. The unit
+    edge from vertex v along half-direction k (``directions[k]``, k < D/2)
+    is ``unit_kind[k, v]`` (:data:`NO_EDGE` when there is none) with weight
+    ``unit_weight[k, v]``: one grid per direction, so building the lattice
+    and removing B work on whole contiguous grids and nothing is sorted.
+    Bridges of several steps are separate arrays. ``directed_kind`` /
+    ``directed_weight`` hold the same live edges seen from both ends, for G′.
+    The fine raster (``spacing / samples``) keeps the water, forbidden and
+    built-up masks for later checks. Never mutated: :meth:`with_built_up`
+    returns a new one.
+    """
+
+    origin: np.ndarray  #: (2,) m, position of vertex 0
+    spacing: float  #: m, ℓ
+    shape: tuple[int, int]  #: (ny, nx) vertices
+    samples: int  #: fine raster samples per ℓ
+    directions: np.ndarray  #: (D, 2) int lattice directions, second half the first reversed
+    vertex_class: np.ndarray  #: (V,) uint8 VertexClass
+    unit_kind: np.ndarray  #: (D/2, V) uint8 EdgeKind (LAND, WATER, HARBOUR, BRIDGE) or NO_EDGE
+    unit_weight: np.ndarray  #: (D/2, V) float32 length · max(1, O1 · slope), before C1…C6
+    unit_removed: np.ndarray  #: (D/2, V) bool, land edges that traverse B (permanent)
+    #: (V, D) uint8: the live unit edges seen from both ends (row = tail vertex; column
+    #: ``k + D/2`` of w is the edge of ``w − d_k``), kept in step with ``unit_removed``
+    directed_kind: np.ndarray
+    directed_weight: np.ndarray  #: (V, D) float32, weights of ``directed_kind``
+    bridge_src: np.ndarray  #: (K,) int64, bridges of two or more steps
+    bridge_dst: np.ndarray  #: (K,) int64
+    bridge_direction: np.ndarray  #: (K,) int64 half-direction index
+    bridge_length: np.ndarray  #: (K,) m
+    water: np.ndarray  #: fine raster bool
+    forbidden: np.ndarray  #: fine raster bool
+    built_up: np.ndarray  #: fine raster bool, B (monotone)
+    height: np.ndarray | None = None  #: fine raster float64 m, or None (flat)
+    slope_weight: float = 17.19  #: O1, also for the street and stitch edges of G′
+    slope_cutoff: float = 0.577  #: rise/run above which a new stretch of road is not built
+
+    @property
+    def n_vertices(self) -> int:
+        return self.shape[0] * self.shape[1]
+
+    @property
+    def radius(self) -> int:
+        return int(np.abs(self.directions).max())
+
+    @property
+    def fine_step(self) -> float:
+        """m between fine raster points."""
+        return self.spacing / self.samples
+
+    @property
+    def direction_length(self) -> np.ndarray:
+        """(D,) m, length of the unit edge along each direction."""
+        return np.hypot(*self.directions.T) * self.spacing
+
+    @property
+    def direction_offset(self) -> np.ndarray:
+        """(D,) vertex index step along each direction."""
+        return self.directions[:, 1] * self.shape[1] + self.directions[:, 0]
+
+    def vertex_xy(self, index: np.ndarray | None = None) -> np.ndarray:
+        """Positions of vertices (all when ``index`` is None), ``(n, 2)`` m."""
+        ny, nx = self.shape
+        idx = np.arange(ny * nx) if index is None else np.asarray(index)
+        return self.origin + np.stack([idx % nx, idx // nx], axis=-1) * self.spacing
+
+    def edges(self, *, live: bool = False) -> dict[str, np.ndarray]:
+        """All undirected edges as arrays ``src, dst, kind, direction, length, removed``
+        (unit edges, then long bridges); with ``live`` without those removed by B."""
+        half = len(self.directions) // 2
+        mask = self.unit_kind != NO_EDGE
+        if live:
+            mask &= ~self.unit_removed
+        flat = np.flatnonzero(mask)
+        k, src = flat // self.n_vertices, flat % self.n_vertices
+        n_b = len(self.bridge_src)
+        return {
+            "src": np.concatenate([src, self.bridge_src]),
+            "dst": np.concatenate([src + self.direction_offset[k], self.bridge_dst]),
+            "kind": np.concatenate([self.unit_kind.ravel()[flat], np.full(n_b, EdgeKind.BRIDGE, np.uint8)]),
+            "direction": np.concatenate([k, self.bridge_direction]),
+            "length": np.concatenate([self.direction_length[k], self.bridge_length]),
+            "removed": np.concatenate([self.unit_removed.ravel()[flat], np.zeros(n_b, dtype=bool)]),
+        }
+
+    def fine_lookup(self, mask: np.ndarray, xy: np.ndarray, outside: bool = True) -> np.ndarray:
+        """Value of a fine-raster mask at points ``(..., 2)`` (nearest fine point)."""
+        ij = np.rint((np.asarray(xy) - self.origin) / self.fine_step).astype(np.int64)
+        rows, cols = mask.shape
+        inside = (ij[..., 1] >= 0) & (ij[..., 1] < rows) & (ij[..., 0] >= 0) & (ij[..., 0] < cols)
+        value = mask[np.clip(ij[..., 1], 0, rows - 1), np.clip(ij[..., 0], 0, cols - 1)]
+        return np.where(inside, value, outside)
+
+    def height_at(self, xy: np.ndarray) -> np.ndarray | None:
+        """Height at points (nearest fine point), or None without a height raster."""
+        if self.height is None:
+            return None
+        ij = np.rint((np.asarray(xy) - self.origin) / self.fine_step).astype(np.int64)
+        rows, cols = self.height.shape
+        return self.height[np.clip(ij[..., 1], 0, rows - 1), np.clip(ij[..., 0], 0, cols - 1)]
+
+    def with_built_up(self, area: shapely.Geometry | None) -> "Lattice":
+        """This lattice with B grown by ``area`` and every land edge that traverses it removed.
+
+        003 §3.4.2: B can only expand, so removal is permanent: the result's
+        ``built_up`` and ``unit_removed`` are supersets of this one's. Water,
+        harbour and bridge edges stay (003 removes land edges only).
+
+        Parameters
+        ----------
+        area
+            B (e.g. :attr:`BuiltUpArea.area`), shapely geometry in metres; it
+            is joined to the B already removed. None or empty: no change.
+
+        Returns
+        -------
+        Lattice
+            A new lattice (``self`` when nothing changes).
+        """
+        if area is None or area.is_empty:
+            return self
+        fine = self.built_up | _rasterise(area, self.origin, self.fine_step, self.built_up.shape)
+        if np.array_equal(fine, self.built_up):
+            return self
+        removed = self.unit_removed.copy()
+        directed = self.directed_kind.copy()
+        half = len(self.directions) // 2
+        offset = self.direction_offset
+        padded, pad = _pad(fine, self.radius * self.samples, False)
+        for k in range(half):
+            touched = np.zeros(self.shape, dtype=bool)
+            for oy, ox in _offsets(self.directions[k], self.samples):
+                touched |= _slice(padded, pad, oy, ox, self.shape, self.samples)
+            new = np.flatnonzero(touched.ravel() & (self.unit_kind[k] == EdgeKind.LAND) & ~removed[k])
+            removed[k, new] = True
+            directed[new, k] = NO_EDGE
+            directed[new + offset[k], half + k] = NO_EDGE
+        return replace(self, built_up=fine, unit_removed=removed, directed_kind=directed)
+
+    def directed_tables(self) -> tuple[np.ndarray, np.ndarray]:
+        """Live unit edges in both directions: ``(V, D)`` kind (uint8, NO_EDGE) and weight (float32).
+
+        Row = tail vertex. Column ``k + D/2`` of vertex w holds the edge that
+        arrives at w along direction k, i.e. the unit edge of vertex ``w − d_k``.
+        """
+        return self.directed_kind, self.directed_weight
+
+
+def _directed(unit_kind: np.ndarray, unit_weight: np.ndarray, directions: np.ndarray,
+              shape: tuple[int, int]) -> tuple[np.ndarray, np.ndarray]:
+    """The (V, D) tables of :meth:`Lattice.directed_tables` from the (D/2, V) unit tables."""
+    ny, nx = shape
+    half = len(directions) // 2
+    kind, weight = unit_kind.reshape(half, ny, nx), unit_weight.reshape(half, ny, nx)
+    out_kind = np.full((2 * half, ny, nx), NO_EDGE, dtype=np.uint8)
+    out_weight = np.zeros((2 * half, ny, nx), dtype=np.float32)
+    out_kind[:half], out_weight[:half] = kind, weight
+    for k, (dx, dy) in enumerate(directions[:half].tolist()):
+        # the edge of (iy − dy, ix − dx), seen from its head (iy, ix)
+        ys, yt = slice(0, ny - dy), slice(dy, ny)
+        xs, xt = (slice(0, nx - dx), slice(dx, nx)) if dx >= 0 else (slice(-dx, nx), slice(0, nx + dx))
+        out_kind[half + k, yt, xt] = kind[k, ys, xs]
+        out_weight[half + k, yt, xt] = weight[k, ys, xs]
+    n = ny * nx
+    return (np.ascontiguousarray(out_kind.reshape(2 * half, n).T),
+            np.ascontiguousarray(out_weight.reshape(2 * half, n).T))
+
+
+def build_lattice(extent: tuple[float, float, float, float], *, water: Raster | None = None,
+                  forbidden: Raster | None = None, height: Raster | None = None,
+                  options: LatticeOptions | None = None) -> Lattice:
+    """Build the pathfinding lattice G over a rectangle (003 §3.2.2; 000 §4.2.3).
+
+    Parameters
+    ----------
+    extent
+        ``(xmin, ymin, xmax, ymax)`` in metres; vertex 0 sits at the lower-left corner.
+    water, forbidden
+        Boolean rasters (any cell size); a fine point is water (forbidden) when
+        the cell under it is, or when a true cell's centre is nearest to it
+        (thin rivers survive coarsening). Missing: none.
+    height
+        Elevation raster in metres, sampled bilinearly; missing: flat.
+    options
+        :class:`LatticeOptions`.
+
+    Returns
+    -------
+    Lattice
+        Vertices, classes and edges with kinds and weights; nothing removed yet.
+    """
+    opts = options or LatticeOptions()
+    x0, y0, x1, y1 = map(float, extent)
+    if not (x1 > x0 and y1 > y0):
+        raise InputError(f"lattice: empty extent {extent}")
+    ell, f = opts.spacing, opts.samples_per_spacing
+    nx, ny = int((x1 - x0) // ell) + 1, int((y1 - y0) // ell) + 1
+    origin = np.array([x0, y0])
+    fine_shape = ((ny - 1) * f + 1, (nx - 1) * f + 1)
+    step = ell / f
+    water_f = _resample_any(water, origin, step, fine_shape)
+    forbidden_f = _resample_any(forbidden, origin, step, fine_shape)
+    height_f = _resample_linear(height, origin, step, fine_shape)
+    vclass = np.where(forbidden_f[::f, ::f], VertexClass.FORBIDDEN,
+                      np.where(water_f[::f, ::f], VertexClass.WATER, VertexClass.LAND)).astype(np.uint8).ravel()
+    directions = lattice_directions(opts.radius)
+    half = len(directions) // 2
+    pad = opts.radius * f
+    pw, _ = _pad(water_f, pad, False)
+    pf, _ = _pad(forbidden_f, pad, True)
+    ph = None if height_f is None else _pad(height_f, pad, 0.0)[0]
+    unit_kind = np.full((half, ny * nx), NO_EDGE, dtype=np.uint8)
+    unit_weight = np.zeros((half, ny * nx), dtype=np.float32)
+    bridges = []
+    for k in range(half):
+        profile, slope = _profiles(directions[k], pw, pf, ph, pad, (ny, nx), f, ell)
+        unit_kind[k], unit_weight[k] = _unit_edges(directions[k], profile, slope, ell, opts)
+        bridges.append(_long_bridges(k, directions[k], profile, (ny, nx), ell, opts))
+    bsrc, bdst, bdir, blen = (np.concatenate(c) for c in zip(*bridges))
+    # of the crossings from a vertex keep the near-shortest (000: the shortest ray)
+    unit_bridge = np.flatnonzero(unit_kind.ravel() == EdgeKind.BRIDGE)
+    ub_k, ub_src = unit_bridge // (ny * nx), unit_bridge % (ny * nx)
+    offset = directions[:, 1] * nx + directions[:, 0]
+    length = np.hypot(*directions.T) * ell
+    keep = _bridge_filter(np.concatenate([ub_src, bsrc]), np.concatenate([ub_src + offset[ub_k], bdst]),
+                          np.concatenate([length[ub_k], blen]), ny * nx, opts.bridge_slack)
+    np.put(unit_kind, unit_bridge[~keep[:len(unit_bridge)]], NO_EDGE)
+    keep = keep[len(unit_bridge):]
+    directed_kind, directed_weight = _directed(unit_kind, unit_weight, directions, (ny, nx))
+    return Lattice(
+        origin=origin, spacing=ell, shape=(ny, nx), samples=f, directions=directions, vertex_class=vclass,
+        unit_kind=unit_kind, unit_weight=unit_weight, unit_removed=np.zeros(unit_kind.shape, dtype=bool),
+        directed_kind=directed_kind, directed_weight=directed_weight,
+        bridge_src=bsrc[keep], bridge_dst=bdst[keep], bridge_direction=bdir[keep], bridge_length=blen[keep],
+        water=water_f, forbidden=forbidden_f, built_up=np.zeros(fine_shape, dtype=bool), height=height_f,
+        slope_weight=opts.slope_weight, slope_cutoff=opts.slope_cutoff,
+    )
+
+
+def _offsets(d: np.ndarray, f: int) -> list[tuple[int, int]]:
+    """Fine-raster offsets (oy, ox) of the samples along one unit edge, DDA style."""
+    dx, dy = int(d[0]), int(d[1])
+    m = max(abs(dx), abs(dy)) * f
+    t = np.arange(m + 1) / m
+    return list(zip(np.rint(t * dy * f).astype(int).tolist(), np.rint(t * dx * f).astype(int).tolist()))
+
+
+def _pad(a: np.ndarray, pad: int, value) -> tuple[np.ndarray, int]:
+    return np.pad(a, pad, constant_values=value), pad
+
+
+def _slice(padded: np.ndarray, pad: int, oy: int, ox: int, shape: tuple[int, int], f: int) -> np.ndarray:
+    """The fine values at every vertex shifted by (oy, ox) fine steps, as an (ny, nx) array."""
+    ny, nx = shape
+    r0, c0 = pad + oy, pad + ox
+    return padded[r0:r0 + (ny - 1) * f + 1:f, c0:c0 + (nx - 1) * f + 1:f]
+
+
+def _profiles(d: np.ndarray, pw: np.ndarray, pf: np.ndarray, ph: np.ndarray | None, pad: int,
+              shape: tuple[int, int], f: int, ell: float) -> tuple[np.ndarray, np.ndarray]:
+    """Per vertex, the profile code of its unit edge along ``d`` and the edge's largest slope."""
+    offsets = _offsets(d, f)
+    m = len(offsets) - 1
+    any_forbidden = np.zeros(shape, dtype=bool)
+    n_water = np.zeros(shape, dtype=np.int16)
+    changes = np.zeros(shape, dtype=np.int16)
+    slope = np.zeros(shape)
+    step = float(np.hypot(*d)) * ell / m
+    prev_w = prev_h = first_w = None
+    for oy, ox in offsets:
+        w = _slice(pw, pad, oy, ox, shape, f)
+        any_forbidden |= _slice(pf, pad, oy, ox, shape, f)
+        n_water += w
+        if ph is not None:
+            h = _slice(ph, pad, oy, ox, shape, f)
+            if prev_h is not None:
+                np.maximum(slope, np.abs(h - prev_h) / step, out=slope)
+            prev_h = h
+        if prev_w is None:
+            first_w = w
+        else:
+            changes += w != prev_w
+        prev_w = w
+    profile = np.full(shape, _MIXED, dtype=np.uint8)
+    ok = ~any_forbidden
+    profile[ok & (n_water == 0)] = _L
+    profile[ok & (n_water == m + 1)] = _W
+    profile[ok & (changes == 1) & ~first_w] = _LW
+    profile[ok & (changes == 1) & first_w] = _WL
+    profile[ok & (changes == 2) & ~first_w & ~prev_w] = _LWL
+    ny, nx = shape
+    iy, ix = np.mgrid[0:ny, 0:nx]
+    profile[(ix + d[0] < 0) | (ix + d[0] >= nx) | (iy + d[1] < 0) | (iy + d[1] >= ny)] = _MIXED
+    return profile, slope
+
+
+def _unit_edges(d: np.ndarray, profile: np.ndarray, slope: np.ndarray, ell: float,
+                opts: LatticeOptions) -> tuple[np.ndarray, np.ndarray]:
+    """Kind (or NO_EDGE) and weight of every vertex's unit edge along ``d``: land, water,
+    harbour (adjacent vertices only) or a one-step bridge."""
+    length = float(np.hypot(*d)) * ell
+    flat_profile, flat_slope = profile.ravel(), slope.ravel()
+    kind = np.full(flat_profile.shape, NO_EDGE, dtype=np.uint8)
+    kind[(flat_profile == _L) & (flat_slope <= opts.slope_cutoff)] = EdgeKind.LAND
+    kind[flat_profile == _W] = EdgeKind.WATER
+    if d[0] * d[0] + d[1] * d[1] <= 2:
+        kind[(flat_profile == _LW) | (flat_profile == _WL)] = EdgeKind.HARBOUR
+    kind[flat_profile == _LWL] = EdgeKind.BRIDGE
+    weight = np.where(kind == EdgeKind.LAND, length * np.maximum(1.0, opts.slope_weight * flat_slope), length)
+    return kind, weight.astype(np.float32)
+
+
+def _long_bridges(k: int, d: np.ndarray, profile: np.ndarray, shape: tuple[int, int], ell: float,
+                  opts: LatticeOptions) -> tuple[np.ndarray, ...]:
+    """Bridges of two or more unit steps along ``d``: land→water, water…, water→land."""
+    ny, nx = shape
+    unit = float(np.hypot(*d)) * ell
+    iy, ix = np.nonzero(profile == _LW)
+    start = iy * nx + ix
+    found: list[tuple[np.ndarray, np.ndarray]] = []
+    j = 1
+    while len(start) and (j + 1) * unit <= opts.max_bridge_length:
+        cy, cx = iy + j * d[1], ix + j * d[0]
+        inside = (cy >= 0) & (cy < ny) & (cx >= 0) & (cx < nx)
+        code = np.full(len(start), _MIXED, dtype=np.uint8)
+        code[inside] = profile[cy[inside], cx[inside]]
+        land = code == _WL
+        if land.any():
+            found.append((start[land], np.full(int(land.sum()), j + 1)))
+        go_on = code == _W
+        iy, ix, start = iy[go_on], ix[go_on], start[go_on]
+        j += 1
+    if not found:
+        e = np.zeros(0, dtype=np.int64)
+        return e, e, e, np.zeros(0)
+    src = np.concatenate([s for s, _ in found])
+    steps = np.concatenate([n for _, n in found])
+    return src, src + steps * (d[1] * nx + d[0]), np.full(len(src), k), steps * unit
+
+
+def _bridge_filter(src: np.ndarray, dst: np.ndarray, length: np.ndarray, n: int, slack: float) -> np.ndarray:
+    """Keep bridges no longer than ``slack`` × the shortest crossing from either end."""
+    shortest = np.full(n, np.inf)
+    np.minimum.at(shortest, src, length)
+    np.minimum.at(shortest, dst, length)
+    return length <= slack * np.minimum(shortest[src], shortest[dst]) + 1e-9
+
+
+def _fine_points(origin: np.ndarray, step: float, shape: tuple[int, int]) -> tuple[np.ndarray, np.ndarray]:
+    return np.meshgrid(origin[0] + np.arange(shape[1]) * step, origin[1] + np.arange(shape[0]) * step)
+
+
+def _resample_any(raster: Raster | None, origin: np.ndarray, step: float, shape: tuple[int, int]) -> np.ndarray:
+    """A boolean raster on the fine points: the cell under each point, or-ed with every
+    true input cell whose centre is nearest to that point (no thin river is lost)."""
+    out = np.zeros(shape, dtype=bool)
+    if raster is None:
+        return out
+    xs, ys = _fine_points(origin, step, shape)
+    row, col, inside = raster.cell_index(xs, ys)
+    out |= np.asarray(raster.values, dtype=bool)[row, col] & inside
+    r, c = np.nonzero(np.asarray(raster.values, dtype=bool))
+    cx = raster.origin[0] + (c + 0.5) * raster.cell
+    cy = raster.origin[1] + (r + 0.5) * raster.cell
+    fj = np.rint((cx - origin[0]) / step).astype(np.int64)
+    fi = np.rint((cy - origin[1]) / step).astype(np.int64)
+    ok = (fi >= 0) & (fi < shape[0]) & (fj >= 0) & (fj < shape[1])
+    out[fi[ok], fj[ok]] = True
+    return out
+
+
+def _resample_linear(raster: Raster | None, origin: np.ndarray, step: float,
+                     shape: tuple[int, int]) -> np.ndarray | None:
+    """Bilinear samples of a float raster (cell centres as knots) on the fine points."""
+    if raster is None:
+        return None
+    from scipy.ndimage import map_coordinates
+    xs, ys = _fine_points(origin, step, shape)
+    cols = (xs - raster.origin[0]) / raster.cell - 0.5
+    rows = (ys - raster.origin[1]) / raster.cell - 0.5
+    return map_coordinates(np.asarray(raster.values, dtype=float), [rows, cols], order=1, mode="nearest")
+
+
+def _rasterise(geom: shapely.Geometry, origin: np.ndarray, step: float, shape: tuple[int, int]) -> np.ndarray:
+    """Fine points covered by ``geom`` (only the points inside its bounding box are tested)."""
+    out = np.zeros(shape, dtype=bool)
+    gx0, gy0, gx1, gy1 = geom.bounds
+    j0, j1 = max(int(np.floor((gx0 - origin[0]) / step)), 0), min(int(np.ceil((gx1 - origin[0]) / step)) + 1, shape[1])
+    i0, i1 = max(int(np.floor((gy0 - origin[1]) / step)), 0), min(int(np.ceil((gy1 - origin[1]) / step)) + 1, shape[0])
+    if j1 <= j0 or i1 <= i0:
+        return out
+    xs, ys = np.meshgrid(origin[0] + np.arange(j0, j1) * step, origin[1] + np.arange(i0, i1) * step)
+    shapely.prepare(geom)
+    out[i0:i1, j0:j1] = shapely.intersects_xy(geom, xs, ys)
+    return out
+
+
+# ---------------------------------------------------------------- street segments
+
+
+@dataclass(frozen=True)
+class Segments:
+    """The segment graph G = (J, S) (003 §3.2.2) as plain arrays.
+
+    Straight junction-to-junction (or shape-point) segments between nodes.
+    ``available`` is each segment's remaining traffic capacity
+    ``O2 · width − T(s)`` (003 §3.4.2), None when capacity does not matter.
+    """
+
+    xy: np.ndarray  #: (N, 2) float64 m, node positions
+    uv: np.ndarray  #: (S, 2) int, node indices of each segment
+    major: np.ndarray  #: (S,) bool, major road (else minor)
+    width: np.ndarray  #: (S,) float64 m
+    bridge: np.ndarray  #: (S,) bool
+    available: np.ndarray | None = None  #: (S,) remaining capacity, traffic units
+    harbour: np.ndarray | None = None  #: (S,) bool, built harbour segments (C4)
+
+    def __post_init__(self) -> None:
+        n = len(self.uv)
+        if np.ndim(self.xy) != 2 or np.shape(self.xy)[1:] != (2,) or np.shape(self.uv) != (n, 2):
+            raise InputError("segments: xy must be (N, 2) and uv (S, 2)")
+        for name in ("major", "width", "bridge", "available", "harbour"):
+            value = getattr(self, name)
+            if value is not None and np.shape(value) != (n,):
+                raise InputError(f"segments: {name} must have one value per segment ({n}), got {np.shape(value)}")
+        if n and (np.min(self.uv) < 0 or np.max(self.uv) >= len(self.xy)):
+            raise InputError("segments: uv refers to a node that does not exist")
+
+    @classmethod
+    def from_lines(cls, lines: Sequence[np.ndarray], *, major: Sequence[bool], width: Sequence[float],
+                   bridge: Sequence[bool] | None = None, available: Sequence[float] | None = None) -> "Segments":
+        """Segments from polylines; points equal to the micrometre become one node.
+
+        Parameters
+        ----------
+        lines
+            Polylines, each ``(M, 2)`` metres; every consecutive pair of points is a segment.
+        major, width, bridge, available
+            One value per polyline, given to all its segments (``bridge``
+            default False, ``available`` default None: unlimited).
+
+        Returns
+        -------
+        Segments
+        """
+        pts = [np.asarray(line, dtype=float).reshape(-1, 2) for line in lines]
+        counts = np.array([len(p) - 1 for p in pts])
+        every = np.concatenate(pts) if pts else np.zeros((0, 2))
+        xy, inverse = np.unique(np.round(every, 6), axis=0, return_inverse=True)
+        inverse = inverse.ravel()
+        starts = np.concatenate([[0], np.cumsum([len(p) for p in pts])])
+        uv = np.concatenate([np.stack([inverse[s:e - 1], inverse[s + 1:e]], axis=1)
+                             for s, e in zip(starts[:-1], starts[1:])]) if pts else np.zeros((0, 2), int)
+        per = lambda values, dtype: np.repeat(np.asarray(values, dtype=dtype), counts)  # noqa: E731
+        keep = uv[:, 0] != uv[:, 1]
+        return cls(
+            xy=xy, uv=uv[keep], major=per(major, bool)[keep], width=per(width, float)[keep],
+            bridge=(per(bridge, bool) if bridge is not None else np.zeros(counts.sum(), bool))[keep],
+            available=None if available is None else per(available, float)[keep],
+        )
+
+    @property
+    def a(self) -> np.ndarray:
+        return self.xy[self.uv[:, 0]]
+
+    @property
+    def b(self) -> np.ndarray:
+        return self.xy[self.uv[:, 1]]
+
+    def lengths(self) -> np.ndarray:
+        return np.hypot(*(self.b - self.a).T)
+
+    def lines(self) -> np.ndarray:
+        """One shapely LineString per segment."""
+        return shapely.linestrings(np.stack([self.a, self.b], axis=1))
+
+
+def segment_sides(segments: Segments, built_blocks: shapely.Geometry | None) -> np.ndarray:
+    """How many sides of each segment touch a built-up block.
+
+    Tested half a width plus 2 m to the left and right of the midpoint. A
+    segment with at most one built-up side is on the shell or a terrain
+    block: *extendible* (003 §3.4.2, C6) and a place to stitch to.
+
+    Parameters
+    ----------
+    segments
+        The segment graph.
+    built_blocks
+        Union of the built-up blocks (:attr:`BuiltUpArea.blocks`); None: none.
+
+    Returns
+    -------
+    numpy.ndarray
+        ``(S,)`` int in {0, 1, 2}.
+    """
+    if built_blocks is None or built_blocks.is_empty or not len(segments.uv):
+        return np.zeros(len(segments.uv), dtype=np.int64)
+    a, b = segments.a, segments.b
+    mid = 0.5 * (a + b)
+    tangent = (b - a) / np.maximum(np.hypot(*(b - a).T), 1e-9)[:, None]
+    normal = np.stack([-tangent[:, 1], tangent[:, 0]], axis=1) * (0.5 * segments.width + 2.0)[:, None]
+    shapely.prepare(built_blocks)
+    left = shapely.contains_xy(built_blocks, *(mid + normal).T)
+    right = shapely.contains_xy(built_blocks, *(mid - normal).T)
+    return left.astype(np.int64) + right
+
+
+# ---------------------------------------------------------------- the built-up area B
+
+
+@dataclass(frozen=True)
+class BuiltUpOptions:
+    """Tunables of the built-up area B (003 Eq. 1)."""
+
+    #: m², blocks larger than this are terrain (fields, forests): 003's block-area classifier.
+    #: 000 §4.2.7 prints "95 m2" (garbled); town blocks rarely exceed a few hectares (Krems:
+    #: 90 % of its blocks are under 2.3 ha), fields between villages do.
+    terrain_block_area: float = 50_000.0
+    #: share of a block under water above which it is a water block, i.e. terrain (000 §4.2.7)
+    water_block_share: float = 0.05
+    #: m, NB: the neighbourhood of the outlines (shell, terrain blocks) that B includes;
+    #: 1.5 ℓ keeps new roads a lattice step clear of the streets they run beside
+    neighbourhood: float = 30.0
+
+    def __post_init__(self) -> None:
+        _positive(self, ("terrain_block_area", "neighbourhood"))
+
+
+@dataclass(frozen=True)
+class BuiltUpArea:
+    """B and the blocks it came from."""
+
+    area: shapely.Geometry  #: B, monotone over the years
+    blocks: shapely.Geometry  #: union of the current built-up blocks B_B,i
+
+
+def built_up_area(blocks: Sequence[shapely.Geometry], segments: Segments, *,
+                  water: shapely.Geometry | None = None, previous: BuiltUpArea | None = None,
+                  options: BuiltUpOptions | None = None) -> BuiltUpArea:
+    """The built-up area B of 003 Eq. 1, grown from ``previous`` (it never shrinks).
+
+    Parameters
+    ----------
+    blocks
+        Faces of the segment graph (shapely polygons, m), e.g. :func:`osm_expand.blocks.blocks`.
+    segments
+        The segment graph.
+    water
+        Water polygons; blocks with more than ``water_block_share`` water are terrain.
+    previous
+        Last year's B, joined into the result.
+    options
+        :class:`BuiltUpOptions`.
+
+    Returns
+    -------
+    BuiltUpArea
+        ``area`` = previous B ∪ built-up blocks ∪ ``neighbourhood`` m around every
+        segment; ``blocks`` = the built-up blocks of now.
+    """
+    opts = options or BuiltUpOptions()
+    polys = np.array([b for b in blocks if b is not None and not b.is_empty], dtype=object)
+    built = np.ones(len(polys), dtype=bool)
+    if len(polys):
+        area = shapely.area(polys)
+        built &= area <= opts.terrain_block_area
+        if water is not None and not water.is_empty:
+            shapely.prepare(water)
+            wet = shapely.area(shapely.intersection(polys, water))
+            built &= wet <= opts.water_block_share * area
+    built_blocks = shapely.union_all(polys[built]) if built.any() else shapely.Polygon()
+    parts = [built_blocks]
+    if len(segments.uv):
+        parts.append(shapely.buffer(shapely.multilinestrings(segments.lines()), opts.neighbourhood, quad_segs=4))
+    if previous is not None:
+        parts.append(previous.area)
+    return BuiltUpArea(area=shapely.union_all(parts), blocks=built_blocks)
+
+
+# ---------------------------------------------------------------- G′
+
+
+@dataclass(frozen=True)
+class EdgeCosts:
+    """The cost coefficients C1…C6 of R(t) (003 §3.4.2), the current year's values.
+
+    A new road over open land costs 1 per metre of weight; these multiply the
+    other kinds. Defaults (003's table is missing) make a new road reuse major
+    roads, avoid minor streets and build a bridge only when no existing
+    crossing is within a long detour.
+    """
+
+    major: float = 0.5  #: C1, existing major road: reuse is cheap (003: "small value to reuse heavily")
+    minor: float = 2.0  #: C2, existing minor road: avoided if possible (003's own example)
+    harbour: float = 10.0  #: C3, unbuilt harbour
+    built_harbour: float = 1.0  #: C4, built harbour
+    #: C5, unbuilt bridge: 000 §4.2.3 "a very large constant … only when absolutely necessary";
+    #: 15 makes a 300 m bridge cost a 4.5 km detour
+    bridge: float = 15.0
+    #: C6, extendible segment (not between two built-up blocks), multiplies C1/C2: widening is easy
+    extendible: float = 0.8
+
+    def __post_init__(self) -> None:
+        _positive(self, ("major", "minor", "harbour", "built_harbour", "bridge", "extendible"))
+
+
+@dataclass(frozen=True)
+class GraphOptions:
+    """Tunables of G′: splitting streets and stitching them to the lattice (003 Fig. 9)."""
+
+    #: m, a shell segment longer than 2ℓ gets a point every this many metres (003 §3.3: 1.25ℓ)
+    split_spacing: float = 25.0
+    #: m, street points connect to live land vertices this close (B's 30 m plus 2.5ℓ)
+    stitch_radius: float = 80.0
+    shell_stitch_radius: float = 120.0  #: m, shell points connect to each other this close (003 Fig. 9)
+    #: m, a stitch keeps this far from every street except near its own end
+    clearance: float = 5.0
+    #: stitches per street point to its nearest live land vertices (000 joins all within the
+    #: radius; the nearest 16 give every heading away from the street and keep G′ small)
+    max_stitches: int = 16
+    max_shell_stitches: int = 8  #: stitches per shell point to its nearest shell points
+
+    def __post_init__(self) -> None:
+        _positive(self, ("split_spacing", "stitch_radius", "shell_stitch_radius", "clearance",
+                         "max_stitches", "max_shell_stitches"))
+
+
+@dataclass(frozen=True)
+class PathGraph:
+    """G′ (003 Fig. 9): lattice vertices, then street nodes, then split points.
+
+    Vertex ``i < n_lattice`` is lattice vertex ``i``; ``n_lattice + j`` is
+    street node ``j``; after those come the split points. The live lattice
+    edges are the directed tables ``lat_kind`` / ``lat_weight`` (row = tail
+    vertex, column = direction, see :meth:`Lattice.directed_tables`); every
+    other edge (long bridges, street pieces, stitches) is in the directed
+    edge arrays, sorted by tail. Every edge exists in both directions with
+    the same weight.
+    """
+
+    lattice: Lattice
+    segments: Segments
+    xy: np.ndarray  #: (V′, 2) m
+    n_lattice: int
+    split_segment: np.ndarray  #: (P,) parent segment of each split point
+    lat_kind: np.ndarray  #: (V, D) uint8 EdgeKind or NO_EDGE
+    lat_weight: np.ndarray  #: (V, D) float32 cost, × C3 / C5 for harbours / bridges
+    src: np.ndarray  #: (E,) int64, sorted
+    dst: np.ndarray  #: (E,) int64
+    kind: np.ndarray  #: (E,) uint8 EdgeKind
+    segment: np.ndarray  #: (E,) int64 street segment (−1 if none)
+    length: np.ndarray  #: (E,) m
+    weight: np.ndarray  #: (E,) cost: length · max(1, O1 · slope) × C1…C6 by kind
+    heading: np.ndarray  #: (E,) radians, direction of travel src → dst
+    extendible: np.ndarray  #: (S,) bool per segment: at most one built-up side (C6)
+    _cache: dict = field(default_factory=dict, repr=False, compare=False)
+
+    @property
+    def n_vertices(self) -> int:
+        return len(self.xy)
+
+    @property
+    def direction_heading(self) -> np.ndarray:
+        """(D,) radians of the lattice directions."""
+        d = self.lattice.directions
+        return np.arctan2(d[:, 1], d[:, 0])
+
+    def node_vertex(self, node: int) -> int:
+        """The G′ vertex of a street node."""
+        return self.n_lattice + int(node)
+
+    def masks(self, kinds: Sequence[EdgeKind] = ROAD_KINDS,
+              street_ok: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+        """Which edges a route may use.
+
+        Parameters
+        ----------
+        kinds
+            The edge kinds allowed.
+        street_ok
+            ``(S,)`` bool per segment, whether its pieces may be used (None: all).
+
+        Returns
+        -------
+        (lattice, other)
+            ``(V, D)`` bool over ``lat_kind`` and ``(E,)`` bool over the other edges.
+        """
+        table = np.zeros(256, dtype=bool)
+        table[[int(k) for k in kinds]] = True
+        lat = table[self.lat_kind]
+        extra = table[self.kind]
+        if street_ok is not None and len(street_ok):
+            extra &= (self.segment < 0) | np.asarray(street_ok, dtype=bool)[np.maximum(self.segment, 0)]
+        return lat, extra
+
+    def matrix(self, kinds: Sequence[EdgeKind] = ROAD_KINDS) -> csr_matrix:
+        """CSR adjacency ``(V′, V′)`` over the edges of the given kinds (cached: the two most recent).
+
+        Missing lattice edges are infinite self-loops (scipy's Dijkstra never
+        relaxes an infinite edge). Use :meth:`restricted` to leave streets out.
+        """
+        return self._base(kinds)[0]
+
+    @contextmanager
+    def restricted(self, kinds: Sequence[EdgeKind] = ROAD_KINDS,
+                   street_ok: np.ndarray | None = None) -> Iterator[csr_matrix]:
+        """:meth:`matrix` with the streets not in ``street_ok`` at infinite weight, for the
+        duration of the ``with`` block (the cached weights are restored afterwards, so no
+        copy of the whole matrix is made)."""
+        base, ex, pos = self._base(kinds)
+        bad = np.zeros(0, dtype=np.int64)
+        if street_ok is not None and len(street_ok):
+            seg = self.segment[ex]
+            bad = pos[(seg >= 0) & ~np.asarray(street_ok, dtype=bool)[np.maximum(seg, 0)]]
+        saved = base.data[bad].copy()
+        base.data[bad] = np.inf
+        try:
+            yield base
+        finally:
+            base.data[bad] = saved
+
+    def _base(self, kinds: Sequence[EdgeKind]) -> tuple[csr_matrix, np.ndarray, np.ndarray]:
+        key = tuple(sorted(int(k) for k in kinds))
+        if key not in self._cache:
+            if len(self._cache) >= 2:
+                self._cache.pop(next(iter(self._cache)))
+            self._cache[key] = self._csr(*self.masks(kinds))
+        return self._cache[key]
+
+    def _csr(self, lat: np.ndarray, extra: np.ndarray) -> tuple[csr_matrix, np.ndarray, np.ndarray]:
+        """One CSR without sorting or compacting, and where each allowed other edge sits in it.
+
+        Every lattice row has a fixed number of slots: its D directions (when
+        any lattice kind is allowed), then room for its other edges; a missing
+        edge is an infinite self-loop. Street rows follow, packed.
+        """
+        n_lat, n_dir = lat.shape
+        n_dir = n_dir if lat.any() else 0
+        n = self.n_vertices
+        ex = np.flatnonzero(extra)
+        ex_src = self.src[ex]
+        ex_counts = np.bincount(ex_src, minlength=n)
+        ex_start = np.concatenate([[0], np.cumsum(ex_counts)])
+        rank = np.arange(len(ex)) - ex_start[ex_src]
+        slots = n_dir + int(ex_counts[:n_lat].max(initial=0))
+        on_lattice = ex_src < n_lat
+        n_street = int((~on_lattice).sum())
+        total = n_lat * slots + n_street
+        index_type = np.int32 if max(total, n) < 2**31 else np.int64
+        indices = np.empty(total, dtype=index_type)
+        data = np.empty(total)
+        grid_index = indices[:n_lat * slots].reshape(n_lat, slots)
+        grid_data = data[:n_lat * slots].reshape(n_lat, slots)
+        grid_index[:] = np.arange(n_lat, dtype=index_type)[:, None]
+        grid_data[:] = np.inf
+        if n_dir:
+            grid_index[:, :n_dir] += np.where(lat, self.lattice.direction_offset.astype(index_type), 0)
+            np.copyto(grid_data[:, :n_dir], self.lat_weight, where=lat)
+        pos = np.empty(len(ex), dtype=np.int64)
+        pos[on_lattice] = ex_src[on_lattice] * slots + n_dir + rank[on_lattice]
+        pos[~on_lattice] = n_lat * slots + np.arange(n_street)  # already sorted by tail
+        indices[pos] = self.dst[ex]
+        data[pos] = self.weight[ex]
+        indptr = np.concatenate([np.arange(n_lat + 1, dtype=np.int64) * slots,
+                                 n_lat * slots + np.cumsum(ex_counts[n_lat:])])
+        return csr_matrix((data, indices, indptr), shape=(n, n)), ex, pos
+
+    def step(self, u: int, v: int, lat: np.ndarray, extra: np.ndarray) -> dict[str, float]:
+        """The cheapest allowed edge u → v (``lat``, ``extra`` from :meth:`masks`).
+
+        Returns
+        -------
+        dict
+            ``kind``, ``segment`` (−1 if none), ``length`` (m), ``weight``,
+            ``heading`` (radians); :class:`InputError` when there is no such edge.
+        """
+        best: dict[str, float] | None = None
+        if u < self.n_lattice and v < self.n_lattice:
+            nx = self.lattice.shape[1]
+            d = (v % nx - u % nx, v // nx - u // nx)
+            hit = np.flatnonzero((self.lattice.directions[:, 0] == d[0]) & (self.lattice.directions[:, 1] == d[1]))
+            if len(hit) and lat[u, hit[0]]:
+                k = int(hit[0])
+                best = {"kind": int(self.lat_kind[u, k]), "segment": -1,
+                        "length": float(self.lattice.direction_length[k]),
+                        "weight": float(self.lat_weight[u, k]), "heading": float(self.direction_heading[k])}
+        lo, hi = np.searchsorted(self.src, [u, u + 1])
+        for e in (lo + np.flatnonzero((self.dst[lo:hi] == v) & extra[lo:hi])).tolist():
+            if best is None or self.weight[e] < best["weight"]:
+                best = {"kind": int(self.kind[e]), "segment": int(self.segment[e]), "length": float(self.length[e]),
+                        "weight": float(self.weight[e]), "heading": float(self.heading[e])}
+        if best is None:
+            raise InputError(f"G′ has no allowed edge from vertex {u} to {v}")
+        return best
+
+    def live_vertices(self) -> np.ndarray:
+        """Vertices with at least one edge, sorted."""
+        lat = np.flatnonzero((self.lat_kind != NO_EDGE).any(axis=1))
+        return np.union1d(lat, self.src)
+
+    def nearest_vertex(self, xy: np.ndarray) -> int:
+        """The live vertex nearest to a point ``(2,)`` m."""
+        candidates = self.live_vertices()
+        d = np.hypot(*(self.xy[candidates] - np.asarray(xy, dtype=float)).T)
+        return int(candidates[np.argmin(d)])
+
+
+def pathfinding_graph(lattice: Lattice, segments: Segments, built: BuiltUpArea | None = None, *,
+                      costs: EdgeCosts | None = None, options: GraphOptions | None = None) -> PathGraph:
+    """Assemble G′ from the lattice (B already removed), the segments and stitches (003 §3.4.2).
+
+    Parameters
+    ----------
+    lattice
+        G after :meth:`Lattice.with_built_up`.
+    segments
+        The current segment graph.
+    built
+        B and the built-up blocks (for extendible segments and stitch checks);
+        None: no built-up blocks (every segment extendible).
+    costs
+        C1…C6 of this year.
+    options
+        :class:`GraphOptions`.
+
+    Returns
+    -------
+    PathGraph
+        Lattice tables plus street, stitch and long-bridge edges in both
+        directions, with kinds, C-weighted costs and headings. Every segment
+        is in it; which ones a route may use (capacity, road type) is a mask
+        given to the search, so one G′ serves a whole year.
+    """
+    costs = costs or EdgeCosts()
+    opts = options or GraphOptions()
+    blocks = built.blocks if built is not None else None
+    extendible = segment_sides(segments, blocks) <= 1
+    n_lat = lattice.n_vertices
+    split_xy, split_parent, pieces = _split_segments(segments, extendible, opts.split_spacing)
+    xy = np.concatenate([lattice.vertex_xy(), segments.xy, split_xy])
+    lat_kind, lat_weight, bridges = _lattice_part(lattice, segments, costs)
+    parts = [bridges, _segment_part(lattice, segments, xy, pieces, extendible, n_lat, costs)]
+    land_or_bridge = np.zeros(256, dtype=bool)
+    land_or_bridge[[EdgeKind.LAND, EdgeKind.BRIDGE]] = True
+    targets = np.flatnonzero(land_or_bridge[lat_kind].any(axis=1)
+                             & (lattice.vertex_class == VertexClass.LAND))
+    parts.append(_stitch_part(lattice, segments, blocks, xy, pieces, split_parent, extendible, targets, opts))
+    src, dst, kind, seg, length, weight = (np.concatenate(c) for c in zip(*parts))
+    heading = np.arctan2(xy[dst, 1] - xy[src, 1], xy[dst, 0] - xy[src, 0])
+    back = np.where(heading > 0, heading - np.pi, heading + np.pi)
+    src, dst = np.concatenate([src, dst]), np.concatenate([dst, src])
+    kind, seg, length, weight = (np.concatenate([a, a]) for a in (kind, seg, length, weight))
+    heading = np.concatenate([heading, back])
+    order = np.lexsort((weight, dst, src))
+    first = np.ones(len(order), dtype=bool)  # of parallel edges keep the cheapest
+    first[1:] = (src[order][1:] != src[order][:-1]) | (dst[order][1:] != dst[order][:-1])
+    order = order[first]
+    return PathGraph(lattice=lattice, segments=segments, xy=xy, n_lattice=n_lat, split_segment=split_parent,
+                     lat_kind=lat_kind, lat_weight=lat_weight, src=src[order], dst=dst[order], kind=kind[order],
+                     segment=seg[order], length=length[order], weight=weight[order], heading=heading[order],
+                     extendible=extendible)
+
+
+def _lattice_part(lattice: Lattice, segments: Segments,
+                  costs: EdgeCosts) -> tuple[np.ndarray, np.ndarray, tuple[np.ndarray, ...]]:
+    """Directed live lattice tables with C3 (harbour) and C5 (bridge), and the long bridges
+    as edges; bridges and harbours that cross a street are left out (a new bridge does
+    not pass over a road)."""
+    kind, weight = (a.copy() for a in lattice.directed_tables())
+    is_special = np.zeros(256, dtype=bool)
+    is_special[[EdgeKind.BRIDGE, EdgeKind.HARBOUR]] = True
+    special = np.flatnonzero(is_special[kind])
+    flat_kind, flat_weight = kind.reshape(-1), weight.reshape(-1)
+    flat_weight[special] *= np.where(flat_kind[special] == EdgeKind.BRIDGE, costs.bridge, costs.harbour)
+    n_dir = kind.shape[1]
+    rows = special // n_dir
+    ends = np.stack([rows, rows + lattice.direction_offset[special - rows * n_dir]], axis=1)
+    ends = np.concatenate([ends, np.stack([lattice.bridge_src, lattice.bridge_dst], axis=1)])
+    crossing = np.zeros(len(ends), dtype=bool)
+    if len(ends) and len(segments.uv):
+        xy = lattice.vertex_xy(ends.ravel()).reshape(-1, 2, 2)
+        hit, _ = shapely.STRtree(segments.lines()).query(shapely.linestrings(xy), predicate="intersects")
+        crossing[hit] = True
+    np.put(kind, special[crossing[:len(special)]], NO_EDGE)
+    ok = ~crossing[len(special):]
+    n = int(ok.sum())
+    bridges = (lattice.bridge_src[ok], lattice.bridge_dst[ok], np.full(n, EdgeKind.BRIDGE, np.uint8),
+               np.full(n, -1), lattice.bridge_length[ok], lattice.bridge_length[ok] * costs.bridge)
+    return kind, weight, bridges
+
+
+def _split_segments(segments: Segments, split: np.ndarray, spacing: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Interior points along the marked segments of at least 2ℓ (= 2 × spacing / 1.25):
+    ⌊length / spacing⌋ equidistant ones, as 003 §3.3 adds temporary nodes.
+
+    Returns the split points, their parent segments, and the pieces as
+    ``(segment, from_vertex_code, to_vertex_code)`` rows where a code ≥ 0 is
+    a node and ``−1 − p`` is split point ``p``.
+    """
+    length = segments.lengths()
+    count = np.where(split & (length >= 2.0 * spacing / 1.25), np.floor(length / spacing).astype(np.int64), 0)
+    parent = np.repeat(np.arange(len(length)), count)
+    first = np.concatenate([[0], np.cumsum(count)])[:-1]
+    rank = np.arange(int(count.sum())) - np.repeat(first, count)
+    t = (rank + 1) / np.repeat(count + 1, count)
+    a, b = segments.a, segments.b
+    split_xy = a[parent] + t[:, None] * (b[parent] - a[parent])
+    # pieces: each segment's chain node u, p1..pk, node v
+    chain_len = count + 2
+    seg_of = np.repeat(np.arange(len(length)), chain_len - 1)
+    codes = np.empty(int(chain_len.sum()), dtype=np.int64)
+    starts = np.concatenate([[0], np.cumsum(chain_len)])[:-1]
+    codes[starts] = segments.uv[:, 0]
+    codes[starts + chain_len - 1] = segments.uv[:, 1]
+    interior = np.ones(len(codes), dtype=bool)
+    interior[starts] = interior[starts + chain_len - 1] = False
+    codes[interior] = -1 - np.arange(int(count.sum()))
+    last = np.zeros(len(codes), dtype=bool)
+    last[starts + chain_len - 1] = True
+    from_code = codes[~last]
+    to_code = codes[np.flatnonzero(~last) + 1]
+    return split_xy, parent, np.stack([seg_of, from_code, to_code], axis=1)
+
+
+def _code_vertex(code: np.ndarray, n_lat: int, n_nodes: int) -> np.ndarray:
+    return np.where(code >= 0, n_lat + code, n_lat + n_nodes + (-1 - code))
+
+
+def _segment_part(lattice: Lattice, segments: Segments, xy: np.ndarray, pieces: np.ndarray,
+                  extendible: np.ndarray, n_lat: int, costs: EdgeCosts) -> tuple[np.ndarray, ...]:
+    """Street pieces with C1 / C2 / C4 and C6; weight = length · max(1, O1 · slope)."""
+    seg = pieces[:, 0]
+    n_nodes = len(segments.xy)
+    u = _code_vertex(pieces[:, 1], n_lat, n_nodes)
+    v = _code_vertex(pieces[:, 2], n_lat, n_nodes)
+    kind = np.where(segments.major[seg], EdgeKind.MAJOR, EdgeKind.MINOR).astype(np.uint8)
+    factor = np.where(segments.major[seg], costs.major, costs.minor)
+    if segments.harbour is not None:
+        kind[segments.harbour[seg]] = EdgeKind.BUILT_HARBOUR
+        factor = np.where(segments.harbour[seg], costs.built_harbour, factor)
+    factor = factor * np.where(extendible[seg], costs.extendible, 1.0)
+    length, weight, _ = _road_weight(lattice, xy, u, v)
+    return u, v, kind, seg, length, weight * factor
+
+
+def _road_weight(lattice: Lattice, xy: np.ndarray, u: np.ndarray, v: np.ndarray) -> tuple[np.ndarray, ...]:
+    """Length, weight ``length · max(1, O1 · slope)`` (slope between the ends) and slope of straight edges."""
+    length = np.hypot(*(xy[v] - xy[u]).T)
+    slope = np.zeros(len(u))
+    if lattice.height is not None and len(u):
+        slope = np.abs(lattice.height_at(xy[v]) - lattice.height_at(xy[u])) / np.maximum(length, 1e-9)
+    return length, length * np.maximum(1.0, lattice.slope_weight * slope), slope
+
+
+def _stitch_part(lattice: Lattice, segments: Segments, blocks: shapely.Geometry | None, xy: np.ndarray,
+                 pieces: np.ndarray, split_parent: np.ndarray, extendible: np.ndarray, targets: np.ndarray,
+                 opts: GraphOptions) -> tuple[np.ndarray, ...]:
+    """Stitches from shell and terrain-block street points to live land vertices, and between shell points."""
+    n_lat, n_nodes = lattice.n_vertices, len(segments.xy)
+    ext_pieces = pieces[extendible[pieces[:, 0]]]
+    codes = np.unique(ext_pieces[:, 1:].ravel())
+    points = _code_vertex(codes, n_lat, n_nodes)
+    if not len(points):
+        e = np.zeros(0, dtype=np.int64)
+        return e, e, np.zeros(0, np.uint8), e, np.zeros(0), np.zeros(0)
+    pairs = [np.zeros((0, 2), dtype=np.int64)]
+    if len(targets):
+        pairs.append(_nearest_pairs(xy[points], xy[targets], points, targets, opts.max_stitches,
+                                    opts.stitch_radius))
+    shell = _nearest_pairs(xy[points], xy[points], points, points, opts.max_shell_stitches + 1,
+                           opts.shell_stitch_radius)
+    shell = np.unique(np.sort(shell[shell[:, 0] != shell[:, 1]], axis=1), axis=0)
+    pairs.append(shell[~_duplicates_piece(shell, pieces, n_lat, n_nodes, len(xy))])
+    pairs = np.concatenate(pairs)
+    pairs = pairs[_stitch_ok(lattice, segments, blocks, xy, pairs, split_parent, n_lat, opts)]
+    u, v = pairs[:, 0], pairs[:, 1]
+    length, weight, slope = _road_weight(lattice, xy, u, v)
+    keep = slope <= lattice.slope_cutoff
+    return (u[keep], v[keep], np.full(int(keep.sum()), EdgeKind.STITCH, np.uint8), np.full(int(keep.sum()), -1),
+            length[keep], weight[keep])
+
+
+def _nearest_pairs(from_xy: np.ndarray, to_xy: np.ndarray, from_id: np.ndarray, to_id: np.ndarray, k: int,
+                   radius: float) -> np.ndarray:
+    """Pairs (from, to) of each point and its ``k`` nearest candidates within ``radius``."""
+    k = min(k, len(to_xy))
+    _, hit = cKDTree(to_xy).query(from_xy, k=k, distance_upper_bound=radius)
+    hit = np.asarray(hit).reshape(len(from_xy), k)
+    found = hit < len(to_xy)
+    return np.stack([np.broadcast_to(from_id[:, None], hit.shape)[found], to_id[hit[found]]], axis=1)
+
+
+def _duplicates_piece(pairs: np.ndarray, pieces: np.ndarray, n_lat: int, n_nodes: int, n: int) -> np.ndarray:
+    """Sorted pairs that join the two ends of a street piece (a stitch would lie on the street)."""
+    ends = np.sort(np.stack([_code_vertex(pieces[:, 1], n_lat, n_nodes),
+                             _code_vertex(pieces[:, 2], n_lat, n_nodes)], 1), axis=1)
+    return np.isin(pairs[:, 0] * np.int64(n) + pairs[:, 1], ends[:, 0] * np.int64(n) + ends[:, 1])
+
+
+def _stitch_ok(lattice: Lattice, segments: Segments, blocks: shapely.Geometry | None, xy: np.ndarray,
+               pairs: np.ndarray, split_parent: np.ndarray, n_lat: int, opts: GraphOptions) -> np.ndarray:
+    """Stitches that cross no street, keep ``clearance`` from every street away from
+    their ends, enter no built-up block and touch no water or forbidden ground."""
+    n_nodes = len(segments.xy)
+    a, b = xy[pairs[:, 0]], xy[pairs[:, 1]]
+    length = np.hypot(*(b - a).T)
+    ok = length > 1e-6
+    # water and forbidden ground along the stitch
+    n_samples = max(int(np.ceil(opts.shell_stitch_radius / lattice.fine_step)) + 1, 2)
+    t = np.linspace(0.0, 1.0, n_samples)
+    samples = a[:, None, :] + t[None, :, None] * (b - a)[:, None, :]
+    wet = lattice.fine_lookup(lattice.water | lattice.forbidden, samples)
+    ok &= ~wet.any(axis=1)
+    if len(segments.uv):
+        lines = shapely.linestrings(np.stack([a, b], axis=1))
+        tree = shapely.STRtree(segments.lines())
+        # crossing a street not incident to either end
+        stitch, seg = tree.query(lines, predicate="intersects")
+        incident = _incident(pairs[stitch], seg, segments, split_parent, n_lat, n_nodes)
+        ok[stitch[~incident]] = False
+        # grazing any street away from the ends
+        trim = np.minimum(0.25 * length, 3.0 * opts.clearance) / np.maximum(length, 1e-9)
+        core = shapely.linestrings(np.stack([a + trim[:, None] * (b - a), b - trim[:, None] * (b - a)], axis=1))
+        stitch, _ = tree.query(core, predicate="dwithin", distance=opts.clearance)
+        ok[stitch] = False
+        if blocks is not None and not blocks.is_empty:
+            inner = shapely.buffer(blocks, -0.5)
+            if not inner.is_empty:
+                shapely.prepare(inner)
+                ok &= ~shapely.intersects(inner, core)
+    return ok
+
+
+def _incident(pairs: np.ndarray, seg: np.ndarray, segments: Segments, split_parent: np.ndarray,
+              n_lat: int, n_nodes: int) -> np.ndarray:
+    """Whether segment ``seg`` touches a street end of the stitch ``pairs`` (node or split point)."""
+    out = np.zeros(len(seg), dtype=bool)
+    for end in (0, 1):
+        node = pairs[:, end] - n_lat
+        is_node = (node >= 0) & (node < n_nodes)
+        out |= is_node & ((segments.uv[seg, 0] == node) | (segments.uv[seg, 1] == node))
+        split = node - n_nodes
+        is_split = split >= 0
+        if is_split.any():
+            out |= is_split & (split_parent[np.where(is_split, split, 0)] == seg)
+    return out

@@ -1,0 +1,564 @@
+"""The pathfinding lattice G, B, G′, turn-penalised routing and major road plans (003 §3.4; 000 §4.2.3, §4.2.7)."""
+from __future__ import annotations
+
+from math import gcd
+
+import numpy as np
+import pytest
+import shapely
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from osm_expand.engine.lattice import (
+    NO_EDGE, EdgeCosts, EdgeKind, LatticeOptions, Raster, Segments, VertexClass, build_lattice,
+    built_up_area, lattice_directions, pathfinding_graph, segment_sides,
+)
+from osm_expand.engine.majorroads import (
+    MajorRoadOptions, RoadType, allowed_streets, centroid_smoothing, chaikin, max_turn, parse_road_type,
+    plan_major_road, propose_route, smooth_polyline,
+)
+from osm_expand.engine.routing import (
+    Choice, RoutingOptions, choose, find_route, route_over_major_roads, turn_penalty,
+)
+from osm_expand.errors import InputError
+
+CELL = 5.0
+
+
+def raster(mask_fn, extent, cell=CELL) -> Raster:
+    """A boolean raster over ``extent`` from a predicate on cell centres."""
+    x0, y0, x1, y1 = extent
+    xs, ys = np.meshgrid(x0 + (np.arange(int((x1 - x0) / cell) + 1) + 0.5) * cell,
+                         y0 + (np.arange(int((y1 - y0) / cell) + 1) + 0.5) * cell)
+    return Raster(mask_fn(xs, ys), (x0, y0), cell)
+
+
+def river(extent, y_lo, y_hi) -> Raster:
+    return raster(lambda x, y: (y > y_lo) & (y < y_hi), extent)
+
+
+def samples_along(lattice, src, dst, per_edge=40) -> np.ndarray:
+    xy = lattice.vertex_xy()
+    t = np.linspace(0.0, 1.0, per_edge)[None, :, None]
+    return xy[src][:, None, :] + t * (xy[dst] - xy[src])[:, None, :]
+
+
+def grid_lines(x0, y0, n, size):
+    """Street polylines of an n × n block grid with ``size`` m blocks."""
+    ticks = np.arange(n + 1) * size
+    lines = []
+    for t in ticks:
+        lines.append(np.stack([x0 + ticks, np.full(n + 1, y0 + t)], axis=1))
+        lines.append(np.stack([np.full(n + 1, x0 + t), y0 + ticks], axis=1))
+    return lines
+
+
+def blocks_of(segments: Segments) -> list:
+    return list(shapely.get_parts(shapely.polygonize(list(segments.lines()))))
+
+
+# ---------------------------------------------------------------- the lattice G
+
+
+@pytest.mark.parametrize("radius, count", [(1, 4), (2, 8), (8, 120)])
+def test_directions_are_the_primitive_vectors_within_the_radius(radius, count):
+    d = lattice_directions(radius)
+    assert len(d) == count
+    assert all(gcd(abs(int(a)), abs(int(b))) == 1 for a, b in d)
+    assert (d[:, 0] ** 2 + d[:, 1] ** 2 <= radius * radius).all()
+    half = len(d) // 2
+    np.testing.assert_array_equal(d[half:], -d[:half])
+    assert len({tuple(v) for v in d.tolist()}) == count
+
+
+def test_an_inner_vertex_joins_the_nearest_vertex_in_every_direction():
+    lat = build_lattice((0, 0, 400, 400), options=LatticeOptions(radius=3))
+    kind, _ = lat.directed_tables()
+    ny, nx = lat.shape
+    centre = (ny // 2) * nx + nx // 2
+    assert (kind[centre] == EdgeKind.LAND).all()  # every one of the D directions, out and in
+    edges = lat.edges()
+    out = edges["src"] == centre
+    np.testing.assert_array_equal(np.sort(edges["dst"][out] - centre),
+                                  np.sort(lat.direction_offset[:len(lat.directions) // 2]))
+    # a corner vertex only has the directions that stay on the map
+    assert (kind[0] != NO_EDGE).sum() == (lat.directions >= 0).all(axis=1).sum()
+
+
+def test_forbidden_vertices_have_no_edges_and_no_edge_crosses_forbidden_ground():
+    extent = (0, 0, 400, 400)
+    forbidden = raster(lambda x, y: (np.abs(x - 200) < 60) & (np.abs(y - 200) < 60), extent)
+    lat = build_lattice(extent, forbidden=forbidden, options=LatticeOptions(radius=4))
+    edges = lat.edges()
+    bad = np.flatnonzero(lat.vertex_class == VertexClass.FORBIDDEN)
+    assert len(bad) > 0
+    assert not np.isin(edges["src"], bad).any() and not np.isin(edges["dst"], bad).any()
+    pts = samples_along(lat, edges["src"], edges["dst"])
+    assert not ((np.abs(pts[..., 0] - 200) < 55) & (np.abs(pts[..., 1] - 200) < 55)).any()
+
+
+def test_a_river_makes_water_harbour_and_bridge_edges_and_keeps_land_edges_dry():
+    extent = (0, 0, 600, 600)
+    lat = build_lattice(extent, water=river(extent, 250, 350), options=LatticeOptions(radius=4))
+    e = lat.edges()
+    xy = lat.vertex_xy()
+    kinds = set(np.unique(e["kind"]).tolist())
+    assert {EdgeKind.LAND, EdgeKind.WATER, EdgeKind.HARBOUR, EdgeKind.BRIDGE} <= kinds
+    land = e["kind"] == EdgeKind.LAND
+    pts = samples_along(lat, e["src"][land], e["dst"][land])
+    assert not ((pts[..., 1] > 252) & (pts[..., 1] < 348)).any()
+    water = e["kind"] == EdgeKind.WATER
+    assert (lat.vertex_class[e["src"][water]] == VertexClass.WATER).all()
+    harbour = e["kind"] == EdgeKind.HARBOUR
+    classes = np.sort(np.stack([lat.vertex_class[e["src"][harbour]], lat.vertex_class[e["dst"][harbour]]], 1), 1)
+    assert (classes == [VertexClass.LAND, VertexClass.WATER]).all()
+    bridge = e["kind"] == EdgeKind.BRIDGE
+    ys = np.sort(np.stack([xy[e["src"][bridge], 1], xy[e["dst"][bridge], 1]], 1), 1)
+    assert (ys[:, 0] < 250).all() and (ys[:, 1] > 350).all()  # bank to bank, over the river
+    assert (lat.vertex_class[e["src"][bridge]] == VertexClass.LAND).all()
+    assert (lat.vertex_class[e["dst"][bridge]] == VertexClass.LAND).all()
+
+
+def test_bridges_are_near_the_shortest_crossing_of_their_ends():
+    extent = (0, 0, 600, 600)
+    slack = 1.25
+    lat = build_lattice(extent, water=river(extent, 250, 350), options=LatticeOptions(radius=4, bridge_slack=slack))
+    e = lat.edges()
+    bridge = e["kind"] == EdgeKind.BRIDGE
+    src, dst, length = e["src"][bridge], e["dst"][bridge], e["length"][bridge]
+    shortest = np.full(lat.n_vertices, np.inf)
+    np.minimum.at(shortest, src, length)
+    np.minimum.at(shortest, dst, length)
+    assert (length <= slack * np.minimum(shortest[src], shortest[dst]) + 1e-9).all()
+    assert length.min() == pytest.approx(120.0)  # straight across: 240 → 360 on a 20 m lattice
+
+
+def test_a_height_raster_makes_slopes_dearer_and_cuts_off_cliffs():
+    extent = (0, 0, 400, 400)
+    ramp = raster(lambda x, y: np.zeros(x.shape, bool), extent, cell=10.0)
+    xs = ramp.origin[0] + (np.arange(ramp.values.shape[1]) + 0.5) * ramp.cell
+    height = Raster(np.broadcast_to(0.2 * np.maximum(xs - 200, 0.0), ramp.values.shape).copy(), ramp.origin, 10.0)
+    lat = build_lattice(extent, height=height, options=LatticeOptions(radius=2, slope_weight=10.0))
+    e = lat.edges()
+    xy = lat.vertex_xy()
+    d = lat.directions[e["direction"]]
+    ratio = lat.unit_weight.ravel()[lat.unit_kind.ravel() != NO_EDGE] / e["length"]
+    on_slope = (xy[e["src"], 0] > 220) & (xy[e["dst"], 0] > 220)
+    flat = (xy[e["src"], 0] < 180) & (xy[e["dst"], 0] < 180)
+    np.testing.assert_allclose(ratio[flat], 1.0)
+    expected = np.maximum(1.0, 10.0 * 0.2 * np.abs(d[:, 0]) / np.hypot(*d.T))  # length · max(1, O1 · slope)
+    np.testing.assert_allclose(ratio[on_slope], expected[on_slope], rtol=1e-6)
+    steep = build_lattice(extent, height=height, options=LatticeOptions(radius=2, slope_cutoff=0.15)).edges()
+
+    steep_on_slope = (xy[steep["src"], 0] > 220) & (xy[steep["dst"], 0] > 220)
+    steep_d = lat.directions[steep["direction"]]
+    assert not (steep_on_slope & (steep_d[:, 1] == 0)).any()  # slope 0.2 > 0.15: cut off
+    assert (steep_on_slope & (np.abs(steep_d[:, 0]) == np.abs(steep_d[:, 1]))).any()  # 0.14 diagonals stay
+
+
+# ---------------------------------------------------------------- B
+
+
+def test_built_up_area_removes_every_land_edge_through_it_and_keeps_the_rest():
+    extent = (0, 0, 600, 600)
+    lat = build_lattice(extent, water=river(extent, 500, 560), options=LatticeOptions(radius=4))
+    disc = shapely.Point(250, 250).buffer(100)
+    cut = lat.with_built_up(disc)
+    live = cut.edges(live=True)
+    land = live["kind"] == EdgeKind.LAND
+    pts = samples_along(cut, live["src"][land], live["dst"][land])
+    assert not shapely.contains_xy(shapely.buffer(disc, -6), pts[..., 0], pts[..., 1]).any()
+    before, after = lat.edges(live=True), live
+    assert (before["kind"] != EdgeKind.LAND).sum() == (after["kind"] != EdgeKind.LAND).sum()  # bridges stay
+    far = (cut.vertex_xy()[live["src"], 0] > 450) & (cut.vertex_xy()[live["dst"], 0] > 450)
+    old_far = (lat.vertex_xy()[before["src"], 0] > 450) & (lat.vertex_xy()[before["dst"], 0] > 450)
+    assert far.sum() == old_far.sum()
+    kind, _ = cut.directed_tables()  # both directions of a removed edge are gone
+    assert (kind != NO_EDGE).sum() == 2 * ((cut.unit_kind != NO_EDGE) & ~cut.unit_removed).sum()
+
+
+@settings(max_examples=15, deadline=None)
+@given(st.lists(st.tuples(st.floats(0, 400), st.floats(0, 400), st.floats(10, 120)), min_size=1, max_size=4))
+def test_b_never_shrinks(discs):
+    lat = build_lattice((0, 0, 400, 400), options=LatticeOptions(radius=3))
+    area = None
+    for x, y, r in discs:
+        grown = lat.with_built_up(shapely.Point(x, y).buffer(r))
+        assert (grown.unit_removed >= lat.unit_removed).all()
+        assert (grown.built_up >= lat.built_up).all()
+        assert ((grown.directed_kind == NO_EDGE) >= (lat.directed_kind == NO_EDGE)).all()
+        lat = grown
+        segs = Segments.from_lines([np.array([[x, y], [x + r, y]])], major=[False], width=[6.0])
+        new = built_up_area([], segs, previous=area)
+        if area is not None:
+            assert shapely.area(shapely.difference(area.area, new.area)) < 1e-6
+        area = new
+    again = lat.with_built_up(shapely.Point(200, 200).buffer(1))  # a smaller B changes nothing back
+    assert (again.unit_removed >= lat.unit_removed).all()
+
+
+def test_a_raster_from_geometry_keeps_a_stream_thinner_than_a_cell():
+    stream = shapely.LineString([(0, 52), (200, 57)]).buffer(1.5)  # 3 m wide, between cell centres
+    r = Raster.from_geometry(stream, (0, 0, 200, 100), cell=10.0)
+    row, col, _ = r.cell_index(np.full(21, 100.0), np.linspace(0, 100, 21))
+    assert r.values[row, col].any()
+    assert not r.values[0].any() and not r.values[-1].any()
+
+
+def test_built_up_area_follows_equation_1():
+    segs = Segments.from_lines(grid_lines(0, 0, 2, 100) + [np.array([[200, 100], [600, 100]])],
+                               major=[False] * 7, width=[6.0] * 7)
+    blocks = blocks_of(segs) + [shapely.box(200, 100, 600, 600)]  # a large terrain block
+    b = built_up_area(blocks, segs)
+    assert shapely.covers(b.area, shapely.box(0, 0, 200, 200))  # built-up blocks
+    assert b.area.contains(shapely.Point(400, 120))  # NB of a street on a terrain block
+    assert not b.area.contains(shapely.Point(400, 400))  # inside the terrain block
+    assert not b.blocks.contains(shapely.Point(400, 400))
+    sides = segment_sides(segs, b.blocks)
+    assert sides.max() == 2 and sides.min() == 0
+
+
+# ---------------------------------------------------------------- G′
+
+
+def town_graph(costs=EdgeCosts(), through_major=False):
+    """A 3 × 3 block town (100 m blocks) in the middle of 1 km of open land."""
+    extent = (0, 0, 1000, 1000)
+    lines = grid_lines(350, 350, 3, 100)
+    major = [False] * len(lines)
+    if through_major:
+        major[2] = True  # the horizontal street at y = 450
+    segs = Segments.from_lines(lines, major=major, width=[6.0] * len(lines))
+    built = built_up_area(blocks_of(segs), segs)
+    lat = build_lattice(extent, options=LatticeOptions(radius=4)).with_built_up(built.area)
+    return pathfinding_graph(lat, segs, built, costs=costs), segs
+
+
+def test_stitches_join_the_town_to_the_lattice_without_crossing_streets():
+    g, segs = town_graph()
+    stitch = (g.kind == EdgeKind.STITCH) & (g.src < g.dst)
+    assert stitch.sum() > 20
+    lines = shapely.linestrings(np.stack([g.xy[g.src[stitch]], g.xy[g.dst[stitch]]], axis=1))
+    for line in lines:  # a stitch meets streets only at its own end
+        touch = shapely.intersection(line, shapely.multilinestrings(segs.lines()))
+        assert shapely.get_num_coordinates(touch) <= 2
+    # the lattice end of every stitch is a live land vertex outside B
+    lattice_end = np.where(g.src[stitch] < g.n_lattice, g.src[stitch], g.dst[stitch])
+    lattice_end = lattice_end[lattice_end < g.n_lattice]
+    assert not g.lattice.fine_lookup(g.lattice.built_up, g.xy[lattice_end]).any()
+    # only streets on the shell get stitches: the centre crossing (450, 450) has none
+    centre = g.node_vertex(int(np.argmin(np.hypot(*(segs.xy - [450, 450]).T))))
+    assert not ((g.src == centre) & (g.kind == EdgeKind.STITCH)).any()
+
+
+def test_a_new_road_avoids_the_town_unless_a_cheap_major_road_crosses_it():
+    west, east = np.array([0.0, 460.0]), np.array([1000.0, 460.0])
+    g, _ = town_graph(EdgeCosts(minor=3.0))
+    route = find_route(g, g.nearest_vertex(west), g.nearest_vertex(east))
+    assert not (route.kind == EdgeKind.MINOR).any()
+    assert ((route.xy[:, 1] < 330) | (route.xy[:, 1] > 670) | (route.xy[:, 0] < 330) | (route.xy[:, 0] > 670)).all()
+    g, segs = town_graph(EdgeCosts(minor=3.0, major=0.3), through_major=True)
+    route = find_route(g, g.nearest_vertex(west), g.nearest_vertex(east))
+    assert (route.kind == EdgeKind.MAJOR).sum() >= 3
+    assert segs.major[route.segment[route.segment >= 0]].all()
+
+
+# ---------------------------------------------------------------- turn penalty
+
+
+def test_turn_penalty_is_a_scaled_smoothstep():
+    kw = dict(centre=2.0 * np.pi / 3.0, width=np.pi / 3.0, height=100.0)
+    assert turn_penalty(np.pi, **kw) == 0.0
+    assert turn_penalty(0.0, **kw) == 100.0
+    assert turn_penalty(2.0 * np.pi / 3.0, **kw) == pytest.approx(50.0)
+    alpha = np.linspace(0, np.pi, 50)
+    assert (np.diff(turn_penalty(alpha, **kw)) <= 1e-12).all()
+
+
+def chicane_graph():
+    """Streets only (the lattice is forbidden ground): a short chicane with three right
+    angles and a longer, gently bending way round."""
+    extent = (-50, -150, 450, 100)
+    lines = [np.array([[0, 0], [200, 0], [200, 10], [400, 10], [400, 0]]),
+             np.array([[0, 0], [100, -80], [300, -80], [400, 0]])]
+    segs = Segments.from_lines(lines, major=[True, True], width=[8.0, 8.0])
+    lat = build_lattice(extent, forbidden=raster(lambda x, y: np.ones(x.shape, bool), extent, cell=10.0),
+                        options=LatticeOptions(radius=2))
+    g = pathfinding_graph(lat, segs)
+    node = lambda xy: g.node_vertex(int(np.argmin(np.hypot(*(segs.xy - xy).T))))  # noqa: E731
+    return g, node([0, 0]), node([400, 0])
+
+
+def test_the_turn_penalty_changes_the_route_plain_dijkstra_takes():
+    g, s, t = chicane_graph()
+    plain = find_route(g, s, t, options=RoutingOptions(turn_height=0.0))
+    penalised = find_route(g, s, t, options=RoutingOptions(turn_height=150.0))
+    assert plain.length == pytest.approx(420.0)  # through the chicane
+    assert penalised.length == pytest.approx(2 * np.hypot(100, 80) + 200)  # round the bend
+    assert penalised.xy[:, 1].min() == pytest.approx(-80.0)
+    assert penalised.turn_cost < 150.0 < plain.cost + 3 * 150.0 - penalised.cost
+
+
+def test_on_an_open_field_the_penalised_route_turns_once():
+    lat = build_lattice((0, 0, 300, 300), options=LatticeOptions(radius=1))
+    g = pathfinding_graph(lat, Segments(np.zeros((0, 2)), np.zeros((0, 2), int), np.zeros(0, bool), np.zeros(0),
+                                        np.zeros(0, bool)))
+    s, t = g.nearest_vertex([0, 0]), g.nearest_vertex([200, 200])
+    route = find_route(g, s, t)
+    assert route.length == pytest.approx(400.0)
+    turns = np.count_nonzero(np.abs(np.diff(np.arctan2(*np.diff(route.xy, axis=0).T[::-1]))) > 1e-9)
+    assert turns == 1
+    assert route.turn_cost == pytest.approx(150.0)
+
+
+@settings(max_examples=10, deadline=None)
+@given(st.integers(0, 2**32 - 1))
+def test_pruned_search_finds_the_same_cost_as_searching_everything(seed):
+    from osm_expand.engine.routing import _bin_penalties, _expanded_search
+    rng = np.random.default_rng(seed)
+    extent = (0, 0, 600, 600)
+    centres, radii = rng.uniform(50, 550, (6, 2)), rng.uniform(20, 90, 6)
+    blobs = raster(lambda x, y: (np.hypot(x[..., None] - centres[:, 0], y[..., None] - centres[:, 1])
+                                 < radii).any(axis=-1), extent, cell=10.0)
+    lat = build_lattice(extent, forbidden=blobs, options=LatticeOptions(radius=int(rng.integers(1, 4))))
+    g = pathfinding_graph(lat, Segments(np.zeros((0, 2)), np.zeros((0, 2), int), np.zeros(0, bool), np.zeros(0),
+                                        np.zeros(0, bool)))
+    live = g.live_vertices()
+    s, t = (int(v) for v in rng.choice(live, 2, replace=False))
+    opts = RoutingOptions(turn_height=float(rng.uniform(20, 400)))
+    route = find_route(g, s, t, options=opts)
+    lat_ok, extra_ok = g.masks()
+    full = _expanded_search(g, lat_ok, extra_ok, np.arange(g.n_vertices), s, t, _bin_penalties(opts),
+                            opts.heading_bins, np.inf)
+    assert (route is None) == (full is None)
+    if route is not None:
+        assert route.cost == pytest.approx(full[1], abs=1e-5)
+
+
+# ---------------------------------------------------------------- smoothing
+
+
+def test_centroid_smoothing_and_chaikin_keep_the_ends():
+    xy = np.array([[0, 0], [10, 0], [10, 10], [20, 10], [20, 20]], dtype=float)
+    c = centroid_smoothing(xy)
+    np.testing.assert_allclose(c, [[0, 0], [20 / 3, 10 / 3], [50 / 3, 40 / 3], [20, 20]])
+    k = chaikin(xy, 2)
+    np.testing.assert_allclose(k[[0, -1]], xy[[0, -1]])
+    assert len(k) > len(xy)
+
+
+def test_smoothing_keeps_its_pinned_points_and_reduces_turning():
+    stairs = np.array([[0, 0], [40, 0], [40, 40], [60, 40], [80, 40], [80, 80], [120, 80], [120, 120], [160, 120]],
+                      float)
+    pinned = np.zeros(len(stairs), dtype=bool)
+    pinned[3] = True  # e.g. a junction with a major road half way along a step
+    out, flags = smooth_polyline(stairs, pinned, step=20.0)
+    np.testing.assert_array_equal(out[0], stairs[0])
+    np.testing.assert_array_equal(out[-1], stairs[-1])
+    assert any((out == stairs[3]).all(axis=1))  # kept exactly
+    np.testing.assert_array_equal(out[flags], stairs[[0, 3, 8]])
+    assert max_turn(out) < max_turn(stairs) / 2
+    corner = np.array([[0, 0], [40, 0], [40, 40]], float)  # a pinned corner stays a corner
+    out, _ = smooth_polyline(corner, np.array([False, True, False]))
+    np.testing.assert_array_equal(out, corner)
+
+
+# ---------------------------------------------------------------- major roads
+
+
+def river_graph():
+    extent = (0, 0, 800, 600)
+    water = river(extent, 250, 330)
+    lat = build_lattice(extent, water=water, options=LatticeOptions(radius=4))
+    no_streets = Segments(np.zeros((0, 2)), np.zeros((0, 2), int), np.zeros(0, bool), np.zeros(0), np.zeros(0, bool))
+    return pathfinding_graph(lat, no_streets), water
+
+
+def test_a_route_over_a_river_gets_exactly_one_bridge_where_it_crosses():
+    g, water = river_graph()
+    route = propose_route(g, g.nearest_vertex([200, 40]), g.nearest_vertex([600, 560]), RoadType.CITY)
+    plan = plan_major_road(g, route, RoadType.CITY, 12.0)
+    assert plan.bridges == 1
+    bridge = next(r for r in plan.new_roads if r.bridge)
+    assert bridge.xy[:, 1].min() < 250 and bridge.xy[:, 1].max() > 330
+    for road in plan.new_roads:
+        if road.bridge:
+            continue
+        dense = np.concatenate([np.linspace(a, b, 20) for a, b in zip(road.xy[:-1], road.xy[1:])])
+        row, col, inside = water.cell_index(dense[:, 0], dense[:, 1])
+        assert not (water.values[row, col] & inside).any()  # no street in water
+    same_bank = propose_route(g, g.nearest_vertex([40, 40]), g.nearest_vertex([760, 200]), RoadType.CITY)
+    assert plan_major_road(g, same_bank, RoadType.CITY, 12.0).bridges == 0
+
+
+def test_new_roads_are_smoothed_but_start_and_end_where_the_route_does():
+    g, _ = river_graph()
+    route = propose_route(g, g.nearest_vertex([40, 40]), g.nearest_vertex([760, 200]), RoadType.BYPASS)
+    plan = plan_major_road(g, route, RoadType.BYPASS, 12.0)
+    road = plan.new_roads[0]
+    np.testing.assert_allclose(road.xy[[0, -1]], route.xy[[0, -1]])
+    assert max_turn(road.xy) <= max_turn(route.xy) + 1e-9
+
+
+def straight_major_road(available):
+    extent = (0, 0, 1000, 600)
+    segs = Segments.from_lines([np.array([[0, 300], [250, 300], [500, 300], [750, 300], [1000, 300]])],
+                               major=[True], width=[6.0], available=[available])
+    lat = build_lattice(extent, options=LatticeOptions(radius=4))
+    built = built_up_area([], segs)
+    g = pathfinding_graph(lat.with_built_up(built.area), segs, built)
+    return g, segs, g.node_vertex(int(np.argmin(segs.xy[:, 0]))), g.node_vertex(int(np.argmax(segs.xy[:, 0])))
+
+
+def test_rerouting_is_chosen_when_the_major_roads_have_capacity():
+    g, segs, s, t = straight_major_road(available=500.0)
+    reroute = route_over_major_roads(g, s, t, demand=100.0)
+    new = propose_route(g, s, t, RoadType.CITY, demand=100.0)
+    assert reroute is not None and reroute.length == pytest.approx(1000.0)
+    assert choose(new, reroute) is Choice.REROUTE
+
+
+def test_without_capacity_the_new_route_widens_the_extendible_road():
+    g, segs, s, t = straight_major_road(available=50.0)
+    assert route_over_major_roads(g, s, t, demand=100.0) is None
+    new = propose_route(g, s, t, RoadType.CITY, demand=100.0)
+    assert choose(new, None) is Choice.NEW
+    plan = plan_major_road(g, new, RoadType.CITY, 12.0)
+    assert not plan.new_roads
+    np.testing.assert_array_equal(np.sort(plan.reused), np.arange(4))
+    np.testing.assert_array_equal(np.sort(plan.widen), np.arange(4))  # 6 m < A = 12 m, extendible
+
+
+def test_choose_compares_o3_length_plus_o4_cost():
+    g, _, s, t = straight_major_road(available=500.0)
+    reroute = route_over_major_roads(g, s, t)
+    assert choose(None, None) is Choice.NONE
+    assert choose(None, reroute) is Choice.REROUTE
+    short = find_route(g, s, t, kinds=[EdgeKind.LAND, EdgeKind.STITCH])
+    detour = type(reroute)(reroute.vertices, reroute.xy, reroute.kind, reroute.segment, reroute.edge_length * 3,
+                           reroute.edge_weight * 3)
+    assert choose(short, detour, o3=1.0, o4=0.0) is Choice.NEW
+    with pytest.raises(InputError, match="O3"):
+        choose(short, detour, o3=-1.0)
+
+
+def test_a_rebuilding_city_road_demolishes_minor_streets_but_no_major_road():
+    extent = (0, 0, 600, 600)
+    lines = grid_lines(100, 100, 4, 100)
+    major = [False] * len(lines)
+    major[4] = True  # horizontal street y = 300
+    segs = Segments.from_lines(lines, major=major, width=[6.0] * len(lines))
+    land = raster(lambda x, y: (x > 90) & (x < 510) & (y > 90) & (y < 510), extent)
+    forbidden = Raster(~land.values, land.origin, land.cell)
+    built = built_up_area(blocks_of(segs), segs)
+    lat = build_lattice(extent, forbidden=forbidden, options=LatticeOptions(radius=4)).with_built_up(built.area)
+    g = pathfinding_graph(lat, segs, built, costs=EdgeCosts(minor=1.0))
+    node = lambda xy: g.node_vertex(int(np.argmin(np.hypot(*(segs.xy - xy).T))))  # noqa: E731
+    route = propose_route(g, node([100, 100]), node([500, 500]), RoadType.REBUILDING_CITY)
+    lots = np.array([shapely.box(110 + 100 * i, 110 + 100 * j, 190 + 100 * i, 190 + 100 * j)
+                     for i in range(4) for j in range(4)])
+    plan = plan_major_road(g, route, RoadType.REBUILDING_CITY, 12.0, lots=lots)
+    assert len(plan.demolished) > 0
+    assert not segs.major[plan.demolished].any()
+    assert len(plan.demolished_lots) > 0
+    # what meets the road where it starts and ends is not in its way
+    at_ends = np.flatnonzero(np.isin(segs.uv, route.vertices[[0, -1]] - g.n_lattice).any(axis=1))
+    assert not np.isin(np.setdiff1d(at_ends, route.segment), plan.demolished).any()
+    city = plan_major_road(g, route, RoadType.CITY, 12.0)
+    assert len(city.demolished) == 0 and len(city.demolished_lots) == 0
+
+
+def test_a_bypass_keeps_to_streets_on_the_edge_of_town_by_default():
+    g, segs = town_graph()
+    ok = allowed_streets(g, RoadType.BYPASS)
+    np.testing.assert_array_equal(ok, g.extendible)
+    literal = allowed_streets(g, "bypass", options=MajorRoadOptions(bypass_streets="interior"))
+    np.testing.assert_array_equal(literal, ~g.extendible)
+    assert allowed_streets(g, RoadType.CITY) is None
+
+
+def test_bad_choices_and_parameters_raise_input_errors():
+    with pytest.raises(InputError, match="bypass, city, smooth_city, rebuilding_city"):
+        parse_road_type("motorway")
+    with pytest.raises(InputError, match="bypass_streets"):
+        MajorRoadOptions(bypass_streets="everywhere")
+    with pytest.raises(InputError, match="radius"):
+        LatticeOptions(radius=0)
+    with pytest.raises(InputError, match="spacing"):
+        LatticeOptions(spacing=-1.0)
+    with pytest.raises(InputError, match="width"):
+        Segments(np.zeros((2, 2)), np.array([[0, 1]]), np.array([True]), np.array([1.0, 2.0]), np.array([False]))
+    with pytest.raises(InputError, match="extent"):
+        build_lattice((0, 0, 0, 10))
+    with pytest.raises(InputError, match="bridge"):
+        EdgeCosts(bridge=0.0)
+
+
+# ---------------------------------------------------------------- Krems (real data)
+
+
+def network_and_water(town):
+    """The street network and the water of what ``load`` returns (a City, or a StreetNetwork before it)."""
+    if hasattr(town, "water_geometry"):
+        return town.network, town.water_geometry()
+    return town, shapely.union_all([*town.context.water, *town.context.sea])
+
+
+#: highway classes taken as major roads on Krems (tertiary and above)
+MAJOR_HIGHWAYS = {"motorway", "trunk", "primary", "secondary", "tertiary"}
+
+
+@pytest.fixture(scope="module")
+def krems():
+    from conftest import FIXTURES
+    from osm_expand.ingest import load
+    net, water = network_and_water(load(FIXTURES / "krems.osm.gz"))
+    major = [s.highway.removesuffix("_link") in MAJOR_HIGHWAYS for s in net.streets]
+    segs = Segments.from_lines([net.street_xy(s) for s in net.streets], major=major,
+                               width=[12.0 if m else 6.0 for m in major], bridge=[s.bridge for s in net.streets])
+    x0, y0 = net.xy.min(axis=0) - 100
+    x1, y1 = net.xy.max(axis=0) + 100
+    extent = (x0, y0, x1, y1)
+    assert shapely.area(water) > 1e6  # the Danube
+    water_raster = Raster.from_geometry(water, extent, cell=10.0)
+    built = built_up_area(blocks_of(segs), segs, water=water)
+    lat = build_lattice(extent, water=water_raster).with_built_up(built.area)
+    g = pathfinding_graph(lat, segs, built)
+    degree = np.bincount(segs.uv[segs.major].ravel(), minlength=len(segs.xy))
+    edge = np.minimum.reduce([segs.xy[:, 0] - x0, x1 - segs.xy[:, 0], segs.xy[:, 1] - y0, y1 - segs.xy[:, 1]])
+    exits = np.flatnonzero((degree == 1) & (edge < 200))
+    return g, segs, exits, water_raster
+
+
+def test_krems_new_major_roads_stay_dry_and_bridge_only_where_they_must(krems):
+    g, segs, exits, water = krems
+    assert len(exits) >= 3
+    xy = segs.xy[exits]
+    west, north, south_east = exits[np.argmin(xy[:, 0])], exits[np.argmax(xy[:, 1])], exits[np.argmin(xy[:, 1])]
+    built_something = 0
+    streets = shapely.STRtree(segs.lines())
+    trips = [(west, north, RoadType.CITY), (north, south_east, RoadType.CITY), (west, south_east, RoadType.CITY),
+             (west, north, RoadType.BYPASS)]
+    for a, b, road_type in trips:
+        s, t = g.node_vertex(a), g.node_vertex(b)
+        new = propose_route(g, s, t, road_type)
+        reroute = route_over_major_roads(g, s, t)
+        assert new is not None
+        if reroute is not None:
+            assert new.cost <= reroute.cost + 1e-6  # G′ contains every re-route
+        plan = plan_major_road(g, new, road_type, 12.0)
+        built_something += len(plan.new_roads)
+        for road in plan.new_roads:
+            dense = np.concatenate([np.linspace(p, q, 40) for p, q in zip(road.xy[:-1], road.xy[1:])])
+            row, col, inside = water.cell_index(dense[:, 0], dense[:, 1])
+            wet = water.values[row, col] & inside
+            if road.bridge:
+                assert wet.any() and not wet[0] and not wet[-1]  # over water, landing on land
+            else:
+                assert not wet.any()  # no street in water
+            line = shapely.LineString(road.xy)  # it meets streets only at its ends (junctions)
+            meet = shapely.get_coordinates(shapely.intersection(segs.lines()[streets.query(line)], line))
+            assert np.min(np.hypot(*(meet[:, None] - road.xy[[0, -1]]).transpose(2, 0, 1)), axis=1,
+                          initial=np.inf).max(initial=0.0) < 0.01
+        assert plan.bridges <= 1
+    assert built_something > 0
