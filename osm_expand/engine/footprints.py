@@ -208,7 +208,7 @@ def _depth_profile(a: np.ndarray, b: np.ndarray, u: np.ndarray, v0: float, *, le
         cross = (ax[None, :] < u[:, None]) != (bx[None, :] < u[:, None])
     else:
         cross = (ax[None, :] <= u[:, None]) != (bx[None, :] <= u[:, None])
-    with np.errstate(divide="ignore", invalid="ignore"):
+    with np.errstate(all="ignore"):  # vertical edges never cross a vertical line; their slope is unused
         y = ay[None, :] + (u[:, None] - ax[None, :]) * ((by - ay) / (bx - ax))[None, :]
     above = cross & (y > v0 + 1e-9)
     inside = (above.sum(axis=1) % 2) == 1
@@ -217,15 +217,15 @@ def _depth_profile(a: np.ndarray, b: np.ndarray, u: np.ndarray, v0: float, *, le
 
 
 def _samples(a: np.ndarray, b: np.ndarray, length: float, v0: float, resolution: float) -> np.ndarray:
-    """Positions along the edge: a grid plus just either side of every breakpoint of the depth profile."""
+    """Positions along the edge: a grid plus every breakpoint of the depth profile and just either side of it."""
     n = int(min(max(math.ceil(length / resolution) + 1, 2), _MAX_GRID))
     eps = 1e-7 * max(1.0, length)
     with np.errstate(divide="ignore", invalid="ignore"):
         t = (v0 - a[:, 1]) / (b[:, 1] - a[:, 1])
-    on_line = a[:, 0] + t * (b[:, 0] - a[:, 0])
+        on_line = a[:, 0] + t * (b[:, 0] - a[:, 0])
     breaks = np.concatenate([a[:, 0], on_line[(t >= 0) & (t <= 1)]])
     breaks = breaks[(breaks > 0) & (breaks < length)]
-    u = np.concatenate([np.linspace(0.0, length, n), breaks - eps, breaks + eps])
+    u = np.concatenate([np.linspace(0.0, length, n), breaks - eps, breaks, breaks + eps])
     return np.unique(np.clip(u, 0.0, length))
 
 
@@ -281,7 +281,9 @@ def _sweep(a: np.ndarray, b: np.ndarray, p: np.ndarray, q: np.ndarray, normal: n
     if not ok.any():
         return None
     centre = 0.5 * (u[None, :] + u[:, None])
-    score = np.where(ok, w * d - 1e-6 * np.abs(centre - 0.5 * length), -np.inf)
+    # ties (a size target met by many spans) go to the target's shape, then to the middle of the edge
+    shape = np.abs(w - math.sqrt(target_area * target_ratio)) if math.isfinite(target_area) else 0.0
+    score = np.where(ok, w * d - 1e-3 * shape - 1e-6 * np.abs(centre - 0.5 * length), -np.inf)
     i, j = np.unravel_index(int(np.argmax(score)), score.shape)
     bw, bd = float(w[i, j]), float(d[i, j])
     lo, hi = u[i] + side, u[j] - side

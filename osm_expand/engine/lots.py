@@ -67,7 +67,10 @@ NO_STREET = -1
 #: Edges shorter than this (m) are dropped when rings are cleaned.
 _MIN_EDGE = 1e-6
 #: Points per quarter circle of the round street buffers in the shrink.
-_QUAD_SEGS = 4
+_QUAD_SEGS = 8
+#: The buffers' radius over the half width: their chords then never come
+#: closer than the half width to the street (circumscribed, not inscribed).
+_CHORD = 1.0 / math.cos(math.pi / (4 * _QUAD_SEGS))
 
 
 class LandUse(StrEnum):
@@ -112,8 +115,9 @@ class LotOptions:
     #: Random candidates per side before the next side is tried (002 §5.1
     #: step 5, "several iterations").
     tries: int = 4
-    #: Sides tried per polygon (street sides first, then the others).
-    max_sides: int = 4
+    #: Sides tried per polygon (street sides first, then the others); sides
+    #: shorter than ``min_frontage`` are not tried.
+    max_sides: int = 6
     #: Degrees: consecutive edges on the same street turning less than this
     #: from the side's first edge form one side (002 §5.1 step 1).
     side_angle: float = 10.0
@@ -302,14 +306,16 @@ def shrink_block(block: shapely.Polygon, frontage: Sequence[Frontage]) -> shapel
     """The block minus every point closer than half a width to a frontage street (004 §6.1).
 
     Round buffers of the frontage lines (``_QUAD_SEGS`` points per quarter
-    circle) are subtracted: the exact per-edge offset, concave corners
-    included. Returns a Polygon, MultiPolygon or an empty geometry.
+    circle, drawn around the circle so that no point closer than the half
+    width survives; on straight streets they reach 0.5 % further) are
+    subtracted: the per-edge offset, concave corners included. Returns a
+    Polygon, MultiPolygon or an empty geometry.
     """
     if not frontage:
         return block
     lines = _lines(frontage)
     half = np.array([0.5 * f.width for f in frontage])
-    streets = shapely.buffer(lines, half, quad_segs=_QUAD_SEGS)
+    streets = shapely.buffer(lines, _CHORD * half, quad_segs=_QUAD_SEGS)
     return shapely.difference(block, shapely.union_all(streets))
 
 
@@ -347,7 +353,7 @@ def _label(ring: np.ndarray, frontage: Sequence[Frontage]) -> np.ndarray:
 
     An edge faces the frontage piece whose centre line is half its width
     from the edge's midpoint, within 0.25 m + 5 % of that half width (the
-    round buffers are chords of circles).
+    shrink's round buffers are polygons a little outside their circles).
     """
     labels = np.full(len(ring), NO_STREET, dtype=np.int64)
     if not frontage:
@@ -499,8 +505,8 @@ def _candidate_sides(ring: np.ndarray, sides: list[Side], opts: LotOptions) -> l
     """
     scored = []
     for side in sides:
-        if side.length < 1e-6:
-            continue
+        if side.length < max(opts.min_frontage, 1e-6):
+            continue  # pieces of the round corners, too short to cut from
         w, d = _extents(ring, (side.end - side.start) / side.length)
         need = min(opts.min_ratio, min(w, d) / max(w, d, 1e-12))
         if min(0.5 * w, d) / max(0.5 * w, d, 1e-12) < 0.8 * need:
@@ -518,11 +524,13 @@ def _split_once(ring: np.ndarray, labels: np.ndarray, opts: LotOptions, rng: np.
     leaves one part without access (that part is then discarded).
     """
     fallback = None
+    # below twice max_area, keep the split near enough the middle that both parts fit (no extra split)
+    spread = min(opts.offset_spread, max(0.9 * (opts.max_area / _ring_area(ring) - 0.5), 0.0))
     for side, need in _candidate_sides(ring, _sides(ring, labels, opts.side_angle), opts):
         chord = (side.end - side.start) / side.length
         normal = np.array([-chord[1], chord[0]])  # inward for a counter-clockwise ring
         for t_draw, a_draw in rng.random((opts.tries, 2)).tolist():
-            t = 0.5 + opts.offset_spread * (2.0 * t_draw - 1.0)
+            t = 0.5 + spread * (2.0 * t_draw - 1.0)
             angle = math.radians(opts.angle_spread * (2.0 * a_draw - 1.0))
             c, s = math.cos(angle), math.sin(angle)
             direction = np.array([c * normal[0] - s * normal[1], s * normal[0] + c * normal[1]])
@@ -637,7 +645,7 @@ def subdivide_blocks(blocks: Sequence[shapely.Polygon], frontages: Sequence[Sequ
     shrunk = list(blocks)
     if pieces:
         lines = _lines(pieces)
-        buffers = shapely.buffer(lines, np.array([0.5 * f.width for f in pieces]), quad_segs=_QUAD_SEGS)
+        buffers = shapely.buffer(lines, _CHORD * np.array([0.5 * f.width for f in pieces]), quad_segs=_QUAD_SEGS)
         offsets = np.concatenate([[0], np.cumsum([len(fr) for fr in frontages])])
         for b in range(len(blocks)):
             if offsets[b + 1] > offsets[b]:
