@@ -235,14 +235,17 @@ class Lot:
 
 def block_frontage(blocks: Sequence[shapely.Polygon], street_lines: Sequence[shapely.LineString],
                    street_ids: Sequence[int] | np.ndarray, widths: Sequence[float] | np.ndarray, *,
-                   tolerance: float = 0.5) -> list[list[Frontage]]:
-    """Frontage of every block from the streets whose centre lines bound it.
+                   tolerance: float = 0.5, inside: bool = True) -> list[list[Frontage]]:
+    """Frontage of every block from the streets whose centre lines bound it or run into it.
 
     Blocks that are faces of the street graph (:func:`osm_expand.blocks.blocks`)
     have every boundary edge on some street; each edge is given to the street
     nearest its midpoint within ``tolerance``, and consecutive edges of the
     same street become one :class:`Frontage`. Edges with no street that near
-    (water, the map edge) get no frontage.
+    (water, the map edge) get no frontage. With ``inside``, the parts of
+    streets that run inside a block (dead ends and loops that
+    simplification removed, the town's streets as mapped) are frontage too:
+    the shrink carves them out and lots along them get access.
 
     Parameters
     ----------
@@ -250,11 +253,14 @@ def block_frontage(blocks: Sequence[shapely.Polygon], street_lines: Sequence[sha
     street_lines : the streets' centre lines, metres.
     street_ids : (S,) int, the id of each street (≥ 0).
     widths : (S,) float, each street's full width (m).
-    tolerance : m, how far an edge's midpoint may be from its street.
+    tolerance : m, how far an edge's midpoint may be from its street; inside
+        pieces are taken from the block shrunk by this much.
+    inside : also take the streets inside blocks.
 
     Returns
     -------
-    Per block, its frontage pieces in boundary order.
+    Per block, its frontage pieces: the boundary's in boundary order, then
+    the inside ones by street.
     """
     ids = np.asarray(street_ids, dtype=np.int64)
     width = np.asarray(widths, dtype=float)
@@ -286,7 +292,25 @@ def block_frontage(blocks: Sequence[shapely.Polygon], street_lines: Sequence[sha
             idx = (first + np.arange(count)) % len(lab)
             line = np.vstack([a[idx], b[idx[-1:]]])
             out[owner[k]].append(Frontage(line=line, street=int(ids[s]), width=float(width[s])))
+    if inside:
+        _add_inside(out, blocks, street_lines, ids, width, tolerance)
     return out
+
+
+def _add_inside(out: list[list[Frontage]], blocks: Sequence[shapely.Polygon],
+                street_lines: Sequence[shapely.LineString], ids: np.ndarray, width: np.ndarray,
+                tolerance: float) -> None:
+    """Append the pieces of streets running inside each block (longer than twice the tolerance)."""
+    cores = shapely.buffer(np.array(list(blocks), dtype=object), -tolerance)
+    lines = np.array(list(street_lines), dtype=object)
+    b, s = shapely.STRtree(lines).query(cores, predicate="intersects")
+    order = np.lexsort((s, b))
+    b, s = b[order], s[order]
+    for block, street, geom in zip(b.tolist(), s.tolist(), shapely.intersection(lines[s], cores[b])):
+        for piece in shapely.get_parts(shapely.line_merge(geom) if geom.geom_type == "MultiLineString" else geom):
+            if piece.geom_type == "LineString" and piece.length > 2 * tolerance:
+                out[block].append(Frontage(line=np.asarray(piece.coords), street=int(ids[street]),
+                                           width=float(width[street])))
 
 
 def _runs(labels: np.ndarray) -> list[tuple[int, int]]:
@@ -406,26 +430,31 @@ def _clean(ring: np.ndarray, labels: np.ndarray) -> tuple[np.ndarray, np.ndarray
 
 
 def _sides(ring: np.ndarray, labels: np.ndarray, side_angle: float) -> list[Side]:
-    """Group consecutive edges into sides: same label, direction within ``side_angle`` of the side's first edge."""
+    """Group consecutive edges into sides: same label, direction within ``side_angle`` of the side's first edge.
+
+    A sequential scan (a side's direction is its first edge's), in plain
+    Python over lists: rings are short and numpy scalars are slow.
+    """
     n = len(ring)
     vec = _next(ring) - ring
     length = np.hypot(vec[:, 0], vec[:, 1])
     unit = vec / np.maximum(length, 1e-12)[:, None]
     cos_tol = math.cos(math.radians(side_angle))
-    prev = np.arange(-1, n - 1)
-    breaks = (labels != labels[prev]) | ((unit * unit[prev]).sum(axis=1) < cos_tol)
-    starts = np.flatnonzero(breaks)
-    first = int(starts[0]) if len(starts) else 0
-    sides, k, lab = [], first, labels.tolist()
+    ux, uy, lab = unit[:, 0].tolist(), unit[:, 1].tolist(), labels.tolist()
+    first = 0
+    for k in range(n):  # start at a break, so no side wraps past the start
+        if lab[k] != lab[k - 1] or ux[k] * ux[k - 1] + uy[k] * uy[k - 1] < cos_tol:
+            first = k
+            break
+    sides, k = [], first
     while k < first + n:
         i = k % n
-        j, c = k + 1, unit[i]
-        while j < first + n and lab[j % n] == lab[i] and float(unit[j % n] @ c) >= cos_tol:
+        cx, cy, j = ux[i], uy[i], k + 1
+        while j < first + n and lab[j % n] == lab[i] and ux[j % n] * cx + uy[j % n] * cy >= cos_tol:
             j += 1
-        count = j - k
         start, end = ring[i], ring[j % n]
-        sides.append(Side(start=start, end=end, street=int(lab[i]),
-                          length=float(np.hypot(*(end - start))), first=i, count=count))
+        sides.append(Side(start=start, end=end, street=lab[i], length=math.hypot(*(end - start).tolist()),
+                          first=i, count=j - k))
         k = j
     return sides
 
@@ -501,19 +530,22 @@ def _candidate_sides(ring: np.ndarray, sides: list[Side], opts: LotOptions) -> l
     polygon itself, for polygons (long strips) that are narrower already.
     A side is skipped when halving the polygon across it clearly cannot keep
     that ratio (estimated from the polygon's extents in the side's frame),
-    which spares the random tries of step 3 on hopeless sides.
+    which spares the random tries of step 3 on hopeless sides. Sides shorter
+    than ``min_frontage`` (pieces of round corners) are not cut from.
     """
-    scored = []
-    for side in sides:
-        if side.length < max(opts.min_frontage, 1e-6):
-            continue  # pieces of the round corners, too short to cut from
-        w, d = _extents(ring, (side.end - side.start) / side.length)
-        need = min(opts.min_ratio, min(w, d) / max(w, d, 1e-12))
-        if min(0.5 * w, d) / max(0.5 * w, d, 1e-12) < 0.8 * need:
-            continue
-        scored.append((side.street < 0, -side.length, len(scored), side, need))
-    scored.sort(key=lambda item: item[:3])
-    return [(side, need) for *_, side, need in scored[:opts.max_sides]]
+    sides = [side for side in sides if side.length >= max(opts.min_frontage, 1e-6)]
+    if not sides:
+        return []
+    axis = np.array([(side.end - side.start) / side.length for side in sides])  # (S, 2)
+    along = ring @ axis.T  # (N, S)
+    across = ring @ np.column_stack([-axis[:, 1], axis[:, 0]]).T
+    w = along.max(axis=0) - along.min(axis=0)
+    d = across.max(axis=0) - across.min(axis=0)
+    need = np.minimum(opts.min_ratio, np.minimum(w, d) / np.maximum(np.maximum(w, d), 1e-12))
+    half = np.minimum(0.5 * w, d) / np.maximum(np.maximum(0.5 * w, d), 1e-12)
+    keep = np.flatnonzero(half >= 0.8 * need)
+    order = sorted(keep.tolist(), key=lambda k: (sides[k].street < 0, -sides[k].length, k))
+    return [(sides[k], float(need[k])) for k in order[:opts.max_sides]]
 
 
 def _split_once(ring: np.ndarray, labels: np.ndarray, opts: LotOptions, rng: np.random.Generator):
