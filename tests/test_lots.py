@@ -172,6 +172,22 @@ def test_block_frontage_names_the_bounding_streets_and_covers_the_boundary():
             assert shapely.LineString(f.line).hausdorff_distance(lines[street].intersection(block.exterior)) < 1e-6
 
 
+def test_a_dead_end_inside_a_block_is_frontage_and_keeps_lots_off_it():
+    square = [[(0, 0), (200, 0)], [(200, 0), (200, 200)], [(200, 200), (0, 200)], [(0, 200), (0, 0)]]
+    found = blocks(network_from_lines(square))
+    lines = [shapely.LineString(s) for s in square] + [shapely.LineString([(100, 0), (100, 120)])]
+    frontage = block_frontage(found, lines, np.arange(5), np.full(5, 8.0))
+    inner = [f for f in frontage[0] if f.street == 4]
+    assert len(inner) == 1 and shapely.LineString(inner[0].line).length == pytest.approx(119.5)  # 0.5 m off the edge
+    # the dead end starts at the middle of the bottom edge, which still belongs to the bottom street
+    boundary = block_frontage(found, lines, np.arange(5), np.full(5, 8.0), inside=False)[0]
+    assert sorted(f.street for f in boundary) == [0, 1, 2, 3]
+    lots = subdivide(found[0], frontage[0], rng=np.random.default_rng(0))
+    assert any(4 in lot.streets for lot in lots)  # lots along the dead end face it
+    assert all(lot.polygon.distance(lines[4]) >= 4.0 - 1e-6 for lot in lots)
+    assert_disjoint(lots)
+
+
 def test_subdivide_blocks_uses_each_blocks_land_use():
     net = network_from_lines(grid_lines())
     found = blocks(net)

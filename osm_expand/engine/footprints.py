@@ -28,12 +28,17 @@ front setback ("how far a building can move back from the front setback").
 **Sizes from the town** (issue: "size distributions start from the town's
 own buildings"). :func:`calibrate_sizes` measures the town's footprints —
 area, and frontage and depth from each footprint's minimum rotated
-rectangle, frontage being the side more parallel to the nearest street. Each
-generated building then draws a size target (area and frontage/depth ratio)
-from the town's footprints within its land use's quantile band
-(``size_band``), so the generated footprint-area distribution follows the
-town's wherever the lot is big enough; :func:`calibrated_lot_options` sizes
-the lots to hold those buildings (see there for the footprint → lot mapping).
+rectangle, frontage being the side more parallel to the nearest street.
+Each lot first gets its largest rectangle (its *room*); then, per land use,
+lots ranked by room take the town's footprints ranked by area within the
+land use's quantile band (``size_band``), each rank moved by a little noise
+(``size_noise``): big lots get big buildings, and the building is the
+largest rectangle in the room no larger than its target, shaped like it.
+So the generated footprint-area distribution follows the town's as long as
+the lots have the room; :func:`calibrated_lot_options` sizes the lots for
+that (see there for the footprint → lot mapping). A random pairing of lots
+and targets instead left the median 17–26 % short on Krems and Andorra,
+because big targets fell on small lots.
 """
 from __future__ import annotations
 
@@ -418,15 +423,18 @@ def place_buildings(lots: Sequence[Lot], *, traffic_per_street: Mapping[int, flo
     options : :class:`FootprintOptions` per land use.
     rng : the run's random generator: three setback draws per block, two
         draws per lot, in order, whatever is built.
-    sizes : the town's footprint sizes (:func:`calibrate_sizes`); without
-        them each land use's ``target_area``/``target_ratio`` apply.
+    sizes : the town's footprint sizes (:func:`calibrate_sizes`): lots
+        ranked by room get the town's footprints ranked by area (module
+        docstring); without them each land use's ``target_area`` and
+        ``target_ratio`` apply.
     obstacles : geometries no building may touch (streets crossing a block
         without bounding it, the town's existing buildings).
     resolution : m, sweep grid spacing.
 
     Returns
     -------
-    The footprints, in lot order, at most one per lot.
+    The footprints, in lot order, at most one per lot. Heights are not
+    set here (the economy model, 002 §5.2, gives them).
     """
     uses = [land_use(lot.land_use) for lot in lots]
     for u in set(uses):
@@ -541,10 +549,13 @@ def calibrated_lot_options(sizes: SizeTargets, *,
     (upper ends of the setback ranges, f including the front variation, ρ
     the town's median). Recursive halving leaves lots between about half
     and all of ``max_area``, so ``max_area = lot_factor · need(A₇₅)`` with
-    A₇₅ the area at three quarters of the land use's size band: with the
-    default factor most lots hold the building they draw, and the
-    generated footprint median stays within a few per cent of the town's
-    (measured on Krems and Andorra, see ``benchmarks/lots_speed.py``).
+    A₇₅ the area at three quarters of the land use's size band. With the
+    default factor the lots hold the buildings :func:`place_buildings`
+    gives them by rank, and the generated footprint-area median lands
+    within 1 % of the town's on Krems and Andorra with only low-density
+    housing, and 7–10 % above it with a mix of land uses
+    (``benchmarks/lots_speed.py``, ``--mix``); lot_factor 1.6 with A₅₀
+    instead gave 7–17 % below.
     ``min_area`` is lowered to a third of ``max_area`` where it would
     otherwise block splitting. Land uses without buildings keep their options.
     """

@@ -1,41 +1,49 @@
 """Lots: blocks split recursively into street-facing parcels (002 §5.1 with 004 §4.3.3).
 
 A block arrives as a polygon bounded by street centre lines, with its
-*frontage*: the pieces of its boundary that are streets, each with the
-street's id and width. Subdivision then runs in three steps:
+*frontage*: the streets along its boundary (and, optionally, the streets
+that run into it), each with the street's id and width
+(:func:`block_frontage` finds them). Subdivision then runs in three steps:
 
 1. **Shrink** (004 §6.1). The block loses every point closer than half a
    street's width to that street's centre line: the block minus the round
-   buffers of its frontage pieces. This is the exact per-edge offset 004
-   wished for (a straight-skeleton shrink, not a shrink about the centre,
-   so concave blocks stay inside themselves), and it keeps every lot, and
-   so every building, off the streets. Holes (a separate piece of network
-   inside a block) are cut open by a line across each hole first.
+   buffers of its frontage pieces. This is the per-edge offset 004 wished
+   for (a straight-skeleton shrink, not a shrink about the centre, so
+   concave blocks stay inside themselves), and it keeps every lot, and so
+   every building, off the streets. Holes (a separate piece of network
+   inside a block) are then cut open by a line across each hole.
 2. **Label.** Each edge of the shrunk ring that runs at half a width from a
    frontage piece faces that street; the other edges (water, map edge,
    cuts) face none. Labels travel with the edges through every split, so a
    lot always knows which streets it fronts.
 3. **Split** (002 §5.1, steps 1–5). While a polygon is larger than the land
    use's ``max_area``: (1) consecutive edges on the same street within
-   ``side_angle`` of each other form one *side* (collinear edges merged);
-   (2) the longest street side is chosen — 004's preference for "one of
-   the three longest edges with street access" picks the same side whenever
-   such an edge exists; (3) a split line starts at a random point of the
-   side's middle region (``offset_spread``), approximately perpendicular to
-   it (``angle_spread``), and runs into the polygon to the *first* edge it
+   ``side_angle`` of the side's first edge form one *side* (collinear edges
+   merged); (2) street sides are tried first, longest first — 004's
+   preference for "one of the three longest edges with street access"
+   picks the same side whenever such an edge exists; (3) a split line
+   starts at a random point of the side's middle region
+   (``offset_spread``; narrower when the polygon is under twice
+   ``max_area``, so both halves fit), approximately perpendicular to it
+   (``angle_spread``), and runs into the polygon to the *first* edge it
    meets, so a concave polygon is cut at the nearest intersected edge
-   (004 figure 8); (4) the split is taken when both parts keep a width to
-   length ratio of at least ``min_ratio``; (5) after ``tries`` failed
-   candidates on a side, the next street side and then the sides not on a
-   street are tried (002's fallback). If no candidate keeps the ratio, the
-   best-ratio split whose parts are both at least ``min_area`` is forced, so
-   lots stay under ``max_area``; without such a split the polygon stays one
-   lot.
+   (004 figure 8); (4) the split is taken when both parts are at least
+   ``min_area``, keep a width/length ratio of at least ``min_ratio`` (or,
+   for a polygon narrower than that already, at least its own) and both
+   front a street; (5) after ``tries`` candidates on a side, the next street
+   side and then the sides not on a street are tried (002's fallback);
+   sides that cannot keep the ratio are skipped. A split that leaves one
+   part without access is taken only when no candidate gives both parts
+   access. Without any acceptable split the polygon stays one lot, larger
+   than ``max_area`` (rare: odd wedges).
 
-Parts without street access are discarded (004 §4.3.3; this wins over the
-fallback of step 5, whose back parts are dropped rather than kept), as are
-lots smaller than ``min_area`` or whose longest street side is shorter than
-``min_frontage``.
+Parts without street access are discarded (004 §4.3.3; this wins over 002's
+fallback, whose back parts are dropped rather than kept), as are lots
+smaller than ``min_area`` or whose longest street side is shorter than
+``min_frontage``. A cut from a street side always leaves both parts on that
+street, so land is lost only behind deep lots and in the middle of blocks
+too deep for lots from every side (about a quarter of a 150 m square block,
+most of a field between villages).
 
 002's table of ``maxarea``/``minratio`` per land use is missing from the
 text; the defaults in :data:`DEFAULT_LOT_OPTIONS` are plausible European
@@ -58,7 +66,7 @@ import shapely.ops
 from osm_expand.errors import InputError
 
 __all__ = [
-    "DEFAULT_LOT_OPTIONS", "Frontage", "LandUse", "Lot", "LotOptions", "Side",
+    "DEFAULT_LOT_OPTIONS", "NO_STREET", "Frontage", "LandUse", "Lot", "LotOptions", "Side",
     "block_frontage", "land_use", "shrink_block", "subdivide", "subdivide_blocks",
 ]
 
@@ -100,8 +108,8 @@ class LotOptions:
     max_area: float = 900.0
     #: Width/length of each part of a split, at least (002 §5.1 minratio_t).
     min_ratio: float = 0.3
-    #: Lots smaller than this (m²) are discarded, and no split may make one
-    #: unless it is forced; too small for a building with its setbacks.
+    #: m²: no split may make a smaller part, and smaller lots are discarded:
+    #: too small for a building with its setbacks.
     min_area: float = 150.0
     #: m: a lot whose longest street side is shorter has no usable access.
     min_frontage: float = 8.0
@@ -151,7 +159,7 @@ DEFAULT_LOT_OPTIONS: Mapping[LandUse, LotOptions] = MappingProxyType({
 
 @dataclass(frozen=True, eq=False)
 class Frontage:
-    """A piece of a block's boundary that is a street.
+    """A street along a block's boundary (or running into the block).
 
     ``line`` is the street's centre line along the block, ``(M, 2)`` metres
     (M ≥ 2); ``street`` the street's id (≥ 0); ``width`` its full width (m).
@@ -276,11 +284,7 @@ def block_frontage(blocks: Sequence[shapely.Polygon], street_lines: Sequence[sha
         return out
     starts = np.vstack([r[:-1] for r in rings])
     ends = np.vstack([r[1:] for r in rings])
-    mids = shapely.points(0.5 * (starts + ends))
-    tree = shapely.STRtree(list(street_lines))
-    found, hit = tree.query_nearest(mids, max_distance=tolerance, all_matches=False)
-    nearest = np.full(len(mids), -1, dtype=np.int64)
-    nearest[found] = hit
+    nearest = _edge_streets(starts, ends, street_lines, tolerance)
     offsets = np.concatenate([[0], np.cumsum([len(r) - 1 for r in rings])])
     for k in range(len(rings)):
         lab = nearest[offsets[k]:offsets[k + 1]]
@@ -295,6 +299,30 @@ def block_frontage(blocks: Sequence[shapely.Polygon], street_lines: Sequence[sha
     if inside:
         _add_inside(out, blocks, street_lines, ids, width, tolerance)
     return out
+
+
+def _edge_streets(starts: np.ndarray, ends: np.ndarray, street_lines: Sequence[shapely.LineString],
+                  tolerance: float) -> np.ndarray:
+    """Index of the street each edge (E, 2)→(E, 2) lies on, or -1.
+
+    An edge lies on the street whose line is nearest to both its ends and its
+    midpoint (the largest of the three distances, at most ``tolerance``), so a
+    street merely touching an edge's midpoint (a dead end leaving it) does not take it.
+    """
+    lines = np.array(list(street_lines), dtype=object)
+    mids = shapely.points(0.5 * (starts + ends))
+    edge, cand = shapely.STRtree(lines).query(mids, predicate="dwithin", distance=tolerance)
+    worst = np.maximum.reduce([shapely.distance(shapely.points(starts[edge]), lines[cand]),
+                               shapely.distance(mids[edge], lines[cand]),
+                               shapely.distance(shapely.points(ends[edge]), lines[cand])])
+    order = np.lexsort((cand, worst, edge))  # per edge, the best candidate first
+    edge, cand, worst = edge[order], cand[order], worst[order]
+    first = np.ones(len(edge), dtype=bool)
+    first[1:] = edge[1:] != edge[:-1]
+    nearest = np.full(len(starts), -1, dtype=np.int64)
+    ok = first & (worst <= tolerance)
+    nearest[edge[ok]] = cand[ok]
+    return nearest
 
 
 def _add_inside(out: list[list[Frontage]], blocks: Sequence[shapely.Polygon],
