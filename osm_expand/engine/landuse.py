@@ -647,13 +647,16 @@ def lot_layout(xy: NDArray[np.float64], area: NDArray[np.float64],
         knn = np.zeros((n, 0), dtype=np.int64)
     r = options.influence_radius
     pairs = tree.query_pairs(r, output_type="ndarray") if n > 1 else np.zeros((0, 2), np.int64)
-    i = np.concatenate([pairs[:, 0], pairs[:, 1]]).astype(np.int64)
-    j = np.concatenate([pairs[:, 1], pairs[:, 0]]).astype(np.int64)
-    d = np.hypot(*(xy[i] - xy[j]).T) if len(i) else np.zeros(0)
-    w = _kernel(d, area[j], r)
-    weights = sparse.csr_matrix((w, (i, j)), shape=(n, n))
-    weights.sum_duplicates()
-    by_source = weights.T.tocsr()
+    d = np.hypot(*(xy[pairs[:, 0]] - xy[pairs[:, 1]]).T) if len(pairs) else np.zeros(0)
+    kernel = np.clip(1.0 - d / r, 0.0, None)
+    # the distance kernel is symmetric: one CSR serves both directions, scaled by
+    # the neighbour's area (rows of ``weights``) or the row lot's own area (``by_source``)
+    sym = sparse.coo_matrix((np.concatenate([kernel, kernel]),
+                             (np.concatenate([pairs[:, 0], pairs[:, 1]]),
+                              np.concatenate([pairs[:, 1], pairs[:, 0]]))), shape=(n, n)).tocsr()
+    row_of = np.repeat(np.arange(n), np.diff(sym.indptr))
+    weights = sparse.csr_matrix((sym.data * area[sym.indices], sym.indices, sym.indptr), shape=(n, n))
+    by_source = sparse.csr_matrix((sym.data * area[row_of], sym.indices, sym.indptr), shape=(n, n))
     rows = knn.ravel()
     order = np.argsort(rows, kind="stable")
     rk_indices = np.repeat(np.arange(n, dtype=np.int64), k)[order]
@@ -807,43 +810,55 @@ class _State:
         self.lut = lut.copy()
         self.k = layout.knn.shape[1]
         self.counts, self.sums = _type_counts(layout, self.lut, ct.n)
+        #: (type, influencing type, term) of every influence term; listens[t, s]: t has one on s
+        self.influence_terms = [(t, term.code - _INFLUENCE_CODE, term) for t, terms in enumerate(ct.terms)
+                                for term in terms if term.code >= _INFLUENCE_CODE]
+        self.listens = np.zeros((ct.n, ct.n), dtype=bool)
+        for t, s_, _ in self.influence_terms:
+            self.listens[t, s_] = True
         self.refresh()
 
-    def refresh(self) -> None:
+    def refresh(self, rows: NDArray[np.int64] | None = None) -> None:
+        """Recompute the lots' values under every type (all lots, or only ``rows``)."""
         lay = self.layout
-        self.values = _values(self.ct, lay.attributes, self.counts, self.sums, lay.weight_sums, self.k)
+        if rows is None:
+            self.values = _values(self.ct, lay.attributes, self.counts, self.sums, lay.weight_sums, self.k)
+        elif len(rows):
+            self.values[rows] = _values(self.ct, lay.attributes[rows], self.counts[rows], self.sums[rows],
+                                        lay.weight_sums[rows], self.k)
 
     def externalities(self, lots: NDArray[np.int64], old: NDArray[np.int64],
                       new: NDArray[np.int64]) -> NDArray[np.float64]:
         """Σ_v area_v Δluv_v over the neighbours v whose attributes change when lots go old → new."""
         lay, ct, lut = self.layout, self.ct, self.lut
         total = np.zeros(len(lots))
-        # influence: v's kernel sums of old and new type shift by w(v, i)
+        # influence: v's kernel sums of old and new type shift by w(v, i); only
+        # neighbours whose type has a term on the influence of either count
+        n_t = ct.n
         wt = lay.weights_by_source
         owner, pos = _ragged(wt.indptr, lots)
         v = wt.indices[pos]
         tv = lut[v]
-        keep = tv >= 0
-        owner, v, tv, w = owner[keep], v[keep], tv[keep], wt.data[pos][keep]
+        a, b = old[owner], new[owner]
+        tvc = np.maximum(tv, 0)
+        keep = (tv >= 0) & (self.listens[tvc, a] | self.listens[tvc, b])
+        owner, v, a, b, w = owner[keep], v[keep], a[keep], b[keep], wt.data[pos][keep]
         if len(v):
-            ws = np.where(lay.weight_sums[v] > 0, lay.weight_sums[v], 1.0)
+            tv = tv[keep]
+            ws = lay.weight_sums[v]
+            ws = np.where(ws > 0, ws, 1.0)
             dw = w / ws
-            a, b = old[owner], new[owner]
-            xa = self.sums[v, a] / ws
-            xb = self.sums[v, b] / ws
+            sums = self.sums.reshape(-1)
+            key_a, key_b = tv * n_t + a, tv * n_t + b
             delta = np.zeros(len(v))
-            for t, terms in enumerate(ct.terms):
-                of_t = tv == t
-                for term in terms:
-                    if term.code < _INFLUENCE_CODE:
-                        continue
-                    s = term.code - _INFLUENCE_CODE
-                    for mask, x, step in ((of_t & (a == s), xa, -dw), (of_t & (b == s), xb, dw)):
-                        if mask.any():
-                            x0 = x[mask]
-                            delta[mask] += term.weight * (
-                                valuate(term.kind, x0 + step[mask], term.low, term.high, gain=term.gain)
-                                - valuate(term.kind, x0, term.low, term.high, gain=term.gain))
+            for t, s, term in self.influence_terms:
+                for keys, sign in ((key_a, -1.0), (key_b, 1.0)):
+                    m = np.flatnonzero(keys == t * n_t + s)
+                    if len(m):
+                        x0 = sums[v[m] * n_t + s] / ws[m]
+                        delta[m] += term.weight * (
+                            valuate(term.kind, x0 + sign * dw[m], term.low, term.high, gain=term.gain)
+                            - valuate(term.kind, x0, term.low, term.high, gain=term.gain))
             total += np.bincount(owner, weights=lay.area[v] * delta, minlength=len(lots))
         # cluster: v's count of its own type moves by ±1 when i is among its k nearest
         if self.k:
@@ -879,6 +894,7 @@ class _State:
         was = old[owner] >= 0
         flat -= np.bincount(v[was] * n_t + old[owner][was], weights=w[was], minlength=flat.size)
         flat += np.bincount(v * n_t + new[owner], weights=w, minlength=flat.size)
+        touched = [lots, v]
         if self.k:
             owner, pos = _ragged(lay.reverse_knn_indptr, lots)
             v = lay.reverse_knn_indices[pos]
@@ -886,8 +902,10 @@ class _State:
             was = old[owner] >= 0
             cflat -= np.bincount(v[was] * n_t + old[owner][was], minlength=cflat.size)
             cflat += np.bincount(v * n_t + new[owner], minlength=cflat.size)
+            touched.append(v)
         self.lut[lots] = new
-        self.refresh()
+        rows = np.unique(np.concatenate(touched))
+        self.refresh(rows if len(rows) < lay.n // 2 else None)
 
 
 def _chunks(order: NDArray[np.int64], size: int) -> Iterable[NDArray[np.int64]]:
