@@ -121,10 +121,13 @@ def test_fitted_scale_puts_the_generated_median_on_the_tagged_one():
     assert abs(np.median(heights) / cal.median - 1) < 0.25
     q = np.quantile(heights, [0.25, 0.75])
     assert q[1] / q[0] == pytest.approx(cal.quartiles[1] / cal.quartiles[0], rel=0.35)
-    # without tags the spread stays the model's and the median is the default
+    # without tags: the default median and quartiles (2, 3, 4 floors)
     default = ec.calibrate_heights(np.full(3, np.nan), np.full(3, np.nan))
     s = ec.fit_height_scale(raw, default)
-    assert s.b == 1.0 and s.a * np.median(raw[raw > 0]) == pytest.approx(3.0)
+    assert s.a * np.median(raw[raw > 0]) ** s.b == pytest.approx(3.0)
+    q = np.quantile(ec.building_floors(raw, np.ones(n, int), s), [0.25, 0.5, 0.75])
+    np.testing.assert_allclose(q, [2, 3, 4], atol=0.5)
+    assert ec.fit_height_scale(raw, default, options=EconomyOptions(match_spread=False)).b == 1.0
 
 
 def test_building_floors_are_whole_at_least_one_and_capped_per_type():

@@ -124,12 +124,12 @@ def test_influence_counts_near_lots_more_than_far_ones_and_ignores_lots_beyond_r
         4 * w_far / (w_near + 4 * w_far))
 
 
-def test_distances_are_shares_of_the_city_extent_and_one_without_features():
+def test_centre_distance_is_a_share_of_the_extent_water_and_green_are_in_km():
     xy = np.array([[0.0, 0.0], [300.0, 400.0]])  # extent = 500 m
     water = [shapely.LineString([(0, 100), (300, 100)])]
     a = lu.lot_attributes(xy, centres=[[0.0, 0.0]], water=water)
     np.testing.assert_allclose(a[:, 0], [0.0, 1.0])
-    np.testing.assert_allclose(a[:, 1], [0.2, 0.6])
+    np.testing.assert_allclose(a[:, 1], [0.1, 0.3])
     np.testing.assert_allclose(a[:, 2], [1.0, 1.0])  # no park or forest
     assert np.isnan(a[:, 4:]).all()  # no height source
     b = lu.lot_attributes(xy, centres=[[0.0, 0.0]], extent=1000.0, water_distance=[50.0, 5000.0])
@@ -319,13 +319,13 @@ def test_calibration_takes_shares_from_the_towns_own_tags_with_nested_polygons()
     polygons = [(square(0, 0, 100), "residential"), (square(10, 10, 20), "park"),
                 (square(200, 0, 50), "industrial"), (square(300, 0, 50), "retail"),
                 (square(400, 0, 100), "forest"), (square(500, 0, 10), "farmland")]
-    cal = lu.calibrate_landuse(polygons, town_area=20_000.0)
     mapped = 10_000 + 2_500 + 2_500
+    cal = lu.calibrate_landuse(polygons, town_area=mapped / 0.9)
     names = [t.name for t in lu.DEFAULT_TYPES]
     expect = {"residential_low": 9_600, "park": 400, "industrial": 2_500, "commercial": 2_500}
     for name, a in expect.items():
         assert cal.shares[names.index(name)] == pytest.approx(a / mapped)
-    assert cal.coverage == pytest.approx(mapped / 20_000) and cal.weight == 1.0
+    assert cal.coverage == pytest.approx(0.9) and cal.weight == 1.0
     np.testing.assert_allclose(cal.goals, cal.shares)
     assert dict(cal.ignored) == {"forest": 1, "farmland": 1}
     assert [t.goal for t in cal.with_goals(lu.DEFAULT_TYPES)] == pytest.approx(cal.goals.tolist())
@@ -333,18 +333,29 @@ def test_calibration_takes_shares_from_the_towns_own_tags_with_nested_polygons()
 
 def test_calibration_splits_dense_housing_and_blends_thin_coverage_with_the_defaults():
     houses = [square(5 + 20 * i, 5, 15) for i in range(5)]  # 5 × 225 m² on 1 ha: sparse
-    blocks = [square(205, 5, 90), square(205, 50, 90)]  # half of the second hectare covered by blocks
+    blocks = [shapely.box(200, 0, 300, 25), shapely.box(200, 50, 300, 75)]  # half of the second hectare
     polygons = [(square(0, 0, 100), "residential"), (square(200, 0, 100), "residential")]
-    cal = lu.calibrate_landuse(polygons, town_area=20_000.0, buildings=houses + [b.intersection(square(200, 0, 100))
-                                                                             for b in blocks])
+    cal = lu.calibrate_landuse(polygons, town_area=20_000.0, buildings=houses + blocks)
     names = [t.name for t in lu.DEFAULT_TYPES]
     assert cal.shares[names.index("residential_low")] == pytest.approx(0.5)
     assert cal.shares[names.index("residential_high")] == pytest.approx(0.5)
-    thin = lu.calibrate_landuse(polygons, town_area=400_000.0)  # 5 % coverage → weight 0.2
-    assert thin.weight == pytest.approx(0.2)
-    np.testing.assert_allclose(thin.goals, 0.2 * thin.shares + 0.8 * lu.goal_shares(lu.DEFAULT_TYPES))
+    thin = lu.calibrate_landuse(polygons, town_area=100_000.0)  # 20 % coverage → weight 0.25
+    assert thin.weight == pytest.approx(0.25)
+    np.testing.assert_allclose(thin.goals, 0.25 * thin.shares + 0.75 * lu.goal_shares(lu.DEFAULT_TYPES))
+    # coverage by buildings: two houses in mapped land, two outside → half
+    outside = [square(1000 + 20 * i, 0, 15) for i in range(2)]
+    by_houses = lu.calibrate_landuse(polygons, town_area=1.0, buildings=houses[:2] + outside)
+    assert by_houses.coverage == pytest.approx(0.5) and by_houses.weight == pytest.approx(0.5 / 0.8)
     none = lu.calibrate_landuse([(square(0, 0, 10), "forest")], town_area=1e6)
     np.testing.assert_allclose(none.goals, lu.goal_shares(lu.DEFAULT_TYPES))
+
+
+def test_calibration_clips_land_use_to_the_town_outline():
+    polygons = [(square(0, 0, 100), "residential"), (square(100, 0, 900), "industrial")]
+    cal = lu.calibrate_landuse(polygons, square(0, 0, 200))  # the industrial valley is mostly outside
+    names = [t.name for t in lu.DEFAULT_TYPES]
+    assert cal.shares[names.index("residential_low")] == pytest.approx(10_000 / 30_000)  # not 10k / 820k
+    assert cal.coverage == pytest.approx(30_000 / 40_000)
 
 
 def test_types_from_polygons_reads_the_type_under_each_lot():

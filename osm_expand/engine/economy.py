@@ -32,10 +32,10 @@ shape), ``economy`` is 002 alone (``s = ε = D = 1``).
 Calibration: ``storey_height`` is the median ``height / building:levels``
 of the town's buildings that carry both tags (else 3 m); the target height
 distribution is that of the tagged buildings (``height``, or ``levels ×
-storey`` where only levels are tagged). Floors are ``round(a · raw^b)``,
-at least 1, at most the type's ``max_floors``; :func:`fit_height_scale` picks
-``a`` so that the median lands on the town's tagged median and, when the town
-has tags, ``b`` so that the quartile ratio matches too. Fit once (on the first
+storey`` where only levels are tagged), else 2–3–4 floors (quartiles and
+median). Floors are ``round(a · raw^b)``, at least 1, at most the type's
+``max_floors``; :func:`fit_height_scale` picks ``a`` so that the median lands
+on the target median and ``b`` so that the quartile ratio matches too. Fit once (on the first
 year's lots) and keep it: a rising ``avgprice(t)`` then raises the city, as 002
 intends. Height = floors × storey height.
 
@@ -133,9 +133,11 @@ class EconomyOptions:
     #: Without tags: the median floors of generated buildings (a Central-European
     #: small town: two to four storeys, three typical) ...
     default_median_floors: float = 3.0
-    #: ... and, for reports, the quartiles (floors).
+    #: ... and their quartiles (floors).
     default_quartile_floors: tuple[float, float] = (2.0, 4.0)
-    #: Fit the quartile ratio of tagged heights too (``b`` of ``a · raw^b``) ...
+    #: Fit the quartile ratio of the target heights too (``b`` of ``a · raw^b``;
+    #: without tags the default quartiles: the economy's lot values alone spread
+    #: floors five-fold between the quartiles, more than towns show) ...
     match_spread: bool = True
     #: ... with ``b`` kept within [1/this, this].
     max_spread_exponent: float = 2.0
@@ -373,8 +375,9 @@ def fit_height_scale(raw: NDArray[np.float64], calibration: HeightCalibration, *
     -------
     HeightScale
         ``a·median(raw)^b`` = target median floors (``median / storey``);
-        ``b`` matches the quartile ratio when ``match_spread`` and the town has
-        tags, within ``[1/max_spread_exponent, max_spread_exponent]``; else 1.
+        ``b`` matches the quartile ratio of the target (the town's tagged
+        heights, else the default quartiles) when ``match_spread``, within
+        ``[1/max_spread_exponent, max_spread_exponent]``; else 1.
     """
     r = np.asarray(raw, dtype=np.float64)
     r = r[r > 0]
@@ -384,7 +387,7 @@ def fit_height_scale(raw: NDArray[np.float64], calibration: HeightCalibration, *
     q25, m, q75 = np.quantile(r, [0.25, 0.5, 0.75])
     b = 1.0
     t25, t75 = calibration.quartiles
-    if options.match_spread and calibration.from_tags and q75 > q25 > 0 and t75 > t25 > 0:
+    if options.match_spread and q75 > q25 > 0 and t75 > t25 > 0:
         b = float(np.log(t75 / t25) / np.log(q75 / q25))
         lim = options.max_spread_exponent
         b = float(np.clip(b, 1.0 / lim, lim))

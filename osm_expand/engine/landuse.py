@@ -17,10 +17,15 @@ Lot attributes (002 §4.3), all vectorised over lots:
   describes: ``w(i, v) = area_v · (1 − d_iv / r)`` for ``0 < d_iv < r``, the lot
   itself excluded; ``influence_s(i) = Σ w [type_v = s] / Σ w`` (0 with no
   neighbour).
-- ``center_dist``, ``water_dist``, ``green_dist`` (park/forest): Euclidean
-  distances divided by the city's extent (002: "the longest distance in the
-  urban configuration"; here the diagonal of the lots' bounding box unless the
-  caller gives one), clipped to [0, 1]; 1 when the town has no such feature.
+- ``center_dist``: the Euclidean distance to the nearest centre divided by
+  the city's extent (002: "the longest distance in the urban configuration";
+  here the diagonal of the lots' bounding box unless the caller gives one),
+  clipped to [0, 1].
+- ``water_dist``, ``green_dist`` (park/forest): distances in kilometres
+  (``amenity_distance_unit``), clipped to [0, 1]; 1 when the town has no such
+  feature. 002 divides these by the extent too, but being by the river is a
+  matter of metres whatever the town's size: on a 15 km extract (north of
+  Bayreuth) a quarter of the extent put every lot "by the water".
 - ``traffic``: the summed traffic of a lot's adjacent streets (the caller's
   array) divided by its 95th percentile over the city's lots and clipped to
   [0, 1], so that bounds carry over between towns (002 uses raw volumes).
@@ -181,8 +186,9 @@ class LandUseType:
 
 _T = ValuationTerm
 #: The bundled types. 002's own table of seven types is in its missing
-#: supplement, so the weights and bounds are ours (distances are shares of the
-#: city's extent, traffic a share of the 95th percentile):
+#: supplement, so the weights and bounds are ours (centre distance a share of
+#: the city's extent, water and green distances in km, traffic a share of the
+#: 95th percentile):
 #:
 #: - low-density residential (40 %): near its own kind (cluster), away from
 #:   industry, towards the edge (cheaper land, detached houses), on quiet
@@ -198,26 +204,26 @@ _T = ValuationTerm
 #:   that are hard to build on.
 DEFAULT_TYPES: tuple[LandUseType, ...] = (
     LandUseType("residential_low", 0.40, (
-        _T(0.25, "linear_up", "cluster", 0.3, 0.9),
+        _T(0.30, "linear_up", "cluster", 0.3, 0.9),
         _T(0.20, "linear_down", "influence", 0.0, 0.3, of_type="industrial"),
-        _T(0.20, "linear_up", "center_dist", 0.1, 0.6),
+        _T(0.15, "linear_up", "center_dist", 0.05, 0.35),
         _T(0.15, "linear_down", "traffic", 0.2, 0.8),
-        _T(0.10, "gain_down", "green_dist", 0.05, 0.4),
+        _T(0.10, "gain_down", "green_dist", 0.05, 0.5),
         _T(0.05, "linear_down", "slope", 0.15, 0.35),
         _T(0.05, "linear_up", "elevation", 0.2, 0.8),
     )),
     LandUseType("residential_high", 0.20, (
         _T(0.25, "linear_up", "cluster", 0.3, 0.9),
-        _T(0.25, "linear_down", "center_dist", 0.1, 0.5),
+        _T(0.25, "linear_down", "center_dist", 0.05, 0.3),
         _T(0.15, "gain_up", "influence", 0.0, 0.3, of_type="commercial"),
         _T(0.15, "linear_down", "influence", 0.0, 0.3, of_type="industrial"),
         _T(0.10, "step", "traffic", 0.1, 0.9),
-        _T(0.05, "linear_down", "green_dist", 0.05, 0.4),
+        _T(0.05, "linear_down", "green_dist", 0.05, 0.5),
         _T(0.05, "linear_down", "slope", 0.1, 0.3),
     )),
     LandUseType("commercial", 0.12, (
         _T(0.35, "linear_up", "traffic", 0.2, 0.9),
-        _T(0.30, "gain_down", "center_dist", 0.0, 0.4),
+        _T(0.30, "gain_down", "center_dist", 0.0, 0.2),
         _T(0.20, "linear_up", "cluster", 0.2, 0.8),
         _T(0.15, "gain_up", "influence", 0.0, 0.4, of_type="residential_high"),
     )),
@@ -226,11 +232,11 @@ DEFAULT_TYPES: tuple[LandUseType, ...] = (
         _T(0.25, "linear_up", "cluster", 0.3, 0.9),
         _T(0.15, "linear_down", "influence", 0.1, 0.6, of_type="residential_low"),
         _T(0.10, "linear_down", "influence", 0.1, 0.6, of_type="residential_high"),
-        _T(0.15, "linear_up", "center_dist", 0.2, 0.7),
+        _T(0.15, "linear_up", "center_dist", 0.1, 0.4),
         _T(0.05, "linear_down", "slope", 0.05, 0.2),
     )),
     LandUseType("park", 0.15, (
-        _T(0.30, "gain_down", "water_dist", 0.0, 0.25),
+        _T(0.30, "gain_down", "water_dist", 0.0, 0.3),
         _T(0.25, "linear_down", "green_dist", 0.0, 0.3),
         _T(0.20, "linear_up", "cluster", 0.1, 0.6),
         _T(0.15, "linear_down", "traffic", 0.1, 0.6),
@@ -271,6 +277,8 @@ class LandUseOptions:
     chunk_share: float = 0.02
     #: ... and at least this many.
     min_chunk: int = 32
+    #: Length (m) that water and green distances are divided by (then clipped to 1).
+    amenity_distance_unit: float = 1000.0
     #: Traffic is divided by this quantile of the lots' traffic.
     traffic_quantile: float = 0.95
     #: Calibration: a residential polygon whose building footprints cover more
@@ -278,9 +286,12 @@ class LandUseOptions:
     #: ground coverage, detached houses 10–25 %).
     high_density_coverage: float = 0.30
     #: Calibration: the town's own shares replace the bundled goals fully when
-    #: its mapped land use covers at least this share of the town; below, the
-    #: goals blend in proportion (a town with two tagged polygons says little).
-    min_calibration_coverage: float = 0.25
+    #: its mapped land use holds at least this share of its buildings' footprint
+    #: area (of the town area without buildings); below, the goals blend in
+    #: proportion. OSM maps industry and shops long before housing (Krems 2013:
+    #: 59 % of the mapped land is industrial, most houses sit in no polygon), so
+    #: only a nearly complete map may speak for the whole town.
+    min_calibration_coverage: float = 0.8
 
 
 # --------------------------------------------------------------------------- valuation functions
@@ -510,9 +521,9 @@ def lot_attributes(xy: NDArray[np.float64], *, centres: NDArray[np.float64],
     centres : ndarray, shape (C, 2)
         The city centre(s) (m); ``center_dist`` is to the nearest.
     extent : float, optional
-        The length (m) distances are divided by; default the diagonal of the
-        lots' bounding box (002: "the longest distance in the urban
-        configuration").
+        The length (m) the centre distance is divided by; default the
+        diagonal of the lots' bounding box (002: "the longest distance in the
+        urban configuration").
     water, green : sequence of shapely geometries
         Water, and park/forest areas; ignored when the matching
         ``*_distance`` array (m, shape (L,)) is given.
@@ -546,8 +557,8 @@ def lot_attributes(xy: NDArray[np.float64], *, centres: NDArray[np.float64],
     out[:, 0] = cKDTree(centres).query(xy)[0] / extent
     wd = distance_to(xy, water) if water_distance is None else np.asarray(water_distance, float)
     gd = distance_to(xy, green) if green_distance is None else np.asarray(green_distance, float)
-    out[:, 1] = np.minimum(wd / extent, 1.0)
-    out[:, 2] = np.minimum(gd / extent, 1.0)
+    out[:, 1] = np.minimum(wd / options.amenity_distance_unit, 1.0)
+    out[:, 2] = np.minimum(gd / options.amenity_distance_unit, 1.0)
     out[:, 0] = np.minimum(out[:, 0], 1.0)
     if traffic is None:
         out[:, 3] = 0.0
@@ -1194,8 +1205,9 @@ class LandUseCalibration:
 
     ``shares`` (T,) are the town's tagged land use by area; ``goals`` (T,)
     blend them with the bundled goals by ``weight`` (see
-    :func:`calibrate_landuse`); ``coverage`` is the mapped area over the town
-    area; ``ignored`` the tag values that map to no type, with their counts.
+    :func:`calibrate_landuse`); ``coverage`` is the share of the buildings'
+    footprint area inside mapped land use (or the mapped area over the town
+    area); ``ignored`` the tag values that map to no type, with their counts.
     """
 
     shares: NDArray[np.float64]
@@ -1263,7 +1275,7 @@ def _classified_pieces(polygons: Sequence[tuple[Any, str]], types: Sequence[Land
     return pieces, index, ignored
 
 
-def calibrate_landuse(polygons: Sequence[tuple[Any, str]], town_area: float, *,
+def calibrate_landuse(polygons: Sequence[tuple[Any, str]], town_area: float | Any, *,
                       types: Sequence[LandUseType] = DEFAULT_TYPES,
                       buildings: Sequence[Any] | None = None,
                       options: LandUseOptions = LandUseOptions()) -> LandUseCalibration:
@@ -1276,15 +1288,18 @@ def calibrate_landuse(polygons: Sequence[tuple[Any, str]], town_area: float, *,
         value; values map to types by :data:`OSM_LANDUSE`, others are ignored.
         Where polygons overlap, the smaller one owns the overlap (a park inside
         a residential area is a park).
-    town_area : float
-        The town's built-up area (m²), for the coverage.
+    town_area : float or shapely Polygon
+        The town's built-up area (m²), or its outline: then land use outside
+        it does not count (a residential polygon spanning a whole valley
+        counts only where the town is) and its area is the town area.
     types : sequence of LandUseType
         Types named ``residential_low``/``residential_high`` (or
         ``residential``), ``commercial``, ``industrial``, ``park`` receive the
         mapped values.
     buildings : sequence of shapely Polygon, optional
         Building footprints (m); a residential polygon whose footprints cover
-        more than ``high_density_coverage`` of it is high-density.
+        more than ``high_density_coverage`` of it is high-density, and the
+        coverage is the share of footprint area inside mapped polygons.
 
     Returns
     -------
@@ -1295,12 +1310,25 @@ def calibrate_landuse(polygons: Sequence[tuple[Any, str]], town_area: float, *,
     """
     names = [t.name for t in types]
     default = goal_shares(types)
+    outline = None
+    if isinstance(town_area, shapely.Geometry):
+        outline, town_area = town_area, float(shapely.area(town_area))
     pieces, index, ignored = _classified_pieces(polygons, types, buildings, options)
-    per = np.bincount(index, weights=shapely.area(np.asarray(pieces, dtype=object)) if pieces else None,
-                      minlength=len(names)).astype(np.float64) if len(index) else np.zeros(len(names))
+    geoms = np.asarray(pieces, dtype=object)
+    if outline is not None and len(geoms):
+        geoms = shapely.intersection(geoms, outline)
+    per = (np.bincount(index, weights=shapely.area(geoms), minlength=len(names)).astype(np.float64)
+           if len(index) else np.zeros(len(names)))
     mapped = float(per.sum())
     shares = per / mapped if mapped > 0 else np.zeros(len(names))
-    coverage = mapped / town_area if town_area > 0 else 0.0
+    if buildings is not None and len(buildings):
+        footprints = np.asarray(list(buildings), dtype=object)
+        total = float(shapely.area(footprints).sum())
+        inside = float(shapely.area(shapely.intersection(footprints, shapely.union_all(geoms))).sum()) \
+            if len(geoms) else 0.0
+        coverage = inside / total if total > 0 else 0.0
+    else:
+        coverage = min(1.0, mapped / town_area) if town_area > 0 else 0.0
     weight = min(1.0, coverage / options.min_calibration_coverage) if mapped > 0 else 0.0
     goals = weight * shares + (1.0 - weight) * default
     return LandUseCalibration(shares, goals / goals.sum(), mapped, coverage, weight,
