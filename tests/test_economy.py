@@ -84,7 +84,9 @@ def test_raw_floors_double_more_often_near_the_centre_and_shapes_select_the_mode
                           options=EconomyOptions(shape="falloff", noise_sd=0.0, double_chance=0.0))
     np.testing.assert_array_equal(shape, [0.0, 1.0, 1.0])  # 004 alone: only where something is built
     with pytest.raises(InputError, match="economy_falloff, economy, falloff"):
-        ec.raw_floors(econ, np.zeros(3), rng=np.random.default_rng(0), options=EconomyOptions(shape="tall"))
+        EconomyOptions(shape="tall")
+    with pytest.raises(InputError, match="double_chance"):
+        EconomyOptions(double_chance=1.5)
 
 
 def test_calibrate_heights_from_tags():

@@ -86,6 +86,39 @@ def test_types_from_config_builds_types_and_names_what_is_wrong():
         lu.types_from_config([dict(entry, terms=[dict(entry["terms"][0], low=1, high=1)])])
 
 
+def test_types_read_from_toml():
+    tomllib = pytest.importorskip("tomllib")
+    text = """
+[[land_use]]
+name = "industrial"
+goal = 0.3
+lot_size = "large"
+
+[[land_use.terms]]
+weight = 0.6
+kind = "linear_up"
+attribute = "traffic"
+low = 0.3
+high = 1.0
+
+[[land_use.terms]]
+weight = 0.4
+kind = "linear_down"
+attribute = "influence"
+of_type = "housing"
+low = 0.1
+high = 0.6
+
+[[land_use]]
+name = "housing"
+goal = 0.7
+terms = [{ weight = 1, kind = "step", attribute = "center_dist", low = -inf, high = 0.2 }]
+"""
+    industrial, housing = lu.types_from_config(tomllib.loads(text)["land_use"])
+    assert industrial.terms[1].of_type == "housing" and industrial.lot_size_key == "large"
+    assert housing.terms[0].low == -np.inf and housing.lot_size_key == "housing"
+
+
 def test_bundled_types_are_valid_with_goals_summing_to_one():
     assert {t.name for t in lu.DEFAULT_TYPES} >= {"residential_low", "residential_high", "commercial",
                                                  "industrial", "park"}
@@ -300,6 +333,13 @@ def test_block_type_is_the_type_with_most_lot_area():
     area = np.array([100.0, 60.0, 60.0, 50.0, 50.0, 10.0])
     lut = np.array([2, 1, 1, 3, 0, lu.UNASSIGNED])
     np.testing.assert_array_equal(lu.block_types(block, area, lut, 4, 4), [1, 0, -1, -1])
+
+
+def test_bad_options_name_their_key():
+    with pytest.raises(InputError, match="goal_scale: must be positive"):
+        LandUseOptions(goal_scale=0)
+    with pytest.raises(InputError, match="traffic_quantile"):
+        LandUseOptions(traffic_quantile=1.5)
 
 
 def test_update_interval_makes_a_planned_city():

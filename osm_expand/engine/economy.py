@@ -166,6 +166,21 @@ class EconomyOptions:
     #: the land's worth or less.
     price_weight: float = 0.05
 
+    def __post_init__(self) -> None:
+        _shape(self)
+        for key in ("storey_height", "default_median_floors", "falloff_sigma", "max_spread_exponent",
+                    "margin_truncation"):
+            if not getattr(self, key) > 0:
+                raise InputError(f"economy {key}: must be positive, got {getattr(self, key)}")
+        for key in ("noise_sd", "age_weight", "price_weight", "falloff_edge"):
+            if not getattr(self, key) >= 0:
+                raise InputError(f"economy {key}: must be ≥ 0, got {getattr(self, key)}")
+        if not 0 <= self.double_chance <= 1:
+            raise InputError(f"economy double_chance: must lie in [0, 1], got {self.double_chance}")
+        lo, hi = self.storey_range
+        if not 0 < lo <= hi:
+            raise InputError(f"economy storey_range: must be 0 < low ≤ high, got {self.storey_range}")
+
 
 def _shape(options: EconomyOptions) -> HeightShape:
     try:

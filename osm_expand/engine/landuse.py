@@ -63,9 +63,12 @@ For speed the proposals run in chunks of ``chunk_share`` of the lots: inside
 a chunk every proposal's local change is computed against the state at the
 chunk's start (vectorised), then the proposals are decided one after another
 with the *global* term kept exact (shares are updated after each acceptance),
-and the accepted changes are applied together. Two proposals of one chunk do
-not see each other's effect on their neighbourhoods (a chunk of 2 % of the
-lots rarely holds two neighbours of one lot that both change).
+and the accepted changes are applied together. Proposals of one chunk do
+not see each other's effect on their neighbourhoods (about ``chunk ×
+neighbours / lots`` of them, ~4, lie within a proposal's 256 m). Measured on
+2,000 synthetic lots over 10 years, 3 seeds: the mean lot value ends at 0.673
+with 2 % chunks against 0.675 fully sequential (chunks of one), shares within
+0.0014 of the goals either way, 9× faster.
 
 New lots (type ``UNASSIGNED``) take the type that gives the highest system
 value (002 §4.1), :func:`assign_types`; new blocks and quarters (no lots yet)
@@ -289,9 +292,22 @@ class LandUseOptions:
     #: its mapped land use holds at least this share of its buildings' footprint
     #: area (of the town area without buildings); below, the goals blend in
     #: proportion. OSM maps industry and shops long before housing (Krems 2013:
-    #: 59 % of the mapped land is industrial, most houses sit in no polygon), so
-    #: only a nearly complete map may speak for the whole town.
+    #: 58 % of the mapped land is industrial, half of the buildings' footprint
+    #: lies in no polygon), so only a nearly complete map may speak for the town.
     min_calibration_coverage: float = 0.8
+
+    def __post_init__(self) -> None:
+        positive = ("influence_radius", "goal_scale", "chunk_share", "amenity_distance_unit",
+                    "min_calibration_coverage")
+        for key in positive:
+            if not getattr(self, key) > 0:
+                raise InputError(f"land_use {key}: must be positive, got {getattr(self, key)}")
+        for key in ("cluster_neighbours", "global_weight", "local_weight", "reject_slope", "sample_share",
+                    "min_chunk"):
+            if not getattr(self, key) >= 0:
+                raise InputError(f"land_use {key}: must be ≥ 0, got {getattr(self, key)}")
+        if not 0 < self.traffic_quantile <= 1:
+            raise InputError(f"land_use traffic_quantile: must lie in (0, 1], got {self.traffic_quantile}")
 
 
 # --------------------------------------------------------------------------- valuation functions
@@ -366,6 +382,30 @@ def types_from_config(entries: Sequence[Mapping[str, Any]]) -> tuple[LandUseType
     -------
     tuple of LandUseType
         Validated (see :func:`goal_shares` and the term checks).
+
+    Examples
+    --------
+    The TOML this reads (``tomllib.loads(text)["land_use"]``)::
+
+        [[land_use]]
+        name = "industrial"
+        goal = 0.13
+        lot_size = "large"
+
+        [[land_use.terms]]
+        weight = 0.6
+        kind = "linear_up"
+        attribute = "traffic"
+        low = 0.3
+        high = 1.0
+
+        [[land_use.terms]]
+        weight = 0.4
+        kind = "linear_down"
+        attribute = "influence"
+        of_type = "residential_low"
+        low = 0.1
+        high = 0.6
 
     Raises
     ------
