@@ -65,7 +65,7 @@ def run(n: int, years: int, seed: int) -> dict[str, float]:
         t1 = time.perf_counter()
         econ = ec.lot_economy(lots["area"], envelope, result.luv, result.lut, attrs[:, 0], avgprice=100.0,
                               calibration=calibration, scale=scale, rng=rng)
-        sub = ec.substitute(year_built, econ.price, floor_space, result.lut, year=2000 + year, rng=rng)
+        sub = ec.substitute(year_built, econ.floors * envelope, floor_space, year=2000 + year, rng=rng)
         t2 = time.perf_counter()
         scale, lut, year_built = econ.scale, result.lut, sub.year_built
         floor_space = np.where(sub.replaced, econ.floors * envelope, floor_space)

@@ -149,33 +149,41 @@ def test_occupants_from_floor_space_by_type():
 
 def test_substitution_probability_adds_age_and_price_terms():
     opts = EconomyOptions(age_bounds=(40.0, 120.0), age_weight=0.02, price_bounds=(0.25, 0.75), price_weight=0.05)
-    price = np.array([10_000.0, 10_000.0, 10_000.0, 10_000.0, 0.0, 10_000.0])
-    # existing floor space / margin 0.005 → the price it pays for: 10 000, 5 000, 2 500, 10 000
-    fs = np.array([50.0, 25.0, 12.5, 50.0, 50.0, 50.0])
+    new = np.array([1000.0, 1000.0, 1000.0, 1000.0, 1000.0, 0.0])
+    existing = np.array([1000.0, 500.0, 250.0, 1500.0, 1000.0, 300.0])
     age = np.array([80.0, 10.0, 10.0, 200.0, np.nan, 10.0])
-    lut = np.array([0, 0, 0, 0, 0, 2])
-    p = ec.substitution_probability(age, price, fs, lut, economies=FIXED, options=opts)
-    expected = [0.02 * 0.5 + 0.0,  # half-way through the age ramp, building pays the full price
-                0.0 + 0.05 * 0.5,  # Δprice = 0.5
+    p = ec.substitution_probability(age, new, existing, options=opts)
+    expected = [0.02 * 0.5 + 0.0,  # half-way through the age ramp; as big as a new building would be
+                0.0 + 0.05 * 0.5,  # Δprice = 1 - 500/1000 = 0.5
                 0.0 + 0.05 * 1.0,  # Δprice = 0.75
-                0.02,  # older than 120 years
-                0.0,  # unknown age, no price
-                0.05]  # a park lot with a building: Δprice = 1
+                0.02,  # older than 120 years; bigger than a new one (Δprice < 0)
+                0.0,  # unknown age
+                0.05]  # the lot became a park: Δprice = 1
     np.testing.assert_allclose(p, expected)
+
+
+def test_a_new_building_is_not_replaced_for_price_whatever_the_height_scale():
+    rng = np.random.default_rng(0)
+    n = 500
+    args = (rng.uniform(400, 1200, n), rng.uniform(100, 300, n), rng.uniform(0.2, 0.9, n),
+            rng.integers(0, 4, n), rng.uniform(0, 1, n))
+    cal = ec.calibrate_heights(np.full(1, np.nan), np.full(1, np.nan))
+    for scale in (HeightScale(0.3), HeightScale(3.0)):
+        now = ec.lot_economy(*args, avgprice=100.0, calibration=cal, scale=scale, economies=FIXED[:2] * 2,
+                             rng=np.random.default_rng(1), options=EconomyOptions(noise_sd=0, double_chance=0))
+        built = now.floors * args[1]
+        p = ec.substitution_probability(np.zeros(n), built, built)
+        assert (p == 0).all()
 
 
 def test_substitute_samples_replacements_deterministically_and_dates_them():
     n = 20000
     year_built = np.full(n, 1900.0)
-    price = np.full(n, 10_000.0)
-    fs = np.full(n, 50.0)
+    fs = np.full(n, 500.0)
     fs[:10] = 0.0  # empty lots are never "replaced"
-    lut = np.zeros(n, dtype=np.int64)
     opts = EconomyOptions(age_weight=0.3, price_weight=0.0)
-    a = ec.substitute(year_built, price, fs, lut, year=2020, rng=np.random.default_rng(8), economies=FIXED,
-                      options=opts)
-    b = ec.substitute(year_built, price, fs, lut, year=2020, rng=np.random.default_rng(8), economies=FIXED,
-                      options=opts)
+    a = ec.substitute(year_built, np.full(n, 500.0), fs, year=2020, rng=np.random.default_rng(8), options=opts)
+    b = ec.substitute(year_built, np.full(n, 500.0), fs, year=2020, rng=np.random.default_rng(8), options=opts)
     np.testing.assert_array_equal(a.replaced, b.replaced)
     assert not a.replaced[:10].any()
     assert a.replaced.mean() == pytest.approx(0.3, abs=0.015)

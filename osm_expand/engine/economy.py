@@ -48,8 +48,9 @@ Substitution (002 §5.4): ``p_sub = f₁(age) + f₂(Δprice)`` per year, clippe
 to [0, 1], with ``f₁``, ``f₂`` valuation functions (002: "user selected
 functions … see previous section") times a weight, and
 ``Δprice = (price − floorspace_existing / margin_t) / price``: the share of a
-new building's price that the existing building does not pay for. A replaced
-building gets the current year.
+new building's price that the existing building does not pay for, computed
+as ``1 − floorspace_existing / floorspace_new`` on built floor space (see
+:func:`substitution_probability`). A replaced building gets the current year.
 """
 from __future__ import annotations
 
@@ -61,7 +62,7 @@ import numpy as np
 from numpy.typing import NDArray
 from scipy.special import ndtr, ndtri
 
-from osm_expand.engine.landuse import UNASSIGNED, valuate
+from osm_expand.engine.landuse import valuate
 from osm_expand.errors import InputError
 
 __all__ = [
@@ -529,40 +530,40 @@ def lot_economy(area: NDArray[np.float64], envelope_area: NDArray[np.float64], l
 
 # --------------------------------------------------------------------------- substitution (002 §5.4)
 
-def substitution_probability(age: NDArray[np.float64], price: NDArray[np.float64],
-                             floor_space: NDArray[np.float64], lut: NDArray[np.int64], *,
-                             economies: Sequence[TypeEconomy] = DEFAULT_ECONOMY,
+def substitution_probability(age: NDArray[np.float64], new_floor_space: NDArray[np.float64],
+                             floor_space: NDArray[np.float64], *,
                              options: EconomyOptions = EconomyOptions()) -> NDArray[np.float64]:
     """Yearly replacement probability ``p_sub = f₁(age) + f₂(Δprice)`` (002 §5.4), clipped to [0, 1].
+
+    002's ``Δprice = (price − floorspace / margin) / price`` compares the price
+    a new building would fetch with the price the existing one pays for. With
+    floor space = price · margin (Eq. 10) that is ``1 − existing floor space /
+    new floor space``; computed on the floor space the buildings really have
+    (this year's :class:`LotEconomy` for the new one, through the same
+    :class:`HeightScale`), a brand-new building is never "worth" more or less
+    than itself whatever the calibration scale.
 
     Parameters
     ----------
     age : ndarray, shape (L,)
         Building age (years); NaN (unknown, e.g. a real OSM building) gives
         ``f₁ = 0``.
-    price : ndarray, shape (L,)
-        Price of the lot now (:func:`lot_prices`), i.e. of a new building.
+    new_floor_space : ndarray, shape (L,)
+        Floor space (m²) of the building this year's economy would put on the
+        lot (``LotEconomy.floors × envelope area``; 0 for a park: Δprice = 1).
     floor_space : ndarray, shape (L,)
-        Floor space of the existing building (m²).
-    lut : ndarray of int, shape (L,)
-        The lot's current type; its mean margin turns the floor space back
-        into the price it pays for.
+        Floor space (m²) of the existing building.
 
     Returns
     -------
     ndarray, shape (L,)
-        ``Δprice = (price − floor_space / margin) / price`` (1 when the type
-        builds nothing, e.g. a park; no price term when ``price = 0``);
         ``f₁ = age_weight · valuate(age_kind, age, *age_bounds)``,
         ``f₂ = price_weight · valuate(price_kind, Δprice, *price_bounds)``.
     """
     age = np.asarray(age, dtype=np.float64)
-    price = np.asarray(price, dtype=np.float64)
+    new = np.asarray(new_floor_space, dtype=np.float64)
     fs = np.asarray(floor_space, dtype=np.float64)
-    margin = _per_type(lut, economies, "margin_mean")
-    existing = np.divide(fs, margin, out=np.zeros_like(fs), where=margin > 0)
-    gap = np.divide(price - existing, price, out=np.full_like(price, -np.inf), where=price > 0)
-    gap = np.where((margin <= 0) & (np.asarray(lut) != UNASSIGNED), 1.0, gap)
+    gap = np.divide(new - fs, new, out=np.ones_like(new), where=new > 0)
     f1 = options.age_weight * valuate(options.age_kind, age, *options.age_bounds)
     f2 = options.price_weight * valuate(options.price_kind, gap, *options.price_bounds)
     return np.clip(f1 + f2, 0.0, 1.0)
@@ -577,9 +578,8 @@ class Substitution:
     probability: NDArray[np.float64]
 
 
-def substitute(year_built: NDArray[np.float64], price: NDArray[np.float64], floor_space: NDArray[np.float64],
-               lut: NDArray[np.int64], *, year: int, rng: np.random.Generator,
-               economies: Sequence[TypeEconomy] = DEFAULT_ECONOMY,
+def substitute(year_built: NDArray[np.float64], new_floor_space: NDArray[np.float64],
+               floor_space: NDArray[np.float64], *, year: int, rng: np.random.Generator,
                options: EconomyOptions = EconomyOptions()) -> Substitution:
     """Sample this year's building replacements (002 §5.4).
 
@@ -588,7 +588,7 @@ def substitute(year_built: NDArray[np.float64], price: NDArray[np.float64], floo
     year_built : ndarray, shape (L,)
         Year each lot's building was built; NaN for an unknown year (no age
         term). Lots with ``floor_space = 0`` have no building and are skipped.
-    price, floor_space, lut
+    new_floor_space, floor_space
         As in :func:`substitution_probability`.
     year : int
         The current year; a replacement gets it.
@@ -603,7 +603,7 @@ def substitute(year_built: NDArray[np.float64], price: NDArray[np.float64], floo
     """
     built = np.asarray(year_built, dtype=np.float64)
     fs = np.asarray(floor_space, dtype=np.float64)
-    p = substitution_probability(year - built, price, fs, lut, economies=economies, options=options)
+    p = substitution_probability(year - built, new_floor_space, fs, options=options)
     p = np.where(fs > 0, p, 0.0)
     replaced = rng.random(len(p)) < p
     return Substitution(replaced, np.where(replaced, float(year), built), p)
