@@ -98,6 +98,9 @@ class HierarchyBasis(StrEnum):
 
 #: The thesis's test domain in SL² (001 §5.6: "a 100x100 grid", SL = 1).
 REFERENCE_AREA_SL2 = 100.0 * 100.0
+#: Segments meeting at a node always differ by at least this angle (degrees), whatever ``min_angle`` says:
+#: at zero they would run along each other.
+MIN_ANGLE_FLOOR = 1.0
 #: Hierarchy levels: 0 primary, 1 secondary, 2 tertiary (001 §4.3.3's three classes).
 PRIMARY, SECONDARY, TERTIARY = 0, 1, 2
 
@@ -414,11 +417,11 @@ def _first_hit(p: np.ndarray, q: np.ndarray, a: np.ndarray, b: np.ndarray) -> tu
     s = b - a
     denom = r[0] * s[:, 1] - r[1] * s[:, 0]
     ap = a - p
-    with np.errstate(divide="ignore", invalid="ignore"):
-        t = (ap[:, 0] * s[:, 1] - ap[:, 1] * s[:, 0]) / denom  # along p→q
-        u = (ap[:, 0] * r[1] - ap[:, 1] * r[0]) / denom  # along a→b
+    safe = np.where(np.abs(denom) > 1e-12, denom, np.inf)  # parallel: t = u = 0, rejected below
+    t = (ap[:, 0] * s[:, 1] - ap[:, 1] * s[:, 0]) / safe  # along p→q
+    u = (ap[:, 0] * r[1] - ap[:, 1] * r[0]) / safe  # along a→b
     eps = 1e-9
-    ok = (np.abs(denom) > 1e-12) & (t > eps) & (t <= 1 + eps) & (u >= -eps) & (u <= 1 + eps)
+    ok = np.isfinite(safe) & (t > eps) & (t <= 1 + eps) & (u >= -eps) & (u <= 1 + eps)
     if not ok.any():
         return None
     k = int(np.flatnonzero(ok)[np.argmin(t[ok])])
@@ -926,9 +929,9 @@ class _Colonist:
             pairs = self._influence(aps, ph, roi)
             if pairs is None:
                 break
-            touched, made, growers, progress = self._grow_all(pairs, aps, ph)
+            touched, made, influencers, progress = self._grow_all(pairs, aps, ph)
             grown += len(touched)
-            died = self._kill(aps, touched, made, ph)
+            died = self._kill(aps, touched, made, influencers, ph)
             done = [attractor_of[m] for m in touched.tolist() if m in attractor_of]
             if done:  # a node attractor reached by a new segment has done its work
                 died |= bool(aps.alive[done].any())
@@ -1019,26 +1022,28 @@ class _Colonist:
         return out
 
     def _grow_all(self, pairs: tuple[np.ndarray, np.ndarray], aps: _APs,
-                  ph: _Phase) -> tuple[np.ndarray, np.ndarray, np.ndarray, bool]:
+                  ph: _Phase) -> tuple[np.ndarray, np.ndarray, list[np.ndarray], bool]:
         """Grow every influenced node once, in node order.
 
-        Returns the nodes created or reached, the segments made, the nodes that
-        grew, and whether anything changed (growth or a retirement).
+        Returns the nodes created or reached, the segments made, the APs that
+        influenced each of those growths, and whether anything changed (growth
+        or a retirement).
         """
         net = self.net
         pn, pa = pairs
         d = aps.xy[pa] - net.xy[pn]
         d /= np.maximum(np.hypot(d[:, 0], d[:, 1]), 1e-12)[:, None]
         order = np.argsort(pn, kind="stable")
-        pn, d = pn[order], d[order]
+        pn, pa, d = pn[order], pa[order], d[order]
         nodes, start = np.unique(pn, return_index=True)
         mean = np.add.reduceat(d, start, axis=0) if len(pn) else np.zeros((0, 2))
         directions = self._proposals(nodes, mean, ph)
+        by_node = np.split(pa, start[1:])
         touched: list[int] = []
         made: list[int] = []
-        growers: list[int] = []
+        growers: list[np.ndarray] = []
         progress = False
-        for n, direction in zip(nodes.tolist(), directions):
+        for n, direction, influencers in zip(nodes.tolist(), directions, by_node):
             if direction is None:
                 progress |= self._fail(n, "no_direction")
                 continue
@@ -1049,10 +1054,9 @@ class _Colonist:
             net.fails[n] = 0
             touched.append(reached[0])
             made.append(reached[1])
-            growers.append(n)
+            growers.append(influencers)
             progress = True
-        return (np.asarray(touched, dtype=np.int64), np.asarray(made, dtype=np.int64),
-                np.asarray(growers, dtype=np.int64), progress)
+        return np.asarray(touched, dtype=np.int64), np.asarray(made, dtype=np.int64), growers, progress
 
     def _fail(self, n: int, why: str | None) -> bool:
         """Count a failed attempt; True when the node retires (the live set changed)."""
@@ -1260,6 +1264,11 @@ class _Colonist:
         if check and not shapely.contains_xy(self.region, to[0], to[1]):
             return False
         edges = list(net.adj[m].items())
+        if check and len(edges) > 1:  # the node's own segments must not fold onto each other
+            d = net.directions(m, at=to)
+            cos = d @ d.T - 2.0 * np.eye(len(d))
+            if (cos > math.cos(math.radians(MIN_ANGLE_FLOOR))).any():
+                return False
         for _, e in edges:
             net.index.remove(net.eslot[e])
         ok = True
@@ -1310,13 +1319,13 @@ class _Colonist:
         if length < o.min_segment_m:
             self._count("rejected_short")
             return False
-        if angles and ph.min_angle > 0:
-            ang = np.degrees(np.arctan2(vec[1], vec[0]))
-            at_u = net.directions(u) if u >= 0 else np.zeros((0, 2))
-            back = np.zeros((0, 2)) if target_dirs is None else target_dirs
-            for dirs, heading in ((at_u, ang), (back, ang + 180.0)):
-                if len(dirs) and (_angle_between(heading, np.degrees(np.arctan2(dirs[:, 1], dirs[:, 0])))
-                                  < ph.min_angle - 1e-9).any():
+        if angles:
+            unit = vec / length
+            # closer than min_angle means a larger cosine; never below MIN_ANGLE_FLOOR, so no overlap
+            limit = math.cos(math.radians(max(ph.min_angle, MIN_ANGLE_FLOOR))) + 1e-12
+            at_u = net.directions(u) if u >= 0 else None
+            for dirs, heading in ((at_u, unit), (target_dirs, -unit)):
+                if dirs is not None and len(dirs) and (dirs @ heading > limit).any():
                     self._count("rejected_angle")
                     return False
         if net.index.crosses(a, b, u, v if v >= 0 else -1):
@@ -1331,41 +1340,43 @@ class _Colonist:
             return False
         return True
 
-    def _kill(self, aps: _APs, touched: np.ndarray, made: np.ndarray, ph: _Phase) -> bool:
-        """APs within KD of a node created or reached die (001 §3.1), consumed by its segment; whether any died."""
+    def _kill(self, aps: _APs, touched: np.ndarray, made: np.ndarray, influencers: list[np.ndarray],
+              ph: _Phase) -> bool:
+        """The APs that influenced a growth and lie within KD of the node it reached die (001 §3.1).
+
+        They count as consumed by the new segment. Whether any died.
+        """
         net = self.net
         died = False
-        if len(touched) and len(aps.xy):
-            hits = aps.tree.query_ball_point(net.xy[touched], ph.kill, return_sorted=False)
-            for t, e, h in zip(touched.tolist(), made.tolist(), hits):
-                h = np.asarray(h, dtype=np.int64)
-                h = h[aps.alive[h]]
-                if not len(h):
-                    continue
-                # a node attractor outlives its own new branches and its neighbours (001 §4.2.3 leaves this open)
-                attractor = aps.node[h]
-                own = np.array([a >= 0 and (a == t or t in net.adj[a]) for a in attractor.tolist()], dtype=bool)
-                h = h[~own]
-                if len(h) and net.creator[t] == e and (aps.node[h] >= 0).any():
-                    self._arrive(t, e, aps, h[aps.node[h] >= 0], ph)
-                if len(h):
-                    aps.alive[h] = False
-                    self.consumed[e] = self.consumed.get(e, 0) + int((aps.node[h] < 0).sum())
-                    died = True
+        for t, e, h in zip(touched.tolist(), made.tolist(), influencers):
+            h = h[aps.alive[h]]
+            h = h[np.hypot(*(aps.xy[h] - net.xy[t]).T) < ph.kill] if len(h) else h
+            # a node attractor outlives its own new branches and its neighbours (001 §4.2.3 leaves this open)
+            own = np.array([a >= 0 and (a == t or t in net.adj[a]) for a in aps.node[h].tolist()], dtype=bool)
+            h = h[~own] if len(h) else h
+            if not len(h):
+                continue
+            if net.creator[t] == e and (aps.node[h] >= 0).any():
+                self._arrive(t, e, aps, h[aps.node[h] >= 0], ph)
+            aps.alive[h] = False
+            self.consumed[e] = self.consumed.get(e, 0) + int((aps.node[h] < 0).sum())
+            died = True
         return died
 
     def _arrive(self, t: int, e: int, aps: _APs, attractors: np.ndarray, ph: _Phase) -> None:
         """A branch tip ``t`` (made by edge ``e``) within KD of phase-1 nodes that attract joins the nearest one.
 
         001 §4.2.3 makes phase-1 nodes attractors so that branches connect the
-        network; killing them at KD, as any AP, would stop each branch one KD
-        short. So the tip connects straight to the nearest of them when that
-        segment passes the border check and closes no triangle; the segment
-        extends the tip's branch.
+        network; killing them at KD, as any AP, would stop each branch short of
+        them. So the tip connects straight to the nearest of them no more than
+        one SL away (one more growth step) when that segment passes the border
+        check and closes no triangle; the segment extends the tip's branch.
         """
         net = self.net
         nodes = aps.node[attractors]
-        order = np.argsort(np.hypot(*(net.xy[nodes] - net.xy[t]).T), kind="stable")
+        dist = np.hypot(*(net.xy[nodes] - net.xy[t]).T)
+        order = np.argsort(dist, kind="stable")
+        order = order[dist[order] <= self.sl]
         for a in nodes[order].tolist():
             if a in net.adj[t] or net.adj[t].keys() & net.adj[a].keys():
                 continue
