@@ -5,44 +5,47 @@ town's streets. Distances are multiples of the segment length SL (001 works
 in units with SL = 1; the integrator sets SL to the town's junction spacing).
 
 **Seeds.** The old town's streets that touch the region are the initial
-segments: their vertices, and points every ``seed_spacing`` · SL along them,
-are fixed nodes of hierarchy *primary* (001 §4.3.3: "the initial segments
-defined by the user as primary roads"). They never move; new streets grow
-from them and snap onto them (a snap between two vertices splits the old
-street there, reported as a :class:`Join`).
+segments, primary roads (001 §4.3.3). Every vertex, and points added so that
+no piece is longer than ``seed_spacing`` · SL, is a fixed node: never moved,
+a target for snapping (a snap between two vertices splits the old street,
+reported as a :class:`Join` for the integrator to split the real way). One
+point every ``seed_spacing`` SL along each street may grow.
 
 **Phase 1** (001 §3.1, §4.1). APs are scattered in the region (``ap_density``
-per SL², accepted with the density map's value, dropped where the border map
-or ``forbidden`` forbids them). Each iteration, every live AP influences its
-nearest node within the radius of influence RoI; a node grows one SL along
-the mean of the normalised directions to its APs; APs within the kill
-distance KD of a new node die. A node pair (node, AP) whose straight line
-climbs steeper than ``max_steepness_deg`` does not count (001 §4.3.1).
-Growth ends when no AP influences any node. Each proposed segment then goes
-through these steps, **in this order**:
+per SL², kept with the density map's value, dropped where the border map or
+``forbidden`` forbids them). Each iteration every live AP influences its
+nearest growing node within the radius of influence RoI, unless the line
+between them climbs steeper than ``max_steepness_deg`` (001 §4.3.1, checked
+per pair); a node grows one SL along the mean of the normalised directions to
+its APs; the APs that influenced it and lie within the kill distance KD of
+the new node die (001 §3.1's rule). Growth ends when no AP influences any
+node. Each proposed segment goes through these steps, **in this order**:
 
 1. *angle snap* (001 §4.1.2): the turn from the parent segment must lie in
    ``[min, max]`` on either side, or within the tolerance range around
    straight ahead (default half the amplitude: [30°, 45°] → [0°, 7.5°]);
    a turn outside snaps to the nearest allowed value;
 2. *flow blend* (001 §4.3.2): the flow direction at the proposed node, or
-   its perpendicular, whichever is closer to the segment, blended with the
-   angle-snapped direction by the influence ratio (both normalised);
+   either perpendicular, whichever is closer to the segment (never against
+   the flow: a source keeps roads away, a sink draws them in, 001 §5.2),
+   blended with the angle-snapped direction by the influence ratio (both
+   normalised);
 3. *steepness*: the segment's slope (sampled at ``steepness_samples``
    points) must stay under the maximum;
-4. *snap/merge* (001 §4.1.3): within the snapping distance the new node
-   merges with the nearest node, or splits the nearest segment at its foot;
-   a merge of equal hierarchy moves the existing node to the average
-   position, a more important new road pulls the existing node onto its
-   own end, a less important one moves to the existing node; fixed nodes
-   never move;
+4. *snap/merge* (001 §4.1.3): a proposal that would cross a segment stops on
+   it; otherwise, within the snapping distance of the proposed node, the
+   nearest node or segment is the target. A node target merges by hierarchy:
+   equal levels meet at the average position, a more important new road
+   pulls the existing node onto its own end, a less important one moves to
+   the existing node; fixed nodes never move. A segment target is split at
+   the point (at its end node when that is within 0.1 SL);
 5. *border check*: the segment stays in the region, off forbidden ground,
-   crosses no other segment, is at least ``min_segment_m`` long and keeps
+   crosses no segment, is at least ``min_segment_m`` long and keeps
    ``min_angle`` to the other segments at both of its ends.
 
 A proposal failing a step is dropped; a node failing ``patience`` times in
 a row retires for the phase (it no longer captures APs), which is how growth
-ends where APs are unreachable.
+ends where the APs are out of reach.
 
 **Phase 2** (001 §4.2). First the inter-connection of phase-1 nodes (§4.2.1):
 each phase-1 node connects to the strongest of the unconnected nodes closer
@@ -50,21 +53,25 @@ than ``interconnect_distance``, force = ((180° − α)/180°) ·
 ((threshold − |NC|)/threshold) with α the angle to the nearest ideal
 direction, never closing a triangle. Then a fresh AP cloud, minus the APs
 closer than ``safety_distance`` to a segment (§4.2.2); each AP attracts its
-N closest nodes within RoI and phase-1 nodes attract too (§4.2.3); KD is
-half of phase 1's unless set. Last, the extra pruning of §4.2.4.
+N closest nodes within RoI; phase-1 nodes attract too (§4.2.3), but not nodes
+within two hops of them nor along one of the attracted node's segments, and
+a branch tip that comes within KD of its attracting node joins it directly
+when it is at most one SL away. KD is half of phase 1's unless set. Last,
+the extra pruning of §4.2.4.
 
-**Hierarchy** (001 §4.3.3): a segment that extends a dead end inherits its
-level; one that branches off is classified by the share of all introduced
-APs that influenced its node (``hierarchy_basis``), never above its parent's
-level; phase 1 yields primary (0) or secondary (1), phase 2 at most
-``phase2_top_level`` and otherwise tertiary (2). Levels map to highway
-classes through ``highways``.
+**Hierarchy** (001 §4.3.3). At each phase's end, a segment that extends a
+dead end inherits its level; one that branches off is classified by the
+share of all introduced APs consumed by the branch (it and what grew from
+it; ``hierarchy_basis``), never above its previous segment's level; phase 1
+yields primary (0) or secondary (1), phase 2 at most ``phase2_top_level``,
+else tertiary (2). Levels map to highway classes through ``highways``.
+During growth, for merging, a new branch counts as its phase's lower level.
 """
 from __future__ import annotations
 
 import math
 from collections.abc import Sequence
-from dataclasses import asdict, dataclass, field, fields
+from dataclasses import dataclass, field, fields
 from enum import StrEnum
 from typing import Any
 
@@ -116,9 +123,10 @@ class ColonisationOptions:
     ap_density: tuple[float, float] = (1.0, 1.0)
     #: RoI in SL: an AP influences nodes closer than this (001 §5.5, the Espinho town case: 4).
     radius_of_influence: float = 4.0
-    #: KD in SL per phase: APs this close to a new node die (001 §5.5.1 fig. 107a: 1.0/0.5, the
-    #: block size of a town grid). A phase-2 value <= 0 means half of phase 1's (001 §4.2.3).
-    kill_distance: tuple[float, float] = (1.0, 0.0)
+    #: KD in SL per phase: the APs that influenced a new node and lie this close to it die (001 §3.1).
+    #: 001 §5.5.1's coastal town, fig. 107b: 2.0/1.0, which with growth points every 2 SL gives streets
+    #: 2 SL apart crossed every SL or so. A phase-2 value <= 0 means half of phase 1's (001 §4.2.3).
+    kill_distance: tuple[float, float] = (2.0, 0.0)
     #: Nodes each AP attracts (001 §4.2.3: 1 as in SCA for phase 1, N = 2 "more pleasing" for phase 2).
     nodes_per_ap: tuple[int, int] = (1, 2)
     #: Phase-1 turn range from the parent segment, degrees, both sides (001 §5.5.1: 90°).
@@ -147,9 +155,10 @@ class ColonisationOptions:
     safety_distance: float = 0.5
     #: Inter-connection candidates are closer than this, in SL (001 §4.2.1's default: one SL).
     interconnect_distance: float = 1.0
-    #: Growth points along the old streets, every this many SL (001 places initial segments by hand;
-    #: one SL gives every stretch of old street a node to grow from).
-    seed_spacing: float = 1.0
+    #: Growth points along the old streets, every this many SL (001 places initial segments by hand).
+    #: At 1 SL every point grows a street, a comb one SL apart that phase 2 then fills with one-SL
+    #: blocks; at 2 SL the blocks are 2 × 1 SL, a town's proportions.
+    seed_spacing: float = 2.0
     #: Share of APs that makes a branch the higher of its phase's two classes (001 §5.2-5.5: 1 %, 1 %).
     hierarchy_threshold: tuple[float, float] = (0.01, 0.01)
     #: What the thresholds are shares of (see :class:`HierarchyBasis`).
@@ -594,10 +603,10 @@ class GrownStreet:
 class Join:
     """A node where new streets meet an old street.
 
-    ``seed`` and ``segment`` name the old street (index in ``seeds``) and its
-    segment (between its vertices ``segment`` and ``segment + 1``); ``vertex``
-    tells whether the node is that segment's start vertex (no split needed)
-    or a new point on it, where the integrator splits the real way.
+    ``seed`` names the old street (its index in ``seeds``). When ``vertex`` is
+    True the node is that street's vertex number ``segment`` (no split
+    needed); otherwise it is a new point on the segment between its vertices
+    ``segment`` and ``segment + 1``, where the integrator splits the real way.
     """
 
     node: int
@@ -748,9 +757,6 @@ class _Network:
         u, v = self.eu[e], self.ev[e]
         del self.adj[u][v], self.adj[v][u]
 
-    def other(self, e: int, node: int) -> int:
-        return self.ev[e] if self.eu[e] == node else self.eu[e]
-
     def node_level(self, m: int) -> int:
         """A node's hierarchy: the most important level of the roads it joins (001 §4.1.3)."""
         return min((self.elevel[e] for e in self.adj[m].values()), default=TERTIARY + 1)
@@ -825,9 +831,16 @@ class _Colonist:
     # ------------------------------------------------------------------ set-up
 
     def add_seeds(self, seeds: Sequence[np.ndarray]) -> None:
-        """Old streets as fixed primary nodes and edges, with growth points every ``seed_spacing`` SL."""
+        """Old streets as fixed primary nodes and edges, with growth points every ``seed_spacing`` SL.
+
+        Every vertex is a node (new streets may end on it); points are added so
+        that no piece is longer than the spacing; of all these, only one every
+        ``seed_spacing`` SL along each street may grow, so shape points a few
+        metres apart do not each start a street.
+        """
         net, step = self.net, self.o.seed_spacing * self.sl
         at: dict[tuple[float, float], int] = {}
+        grows: set[int] = set()
 
         def node(p: np.ndarray, ref: tuple[int, int, bool]) -> int:
             key = (float(p[0]), float(p[1]))
@@ -840,21 +853,25 @@ class _Colonist:
             if len(pts) < 2 or not np.isfinite(pts).all():
                 raise InputError(f"seed street {s}: needs at least two finite points, got {len(pts)}")
             prev = node(pts[0], (s, 0, True))
+            grows.add(prev)
+            since = 0.0  # distance along the street from the last growth point
             for k in range(len(pts) - 1):
                 a, b = pts[k], pts[k + 1]
                 length = float(np.hypot(*(b - a)))
                 if length < 1e-9:
                     continue
                 pieces = max(int(np.ceil(length / step - 1e-9)), 1)
-                for t in np.arange(1, pieces) / pieces:
-                    cur = node(a + t * (b - a), (s, k, False))
+                for t in np.arange(1, pieces + 1) / pieces:
+                    cur = node(a + t * (b - a), (s, k, False)) if t < 1 else node(b, (s, k + 1, True))
                     self._seed_edge(prev, cur, s, k)
+                    since += length / pieces
+                    if since >= step - 1e-6 or (t == 1 and k == len(pts) - 2):
+                        grows.add(cur)
+                        since = 0.0
                     prev = cur
-                cur = node(b, (s, k + 1, True))
-                self._seed_edge(prev, cur, s, k)
-                prev = cur
         xy = net.xy[:net.n]
         net.static[:net.n] = ~shapely.contains_xy(self.inside, xy[:, 0], xy[:, 1])  # beyond the edge: no growth
+        net.static[np.setdiff1d(np.arange(net.n), np.fromiter(grows, dtype=np.int64, count=len(grows)))] = True
 
     def _seed_edge(self, u: int, v: int, s: int, k: int) -> None:
         if u != v and v not in self.net.adj[u]:
@@ -1104,11 +1121,16 @@ class _Colonist:
         return np.array([c * rx - s * ry, s * rx + c * ry])
 
     def _flow_blend(self, at: np.ndarray, d: np.ndarray, ph: _Phase) -> np.ndarray:
-        """Step 2: the flow direction or its perpendicular nearest to ``d``, blended by the influence (001 §4.3.2)."""
+        """Step 2: the flow direction or its perpendicular nearest to ``d``, blended by the influence (001 §4.3.2).
+
+        The options are along the flow and both perpendiculars, never against
+        the flow: 001 §5.2 has a source "prevent any suggested road to grow
+        towards it" and sinks "force the network to grow towards them".
+        """
         f = self.flow.direction(at[None, :])[0]
         if not f.any():
             return d
-        options = np.array([f, -f, [-f[1], f[0]], [f[1], -f[0]]])
+        options = np.array([f, [-f[1], f[0]], [f[1], -f[0]]])
         snapped = options[int(np.argmax(options @ d))]
         blend = ph.flow * snapped + (1.0 - ph.flow) * d
         norm = float(np.hypot(*blend))
