@@ -14,9 +14,11 @@ All three are :class:`Raster` grids in the local projection's metres:
   exceeds the maximum steepness (001 §4.3.1, fig. 88).
 
 When the user gives no maps, they are derived from the town:
-:func:`density_from_points` smooths existing building centroids and street
-vertices by a Gaussian kernel density estimate, and :func:`border_from_geometries`
-rasterises water, the old town and non-buildable land.
+:func:`town_density` (:func:`density_from_points` with :class:`InfoMapOptions`)
+smooths existing building centroids and street vertices by a Gaussian kernel
+density estimate, and :func:`border_from_geometries` rasterises water, the
+old town and non-buildable land (the colonisation kernel also takes these
+directly as one ``forbidden`` geometry, which is exact).
 """
 from __future__ import annotations
 
@@ -29,7 +31,24 @@ from scipy import ndimage
 
 from osm_expand.errors import InputError
 
-__all__ = ["Raster", "border_from_geometries", "density_from_points", "forbidden_cells", "slopes_within"]
+__all__ = ["InfoMapOptions", "Raster", "border_from_geometries", "density_from_points", "forbidden_cells",
+           "slopes_within", "town_density"]
+
+
+@dataclass(frozen=True)
+class InfoMapOptions:
+    """How maps are derived from the town when the user gives none; lengths in segment lengths (SL)."""
+
+    #: Cell size, SL: half an SL resolves the street grid the kernel grows (001 §5.6 used 143-215 m
+    #: cells for SL = 1 cell; a town needs finer).
+    cell: float = 0.5
+    #: Kernel density bandwidth (Gaussian σ), SL: a few blocks, so density fades over a district's width.
+    bandwidth: float = 4.0
+    #: Lowest density anywhere (001 has none: its maps are drawn by hand): far from the town a third of
+    #: the APs are kept, so a district can still grow there, more sparsely.
+    floor: float = 0.3
+    #: The map covers the region's bounds grown by this, SL, so the smoothing sees the town next to it.
+    margin: float = 3.0
 
 
 @dataclass(frozen=True)
@@ -258,3 +277,31 @@ def forbidden_cells(border: Raster) -> shapely.Geometry:
     c = border.cell
     boxes = shapely.box(x0 + cols_s * c, y0 + rows_s * c, x0 + cols_e * c, y0 + (rows_s + 1) * c)
     return shapely.union_all(boxes)
+
+
+def town_density(points: np.ndarray, *, bounds: tuple[float, float, float, float], segment_length: float,
+                 options: InfoMapOptions | None = None) -> Raster:
+    """The density map of 001 §4.3.1 derived from the town: a kernel density of its buildings and streets.
+
+    Parameters
+    ----------
+    points : ndarray, shape (N, 2)
+        Building centroids and street vertices of the town, metres.
+    bounds : (xmin, ymin, xmax, ymax)
+        The region to grow in, metres; the map covers it plus ``options.margin`` SL.
+    segment_length : float
+        SL in metres (the town's junction spacing).
+    options : InfoMapOptions, optional
+        Cell, bandwidth, floor and margin (default :class:`InfoMapOptions`).
+
+    Returns
+    -------
+    Raster
+        Values in [floor, 1], 1 at the densest part of the town.
+    """
+    options = options or InfoMapOptions()
+    pad = options.margin * segment_length
+    x0, y0, x1, y1 = bounds
+    return density_from_points(points, bounds=(x0 - pad, y0 - pad, x1 + pad, y1 + pad),
+                               cell=options.cell * segment_length, bandwidth=options.bandwidth * segment_length,
+                               floor=options.floor)

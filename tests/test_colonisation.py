@@ -14,7 +14,8 @@ from osm_expand.errors import InputError
 from synth.colonisation import (ColonisationOptions, ColonisationResult, _Colonist, _Phase, chain_streets, colonise,
                                 connection_force, constrain_turn, extra_pruning, ideal_directions)
 from synth.flowfield import FlowPrimitive, flow_field, primitive_velocity
-from synth.infomaps import Raster, border_from_geometries, density_from_points, forbidden_cells, slopes_within
+from synth.infomaps import (InfoMapOptions, Raster, border_from_geometries, density_from_points, forbidden_cells,
+                            slopes_within, town_density)
 
 SL = 100.0
 
@@ -332,6 +333,16 @@ def test_density_from_points_peaks_at_the_cluster_and_keeps_its_floor():
     dens = density_from_points(pts, bounds=(0, 0, 1000, 1000), cell=20.0, bandwidth=60.0, floor=0.2)
     assert dens.values.max() == pytest.approx(1.0) and dens.values.min() == pytest.approx(0.2, abs=1e-6)
     assert dens.sample(np.array([[300.0, 300.0]]))[0] > 0.9 > 0.3 > dens.sample(np.array([[900.0, 900.0]]))[0]
+
+
+def test_a_town_density_covers_the_region_with_a_margin_and_fades_to_its_floor():
+    town = np.random.default_rng(1).uniform([0.0, 0.0], [1000.0, 1000.0], size=(500, 2))
+    dens = town_density(town, bounds=(1000.0, 0.0, 3000.0, 1000.0), segment_length=100.0)
+    opts = InfoMapOptions()
+    assert dens.cell == opts.cell * 100.0
+    assert dens.bounds[0] == 1000.0 - opts.margin * 100.0 and dens.bounds[2] >= 3000.0 + opts.margin * 100.0
+    near, far = dens.sample(np.array([[1100.0, 500.0], [2900.0, 500.0]]))
+    assert near > 0.6 > opts.floor == pytest.approx(far, abs=0.01)
 
 
 def test_border_maps_round_trip_to_forbidden_ground():
