@@ -34,19 +34,19 @@ def stage_times(path: Path, seed: int, out: Path) -> dict[str, float]:
         times[clock[1]] = now - clock[0]
         clock[:] = [now, next_stage]
 
-    raw = load(path)
-    mark("simplify + example")
-    stages = {"finding blocks and a site": "blocks + site", "growing streets": "random walk + shapes",
-              "joining the district to the town": "joins"}
-    result = expand(raw, ExpandOptions(seed=seed), progress=lambda msg: mark(stages[msg]) if msg in stages else None)
+    city = load(path)
+    mark("learn the town (simplify + example)")
+    stages = {"finding": "blocks, land, site", "growing": "growth + joins"}
+    result = expand(city, ExpandOptions(seed=seed),
+                    progress=lambda msg: mark(stages[msg.split()[0]]) if msg.split()[0] in stages else None)
     mark("write urbanenvironment")
-    write_urbanenvironment(result.network, out / "a.xml", origins=result.origins)
+    write_urbanenvironment(result.city, out / "a.xml")
     mark("write osm")
-    write_osm(result.network, out / "a.osm")
+    write_osm(result.city, out / "a.osm")
     mark("write geojson")
-    write_geojson(result.network, out / "a.geojson")
+    write_geojson(result.city, out / "a.geojson")
     mark("preview png")
-    write_preview(result.network, result.origins, out / "a.png", result.site.region, title="benchmark")
+    write_preview(result.city, out / "a.png", result.site.region, title="benchmark")
     mark("end")
     return times
 

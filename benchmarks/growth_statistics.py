@@ -32,13 +32,13 @@ TOWNS = ["krems.osm.gz", "north-bayreuth.osm.gz", "campo-grande.osm.gz"]
 
 
 def measure(path: Path, seeds: list[int]) -> dict[str, float]:
-    raw = load(path)
-    result = simplify(raw)
+    city = load(path)
+    result = simplify(city.network)
     source = build_example(result.network, result.dead_ends)
     lo, hi = source.xy.min(axis=0), source.xy.max(axis=0)
     side = float((hi - lo).max())
     region = shapely.box(hi[0] + 200, (lo[1] + hi[1] - side) / 2, hi[0] + 200 + side, (lo[1] + hi[1] + side) / 2)
-    water = [*raw.context.water, *raw.context.sea]
+    water = [*city.water, *city.sea]
     obstacles = shapely.union_all(water) if water else None
     cat = lambda e, a: np.concatenate([getattr(s, a) for s in e.streets])  # noqa: E731
     rows = []

@@ -72,10 +72,7 @@ def krems_map() -> tuple[tuple[float, float, float, float], Raster, Segments, li
     """Krems: its streets (tertiary and above major), faces as blocks, the Danube."""
     from osm_expand.ingest import load
     town = load(REPO / "fixtures" / "krems.osm.gz")
-    if hasattr(town, "water_geometry"):  # a City
-        net, wet = town.network, town.water_geometry()
-    else:  # a StreetNetwork, before the city model
-        net, wet = town, shapely.union_all([*town.context.water, *town.context.sea])
+    net, wet = town.network, town.water_geometry()
     major = [s.highway.removesuffix("_link") in {"motorway", "trunk", "primary", "secondary", "tertiary"}
              for s in net.streets]
     segs = Segments.from_lines([net.street_xy(s) for s in net.streets], major=major,

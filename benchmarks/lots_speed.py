@@ -41,18 +41,19 @@ def town(path: Path):
     The one place that touches the ingest/simplify/blocks APIs, which may change shape.
     """
     from osm_expand.blocks import blocks
-    from osm_expand.highways import rank
+    from osm_expand.model.highways import rank
     from osm_expand.ingest import load
     from simplify import simplify
 
-    raw = load(path)
+    city = load(path)
+    raw = city.network
     net = simplify(raw).network
     lines = [shapely.LineString(net.street_xy(s)) for s in net.streets]
     widths = np.array([s.width or WIDTH.get(s.highway.removesuffix("_link"), 8.0) for s in net.streets])
     traffic = np.array([10.0 - rank(s.highway) for s in net.streets])  # stand-in: more important, more traffic
-    footprints = [b.ring for b in raw.context.buildings]
+    footprints = [b.ring for b in city.buildings]
     raw_lines = [shapely.LineString(raw.street_xy(s)) for s in raw.streets]
-    return blocks(net), lines, np.arange(len(lines)), widths, traffic, footprints, raw_lines
+    return [b.polygon for b in blocks(net)], lines, np.arange(len(lines)), widths, traffic, footprints, raw_lines
 
 
 def run(path: Path, seed: int, mix: bool) -> None:

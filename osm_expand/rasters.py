@@ -41,7 +41,7 @@ from typing import NamedTuple
 import numpy as np
 
 from osm_expand.errors import InputError
-from osm_expand.projection import LocalProjection
+from osm_expand.model.projection import LocalProjection
 
 __all__ = ["GeoGrid", "read_georeference", "read_grid", "read_raster"]
 

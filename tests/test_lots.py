@@ -159,7 +159,7 @@ def grid_lines(n=3, step=100.0):
 
 def test_block_frontage_names_the_bounding_streets_and_covers_the_boundary():
     net = network_from_lines(grid_lines())
-    found = blocks(net)
+    found = [b.polygon for b in blocks(net)]
     lines = [shapely.LineString(net.street_xy(s)) for s in net.streets]
     widths = np.arange(len(lines)) + 6.0
     frontage = block_frontage(found, lines, np.arange(len(lines)) + 100, widths)
@@ -174,7 +174,7 @@ def test_block_frontage_names_the_bounding_streets_and_covers_the_boundary():
 
 def test_a_dead_end_inside_a_block_is_frontage_and_keeps_lots_off_it():
     square = [[(0, 0), (200, 0)], [(200, 0), (200, 200)], [(200, 200), (0, 200)], [(0, 200), (0, 0)]]
-    found = blocks(network_from_lines(square))
+    found = [b.polygon for b in blocks(network_from_lines(square))]
     lines = [shapely.LineString(s) for s in square] + [shapely.LineString([(100, 0), (100, 120)])]
     frontage = block_frontage(found, lines, np.arange(5), np.full(5, 8.0))
     inner = [f for f in frontage[0] if f.street == 4]
@@ -190,7 +190,7 @@ def test_a_dead_end_inside_a_block_is_frontage_and_keeps_lots_off_it():
 
 def test_subdivide_blocks_uses_each_blocks_land_use():
     net = network_from_lines(grid_lines())
-    found = blocks(net)
+    found = [b.polygon for b in blocks(net)]
     lines = [shapely.LineString(net.street_xy(s)) for s in net.streets]
     frontage = block_frontage(found, lines, np.arange(len(lines)), np.full(len(lines), 8.0))
     uses = ["residential_low", "industrial", "commercial", "park"]
@@ -206,7 +206,7 @@ def test_subdivide_blocks_uses_each_blocks_land_use():
 
 def test_many_blocks_lot_areas_stay_within_the_configured_bounds():
     net = network_from_lines(grid_lines(5, 90.0))
-    found = blocks(net)
+    found = [b.polygon for b in blocks(net)]
     lines = [shapely.LineString(net.street_xy(s)) for s in net.streets]
     frontage = block_frontage(found, lines, np.arange(len(lines)), np.full(len(lines), 8.0))
     lots = subdivide_blocks(found, frontage, ["residential_low"] * len(found), rng=np.random.default_rng(0))

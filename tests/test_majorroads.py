@@ -498,10 +498,8 @@ def test_bad_choices_and_parameters_raise_input_errors():
 
 
 def network_and_water(town):
-    """The street network and the water of what ``load`` returns (a City, or a StreetNetwork before it)."""
-    if hasattr(town, "water_geometry"):
-        return town.network, town.water_geometry()
-    return town, shapely.union_all([*town.context.water, *town.context.sea])
+    """The street network and the water of a City."""
+    return town.network, town.water_geometry()
 
 
 #: highway classes taken as major roads on Krems (tertiary and above)

@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from osm_expand.errors import InputError
-from osm_expand.projection import LocalProjection
+from osm_expand.model.projection import LocalProjection
 from osm_expand.rasters import read_raster
 from synth.infomaps import Raster
 
