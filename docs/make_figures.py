@@ -18,7 +18,7 @@ from osm_expand.model.topology import junction_mask  # noqa: E402
 
 
 def draw(source: str, target: str) -> None:
-    raw = load(source, context=False)
+    raw = load(source, context=False).network
     result = simplify(raw)
     net = result.network
     fig, axes = plt.subplots(1, 2, figsize=(14, 7), sharex=True, sharey=True)

@@ -161,6 +161,8 @@ def _read(path: str, kept: frozenset[str], context: bool, relations: bool) -> tu
             _take_way(obj, kept, raw)
             if context and obj.is_closed():
                 _take_closed_way(obj, raw)
+            elif context and obj.tags.get("building", "no") != "no" and "highway" not in obj.tags:
+                _take_unplaced(obj, raw)  # a building drawn as an open way: a mapping error, kept as mapped
         elif obj.is_area() and not obj.from_way():  # closed ways are taken above, as ways
             raw.newest = max(raw.newest, _seconds(obj))
             assembled.add(obj.orig_id())

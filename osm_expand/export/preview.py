@@ -44,10 +44,16 @@ def write_preview(city: City, path: str | os.PathLike, site_region: shapely.Geom
         ax.add_collection(LineCollection(old, colors="0.45", linewidths=0.7))
         grown = [s for s in net.streets if s.origin in (Origin.GROWN, Origin.ENGINE)]
         if grown:
-            lc = LineCollection([net.street_xy(s) for s in grown], cmap="plasma_r", linewidths=1.4)
-            lc.set_array(np.array([max(s.hierarchy, 0) for s in grown], dtype=float))
+            from matplotlib.colors import BoundaryNorm
+
+            levels = np.array([max(s.hierarchy, 0) for s in grown])
+            top = int(levels.max())
+            norm = BoundaryNorm(np.arange(-0.5, top + 1.5), plt.get_cmap("plasma_r").N)
+            lc = LineCollection([net.street_xy(s) for s in grown], cmap="plasma_r", norm=norm, linewidths=1.4)
+            lc.set_array(levels.astype(float))
             ax.add_collection(lc)
-            fig.colorbar(lc, ax=ax, shrink=0.5, label="new streets: hierarchy (Gravelius level)")
+            bar = fig.colorbar(lc, ax=ax, shrink=0.5, label="new streets: hierarchy (Gravelius level)")
+            bar.set_ticks(range(0, top + 1, max(1, (top + 1) // 8)))
         joins = [net.street_xy(s) for s in net.streets if s.origin == Origin.JOIN]
         if joins:
             ax.add_collection(LineCollection(joins, colors="black", linewidths=1.6))
