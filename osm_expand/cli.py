@@ -142,6 +142,9 @@ def build_expand_parser() -> argparse.ArgumentParser:
     p.add_argument("--at-lonlat", metavar="LON,LAT", help="site centre in degrees (longitude first)")
     p.add_argument("--area", type=float, metavar="M2",
                    help="district area in m² (default: a quarter of the built-up area; at most four times it)")
+    p.add_argument("--pattern", choices=["example", "walk"], default="example",
+                   help="how streets grow: example (patches of the town, seams walked; default) or walk "
+                        "(004's random walk over the town's junctions)")
     p.add_argument("--beyond-bounds", action="store_true",
                    help="let the district grow outside the map's bounds (land there is unknown)")
     p.add_argument("--unbuildable", metavar="KEY=VALUE,...",
@@ -396,7 +399,8 @@ def cmd_expand(args: argparse.Namespace, log: Progress) -> dict:
     log(f"reading {city_path}")
     city = load(city_path, service=args.service, paths=args.paths)
     options = ExpandOptions(seed=args.seed, direction=None if args.direction == "auto" else args.direction,
-                            at=_site_point(args, city), area=args.area, beyond_bounds=args.beyond_bounds, land=land)
+                            at=_site_point(args, city), area=args.area, beyond_bounds=args.beyond_bounds, land=land,
+                            pattern=args.pattern)
     try:
         result = expand(city, options, progress=log)
     except InputError as exc:

@@ -55,9 +55,52 @@ class JoinReport:
                 "at": [[round(float(x), 1), round(float(y), 1)] for x, y in self.at]}
 
 
+#: A new street's end this close to a town street (m) lies on it: the town's way gets the node (a tee).
+ON_STREET = 1e-3
+
+
 def add_streets(city: City, lines: Sequence[np.ndarray], attrs: Sequence[dict]) -> City:
-    """The city with new streets along ``lines``; ends on a town node's exact coordinates share it."""
-    return city.replace(network=city.network.with_new_streets(lines, attrs))
+    """The city with new streets along ``lines``.
+
+    An end on a town node's exact coordinates shares the node; an end on a
+    town street between its nodes becomes a tee: the node is inserted into
+    the town's way, which keeps its id, tags and shape.
+    """
+    old_count, old_nodes = len(city.network.streets), len(city.network.xy)
+    net = city.network.with_new_streets(lines, attrs)
+    ends = sorted({n for s in net.streets[old_count:] for n in (s.nodes[0], s.nodes[-1]) if n >= old_nodes})
+    return city.replace(network=_insert_tees(net, old_count, np.array(ends, dtype=np.int64)))
+
+
+def _insert_tees(net: StreetNetwork, old_count: int, ends: np.ndarray) -> StreetNetwork:
+    """Insert each of the nodes ``ends`` into the town street segment it lies on (if any)."""
+    if not len(ends):
+        return net
+    owner, first = [], []
+    for k, s in enumerate(net.streets[:old_count]):
+        owner += [k] * (len(s.nodes) - 1)
+        first += list(range(len(s.nodes) - 1))
+    if not owner:
+        return net
+    a = np.array([net.xy[net.streets[k].nodes[i]] for k, i in zip(owner, first)])
+    b = np.array([net.xy[net.streets[k].nodes[i + 1]] for k, i in zip(owner, first)])
+    tree = shapely.STRtree(shapely.linestrings(np.stack([a, b], axis=1)))
+    pts, segs = tree.query(shapely.points(net.xy[ends]), predicate="dwithin", distance=ON_STREET)
+    streets = list(net.streets)
+    inserts: dict[int, list[tuple[int, float, int]]] = {}
+    for p_i, s_i in zip(pts.tolist(), segs.tolist()):
+        node, k, i = int(ends[p_i]), owner[s_i], first[s_i]
+        if node in streets[k].nodes:
+            continue
+        t, _, d = closest_on_segments(net.xy[node], a[s_i], b[s_i])
+        if d <= ON_STREET and 0.0 < float(t) < 1.0:
+            inserts.setdefault(k, []).append((i, float(t), node))
+    for k, items in inserts.items():
+        nodes = list(streets[k].nodes)
+        for i, _, node in sorted(items, reverse=True):  # from the street's end, so earlier positions hold
+            nodes.insert(i + 1, node)
+        streets[k] = streets[k].with_nodes(nodes)
+    return net.replace(streets=tuple(streets))
 
 
 @dataclass(frozen=True)

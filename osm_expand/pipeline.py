@@ -20,6 +20,7 @@ import shapely
 
 from osm_expand.blocks import blocks
 from osm_expand.errors import InputError
+from osm_expand.fidelity import FidelityReport, fidelity
 from osm_expand.heights import with_heights
 from osm_expand.joins import JoinReport, add_streets, join_to_town
 from osm_expand.land import LandOptions, unbuildable
@@ -29,7 +30,8 @@ from simplify import simplify
 from simplify.example import Example, build_example
 from simplify.hierarchy import with_levels
 from simplify.options import SimplifyOptions
-from synth.growth import GrowthPattern, RandomWalk
+from synth.growth import Growth, GrowthPattern, RandomWalk
+from synth.patches import ExamplePatches
 
 #: A district smaller than this many blocks (squares of the town's junction spacing) is refused.
 MIN_BLOCKS = 9
@@ -54,6 +56,8 @@ class ExpandOptions:
     at: tuple[float, float] | None = None  #: site centre in metres
     area: float | None = None  #: m²; default: ``site.area_share`` of the built-up area
     beyond_bounds: bool = False  #: allow the site outside the map's data bounds
+    pattern: str = "example"  #: growth pattern: see :data:`PATTERNS`
+    fidelity: bool = True  #: judge the district against real parts of the town (:mod:`osm_expand.fidelity`)
     site: SiteOptions = field(default_factory=SiteOptions)
     land: LandOptions = field(default_factory=LandOptions)
 
@@ -73,7 +77,16 @@ class ExpandResult:
     site: Site
     learned: Learned
     joins: JoinReport
+    growth: Growth  #: what the pattern returned (its footprint is the district's area)
+    fidelity: FidelityReport | None
     report: dict
+
+
+#: Growth patterns by name (``--pattern``): each builds from what the town taught.
+PATTERNS = {
+    "example": lambda learned: ExamplePatches(learned.example),
+    "walk": lambda learned: RandomWalk(learned.example),
+}
 
 
 def simplified_or_fail(raw: StreetNetwork, options: SimplifyOptions | None = None):
@@ -139,20 +152,27 @@ def expand(city: City, options: ExpandOptions | None = None, *, pattern: GrowthP
         hint = "" if opts.beyond_bounds else ", or --beyond-bounds to grow outside them"
         raise InputError(f"no room for a district of {area:.0f} m² inside the map's bounds; "
                          f"try a smaller --area{hint}")
-    pattern = pattern or RandomWalk(learned.example)
+    if pattern is None:
+        if opts.pattern not in PATTERNS:
+            raise InputError(f"pattern must be one of {', '.join(PATTERNS)}, got {opts.pattern!r}")
+        pattern = PATTERNS[opts.pattern](learned)
     spacing = learned.example.spacing
     tried = []
     for attempt, site in enumerate(sites):
         progress(f"growing streets ({pattern.name}) at site {attempt + 1}")
-        grown, joins = _grow_at(city, site, pattern, np.random.default_rng([opts.seed, attempt]), spacing)
+        region = site.region if opts.beyond_bounds else shapely.intersection(site.region, city.bounds_polygon)
+        growth = pattern.grow(city, region, np.random.default_rng([opts.seed, attempt]))
+        grown, joins = _join(city, growth, spacing)
         if joins.joins >= MIN_JOINS:
             break
-        tried.append(f"site {attempt + 1}: {joins.joins} joins")
+        tried.append(f"site {attempt + 1}: {len(growth.streets)} streets, {joins.joins} joins")
     else:
         raise InputError(f"the district cannot be joined to the town by {MIN_JOINS} streets at any of the "
                          f"{len(sites)} best sites ({'; '.join(tried)}); try --at or another --direction")
-    report = _report(grown, site, area, spacing, joins, attempt)
-    return ExpandResult(city=grown, site=site, learned=learned, joins=joins, report=report)
+    judged = _judge(city, grown, growth, joins, opts.seed) if opts.fidelity else None
+    report = _report(grown, site, area, spacing, joins, attempt, pattern.name, judged)
+    return ExpandResult(city=grown, site=site, learned=learned, joins=joins, growth=growth, fidelity=judged,
+                        report=report)
 
 
 def _margin(city: City) -> float:
@@ -174,9 +194,8 @@ def _district_area(opts: ExpandOptions, built: float, spacing: float) -> float:
     return area
 
 
-def _grow_at(city: City, site: Site, pattern: GrowthPattern, rng: np.random.Generator,
-             spacing: float) -> tuple[City, JoinReport]:
-    growth = pattern.grow(city, site.region, rng)
+def _join(city: City, growth: Growth, spacing: float) -> tuple[City, JoinReport]:
+    """The shared joining step: the grown streets into the city, then joined to the town's streets."""
     attrs = [{"highway": s.highway, "hierarchy": s.hierarchy, "bridge": s.bridge, "layer": s.layer,
               "origin": Origin.GROWN, "status": Status.PLANNED, "year": city.year} for s in growth.streets]
     grown = add_streets(city, [s.xy for s in growth.streets], attrs)
@@ -190,7 +209,20 @@ def district_area(city: City) -> float:
     return float(shapely.MultiLineString(lines).convex_hull.area) if lines else 0.0
 
 
-def _report(city: City, site: Site, area: float, spacing: float, joins: JoinReport, attempt: int) -> dict:
+def _judge(town: City, grown: City, growth: Growth, joins: JoinReport, seed: int) -> FidelityReport | None:
+    """The district against real parts of the town as mapped (its own random stream: growth is unchanged)."""
+    net = grown.network
+    district = [net.street_xy(net.streets[k]) for k in grown.new_streets()]
+    window = growth.footprint
+    if not district or window is None or window.is_empty:
+        return None
+    town_lines = [town.network.street_xy(s) for s in town.network.streets]
+    return fidelity(district, town_lines, window=window, open_points=joins.at,
+                    rng=np.random.default_rng([seed, 0xF1DE]))
+
+
+def _report(city: City, site: Site, area: float, spacing: float, joins: JoinReport, attempt: int, pattern: str,
+            judged: FidelityReport | None) -> dict:
     net = city.network
     new = city.new_streets()
     grown = [k for k in new if net.streets[k].origin == Origin.GROWN]
@@ -201,5 +233,6 @@ def _report(city: City, site: Site, area: float, spacing: float, joins: JoinRepo
         "source_buildings": len(city.buildings), "grown_streets": len(grown),
         "district_area_m2": round(district_area(city)),
         "grown_length_km": round(sum(polyline_length(net.street_xy(net.streets[k])) for k in new) / 1000, 3),
-        "connections": joins.joins, "joins": joins.to_dict(),
+        "connections": joins.joins, "joins": joins.to_dict(), "pattern": pattern,
+        **({"fidelity": judged.to_dict()} if judged is not None else {}),
     }

@@ -39,9 +39,11 @@ class NewStreet:
 
 @dataclass(frozen=True)
 class Growth:
-    """What a pattern returns: new streets, and what it wants to show for debugging."""
+    """What a pattern returns: new streets, the land they were grown on, and what to show for debugging."""
 
     streets: tuple[NewStreet, ...]
+    #: The area the pattern grew in (metres): what the district is judged over.
+    footprint: shapely.Geometry | None = None
     debug: dict[str, Any] = field(default_factory=dict)
 
 
@@ -92,7 +94,7 @@ class RandomWalk:
 
     example: Example
     options: WalkOptions = field(default_factory=lambda: WalkOptions(complete=True))
-    name: str = "example"
+    name: str = "walk"
 
     def grow(self, city: City, region: shapely.Geometry, rng: np.random.Generator) -> Growth:
         spacing = self.example.spacing
@@ -104,8 +106,8 @@ class RandomWalk:
         highway = _class_by_level(self.example.network)
         streets = tuple(NewStreet(xy=pts, hierarchy=int(level), highway=highway.get(int(level), "residential"))
                         for level, pts in result.polylines())
-        return Growth(streets=streets, debug={"junctions_placed": len(result.cloud) - len(border_xy),
-                                              "border_nodes": len(border_xy)})
+        return Growth(streets=streets, footprint=shapely.difference(region, city.occupied),
+                      debug={"junctions_placed": len(result.cloud) - len(border_xy), "border_nodes": len(border_xy)})
 
 
 def _class_by_level(net: StreetNetwork) -> dict[int, str]:

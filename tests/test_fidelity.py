@@ -126,7 +126,7 @@ def test_a_ring_has_no_junction_one_round_block_and_curvature_step_over_radius(p
     assert math.isnan(m.three_way_share) and math.isnan(m.dead_end_share)
     assert m.edge_length[0] == pytest.approx(2 * math.pi * radius, rel=1e-5)
     assert len(m.circuity) == 0 and len(m.junction_angle) == 0 and len(m.alignment) == 0
-    np.testing.assert_allclose(m.curvature, math.degrees(20.0 / radius), rtol=1e-3)  # samples on a 2000-gon
+    np.testing.assert_allclose(m.curvature, math.degrees(20.0 / radius), atol=0.05)  # rounded to 0.1°  # samples on a 2000-gon
     assert m.block_area[0] == pytest.approx(math.pi * radius ** 2, rel=1e-5)
     assert m.block_compactness[0] == pytest.approx(1.0, abs=1e-5)
     assert m.stroke_length == pytest.approx([2 * math.pi * radius], rel=1e-5)
@@ -237,7 +237,7 @@ def test_every_junction_is_ringed_by_360_degrees_and_strokes_cover_every_street(
     lines = [np.array([[x0, y0], [x1, y1]]) for x0, y0, x1, y1 in segs if math.hypot(x1 - x0, y1 - y0) > 1]
     noded = shapely.get_parts(shapely.union_all(shapely.linestrings(lines))) if lines else []
     m = measure_network([shapely.get_coordinates(g) for g in noded])
-    assert m.junction_angle.sum() == pytest.approx(360.0 * m.junctions)
+    assert m.junction_angle.sum() == pytest.approx(360.0 * m.junctions, abs=0.05 * len(m.junction_angle))  # 0.1° rounding
     assert m.stroke_length.sum() == pytest.approx(m.length)
     assert np.all((m.alignment >= 0) & (m.alignment <= 45 + 1e-9))
     assert np.all(m.circuity >= 1 - 1e-9)
@@ -255,7 +255,7 @@ def test_lines_on_a_lattice_clipped_or_not_keep_their_length_in_strokes(paths, c
     for win in (None, window):
         m = measure_network(lines, window=win)
         assert m.stroke_length.sum() == pytest.approx(m.length)
-        assert m.junction_angle.sum() == pytest.approx(360.0 * m.junctions)
+        assert m.junction_angle.sum() == pytest.approx(360.0 * m.junctions, abs=0.05 * len(m.junction_angle))
         assert m.edge_length.sum() <= m.length + 1e-6
         assert m.cut_edges <= m.edges and (win is not None or m.open_ends == 0)
 

@@ -182,3 +182,50 @@ def replace_nodes(streets: Sequence[Street], remap: dict[int, int]) -> tuple[Str
         if nodes is not None:
             out.extend(split_self_touching(s.with_nodes(nodes)))
     return tuple(out)
+
+
+def without_segments(streets: Sequence[Street], drop: set[tuple[int, int]]) -> tuple[Street, ...]:
+    """Streets with the segments ``drop`` (node pairs, either order) removed; a street is cut where one goes."""
+    out: list[Street] = []
+    for s in streets:
+        run: list[int] = [s.nodes[0]]
+        for a, b in zip(s.nodes[:-1], s.nodes[1:]):
+            if (a, b) in drop or (b, a) in drop:
+                if len(run) >= 2:
+                    out.append(s.with_nodes(run))
+                run = [b]
+            else:
+                run.append(b)
+        if len(run) >= 2:
+            out.append(s.with_nodes(run) if len(run) != len(s.nodes) else s)
+    return tuple(out)
+
+
+def dangling_chains(streets: Sequence[Street], leaves: Iterable[int]) -> dict[int, set[tuple[int, int]]]:
+    """Per leaf (a node with one segment), the segments back to the nearest junction.
+
+    Walks through nodes with two segments; stops at a node with three or
+    more (kept) or at another leaf (the whole isolated chain goes). Segments
+    are node pairs, smaller node first.
+    """
+    neighbours: dict[int, list[int]] = {}
+    for s in streets:
+        for a, b in zip(s.nodes[:-1], s.nodes[1:]):
+            neighbours.setdefault(a, []).append(b)
+            neighbours.setdefault(b, []).append(a)
+    chains: dict[int, set[tuple[int, int]]] = {}
+    for leaf in leaves:
+        if len(neighbours.get(leaf, ())) != 1:
+            continue
+        chain: set[tuple[int, int]] = set()
+        prev, cur = None, leaf
+        while True:
+            nxt = [n for n in neighbours[cur] if n != prev]
+            if not nxt:
+                break
+            chain.add((min(cur, nxt[0]), max(cur, nxt[0])))
+            prev, cur = cur, nxt[0]
+            if len(neighbours[cur]) != 2:
+                break
+        chains[leaf] = chain
+    return chains

@@ -1,0 +1,636 @@
+"""Example patches: a district quilted from pieces of the town as mapped, its seams walked.
+
+The growth pattern of Aliaga et al. 2008 and Nishida et al. 2016, which keep
+the look of an example by copying *fragments of the real network* — their
+streets, real shapes, dead ends, junction angles and blocks — and fixing the
+seams between fragments procedurally; here the seams are walked with 004's
+transition probability (§3.1). Seed 004 §6.2 says what its junction-cloud
+walk loses (shapes, dead ends, the town's density); patches keep all three.
+
+1. **Cells.** Cell centres are laid over the region's free land (not water,
+   blocks, unbuildable land, nor within ``clearance`` of the town's streets),
+   starting next to the town and growing outward ``cell_size`` junction
+   spacings apart; each centre owns its Voronoi cell of the free land.
+2. **How much.** A real district of the town holds open land too (fields,
+   parks, water): its street density, measured on discs of the district's
+   area centred on the town's streets, is the target. Cells are filled from
+   the town outward until the district reaches the median of those densities;
+   the rest stays open, as the town's own edges do.
+3. **Patches.** Each filled cell takes the streets of a patch of the town
+   around a point of its streets (drawn by length, patches of the town's
+   typical local density only, so neither the dense core nor the fields),
+   translated — never rotated, so the district keeps the town's orientations
+   — by an offset of up to half a spacing chosen so that its streets continue
+   those of the cells already filled, and clipped to the cell. Motorways,
+   trunk roads, bridges and tunnels are not copied.
+4. **Seams.** A street cut by a seam continues into a cut street of the
+   neighbouring cell with probability
+   ``exp(-½ (gap / σ_L)²) · exp(-½ (turn / σ_θ)²)``, most probable first,
+   crossing nothing; one left over runs on to meet the first street ahead
+   (of the district or the town) in a tee, at a fair angle; every other cut
+   end is trimmed back to its last junction, so no street ends where a seam
+   or the site's edge cut it, and none traces the edge.
+5. **Pieces.** Fragments shorter than ``min_fragment`` spacings go, and so
+   do pieces that can be joined neither to the rest nor to the town.
+"""
+from __future__ import annotations
+
+import copy
+from dataclasses import dataclass, field
+
+import numpy as np
+import shapely
+import shapely.ops
+from scipy.spatial import cKDTree
+
+from osm_expand.model import City, Origin, StreetNetwork, network_from_lines
+from osm_expand.model.geometry import closest_on_segments
+from osm_expand.model.topology import dangling_chains, segment_degree, without_segments
+from simplify.example import Example
+from synth.growth import Growth, NewStreet, streets_near
+
+#: Highway classes never copied into a district: a piece of motorway in a housing estate is no street.
+NOT_COPIED = ("motorway", "trunk", "motorway_link", "trunk_link")
+
+
+@dataclass(frozen=True)
+class PatchOptions:
+    #: Cells are at least this many junction spacings across ...
+    cell_size: float = 5.0
+    #: ... and the district has about this many of them: large patches keep the town's structure.
+    cells: int = 1
+    #: Candidate patches drawn from the town (street points, by length) ...
+    candidates: int = 48
+    #: ... of which those whose street density is within this factor band of the median are used.
+    density_band: tuple[float, float] = (1.0, 2.5)
+    #: A patch turns to match its neighbours' grid only when both have a clear main direction:
+    #: the fullest 5° bin of bearings (mod 90°) holds this many times its share.
+    orientation_peak: float = 2.0
+    #: Discs of the district's area measured on the town for the target density.
+    density_discs: int = 32
+    #: Copied streets keep this many spacings from the town's streets (they meet them only in tees).
+    clearance: float = 0.15
+    #: A seam's cut ends this many spacings apart may continue into each other (in a smooth curve) ...
+    seam_gap: float = 1.2
+    #: ... if the street turns by at most this much there (degrees).
+    seam_turn: float = 75.0
+    #: Spread of the seam's transition probability: gap (in spacings) and turn (degrees).
+    seam_sigma: tuple[float, float] = (0.4, 30.0)
+    #: A cut end left over runs on this many spacings to meet a street in a tee ...
+    tee_reach: float = 0.6
+    #: ... meeting it at this angle or more (degrees).
+    tee_angle: float = 35.0
+    #: Offsets tried per axis when fitting a patch to its placed neighbours (within half a spacing).
+    offsets: int = 9
+    #: A street cut by the site's edge stays (a road out of the district) when this many spacings long.
+    keep_out: float = 1.0
+    #: Connected pieces shorter than this many spacings are dropped.
+    min_fragment: float = 2.0
+    #: A piece is kept only if a street of the rest or of the town lies this many spacings from it.
+    link_reach: float = 2.0
+
+
+@dataclass(frozen=True)
+class _Source:
+    """The town's copyable streets: polylines, their class and level, an index, and the points where
+    they met a street that is not copied (those ends are cut ends in a copy, not dead ends)."""
+
+    lines: np.ndarray  #: shapely LineStrings
+    highway: tuple[str, ...]
+    level: np.ndarray
+    tree: shapely.STRtree
+    broken: cKDTree | None = None
+
+
+@dataclass
+class _Quilt:
+    """The district being quilted: pieces (polylines with class and level) and the cut ends still open."""
+
+    xy: list[np.ndarray] = field(default_factory=list)
+    highway: list[str] = field(default_factory=list)
+    level: list[int] = field(default_factory=list)
+    #: per cut end: position, heading out of the street, cell, piece
+    cut_xy: list[np.ndarray] = field(default_factory=list)
+    cut_heading: list[np.ndarray] = field(default_factory=list)
+    cut_cell: list[int] = field(default_factory=list)
+    cut_piece: list[int] = field(default_factory=list)
+    #: points to insert into a piece (a tee from another street lands there)
+    splits: dict[int, list[np.ndarray]] = field(default_factory=dict)
+
+    def add(self, xy: np.ndarray, highway: str, level: int) -> int:
+        self.xy.append(xy)
+        self.highway.append(highway)
+        self.level.append(level)
+        return len(self.xy) - 1
+
+
+@dataclass(frozen=True)
+class ExamplePatches:
+    """The default growth pattern: patches of the town as mapped, quilted, seams walked."""
+
+    example: Example
+    options: PatchOptions = field(default_factory=PatchOptions)
+    name: str = "example"
+
+    def grow(self, city: City, region: shapely.Geometry, rng: np.random.Generator) -> Growth:
+        opts, spacing = self.options, self.example.spacing
+        source = _source(city, self.example)
+        old = streets_near(city.network, region.buffer(opts.tee_reach * spacing + 1.0))
+        old_geom = shapely.MultiLineString(old) if old else shapely.MultiLineString()
+        free = _free_land(city, region, old_geom, opts.clearance * spacing, spacing)
+        if free.is_empty or not len(source.lines):
+            return Growth(streets=(), footprint=free)
+        size = max(opts.cell_size * spacing, float(np.sqrt(free.area / opts.cells)))
+        centres = _centres(free, old_geom, size)
+        cells = _cells(free, centres)
+        target = _target_density(source, float(free.area), opts.density_discs, rng) * float(free.area)
+        patches = _candidate_patches(source, size, opts, rng)
+        quilt, placed, keep = _Quilt(), 0, 1.0
+        for _ in range(MAX_FILLS):  # fill, stitch and trim; fill more while trimming left too little
+            placed = _place(source, patches, centres, cells, quilt, placed, target / keep, spacing, old_geom, opts)
+            stitched = copy.deepcopy(quilt)
+            links = _walk_seams(stitched, spacing, opts, city.occupied)
+            tees = _tees(stitched, old_geom, spacing, opts, city.occupied)
+            net = _trim(_network(stitched), stitched, shapely.boundary(region), opts.keep_out * spacing)
+            net = _keep_joinable(net, old_geom, spacing, opts)
+            length = net.total_length()
+            if length >= 0.9 * target or placed >= len(centres):
+                break
+            keep = max(min(length / max(sum(_lengths(quilt.xy)), 1.0), keep), 0.05)
+        streets = tuple(NewStreet(xy=net.street_xy(s), hierarchy=max(s.hierarchy, 0), highway=s.highway)
+                        for s in net.streets)
+        return Growth(streets=streets, footprint=free,
+                      debug={"cells": len(centres), "filled": placed, "target_km": round(target / 1000, 2),
+                             "seam_links": links, "tees": tees})
+
+
+#: Rounds of filling more cells when trimming the seams took too much street away.
+MAX_FILLS = 4
+
+
+def _lengths(lines: list[np.ndarray]) -> np.ndarray:
+    return np.array([float(np.hypot(*np.diff(xy, axis=0).T).sum()) for xy in lines])
+
+
+def _source(city: City, example: Example) -> _Source:
+    """The town's streets that may be copied, with the Gravelius level of the example street holding each way."""
+    level_of: dict[int, int] = {}
+    for s in example.network.streets:
+        for osm_id in s.osm_ids:
+            level_of[osm_id] = min(level_of.get(osm_id, s.hierarchy), s.hierarchy)
+    deepest = max(level_of.values(), default=0) + 1
+    net = city.network
+    copied = [s.origin == Origin.SOURCE and s.highway not in NOT_COPIED and not s.bridge and not s.tunnel
+              and s.layer == 0 for s in net.streets]
+    keep = [s for s, c in zip(net.streets, copied) if c]
+    lines = np.array([shapely.LineString(net.street_xy(s)) for s in keep], dtype=object)
+    level = np.array([min((level_of.get(i, deepest) for i in s.osm_ids), default=deepest) for s in keep])
+    left_out = {n for s, c in zip(net.streets, copied) if not c for n in s.nodes}
+    broken = sorted({n for s in keep for n in s.nodes} & left_out)
+    return _Source(lines=lines, highway=tuple(s.highway for s in keep), level=level, tree=shapely.STRtree(lines),
+                   broken=cKDTree(net.xy[broken]) if broken else None)
+
+
+def _free_land(city: City, region: shapely.Geometry, old: shapely.Geometry, clearance: float,
+               spacing: float) -> shapely.Geometry:
+    """The region less everything occupied and a strip along the town's streets; crumbs dropped."""
+    free = shapely.make_valid(shapely.difference(region, city.occupied))
+    if not old.is_empty:
+        free = shapely.make_valid(shapely.difference(free, shapely.buffer(old, clearance)))
+    parts = [p for p in shapely.get_parts(free) if p.geom_type == "Polygon" and p.area >= spacing ** 2]
+    return shapely.union_all(parts) if parts else shapely.Polygon()
+
+
+def _street_points(source: _Source, n: int, rng: np.random.Generator) -> np.ndarray:
+    """``n`` points on the town's streets, drawn uniformly by length."""
+    lengths = shapely.length(source.lines)
+    cum = np.cumsum(lengths)
+    at = rng.uniform(0.0, cum[-1], n)
+    k = np.searchsorted(cum, at, side="right").clip(max=len(cum) - 1)
+    pts = shapely.line_interpolate_point(source.lines[k], at - (cum[k] - lengths[k]))
+    return shapely.get_coordinates(pts)
+
+
+def _density(source: _Source, centres: np.ndarray, radius: float) -> np.ndarray:
+    """Street length per m² in discs around ``centres``."""
+    discs = shapely.buffer(shapely.points(centres), radius)
+    return np.array([shapely.length(shapely.intersection(source.lines[source.tree.query(d)], d)).sum()
+                     for d in discs]) / (np.pi * radius ** 2)
+
+
+def _target_density(source: _Source, area: float, n: int, rng: np.random.Generator) -> float:
+    """The median street density (m per m²) of the town's own districts of ``area`` m²."""
+    return float(np.median(_density(source, _street_points(source, n, rng), float(np.sqrt(area / np.pi)))))
+
+
+def _candidate_patches(source: _Source, size: float, opts: PatchOptions, rng: np.random.Generator) -> np.ndarray:
+    """Patch centres on the town's streets of its typical local density (within ``density_band`` of the
+    median patch), spread out: a candidate within one patch of a better one goes to the back, so
+    neighbouring cells differ."""
+    centres = _street_points(source, opts.candidates, rng)
+    local = _density(source, centres, size / 2)
+    median = float(np.median(local))
+    lo, hi = opts.density_band
+    good = np.flatnonzero((local >= lo * median) & (local <= hi * median))
+    if not len(good):
+        good = np.argsort(np.abs(local - median))[:1]
+    first, later = [], []
+    for i in good.tolist():
+        (later if any(np.hypot(*(centres[i] - centres[j])) < size for j in first) else first).append(i)
+    return centres[first + later]
+
+
+def _centres(free: shapely.Geometry, old: shapely.Geometry, size: float) -> np.ndarray:
+    """Cell centres over the free land, about ``size`` apart, first next to the town, then outward."""
+    step = size / 4
+    x0, y0, x1, y1 = free.bounds
+    gx, gy = np.meshgrid(np.arange(x0 + step / 2, x1, step), np.arange(y0 + step / 2, y1, step))
+    pts = np.column_stack([gx.ravel(), gy.ravel()])
+    shapely.prepare(free)
+    pts = pts[shapely.contains_xy(free, pts[:, 0], pts[:, 1])]
+    if not len(pts):
+        return np.array([shapely.get_coordinates(free.representative_point())[0]])
+    to_town = shapely.distance(old, shapely.points(pts)) if not old.is_empty else np.zeros(len(pts))
+    centres = [pts[int(np.argmin(to_town))]]
+    nearest = np.hypot(*(pts - centres[0]).T)
+    while True:
+        open_ = nearest > 0.75 * size
+        if not open_.any():
+            break
+        i = int(np.flatnonzero(open_)[np.argmin(nearest[open_] + 0.5 * to_town[open_])])  # next to the quilt, near town
+        centres.append(pts[i])
+        nearest = np.minimum(nearest, np.hypot(*(pts - pts[i]).T))
+    return np.array(centres)
+
+
+def _cells(free: shapely.Geometry, centres: np.ndarray) -> list[shapely.Geometry]:
+    """Each centre's Voronoi cell of the free land (in the centres' order)."""
+    if len(centres) == 1:
+        return [free]
+    cells = shapely.voronoi_polygons(shapely.MultiPoint(centres), extend_to=free.envelope.buffer(1.0), ordered=True)
+    # centres on a lattice are cocircular, where GEOS's Voronoi can return a self-touching cell
+    cells = shapely.make_valid(shapely.get_parts(cells))
+    return [shapely.intersection(c, free) for c in cells]
+
+
+@dataclass(frozen=True)
+class _Transform:
+    """district = R (source − source_centre) + target_centre"""
+
+    source_centre: np.ndarray
+    target_centre: np.ndarray
+    turn: float  #: radians
+
+    @property
+    def rotation(self) -> np.ndarray:
+        c, s = np.cos(self.turn), np.sin(self.turn)
+        return np.array([[c, -s], [s, c]])
+
+    def forward(self, xy: np.ndarray) -> np.ndarray:
+        return (xy - self.source_centre) @ self.rotation.T + self.target_centre
+
+    def back(self, xy: np.ndarray) -> np.ndarray:
+        return (xy - self.target_centre) @ self.rotation + self.source_centre
+
+
+def _main_direction(lines: np.ndarray, peak: float) -> float | None:
+    """The lines' dominant bearing mod 90° (radians), or None when no 5° bin stands out by ``peak``."""
+    coords, index = shapely.get_coordinates(lines, return_index=True)
+    same = index[1:] == index[:-1]
+    d = (coords[1:] - coords[:-1])[same]
+    if not len(d):
+        return None
+    length = np.hypot(*d.T)
+    bearing = np.degrees(np.arctan2(d[:, 1], d[:, 0])) % 90.0
+    hist = np.bincount((bearing // 5).astype(int) % 18, weights=length, minlength=18)
+    smooth = hist + 0.5 * (np.roll(hist, 1) + np.roll(hist, -1))
+    k = int(np.argmax(smooth))
+    if smooth[k] < peak * smooth.mean():
+        return None
+    return float(np.radians((k + 0.5) * 5.0))
+
+
+def _turn(source: _Source, src: np.ndarray, cell: shapely.Geometry, neighbours: np.ndarray,
+          size: float, peak: float) -> float:
+    """Turn a patch (radians, within ±45°) so its grid runs with its neighbours' grid, when both have one.
+
+    ``neighbours``: the streets (LineStrings) of the town and the district near the cell.
+    """
+    patch = source.lines[source.tree.query(shapely.Point(src).buffer(size / 2))]
+    a = _main_direction(patch, peak) if len(patch) else None
+    b = _main_direction(neighbours, peak) if len(neighbours) else None
+    if a is None or b is None:
+        return 0.0
+    return float((b - a + np.pi / 4) % (np.pi / 2) - np.pi / 4)
+
+
+def _place(source: _Source, patches: np.ndarray, centres: np.ndarray, cells: list[shapely.Geometry],
+           quilt: _Quilt, start: int, length: float, spacing: float, old: shapely.Geometry,
+           opts: PatchOptions) -> int:
+    """Copy patches into cells ``start``, ... (from the town outward) until the quilt has ``length`` metres
+    of street; returns how many cells are filled now."""
+    half = spacing / 2
+    grid = np.linspace(-half, half, opts.offsets)
+    offsets = np.array([[dx, dy] for dx in grid for dy in grid])
+    offsets = offsets[np.argsort(np.hypot(*offsets.T), kind="stable")]  # the smallest offset wins ties
+    total = float(_lengths(quilt.xy).sum()) if quilt.xy else 0.0
+    size = float(np.median([np.sqrt(c.area) for c in cells if not c.is_empty] or [spacing]))
+    town = np.array(shapely.get_parts(old))
+    town_tree = shapely.STRtree(town)
+    filled = [c for c in cells[:start] if not c.is_empty]
+    i = start
+    while i < len(centres) and total < length:
+        centre, cell = centres[i], cells[i]
+        i += 1
+        if cell.is_empty:
+            continue
+        src = patches[(i - 1) % len(patches)]
+        around = shapely.buffer(cell, size / 2)
+        nearby = np.concatenate([town[town_tree.query(around)],
+                                 [ln for ln in map(shapely.LineString, quilt.xy) if ln.intersects(around)]])
+        turn = _turn(source, src, cell, nearby, size, opts.orientation_peak)
+        boundary = shapely.boundary(cell)
+        waiting = [k for k, xy in enumerate(quilt.cut_xy) if shapely.distance(boundary, shapely.Point(xy)) < 1.0]
+        move = _Transform(src, centre, turn)
+        move = _Transform(src, centre + _best_offset(source, quilt, waiting, move, offsets, spacing), turn)
+        near = source.tree.query(shapely.transform(cell, move.back))
+        moved = shapely.transform(source.lines[near], move.forward)
+        if total + float(shapely.length(shapely.intersection(moved, cell)).sum()) > length:
+            anchor = shapely.union_all(filled) if filled else old  # fill from the side touching the rest
+            cell = _part_of(cell, moved, shapely.ops.nearest_points(cell, anchor)[0], length - total)
+            boundary = shapely.boundary(cell)
+        filled.append(cell)
+        for k, geom in zip(near.tolist(), shapely.intersection(moved, cell)):
+            for part in shapely.get_parts(geom):
+                if part.geom_type != "LineString" or part.length < 1.0:
+                    continue
+                xy = np.asarray(part.coords)
+                piece = quilt.add(xy, source.highway[k], int(source.level[k]))
+                total += part.length
+                for end, prev in ((xy[0], xy[1]), (xy[-1], xy[-2])):
+                    if shapely.distance(boundary, shapely.Point(end)) < 1e-6 or _was_broken(source, move, end):
+                        d = end - prev
+                        quilt.cut_xy.append(end)
+                        quilt.cut_heading.append(d / max(float(np.hypot(*d)), 1e-12))
+                        quilt.cut_cell.append(i - 1)
+                        quilt.cut_piece.append(piece)
+    return i
+
+
+def _was_broken(source: _Source, move: _Transform, end: np.ndarray) -> bool:
+    """Did this end meet a street that is not copied (a motorway, a bridge) in the town?"""
+    return source.broken is not None and source.broken.query(move.back(end[None, :]), distance_upper_bound=1e-6)[0][0] < 1e-6
+
+
+def _part_of(cell: shapely.Geometry, lines: np.ndarray, anchor: shapely.Point, need: float) -> shapely.Geometry:
+    """The part of ``cell`` nearest ``anchor`` (where it touches the district so far, or the town) holding
+    about ``need`` metres of ``lines``: the last cell is filled from the side that touches the rest."""
+    if need <= 0:
+        return shapely.Polygon()
+    lo, hi = 0.0, float(np.hypot(*np.subtract(cell.bounds[2:], cell.bounds[:2])))
+    for _ in range(12):
+        mid = (lo + hi) / 2
+        part = shapely.intersection(cell, anchor.buffer(mid))
+        if float(shapely.length(shapely.intersection(lines, part)).sum()) < need:
+            lo = mid
+        else:
+            hi = mid
+    return shapely.intersection(cell, anchor.buffer(hi))
+
+
+def _best_offset(source: _Source, quilt: _Quilt, waiting: list[int], move: _Transform, offsets: np.ndarray,
+                 spacing: float) -> np.ndarray:
+    """The offset that best continues the neighbours' cut streets into this patch's streets."""
+    if not waiting:
+        return np.zeros(2)
+    probe = np.array([quilt.cut_xy[k] + quilt.cut_heading[k] * 0.1 * spacing for k in waiting])
+    sigma = 0.1 * spacing
+    best, best_score = np.zeros(2), -1.0
+    for off in offsets:
+        at = move.back(probe - off)
+        _, dist = source.tree.query_nearest(shapely.points(at), return_distance=True, all_matches=False)
+        score = float(np.exp(-0.5 * (dist / sigma) ** 2).sum())
+        if score > best_score + 1e-9:
+            best, best_score = off, score
+    return best
+
+
+class _Board:
+    """What a seam link or a tee must not touch: the quilt's pieces, the links added, what is occupied."""
+
+    def __init__(self, quilt: _Quilt, occupied: shapely.Geometry, old: shapely.Geometry | None = None):
+        self.tree = shapely.STRtree([shapely.LineString(xy) for xy in quilt.xy])
+        self.added: list[shapely.LineString] = []
+        self.occupied, self.old = occupied, old
+
+    def clear(self, path: np.ndarray) -> bool:
+        """Does the polyline ``path`` touch streets only at its two ends, and nothing occupied?"""
+        a, b = path[0], path[-1]
+        line = shapely.LineString(path)
+        if line.length > 2.0:
+            inner = shapely.ops.substring(line, 1.0, line.length - 1.0)
+            if self.occupied.intersects(inner) or (self.old is not None and self.old.intersects(inner)):
+                return False
+        if not line.is_simple:
+            return False
+        hits = self.tree.geometries.take(self.tree.query(line, predicate="intersects"))
+        touches = shapely.intersection(line, [*hits, *self.added])
+        ends = shapely.MultiPoint([a, b]).buffer(1e-6)
+        return bool((shapely.is_empty(touches) | shapely.covers(ends, touches)).all())
+
+
+def _walk_seams(quilt: _Quilt, spacing: float, opts: PatchOptions, occupied: shapely.Geometry) -> int:
+    """Continue cut streets across the seams, most probable transition first; returns the links made."""
+    if len(quilt.cut_xy) < 2:
+        return 0
+    xy, heading = np.array(quilt.cut_xy), np.array(quilt.cut_heading)
+    cell = np.array(quilt.cut_cell)
+    pairs = cKDTree(xy).query_pairs(opts.seam_gap * spacing, output_type="ndarray")
+    pairs = pairs[cell[pairs[:, 0]] != cell[pairs[:, 1]]]
+    if not len(pairs):
+        return 0
+    gap = np.hypot(*(xy[pairs[:, 1]] - xy[pairs[:, 0]]).T)
+    turn = np.degrees(np.arccos(np.clip(-(heading[pairs[:, 0]] * heading[pairs[:, 1]]).sum(axis=1), -1.0, 1.0)))
+    sg, st = opts.seam_sigma
+    p = np.exp(-0.5 * (gap / (sg * spacing)) ** 2) * np.exp(-0.5 * (turn / st) ** 2)
+    board = _Board(quilt, occupied)
+    used = np.zeros(len(xy), dtype=bool)
+    links = 0
+    for k in np.argsort(-p, kind="stable").tolist():
+        a, b = pairs[k]
+        if used[a] or used[b] or turn[k] > opts.seam_turn:
+            continue
+        if gap[k] > 1e-6:
+            path = _connector(xy[a], heading[a], xy[b], heading[b])
+            if not board.clear(path):
+                continue
+            board.added.append(shapely.LineString(path))
+            quilt.add(path, quilt.highway[quilt.cut_piece[a]], quilt.level[quilt.cut_piece[a]])
+        used[a] = used[b] = True
+        links += 1
+    _close(quilt, used)
+    return links
+
+
+#: Metres between the points of a curved seam connector.
+CONNECTOR_STEP = 10.0
+
+
+def _connector(a: np.ndarray, da: np.ndarray, b: np.ndarray, db: np.ndarray) -> np.ndarray:
+    """A smooth curve from cut end ``a`` (heading ``da`` out of its street) to ``b`` (heading ``db``):
+    the cubic Bézier whose inner control points lie a third of the gap ahead of each end."""
+    gap = float(np.hypot(*(b - a)))
+    n = max(int(np.ceil(gap / CONNECTOR_STEP)), 1)
+    if n == 1:
+        return np.array([a, b])
+    t = np.linspace(0.0, 1.0, n + 1)[:, None]
+    p1, p2 = a + da * gap / 3, b + db * gap / 3
+    pts = (1 - t) ** 3 * a + 3 * (1 - t) ** 2 * t * p1 + 3 * (1 - t) * t ** 2 * p2 + t ** 3 * b
+    pts[0], pts[-1] = a, b
+    return pts
+
+
+def _close(quilt: _Quilt, used: np.ndarray) -> None:
+    """Forget the cut ends that are no longer open."""
+    keep = np.flatnonzero(~used).tolist()
+    for name in ("cut_xy", "cut_heading", "cut_cell", "cut_piece"):
+        values = getattr(quilt, name)
+        setattr(quilt, name, [values[k] for k in keep])
+
+
+def _tees(quilt: _Quilt, old: shapely.Geometry, spacing: float, opts: PatchOptions,
+          occupied: shapely.Geometry) -> int:
+    """Cut streets left over run on to the first street ahead, of the district or of the town; tees made."""
+    board = _Board(quilt, occupied)
+    reach = opts.tee_reach * spacing
+    town = shapely.get_parts(old)
+    town_tree = shapely.STRtree(town)
+    used = np.zeros(len(quilt.cut_xy), dtype=bool)
+    tees = 0
+    for k, (p, d, own) in enumerate(zip(quilt.cut_xy, quilt.cut_heading, quilt.cut_piece)):
+        ray = shapely.LineString([p + d * 1e-3, p + d * reach])
+        hits = [(_meet(ray, quilt.xy[j], p, d, opts.tee_angle), j)
+                for j in board.tree.query(ray, predicate="intersects").tolist() if j != own]
+        hits += [(_meet(ray, np.asarray(town[i].coords), p, d, opts.tee_angle), -1)
+                 for i in town_tree.query(ray, predicate="intersects").tolist()]
+        hits = [(at, j) for at, j in hits if at is not None]
+        if not hits:
+            continue
+        at, j = min(hits, key=lambda h: float(np.hypot(*(h[0] - p))))
+        if not board.clear(np.array([p, at])):
+            continue
+        board.added.append(shapely.LineString([p, at]))
+        quilt.add(np.array([p, at]), quilt.highway[own], quilt.level[own])
+        if j >= 0:
+            quilt.splits.setdefault(j, []).append(at)
+        used[k] = True
+        tees += 1
+    _close(quilt, used)
+    return tees
+
+
+def _meet(ray: shapely.LineString, line: np.ndarray, p: np.ndarray, d: np.ndarray,
+          min_angle: float) -> np.ndarray | None:
+    """Where ``ray`` first meets ``line`` at ``min_angle`` or more, or None."""
+    a, b = line[:-1], line[1:]
+    seg = b - a
+    cross = seg[:, 0] * d[1] - seg[:, 1] * d[0]
+    with np.errstate(divide="ignore", invalid="ignore"):
+        t = ((a[:, 0] - p[0]) * seg[:, 1] - (a[:, 1] - p[1]) * seg[:, 0]) / -cross  # along the ray
+        u = ((a[:, 0] - p[0]) * d[1] - (a[:, 1] - p[1]) * d[0]) / -cross  # along the segment
+    ok = np.isfinite(t) & (t > 1e-3) & (t <= ray.length + 1e-3) & (u >= 0.0) & (u <= 1.0)
+    if not ok.any():
+        return None
+    i = int(np.flatnonzero(ok)[np.argmin(t[ok])])
+    sin = abs(float(cross[i])) / max(float(np.hypot(*seg[i])), 1e-12)
+    if np.degrees(np.arcsin(min(sin, 1.0))) < min_angle:
+        return None
+    return a[i] + u[i] * seg[i]
+
+
+def _network(quilt: _Quilt) -> StreetNetwork:
+    """The quilt as a network: tees inserted into the pieces they land on; shared points shared nodes."""
+    lines = []
+    for j, xy in enumerate(quilt.xy):
+        extra = quilt.splits.get(j)
+        if extra:
+            xy = _insert_points(xy, np.array(extra))
+        lines.append(xy)
+    attrs = [{"highway": hw, "hierarchy": lv, "origin": Origin.GROWN} for hw, lv in zip(quilt.highway, quilt.level)]
+    return network_from_lines(lines, attrs)
+
+
+def _insert_points(xy: np.ndarray, points: np.ndarray) -> np.ndarray:
+    """The polyline with ``points`` (which lie on it) inserted in order along it."""
+    a, b = xy[:-1], xy[1:]
+    where = []
+    for q in points:
+        t, _, d = closest_on_segments(q[None, :], a, b)
+        i = int(np.argmin(d))
+        where.append((i, float(t[i]), q))
+    out, k = [], 0
+    for i in range(len(xy)):
+        out.append(xy[i])
+        for seg, _, q in sorted((w for w in where if w[0] == i), key=lambda w: w[1]):
+            if not (np.array_equal(q, xy[i]) or (i + 1 < len(xy) and np.array_equal(q, xy[i + 1]))):
+                out.append(q)
+    return np.array(out)
+
+
+def _trim(net: StreetNetwork, quilt: _Quilt, edge: shapely.Geometry, keep_out: float) -> StreetNetwork:
+    """Cut ends still open are trimmed back to their last junction, except a street of ``keep_out``
+    metres or more that leaves the district at the site's ``edge`` (a road out into the country).
+
+    A junction whose other streets were all trimmed becomes an end itself and is trimmed in turn:
+    only the town's own dead ends stay dead ends.
+    """
+    loose = np.array(quilt.cut_xy).reshape(-1, 2)
+    if not len(loose) or not len(net.xy):
+        return net
+    dist, idx = cKDTree(net.xy).query(loose)
+    degree = segment_degree(net.streets, len(net.xy))
+    leaves = {int(i): p for i, d, p in zip(idx, dist, loose) if d < 1e-6 and degree[i] == 1}
+    streets = net.streets
+    while leaves:
+        drop: set[tuple[int, int]] = set()
+        for leaf, chain in dangling_chains(streets, leaves).items():
+            out_of_town = shapely.distance(edge, shapely.Point(leaves[leaf])) < 1.0
+            length = sum(float(np.hypot(*(net.xy[a] - net.xy[b]))) for a, b in chain)
+            if not (out_of_town and length >= keep_out):
+                drop |= chain
+        if not drop:
+            break
+        before = segment_degree(streets, len(net.xy))
+        streets = without_segments(streets, drop)
+        after = segment_degree(streets, len(net.xy))
+        leaves = {int(n): net.xy[n] for n in np.flatnonzero((after == 1) & (before > 1))}
+    return net.replace(streets=streets)
+
+
+def _keep_joinable(net: StreetNetwork, old: shapely.Geometry, spacing: float, opts: PatchOptions) -> StreetNetwork:
+    """Drop fragments too short to be streets, and pieces far from both the rest and the town."""
+    if not net.streets:
+        return net
+    import networkx as nx
+
+    graph = nx.Graph()
+    for k, s in enumerate(net.streets):
+        graph.add_edges_from((a, b, {"street": k}) for a, b in zip(s.nodes[:-1], s.nodes[1:]))
+    length = {k: float(np.hypot(*np.diff(net.street_xy(s), axis=0).T).sum()) for k, s in enumerate(net.streets)}
+    parts = []
+    for comp in nx.connected_components(graph):
+        streets = sorted({d["street"] for _, _, d in graph.subgraph(comp).edges(data=True)})
+        parts.append((sum(length[k] for k in streets), streets))
+    parts.sort(key=lambda p: -p[0])
+    keep: list[int] = list(parts[0][1])
+    kept = [shapely.MultiLineString([net.street_xy(net.streets[k]) for k in keep])]
+    for total, streets in parts[1:]:
+        if total < opts.min_fragment * spacing:
+            continue
+        geom = shapely.MultiLineString([net.street_xy(net.streets[k]) for k in streets])
+        near_rest = min(shapely.distance(geom, g) for g in kept) <= opts.link_reach * spacing
+        near_town = not old.is_empty and shapely.distance(geom, old) <= opts.link_reach * spacing
+        if near_rest or near_town:
+            keep += streets
+            kept.append(geom)
+    return net.replace(streets=tuple(net.streets[k] for k in sorted(keep)))
