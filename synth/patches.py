@@ -58,7 +58,7 @@ class PatchOptions:
     #: Cells are at least this many junction spacings across ...
     cell_size: float = 5.0
     #: ... and the district has about this many of them: large patches keep the town's structure.
-    cells: int = 1
+    cells: int = 3
     #: Candidate patches drawn from the town (street points, by length) ...
     candidates: int = 48
     #: ... of which those whose street density is within this factor band of the median are used.
@@ -67,7 +67,7 @@ class PatchOptions:
     #: the fullest 5° bin of bearings (mod 90°) holds this many times its share.
     orientation_peak: float = 2.0
     #: Discs of the district's area measured on the town for the target density.
-    density_discs: int = 32
+    density_discs: int = 64
     #: Copied streets keep this many spacings from the town's streets (they meet them only in tees).
     clearance: float = 0.15
     #: A seam's cut ends this many spacings apart may continue into each other (in a smooth curve) ...
@@ -100,6 +100,8 @@ class _Source:
     level: np.ndarray
     tree: shapely.STRtree
     broken: cKDTree | None = None
+    #: bridges and tunnels: copied as ordinary streets where, in the copy, they cross nothing
+    layered: np.ndarray | None = None
 
 
 @dataclass
@@ -116,6 +118,8 @@ class _Quilt:
     cut_piece: list[int] = field(default_factory=list)
     #: points to insert into a piece (a tee from another street lands there)
     splits: dict[int, list[np.ndarray]] = field(default_factory=dict)
+    #: the patch centres (in the town) the cells take, in order
+    grid: np.ndarray = field(default_factory=lambda: np.zeros((0, 2)))
 
     def add(self, xy: np.ndarray, highway: str, level: int) -> int:
         self.xy.append(xy)
@@ -143,25 +147,47 @@ class ExamplePatches:
         size = max(opts.cell_size * spacing, float(np.sqrt(free.area / opts.cells)))
         centres = _centres(free, old_geom, size)
         cells = _cells(free, centres)
-        target = _target_density(source, float(free.area), opts.density_discs, rng) * float(free.area)
+        target = _target_density(_source(city, self.example, everything=True), float(free.area),
+                                 opts.density_discs, rng) * float(free.area)
         patches = _candidate_patches(source, size, opts, rng)
-        quilt, placed, keep = _Quilt(), 0, 1.0
-        for _ in range(MAX_FILLS):  # fill, stitch and trim; fill more while trimming left too little
-            placed = _place(source, patches, centres, cells, quilt, placed, target / keep, spacing, old_geom, opts)
-            stitched = copy.deepcopy(quilt)
-            links = _walk_seams(stitched, spacing, opts, city.occupied)
-            tees = _tees(stitched, old_geom, spacing, opts, city.occupied)
-            net = _trim(_network(stitched), stitched, shapely.boundary(region), opts.keep_out * spacing)
-            net = _keep_joinable(net, old_geom, spacing, opts)
-            length = net.total_length()
-            if length >= 0.9 * target or placed >= len(centres):
+        best = None
+        for attempt in range(ATTEMPTS):  # other patches when even every cell filled left too little
+            quilt = _Quilt(grid=np.roll(patches, -attempt * len(centres), axis=0))
+            result = _quilt(source, quilt, centres, cells, region, old_geom, target, spacing, opts, city.occupied)
+            if best is None or abs(np.log(result[0].total_length() / target)) < abs(np.log(best[0].total_length()
+                                                                                               / target)):
+                best = result
+            if result[0].total_length() >= 0.9 * target:
                 break
-            keep = max(min(length / max(sum(_lengths(quilt.xy)), 1.0), keep), 0.05)
+        net, placed, links, tees = best
         streets = tuple(NewStreet(xy=net.street_xy(s), hierarchy=max(s.hierarchy, 0), highway=s.highway)
                         for s in net.streets)
         return Growth(streets=streets, footprint=free,
                       debug={"cells": len(centres), "filled": placed, "target_km": round(target / 1000, 2),
                              "seam_links": links, "tees": tees})
+
+
+#: Times the cells are filled with other patches when the first patches left the district too sparse.
+ATTEMPTS = 3
+
+
+def _quilt(source: _Source, quilt: _Quilt, centres: np.ndarray, cells: list, region: shapely.Geometry,
+           old: shapely.Geometry, target: float, spacing: float, opts: PatchOptions,
+           occupied: shapely.Geometry) -> tuple[StreetNetwork, int, int, int]:
+    """Fill cells, stitch and trim; fill more while trimming left too little. The network and counts."""
+    placed, keep = 0, 1.0
+    for _ in range(MAX_FILLS):
+        placed = _place(source, quilt.grid, centres, cells, quilt, placed, target / keep, spacing, old, opts)
+        stitched = copy.deepcopy(quilt)
+        links = _walk_seams(stitched, spacing, opts, occupied)
+        tees = _tees(stitched, old, spacing, opts, occupied)
+        net = _trim(_network(stitched), stitched, shapely.boundary(region), opts.keep_out * spacing)
+        net = _keep_joinable(net, old, spacing, opts)
+        length = net.total_length()
+        if length >= target or placed >= len(centres):
+            break
+        keep = max(min(length / max(float(_lengths(quilt.xy).sum()), 1.0), keep), 0.05)
+    return net, placed, links, tees
 
 
 #: Rounds of filling more cells when trimming the seams took too much street away.
@@ -172,23 +198,24 @@ def _lengths(lines: list[np.ndarray]) -> np.ndarray:
     return np.array([float(np.hypot(*np.diff(xy, axis=0).T).sum()) for xy in lines])
 
 
-def _source(city: City, example: Example) -> _Source:
-    """The town's streets that may be copied, with the Gravelius level of the example street holding each way."""
+def _source(city: City, example: Example, everything: bool = False) -> _Source:
+    """The town's streets that may be copied (``everything``: all its streets, as the fidelity measures
+    them), with the Gravelius level of the example street holding each way."""
     level_of: dict[int, int] = {}
     for s in example.network.streets:
         for osm_id in s.osm_ids:
             level_of[osm_id] = min(level_of.get(osm_id, s.hierarchy), s.hierarchy)
     deepest = max(level_of.values(), default=0) + 1
     net = city.network
-    copied = [s.origin == Origin.SOURCE and s.highway not in NOT_COPIED and not s.bridge and not s.tunnel
-              and s.layer == 0 for s in net.streets]
+    copied = [s.origin == Origin.SOURCE and (everything or s.highway not in NOT_COPIED) for s in net.streets]
     keep = [s for s, c in zip(net.streets, copied) if c]
     lines = np.array([shapely.LineString(net.street_xy(s)) for s in keep], dtype=object)
     level = np.array([min((level_of.get(i, deepest) for i in s.osm_ids), default=deepest) for s in keep])
     left_out = {n for s, c in zip(net.streets, copied) if not c for n in s.nodes}
     broken = sorted({n for s in keep for n in s.nodes} & left_out)
     return _Source(lines=lines, highway=tuple(s.highway for s in keep), level=level, tree=shapely.STRtree(lines),
-                   broken=cKDTree(net.xy[broken]) if broken else None)
+                   broken=cKDTree(net.xy[broken]) if broken else None,
+                   layered=np.array([s.bridge or s.tunnel or s.layer != 0 for s in keep], dtype=bool))
 
 
 def _free_land(city: City, region: shapely.Geometry, old: shapely.Geometry, clearance: float,
@@ -223,10 +250,23 @@ def _target_density(source: _Source, area: float, n: int, rng: np.random.Generat
     return float(np.median(_density(source, _street_points(source, n, rng), float(np.sqrt(area / np.pi)))))
 
 
+#: What makes a patch typical of its town (measured on each candidate patch, in this order).
+TYPICAL = ("curvature", "circuity", "edge_length", "dead_end_share", "three_way_share")
+
+
 def _candidate_patches(source: _Source, size: float, opts: PatchOptions, rng: np.random.Generator) -> np.ndarray:
-    """Patch centres on the town's streets of its typical local density (within ``density_band`` of the
-    median patch), spread out: a candidate within one patch of a better one goes to the back, so
-    neighbouring cells differ."""
+    """Patch centres on the town's streets, most typical of the town first.
+
+    Candidates are discs on the town's streets (drawn by length) whose street
+    density is within ``density_band`` of the median candidate's. Each is
+    measured (:data:`TYPICAL`: the median of a distribution, or a scalar) and
+    ranked by its distance to the median candidate, each measure scaled by
+    the candidates' spread, so the district is made of the town's ordinary
+    fabric rather than its oddities. A candidate within one patch of a better
+    one goes to the back, so neighbouring cells differ.
+    """
+    from osm_expand.measures import LineSet, measure_network
+
     centres = _street_points(source, opts.candidates, rng)
     local = _density(source, centres, size / 2)
     median = float(np.median(local))
@@ -234,10 +274,24 @@ def _candidate_patches(source: _Source, size: float, opts: PatchOptions, rng: np
     good = np.flatnonzero((local >= lo * median) & (local <= hi * median))
     if not len(good):
         good = np.argsort(np.abs(local - median))[:1]
+    lines = LineSet.from_lines([np.asarray(ln.coords) for ln in source.lines])
+    values = np.array([[_level(measure_network(lines, window=shapely.Point(centres[i]).buffer(size / 2)), m)
+                        for m in TYPICAL] for i in good])
+    centre = np.nanmedian(values, axis=0)
+    spread = np.nanpercentile(values, 75, axis=0) - np.nanpercentile(values, 25, axis=0)
+    z = np.nan_to_num(np.abs(values - centre) / np.where(spread > 0, spread, 1.0), nan=3.0)
+    good = good[np.argsort(np.sqrt((z ** 2).sum(axis=1)), kind="stable")]
     first, later = [], []
     for i in good.tolist():
         (later if any(np.hypot(*(centres[i] - centres[j])) < size for j in first) else first).append(i)
     return centres[first + later]
+
+
+def _level(measures, name: str) -> float:
+    value = measures.value(name)
+    if np.ndim(value):
+        return float(np.median(value)) if len(value) else float("nan")
+    return float(value)
 
 
 def _centres(free: shapely.Geometry, old: shapely.Geometry, size: float) -> np.ndarray:
@@ -360,21 +414,31 @@ def _place(source: _Source, patches: np.ndarray, centres: np.ndarray, cells: lis
             cell = _part_of(cell, moved, shapely.ops.nearest_points(cell, anchor)[0], length - total)
             boundary = shapely.boundary(cell)
         filled.append(cell)
-        for k, geom in zip(near.tolist(), shapely.intersection(moved, cell)):
-            for part in shapely.get_parts(geom):
-                if part.geom_type != "LineString" or part.length < 1.0:
-                    continue
-                xy = np.asarray(part.coords)
-                piece = quilt.add(xy, source.highway[k], int(source.level[k]))
-                total += part.length
-                for end, prev in ((xy[0], xy[1]), (xy[-1], xy[-2])):
-                    if shapely.distance(boundary, shapely.Point(end)) < 1e-6 or _was_broken(source, move, end):
-                        d = end - prev
-                        quilt.cut_xy.append(end)
-                        quilt.cut_heading.append(d / max(float(np.hypot(*d)), 1e-12))
-                        quilt.cut_cell.append(i - 1)
-                        quilt.cut_piece.append(piece)
+        for k, part in _cell_pieces(source, near, shapely.intersection(moved, cell)):
+            xy = np.asarray(part.coords)
+            piece = quilt.add(xy, source.highway[k], int(source.level[k]))
+            total += part.length
+            for end, prev in ((xy[0], xy[1]), (xy[-1], xy[-2])):
+                if shapely.distance(boundary, shapely.Point(end)) < 1e-6 or _was_broken(source, move, end):
+                    d = end - prev
+                    quilt.cut_xy.append(end)
+                    quilt.cut_heading.append(d / max(float(np.hypot(*d)), 1e-12))
+                    quilt.cut_cell.append(i - 1)
+                    quilt.cut_piece.append(piece)
     return i
+
+
+def _cell_pieces(source: _Source, near: np.ndarray, clipped: np.ndarray) -> list[tuple[int, shapely.LineString]]:
+    """The clipped streets of a patch as (source street, piece); a bridge or tunnel piece that would cross
+    another piece of the copy (it passed over or under it in the town) is left out."""
+    pieces = [(int(k), part) for k, geom in zip(near.tolist(), clipped) for part in shapely.get_parts(geom)
+              if part.geom_type == "LineString" and part.length >= 1.0]
+    if source.layered is None or not any(source.layered[k] for k, _ in pieces):
+        return pieces
+    lines = np.array([part for _, part in pieces], dtype=object)
+    left, right = shapely.STRtree(lines).query(lines, predicate="crosses")
+    crossing = {i for i, j in zip(left.tolist(), right.tolist()) if i != j}
+    return [(k, part) for i, (k, part) in enumerate(pieces) if not (source.layered[k] and i in crossing)]
 
 
 def _was_broken(source: _Source, move: _Transform, end: np.ndarray) -> bool:
