@@ -36,7 +36,7 @@ def stage_times(path: Path, seed: int, out: Path) -> dict[str, float]:
 
     city = load(path)
     mark("learn the town (simplify + example)")
-    stages = {"finding": "blocks, land, site", "growing": "growth + joins"}
+    stages = {"finding": "blocks, land, site", "growing": "growth + joins", "judging": "fidelity score"}
     result = expand(city, ExpandOptions(seed=seed),
                     progress=lambda msg: mark(stages[msg.split()[0]]) if msg.split()[0] in stages else None)
     mark("write urbanenvironment")

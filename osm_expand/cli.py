@@ -425,8 +425,8 @@ def _write(result, out: Path, kind: str, preview: Path | None, title: str) -> No
             write_preview(result.city, preview, result.site.region, title=title)
 
 
-#: Stages the main command reports (reading, learning, site, growing, writing; "done" ends the last).
-EXPAND_STAGES = 5
+#: Stages the main command reports (reading, learning, site, growing, judging, writing; "done" ends the last).
+EXPAND_STAGES = 6
 
 
 def _join_negative_values(argv: list[str]) -> list[str]:

@@ -169,6 +169,8 @@ def expand(city: City, options: ExpandOptions | None = None, *, pattern: GrowthP
     else:
         raise InputError(f"the district cannot be joined to the town by {MIN_JOINS} streets at any of the "
                          f"{len(sites)} best sites ({'; '.join(tried)}); try --at or another --direction")
+    if opts.fidelity:
+        progress("judging the district against real parts of the town")
     judged = _judge(city, grown, growth, joins, opts.seed) if opts.fidelity else None
     report = _report(grown, site, area, spacing, joins, attempt, pattern.name, judged)
     return ExpandResult(city=grown, site=site, learned=learned, joins=joins, growth=growth, fidelity=judged,
