@@ -21,6 +21,7 @@ import shapely
 from osm_expand.blocks import blocks
 from osm_expand.errors import InputError
 from osm_expand.fidelity import FidelityReport, fidelity
+from osm_expand.measures import LineSet, NetworkMeasures, measure_network
 from osm_expand.heights import with_heights
 from osm_expand.joins import JoinReport, add_streets, join_to_town
 from osm_expand.land import LandOptions, unbuildable
@@ -82,9 +83,15 @@ class ExpandResult:
     report: dict
 
 
+def _measure_in_windows(lines: list) -> Callable[[shapely.Geometry], NetworkMeasures]:
+    """The measures of ``lines`` in any window, the lines indexed once."""
+    indexed = LineSet.from_lines(lines)
+    return lambda window: measure_network(indexed, window=window)
+
+
 #: Growth patterns by name (``--pattern``): each builds from what the town taught.
 PATTERNS = {
-    "example": lambda learned: ExamplePatches(learned.example),
+    "example": lambda learned: ExamplePatches(learned.example, measure=_measure_in_windows),
     "walk": lambda learned: RandomWalk(learned.example),
 }
 

@@ -36,6 +36,7 @@ walk loses (shapes, dead ends, the town's density); patches keep all three.
 from __future__ import annotations
 
 import copy
+from collections.abc import Callable
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -134,6 +135,10 @@ class ExamplePatches:
 
     example: Example
     options: PatchOptions = field(default_factory=PatchOptions)
+    #: ``measure(lines)`` returns a function measuring those lines in a window (the caller wraps
+    #: :func:`osm_expand.measures.measure_network`, as ``synth`` knows only the model); without it patches
+    #: are not ranked by how typical of the town they are.
+    measure: Callable | None = None
     name: str = "example"
 
     def grow(self, city: City, region: shapely.Geometry, rng: np.random.Generator) -> Growth:
@@ -149,7 +154,7 @@ class ExamplePatches:
         cells = _cells(free, centres)
         target = _target_density(_source(city, self.example, everything=True), float(free.area),
                                  opts.density_discs, rng) * float(free.area)
-        patches = _candidate_patches(source, size, opts, rng)
+        patches = _candidate_patches(source, size, opts, rng, self.measure)
         best = None
         for attempt in range(ATTEMPTS):  # other patches when even every cell filled left too little
             quilt = _Quilt(grid=np.roll(patches, -attempt * len(centres), axis=0))
@@ -179,7 +184,7 @@ def _quilt(source: _Source, quilt: _Quilt, centres: np.ndarray, cells: list, reg
     for _ in range(MAX_FILLS):
         placed = _place(source, quilt.grid, centres, cells, quilt, placed, target / keep, spacing, old, opts)
         stitched = copy.deepcopy(quilt)
-        links = _walk_seams(stitched, spacing, opts, occupied)
+        links = _walk_seams(stitched, spacing, opts, occupied, old)
         tees = _tees(stitched, old, spacing, opts, occupied)
         net = _trim(_network(stitched), stitched, shapely.boundary(region), opts.keep_out * spacing)
         net = _keep_joinable(net, old, spacing, opts)
@@ -254,7 +259,8 @@ def _target_density(source: _Source, area: float, n: int, rng: np.random.Generat
 TYPICAL = ("curvature", "circuity", "edge_length", "dead_end_share", "three_way_share")
 
 
-def _candidate_patches(source: _Source, size: float, opts: PatchOptions, rng: np.random.Generator) -> np.ndarray:
+def _candidate_patches(source: _Source, size: float, opts: PatchOptions, rng: np.random.Generator,
+                       measure: Callable | None = None) -> np.ndarray:
     """Patch centres on the town's streets, most typical of the town first.
 
     Candidates are discs on the town's streets (drawn by length) whose street
@@ -265,8 +271,6 @@ def _candidate_patches(source: _Source, size: float, opts: PatchOptions, rng: np
     fabric rather than its oddities. A candidate within one patch of a better
     one goes to the back, so neighbouring cells differ.
     """
-    from osm_expand.measures import LineSet, measure_network
-
     centres = _street_points(source, opts.candidates, rng)
     local = _density(source, centres, size / 2)
     median = float(np.median(local))
@@ -274,13 +278,14 @@ def _candidate_patches(source: _Source, size: float, opts: PatchOptions, rng: np
     good = np.flatnonzero((local >= lo * median) & (local <= hi * median))
     if not len(good):
         good = np.argsort(np.abs(local - median))[:1]
-    lines = LineSet.from_lines([np.asarray(ln.coords) for ln in source.lines])
-    values = np.array([[_level(measure_network(lines, window=shapely.Point(centres[i]).buffer(size / 2)), m)
-                        for m in TYPICAL] for i in good])
-    centre = np.nanmedian(values, axis=0)
-    spread = np.nanpercentile(values, 75, axis=0) - np.nanpercentile(values, 25, axis=0)
-    z = np.nan_to_num(np.abs(values - centre) / np.where(spread > 0, spread, 1.0), nan=3.0)
-    good = good[np.argsort(np.sqrt((z ** 2).sum(axis=1)), kind="stable")]
+    if measure is not None and len(good) > 1:
+        in_window = measure([np.asarray(ln.coords) for ln in source.lines])
+        values = np.array([[_level(in_window(shapely.Point(centres[i]).buffer(size / 2)), m) for m in TYPICAL]
+                           for i in good])
+        centre = np.nanmedian(values, axis=0)
+        spread = np.nanpercentile(values, 75, axis=0) - np.nanpercentile(values, 25, axis=0)
+        z = np.nan_to_num(np.abs(values - centre) / np.where(spread > 0, spread, 1.0), nan=3.0)
+        good = good[np.argsort(np.sqrt((z ** 2).sum(axis=1)), kind="stable")]
     first, later = [], []
     for i in good.tolist():
         (later if any(np.hypot(*(centres[i] - centres[j])) < size for j in first) else first).append(i)
@@ -503,7 +508,8 @@ class _Board:
         return bool((shapely.is_empty(touches) | shapely.covers(ends, touches)).all())
 
 
-def _walk_seams(quilt: _Quilt, spacing: float, opts: PatchOptions, occupied: shapely.Geometry) -> int:
+def _walk_seams(quilt: _Quilt, spacing: float, opts: PatchOptions, occupied: shapely.Geometry,
+                old: shapely.Geometry) -> int:
     """Continue cut streets across the seams, most probable transition first; returns the links made."""
     if len(quilt.cut_xy) < 2:
         return 0
@@ -517,7 +523,7 @@ def _walk_seams(quilt: _Quilt, spacing: float, opts: PatchOptions, occupied: sha
     turn = np.degrees(np.arccos(np.clip(-(heading[pairs[:, 0]] * heading[pairs[:, 1]]).sum(axis=1), -1.0, 1.0)))
     sg, st = opts.seam_sigma
     p = np.exp(-0.5 * (gap / (sg * spacing)) ** 2) * np.exp(-0.5 * (turn / st) ** 2)
-    board = _Board(quilt, occupied)
+    board = _Board(quilt, occupied, old)
     used = np.zeros(len(xy), dtype=bool)
     links = 0
     for k in np.argsort(-p, kind="stable").tolist():
@@ -565,7 +571,7 @@ def _close(quilt: _Quilt, used: np.ndarray) -> None:
 def _tees(quilt: _Quilt, old: shapely.Geometry, spacing: float, opts: PatchOptions,
           occupied: shapely.Geometry) -> int:
     """Cut streets left over run on to the first street ahead, of the district or of the town; tees made."""
-    board = _Board(quilt, occupied)
+    board = _Board(quilt, occupied, old)
     reach = opts.tee_reach * spacing
     town = shapely.get_parts(old)
     town_tree = shapely.STRtree(town)

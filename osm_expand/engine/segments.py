@@ -1,0 +1,85 @@
+"""The city's streets as a table of straight segments: what the engine's kernels compute on.
+
+Traffic, trade routes, the pathfinding graph and street growth all work on
+segments (consecutive node pairs of the streets), with per-segment arrays:
+length, width, major or minor, built or planned, bridge, the year it was
+built. The table is derived from the city whenever the engine needs it
+(it is never a second copy of the streets), and per-segment results come
+back to the streets with :meth:`SegmentTable.per_street`.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from osm_expand.model import City, Status, Street
+
+#: Highway classes that are major roads (003's major roads: the trade routes run on them).
+MAJOR = frozenset({"motorway", "trunk", "primary", "secondary", "motorway_link", "trunk_link", "primary_link",
+                   "secondary_link"})
+#: Carriageway width (m) by class when the map says neither ``width`` nor ``lanes`` (RAS-06 / AASHTO:
+#: 3.5 m lanes; two lanes on most town streets, four on primaries, more on motorways).
+DEFAULT_WIDTH = {"motorway": 22.0, "trunk": 15.0, "primary": 14.0, "secondary": 10.0, "tertiary": 8.0,
+                 "unclassified": 6.0, "residential": 6.0, "living_street": 5.0, "road": 6.0, "service": 4.0}
+#: Metres per lane when only ``lanes`` is mapped.
+LANE_WIDTH = 3.5
+
+
+def street_width(street: Street) -> float:
+    """A street's width (m): mapped, else from its lanes, else by its class."""
+    if street.width and street.width > 0:
+        return float(street.width)
+    if street.lanes and street.lanes > 0:
+        return float(street.lanes) * LANE_WIDTH
+    return DEFAULT_WIDTH.get(street.highway.removesuffix("_link"), 6.0)
+
+
+def is_major(street: Street) -> bool:
+    return street.highway in MAJOR
+
+
+@dataclass(frozen=True)
+class SegmentTable:
+    """Every segment of every street, in street order (arrays aligned by segment)."""
+
+    xy: np.ndarray  #: (N, 2) metres: the city's nodes
+    uv: np.ndarray  #: (E, 2) node indices
+    street: np.ndarray  #: (E,) index of the street in ``city.network.streets``
+    length: np.ndarray  #: (E,) metres
+    width: np.ndarray  #: (E,) metres
+    major: np.ndarray  #: (E,) bool
+    built: np.ndarray  #: (E,) bool: planned streets exist on the map but carry no built traffic yet
+    bridge: np.ndarray  #: (E,) bool
+    year: np.ndarray  #: (E,) the year built, -1 for the town as mapped
+
+    @classmethod
+    def from_city(cls, city: City) -> "SegmentTable":
+        streets = city.network.streets
+        sizes = np.array([len(s.nodes) - 1 for s in streets], dtype=np.int64)
+        nodes = [np.asarray(s.nodes, dtype=np.int64) for s in streets]
+        uv = np.column_stack([np.concatenate([n[:-1] for n in nodes]), np.concatenate([n[1:] for n in nodes])]) \
+            if streets else np.zeros((0, 2), dtype=np.int64)
+        street = np.repeat(np.arange(len(streets)), sizes)
+        per = lambda values, dtype: np.repeat(np.asarray(values, dtype=dtype), sizes)  # noqa: E731
+        xy = city.network.xy
+        return cls(
+            xy=xy, uv=uv, street=street, length=np.hypot(*(xy[uv[:, 1]] - xy[uv[:, 0]]).T),
+            width=per([street_width(s) for s in streets], float),
+            major=per([is_major(s) for s in streets], bool),
+            built=per([s.status == Status.BUILT for s in streets], bool),
+            bridge=per([s.bridge for s in streets], bool),
+            year=per([s.year if s.year is not None and s.is_new else -1 for s in streets], np.int64),
+        )
+
+    def __len__(self) -> int:
+        return len(self.uv)
+
+    def per_street(self, values: np.ndarray, n_streets: int, how: str = "max") -> np.ndarray:
+        """A per-segment array reduced to each street (``max`` or ``sum``); 0 for streets without segments."""
+        out = np.zeros(n_streets)
+        if how == "max":
+            np.maximum.at(out, self.street, values)
+        else:
+            np.add.at(out, self.street, values)
+        return out
