@@ -332,6 +332,10 @@ def test_a_wrong_type(tmp_path):
           r": roads\.costs\.bridge: EdgeCosts\.bridge must be positive, got 0")
     fails(tmp_path, MINIMAL + "[roads]\nturn_width_deg = [[1200, 60], [1250, -10]]\n",
           r": roads: in year 1250: RoutingOptions: turn_width must be positive")
+    fails(tmp_path, MINIMAL + "[options.land_use]\nupdate_interval = 0\n",
+          r": options\.land_use\.update_interval: must be at least 1 year, got 0")
+    fails(tmp_path, MINIMAL + "[eras.pattern_options]\nmin_length_m = -1\n",
+          r": eras\[0\]\.pattern_options: pattern option min_length_m: must be > 0")
     fails(tmp_path, 'anchor = "now"\n' + MINIMAL, r": anchor: unknown value 'now' \(valid: map, start\)")
     fails(tmp_path, "eras = 3\nstart = 0\n", r": eras: expected a list of tables")
 
@@ -350,7 +354,8 @@ def test_eras_out_of_order_or_colliding(tmp_path):
     fails(tmp_path, two.replace("START", "1200"), r": eras\[1\]\.start: 1200 is not after eras\[0\]\.start \(1200\)")
     fails(tmp_path, MINIMAL.replace("start = 1200\n[[eras]]", "start = 1100\n[[eras]]"),
           r": start: 1100 is before the first era \(eras\[0\]\.start = 1200\)")
-    fails(tmp_path, MINIMAL + '[[eras]]\nname = "medieval"\nstart = 1300\npattern = "organic"\nroad_types = { city = 1 }\n',
+    fails(tmp_path, MINIMAL + '[[eras]]\nname = "medieval"\nstart = 1300\npattern = "organic"\n'
+          'road_types = { city = 1 }\n',
           r": eras\[1\]\.name: era 'medieval' is already defined differently in eras\[0\]")
     fails(tmp_path, MINIMAL + '[[eras]]\nname = "modern"\nstart = 1300\n',
           r": eras\[1\]\.pattern: missing \(era 'modern' is defined nowhere")

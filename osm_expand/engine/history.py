@@ -610,6 +610,8 @@ _ERA = ("name", "start", "description", "pattern", "pattern_options", "road_type
 #: Era keys that make up its definition (a recurring era repeats only name and start).
 _ERA_DEFINITION = ("pattern", "pattern_options", "road_types", "land_use_interval", "description")
 _LAND_USE = ("name", "goal", "lot_size", "terms", "economy")
+#: An era's definition: pattern, options, road types, land-use interval, description.
+_EraDefinition = tuple[str, PatternSettings, tuple[tuple[RoadType, float], ...], "int | None", str]
 
 
 class _Reader:
@@ -742,65 +744,61 @@ class _Reader:
         years = self.integer(data.get("years", DEFAULT_YEARS), "years")
         if years < 0:
             self.fail("years", f"must be ≥ 0, got {years}")
-        options = self.kernel_options(data.get("options", {}))
-        eras = self.eras(data["eras"], options)
+        eras = self.eras(data["eras"])
         if start < eras[0].start:
             self.fail("start", f"{start} is before the first era (eras[0].start = {eras[0].start})")
-        roads = self.table(data.get("roads", {}), "roads")
-        self.known(roads, "roads", _ROADS)
-        coefficients = self.table(data.get("coefficients", {}), "coefficients")
-        self.known(coefficients, "coefficients", _COEFFICIENTS)
-        o = self.coefficients(coefficients)
-        options = replace(options, lattice=self.checked(replace, "coefficients.o1", options.lattice,
+        o = self.coefficients(data.get("coefficients", {}))
+        options = self.kernel_options(data.get("options", {}))
+        options = replace(options, lattice=self.checked("coefficients.o1", replace, options.lattice,
                                                         slope_weight=o["o1"]),
-                          trade=self.checked(replace, "coefficients.o2", options.trade, o2=o["o2"]))
+                          trade=self.checked("coefficients.o2", replace, options.trade, o2=o["o2"]))
         types_, economies = self.land_use(data.get("land_use"))
-        turn = {name: self.function(roads.get(name, default), f"roads.{name}")
-                for name, default in (("turn_centre_deg", math.degrees(options.routing.turn_centre)),
-                                      ("turn_width_deg", math.degrees(options.routing.turn_width)),
-                                      ("turn_height", options.routing.turn_height))}
-        if not 0.0 <= turn["turn_centre_deg"].low <= turn["turn_centre_deg"].high <= 180.0:
-            self.fail("roads.turn_centre_deg", "values must lie in [0, 180] degrees (180: straight on)")
-        costs = self.costs(roads.get("costs", {}))
-        history = History(
+        default_traffic = [[start, 0.0], [start + 100, 100 * DEFAULT_TRAFFIC_RATE]]
+        return History(
             name=self.text(data.get("name", default_name), "name"), source=source, start=start,
             anchor=self.choice(data.get("anchor", Anchor.MAP.value), "anchor", Anchor), years=years, eras=eras,
             growth=self.function(data.get("growth", DEFAULT_GROWTH), "growth", low=0.0),
-            traffic=self.function(data.get("traffic", [[start, 0.0], [start + 100, 100 * DEFAULT_TRAFFIC_RATE]]),
-                                  "traffic", low=0.0),
+            traffic=self.function(data.get("traffic", default_traffic), "traffic", low=0.0),
             avgprice=self.function(data.get("avgprice", DEFAULT_AVGPRICE), "avgprice", low=0.0, strict=True),
-            road_width=self.function(roads.get("width", _narrowest_major_road()), "roads.width", low=0.0,
-                                     strict=True),
-            costs=MappingProxyType(costs), o1=o["o1"], o2=o["o2"], o3=o["o3"], o4=o["o4"],
-            land_use_types=types_, economies=economies,
+            **self.roads(data.get("roads", {}), options.routing),
+            o1=o["o1"], o2=o["o2"], o3=o["o3"], o4=o["o4"], land_use_types=types_, economies=economies,
             lot_options=self.per_class(data.get("lots", {}), "lots", LotOptions, DEFAULT_LOT_OPTIONS),
             footprint_options=self.per_class(data.get("buildings", {}), "buildings", FootprintOptions,
                                              DEFAULT_FOOTPRINT_OPTIONS),
-            options=options, description=self.text(data.get("description", ""), "description"), **turn,
+            options=options, description=self.text(data.get("description", ""), "description"),
         )
-        self.every_sample_year(history, "roads", lambda y: replace(
-            options.routing, turn_centre=math.radians(history.turn_centre_deg(y)),
-            turn_width=math.radians(history.turn_width_deg(y)), turn_height=history.turn_height(y)),
-            list(turn.values()))
-        return history
 
-    def checked(self, make: Any, key: str, *args: Any, **kwargs: Any) -> Any:
+    def checked(self, key: str, make: Any, *args: Any, **kwargs: Any) -> Any:
+        """``make(*args, **kwargs)``, its InputError reported under ``key``."""
         try:
             return make(*args, **kwargs)
         except InputError as e:
             self.fail(key, str(e))
 
-    def every_sample_year(self, history: History, key: str, make: Any, functions: list[TimeFunction]) -> None:
-        """Build a kernel's options at every sample year of its functions: they are linear or constant between
-        those years, so per-field bounds that hold there hold in every year."""
-        for year in sorted({y for f in functions for y in f.years}):
-            try:
-                make(year)
-            except InputError as e:
-                self.fail(key, f"in year {year:g}: {e}")
+    def roads(self, value: Any, routing: RoutingOptions) -> dict[str, Any]:
+        """R(t) = (P, A, C1…C6) (003 §3.4.2): History's road fields, defaults from the kernels."""
+        roads = self.table(value, "roads")
+        self.known(roads, "roads", _ROADS)
+        turn = {name: self.function(roads.get(name, default), f"roads.{name}")
+                for name, default in (("turn_centre_deg", math.degrees(routing.turn_centre)),
+                                      ("turn_width_deg", math.degrees(routing.turn_width)),
+                                      ("turn_height", routing.turn_height))}
+        if not 0.0 <= turn["turn_centre_deg"].low <= turn["turn_centre_deg"].high <= 180.0:
+            self.fail("roads.turn_centre_deg", "values must lie in [0, 180] degrees (180: straight on)")
+        # the functions are linear or constant between their sample years, so the kernel's per-field
+        # bounds hold in every year when they hold at those years
+        for year in sorted({y for f in turn.values() for y in f.years}):
+            self.checked(f"roads: in year {year:g}", replace, routing,
+                         turn_centre=math.radians(turn["turn_centre_deg"](year)),
+                         turn_width=math.radians(turn["turn_width_deg"](year)),
+                         turn_height=turn["turn_height"](year))
+        width = self.function(roads.get("width", _narrowest_major_road()), "roads.width", low=0.0, strict=True)
+        return {**turn, "road_width": width, "costs": MappingProxyType(self.costs(roads.get("costs", {})))}
 
-    def coefficients(self, table: Mapping[str, Any]) -> dict[str, float]:
+    def coefficients(self, value: Any) -> dict[str, float]:
         """O1…O4 (003 §3.1); defaults from the kernels that use them."""
+        table = self.table(value, "coefficients")
+        self.known(table, "coefficients", _COEFFICIENTS)
         defaults = {"o1": _field_default(LatticeOptions, "slope_weight"), "o2": _field_default(TradeOptions, "o2"),
                     "o3": signature(choose).parameters["o3"].default,
                     "o4": signature(choose).parameters["o4"].default}
@@ -831,7 +829,11 @@ class _Reader:
         hints = typing.get_type_hints(KernelOptions)
         built = {n: self.build(hints[n], v, f"options.{n}", elsewhere=_SET_ELSEWHERE.get(n, {}))
                  for n, v in table.items()}
-        return KernelOptions(**built)
+        options = KernelOptions(**built)
+        if options.land_use.update_interval < 1:  # LandUseOptions checks it only when the update runs
+            self.fail("options.land_use.update_interval",
+                      f"must be at least 1 year, got {options.land_use.update_interval}")
+        return options
 
     def per_class(self, value: Any, key: str, cls: type, defaults: Mapping[LandUse, Any]) -> Mapping[LandUse, Any]:
         """Lot or building options per lot class (``[lots.<class>]``): the bundled ones with the file's values."""
@@ -844,7 +846,7 @@ class _Reader:
 
     # ------------------------------------------------------------------ eras
 
-    def eras(self, value: Any, options: KernelOptions) -> tuple[Era, ...]:
+    def eras(self, value: Any) -> tuple[Era, ...]:
         if not isinstance(value, list) or not all(isinstance(e, Mapping) for e in value):
             self.fail("eras", "expected a list of tables ([[eras]])")
         if not value:
@@ -861,12 +863,10 @@ class _Reader:
             if not definition:
                 continue
             if name in definitions and definitions[name][1] != definition:
-                self.fail(f"{key}.name", f"era {name!r} is already defined differently in eras[{definitions[name][0]}]; "
-                          "a recurring era gives only name and start")
+                self.fail(f"{key}.name", f"era {name!r} is already defined differently in "
+                          f"eras[{definitions[name][0]}]; a recurring era gives only name and start")
             definitions.setdefault(name, (k, definition))
-        made: dict[str, tuple[str, PatternSettings, tuple[tuple[RoadType, float], ...], int | None, str]] = {}
-        for name, (k, definition) in definitions.items():
-            made[name] = self.era_definition(definition, f"eras[{k}]")
+        made = {name: self.era_definition(definition, f"eras[{k}]") for name, (k, definition) in definitions.items()}
         starts: list[int] = []
         for k, entry in enumerate(value):
             start = self.integer(entry["start"], f"eras[{k}].start")
@@ -884,7 +884,8 @@ class _Reader:
                             description=description))
         return tuple(eras)
 
-    def era_definition(self, entry: Mapping[str, Any], key: str):
+    def era_definition(self, entry: Mapping[str, Any], key: str) -> _EraDefinition:
+        """What an era is (000 §4.2.9): its pattern with options, road-type frequencies, land-use interval."""
         if "pattern" not in entry:
             self.fail(f"{key}.pattern", f"missing (one of {', '.join(_pattern_names())})")
         pattern = self.text(entry["pattern"], f"{key}.pattern")
@@ -931,14 +932,14 @@ class _Reader:
                 if known is None and required not in entry:
                     self.fail(f"{key}.{required}", f"missing (needed for a type that is not bundled: "
                               f"{', '.join(bundled_types)})")
-            goal = self.number(entry["goal"], f"{key}.goal") if "goal" in entry else known.goal  # type: ignore[union-attr]
+            goal = self.number(entry["goal"], f"{key}.goal") if "goal" in entry else known.goal  # type: ignore
             if goal < 0:
                 self.fail(f"{key}.goal", f"must be ≥ 0 (a share of lot area), got {goal:g}")
             lot_size = self.text(entry.get("lot_size", known.lot_size if known else ""), f"{key}.lot_size")
             if (lot_size or name) not in {u.value for u in LandUse}:
                 self.fail(f"{key}.lot_size", f"{lot_size or name!r} is not a lot class (valid: "
                           f"{', '.join(u.value for u in LandUse)}); a new type names the class it is built like")
-            terms = self.terms(entry["terms"], f"{key}.terms") if "terms" in entry else known.terms  # type: ignore[union-attr]
+            terms = self.terms(entry["terms"], f"{key}.terms") if "terms" in entry else known.terms  # type: ignore
             entries.append({"name": name, "goal": goal, "lot_size": lot_size,
                             "terms": [asdict(t) for t in terms]})
             base = _economy_of(name, lot_size or name)
