@@ -1,6 +1,7 @@
 """Histories (003 §3.1, 000 §4.2.9, 002 §4): time functions, eras, the bundled files, and bad files."""
 from __future__ import annotations
 
+import json
 import math
 from dataclasses import replace
 import re
@@ -109,6 +110,9 @@ def test_every_bundled_history_yields_kernel_objects_for_every_era_and_year(name
     assert set(h.lot_options) == set(LandUse) == set(h.footprint_options)
     assert isinstance(h.options, KernelOptions)
     assert h.options.lattice.slope_weight == h.o1 and h.options.trade.o2 == h.o2
+    assert json.loads(json.dumps(h.summary()))["eras"][0]["name"] == h.eras[0].name
+    b = [h.traffic_factor(np.random.default_rng(s)) for s in range(50)]
+    assert 0.7 <= min(b) and max(b) <= 1.3 and b[3] == h.traffic_factor(np.random.default_rng(3))
 
 
 def test_example_writes_out_the_kernels_bundled_land_use_types():

@@ -61,7 +61,7 @@ line ``FILE: key.path: what is wrong``.
     carry = 0.0
     for step in range(years):
         year = clock.history_year(step)                  # eras and functions
-        built = clock.calendar_year(step)                # stamped on what is built
+        dated = clock.calendar_year(step)                # stamped on what is built, with era.name
         now = history.values_at(year, traffic_factor=b)
         era = now.era
         count, carry = now.new_streets(n_segments, carry)
@@ -344,7 +344,7 @@ class YearValues:
         return count, max(quota - count, 0.0)
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, eq=False)
 class History:
     """A history read from a TOML file (see the module docstring and ``docs/histories.md``).
 
@@ -382,6 +382,9 @@ class History:
         Lot subdivision (002 §5.1) and building (002 §5.3) rules per lot class.
     options : KernelOptions
         The kernels' other options.
+
+    Histories compare and hash by identity (a loaded history is a value to
+    read from, and may key a cache).
     """
 
     name: str
