@@ -59,6 +59,30 @@ class JoinReport:
 ON_STREET = 1e-3
 
 
+def join_growth(city: City, streets: Sequence, *, spacing: float, origin: Origin = Origin.GROWN,
+                status: Status = Status.PLANNED, year: int | None = None, era: str | None = None,
+                most: int = 8) -> tuple[City, JoinReport]:
+    """The shared joining step after any growth pattern: its streets into the city, joined to the town.
+
+    Parameters
+    ----------
+    city : City
+    streets : sequence of :class:`synth.growth.NewStreet`-like objects
+        With ``xy``, ``highway``, ``hierarchy``, ``bridge`` and ``layer``.
+    spacing : float
+        The town's junction spacing (m): joining streets reach at most two of them, and keep two apart.
+    origin, status, year, era
+        Stamped on the new streets and the joining streets.
+    most : int
+        Stop once the new streets are joined at this many places.
+    """
+    attrs = [{"highway": s.highway, "hierarchy": s.hierarchy, "bridge": s.bridge, "layer": s.layer,
+              "origin": origin, "status": status, "year": year, "era": era} for s in streets]
+    grown = add_streets(city, [s.xy for s in streets], attrs)
+    new = list(range(len(city.network.streets), len(grown.network.streets)))
+    return join_to_town(grown, new, reach=2 * spacing, spread=2 * spacing, most=most, year=year, era=era)
+
+
 def add_streets(city: City, lines: Sequence[np.ndarray], attrs: Sequence[dict]) -> City:
     """The city with new streets along ``lines``.
 

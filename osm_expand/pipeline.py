@@ -23,7 +23,7 @@ from osm_expand.errors import InputError
 from osm_expand.fidelity import FidelityReport, fidelity
 from osm_expand.measures import LineSet, NetworkMeasures, measure_network
 from osm_expand.heights import with_heights
-from osm_expand.joins import JoinReport, add_streets, join_to_town
+from osm_expand.joins import JoinReport, join_growth
 from osm_expand.land import LandOptions, unbuildable
 from osm_expand.model import City, Origin, Status, StreetNetwork, polyline_length
 from osm_expand.sites import Site, SiteOptions, choose_sites, distance_maps
@@ -169,7 +169,7 @@ def expand(city: City, options: ExpandOptions | None = None, *, pattern: GrowthP
         progress(f"growing streets ({pattern.name}) at site {attempt + 1}")
         region = site.region if opts.beyond_bounds else shapely.intersection(site.region, city.bounds_polygon)
         growth = pattern.grow(city, region, np.random.default_rng([opts.seed, attempt]))
-        grown, joins = _join(city, growth, spacing)
+        grown, joins = join_growth(city, growth.streets, spacing=spacing, year=city.year)
         if joins.joins >= MIN_JOINS:
             break
         tried.append(f"site {attempt + 1}: {len(growth.streets)} streets, {joins.joins} joins")
@@ -201,15 +201,6 @@ def _district_area(opts: ExpandOptions, built: float, spacing: float) -> float:
         raise InputError(f"--area {area:.0f} is more than {MAX_AREA_SHARE:g} times the town's built-up area "
                          f"({built:.0f} m²); the district may be at most --area {np.floor(largest):.0f}")
     return area
-
-
-def _join(city: City, growth: Growth, spacing: float) -> tuple[City, JoinReport]:
-    """The shared joining step: the grown streets into the city, then joined to the town's streets."""
-    attrs = [{"highway": s.highway, "hierarchy": s.hierarchy, "bridge": s.bridge, "layer": s.layer,
-              "origin": Origin.GROWN, "status": Status.PLANNED, "year": city.year} for s in growth.streets]
-    grown = add_streets(city, [s.xy for s in growth.streets], attrs)
-    new = list(range(len(city.network.streets), len(grown.network.streets)))
-    return join_to_town(grown, new, reach=2 * spacing, spread=2 * spacing, year=city.year)
 
 
 def district_area(city: City) -> float:

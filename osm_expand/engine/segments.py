@@ -52,6 +52,8 @@ class SegmentTable:
     built: np.ndarray  #: (E,) bool: planned streets exist on the map but carry no built traffic yet
     bridge: np.ndarray  #: (E,) bool
     year: np.ndarray  #: (E,) the year built, -1 for the town as mapped
+    street_id: np.ndarray  #: (E,) the street's stable id (:attr:`Street.id`)
+    first: np.ndarray  #: (S + 1,) the first segment of each street (segments of street k: first[k]..first[k+1])
 
     @classmethod
     def from_city(cls, city: City) -> "SegmentTable":
@@ -70,6 +72,8 @@ class SegmentTable:
             built=per([s.status == Status.BUILT for s in streets], bool),
             bridge=per([s.bridge for s in streets], bool),
             year=per([s.year if s.year is not None and s.is_new else -1 for s in streets], np.int64),
+            street_id=per([s.id for s in streets], np.int64),
+            first=np.concatenate([[0], np.cumsum(sizes)]).astype(np.int64),
         )
 
     def __len__(self) -> int:
@@ -83,3 +87,30 @@ class SegmentTable:
         else:
             np.add.at(out, self.street, values)
         return out
+
+
+def segment_pieces(old: SegmentTable, new: SegmentTable, city: City) -> list[list[int]]:
+    """For each segment of an older table, the segments of ``new`` (the table of ``city``) it became.
+
+    The engine only adds streets, inserts nodes into streets (tees) or
+    removes streets (a rebuilding road); a street keeps its id throughout.
+    An old segment u–v of street *s* is the run of *s*'s new segments from u
+    to v, or nothing when *s* is gone.
+    """
+    where = {sid: k for k, sid in enumerate(s.id for s in city.network.streets)}
+    pieces: list[list[int]] = []
+    for sid, (u, v) in zip(old.street_id.tolist(), old.uv.tolist()):
+        k = where.get(sid)
+        if k is None:
+            pieces.append([])
+            continue
+        nodes = city.network.streets[k].nodes
+        try:
+            i = nodes.index(u)
+            j = nodes.index(v, i + 1) if v in nodes[i + 1:] else nodes.index(v)
+        except ValueError:
+            pieces.append([])
+            continue
+        lo, hi = min(i, j), max(i, j)
+        pieces.append(list(range(int(new.first[k]) + lo, int(new.first[k]) + hi)))
+    return pieces

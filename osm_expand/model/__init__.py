@@ -9,10 +9,10 @@
 - :mod:`~osm_expand.model.highways` — which ``highway=*`` values are streets, and their rank
 - :mod:`~osm_expand.model.projection` — the local metric projection
 """
-from osm_expand.model.city import Block, Building, City, MappedArea, UnplacedWay
+from osm_expand.model.city import Block, Building, City, Lot, MappedArea, UnplacedWay
 from osm_expand.model.geometry import closest_on_segments, match_points, polyline_length
 from osm_expand.model.network import Context, Origin, Status, Street, StreetNetwork, network_from_lines
 from osm_expand.model.projection import LocalProjection
 
-__all__ = ["Block", "Building", "City", "Context", "LocalProjection", "MappedArea", "Origin", "Status", "Street",
+__all__ = ["Block", "Building", "City", "Context", "LocalProjection", "Lot", "MappedArea", "Origin", "Status", "Street",
            "StreetNetwork", "UnplacedWay", "closest_on_segments", "match_points", "network_from_lines", "polyline_length"]

@@ -64,6 +64,19 @@ class MappedArea:
 
 
 @dataclass(frozen=True, eq=False)
+class Lot:
+    """A building lot (002 §5.1, 004 §4.3.3): part of a block with access from a street."""
+
+    polygon: shapely.Polygon  #: metres
+    block: int  #: the block's id
+    street: int  #: id of the street it faces (its access; the busiest one it touches)
+    land_use: str  #: the land-use type's name
+    people: float = 0.0  #: residents, workers and visitors over a day (the trip model's people)
+    id: int = -1
+    year: int | None = None
+
+
+@dataclass(frozen=True, eq=False)
 class UnplacedWay:
     """A way of the town that a clipped extract leaves without a drawable shape (fewer than two
     consecutive nodes inside it): no stage uses it, the OSM output gives it back as mapped."""
@@ -100,6 +113,7 @@ class City:
     sea: tuple[shapely.Geometry, ...] = ()  #: assembled from coastline
     areas: tuple[MappedArea, ...] = ()
     blocks: tuple[Block, ...] = ()
+    lots: tuple[Lot, ...] = ()
     unplaced: tuple[UnplacedWay, ...] = ()  #: mapped ways without a drawable shape, given back as mapped
     year: int | None = None  #: the current year (the map's, from its newest object, at ingest)
     unbuildable: shapely.Geometry | None = None  #: land nothing new may take (see :mod:`osm_expand.land`)

@@ -1,0 +1,197 @@
+"""Growing minor streets each year (003 Algorithm 1, GROWMINORROADS; 002 §3).
+
+Where: the candidate set Z (crossings that have not spawned streets, and
+temporary points on long segments) ranked by the nuclei of growth
+(:mod:`osm_expand.engine.nuclei`, 003 §3.3.2). How: the era's pattern.
+
+- **Street patterns** (000 §4.2.6: ``organic``, ``grid``, ``radial``,
+  ``medieval``, ...; :mod:`synth.patterns`) grow this year's number of new
+  streets from the best ⌈count / streets_per_start⌉ candidates, on a
+  :class:`synth.street_graph.StreetGraph` of the whole city, so every rule
+  (no crossing, angles, spacing, bridges) holds against the town too.
+- **District patterns** (``example``, ``walk``, ``colonisation``; behind
+  :class:`synth.growth.GrowthPattern`) grow districts: the year's street
+  length is owed until it makes a district of at least
+  :attr:`GrowthOptions.min_district` junction spacings of street, which then
+  grows in a disc around the best-ranked candidate (holding the owed length
+  at the town's own street density) and joins the town by the shared joining
+  step.
+
+New streets are ``planned`` (002 §2: they become built when traffic uses
+them), with the year and era they were built in and origin ``engine``.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+import shapely
+
+from osm_expand.engine.nuclei import Nucleus, candidate_points, rank_candidates
+from osm_expand.engine.segments import SegmentTable
+from osm_expand.joins import add_streets, join_growth
+from osm_expand.model import City, Origin, Status, match_points
+from synth.growth import GrowthPattern
+from synth.patterns import GrowthStep, PatternOptions, grow_streets
+from synth.street_graph import StreetGraph
+
+#: ℓ, the pathfinding lattice spacing (m): temporary candidate points are ⌊length / 1.25ℓ⌋ per segment (003).
+ELL = 20.0
+
+
+@dataclass(frozen=True)
+class GrowthOptions:
+    #: A district pattern grows once the owed street length reaches this many junction spacings:
+    #: a district of a few blocks, not a street at a time (the patterns work at the district scale).
+    min_district: float = 12.0
+
+
+@dataclass
+class GrowthMemory:
+    """What street growth remembers from year to year (not part of the city)."""
+
+    spawned: set[int] = field(default_factory=set)  #: city nodes that spawned streets (or never will)
+    failed: list[np.ndarray] = field(default_factory=list)  #: points where growth failed (003: finished)
+    owed: float = 0.0  #: street length a district pattern owes (m)
+
+
+@dataclass(frozen=True)
+class GrowthYear:
+    """What one year of street growth did."""
+
+    streets: int = 0  #: new streets
+    length_m: float = 0.0
+    bridges: int = 0
+    districts: int = 0  #: districts grown by a district pattern
+
+    def __add__(self, other: "GrowthYear") -> "GrowthYear":
+        return GrowthYear(self.streets + other.streets, self.length_m + other.length_m,
+                          self.bridges + other.bridges, self.districts + other.districts)
+
+    def to_dict(self) -> dict:
+        return {"streets": self.streets, "length_km": round(self.length_m / 1000, 3), "bridges": self.bridges,
+                "districts": self.districts}
+
+
+def grow_street_pattern(city: City, count: int, options: PatternOptions, nuclei: list[Nucleus],
+                        memory: GrowthMemory, rng: np.random.Generator, *, year: int, era: str,
+                        centre: np.ndarray) -> tuple[City, GrowthYear]:
+    """Grow ``count`` new streets with a street pattern from the best candidates (003 §3.3.2, 000 §4.2.6)."""
+    if count <= 0:
+        return city, GrowthYear()
+    table = SegmentTable.from_city(city)
+    graph = StreetGraph.from_segments(table.xy, table.uv, created=np.maximum(table.year, 0), bridge=table.bridge,
+                                      major=table.major)
+    n_nodes, n_segments = graph.n_nodes, graph.n_segments
+    degree = graph.degree
+    graph.spawned[:] = degree == 2  # shape points never start a street
+    spawned = np.fromiter(memory.spawned, dtype=np.int64, count=len(memory.spawned))
+    graph.spawned[spawned[spawned < n_nodes]] = True
+    failed = np.array(memory.failed).reshape(-1, 2) if memory.failed else None
+    z = candidate_points(graph, spawned_mask=graph.spawned, ell=ELL, max_degree=options.max_degree,
+                         temporary_points=options.segment_starts, segment_mask=~table.bridge, exclude_points=failed)
+    if not len(z):
+        return city, GrowthYear()
+    starts = z.take(rank_candidates(z.xy, nuclei, take=math.ceil(count / options.streets_per_start)))
+    step = grow_streets(graph, starts, options=options, rng=rng, water=city.water_geometry(),
+                        forbidden=_forbidden(city), centre=centre, time=float(year))
+    memory.spawned |= set(np.flatnonzero(graph.spawned[:n_nodes]).tolist())
+    memory.failed += list(step.failed_xy)
+    lines, bridges = _new_lines(graph, step, n_segments)
+    if not lines:
+        return city, GrowthYear()
+    attrs = [{"highway": "residential", "hierarchy": 9, "origin": Origin.ENGINE, "status": Status.PLANNED,
+              "year": year, "era": era, "bridge": b, "layer": 1 if b else 0} for b in bridges]
+    before = len(city.network.streets)
+    grown = add_streets(city, lines, attrs)
+    new_nodes = match_points(graph.xy[n_nodes:], grown.network.xy)  # crossings made this year spawned
+    memory.spawned |= {int(n) for n, s in zip(new_nodes, graph.spawned[n_nodes:]) if n >= 0 and s}
+    length = sum(float(np.hypot(*np.diff(ln, axis=0).T).sum()) for ln in lines)
+    return grown, GrowthYear(streets=len(grown.network.streets) - before, length_m=length, bridges=int(sum(bridges)))
+
+
+def _forbidden(city: City) -> shapely.Geometry:
+    """Where no street may go: the blocks and unbuildable land (water is handled by the pattern's bridges)."""
+    parts = [b.polygon.buffer(-1.0) for b in city.blocks]
+    if city.unbuildable is not None:
+        parts.append(city.unbuildable)
+    return shapely.union_all(parts)
+
+
+def _new_lines(graph: StreetGraph, step: GrowthStep, n_old: int) -> tuple[list[np.ndarray], list[bool]]:
+    """The segments this step made, chained into polylines at their own degree-2 nodes.
+
+    The far half of a split *old* segment is part of an old street (the tee
+    node is inserted into that street by :func:`osm_expand.joins.add_streets`),
+    so it is not a new street; halves of split new segments are.
+    """
+    old = set(range(n_old))
+    for seg, far in zip(step.split_segment.tolist(), step.split_new_segment.tolist()):
+        if seg in old:
+            old.add(far)
+    new = [k for k in range(n_old, graph.n_segments) if k not in old]
+    if not new:
+        return [], []
+    edges, bridge = graph.edges[new], graph.bridge[new]
+    xy = graph.xy
+    lines, flags = [], []
+    used = np.zeros(len(new), dtype=bool)
+    ends: dict[int, list[int]] = {}
+    for i, (u, v) in enumerate(edges.tolist()):
+        ends.setdefault(u, []).append(i)
+        ends.setdefault(v, []).append(i)
+    degree = graph.degree
+    for i in range(len(new)):
+        if used[i]:
+            continue
+        chain = [i]
+        used[i] = True
+        path = list(edges[i])
+        for side in (0, 1):  # extend through nodes where exactly two new segments of one kind meet
+            while True:
+                node = path[-1] if side else path[0]
+                nxt = [j for j in ends[node] if not used[j] and bridge[j] == bridge[i]]
+                if degree[node] != 2 or len(nxt) != 1:
+                    break
+                j = nxt[0]
+                used[j] = True
+                chain.append(j)
+                other = edges[j][1] if edges[j][0] == node else edges[j][0]
+                path = path + [other] if side else [other] + path
+        lines.append(xy[path])
+        flags.append(bool(bridge[i]))
+    return lines, flags
+
+
+def grow_district(city: City, pattern: GrowthPattern, length: float, density: float, nuclei: list[Nucleus],
+                  memory: GrowthMemory, rng: np.random.Generator, *, spacing: float, year: int,
+                  era: str) -> tuple[City, GrowthYear]:
+    """A district of about ``length`` metres of street (at ``density`` m per m²) at the best candidate."""
+    table = SegmentTable.from_city(city)
+    degree = np.bincount(table.uv.ravel(), minlength=len(table.xy))
+    spawned = degree == 2
+    spawned[np.fromiter(memory.spawned, dtype=np.int64, count=len(memory.spawned))] = True
+    z = candidate_points((table.xy, table.uv), spawned_mask=spawned, ell=ELL, temporary_points=False)
+    if not len(z):
+        return city, GrowthYear()
+    best = rank_candidates(z.xy, nuclei, take=min(len(z), 16))
+    radius = math.sqrt(max(length / max(density, 1e-9), 9.0 * spacing ** 2) / math.pi)
+    bounds = city.bounds_polygon
+    for k in best.tolist():  # the best candidate with free land around it
+        centre = z.xy[k]
+        region = shapely.intersection(shapely.Point(centre).buffer(radius), bounds)
+        free = shapely.difference(region, city.occupied)
+        if free.area >= 0.25 * region.area:
+            break
+    else:
+        return city, GrowthYear()
+    memory.spawned.add(int(z.node[k]))
+    growth = pattern.grow(city, region, rng)
+    if not growth.streets:
+        return city, GrowthYear()
+    before = len(city.network.streets)
+    grown, _ = join_growth(city, growth.streets, spacing=spacing, origin=Origin.ENGINE, year=year, era=era)
+    new = grown.network.streets[before:]
+    made = sum(float(np.hypot(*np.diff(grown.network.street_xy(s), axis=0).T).sum()) for s in new)
+    return grown, GrowthYear(streets=len(new), length_m=made, bridges=sum(s.bridge for s in new), districts=1)

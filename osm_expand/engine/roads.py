@@ -1,0 +1,167 @@
+"""Growing major roads (003 Algorithm 1, GROWMAJORROADS; 003 §3.4.2, 000 §4.2.7).
+
+For a pair of neighbouring cities whose trade routes fell short this year:
+re-route the shortfall over existing major roads with room, or build a new
+road on the pathfinding graph G′ (the lattice with land, water and bridge
+edges, the built-up area B removed, the streets stitched in) as the era's
+road type — whichever scores less ``O3·length + O4·cost``
+(:func:`osm_expand.engine.routing.choose`). A new road's stretches join the
+city as major streets (``primary``; a bypass ``trunk``), origin ``engine``,
+built at once with the width A(t); the streets it runs along become major
+and the extendible ones are widened to A(t). A rebuilding city road
+demolishes the engine's own minor streets under it; the town as mapped is
+never demolished.
+
+The lattice is built once per run (it covers the map's bounds); B and G′
+are rebuilt only in a year that needs a road, so most years cost nothing
+here.
+"""
+from __future__ import annotations
+
+from collections import Counter
+from dataclasses import dataclass, field, replace
+
+import numpy as np
+import shapely
+
+from osm_expand.engine.history import History, YearValues
+from osm_expand.engine.lattice import BuiltUpArea, Lattice, Raster, Segments, build_lattice, built_up_area, pathfinding_graph
+from osm_expand.engine.majorroads import RoadType, plan_major_road, propose_route
+from osm_expand.engine.routing import Choice, choose, route_over_major_roads
+from osm_expand.engine.segments import SegmentTable
+from osm_expand.engine.trade import add_route, route_between, segment_capacity
+from osm_expand.engine.traffic import TrafficMemory, follow, trade_major
+from osm_expand.joins import add_streets
+from osm_expand.land import matches, UNBUILDABLE
+from osm_expand.model import City, Origin, Status
+from osm_expand.model.topology import without_segments
+
+#: Highway class of a new major road by type: a bypass is a through road, the others town roads.
+ROAD_CLASS = {RoadType.BYPASS: "trunk", RoadType.CITY: "primary", RoadType.SMOOTH_CITY: "primary",
+              RoadType.REBUILDING_CITY: "primary"}
+#: A reused minor street that becomes part of a major road is reclassified to this.
+UPGRADED = "secondary"
+#: Metres of land around the map's bounds the lattice covers.
+LATTICE_MARGIN = 100.0
+
+
+@dataclass
+class RoadMemory:
+    """What major-road building remembers from year to year."""
+
+    lattice: Lattice | None = None
+    built: BuiltUpArea | None = None
+
+
+@dataclass(frozen=True)
+class RoadsYear:
+    """What the major-road step did in a year (sum them over an era)."""
+
+    built: Counter = field(default_factory=Counter)  #: new roads by type
+    rerouted: int = 0
+    bridges: int = 0
+    length_m: float = 0.0
+    demolished: int = 0  #: engine-built segments a rebuilding road removed
+
+    def __add__(self, other: "RoadsYear") -> "RoadsYear":
+        return RoadsYear(self.built + other.built, self.rerouted + other.rerouted, self.bridges + other.bridges,
+                         self.length_m + other.length_m, self.demolished + other.demolished)
+
+    def to_dict(self) -> dict:
+        return {"major_roads_built": {str(k): v for k, v in sorted(self.built.items())},
+                "reroutes": self.rerouted, "bridges_built": self.bridges,
+                "major_road_length_km": round(self.length_m / 1000, 3), "demolished_segments": self.demolished}
+
+
+def major_roads_year(city: City, traffic: TrafficMemory, memory: RoadMemory, short: list[tuple[int, int]],
+                     history: History, now: YearValues, rng: np.random.Generator, *, year: int, era: str,
+                     most: int = 1) -> tuple[City, TrafficMemory, RoadMemory, RoadsYear, np.ndarray]:
+    """Solve up to ``most`` short pairs: re-route or build. Returns the city, memories, counts and new junctions."""
+    report = RoadsYear()
+    junctions: list[np.ndarray] = []
+    nodes = traffic.neighbours.exit_node
+    todo = [p for p in short if nodes[p[0]] >= 0 and nodes[p[1]] >= 0 and nodes[p[0]] != nodes[p[1]]]
+    for pair in todo[:most]:
+        table = traffic.table
+        demand = max(traffic.trade.demand.get(pair, 0.0) - traffic.trade.carried(pair), 1.0)
+        graph, memory = _graph(city, traffic, memory, now, history)
+        s, t = graph.node_vertex(int(nodes[pair[0]])), graph.node_vertex(int(nodes[pair[1]]))
+        road_type = history.major_road_type(rng, now.year)
+        reroute = route_over_major_roads(graph, s, t, demand=demand, options=now.routing)
+        new = propose_route(graph, s, t, road_type, demand=demand, routing=now.routing,
+                            options=history.options.major_roads)
+        if choose(new, reroute, o3=now.o3, o4=now.o4) is Choice.REROUTE and reroute is not None:
+            segs = np.unique(reroute.segment[reroute.segment >= 0])
+            trade = add_route(traffic.trade, pair, segs, reroute.length, n_segments=len(table))
+            traffic = replace(traffic, trade=trade)
+            report = report + RoadsYear(rerouted=1)
+            continue
+        if new is None:
+            continue
+        plan = plan_major_road(graph, new, road_type, width=now.road_width, options=history.options.major_roads)
+        city, made = _apply(city, table, plan, year=year, era=era)
+        traffic = follow(traffic, city)
+        route = _route(traffic, city, int(nodes[pair[0]]), int(nodes[pair[1]]))
+        if route is not None:
+            traffic = replace(traffic, trade=add_route(traffic.trade, pair, route, float(traffic.table.length[route].sum()),
+                                                       n_segments=len(traffic.table)))
+        junctions += [r.xy[0] for r in plan.new_roads] + [r.xy[-1] for r in plan.new_roads]
+        memory = replace(memory, built=None)  # the city changed: B and G′ again next time
+        report = report + RoadsYear(built=Counter({plan.road_type.value: 1}), bridges=plan.bridges,
+                                    length_m=sum(r.length for r in plan.new_roads), demolished=made)
+    return city, traffic, memory, report, np.array(junctions).reshape(-1, 2)
+
+
+def _segments(city: City, traffic: TrafficMemory, o2: float) -> Segments:
+    table = traffic.table
+    cap = segment_capacity(table.width) * (o2 / 100.0)
+    return Segments(xy=table.xy, uv=table.uv, major=trade_major(table, city), width=table.width,
+                    bridge=table.bridge, available=cap - traffic.trade.segment_traffic())
+
+
+def _graph(city: City, traffic: TrafficMemory, memory: RoadMemory, now: YearValues, history: History):
+    """This year's G′ (the lattice built once per run, B grown)."""
+    if memory.lattice is None:
+        x0, y0, x1, y1 = city.bounds_xy
+        extent = (x0 - LATTICE_MARGIN, y0 - LATTICE_MARGIN, x1 + LATTICE_MARGIN, y1 + LATTICE_MARGIN)
+        cell = history.options.lattice.spacing if hasattr(history.options.lattice, "spacing") else 20.0
+        water = Raster.from_geometry(city.water_geometry(), extent, cell)
+        forbidden_geom = shapely.union_all([a.polygon for a in city.areas if matches(a.key, a.value, UNBUILDABLE)]
+                                           or [shapely.Polygon()])
+        forbidden = Raster.from_geometry(forbidden_geom, extent, cell) if not forbidden_geom.is_empty else None
+        memory = replace(memory, lattice=build_lattice(extent, water=water, forbidden=forbidden,
+                                                       options=history.options.lattice))
+    segments = _segments(city, traffic, now.o2)
+    built = built_up_area([b.polygon for b in city.blocks], segments, water=city.water_geometry(),
+                          previous=memory.built, options=history.options.built_up)
+    lattice = memory.lattice.with_built_up(built.area)
+    memory = replace(memory, lattice=lattice, built=built)
+    return pathfinding_graph(lattice, segments, built, costs=now.costs, options=history.options.graph), memory
+
+
+def _apply(city: City, table: SegmentTable, plan, *, year: int, era: str) -> tuple[City, int]:
+    """The plan into the city: new stretches, upgraded and widened streets, demolitions; demolished count."""
+    streets = list(city.network.streets)
+    width = float(plan.width)
+    for k in set(table.street[plan.reused].tolist()):
+        s = streets[k]
+        highway = s.highway if s.highway in ("motorway", "trunk", "primary", "secondary") else UPGRADED
+        streets[k] = replace(s, highway=highway)
+    for k in set(table.street[plan.widen].tolist()):
+        streets[k] = replace(streets[k], width=max(width, streets[k].width or 0.0))
+    gone = [int(g) for g in plan.demolished.tolist() if streets[table.street[g]].origin == Origin.ENGINE]
+    if gone:
+        drop = {(int(table.uv[g, 0]), int(table.uv[g, 1])) for g in gone}
+        kept = without_segments(streets, drop)
+        streets = list(kept)
+    city = city.replace(network=city.network.replace(streets=tuple(streets)))
+    highway = ROAD_CLASS[plan.road_type]
+    attrs = [{"highway": highway, "hierarchy": 0, "origin": Origin.ENGINE, "status": Status.BUILT, "year": year,
+              "era": era, "width": width, "bridge": r.bridge, "layer": 1 if r.bridge else 0} for r in plan.new_roads]
+    return add_streets(city, [r.xy for r in plan.new_roads], attrs), len(gone)
+
+
+def _route(traffic: TrafficMemory, city: City, a: int, b: int) -> np.ndarray | None:
+    """The trade route between two exits over major roads now (the new road among them)."""
+    table = traffic.table
+    return route_between(table.uv, table.length, trade_major(table, city), a, b)

@@ -1,0 +1,184 @@
+"""The year's traffic (003 Algorithm 1, TRAFFICSIMULATION; 002 §3.2): trips, trade, status, widths.
+
+- **Trips inside the town** (002 §3.2, :mod:`osm_expand.engine.trips`):
+  residents per street (from the lots' people once there are lots, else
+  block area × a density, shared by the block's sides), gravity
+  destinations, travel times with turn costs; new and changed streets and a
+  share of the rest are re-sampled each year.
+- **Status and widths**: a planned street is built when its traffic passes
+  the threshold; widths follow traffic after a delay (002).
+- **Trade between neighbouring cities** (003 §3.4, Algorithm 2,
+  :mod:`osm_expand.engine.trade`): the yearly increase t(t) − t(t−1) per
+  pair is distributed over the pair's trade routes by length; pairs that
+  fall short are handed to the major-road step
+  (:mod:`osm_expand.engine.roads`), which re-routes them over major roads
+  with room or builds a new road. The trade step runs over *all* pairs
+  first and the major roads are built after it (not inside Algorithm 2's
+  loop), so the segment table stays fixed during the pass.
+
+Neighbouring cities come from where the real town's major roads leave the
+map (:mod:`osm_expand.engine.neighbours`); for trade routes, tertiary roads
+and all links count as major roads too (the issue's towns join their exits
+over them).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field, replace
+
+import numpy as np
+
+from osm_expand.engine.neighbours import Neighbours, initial_pairs, neighbour_cities
+from osm_expand.engine.segments import SegmentTable, segment_pieces
+from osm_expand.engine.trade import (TradeState, TradeYear, extend_segments, initial_trade_state, remap_segments,
+                                     segment_capacity, trade_report, trade_year)
+from osm_expand.engine.trips import (TripGraph, TripOptions, TripState, extend_trip_state, new_trip_state,
+                                     remap_trip_state, residents_from_blocks, step_trips, trip_graph,
+                                     update_status, update_widths)
+from osm_expand.model import City, Status, match_points
+
+#: Highway classes a trade route may use (003: "entirely over major roads"; here tertiary too).
+TRADE_CLASSES = frozenset({"motorway", "trunk", "primary", "secondary", "tertiary", "motorway_link", "trunk_link",
+                           "primary_link", "secondary_link", "tertiary_link"})
+
+
+@dataclass
+class TrafficMemory:
+    """What traffic remembers from year to year (not part of the city)."""
+
+    table: SegmentTable  #: the segment table the states below are indexed by
+    trips: TripState
+    graph: TripGraph | None
+    neighbours: Neighbours
+    pairs: np.ndarray  #: (P, 2) neighbour pairs that trade
+    trade: TradeState
+    pending: dict[int, int] = field(default_factory=dict)  #: street id → year its width began to wait
+    first: bool = True
+
+
+@dataclass(frozen=True)
+class TrafficYear:
+    trips: int = 0
+    people: float = 0.0
+    built: int = 0  #: planned streets built this year
+    widened: int = 0
+    trade: TradeYear = field(default_factory=TradeYear)
+    routes_over_capacity: int = 0
+
+    def __add__(self, other: "TrafficYear") -> "TrafficYear":
+        return TrafficYear(self.trips + other.trips, self.people + other.people, self.built + other.built,
+                           self.widened + other.widened, self.trade + other.trade,
+                           max(self.routes_over_capacity, other.routes_over_capacity))
+
+    def to_dict(self) -> dict:
+        return {"trips": self.trips, "people_per_day": round(self.people), "streets_built": self.built,
+                "streets_widened": self.widened, "trade_pairs_short": self.trade.short,
+                "trade_routes_added": self.trade.routes_added, "routes_over_capacity": self.routes_over_capacity}
+
+
+def trade_major(table: SegmentTable, city: City) -> np.ndarray:
+    """Segments a trade route may use."""
+    cls = np.array([s.highway in TRADE_CLASSES for s in city.network.streets], dtype=bool)
+    return cls[table.street] if len(table) else np.zeros(0, dtype=bool)
+
+
+def start_traffic(city: City, rng: np.random.Generator) -> TrafficMemory:
+    """Neighbouring cities, their pairs and first trade routes over the real major roads (003 §3.2)."""
+    table = SegmentTable.from_city(city)
+    highway = np.array([city.network.streets[k].highway for k in table.street.tolist()])
+    bounds = city.bounds_xy
+    neighbours = neighbour_cities(table.xy, table.uv, highway, bounds, rng, water=[*city.water, *city.sea])
+    pairs = initial_pairs(neighbours, rng)
+    trade, _ = initial_trade_state(table.uv, table.length, trade_major(table, city), neighbours.exit_node, pairs)
+    return TrafficMemory(table=table, trips=new_trip_state(len(table)), graph=None, neighbours=neighbours,
+                         pairs=np.asarray(pairs).reshape(-1, 2), trade=trade)
+
+
+def follow(memory: TrafficMemory, city: City) -> TrafficMemory:
+    """The memory re-indexed by the city's current segment table (streets added, split or removed)."""
+    new = SegmentTable.from_city(city)
+    old = memory.table
+    if len(new) == len(old) and np.array_equal(new.uv, old.uv):
+        return memory
+    if len(new) > len(old) and np.array_equal(new.uv[:len(old)], old.uv):
+        trips, trade = extend_trip_state(memory.trips, len(new)), extend_segments(memory.trade, len(new))
+    else:
+        pieces = segment_pieces(old, new, city)
+        trips, trade = remap_trip_state(memory.trips, pieces, len(new)), remap_segments(memory.trade, pieces, len(new))
+    return replace(memory, table=new, trips=trips, trade=trade)
+
+
+def residents(city: City, table: SegmentTable, options: TripOptions) -> np.ndarray:
+    """People per segment: from the lots when there are some, else block area × density."""
+    if city.lots:
+        people = np.zeros(len(table))
+        for lot in city.lots:
+            k = _segment_of_street(table, city, lot.street)
+            if k >= 0:
+                people[k] += lot.people
+        if people.sum() > 0:
+            return people
+    key = {(int(u), int(v)): k for k, (u, v) in enumerate(table.uv.tolist())}
+    key.update({(v, u): k for (u, v), k in list(key.items())})
+    areas, sides = [], []
+    for b in city.blocks:
+        ring = np.asarray(b.polygon.exterior.coords)
+        nodes = match_points(ring, table.xy)
+        segs = [key[(int(u), int(v))] for u, v in zip(nodes[:-1], nodes[1:]) if (int(u), int(v)) in key]
+        if segs:
+            areas.append(b.polygon.area)
+            sides.append(segs)
+    return residents_from_blocks(np.array(areas), sides, table.length, options=options)
+
+
+def _segment_of_street(table: SegmentTable, city: City, street_id: int) -> int:
+    """The middle segment of the street with this id, or -1."""
+    hits = np.flatnonzero(table.street_id == street_id)
+    return int(hits[len(hits) // 2]) if len(hits) else -1
+
+
+def traffic_year(city: City, memory: TrafficMemory, rng: np.random.Generator, *, year: int, increase: float,
+                 o2: float, options: TripOptions) -> tuple[City, TrafficMemory, TrafficYear, list[tuple[int, int]]]:
+    """One year of trips, status, widths and trade; the pairs whose trade routes fell short."""
+    memory = follow(memory, city)
+    table = memory.table
+    graph = trip_graph(table.xy, table.uv, length=table.length, major=table.major, previous=memory.graph,
+                       options=options)
+    trips, report = step_trips(memory.trips, graph, residents(city, table, options), rng, full=memory.first,
+                               options=options)
+    city, built, widened, pending = _streets_follow_traffic(city, table, trips.traffic, memory.pending, year, options)
+    cap = segment_capacity(table.width) * (o2 / 100.0)
+    trade, cap, counts = trade_year(memory.trade, memory.pairs, increase, cap)
+    keys = [(int(min(p)), int(max(p))) for p in memory.pairs]
+    short = [k for k in keys if trade.demand.get(k, 0.0) > trade.carried(k) + 1e-6]
+    over = trade_report(trade, cap).routes_over_capacity
+    memory = replace(memory, trips=trips, graph=graph, trade=trade, pending=pending, first=False)
+    year_report = TrafficYear(trips=report.trips, people=report.people, built=built, widened=widened, trade=counts,
+                              routes_over_capacity=over)
+    return city, memory, year_report, short
+
+
+def _streets_follow_traffic(city: City, table: SegmentTable, traffic: np.ndarray, pending: dict[int, int],
+                            year: int, options: TripOptions) -> tuple[City, int, int, dict[int, int]]:
+    """Planned streets with traffic are built; widths follow traffic after the delay (002 §2, §3.2)."""
+    streets = list(city.network.streets)
+    n = len(streets)
+    per_street = table.per_street(traffic, n, "max")
+    built = np.array([s.status == Status.BUILT for s in streets])
+    built_year = np.array([s.year if s.year is not None else -1 for s in streets], dtype=np.int64)
+    now_built, now_year = update_status(built, per_street, built_year, year=year, options=options)
+    width = table.per_street(table.width, n, "max")
+    major = table.per_street(table.major.astype(float), n, "max") > 0
+    since = np.array([pending.get(s.id, -1) for s in streets], dtype=np.int64)
+    old_year = np.where(now_built & ~built, now_year, np.minimum(built_year, year - 1))
+    new_width, since = update_widths(width, per_street, now_built, old_year, since, year=year, major=major,
+                                     options=options)
+    changed_status = int((now_built & ~built).sum())
+    widened = 0
+    for k, s in enumerate(streets):
+        if now_built[k] and not built[k]:
+            streets[k] = replace(s, status=Status.BUILT)
+        if s.is_new and abs(new_width[k] - width[k]) > 0.01 or (not s.is_new and new_width[k] > width[k] + 0.01):
+            streets[k] = replace(streets[k], width=float(new_width[k]))
+            widened += 1
+    pending = {s.id: int(v) for s, v in zip(streets, since) if v >= 0}
+    return city.replace(network=city.network.replace(streets=tuple(streets))), changed_status, widened, pending
