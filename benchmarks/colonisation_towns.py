@@ -1,6 +1,6 @@
 """Space colonisation on real towns: joins, referee verdict, buildable blocks and fidelity (issue 12).
 
-    python benchmarks/colonisation_towns.py [--seeds 0 1 2] [--draw DIR] [--out DIR] [TOWN ...]
+    python benchmarks/colonisation_towns.py [--seeds 0 1 2] [--draw DIR [--dpi N]] [--out DIR] [TOWN ...]
 
 For each town and seed: ``expand(city, ExpandOptions(seed=s), pattern=Colonisation(example))``
 in-process (the town is read and learned once), then
@@ -79,7 +79,7 @@ def referee(path: Path) -> dict:
     return report
 
 
-def run(name: str, seeds: list[int], draw: Path | None, out_dir: Path) -> list[dict]:
+def run(name: str, seeds: list[int], draw: Path | None, out_dir: Path, dpi: int = 70) -> list[dict]:
     from osm_expand.export import write_urbanenvironment
     from osm_expand.export.urban import validate
     from osm_expand.ingest import load
@@ -117,11 +117,11 @@ def run(name: str, seeds: list[int], draw: Path | None, out_dir: Path) -> list[d
             picture(result, made, draw / f"{name.split('.')[0]}-colonisation-{seed}.png",
                     f"{name} seed {seed}: {rows[-1]['grown']} streets, {rows[-1]['joins']} joins, "
                     f"{len(made)} buildings, fidelity off {rows[-1]['off']} "
-                    f"(median real part {rows[-1]['typical_off']})")
+                    f"(median real part {rows[-1]['typical_off']})", dpi)
     return rows
 
 
-def picture(result, made: list, path: Path, title: str) -> None:
+def picture(result, made: list, path: Path, title: str, dpi: int = 70) -> None:
     import matplotlib
 
     matplotlib.use("Agg")
@@ -165,7 +165,7 @@ def picture(result, made: list, path: Path, title: str) -> None:
     ax.set_aspect("equal")
     ax.set_title(title, fontsize=9)
     fig.tight_layout()
-    fig.savefig(path, dpi=70)
+    fig.savefig(path, dpi=dpi)
     plt.close(fig)
 
 
@@ -174,6 +174,7 @@ def main() -> None:
     ap.add_argument("towns", nargs="*", default=TOWNS)
     ap.add_argument("--seeds", nargs="+", type=int, default=[0, 1, 2])
     ap.add_argument("--draw", type=Path, help="write a PNG per run into this folder")
+    ap.add_argument("--dpi", type=int, default=70, help="resolution of the pictures")
     ap.add_argument("--out", type=Path, help="keep the XML files in this folder (default: a temporary one)")
     args = ap.parse_args()
     with tempfile.TemporaryDirectory() as tmp:
@@ -181,7 +182,7 @@ def main() -> None:
         for d in (args.draw, out_dir):
             if d is not None:
                 d.mkdir(parents=True, exist_ok=True)
-        rows = [r for name in args.towns for r in run(name, args.seeds, args.draw, out_dir)]
+        rows = [r for name in args.towns for r in run(name, args.seeds, args.draw, out_dir, args.dpi)]
     print("\n| town | seed | site | grown streets | km | joins (kernel/links/tees) | blocks | lots | buildings "
           "| XSD errors | referee | fidelity off (median part) | density ok | off on | s |")
     print("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|")

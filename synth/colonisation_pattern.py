@@ -305,8 +305,9 @@ def _setup(city: City, region: shapely.Geometry, opts: ColonisationOptions,
     hits = _reaching(tree, region, reach, None) if tree is not None else np.zeros(0, dtype=np.int64)
     seeds = [shapely.get_coordinates(lines[k]) for k in hits.tolist() if joinable[k]]
     roads = [lines[k] for k in hits.tolist() if ground[k] and barred[k]]
-    parts = [city.occupied, *shapely.buffer(np.array(roads, dtype=object), ROAD_CLEARANCE).tolist()]
-    forbidden = shapely.union_all([p for p in parts if p is not None and not p.is_empty])
+    forbidden = city.occupied
+    if roads:  # the union costs a second on a large town: only when there is something to add
+        forbidden = shapely.union_all([forbidden, *shapely.buffer(np.array(roads, dtype=object), ROAD_CLEARANCE)])
     return _Setup(region=region, corridor=corridor, seeds=seeds, forbidden=forbidden)
 
 

@@ -156,6 +156,33 @@ def test_a_flow_field_from_primitives_shows_in_the_debug_features():
     assert shown == {"layer": "parameters", **params}
 
 
+def test_user_maps_read_from_npy_and_pgm_steer_the_growth(tmp_path):
+    """A density map (.npy) empty in the east half keeps every AP west; a border map (PGM) bars a band."""
+    from osm_expand.rasters import read_raster
+
+    density = np.ones((12, 15))  # 100 m cells over (0, 0)-(1500, 1200), image order (row 0 north)
+    density[:, 8:] = 0.0  # x >= 800 m: nobody lives there
+    np.save(tmp_path / "density.npy", density)
+    (tmp_path / "density.npy.json").write_text(json.dumps({"origin": [0.0, 1200.0], "cell_size": 100.0}))
+    band = np.zeros((12, 15), dtype=np.uint8)
+    band[5, :] = 255  # image row 5 from the north: y in [600, 700) m is forbidden
+    pgm = b"P5 15 12 255\n" + band.tobytes()
+    (tmp_path / "border.pgm").write_bytes(pgm)
+    (tmp_path / "border.json").write_text(json.dumps({"origin": [0.0, 1200.0], "cell_size": 100.0}))
+    from synth.infomaps import Raster
+
+    maps = {k: Raster(*read_raster(tmp_path / f)) for k, f in (("density", "density.npy"), ("border", "border.pgm"))}
+    city = town([[(-200.0, 0.0), (1700.0, 0.0)]])
+    growth = grown(city, shapely.box(0.0, 0.0, 1500.0, 1200.0), **maps)
+    assert growth.debug["density"] == "user" and growth.debug["parameters"]["maps"]["border"] is True
+    aps = np.array([f["geometry"]["coordinates"] for f in growth.debug["features"]
+                    if f["properties"]["layer"] == "attraction_point"])
+    assert len(aps) and (aps[:, 0] < 850.0).all()  # bilinear: zero from the first empty cell's centre on
+    assert not ((aps[:, 1] >= 600.0) & (aps[:, 1] < 700.0)).any()
+    lines = [shapely.LineString(s.xy) for s in growth.streets]
+    assert lines and not any(line.intersects(shapely.box(0.0, 600.0, 1500.0, 700.0)) for line in lines)
+
+
 def test_the_segment_length_is_the_towns_spacing_and_replaces_the_kernels():
     city = town([[(-200.0, 0.0), (1700.0, 0.0)]])
     growth = grown(city, shapely.box(0.0, 0.0, 1500.0, 1200.0), town=60.0,
