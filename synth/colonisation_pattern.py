@@ -251,7 +251,7 @@ class Colonisation:
         result = colonise(setup.region, seeds=setup.seeds, forbidden=setup.forbidden, options=opts, rng=rng,
                           density=density, height=self.height, flow=flow, border=self.border)
         highways = town_highways(city, opts.highways) if self.pattern.town_classes else opts.highways
-        streets = _new_streets(result, setup.seeds, city, highways)
+        streets = _new_streets(result, setup.seeds, highways)
         params = self._parameters(result, base)
         features = _debug_features(result, setup, params, self.pattern.flow_step)
         return Growth(streets=streets, footprint=footprint,
@@ -372,10 +372,10 @@ def town_highways(city: City, kernel: tuple[str, str, str]) -> tuple[str, str, s
     return tuple(out)  # type: ignore[return-value]
 
 
-def _new_streets(result: ColonisationResult, seeds: list[np.ndarray], city: City,
+def _new_streets(result: ColonisationResult, seeds: list[np.ndarray],
                  highways: tuple[str, ...]) -> tuple[NewStreet, ...]:
     """The kernel's streets, cut at every town-street point and with exact ends on the town."""
-    exact = _exact_points(result, seeds, city)
+    exact = _exact_points(result, seeds)
     out = []
     for street in result.streets:
         nodes = np.asarray(street.nodes, dtype=np.int64)
@@ -390,7 +390,7 @@ def _new_streets(result: ColonisationResult, seeds: list[np.ndarray], city: City
     return tuple(out)
 
 
-def _exact_points(result: ColonisationResult, seeds: list[np.ndarray], city: City) -> dict[int, np.ndarray]:
+def _exact_points(result: ColonisationResult, seeds: list[np.ndarray]) -> dict[int, np.ndarray]:
     """Per kernel node on a town street: the town node's coordinates, or its foot on the town segment."""
     out: dict[int, np.ndarray] = {}
     if not result.joins:

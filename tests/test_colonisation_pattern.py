@@ -305,3 +305,26 @@ def test_the_same_seed_grows_the_same_streets():
         assert np.array_equal(a.xy, b.xy) and a.highway == b.highway and a.hierarchy == b.hierarchy
     other = expanded("krems.osm.gz", 1)
     assert [s.xy.tolist() for s in other.growth.streets] != [s.xy.tolist() for s in first.growth.streets]
+
+
+def test_the_districts_blocks_take_lots_and_buildings_from_the_engine():
+    """Blocks with a grown street on their edge split into lots, and the lots take buildings off the streets."""
+    from osm_expand.blocks import blocks
+    from osm_expand.engine.footprints import place_buildings
+    from osm_expand.engine.lots import block_frontage, subdivide_blocks
+
+    result = expanded("krems.osm.gz")
+    net = result.city.network
+    new_ids = {net.streets[k].id for k in result.city.new_streets()}
+    mine = [b.polygon for b in blocks(net) if new_ids & set(b.street_ids)
+            and result.growth.footprint.contains(b.polygon.representative_point())]
+    lines = [shapely.LineString(net.street_xy(s)) for s in net.streets]
+    ids = [s.id for s in net.streets]
+    rng = np.random.default_rng(3)
+    lots = subdivide_blocks(mine, block_frontage(mine, lines, ids, [8.0] * len(ids)), ["residential_low"] * len(mine),
+                            rng=rng)
+    made = place_buildings(lots, traffic_per_street={}, built_streets=set(ids), rng=rng,
+                           obstacles=[result.city.water_geometry(), *(b.polygon for b in result.city.buildings)])
+    assert len(mine) >= 10 and len(lots) >= 100 and len(made) >= 100
+    houses = [fp.rectangle.polygon for fp in made]
+    assert not shapely.STRtree(lines).query(houses, predicate="intersects").size
