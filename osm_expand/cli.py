@@ -142,9 +142,10 @@ def build_expand_parser() -> argparse.ArgumentParser:
     p.add_argument("--at-lonlat", metavar="LON,LAT", help="site centre in degrees (longitude first)")
     p.add_argument("--area", type=float, metavar="M2",
                    help="district area in m² (default: a quarter of the built-up area; at most four times it)")
-    p.add_argument("--pattern", choices=["example", "walk"], default="example",
-                   help="how streets grow: example (patches of the town, seams walked; default) or walk "
-                        "(004's random walk over the town's junctions)")
+    p.add_argument("--pattern", choices=["example", "walk", "colonisation"], default="example",
+                   help="how streets grow: example (patches of the town, seams walked; default), walk "
+                        "(004's random walk over the town's junctions) or colonisation (001's space "
+                        "colonisation, the town's junction spacing as segment length)")
     p.add_argument("--beyond-bounds", action="store_true",
                    help="let the district grow outside the map's bounds (land there is unknown)")
     p.add_argument("--unbuildable", metavar="KEY=VALUE,...",

@@ -32,6 +32,7 @@ from simplify.example import Example, build_example
 from simplify.hierarchy import with_levels
 from simplify.options import SimplifyOptions
 from synth.growth import Growth, GrowthPattern, RandomWalk
+from synth.colonisation_pattern import Colonisation
 from synth.patches import ExamplePatches
 
 #: A district smaller than this many blocks (squares of the town's junction spacing) is refused.
@@ -93,6 +94,7 @@ def _measure_in_windows(lines: list) -> Callable[[shapely.Geometry], NetworkMeas
 PATTERNS = {
     "example": lambda learned: ExamplePatches(learned.example, measure=_measure_in_windows),
     "walk": lambda learned: RandomWalk(learned.example),
+    "colonisation": lambda learned: Colonisation(learned.example),
 }
 
 
