@@ -101,6 +101,7 @@ class Block:
     id: int = -1
     origin: Origin = Origin.SOURCE
     year: int | None = None
+    land_use: str | None = None  #: the block's land-use type (it sets its lots' sizes, 002 §4), once built out
 
 
 @dataclass(frozen=True)
