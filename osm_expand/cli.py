@@ -68,6 +68,12 @@ class Progress:
         self.started = True
         self.bar.set_description_str(message)
 
+    def add_stages(self, n: int) -> None:
+        """More stages than the bar was made for (the eras of a history)."""
+        if self.bar is not None and n > 0:
+            self.bar.total += n
+            self.bar.refresh()
+
     def close(self) -> None:
         if self.bar is not None:
             self.bar.close()
@@ -151,7 +157,27 @@ def build_expand_parser() -> argparse.ArgumentParser:
     p.add_argument("--unbuildable", metavar="KEY=VALUE,...",
                    help="mapped areas nobody may build on, replacing the default list "
                         "(landuse=cemetery,leisure=park,aeroway=*,...; '' for none)")
+    p.add_argument("--history", metavar="NAME|FILE", default="example",
+                   help="the history the city then lives through: a bundled one (example, european, "
+                        "north-american) or a TOML file (docs/histories.md); default: example")
+    p.add_argument("--years", type=_years, metavar="N",
+                   help="years of history to simulate (default: the history's own, 30 for example; "
+                        "0 grows the district only)")
+    p.add_argument("--snapshots", metavar="DIR",
+                   help="also draw the city at the end of each era (traffic green to red) into DIR")
+    p.add_argument("--snapshot-every", type=_years, metavar="N",
+                   help="with --snapshots: a picture every N years instead of one per era")
     return p
+
+
+def _years(text: str) -> int:
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"must be a whole number of years, got {text!r}") from None
+    if value < 0:
+        raise argparse.ArgumentTypeError(f"must be 0 or more, got {value}")
+    return value
 
 
 COMMAND_USAGE = {
@@ -389,6 +415,7 @@ def _expand_outputs(args: argparse.Namespace) -> tuple[Path, str, Path | None]:
 def cmd_expand(args: argparse.Namespace, log: Progress) -> dict:
     from osm_expand.ingest import check_readable, load
     from osm_expand.land import LandOptions, parse_rules
+    from osm_expand.engine.history import load_history
     from osm_expand.pipeline import ExpandOptions, expand
 
     city_path = check_readable(args.city)
@@ -397,24 +424,57 @@ def cmd_expand(args: argparse.Namespace, log: Progress) -> dict:
         raise InputError(f"--area must be positive (m²), got {args.area:g}")
     land = LandOptions() if args.unbuildable is None else LandOptions(unbuildable=parse_rules(args.unbuildable))
     _check_points(args)
+    history = load_history(args.history)
+    years = history.years if args.years is None else args.years
+    snapshots = _snapshot_dir(args, years)
+    log.add_stages(len(history.eras_visited(None, years)))
     log(f"reading {city_path}")
     city = load(city_path, service=args.service, paths=args.paths)
+    pictures: list = []
     options = ExpandOptions(seed=args.seed, direction=None if args.direction == "auto" else args.direction,
                             at=_site_point(args, city), area=args.area, beyond_bounds=args.beyond_bounds, land=land,
-                            pattern=args.pattern)
+                            pattern=args.pattern, history=history, years=years,
+                            snapshot=(lambda *picture: pictures.append(picture)) if snapshots else None,
+                            snapshot_every=args.snapshot_every)
     try:
         result = expand(city, options, progress=log)
     except InputError as exc:
         raise _in_file(city_path, exc, args) from None
     report = result.report
-    log(f"{report['grown_streets']} new streets, {report['connections']} joins to the town; writing {out}")
-    _write(result, out, kind, preview, title=f"{_stem(city_path)}: the town and a grown district (seed {args.seed})")
+    log(f"{len(result.city.new_streets())} new streets; writing {out}")
+    title = f"{_stem(city_path)}: the town and what grew (seed {args.seed})"
+    _write(result, out, kind, preview, title=title, snapshots=snapshots, pictures=pictures,
+           stem=_stem(city_path))
     return {"input": str(city_path), "output": str(out), "format": kind, "seed": args.seed,
-            **({"preview": str(preview)} if preview else {}), **report}
+            **({"preview": str(preview)} if preview else {}),
+            **({"snapshots": [str(snapshots / _snapshot_name(_stem(city_path), p[1], p[2])) for p in pictures]}
+               if snapshots else {}), **report}
 
 
-def _write(result, out: Path, kind: str, preview: Path | None, title: str) -> None:
-    """The output and the preview, all or nothing."""
+def _snapshot_dir(args: argparse.Namespace, years: int) -> Path | None:
+    """``--snapshots DIR``, checked before any work (made if missing)."""
+    if args.snapshot_every is not None and not args.snapshots:
+        raise InputError("--snapshot-every needs --snapshots DIR")
+    if not args.snapshots:
+        return None
+    if years == 0:
+        raise InputError("--snapshots needs simulated years (--years 0 was given)")
+    folder = Path(args.snapshots)
+    if folder.exists() and not folder.is_dir():
+        raise InputError(f"--snapshots {folder}: exists and is not a directory")
+    if args.snapshot_every == 0:
+        raise InputError("--snapshot-every must be 1 or more")
+    _writable((folder if folder.exists() else folder.parent) / "probe.png")
+    return folder
+
+
+def _snapshot_name(stem: str, year: int, era: str) -> str:
+    return f"{stem}-{year}-{era}.png"
+
+
+def _write(result, out: Path, kind: str, preview: Path | None, title: str, *, snapshots: Path | None = None,
+           pictures: Sequence = (), stem: str = "") -> None:
+    """The output, the preview and the snapshots, all or nothing."""
     from osm_expand.export import all_or_nothing, write_geojson, write_osm, write_urbanenvironment
 
     writer = {"urbanenvironment": write_urbanenvironment, "osm": write_osm, "geojson": write_geojson}[kind]
@@ -424,6 +484,13 @@ def _write(result, out: Path, kind: str, preview: Path | None, title: str) -> No
             from osm_expand.export.preview import write_preview
 
             write_preview(result.city, preview, result.site.region, title=title)
+        if snapshots is not None:
+            from osm_expand.export.snapshot import write_snapshot
+
+            snapshots.mkdir(parents=True, exist_ok=True)
+            for city, year, era, traffic in pictures:
+                write_snapshot(city, traffic, snapshots / _snapshot_name(stem, year, era),
+                               title=f"{stem} in {year}, end of era {era}")
 
 
 #: Stages the main command reports (reading, learning, site, growing, judging, writing; "done" ends the last).

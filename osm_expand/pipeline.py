@@ -13,7 +13,7 @@ how the town was learned; they are returned beside it, never as the town.
 from __future__ import annotations
 
 from collections.abc import Callable
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 import shapely
@@ -60,6 +60,12 @@ class ExpandOptions:
     beyond_bounds: bool = False  #: allow the site outside the map's data bounds
     pattern: str = "example"  #: growth pattern: see :data:`PATTERNS`
     fidelity: bool = True  #: judge the district against real parts of the town (:mod:`osm_expand.fidelity`)
+    #: The history the city then lives through (:mod:`osm_expand.engine.history`): a bundled name, a
+    #: TOML file, or a loaded :class:`~osm_expand.engine.history.History`.
+    history: object = "example"
+    years: int | None = None  #: years of history to simulate; None: the history's own ``years``; 0: none
+    snapshot: object = None  #: called as ``snapshot(city, year, era, traffic)`` after each era (or every N years)
+    snapshot_every: int | None = None  #: years between snapshots; None: one per era
     site: SiteOptions = field(default_factory=SiteOptions)
     land: LandOptions = field(default_factory=LandOptions)
 
@@ -96,6 +102,19 @@ PATTERNS = {
     "walk": lambda learned: RandomWalk(learned.example),
     "colonisation": lambda learned: Colonisation(learned.example),
 }
+
+
+def district_pattern(learned: Learned) -> Callable[[str, object], GrowthPattern]:
+    """The engine's factory of district patterns for an era: ``(name, options) -> GrowthPattern``."""
+    def make(name: str, options: object) -> GrowthPattern:
+        if name == "example":
+            return ExamplePatches(learned.example, options=options, measure=_measure_in_windows)
+        if name == "walk":
+            return RandomWalk(learned.example, options=options)
+        if name == "colonisation":
+            return Colonisation(learned.example, options=options)
+        raise InputError(f"district pattern must be one of {', '.join(PATTERNS)}, got {name!r}")
+    return make
 
 
 def simplified_or_fail(raw: StreetNetwork, options: SimplifyOptions | None = None):
@@ -182,8 +201,39 @@ def expand(city: City, options: ExpandOptions | None = None, *, pattern: GrowthP
         progress("judging the district against real parts of the town")
     judged = _judge(city, grown, growth, joins, opts.seed) if opts.fidelity else None
     report = _report(grown, site, area, spacing, joins, attempt, pattern.name, judged)
-    return ExpandResult(city=grown, site=site, learned=learned, joins=joins, growth=growth, fidelity=judged,
-                        report=report)
+    result = ExpandResult(city=grown, site=site, learned=learned, joins=joins, growth=growth, fidelity=judged,
+                          report=report)
+    return mature(result, opts, progress=progress)
+
+
+def mature(result: ExpandResult, options: ExpandOptions, *, progress: Progress = lambda message: None
+           ) -> ExpandResult:
+    """The expanded city living through ``options.years`` years of ``options.history`` (the engine)."""
+    from osm_expand.engine.history import History, load_history
+    from osm_expand.engine.loop import run
+
+    history = options.history if isinstance(options.history, History) else load_history(options.history)
+    years = history.years if options.years is None else int(options.years)
+    if years <= 0:
+        return result
+    eras_seen: list[str] = []
+
+    def each_year(done: int, total: int, era: str) -> None:
+        if not eras_seen or eras_seen[-1] != era:
+            eras_seen.append(era)
+            progress(f"simulating {total} years of '{history.name}': era {era}")
+
+    engine = run(result.city, history, years=years, seed=options.seed, spacing=result.learned.example.spacing,
+                 district_pattern=district_pattern(result.learned), join_points=result.joins.at,
+                 buildout=_buildout(), progress=each_year, snapshot=options.snapshot,
+                 snapshot_every=options.snapshot_every)
+    report = {**result.report, "engine": engine.report}
+    return replace(result, city=engine.city, report=report)
+
+
+def _buildout():
+    """The build-out stage for the engine (land use, lots, buildings), when it is available."""
+    return None
 
 
 def _margin(city: City) -> float:

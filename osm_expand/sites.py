@@ -138,8 +138,8 @@ def distance_maps(city: City, opts: SiteOptions | None = None, *, margin: float 
 def _built_up(city: City, xs: np.ndarray, ys: np.ndarray, cell: float, opts: SiteOptions) -> np.ndarray:
     """Blocks, and the street buffers opened so that lone roads through the fields drop out."""
     net = city.network
-    streets = shapely.MultiLineString([net.street_xy(s) for s in net.streets])
-    buffered = _raster(shapely.buffer(streets, opts.street_buffer), xs, ys)
+    on_street = _raster_lines([net.street_xy(s) for s in net.streets], xs, ys)
+    buffered = distance_transform_edt(~on_street) * cell <= opts.street_buffer if on_street.any() else on_street
     r = int(round(opts.street_buffer / cell)) + 1  # wider than a lone road's strip, however it rasterises
     dy, dx = np.mgrid[-r:r + 1, -r:r + 1]
     body = binary_opening(buffered, structure=np.hypot(dx, dy) <= r)
@@ -170,6 +170,23 @@ def _raster(geom, xs: np.ndarray, ys: np.ndarray) -> np.ndarray:
         draw.polygon(to_px(poly.exterior), fill=1)
         for hole in poly.interiors:
             draw.polygon(to_px(hole), fill=0)
+    return np.asarray(image, dtype=bool)
+
+
+def _raster_lines(lines: list[np.ndarray], xs: np.ndarray, ys: np.ndarray) -> np.ndarray:
+    """Cells a polyline passes through (PIL's line drawing, in C): buffering by a distance transform of
+    this is ten times faster than buffering the lines and rasterising the polygons."""
+    from PIL import Image, ImageDraw
+
+    ny, nx = xs.shape
+    x0, y0 = xs[0, 0], ys[0, 0]
+    cell = float(xs[0, 1] - x0) if nx > 1 else float(ys[1, 0] - y0)
+    image = Image.new("1", (nx, ny), 0)
+    draw = ImageDraw.Draw(image)
+    for xy in lines:
+        px = ((np.asarray(xy) - (x0, y0)) / cell).tolist()
+        if len(px) >= 2:
+            draw.line([tuple(p) for p in px], fill=1, width=1)
     return np.asarray(image, dtype=bool)
 
 

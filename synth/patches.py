@@ -140,6 +140,9 @@ class ExamplePatches:
     #: are not ranked by how typical of the town they are.
     measure: Callable | None = None
     name: str = "example"
+    #: Ranked patch centres by patch size, kept between districts grown by this object (the year loop
+    #: grows many from one town: ranking the town's patches is the slow part, and the town is the same).
+    cache: dict = field(default_factory=dict, compare=False, repr=False)
 
     def grow(self, city: City, region: shapely.Geometry, rng: np.random.Generator) -> Growth:
         opts, spacing = self.options, self.example.spacing
@@ -154,13 +157,15 @@ class ExamplePatches:
         cells = _cells(free, centres)
         target = _target_density(_source(city, self.example, everything=True), float(free.area),
                                  opts.density_discs, rng) * float(free.area)
-        patches = _candidate_patches(source, size, opts, rng, self.measure)
+        key = round(float(np.log(size)) / 0.05)  # sizes within 5 % share a ranking
+        if key not in self.cache:
+            self.cache[key] = _candidate_patches(source, size, opts, rng, self.measure)
+        patches = self.cache[key]
         best = None
         for attempt in range(ATTEMPTS):  # other patches when even every cell filled left too little
             quilt = _Quilt(grid=np.roll(patches, -attempt * len(centres), axis=0))
             result = _quilt(source, quilt, centres, cells, region, old_geom, target, spacing, opts, city.occupied)
-            if best is None or abs(np.log(result[0].total_length() / target)) < abs(np.log(best[0].total_length()
-                                                                                               / target)):
+            if best is None or _misfit(result[0].total_length(), target) < _misfit(best[0].total_length(), target):
                 best = result
             if result[0].total_length() >= 0.9 * target:
                 break
@@ -174,6 +179,11 @@ class ExamplePatches:
 
 #: Times the cells are filled with other patches when the first patches left the district too sparse.
 ATTEMPTS = 3
+
+
+def _misfit(length: float, target: float) -> float:
+    """How far a district's street length is from the target, as |log ratio| (inf for nothing)."""
+    return abs(float(np.log(length / target))) if length > 0 and target > 0 else float("inf")
 
 
 def _quilt(source: _Source, quilt: _Quilt, centres: np.ndarray, cells: list, region: shapely.Geometry,

@@ -31,7 +31,8 @@ import shapely
 from osm_expand.engine.nuclei import Nucleus, candidate_points, rank_candidates
 from osm_expand.engine.segments import SegmentTable
 from osm_expand.joins import add_streets, join_growth
-from osm_expand.model import City, Origin, Status, match_points
+from osm_expand.model import City, Origin, Status, match_points, polyline_length
+from osm_expand.sites import SiteOptions, choose_sites, distance_maps
 from synth.growth import GrowthPattern
 from synth.patterns import GrowthStep, PatternOptions, grow_streets
 from synth.street_graph import StreetGraph
@@ -43,8 +44,13 @@ ELL = 20.0
 @dataclass(frozen=True)
 class GrowthOptions:
     #: A district pattern grows once the owed street length reaches this many junction spacings:
-    #: a district of a few blocks, not a street at a time (the patterns work at the district scale).
-    min_district: float = 12.0
+    #: a district of about fifteen blocks (a grid of spacing s has 2/s metres of street per m²), not a
+    #: street at a time (the patterns work at the district scale, and a district is a few blocks).
+    min_district: float = 30.0
+    #: Sites tried per district, best first (as the pipeline's first district).
+    sites_tried: int = 5
+    #: A district joined to the town at fewer places is not built (as the pipeline's first district).
+    min_joins: int = 2
 
 
 @dataclass
@@ -165,33 +171,36 @@ def _new_lines(graph: StreetGraph, step: GrowthStep, n_old: int) -> tuple[list[n
 
 
 def grow_district(city: City, pattern: GrowthPattern, length: float, density: float, nuclei: list[Nucleus],
-                  memory: GrowthMemory, rng: np.random.Generator, *, spacing: float, year: int,
-                  era: str) -> tuple[City, GrowthYear]:
-    """A district of about ``length`` metres of street (at ``density`` m per m²) at the best candidate."""
-    table = SegmentTable.from_city(city)
-    degree = np.bincount(table.uv.ravel(), minlength=len(table.xy))
-    spawned = degree == 2
-    spawned[np.fromiter(memory.spawned, dtype=np.int64, count=len(memory.spawned))] = True
-    z = candidate_points((table.xy, table.uv), spawned_mask=spawned, ell=ELL, temporary_points=False)
-    if not len(z):
+                  memory: GrowthMemory, rng: np.random.Generator, *, spacing: float, year: int, era: str,
+                  options: GrowthOptions = GrowthOptions()) -> tuple[City, GrowthYear]:
+    """A district of about ``length`` metres of street (at ``density`` m per m²) on the best free site.
+
+    The sites are the pipeline's (:mod:`osm_expand.sites`: free land next to
+    the town, near water, with room), re-ranked by the nuclei of growth
+    (003 §3.3.2: distance to the nearest nucleus × (1 − strength)); the
+    first whose district joins the town at :attr:`GrowthOptions.min_joins`
+    places is built.
+    """
+    area = max(length / max(density, 1e-9), 9.0 * spacing ** 2)
+    pts = city.network.xy[city.network.used_nodes()]
+    margin = 0.5 * float(np.hypot(*(pts.max(axis=0) - pts.min(axis=0)))) if len(pts) else 0.0
+    site_options = SiteOptions()
+    maps = distance_maps(city, site_options, margin=margin)
+    sites = choose_sites(maps, area, site_options, most=options.sites_tried)
+    if not sites:
         return city, GrowthYear()
-    best = rank_candidates(z.xy, nuclei, take=min(len(z), 16))
-    radius = math.sqrt(max(length / max(density, 1e-9), 9.0 * spacing ** 2) / math.pi)
+    order = rank_candidates(np.array([s.centre for s in sites]), nuclei, take=len(sites))
     bounds = city.bounds_polygon
-    for k in best.tolist():  # the best candidate with free land around it
-        centre = z.xy[k]
-        region = shapely.intersection(shapely.Point(centre).buffer(radius), bounds)
-        free = shapely.difference(region, city.occupied)
-        if free.area >= 0.25 * region.area:
-            break
-    else:
-        return city, GrowthYear()
-    memory.spawned.add(int(z.node[k]))
-    growth = pattern.grow(city, region, rng)
-    if not growth.streets:
-        return city, GrowthYear()
     before = len(city.network.streets)
-    grown, _ = join_growth(city, growth.streets, spacing=spacing, origin=Origin.ENGINE, year=year, era=era)
-    new = grown.network.streets[before:]
-    made = sum(float(np.hypot(*np.diff(grown.network.street_xy(s), axis=0).T).sum()) for s in new)
-    return grown, GrowthYear(streets=len(new), length_m=made, bridges=sum(s.bridge for s in new), districts=1)
+    for k in order.tolist():
+        region = shapely.intersection(sites[k].region, bounds)
+        growth = pattern.grow(city, region, rng)
+        if not growth.streets:
+            continue
+        grown, joins = join_growth(city, growth.streets, spacing=spacing, origin=Origin.ENGINE, year=year, era=era)
+        if joins.joins >= options.min_joins:
+            new = grown.network.streets[before:]
+            made = sum(polyline_length(grown.network.street_xy(s)) for s in new)
+            return grown, GrowthYear(streets=len(new), length_m=made, bridges=sum(s.bridge for s in new),
+                                     districts=1)
+    return city, GrowthYear()

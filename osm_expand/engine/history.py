@@ -411,6 +411,9 @@ class History:
     footprint_options: Mapping[LandUse, FootprintOptions]
     options: KernelOptions
     description: str = ""
+    #: May a rebuilding major road demolish the town's own streets (003 §3.4.2's rebuilding city road
+    #: on the real town)? False: only what the engine built is ever demolished.
+    rebuild_old_town: bool = False
 
     # ------------------------------------------------------------------ time
 
@@ -466,6 +469,16 @@ class History:
             routing=routing, o1=self.o1, o2=self.o2, o3=self.o3, o4=self.o4,
             land_use_update=(int(year) - era.start) % interval == 0,
         )
+
+    def eras_visited(self, map_year: int | None, years: int) -> list[Era]:
+        """The eras a run of ``years`` years on a map of ``map_year`` passes through, in order."""
+        clock = self.clock(map_year)
+        out: list[Era] = []
+        for step in range(max(int(years), 0)):
+            era = self.era_at(clock.history_year(step))
+            if not out or out[-1] is not era:
+                out.append(era)
+        return out
 
     def traffic_factor(self, rng: np.random.Generator) -> float:
         """The city's b, uniform in (b_min, b_max) = (0.7, 1.3) (003 §3.5); draw once per city."""
@@ -605,7 +618,7 @@ def _join(prefix: str, name: str) -> str:
 
 
 #: Top-level keys of a history file.
-_TOP = ("name", "description", "start", "anchor", "years", "growth", "traffic", "avgprice", "roads",
+_TOP = ("name", "description", "start", "anchor", "years", "rebuild_old_town", "growth", "traffic", "avgprice", "roads",
         "coefficients", "eras", "land_use", "lots", "buildings", "options")
 _ROADS = ("width", "turn_centre_deg", "turn_width_deg", "turn_height", "costs")
 _COEFFICIENTS = ("o1", "o2", "o3", "o4")
@@ -645,6 +658,11 @@ class _Reader:
         if isinstance(value, bool) or not isinstance(value, int):
             self.fail(key, f"expected a whole number, got {value!r}")
         return int(value)
+
+    def boolean(self, value: Any, key: str) -> bool:
+        if not isinstance(value, bool):
+            self.fail(key, f"must be true or false, got {value!r}")
+        return value
 
     def number(self, value: Any, key: str) -> float:
         if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
@@ -769,6 +787,7 @@ class _Reader:
             footprint_options=self.per_class(data.get("buildings", {}), "buildings", FootprintOptions,
                                              DEFAULT_FOOTPRINT_OPTIONS),
             options=options, description=self.text(data.get("description", ""), "description"),
+            rebuild_old_town=self.boolean(data.get("rebuild_old_town", False), "rebuild_old_town"),
         )
 
     def checked(self, key: str, make: Any, *args: Any, **kwargs: Any) -> Any:

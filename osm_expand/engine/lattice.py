@@ -788,7 +788,15 @@ def built_up_area(blocks: Sequence[shapely.Geometry], segments: Segments, *,
     built_blocks = shapely.union_all(polys[built]) if built.any() else shapely.Polygon()
     parts = [built_blocks]
     if len(segments.uv):
-        parts.append(shapely.buffer(shapely.multilinestrings(segments.lines()), opts.neighbourhood, quad_segs=4))
+        lines = segments.lines()
+        if previous is not None:  # B never shrinks: only segments it does not hold yet are buffered
+            shapely.prepare(previous.area)
+            a, b = segments.a, segments.b
+            held = (shapely.contains_xy(previous.area, *a.T) & shapely.contains_xy(previous.area, *b.T)
+                    & shapely.contains_xy(previous.area, *(0.5 * (a + b)).T))
+            lines = lines[~held]
+        if len(lines):
+            parts.append(shapely.buffer(shapely.multilinestrings(lines), opts.neighbourhood, quad_segs=4))
     if previous is not None:
         parts.append(previous.area)
     return BuiltUpArea(area=shapely.union_all(parts), blocks=built_blocks)

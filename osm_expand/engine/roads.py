@@ -43,6 +43,9 @@ ROAD_CLASS = {RoadType.BYPASS: "trunk", RoadType.CITY: "primary", RoadType.SMOOT
 UPGRADED = "secondary"
 #: Metres of land around the map's bounds the lattice covers.
 LATTICE_MARGIN = 100.0
+#: Cell (m) of the raster of forbidden land (unbuildable areas and buildings) the lattice samples:
+#: fine enough that a house between two lattice vertices blocks the edge.
+BUILDING_CELL = 5.0
 
 
 @dataclass
@@ -99,14 +102,14 @@ def major_roads_year(city: City, traffic: TrafficMemory, memory: RoadMemory, sho
         if new is None:
             continue
         plan = plan_major_road(graph, new, road_type, width=now.road_width, options=history.options.major_roads)
-        city, made = _apply(city, table, plan, year=year, era=era)
+        city, made = _apply(city, table, plan, year=year, era=era, old_town=history.rebuild_old_town)
         traffic = follow(traffic, city)
         route = _route(traffic, city, int(nodes[pair[0]]), int(nodes[pair[1]]))
         if route is not None:
             traffic = replace(traffic, trade=add_route(traffic.trade, pair, route, float(traffic.table.length[route].sum()),
                                                        n_segments=len(traffic.table)))
         junctions += [r.xy[0] for r in plan.new_roads] + [r.xy[-1] for r in plan.new_roads]
-        memory = replace(memory, built=None)  # the city changed: B and G′ again next time
+        # the city changed: G′ is made again next time, B grown from what it was
         report = report + RoadsYear(built=Counter({plan.road_type.value: 1}), bridges=plan.bridges,
                                     length_m=sum(r.length for r in plan.new_roads), demolished=made)
     return city, traffic, memory, report, np.array(junctions).reshape(-1, 2)
@@ -124,11 +127,13 @@ def _graph(city: City, traffic: TrafficMemory, memory: RoadMemory, now: YearValu
     if memory.lattice is None:
         x0, y0, x1, y1 = city.bounds_xy
         extent = (x0 - LATTICE_MARGIN, y0 - LATTICE_MARGIN, x1 + LATTICE_MARGIN, y1 + LATTICE_MARGIN)
-        cell = history.options.lattice.spacing if hasattr(history.options.lattice, "spacing") else 20.0
+        cell = history.options.lattice.spacing
         water = Raster.from_geometry(city.water_geometry(), extent, cell)
-        forbidden_geom = shapely.union_all([a.polygon for a in city.areas if matches(a.key, a.value, UNBUILDABLE)]
-                                           or [shapely.Polygon()])
-        forbidden = Raster.from_geometry(forbidden_geom, extent, cell) if not forbidden_geom.is_empty else None
+        areas = [a.polygon for a in city.areas if matches(a.key, a.value, UNBUILDABLE)]
+        houses = [shapely.Polygon(b.ring) for b in city.buildings]  # a new road never runs through a building
+        forbidden_geom = shapely.union_all(areas + houses) if areas or houses else shapely.Polygon()
+        forbidden = (Raster.from_geometry(forbidden_geom, extent, BUILDING_CELL)
+                     if not forbidden_geom.is_empty else None)
         memory = replace(memory, lattice=build_lattice(extent, water=water, forbidden=forbidden,
                                                        options=history.options.lattice))
     segments = _segments(city, traffic, now.o2)
@@ -139,8 +144,12 @@ def _graph(city: City, traffic: TrafficMemory, memory: RoadMemory, now: YearValu
     return pathfinding_graph(lattice, segments, built, costs=now.costs, options=history.options.graph), memory
 
 
-def _apply(city: City, table: SegmentTable, plan, *, year: int, era: str) -> tuple[City, int]:
-    """The plan into the city: new stretches, upgraded and widened streets, demolitions; demolished count."""
+def _apply(city: City, table: SegmentTable, plan, *, year: int, era: str, old_town: bool = False
+           ) -> tuple[City, int]:
+    """The plan into the city: new stretches, upgraded and widened streets, demolitions; demolished count.
+
+    A rebuilding road demolishes what the engine built under it; the town's own streets only when
+    the history allows it (``old_town``: ``rebuild_old_town = true``)."""
     streets = list(city.network.streets)
     width = float(plan.width)
     for k in set(table.street[plan.reused].tolist()):
@@ -149,7 +158,8 @@ def _apply(city: City, table: SegmentTable, plan, *, year: int, era: str) -> tup
         streets[k] = replace(s, highway=highway)
     for k in set(table.street[plan.widen].tolist()):
         streets[k] = replace(streets[k], width=max(width, streets[k].width or 0.0))
-    gone = [int(g) for g in plan.demolished.tolist() if streets[table.street[g]].origin == Origin.ENGINE]
+    gone = [int(g) for g in plan.demolished.tolist()
+            if old_town or streets[table.street[g]].origin != Origin.SOURCE]
     if gone:
         drop = {(int(table.uv[g, 0]), int(table.uv[g, 1])) for g in gone}
         kept = without_segments(streets, drop)

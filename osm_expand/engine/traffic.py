@@ -19,7 +19,10 @@
 Neighbouring cities come from where the real town's major roads leave the
 map (:mod:`osm_expand.engine.neighbours`); for trade routes, tertiary roads
 and all links count as major roads too (the issue's towns join their exits
-over them).
+over them). Only pairs that trade by road are simulated: a neighbour
+reached over water (a river or the sea leaving the map) trades by ship,
+and its land leg inside the town is not modelled, so it never asks for a
+road.
 """
 from __future__ import annotations
 
@@ -53,6 +56,7 @@ class TrafficMemory:
     trade: TradeState
     pending: dict[int, int] = field(default_factory=dict)  #: street id → year its width began to wait
     first: bool = True
+    people: tuple = ()  #: (blocks, lots, segments, people per segment): the last residents, kept while those hold
 
 
 @dataclass(frozen=True)
@@ -87,7 +91,9 @@ def start_traffic(city: City, rng: np.random.Generator) -> TrafficMemory:
     highway = np.array([city.network.streets[k].highway for k in table.street.tolist()])
     bounds = city.bounds_xy
     neighbours = neighbour_cities(table.xy, table.uv, highway, bounds, rng, water=[*city.water, *city.sea])
-    pairs = initial_pairs(neighbours, rng)
+    pairs = np.asarray(initial_pairs(neighbours, rng)).reshape(-1, 2)
+    by_road = neighbours.exit_node[pairs].min(axis=1) >= 0 if len(pairs) else np.zeros(0, dtype=bool)
+    pairs = pairs[by_road & (neighbours.exit_node[pairs[:, 0]] != neighbours.exit_node[pairs[:, 1]])]
     trade, _ = initial_trade_state(table.uv, table.length, trade_major(table, city), neighbours.exit_node, pairs)
     return TrafficMemory(table=table, trips=new_trip_state(len(table)), graph=None, neighbours=neighbours,
                          pairs=np.asarray(pairs).reshape(-1, 2), trade=trade)
@@ -110,30 +116,49 @@ def follow(memory: TrafficMemory, city: City) -> TrafficMemory:
 def residents(city: City, table: SegmentTable, options: TripOptions) -> np.ndarray:
     """People per segment: from the lots when there are some, else block area × density."""
     if city.lots:
-        people = np.zeros(len(table))
-        for lot in city.lots:
-            k = _segment_of_street(table, city, lot.street)
-            if k >= 0:
-                people[k] += lot.people
+        people = _lot_people(city, table)
         if people.sum() > 0:
             return people
-    key = {(int(u), int(v)): k for k, (u, v) in enumerate(table.uv.tolist())}
-    key.update({(v, u): k for (u, v), k in list(key.items())})
-    areas, sides = [], []
-    for b in city.blocks:
-        ring = np.asarray(b.polygon.exterior.coords)
-        nodes = match_points(ring, table.xy)
-        segs = [key[(int(u), int(v))] for u, v in zip(nodes[:-1], nodes[1:]) if (int(u), int(v)) in key]
+    rings = [np.asarray(b.polygon.exterior.coords) for b in city.blocks]
+    if not rings or not len(table):
+        return np.zeros(len(table))
+    owner = np.repeat(np.arange(len(rings)), [len(r) for r in rings])
+    nodes = match_points(np.concatenate(rings), table.xy)
+    a, b = nodes[:-1], nodes[1:]
+    same = (owner[:-1] == owner[1:]) & (a >= 0) & (b >= 0)
+    segment = _segment_lookup(table, a[same], b[same])
+    block = owner[:-1][same]
+    ok = segment >= 0
+    block, segment = block[ok], segment[ok]
+    areas = np.array([blk.polygon.area for blk in city.blocks])
+    order = np.argsort(block, kind="stable")
+    sides = np.split(segment[order], np.cumsum(np.bincount(block, minlength=len(rings)))[:-1])
+    return residents_from_blocks(areas, sides, table.length, options=options)
+
+
+def _segment_lookup(table: SegmentTable, a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """The segment joining nodes a[i] and b[i] (either direction), or -1."""
+    n = max(len(table.xy), 1)
+    keys = np.minimum(table.uv[:, 0], table.uv[:, 1]) * n + np.maximum(table.uv[:, 0], table.uv[:, 1])
+    order = np.argsort(keys, kind="stable")
+    sorted_keys = keys[order]
+    want = np.minimum(a, b) * n + np.maximum(a, b)
+    at = np.clip(np.searchsorted(sorted_keys, want), 0, max(len(keys) - 1, 0))
+    found = sorted_keys[at] == want if len(keys) else np.zeros(len(want), dtype=bool)
+    return np.where(found, order[at], -1)
+
+
+def _lot_people(city: City, table: SegmentTable) -> np.ndarray:
+    """The lots' people on the middle segment of the street each lot faces."""
+    first = {}
+    for k, sid in enumerate(table.street_id.tolist()):
+        first.setdefault(sid, []).append(k)
+    people = np.zeros(len(table))
+    for lot in city.lots:
+        segs = first.get(lot.street)
         if segs:
-            areas.append(b.polygon.area)
-            sides.append(segs)
-    return residents_from_blocks(np.array(areas), sides, table.length, options=options)
-
-
-def _segment_of_street(table: SegmentTable, city: City, street_id: int) -> int:
-    """The middle segment of the street with this id, or -1."""
-    hits = np.flatnonzero(table.street_id == street_id)
-    return int(hits[len(hits) // 2]) if len(hits) else -1
+            people[segs[len(segs) // 2]] += lot.people
+    return people
 
 
 def traffic_year(city: City, memory: TrafficMemory, rng: np.random.Generator, *, year: int, increase: float,
@@ -143,8 +168,10 @@ def traffic_year(city: City, memory: TrafficMemory, rng: np.random.Generator, *,
     table = memory.table
     graph = trip_graph(table.xy, table.uv, length=table.length, major=table.major, previous=memory.graph,
                        options=options)
-    trips, report = step_trips(memory.trips, graph, residents(city, table, options), rng, full=memory.first,
-                               options=options)
+    key = (city.blocks, city.lots, len(table))
+    if memory.people[:3] != key or memory.people[0] is not city.blocks or memory.people[1] is not city.lots:
+        memory = replace(memory, people=(*key, residents(city, table, options)))
+    trips, report = step_trips(memory.trips, graph, memory.people[3], rng, full=memory.first, options=options)
     city, built, widened, pending = _streets_follow_traffic(city, table, trips.traffic, memory.pending, year, options)
     cap = segment_capacity(table.width) * (o2 / 100.0)
     trade, cap, counts = trade_year(memory.trade, memory.pairs, increase, cap)

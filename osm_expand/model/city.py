@@ -88,6 +88,24 @@ class UnplacedWay:
     tags: Tags = ()
 
 
+#: Unions of water, sea and unbuildable land by the identity of those objects (the year loop makes a
+#: new City every year, and these parts, shared between them, are the slow part of :attr:`City.occupied`).
+_STATIC_UNIONS: dict[tuple[int, int, int], tuple[Any, shapely.Geometry]] = {}
+
+
+def _land_nobody_takes(water: tuple, sea: tuple, unbuildable: shapely.Geometry | None) -> shapely.Geometry:
+    key = (id(water), id(sea), id(unbuildable))
+    hit = _STATIC_UNIONS.get(key)
+    if hit is not None and all(a is b for a, b in zip(hit[0], (water, sea, unbuildable))):
+        return hit[1]
+    parts = [*water, *sea] + ([unbuildable] if unbuildable is not None else [])
+    geom = shapely.union_all(parts)
+    if len(_STATIC_UNIONS) > 8:
+        _STATIC_UNIONS.clear()
+    _STATIC_UNIONS[key] = ((water, sea, unbuildable), geom)  # keeps the parts alive, so ids are not reused
+    return geom
+
+
 @dataclass(frozen=True, eq=False)
 class Block:
     """A block: a face of the street graph (004 §4.3) that knows the streets around it.
@@ -154,10 +172,7 @@ class City:
         """Where no new street may go: water, sea, unbuildable land, and the blocks (shrunk 1 m, so
         streets may run along their edges)."""
         blocks = shapely.buffer(np.array([b.polygon for b in self.blocks], dtype=object), -1.0)
-        parts = [*self.water, *self.sea, *blocks.tolist()]
-        if self.unbuildable is not None:
-            parts.append(self.unbuildable)
-        geom = shapely.union_all(parts)
+        geom = shapely.union_all([_land_nobody_takes(self.water, self.sea, self.unbuildable), *blocks.tolist()])
         shapely.prepare(geom)
         return geom
 

@@ -153,30 +153,55 @@ class StreetNetwork:
     def with_new_streets(self, lines: Sequence[np.ndarray], attrs: Sequence[Mapping[str, Any]]) -> "StreetNetwork":
         """This network plus streets along ``lines`` (metres), each with the given :class:`Street` fields.
 
-        A point with exactly the coordinates of a node of this network is
+        A point within :data:`SAME_NODE` (1 mm) of a node of this network is
         that node; points shared by the new lines become one new node. New
         streets get fresh ids; new nodes get OSM id 0.
         """
         if not len(lines):
             return self
         pts = np.concatenate([np.asarray(ln, dtype=float).reshape(-1, 2) for ln in lines])
-        known = match_points(pts, self.xy)
-        fresh = known < 0
-        keys = [tuple(p) for p in pts[fresh].tolist()]
-        order: dict[tuple[float, float], int] = {}
-        for key in keys:
-            order.setdefault(key, len(self.xy) + len(order))
-        known[fresh] = [order[key] for key in keys]
-        xy = np.vstack([self.xy, np.array(list(order), dtype=float).reshape(-1, 2)])
-        ids = np.concatenate([self.node_ids, np.zeros(len(order), dtype=np.int64)])
+        known = match_points(pts, self.xy, SAME_NODE)
+        fresh = np.flatnonzero(known < 0)
+        group = _same_points(pts[fresh])  # points of the new lines within SAME_NODE are one node
+        first_of, number = np.unique(group, return_index=True)[1], np.zeros(len(fresh), dtype=np.int64)
+        number[first_of] = np.arange(len(first_of))
+        known[fresh] = len(self.xy) + number[group]
+        xy = np.vstack([self.xy, pts[fresh[first_of]].reshape(-1, 2)])
+        ids = np.concatenate([self.node_ids, np.zeros(len(first_of), dtype=np.int64)])
         first, streets = self.next_street_id(), list(self.streets)
         start = 0
         for k, (line, fields) in enumerate(zip(lines, attrs)):
             n = len(line)
-            nodes = tuple(int(v) for v in known[start:start + n])
+            run = known[start:start + n]
             start += n
-            streets.append(Street(nodes=nodes, **{"highway": "residential", "id": first + k, **fields}))
+            nodes = tuple(int(v) for v in run[np.r_[True, run[1:] != run[:-1]]])  # no zero-length segments
+            if len(nodes) >= 2:
+                streets.append(Street(nodes=nodes, **{"highway": "residential", "id": first + k, **fields}))
         return self.replace(xy=xy, node_ids=ids, streets=tuple(streets))
+
+
+#: A new street's point this close to a node (m) is that node: computed crossings and tee points land
+#: within rounding of the node they mean, and a second node there would make a zero-length segment.
+SAME_NODE = 1e-3
+
+
+def _same_points(pts: np.ndarray) -> np.ndarray:
+    """A group label per point: points within :data:`SAME_NODE` (transitively) share the label of the
+    first of them, so labels increase in order of first appearance."""
+    if len(pts) < 2:
+        return np.arange(len(pts))
+    from scipy.sparse import coo_matrix
+    from scipy.sparse.csgraph import connected_components
+    from scipy.spatial import cKDTree
+
+    pairs = cKDTree(pts).query_pairs(SAME_NODE, output_type="ndarray")
+    if not len(pairs):
+        return np.arange(len(pts))
+    graph = coo_matrix((np.ones(len(pairs)), (pairs[:, 0], pairs[:, 1])), shape=(len(pts), len(pts)))
+    _, label = connected_components(graph, directed=False)
+    first = np.full(label.max() + 1, len(pts))
+    np.minimum.at(first, label, np.arange(len(pts)))
+    return first[label]
 
 
 def network_from_lines(lines: Sequence, attrs: Sequence[Mapping[str, Any]] | None = None,

@@ -6,22 +6,25 @@ string travels with every export so coordinates can be georeferenced again.
 """
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass
+from functools import lru_cache
 
 import numpy as np
-from pyproj import Transformer
+
+
+@lru_cache(maxsize=16)
+def _transformers(proj_string: str):
+    """Forward and inverse transformers, made once per projection (PROJ takes ~10 ms to set one up)."""
+    from pyproj import Transformer  # pyproj only when a projection is used: it is slow to import
+
+    return (Transformer.from_crs("EPSG:4326", proj_string, always_xy=True),
+            Transformer.from_crs(proj_string, "EPSG:4326", always_xy=True))
 
 
 @dataclass(frozen=True)
 class LocalProjection:
     lon0: float
     lat0: float
-    _forward: Transformer = field(init=False, repr=False, compare=False)
-    _inverse: Transformer = field(init=False, repr=False, compare=False)
-
-    def __post_init__(self) -> None:
-        object.__setattr__(self, "_forward", Transformer.from_crs("EPSG:4326", self.proj_string, always_xy=True))
-        object.__setattr__(self, "_inverse", Transformer.from_crs(self.proj_string, "EPSG:4326", always_xy=True))
 
     @property
     def proj_string(self) -> str:
@@ -29,11 +32,11 @@ class LocalProjection:
                 "+x_0=0 +y_0=0 +ellps=WGS84 +units=m +no_defs")
 
     def to_xy(self, lon: np.ndarray, lat: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        x, y = self._forward.transform(np.asarray(lon, dtype=float), np.asarray(lat, dtype=float))
+        x, y = _transformers(self.proj_string)[0].transform(np.asarray(lon, dtype=float), np.asarray(lat, dtype=float))
         return np.asarray(x), np.asarray(y)
 
     def to_lonlat(self, x: np.ndarray, y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        lon, lat = self._inverse.transform(np.asarray(x, dtype=float), np.asarray(y, dtype=float))
+        lon, lat = _transformers(self.proj_string)[1].transform(np.asarray(x, dtype=float), np.asarray(y, dtype=float))
         return np.asarray(lon), np.asarray(lat)
 
     @classmethod
