@@ -28,8 +28,9 @@ use, lots and buildings). One year:
    widths and split recursively by the lot rules of its type's lot class
    (:func:`~osm_expand.engine.lots.subdivide_blocks`, sizes calibrated on
    the town); lots without street access are discarded and so are lots a
-   street centre line crosses (a bridge over a block). The lots inherit the
-   block's type.
+   street centre line crosses or that reach onto a carriageway (a bridge
+   over a block, a wider street overlapping the one the block's edge was
+   given to). The lots inherit the block's type.
 4. **Land-use update** (002 §4.1, Table 3) in the years the history says
    (``YearValues.land_use_update``): over the old town's units and all lots
    (:mod:`osm_expand.engine.calibration`), with this year's traffic.
@@ -69,7 +70,7 @@ import shapely
 from numpy.typing import NDArray
 
 from osm_expand.blocks import blocks as find_blocks
-from osm_expand.engine.calibration import CalibrationOptions, TownCalibration, calibrate_town
+from osm_expand.engine.calibration import CalibrationOptions, TownCalibration, calibrate_town, size_bands
 from osm_expand.engine.economy import HeightScale, lot_economy, occupants, substitute
 from osm_expand.engine.footprints import Footprint, place_buildings
 from osm_expand.engine.history import History, YearValues
@@ -104,6 +105,10 @@ class BuildoutOptions:
     #: m, grid spacing of the rectangle sweep along a lot's street side (the kernel samples the lot's
     #: vertices exactly; 0.5 m is finer than any setback draw).
     resolution: float = 0.5
+    #: Buildings in the expected class shares added to the real counts when the size bands are
+    #: restacked each year (:func:`_bands`): a year of a few buildings keeps the expected bands, the
+    #: first year's hundred follow their own mix.
+    band_prior: float = 20.0
 
     def __post_init__(self) -> None:
         if not 0 < self.street_overlap <= 1:
@@ -111,6 +116,8 @@ class BuildoutOptions:
         for key in ("building_overlap", "min_region"):
             if not getattr(self, key) >= 0:
                 raise InputError(f"buildout {key}: must be ≥ 0, got {getattr(self, key)}")
+        if not self.band_prior >= 0:
+            raise InputError(f"buildout band_prior: must be ≥ 0, got {self.band_prior}")
         if self.min_fit < 1:
             raise InputError(f"buildout min_fit: must be at least 1, got {self.min_fit}")
         if not self.resolution > 0:
@@ -162,6 +169,7 @@ class BuildoutMemory:
 
     town: TownCalibration
     options: BuildoutOptions
+    calibration: CalibrationOptions
     town_types: NDArray[np.int64]  #: (U,) simulated land-use type of each town unit
     lots: Mapping[int, LotState]  #: by lot id
     done: frozenset[tuple[int, int, int]]  #: keys of blocks built out (area, centroid, rounded to metres)
@@ -212,7 +220,8 @@ def start_buildout(city: City, history: History, rng: np.random.Generator, *,
         raise InputError(f"start_buildout: the city already has {len(city.lots)} lots; "
                          "start the build-out once, before the first year")
     opts = options or BuildoutOptions()
-    town = calibrate_town(city, history, options=calibration or CalibrationOptions())
+    calibration = calibration or CalibrationOptions()
+    town = calibrate_town(city, history, options=calibration)
     lu_opts = history.options.land_use
     lut = town.unit_real.copy()
     layout = None
@@ -224,7 +233,7 @@ def start_buildout(city: City, history: History, rng: np.random.Generator, *,
     parts = [g for geom in (*town.water, town.unbuildable) if geom is not None
              for g in shapely.get_parts(geom).tolist() if not g.is_empty and g.area > 0]
     no_build = np.array(parts, dtype=object)
-    return BuildoutMemory(town=town, options=opts, town_types=lut, lots={}, done=frozenset(),
+    return BuildoutMemory(town=town, options=opts, calibration=calibration, town_types=lut, lots={}, done=frozenset(),
                           no_build=no_build, no_build_tree=shapely.STRtree(no_build),
                           outline_tree=shapely.STRtree(town.outlines), layout=layout, layout_lut=lut.copy())
 
@@ -286,7 +295,7 @@ def _lots_hit(polys: NDArray[np.object_], streets: _Streets, overlap: float) -> 
 
 
 def _buildings_hit(polys: NDArray[np.object_], streets: _Streets, overlap: float) -> NDArray[np.bool_]:
-    """Buildings crossed by a centre line or with more than ``overlap`` m² on a carriageway, (N,) bool."""
+    """Buildings (or new lots) crossed by a centre line or with more than ``overlap`` m² on a carriageway, (N,) bool."""
     hit = np.zeros(len(polys), dtype=bool)
     if not len(polys) or not len(streets.lines):
         return hit
@@ -296,6 +305,18 @@ def _buildings_hit(polys: NDArray[np.object_], streets: _Streets, overlap: float
     if len(idx):
         on = shapely.area(shapely.intersection(polys[idx], streets.carriageways[cw]))
         hit[idx[on > overlap]] = True
+    return hit
+
+
+def _on_carriageway(polys: NDArray[np.object_], streets: _Streets, tolerance: float = 0.05) -> NDArray[np.bool_]:
+    """Polygons closer than half its width (less ``tolerance`` m) to some street's centre line, (N,) bool."""
+    hit = np.zeros(len(polys), dtype=bool)
+    if not len(polys) or not len(streets.lines):
+        return hit
+    half = 0.5 * streets.widths
+    idx, line = streets.line_tree.query(polys, predicate="dwithin", distance=float(half.max()))
+    close = shapely.distance(polys[idx], streets.lines[line]) < half[line] - tolerance
+    hit[idx[close]] = True
     return hit
 
 
@@ -491,9 +512,7 @@ def _build_out_blocks(work: _Year, healing: set[int]) -> list[int]:
         work.count(blocks=len(todo))
         return []
     polys = np.array([lot.polygon for lot in made], dtype=object)
-    crossed = np.zeros(len(made), dtype=bool)
-    idx, _ = streets.line_tree.query(polys, predicate="intersects")
-    crossed[idx] = True
+    crossed = _on_carriageway(polys, streets)  # bridges over blocks, wider streets over the block's edge
     keep = [i for i in range(len(made)) if not crossed[i] and made[i].polygon.is_valid]
     points = shapely.get_coordinates(shapely.point_on_surface(polys[keep])) if keep else np.zeros((0, 2))
     water = distance_to(points, work.town.water)
@@ -703,7 +722,7 @@ def _build(work: _Year, units: _Units) -> None:
             continue
         state = work.states[k]
         cls = classes[state.type]
-        if not history.footprint_options[cls].build:
+        if not town.footprint_options[cls].build:
             continue
         front = tuple(s for s in state.lot.streets.tolist() if s in built_ids)
         if not front:
@@ -717,7 +736,8 @@ def _build(work: _Year, units: _Units) -> None:
         return
     lots = [replace(work.states[k].lot, land_use=classes[work.states[k].type].value) for k in cands]
     footprints = place_buildings(lots, traffic_per_street=work.traffic, built_streets=built_ids,
-                                 options=history.footprint_options, rng=work.rng, sizes=town.sizes,
+                                 options=_bands(work, [classes[work.states[k].type] for k in cands], classes),
+                                 rng=work.rng, sizes=town.sizes,
                                  obstacles=_obstacles(work, lots), resolution=work.memory.options.resolution)
     placed = {fp.lot: fp for fp in footprints}
     for i, (k, key) in enumerate(zip(cands, keys)):
@@ -743,6 +763,28 @@ def _build(work: _Year, units: _Units) -> None:
         if k in work.substituted:
             work.count(buildings_substituted=1, buildings_demolished=-1)
         work.count(buildings_built=1)
+
+
+def _bands(work: _Year, candidates: Sequence[LandUse], classes: Sequence[LandUse]) -> dict:
+    """Footprint options with this year's size bands (:func:`~osm_expand.engine.calibration.size_bands`).
+
+    The bands are stacked by the buildings standing and about to be built,
+    per lot class, plus ``band_prior`` buildings in the expected shares, so
+    that the generated buildings together keep the town's footprint
+    distribution while a small year's few keep the expected bands.
+    """
+    town, opts = work.town, work.memory.options
+    if not (town.sizes.count and work.memory.calibration.size_bands):
+        return dict(town.footprint_options)
+    counts = {c: opts.band_prior * v for c, v in town.building_shares.items()}
+    index = {t.name: k for k, t in enumerate(town.types)}
+    for b in work.buildings.values():
+        k = index.get(b.land_use or "")
+        if k is not None:
+            counts[classes[k]] = counts.get(classes[k], 0.0) + 1.0
+    for c in candidates:
+        counts[c] = counts.get(c, 0.0) + 1.0
+    return size_bands(counts, town.footprint_options, overlap=work.memory.calibration.band_overlap)
 
 
 def _obstacles(work: _Year, lots: Sequence[EngineLot]) -> list[shapely.Geometry]:

@@ -8,8 +8,18 @@ reads, from the town as mapped (never changing it):
   rotated rectangles, which is what the ``<urbanenvironment>`` XML draws and
   what no generated building may overlap.
 - **Sizes** (002 §5.1 ``maxarea_t``, 004 §4.3.4): footprint area, frontage
-  and depth (:func:`~osm_expand.engine.footprints.calibrate_sizes`), and lot
-  options sized to hold them
+  and depth (:func:`~osm_expand.engine.footprints.calibrate_sizes`). The
+  town's footprint-area distribution is then shared out among the lot
+  classes that build (:func:`size_bands`): each class draws its buildings
+  from a band of the town's area quantiles, as wide as its share of the
+  buildings (:func:`building_shares`: goal area over the class's lot size),
+  the classes stacked by their typical building (houses lowest, halls
+  highest) and overlapping by ``band_overlap``. Buildings drawn so have the
+  town's footprint distribution whatever the mix, median included (the
+  history's fixed bands drew half of them from the upper part of the town's
+  distribution and left Krems' median 12–36 % high); the build-out restacks
+  the bands each year by the buildings it has and is about to build. Lot
+  options are sized to hold these buildings
   (:func:`~osm_expand.engine.footprints.calibrated_lot_options`).
 - **Heights** (002 §5.2, 004 §4.3.4): storey height and height distribution
   from the ``height`` / ``building:levels`` *tags*
@@ -42,8 +52,8 @@ reads, from the town as mapped (never changing it):
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping
-from dataclasses import dataclass
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, replace
 
 import numpy as np
 import shapely
@@ -51,16 +61,17 @@ from numpy.typing import NDArray
 from scipy import ndimage
 
 from osm_expand.engine.economy import HeightCalibration, calibrate_heights
-from osm_expand.engine.footprints import SizeTargets, calibrate_sizes, calibrated_lot_options
+from osm_expand.engine.footprints import FootprintOptions, SizeTargets, calibrate_sizes, calibrated_lot_options
 from osm_expand.engine.history import History
 from osm_expand.engine.landuse import (UNASSIGNED, LandUseCalibration, LandUseType, calibrate_landuse, distance_to,
                                        types_from_polygons)
-from osm_expand.engine.lots import LandUse, LotOptions
+from osm_expand.engine.lots import LandUse, LotOptions, land_use
 from osm_expand.errors import InputError
 from osm_expand.land import unbuildable as unbuildable_land
 from osm_expand.model import City, Origin
 
-__all__ = ["CalibrationOptions", "TownCalibration", "calibrate_town", "find_centres", "tag_number", "town_units"]
+__all__ = ["CalibrationOptions", "TownCalibration", "building_shares", "calibrate_town", "find_centres", "size_bands",
+           "tag_number", "town_units"]
 
 
 @dataclass(frozen=True)
@@ -91,6 +102,12 @@ class CalibrationOptions:
     #: The measured coverage is clipped to this range (a few huge fields around a village must
     #: not make its units enormous).
     coverage_range: tuple[float, float] = (0.1, 0.6)
+    #: Share the town's footprint distribution among the lot classes by the goals (:func:`size_bands`);
+    #: False keeps the history's ``size_band`` of each class.
+    size_bands: bool = True
+    #: Quantiles by which neighbouring classes' bands overlap on each side (a large house may be
+    #: bigger than a small shop).
+    band_overlap: float = 0.05
     #: ``key=value`` of mapped areas that are green for the ``green_dist`` attribute (002 §4.3
     #: "forest"): forests, woods and open green the public uses.
     green: tuple[str, ...] = ("landuse=forest", "natural=wood", "natural=scrub", "natural=heath",
@@ -107,6 +124,8 @@ class CalibrationOptions:
             raise InputError(f"calibration max_centres: must be at least 1, got {self.max_centres}")
         if not 0 < self.secondary_share <= 1:
             raise InputError(f"calibration secondary_share: must lie in (0, 1], got {self.secondary_share}")
+        if not 0 <= self.band_overlap < 0.5:
+            raise InputError(f"calibration band_overlap: must lie in [0, 0.5), got {self.band_overlap}")
         lo, hi = self.coverage_range
         if not 0 < lo <= hi <= 1:
             raise InputError(f"calibration coverage_range: must be 0 < low ≤ high ≤ 1, got {self.coverage_range}")
@@ -131,6 +150,8 @@ class TownCalibration:
     landuse: LandUseCalibration | None  #: None when no mapped polygon maps to a type
     types: tuple[LandUseType, ...]  #: the history's types with the calibrated goals
     lot_options: Mapping[LandUse, LotOptions]  #: per lot class, sized to hold the town's buildings
+    footprint_options: Mapping[LandUse, FootprintOptions]  #: per lot class, size bands from :func:`size_bands`
+    building_shares: Mapping[LandUse, float]  #: expected share of the buildings per class (:func:`building_shares`)
     polygons: tuple[tuple[shapely.Geometry, str], ...]  #: mapped land use (geometry, value)
     water: tuple[shapely.Geometry, ...]  #: water and sea (m)
     green: tuple[shapely.Geometry, ...]  #: forests, woods and parks (m)
@@ -271,6 +292,77 @@ def town_units(points: NDArray[np.float64], footprint_area: NDArray[np.float64],
     return xy, area, member.astype(np.int64)
 
 
+def building_shares(types: Sequence[LandUseType], lot_options: Mapping[LandUse, LotOptions],
+                    footprint_options: Mapping[LandUse, FootprintOptions]) -> dict[LandUse, float]:
+    """Each building lot class's expected share of the buildings under the goals.
+
+    ``n_c ∝ Σ_t goal_t / max_area_c`` over the types of class c: the area
+    the goals give the class over its lot size (recursive halving leaves lots
+    of about the same fraction of ``max_area`` in every class). Classes
+    without buildings (parks) are left out.
+
+    Examples
+    --------
+    >>> from osm_expand.engine.landuse import DEFAULT_TYPES
+    >>> from osm_expand.engine.lots import DEFAULT_LOT_OPTIONS
+    >>> from osm_expand.engine.footprints import DEFAULT_FOOTPRINT_OPTIONS
+    >>> shares = building_shares(DEFAULT_TYPES, DEFAULT_LOT_OPTIONS, DEFAULT_FOOTPRINT_OPTIONS)
+    >>> {c.value: round(v, 3) for c, v in shares.items()}
+    {'residential_low': 0.692, 'residential_high': 0.208, 'commercial': 0.075, 'industrial': 0.025}
+    """
+    count: dict[LandUse, float] = {}
+    for t in types:
+        cls = land_use(t.lot_size_key)
+        if cls in footprint_options and footprint_options[cls].build and t.goal > 0:
+            count[cls] = count.get(cls, 0.0) + t.goal / lot_options[cls].max_area
+    total = sum(count.values())
+    return {c: v / total for c, v in count.items()} if total > 0 else {}
+
+
+def size_bands(counts: Mapping[LandUse, float], footprint_options: Mapping[LandUse, FootprintOptions], *,
+               overlap: float = 0.05) -> dict[LandUse, FootprintOptions]:
+    """Each building lot class's band of the town's footprint-area quantiles, as wide as its share.
+
+    Classes are stacked by their typical building (``target_area``: houses,
+    flats, shops, halls), each taking a band as wide as its share of
+    ``counts`` (buildings, expected or real), widened by ``overlap`` on each
+    inner side: buildings drawn this way have the town's footprint
+    distribution whatever the mix, the small ones on houses, the large ones
+    on halls.
+
+    Parameters
+    ----------
+    counts : buildings (or shares) per lot class; classes missing or at 0 keep their options.
+    footprint_options : per lot class.
+    overlap : quantiles added on each side between neighbouring bands.
+
+    Returns
+    -------
+    dict of LandUse to FootprintOptions
+        ``footprint_options`` with ``size_band`` replaced for the counted classes.
+
+    Examples
+    --------
+    >>> from osm_expand.engine.footprints import DEFAULT_FOOTPRINT_OPTIONS
+    >>> bands = size_bands({LandUse.INDUSTRIAL: 1, LandUse.RESIDENTIAL_LOW: 3}, DEFAULT_FOOTPRINT_OPTIONS, overlap=0.1)
+    >>> bands[LandUse.RESIDENTIAL_LOW].size_band, bands[LandUse.INDUSTRIAL].size_band
+    ((0.0, 0.85), (0.65, 1.0))
+    """
+    out = dict(footprint_options)
+    live = {c: float(v) for c, v in counts.items() if v > 0 and c in footprint_options and footprint_options[c].build}
+    total = sum(live.values())
+    if total <= 0:
+        return out
+    start = 0.0
+    for cls in sorted(live, key=lambda c: (footprint_options[c].target_area, c.value)):
+        end = min(start + live[cls] / total, 1.0)
+        low = 0.0 if start <= 1e-12 else max(start - overlap, 0.0)
+        high = 1.0 if end >= 1.0 - 1e-9 else min(end + overlap, 1.0)
+        out[cls] = replace(footprint_options[cls], size_band=(round(low, 12), round(high, 12)))
+        start = end
+    return out
+
+
 def _footprints(city: City) -> tuple[NDArray[np.object_], list[int]]:
     """Valid footprints of the town's own buildings (origin source) with their indices in ``city.buildings``."""
     polys, index = [], []
@@ -338,8 +430,6 @@ def calibrate_town(city: City, history: History, *,
     extent = float(np.hypot(*(used.max(axis=0) - used.min(axis=0)))) if len(used) else 1.0
 
     sizes = calibrate_sizes(list(footprints), street_lines=source_lines)
-    lot_options = calibrated_lot_options(sizes, lot_options=history.lot_options,
-                                         footprint_options=history.footprint_options)
     tags = [b.tags for b in city.buildings if b.origin == Origin.SOURCE]
     heights = calibrate_heights(np.array([tag_number(t, "height") for t in tags], dtype=float),
                                 np.array([tag_number(t, "building:levels") for t in tags], dtype=float),
@@ -361,6 +451,15 @@ def calibrate_town(city: City, history: History, *,
         else:
             landuse = None
 
+    footprint_options = dict(history.footprint_options)
+    lot_options = calibrated_lot_options(sizes, lot_options=history.lot_options, footprint_options=footprint_options)
+    shares = building_shares(types, lot_options, footprint_options)
+    if options.size_bands and sizes.count:
+        for _ in range(3):  # the bands size the lots, the lots weigh the bands: a few rounds settle
+            footprint_options = size_bands(shares, history.footprint_options, overlap=options.band_overlap)
+            lot_options = calibrated_lot_options(sizes, lot_options=history.lot_options,
+                                                 footprint_options=footprint_options)
+            shares = building_shares(types, lot_options, footprint_options)
     coverage = _coverage(city, footprints, points, options)
     unit_xy, unit_area, member = town_units(points, fp_area, cell=options.town_cell, coverage=coverage)
     unit_real = (types_from_polygons(unit_xy, list(polygons), types=types, buildings=list(footprints),
@@ -381,6 +480,7 @@ def calibrate_town(city: City, history: History, *,
     return TownCalibration(
         footprints=footprints, outlines=outlines, building_points=points, centres=centres, extent=extent,
         coverage=coverage, sizes=sizes, heights=heights, landuse=landuse, types=types, lot_options=lot_options,
+        footprint_options=footprint_options, building_shares=shares,
         polygons=polygons, water=water, green=green, unbuildable=unbuildable,
         unit_xy=unit_xy, unit_area=unit_area, unit_real=np.asarray(unit_real, dtype=np.int64),
         unit_floor_space=floor_space, unit_street=unit_street,
