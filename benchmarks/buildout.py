@@ -85,18 +85,19 @@ def cut_across(city, year: int):
     if not lots:
         return city
     by_id = {b.id: b for b in city.blocks}
-    block = max((by_id[lot.block] for lot in lots), key=lambda b: (b.polygon.area, -b.id))
-    poly = block.polygon
-    c = np.asarray(poly.centroid.coords[0])
-    env = np.asarray(poly.minimum_rotated_rectangle.exterior.coords)
-    long_side = max([env[1] - env[0], env[2] - env[1]], key=lambda v: np.hypot(*v))
-    axis = np.array([-long_side[1], long_side[0]]) / np.hypot(*long_side)  # across the long side
-    far = 10 * math.sqrt(poly.area)
-    hit = shapely.LineString([c - far * axis, c + far * axis]).intersection(poly.exterior)
-    pts = sorted((np.asarray(p.coords[0]) for p in shapely.get_parts(hit)), key=lambda p: float((p - c) @ axis))
-    if len(pts) < 2:
-        return city
     net = city.network
+    lines = shapely.STRtree([shapely.LineString(net.street_xy(s)) for s in net.streets])
+    for block in sorted({by_id[lot.block] for lot in lots}, key=lambda b: (-b.polygon.area, b.id)):
+        pts = _chord(block.polygon)
+        if pts is None:
+            continue
+        inner = shapely.LineString(pts).interpolate(0.5, normalized=True).buffer(
+            0.5 * np.hypot(*(pts[1] - pts[0])) - 0.5)  # the chord without its ends
+        if not len(lines.query(shapely.LineString(pts).intersection(inner), predicate="intersects")):
+            break  # a chord that crosses no street inside the block (a dead end would be crossed without a junction)
+    else:
+        return city
+    pts = [pts[0], pts[1]]
     index = {s.id: k for k, s in enumerate(net.streets)}
     ends = []
     for p in (pts[0], pts[-1]):
@@ -107,6 +108,18 @@ def cut_across(city, year: int):
     net = net.with_new_streets([np.array(ends)], [{"origin": Origin.ENGINE, "year": year, "highway": "residential",
                                                    "status": Status.BUILT}])
     return city.replace(network=net)
+
+
+def _chord(poly) -> np.ndarray | None:
+    """The chord across a block's long side through its centroid: (2, 2) ends on its outline, or None."""
+    c = np.asarray(poly.centroid.coords[0])
+    env = np.asarray(poly.minimum_rotated_rectangle.exterior.coords)
+    long_side = max([env[1] - env[0], env[2] - env[1]], key=lambda v: np.hypot(*v))
+    axis = np.array([-long_side[1], long_side[0]]) / np.hypot(*long_side)  # across the long side
+    far = 10 * math.sqrt(poly.area)
+    hit = shapely.LineString([c - far * axis, c + far * axis]).intersection(poly.exterior)
+    pts = sorted((np.asarray(p.coords[0]) for p in shapely.get_parts(hit)), key=lambda p: float((p - c) @ axis))
+    return np.array(pts) if len(pts) == 2 else None  # a concave block's chord that leaves it is no chord
 
 
 def _insert(net, k: int, point: np.ndarray):

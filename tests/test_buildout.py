@@ -458,3 +458,38 @@ def test_the_preview_refuses_an_unknown_colouring(outputs, tmp_path):
     city, _ = outputs
     with pytest.raises(InputError, match="color_by must be one of origin, landuse, year"):
         write_preview(city, tmp_path / "x.png", color_by="height")
+
+
+def test_the_update_proposes_only_allowed_types_and_draws_the_same_numbers():
+    from osm_expand.engine import landuse as lu
+
+    rng = np.random.default_rng(0)
+    xy = rng.uniform(0, 600, (300, 2))
+    area = rng.uniform(400, 1200, 300)
+    attrs = lu.lot_attributes(xy, centres=np.array([[300.0, 300.0]]), traffic=rng.uniform(0, 1, 300))
+    layout = lu.lot_layout(xy, area, attrs)
+    lut = lu.assign_types(layout, np.full(300, lu.UNASSIGNED), types=lu.DEFAULT_TYPES, rng=np.random.default_rng(1))
+    allowed = np.ones((300, len(lu.DEFAULT_TYPES)), dtype=bool)
+    allowed[:150, :] = False  # the first half may keep what they have and take nothing else
+    a = lu.update_land_use(layout, lut, types=lu.DEFAULT_TYPES, rng=np.random.default_rng(2), allowed=allowed)
+    assert (a.lut[:150] == lut[:150]).all() and (a.lut[150:] != lut[150:]).any()
+    assert a.proposed <= 150
+    free = lu.update_land_use(layout, lut, types=lu.DEFAULT_TYPES, rng=np.random.default_rng(2))
+    everything = lu.update_land_use(layout, lut, types=lu.DEFAULT_TYPES, rng=np.random.default_rng(2),
+                                    allowed=np.ones_like(allowed))
+    assert (free.lut == everything.lut).all() and free.proposed == everything.proposed == 300
+    with pytest.raises(InputError, match="allowed types"):
+        lu.update_land_use(layout, lut, types=lu.DEFAULT_TYPES, rng=rng, allowed=allowed[:10])
+
+
+def test_changed_lots_keep_the_bounds_of_their_new_type():
+    _, city, memory, _, _ = built_out("andorra.osm.pbf")
+    types = {t.name: t for t in memory.town.types}
+    from osm_expand.engine.lots import land_use
+
+    for lot in city.lots:
+        state = memory.lots[lot.id]
+        rule = memory.town.lot_options[land_use(types[lot.land_use].lot_size_key)]
+        made_as = land_use(state.lot.land_use)
+        if made_as != land_use(types[lot.land_use].lot_size_key):  # its type moved to another lot class
+            assert rule.min_area <= lot.polygon.area <= rule.max_area

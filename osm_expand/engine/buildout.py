@@ -33,7 +33,10 @@ use, lots and buildings). One year:
    given to). The lots inherit the block's type.
 4. **Land-use update** (002 §4.1, Table 3) in the years the history says
    (``YearValues.land_use_update``): over the old town's units and all lots
-   (:mod:`osm_expand.engine.calibration`), with this year's traffic.
+   (:mod:`osm_expand.engine.calibration`), with this year's traffic. A lot
+   may only take a type whose lot class's ``min_area``..``max_area`` holds
+   its area (a house lot does not become an industrial estate; lots of
+   every type keep their class's bounds).
 5. **Substitution** (002 §5.4): the buildings on lots are replaced with
    probability f₁(age) + f₂(Δprice); a replaced building is demolished and
    its lot builds again this year (step 6), so the replacement carries this
@@ -64,6 +67,7 @@ from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field, replace
+from functools import cached_property
 
 import numpy as np
 import shapely
@@ -157,6 +161,42 @@ class LotState:
     green: float  #: m to the nearest green
     tried: tuple | None = None  #: (type, built streets) when a building last did not fit
 
+    @cached_property
+    def streets(self) -> tuple[int, ...]:
+        """Ids of the streets the lot fronts, ascending."""
+        return tuple(self.lot.streets.tolist())
+
+    @cached_property
+    def frontage(self) -> dict[int, float]:
+        """Metres of the lot's boundary facing each of its streets."""
+        return {s: self.lot.frontage_length(s) for s in self.streets}
+
+
+class _Memo:
+    """Geometry the build-out would otherwise rebuild every year: a cache, never a source of results.
+
+    ``footprints``: a generated building's polygon and area by the building
+    object's id (checked against the object); ``streets``: each street's
+    centre line and carriageway by id, with the nodes and width they were
+    made from.
+    """
+
+    def __init__(self) -> None:
+        self.footprints: dict[int, tuple[Building, shapely.Polygon, float]] = {}
+        self.streets: dict[int, tuple[tuple[int, ...], float, shapely.Geometry, shapely.Geometry]] = {}
+
+    def footprint(self, b: Building) -> tuple[shapely.Polygon, float]:
+        hit = self.footprints.get(id(b))
+        if hit is None or hit[0] is not b:
+            poly = b.polygon
+            hit = (b, poly, float(poly.area))
+            self.footprints[id(b)] = hit
+        return hit[1], hit[2]
+
+    def keep_footprints(self, buildings: Sequence[Building]) -> None:
+        alive = {id(b) for b in buildings}
+        self.footprints = {k: v for k, v in self.footprints.items() if k in alive}
+
 
 @dataclass(frozen=True, eq=False)
 class BuildoutMemory:
@@ -181,6 +221,8 @@ class BuildoutMemory:
     layout: LotLayout | None = None
     layout_ids: tuple[int, ...] = ()
     layout_lut: NDArray[np.int64] = field(default_factory=lambda: np.zeros(0, dtype=np.int64))
+    signature: int | None = None  #: hash of last year's streets (ids, nodes, widths)
+    memo: _Memo = field(default_factory=_Memo, repr=False)  #: geometry cache (no effect on results)
 
 
 # ============================================================================ start
@@ -261,19 +303,33 @@ class _Streets:
         return frozenset(self.ids[self.built].tolist())
 
 
-def _streets(city: City) -> _Streets:
+def _streets(city: City, memo: _Memo) -> tuple[_Streets, int]:
+    """The streets as arrays, and a hash of their geometry (ids, nodes, widths)."""
     net = city.network
     streets = [s for s in net.streets if len(s.nodes) >= 2]
-    sizes = np.array([len(s.nodes) for s in streets], dtype=np.int64)
-    coords = net.xy[np.concatenate([np.asarray(s.nodes, dtype=np.intp) for s in streets])] if streets \
-        else np.zeros((0, 2))
-    lines = shapely.linestrings(coords, indices=np.repeat(np.arange(len(streets)), sizes)) if streets \
-        else np.zeros(0, dtype=object)
     widths = np.array([street_width(s) for s in streets], dtype=np.float64)
-    return _Streets(ids=np.array([s.id for s in streets], dtype=np.int64), lines=lines,
-                    carriageways=shapely.buffer(lines, 0.5 * widths, quad_segs=4),
-                    widths=widths, built=np.array([s.status == Status.BUILT for s in streets], dtype=bool),
-                    new=np.array([s.is_new for s in streets], dtype=bool))
+    lines = np.empty(len(streets), dtype=object)
+    carriageways = np.empty(len(streets), dtype=object)
+    fresh = []
+    for k, (s, w) in enumerate(zip(streets, widths.tolist())):
+        hit = memo.streets.get(s.id)
+        if hit is not None and hit[0] == s.nodes and hit[1] == w:
+            lines[k], carriageways[k] = hit[2], hit[3]
+        else:
+            fresh.append(k)
+    if fresh:
+        sizes = np.array([len(streets[k].nodes) for k in fresh], dtype=np.int64)
+        coords = net.xy[np.concatenate([np.asarray(streets[k].nodes, dtype=np.intp) for k in fresh])]
+        made = shapely.linestrings(coords, indices=np.repeat(np.arange(len(fresh)), sizes))
+        lines[fresh] = made
+        carriageways[fresh] = shapely.buffer(made, 0.5 * widths[fresh], quad_segs=4)
+    memo.streets = {s.id: (s.nodes, w, lines[k], carriageways[k])
+                    for k, (s, w) in enumerate(zip(streets, widths.tolist()))}
+    signature = hash(tuple((s.id, s.nodes, w) for s, w in zip(streets, widths.tolist())))
+    table = _Streets(ids=np.array([s.id for s in streets], dtype=np.int64), lines=lines, carriageways=carriageways,
+                     widths=widths, built=np.array([s.status == Status.BUILT for s in streets], dtype=bool),
+                     new=np.array([s.is_new for s in streets], dtype=bool))
+    return table, signature
 
 
 # ============================================================================ demolition
@@ -320,18 +376,22 @@ def _on_carriageway(polys: NDArray[np.object_], streets: _Streets, tolerance: fl
     return hit
 
 
-def _block_key(poly: shapely.Polygon) -> tuple[int, int, int]:
-    """A block's identity across recomputations: area and centroid rounded to whole metres."""
-    c = poly.centroid
-    return (int(round(poly.area)), int(round(c.x)), int(round(c.y)))
+def _block_keys(blocks: Sequence[Block]) -> list[tuple[int, int, int]]:
+    """Each block's identity across recomputations: area and centroid rounded to whole metres."""
+    if not blocks:
+        return []
+    polys = np.array([b.polygon for b in blocks], dtype=object)
+    area = np.rint(shapely.area(polys)).astype(np.int64)
+    centre = np.rint(shapely.get_coordinates(shapely.centroid(polys))).astype(np.int64)
+    return list(zip(area.tolist(), centre[:, 0].tolist(), centre[:, 1].tolist()))
 
 
 def _relabel(state: LotState, known: frozenset[int]) -> LotState | None:
     """The lot with edges on streets that no longer exist facing none; None when it fronts no street left."""
     lab = state.lot.edge_street
-    gone = (lab >= 0) & ~np.isin(lab, np.fromiter(known, dtype=np.int64, count=len(known)))
-    if not gone.any():
+    if all(s in known for s in state.streets):
         return state
+    gone = (lab >= 0) & ~np.isin(lab, np.array(sorted(known), dtype=np.int64))
     lab = np.where(gone, NO_STREET, lab)
     if not (lab >= 0).any():
         return None
@@ -358,8 +418,13 @@ class _Year:
     states: dict[int, LotState]
     lot_block: dict[int, int]  #: lot id → index into ``blocks``
     buildings: dict[int, Building]  #: lot id → its generated building
+    keys: list[tuple[int, int, int]]  #: each block's key (:func:`_block_keys`)
     report: BuildoutYear = field(default_factory=BuildoutYear)
     substituted: set[int] = field(default_factory=set)  #: lots whose building was replaced this year
+
+    def footprint(self, lot_id: int) -> tuple[shapely.Polygon, float]:
+        """The polygon and area (m²) of the generated building on a lot."""
+        return self.memory.memo.footprint(self.buildings[lot_id])
 
     @property
     def town(self) -> TownCalibration:
@@ -403,14 +468,17 @@ def buildout_year(city: City, memory: BuildoutMemory, history: History, now: Yea
     report : BuildoutYear
     """
     blocks = city.blocks or tuple(find_blocks(city.network, year=year))
-    streets = _streets(city)
+    streets, signature = _streets(city, memory.memo)
+    unchanged = signature == memory.signature
+    memory = replace(memory, signature=signature)
     ids = {int(lot.id) for lot in city.lots}
     states = {k: s for k, s in memory.lots.items() if k in ids}
     buildings = {int(b.lot): b for b in city.buildings
                  if b.origin == Origin.ENGINE and b.lot is not None and int(b.lot) in states}
     work = _Year(city=city, memory=memory, history=history, now=now, rng=rng, year=int(year), traffic=traffic,
-                 streets=streets, blocks=tuple(blocks), states=states, lot_block={}, buildings=buildings)
-    healing = _demolish(work)
+                 streets=streets, blocks=tuple(blocks), states=states, lot_block={}, buildings=buildings,
+                 keys=_block_keys(blocks))
+    healing = _demolish(work, check=not unchanged)
     new_ids = _build_out_blocks(work, healing)
     units = _land_use(work)
     _substitute(work, units)
@@ -418,13 +486,18 @@ def buildout_year(city: City, memory: BuildoutMemory, history: History, now: Yea
     return _result(work, units, new_ids)
 
 
-def _demolish(work: _Year) -> set[int]:
-    """Step 1 and the block matching of step 2; returns the indices of blocks that lost lots."""
+def _demolish(work: _Year, *, check: bool = True) -> set[int]:
+    """Step 1 and the block matching of step 2; returns the indices of blocks that lost lots.
+
+    With ``check`` False (the streets are last year's) nothing can have come
+    under a street since, and only the block matching runs.
+    """
     streets, states = work.streets, work.states
     known = frozenset(streets.ids.tolist())
     order = sorted(states)
     polys = np.array([states[k].lot.polygon for k in order], dtype=object)
-    crossed = _lots_hit(polys, streets, work.memory.options.street_overlap)
+    crossed = _lots_hit(polys, streets, work.memory.options.street_overlap) if check \
+        else np.zeros(len(order), dtype=bool)
     block_polys = np.array([b.polygon for b in work.blocks], dtype=object)
     points = shapely.points(np.array([states[k].point for k in order]).reshape(-1, 2))
     within = np.full(len(order), -1, dtype=np.int64)
@@ -448,8 +521,10 @@ def _demolish(work: _Year) -> set[int]:
         states[lot_id] = state
         work.lot_block[lot_id] = blk
     work.count(lots_demolished=gone)
+    if not check:
+        return healing
     lots_with = sorted(work.buildings)
-    bpolys = np.array([work.buildings[k].polygon for k in lots_with], dtype=object)
+    bpolys = np.array([work.footprint(k)[0] for k in lots_with], dtype=object)
     for lot_id, hit in zip(lots_with, _buildings_hit(bpolys, streets, work.memory.options.building_overlap).tolist()):
         if hit:
             del work.buildings[lot_id]
@@ -483,7 +558,7 @@ def _buildable(work: _Year) -> NDArray[np.bool_]:
 def _build_out_blocks(work: _Year, healing: set[int]) -> list[int]:
     """Steps 2–3: subdivide the free land of blocks that need it; returns the new lots' ids."""
     buildable = _buildable(work)
-    keys = [_block_key(b.polygon) for b in work.blocks]
+    keys = work.keys
     todo = [k for k in range(len(work.blocks))
             if buildable[k] and (keys[k] not in work.memory.done or k in healing)]
     done = {keys[k] for k in range(len(work.blocks)) if buildable[k] and keys[k] in work.memory.done}
@@ -616,7 +691,7 @@ class _Units:
 
 
 def _lot_traffic(work: _Year, state: LotState) -> float:
-    return float(sum(work.traffic.get(int(s), 0.0) for s in state.lot.streets.tolist()))
+    return float(sum(work.traffic.get(s, 0.0) for s in state.streets))
 
 
 def _unit_traffic(work: _Year) -> NDArray[np.float64]:
@@ -662,7 +737,8 @@ def _land_use(work: _Year) -> _Units:
     else:
         layout = lot_layout(xy, area, attrs, options=lu_opts)
     if work.now.land_use_update and len(lut) >= 2:
-        result = update_land_use(layout, lut, types=town.types, rng=work.rng, options=lu_opts)
+        result = update_land_use(layout, lut, types=town.types, rng=work.rng, options=lu_opts,
+                                 allowed=_allowed(town, n_town, area[n_town:]))
         work.count(land_use_proposed=result.proposed, land_use_changes=int((result.lut != lut).sum()))
         lut, luv = result.lut, result.luv
     else:
@@ -675,6 +751,16 @@ def _land_use(work: _Year) -> _Units:
     work.memory = replace(memory, town_types=lut[:n_town].copy(), layout=layout, layout_ids=ids,
                           layout_lut=lut.copy())
     return _Units(ids, n_town, area, attrs, lut, luv)
+
+
+def _allowed(town: TownCalibration, n_town: int, lot_area: NDArray[np.float64]) -> NDArray[np.bool_]:
+    """Types each unit may take, (U + L, T): the town's units any; a lot those whose lot class's
+    ``min_area``..``max_area`` holds its area, so that every type's lots keep their class's bounds."""
+    types = town.types
+    low = np.array([town.lot_options[land_use(t.lot_size_key)].min_area for t in types])
+    high = np.array([town.lot_options[land_use(t.lot_size_key)].max_area for t in types])
+    fits = (lot_area[:, None] >= low[None, :]) & (lot_area[:, None] <= high[None, :])
+    return np.vstack([np.ones((n_town, len(types)), dtype=bool), fits])
 
 
 # ---------------------------------------------------------------------------- step 5–6: buildings
@@ -693,7 +779,7 @@ def _substitute(work: _Year, units: _Units) -> None:
     if scale is None or not lots_with:
         return
     rows = np.array([units.row(k) for k in lots_with], dtype=np.intp)
-    fp = np.array([work.buildings[k].polygon.area for k in lots_with])
+    fp = np.array([work.footprint(k)[1] for k in lots_with])
     envelope = np.zeros(len(units.lut))
     envelope[rows] = fp
     econ = _economy(work, units, envelope, scale)
@@ -724,7 +810,7 @@ def _build(work: _Year, units: _Units) -> None:
         cls = classes[state.type]
         if not town.footprint_options[cls].build:
             continue
-        front = tuple(s for s in state.lot.streets.tolist() if s in built_ids)
+        front = tuple(s for s in state.streets if s in built_ids)
         if not front:
             continue
         key = (state.type, front)
@@ -797,7 +883,11 @@ def _obstacles(work: _Year, lots: Sequence[EngineLot]) -> list[shapely.Geometry]
     if len(memory.town.outlines):
         _, near = memory.outline_tree.query(polys, predicate="intersects")
         out.extend(memory.town.outlines[np.unique(near)].tolist())
-    out.extend(b.polygon for b in work.buildings.values())
+    mine = sorted(work.buildings)
+    if mine:
+        footprints = np.array([work.footprint(k)[0] for k in mine], dtype=object)
+        near = np.unique(shapely.STRtree(footprints).query(polys, predicate="intersects")[1])
+        out.extend(footprints[near].tolist())
     return out
 
 
@@ -808,7 +898,7 @@ def _result(work: _Year, units: _Units, new_ids: list[int]) -> tuple[City, Build
     """Step 7: people per lot, the city's lots, buildings and blocks; the memory for next year."""
     town, types = work.town, work.town.types
     ids = units.ids
-    fs = np.array([(work.buildings[k].levels or 0.0) * work.buildings[k].polygon.area if k in work.buildings else 0.0
+    fs = np.array([(work.buildings[k].levels or 0.0) * work.footprint(k)[1] if k in work.buildings else 0.0
                    for k in ids])
     lot_area = np.array([work.states[k].lot.area for k in ids])
     lut = np.array([work.states[k].type for k in ids], dtype=np.int64)
@@ -828,15 +918,15 @@ def _result(work: _Year, units: _Units, new_ids: list[int]) -> tuple[City, Build
                             len(blocks), len(types)) if ids else np.full(len(blocks), UNASSIGNED)
     blocks = tuple(replace(b, land_use=types[int(t)].name) if t >= 0 else b for b, t in zip(blocks, block_lut))
     city = work.city.replace(lots=tuple(lots), buildings=tuple(kept + generated), blocks=blocks)
+    work.memory.memo.keep_footprints(generated)
     memory = replace(work.memory, lots=dict(work.states))
     return city, memory, work.report
 
 
 def _access(work: _Year, state: LotState, built: frozenset[int]) -> int:
     """The street a lot faces: built first, then the busiest, then the longest frontage, then the lowest id."""
-    streets = state.lot.streets.tolist()
-    return int(max(streets, key=lambda s: (s in built, work.traffic.get(int(s), 0.0),
-                                           state.lot.frontage_length(s), -s)))
+    frontage = state.frontage
+    return int(max(state.streets, key=lambda s: (s in built, work.traffic.get(s, 0.0), frontage[s], -s)))
 
 
 # ============================================================================ helpers for the loop

@@ -973,6 +973,7 @@ def _chunk_size(n: int, options: LandUseOptions) -> int:
 
 def update_land_use(layout: LotLayout, lut: NDArray[np.int64], *, types: Sequence[LandUseType],
                     rng: np.random.Generator, sample_share: float | None = None,
+                    allowed: NDArray[np.bool_] | None = None,
                     options: LandUseOptions = LandUseOptions()) -> LandUseUpdate:
     """One land-use update (002 §4.1, Table 3): sample lots, try a random other type, accept by threshold.
 
@@ -989,6 +990,12 @@ def update_land_use(layout: LotLayout, lut: NDArray[np.int64], *, types: Sequenc
     sample_share : float, optional
         ``m`` as a share of the assigned lots (default ``options.sample_share``);
         each lot is sampled at most once per pass over the lots.
+    allowed : ndarray of bool, shape (L, T), optional
+        Which types each lot may take (a lot whose area lies outside a lot
+        class's bounds cannot take that class's types); a proposal of a type
+        not allowed is dropped before it is valued (it counts as neither
+        proposed nor accepted). The random draws are the same with or
+        without it. None: every type.
 
     Returns
     -------
@@ -1007,6 +1014,10 @@ def update_land_use(layout: LotLayout, lut: NDArray[np.int64], *, types: Sequenc
     share = options.sample_share if sample_share is None else float(sample_share)
     if share < 0 or not np.isfinite(share):
         raise InputError(f"land_use sample_share: must be ≥ 0, got {share}")
+    if allowed is not None:
+        allowed = np.asarray(allowed, dtype=bool)
+        if allowed.shape != (layout.n, ct.n):
+            raise InputError(f"land use: allowed types must have shape ({layout.n}, {ct.n}), got {allowed.shape}")
     state = _State(layout, lut, ct)
     assigned = np.flatnonzero(lut >= 0)
     m = int(round(share * len(assigned)))
@@ -1024,6 +1035,11 @@ def update_land_use(layout: LotLayout, lut: NDArray[np.int64], *, types: Sequenc
                 old = state.lut[lots]
                 new = (old + rng.integers(1, ct.n, size=len(lots))) % ct.n
                 u = rng.random(len(lots))
+                if allowed is not None:
+                    ok = allowed[lots, new]
+                    lots, old, new, u = lots[ok], old[ok], new[ok], u[ok]
+                    if not len(lots):
+                        continue
                 own = state.values[lots, new] - state.values[lots, old]
                 local = own + state.externalities(lots, old, new) / layout.area[lots]
                 take = _decide(lots, old, new, local, u, excess, layout.area, total_area, coef, options)
