@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from osm_expand.model import Building, City, Origin, Street
+from osm_expand.model import Building, City, Lot, Origin, Street
 
 #: OSM tag key that says where an object came from: ``source`` (the town as mapped), ``grown``,
 #: ``join`` (a street joining the district to the town) or ``engine`` (built in the simulated years).
@@ -61,19 +61,46 @@ def history_tags(origin: Origin, year: int | None, era: str | None = None) -> di
     return tags
 
 
+#: ``building=*`` of a generated building by its land-use type (the bundled types; others get ``yes``):
+#: detached houses, blocks of flats, shops and offices, sheds and halls (OSM wiki, Key:building).
+BUILDING_VALUE = {"residential_low": "house", "residential_high": "apartments", "commercial": "commercial",
+                  "industrial": "industrial"}
+#: The OSM tag of a generated lot's land use by its type (OSM wiki, Key:landuse; parks are ``leisure``).
+LANDUSE_TAG = {"residential_low": ("landuse", "residential"), "residential_high": ("landuse", "residential"),
+               "commercial": ("landuse", "commercial"), "industrial": ("landuse", "industrial"),
+               "park": ("leisure", "park")}
+#: OSM tag key of the land-use type the tool gave a lot or a building.
+LANDUSE_KEY = "osm_expand:landuse"
+
+
 def building_tags(b: Building) -> dict[str, str]:
-    """A building's tags: as mapped for the town's, from the model for generated ones, and its origin."""
+    """A building's tags: as mapped for the town's, from the model for generated ones, and its origin.
+
+    A generated building is ``building=*`` by its land use (:data:`BUILDING_VALUE`)
+    with ``height`` (m), ``building:levels``, its land-use type and its lot.
+    """
     if b.origin == Origin.SOURCE and b.tags:
         tags = dict(b.tags)
     else:
-        tags = {"building": "yes"}
+        tags = {"building": BUILDING_VALUE.get(b.land_use or "", "yes")}
         if b.height:
             tags["height"] = f"{b.height:.1f}"
         if b.levels:
             tags["building:levels"] = f"{b.levels:g}"
         if b.land_use:
-            tags["osm_expand:landuse"] = b.land_use
+            tags[LANDUSE_KEY] = b.land_use
+        if b.lot is not None:
+            tags["osm_expand:lot"] = str(b.lot)
     return {**tags, **history_tags(b.origin, b.year)}
+
+
+def lot_tags(lot: Lot) -> dict[str, str]:
+    """A generated lot as an OSM area: ``landuse=*`` (or ``leisure=park``) by its type, its type, id and year."""
+    key, value = LANDUSE_TAG.get(lot.land_use, ("landuse", lot.land_use))
+    tags = {key: value, LANDUSE_KEY: lot.land_use, "osm_expand:lot": str(lot.id)}
+    if lot.people:
+        tags["osm_expand:people"] = f"{lot.people:.0f}"
+    return {**tags, **history_tags(Origin.ENGINE, lot.year)}
 
 
 def to_lonlat(city: City, xy: np.ndarray) -> np.ndarray:

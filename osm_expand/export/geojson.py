@@ -3,7 +3,9 @@
 Every feature has an ``origin`` property (``source``, ``grown``, ``join``,
 ``engine``), so ``"origin" != 'source'`` selects everything new in QGIS. The
 town's streets and buildings carry their OSM tags as mapped and their
-``osm_id(s)``; new ones their typed attributes and ``year``.
+``osm_id(s)``; new ones their typed attributes and ``year`` (generated
+buildings also ``landuse``, ``floors`` and ``lot``). Lots and blocks are
+Polygons with ``"feature": "lot"`` / ``"block"`` and their land use and year.
 """
 from __future__ import annotations
 
@@ -13,18 +15,23 @@ import os
 import numpy as np
 
 from osm_expand.export.atomic import atomic_write
-from osm_expand.export.features import ORIGIN_KEY, YEAR_KEY, building_tags, osm_street_tags, to_lonlat
+from osm_expand.export.features import (LANDUSE_KEY, ORIGIN_KEY, YEAR_KEY, building_tags, osm_street_tags,
+                                       to_lonlat)
 from osm_expand.model import City, Origin
 
 
 def _model_props(tags: dict[str, str]) -> dict:
-    """OSM-style tags with the origin and year keys as plain ``origin`` and ``year`` properties."""
+    """OSM-style tags with the tool's keys as plain properties: ``origin``, ``year``, ``era``, ``landuse``, ``lot``."""
     props = {k: v for k, v in tags.items() if not k.startswith("osm_expand:")}
     props["origin"] = tags[ORIGIN_KEY]
     if YEAR_KEY in tags:
         props["year"] = int(tags[YEAR_KEY])
     if "osm_expand:era" in tags:
         props["era"] = tags["osm_expand:era"]
+    if LANDUSE_KEY in tags:
+        props["landuse"] = tags[LANDUSE_KEY]
+    if "osm_expand:lot" in tags:
+        props["lot"] = int(tags["osm_expand:lot"])
     return props
 
 
@@ -53,9 +60,34 @@ def geojson_document(city: City) -> dict:
             props["osm_id"] = b.osm_id
             props["osm_type"] = b.osm_type
         rings = [_ring_lonlat(city, r, outer=(i == 0)) for i, r in enumerate(b.rings)]
+        if b.levels and b.origin != Origin.SOURCE:
+            props["floors"] = float(b.levels)
         features.append({"type": "Feature", "id": f"building/{k}",
                          "geometry": {"type": "Polygon", "coordinates": rings}, "properties": props})
+    for lot in city.lots:
+        props = {"feature": "lot", "origin": str(Origin.ENGINE), "landuse": lot.land_use, "block": lot.block,
+                 "street": lot.street, "people": round(float(lot.people), 1)}
+        if lot.year is not None:
+            props["year"] = lot.year
+        features.append({"type": "Feature", "id": f"lot/{lot.id}", "properties": props,
+                         "geometry": {"type": "Polygon", "coordinates": _polygon_lonlat(city, lot.polygon)}})
+    for block in city.blocks:
+        if block.polygon.geom_type != "Polygon" or block.polygon.is_empty:
+            continue
+        props = {"feature": "block", "origin": str(block.origin)}
+        if block.year is not None:
+            props["year"] = block.year
+        if block.land_use:
+            props["landuse"] = block.land_use
+        features.append({"type": "Feature", "id": f"block/{block.id}", "properties": props,
+                         "geometry": {"type": "Polygon", "coordinates": _polygon_lonlat(city, block.polygon)}})
     return {"type": "FeatureCollection", "features": features}
+
+
+def _polygon_lonlat(city: City, polygon) -> list:
+    """A shapely polygon's rings in lon/lat, oriented as RFC 7946 wants."""
+    rings = [polygon.exterior, *polygon.interiors]
+    return [_ring_lonlat(city, np.asarray(r.coords), outer=(i == 0)) for i, r in enumerate(rings)]
 
 
 def _ring_lonlat(city: City, ring: np.ndarray, outer: bool) -> list:

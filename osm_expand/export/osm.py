@@ -11,7 +11,12 @@
   read back. They are numbered from :data:`SYNTHETIC_NODE_BASE` instead,
   and the file says ``upload="never"`` so JOSM will not upload them.
 - Buildings are written as mapped: closed ways with their own nodes, and
-  multipolygon relations with their rings as member ways.
+  multipolygon relations with their rings as member ways. Generated
+  buildings are closed ways tagged ``building=*`` by their land use,
+  ``height`` and ``building:levels``
+  (:func:`~osm_expand.export.features.building_tags`).
+- Generated lots are closed ways tagged ``landuse=*`` (``leisure=park`` for
+  parks) by their type (:func:`~osm_expand.export.features.lot_tags`).
 - Ways a clipped extract leaves without a drawable shape (a street with one
   node inside the map, a building cut by its edge) are written back as they
   were mapped, with references to the nodes the extract lacks.
@@ -27,7 +32,7 @@ import numpy as np
 from lxml import etree
 
 from osm_expand.export.atomic import atomic_write
-from osm_expand.export.features import ORIGIN_KEY, building_tags, osm_street_tags, to_lonlat
+from osm_expand.export.features import ORIGIN_KEY, building_tags, lot_tags, osm_street_tags, to_lonlat
 from osm_expand.model import Building, City
 
 GENERATOR = "osm-expand"
@@ -72,6 +77,10 @@ def write_osm(city: City, path: str | os.PathLike) -> None:
     for way_id, street in zip(_way_ids(city, next_way), net.streets):
         ways.append((way_id, street_node[list(street.nodes)].tolist(), osm_street_tags(street)))
     relations = _buildings(city, nodes, ways, next_way)
+    for lot in city.lots:
+        ring = np.asarray(lot.polygon.exterior.coords)
+        ids = nodes.add(np.zeros(len(ring) - 1, dtype=np.int64), to_lonlat(city, ring[:-1]))
+        ways.append((next_way(), [*ids.tolist(), int(ids[0])], lot_tags(lot)))
     for way in city.unplaced:  # as mapped: its missing nodes stay missing, as in the input
         nodes.add(np.asarray(way.located, dtype=np.int64), to_lonlat(city, way.xy))
         ways.append((way.osm_id, list(way.refs), {**dict(way.tags), ORIGIN_KEY: "source"}))

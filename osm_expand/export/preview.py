@@ -2,22 +2,83 @@
 
 Water in blue, the town's buildings and streets in greys, the new streets
 coloured by hierarchy (Gravelius level), joining streets in black, the site
-outline dashed, a scale bar. The same city gives the same bytes: the SVG's
-element ids are salted with a constant, and no dates are written.
+outline dashed, a scale bar. Generated buildings are coloured by
+``color_by``: ``origin`` (one colour, the default), ``landuse`` (a colour
+per land-use type, with a legend; generated lots are shaded in the same
+colours) or ``year`` (the year each was built, with a colour bar). The same
+city gives the same bytes: the SVG's element ids are salted with a constant,
+and no dates are written.
 """
 from __future__ import annotations
 
+import enum
 import os
 
 import numpy as np
 import shapely
 
+from osm_expand.errors import InputError
 from osm_expand.export.atomic import atomic_write
 from osm_expand.model import City, Origin
 
+#: Generated buildings of one colour when coloured by origin.
+NEW_BUILDING = "#e8a33d"
+#: Colours of the bundled land-use types (002 Table 5's convention: housing warm, business red,
+#: industry blue-violet, parks green); other types get the remaining tab10 colours in name order.
+LANDUSE_COLOURS = {"residential_low": "#f2c14e", "residential_high": "#e07b39", "commercial": "#d1495b",
+                   "industrial": "#6c5b9c", "park": "#5fa052"}
+
+
+class ColorBy(enum.StrEnum):
+    """What colours the generated buildings."""
+
+    ORIGIN = "origin"
+    LANDUSE = "landuse"
+    YEAR = "year"
+
+    @classmethod
+    def parse(cls, value: str) -> "ColorBy":
+        try:
+            return cls(value)
+        except ValueError:
+            raise InputError(f"color_by must be one of {', '.join(m.value for m in cls)}, got {value!r}") from None
+
+
+def _landuse_colours(names: list[str]) -> dict[str, str]:
+    """A colour per land-use type name: the bundled ones fixed, others from tab10 in name order."""
+    import matplotlib
+
+    spare = [c for c in matplotlib.colormaps["tab10"].colors]
+    out, k = {}, 0
+    for name in sorted(set(names)):
+        if name in LANDUSE_COLOURS:
+            out[name] = LANDUSE_COLOURS[name]
+        else:
+            out[name] = matplotlib.colors.to_hex(spare[k % len(spare)])
+            k += 1
+    return out
+
 
 def write_preview(city: City, path: str | os.PathLike, site_region: shapely.Geometry | None = None,
-                  title: str = "") -> None:
+                  title: str = "", *, color_by: str = "origin") -> None:
+    """Draw the city to ``path`` (``.png`` or ``.svg``), atomically.
+
+    Parameters
+    ----------
+    city : City
+    path : str or PathLike
+    site_region : shapely Polygon, optional
+        Drawn dashed (where the district was grown).
+    title : str
+    color_by : {"origin", "landuse", "year"}
+        What colours the generated buildings (module docstring).
+
+    Raises
+    ------
+    InputError
+        An unknown ``color_by``.
+    """
+    colour = ColorBy.parse(color_by)
     import matplotlib
 
     matplotlib.use("Agg")
@@ -37,9 +98,7 @@ def write_preview(city: City, path: str | os.PathLike, site_region: shapely.Geom
         ax.add_collection(PolyCollection(water, facecolors="#b9d7ea", edgecolors="none"))
         ax.add_collection(PolyCollection([b.ring for b in city.buildings if b.origin == Origin.SOURCE],
                                          facecolors="0.78", edgecolors="none"))
-        new_buildings = [b.ring for b in city.buildings if b.origin != Origin.SOURCE]
-        if new_buildings:
-            ax.add_collection(PolyCollection(new_buildings, facecolors="#e8a33d", edgecolors="none"))
+        _new_buildings(fig, ax, city, colour)
         old = [net.street_xy(s) for s in net.streets if s.origin == Origin.SOURCE]
         ax.add_collection(LineCollection(old, colors="0.45", linewidths=0.7))
         grown = [s for s in net.streets if s.origin in (Origin.GROWN, Origin.ENGINE)]
@@ -74,6 +133,37 @@ def write_preview(city: City, path: str | os.PathLike, site_region: shapely.Geom
             fig.savefig(fh, format="svg" if suffix == "svg" else "png", dpi=110, bbox_inches="tight",
                         metadata={"Software": None} if suffix == "png" else {"Date": None})
         plt.close(fig)
+
+
+def _new_buildings(fig, ax, city: City, colour: ColorBy) -> None:
+    """The generated buildings (and, by land use, the generated lots) in the chosen colours."""
+    from matplotlib.collections import PolyCollection
+    from matplotlib.patches import Patch
+
+    new = [b for b in city.buildings if b.origin != Origin.SOURCE]
+    if colour is ColorBy.LANDUSE:
+        colours = _landuse_colours([b.land_use or "unknown" for b in new] + [lot.land_use for lot in city.lots])
+        if city.lots:
+            rings = [np.asarray(lot.polygon.exterior.coords) for lot in city.lots]
+            ax.add_collection(PolyCollection(rings, facecolors=[colours[lot.land_use] for lot in city.lots],
+                                             edgecolors="white", linewidths=0.2, alpha=0.35))
+        if new:
+            ax.add_collection(PolyCollection([b.ring for b in new], edgecolors="none",
+                                             facecolors=[colours[b.land_use or "unknown"] for b in new]))
+        if colours:
+            ax.legend(handles=[Patch(color=c, label=n.replace("_", " ")) for n, c in colours.items()],
+                      loc="upper right", fontsize=7, title="land use", title_fontsize=7)
+        return
+    if not new:
+        return
+    if colour is ColorBy.YEAR and any(b.year is not None for b in new):
+        years = np.array([b.year if b.year is not None else np.nan for b in new], dtype=float)
+        pc = PolyCollection([b.ring for b in new], cmap="viridis", edgecolors="none")
+        pc.set_array(np.where(np.isfinite(years), years, np.nanmin(years)))
+        ax.add_collection(pc)
+        fig.colorbar(pc, ax=ax, shrink=0.5, label="new buildings: year built")
+        return
+    ax.add_collection(PolyCollection([b.ring for b in new], facecolors=NEW_BUILDING, edgecolors="none"))
 
 
 def _scale_bar(ax) -> None:

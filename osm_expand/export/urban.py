@@ -7,9 +7,14 @@ own buildings are written as the minimum rotated rectangle of their
 footprint. Only optional attributes are added: on the root the PROJ string
 and origin that georeference the coordinates; on each street its id, OSM id,
 name, class, hierarchy, origin (``source``, ``grown``, ``join``,
-``engine``), layer, bridge, tunnel, width, status, year and era; on each
-building its origin, OSM id, year, floors and land use. The XSD ships with
-the package (``osm_expand/schemas``).
+``engine``), layer, bridge, tunnel, width, status, year and era; on each street also its ``kind`` (``major`` or ``minor``, 003's classes:
+motorway to secondary and their links are major) and its ``width`` in metres
+(mapped, from its lanes, or its class's); on each building its origin, OSM
+id, year, floors, land use and lot. After the buildings, when the city has
+them, ``<lots>`` (each ``<lot>`` with its outline as ``node x y``, its id,
+block, access street, land use, people and year) and ``<blocks>`` (each
+``<block>`` with its outer outline as ``node x y``, its id, origin, year and
+land use). The XSD ships with the package (``osm_expand/schemas``).
 """
 from __future__ import annotations
 
@@ -20,9 +25,10 @@ import numpy as np
 import shapely
 from lxml import etree
 
+from osm_expand.engine.segments import is_major, street_width
 from osm_expand.export.atomic import atomic_write
 from osm_expand.export.features import street_tags
-from osm_expand.model import Building, City, Origin, Street
+from osm_expand.model import Block, Building, City, Lot, Origin, Street
 from osm_expand.model.geometry import minimum_rectangle
 
 #: A building with no height gets this one (m); :mod:`osm_expand.heights` fills heights before export.
@@ -44,9 +50,10 @@ def _street_attrs(s: Street) -> dict[str, str]:
     attrs = {"id": str(s.id), "highway": s.highway, "origin": str(s.origin)}
     if s.origin == Origin.SOURCE and s.osm_ids and s.osm_ids[0] > 0:
         attrs["osm_id"] = str(s.osm_ids[0])
-    attrs.update({key: tags[key] for key in ("layer", "bridge", "tunnel", "name", "hierarchy", "width") if key in tags})
-    if s.origin != Origin.SOURCE:
-        attrs["status"] = str(s.status)
+    attrs.update({key: tags[key] for key in ("layer", "bridge", "tunnel", "name", "hierarchy") if key in tags})
+    attrs["status"] = str(s.status)
+    attrs["kind"] = "major" if is_major(s) else "minor"
+    attrs["width"] = f"{street_width(s):g}"
     if s.year is not None:
         attrs["year"] = str(s.year)
     if s.era:
@@ -64,7 +71,34 @@ def _building_attrs(b: Building) -> dict[str, str]:
         attrs["floors"] = f"{b.levels:g}"
     if b.land_use:
         attrs["landuse"] = b.land_use
+    if b.lot is not None:
+        attrs["lot"] = str(b.lot)
     return attrs
+
+
+def _lot_attrs(lot: Lot) -> dict[str, str]:
+    attrs = {"id": str(lot.id), "block": str(lot.block), "street": str(lot.street), "landuse": lot.land_use,
+             "people": f"{lot.people:.1f}"}
+    if lot.year is not None:
+        attrs["year"] = str(lot.year)
+    return attrs
+
+
+def _block_attrs(block: Block) -> dict[str, str]:
+    attrs = {"id": str(block.id), "origin": str(block.origin)}
+    if block.year is not None:
+        attrs["year"] = str(block.year)
+    if block.land_use:
+        attrs["landuse"] = block.land_use
+    return attrs
+
+
+def _outline(tag: str, attrs: dict[str, str], polygon: shapely.Polygon) -> etree._Element:
+    """An element with one ``node x y`` per corner of the polygon's outer ring (not repeating the first)."""
+    el = etree.Element(tag, attrs)
+    for x, y in np.asarray(polygon.exterior.coords)[:-1]:
+        etree.SubElement(el, "node", x=_fmt(x), y=_fmt(y))
+    return el
 
 
 def four_corners(b: Building) -> np.ndarray | None:
@@ -77,7 +111,7 @@ def four_corners(b: Building) -> np.ndarray | None:
 
 
 def write_urbanenvironment(city: City, path: str | os.PathLike) -> None:
-    """Write the whole city (streets and buildings) as ``<urbanenvironment>``, atomically."""
+    """Write the whole city (streets, buildings, lots and blocks) as ``<urbanenvironment>``, atomically."""
     net = city.network
     proj = city.projection
     with atomic_write(path, "wb") as fh, etree.xmlfile(fh, encoding="UTF-8") as xf:
@@ -100,6 +134,15 @@ def write_urbanenvironment(city: City, path: str | os.PathLike) -> None:
                     for x, y in corners:
                         etree.SubElement(el, "node", x=_fmt(x), y=_fmt(y))
                     xf.write(el)
+            if city.lots:
+                with xf.element("lots"):
+                    for lot in city.lots:
+                        xf.write(_outline("lot", _lot_attrs(lot), lot.polygon))
+            blocks = [b for b in city.blocks if b.polygon.geom_type == "Polygon" and not b.polygon.is_empty]
+            if blocks:
+                with xf.element("blocks"):
+                    for block in blocks:
+                        xf.write(_outline("block", _block_attrs(block), block.polygon))
 
 
 def validate(path: str | os.PathLike) -> list[str]:
