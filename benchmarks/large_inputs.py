@@ -17,7 +17,10 @@ own ``ru_maxrss``, as ``os.wait4`` returns it, imports included):
   of the largest file, then ``osm-expand CLIP -o OUT.xml --seed 0 -q`` on the
   extract: the time and peak memory of each, beside those of simplify on the
   whole file and of the same command on ``fixtures/krems.osm.gz`` itself
-  (the extract is the fixture with shifted ids, so the two should match).
+  (the extract is the fixture with shifted ids, so the two should match);
+- many towns: the first ``--towns`` copies of the largest file clipped
+  together (one :func:`~osm_expand.clip.clip_extracts` call): time, reads
+  of the file, peak memory.
 
 Usage::
 
@@ -25,6 +28,7 @@ Usage::
     python benchmarks/large_inputs.py --out /tmp/large    # keep the files (and reuse them next time)
     python benchmarks/large_inputs.py --sizes 500000 --json
     python benchmarks/large_inputs.py --clip-strategies   # also compare the clip's strategies on the largest file
+    python benchmarks/large_inputs.py --towns 100         # clip 100 towns of the largest file together
 """
 from __future__ import annotations
 
@@ -155,7 +159,9 @@ def write_tiled(placed: list[tuple[Town, float, float]], out: Path) -> dict:
             counts["relations"] += len(town.relations)
     tmp.replace(out)
     krems = next((town, dlon, dlat) for town, dlon, dlat in placed if town.name == KREMS and dlon == 0 and dlat == 0)
-    return {**counts, "copies": len(placed), "krems_box": list(krems[0].box)}
+    boxes = [[town.name, k, town.box[0] + dlon, town.box[1] + dlat, town.box[2] + dlon, town.box[3] + dlat]
+             for k, (town, dlon, dlat) in enumerate(placed)]
+    return {**counts, "copies": len(placed), "krems_box": list(krems[0].box), "boxes": boxes}
 
 
 def build(out_dir: Path, sizes: tuple[int, ...]) -> dict[int, tuple[Path, dict]]:
@@ -166,8 +172,10 @@ def build(out_dir: Path, sizes: tuple[int, ...]) -> dict[int, tuple[Path, dict]]
         path = out_dir / f"tiled-{size // 1000}k.osm.pbf"
         meta_path = path.with_suffix(".json")
         if path.exists() and meta_path.exists():
-            files[size] = (path, json.loads(meta_path.read_text()))
-            continue
+            meta = json.loads(meta_path.read_text())
+            if "boxes" in meta:
+                files[size] = (path, meta)
+                continue
         if towns is None:
             towns = [read_town(FIXTURES / name) for name in TILES]
         t0 = time.perf_counter()
@@ -205,12 +213,26 @@ print(json.dumps({"clip_s": time.perf_counter() - t0, "reads": result.reads, **r
                   "clip_mb": result.paths["krems"].stat().st_size / 1e6}))
 """
 
-GROW_CHILD = """
+TOWNS_CHILD = """
 import json, sys, time
+from osm_expand.clip import clip_extracts
+src, boxes, out = sys.argv[1], json.loads(sys.argv[2]), sys.argv[3]
+t0 = time.perf_counter()
+result = clip_extracts(src, {name: tuple(box) for name, box in boxes.items()}, out)
+print(json.dumps({"clip_s": time.perf_counter() - t0, "reads": result.reads, "extracts": len(result.paths),
+                  "nodes": sum(c["nodes"] for c in result.counts.values())}))
+"""
+
+GROW_CHILD = """
+import contextlib, io, json, sys, time
 from osm_expand.cli import main
 t0 = time.perf_counter()
-code = main([sys.argv[1], "-o", sys.argv[2], "--seed", "0", "-q"])
-print(json.dumps({"grow_s": time.perf_counter() - t0, "exit": code}))
+with contextlib.redirect_stdout(io.StringIO()) as out:
+    code = main([sys.argv[1], "-o", sys.argv[2], "--seed", "0", "-q", "--json"])
+seconds = time.perf_counter() - t0
+report = json.loads(out.getvalue()) if code == 0 else {}
+print(json.dumps({"grow_s": seconds, "exit": code,
+                  "town": {k: report.get(k) for k in ("source_streets", "source_buildings", "spacing_m")}}))
 """
 
 
@@ -247,6 +269,8 @@ def main() -> int:
                         help="node counts, comma separated (default 500000,1000000,3000000)")
     parser.add_argument("--clip-strategies", action="store_true", help="also time each clip strategy")
     parser.add_argument("--no-grow", action="store_true", help="clip only, do not grow the town")
+    parser.add_argument("--towns", type=int, default=24, metavar="N",
+                        help="also clip the first N copies of the largest file together, in one go (default 24; 0: no)")
     parser.add_argument("--json", action="store_true", help="print the figures as one JSON object")
     args = parser.parse_args()
     tmp = None
@@ -296,6 +320,16 @@ def run(out_dir: Path, sizes: tuple[int, ...], args: argparse.Namespace) -> int:
                 print(f"clip Krems out of {row['file']} ({row['strategy']}): {row['seconds']:.2f} s, "
                       f"{row['reads']} reads, peak {row['peak_mb']} MB; {row['nodes']:,} nodes, "
                       f"{row['ways']:,} ways, {row['relations']} relations ({row['clip_mb']} MB)", flush=True)
+        if args.towns:
+            picked = [b for b in meta["boxes"]][: args.towns]
+            boxes = {f"{name.split('.')[0]}-{k}": box for name, k, *box in picked}
+            r = child(TOWNS_CHILD, str(largest), json.dumps(boxes), str(work))
+            report["many_towns"] = {"towns": len(boxes), "seconds": round(r["clip_s"], 2), "reads": r["reads"],
+                                    "extracts": r["extracts"], "nodes": r["nodes"], "peak_mb": round(r["peak_mb"])}
+            m = report["many_towns"]
+            if not args.json:
+                print(f"clip {m['towns']} towns out of {largest.name} together: {m['seconds']:.2f} s, {m['reads']} reads, "
+                      f"peak {m['peak_mb']} MB; {m['extracts']} extracts, {m['nodes']:,} nodes", flush=True)
         if not args.no_grow:
             clip_row = report["clip"][0]
             grown = child(GROW_CHILD, str(work / "krems.osm.pbf"), str(work / "krems.expanded.xml"))
@@ -309,15 +343,15 @@ def run(out_dir: Path, sizes: tuple[int, ...], args: argparse.Namespace) -> int:
                 "whole_file_simplify_peak_mb": whole["peak_mb"],
                 "original_krems_grow_s": round(original["grow_s"], 2),
                 "original_krems_grow_peak_mb": round(original["peak_mb"]),
-                "same_size_as_original": (work / "krems.expanded.xml").stat().st_size
-                == (work / "original.expanded.xml").stat().st_size}
+                "town_as_original": grown["town"] == original["town"], "town": grown["town"]}
             c = report["clipped_run"]
             if not args.json:
                 print(f"clipped run (Krems' copy in {largest.name}): clip {c['clip_s']:.2f} s + grow {c['grow_s']:.2f} s "
                       f"= {c['seconds']:.2f} s (exit {c['exit']}); peak {c['peak_mb']} MB (clip {c['clip_peak_mb']}, "
                       f"grow {c['grow_peak_mb']}) against {c['whole_file_simplify_peak_mb']} MB for simplify on the "
                       f"whole file; growing fixtures/{KREMS} itself: {c['original_krems_grow_s']:.2f} s, peak "
-                      f"{c['original_krems_grow_peak_mb']} MB", flush=True)
+                      f"{c['original_krems_grow_peak_mb']} MB; the town read from the clip "
+                      f"{'is' if c['town_as_original'] else 'is NOT'} the fixture's ({c['town']})", flush=True)
     if args.json:
         print(json.dumps(report))
     return 0

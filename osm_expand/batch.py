@@ -27,7 +27,9 @@ Where jobs run:
 - ``scheduler``: an existing cluster (``tcp://host:port`` or a scheduler
   file). Before any job, every worker must import the same osm-expand
   (version and source) and see the inputs and the output folder; if not,
-  one line says which worker lacks what. A user's cluster is never shut down;
+  one line says which worker lacks what. A user's cluster is never shut down.
+  A job captures its process's stdout and stderr, so a worker runs one job
+  at a time: give workers one thread (``dask worker --nthreads 1``);
 - without Dask installed, ``workers=1`` runs the jobs one after the other in
   this process (no isolation from a crash); anything else says how to
   install Dask (``pip install 'osm-expand[cluster]'``).
@@ -48,15 +50,17 @@ import json
 import math
 import os
 import sys
+import threading
 import time
 from collections.abc import Callable, Iterator, Sequence
 from dataclasses import asdict, dataclass, field
+from enum import StrEnum
 from functools import lru_cache
 from pathlib import Path
 
 from osm_expand.errors import InputError
 
-__all__ = ["BatchSummary", "Job", "JobResult", "JobsFailed", "Town", "add_batch_arguments", "cmd_batch",
+__all__ = ["BatchSummary", "Job", "JobResult", "JobStatus", "JobsFailed", "Town", "add_batch_arguments", "cmd_batch",
            "derive_seed", "read_towns", "run_batch", "run_job"]
 
 INSTALL_HINT = "pip install 'osm-expand[cluster]'"
@@ -68,6 +72,8 @@ _OSM_SUFFIXES = (".osm.pbf", ".osm.gz", ".osm.bz2", ".osm", ".pbf", ".xml.gz", "
 _PER_JOB = {"-o", "--output", "--seed", "--preview", "--version", "-h", "--help"}
 #: Options of the main command that are the batch's own (not copied into the batch parser).
 _NOT_PIPELINE = {"city", "output", "seed", "preview", "json", "quiet", "help", "version"}
+#: The main command's exit code after Ctrl-C.
+INTERRUPTED = 130
 #: The seed derivation's modulus: seeds stay below 2**31, valid for every numpy generator.
 SEED_MODULUS = 2 ** 31
 #: Packages whose sources must match between this process and a cluster's workers.
@@ -118,13 +124,20 @@ class Job:
         return [self.input, "-o", self.output, "--seed", str(self.seed), *extra, *self.args, "--json"]
 
 
+class JobStatus(StrEnum):
+    """A job's outcome."""
+
+    OK = "ok"
+    FAILED = "failed"
+
+
 @dataclass
 class JobResult:
     """How a job went."""
 
     name: str
     input: str
-    status: str  # "ok" or "failed"
+    status: JobStatus
     seconds: float
     seed: int
     exit_code: int | None = None
@@ -148,7 +161,7 @@ class BatchSummary:
 
     @property
     def failed(self) -> list[JobResult]:
-        return [j for j in self.jobs if j.status != "ok"]
+        return [j for j in self.jobs if j.status != JobStatus.OK]
 
     def to_dict(self) -> dict:
         return {"out_dir": self.out_dir, "seed": self.seed, "where": self.where, "seconds": round(self.seconds, 2),
@@ -175,26 +188,35 @@ def _environment(**values: str) -> Iterator[None]:
                 os.environ[k] = v
 
 
+#: One job at a time per process: a job redirects the process's stdout and stderr, so a worker
+#: with several threads (a user's cluster) still runs its jobs one after the other.
+_ONE_JOB_AT_A_TIME = threading.Lock()
+
+
 def run_job(job: Job) -> JobResult:
     """Run one job as the main command does; never raises for the job's own failure.
 
     The main command's stderr goes to ``job.log``; its ``--json`` report
-    (stdout) gives the counts. pyosmium gets one thread.
+    (stdout) gives the counts. pyosmium gets one thread. An interrupt
+    (Ctrl-C) is not a job's failure: it propagates.
     """
     from osm_expand.cli import main
 
-    t0 = time.perf_counter()
-    stdout = io.StringIO()
-    with open(job.log, "w", encoding="utf-8") as log, _environment(OSMIUM_POOL_THREADS="1"), \
-            contextlib.redirect_stderr(log), contextlib.redirect_stdout(stdout):
-        try:
-            code = main(job.argv())
-        except BaseException as exc:  # noqa: BLE001 - main catches its own; anything else is this job's failure
-            print(f"osm-expand: {type(exc).__name__}: {exc}", file=log)
-            code = 1
-    seconds = time.perf_counter() - t0
-    result = JobResult(name=job.name, input=job.input, status="ok" if code == 0 else "failed", seconds=round(seconds, 2),
-                       seed=job.seed, exit_code=code, log=job.log)
+    with _ONE_JOB_AT_A_TIME:
+        t0 = time.perf_counter()
+        stdout = io.StringIO()
+        with open(job.log, "w", encoding="utf-8") as log, _environment(OSMIUM_POOL_THREADS="1"), \
+                contextlib.redirect_stderr(log), contextlib.redirect_stdout(stdout):
+            try:
+                code = main(job.argv())
+            except Exception as exc:  # noqa: BLE001 - main catches its own; anything else is this job's failure
+                print(f"osm-expand: {type(exc).__name__}: {exc}", file=log)
+                code = 1
+        seconds = time.perf_counter() - t0
+    if code == INTERRUPTED:
+        raise KeyboardInterrupt
+    result = JobResult(name=job.name, input=job.input, status=JobStatus.OK if code == 0 else JobStatus.FAILED,
+                       seconds=round(seconds, 2), seed=job.seed, exit_code=code, log=job.log)
     if code == 0:
         report = _last_json(stdout.getvalue())
         result.counts = {k: v for k, v in sorted(report.items())
@@ -506,7 +528,7 @@ def _clip_towns(src: Path, table: list[Town], out: Path, job: Callable[[str, Pat
     clips = {"input": str(src.resolve()), "seconds": round(time.perf_counter() - t0, 2), "reads": result.reads,
              "extracts": {name: {"path": str(path), **result.counts[name]} for name, path in result.paths.items()}}
     jobs = [job(t.name, result.paths[t.name]) for t in table if t.name in result.paths]
-    failed = [JobResult(name=name, input=str(src.resolve()), status="failed", seconds=0.0, seed=job(name, src).seed,
+    failed = [JobResult(name=name, input=str(src.resolve()), status=JobStatus.FAILED, seconds=0.0, seed=job(name, src).seed,
                         error=result.why_empty[name]) for name in result.empty]
     return jobs, failed, clips
 
@@ -574,7 +596,7 @@ def _lost(job: Job, exc: BaseException | None) -> JobResult:
         error = "its worker died while running it (killed for memory?)"
     else:
         error = f"{kind}: {str(exc).splitlines()[0] if exc is not None and str(exc) else 'no detail'}"
-    return JobResult(name=job.name, input=job.input, status="failed", seconds=0.0, seed=job.seed, error=error,
+    return JobResult(name=job.name, input=job.input, status=JobStatus.FAILED, seconds=0.0, seed=job.seed, error=error,
                      log=job.log)
 
 

@@ -379,6 +379,16 @@ def test_many_boxes_in_one_read_give_the_same_bytes_as_each_alone(tmp_path):
         assert alone[name].read_bytes() == together[name].read_bytes()  # deterministic, independent of the others
 
 
+def test_id_sets_tracked_group_by_group_give_the_same_extract(tmp_path):
+    box = {"centre": box_around(*KREMS_CENTRE, 600)}
+    (tmp_path / "one").mkdir()
+    (tmp_path / "groups").mkdir()
+    whole = clip_extracts(KREMS, box, tmp_path / "one", options=ClipOptions(max_id_set_mb=10_000))
+    grouped = clip_extracts(KREMS, box, tmp_path / "groups", options=ClipOptions(max_id_set_mb=40))
+    assert grouped.reads > whole.reads >= 3  # 10 blocks of ids at a time: more reads, less memory
+    assert grouped.paths["centre"].read_bytes() == whole.paths["centre"].read_bytes()
+
+
 def test_boxes_outside_the_file_empty_or_bad_are_input_errors(tmp_path):
     with pytest.raises(InputError, match="outside the file's bounds"):  # Krems declares its bounds
         clip(KREMS, {"paris": box_around(2.35, 48.85, 1000)}, tmp_path)
