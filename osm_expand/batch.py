@@ -64,6 +64,8 @@ __all__ = ["BatchSummary", "Job", "JobResult", "JobStatus", "JobsFailed", "Town"
            "derive_seed", "read_towns", "run_batch", "run_job"]
 
 INSTALL_HINT = "pip install 'osm-expand[cluster]'"
+#: How the main command starts its one-line errors.
+_PREFIX = "osm-expand: "
 #: Output suffix of each ``--format``.
 FORMAT_SUFFIX = {"urbanenvironment": ".xml", "osm": ".osm", "geojson": ".geojson"}
 #: Suffixes dropped from an input's name to name its job.
@@ -240,8 +242,8 @@ def _error_line(log: Path, code: int) -> str:
     """The main command's one-line error from the job's log."""
     lines = [ln.strip() for ln in log.read_text(encoding="utf-8", errors="replace").splitlines() if ln.strip()]
     for line in reversed(lines):
-        if line.startswith("osm-expand:"):
-            return line
+        if line.startswith(_PREFIX):
+            return line[len(_PREFIX):]
     return lines[-1] if lines else f"exit code {code}"
 
 
@@ -458,10 +460,10 @@ def run_batch(inputs: Sequence[str | os.PathLike], out_dir: str | os.PathLike, *
             from distributed import Client
 
             n = workers or min(len(jobs), os.cpu_count() or 1)
-            say(f"starting a local cluster of {n} worker processes (one thread each)")
+            say(f"starting a local cluster of {_count(n, 'worker')} (processes of one thread)")
             cluster = _local_cluster(n)
-            client, where = Client(cluster), f"a local cluster of {n} workers"
-        say(f"running {len(jobs)} jobs on {where}")
+            client, where = Client(cluster), f"a local cluster of {_count(n, 'worker')}"
+        say(f"running {_count(len(jobs), 'job')} on {where}")
         results = _gather(client, jobs, progress) if client is not None else _run_here(jobs, progress)
     finally:
         if client is not None:
@@ -740,10 +742,14 @@ def cmd_batch(args: argparse.Namespace, log: Callable[[str], None]) -> dict:
     summary_path = Path(summary.out_dir) / "summary.json"
     if not failed:
         if not args.json:
-            print(f"{len(summary.jobs)} jobs ok in {summary.seconds:.1f} s on {summary.where}; {summary_path}")
+            print(f"{_count(len(summary.jobs), 'job')} ok in {summary.seconds:.1f} s on {summary.where}; {summary_path}")
         return report
     for job in failed:
         print(f"osm-expand: batch: {job.name} failed: {job.error}", file=sys.stderr)
     if args.json:
         print(json.dumps(report, sort_keys=True))
-    raise JobsFailed(f"{len(failed)} of {len(summary.jobs)} jobs failed; see {summary_path}")
+    raise JobsFailed(f"{len(failed)} of {_count(len(summary.jobs), 'job')} failed; see {summary_path}")
+
+
+def _count(n: int, noun: str) -> str:
+    return f"{n} {noun}{'' if n == 1 else 's'}"

@@ -145,7 +145,7 @@ def test_one_bad_input_fails_alone_and_the_batch_exits_non_zero(tmp_path):
     status = {j["name"]: j for j in summary["jobs"]}
     assert [j["name"] for j in summary["jobs"]] == ["a", "b", "broken", "c"]  # by name
     assert status["broken"]["status"] == "failed" and status["broken"]["exit_code"] == 2
-    assert str(bad) in status["broken"]["error"] and "\n" not in status["broken"]["error"]
+    assert status["broken"]["error"].startswith(f"{bad}: ") and "\n" not in status["broken"]["error"]
     assert status["broken"]["outputs"] == [] and not (out / "broken.expanded.xml").exists()
     for name in ("a", "b", "c"):
         assert status[name]["status"] == "ok" and (out / f"{name}.expanded.xml").stat().st_size > 0
@@ -438,3 +438,34 @@ def test_the_box_grid_finds_exactly_the_points_in_each_box(boxes, points):
     want = sorted((i, k) for i, (px, py) in enumerate(xy.tolist()) for k, (x, y, w, h) in enumerate(boxes)
                   if x * 100 <= px <= (x + w) * 100 and y * 100 <= py <= (y + h) * 100)
     assert got == want
+
+
+class _FakeClient:
+    """A cluster's client as the pre-flight check sees it: workers and their probe answers."""
+
+    def __init__(self, answers: dict):
+        self.answers = answers
+
+    def scheduler_info(self) -> dict:
+        return {"workers": {address: {} for address in self.answers}}
+
+    def run(self, function, *args, on_error="raise") -> dict:
+        return self.answers
+
+
+def test_the_preflight_says_in_one_line_which_worker_lacks_what(tmp_path):
+    from osm_expand.batch import _preflight, probe
+
+    good = probe([str(KREMS)], str(tmp_path))
+    assert good["unreadable"] == [] and good["out_dir_ok"]
+    assert probe([str(tmp_path / "nowhere.osm")], str(tmp_path / "nowhere"))["unreadable"] == [str(tmp_path / "nowhere.osm")]
+    _preflight(_FakeClient({"tcp://a:1": good, "tcp://b:1": good}), "tcp://s:1", [str(KREMS)], tmp_path)
+    cases = [({}, "has no workers"),
+             ({"tcp://b:1": {**good, "source": "0123456789abcdef"}}, "worker tcp://b:1 runs osm-expand"),
+             ({"tcp://b:1": {**good, "unreadable": ["/data/x.osm"]}}, "cannot read /data/x.osm"),
+             ({"tcp://b:1": {**good, "out_dir_ok": False}}, "cannot write to"),
+             ({"tcp://b:1": ModuleNotFoundError("No module named 'osm_expand'")}, "cannot import osm-expand")]
+    for answers, match in cases:
+        with pytest.raises(InputError, match=match) as err:
+            _preflight(_FakeClient(answers), "tcp://s:1", [str(KREMS)], tmp_path)
+        assert "\n" not in str(err.value) and str(err.value).startswith("--scheduler tcp://s:1: ")
