@@ -173,7 +173,15 @@ class BatchSummary:
 
 
 class JobsFailed(InputError):
-    """Some jobs of a batch failed (the others ran; ``summary.json`` has them all)."""
+    """Some jobs of a batch failed (the others ran; ``summary.json`` has them all).
+
+    ``exit_code`` is 2 when every failure was the input's (a job's exit code
+    2), else 1 (an internal error, or a worker that died).
+    """
+
+    def __init__(self, message: str, exit_code: int = 2):
+        super().__init__(message)
+        self.exit_code = exit_code
 
 
 @contextlib.contextmanager
@@ -530,8 +538,8 @@ def _clip_towns(src: Path, table: list[Town], out: Path, job: Callable[[str, Pat
     clips = {"input": str(src.resolve()), "seconds": round(time.perf_counter() - t0, 2), "reads": result.reads,
              "extracts": {name: {"path": str(path), **result.counts[name]} for name, path in result.paths.items()}}
     jobs = [job(t.name, result.paths[t.name]) for t in table if t.name in result.paths]
-    failed = [JobResult(name=name, input=str(src.resolve()), status=JobStatus.FAILED, seconds=0.0, seed=job(name, src).seed,
-                        error=result.why_empty[name]) for name in result.empty]
+    failed = [JobResult(name=name, input=str(src.resolve()), status=JobStatus.FAILED, seconds=0.0,
+                        seed=job(name, src).seed, exit_code=2, error=result.why_empty[name]) for name in result.empty]
     return jobs, failed, clips
 
 
@@ -748,7 +756,8 @@ def cmd_batch(args: argparse.Namespace, log: Callable[[str], None]) -> dict:
         print(f"osm-expand: batch: {job.name} failed: {job.error}", file=sys.stderr)
     if args.json:
         print(json.dumps(report, sort_keys=True))
-    raise JobsFailed(f"{len(failed)} of {_count(len(summary.jobs), 'job')} failed; see {summary_path}")
+    code = 2 if all(job.exit_code == 2 for job in failed) else 1
+    raise JobsFailed(f"{len(failed)} of {_count(len(summary.jobs), 'job')} failed; see {summary_path}", code)
 
 
 def _count(n: int, noun: str) -> str:

@@ -72,8 +72,8 @@ def batch_main(argv: list[str]) -> tuple[int, dict]:
     try:
         cmd_batch(args, lambda message: None)
         code = 0
-    except InputError:
-        code = 2
+    except JobsFailed as exc:
+        code = exc.exit_code
     return code, json.loads((Path(args.out) / "summary.json").read_text())
 
 
@@ -140,6 +140,7 @@ def test_one_bad_input_fails_alone_and_the_batch_exits_non_zero(tmp_path):
     bad.write_text("<osm version='0.6'><node id='1' lat='48.0' lon='15.0'/>")  # cut off: not a readable file
     out = tmp_path / "out"
     code, summary = batch_main([*good, bad, "--out", out, "--workers", "2", *PIPELINE, "--json"])
+    assert code == 2  # the failure was the input's
     assert code != 0
     assert (summary["jobs_ok"], summary["jobs_failed"]) == (3, 1)
     status = {j["name"]: j for j in summary["jobs"]}
