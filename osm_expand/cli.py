@@ -123,6 +123,9 @@ def build_parser() -> argparse.ArgumentParser:
     _add_input_options(comp)
     comp.add_argument("other", help="the town to compare with (B)")
     comp.add_argument("--seed", type=_seed, default=0, help="random seed for the real parts (default 0)")
+    from osm_expand.batch import add_batch_arguments
+
+    add_batch_arguments(sub.add_parser("batch", help="grow many towns on a Dask cluster (local or existing)"))
     return parser
 
 
@@ -185,6 +188,7 @@ COMMAND_USAGE = {
     "stats": "FILE [--json]                           street statistics of a town or an output",
     "reproduce": "CITY [--seed N] [--json]               re-walk the town's junctions, scored",
     "compare": "A B [--seed N] [--json]                 is A as alike to B as B's own districts are?",
+    "batch": "IN... --out DIR [--towns T.csv] [--workers N|--scheduler ADDR]   many towns (docs/batch.md)",
 }
 
 
@@ -343,8 +347,16 @@ def _compare_text(a: Path, b: Path, report: dict) -> str:
     return "\n".join(lines)
 
 
+def cmd_batch(args: argparse.Namespace, log: Progress) -> dict:
+    """``osm-expand batch``: one job per input or per town (osm_expand.batch)."""
+    from osm_expand.batch import cmd_batch as run
+
+    return run(args, log)
+
+
 COMMANDS: dict[str, Callable[[argparse.Namespace, Progress], dict]] = {
-    "simplify": cmd_simplify, "stats": cmd_stats, "reproduce": cmd_reproduce, "compare": cmd_compare}
+    "simplify": cmd_simplify, "stats": cmd_stats, "reproduce": cmd_reproduce, "compare": cmd_compare,
+    "batch": cmd_batch}
 
 
 def _pair(text: str, flag: str) -> tuple[float, float]:
@@ -526,7 +538,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     except InputError as exc:
         log.close()
         print(f"{PROG}: {exc}", file=sys.stderr)
-        return 2
+        return getattr(exc, "exit_code", 2)
     except KeyboardInterrupt:
         log.close()
         print(f"{PROG}: interrupted", file=sys.stderr)
