@@ -235,6 +235,15 @@ print(json.dumps({"clip_s": time.perf_counter() - t0, "reads": result.reads, "ex
                   "nodes": sum(c["nodes"] for c in result.counts.values())}))
 """
 
+READ_CHILD = """
+import json, sys, time
+from osm_expand.ingest import load
+t0 = time.perf_counter()
+city = load(sys.argv[1])
+print(json.dumps({"read_s": time.perf_counter() - t0, "streets": len(city.network.streets),
+                  "buildings": len(city.buildings)}))
+"""
+
 _STAMP = re.compile(r"^\[\s*([0-9.]+)s\] (.*)$")
 
 
@@ -291,12 +300,14 @@ def clipped_run(largest: Path, box: list[float], work: Path) -> dict:
     grown = child(COMMAND, str(largest), f"--bbox={bbox}", "-o", str(work / "krems-copy.expanded.xml"), "--seed", "0",
                   "--json")
     original = child(COMMAND, str(FIXTURES / KREMS), "-o", str(work / "krems.expanded.xml"), "--seed", "0", "--json")
+    whole = child(READ_CHILD, str(largest))  # what the main command would read without --bbox
     keys = ("source_streets", "source_buildings", "spacing_m")
     return {"seconds": round(grown["wall_s"], 2), "clip_s": round(since(stamps(grown["stderr"]), "clipping", "reading"), 2),
             "peak_mb": round(grown["peak_mb"]), "clip": grown["clip"],
             "original_seconds": round(original["wall_s"], 2), "original_peak_mb": round(original["peak_mb"]),
             "town": {k: grown.get(k) for k in keys}, "town_as_original": all(grown.get(k) == original.get(k) for k in keys),
-            "years": grown.get("engine", {}).get("years")}
+            "years": grown.get("engine", {}).get("years"), "whole_read_s": round(whole["read_s"], 2),
+            "whole_read_peak_mb": round(whole["peak_mb"]), "whole_streets": whole["streets"]}
 
 
 def osmnx_ratio(path: Path, repeat: int, work: Path) -> dict:
@@ -383,8 +394,10 @@ def run(out_dir: Path, sizes: tuple[int, ...], args: argparse.Namespace) -> int:
             c = report["clipped_run"] = clipped_run(largest, meta["krems_box"], work)
             whole = report["simplify"][-1]
             say(args, f"clipped run: osm-expand {largest.name} --bbox <Krems' copy> grows it in {c['seconds']:.2f} s "
-                      f"(clip {c['clip_s']:.2f} s, {c['clip']['reads']} reads; {c['years']} years), peak {c['peak_mb']} MB "
-                      f"against {whole['peak_mb']} MB for simplify on the whole file; fixtures/{KREMS} itself: "
+                      f"(clip {c['clip_s']:.2f} s, {c['clip']['reads']} reads; {c['years']} years), peak {c['peak_mb']} MB; "
+                      f"without --bbox the main command would first read the whole file ({c['whole_read_s']:.2f} s, peak "
+                      f"{c['whole_read_peak_mb']} MB, {c['whole_streets']:,} streets) and simplify it (simplify alone: "
+                      f"{whole['seconds']:.2f} s, peak {whole['peak_mb']} MB); fixtures/{KREMS} itself: "
                       f"{c['original_seconds']:.2f} s, peak {c['original_peak_mb']} MB; the town read from the clip "
                       f"{'is' if c['town_as_original'] else 'is NOT'} the fixture's ({c['town']})")
         if args.osmnx_repeat:
