@@ -537,7 +537,7 @@ def _clip_towns(src: Path, table: list[Town], out: Path, job: Callable[[str, Pat
     boxes = {t.name: box_around(t.lon, t.lat, t.radius) for t in table}
     clip_dir = out / "clips"
     clip_dir.mkdir(exist_ok=True)
-    say(f"clipping {len(boxes)} towns out of {src} in one read")
+    say(f"clipping {len(boxes)} towns out of {src} together")
     t0 = time.perf_counter()
     result = clip_extracts(src, boxes, clip_dir)
     clips = {"input": str(src.resolve()), "seconds": round(time.perf_counter() - t0, 2), "reads": result.reads,
