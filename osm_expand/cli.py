@@ -210,6 +210,9 @@ def build_expand_parser() -> argparse.ArgumentParser:
                    help="also draw the city at the end of each era (traffic green to red) into DIR")
     p.add_argument("--snapshot-every", type=_years, metavar="N",
                    help="with --snapshots: a picture every N years instead of one per era")
+    p.add_argument("--debug-layers", action="store_true",
+                   help="with a .geojson output: add the growth pattern's working layers (colonisation: "
+                        "attraction points, flow field and its primitives, region, parameters)")
     return p
 
 
@@ -480,6 +483,8 @@ def cmd_expand(args: argparse.Namespace, log: Progress) -> dict:
 
     city_path = check_readable(args.city)
     out, kind, preview = _expand_outputs(args)
+    if args.debug_layers and kind != "geojson":
+        raise InputError(f"--debug-layers needs a GeoJSON output (-o OUT.geojson), got {out.name}")
     if args.area is not None and not (args.area > 0 and args.area < float("inf")):
         raise InputError(f"--area must be positive (m²), got {args.area:g}")
     land = LandOptions() if args.unbuildable is None else LandOptions(unbuildable=parse_rules(args.unbuildable))
@@ -505,8 +510,9 @@ def cmd_expand(args: argparse.Namespace, log: Progress) -> dict:
     report = result.report
     log(f"{len(result.city.new_streets())} new streets; writing {out}")
     title = f"{_stem(city_path)}: the town and what grew (seed {args.seed})"
+    debug = list(result.growth.debug.get("features", [])) if args.debug_layers else None
     _write(result, out, kind, preview, title=title, snapshots=snapshots, pictures=pictures,
-           stem=_stem(city_path))
+           stem=_stem(city_path), debug=debug)
     return {"input": str(city_path), "output": str(out), "format": kind, "seed": args.seed, **clip,
             **({"preview": str(preview)} if preview else {}),
             **({"snapshots": [str(snapshots / _snapshot_name(_stem(city_path), p[1], p[2])) for p in pictures]}
@@ -535,13 +541,16 @@ def _snapshot_name(stem: str, year: int, era: str) -> str:
 
 
 def _write(result, out: Path, kind: str, preview: Path | None, title: str, *, snapshots: Path | None = None,
-           pictures: Sequence = (), stem: str = "") -> None:
+           pictures: Sequence = (), stem: str = "", debug: list | None = None) -> None:
     """The output, the preview and the snapshots, all or nothing."""
     from osm_expand.export import all_or_nothing, write_geojson, write_osm, write_urbanenvironment
 
     writer = {"urbanenvironment": write_urbanenvironment, "osm": write_osm, "geojson": write_geojson}[kind]
     with all_or_nothing():
-        writer(result.city, out)
+        if debug is not None:
+            write_geojson(result.city, out, debug=debug)
+        else:
+            writer(result.city, out)
         if preview is not None:
             from osm_expand.export.preview import write_preview
 

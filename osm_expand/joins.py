@@ -256,7 +256,8 @@ def join_to_town(city: City, new: Sequence[int], *, reach: float, spread: float,
     old = [k for k, s in enumerate(net.streets) if s.origin == Origin.SOURCE]
     if not new or not old:
         return city, _report(net, new, 0, 0)
-    board = _Board(net, city.occupied, city.water_geometry(), year, era)
+    near = shapely.MultiLineString([net.street_xy(net.streets[k]) for k in new]).envelope.buffer(reach + spread + 1.0)
+    board = _Board(net, city.occupied_within(near), city.water_geometry(), year, era)
     board.joined_at = [net.xy[n] for n in sorted(_shared_nodes(net, new))]
     border = _border(net, old)
     for link in _candidates(net, new, old, border, reach, spread):

@@ -138,8 +138,8 @@ def distance_maps(city: City, opts: SiteOptions | None = None, *, margin: float 
 def _built_up(city: City, xs: np.ndarray, ys: np.ndarray, cell: float, opts: SiteOptions) -> np.ndarray:
     """Blocks, and the street buffers opened so that lone roads through the fields drop out."""
     net = city.network
-    on_street = _raster_lines([net.street_xy(s) for s in net.streets], xs, ys)
-    buffered = distance_transform_edt(~on_street) * cell <= opts.street_buffer if on_street.any() else on_street
+    lines = np.array([shapely.LineString(net.street_xy(s)) for s in net.streets], dtype=object)
+    buffered = _raster_each(shapely.buffer(lines, opts.street_buffer), xs, ys)
     r = int(round(opts.street_buffer / cell)) + 1  # wider than a lone road's strip, however it rasterises
     dy, dx = np.mgrid[-r:r + 1, -r:r + 1]
     body = binary_opening(buffered, structure=np.hypot(dx, dy) <= r)
@@ -173,21 +173,20 @@ def _raster(geom, xs: np.ndarray, ys: np.ndarray) -> np.ndarray:
     return np.asarray(image, dtype=bool)
 
 
-def _raster_lines(lines: list[np.ndarray], xs: np.ndarray, ys: np.ndarray) -> np.ndarray:
-    """Cells a polyline passes through (PIL's line drawing, in C): buffering by a distance transform of
-    this is ten times faster than buffering the lines and rasterising the polygons."""
-    from PIL import Image, ImageDraw
+def _raster_each(polygons: np.ndarray, xs: np.ndarray, ys: np.ndarray) -> np.ndarray:
+    """:func:`_raster` of the union of ``polygons`` without computing it: each filled in turn.
 
-    ny, nx = xs.shape
-    x0, y0 = xs[0, 0], ys[0, 0]
-    cell = float(xs[0, 1] - x0) if nx > 1 else float(ys[1, 0] - y0)
-    image = Image.new("1", (nx, ny), 0)
-    draw = ImageDraw.Draw(image)
-    for xy in lines:
-        px = ((np.asarray(xy) - (x0, y0)) / cell).tolist()
-        if len(px) >= 2:
-            draw.line([tuple(p) for p in px], fill=1, width=1)
-    return np.asarray(image, dtype=bool)
+    Buffering every street and filling each buffer is ten times faster than
+    buffering the town's MultiLineString (which nodes every crossing). A hole
+    of one polygon is cleared only where no hole-free polygon covers it.
+    """
+    polygons = [p for p in shapely.get_parts(polygons) if p.geom_type == "Polygon" and not p.is_empty]
+    plain = [p for p in polygons if not p.interiors]
+    holed = [p for p in polygons if p.interiors]
+    filled = _raster(shapely.GeometryCollection(plain), xs, ys) if plain else np.zeros(xs.shape, dtype=bool)
+    if holed:
+        filled = filled | _raster(shapely.GeometryCollection(holed), xs, ys)
+    return filled
 
 
 def _distance(mask: np.ndarray, cell: float) -> np.ndarray:

@@ -237,7 +237,7 @@ class Colonisation:
         sl = self.segment_length
         opts = replace(self.options, segment_length=sl)
         setup = _setup(city, region, opts, self.pattern)
-        footprint = shapely.make_valid(shapely.difference(setup.region, city.occupied))
+        footprint = shapely.make_valid(shapely.difference(setup.region, city.occupied_within(setup.region)))
         density, source = self._density(city, setup.region, sl)
         flow = self.flow
         if flow is None and self.flow_primitives:
@@ -305,7 +305,7 @@ def _setup(city: City, region: shapely.Geometry, opts: ColonisationOptions,
     hits = _reaching(tree, region, reach, None) if tree is not None else np.zeros(0, dtype=np.int64)
     seeds = [shapely.get_coordinates(lines[k]) for k in hits.tolist() if joinable[k]]
     roads = [lines[k] for k in hits.tolist() if ground[k] and barred[k]]
-    forbidden = city.occupied
+    forbidden = city.occupied_within(region)
     if roads:  # the union costs a second on a large town: only when there is something to add
         forbidden = shapely.union_all([forbidden, *shapely.buffer(np.array(roads, dtype=object), ROAD_CLEARANCE)])
     return _Setup(region=region, corridor=corridor, seeds=seeds, forbidden=forbidden)

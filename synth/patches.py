@@ -149,7 +149,8 @@ class ExamplePatches:
         source = _source(city, self.example)
         old = streets_near(city.network, region.buffer(opts.tee_reach * spacing + 1.0))
         old_geom = shapely.MultiLineString(old) if old else shapely.MultiLineString()
-        free = _free_land(city, region, old_geom, opts.clearance * spacing, spacing)
+        occupied = city.occupied_within(region.buffer(2.0 * opts.tee_reach * spacing + 50.0))
+        free = _free_land(occupied, region, old_geom, opts.clearance * spacing, spacing)
         if free.is_empty or not len(source.lines):
             return Growth(streets=(), footprint=free)
         size = max(opts.cell_size * spacing, float(np.sqrt(free.area / opts.cells)))
@@ -164,7 +165,7 @@ class ExamplePatches:
         best = None
         for attempt in range(ATTEMPTS):  # other patches when even every cell filled left too little
             quilt = _Quilt(grid=np.roll(patches, -attempt * len(centres), axis=0))
-            result = _quilt(source, quilt, centres, cells, region, old_geom, target, spacing, opts, city.occupied)
+            result = _quilt(source, quilt, centres, cells, region, old_geom, target, spacing, opts, occupied)
             if best is None or _misfit(result[0].total_length(), target) < _misfit(best[0].total_length(), target):
                 best = result
             if result[0].total_length() >= 0.9 * target:
@@ -233,10 +234,10 @@ def _source(city: City, example: Example, everything: bool = False) -> _Source:
                    layered=np.array([s.bridge or s.tunnel or s.layer != 0 for s in keep], dtype=bool))
 
 
-def _free_land(city: City, region: shapely.Geometry, old: shapely.Geometry, clearance: float,
+def _free_land(occupied: shapely.Geometry, region: shapely.Geometry, old: shapely.Geometry, clearance: float,
                spacing: float) -> shapely.Geometry:
     """The region less everything occupied and a strip along the town's streets; crumbs dropped."""
-    free = shapely.make_valid(shapely.difference(region, city.occupied))
+    free = shapely.make_valid(shapely.difference(region, occupied))
     if not old.is_empty:
         free = shapely.make_valid(shapely.difference(free, shapely.buffer(old, clearance)))
     parts = [p for p in shapely.get_parts(free) if p.geom_type == "Polygon" and p.area >= spacing ** 2]

@@ -234,7 +234,7 @@ def town_and_pattern(name: str) -> tuple[City, Colonisation]:
 @functools.cache
 def expanded(name: str, seed: int = 0):
     city, pattern = town_and_pattern(name)
-    return expand(city, ExpandOptions(seed=seed), pattern=pattern)
+    return expand(city, ExpandOptions(seed=seed, years=0), pattern=pattern)
 
 
 @pytest.mark.parametrize("name", REAL)
@@ -298,7 +298,7 @@ def test_the_debug_features_are_geojson_ready(name):
 
 def test_the_same_seed_grows_the_same_streets():
     city, pattern = town_and_pattern("krems.osm.gz")
-    again = expand(city, ExpandOptions(seed=0), pattern=pattern)
+    again = expand(city, ExpandOptions(seed=0, years=0), pattern=pattern)
     first = expanded("krems.osm.gz")
     assert len(first.growth.streets) == len(again.growth.streets)
     for a, b in zip(first.growth.streets, again.growth.streets):
@@ -328,3 +328,21 @@ def test_the_districts_blocks_take_lots_and_buildings_from_the_engine():
     assert len(mine) >= 10 and len(lots) >= 100 and len(made) >= 100
     houses = [fp.rectangle.polygon for fp in made]
     assert not shapely.STRtree(lines).query(houses, predicate="intersects").size
+
+
+def test_debug_layers_go_into_the_geojson_in_lon_lat(tmp_path, capsys):
+    from osm_expand import cli
+
+    out = tmp_path / "krems.geojson"
+    assert cli.main([str(FIXTURES / "krems.osm.gz"), "--pattern", "colonisation", "--years", "0",
+                     "-o", str(out), "--debug-layers", "-q"]) == 0
+    doc = json.loads(out.read_text())
+    debug = [f for f in doc["features"] if f["properties"].get("feature") == "debug"]
+    layers = {f["properties"]["layer"] for f in debug}
+    assert {"attraction_point", "colonisation_region", "parameters"} <= layers
+    lon, lat = next(f for f in debug if f["properties"]["layer"] == "attraction_point")["geometry"]["coordinates"]
+    assert 15.5 < lon < 15.8 and 48.3 < lat < 48.5  # Krems, not local metres
+    assert cli.main([str(FIXTURES / "krems.osm.gz"), "--years", "0", "-o", str(tmp_path / "k.xml"),
+                     "--debug-layers"]) == 2
+    assert "--debug-layers needs a GeoJSON output" in capsys.readouterr().err
+    assert not (tmp_path / "k.xml").exists()

@@ -31,7 +31,7 @@ SMALL = {"bautzen.osm": 400_000.0, "West-Oakland.osm.bz2": 200_000.0, "berlin-si
 @functools.cache
 def expanded(name: str):
     city = load(FIXTURES / name)
-    return city, expand(city, ExpandOptions(seed=0, area=SMALL.get(name), beyond_bounds=name in SMALL))
+    return city, expand(city, ExpandOptions(seed=0, area=SMALL.get(name), beyond_bounds=name in SMALL, years=0))
 
 
 @functools.cache

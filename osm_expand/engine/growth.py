@@ -37,6 +37,11 @@ from synth.growth import GrowthPattern
 from synth.patterns import GrowthStep, PatternOptions, grow_streets
 from synth.street_graph import StreetGraph
 
+#: Rounds of candidates a street pattern tries in a year, the batch doubling each round: starts where
+#: nothing fits are spent (002 §3.1 marks a node finished "if the expansion fails multiple times") and
+#: the next-ranked get their turn, so a year grows its G(t) streets where the town has room for them
+#: (one round grew 0 of 11 grid streets a year in Krems' dense centre).
+CANDIDATE_ROUNDS = 4
 #: ℓ, the pathfinding lattice spacing (m): temporary candidate points are ⌊length / 1.25ℓ⌋ per segment (003).
 ELL = 20.0
 
@@ -94,17 +99,30 @@ def grow_street_pattern(city: City, count: int, options: PatternOptions, nuclei:
     graph.spawned[:] = degree == 2  # shape points never start a street
     spawned = np.fromiter(memory.spawned, dtype=np.int64, count=len(memory.spawned))
     graph.spawned[spawned[spawned < n_nodes]] = True
-    failed = np.array(memory.failed).reshape(-1, 2) if memory.failed else None
-    z = candidate_points(graph, spawned_mask=graph.spawned, ell=ELL, max_degree=options.max_degree,
-                         temporary_points=options.segment_starts, segment_mask=~table.bridge, exclude_points=failed)
-    if not len(z):
-        return city, GrowthYear()
-    starts = z.take(rank_candidates(z.xy, nuclei, take=math.ceil(count / options.streets_per_start)))
-    step = grow_streets(graph, starts, options=options, rng=rng, water=city.water_geometry(),
-                        forbidden=_forbidden(city), centre=centre, time=float(year))
+    failed = np.array(memory.failed, dtype=float).reshape(-1, 2)
+    water, forbidden = city.water_geometry(), _forbidden(city)
+    splits: list[tuple[np.ndarray, np.ndarray]] = []
+    made, batch = 0, math.ceil(count / options.streets_per_start)
+    for _ in range(CANDIDATE_ROUNDS):  # failed starts are spent; the next-ranked ones get their turn
+        z = candidate_points(graph, spawned_mask=graph.spawned, ell=ELL, max_degree=options.max_degree,
+                             temporary_points=options.segment_starts, segment_mask=_not_bridges(graph),
+                             exclude_points=failed if len(failed) else None)
+        if not len(z):
+            break
+        starts = z.take(rank_candidates(z.xy, nuclei, take=batch))
+        step = grow_streets(graph, starts, options=options, rng=rng, water=water, forbidden=forbidden,
+                            centre=centre, time=float(year))
+        splits.append((step.split_segment, step.split_new_segment))
+        failed = np.vstack([failed, np.asarray(step.failed_xy, dtype=float).reshape(-1, 2)])
+        made += len(step.new_segments)
+        if made >= count:
+            break
+        batch *= 2
     memory.spawned |= set(np.flatnonzero(graph.spawned[:n_nodes]).tolist())
-    memory.failed += list(step.failed_xy)
-    lines, bridges = _new_lines(graph, step, n_segments)
+    memory.failed = [tuple(p) for p in failed.tolist()]
+    if not splits:
+        return city, GrowthYear()
+    lines, bridges = _new_lines(graph, splits, n_segments)
     if not lines:
         return city, GrowthYear()
     attrs = [{"highway": "residential", "hierarchy": 9, "origin": Origin.ENGINE, "status": Status.PLANNED,
@@ -125,7 +143,12 @@ def _forbidden(city: City) -> shapely.Geometry:
     return shapely.union_all(parts)
 
 
-def _new_lines(graph: StreetGraph, step: GrowthStep, n_old: int) -> tuple[list[np.ndarray], list[bool]]:
+def _not_bridges(graph: StreetGraph) -> np.ndarray:
+    return ~np.asarray(graph.bridge[:graph.n_segments], dtype=bool)
+
+
+def _new_lines(graph: StreetGraph, splits: list[tuple[np.ndarray, np.ndarray]], n_old: int
+               ) -> tuple[list[np.ndarray], list[bool]]:
     """The segments this step made, chained into polylines at their own degree-2 nodes.
 
     The far half of a split *old* segment is part of an old street (the tee
@@ -133,9 +156,10 @@ def _new_lines(graph: StreetGraph, step: GrowthStep, n_old: int) -> tuple[list[n
     so it is not a new street; halves of split new segments are.
     """
     old = set(range(n_old))
-    for seg, far in zip(step.split_segment.tolist(), step.split_new_segment.tolist()):
-        if seg in old:
-            old.add(far)
+    for segments, fars in splits:  # in the order the steps made them: a half of a half is old too
+        for seg, far in zip(np.asarray(segments).tolist(), np.asarray(fars).tolist()):
+            if seg in old:
+                old.add(far)
     new = [k for k in range(n_old, graph.n_segments) if k not in old]
     if not new:
         return [], []

@@ -514,6 +514,17 @@ def _new_road(graph: PathGraph, start: int, end: int, xy: np.ndarray, bridge: bo
     return NewRoad(xy=xy, bridge=bridge, start_node=sn, end_node=en, start_segment=ss, end_segment=es)
 
 
+def _along(segs, roads: list[NewRoad], tolerance: float = 1.0) -> np.ndarray:
+    """Minor, non-bridge segments the road runs along end to end (both ends within ``tolerance`` m of
+    it): short ones lie wholly in the discs the corridor leaves out, yet the road replaces them."""
+    line = shapely.union_all([shapely.LineString(r.xy) for r in roads])
+    near = shapely.STRtree(segs.lines()).query(line, predicate="dwithin", distance=tolerance)
+    near = near[~segs.major[near] & ~segs.bridge[near]]
+    a, b = shapely.points(segs.xy[segs.uv[near, 0]]), shapely.points(segs.xy[segs.uv[near, 1]])
+    on = (shapely.distance(a, line) <= tolerance) & (shapely.distance(b, line) <= tolerance)
+    return np.sort(near[on]).astype(np.int64)
+
+
 def _demolition(graph: PathGraph, roads: list[NewRoad], width: float, lots: np.ndarray | None,
                 opts: MajorRoadOptions) -> tuple[np.ndarray, np.ndarray]:
     """Minor, non-bridge segments and lots under a rebuilding road's corridor (000 §4.2.7).
@@ -536,6 +547,7 @@ def _demolition(graph: PathGraph, roads: list[NewRoad], width: float, lots: np.n
         hit = hit[~segs.major[hit] & ~segs.bridge[hit]]
         inside = shapely.length(shapely.intersection(segs.lines()[hit], corridor))
         gone = np.sort(hit[inside > 1.0]).astype(np.int64)  # more than grazing its edge
+        gone = np.union1d(gone, _along(segs, pieces))
     lots_gone = np.zeros(0, dtype=np.int64)
     if lots is not None and len(lots) and not corridor.is_empty:
         lots_gone = np.sort(shapely.STRtree(np.asarray(lots)).query(corridor, predicate="intersects")).astype(np.int64)

@@ -131,9 +131,7 @@ def _graph(city: City, traffic: TrafficMemory, memory: RoadMemory, now: YearValu
         water = Raster.from_geometry(city.water_geometry(), extent, cell)
         areas = [a.polygon for a in city.areas if matches(a.key, a.value, UNBUILDABLE)]
         houses = [shapely.Polygon(b.ring) for b in city.buildings]  # a new road never runs through a building
-        forbidden_geom = shapely.union_all(areas + houses) if areas or houses else shapely.Polygon()
-        forbidden = (Raster.from_geometry(forbidden_geom, extent, BUILDING_CELL)
-                     if not forbidden_geom.is_empty else None)
+        forbidden = Raster.from_polygons(areas + houses, extent, BUILDING_CELL) if areas or houses else None
         memory = replace(memory, lattice=build_lattice(extent, water=water, forbidden=forbidden,
                                                        options=history.options.lattice))
     segments = _segments(city, traffic, now.o2)

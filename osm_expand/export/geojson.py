@@ -6,6 +6,10 @@ town's streets and buildings carry their OSM tags as mapped and their
 ``osm_id(s)``; new ones their typed attributes and ``year`` (generated
 buildings also ``landuse``, ``floors`` and ``lot``). Lots and blocks are
 Polygons with ``"feature": "lot"`` / ``"block"`` and their land use and year.
+
+``debug`` features (``--debug-layers``: a growth pattern's attraction
+points, flow field, region and parameters, in local metres) are appended
+after the city's, reprojected to lon/lat, with ``"feature": "debug"``.
 """
 from __future__ import annotations
 
@@ -98,8 +102,28 @@ def _ring_lonlat(city: City, ring: np.ndarray, outer: bool) -> list:
     return (ll if ccw == outer else ll[::-1]).tolist()
 
 
-def write_geojson(city: City, path: str | os.PathLike) -> None:
+def write_geojson(city: City, path: str | os.PathLike, *, debug: list[dict] | None = None) -> None:
     doc = geojson_document(city)
+    if debug:
+        doc["features"] += debug_features_lonlat(city, debug)
     with atomic_write(path, "w") as fh:
         json.dump(doc, fh, ensure_ascii=False, separators=(",", ":"))
         fh.write("\n")
+
+
+def debug_features_lonlat(city: City, features: list[dict]) -> list[dict]:
+    """A pattern's debug features (local metres) as RFC 7946 features in lon/lat."""
+    import shapely
+    import shapely.geometry
+
+    out = []
+    for k, feat in enumerate(features):
+        geom = feat.get("geometry")
+        if geom is not None:
+            shape = shapely.transform(shapely.geometry.shape(geom), lambda xy: to_lonlat(city, xy))
+            geom = shapely.geometry.mapping(shapely.geometry.polygon.orient(shape) if shape.geom_type == "Polygon"
+                                            else shape)
+            geom = json.loads(json.dumps(geom))  # tuples → lists
+        props = {"feature": "debug", **feat.get("properties", {})}
+        out.append({"type": "Feature", "id": f"debug/{k}", "geometry": geom, "properties": props})
+    return out

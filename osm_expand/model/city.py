@@ -106,6 +106,22 @@ def _land_nobody_takes(water: tuple, sea: tuple, unbuildable: shapely.Geometry |
     return geom
 
 
+def _land_parts(water: tuple, sea: tuple, unbuildable: shapely.Geometry | None
+                ) -> tuple[np.ndarray, shapely.STRtree]:
+    """The parts of :func:`_land_nobody_takes` and a tree over them (cached beside the union)."""
+    union = _land_nobody_takes(water, sea, unbuildable)
+    hit = _PART_TREES.get(id(union))
+    if hit is None or hit[0] is not union:
+        parts = shapely.get_parts(union) if not union.is_empty else np.empty(0, dtype=object)
+        if len(_PART_TREES) > 8:
+            _PART_TREES.clear()
+        hit = _PART_TREES[id(union)] = (union, parts, shapely.STRtree(parts))
+    return hit[1], hit[2]
+
+
+_PART_TREES: dict[int, tuple[shapely.Geometry, np.ndarray, shapely.STRtree]] = {}
+
+
 @dataclass(frozen=True, eq=False)
 class Block:
     """A block: a face of the street graph (004 §4.3) that knows the streets around it.
@@ -173,6 +189,20 @@ class City:
         streets may run along their edges)."""
         blocks = shapely.buffer(np.array([b.polygon for b in self.blocks], dtype=object), -1.0)
         geom = shapely.union_all([_land_nobody_takes(self.water, self.sea, self.unbuildable), *blocks.tolist()])
+        shapely.prepare(geom)
+        return geom
+
+    def occupied_within(self, area: shapely.Geometry) -> shapely.Geometry:
+        """:attr:`occupied` where it meets ``area``'s bounding box: the same answer to any question
+        asked inside ``area``, without the union of the whole town (0.8 s on Campo Grande, paid
+        for every district the engine grows)."""
+        box = shapely.box(*area.bounds)
+        parts, tree = _land_parts(self.water, self.sea, self.unbuildable)
+        near = parts[tree.query(box, predicate="intersects")] if len(parts) else parts
+        blocks = np.array([b.polygon for b in self.blocks], dtype=object)
+        if len(blocks):
+            blocks = shapely.buffer(blocks[shapely.intersects(blocks, box)], -1.0)
+        geom = shapely.union_all([*near.tolist(), *blocks.tolist()])
         shapely.prepare(geom)
         return geom
 

@@ -169,15 +169,57 @@ class StreetNetwork:
         xy = np.vstack([self.xy, pts[fresh[first_of]].reshape(-1, 2)])
         ids = np.concatenate([self.node_ids, np.zeros(len(first_of), dtype=np.int64)])
         first, streets = self.next_street_id(), list(self.streets)
+        taken = _SegmentKeys(self.streets, len(xy))
+        extra = first + len(lines)  # ids of the second and later pieces of a line cut by a duplicate
         start = 0
         for k, (line, fields) in enumerate(zip(lines, attrs)):
             n = len(line)
             run = known[start:start + n]
             start += n
-            nodes = tuple(int(v) for v in run[np.r_[True, run[1:] != run[:-1]]])  # no zero-length segments
-            if len(nodes) >= 2:
-                streets.append(Street(nodes=nodes, **{"highway": "residential", "id": first + k, **fields}))
+            run = run[np.r_[True, run[1:] != run[:-1]]]  # no zero-length segments
+            for j, piece in enumerate(taken.new_pieces(run)):
+                street_id = first + k if j == 0 else extra
+                extra += j > 0
+                streets.append(Street(nodes=tuple(int(v) for v in piece),
+                                      **{"highway": "residential", **fields, "id": street_id}))
         return self.replace(xy=xy, node_ids=ids, streets=tuple(streets))
+
+
+class _SegmentKeys:
+    """The undirected segments of a network as integer keys, to keep new streets from doubling one.
+
+    A new line that runs along an existing segment (a major road routed over
+    a short street it could not demolish, a join along a street) is cut
+    there: two streets on one segment would cross everywhere along it.
+    """
+
+    def __init__(self, streets: Sequence[Street], n_nodes: int):
+        self.n = np.int64(max(n_nodes, 1))
+        runs = [np.asarray(s.nodes, dtype=np.int64) for s in streets if len(s.nodes) >= 2]
+        u = np.concatenate([r[:-1] for r in runs]) if runs else np.zeros(0, np.int64)
+        v = np.concatenate([r[1:] for r in runs]) if runs else np.zeros(0, np.int64)
+        self.keys = set(self._key(u, v).tolist())
+
+    def _key(self, u: np.ndarray, v: np.ndarray) -> np.ndarray:
+        return np.minimum(u, v) * self.n + np.maximum(u, v)
+
+    def new_pieces(self, run: np.ndarray) -> list[np.ndarray]:
+        """``run`` split where it follows a known segment (pieces of ≥ 2 nodes); its segments become known."""
+        if len(run) < 2:
+            return []
+        keys = self._key(run[:-1], run[1:])
+        dup = np.fromiter((int(x) in self.keys for x in keys), dtype=bool, count=len(keys))
+        self.keys.update(keys.tolist())
+        if not dup.any():
+            return [run]
+        pieces, begin = [], 0
+        for i in np.flatnonzero(dup):
+            if i > begin:
+                pieces.append(run[begin:i + 1])
+            begin = i + 1
+        if begin < len(run) - 1:
+            pieces.append(run[begin:])
+        return pieces
 
 
 #: A new street's point this close to a node (m) is that node: computed crossings and tee points land

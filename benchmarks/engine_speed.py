@@ -1,0 +1,89 @@
+"""Seconds per simulated year of the whole engine against the number of streets, on real towns.
+
+    python benchmarks/engine_speed.py                         # Krems, north-bayreuth, Campo Grande; 10 years
+    python benchmarks/engine_speed.py fixtures/monaco.osm.gz --years 20 --history european
+    python benchmarks/engine_speed.py --json > engine.json
+
+For each town: load, grow the district (``--years 0`` work, not timed), then
+run the engine's year loop (:func:`osm_expand.engine.loop.run`) with the
+build-out for ``--years`` years and time every year (wall clock, from the
+loop's progress callback). The pathfinding lattice is built once, the first
+time a trade route runs short, and is reported apart (it is 003's one-off
+G′ construction); the year it was built is left out of the per-year
+figures. The stage split (growth, blocks, traffic, roads, build-out) is the
+loop's own ``report["seconds"]``, summed over the run. CPU seconds of the
+process are printed too: they move less than wall time when other jobs
+share the machine's 2 cores.
+
+Target (issue 10): about 3,000 streets at ≤ 1 s a year (Weber et al. 2009
+grew 3,005 streets in 58 s for a whole run).
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import statistics
+import sys
+import time
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parent.parent
+sys.path.insert(0, str(ROOT))
+
+from osm_expand.engine.history import load_history  # noqa: E402
+from osm_expand.engine.loop import run  # noqa: E402
+from osm_expand.ingest import load  # noqa: E402
+from osm_expand.pipeline import ExpandOptions, _buildout, district_pattern, expand  # noqa: E402
+
+TOWNS = ["krems.osm.gz", "north-bayreuth.osm.gz", "campo-grande.osm.gz"]
+
+
+def measure(path: Path, history_name: str, years: int, seed: int) -> dict:
+    city = load(path)
+    grown = expand(city, ExpandOptions(seed=seed, years=0, fidelity=False))
+    history = load_history(history_name)
+    stamps: list[float] = []
+    cpu0, t0 = time.process_time(), time.perf_counter()
+    engine = run(grown.city, history, years=years, seed=seed, spacing=grown.learned.example.spacing,
+                 district_pattern=district_pattern(grown.learned), join_points=grown.joins.at,
+                 buildout=_buildout(), progress=lambda done, total, era: stamps.append(time.perf_counter()))
+    wall, cpu = time.perf_counter() - t0, time.process_time() - cpu0
+    seconds = engine.seconds
+    per_year = [b - a for a, b in zip([t0 + seconds.get("start", 0.0), *stamps[:-1]], stamps)]
+    lattice = seconds.get("lattice", 0.0)
+    if lattice:  # leave out the year the lattice was built
+        worst = max(range(len(per_year)), key=per_year.__getitem__)
+        per_year = per_year[:worst] + per_year[worst + 1:]
+    return {"town": path.name, "history": history_name, "years": years,
+            "streets_start": len(grown.city.network.streets), "streets_end": len(engine.city.network.streets),
+            "buildings_end": len(engine.city.buildings),
+            "s_per_year_median": round(statistics.median(per_year), 3) if per_year else None,
+            "s_per_year_max": round(max(per_year), 3) if per_year else None,
+            "lattice_s": round(lattice, 2), "start_s": round(seconds.get("start", 0.0), 2),
+            "total_wall_s": round(wall, 2), "total_cpu_s": round(cpu, 2),
+            "stages_s": {k: round(v, 2) for k, v in sorted(seconds.items())}}
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("towns", nargs="*", help="OSM files (default: three bundled towns)")
+    parser.add_argument("--years", type=int, default=10)
+    parser.add_argument("--history", default="example")
+    parser.add_argument("--seed", type=int, default=0)
+    parser.add_argument("--json", action="store_true")
+    args = parser.parse_args(argv)
+    paths = [Path(t) for t in args.towns] or [ROOT / "fixtures" / t for t in TOWNS]
+    rows = [measure(p, args.history, args.years, args.seed) for p in paths]
+    if args.json:
+        print(json.dumps(rows, indent=1))
+        return 0
+    print(f"{'town':24} {'streets':>15} {'s/year med':>10} {'max':>6} {'lattice':>8} {'wall':>7} {'cpu':>7}  stages (s)")
+    for r in rows:
+        stages = " ".join(f"{k}={v}" for k, v in r["stages_s"].items())
+        print(f"{r['town']:24} {r['streets_start']:>6} → {r['streets_end']:<6} {r['s_per_year_median']:>10} "
+              f"{r['s_per_year_max']:>6} {r['lattice_s']:>8} {r['total_wall_s']:>7} {r['total_cpu_s']:>7}  {stages}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
