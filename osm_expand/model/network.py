@@ -150,12 +150,17 @@ class StreetNetwork:
         """An id no street of this network has."""
         return max((s.id for s in self.streets), default=-1) + 1
 
-    def with_new_streets(self, lines: Sequence[np.ndarray], attrs: Sequence[Mapping[str, Any]]) -> "StreetNetwork":
+    def with_new_streets(self, lines: Sequence[np.ndarray], attrs: Sequence[Mapping[str, Any]], *,
+                         one_street_per_segment: bool = False) -> "StreetNetwork":
         """This network plus streets along ``lines`` (metres), each with the given :class:`Street` fields.
 
         A point within :data:`SAME_NODE` (1 mm) of a node of this network is
         that node; points shared by the new lines become one new node. New
-        streets get fresh ids; new nodes get OSM id 0.
+        streets get fresh ids; new nodes get OSM id 0. With
+        ``one_street_per_segment`` a new line is cut where it would run along
+        a segment some street already has (what the tool grows; a file read
+        back keeps what it holds, parallel streets of a simplified network
+        included).
         """
         if not len(lines):
             return self
@@ -169,7 +174,7 @@ class StreetNetwork:
         xy = np.vstack([self.xy, pts[fresh[first_of]].reshape(-1, 2)])
         ids = np.concatenate([self.node_ids, np.zeros(len(first_of), dtype=np.int64)])
         first, streets = self.next_street_id(), list(self.streets)
-        taken = _SegmentKeys(self.streets, len(xy))
+        taken = _SegmentKeys(self.streets if one_street_per_segment else (), len(xy), active=one_street_per_segment)
         extra = first + len(lines)  # ids of the second and later pieces of a line cut by a duplicate
         start = 0
         for k, (line, fields) in enumerate(zip(lines, attrs)):
@@ -193,7 +198,8 @@ class _SegmentKeys:
     there: two streets on one segment would cross everywhere along it.
     """
 
-    def __init__(self, streets: Sequence[Street], n_nodes: int):
+    def __init__(self, streets: Sequence[Street], n_nodes: int, active: bool = True):
+        self.active = active
         self.n = np.int64(max(n_nodes, 1))
         runs = [np.asarray(s.nodes, dtype=np.int64) for s in streets if len(s.nodes) >= 2]
         u = np.concatenate([r[:-1] for r in runs]) if runs else np.zeros(0, np.int64)
@@ -207,6 +213,8 @@ class _SegmentKeys:
         """``run`` split where it follows a known segment (pieces of ≥ 2 nodes); its segments become known."""
         if len(run) < 2:
             return []
+        if not self.active:
+            return [run]
         keys = self._key(run[:-1], run[1:])
         dup = np.fromiter((int(x) in self.keys for x in keys), dtype=bool, count=len(keys))
         self.keys.update(keys.tolist())
