@@ -91,7 +91,7 @@ def run(name: str, seeds: list[int], draw: Path | None, out_dir: Path, dpi: int 
     rows = []
     for seed in seeds:
         t0 = time.perf_counter()
-        result = expand(city, ExpandOptions(seed=seed), pattern=pattern)
+        result = expand(city, ExpandOptions(seed=seed, years=0), pattern=pattern)
         seconds = time.perf_counter() - t0
         n_blocks, n_lots, made = district_buildings(result, np.random.default_rng([seed, 0xB1D]))
         built = result.city.replace(buildings=result.city.buildings + tuple(made))

@@ -10,17 +10,26 @@ copy of Krems sits at Krems' own coordinates in the middle of every file.
 Then measures, each run in a fresh child process (peak memory: the child's
 own ``ru_maxrss``, as ``os.wait4`` returns it, imports included):
 
-- ``simplify``: ``osm_expand.ingest.load(path, context=False)`` then
-  ``simplify.simplify(city.network)``, on each file: time, MB/s of the file,
-  peak memory;
-- the clipped run: :func:`osm_expand.clip.clip_extracts` of Krems' box out
-  of the largest file, then ``osm-expand CLIP -o OUT.xml --seed 0 -q`` on the
-  extract: the time and peak memory of each, beside those of simplify on the
-  whole file and of the same command on ``fixtures/krems.osm.gz`` itself
-  (the extract is the fixture with shifted ids, so the two should match);
+- ``simplify``: the command ``osm-expand simplify FILE -o OUT.osm`` on each
+  file, as a user runs it: wall time (interpreter, imports, read, simplify,
+  write), the phases from its progress lines, MB/s of the file, peak memory;
+  and the time per node of the largest file against the smallest (1.0 is
+  linear);
+- the clipped run: ``osm-expand LARGEST --bbox <Krems' copy> -o OUT.xml
+  --seed 0`` (clip, then the whole main command, engine included): time and
+  peak memory, beside those of simplify on the whole file and of the same
+  command on ``fixtures/krems.osm.gz`` itself (the extract is the fixture
+  with shifted ids, so the town read should match);
+- with ``--clip-strategies``, each clip strategy alone on Krems' copy;
 - many towns: the first ``--towns`` copies of the largest file clipped
   together (one :func:`~osm_expand.clip.clip_extracts` call): time, reads
-  of the file, peak memory.
+  of the file, peak memory;
+- the whole-command ratio against osmnx on ``fixtures/north-bayreuth.osm.gz``:
+  ``osm-expand simplify FILE -o OUT.osm -q`` against osmnx's script
+  (``import osmnx``, ``graph_from_xml`` with its default simplification,
+  ``project_graph``, ``consolidate_intersections(tolerance=10)``; it writes
+  nothing), each a fresh process, imports included, ``--osmnx-repeat`` runs
+  of each interleaved; the ratio of the best wall times.
 
 Usage::
 
@@ -29,6 +38,7 @@ Usage::
     python benchmarks/large_inputs.py --sizes 500000 --json
     python benchmarks/large_inputs.py --clip-strategies   # also compare the clip's strategies on the largest file
     python benchmarks/large_inputs.py --towns 100         # clip 100 towns of the largest file together
+    python benchmarks/large_inputs.py --sizes 500000 --no-grow --towns 0 --osmnx-repeat 0   # quick
 """
 from __future__ import annotations
 
@@ -36,6 +46,7 @@ import argparse
 import json
 import math
 import os
+import re
 import subprocess
 import sys
 import tempfile
@@ -190,17 +201,18 @@ def build(out_dir: Path, sizes: tuple[int, ...]) -> dict[int, tuple[Path, dict]]
 
 # --- measurements, each in a fresh child process ---------------------------------------------------
 
-SIMPLIFY_CHILD = """
-import json, sys, time
-from osm_expand.ingest import load
-from simplify import simplify
-t0 = time.perf_counter()
-city = load(sys.argv[1], context=False)
-t1 = time.perf_counter()
-result = simplify(city.network)
-t2 = time.perf_counter()
-print(json.dumps({"read_s": t1 - t0, "simplify_s": t2 - t1, "street_nodes": len(city.network.xy),
-                  "streets": len(city.network.streets), "junctions": result.report["junctions"]}))
+#: The ``osm-expand`` console script, as installed (``osm_expand.cli:main``), run from this checkout.
+COMMAND = "import sys; from osm_expand.cli import main; sys.exit(main())"
+
+#: osmnx's whole script for what ``osm-expand simplify`` does: read the XML into a simplified graph
+#: (graph_from_xml's default simplify=True), project it and consolidate intersections within 10 m.
+OSMNX_SCRIPT = """
+import sys
+import osmnx as ox
+G = ox.graph_from_xml(sys.argv[1])
+G = ox.project_graph(G)
+G = ox.consolidate_intersections(G, tolerance=10)
+print(G.number_of_nodes(), G.number_of_edges())
 """
 
 CLIP_CHILD = """
@@ -223,24 +235,22 @@ print(json.dumps({"clip_s": time.perf_counter() - t0, "reads": result.reads, "ex
                   "nodes": sum(c["nodes"] for c in result.counts.values())}))
 """
 
-GROW_CHILD = """
-import contextlib, io, json, sys, time
-from osm_expand.cli import main
+READ_CHILD = """
+import json, sys, time
+from osm_expand.ingest import load
 t0 = time.perf_counter()
-with contextlib.redirect_stdout(io.StringIO()) as out:
-    code = main([sys.argv[1], "-o", sys.argv[2], "--seed", "0", "-q", "--json"])
-seconds = time.perf_counter() - t0
-report = json.loads(out.getvalue()) if code == 0 else {}
-print(json.dumps({"grow_s": seconds, "exit": code,
-                  "town": {k: report.get(k) for k in ("source_streets", "source_buildings", "spacing_m")}}))
+city = load(sys.argv[1])
+print(json.dumps({"read_s": time.perf_counter() - t0, "streets": len(city.network.streets),
+                  "buildings": len(city.buildings)}))
 """
 
+_STAMP = re.compile(r"^\[\s*([0-9.]+)s\] (.*)$")
 
-def child(code: str, *args: str) -> dict:
-    """Run ``code`` in a fresh Python: its JSON line, wall time and peak memory (MB).
 
-    The peak is the child's own ``ru_maxrss`` as ``wait4`` returns it (what
-    ``getrusage(RUSAGE_CHILDREN)`` reports when this is the only child), so
+def child(code: str, *args: str, json_out: bool = True) -> dict:
+    """Run ``python -c code args`` fresh: its last JSON line (if ``json_out``), wall time, peak memory (MB), stderr.
+
+    The peak is the child's own ``ru_maxrss`` as ``wait4`` returns it, so
     each measurement is its own, whatever ran before it.
     """
     with tempfile.TemporaryFile() as out, tempfile.TemporaryFile() as err:
@@ -256,10 +266,62 @@ def child(code: str, *args: str) -> dict:
     if proc.returncode != 0:
         last = stderr.strip().splitlines()[-1] if stderr.strip() else f"exit {proc.returncode}"
         raise RuntimeError(f"child failed: {last}")
-    result = json.loads(stdout.strip().splitlines()[-1])
-    result["wall_s"] = wall
-    result["peak_mb"] = usage.ru_maxrss / 1024  # Linux: kilobytes
+    result = json.loads(stdout.strip().splitlines()[-1]) if json_out else {}
+    result.update(wall_s=wall, peak_mb=usage.ru_maxrss / 1024, stderr=stderr)  # Linux: kilobytes
     return result
+
+
+def stamps(stderr: str) -> list[tuple[float, str]]:
+    """The command's progress lines (``[  1.23s] reading ...``) as (seconds, message)."""
+    return [(float(m.group(1)), m.group(2)) for m in map(_STAMP.match, stderr.splitlines()) if m]
+
+
+def since(lines: list[tuple[float, str]], start: str, stop: str) -> float:
+    """Seconds from the first line containing ``start`` to the first later one containing ``stop``."""
+    t0 = next(t for t, msg in lines if start in msg)
+    return next(t for t, msg in lines if t >= t0 and stop in msg and start not in msg) - t0
+
+
+def simplify_row(path: Path, meta: dict, work: Path) -> dict:
+    """``osm-expand simplify FILE -o OUT.osm --json`` in a fresh process: phases, MB/s, peak memory."""
+    r = child(COMMAND, "simplify", str(path), "-o", str(work / "simplified.osm"), "--json")
+    lines = stamps(r["stderr"])
+    mb = path.stat().st_size / 1e6
+    return {"file": path.name, "nodes": meta["nodes"], "ways": meta["ways"], "mb": round(mb, 1),
+            "seconds": round(r["wall_s"], 2), "read_s": round(since(lines, "reading", "simplifying"), 2),
+            "simplify_s": round(since(lines, "simplifying", "writing"), 2),
+            "write_s": round(since(lines, "writing", "done"), 2), "mb_per_s": round(mb / r["wall_s"], 2),
+            "peak_mb": round(r["peak_mb"]), "street_nodes": r["input_nodes"], "junctions": r["junctions"]}
+
+
+def clipped_run(largest: Path, box: list[float], work: Path) -> dict:
+    """The main command growing Krems' copy out of the largest file (``--bbox``), and growing the fixture itself."""
+    bbox = ",".join(repr(v) for v in box)
+    grown = child(COMMAND, str(largest), f"--bbox={bbox}", "-o", str(work / "krems-copy.expanded.xml"), "--seed", "0",
+                  "--json")
+    original = child(COMMAND, str(FIXTURES / KREMS), "-o", str(work / "krems.expanded.xml"), "--seed", "0", "--json")
+    whole = child(READ_CHILD, str(largest))  # what the main command would read without --bbox
+    keys = ("source_streets", "source_buildings", "spacing_m")
+    return {"seconds": round(grown["wall_s"], 2), "clip_s": round(since(stamps(grown["stderr"]), "clipping", "reading"), 2),
+            "peak_mb": round(grown["peak_mb"]), "clip": grown["clip"],
+            "original_seconds": round(original["wall_s"], 2), "original_peak_mb": round(original["peak_mb"]),
+            "town": {k: grown.get(k) for k in keys}, "town_as_original": all(grown.get(k) == original.get(k) for k in keys),
+            "years": grown.get("engine", {}).get("years"), "whole_read_s": round(whole["read_s"], 2),
+            "whole_read_peak_mb": round(whole["peak_mb"]), "whole_streets": whole["streets"]}
+
+
+def osmnx_ratio(path: Path, repeat: int, work: Path) -> dict:
+    """Whole commands, imports included: ``osm-expand simplify`` against osmnx's script, interleaved, best of each."""
+    ours, theirs = [], []
+    for _ in range(repeat):
+        ours.append(child(COMMAND, "simplify", str(path), "-o", str(work / "nb.simplified.osm"), "-q", json_out=False))
+        theirs.append(child(OSMNX_SCRIPT, str(path), json_out=False))
+    best_ours, best_theirs = min(r["wall_s"] for r in ours), min(r["wall_s"] for r in theirs)
+    return {"file": path.name, "runs": repeat, "ours_s": [round(r["wall_s"], 2) for r in ours],
+            "osmnx_s": [round(r["wall_s"], 2) for r in theirs], "ours_best_s": round(best_ours, 2),
+            "osmnx_best_s": round(best_theirs, 2), "ratio": round(best_theirs / best_ours, 1),
+            "ours_peak_mb": round(max(r["peak_mb"] for r in ours)),
+            "osmnx_peak_mb": round(max(r["peak_mb"] for r in theirs))}
 
 
 def main() -> int:
@@ -268,9 +330,11 @@ def main() -> int:
     parser.add_argument("--sizes", type=lambda s: tuple(int(v) for v in s.split(",")), default=SIZES,
                         help="node counts, comma separated (default 500000,1000000,3000000)")
     parser.add_argument("--clip-strategies", action="store_true", help="also time each clip strategy")
-    parser.add_argument("--no-grow", action="store_true", help="clip only, do not grow the town")
+    parser.add_argument("--no-grow", action="store_true", help="do not grow Krems' copy out of the largest file")
     parser.add_argument("--towns", type=int, default=24, metavar="N",
                         help="also clip the first N copies of the largest file together, in one go (default 24; 0: no)")
+    parser.add_argument("--osmnx-repeat", type=int, default=3, metavar="N",
+                        help="runs of each side against osmnx on north-bayreuth (default 3; 0: skip)")
     parser.add_argument("--json", action="store_true", help="print the figures as one JSON object")
     args = parser.parse_args()
     tmp = None
@@ -287,71 +351,66 @@ def main() -> int:
             tmp.cleanup()
 
 
+def say(args: argparse.Namespace, text: str) -> None:
+    if not args.json:
+        print(text, flush=True)
+
+
 def run(out_dir: Path, sizes: tuple[int, ...], args: argparse.Namespace) -> int:
     files = build(out_dir, sizes)
     report: dict = {"simplify": [], "clip": []}
-    for size in sizes:
-        path, meta = files[size]
-        mb = path.stat().st_size / 1e6
-        r = child(SIMPLIFY_CHILD, str(path))
-        seconds = r["read_s"] + r["simplify_s"]
-        row = {"file": path.name, "nodes": meta["nodes"], "ways": meta["ways"], "mb": round(mb, 1),
-               "read_s": round(r["read_s"], 2), "simplify_s": round(r["simplify_s"], 2), "seconds": round(seconds, 2),
-               "mb_per_s": round(mb / seconds, 2), "peak_mb": round(r["peak_mb"]),
-               "street_nodes": r["street_nodes"], "junctions": r["junctions"]}
-        report["simplify"].append(row)
-        if not args.json:
-            print(f"simplify {row['file']:>20}: {row['nodes']:>9,} nodes {row['mb']:6.1f} MB  "
-                  f"read {row['read_s']:6.2f} s + simplify {row['simplify_s']:6.2f} s = {row['seconds']:6.2f} s  "
-                  f"{row['mb_per_s']:5.2f} MB/s  peak {row['peak_mb']} MB", flush=True)
-    largest, meta = files[sizes[-1]]
-    from osm_expand.clip import ClipStrategy
-
-    strategies = list(ClipStrategy) if args.clip_strategies else [ClipStrategy.TWO_PASS]
-    with tempfile.TemporaryDirectory(prefix="osm-expand-clip-") as tmp:
+    with tempfile.TemporaryDirectory(prefix="osm-expand-bench-") as tmp:
         work = Path(tmp)
-        for strategy in strategies:
+        for size in sizes:
+            row = simplify_row(*files[size], work)
+            report["simplify"].append(row)
+            say(args, f"simplify {row['file']:>20}: {row['nodes']:>9,} nodes {row['mb']:6.1f} MB  {row['seconds']:6.2f} s "
+                      f"(read {row['read_s']:.2f}, simplify {row['simplify_s']:.2f}, write {row['write_s']:.2f})  "
+                      f"{row['mb_per_s']:5.2f} MB/s  peak {row['peak_mb']} MB")
+        if len(report["simplify"]) > 1:
+            first, last = report["simplify"][0], report["simplify"][-1]
+            report["linearity"] = round((last["seconds"] / last["nodes"]) / (first["seconds"] / first["nodes"]), 2)
+            say(args, f"time per node, {last['file']} against {first['file']}: {report['linearity']}x (1.0 is linear)")
+        largest, meta = files[sizes[-1]]
+        from osm_expand.clip import ClipStrategy
+
+        for strategy in (list(ClipStrategy) if args.clip_strategies else []):
             r = child(CLIP_CHILD, str(largest), json.dumps(meta["krems_box"]), str(work), str(strategy))
             row = {"file": largest.name, "strategy": str(strategy), "seconds": round(r["clip_s"], 2),
                    "peak_mb": round(r["peak_mb"]), "reads": r["reads"], "nodes": r["nodes"], "ways": r["ways"],
                    "relations": r["relations"], "clip_mb": round(r["clip_mb"], 2)}
             report["clip"].append(row)
-            if not args.json:
-                print(f"clip Krems out of {row['file']} ({row['strategy']}): {row['seconds']:.2f} s, "
+            say(args, f"clip Krems out of {row['file']} ({row['strategy']}): {row['seconds']:.2f} s, "
                       f"{row['reads']} reads, peak {row['peak_mb']} MB; {row['nodes']:,} nodes, "
-                      f"{row['ways']:,} ways, {row['relations']} relations ({row['clip_mb']} MB)", flush=True)
+                      f"{row['ways']:,} ways, {row['relations']} relations ({row['clip_mb']} MB)")
         if args.towns:
-            picked = [b for b in meta["boxes"]][: args.towns]
-            boxes = {f"{name.split('.')[0]}-{k}": box for name, k, *box in picked}
+            boxes = {f"{name.split('.')[0]}-{k}": box for name, k, *box in meta["boxes"][: args.towns]}
             r = child(TOWNS_CHILD, str(largest), json.dumps(boxes), str(work))
-            report["many_towns"] = {"towns": len(boxes), "seconds": round(r["clip_s"], 2), "reads": r["reads"],
-                                    "extracts": r["extracts"], "nodes": r["nodes"], "peak_mb": round(r["peak_mb"])}
-            m = report["many_towns"]
-            if not args.json:
-                print(f"clip {m['towns']} towns out of {largest.name} together: {m['seconds']:.2f} s, {m['reads']} reads, "
-                      f"peak {m['peak_mb']} MB; {m['extracts']} extracts, {m['nodes']:,} nodes", flush=True)
+            m = report["many_towns"] = {"towns": len(boxes), "seconds": round(r["clip_s"], 2), "reads": r["reads"],
+                                        "extracts": r["extracts"], "nodes": r["nodes"], "peak_mb": round(r["peak_mb"])}
+            say(args, f"clip {m['towns']} towns out of {largest.name} together: {m['seconds']:.2f} s, {m['reads']} reads, "
+                      f"peak {m['peak_mb']} MB; {m['extracts']} extracts, {m['nodes']:,} nodes")
         if not args.no_grow:
-            clip_row = report["clip"][0]
-            grown = child(GROW_CHILD, str(work / "krems.osm.pbf"), str(work / "krems.expanded.xml"))
-            original = child(GROW_CHILD, str(FIXTURES / KREMS), str(work / "original.expanded.xml"))
+            c = report["clipped_run"] = clipped_run(largest, meta["krems_box"], work)
             whole = report["simplify"][-1]
-            report["clipped_run"] = {
-                "clip_s": clip_row["seconds"], "grow_s": round(grown["grow_s"], 2),
-                "seconds": round(clip_row["seconds"] + grown["grow_s"], 2), "exit": grown["exit"],
-                "clip_peak_mb": clip_row["peak_mb"], "grow_peak_mb": round(grown["peak_mb"]),
-                "peak_mb": max(clip_row["peak_mb"], round(grown["peak_mb"])),
-                "whole_file_simplify_peak_mb": whole["peak_mb"],
-                "original_krems_grow_s": round(original["grow_s"], 2),
-                "original_krems_grow_peak_mb": round(original["peak_mb"]),
-                "town_as_original": grown["town"] == original["town"], "town": grown["town"]}
-            c = report["clipped_run"]
-            if not args.json:
-                print(f"clipped run (Krems' copy in {largest.name}): clip {c['clip_s']:.2f} s + grow {c['grow_s']:.2f} s "
-                      f"= {c['seconds']:.2f} s (exit {c['exit']}); peak {c['peak_mb']} MB (clip {c['clip_peak_mb']}, "
-                      f"grow {c['grow_peak_mb']}) against {c['whole_file_simplify_peak_mb']} MB for simplify on the "
-                      f"whole file; growing fixtures/{KREMS} itself: {c['original_krems_grow_s']:.2f} s, peak "
-                      f"{c['original_krems_grow_peak_mb']} MB; the town read from the clip "
-                      f"{'is' if c['town_as_original'] else 'is NOT'} the fixture's ({c['town']})", flush=True)
+            say(args, f"clipped run: osm-expand {largest.name} --bbox <Krems' copy> grows it in {c['seconds']:.2f} s "
+                      f"(clip {c['clip_s']:.2f} s, {c['clip']['reads']} reads; {c['years']} years), peak {c['peak_mb']} MB; "
+                      f"without --bbox the main command would first read the whole file ({c['whole_read_s']:.2f} s, peak "
+                      f"{c['whole_read_peak_mb']} MB, {c['whole_streets']:,} streets) and simplify it (simplify alone: "
+                      f"{whole['seconds']:.2f} s, peak {whole['peak_mb']} MB); fixtures/{KREMS} itself: "
+                      f"{c['original_seconds']:.2f} s, peak {c['original_peak_mb']} MB; the town read from the clip "
+                      f"{'is' if c['town_as_original'] else 'is NOT'} the fixture's ({c['town']})")
+        if args.osmnx_repeat:
+            import importlib.util
+
+            if importlib.util.find_spec("osmnx") is None:
+                say(args, "osmnx is not installed (pip install -e '.[bench]'): no whole-command ratio")
+            else:
+                o = report["osmnx"] = osmnx_ratio(FIXTURES / "north-bayreuth.osm.gz", args.osmnx_repeat, work)
+                say(args, f"whole command on {o['file']}, imports included, best of {o['runs']}: osm-expand simplify "
+                          f"{o['ours_best_s']:.2f} s (runs {o['ours_s']}, peak {o['ours_peak_mb']} MB), osmnx "
+                          f"graph_from_xml + project_graph + consolidate_intersections(10) {o['osmnx_best_s']:.2f} s "
+                          f"(runs {o['osmnx_s']}, peak {o['osmnx_peak_mb']} MB): {o['ratio']}x")
     if args.json:
         print(json.dumps(report))
     return 0

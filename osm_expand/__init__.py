@@ -9,21 +9,35 @@ The Python API mirrors the command line::
 
 ``simplify.simplify`` and ``synth.grow`` are the stages underneath;
 ``osm_expand.export`` holds the writers.
+
+Every name is imported when first used (PEP 562): ``import osm_expand`` and
+``osm-expand --help`` cost no NumPy, SciPy or Matplotlib, and each command
+imports only what it needs. (The lazy pipeline also breaks the import loop
+simplify/synth → this package's model → pipeline → simplify/synth.)
 """
-from osm_expand import export
 from osm_expand.errors import InputError
-from osm_expand.ingest import load
-from osm_expand.model import Block, Building, City, Origin, Status, Street, StreetNetwork, network_from_lines
 
 __all__ = ["Block", "Building", "City", "ExpandOptions", "ExpandResult", "InputError", "Origin", "Status", "Street",
            "StreetNetwork", "expand", "export", "load", "network_from_lines"]
 
+#: name → the module that defines it
+_LAZY = {
+    "load": "osm_expand.ingest",
+    "expand": "osm_expand.pipeline", "ExpandOptions": "osm_expand.pipeline", "ExpandResult": "osm_expand.pipeline",
+    **{name: "osm_expand.model" for name in ("Block", "Building", "City", "Origin", "Status", "Street",
+                                             "StreetNetwork", "network_from_lines")},
+}
+
 
 def __getattr__(name: str):
-    # The one lazy import: simplify and synth import this package's model, and the pipeline imports
-    # them, so importing the pipeline here eagerly would loop whenever simplify or synth is imported first.
-    if name in ("expand", "ExpandOptions", "ExpandResult"):
-        from osm_expand import pipeline
+    import importlib
 
-        return getattr(pipeline, name)
+    if name == "export":
+        return importlib.import_module("osm_expand.export")
+    if name in _LAZY:
+        return getattr(importlib.import_module(_LAZY[name]), name)
     raise AttributeError(f"module 'osm_expand' has no attribute {name!r}")
+
+
+def __dir__() -> list[str]:
+    return sorted({*globals(), *__all__})

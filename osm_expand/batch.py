@@ -72,6 +72,8 @@ FORMAT_SUFFIX = {"urbanenvironment": ".xml", "osm": ".osm", "geojson": ".geojson
 _OSM_SUFFIXES = (".osm.pbf", ".osm.gz", ".osm.bz2", ".osm", ".pbf", ".xml.gz", ".xml.bz2", ".xml", ".geojson", ".json")
 #: Main-command options a batch sets per job itself (refused among the pipeline options).
 _PER_JOB = {"-o", "--output", "--seed", "--preview", "--version", "-h", "--help"}
+#: Main-command options that clip the input (a towns table does that itself).
+_CLIP_OPTIONS = {"--bbox", "--around", "--radius", "--clip-index"}
 #: Options of the main command that are the batch's own (not copied into the batch parser).
 _NOT_PIPELINE = {"city", "output", "seed", "preview", "json", "quiet", "help", "version"}
 #: The main command's exit code after Ctrl-C.
@@ -442,6 +444,9 @@ def run_batch(inputs: Sequence[str | os.PathLike], out_dir: str | os.PathLike, *
     if towns is not None:
         if len(inputs) != 1:
             raise InputError(f"batch --towns takes exactly one input (the large file), got {len(inputs)}")
+        clipping = sorted({a.split("=", 1)[0] for a in args} & _CLIP_OPTIONS)
+        if clipping:
+            raise InputError(f"batch --towns clips each town out of the input itself; drop {', '.join(clipping)}")
         from osm_expand.ingest import OSM_SUFFIXES, check_readable
 
         check_readable(inputs[0], OSM_SUFFIXES)
@@ -532,7 +537,7 @@ def _clip_towns(src: Path, table: list[Town], out: Path, job: Callable[[str, Pat
     boxes = {t.name: box_around(t.lon, t.lat, t.radius) for t in table}
     clip_dir = out / "clips"
     clip_dir.mkdir(exist_ok=True)
-    say(f"clipping {len(boxes)} towns out of {src} in one read")
+    say(f"clipping {len(boxes)} towns out of {src} together")
     t0 = time.perf_counter()
     result = clip_extracts(src, boxes, clip_dir)
     clips = {"input": str(src.resolve()), "seconds": round(time.perf_counter() - t0, 2), "reads": result.reads,

@@ -69,7 +69,7 @@ from osmium.osm.mutable import Node, Relation, Way
 from osm_expand.errors import InputError
 
 __all__ = ["Box", "ClipOptions", "ClipResult", "ClipStrategy", "box_around", "check_box", "clip", "clip_extracts",
-           "parse_bbox"]
+           "clipped", "options_for_index", "parse_bbox", "requested_box"]
 
 #: (west, south, east, north) in degrees (WGS84).
 Box = tuple[float, float, float, float]
@@ -218,6 +218,100 @@ def box_around(lon: float, lat: float, radius_m: float) -> Box:
         raise InputError(f"--around {lon:g},{lat:g} --radius {radius_m:g}: the box crosses the antimeridian "
                          "(not supported)")
     return (lon - dlon, lat - dlat, lon + dlon, lat + dlat)
+
+
+def requested_box(*, bbox: str | None = None, around: str | None = None, radius: float | None = None) -> Box | None:
+    """The box of the command line's ``--bbox W,S,E,N`` or ``--around LON,LAT --radius M``.
+
+    Parameters
+    ----------
+    bbox : str, optional
+        ``"W,S,E,N"`` in degrees.
+    around : str, optional
+        ``"LON,LAT"`` in degrees; needs ``radius``.
+    radius : float, optional
+        Metres from ``around`` to the box's sides (:func:`box_around`).
+
+    Returns
+    -------
+    tuple of four floats, or None
+        (W, S, E, N) in degrees; None when neither option is given.
+
+    Raises
+    ------
+    InputError
+        Both options, ``--around`` without ``--radius`` (or the reverse), or a bad box.
+    """
+    if bbox is not None and (around is not None or radius is not None):
+        raise InputError("give --bbox or --around with --radius, not both")
+    if bbox is not None:
+        return parse_bbox(bbox)
+    if around is None and radius is None:
+        return None
+    if around is None:
+        raise InputError("--radius needs --around LON,LAT")
+    if radius is None:
+        raise InputError("--around needs --radius M (metres from the point to the box's sides)")
+    parts = [p.strip() for p in str(around).split(",")]
+    try:
+        lon, lat = (float(p) for p in parts)
+    except ValueError:
+        raise InputError(f"--around expects two numbers LON,LAT separated by a comma, got {around!r}") from None
+    return box_around(lon, lat, radius)
+
+
+def options_for_index(index: str | None) -> ClipOptions:
+    """The clip's options for the command line's ``--clip-index``.
+
+    None: the default two-pass clip (node locations in a temporary file
+    store). A name from ``osmium.index.map_types()`` (``flex_mem``,
+    ``sparse_mem_array``, ``dense_file_array,PATH``, ...): the one-pass clip
+    with that location index of every node.
+    """
+    if index is None:
+        return ClipOptions()
+    kinds = osmium.index.map_types()
+    if index.split(",")[0] not in kinds:
+        raise InputError(f"--clip-index {index!r} is not one of {', '.join(kinds)} "
+                         "(file-backed ones take ,PATH: sparse_file_array,/big/disk/nodes.idx)")
+    return ClipOptions(strategy=ClipStrategy.ONE_PASS.value, index=index)
+
+
+@contextlib.contextmanager
+def clipped(path: str | os.PathLike, box: Iterable[float], *, scratch: str | os.PathLike, what: str = "the box",
+            options: ClipOptions | None = None) -> Iterator[tuple[Path, dict]]:
+    """The extract of one box out of ``path``, in a temporary folder inside ``scratch``, removed on exit.
+
+    Parameters
+    ----------
+    path : path
+        A sorted OSM file.
+    box : four floats
+        (W, S, E, N) in degrees.
+    scratch : path
+        An existing folder with room for the extract and, with the default
+        two-pass clip, the node store (16 bytes per node of the input).
+    what : str
+        How messages name the box (``"--bbox 15.5,48.3,15.7,48.5"``).
+    options : ClipOptions, optional
+
+    Yields
+    ------
+    (Path, dict)
+        The extract, and what it holds: ``box``, ``nodes``, ``ways``,
+        ``relations`` and ``reads`` of the input.
+
+    Raises
+    ------
+    InputError
+        The box holds no node of the file, or the clip's own errors.
+    """
+    box = check_box(box, what)
+    with tempfile.TemporaryDirectory(prefix=".osm-expand-clip-", dir=scratch) as tmp:
+        result = clip_extracts(path, {"town": box}, tmp, options=options or ClipOptions())
+        if result.empty:
+            raise InputError(result.why_empty["town"].replace("the box of town", what))
+        yield result.paths["town"], {"box": list(box), **result.counts["town"], "reads": result.reads}
 
 
 def _check_name(name: str) -> str:

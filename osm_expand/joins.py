@@ -91,7 +91,7 @@ def add_streets(city: City, lines: Sequence[np.ndarray], attrs: Sequence[dict]) 
     the town's way, which keeps its id, tags and shape.
     """
     old_count, old_nodes = len(city.network.streets), len(city.network.xy)
-    net = city.network.with_new_streets(lines, attrs)
+    net = city.network.with_new_streets(lines, attrs, one_street_per_segment=True)
     ends = sorted({n for s in net.streets[old_count:] for n in (s.nodes[0], s.nodes[-1]) if n >= old_nodes})
     return city.replace(network=_insert_tees(net, old_count, np.array(ends, dtype=np.int64)))
 

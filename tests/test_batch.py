@@ -30,8 +30,8 @@ from osm_expand.ingest import load
 from tests.conftest import FIXTURES
 
 REPO = Path(__file__).resolve().parent.parent
-PIPELINE = ["--area", "200000", "--beyond-bounds"]
-THREE = ["krems.osm.gz", "monaco.osm.gz", "West-Oakland.osm.bz2"]
+PIPELINE = ["--area", "200000", "--beyond-bounds", "--years", "0"]
+THREE = ["bautzen.osm", "berlin-siegessaeule.osm.gz", "West-Oakland.osm.bz2"]  # the quickest fixtures to grow
 SEED = 7
 KREMS = FIXTURES / "krems.osm.gz"
 KREMS_CENTRE = (15.6097, 48.4104)
@@ -263,6 +263,14 @@ def test_a_bad_towns_table_is_refused_before_any_work(tmp_path, text, match):
 def test_pipeline_options_are_checked_before_any_work(tmp_path, args, match):
     with pytest.raises(InputError, match=match):
         run_batch([KREMS], tmp_path / "out", workers=1, pipeline_args=args)
+    assert not (tmp_path / "out").exists()
+
+
+def test_a_towns_table_refuses_clip_options(tmp_path):
+    towns = tmp_path / "towns.csv"
+    towns.write_text(f"name,lon,lat,radius\ncentre,{KREMS_CENTRE[0]},{KREMS_CENTRE[1]},900\n")
+    with pytest.raises(InputError, match="clips each town out of the input itself; drop --bbox"):
+        run_batch([KREMS], tmp_path / "out", towns=towns, workers=1, pipeline_args=["--bbox=15.6,48.4,15.61,48.41"])
 
 
 def test_the_batch_parser_passes_pipeline_options_through():
@@ -470,3 +478,57 @@ def test_the_preflight_says_in_one_line_which_worker_lacks_what(tmp_path):
         with pytest.raises(InputError, match=match) as err:
             _preflight(_FakeClient(answers), "tcp://s:1", [str(KREMS)], tmp_path)
         assert "\n" not in str(err.value) and str(err.value).startswith("--scheduler tcp://s:1: ")
+
+
+# --- clipping on the command line ------------------------------------------------------------------------
+
+
+def test_simplify_and_grow_with_around_are_the_commands_on_the_clipped_extract(tmp_path, capsys):
+    box = box_around(*KREMS_CENTRE, 700)
+    extract = clip(KREMS, {"town": box}, tmp_path)["town"]
+    around = ["--around", f"{KREMS_CENTRE[0]},{KREMS_CENTRE[1]}", "--radius", "700"]
+    assert cli.main(["simplify", str(KREMS), *around, "-o", str(tmp_path / "a.osm"), "-q", "--json"]) == 0
+    report = json.loads(capsys.readouterr().out)
+    assert report["input"] == str(KREMS) and report["clip"]["box"] == pytest.approx(list(box))
+    assert report["clip"]["nodes"] > 0 and report["clip"]["ways"] > 0
+    assert cli.main(["simplify", str(extract), "-o", str(tmp_path / "b.osm"), "-q"]) == 0
+    assert (tmp_path / "a.osm").read_bytes() == (tmp_path / "b.osm").read_bytes()
+    # the main command: --bbox gives the bytes of the command on the extract (no temporary path leaks in)
+    bbox = ",".join(f"{v!r}" for v in box)
+    grow = [*PIPELINE, "--seed", "3", "-q"]
+    assert cli.main([str(KREMS), f"--bbox={bbox}", "-o", str(tmp_path / "a.xml"), *grow]) == 0
+    assert cli.main([str(extract), "-o", str(tmp_path / "b.xml"), *grow]) == 0
+    assert (tmp_path / "a.xml").read_bytes() == (tmp_path / "b.xml").read_bytes()
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["a.osm", "a.xml", "b.osm", "b.xml", "town.osm.pbf"]
+
+
+@pytest.mark.parametrize("args, match", [
+    (["--bbox", "15.7,48.3,15.6,48.4"], "empty box"),
+    (["--bbox", "2.3,48.8,2.4,48.9"], "--bbox 2.3,48.8,2.4,48.9 .* lies outside the file's bounds"),
+    (["--around", "15.61,48.41"], "--around needs --radius"),
+    (["--radius", "500"], "--radius needs --around"),
+    (["--around", "48.41,15.61", "--radius", "500"], "lies outside the file's bounds"),
+    (["--bbox", "15.6,48.4,15.61,48.41", "--around", "15.61,48.41", "--radius", "5"], "not both"),
+    (["--clip-index", "flex_mem"], "--clip-index needs --bbox or --around"),
+    (["--bbox", "15.6,48.4,15.61,48.41", "--clip-index", "nope"], "--clip-index 'nope' is not one of"),
+])
+def test_bad_clip_options_are_one_line_errors(tmp_path, capsys, args, match):
+    import re
+
+    assert cli.main(["simplify", str(KREMS), "-o", str(tmp_path / "x.osm"), "-q", *args]) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and re.search(match, err), err
+    assert not list(tmp_path.iterdir())  # nothing written, no temporary folder left
+
+
+def test_clip_index_picks_the_one_pass_clip(tmp_path, capsys):
+    args = ["--around", f"{KREMS_CENTRE[0]},{KREMS_CENTRE[1]}", "--radius", "500", "-q", "--json"]
+    assert cli.main(["simplify", str(KREMS), "-o", str(tmp_path / "two.osm"), *args]) == 0
+    two = json.loads(capsys.readouterr().out)
+    assert cli.main(["simplify", str(KREMS), "-o", str(tmp_path / "one.osm"), "--clip-index", "sparse_mem_array",
+                     *args]) == 0
+    one = json.loads(capsys.readouterr().out)
+    assert one["clip"]["reads"] < two["clip"]["reads"]
+    assert {k: one["clip"][k] for k in ("nodes", "ways", "relations")} == \
+        {k: two["clip"][k] for k in ("nodes", "ways", "relations")}
+    assert (tmp_path / "one.osm").read_bytes() == (tmp_path / "two.osm").read_bytes()

@@ -171,12 +171,12 @@ def test_usage_errors_are_one_line_exit_2(capsys, argv, needle):
 
 
 def test_internal_error_is_exit_1_without_traceback(monkeypatch, tmp_path, capsys):
-    from osm_expand import pipeline
+    import simplify
 
     def broken(*_a, **_k):
         raise ZeroDivisionError("boom")
 
-    monkeypatch.setattr(pipeline, "simplify", broken)
+    monkeypatch.setattr(simplify, "simplify", broken)  # what `osm-expand simplify` calls (without the pipeline)
     code, _, stderr = run(["simplify", GOOD, "-o", tmp_path / "x.osm", "-q"], capsys)
     assert code == 1 and "internal error" in stderr and "Traceback" not in stderr
     assert not (tmp_path / "x.osm").exists()

@@ -27,7 +27,7 @@ from tests.conftest import FIXTURES
 
 KREMS = FIXTURES / "krems.osm.gz"
 EUROPEAN_YEARS = 20
-ERA_KEYS = {"era", "years", "streets_grown", "trips", "routes_over_capacity", "major_roads_built",
+ERA_KEYS = {"era", "years", "streets_grown", "trips", "routes_over_capacity", "routes_at_capacity", "major_roads_built",
             "bridges_built", "buildings_built", "lots_made"}
 
 

@@ -66,17 +66,23 @@ class TrafficYear:
     built: int = 0  #: planned streets built this year
     widened: int = 0
     trade: TradeYear = field(default_factory=TradeYear)
+    #: Trade routes over a segment carrying more than O2·width (Algorithm 2 never overloads one: this
+    #: counts what narrowing streets or growing demand left over capacity), at the worst year
     routes_over_capacity: int = 0
+    #: Trade routes with no capacity left (T_A(P) ≤ 0, 003 §3.4.2): where capacity ran out, at the worst year
+    routes_at_capacity: int = 0
 
     def __add__(self, other: "TrafficYear") -> "TrafficYear":
         return TrafficYear(self.trips + other.trips, self.people + other.people, self.built + other.built,
                            self.widened + other.widened, self.trade + other.trade,
-                           max(self.routes_over_capacity, other.routes_over_capacity))
+                           max(self.routes_over_capacity, other.routes_over_capacity),
+                           max(self.routes_at_capacity, other.routes_at_capacity))
 
     def to_dict(self) -> dict:
         return {"trips": self.trips, "people_per_day": round(self.people), "streets_built": self.built,
                 "streets_widened": self.widened, "trade_pairs_short": self.trade.short,
-                "trade_routes_added": self.trade.routes_added, "routes_over_capacity": self.routes_over_capacity}
+                "trade_routes_added": self.trade.routes_added, "routes_over_capacity": self.routes_over_capacity,
+                "routes_at_capacity": self.routes_at_capacity}
 
 
 def trade_major(table: SegmentTable, city: City) -> np.ndarray:
@@ -177,10 +183,11 @@ def traffic_year(city: City, memory: TrafficMemory, rng: np.random.Generator, *,
     trade, cap, counts = trade_year(memory.trade, memory.pairs, increase, cap)
     keys = [(int(min(p)), int(max(p))) for p in memory.pairs]
     short = [k for k in keys if trade.demand.get(k, 0.0) > trade.carried(k) + 1e-6]
-    over = trade_report(trade, cap).routes_over_capacity
+    capacity = trade_report(trade, cap)
     memory = replace(memory, trips=trips, graph=graph, trade=trade, pending=pending, first=False)
     year_report = TrafficYear(trips=report.trips, people=report.people, built=built, widened=widened, trade=counts,
-                              routes_over_capacity=over)
+                              routes_over_capacity=capacity.routes_over_capacity,
+                              routes_at_capacity=capacity.routes_at_capacity)
     return city, memory, year_report, short
 
 

@@ -150,26 +150,33 @@ class StreetNetwork:
         """An id no street of this network has."""
         return max((s.id for s in self.streets), default=-1) + 1
 
-    def with_new_streets(self, lines: Sequence[np.ndarray], attrs: Sequence[Mapping[str, Any]]) -> "StreetNetwork":
+    def with_new_streets(self, lines: Sequence[np.ndarray], attrs: Sequence[Mapping[str, Any]], *,
+                         one_street_per_segment: bool = False, same_node: float | None = None) -> "StreetNetwork":
         """This network plus streets along ``lines`` (metres), each with the given :class:`Street` fields.
 
         A point within :data:`SAME_NODE` (1 mm) of a node of this network is
         that node; points shared by the new lines become one new node. New
-        streets get fresh ids; new nodes get OSM id 0.
+        streets get fresh ids; new nodes get OSM id 0. With
+        ``one_street_per_segment`` a new line is cut where it would run along
+        a segment some street already has (what the tool grows; a file read
+        back keeps what it holds, parallel streets of a simplified network
+        included). ``same_node`` overrides the 1 mm (0: equal coordinates only,
+        for coordinates that are not metres).
         """
+        tolerance = SAME_NODE if same_node is None else float(same_node)
         if not len(lines):
             return self
         pts = np.concatenate([np.asarray(ln, dtype=float).reshape(-1, 2) for ln in lines])
-        known = match_points(pts, self.xy, SAME_NODE)
+        known = match_points(pts, self.xy, tolerance)
         fresh = np.flatnonzero(known < 0)
-        group = _same_points(pts[fresh])  # points of the new lines within SAME_NODE are one node
+        group = _same_points(pts[fresh], tolerance)  # points of the new lines within SAME_NODE are one node
         first_of, number = np.unique(group, return_index=True)[1], np.zeros(len(fresh), dtype=np.int64)
         number[first_of] = np.arange(len(first_of))
         known[fresh] = len(self.xy) + number[group]
         xy = np.vstack([self.xy, pts[fresh[first_of]].reshape(-1, 2)])
         ids = np.concatenate([self.node_ids, np.zeros(len(first_of), dtype=np.int64)])
         first, streets = self.next_street_id(), list(self.streets)
-        taken = _SegmentKeys(self.streets, len(xy))
+        taken = _SegmentKeys(self.streets if one_street_per_segment else (), len(xy), active=one_street_per_segment)
         extra = first + len(lines)  # ids of the second and later pieces of a line cut by a duplicate
         start = 0
         for k, (line, fields) in enumerate(zip(lines, attrs)):
@@ -193,7 +200,8 @@ class _SegmentKeys:
     there: two streets on one segment would cross everywhere along it.
     """
 
-    def __init__(self, streets: Sequence[Street], n_nodes: int):
+    def __init__(self, streets: Sequence[Street], n_nodes: int, active: bool = True):
+        self.active = active
         self.n = np.int64(max(n_nodes, 1))
         runs = [np.asarray(s.nodes, dtype=np.int64) for s in streets if len(s.nodes) >= 2]
         u = np.concatenate([r[:-1] for r in runs]) if runs else np.zeros(0, np.int64)
@@ -207,6 +215,8 @@ class _SegmentKeys:
         """``run`` split where it follows a known segment (pieces of ≥ 2 nodes); its segments become known."""
         if len(run) < 2:
             return []
+        if not self.active:
+            return [run]
         keys = self._key(run[:-1], run[1:])
         dup = np.fromiter((int(x) in self.keys for x in keys), dtype=bool, count=len(keys))
         self.keys.update(keys.tolist())
@@ -227,7 +237,7 @@ class _SegmentKeys:
 SAME_NODE = 1e-3
 
 
-def _same_points(pts: np.ndarray) -> np.ndarray:
+def _same_points(pts: np.ndarray, tolerance: float = SAME_NODE) -> np.ndarray:
     """A group label per point: points within :data:`SAME_NODE` (transitively) share the label of the
     first of them, so labels increase in order of first appearance."""
     if len(pts) < 2:
@@ -236,7 +246,7 @@ def _same_points(pts: np.ndarray) -> np.ndarray:
     from scipy.sparse.csgraph import connected_components
     from scipy.spatial import cKDTree
 
-    pairs = cKDTree(pts).query_pairs(SAME_NODE, output_type="ndarray")
+    pairs = cKDTree(pts).query_pairs(tolerance, output_type="ndarray")
     if not len(pairs):
         return np.arange(len(pts))
     graph = coo_matrix((np.ones(len(pairs)), (pairs[:, 0], pairs[:, 1])), shape=(len(pts), len(pts)))
@@ -271,4 +281,4 @@ def network_from_lines(lines: Sequence, attrs: Sequence[Mapping[str, Any]] | Non
         bounds = (proj.lon0, proj.lat0, proj.lon0, proj.lat0)
     empty = StreetNetwork(xy=np.zeros((0, 2)), node_ids=np.zeros(0, dtype=np.int64), streets=(),
                           context=Context(projection=proj, bounds_lonlat=bounds, bounds_from_header=False))
-    return empty.with_new_streets(arrays, attrs or [{}] * len(arrays))
+    return empty.with_new_streets(arrays, attrs or [{}] * len(arrays), same_node=0.0)  # equal coordinates only
