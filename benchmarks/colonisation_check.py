@@ -149,8 +149,8 @@ def district_blocks(data: dict, grown: shapely.Geometry, shared: float) -> list[
     return [i for i, a in zip(ids, along.tolist()) if a >= shared]
 
 
-def check(town: Path, xml: Path, report_path: Path, *, shared: float = 10.0) -> dict:
-    rep = json.loads(report_path.read_text())
+def check(town: Path, xml: Path, rep: dict, *, shared: float = 10.0) -> dict:
+    """The checks of the module docstring for one run: the town, its output XML, and its report (``--json``)."""
     data = read_xml(xml)
     streets = data["streets"]
     source = [s for s in streets if s.get("origin") == "source"]
@@ -197,15 +197,28 @@ def main() -> None:
                     help="metres of a block's boundary along colonisation streets that make it the district's")
     ap.add_argument("--markdown", action="store_true", help="also print a table row")
     args = ap.parse_args()
-    row = check(args.town, args.xml, args.report, shared=args.shared)
+    row = check(args.town, args.xml, json.loads(args.report.read_text()), shared=args.shared)
     print(json.dumps(row))
     if args.markdown:
-        forb = row["water_m"] + row["unbuildable_m"] + row["town_blocks_m"] + row["never_joined_roads_m"]
-        print(f"| {row['town']} | {row['years']} | {row['referee_violations']} | {row['grown_streets']} "
-              f"| {row['grown_km']} | {row['joins_report']} / {row['joins_xml']} | {forb:g} "
-              f"| {row['district_blocks']} | {row['district_lots']} | {row['district_buildings']} "
-              f"| {row['fidelity_off']} ({row['fidelity_median_part_off']}) | {row['density_ok']} "
-              f"| {', '.join(row['off_measures'])} |")
+        print(TABLE_HEAD)
+        print(markdown_row(row))
+
+
+#: Columns of :func:`markdown_row`.
+TABLE_HEAD = ("| town | years | referee violations | colonisation streets (km) | crossings | joins (report/XML) "
+              "| m in water / unbuildable / town blocks / by motorways | district blocks | lots | engine buildings "
+              "| fidelity off of 13 (median real part) | density ok | measures off |\n"
+              "|---|---|---|---|---|---|---|---|---|---|---|---|---|")
+
+
+def markdown_row(row: dict) -> str:
+    """One table row of :func:`check`'s result (columns :data:`TABLE_HEAD`)."""
+    return (f"| {row['town']} | {row['years']} | {row['referee_violations']} | {row['grown_streets']} "
+            f"({row['grown_km']}) | {row['grown_crossings']} | {row['joins_report']} / {row['joins_xml']} "
+            f"| {row['water_m']:g} / {row['unbuildable_m']:g} / {row['town_blocks_m']:g} "
+            f"/ {row['never_joined_roads_m']:g} | {row['district_blocks']} | {row['district_lots']} "
+            f"| {row['district_buildings']} | {row['fidelity_off']} ({row['fidelity_median_part_off']}) "
+            f"| {row['density_ok']} | {', '.join(row['off_measures'])} |")
 
 
 if __name__ == "__main__":
