@@ -16,7 +16,7 @@ independent of the code that grew the district:
   streets) against the town read again with :func:`osm_expand.ingest.load`
   and :func:`osm_expand.pipeline.prepare` (default land rules, as the CLI
   without ``--unbuildable``): metres inside water or sea, inside unbuildable
-  land, inside the town's blocks shrunk by 1 m (:attr:`City.occupied`'s
+  land (mapped areas, and the town's buildings with their margin), inside the town's blocks shrunk by 1 m (:attr:`City.occupied`'s
   rule: streets may run along a block's edge), and metres within 1 m of a
   never-joined road (motorway, motorway_link, trunk_link) on the ground;
 * **the district's blocks**: blocks (``<block>``) whose boundary runs at
