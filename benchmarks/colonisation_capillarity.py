@@ -21,7 +21,8 @@ The numbers behind ``tests/test_colonisation.py``'s ``test_capillarity_*`` and
   within 10° of 90° *or of 180°* — a T junction's straight-through street
   makes 180°, and no node of degree 3 can have three angles of 90°. The
   strict share (every angle within 10° of 90°, only possible at degree 4) is
-  printed too.
+  printed too; then the same with phase 2 at 90° as well (``--pattern
+  colonisation``'s angles), where four-way junctions appear.
 
 Means ± standard deviations over the seeds; the tests assert that the share
 rises and the density falls with KD, and that ≥ 80 % of junctions are
@@ -54,10 +55,11 @@ def capillarity(kd1: float, kd2: float, seed: int, second_phase: bool) -> tuple[
     return ends / max(ends + junctions, 1), float(length) / 100 ** 2, len(res.edges)
 
 
-def right_angles(seed: int) -> tuple[int, int, int, dict[int, int]]:
+def right_angles(seed: int, second_phase: bool = False) -> tuple[int, int, int, dict[int, int]]:
     """(junctions of degree >= 3, right-angled ones, strictly right-angled ones, count by degree)."""
     sl = 100.0
-    opts = ColonisationOptions(segment_length=sl, angle_range_1=(90.0, 90.0), second_phase=False)
+    opts = ColonisationOptions(segment_length=sl, angle_range_1=(90.0, 90.0), angle_range_2=(90.0, 90.0),
+                               second_phase=second_phase)
     region = shapely.box(0, 0, 30 * sl, 30 * sl)
     street = np.array([[0.0, 0.0], [30 * sl, 0.0]])
     res = colonise(region, seeds=[street], forbidden=None, options=opts, rng=np.random.default_rng(seed))
@@ -111,16 +113,18 @@ def main() -> None:
             print(f"| {kd1:g} | {kd2:g} | {summary([r[0] for r in rows])} | {summary([r[1] for r in rows])} "
                   f"| {np.mean([r[2] for r in rows]):.0f} | {per} |", flush=True)
     if not args.skip_grid:
-        print(f"\nright angles, phase 1 only at 90°, seeds {' '.join(map(str, args.seeds))}")
-        print("| seed | junctions (deg ≥ 3) | by degree | right-angled (90° or straight) | strictly 90° |")
-        print("|---|---|---|---|---|")
-        tot = good = strict = 0
-        for s in args.seeds:
-            t, g, st, deg = right_angles(s)
-            tot, good, strict = tot + t, good + g, strict + st
-            print(f"| {s} | {t} | {dict(sorted(deg.items()))} | {g} ({g / max(t, 1):.1%}) "
-                  f"| {st} ({st / max(t, 1):.1%}) |", flush=True)
-        print(f"| all | {tot} | | {good} ({good / max(tot, 1):.1%}) | {strict} ({strict / max(tot, 1):.1%}) |")
+        for second, title in ((False, "phase 1 only at 90° (the test)"),
+                              (True, "both phases at 90° (the angles of --pattern colonisation)")):
+            print(f"\nright angles, {title}, seeds {' '.join(map(str, args.seeds))}")
+            print("| seed | junctions (deg ≥ 3) | by degree | right-angled (90° or straight) | strictly 90° |")
+            print("|---|---|---|---|---|")
+            tot = good = strict = 0
+            for s in args.seeds:
+                t, g, st, deg = right_angles(s, second)
+                tot, good, strict = tot + t, good + g, strict + st
+                print(f"| {s} | {t} | {dict(sorted(deg.items()))} | {g} ({g / max(t, 1):.1%}) "
+                      f"| {st} ({st / max(t, 1):.1%}) |", flush=True)
+            print(f"| all | {tot} | | {good} ({good / max(tot, 1):.1%}) | {strict} ({strict / max(tot, 1):.1%}) |")
     print(f"\n{time.perf_counter() - t0:.0f} s")
 
 

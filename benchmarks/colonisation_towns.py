@@ -26,7 +26,8 @@ With ``--draw DIR`` a PNG per run (named by ``--png``, default
 buildings and the engine's in dark grey, the colonisation streets by level
 (red primary, orange secondary, purple tertiary), joining streets in green,
 the engine's streets thin black, joins as circles, the kernel's region dashed,
-water blue, occupied ground pink and the attraction points as dots.
+water blue, the town's blocks and unbuildable land pink and the attraction
+points as dots.
 """
 from __future__ import annotations
 
@@ -136,8 +137,10 @@ def picture(result, built, path: Path, title: str, dpi: int = 70) -> None:
     x0, y0, x1, y1 = shapely.buffer(result.growth.footprint, 250).bounds
     view = shapely.box(x0, y0, x1, y1)
     fig, ax = plt.subplots(figsize=(11, 11 * (y1 - y0) / max(x1 - x0, 1.0)))
-    fill(ax, shapely.intersection(result.city.occupied, view), color="#f3e3e3", lw=0)
-    fill(ax, shapely.intersection(result.city.water_geometry(), view), color="#a6cee3", lw=0)
+    town_blocks = [b.polygon for b in built.blocks if b.origin == Origin.SOURCE]  # not the district's
+    taken = shapely.union_all([*town_blocks, *([built.unbuildable] if built.unbuildable is not None else [])])
+    fill(ax, shapely.intersection(taken, view), color="#f3e3e3", lw=0)
+    fill(ax, shapely.intersection(built.water_geometry(), view), color="#a6cee3", lw=0)
     for f in result.growth.debug["features"]:
         layer = f["properties"]["layer"]
         if layer == "colonisation_region":
