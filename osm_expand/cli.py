@@ -493,10 +493,10 @@ def cmd_expand(args: argparse.Namespace, log: Progress) -> dict:
     history = load_history(args.history)
     years = history.years if args.years is None else args.years
     snapshots = _snapshot_dir(args, years)
-    log.add_stages(len(history.eras_visited(None, years)))
     with _read_from(args, city_path, out.parent, log) as (src, clip):
         log(f"reading {city_path}" + (" (the extract)" if clip else ""))
         city = load(src, service=args.service, paths=args.paths)
+    log.add_stages(len(history.eras_visited(city.year, years)))  # a stage per era the run passes
     pictures: list = []
     options = ExpandOptions(seed=args.seed, direction=None if args.direction == "auto" else args.direction,
                             at=_site_point(args, city), area=args.area, beyond_bounds=args.beyond_bounds, land=land,
