@@ -100,8 +100,7 @@ def grow_street_pattern(city: City, count: int, options: PatternOptions, nuclei:
     spawned = np.fromiter(memory.spawned, dtype=np.int64, count=len(memory.spawned))
     graph.spawned[spawned[spawned < n_nodes]] = True
     failed = np.array(memory.failed, dtype=float).reshape(-1, 2)
-    water = city.water_geometry()
-    reach = 2.0 * max(options.max_length_m * options.look_ahead, options.max_bridge_length_m) + 50.0
+    water, forbidden = city.water_geometry(), _forbidden(city)
     splits: list[tuple[np.ndarray, np.ndarray]] = []
     made, batch = 0, math.ceil(count / options.streets_per_start)
     for _ in range(CANDIDATE_ROUNDS):  # failed starts are spent; the next-ranked ones get their turn
@@ -111,8 +110,7 @@ def grow_street_pattern(city: City, count: int, options: PatternOptions, nuclei:
         if not len(z):
             break
         starts = z.take(rank_candidates(z.xy, nuclei, take=batch))
-        near = shapely.box(*starts.xy.min(axis=0), *starts.xy.max(axis=0)).buffer(reach, join_style="mitre")
-        step = grow_streets(graph, starts, options=options, rng=rng, water=water, forbidden=_forbidden(city, near),
+        step = grow_streets(graph, starts, options=options, rng=rng, water=water, forbidden=forbidden,
                             centre=centre, time=float(year))
         splits.append((step.split_segment, step.split_new_segment))
         failed = np.vstack([failed, np.asarray(step.failed_xy, dtype=float).reshape(-1, 2)])
@@ -137,16 +135,16 @@ def grow_street_pattern(city: City, count: int, options: PatternOptions, nuclei:
     return grown, GrowthYear(streets=len(grown.network.streets) - before, length_m=length, bridges=int(sum(bridges)))
 
 
-def _forbidden(city: City, near: shapely.Geometry) -> shapely.Geometry:
-    """Where no street may go within ``near`` (every street grown from the starts stays inside it):
-    the blocks and unbuildable land (water is handled by the pattern's bridges). Only what lies
-    near the starts is unioned: the whole town's blocks cost a second a year on Campo Grande."""
-    box = shapely.box(*near.bounds)
+def _forbidden(city: City) -> shapely.Geometry:
+    """Where no street may go: the blocks (shrunk 1 m) and unbuildable land; water is handled by the
+    pattern's bridges. A collection, not a union: the patterns only ask whether a segment touches it
+    (GEOS ≥ 3.13 answers that for overlapping parts), and the union of Campo Grande's blocks cost a
+    second a year."""
     blocks = np.array([b.polygon for b in city.blocks], dtype=object)
-    parts = shapely.buffer(blocks[shapely.intersects(blocks, box)], -1.0).tolist() if len(blocks) else []
+    parts = shapely.buffer(blocks, -1.0).tolist() if len(blocks) else []
     if city.unbuildable is not None:
-        parts.append(shapely.clip_by_rect(city.unbuildable, *box.bounds))
-    return shapely.union_all(parts)
+        parts.append(city.unbuildable)
+    return shapely.GeometryCollection([p for p in parts if not p.is_empty])
 
 
 def _not_bridges(graph: StreetGraph) -> np.ndarray:
