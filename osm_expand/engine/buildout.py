@@ -15,12 +15,16 @@ use, lots and buildings). One year:
 2. **Blocks to build out.** Block ids are renumbered whenever the loop
    recomputes blocks, so surviving lots find their block geometrically (a
    point inside the lot). A block is built out when it touches at least one
-   street the tool made (grown, join or engine) and holds none of the
-   town's buildings: the real town's blocks and buildings are never
-   touched. A block is subdivided once; afterwards only when its outline
-   changed (a street split it) or lots in it were demolished: its free land
-   (the block minus its surviving lots, minus water and land nothing new
-   may take) is subdivided again and the area heals.
+   street the tool made (grown, join or engine); blocks bounded by the
+   town's streets alone are never touched. Its free land is the block minus
+   water, land nothing new may take and the land within ``town_clearance``
+   of the town's buildings (a district's street that closes a block around
+   a few farmhouses builds on the fields, not in their gardens; the town's
+   buildings themselves are never touched). A block is subdivided once;
+   afterwards only when its outline changed (a street split it) or lots in
+   it were demolished: its free land, minus its surviving lots, is
+   subdivided again and the area heals. A lot whose streets changed (moved,
+   split, widened, gone) faces again the streets its edges lie on.
 3. **Types and lots** (002 §4.1, §5.1). A new block's land-use type is the
    one that raises the system value most against the lots around it
    (:func:`~osm_expand.engine.landuse.choose_types`); a healing block keeps
@@ -103,6 +107,10 @@ class BuildoutOptions:
     building_overlap: float = 0.5
     #: m², free land smaller than this is not subdivided (below the smallest lot class's ``min_area``, 150 m²).
     min_region: float = 100.0
+    #: m, land kept free around the town's buildings (their drawn rectangles) in a block that new
+    #: streets bound: a house's garden and its neighbour's side setback (the town's own lots are not
+    #: mapped; 10 m is about the depth of a front or back garden of the bundled lot classes).
+    town_clearance: float = 10.0
     #: New buildings needed in one year before the height scale is fitted and kept (a few dozen
     #: give a stable median; fewer are scaled by a fit on themselves without keeping it).
     min_fit: int = 30
@@ -117,7 +125,7 @@ class BuildoutOptions:
     def __post_init__(self) -> None:
         if not 0 < self.street_overlap <= 1:
             raise InputError(f"buildout street_overlap: must lie in (0, 1], got {self.street_overlap}")
-        for key in ("building_overlap", "min_region"):
+        for key in ("building_overlap", "min_region", "town_clearance"):
             if not getattr(self, key) >= 0:
                 raise InputError(f"buildout {key}: must be ≥ 0, got {getattr(self, key)}")
         if not self.band_prior >= 0:
@@ -293,6 +301,8 @@ class _Streets:
     widths: NDArray[np.float64]
     built: NDArray[np.bool_]
     new: NDArray[np.bool_]
+    #: ids of streets whose nodes or width changed since last year, or that are gone
+    changed: frozenset[int] = frozenset()
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "line_tree", shapely.STRtree(self.lines))
@@ -311,12 +321,15 @@ def _streets(city: City, memo: _Memo) -> tuple[_Streets, int]:
     lines = np.empty(len(streets), dtype=object)
     carriageways = np.empty(len(streets), dtype=object)
     fresh = []
+    changed = set(memo.streets) - {s.id for s in streets}
     for k, (s, w) in enumerate(zip(streets, widths.tolist())):
         hit = memo.streets.get(s.id)
         if hit is not None and hit[0] == s.nodes and hit[1] == w:
             lines[k], carriageways[k] = hit[2], hit[3]
         else:
             fresh.append(k)
+            if hit is not None:
+                changed.add(s.id)
     if fresh:
         sizes = np.array([len(streets[k].nodes) for k in fresh], dtype=np.int64)
         coords = net.xy[np.concatenate([np.asarray(streets[k].nodes, dtype=np.intp) for k in fresh])]
@@ -328,7 +341,7 @@ def _streets(city: City, memo: _Memo) -> tuple[_Streets, int]:
     signature = hash(tuple((s.id, s.nodes, w) for s, w in zip(streets, widths.tolist())))
     table = _Streets(ids=np.array([s.id for s in streets], dtype=np.int64), lines=lines, carriageways=carriageways,
                      widths=widths, built=np.array([s.status == Status.BUILT for s in streets], dtype=bool),
-                     new=np.array([s.is_new for s in streets], dtype=bool))
+                     new=np.array([s.is_new for s in streets], dtype=bool), changed=frozenset(changed))
     return table, signature
 
 
@@ -386,16 +399,39 @@ def _block_keys(blocks: Sequence[Block]) -> list[tuple[int, int, int]]:
     return list(zip(area.tolist(), centre[:, 0].tolist(), centre[:, 1].tolist()))
 
 
-def _relabel(state: LotState, known: frozenset[int]) -> LotState | None:
-    """The lot with edges on streets that no longer exist facing none; None when it fronts no street left."""
-    lab = state.lot.edge_street
-    if all(s in known for s in state.streets):
+def _relabel(state: LotState, streets: _Streets, tolerance: float = 1.0) -> LotState | None:
+    """The lot with its street-facing edges given again to the streets they lie on, when one of its
+    streets changed (moved, was split, widened or is gone); None when it fronts no street any more.
+
+    An edge that faced a street faces the street whose centre line is nearest to its ends and its
+    midpoint (the largest of the three distances), if that is at most the street's half width plus
+    ``tolerance`` m (a lot's edges lie half the width from the centre line; a widened street comes
+    nearer); else it faces none. Edges that faced no street keep facing none.
+    """
+    if not any(s in streets.changed for s in state.streets):
         return state
-    gone = (lab >= 0) & ~np.isin(lab, np.array(sorted(known), dtype=np.int64))
-    lab = np.where(gone, NO_STREET, lab)
+    ring, lab = state.lot.ring, state.lot.edge_street.copy()
+    front = np.flatnonzero(lab >= 0)
+    lab[front] = NO_STREET
+    if len(streets.lines):
+        a, b = ring[front], ring[(front + 1) % len(ring)]
+        half = 0.5 * streets.widths
+        mids = shapely.points(0.5 * (a + b))
+        edge, cand = streets.line_tree.query(mids, predicate="dwithin", distance=float(half.max()) + tolerance)
+        lines = streets.lines[cand]
+        worst = np.maximum.reduce([shapely.distance(shapely.points(a[edge]), lines),
+                                   shapely.distance(mids[edge], lines),
+                                   shapely.distance(shapely.points(b[edge]), lines)])
+        ok = worst <= half[cand] + tolerance
+        edge, cand, worst = edge[ok], cand[ok], worst[ok]
+        order = np.lexsort((cand, worst, edge))  # per edge, the nearest street first
+        edge, cand = edge[order], cand[order]
+        first = np.ones(len(edge), dtype=bool)
+        first[1:] = edge[1:] != edge[:-1]
+        lab[front[edge[first]]] = streets.ids[cand[first]]
     if not (lab >= 0).any():
         return None
-    return replace(state, lot=EngineLot(ring=state.lot.ring, edge_street=lab, block=state.lot.block,
+    return replace(state, lot=EngineLot(ring=ring, edge_street=lab, block=state.lot.block,
                                         land_use=state.lot.land_use), tried=None)
 
 
@@ -493,7 +529,6 @@ def _demolish(work: _Year, *, check: bool = True) -> set[int]:
     under a street since, and only the block matching runs.
     """
     streets, states = work.streets, work.states
-    known = frozenset(streets.ids.tolist())
     order = sorted(states)
     polys = np.array([states[k].lot.polygon for k in order], dtype=object)
     crossed = _lots_hit(polys, streets, work.memory.options.street_overlap) if check \
@@ -507,7 +542,7 @@ def _demolish(work: _Year, *, check: bool = True) -> set[int]:
     healing: set[int] = set()
     gone = 0
     for k, lot_id, hit, blk in zip(range(len(order)), order, crossed.tolist(), within.tolist()):
-        state = None if hit or blk < 0 else _relabel(states[lot_id], known)
+        state = None if hit or blk < 0 else _relabel(states[lot_id], streets)
         if state is None:
             del states[lot_id]
             gone += 1
@@ -543,16 +578,9 @@ def _blocks_under(work: _Year, poly: shapely.Polygon) -> list[int]:
 
 
 def _buildable(work: _Year) -> NDArray[np.bool_]:
-    """Blocks that touch a street the tool made and hold none of the town's buildings, (B,) bool."""
+    """Blocks that touch a street the tool made, (B,) bool (:func:`_free_land` keeps the town's buildings' land)."""
     new_ids = set(work.streets.ids[work.streets.new].tolist())
-    touches = np.array([any(i in new_ids for i in b.street_ids) for b in work.blocks], dtype=bool)
-    holds = np.zeros(len(work.blocks), dtype=bool)
-    pts = work.town.building_points
-    if len(pts) and len(work.blocks):
-        tree = shapely.STRtree(shapely.points(pts))
-        blk, _ = tree.query(np.array([b.polygon for b in work.blocks], dtype=object), predicate="contains")
-        holds[blk] = True
-    return touches & ~holds
+    return np.array([any(i in new_ids for i in b.street_ids) for b in work.blocks], dtype=bool)
 
 
 def _build_out_blocks(work: _Year, healing: set[int]) -> list[int]:
@@ -609,14 +637,19 @@ def _build_out_blocks(work: _Year, healing: set[int]) -> list[int]:
 
 
 def _free_land(work: _Year, block: int, lots_in: Sequence[int]) -> list[shapely.Polygon]:
-    """A block's land free for new lots: minus its surviving lots, water and unbuildable land, in parts."""
+    """A block's land free for new lots, in parts: minus its surviving lots, water, unbuildable land and
+    the land within ``town_clearance`` of the town's buildings."""
     geom = work.blocks[block].polygon
     if lots_in:
         geom = shapely.difference(geom, shapely.union_all([work.states[k].lot.polygon for k in lots_in]))
     memory = work.memory
-    near = memory.no_build_tree.query(geom, predicate="intersects")
+    taken = memory.no_build[memory.no_build_tree.query(geom, predicate="intersects")].tolist()
+    clearance = memory.options.town_clearance
+    near = memory.outline_tree.query(geom, predicate="dwithin", distance=clearance)
     if len(near):
-        geom = shapely.difference(geom, shapely.union_all(memory.no_build[near]))
+        taken.extend(shapely.buffer(memory.town.outlines[near], clearance, join_style="mitre").tolist())
+    if taken:
+        geom = shapely.difference(geom, shapely.union_all(taken))
     geom = shapely.make_valid(geom) if not geom.is_valid else geom
     return [p for p in shapely.get_parts(geom).tolist()
             if p.geom_type == "Polygon" and p.area >= memory.options.min_region]
