@@ -85,7 +85,7 @@ from osm_expand.engine.history import History, YearValues
 from osm_expand.engine.landuse import (UNASSIGNED, LotLayout, assign_types, block_types, choose_types,
                                        distance_to, goal_shares, lot_attributes, lot_layout, lot_values,
                                        update_land_use)
-from osm_expand.engine.lots import NO_STREET, LandUse, block_frontage, land_use, subdivide_blocks
+from osm_expand.engine.lots import NO_STREET, Frontage, LandUse, block_frontage, land_use, subdivide_blocks
 from osm_expand.engine.lots import Lot as EngineLot
 from osm_expand.engine.segments import street_width
 from osm_expand.errors import InputError
@@ -609,7 +609,8 @@ def _build_out_blocks(work: _Year, healing: set[int]) -> list[int]:
     classes = [land_use(t.lot_size_key) for t in types]
     uses = [classes[block_type[k]].value for k in part_block]
     streets = work.streets
-    frontage = block_frontage(parts, list(streets.lines), streets.ids, streets.widths)
+    frontage = _with_near_streets(parts, block_frontage(parts, list(streets.lines), streets.ids, streets.widths),
+                                  streets)
     made = subdivide_blocks(parts, frontage, uses, options=work.town.lot_options, rng=work.rng)
     if not made:
         work.count(blocks=len(todo))
@@ -634,6 +635,30 @@ def _build_out_blocks(work: _Year, healing: set[int]) -> list[int]:
     work.memory = replace(work.memory, next_lot=next_id)
     work.count(blocks=len(todo), lots_made=len(new_ids))
     return new_ids
+
+
+def _with_near_streets(parts: Sequence[shapely.Polygon], frontage: list[list[Frontage]],
+                       streets: _Streets) -> list[list[Frontage]]:
+    """Each part's frontage plus the whole centre line of every street whose carriageway reaches into it.
+
+    :func:`~osm_expand.engine.lots.block_frontage` gives each boundary edge to
+    the one street nearest it, so where two streets run close (a town street
+    and a grown one beside it, a wide road meeting at an acute angle) the
+    shrink by the frontage alone leaves land on the other one's carriageway,
+    and whole lots would be lost to :func:`_on_carriageway`. The shrink takes
+    these streets too; a lot edge they leave faces them.
+    """
+    if not len(parts) or not len(streets.lines):
+        return frontage
+    half = 0.5 * streets.widths
+    polys = np.array(parts, dtype=object)
+    part, line = streets.line_tree.query(polys, predicate="dwithin", distance=float(half.max()))
+    close = shapely.distance(polys[part], streets.lines[line]) < half[line]
+    out = [list(f) for f in frontage]
+    for k, j in zip(part[close].tolist(), line[close].tolist()):
+        out[k].append(Frontage(line=shapely.get_coordinates(streets.lines[j]), street=int(streets.ids[j]),
+                               width=float(streets.widths[j])))
+    return out
 
 
 def _free_land(work: _Year, block: int, lots_in: Sequence[int]) -> list[shapely.Polygon]:
