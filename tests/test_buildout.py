@@ -508,6 +508,17 @@ def test_the_preview_refuses_an_unknown_colouring(outputs, tmp_path):
         write_preview(city, tmp_path / "x.png", color_by="height")
 
 
+def test_the_preview_draws_a_window_and_refuses_an_empty_one(outputs, tmp_path):
+    city, _ = outputs
+    x0, y0, x1, y1 = shapely.union_all([lot.polygon for lot in city.lots]).bounds
+    whole, window = tmp_path / "whole.svg", tmp_path / "window.svg"
+    write_preview(city, whole, color_by="landuse")
+    write_preview(city, window, color_by="landuse", extent=(x0, y0, x1, y1))
+    assert window.read_bytes() != whole.read_bytes()
+    with pytest.raises(InputError, match="extent must be"):
+        write_preview(city, tmp_path / "x.png", extent=(x1, y0, x0, y1))
+
+
 def test_the_update_proposes_only_allowed_types_and_draws_the_same_numbers():
     from osm_expand.engine import landuse as lu
 
