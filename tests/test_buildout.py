@@ -386,8 +386,8 @@ def test_year_reports_add_up_and_are_json_ready():
 def test_bad_options_and_a_second_start_raise_input_errors():
     with pytest.raises(InputError, match="street_overlap"):
         BuildoutOptions(street_overlap=0.0)
-    with pytest.raises(InputError, match="min_fit"):
-        BuildoutOptions(min_fit=0)
+    with pytest.raises(InputError, match="town_clearance"):
+        BuildoutOptions(town_clearance=-1.0)
     with pytest.raises(InputError, match="town_cell"):
         CalibrationOptions(town_cell=-1.0)
     _, city, _, history, _ = built_out("krems.osm.gz")

@@ -54,10 +54,12 @@ use, lots and buildings). One year:
    draws it) or another generated building. A lot where nothing fits is not
    tried again until its type or its built streets change. Floors and
    height come from 002's economy with 004's centre fall-off
-   (:func:`~osm_expand.engine.economy.lot_economy`); the height scale is
-   fitted once, on the first year with at least ``min_fit`` new buildings,
-   so that the generated median matches the town's tagged (or default)
-   height, and kept: dearer land later builds taller (002).
+   (:func:`~osm_expand.engine.economy.lot_economy`). The height scale is
+   fitted every year on the raw floors of all the generated buildings
+   standing (each from the year it was built) and this year's together, so
+   that the district as a whole keeps the town's tagged (or default) median
+   height and spread, while within it dearer land — a later year, a better
+   place — builds taller (002).
 7. **People** (002 §3.2, §5.2): each lot's residents, jobs and visitors from
    its building's floor space and its land use
    (:func:`~osm_expand.engine.economy.occupants`): floor space per resident
@@ -111,9 +113,6 @@ class BuildoutOptions:
     #: streets bound: a house's garden and its neighbour's side setback (the town's own lots are not
     #: mapped; 10 m is about the depth of a front or back garden of the bundled lot classes).
     town_clearance: float = 10.0
-    #: New buildings needed in one year before the height scale is fitted and kept (a few dozen
-    #: give a stable median; fewer are scaled by a fit on themselves without keeping it).
-    min_fit: int = 30
     #: m, grid spacing of the rectangle sweep along a lot's street side (the kernel samples the lot's
     #: vertices exactly; 0.5 m is finer than any setback draw).
     resolution: float = 0.5
@@ -130,8 +129,6 @@ class BuildoutOptions:
                 raise InputError(f"buildout {key}: must be ≥ 0, got {getattr(self, key)}")
         if not self.band_prior >= 0:
             raise InputError(f"buildout band_prior: must be ≥ 0, got {self.band_prior}")
-        if self.min_fit < 1:
-            raise InputError(f"buildout min_fit: must be at least 1, got {self.min_fit}")
         if not self.resolution > 0:
             raise InputError(f"buildout resolution: must be positive, got {self.resolution}")
 
@@ -225,7 +222,8 @@ class BuildoutMemory:
     no_build_tree: shapely.STRtree
     outline_tree: shapely.STRtree  #: over ``town.outlines``
     next_lot: int = 0
-    scale: HeightScale | None = None
+    scale: HeightScale | None = None  #: last year's height scale (the substitution compares with it)
+    raw: Mapping[int, float] = field(default_factory=dict)  #: raw floors of each standing building, by lot id
     layout: LotLayout | None = None
     layout_ids: tuple[int, ...] = ()
     layout_lut: NDArray[np.int64] = field(default_factory=lambda: np.zeros(0, dtype=np.int64))
@@ -824,10 +822,11 @@ def _allowed(town: TownCalibration, n_town: int, lot_area: NDArray[np.float64]) 
 # ---------------------------------------------------------------------------- step 5–6: buildings
 
 
-def _economy(work: _Year, units: _Units, envelope: NDArray[np.float64], scale: HeightScale | None):
+def _economy(work: _Year, units: _Units, envelope: NDArray[np.float64], scale: HeightScale | None,
+             reference_raw: NDArray[np.float64] | None = None):
     return lot_economy(units.area, envelope, units.luv, units.lut, units.attrs[:, 0], avgprice=work.now.avgprice,
-                       calibration=work.town.heights, scale=scale, economies=work.history.economies,
-                       rng=work.rng, options=work.history.options.economy)
+                       calibration=work.town.heights, scale=scale, reference_raw=reference_raw,
+                       economies=work.history.economies, rng=work.rng, options=work.history.options.economy)
 
 
 def _substitute(work: _Year, units: _Units) -> None:
@@ -892,9 +891,11 @@ def _build(work: _Year, units: _Units) -> None:
     rows = np.array([units.row(cands[fp.lot]) for fp in footprints], dtype=np.intp)
     envelope = np.zeros(len(units.lut))
     envelope[rows] = [fp.rectangle.area for fp in footprints]
-    econ = _economy(work, units, envelope, work.memory.scale)
-    if work.memory.scale is None and len(footprints) >= work.memory.options.min_fit:
-        work.memory = replace(work.memory, scale=econ.scale)
+    raw = work.memory.raw
+    standing = np.array([raw[k] for k in sorted(work.buildings) if k in raw], dtype=np.float64)
+    econ = _economy(work, units, envelope, None, reference_raw=standing)  # the scale of the whole stock
+    work.memory = replace(work.memory, scale=econ.scale)
+    raw = dict(raw)
     for fp, row in zip(footprints, rows.tolist()):
         floors = int(econ.floors[row])
         if floors <= 0:
@@ -904,9 +905,11 @@ def _build(work: _Year, units: _Units) -> None:
         work.buildings[k] = Building(rings=(ring,), height=float(econ.height[row]), levels=float(floors),
                                      origin=Origin.ENGINE, year=work.year, land_use=types[work.states[k].type].name,
                                      lot=k)
+        raw[k] = float(econ.raw[row])
         if k in work.substituted:
             work.count(buildings_substituted=1, buildings_demolished=-1)
         work.count(buildings_built=1)
+    work.memory = replace(work.memory, raw=raw)
 
 
 def _bands(work: _Year, candidates: Sequence[LandUse], classes: Sequence[LandUse]) -> dict:
@@ -977,7 +980,8 @@ def _result(work: _Year, units: _Units, new_ids: list[int]) -> tuple[City, Build
     blocks = tuple(replace(b, land_use=types[int(t)].name) if t >= 0 else b for b, t in zip(blocks, block_lut))
     city = work.city.replace(lots=tuple(lots), buildings=tuple(kept + generated), blocks=blocks)
     work.memory.memo.keep_footprints(generated)
-    memory = replace(work.memory, lots=dict(work.states))
+    raw = {k: v for k, v in work.memory.raw.items() if k in work.buildings}  # demolished and replaced ones go
+    memory = replace(work.memory, lots=dict(work.states), raw=raw)
     return city, memory, work.report
 
 

@@ -479,11 +479,13 @@ class LotEconomy:
     height: NDArray[np.float64]
     occupants: Occupants
     scale: HeightScale
+    raw: NDArray[np.float64] | None = None  #: (L,) :func:`raw_floors` before the scale
 
 
 def lot_economy(area: NDArray[np.float64], envelope_area: NDArray[np.float64], luv: NDArray[np.float64],
                 lut: NDArray[np.int64], centre_dist: NDArray[np.float64], *, avgprice: float,
                 calibration: HeightCalibration, scale: HeightScale | None = None,
+                reference_raw: NDArray[np.float64] | None = None,
                 economies: Sequence[TypeEconomy] = DEFAULT_ECONOMY, rng: np.random.Generator,
                 options: EconomyOptions = EconomyOptions()) -> LotEconomy:
     """Price, floor space, floors, height and occupants of a building on every lot (002 §5.2–5.3, 004 §4.3.4).
@@ -504,7 +506,12 @@ def lot_economy(area: NDArray[np.float64], envelope_area: NDArray[np.float64], l
     calibration : HeightCalibration
         From :func:`calibrate_heights`.
     scale : HeightScale, optional
-        Keep the one returned by the first year; None fits it on these lots.
+        The scale to use; None fits it (:func:`fit_height_scale`) on these
+        lots' raw floors and ``reference_raw`` together.
+    reference_raw : ndarray, shape (K,), optional
+        Raw floors of buildings already standing (each from the year it was
+        built): fitting on them too calibrates the whole stock, not just
+        this year's buildings.
     rng : numpy.random.Generator
         Margins, then the height noise and doubling (three draws per lot).
 
@@ -521,11 +528,12 @@ def lot_economy(area: NDArray[np.float64], envelope_area: NDArray[np.float64], l
     econ = floors_from_floor_space(demand, envelope_area)
     raw = raw_floors(econ, centre_dist, rng=rng, options=options)
     if scale is None:
-        scale = fit_height_scale(raw, calibration, options=options)
+        sample = raw if reference_raw is None else np.concatenate([raw, np.asarray(reference_raw, np.float64)])
+        scale = fit_height_scale(sample, calibration, options=options)
     floors = building_floors(raw, lut, scale, economies=economies)
     built = floors * np.asarray(envelope_area, dtype=np.float64)
     return LotEconomy(price, margin, demand, floors, floors * calibration.storey_height,
-                      occupants(built, area, lut, economies=economies), scale)
+                      occupants(built, area, lut, economies=economies), scale, raw)
 
 
 # --------------------------------------------------------------------------- substitution (002 §5.4)
