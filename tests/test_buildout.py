@@ -364,6 +364,9 @@ def test_lots_on_planned_streets_wait_for_their_street_to_be_built():
     for b in generated(after):
         assert fronts[b.lot] & built  # only lots on a built street have buildings
     assert any(not (f & built) for f in fronts.values())  # and lots on planned streets exist, empty
+    # they count the people their land use expects: the trips that get their planned street built
+    waiting = [lot for lot in after.lots if not (fronts[lot.id] & built) and lot.land_use.startswith("residential")]
+    assert waiting and all(lot.people > 0 for lot in waiting)
 
 
 def test_same_seed_same_build_out():

@@ -30,6 +30,12 @@ def test_price_floor_space_and_floors_worked_by_hand():
     np.testing.assert_allclose(ec.lot_prices(area, [0.0, 0.0], 10.0), area * 10)
 
 
+def test_expected_floor_space_is_the_price_times_the_mean_margin():
+    area, luv = np.array([400.0, 800.0, 1000.0]), np.array([0.25, 0.75, 0.5])
+    got = ec.expected_floor_space(area, luv, np.array([0, 1, 2]), 100.0, economies=FIXED)
+    np.testing.assert_allclose(got, [400 * 100 * 0.5 * 0.005, 800 * 100 * 1.5 * 0.01, 0.0])  # parks: none
+
+
 def test_lot_economy_end_to_end_by_hand():
     cal = HeightCalibration(3.0, 6.0, (3.0, 9.0), 0, 0, False)
     result = ec.lot_economy(np.array([400.0, 800.0, 1000.0]), np.array([100.0, 200.0, 0.0]),

@@ -64,7 +64,12 @@ use, lots and buildings). One year:
    its building's floor space and its land use
    (:func:`~osm_expand.engine.economy.occupants`): floor space per resident
    or job per type, visitors per m² of park; ``Lot.people`` is their sum,
-   which the traffic step's trip model reads.
+   which the traffic step's trip model reads. A lot without a building yet
+   counts the floor space its land use expects
+   (:func:`~osm_expand.engine.economy.expected_floor_space`; 002 §4: "the
+   number of residents per lot depends on the land use value"): otherwise
+   no trip would ever start on a planned street, it would never carry the
+   traffic that gets it built (002 §3.2), and its lots would wait forever.
 
 What the town itself teaches (sizes, heights, centres, land-use goals and
 the old town's units) is read once by :func:`~osm_expand.engine.calibration.calibrate_town`.
@@ -81,7 +86,7 @@ from numpy.typing import NDArray
 
 from osm_expand.blocks import blocks as find_blocks
 from osm_expand.engine.calibration import CalibrationOptions, TownCalibration, calibrate_town, size_bands
-from osm_expand.engine.economy import HeightScale, lot_economy, occupants, substitute
+from osm_expand.engine.economy import HeightScale, expected_floor_space, lot_economy, occupants, substitute
 from osm_expand.engine.footprints import Footprint, place_buildings
 from osm_expand.engine.history import History, YearValues
 from osm_expand.engine.landuse import (UNASSIGNED, LotLayout, assign_types, block_types, choose_types,
@@ -959,10 +964,14 @@ def _result(work: _Year, units: _Units, new_ids: list[int]) -> tuple[City, Build
     """Step 7: people per lot, the city's lots, buildings and blocks; the memory for next year."""
     town, types = work.town, work.town.types
     ids = units.ids
-    fs = np.array([(work.buildings[k].levels or 0.0) * work.footprint(k)[1] if k in work.buildings else 0.0
+    fs = np.array([(work.buildings[k].levels or 0.0) * work.footprint(k)[1] if k in work.buildings else np.nan
                    for k in ids])
     lot_area = np.array([work.states[k].lot.area for k in ids])
     lut = np.array([work.states[k].type for k in ids], dtype=np.int64)
+    if ids:  # a lot without a building counts the people its land use expects there (002 §3.2, §4)
+        expected = expected_floor_space(units.area, units.luv, units.lut, work.now.avgprice,
+                                        economies=work.history.economies)[units.n_town:]
+        fs = np.where(np.isnan(fs), expected, fs)
     people = occupants(fs, lot_area, lut, economies=work.history.economies).people if ids else np.zeros(0)
     built_ids = work.streets.built_ids
     blocks = work.blocks

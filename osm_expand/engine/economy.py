@@ -67,7 +67,7 @@ from osm_expand.errors import InputError
 
 __all__ = [
     "HeightShape", "TypeEconomy", "DEFAULT_ECONOMY", "EconomyOptions",
-    "lot_prices", "sample_margins", "floors_from_floor_space", "centre_falloff",
+    "lot_prices", "expected_floor_space", "sample_margins", "floors_from_floor_space", "centre_falloff",
     "raw_floors", "HeightCalibration", "calibrate_heights", "HeightScale", "fit_height_scale",
     "building_floors", "Occupants", "occupants", "LotEconomy", "lot_economy",
     "substitution_probability", "Substitution", "substitute",
@@ -224,6 +224,31 @@ def lot_prices(area: NDArray[np.float64], luv: NDArray[np.float64], avgprice: fl
     mean = luv.mean() if len(luv) else 0.0
     ratio = luv / mean if mean > 0 else np.ones_like(luv)
     return area * float(avgprice) * ratio
+
+
+def expected_floor_space(area: NDArray[np.float64], luv: NDArray[np.float64], lut: NDArray[np.int64],
+                         avgprice: float, *, economies: Sequence[TypeEconomy] = DEFAULT_ECONOMY
+                         ) -> NDArray[np.float64]:
+    """Floor space (m²) the land use expects on each lot before anything is built: price · mean margin.
+
+    002 Eq. 9–10 with each type's mean margin instead of a draw (002 §4:
+    "the number of residents per lot depends on the land use value"): what
+    the traffic model counts for lots whose street is still planned, so that
+    the street draws the traffic that gets it built (002 §3.2).
+
+    Parameters
+    ----------
+    area, luv : ndarray, shape (L,)
+        As for :func:`lot_prices` (all the city's units: the price uses their mean ``luv``).
+    lut : ndarray of int, shape (L,)
+    avgprice : float
+
+    Returns
+    -------
+    ndarray, shape (L,)
+        0 for types without a margin (parks) and unassigned lots.
+    """
+    return lot_prices(area, luv, avgprice) * _per_type(lut, economies, "margin_mean")
 
 
 def sample_margins(lut: NDArray[np.int64], *, economies: Sequence[TypeEconomy] = DEFAULT_ECONOMY,
