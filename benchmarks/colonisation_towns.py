@@ -1,33 +1,37 @@
-"""Space colonisation on real towns: joins, referee verdict, buildable blocks and fidelity (issue 12).
+"""Space colonisation on real towns: referee, joins, forbidden ground, buildings in its blocks, fidelity (issue 12).
 
-    python benchmarks/colonisation_towns.py [--seeds 0 1 2] [--draw DIR [--dpi N]] [--out DIR] [TOWN ...]
+    python benchmarks/colonisation_towns.py [--seeds 0 1 2] [--years N] [--draw DIR [--png NAME] [--dpi N]]
+                                            [--out DIR] [TOWN ...]
 
-For each town and seed: ``expand(city, ExpandOptions(seed=s), pattern=Colonisation(example))``
-in-process (the town is read and learned once), then
+For each town and seed: ``expand(city, ExpandOptions(seed=s, years=N),
+pattern=Colonisation(example))`` in-process (the town is read and learned
+once), which is what ``osm-expand TOWN --pattern colonisation --seed s
+--years N`` runs; without ``--years`` the history's own years (30 for the
+default history ``example``), so the engine builds lots and buildings in the
+district's blocks. With ``--years 0`` no engine runs, and the district's
+blocks are split into lots and given buildings here by the engine's kernels
+(:func:`osm_expand.engine.lots.subdivide_blocks`,
+:func:`osm_expand.engine.footprints.place_buildings`; every street built,
+low-density residential, widths by class from :data:`WIDTH`), a quick stand-in.
 
-* the district's blocks (faces of the expanded network with a grown or
-  joining street on their edge, inside the district's footprint) are split
-  into lots and given buildings by the engine's kernels
-  (:func:`osm_expand.engine.lots.subdivide_blocks`,
-  :func:`osm_expand.engine.footprints.place_buildings`; every street built,
-  low-density residential, widths by class from :data:`WIDTH`), which stand
-  in for the year loop the lead is wiring;
-* the whole city with those buildings is written as ``<urbanenvironment>``
-  (:func:`osm_expand.export.write_urbanenvironment`), checked against the XSD
-  and by the independent referee (``/work/shared/tools/referee.py urban``);
-* the fidelity verdict of the pipeline is reported (measures off, the median
-  real part's, street density in range).
+The whole city is written as ``<urbanenvironment>``
+(:func:`osm_expand.export.write_urbanenvironment`, as the CLI does), checked
+against the XSD, and then judged from the file by
+``benchmarks/colonisation_check.py``'s :func:`check`: the independent
+referee, joins, metres of colonisation streets on forbidden ground, the
+district's blocks, lots and the buildings on them, and the fidelity report.
 
-With ``--draw DIR`` a PNG per run shows the town's streets in grey, the
-colonisation streets by level (red primary, orange secondary, purple
-tertiary), joining streets in green, joins as circles, the kernel's region
-dashed and its attraction points as dots.
+With ``--draw DIR`` a PNG per run (named by ``--png``, default
+``{town}-colonisation-{seed}.png``) shows the town's streets in grey, its
+buildings and the engine's in dark grey, the colonisation streets by level
+(red primary, orange secondary, purple tertiary), joining streets in green,
+the engine's streets thin black, joins as circles, the kernel's region dashed,
+water blue, occupied ground pink and the attraction points as dots.
 """
 from __future__ import annotations
 
 import argparse
 import json
-import subprocess
 import sys
 import tempfile
 import time
@@ -37,8 +41,10 @@ import numpy as np
 import shapely
 
 REPO = Path(__file__).resolve().parent.parent
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from colonisation_check import TABLE_HEAD, check, markdown_row  # noqa: E402
+
 TOWNS = ["krems.osm.gz", "campo-grande.osm.gz", "andorra.osm.pbf"]
-REFEREE = Path("/work/shared/tools/referee.py")
 #: Full street widths by class (m) for the lots' shrink: typical two-lane widths (no table in the seeds).
 WIDTH = {"primary": 14.0, "secondary": 12.0, "tertiary": 10.0, "unclassified": 8.0, "residential": 8.0}
 
@@ -72,14 +78,8 @@ def district_buildings(result, rng: np.random.Generator) -> tuple[int, int, list
     return len(mine), len(lots), made
 
 
-def referee(path: Path) -> dict:
-    out = subprocess.run([sys.executable, str(REFEREE), "urban", str(path)], capture_output=True, text=True)
-    report = json.loads(out.stdout) if out.stdout.strip() else {}
-    report["exit"] = out.returncode
-    return report
-
-
-def run(name: str, seeds: list[int], draw: Path | None, out_dir: Path, dpi: int = 70) -> list[dict]:
+def run(name: str, seeds: list[int], years: int | None, draw: Path | None, png: str, out_dir: Path,
+        dpi: int = 70) -> list[dict]:
     from osm_expand.export import write_urbanenvironment
     from osm_expand.export.urban import validate
     from osm_expand.ingest import load
@@ -88,40 +88,38 @@ def run(name: str, seeds: list[int], draw: Path | None, out_dir: Path, dpi: int 
 
     city = load(REPO / "fixtures" / name)
     pattern = Colonisation(learn(city).example)
+    stem = name.split(".")[0]
     rows = []
     for seed in seeds:
         t0 = time.perf_counter()
-        result = expand(city, ExpandOptions(seed=seed, years=0), pattern=pattern)
+        result = expand(city, ExpandOptions(seed=seed, years=years), pattern=pattern)
         seconds = time.perf_counter() - t0
-        n_blocks, n_lots, made = district_buildings(result, np.random.default_rng([seed, 0xB1D]))
-        built = result.city.replace(buildings=result.city.buildings + tuple(made))
-        xml = out_dir / f"{name.split('.')[0]}-colonisation-{seed}.xml"
+        built, stand_in = result.city, None
+        if years == 0:
+            stand_in = district_buildings(result, np.random.default_rng([seed, 0xB1D]))
+            built = built.replace(buildings=built.buildings + tuple(stand_in[2]))
+        xml = out_dir / f"{stem}-colonisation-{seed}.xml"
         write_urbanenvironment(built, xml)
-        ref = referee(xml)
-        f = result.report.get("fidelity", {})
+        report = json.loads(json.dumps({"seed": seed, **result.report}, default=float))
+        row = check(REPO / "fixtures" / name, xml, report)
+        if stand_in is not None:  # the XML has no lots: count what was placed here
+            row.update(district_blocks=stand_in[0], district_lots=stand_in[1], district_buildings=len(stand_in[2]))
         d = result.growth.debug
-        rows.append({"town": name, "seed": seed, "seconds": round(seconds, 1), "site": result.report["site_rank"],
-                     "grown": result.report["grown_streets"], "km": result.report["grown_length_km"],
-                     "joins": result.joins.joins, "kernel_joins": d["kernel_joins"], "links": result.joins.links,
-                     "tees": result.joins.tees, "blocks": n_blocks, "lots": n_lots, "buildings": len(made),
-                     "xsd_errors": len(validate(xml)), "referee_exit": ref["exit"],
-                     "violations": {k: v for k, v in ref.get("report", ref).items()
-                                    if isinstance(v, int) and k not in ("streets", "segments", "buildings", "exit")
-                                    and v},
-                     "off": f.get("off"), "typical_off": f.get("typical_part_off"),
-                     "density_ok": f.get("density_ok"),
-                     "off_measures": sorted(k for k, v in f.get("measures", {}).items() if not v["ok"]),
-                     "corridor": d["corridor"], "aps": d["attraction_points"]})
-        print(json.dumps(rows[-1]), flush=True)
+        row.update(seconds=round(seconds, 1), xsd_errors=len(validate(xml)), corridor=d["corridor"],
+                   aps=d["attraction_points"], kernel_joins=d["kernel_joins"])
+        rows.append(row)
+        print(json.dumps({k: v for k, v in row.items() if k != "district"}), flush=True)
         if draw is not None:
-            picture(result, made, draw / f"{name.split('.')[0]}-colonisation-{seed}.png",
-                    f"{name} seed {seed}: {rows[-1]['grown']} streets, {rows[-1]['joins']} joins, "
-                    f"{len(made)} buildings, fidelity off {rows[-1]['off']} "
-                    f"(median real part {rows[-1]['typical_off']})", dpi)
+            title = (f"{name} seed {seed}, {row['years']} years: {row['grown_streets']} colonisation streets, "
+                     f"{row['joins_report']} joins, {row['district_buildings']} buildings in its "
+                     f"{row['district_blocks']} blocks, fidelity off {row['fidelity_off']} "
+                     f"(median real part {row['fidelity_median_part_off']})")
+            picture(result, built, draw / png.format(town=stem, seed=seed), title, dpi)
     return rows
 
 
-def picture(result, made: list, path: Path, title: str, dpi: int = 70) -> None:
+def picture(result, built, path: Path, title: str, dpi: int = 70) -> None:
+    """The district and its surroundings (module docstring)."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -134,7 +132,7 @@ def picture(result, made: list, path: Path, title: str, dpi: int = 70) -> None:
             if p.geom_type == "Polygon":
                 ax.fill(*p.exterior.xy, **kw)
 
-    net = result.city.network
+    net = built.network
     x0, y0, x1, y1 = shapely.buffer(result.growth.footprint, 250).bounds
     view = shapely.box(x0, y0, x1, y1)
     fig, ax = plt.subplots(figsize=(11, 11 * (y1 - y0) / max(x1 - x0, 1.0)))
@@ -147,8 +145,9 @@ def picture(result, made: list, path: Path, title: str, dpi: int = 70) -> None:
         elif layer == "attraction_point":
             x, y = f["geometry"]["coordinates"]
             ax.plot(x, y, ".", ms=2, color="#1f78b4" if f["properties"]["phase"] == 1 else "#33a02c", alpha=0.4)
-    for b in made:
-        ax.fill(*b.ring.T, color="#555555", lw=0)
+    for b in built.buildings:
+        if b.origin == Origin.ENGINE or shapely.intersects(view, b.polygon):
+            ax.fill(*b.ring.T, color="#555555" if b.origin == Origin.ENGINE else "#9a9a9a", lw=0)
     colours = {0: "#d7191c", 1: "#f29e2e", 2: "#7b3294"}
     for s in net.streets:
         xy = net.street_xy(s)
@@ -156,6 +155,8 @@ def picture(result, made: list, path: Path, title: str, dpi: int = 70) -> None:
             ax.plot(*xy.T, color="0.6", lw=0.8)
         elif s.origin == Origin.JOIN:
             ax.plot(*xy.T, color="#1a9641", lw=2.2)
+        elif s.origin == Origin.ENGINE:
+            ax.plot(*xy.T, color="black", lw=0.7)
         else:
             ax.plot(*xy.T, color=colours.get(s.hierarchy, "k"), lw=2.6 if s.hierarchy == 0 else 1.8)
     at = np.asarray(result.joins.at).reshape(-1, 2)
@@ -173,7 +174,10 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("towns", nargs="*", default=TOWNS)
     ap.add_argument("--seeds", nargs="+", type=int, default=[0, 1, 2])
+    ap.add_argument("--years", type=int, default=None,
+                    help="years of the default history (default: its own, 30); 0: no engine, stand-in buildings")
     ap.add_argument("--draw", type=Path, help="write a PNG per run into this folder")
+    ap.add_argument("--png", default="{town}-colonisation-{seed}.png", help="the PNGs' names ({town}, {seed})")
     ap.add_argument("--dpi", type=int, default=70, help="resolution of the pictures")
     ap.add_argument("--out", type=Path, help="keep the XML files in this folder (default: a temporary one)")
     args = ap.parse_args()
@@ -182,16 +186,15 @@ def main() -> None:
         for d in (args.draw, out_dir):
             if d is not None:
                 d.mkdir(parents=True, exist_ok=True)
-        rows = [r for name in args.towns for r in run(name, args.seeds, args.draw, out_dir, args.dpi)]
-    print("\n| town | seed | site | grown streets | km | joins (kernel/links/tees) | blocks | lots | buildings "
-          "| XSD errors | referee | fidelity off (median part) | density ok | off on | s |")
-    print("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|")
+        rows = [r for name in args.towns
+                for r in run(name, args.seeds, args.years, args.draw, args.png, out_dir, args.dpi)]
+    print()
+    print(TABLE_HEAD.replace("| town |", "| town | seed |").replace("|---|", "|---|---|", 1))
     for r in rows:
-        verdict = "0 violations" if r["referee_exit"] == 0 else json.dumps(r["violations"])
-        print(f"| {r['town']} | {r['seed']} | {r['site']} | {r['grown']} | {r['km']} | {r['joins']} "
-              f"({r['kernel_joins']}/{r['links']}/{r['tees']}) | {r['blocks']} | {r['lots']} | {r['buildings']} "
-              f"| {r['xsd_errors']} | {verdict} | {r['off']} ({r['typical_off']}) | {r['density_ok']} "
-              f"| {', '.join(r['off_measures'])} | {r['seconds']} |")
+        print(markdown_row(r).replace(f"| {r['town']} |", f"| {r['town']} | {r['seed']} |", 1))
+    print("\n| town | seed | s | XSD errors | attraction points | corridor |\n|---|---|---|---|---|---|")
+    for r in rows:
+        print(f"| {r['town']} | {r['seed']} | {r['seconds']} | {r['xsd_errors']} | {r['aps']} | {r['corridor']} |")
 
 
 if __name__ == "__main__":

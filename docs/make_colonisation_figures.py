@@ -73,7 +73,7 @@ def save(fig: plt.Figure, path: Path) -> None:
     fig.legend(handles, ["primary", "secondary", "tertiary", "old street"], loc="lower center", ncol=4,
                frameon=False, fontsize=9)
     fig.tight_layout(rect=(0, 0.05, 1, 1))
-    fig.savefig(path, dpi=80)
+    fig.savefig(path, dpi=80, bbox_inches="tight", pad_inches=0.1)  # the titles whole
     plt.close(fig)
     print(path)
 
@@ -111,6 +111,9 @@ def source_park(out: Path) -> None:
     Roads follow the flow or its perpendicular, never against it, so they stay
     on equipotentials φ = U y + a/(2π) ln r or move to higher ones: the closed
     equipotential through the stagnation point (drawn green) bounds the park.
+    Segments are one SL long and take the flow at their far end, so a few cut
+    into its edge and its southern tip: the metres of street inside it are
+    printed for both panels.
     """
     region = shapely.box(0, 0, 3000, 3000)
     street = np.array([[-200.0, 0.0], [3200.0, 0.0]])
@@ -123,18 +126,32 @@ def source_park(out: Path) -> None:
     phi = speed * gy + strength / (2 * np.pi) * np.log(np.maximum(np.hypot(gx - centre[0], gy - centre[1]), 1e-6))
     stagnation = (centre[0], centre[1] - strength / (2 * np.pi * speed))
     level = speed * stagnation[1] + strength / (2 * np.pi) * np.log(centre[1] - stagnation[1])
+
+    def in_park(xy: np.ndarray) -> np.ndarray:
+        """Inside the closed equipotential through the stagnation point (north of it, φ below its level)."""
+        r = np.maximum(np.hypot(xy[:, 0] - centre[0], xy[:, 1] - centre[1]), 1e-6)
+        return (xy[:, 1] > stagnation[1]) & (speed * xy[:, 1] + strength / (2 * np.pi) * np.log(r) < level)
+
     fig, axes = plt.subplots(1, 2, figsize=(13, 6.6))
     for ax, field, title in ((axes[0], plain, "uniform flow northward (100 %)"),
-                             (axes[1], flow, "+ a source: the park (green) stays empty")):
+                             (axes[1], flow, "+ a source: the park (green) stays almost empty")):
         opts = ColonisationOptions(segment_length=SL)
         res = colonise(region, seeds=[street], forbidden=None, options=opts, rng=np.random.default_rng(1),
                        flow=field)
         draw(ax, res, [street], region, title, flow=field, arrows=4)
+        pts = np.concatenate([_every_metre(s.xy) for s in res.streets])
+        print(f"  {title}: {in_park(pts).sum()} m of {len(pts)} m of street inside the park")
         if field is flow:
             closed = np.where(gy > stagnation[1], phi, np.inf)  # the egg, not the open field south of it
             ax.contourf(gx, gy, closed, levels=[phi.min() - 1.0, level], colors=["#b8dca0"], zorder=1)
             ax.plot(*centre, marker="*", color="#2b8a3e", ms=12, zorder=6)
     save(fig, out / "colonisation-source-park.png")
+
+
+def _every_metre(xy: np.ndarray) -> np.ndarray:
+    """Points one metre apart along a polyline (metres), its first point included."""
+    line = shapely.LineString(xy)
+    return shapely.get_coordinates(shapely.line_interpolate_point(line, np.arange(0.0, line.length, 1.0)))
 
 
 def vortex_rings(out: Path) -> None:
