@@ -5,7 +5,9 @@ one of :data:`COMMANDS`. Exit codes: 0 success, 2 bad usage or unusable
 input (one line on stderr naming the file and the problem, nothing written),
 1 an internal error. Everything that can be checked before the work is
 checked first. Results go to files or, with ``--json``, to stdout;
-progress goes to stderr (a progress bar; ``-q`` silences it).
+progress goes to stderr (a progress bar; ``-q`` silences it). Each command
+imports what it needs inside its function, for start-up time only
+(``osm-expand --help`` in 0.08 s); no import cycle is dodged.
 """
 from __future__ import annotations
 
@@ -493,10 +495,10 @@ def cmd_expand(args: argparse.Namespace, log: Progress) -> dict:
     history = load_history(args.history)
     years = history.years if args.years is None else args.years
     snapshots = _snapshot_dir(args, years)
-    log.add_stages(len(history.eras_visited(None, years)))
     with _read_from(args, city_path, out.parent, log) as (src, clip):
         log(f"reading {city_path}" + (" (the extract)" if clip else ""))
         city = load(src, service=args.service, paths=args.paths)
+    log.add_stages(len(history.eras_visited(city.year, years)))  # a stage per era the run passes
     pictures: list = []
     options = ExpandOptions(seed=args.seed, direction=None if args.direction == "auto" else args.direction,
                             at=_site_point(args, city), area=args.area, beyond_bounds=args.beyond_bounds, land=land,

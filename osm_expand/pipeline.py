@@ -9,6 +9,9 @@ success, and the next site is tried.
 The result is the whole city: the town as mapped plus the district, each
 street marked with its origin. The simplified network and the example are
 how the town was learned; they are returned beside it, never as the town.
+Then :func:`mature` lets it live through the years of a history (the
+engine, imported there so that callers who only grow a district do not load
+it; there is no import cycle to dodge).
 """
 from __future__ import annotations
 

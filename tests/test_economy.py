@@ -30,6 +30,12 @@ def test_price_floor_space_and_floors_worked_by_hand():
     np.testing.assert_allclose(ec.lot_prices(area, [0.0, 0.0], 10.0), area * 10)
 
 
+def test_expected_floor_space_is_the_price_times_the_mean_margin():
+    area, luv = np.array([400.0, 800.0, 1000.0]), np.array([0.25, 0.75, 0.5])
+    got = ec.expected_floor_space(area, luv, np.array([0, 1, 2]), 100.0, economies=FIXED)
+    np.testing.assert_allclose(got, [400 * 100 * 0.5 * 0.005, 800 * 100 * 1.5 * 0.01, 0.0])  # parks: none
+
+
 def test_lot_economy_end_to_end_by_hand():
     cal = HeightCalibration(3.0, 6.0, (3.0, 9.0), 0, 0, False)
     result = ec.lot_economy(np.array([400.0, 800.0, 1000.0]), np.array([100.0, 200.0, 0.0]),
@@ -130,6 +136,21 @@ def test_fitted_scale_puts_the_generated_median_on_the_tagged_one():
     q = np.quantile(ec.building_floors(raw, np.ones(n, int), s), [0.25, 0.5, 0.75])
     np.testing.assert_allclose(q, [2, 3, 4], atol=0.5)
     assert ec.fit_height_scale(raw, default, options=EconomyOptions(match_spread=False)).b == 1.0
+
+
+def test_the_scale_is_fitted_on_the_standing_buildings_and_the_new_ones_together():
+    cal = HeightCalibration(3.0, 9.0, (6.0, 12.0), 0, 0, False)
+    args = (np.array([400.0, 800.0, 600.0]), np.array([100.0, 200.0, 150.0]), np.array([0.25, 0.75, 0.5]),
+            np.array([0, 0, 0]), np.zeros(3))
+    kw = dict(avgprice=100.0, calibration=cal, economies=FIXED, options=ECONOMY_ONLY)
+    alone = ec.lot_economy(*args, rng=np.random.default_rng(0), **kw)
+    assert alone.raw is not None and alone.scale == ec.fit_height_scale(alone.raw, cal, options=ECONOMY_ONLY)
+    assert np.median(alone.floors) == 3  # fitted on themselves, they take the target median
+    standing = np.full(50, 10.0 * alone.raw.max())  # a district of much dearer buildings already stands
+    joint = ec.lot_economy(*args, reference_raw=standing, rng=np.random.default_rng(0), **kw)
+    np.testing.assert_array_equal(joint.raw, alone.raw)
+    assert joint.scale == ec.fit_height_scale(np.concatenate([alone.raw, standing]), cal, options=ECONOMY_ONLY)
+    assert (joint.floors <= alone.floors).all() and joint.floors.sum() < alone.floors.sum()  # lower beside them
 
 
 def test_building_floors_are_whole_at_least_one_and_capped_per_type():

@@ -205,6 +205,51 @@ def test_only_lots_on_built_streets_get_buildings_facing_the_busiest_one():
     assert corner and all(fp.street == 2 for fp in corner)
 
 
+def test_a_lot_whose_busiest_street_side_is_too_short_faces_the_next_built_street():
+    # a 12 m × 40 m corner lot: 12 m on the busy street 0 leave 4 m between 4 m side setbacks (under
+    # the 5 m minimum side); along its 40 m side on the quiet street 1 a 10 m × 20 m building fits
+    ring = np.array([[0.0, 0.0], [12.0, 0.0], [12.0, 40.0], [0.0, 40.0]])
+    lot = Lot(ring=ring, edge_street=np.array([0, -1, -1, 1]))
+    opts = {LandUse.RESIDENTIAL_LOW: FootprintOptions(side_setback=(4.0, 4.0), front_setback=(1.0, 1.0),
+                                                      back_setback=(1.0, 1.0), front_variation=0.0)}
+    (fp,) = place_buildings([lot], traffic_per_street={0: 100.0, 1: 1.0}, built_streets={0, 1}, options=opts,
+                            rng=np.random.default_rng(0))
+    assert fp.street == 1
+    c = fp.rectangle.corners
+    assert np.allclose(c[:2, 0], 1.0)  # its front 1 m off the lot's side on street 1 (x = 0)
+    assert place_buildings([lot], traffic_per_street={0: 100.0}, built_streets={0}, options=opts,
+                           rng=np.random.default_rng(0)) == []  # street 1 planned: nothing fits
+
+
+def test_a_lot_on_a_curved_street_faces_the_chord_of_its_curve():
+    # a 60° sector of radius 30 m, its arc (five edges turning 12° each, 6.3 m long) on street 0:
+    # no single side leaves a 5 m building between 1.5 m side setbacks; the 30 m chord does
+    angles = np.radians(np.linspace(-30.0, 30.0, 6))
+    ring = np.vstack([[0.0, 0.0], 30.0 * np.c_[np.cos(angles), np.sin(angles)]])
+    lot = Lot(ring=ring, edge_street=np.array([-1, 0, 0, 0, 0, 0, -1]))
+    opts = {LandUse.RESIDENTIAL_LOW: FootprintOptions(side_setback=(1.5, 1.5), front_setback=(2.0, 2.0),
+                                                      back_setback=(1.0, 1.0), front_variation=0.0)}
+    assert all(side.length < 6.5 for side in lot.sides() if side.street == 0)
+    (fp,) = place_buildings([lot], traffic_per_street={0: 1.0}, built_streets={0}, options=opts,
+                            rng=np.random.default_rng(0))
+    c = fp.rectangle.corners
+    assert np.allclose(c[:2, 0], 30.0 * math.cos(math.radians(30.0)) - 2.0)  # front 2 m behind the chord
+    assert lot.polygon.buffer(1e-6).covers(fp.rectangle.polygon) and fp.rectangle.area > 100.0
+
+
+def test_a_shallow_lot_builds_at_the_least_setbacks_where_the_drawn_ones_leave_no_room():
+    # 30 m × 12 m: a front setback drawn from 3–30 m leaves no 5 m depth before the 3 m back setback
+    # unless it is the least one; the building then stands 3 m behind the street
+    lot = Lot(ring=np.array([[0.0, 0.0], [30.0, 0.0], [30.0, 12.0], [0.0, 12.0]]),
+              edge_street=np.array([0, -1, -1, -1]))
+    opts = {LandUse.RESIDENTIAL_LOW: FootprintOptions(front_setback=(3.0, 30.0), side_setback=(1.0, 1.0),
+                                                      back_setback=(3.0, 3.0), front_variation=0.0)}
+    rng = np.random.default_rng(0)
+    assert 3.0 + 27.0 * np.random.default_rng(0).random(3)[0] > 4.0  # the drawn front setback
+    (fp,) = place_buildings([lot], traffic_per_street={}, built_streets={0}, options=opts, rng=rng)
+    assert np.allclose(fp.rectangle.corners[:2, 1], 3.0) and fp.rectangle.depth == pytest.approx(6.0)
+
+
 def test_obstacles_parks_and_determinism():
     _, _, lots = block_lots(2)
     kwargs = dict(traffic_per_street={}, built_streets={0, 1, 2, 3})

@@ -15,12 +15,16 @@ use, lots and buildings). One year:
 2. **Blocks to build out.** Block ids are renumbered whenever the loop
    recomputes blocks, so surviving lots find their block geometrically (a
    point inside the lot). A block is built out when it touches at least one
-   street the tool made (grown, join or engine) and holds none of the
-   town's buildings: the real town's blocks and buildings are never
-   touched. A block is subdivided once; afterwards only when its outline
-   changed (a street split it) or lots in it were demolished: its free land
-   (the block minus its surviving lots, minus water and land nothing new
-   may take) is subdivided again and the area heals.
+   street the tool made (grown, join or engine); blocks bounded by the
+   town's streets alone are never touched. Its free land is the block minus
+   water, land nothing new may take and the land within ``town_clearance``
+   of the town's buildings (a district's street that closes a block around
+   a few farmhouses builds on the fields, not in their gardens; the town's
+   buildings themselves are never touched). A block is subdivided once;
+   afterwards only when its outline changed (a street split it) or lots in
+   it were demolished: its free land, minus its surviving lots, is
+   subdivided again and the area heals. A lot whose streets changed (moved,
+   split, widened, gone) faces again the streets its edges lie on.
 3. **Types and lots** (002 §4.1, §5.1). A new block's land-use type is the
    one that raises the system value most against the lots around it
    (:func:`~osm_expand.engine.landuse.choose_types`); a healing block keeps
@@ -50,15 +54,22 @@ use, lots and buildings). One year:
    draws it) or another generated building. A lot where nothing fits is not
    tried again until its type or its built streets change. Floors and
    height come from 002's economy with 004's centre fall-off
-   (:func:`~osm_expand.engine.economy.lot_economy`); the height scale is
-   fitted once, on the first year with at least ``min_fit`` new buildings,
-   so that the generated median matches the town's tagged (or default)
-   height, and kept: dearer land later builds taller (002).
+   (:func:`~osm_expand.engine.economy.lot_economy`). The height scale is
+   fitted every year on the raw floors of all the generated buildings
+   standing (each from the year it was built) and this year's together, so
+   that the district as a whole keeps the town's tagged (or default) median
+   height and spread, while within it dearer land — a later year, a better
+   place — builds taller (002).
 7. **People** (002 §3.2, §5.2): each lot's residents, jobs and visitors from
    its building's floor space and its land use
    (:func:`~osm_expand.engine.economy.occupants`): floor space per resident
    or job per type, visitors per m² of park; ``Lot.people`` is their sum,
-   which the traffic step's trip model reads.
+   which the traffic step's trip model reads. A lot without a building yet
+   counts the floor space its land use expects
+   (:func:`~osm_expand.engine.economy.expected_floor_space`; 002 §4: "the
+   number of residents per lot depends on the land use value"): otherwise
+   no trip would ever start on a planned street, it would never carry the
+   traffic that gets it built (002 §3.2), and its lots would wait forever.
 
 What the town itself teaches (sizes, heights, centres, land-use goals and
 the old town's units) is read once by :func:`~osm_expand.engine.calibration.calibrate_town`.
@@ -75,13 +86,13 @@ from numpy.typing import NDArray
 
 from osm_expand.blocks import blocks as find_blocks
 from osm_expand.engine.calibration import CalibrationOptions, TownCalibration, calibrate_town, size_bands
-from osm_expand.engine.economy import HeightScale, lot_economy, occupants, substitute
+from osm_expand.engine.economy import HeightScale, expected_floor_space, lot_economy, occupants, substitute
 from osm_expand.engine.footprints import Footprint, place_buildings
 from osm_expand.engine.history import History, YearValues
 from osm_expand.engine.landuse import (UNASSIGNED, LotLayout, assign_types, block_types, choose_types,
                                        distance_to, goal_shares, lot_attributes, lot_layout, lot_values,
                                        update_land_use)
-from osm_expand.engine.lots import NO_STREET, LandUse, block_frontage, land_use, subdivide_blocks
+from osm_expand.engine.lots import NO_STREET, Frontage, LandUse, block_frontage, land_use, subdivide_blocks
 from osm_expand.engine.lots import Lot as EngineLot
 from osm_expand.engine.segments import street_width
 from osm_expand.errors import InputError
@@ -103,9 +114,10 @@ class BuildoutOptions:
     building_overlap: float = 0.5
     #: m², free land smaller than this is not subdivided (below the smallest lot class's ``min_area``, 150 m²).
     min_region: float = 100.0
-    #: New buildings needed in one year before the height scale is fitted and kept (a few dozen
-    #: give a stable median; fewer are scaled by a fit on themselves without keeping it).
-    min_fit: int = 30
+    #: m, land kept free around the town's buildings (their drawn rectangles) in a block that new
+    #: streets bound: a house's garden and its neighbour's side setback (the town's own lots are not
+    #: mapped; 10 m is about the depth of a front or back garden of the bundled lot classes).
+    town_clearance: float = 10.0
     #: m, grid spacing of the rectangle sweep along a lot's street side (the kernel samples the lot's
     #: vertices exactly; 0.5 m is finer than any setback draw).
     resolution: float = 0.5
@@ -117,13 +129,11 @@ class BuildoutOptions:
     def __post_init__(self) -> None:
         if not 0 < self.street_overlap <= 1:
             raise InputError(f"buildout street_overlap: must lie in (0, 1], got {self.street_overlap}")
-        for key in ("building_overlap", "min_region"):
+        for key in ("building_overlap", "min_region", "town_clearance"):
             if not getattr(self, key) >= 0:
                 raise InputError(f"buildout {key}: must be ≥ 0, got {getattr(self, key)}")
         if not self.band_prior >= 0:
             raise InputError(f"buildout band_prior: must be ≥ 0, got {self.band_prior}")
-        if self.min_fit < 1:
-            raise InputError(f"buildout min_fit: must be at least 1, got {self.min_fit}")
         if not self.resolution > 0:
             raise InputError(f"buildout resolution: must be positive, got {self.resolution}")
 
@@ -217,7 +227,8 @@ class BuildoutMemory:
     no_build_tree: shapely.STRtree
     outline_tree: shapely.STRtree  #: over ``town.outlines``
     next_lot: int = 0
-    scale: HeightScale | None = None
+    scale: HeightScale | None = None  #: last year's height scale (the substitution compares with it)
+    raw: Mapping[int, float] = field(default_factory=dict)  #: raw floors of each standing building, by lot id
     layout: LotLayout | None = None
     layout_ids: tuple[int, ...] = ()
     layout_lut: NDArray[np.int64] = field(default_factory=lambda: np.zeros(0, dtype=np.int64))
@@ -293,6 +304,8 @@ class _Streets:
     widths: NDArray[np.float64]
     built: NDArray[np.bool_]
     new: NDArray[np.bool_]
+    #: ids of streets whose nodes or width changed since last year, or that are gone
+    changed: frozenset[int] = frozenset()
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "line_tree", shapely.STRtree(self.lines))
@@ -311,12 +324,15 @@ def _streets(city: City, memo: _Memo) -> tuple[_Streets, int]:
     lines = np.empty(len(streets), dtype=object)
     carriageways = np.empty(len(streets), dtype=object)
     fresh = []
+    changed = set(memo.streets) - {s.id for s in streets}
     for k, (s, w) in enumerate(zip(streets, widths.tolist())):
         hit = memo.streets.get(s.id)
         if hit is not None and hit[0] == s.nodes and hit[1] == w:
             lines[k], carriageways[k] = hit[2], hit[3]
         else:
             fresh.append(k)
+            if hit is not None:
+                changed.add(s.id)
     if fresh:
         sizes = np.array([len(streets[k].nodes) for k in fresh], dtype=np.int64)
         coords = net.xy[np.concatenate([np.asarray(streets[k].nodes, dtype=np.intp) for k in fresh])]
@@ -328,7 +344,7 @@ def _streets(city: City, memo: _Memo) -> tuple[_Streets, int]:
     signature = hash(tuple((s.id, s.nodes, w) for s, w in zip(streets, widths.tolist())))
     table = _Streets(ids=np.array([s.id for s in streets], dtype=np.int64), lines=lines, carriageways=carriageways,
                      widths=widths, built=np.array([s.status == Status.BUILT for s in streets], dtype=bool),
-                     new=np.array([s.is_new for s in streets], dtype=bool))
+                     new=np.array([s.is_new for s in streets], dtype=bool), changed=frozenset(changed))
     return table, signature
 
 
@@ -386,16 +402,39 @@ def _block_keys(blocks: Sequence[Block]) -> list[tuple[int, int, int]]:
     return list(zip(area.tolist(), centre[:, 0].tolist(), centre[:, 1].tolist()))
 
 
-def _relabel(state: LotState, known: frozenset[int]) -> LotState | None:
-    """The lot with edges on streets that no longer exist facing none; None when it fronts no street left."""
-    lab = state.lot.edge_street
-    if all(s in known for s in state.streets):
+def _relabel(state: LotState, streets: _Streets, tolerance: float = 1.0) -> LotState | None:
+    """The lot with its street-facing edges given again to the streets they lie on, when one of its
+    streets changed (moved, was split, widened or is gone); None when it fronts no street any more.
+
+    An edge that faced a street faces the street whose centre line is nearest to its ends and its
+    midpoint (the largest of the three distances), if that is at most the street's half width plus
+    ``tolerance`` m (a lot's edges lie half the width from the centre line; a widened street comes
+    nearer); else it faces none. Edges that faced no street keep facing none.
+    """
+    if not any(s in streets.changed for s in state.streets):
         return state
-    gone = (lab >= 0) & ~np.isin(lab, np.array(sorted(known), dtype=np.int64))
-    lab = np.where(gone, NO_STREET, lab)
+    ring, lab = state.lot.ring, state.lot.edge_street.copy()
+    front = np.flatnonzero(lab >= 0)
+    lab[front] = NO_STREET
+    if len(streets.lines):
+        a, b = ring[front], ring[(front + 1) % len(ring)]
+        half = 0.5 * streets.widths
+        mids = shapely.points(0.5 * (a + b))
+        edge, cand = streets.line_tree.query(mids, predicate="dwithin", distance=float(half.max()) + tolerance)
+        lines = streets.lines[cand]
+        worst = np.maximum.reduce([shapely.distance(shapely.points(a[edge]), lines),
+                                   shapely.distance(mids[edge], lines),
+                                   shapely.distance(shapely.points(b[edge]), lines)])
+        ok = worst <= half[cand] + tolerance
+        edge, cand, worst = edge[ok], cand[ok], worst[ok]
+        order = np.lexsort((cand, worst, edge))  # per edge, the nearest street first
+        edge, cand = edge[order], cand[order]
+        first = np.ones(len(edge), dtype=bool)
+        first[1:] = edge[1:] != edge[:-1]
+        lab[front[edge[first]]] = streets.ids[cand[first]]
     if not (lab >= 0).any():
         return None
-    return replace(state, lot=EngineLot(ring=state.lot.ring, edge_street=lab, block=state.lot.block,
+    return replace(state, lot=EngineLot(ring=ring, edge_street=lab, block=state.lot.block,
                                         land_use=state.lot.land_use), tried=None)
 
 
@@ -493,7 +532,6 @@ def _demolish(work: _Year, *, check: bool = True) -> set[int]:
     under a street since, and only the block matching runs.
     """
     streets, states = work.streets, work.states
-    known = frozenset(streets.ids.tolist())
     order = sorted(states)
     polys = np.array([states[k].lot.polygon for k in order], dtype=object)
     crossed = _lots_hit(polys, streets, work.memory.options.street_overlap) if check \
@@ -507,7 +545,7 @@ def _demolish(work: _Year, *, check: bool = True) -> set[int]:
     healing: set[int] = set()
     gone = 0
     for k, lot_id, hit, blk in zip(range(len(order)), order, crossed.tolist(), within.tolist()):
-        state = None if hit or blk < 0 else _relabel(states[lot_id], known)
+        state = None if hit or blk < 0 else _relabel(states[lot_id], streets)
         if state is None:
             del states[lot_id]
             gone += 1
@@ -543,16 +581,9 @@ def _blocks_under(work: _Year, poly: shapely.Polygon) -> list[int]:
 
 
 def _buildable(work: _Year) -> NDArray[np.bool_]:
-    """Blocks that touch a street the tool made and hold none of the town's buildings, (B,) bool."""
+    """Blocks that touch a street the tool made, (B,) bool (:func:`_free_land` keeps the town's buildings' land)."""
     new_ids = set(work.streets.ids[work.streets.new].tolist())
-    touches = np.array([any(i in new_ids for i in b.street_ids) for b in work.blocks], dtype=bool)
-    holds = np.zeros(len(work.blocks), dtype=bool)
-    pts = work.town.building_points
-    if len(pts) and len(work.blocks):
-        tree = shapely.STRtree(shapely.points(pts))
-        blk, _ = tree.query(np.array([b.polygon for b in work.blocks], dtype=object), predicate="contains")
-        holds[blk] = True
-    return touches & ~holds
+    return np.array([any(i in new_ids for i in b.street_ids) for b in work.blocks], dtype=bool)
 
 
 def _build_out_blocks(work: _Year, healing: set[int]) -> list[int]:
@@ -581,7 +612,8 @@ def _build_out_blocks(work: _Year, healing: set[int]) -> list[int]:
     classes = [land_use(t.lot_size_key) for t in types]
     uses = [classes[block_type[k]].value for k in part_block]
     streets = work.streets
-    frontage = block_frontage(parts, list(streets.lines), streets.ids, streets.widths)
+    frontage = _with_near_streets(parts, block_frontage(parts, list(streets.lines), streets.ids, streets.widths),
+                                  streets)
     made = subdivide_blocks(parts, frontage, uses, options=work.town.lot_options, rng=work.rng)
     if not made:
         work.count(blocks=len(todo))
@@ -608,15 +640,44 @@ def _build_out_blocks(work: _Year, healing: set[int]) -> list[int]:
     return new_ids
 
 
+def _with_near_streets(parts: Sequence[shapely.Polygon], frontage: list[list[Frontage]],
+                       streets: _Streets) -> list[list[Frontage]]:
+    """Each part's frontage plus the whole centre line of every street whose carriageway reaches into it.
+
+    :func:`~osm_expand.engine.lots.block_frontage` gives each boundary edge to
+    the one street nearest it, so where two streets run close (a town street
+    and a grown one beside it, a wide road meeting at an acute angle) the
+    shrink by the frontage alone leaves land on the other one's carriageway,
+    and whole lots would be lost to :func:`_on_carriageway`. The shrink takes
+    these streets too; a lot edge they leave faces them.
+    """
+    if not len(parts) or not len(streets.lines):
+        return frontage
+    half = 0.5 * streets.widths
+    polys = np.array(parts, dtype=object)
+    part, line = streets.line_tree.query(polys, predicate="dwithin", distance=float(half.max()))
+    close = shapely.distance(polys[part], streets.lines[line]) < half[line]
+    out = [list(f) for f in frontage]
+    for k, j in zip(part[close].tolist(), line[close].tolist()):
+        out[k].append(Frontage(line=shapely.get_coordinates(streets.lines[j]), street=int(streets.ids[j]),
+                               width=float(streets.widths[j])))
+    return out
+
+
 def _free_land(work: _Year, block: int, lots_in: Sequence[int]) -> list[shapely.Polygon]:
-    """A block's land free for new lots: minus its surviving lots, water and unbuildable land, in parts."""
+    """A block's land free for new lots, in parts: minus its surviving lots, water, unbuildable land and
+    the land within ``town_clearance`` of the town's buildings."""
     geom = work.blocks[block].polygon
     if lots_in:
         geom = shapely.difference(geom, shapely.union_all([work.states[k].lot.polygon for k in lots_in]))
     memory = work.memory
-    near = memory.no_build_tree.query(geom, predicate="intersects")
+    taken = memory.no_build[memory.no_build_tree.query(geom, predicate="intersects")].tolist()
+    clearance = memory.options.town_clearance
+    near = memory.outline_tree.query(geom, predicate="dwithin", distance=clearance)
     if len(near):
-        geom = shapely.difference(geom, shapely.union_all(memory.no_build[near]))
+        taken.extend(shapely.buffer(memory.town.outlines[near], clearance, join_style="mitre").tolist())
+    if taken:
+        geom = shapely.difference(geom, shapely.union_all(taken))
     geom = shapely.make_valid(geom) if not geom.is_valid else geom
     return [p for p in shapely.get_parts(geom).tolist()
             if p.geom_type == "Polygon" and p.area >= memory.options.min_region]
@@ -766,10 +827,11 @@ def _allowed(town: TownCalibration, n_town: int, lot_area: NDArray[np.float64]) 
 # ---------------------------------------------------------------------------- step 5–6: buildings
 
 
-def _economy(work: _Year, units: _Units, envelope: NDArray[np.float64], scale: HeightScale | None):
+def _economy(work: _Year, units: _Units, envelope: NDArray[np.float64], scale: HeightScale | None,
+             reference_raw: NDArray[np.float64] | None = None):
     return lot_economy(units.area, envelope, units.luv, units.lut, units.attrs[:, 0], avgprice=work.now.avgprice,
-                       calibration=work.town.heights, scale=scale, economies=work.history.economies,
-                       rng=work.rng, options=work.history.options.economy)
+                       calibration=work.town.heights, scale=scale, reference_raw=reference_raw,
+                       economies=work.history.economies, rng=work.rng, options=work.history.options.economy)
 
 
 def _substitute(work: _Year, units: _Units) -> None:
@@ -834,9 +896,11 @@ def _build(work: _Year, units: _Units) -> None:
     rows = np.array([units.row(cands[fp.lot]) for fp in footprints], dtype=np.intp)
     envelope = np.zeros(len(units.lut))
     envelope[rows] = [fp.rectangle.area for fp in footprints]
-    econ = _economy(work, units, envelope, work.memory.scale)
-    if work.memory.scale is None and len(footprints) >= work.memory.options.min_fit:
-        work.memory = replace(work.memory, scale=econ.scale)
+    raw = work.memory.raw
+    standing = np.array([raw[k] for k in sorted(work.buildings) if k in raw], dtype=np.float64)
+    econ = _economy(work, units, envelope, None, reference_raw=standing)  # the scale of the whole stock
+    work.memory = replace(work.memory, scale=econ.scale)
+    raw = dict(raw)
     for fp, row in zip(footprints, rows.tolist()):
         floors = int(econ.floors[row])
         if floors <= 0:
@@ -846,9 +910,11 @@ def _build(work: _Year, units: _Units) -> None:
         work.buildings[k] = Building(rings=(ring,), height=float(econ.height[row]), levels=float(floors),
                                      origin=Origin.ENGINE, year=work.year, land_use=types[work.states[k].type].name,
                                      lot=k)
+        raw[k] = float(econ.raw[row])
         if k in work.substituted:
             work.count(buildings_substituted=1, buildings_demolished=-1)
         work.count(buildings_built=1)
+    work.memory = replace(work.memory, raw=raw)
 
 
 def _bands(work: _Year, candidates: Sequence[LandUse], classes: Sequence[LandUse]) -> dict:
@@ -898,10 +964,14 @@ def _result(work: _Year, units: _Units, new_ids: list[int]) -> tuple[City, Build
     """Step 7: people per lot, the city's lots, buildings and blocks; the memory for next year."""
     town, types = work.town, work.town.types
     ids = units.ids
-    fs = np.array([(work.buildings[k].levels or 0.0) * work.footprint(k)[1] if k in work.buildings else 0.0
+    fs = np.array([(work.buildings[k].levels or 0.0) * work.footprint(k)[1] if k in work.buildings else np.nan
                    for k in ids])
     lot_area = np.array([work.states[k].lot.area for k in ids])
     lut = np.array([work.states[k].type for k in ids], dtype=np.int64)
+    if ids:  # a lot without a building counts the people its land use expects there (002 §3.2, §4)
+        expected = expected_floor_space(units.area, units.luv, units.lut, work.now.avgprice,
+                                        economies=work.history.economies)[units.n_town:]
+        fs = np.where(np.isnan(fs), expected, fs)
     people = occupants(fs, lot_area, lut, economies=work.history.economies).people if ids else np.zeros(0)
     built_ids = work.streets.built_ids
     blocks = work.blocks
@@ -919,7 +989,8 @@ def _result(work: _Year, units: _Units, new_ids: list[int]) -> tuple[City, Build
     blocks = tuple(replace(b, land_use=types[int(t)].name) if t >= 0 else b for b, t in zip(blocks, block_lut))
     city = work.city.replace(lots=tuple(lots), buildings=tuple(kept + generated), blocks=blocks)
     work.memory.memo.keep_footprints(generated)
-    memory = replace(work.memory, lots=dict(work.states))
+    raw = {k: v for k, v in work.memory.raw.items() if k in work.buildings}  # demolished and replaced ones go
+    memory = replace(work.memory, lots=dict(work.states), raw=raw)
     return city, memory, work.report
 
 

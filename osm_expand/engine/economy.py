@@ -67,7 +67,7 @@ from osm_expand.errors import InputError
 
 __all__ = [
     "HeightShape", "TypeEconomy", "DEFAULT_ECONOMY", "EconomyOptions",
-    "lot_prices", "sample_margins", "floors_from_floor_space", "centre_falloff",
+    "lot_prices", "expected_floor_space", "sample_margins", "floors_from_floor_space", "centre_falloff",
     "raw_floors", "HeightCalibration", "calibrate_heights", "HeightScale", "fit_height_scale",
     "building_floors", "Occupants", "occupants", "LotEconomy", "lot_economy",
     "substitution_probability", "Substitution", "substitute",
@@ -224,6 +224,31 @@ def lot_prices(area: NDArray[np.float64], luv: NDArray[np.float64], avgprice: fl
     mean = luv.mean() if len(luv) else 0.0
     ratio = luv / mean if mean > 0 else np.ones_like(luv)
     return area * float(avgprice) * ratio
+
+
+def expected_floor_space(area: NDArray[np.float64], luv: NDArray[np.float64], lut: NDArray[np.int64],
+                         avgprice: float, *, economies: Sequence[TypeEconomy] = DEFAULT_ECONOMY
+                         ) -> NDArray[np.float64]:
+    """Floor space (m²) the land use expects on each lot before anything is built: price · mean margin.
+
+    002 Eq. 9–10 with each type's mean margin instead of a draw (002 §4:
+    "the number of residents per lot depends on the land use value"): what
+    the traffic model counts for lots whose street is still planned, so that
+    the street draws the traffic that gets it built (002 §3.2).
+
+    Parameters
+    ----------
+    area, luv : ndarray, shape (L,)
+        As for :func:`lot_prices` (all the city's units: the price uses their mean ``luv``).
+    lut : ndarray of int, shape (L,)
+    avgprice : float
+
+    Returns
+    -------
+    ndarray, shape (L,)
+        0 for types without a margin (parks) and unassigned lots.
+    """
+    return lot_prices(area, luv, avgprice) * _per_type(lut, economies, "margin_mean")
 
 
 def sample_margins(lut: NDArray[np.int64], *, economies: Sequence[TypeEconomy] = DEFAULT_ECONOMY,
@@ -479,11 +504,13 @@ class LotEconomy:
     height: NDArray[np.float64]
     occupants: Occupants
     scale: HeightScale
+    raw: NDArray[np.float64] | None = None  #: (L,) :func:`raw_floors` before the scale
 
 
 def lot_economy(area: NDArray[np.float64], envelope_area: NDArray[np.float64], luv: NDArray[np.float64],
                 lut: NDArray[np.int64], centre_dist: NDArray[np.float64], *, avgprice: float,
                 calibration: HeightCalibration, scale: HeightScale | None = None,
+                reference_raw: NDArray[np.float64] | None = None,
                 economies: Sequence[TypeEconomy] = DEFAULT_ECONOMY, rng: np.random.Generator,
                 options: EconomyOptions = EconomyOptions()) -> LotEconomy:
     """Price, floor space, floors, height and occupants of a building on every lot (002 §5.2–5.3, 004 §4.3.4).
@@ -504,7 +531,12 @@ def lot_economy(area: NDArray[np.float64], envelope_area: NDArray[np.float64], l
     calibration : HeightCalibration
         From :func:`calibrate_heights`.
     scale : HeightScale, optional
-        Keep the one returned by the first year; None fits it on these lots.
+        The scale to use; None fits it (:func:`fit_height_scale`) on these
+        lots' raw floors and ``reference_raw`` together.
+    reference_raw : ndarray, shape (K,), optional
+        Raw floors of buildings already standing (each from the year it was
+        built): fitting on them too calibrates the whole stock, not just
+        this year's buildings.
     rng : numpy.random.Generator
         Margins, then the height noise and doubling (three draws per lot).
 
@@ -521,11 +553,12 @@ def lot_economy(area: NDArray[np.float64], envelope_area: NDArray[np.float64], l
     econ = floors_from_floor_space(demand, envelope_area)
     raw = raw_floors(econ, centre_dist, rng=rng, options=options)
     if scale is None:
-        scale = fit_height_scale(raw, calibration, options=options)
+        sample = raw if reference_raw is None else np.concatenate([raw, np.asarray(reference_raw, np.float64)])
+        scale = fit_height_scale(sample, calibration, options=options)
     floors = building_floors(raw, lut, scale, economies=economies)
     built = floors * np.asarray(envelope_area, dtype=np.float64)
     return LotEconomy(price, margin, demand, floors, floors * calibration.storey_height,
-                      occupants(built, area, lut, economies=economies), scale)
+                      occupants(built, area, lut, economies=economies), scale, raw)
 
 
 # --------------------------------------------------------------------------- substitution (002 §5.4)

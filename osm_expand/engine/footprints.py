@@ -20,7 +20,11 @@ rectangular.
 
 **Placement** (002 §2.2, §5.3). A lot gets a building only when one of its
 streets is *built*; the building faces the built street with the most
-traffic (002 §5.3 "the street with the highest traffic value"). Front, side
+traffic (002 §5.3 "the street with the highest traffic value"), on its
+longest side along that street; where no building fits there, the next
+side, the chord of a curved run of sides, then the next built street by
+traffic, and last all of these again at the least setbacks of the ranges
+(a shallow lot builds at the minimum its zoning allows). Front, side
 and back setbacks are drawn per block from the land use's ranges (002 §5.3
 "determined stochastically for each block"); each lot adds a random extra
 front setback ("how far a building can move back from the front setback").
@@ -417,7 +421,8 @@ def place_buildings(lots: Sequence[Lot], *, traffic_per_street: Mapping[int, flo
     lots : the lots (:func:`osm_expand.engine.lots.subdivide_blocks`).
     traffic_per_street : traffic per street id (a mapping, or an array
         indexed by id); the building faces the built frontage street with the
-        most traffic (ties: the longer frontage, then the smaller id).
+        most traffic (ties: the longer frontage, then the smaller id) where
+        it fits, else the next.
     built_streets : ids of built streets (a collection, or a bool array
         indexed by id); lots on planned streets only get no building.
     options : :class:`FootprintOptions` per land use.
@@ -450,21 +455,18 @@ def place_buildings(lots: Sequence[Lot], *, traffic_per_street: Mapping[int, flo
         built = [int(s) for s in lot.streets if _is_built(built_streets, int(s))]
         if not opts.build or not built:
             continue
-        street = max(built, key=lambda s: (_traffic(traffic_per_street, s), lot.frontage_length(s), -s))
-        side = max((s for s in lot.sides() if s.street == street), key=lambda s: s.length)
         f = block_draw[block_row[k]]
         front = opts.front_setback[0] + f[0] * (opts.front_setback[1] - opts.front_setback[0])
         front += lot_draw[k, 0] * opts.front_variation
         side_sb = opts.side_setback[0] + f[1] * (opts.side_setback[1] - opts.side_setback[0])
         back = opts.back_setback[0] + f[2] * (opts.back_setback[1] - opts.back_setback[0])
-        ring = lot.ring
-        chord = side.end - side.start
-        normal = np.array([-chord[1], chord[0]])  # lots are counter-clockwise: inward is left
-        rect = _sweep(ring, np.concatenate((ring[1:], ring[:1])), side.start, side.end, normal,
-                      setbacks=(front, side_sb, back), max_ratio=opts.max_ratio, target_area=math.inf,
-                      target_ratio=1.0, min_side=opts.min_side, resolution=resolution)
-        if rect is not None:
-            room.append((k, street, rect))
+        built.sort(key=lambda s: (-_traffic(traffic_per_street, s), -lot.frontage_length(s), s))
+        least = (opts.front_setback[0], opts.side_setback[0], opts.back_setback[0])
+        for setbacks in ((front, side_sb, back), least):  # a shallow lot builds at the least setbacks
+            found = _room(lot, built, setbacks, opts, resolution)
+            if found is not None:
+                room.append((k, *found))
+                break
     targets = _targets(room, uses, lot_draw[:, 1], options, sizes)
     out: list[Footprint] = []
     for (k, street, rect), (area, ratio) in zip(room, targets):
@@ -480,6 +482,61 @@ def place_buildings(lots: Sequence[Lot], *, traffic_per_street: Mapping[int, flo
         keep[hit] = False
         out = [fp for fp, ok in zip(out, keep.tolist()) if ok]
     return out
+
+
+def _room(lot: Lot, built: Sequence[int], setbacks: tuple[float, float, float], opts: FootprintOptions,
+          resolution: float) -> tuple[int, Rectangle] | None:
+    """The street and largest rectangle of the first front, in order of preference, where one fits.
+
+    Streets in the order given (the busiest first); along each, its straight
+    sides longest first, then the chords of its curved runs.
+    """
+    ring = lot.ring
+    nxt = np.concatenate((ring[1:], ring[:1]))
+    sides = lot.sides()
+    for street in built:
+        fronts = [(s.start, s.end) for s in sorted((s for s in sides if s.street == street), key=lambda s: -s.length)]
+        for start, end in fronts + _curved_fronts(sides, street):
+            chord = end - start
+            normal = np.array([-chord[1], chord[0]])  # lots are counter-clockwise: inward is left
+            rect = _sweep(ring, nxt, start, end, normal, setbacks=setbacks, max_ratio=opts.max_ratio,
+                          target_area=math.inf, target_ratio=1.0, min_side=opts.min_side, resolution=resolution)
+            if rect is not None:
+                return street, rect
+    return None
+
+
+def _curved_fronts(sides: Sequence, street: int) -> list[tuple[np.ndarray, np.ndarray]]:
+    """Chords of runs of two or more consecutive sides on ``street`` (a curved street edge), longest first.
+
+    Tried after the straight sides: along a curve each side is short, but
+    the chord across the run is the front a builder would take. Where the
+    curve bends into the lot the chord is moved in by the bend, so the front
+    setback counts from the street edge's innermost point.
+    """
+    n = len(sides)
+    on = [s.street == street for s in sides]
+    if n < 2 or all(on):
+        return []
+    start = next(k for k in range(n) if not on[k - 1] and on[k]) if any(on) else 0
+    runs, k = [], start
+    while k < start + n:
+        if not on[k % n]:
+            k += 1
+            continue
+        j = k
+        while j + 1 < start + n and on[(j + 1) % n]:
+            j += 1
+        if j > k:
+            a, b = sides[k % n].start, sides[j % n].end
+            length = float(np.hypot(*(b - a)))
+            if length > 0:
+                inward = np.array([a[1] - b[1], b[0] - a[0]]) / length  # lots are counter-clockwise
+                ends = np.array([p for m in range(k, j + 1) for p in (sides[m % n].start, sides[m % n].end)])
+                bend = max(float(((ends - a) @ inward).max()), 0.0)
+                runs.append((length, a + bend * inward, b + bend * inward))
+        k = j + 1
+    return [(a, b) for _, a, b in sorted(runs, key=lambda r: -r[0])]
 
 
 # ----------------------------------------------------------------------------- sizes from the town

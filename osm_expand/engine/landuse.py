@@ -79,9 +79,12 @@ area (:func:`block_types`).
 """
 from __future__ import annotations
 
+import math
+
 from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
 from enum import StrEnum
+from functools import cached_property
 from typing import Any
 
 import numpy as np
@@ -319,12 +322,14 @@ def _gain(t: NDArray[np.float64], g: float) -> NDArray[np.float64]:
     """Perlin & Hoffert's gain (002 ref. [PH89]) of ``t`` in [0, 1]."""
     if g == 0.5:
         return t
-    exponent = np.log(1.0 - g) / np.log(0.5)  # bias_b(x) = x ** (ln b / ln 0.5), b = 1 - g
-    lo = t < 0.5
-    out = np.empty_like(t)
-    out[lo] = 0.5 * (2.0 * t[lo]) ** exponent
-    out[~lo] = 1.0 - 0.5 * (2.0 - 2.0 * t[~lo]) ** exponent
-    return out
+    exponent = math.log(1.0 - g) / math.log(0.5)  # bias_b(x) = x ** (ln b / ln 0.5), b = 1 - g
+    near = np.minimum(t, 1.0 - t)  # the curve is point-symmetric about (½, ½)
+    half = 0.5 * (2.0 * near) ** exponent
+    return np.where(t < 0.5, half, 1.0 - half)
+
+
+#: Valuation kinds by value (StrEnum members hash as their values, so members find themselves).
+_KINDS: dict[str, Valuation] = {v.value: v for v in Valuation}
 
 
 def valuate(kind: str, x: NDArray[np.float64] | float, low: float, high: float, *,
@@ -353,12 +358,12 @@ def valuate(kind: str, x: NDArray[np.float64] | float, low: float, high: float, 
     ndarray, shape (L,)
         Values in [0, 1].
     """
-    kind = _choice(Valuation, kind, "valuation kind")
-    x = np.asarray(x, dtype=np.float64)
+    kind = _KINDS.get(kind) or _choice(Valuation, kind, "valuation kind")  # the land-use update calls this
+    x = np.asarray(x, dtype=np.float64)                                    # ~10⁵ times a run: no enum lookup
     if kind is Valuation.STEP:
         out = ((x >= low) & (x <= high)).astype(np.float64)
         return out
-    t = np.clip((x - low) / (high - low), 0.0, 1.0)
+    t = np.minimum(np.maximum((x - low) / (high - low), 0.0), 1.0)  # np.clip's dispatch is slow on small arrays
     t = np.where(np.isnan(t), 0.0, t)
     if kind in (Valuation.GAIN_UP, Valuation.GAIN_DOWN):
         t = _gain(np.atleast_1d(t), gain).reshape(t.shape)
@@ -473,6 +478,75 @@ class _Compiled:
     @property
     def n(self) -> int:
         return len(self.names)
+
+    @cached_property
+    def table(self) -> "_TermTable":
+        """All terms as arrays, for :func:`_values`."""
+        flat = [(t, term) for t, terms in enumerate(self.terms) for term in terms]
+        kinds = np.array([term.kind for _, term in flat], dtype=object)
+        codes = np.array([term.code for _, term in flat], dtype=np.int64)
+        owner = np.array([t for t, _ in flat], dtype=np.int64)
+        n_static = len(STATIC_ATTRIBUTES)
+        # columns of [static | cluster per type | influence per type]
+        column = np.where(codes < _CLUSTER_CODE, codes,
+                          np.where(codes == _CLUSTER_CODE, n_static + owner, n_static + self.n + codes - _INFLUENCE_CODE))
+        gain = np.array([term.gain for _, term in flat], dtype=np.float64)
+        with np.errstate(divide="ignore"):
+            exponent = np.log(1.0 - gain) / np.log(0.5)
+        term_weight = np.array([term.weight for _, term in flat], dtype=np.float64)
+        weight = np.zeros((len(flat), self.n))
+        weight[np.arange(len(flat)), owner] = term_weight
+        # influence[r, t, s] / cluster[r, t]: the r-th term of type t on the influence of s / on cluster
+        # (flat index, −1 for none); a type rarely has more than one, so r is almost always 0
+        by_pair: dict[tuple[int, int], list[int]] = {}
+        by_type: dict[int, list[int]] = {}
+        for f, (t, term) in enumerate(flat):
+            if term.code >= _INFLUENCE_CODE:
+                by_pair.setdefault((t, term.code - _INFLUENCE_CODE), []).append(f)
+            elif term.code == _CLUSTER_CODE:
+                by_type.setdefault(t, []).append(f)
+        influence = np.full((max([len(v) for v in by_pair.values()], default=0), self.n, self.n), -1, np.int64)
+        for (t, src), fs in by_pair.items():
+            influence[:len(fs), t, src] = fs
+        cluster = np.full((max([len(v) for v in by_type.values()], default=0), self.n), -1, np.int64)
+        for t, fs in by_type.items():
+            cluster[:len(fs), t] = fs
+        return _TermTable(
+            column=column, low=np.array([term.low for _, term in flat], dtype=np.float64),
+            high=np.array([term.high for _, term in flat], dtype=np.float64), exponent=exponent,
+            step=kinds == Valuation.STEP.value,
+            gain=(kinds == Valuation.GAIN_UP.value) | (kinds == Valuation.GAIN_DOWN.value),
+            down=(kinds == Valuation.LINEAR_DOWN.value) | (kinds == Valuation.GAIN_DOWN.value),
+            weight=weight, term_weight=term_weight, influence=influence, cluster=cluster)
+
+
+@dataclass(frozen=True, eq=False)
+class _TermTable:
+    """Every term of every type as arrays (J,): its attribute column, bounds, gain exponent, kind flags;
+    ``weight`` (J, T) puts each term's weight on its type's column."""
+
+    column: NDArray[np.int64]
+    low: NDArray[np.float64]
+    high: NDArray[np.float64]
+    exponent: NDArray[np.float64]
+    step: NDArray[np.bool_]
+    gain: NDArray[np.bool_]
+    down: NDArray[np.bool_]
+    weight: NDArray[np.float64]
+    term_weight: NDArray[np.float64]  #: (J,)
+    influence: NDArray[np.int64]  #: (R, T, T) flat index of the r-th term of type t on the influence of s, or −1
+    cluster: NDArray[np.int64]  #: (R, T) flat index of the r-th cluster term of type t, or −1
+
+    def valuate(self, x: NDArray[np.float64], term: NDArray[np.int64] | slice) -> NDArray[np.float64]:
+        """:func:`valuate` of ``x`` under terms ``term`` (broadcast against ``x``'s last axis)."""
+        low, high, exponent = self.low[term], self.high[term], self.exponent[term]
+        with np.errstate(invalid="ignore", divide="ignore"):
+            t = np.minimum(np.maximum((x - low) / (high - low), 0.0), 1.0)
+            t = np.where(np.isnan(t), 0.0, t)
+            half = 0.5 * (2.0 * np.minimum(t, 1.0 - t)) ** exponent
+        t = np.where(self.gain[term], np.where(t < 0.5, half, 1.0 - half), t)
+        t = np.where(self.down[term], np.where(np.isnan(x), 0.0, 1.0 - t), t)
+        return np.where(self.step[term], ((x >= low) & (x <= high)).astype(np.float64), t)
 
 
 def _compile(types: Sequence[LandUseType], available: Sequence[bool]) -> _Compiled:
@@ -743,24 +817,16 @@ def _type_counts(layout: LotLayout, lut: NDArray[np.int64], n_types: int
     return counts, np.asarray(sums)
 
 
-def _attribute(code: int, t: int, static: NDArray[np.float64], counts: NDArray[np.float64],
-               sums: NDArray[np.float64], wsum: NDArray[np.float64], k: int) -> NDArray[np.float64]:
-    if code < _CLUSTER_CODE:
-        return static[:, code]
-    if code == _CLUSTER_CODE:
-        return counts[:, t] / k if k else np.zeros(len(static))
-    s = code - _INFLUENCE_CODE
-    return np.divide(sums[:, s], wsum, out=np.zeros(len(wsum)), where=wsum > 0)
-
-
 def _values(ct: _Compiled, static: NDArray[np.float64], counts: NDArray[np.float64],
             sums: NDArray[np.float64], wsum: NDArray[np.float64], k: int) -> NDArray[np.float64]:
-    out = np.zeros((len(static), ct.n))
-    for t, terms in enumerate(ct.terms):
-        for term in terms:
-            x = _attribute(term.code, t, static, counts, sums, wsum, k)
-            out[:, t] += term.weight * valuate(term.kind, x, term.low, term.high, gain=term.gain)
-    return out
+    """Every row's value under every type, (N, T): :func:`valuate` of all terms at once (the update
+    calls this for the neighbours of every accepted change)."""
+    tab = ct.table
+    n = len(static)
+    cluster = counts / k if k else np.zeros((n, ct.n))
+    influence = np.divide(sums, wsum[:, None], out=np.zeros((n, ct.n)), where=wsum[:, None] > 0)
+    x = np.hstack([static, cluster, influence])[:, tab.column]  # (N, J)
+    return tab.valuate(x, slice(None)) @ tab.weight
 
 
 def _check_lut(layout: LotLayout, lut: NDArray[np.int64], n_types: int) -> NDArray[np.int64]:
@@ -888,7 +954,6 @@ class _State:
         total = np.zeros(len(lots))
         # influence: v's kernel sums of old and new type shift by w(v, i); only
         # neighbours whose type has a term on the influence of either count
-        n_t = ct.n
         wt = lay.weights_by_source
         owner, pos = _ragged(wt.indptr, lots)
         v = wt.indices[pos]
@@ -897,22 +962,22 @@ class _State:
         tvc = np.maximum(tv, 0)
         keep = (tv >= 0) & (self.listens[tvc, a] | self.listens[tvc, b])
         owner, v, a, b, w = owner[keep], v[keep], a[keep], b[keep], wt.data[pos][keep]
+        tab = ct.table
         if len(v):
             tv = tv[keep]
             ws = lay.weight_sums[v]
             ws = np.where(ws > 0, ws, 1.0)
             dw = w / ws
-            sums = self.sums.reshape(-1)
-            key_a, key_b = tv * n_t + a, tv * n_t + b
             delta = np.zeros(len(v))
-            for t, s, term in self.influence_terms:
-                for keys, sign in ((key_a, -1.0), (key_b, 1.0)):
-                    m = np.flatnonzero(keys == t * n_t + s)
+            for src, sign in ((a, -1.0), (b, 1.0)):  # v's share of src falls (the old type) or rises (the new)
+                x0 = self.sums[v, np.maximum(src, 0)] / ws
+                for layer in tab.influence:
+                    j = np.where(src >= 0, layer[tv, np.maximum(src, 0)], -1)  # an unassigned lot held no share
+                    m = np.flatnonzero(j >= 0)
                     if len(m):
-                        x0 = sums[v[m] * n_t + s] / ws[m]
-                        delta[m] += term.weight * (
-                            valuate(term.kind, x0 + sign * dw[m], term.low, term.high, gain=term.gain)
-                            - valuate(term.kind, x0, term.low, term.high, gain=term.gain))
+                        jm = j[m]
+                        delta[m] += tab.term_weight[jm] * (tab.valuate(x0[m] + sign * dw[m], jm)
+                                                           - tab.valuate(x0[m], jm))
             total += np.bincount(owner, weights=lay.area[v] * delta, minlength=len(lots))
         # cluster: v's count of its own type moves by ±1 when i is among its k nearest
         if self.k:
@@ -925,16 +990,12 @@ class _State:
             if len(v):
                 c0 = self.counts[v, tv] / self.k
                 delta = np.zeros(len(v))
-                for t, terms in enumerate(ct.terms):
-                    of_t = tv == t
-                    if not of_t.any():
-                        continue
-                    for term in terms:
-                        if term.code == _CLUSTER_CODE:
-                            x0 = c0[of_t]
-                            delta[of_t] += term.weight * (
-                                valuate(term.kind, x0 + step[of_t], term.low, term.high, gain=term.gain)
-                                - valuate(term.kind, x0, term.low, term.high, gain=term.gain))
+                for layer in tab.cluster:
+                    j = layer[tv]
+                    m = np.flatnonzero(j >= 0)
+                    if len(m):
+                        jm = j[m]
+                        delta[m] += tab.term_weight[jm] * (tab.valuate(c0[m] + step[m], jm) - tab.valuate(c0[m], jm))
                 total += np.bincount(owner, weights=lay.area[v] * delta, minlength=len(lots))
         return total
 

@@ -232,6 +232,56 @@ def _grow(state: _State, era: Era, now: YearValues, year: int, rng: np.random.Ge
           district_pattern: PatternFactory, bearing: float, options: EngineOptions) -> GrowthYear:
     """This year's minor streets: a street pattern from its starts, or a district once enough is owed."""
     count, state.carry = now.new_streets(_junction_edges(state.city), state.carry)
+    known = {s.id for s in state.city.network.streets}
+    grown = _grow_streets(state, era, now, year, rng, count, spacing=spacing, district_pattern=district_pattern,
+                          bearing=bearing, options=options)
+    state.city, dropped = without_crossings(state.city, known)
+    if dropped:
+        grown = replace(grown, streets=max(grown.streets - dropped, 0))
+    return grown
+
+
+def without_crossings(city: City, known: set[int]) -> tuple[City, int]:
+    """The city without the new streets (ids not in ``known``) that cross a street away from a node.
+
+    A safety net after each year's growth: a pattern's own checks and the
+    joining step keep streets planar, yet on large towns a district's streets
+    and its joins were seen crossing each other where two sites' pieces met.
+    Of two crossing new streets the later one goes. Returns the city and how
+    many streets went.
+    """
+    import shapely
+
+    net = city.network
+    nodes = [np.asarray(s.nodes) for s in net.streets]
+    owner = np.repeat(np.arange(len(nodes)), [max(len(n) - 1, 0) for n in nodes])
+    if not len(owner):
+        return city, 0
+    uv = np.concatenate([np.column_stack([n[:-1], n[1:]]) for n in nodes if len(n) >= 2])
+    new = np.array([s.id not in known for s in net.streets])
+    if not new.any():
+        return city, 0
+    lines = shapely.linestrings(net.xy[uv])
+    probe = np.flatnonzero(new[owner])
+    left, right = shapely.STRtree(lines).query(lines[probe], predicate="intersects")
+    left = probe[left]
+    gone: set[int] = set()
+    for i, j in zip(left.tolist(), right.tolist()):
+        a, b = int(owner[i]), int(owner[j])
+        if a == b or set(uv[i].tolist()) & set(uv[j].tolist()):
+            continue
+        if net.streets[a].layer_key != net.streets[b].layer_key:
+            continue
+        gone.add(max(a, b) if new[a] and new[b] else a)
+    if not gone:
+        return city, 0
+    kept = tuple(s for k, s in enumerate(net.streets) if k not in gone)
+    return city.replace(network=net.replace(streets=kept)), len(gone)
+
+
+def _grow_streets(state: _State, era: Era, now: YearValues, year: int, rng: np.random.Generator, count: int, *,
+                  spacing: float, district_pattern: PatternFactory, bearing: float,
+                  options: EngineOptions) -> GrowthYear:
     centre = np.asarray(state.nuclei[0].xy)
     if era.pattern in GROWTH_PATTERNS:
         state.growth.owed += count * spacing

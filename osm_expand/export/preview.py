@@ -60,7 +60,8 @@ def _landuse_colours(names: list[str]) -> dict[str, str]:
 
 
 def write_preview(city: City, path: str | os.PathLike, site_region: shapely.Geometry | None = None,
-                  title: str = "", *, color_by: str = "origin") -> None:
+                  title: str = "", *, color_by: str = "origin",
+                  extent: tuple[float, float, float, float] | None = None) -> None:
     """Draw the city to ``path`` (``.png`` or ``.svg``), atomically.
 
     Parameters
@@ -72,11 +73,13 @@ def write_preview(city: City, path: str | os.PathLike, site_region: shapely.Geom
     title : str
     color_by : {"origin", "landuse", "year"}
         What colours the generated buildings (module docstring).
+    extent : (x0, y0, x1, y1), optional
+        The window to draw (metres, the city's projection); default: the whole network and the site.
 
     Raises
     ------
     InputError
-        An unknown ``color_by``.
+        An unknown ``color_by``, or an empty ``extent``.
     """
     colour = ColorBy.parse(color_by)
     import matplotlib
@@ -91,6 +94,10 @@ def write_preview(city: City, path: str | os.PathLike, site_region: shapely.Geom
         if site_region is not None:
             pts = np.vstack([pts, np.asarray(site_region.exterior.coords)])
         (x0, y0), (x1, y1) = pts.min(axis=0), pts.max(axis=0)
+        if extent is not None:
+            x0, y0, x1, y1 = (float(v) for v in extent)
+            if not (x1 > x0 and y1 > y0):
+                raise InputError(f"extent must be (x0, y0, x1, y1) with x1 > x0 and y1 > y0, got {extent!r}")
         aspect = (y1 - y0) / max(x1 - x0, 1.0)
         fig, ax = plt.subplots(figsize=(10, float(np.clip(10 * aspect, 4, 14)) + 0.6))
         water = [np.asarray(p.exterior.coords) for g in (*city.water, *city.sea)
@@ -118,7 +125,7 @@ def write_preview(city: City, path: str | os.PathLike, site_region: shapely.Geom
             ax.add_collection(LineCollection(joins, colors="black", linewidths=1.6))
         if site_region is not None:
             ax.plot(*site_region.exterior.xy, ls="--", color="black", lw=0.8)
-        pad = 0.05 * max(x1 - x0, y1 - y0)
+        pad = 0.05 * max(x1 - x0, y1 - y0) if extent is None else 0.0
         ax.set_xlim(x0 - pad, x1 + pad)
         ax.set_ylim(y0 - pad, y1 + pad)
         ax.set_aspect("equal")
