@@ -28,6 +28,7 @@ from osm_expand.blocks import blocks
 from osm_expand.engine.growth import GrowthMemory, GrowthOptions, GrowthYear, grow_district, grow_street_pattern
 from osm_expand.engine.history import GROWTH_PATTERNS, Era, History, YearValues
 from osm_expand.engine.nuclei import Nucleus, candidate_points, find_nuclei, new_junction_nuclei
+from osm_expand.engine.planarity import without_touching
 from osm_expand.engine.roads import RoadMemory, RoadsYear, major_roads_year
 from osm_expand.engine.segments import SegmentTable
 from osm_expand.engine.traffic import TrafficMemory, TrafficYear, start_traffic, traffic_year
@@ -235,48 +236,10 @@ def _grow(state: _State, era: Era, now: YearValues, year: int, rng: np.random.Ge
     known = {s.id for s in state.city.network.streets}
     grown = _grow_streets(state, era, now, year, rng, count, spacing=spacing, district_pattern=district_pattern,
                           bearing=bearing, options=options)
-    state.city, dropped = without_crossings(state.city, known)
+    state.city, dropped = without_touching(state.city, known)
     if dropped:
         grown = replace(grown, streets=max(grown.streets - dropped, 0))
     return grown
-
-
-def without_crossings(city: City, known: set[int]) -> tuple[City, int]:
-    """The city without the new streets (ids not in ``known``) that cross a street away from a node.
-
-    A safety net after each year's growth: a pattern's own checks and the
-    joining step keep streets planar, yet on large towns a district's streets
-    and its joins were seen crossing each other where two sites' pieces met.
-    Of two crossing new streets the later one goes. Returns the city and how
-    many streets went.
-    """
-    import shapely
-
-    net = city.network
-    nodes = [np.asarray(s.nodes) for s in net.streets]
-    owner = np.repeat(np.arange(len(nodes)), [max(len(n) - 1, 0) for n in nodes])
-    if not len(owner):
-        return city, 0
-    uv = np.concatenate([np.column_stack([n[:-1], n[1:]]) for n in nodes if len(n) >= 2])
-    new = np.array([s.id not in known for s in net.streets])
-    if not new.any():
-        return city, 0
-    lines = shapely.linestrings(net.xy[uv])
-    probe = np.flatnonzero(new[owner])
-    left, right = shapely.STRtree(lines).query(lines[probe], predicate="intersects")
-    left = probe[left]
-    gone: set[int] = set()
-    for i, j in zip(left.tolist(), right.tolist()):
-        a, b = int(owner[i]), int(owner[j])
-        if a == b or set(uv[i].tolist()) & set(uv[j].tolist()):
-            continue
-        if net.streets[a].layer_key != net.streets[b].layer_key:
-            continue
-        gone.add(max(a, b) if new[a] and new[b] else a)
-    if not gone:
-        return city, 0
-    kept = tuple(s for k, s in enumerate(net.streets) if k not in gone)
-    return city.replace(network=net.replace(streets=kept)), len(gone)
 
 
 def _grow_streets(state: _State, era: Era, now: YearValues, year: int, rng: np.random.Generator, count: int, *,

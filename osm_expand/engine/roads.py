@@ -27,6 +27,7 @@ import shapely
 from osm_expand.engine.history import History, YearValues
 from osm_expand.engine.lattice import BuiltUpArea, Lattice, Raster, Segments, build_lattice, built_up_area, pathfinding_graph
 from osm_expand.engine.majorroads import RoadType, plan_major_road, propose_route
+from osm_expand.engine.planarity import without_touching
 from osm_expand.engine.routing import Choice, choose, route_over_major_roads
 from osm_expand.engine.segments import SegmentTable
 from osm_expand.engine.trade import add_route, route_between, segment_capacity
@@ -102,7 +103,9 @@ def major_roads_year(city: City, traffic: TrafficMemory, memory: RoadMemory, sho
         if new is None:
             continue
         plan = plan_major_road(graph, new, road_type, width=now.road_width, options=history.options.major_roads)
+        known = {s.id for s in city.network.streets}
         city, made = _apply(city, table, plan, year=year, era=era, old_town=history.rebuild_old_town)
+        city, _ = without_touching(city, known)  # the road is noded into the streets it meets; a touch it missed goes
         traffic = follow(traffic, city)
         route = _route(traffic, city, int(nodes[pair[0]]), int(nodes[pair[1]]))
         if route is not None:
