@@ -230,3 +230,33 @@ def test_bad_inputs_raise_input_errors():
         subdivide_blocks([shapely.box(0, 0, 1, 1)], [], ["park"], rng=np.random.default_rng(0))
     with pytest.raises(InputError, match="no lot options"):
         subdivide_blocks([shapely.box(0, 0, 1, 1)], [[]], ["park"], options={}, rng=np.random.default_rng(0))
+
+
+def test_dropping_a_null_closing_edge_keeps_each_label_on_its_edge():
+    """A shrunk ring may end where it starts (the closing edge null): labels must not shift by one."""
+    from osm_expand.engine.lots import _clean
+    ring = np.array([(0.0, 0.0), (100.0, 0.0), (100.0, 50.0), (0.0, 50.0), (0.0, 1e-7)])
+    labels = np.array([10, 11, 12, 13, 99])  # edge 4 (back to the start) is null
+    r, lab = _clean(ring, labels)
+    assert len(r) == 4 and lab.tolist() == [10, 11, 12, 13]
+    mids = 0.5 * (r + np.roll(r, -1, axis=0))
+    assert np.allclose(mids, [[50.0, 0.0], [100.0, 25.0], [50.0, 50.0], [0.0, 25.0]])
+    ring = np.array([(0.0, 0.0), (0.0, 0.0), (100.0, 0.0), (100.0, 50.0), (0.0, 50.0)])
+    r, lab = _clean(ring, np.array([99, 10, 11, 12, 13]))  # edge 0 null
+    assert len(r) == 4 and lab.tolist() == [10, 11, 12, 13] and r[0].tolist() == [0.0, 0.0]
+
+
+@pytest.mark.parametrize("seed", range(6))
+def test_every_labelled_lot_edge_faces_the_street_it_names(seed):
+    """An edge named after a street lies half that street's width from its centre line (Krems' lot 174
+    named the wrong street of a corner when a ring's closing edge was null)."""
+    rng = np.random.default_rng(seed)
+    angles = np.sort(rng.uniform(0, 2 * np.pi, 7))
+    radius = rng.uniform(60, 120, 7)
+    block = shapely.Polygon(np.column_stack([radius * np.cos(angles), radius * np.sin(angles)])).convex_hull
+    frontage = ring_frontage(block, width=12.0)
+    by_id = {f.street: f for f in frontage}
+    for lot in subdivide(block, frontage, rng=np.random.default_rng(seed)):
+        for a, b, street in lot.frontage():
+            mid = shapely.Point(0.5 * (a + b))
+            assert abs(mid.distance(shapely.LineString(by_id[street].line)) - 6.0) < 0.25 + 0.05 * 6.0

@@ -446,14 +446,17 @@ def _ccw(poly: shapely.Polygon) -> np.ndarray:
 
 
 def _clean(ring: np.ndarray, labels: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Drop zero-length edges: for a null edge k, vertex k+1 and label k go."""
+    """Drop zero-length edges: for a null edge k, vertex k and label k go.
+
+    Edge k−1 then runs to vertex k+1, where vertex k stood within ``_MIN_EDGE``,
+    and keeps its label. (Dropping vertex k+1 instead shifts every label by one
+    when the closing edge n−1 is the null one: vertex 0 would go, label n−1.)
+    """
     for _ in range(3):
         null = _edge_lengths(ring) < _MIN_EDGE
         if not null.any() or len(ring) <= 3:
             break
-        keep_v = ~np.concatenate((null[-1:], null[:-1]))
-        keep_l = ~null
-        ring, labels = ring[keep_v], labels[keep_l]
+        ring, labels = ring[~null], labels[~null]
     return ring, labels
 
 
