@@ -2,6 +2,7 @@
 
     python benchmarks/engine_speed.py                         # Krems, north-bayreuth, Campo Grande; 10 years
     python benchmarks/engine_speed.py fixtures/monaco.osm.gz --years 20 --history european
+    python benchmarks/engine_speed.py fixtures/krems.osm.gz --years 150 --history european   # to ~3,300 streets
     python benchmarks/engine_speed.py --json > engine.json
 
 For each town: load, grow the district (``--years 0`` work, not timed), then
@@ -10,10 +11,13 @@ build-out for ``--years`` years and time every year (wall clock, from the
 loop's progress callback). The pathfinding lattice is built once, the first
 time a trade route runs short, and is reported apart (it is 003's one-off
 G′ construction); the year it was built is left out of the per-year
-figures. The stage split (growth, blocks, traffic, roads, build-out) is the
-loop's own ``report["seconds"]``, summed over the run. CPU seconds of the
-process are printed too: they move less than wall time when other jobs
-share the machine's 2 cores.
+figures. The years are also grouped in bands of 500 streets (the city's
+street count after the year), with the median wall and CPU seconds of each
+band: that is the curve of seconds per year against streets. The stage
+split (growth, blocks, traffic, roads, build-out) is the loop's own
+``report["seconds"]``, summed over the run. CPU seconds of the process are
+printed too: they move less than wall time when other jobs share the
+machine's 2 cores.
 
 Target (issue 10): about 3,000 streets at ≤ 1 s a year (Weber et al. 2009
 grew 3,005 streets in 58 s for a whole run).
@@ -42,26 +46,43 @@ def measure(path: Path, history_name: str, years: int, seed: int) -> dict:
     city = load(path)
     grown = expand(city, ExpandOptions(seed=seed, years=0, fidelity=False))
     history = load_history(history_name)
-    stamps: list[float] = []
+    stamps: list[tuple[float, float]] = []
+    streets: list[int] = []
     cpu0, t0 = time.process_time(), time.perf_counter()
     engine = run(grown.city, history, years=years, seed=seed, spacing=grown.learned.example.spacing,
                  district_pattern=district_pattern(grown.learned), join_points=grown.joins.at,
-                 buildout=_buildout(), progress=lambda done, total, era: stamps.append(time.perf_counter()))
+                 buildout=_buildout(),
+                 progress=lambda done, total, era: stamps.append((time.perf_counter(), time.process_time())),
+                 snapshot=lambda c, year, era, traffic: streets.append(len(c.network.streets)), snapshot_every=1)
     wall, cpu = time.perf_counter() - t0, time.process_time() - cpu0
     seconds = engine.seconds
-    per_year = [b - a for a, b in zip([t0 + seconds.get("start", 0.0), *stamps[:-1]], stamps)]
-    lattice = seconds.get("lattice", 0.0)
-    if lattice:  # leave out the year the lattice was built
-        worst = max(range(len(per_year)), key=per_year.__getitem__)
-        per_year = per_year[:worst] + per_year[worst + 1:]
+    start = seconds.get("start", 0.0)  # wall; CPU of the start is taken as the same
+    previous = [(t0 + start, cpu0 + start), *stamps[:-1]]
+    timeline = [[n, round(b[0] - a[0], 3), round(b[1] - a[1], 3)] for n, a, b in zip(streets, previous, stamps)]
+    if seconds.get("lattice", 0.0):  # the year the lattice was built, left out of the figures
+        max(timeline, key=lambda row: row[1]).append("lattice")
+    kept = [row for row in timeline if len(row) == 3]
     return {"town": path.name, "history": history_name, "years": years,
             "streets_start": len(grown.city.network.streets), "streets_end": len(engine.city.network.streets),
             "buildings_end": len(engine.city.buildings),
-            "s_per_year_median": round(statistics.median(per_year), 3) if per_year else None,
-            "s_per_year_max": round(max(per_year), 3) if per_year else None,
-            "lattice_s": round(lattice, 2), "start_s": round(seconds.get("start", 0.0), 2),
+            "s_per_year_median": round(statistics.median(r[1] for r in kept), 3) if kept else None,
+            "s_per_year_max": round(max(r[1] for r in kept), 3) if kept else None,
+            "cpu_per_year_median": round(statistics.median(r[2] for r in kept), 3) if kept else None,
+            "lattice_s": round(seconds.get("lattice", 0.0), 2), "start_s": round(start, 2),
             "total_wall_s": round(wall, 2), "total_cpu_s": round(cpu, 2),
-            "stages_s": {k: round(v, 2) for k, v in sorted(seconds.items())}}
+            "stages_s": {k: round(v, 2) for k, v in sorted(seconds.items())},
+            "by_streets": _by_streets(kept), "timeline": timeline}
+
+
+def _by_streets(timeline: list[list]) -> list[dict]:
+    """Median wall and CPU seconds per year in bands of 500 streets."""
+    bands: dict[int, list[list]] = {}
+    for row in timeline:
+        bands.setdefault(row[0] // 500 * 500, []).append(row)
+    return [{"streets": f"{k}-{k + 499}", "years": len(v),
+             "s_per_year_median": round(statistics.median(r[1] for r in v), 3),
+             "s_per_year_max": round(max(r[1] for r in v), 3),
+             "cpu_per_year_median": round(statistics.median(r[2] for r in v), 3)} for k, v in sorted(bands.items())]
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -82,6 +103,9 @@ def main(argv: list[str] | None = None) -> int:
         stages = " ".join(f"{k}={v}" for k, v in r["stages_s"].items())
         print(f"{r['town']:24} {r['streets_start']:>6} → {r['streets_end']:<6} {r['s_per_year_median']:>10} "
               f"{r['s_per_year_max']:>6} {r['lattice_s']:>8} {r['total_wall_s']:>7} {r['total_cpu_s']:>7}  {stages}")
+        for band in r["by_streets"]:
+            print(f"    streets {band['streets']:>11}: {band['years']:>4} years, median {band['s_per_year_median']} s "
+                  f"(CPU {band['cpu_per_year_median']} s), max {band['s_per_year_max']} s")
     return 0
 
 

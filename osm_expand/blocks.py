@@ -25,7 +25,7 @@ left out, and then does not become a hole in the block around it.
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 import shapely
@@ -87,40 +87,82 @@ def faces(net: StreetNetwork) -> list[tuple[np.ndarray, int, np.ndarray]]:
     n = len(pc.lines)
     if n == 0:
         return []
-    # half-edge 2i goes u->v along lines[i], 2i+1 goes back
+    sequence, cycle_start = _face_cycles(pc)
+    # half-edge h = 2i runs along lines[i], h = 2i + 1 back; each contributes its points but the last
+    sizes = np.fromiter((len(ln) for ln in pc.lines), dtype=np.int64, count=n)
+    offsets = np.concatenate([[0], np.cumsum(sizes)])
+    points = np.concatenate(pc.lines)
+    piece, backward = sequence // 2, (sequence % 2).astype(bool)
+    steps = sizes[piece] - 1
+    first = np.where(backward, offsets[piece + 1] - 1, offsets[piece])
+    within = np.arange(int(steps.sum())) - np.repeat(np.cumsum(steps) - steps, steps)
+    index = np.repeat(first, steps) + np.where(np.repeat(backward, steps), -within, within)
+    ring_points = points[index]
+    ring_ids = np.repeat(pc.street_id[piece], steps)
+    bounds = np.concatenate([[0], np.cumsum(steps)[cycle_start[1:] - 1], [len(index)]])
+    out = []
+    for k in range(len(cycle_start)):
+        a, b = int(bounds[k]), int(bounds[k + 1])
+        ring = np.vstack([ring_points[a:b], ring_points[a:a + 1]])
+        edges = int((cycle_start[k + 1] if k + 1 < len(cycle_start) else len(sequence)) - cycle_start[k])
+        out.append((ring, edges, ring_ids[a:b]))
+    return out
+
+
+def _face_cycles(pc: _Pieces) -> tuple[np.ndarray, np.ndarray]:
+    """The half-edges in the order the faces walk them, and where each face starts in that order.
+
+    The next half-edge after ``h`` is the one leaving ``h``'s head next
+    clockwise from the way back (``h ^ 1``): a permutation, whose cycles are
+    the faces, taken in the order of their smallest half-edge.
+    """
+    n = len(pc.lines)
     start = np.empty(2 * n, dtype=np.int64)
     start[0::2], start[1::2] = pc.u, pc.v
     first_step = np.array([ln[1] - ln[0] for ln in pc.lines] + [ln[-2] - ln[-1] for ln in pc.lines])
     order = np.concatenate([np.arange(0, 2 * n, 2), np.arange(1, 2 * n, 2)])
     angle = np.empty(2 * n)
     angle[order] = np.arctan2(first_step[:, 1], first_step[:, 0])
-    around: dict[int, list[int]] = {}
-    for h in np.lexsort((angle, start)).tolist():  # per node, leaving half-edges counter-clockwise
-        around.setdefault(int(start[h]), []).append(h)
-    position = {h: i for hs in around.values() for i, h in enumerate(hs)}
-    used = np.zeros(2 * n, dtype=bool)
-    out = []
+    around = np.lexsort((angle, start))  # per node, leaving half-edges counter-clockwise
+    rank = np.empty(2 * n, dtype=np.int64)
+    rank[around] = np.arange(2 * n)
+    node_first = np.searchsorted(start[around], start)  # where each half-edge's tail starts in ``around``
+    degree = np.bincount(start)[start]
+    twin = np.arange(2 * n) ^ 1
+    tail = node_first[twin]
+    nxt = around[tail + (rank[twin] - tail - 1) % degree[twin]].tolist()
+    used = [False] * (2 * n)
+    sequence: list[int] = []
+    cycle_start: list[int] = []
     for h0 in range(2 * n):
         if used[h0]:
             continue
-        ring, ids, h = [], [], h0
+        cycle_start.append(len(sequence))
+        h = h0
         while not used[h]:
             used[h] = True
-            pts = pc.lines[h // 2] if h % 2 == 0 else pc.lines[h // 2][::-1]
-            ring.append(pts[:-1])
-            ids.append(np.full(len(pts) - 1, pc.street_id[h // 2]))
-            twin = h ^ 1
-            hs = around[int(start[twin])]
-            h = hs[(position[twin] - 1) % len(hs)]  # the next edge clockwise from the way back
-        if h == h0:
-            edges = len(ring)
-            ring.append(ring[0][:1])
-            out.append((np.vstack(ring), edges, np.concatenate(ids)))
-    return out
+            sequence.append(h)
+            h = nxt[h]
+    return np.array(sequence, dtype=np.int64), np.array(cycle_start, dtype=np.int64)
+
+
+@dataclass
+class FaceMemo:
+    """What :func:`blocks` learned about last call's faces, to skip it for faces that did not change.
+
+    A year of the engine changes a few faces of thousands; a face is known
+    by its ring's exact coordinates, so a face that is still there gets back
+    its polygon (or its invalidity) and the faces it overlaps or nests with,
+    and only new faces are tested against the rest. The blocks are the same
+    as without the memo.
+    """
+
+    polygons: dict[bytes, shapely.Polygon | None] = field(default_factory=dict)  #: ring → polygon (None: invalid)
+    pairs: set[tuple[bytes, bytes]] = field(default_factory=set)  #: faces that overlap, contain or lie within
 
 
 def blocks(net: StreetNetwork, options: BlockOptions | None = None, *, origin: Origin = Origin.SOURCE,
-           year: int | None = None) -> list[Block]:
+           year: int | None = None, memo: FaceMemo | None = None) -> list[Block]:
     """The plausible, pairwise disjoint blocks of a network, from its streets' real shapes.
 
     Parameters
@@ -130,6 +172,9 @@ def blocks(net: StreetNetwork, options: BlockOptions | None = None, *, origin: O
     options : BlockOptions
     origin, year
         Stamped on every block.
+    memo : FaceMemo, optional
+        Kept by a caller that asks again after small changes (the engine,
+        every year): read, then updated to this network's faces.
 
     Returns
     -------
@@ -137,22 +182,37 @@ def blocks(net: StreetNetwork, options: BlockOptions | None = None, *, origin: O
         Numbered 0, 1, ... in the order the faces were found.
     """
     opts = options or BlockOptions()
-    bounded, edge_count, street_ids = [], [], []
+    known = memo if memo is not None else FaceMemo()
+    seen: dict[bytes, shapely.Polygon | None] = {}
+    bounded, keys, edge_count, street_ids = [], [], [], []
     for ring, edges, ids in faces(net):
         if len(ring) >= 4 and _signed_area(ring) > 0:
-            poly = shapely.Polygon(ring)
-            if poly.is_valid:  # a face walking a street twice or crossing a bridge is left out
+            key = ring.tobytes()
+            poly = known.polygons[key] if key in known.polygons else _valid_polygon(ring)
+            seen[key] = poly
+            if poly is not None:  # a face walking a street twice or crossing a bridge is left out
                 bounded.append(poly)
+                keys.append(key)
                 edge_count.append(edges)
                 street_ids.append(ids)
+    unique = len(set(keys)) == len(keys)  # two faces on one ring (duplicated ways): ask about every face
+    pairs = _settled_pairs(bounded, keys, known if unique else FaceMemo())
+    if memo is not None:
+        memo.polygons = seen if unique else {}
+        memo.pairs = {(keys[i], keys[j]) for i, j in pairs.tolist()} if unique else set()
     # holes first (a sliver inside a block is still a hole in it), plausibility after
-    kept = [(k, p) for k, p in _disjoint(bounded)
+    kept = [(k, p) for k, p in _disjoint(bounded, pairs)
             if edge_count[k] <= opts.max_edges and opts.min_area <= p.area <= opts.max_area]
     out = []
     for i, (k, p) in enumerate(kept):
         ids = street_ids[k] if not len(p.interiors) else _edge_streets(p, bounded[k], street_ids[k])
         out.append(Block(polygon=p, street_ids=tuple(ids.tolist()), id=i, origin=origin, year=year))
     return out
+
+
+def _valid_polygon(ring: np.ndarray) -> shapely.Polygon | None:
+    poly = shapely.Polygon(ring)
+    return poly if poly.is_valid else None
 
 
 def _edge_streets(poly: shapely.Polygon, face: shapely.Polygon, ids: np.ndarray) -> np.ndarray:
@@ -176,7 +236,31 @@ def _signed_area(ring: np.ndarray) -> float:
     return 0.5 * float(np.dot(x[:-1], y[1:]) - np.dot(x[1:], y[:-1]))
 
 
-def _disjoint(polys: list[shapely.Polygon]) -> list[tuple[int, shapely.Polygon]]:
+def _settled_pairs(polys: list[shapely.Polygon], keys: list[bytes], memo: FaceMemo) -> np.ndarray:
+    """Pairs (i < j) of faces that overlap or nest, sorted; faces that only share edges touch.
+
+    Pairs of faces the memo knows come from it; only the new faces are
+    queried against all (each of ``contains`` and ``within`` from the new
+    side covers one orientation).
+    """
+    if not polys:
+        return np.zeros((0, 2), dtype=np.int64)
+    index = {k: i for i, k in enumerate(keys)}
+    new = np.array([k not in memo.polygons for k in keys], dtype=bool)
+    old = [(index[a], index[b]) for a, b in memo.pairs if a in index and b in index]
+    found = [np.array(old, dtype=np.int64).reshape(-1, 2)]
+    if new.any():
+        tree = shapely.STRtree(polys)
+        asked = np.flatnonzero(new)
+        for predicate in ("overlaps", "contains", "within"):
+            q, j = tree.query(np.asarray(polys, dtype=object)[asked], predicate=predicate)
+            found.append(np.stack([asked[q], j], axis=1))
+    pairs = np.sort(np.concatenate(found), axis=1)
+    pairs = pairs[pairs[:, 0] != pairs[:, 1]]
+    return np.unique(pairs, axis=0)
+
+
+def _disjoint(polys: list[shapely.Polygon], pairs: np.ndarray) -> list[tuple[int, shapely.Polygon]]:
     """Make the faces pairwise disjoint; returns (index, polygon) of those kept.
 
     A face that contains another (a separate piece of network inside a
@@ -186,14 +270,8 @@ def _disjoint(polys: list[shapely.Polygon]) -> list[tuple[int, shapely.Polygon]]
     if not polys:
         return []
     polys = list(polys)
-    tree = shapely.STRtree(polys)
-    # faces that only share edges touch; overlapping or nested ones are the pairs to settle
-    pairs = np.unique(np.concatenate([np.stack(tree.query(polys, predicate=p), axis=1)
-                                      for p in ("overlaps", "contains", "within")]), axis=0)
     drop, holes = set(), {}
     for i, j in pairs.tolist():
-        if i >= j:
-            continue
         shared = polys[i].intersection(polys[j]).area
         if shared <= 1.0:
             continue

@@ -63,7 +63,7 @@ class GrowthMemory:
     """What street growth remembers from year to year (not part of the city)."""
 
     spawned: set[int] = field(default_factory=set)  #: city nodes that spawned streets (or never will)
-    failed: list[np.ndarray] = field(default_factory=list)  #: points where growth failed (003: finished)
+    failed: np.ndarray = field(default_factory=lambda: np.zeros((0, 2)))  #: (F, 2) points where growth failed (003: finished)
     owed: float = 0.0  #: street length a district pattern owes (m)
 
 
@@ -99,7 +99,7 @@ def grow_street_pattern(city: City, count: int, options: PatternOptions, nuclei:
     graph.spawned[:] = degree == 2  # shape points never start a street
     spawned = np.fromiter(memory.spawned, dtype=np.int64, count=len(memory.spawned))
     graph.spawned[spawned[spawned < n_nodes]] = True
-    failed = np.array(memory.failed, dtype=float).reshape(-1, 2)
+    failed = memory.failed
     water, forbidden = city.water_geometry(), _forbidden(city)
     splits: list[tuple[np.ndarray, np.ndarray]] = []
     made, batch = 0, math.ceil(count / options.streets_per_start)
@@ -119,7 +119,7 @@ def grow_street_pattern(city: City, count: int, options: PatternOptions, nuclei:
             break
         batch *= 2
     memory.spawned |= set(np.flatnonzero(graph.spawned[:n_nodes]).tolist())
-    memory.failed = [tuple(p) for p in failed.tolist()]
+    memory.failed = failed
     if not splits:
         return city, GrowthYear()
     lines, bridges = _new_lines(graph, splits, n_segments)

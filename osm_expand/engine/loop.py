@@ -24,7 +24,7 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
-from osm_expand.blocks import blocks
+from osm_expand.blocks import FaceMemo, blocks
 from osm_expand.engine.growth import GrowthMemory, GrowthOptions, GrowthYear, grow_district, grow_street_pattern
 from osm_expand.engine.history import GROWTH_PATTERNS, Era, History, YearValues
 from osm_expand.engine.nuclei import Nucleus, candidate_points, find_nuclei, new_junction_nuclei
@@ -99,6 +99,7 @@ class _State:
     patterns: dict[str, GrowthPattern] = field(default_factory=dict)  #: district patterns by era
     carry: float = 0.0
     seconds: Counter = field(default_factory=Counter)
+    faces: FaceMemo = field(default_factory=FaceMemo)  #: last year's faces: blocks redo only what changed
 
 
 def run(city: City, history: History, *, years: int, seed: int, spacing: float,
@@ -138,9 +139,10 @@ def run(city: City, history: History, *, years: int, seed: int, spacing: float,
     clock = history.clock(city.year)
     b = history.traffic_factor(rng)
     started = time.perf_counter()
-    city = _with_blocks(city, None)
+    faces = FaceMemo()
+    city = _with_blocks(city, None, faces)
     state = _State(city=city, nuclei=_initial_nuclei(city, join_points), growth=GrowthMemory(),
-                   traffic=start_traffic(city, streams["traffic"]), roads=RoadMemory())
+                   traffic=start_traffic(city, streams["traffic"]), roads=RoadMemory(), faces=faces)
     if buildout is not None:
         state.buildout = buildout.start(city, history, streams["buildout"])
     state.seconds["start"] += time.perf_counter() - started
@@ -195,7 +197,7 @@ def _one_year(state: _State, history: History, now: YearValues, year: int, strea
     state.seconds["growth"] += time.perf_counter() - t
     if len(state.city.network.streets) != before:
         t = time.perf_counter()
-        state.city = _with_blocks(state.city, year)
+        state.city = _with_blocks(state.city, year, state.faces)
         state.seconds["blocks"] += time.perf_counter() - t
     t = time.perf_counter()
     trips = history.options.trips
@@ -213,7 +215,7 @@ def _one_year(state: _State, history: History, now: YearValues, year: int, strea
     state.seconds["lattice" if not had_lattice and state.roads.lattice is not None else "roads"] += spent
     report.roads = report.roads + roads
     if city is not state.city:
-        state.city = _with_blocks(city, year)
+        state.city = _with_blocks(city, year, state.faces)
     if len(junctions):
         z = candidate_points(_arrays(state.city), spawned_mask=np.zeros(len(state.city.network.xy), bool),
                              temporary_points=False)
@@ -302,9 +304,9 @@ def _town_bearing(table: SegmentTable) -> float:
     return float(edges[int(np.argmax(smooth))] + 0.5)
 
 
-def _with_blocks(city: City, year: int | None) -> City:
+def _with_blocks(city: City, year: int | None, faces: FaceMemo) -> City:
     """The city with its blocks recomputed; a block's origin and year from the streets around it."""
-    found = blocks(city.network, year=year)
+    found = blocks(city.network, year=year, memo=faces)
     by_id = {s.id: s for s in city.network.streets}
     out = []
     for blk in found:

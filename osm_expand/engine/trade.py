@@ -62,6 +62,7 @@ from numpy.typing import NDArray
 from scipy import sparse
 from scipy.sparse.csgraph import dijkstra
 
+from osm_expand.engine.pieces import Pieces
 from osm_expand.errors import InputError
 
 __all__ = [
@@ -506,7 +507,7 @@ def extend_segments(state: TradeState, n_segments: int) -> TradeState:
     return replace(state, n_segments=int(n_segments))
 
 
-def remap_segments(state: TradeState, pieces: Sequence[Sequence[int]], n_segments: int) -> TradeState:
+def remap_segments(state: TradeState, pieces: Pieces | Sequence[Sequence[int]], n_segments: int) -> TradeState:
     """Follow the segment table through a rebuild: old segment ``i`` became ``pieces[i]``.
 
     A split segment maps to its pieces (a route through it runs through all
@@ -517,7 +518,7 @@ def remap_segments(state: TradeState, pieces: Sequence[Sequence[int]], n_segment
     Parameters
     ----------
     state : TradeState
-    pieces : sequence of length ``state.n_segments`` of int sequences
+    pieces : Pieces, or a sequence of length ``state.n_segments`` of int sequences
         New ids (in ``0..n_segments-1``) for each old segment, in path order
         when the old segment is traversed from its first to its second node.
     n_segments : int
@@ -527,14 +528,14 @@ def remap_segments(state: TradeState, pieces: Sequence[Sequence[int]], n_segment
     -------
     TradeState
     """
+    pieces = Pieces.of(pieces)
     if len(pieces) != state.n_segments:
         raise InputError(f"trade: remap needs {state.n_segments} entries, got {len(pieces)}")
-    mapped = [np.asarray(p, dtype=np.int64).reshape(-1) for p in pieces]
-    if any(len(p) and (p.min() < 0 or p.max() >= n_segments) for p in mapped):
+    if len(pieces.flat) and (pieces.flat.min() < 0 or pieces.flat.max() >= n_segments):
         raise InputError(f"trade: remap points outside 0..{n_segments - 1}")
     routes = []
     for r in state.routes:
-        segs = np.concatenate([mapped[s] for s in r.segments]) if len(r.segments) else np.zeros(0, np.int64)
+        segs = pieces.gather(r.segments)
         if len(segs) == 0:
             continue
         _, first = np.unique(segs, return_index=True)

@@ -57,6 +57,7 @@ from numpy.typing import NDArray
 from scipy import sparse
 from scipy.sparse.csgraph import dijkstra
 
+from osm_expand.engine.pieces import Pieces
 from osm_expand.errors import InputError
 
 __all__ = [
@@ -529,7 +530,7 @@ def extend_trip_state(state: TripState, n_segments: int) -> TripState:
                   np.r_[state.sampled_residents, np.zeros(n - old)])
 
 
-def remap_trip_state(state: TripState, pieces: Sequence[Sequence[int]], n_segments: int) -> TripState:
+def remap_trip_state(state: TripState, pieces: Pieces | Sequence[Sequence[int]], n_segments: int) -> TripState:
     """Follow the segment table through a rebuild: old segment ``i`` became ``pieces[i]``.
 
     Trips through a split segment now run through all its pieces; a
@@ -540,7 +541,7 @@ def remap_trip_state(state: TripState, pieces: Sequence[Sequence[int]], n_segmen
     Parameters
     ----------
     state : TripState
-    pieces : sequence of length ``state.n_segments`` of int sequences
+    pieces : Pieces, or a sequence of length ``state.n_segments`` of int sequences
         New ids of each old segment (``[]`` when deleted).
     n_segments : int
         Size of the new table.
@@ -550,11 +551,10 @@ def remap_trip_state(state: TripState, pieces: Sequence[Sequence[int]], n_segmen
     TripState
     """
     old, n = state.n_segments, int(n_segments)
+    pieces = Pieces.of(pieces)
     if len(pieces) != old:
         raise InputError(f"trips: remap needs {old} entries, got {len(pieces)}")
-    sizes = np.array([len(p) for p in pieces], dtype=np.int64)
-    flat = (np.concatenate([np.asarray(p, dtype=np.int64).reshape(-1) for p in pieces])
-            if sizes.sum() else np.zeros(0, np.int64))
+    sizes, flat = pieces.sizes, pieces.flat
     if len(flat) and (flat.min() < 0 or flat.max() >= n):
         raise InputError(f"trips: remap points outside 0..{n - 1}")
     src = np.repeat(np.arange(old), sizes)

@@ -56,6 +56,8 @@ def split_self_touching(street: Street) -> list[Street]:
     The pieces visit each node once, except that a piece may be a ring; a
     back-and-forth spike (a-b-a) disappears.
     """
+    if isinstance(street.nodes, tuple) and len(street.nodes) >= 2 and len(set(street.nodes)) == len(street.nodes):
+        return [street]  # the common case, and the street unchanged: no copy (blocks run this every year)
     nodes = clean_nodes(street.nodes)
     if nodes is None:
         return []
