@@ -17,6 +17,7 @@ from __future__ import annotations
 import numpy as np
 import shapely
 
+from osm_expand.engine.segments import SegmentTable
 from osm_expand.model import City, Origin
 
 #: Decimals of a metre the XML writes coordinates with (:mod:`osm_expand.export.urban`): segments
@@ -44,12 +45,10 @@ def touching_pairs(city: City, probe: np.ndarray) -> np.ndarray:
         once. ``k == m`` when a street touches itself.
     """
     net = city.network
-    nodes = [np.asarray(s.nodes, dtype=np.int64) for s in net.streets]
-    counts = np.array([max(len(n) - 1, 0) for n in nodes], dtype=np.int64)
-    if not counts.sum() or not probe.any():
+    table = SegmentTable.from_city(city)
+    if not len(table) or not probe.any():
         return np.zeros((0, 2), dtype=np.int64)
-    owner = np.repeat(np.arange(len(nodes)), counts)
-    uv = np.concatenate([np.column_stack([n[:-1], n[1:]]) for n in nodes if len(n) >= 2])
+    owner, uv = table.street, table.uv
     ends = np.round(net.xy, DECIMALS)[uv]  # (E, 2, 2)
     lines = shapely.linestrings(ends)
     mine = np.flatnonzero(probe[owner])

@@ -25,6 +25,8 @@ DEFAULT_WIDTH = {"motorway": 22.0, "trunk": 15.0, "primary": 14.0, "secondary": 
                  "unclassified": 6.0, "residential": 6.0, "living_street": 5.0, "road": 6.0, "service": 4.0}
 #: Metres per lane when only ``lanes`` is mapped.
 LANE_WIDTH = 3.5
+#: The last network :meth:`SegmentTable.from_city` saw, and its table.
+_LAST: list = [None, None]
 
 
 def street_width(street: Street) -> float:
@@ -58,6 +60,20 @@ class SegmentTable:
 
     @classmethod
     def from_city(cls, city: City) -> "SegmentTable":
+        """The table of ``city``'s streets; the last network's table comes back as it is.
+
+        A year asks for the same network's table several times (growth,
+        nuclei, the safety net, traffic); networks are immutable, so the
+        table of the very same network object is the same table.
+        """
+        if _LAST[0] is city.network:
+            return _LAST[1]
+        table = cls._build(city)
+        _LAST[:] = [city.network, table]
+        return table
+
+    @classmethod
+    def _build(cls, city: City) -> "SegmentTable":
         streets = city.network.streets
         sizes = np.array([len(s.nodes) - 1 for s in streets], dtype=np.int64)
         nodes = [np.asarray(s.nodes, dtype=np.int64) for s in streets]
@@ -66,7 +82,7 @@ class SegmentTable:
         street = np.repeat(np.arange(len(streets)), sizes)
         per = lambda values, dtype: np.repeat(np.asarray(values, dtype=dtype), sizes)  # noqa: E731
         xy = city.network.xy
-        return cls(
+        table = cls(
             xy=xy, uv=uv, street=street, length=np.hypot(*(xy[uv[:, 1]] - xy[uv[:, 0]]).T),
             width=per([street_width(s) for s in streets], float),
             major=per([is_major(s) for s in streets], bool),
@@ -76,6 +92,9 @@ class SegmentTable:
             street_id=per([s.id for s in streets], np.int64),
             first=np.concatenate([[0], np.cumsum(sizes)]).astype(np.int64),
         )
+        for name in ("uv", "street", "length", "width", "major", "built", "bridge", "year", "street_id", "first"):
+            getattr(table, name).flags.writeable = False  # the table is shared (from_city hands it out again)
+        return table
 
     def __len__(self) -> int:
         return len(self.uv)
