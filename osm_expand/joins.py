@@ -145,7 +145,7 @@ class _Board:
         self.net, self.occupied, self.water, self.year, self.era = net, occupied, water, year, era
         self.new_xy: list[np.ndarray] = []
         self.streets = list(net.streets)
-        self.lines = shapely.STRtree([shapely.LineString(net.street_xy(s)) for s in net.streets])
+        self.lines = shapely.STRtree(net.street_lines())
         self.links: list[shapely.LineString] = []
         self.degree = segment_degree(net.streets, len(net.xy)).tolist()
         self.joined_at: list[np.ndarray] = []
@@ -280,8 +280,8 @@ def _border(net: StreetNetwork, old: list[int]) -> np.ndarray:
 def _candidates(net: StreetNetwork, new: list[int], old: list[int], border: np.ndarray,
                 reach: float, spread: float) -> list[_Link]:
     """Links from border nodes and from points along old streets to the nearest new street."""
-    new_lines = [shapely.LineString(net.street_xy(net.streets[k])) for k in new]
-    old_lines = [shapely.LineString(net.street_xy(net.streets[k])) for k in old]
+    every = net.street_lines()
+    new_lines, old_lines = every[new].tolist(), every[old].tolist()
     district = shapely.STRtree(new_lines)
     old_tree = shapely.STRtree(old_lines)
     hull = shapely.MultiLineString(new_lines).convex_hull.buffer(reach)

@@ -33,12 +33,12 @@ to the town.
 """
 from __future__ import annotations
 
+from collections.abc import Iterator
 from dataclasses import dataclass
 
 import numpy as np
 import shapely
 from scipy.ndimage import binary_opening, distance_transform_edt
-from scipy.signal import fftconvolve
 
 from osm_expand.errors import InputError
 from osm_expand.model import City
@@ -138,8 +138,7 @@ def distance_maps(city: City, opts: SiteOptions | None = None, *, margin: float 
 def _built_up(city: City, xs: np.ndarray, ys: np.ndarray, cell: float, opts: SiteOptions) -> np.ndarray:
     """Blocks, and the street buffers opened so that lone roads through the fields drop out."""
     net = city.network
-    lines = np.array([shapely.LineString(net.street_xy(s)) for s in net.streets], dtype=object)
-    buffered = _raster_each(shapely.buffer(lines, opts.street_buffer), xs, ys)
+    buffered = _raster_each(shapely.buffer(net.street_lines(), opts.street_buffer), xs, ys)
     r = int(round(opts.street_buffer / cell)) + 1  # wider than a lone road's strip, however it rasterises
     dy, dx = np.mgrid[-r:r + 1, -r:r + 1]
     body = binary_opening(buffered, structure=np.hypot(dx, dy) <= r)
@@ -234,10 +233,8 @@ def choose_sites(maps: DistanceMaps, area: float, opts: SiteOptions | None = Non
     if direction:
         score = np.where(_in_sector(maps, xs, ys, DIRECTIONS[direction.upper()]), score, -np.inf)
     flat = score.ravel()
-    ranked = np.flatnonzero(np.isfinite(flat))
-    ranked = ranked[np.argsort(-flat[ranked], kind="stable")]
     sites: list[Site] = []
-    for i in ranked.tolist():
+    for i in _best_first(flat):
         centre = np.array([xs.flat[i], ys.flat[i]])
         if all(np.hypot(*(centre - s.centre)) >= radius for s in sites):
             sites.append(_disc(centre, float(disc_radius.flat[i]), area, float(flat[i])))
@@ -249,12 +246,14 @@ def choose_sites(maps: DistanceMaps, area: float, opts: SiteOptions | None = Non
 def _best_radius(maps: DistanceMaps, area: float, radius: float, opts: SiteOptions) -> tuple[np.ndarray, np.ndarray]:
     """Per cell, the score of the smallest disc (of :data:`RADIUS_STEPS`) holding ``area`` of free land."""
     hard = maps.water | maps.city | maps.outside
+    free_land = ~hard
     best = np.full(hard.shape, -np.inf)
     best_radius = np.full(hard.shape, np.nan)
+    rings = _RingShares(hard.shape, (RADIUS_STEPS[-1] * radius + opts.contact_width) / maps.cell)
     for step in RADIUS_STEPS:
         r = step * radius
-        free = _ring_share(~hard, 0.0, r / maps.cell) * np.pi * r * r  # beyond the raster is not free
-        score = _score(maps, r, opts) - 0.25 * (step - 1.0)  # the tighter disc is the better district
+        free = rings.share(free_land, 0.0, r / maps.cell) * np.pi * r * r  # beyond the raster is not free
+        score = _score(maps, r, opts, rings) - 0.25 * (step - 1.0)  # the tighter disc is the better district
         fits = (free >= area) & ~hard & np.isneginf(best)
         best = np.where(fits, score, best)
         best_radius = np.where(fits, r, best_radius)
@@ -284,7 +283,7 @@ def _disc(centre: np.ndarray, radius: float, area: float, score: float) -> Site:
     return Site(centre=centre, area=area, region=shapely.Point(centre).buffer(radius, 64), score=score)
 
 
-def _score(maps: DistanceMaps, radius: float, opts: SiteOptions) -> np.ndarray:
+def _score(maps: DistanceMaps, radius: float, opts: SiteOptions, rings: "_RingShares") -> np.ndarray:
     """1 for a disc that touches the city (or water), falling off with the gap; room beyond need adds a
     little; unbuildable land inside costs. -inf where the disc holds too much unbuildable land."""
     gap_city = np.maximum(maps.city_distance - radius, 0.0)
@@ -294,8 +293,8 @@ def _score(maps: DistanceMaps, radius: float, opts: SiteOptions) -> np.ndarray:
     else:
         near_water = np.zeros_like(near_city)
     room = np.clip((maps.free_radius - radius) / radius, 0.0, 1.0)
-    contact = _ring_share(maps.city, radius / maps.cell, (radius + opts.contact_width) / maps.cell)
-    taken = _ring_share(maps.unbuildable, 0.0, radius / maps.cell)
+    contact = rings.share(maps.city, radius / maps.cell, (radius + opts.contact_width) / maps.cell)
+    taken = rings.share(maps.unbuildable, 0.0, radius / maps.cell)
     score = (opts.city_weight * near_city + opts.contact_weight * contact + opts.water_weight * near_water
              + opts.room_weight * room - opts.unbuildable_weight * taken)
     return np.where(taken <= opts.max_unbuildable, score, -np.inf)
@@ -305,33 +304,77 @@ def _score(maps: DistanceMaps, radius: float, opts: SiteOptions) -> np.ndarray:
 COARSE_AT = 24
 
 
-def _ring_share(mask: np.ndarray, inner: float, outer: float) -> np.ndarray:
-    """Per cell, the share of the ring ``inner``..``outer`` cells around it that is ``mask``.
+class _RingShares:
+    """Per cell, the share of a ring of cells around it that is a mask, for a few masks and radii.
 
     A district in a bay of the town borders it along a long arc, and can be
     joined to it by many streets; one touching a corner only by one. With
     ``inner`` 0 it is the share of the disc. Cells beyond the raster count
-    as not ``mask``. Large rings are convolved on a grid ``f`` times coarser
-    (block means), which changes the share by about a cell's width over the
-    ring's, and is resampled back.
+    as not the mask.
+
+    One site search asks for three masks at four radii: each mask's and each
+    ring's Fourier transform (:mod:`scipy.fft`) is taken once and the shares
+    are their products transformed back, 23 transforms where a convolution
+    per share takes 36. Rings wider than :data:`COARSE_AT` cells are
+    convolved on a grid ``f`` times coarser (block means), which changes the
+    share by about a cell's width over the ring's, and resampled back.
     """
-    if not mask.any():
-        return np.zeros(mask.shape)
-    f = max(int(outer // COARSE_AT), 1)
-    ny, nx = mask.shape
-    coarse = mask.astype(float)
-    if f > 1:
-        padded = np.zeros((-(-ny // f) * f, -(-nx // f) * f))
-        padded[:ny, :nx] = coarse
-        coarse = padded.reshape(padded.shape[0] // f, f, padded.shape[1] // f, f).mean(axis=(1, 3))
-    r = int(np.ceil(outer / f))
-    dy, dx = np.mgrid[-r:r + 1, -r:r + 1]
-    dist = np.hypot(dx, dy)
-    ring = ((dist >= inner / f) & (dist <= outer / f)).astype(float)
-    share = fftconvolve(coarse, ring / ring.sum(), mode="same")
-    if f > 1:
-        share = np.repeat(np.repeat(share, f, axis=0), f, axis=1)[:ny, :nx]
-    return np.clip(share, 0.0, 1.0)
+
+    def __init__(self, shape: tuple[int, int], outer_max: float):
+        from scipy import fft
+
+        self._fft = fft
+        self.shape = shape
+        self.outer_max = outer_max  #: the widest ring asked for (cells): the transforms are padded for it
+        self._masks: dict[tuple[int, int], tuple[np.ndarray, np.ndarray]] = {}
+        self._rings: dict[tuple[float, float], np.ndarray] = {}
+
+    def share(self, mask: np.ndarray, inner: float, outer: float) -> np.ndarray:
+        """The share of the ring ``inner``..``outer`` cells around each cell that is ``mask``."""
+        if outer > self.outer_max:
+            raise ValueError(f"ring of {outer} cells asked of shares padded for {self.outer_max}")
+        if not mask.any():
+            return np.zeros(self.shape)
+        f = max(int(outer // COARSE_AT), 1)
+        cy, cx = self._coarse(f)
+        share = self._fft.irfft2(self._mask(mask, f) * self._ring(inner, outer), s=self._pad(f))[:cy, :cx]
+        if f > 1:
+            share = np.repeat(np.repeat(share, f, axis=0), f, axis=1)[:self.shape[0], :self.shape[1]]
+        return np.clip(share, 0.0, 1.0)
+
+    def _coarse(self, f: int) -> tuple[int, int]:
+        return -(-self.shape[0] // f), -(-self.shape[1] // f)
+
+    def _pad(self, f: int) -> tuple[int, int]:
+        reach = int(np.ceil(max(self.outer_max, COARSE_AT * f) / f))  # so that no ring wraps around
+        cy, cx = self._coarse(f)
+        return self._fft.next_fast_len(cy + reach, real=True), self._fft.next_fast_len(cx + reach, real=True)
+
+    def _mask(self, mask: np.ndarray, f: int) -> np.ndarray:
+        hit = self._masks.get((id(mask), f))
+        if hit is None or hit[0] is not mask:
+            grid = mask.astype(float)
+            if f > 1:
+                cy, cx = self._coarse(f)
+                padded = np.zeros((cy * f, cx * f))
+                padded[:self.shape[0], :self.shape[1]] = grid
+                grid = padded.reshape(cy, f, cx, f).mean(axis=(1, 3))
+            hit = self._masks[(id(mask), f)] = (mask, self._fft.rfft2(grid, s=self._pad(f)))
+        return hit[1]
+
+    def _ring(self, inner: float, outer: float) -> np.ndarray:
+        key = (inner, outer)
+        if key not in self._rings:
+            f = max(int(outer // COARSE_AT), 1)
+            pad = self._pad(f)
+            r = int(np.ceil(outer / f))
+            dy, dx = np.mgrid[-r:r + 1, -r:r + 1]
+            dist = np.hypot(dx, dy)
+            ring = ((dist >= inner / f) & (dist <= outer / f)).astype(float)
+            kernel = np.zeros(pad)
+            np.add.at(kernel, (dy % pad[0], dx % pad[1]), ring / ring.sum())  # centred on cell (0, 0)
+            self._rings[key] = self._fft.rfft2(kernel)
+        return self._rings[key]
 
 
 def _across_water(maps: DistanceMaps, score: np.ndarray, samples: int = 32, top: int = 2000) -> np.ndarray:
@@ -345,7 +388,7 @@ def _across_water(maps: DistanceMaps, score: np.ndarray, samples: int = 32, top:
     if not maps.water.any() or not maps.city.any() or len(finite) == 0:
         return out
     ci, cj = maps.nearest_city
-    cand = finite[np.argsort(-score.ravel()[finite], kind="stable")[:top]]
+    cand = _top(score.ravel(), finite, top)
     i0, j0 = np.unravel_index(cand, maps.water.shape)
     i1, j1 = ci.ravel()[cand], cj.ravel()[cand]
     t = np.linspace(0.0, 1.0, samples)[:, None]
@@ -353,6 +396,36 @@ def _across_water(maps: DistanceMaps, score: np.ndarray, samples: int = 32, top:
     jj = np.rint(j0 + t * (j1 - j0)).astype(int)
     out.ravel()[cand] = maps.water[ii, jj].any(axis=0)
     return out
+
+
+#: Cells ranked at first by :func:`_best_first`: the sites are nearly always among the best few thousand.
+FIRST_RANKED = 4096
+
+
+def _top(values: np.ndarray, index: np.ndarray, k: int) -> np.ndarray:
+    """The ``k`` entries of ``index`` with the largest ``values``, largest first, ties in index order.
+
+    The same as the first ``k`` of a stable descending sort of all of them,
+    without sorting the million cells of a town's raster: everything at or
+    above the k-th largest value is sorted, the rest never is.
+    """
+    if len(index) <= k:
+        return index[np.argsort(-values[index], kind="stable")]
+    v = values[index]
+    kth = np.partition(v, len(v) - k)[len(v) - k]
+    head = index[v >= kth]
+    return head[np.argsort(-values[head], kind="stable")][:k]
+
+
+def _best_first(flat: np.ndarray) -> Iterator[int]:
+    """Indices of the finite cells, best first (ties in index order): the best
+    :data:`FIRST_RANKED` at once, the rest only if a caller gets that far."""
+    finite = np.flatnonzero(np.isfinite(flat))
+    head = _top(flat, finite, FIRST_RANKED)
+    yield from head.tolist()
+    if len(head) < len(finite):
+        rest = np.setdiff1d(finite, head, assume_unique=True)
+        yield from rest[np.argsort(-flat[rest], kind="stable")].tolist()
 
 
 def _in_sector(maps: DistanceMaps, xs: np.ndarray, ys: np.ndarray, bearing_deg: float) -> np.ndarray:

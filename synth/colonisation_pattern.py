@@ -291,7 +291,7 @@ def _setup(city: City, region: shapely.Geometry, opts: ColonisationOptions,
         region = shapely.buffer(region, opts.radius_of_influence * sl)
     net = city.network
     town = [k for k, s in enumerate(net.streets) if s.origin == Origin.SOURCE]
-    lines = np.array([shapely.LineString(net.street_xy(net.streets[k])) for k in town], dtype=object)
+    lines = net.street_lines()[np.asarray(town, dtype=np.intp)]
     ground = np.array([net.streets[k].layer_key == (0, False, False) for k in town], dtype=bool)
     barred = np.array([net.streets[k].highway in pattern.never_joined for k in town], dtype=bool)
     joinable = ground & ~barred

@@ -83,8 +83,7 @@ def border_nodes(net: StreetNetwork, near: shapely.Geometry, reach: float) -> tu
 
 def streets_near(net: StreetNetwork, near: shapely.Geometry) -> list[np.ndarray]:
     """Polylines of the streets that touch ``near``."""
-    lines = [shapely.LineString(net.street_xy(s)) for s in net.streets]
-    hits = shapely.STRtree(lines).query(near, predicate="intersects")
+    hits = shapely.STRtree(net.street_lines()).query(near, predicate="intersects")
     return [net.street_xy(net.streets[k]) for k in sorted(hits.tolist())]
 
 

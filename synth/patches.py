@@ -225,7 +225,7 @@ def _source(city: City, example: Example, everything: bool = False) -> _Source:
     net = city.network
     copied = [s.origin == Origin.SOURCE and (everything or s.highway not in NOT_COPIED) for s in net.streets]
     keep = [s for s, c in zip(net.streets, copied) if c]
-    lines = np.array([shapely.LineString(net.street_xy(s)) for s in keep], dtype=object)
+    lines = net.street_lines()[np.asarray(copied, dtype=bool)]
     level = np.array([min((level_of.get(i, deepest) for i in s.osm_ids), default=deepest) for s in keep])
     left_out = {n for s, c in zip(net.streets, copied) if not c for n in s.nodes}
     broken = sorted({n for s in keep for n in s.nodes} & left_out)

@@ -306,10 +306,22 @@ class _Streets:
     new: NDArray[np.bool_]
     #: ids of streets whose nodes or width changed since last year, or that are gone
     changed: frozenset[int] = frozenset()
+    #: (S,) bool: streets new since last year, or whose nodes or width changed (all on the first year)
+    recent: NDArray[np.bool_] | None = None
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "line_tree", shapely.STRtree(self.lines))
         object.__setattr__(self, "carriageway_tree", shapely.STRtree(self.carriageways))
+
+    def only_recent(self) -> "_Streets":
+        """The streets that are new or changed since last year: the only ones that can have come to lie
+        over a lot or building, since lots and buildings are made clear of every street there is."""
+        if self.recent is None or self.recent.all():
+            return self
+        keep = self.recent
+        return _Streets(ids=self.ids[keep], lines=self.lines[keep], carriageways=self.carriageways[keep],
+                        widths=self.widths[keep], built=self.built[keep], new=self.new[keep],
+                        changed=self.changed, recent=None)
 
     @property
     def built_ids(self) -> frozenset[int]:
@@ -325,6 +337,7 @@ def _streets(city: City, memo: _Memo) -> tuple[_Streets, int]:
     carriageways = np.empty(len(streets), dtype=object)
     fresh = []
     changed = set(memo.streets) - {s.id for s in streets}
+    first = not memo.streets
     for k, (s, w) in enumerate(zip(streets, widths.tolist())):
         hit = memo.streets.get(s.id)
         if hit is not None and hit[0] == s.nodes and hit[1] == w:
@@ -333,6 +346,7 @@ def _streets(city: City, memo: _Memo) -> tuple[_Streets, int]:
             fresh.append(k)
             if hit is not None:
                 changed.add(s.id)
+    recent = np.ones(len(streets), dtype=bool) if first else np.isin(np.arange(len(streets)), fresh)
     if fresh:
         sizes = np.array([len(streets[k].nodes) for k in fresh], dtype=np.int64)
         coords = net.xy[np.concatenate([np.asarray(streets[k].nodes, dtype=np.intp) for k in fresh])]
@@ -344,7 +358,8 @@ def _streets(city: City, memo: _Memo) -> tuple[_Streets, int]:
     signature = hash(tuple((s.id, s.nodes, w) for s, w in zip(streets, widths.tolist())))
     table = _Streets(ids=np.array([s.id for s in streets], dtype=np.int64), lines=lines, carriageways=carriageways,
                      widths=widths, built=np.array([s.status == Status.BUILT for s in streets], dtype=bool),
-                     new=np.array([s.is_new for s in streets], dtype=bool), changed=frozenset(changed))
+                     new=np.array([s.is_new for s in streets], dtype=bool), changed=frozenset(changed),
+                     recent=recent)
     return table, signature
 
 
@@ -534,7 +549,8 @@ def _demolish(work: _Year, *, check: bool = True) -> set[int]:
     streets, states = work.streets, work.states
     order = sorted(states)
     polys = np.array([states[k].lot.polygon for k in order], dtype=object)
-    crossed = _lots_hit(polys, streets, work.memory.options.street_overlap) if check \
+    recent = streets.only_recent() if check else streets
+    crossed = _lots_hit(polys, recent, work.memory.options.street_overlap) if check \
         else np.zeros(len(order), dtype=bool)
     block_polys = np.array([b.polygon for b in work.blocks], dtype=object)
     points = shapely.points(np.array([states[k].point for k in order]).reshape(-1, 2))
@@ -563,7 +579,7 @@ def _demolish(work: _Year, *, check: bool = True) -> set[int]:
         return healing
     lots_with = sorted(work.buildings)
     bpolys = np.array([work.footprint(k)[0] for k in lots_with], dtype=object)
-    for lot_id, hit in zip(lots_with, _buildings_hit(bpolys, streets, work.memory.options.building_overlap).tolist()):
+    for lot_id, hit in zip(lots_with, _buildings_hit(bpolys, recent, work.memory.options.building_overlap).tolist()):
         if hit:
             del work.buildings[lot_id]
             work.count(buildings_demolished=1)

@@ -180,8 +180,12 @@ class City:
         return replace(self, **changes)
 
     def water_geometry(self) -> shapely.Geometry:
-        """Water and sea as one geometry (empty when there is none)."""
-        return shapely.union_all([*self.water, *self.sea])
+        """Water and sea as one geometry (empty when there is none).
+
+        The union of the very same water and sea as last time comes back as it
+        is: every year of the engine asks, and the water does not change.
+        """
+        return _land_nobody_takes(self.water, self.sea, None)
 
     @cached_property
     def occupied(self) -> shapely.Geometry:

@@ -14,6 +14,7 @@ from dataclasses import dataclass, field, replace
 from typing import Any
 
 import numpy as np
+import shapely
 
 from osm_expand.errors import InputError
 from osm_expand.model.geometry import match_points, polyline_length
@@ -136,6 +137,14 @@ class StreetNetwork:
 
     def street_xy(self, street: Street) -> np.ndarray:
         return self.xy[np.asarray(street.nodes, dtype=np.intp)]
+
+    def street_lines(self) -> np.ndarray:
+        """Every street's polyline as a LineString, (S,) object array in street order, made in one call."""
+        if not self.streets:
+            return np.empty(0, dtype=object)
+        sizes = np.fromiter((len(s.nodes) for s in self.streets), dtype=np.int64, count=len(self.streets))
+        nodes = np.fromiter((n for s in self.streets for n in s.nodes), dtype=np.intp, count=int(sizes.sum()))
+        return shapely.linestrings(self.xy[nodes], indices=np.repeat(np.arange(len(sizes)), sizes))
 
     def used_nodes(self) -> np.ndarray:
         """Sorted indices of the nodes that some street references."""
