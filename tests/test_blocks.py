@@ -81,3 +81,40 @@ def test_blocks_of_the_town_as_mapped_are_valid_disjoint_and_cover_the_simplifie
     assert sum(p.area for p in real) == pytest.approx(union.area, rel=1e-6)
     simple = shapely.union_all([b.polygon for b in blocks(simplified(name).network)])
     assert union.intersection(simple).area >= 0.8 * simple.area
+
+
+def _same_blocks(a, b):
+    assert len(a) == len(b)
+    for x, y in zip(a, b):
+        assert x.polygon.equals_exact(y.polygon, 0.0) and x.street_ids == y.street_ids
+
+
+def test_a_face_memo_gives_the_blocks_of_a_fresh_run_while_the_network_grows_and_shrinks():
+    from osm_expand.blocks import FaceMemo
+
+    outer = grid(2, 1000.0)
+    inner = grid(2, 100.0, origin=(400.0, 400.0))
+    bridge = [[(0.0, 0.0), (450.0, 430.0), (1000.0, 1000.0)]]  # crosses the inner square without a junction: overlapping faces
+    steps = [grid(4), grid(4) + grid(2, 50.0, origin=(300.0, 300.0)), outer + inner, outer + inner + bridge,
+             outer + inner, grid(4)]
+    memo = FaceMemo()
+    counts = []
+    for lines in steps:
+        net = network_from_lines(lines)
+        found = blocks(net, memo=memo)
+        _same_blocks(found, blocks(net))
+        counts.append(len(found))
+    assert counts[3] != counts[2]  # the bridge changed which faces are blocks
+
+
+def test_a_face_memo_follows_a_real_town_when_a_district_is_added():
+    from osm_expand.blocks import FaceMemo
+    from osm_expand.ingest import load
+    from osm_expand.pipeline import ExpandOptions, expand
+    from tests.conftest import FIXTURES
+
+    city = load(FIXTURES / "krems.osm.gz")
+    grown = expand(city, ExpandOptions(seed=0, years=0, fidelity=False)).city
+    memo = FaceMemo()
+    for net in (city.network, grown.network, city.network):
+        _same_blocks(blocks(net, memo=memo), blocks(net))

@@ -174,3 +174,12 @@ def test_report_counts_every_pass():
 def test_optional_street_classes_keep_the_invariants(name, service, paths):
     net = simplify(load(FIXTURES / name, service=service, paths=paths, context=False).network).network
     assert not any(violations(net).values())
+
+
+def test_street_lines_are_the_streets_polylines_in_order():
+    net = loaded("krems.osm.gz")
+    lines = net.street_lines()
+    assert len(lines) == len(net.streets)
+    for line, street in zip(lines.tolist(), net.streets):
+        assert np.array_equal(shapely.get_coordinates(line), net.street_xy(street))
+    assert len(net.replace(streets=()).street_lines()) == 0

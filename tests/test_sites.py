@@ -4,6 +4,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 import shapely
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from osm_expand.blocks import blocks
 from osm_expand.ingest import load
@@ -94,3 +96,37 @@ def test_town_sites_stay_dry_off_the_blocks_and_inside_the_bounds(name):
     assert free.area >= 0.95 * area  # the site holds the district's area of free land
     centre = shapely.Point(site.centre)
     assert centre.within(city.bounds_polygon) and not centre.within(body) and not centre.within(water)
+
+
+@settings(max_examples=60, deadline=None)
+@given(st.lists(st.sampled_from([-np.inf, 0.0, 1.0, 2.5, 3.0]), min_size=1, max_size=9000))
+def test_cells_are_ranked_best_first_with_ties_in_index_order(values):
+    from osm_expand.sites import _best_first
+
+    flat = np.array(values)
+    finite = np.flatnonzero(np.isfinite(flat))
+    assert list(_best_first(flat)) == finite[np.argsort(-flat[finite], kind="stable")].tolist()
+
+
+@pytest.mark.parametrize("inner, outer", [(0.0, 6.0), (4.0, 9.5), (0.0, 30.0), (20.0, 50.0)])
+def test_ring_shares_are_the_mean_of_the_mask_over_the_ring(inner, outer):
+    from scipy import ndimage
+
+    from osm_expand.sites import COARSE_AT, _RingShares
+
+    rng = np.random.default_rng(3)
+    mask = rng.random((120, 97)) < 0.4
+    got = _RingShares(mask.shape, 50.0).share(mask, inner, outer)
+    f = max(int(outer // COARSE_AT), 1)
+    grid = mask.astype(float)
+    if f > 1:  # the coarse grid the share is taken on for wide rings
+        padded = np.zeros((-(-120 // f) * f, -(-97 // f) * f))
+        padded[:120, :97] = grid
+        grid = padded.reshape(padded.shape[0] // f, f, padded.shape[1] // f, f).mean(axis=(1, 3))
+    r = int(np.ceil(outer / f))
+    dy, dx = np.mgrid[-r:r + 1, -r:r + 1]
+    ring = ((np.hypot(dx, dy) >= inner / f) & (np.hypot(dx, dy) <= outer / f)).astype(float)
+    want = ndimage.convolve(grid, ring / ring.sum(), mode="constant", cval=0.0)
+    if f > 1:
+        want = np.repeat(np.repeat(want, f, axis=0), f, axis=1)[:120, :97]
+    assert np.allclose(got, want, atol=1e-9)

@@ -494,3 +494,59 @@ def test_trip_options_and_inputs_are_checked():
     g = trip_graph(xy, edges)
     with pytest.raises(InputError, match="segments"):
         step_trips(new_trip_state(3), g, np.zeros(len(edges)), np.random.default_rng(0))
+
+
+def _pieces_one_by_one(old_table, city):
+    """Each old segment's run of new segments, found street by street (the definition)."""
+    streets = city.network.streets
+    where = {s.id: k for k, s in enumerate(streets)}
+    new_first = np.concatenate([[0], np.cumsum([len(s.nodes) - 1 for s in streets])])
+    out = []
+    for sid, (u, v) in zip(old_table.street_id.tolist(), old_table.uv.tolist()):
+        k = where.get(sid)
+        nodes = streets[k].nodes if k is not None else ()
+        if u not in nodes or v not in nodes:
+            out.append([])
+            continue
+        i = nodes.index(u)
+        j = nodes.index(v, i + 1) if v in nodes[i + 1:] else nodes.index(v)
+        out.append(list(range(int(new_first[k]) + min(i, j), int(new_first[k]) + max(i, j))))
+    return out
+
+
+@SETTINGS
+@given(st.integers(0, 2**32 - 1))
+def test_segment_pieces_map_each_old_segment_to_the_run_it_became(seed):
+    from dataclasses import replace as with_
+
+    from osm_expand.engine.pieces import Pieces
+    from osm_expand.engine.segments import SegmentTable, segment_pieces
+    from osm_expand.model import City, network_from_lines
+
+    rng = np.random.default_rng(seed)
+    lines = [[(float(x), float(y)), (float(x) + 100.0, float(y)), (float(x) + 200.0, float(y) + 50.0)]
+             for x, y in rng.integers(0, 2000, size=(int(rng.integers(1, 12)), 2))]
+    net = network_from_lines(lines)
+    before = City(network=net)
+    old = SegmentTable.from_city(before)
+    # a year's changes: a street demolished, a tee inserted into another, a street added
+    streets = list(net.streets)
+    xy = net.xy
+    for k in range(len(streets)):
+        roll = rng.random()
+        if roll < 0.2:
+            streets[k] = None
+        elif roll < 0.5:
+            xy = np.vstack([xy, xy[list(streets[k].nodes[:2])].mean(axis=0)])
+            nodes = streets[k].nodes
+            streets[k] = streets[k].with_nodes((nodes[0], len(xy) - 1, *nodes[1:]))
+    kept = [s for s in streets if s is not None]
+    extra = with_(net.streets[0], nodes=(0, len(xy)), id=10_000)
+    xy = np.vstack([xy, [[-50.0, -50.0]]])
+    after = City(network=net.replace(xy=xy, node_ids=np.zeros(len(xy), dtype=np.int64),
+                                     streets=tuple(kept + [extra])))
+    new = SegmentTable.from_city(after)
+    got = segment_pieces(old, new, after)
+    want = Pieces.of(_pieces_one_by_one(old, after))
+    assert np.array_equal(got.offsets, want.offsets) and np.array_equal(got.flat, want.flat)
+    assert all(0 <= s < len(new) for s in got.flat.tolist())
