@@ -322,3 +322,21 @@ def test_bad_footprint_options_raise_input_errors():
     with pytest.raises(InputError, match="no footprint options"):
         _, _, lots = block_lots()
         place_buildings(lots, traffic_per_street={}, built_streets=set(), options={}, rng=np.random.default_rng(0))
+
+
+@SWEEP
+@given(angle=st.floats(0.0, 2 * math.pi), dx=st.floats(-5000.0, 5000.0), dy=st.floats(-5000.0, 5000.0),
+       depth=st.floats(12.0, 40.0))
+def test_a_building_at_zero_setbacks_stays_in_its_lot_when_written_to_the_millimetre(angle, dx, dy, depth):
+    # a shop built to the street line: its front lies on the lot's edge unless kept a hair inside,
+    # and the file's millimetres could then put it outside (seen on north-bayreuth, 0.6 mm)
+    c, s = math.cos(angle), math.sin(angle)
+    rot = np.array([[c, -s], [s, c]])
+    ring = np.array([[0.0, 0.0], [22.0, 0.0], [25.0, depth], [-3.0, depth]]) @ rot.T + [dx, dy]
+    lot = Lot(ring=ring, edge_street=np.array([0, -1, -1, -1]), land_use=LandUse.COMMERCIAL.value)
+    opts = {LandUse.COMMERCIAL: FootprintOptions(front_setback=(0.0, 0.0), side_setback=(0.0, 0.0),
+                                                 back_setback=(0.0, 0.0), front_variation=0.0)}
+    (fp,) = place_buildings([lot], traffic_per_street={}, built_streets={0}, options=opts,
+                            rng=np.random.default_rng(0))
+    written = shapely.Polygon(np.round(fp.rectangle.corners, 3))
+    assert shapely.Polygon(np.round(ring, 3)).contains(written)

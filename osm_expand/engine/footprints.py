@@ -66,6 +66,10 @@ __all__ = [
 
 #: Samples of the depth profile per street edge, at most (speed bound for long edges).
 _MAX_GRID = 160
+#: m: a footprint keeps at least this much from every side of its lot, even at a zero setback
+#: (a shop built to the street line). The files write coordinates to the millimetre, and a side
+#: laid exactly on the lot's edge could round to half a millimetre outside it.
+EDGE_CLEARANCE = 0.005
 
 
 @dataclass(frozen=True)
@@ -462,7 +466,9 @@ def place_buildings(lots: Sequence[Lot], *, traffic_per_street: Mapping[int, flo
         back = opts.back_setback[0] + f[2] * (opts.back_setback[1] - opts.back_setback[0])
         built.sort(key=lambda s: (-_traffic(traffic_per_street, s), -lot.frontage_length(s), s))
         least = (opts.front_setback[0], opts.side_setback[0], opts.back_setback[0])
-        for setbacks in ((front, side_sb, back), least):  # a shallow lot builds at the least setbacks
+        drawn = (front, side_sb, back)
+        for setbacks in (drawn, least):  # a shallow lot builds at the least setbacks
+            setbacks = tuple(max(x, EDGE_CLEARANCE) for x in setbacks)
             found = _room(lot, built, setbacks, opts, resolution)
             if found is not None:
                 room.append((k, *found))

@@ -64,17 +64,20 @@ class RoadsYear:
     built: Counter = field(default_factory=Counter)  #: new roads by type
     rerouted: int = 0
     bridges: int = 0
-    length_m: float = 0.0
+    length_m: float = 0.0  #: new stretches laid
     demolished: int = 0  #: engine-built segments a rebuilding road removed
+    upgraded_m: float = 0.0  #: existing streets a new road runs along (they become major)
 
     def __add__(self, other: "RoadsYear") -> "RoadsYear":
         return RoadsYear(self.built + other.built, self.rerouted + other.rerouted, self.bridges + other.bridges,
-                         self.length_m + other.length_m, self.demolished + other.demolished)
+                         self.length_m + other.length_m, self.demolished + other.demolished,
+                         self.upgraded_m + other.upgraded_m)
 
     def to_dict(self) -> dict:
         return {"major_roads_built": {str(k): v for k, v in sorted(self.built.items())},
                 "reroutes": self.rerouted, "bridges_built": self.bridges,
-                "major_road_length_km": round(self.length_m / 1000, 3), "demolished_segments": self.demolished}
+                "major_road_length_km": round(self.length_m / 1000, 3),
+                "major_road_upgraded_km": round(self.upgraded_m / 1000, 3), "demolished_segments": self.demolished}
 
 
 def major_roads_year(city: City, traffic: TrafficMemory, memory: RoadMemory, short: list[tuple[int, int]],
@@ -114,7 +117,8 @@ def major_roads_year(city: City, traffic: TrafficMemory, memory: RoadMemory, sho
         junctions += [r.xy[0] for r in plan.new_roads] + [r.xy[-1] for r in plan.new_roads]
         # the city changed: G′ is made again next time, B grown from what it was
         report = report + RoadsYear(built=Counter({plan.road_type.value: 1}), bridges=plan.bridges,
-                                    length_m=sum(r.length for r in plan.new_roads), demolished=made)
+                                    length_m=sum(r.length for r in plan.new_roads), demolished=made,
+                                    upgraded_m=float(table.length[plan.reused].sum()))
     return city, traffic, memory, report, np.array(junctions).reshape(-1, 2)
 
 
