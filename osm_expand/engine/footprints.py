@@ -233,7 +233,7 @@ def _samples(a: np.ndarray, b: np.ndarray, length: float, v0: float, resolution:
     """Positions along the edge: a grid plus every breakpoint of the depth profile and just either side of it."""
     n = int(min(max(math.ceil(length / resolution) + 1, 2), _MAX_GRID))
     eps = 1e-7 * max(1.0, length)
-    with np.errstate(divide="ignore", invalid="ignore"):
+    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):  # a level edge has no crossing: t is ±inf
         t = (v0 - a[:, 1]) / (b[:, 1] - a[:, 1])
         on_line = a[:, 0] + t * (b[:, 0] - a[:, 0])
     breaks = np.concatenate([a[:, 0], on_line[(t >= 0) & (t <= 1)]])
