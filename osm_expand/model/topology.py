@@ -8,6 +8,7 @@ the thesis's "twice in one street".
 from __future__ import annotations
 
 from collections.abc import Iterable, Sequence
+from itertools import chain
 
 import numpy as np
 
@@ -15,12 +16,19 @@ from osm_expand.model.geometry import polyline_length
 from osm_expand.model.network import Street, StreetNetwork
 
 
+def flat_nodes(streets: Sequence[Street | None]) -> tuple[np.ndarray, np.ndarray]:
+    """Every street's nodes in one array, and the index of the street each belongs to (None: skipped)."""
+    sizes = np.fromiter((len(s.nodes) if s is not None else 0 for s in streets), dtype=np.int64, count=len(streets))
+    nodes = np.fromiter(chain.from_iterable(s.nodes for s in streets if s is not None), dtype=np.int64,
+                        count=int(sizes.sum()))
+    return nodes, np.repeat(np.arange(len(streets), dtype=np.int64), sizes)
+
+
 def street_counts(streets: Sequence[Street], n_nodes: int) -> np.ndarray:
     """How many distinct streets reference each node."""
     if not streets:
         return np.zeros(n_nodes, dtype=np.int32)
-    nodes = np.fromiter((n for s in streets for n in s.nodes), dtype=np.int64)
-    owner = np.repeat(np.arange(len(streets), dtype=np.int64), [len(s.nodes) for s in streets])
+    nodes, owner = flat_nodes(streets)
     pairs = np.unique(owner * n_nodes + nodes)  # each (street, node) once
     return np.bincount(pairs % n_nodes, minlength=n_nodes).astype(np.int32)
 
