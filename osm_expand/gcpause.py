@@ -8,6 +8,7 @@ number grows with the file, so its cost grows faster than the file: 17 s of
 the 56 s that ``osm-expand simplify`` took on the 3 M-node benchmark file,
 with the same output and the same peak memory without it. Reference
 counting is untouched; anything cyclic is collected once the pause ends.
+It is process state, so only the command line sets it, never a stage.
 """
 from __future__ import annotations
 

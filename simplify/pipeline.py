@@ -15,7 +15,6 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
-from osm_expand.gcpause import cyclic_gc_paused
 from osm_expand.model import StreetNetwork
 from simplify.cleanup import MAX_ROUNDS, cleanup
 from simplify.clusters import fuse_clusters
@@ -59,15 +58,8 @@ class _Run:
 
 
 def simplify(net: StreetNetwork, options: SimplifyOptions | None = None) -> SimplifyResult:
-    """Reduce an ingested network to junctions joined by whole streets (004 §4.2).
-
-    The cyclic garbage collector is paused meanwhile (:mod:`osm_expand.gcpause`).
-    """
-    with cyclic_gc_paused():
-        return _simplify(net, options or SimplifyOptions())
-
-
-def _simplify(net: StreetNetwork, opts: SimplifyOptions) -> SimplifyResult:
+    """Reduce an ingested network to junctions joined by whole streets (004 §4.2)."""
+    opts = options or SimplifyOptions()
     run = _Run(net, opts)
     run.record("input")
     run.net = extract_intersections(run.net)
