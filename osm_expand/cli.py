@@ -19,7 +19,6 @@ import re
 import sys
 import time
 from collections.abc import Callable, Iterator, Sequence
-from importlib.metadata import PackageNotFoundError, version
 from pathlib import Path
 
 from osm_expand.errors import InputError
@@ -34,6 +33,8 @@ _NUMBERS = re.compile(r"^-?\d*\.?\d+(e-?\d+)?(,-?\d*\.?\d+(e-?\d+)?)*$", re.IGNO
 
 
 def _version() -> str:
+    from importlib.metadata import PackageNotFoundError, version  # 30 ms: only the main command's --version
+
     try:
         return version("osm-expand")
     except PackageNotFoundError:  # running from a source tree that is not installed
