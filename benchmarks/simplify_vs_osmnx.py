@@ -89,7 +89,7 @@ def import_ours() -> Work:
 
     def work(path: str) -> tuple[Phases, Counts]:
         clock = Clock()
-        net = clock("ingest", load, path, context=False)
+        net = clock("ingest", load, path, context=False).network
         report = clock("simplify", simplify, net).report
         return clock.phases, {k: report[k] for k in ("input_ways", "junctions", "streets", "street_nodes")}
 

@@ -19,7 +19,6 @@ import re
 import sys
 import time
 from collections.abc import Callable, Iterator, Sequence
-from importlib.metadata import PackageNotFoundError, version
 from pathlib import Path
 
 from osm_expand.errors import InputError
@@ -34,6 +33,8 @@ _NUMBERS = re.compile(r"^-?\d*\.?\d+(e-?\d+)?(,-?\d*\.?\d+(e-?\d+)?)*$", re.IGNO
 
 
 def _version() -> str:
+    from importlib.metadata import PackageNotFoundError, version  # 30 ms: only the main command's --version
+
     try:
         return version("osm-expand")
     except PackageNotFoundError:  # running from a source tree that is not installed
@@ -295,6 +296,7 @@ def _in_file(city: Path, exc: InputError, args: argparse.Namespace) -> InputErro
 
 def cmd_simplify(args: argparse.Namespace, log: Progress) -> dict:
     from osm_expand.export import write_geojson, write_osm
+    from osm_expand.gcpause import cyclic_gc_paused
     from osm_expand.ingest import load
     from osm_expand.model import City
     from simplify import SimplifyOptions
@@ -305,15 +307,16 @@ def cmd_simplify(args: argparse.Namespace, log: Progress) -> dict:
     if args.cluster_radius is not None and not args.cluster_radius > 0:
         raise InputError(f"--cluster-radius must be positive, got {args.cluster_radius}")
     _check_clip(args)
-    with _read_from(args, city, out.parent, log) as (src, clip):
-        log(f"reading {city}" + (" (the extract)" if clip else ""))
-        net = load(src, service=args.service, paths=args.paths, context=False).network
-    log(f"{len(net.streets)} streets, {len(net.xy)} street nodes; simplifying")
-    opts = SimplifyOptions() if args.cluster_radius is None else SimplifyOptions(cluster_radius=args.cluster_radius)
-    result = _simplify_or_fail(city, net, args, opts)
-    log(f"{result.report['junctions']} junctions, {result.report['streets']} streets; writing {out}")
-    (write_osm if kind == "osm" else write_geojson)(City(network=result.network), out)
-    broken = {k: v for k, v in violations(result.network).items() if v}
+    with cyclic_gc_paused():  # millions of short-lived objects on a large file (osm_expand.gcpause)
+        with _read_from(args, city, out.parent, log) as (src, clip):
+            log(f"reading {city}" + (" (the extract)" if clip else ""))
+            net = load(src, service=args.service, paths=args.paths, context=False).network
+        log(f"{len(net.streets)} streets, {len(net.xy)} street nodes; simplifying")
+        opts = SimplifyOptions() if args.cluster_radius is None else SimplifyOptions(cluster_radius=args.cluster_radius)
+        result = _simplify_or_fail(city, net, args, opts)
+        log(f"{result.report['junctions']} junctions, {result.report['streets']} streets; writing {out}")
+        (write_osm if kind == "osm" else write_geojson)(City(network=result.network), out)
+        broken = {k: v for k, v in violations(result.network).items() if v}
     if broken:  # never expected: say so rather than hand over a flawed network silently
         print(f"{PROG}: warning: {out}: simplified network still has {broken}; please report this input",
               file=sys.stderr)

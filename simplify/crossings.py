@@ -16,22 +16,36 @@ from scipy.spatial import cKDTree
 
 from osm_expand.model import Street, StreetNetwork, closest_on_segments
 from simplify.options import SimplifyOptions
-from osm_expand.model.topology import append_nodes, clean_nodes, split_self_touching
+from osm_expand.model.topology import append_nodes, clean_nodes, flat_nodes, split_self_touching
 
 
 def segment_table(net: StreetNetwork) -> dict[str, np.ndarray]:
     """One row per street segment: its nodes, street, position and layer key."""
+    if not net.streets:
+        empty = np.zeros(0, np.intp)
+        return {"u": empty, "v": empty, "street": empty, "pos": empty, "layer": empty}
+    nodes, owner = flat_nodes(net.streets)
     keys: dict[tuple, int] = {}
-    u, v, street, pos, layer = [], [], [], [], []
-    for k, s in enumerate(net.streets):
-        n = len(s.nodes) - 1
-        u.append(s.nodes[:-1])
-        v.append(s.nodes[1:])
-        street.append(np.full(n, k))
-        pos.append(np.arange(n))
-        layer.append(np.full(n, keys.setdefault(s.layer_key, len(keys))))
-    cat = lambda parts: np.concatenate(parts).astype(np.intp) if parts else np.zeros(0, np.intp)  # noqa: E731
-    return {"u": cat(u), "v": cat(v), "street": cat(street), "pos": cat(pos), "layer": cat(layer)}
+    street_layer = np.fromiter((keys.setdefault(s.layer_key, len(keys)) for s in net.streets), dtype=np.intp,
+                               count=len(net.streets))
+    last = np.flatnonzero(owner[1:] != owner[:-1])  # a street's last node starts no segment
+    start = np.ones(len(nodes), dtype=bool)
+    start[last] = False
+    start[-1] = False
+    first = np.concatenate([[0], last + 1])  # where each street with nodes begins in ``nodes``
+    i = np.flatnonzero(start)
+    street = owner[i]
+    begin = np.zeros(len(net.streets), dtype=np.intp)
+    begin[owner[first]] = first
+    return {"u": nodes[i].astype(np.intp), "v": nodes[i + 1].astype(np.intp), "street": street.astype(np.intp),
+            "pos": (i - begin[street]).astype(np.intp), "layer": street_layer[street]}
+
+
+def segment_lines(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """LineStrings from ``a[i]`` to ``b[i]`` ((N, 2) each), made in one call."""
+    coords = np.empty((2 * len(a), 2))
+    coords[0::2], coords[1::2] = a, b
+    return shapely.from_ragged_array(shapely.GeometryType.LINESTRING, coords, (np.arange(0, 2 * len(a) + 1, 2),))
 
 
 def candidate_pairs(net: StreetNetwork, seg: dict[str, np.ndarray],
@@ -41,7 +55,7 @@ def candidate_pairs(net: StreetNetwork, seg: dict[str, np.ndarray],
     Pairs that share a node still matter when they fold back over each other.
     """
     a, b = net.xy[seg["u"]], net.xy[seg["v"]]
-    lines = shapely.linestrings(np.stack([a, b], axis=1))
+    lines = segment_lines(a, b)
     zero = (a == b).all(axis=1)
     lines[zero] = shapely.points(a[zero])  # a zero-length line is invisible to the index; its point is not
     tree = shapely.STRtree(lines)

@@ -19,7 +19,7 @@ from scipy.cluster.hierarchy import DisjointSet
 from osm_expand.model.highways import rank
 from osm_expand.model import Street, StreetNetwork
 from simplify.options import SimplifyOptions
-from osm_expand.model.topology import heading, lengths
+from osm_expand.model.topology import end_angles, heading, headings, lengths
 
 End = tuple[int, bool]  # (street index, True for its first node)
 
@@ -40,8 +40,8 @@ def merge_streets(net: StreetNetwork, opts: SimplifyOptions) -> tuple[StreetNetw
             ends_at[s.nodes[0]].append((k, True))
             ends_at[s.nodes[-1]].append((k, False))
     proposals = []
-    for ends in ends_at.values():
-        proposals += _best_pairs(net, ends, opts)
+    for cands in _candidates(net, list(ends_at.values()), opts):
+        proposals += _best_pairs(cands)
     proposals.sort(key=lambda p: (-p[0], -p[1], p[2], p[3]))
     chains = DisjointSet(range(len(streets)))
     free_ends = {k: [s.nodes[0], s.nodes[-1]] for k, s in enumerate(streets)}
@@ -64,18 +64,42 @@ def merge_streets(net: StreetNetwork, opts: SimplifyOptions) -> tuple[StreetNetw
     return net.replace(streets=tuple(merged)), len(partner) // 2
 
 
-def _best_pairs(net: StreetNetwork, ends: list[End], opts: SimplifyOptions):
+Candidate = tuple[int, float, End, End]  # (same name, angle rounded to 1e-9 degrees, end, end)
+
+
+def _candidates(net: StreetNetwork, groups: list[list[End]], opts: SimplifyOptions) -> list[list[Candidate]]:
+    """Per group of ends meeting at a node, the pairs straighter than ``merge_angle``.
+
+    Every pair's angle comes from one vectorised pass over all pairs
+    (:func:`headings`, :func:`end_angles`), not one street walk per pair.
+    """
+    streets = net.streets
+    pairs = [[(e1, e2) for e1, e2 in combinations(ends, 2)
+              if e1[0] != e2[0] and streets[e1[0]].layer_key == streets[e2[0]].layer_key] for ends in groups]
+    flat = [end for group in pairs for pair in group for end in pair]
+    if not flat:
+        return [[] for _ in groups]
+    street = np.fromiter((k for k, _ in flat), dtype=np.intp, count=len(flat))
+    first = np.fromiter((f for _, f in flat), dtype=bool, count=len(flat))
+    heads = headings(net.xy, streets, street, first, opts.heading_reach)
+    angles = end_angles(heads[0::2], heads[1::2]).tolist()
+    out, i = [], 0
+    for group in pairs:
+        cands = []
+        for e1, e2 in group:
+            angle = angles[i]
+            i += 1
+            if angle > opts.merge_angle:
+                a, b = streets[e1[0]], streets[e2[0]]
+                same_name = bool(a.name) and a.name == b.name
+                cands.append((int(same_name), round(angle, 9), e1, e2))
+        out.append(cands)
+    return out
+
+
+def _best_pairs(cands: list[Candidate]) -> list[Candidate]:
     """Disjoint end pairs at one node, straightest (and same-named) first."""
-    cands = []
-    for e1, e2 in combinations(ends, 2):
-        a, b = net.streets[e1[0]], net.streets[e2[0]]
-        if e1[0] == e2[0] or a.layer_key != b.layer_key:
-            continue
-        angle = end_angle(net.xy, a, e1[1], b, e2[1], opts.heading_reach)
-        if angle > opts.merge_angle:
-            same_name = bool(a.name) and a.name == b.name
-            cands.append((int(same_name), round(angle, 9), e1, e2))
-    cands.sort(key=lambda c: (-c[0], -c[1], c[2], c[3]))
+    cands = sorted(cands, key=lambda c: (-c[0], -c[1], c[2], c[3]))
     used, out = set(), []
     for c in cands:
         if c[2] not in used and c[3] not in used:

