@@ -136,6 +136,8 @@ def test_the_default_history_builds_a_major_road_in_krems():
     assert report["years"] == load_history("example").years
     built = sum(n for e in report["eras"] for n in e["major_roads_built"].values())
     assert built >= 1
+    # the road is new stretches or minor streets made major (Krems: 0.83 km of minor streets upgraded)
+    assert sum(e["major_road_length_km"] + e["major_road_upgraded_km"] for e in report["eras"]) > 0.1
     majors = [s for s in matured("example", None).city.network.streets
               if s.origin == Origin.ENGINE and is_major(s)]
     assert majors and all(s.width >= 11.0 for s in majors)  # two lanes and sidewalks at least

@@ -42,6 +42,8 @@ ROAD_CLASS = {RoadType.BYPASS: "trunk", RoadType.CITY: "primary", RoadType.SMOOT
               RoadType.REBUILDING_CITY: "primary"}
 #: A reused minor street that becomes part of a major road is reclassified to this.
 UPGRADED = "secondary"
+#: Highway classes a reused street keeps as they are.
+MAJOR_CLASSES = ("motorway", "trunk", "primary", "secondary")
 #: Metres of land around the map's bounds the lattice covers.
 LATTICE_MARGIN = 100.0
 #: Cell (m) of the raster of forbidden land (unbuildable areas and buildings) the lattice samples:
@@ -66,7 +68,7 @@ class RoadsYear:
     bridges: int = 0
     length_m: float = 0.0  #: new stretches laid
     demolished: int = 0  #: engine-built segments a rebuilding road removed
-    upgraded_m: float = 0.0  #: existing streets a new road runs along (they become major)
+    upgraded_m: float = 0.0  #: minor streets a new road runs along (they become major)
 
     def __add__(self, other: "RoadsYear") -> "RoadsYear":
         return RoadsYear(self.built + other.built, self.rerouted + other.rerouted, self.bridges + other.bridges,
@@ -107,7 +109,7 @@ def major_roads_year(city: City, traffic: TrafficMemory, memory: RoadMemory, sho
             continue
         plan = plan_major_road(graph, new, road_type, width=now.road_width, options=history.options.major_roads)
         known = {s.id for s in city.network.streets}
-        city, made = _apply(city, table, plan, year=year, era=era, old_town=history.rebuild_old_town)
+        city, made, upgraded = _apply(city, table, plan, year=year, era=era, old_town=history.rebuild_old_town)
         city, _ = without_touching(city, known)  # the road is noded into the streets it meets; a touch it missed goes
         traffic = follow(traffic, city)
         route = _route(traffic, city, int(nodes[pair[0]]), int(nodes[pair[1]]))
@@ -118,7 +120,7 @@ def major_roads_year(city: City, traffic: TrafficMemory, memory: RoadMemory, sho
         # the city changed: G′ is made again next time, B grown from what it was
         report = report + RoadsYear(built=Counter({plan.road_type.value: 1}), bridges=plan.bridges,
                                     length_m=sum(r.length for r in plan.new_roads), demolished=made,
-                                    upgraded_m=float(table.length[plan.reused].sum()))
+                                    upgraded_m=upgraded)
     return city, traffic, memory, report, np.array(junctions).reshape(-1, 2)
 
 
@@ -150,16 +152,19 @@ def _graph(city: City, traffic: TrafficMemory, memory: RoadMemory, now: YearValu
 
 
 def _apply(city: City, table: SegmentTable, plan, *, year: int, era: str, old_town: bool = False
-           ) -> tuple[City, int]:
-    """The plan into the city: new stretches, upgraded and widened streets, demolitions; demolished count.
+           ) -> tuple[City, int, float]:
+    """The plan into the city: new stretches, upgraded and widened streets, demolitions; the demolished
+    segments' count and the length (m) of the minor streets the road made major.
 
     A rebuilding road demolishes what the engine built under it; the town's own streets only when
     the history allows it (``old_town``: ``rebuild_old_town = true``)."""
     streets = list(city.network.streets)
     width = float(plan.width)
+    minor = np.array([streets[k].highway not in MAJOR_CLASSES for k in table.street[plan.reused].tolist()], bool)
+    upgraded = float(table.length[plan.reused[minor]].sum()) if len(plan.reused) else 0.0
     for k in set(table.street[plan.reused].tolist()):
         s = streets[k]
-        highway = s.highway if s.highway in ("motorway", "trunk", "primary", "secondary") else UPGRADED
+        highway = s.highway if s.highway in MAJOR_CLASSES else UPGRADED
         streets[k] = replace(s, highway=highway)
     for k in set(table.street[plan.widen].tolist()):
         streets[k] = replace(streets[k], width=max(width, streets[k].width or 0.0))
@@ -173,7 +178,7 @@ def _apply(city: City, table: SegmentTable, plan, *, year: int, era: str, old_to
     highway = ROAD_CLASS[plan.road_type]
     attrs = [{"highway": highway, "hierarchy": 0, "origin": Origin.ENGINE, "status": Status.BUILT, "year": year,
               "era": era, "width": width, "bridge": r.bridge, "layer": 1 if r.bridge else 0} for r in plan.new_roads]
-    return add_streets(city, [r.xy for r in plan.new_roads], attrs), len(gone)
+    return add_streets(city, [r.xy for r in plan.new_roads], attrs), len(gone), upgraded
 
 
 def _route(traffic: TrafficMemory, city: City, a: int, b: int) -> np.ndarray | None:
