@@ -63,21 +63,23 @@ class RoadMemory:
 class RoadsYear:
     """What the major-road step did in a year (sum them over an era)."""
 
-    built: Counter = field(default_factory=Counter)  #: new roads by type
+    built: Counter = field(default_factory=Counter)  #: new roads by type (new stretches or minor streets made major)
     rerouted: int = 0
     bridges: int = 0
     length_m: float = 0.0  #: new stretches laid
     demolished: int = 0  #: engine-built segments a rebuilding road removed
     upgraded_m: float = 0.0  #: minor streets a new road runs along (they become major)
+    #: "new roads" that lie wholly on major roads: all they do is widen the extendible ones to A(t)
+    widened: int = 0
 
     def __add__(self, other: "RoadsYear") -> "RoadsYear":
         return RoadsYear(self.built + other.built, self.rerouted + other.rerouted, self.bridges + other.bridges,
                          self.length_m + other.length_m, self.demolished + other.demolished,
-                         self.upgraded_m + other.upgraded_m)
+                         self.upgraded_m + other.upgraded_m, self.widened + other.widened)
 
     def to_dict(self) -> dict:
         return {"major_roads_built": {str(k): v for k, v in sorted(self.built.items())},
-                "reroutes": self.rerouted, "bridges_built": self.bridges,
+                "major_roads_widened": self.widened, "reroutes": self.rerouted, "bridges_built": self.bridges,
                 "major_road_length_km": round(self.length_m / 1000, 3),
                 "major_road_upgraded_km": round(self.upgraded_m / 1000, 3), "demolished_segments": self.demolished}
 
@@ -118,9 +120,12 @@ def major_roads_year(city: City, traffic: TrafficMemory, memory: RoadMemory, sho
                                                        n_segments=len(traffic.table)))
         junctions += [r.xy[0] for r in plan.new_roads] + [r.xy[-1] for r in plan.new_roads]
         # the city changed: G′ is made again next time, B grown from what it was
-        report = report + RoadsYear(built=Counter({plan.road_type.value: 1}), bridges=plan.bridges,
-                                    length_m=sum(r.length for r in plan.new_roads), demolished=made,
-                                    upgraded_m=upgraded)
+        length = sum(r.length for r in plan.new_roads)
+        if length > 0 or upgraded > 0:
+            report = report + RoadsYear(built=Counter({plan.road_type.value: 1}), bridges=plan.bridges,
+                                        length_m=length, demolished=made, upgraded_m=upgraded)
+        else:  # the cheapest route on G′ ran over major roads only: a widening, not a new road
+            report = report + RoadsYear(widened=1, demolished=made)
     return city, traffic, memory, report, np.array(junctions).reshape(-1, 2)
 
 
