@@ -1012,11 +1012,15 @@ class PathGraph:
         data = np.empty(total)
         grid_index = indices[:n_lat * slots].reshape(n_lat, slots)
         grid_data = data[:n_lat * slots].reshape(n_lat, slots)
-        grid_index[:] = np.arange(n_lat, dtype=index_type)[:, None]
-        grid_data[:] = np.inf
-        if n_dir:
-            grid_index[:, :n_dir] += np.where(lat, self.lattice.direction_offset.astype(index_type), 0)
+        rows = np.arange(n_lat, dtype=index_type)[:, None]
+        if n_dir:  # each slot written once: ~10⁸ of them on a town-sized map
+            offset = self.lattice.direction_offset.astype(index_type)
+            np.add(rows, offset, out=grid_index[:, :n_dir])
+            np.copyto(grid_index[:, :n_dir], rows, where=~lat)
+            np.copyto(grid_data[:, :n_dir], np.inf)
             np.copyto(grid_data[:, :n_dir], self.lat_weight, where=lat)
+        grid_index[:, n_dir:] = rows
+        grid_data[:, n_dir:] = np.inf
         pos = np.empty(len(ex), dtype=np.int64)
         pos[on_lattice] = ex_src[on_lattice] * slots + n_dir + rank[on_lattice]
         pos[~on_lattice] = n_lat * slots + np.arange(n_street)  # already sorted by tail
