@@ -47,11 +47,6 @@ def dead_end_count(net: StreetNetwork, counts: np.ndarray | None = None) -> int:
     return int((counts[_open_ends(net.streets)] < 2).sum())
 
 
-def has_dead_end(net: StreetNetwork) -> bool:
-    """Vectorised check, so clean networks skip the incremental pass entirely."""
-    return dead_end_count(net) > 0
-
-
 def prune_dead_ends(net: StreetNetwork) -> tuple[StreetNetwork, list[DeadEnd]]:
     pruned = prune(net)
     return pruned.network, pruned.dead

@@ -166,7 +166,7 @@ def _apply(city: City, table: SegmentTable, plan, *, year: int, era: str, old_to
     streets = list(city.network.streets)
     width = float(plan.width)
     minor = np.array([streets[k].highway not in MAJOR_CLASSES for k in table.street[plan.reused].tolist()], bool)
-    upgraded = float(table.length[plan.reused[minor]].sum()) if len(plan.reused) else 0.0
+    upgraded = float(table.length[plan.reused[minor]].sum())
     for k in set(table.street[plan.reused].tolist()):
         s = streets[k]
         highway = s.highway if s.highway in MAJOR_CLASSES else UPGRADED

@@ -176,8 +176,8 @@ def headings(xy: np.ndarray, streets: Sequence[Street], street: np.ndarray, from
     out = np.zeros((len(street), 2))
     if not len(street):
         return out
-    nodes, _ = flat_nodes(streets)
-    sizes = np.fromiter((len(s.nodes) for s in streets), dtype=np.int64, count=len(streets))
+    nodes, owner = flat_nodes(streets)
+    sizes = np.bincount(owner, minlength=len(streets))
     begin = np.concatenate([[0], np.cumsum(sizes)[:-1]])
     size = sizes[street]
     k = int(min(width, size.max()))
