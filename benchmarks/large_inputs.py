@@ -24,12 +24,11 @@ own ``ru_maxrss``, as ``os.wait4`` returns it, imports included):
 - many towns: the first ``--towns`` copies of the largest file clipped
   together (one :func:`~osm_expand.clip.clip_extracts` call): time, reads
   of the file, peak memory;
-- the whole-command ratio against osmnx on ``fixtures/north-bayreuth.osm.gz``:
-  ``osm-expand simplify FILE -o OUT.osm -q`` against osmnx's script
-  (``import osmnx``, ``graph_from_xml`` with its default simplification,
-  ``project_graph``, ``consolidate_intersections(tolerance=10)``; it writes
-  nothing), each a fresh process, imports included, ``--osmnx-repeat`` runs
-  of each interleaved; the ratio of the best wall times.
+- the whole-command ratio against osmnx on ``fixtures/north-bayreuth.osm.gz``,
+  measured as ``simplify_vs_osmnx.py`` does (:func:`whole_command_ratio`:
+  ``osm-expand simplify FILE -o OUT.osm -q`` against osmnx's script, fresh
+  processes, imports included, ``--osmnx-repeat`` runs of each interleaved;
+  the ratio of the best wall times).
 
 Usage::
 
@@ -204,17 +203,6 @@ def build(out_dir: Path, sizes: tuple[int, ...]) -> dict[int, tuple[Path, dict]]
 #: The ``osm-expand`` console script, as installed (``osm_expand.cli:main``), run from this checkout.
 COMMAND = "import sys; from osm_expand.cli import main; sys.exit(main())"
 
-#: osmnx's whole script for what ``osm-expand simplify`` does: read the XML into a simplified graph
-#: (graph_from_xml's default simplify=True), project it and consolidate intersections within 10 m.
-OSMNX_SCRIPT = """
-import sys
-import osmnx as ox
-G = ox.graph_from_xml(sys.argv[1])
-G = ox.project_graph(G)
-G = ox.consolidate_intersections(G, tolerance=10)
-print(G.number_of_nodes(), G.number_of_edges())
-"""
-
 CLIP_CHILD = """
 import json, sys, time
 from osm_expand.clip import ClipOptions, clip_extracts
@@ -310,20 +298,6 @@ def clipped_run(largest: Path, box: list[float], work: Path) -> dict:
             "whole_read_peak_mb": round(whole["peak_mb"]), "whole_streets": whole["streets"]}
 
 
-def osmnx_ratio(path: Path, repeat: int, work: Path) -> dict:
-    """Whole commands, imports included: ``osm-expand simplify`` against osmnx's script, interleaved, best of each."""
-    ours, theirs = [], []
-    for _ in range(repeat):
-        ours.append(child(COMMAND, "simplify", str(path), "-o", str(work / "nb.simplified.osm"), "-q", json_out=False))
-        theirs.append(child(OSMNX_SCRIPT, str(path), json_out=False))
-    best_ours, best_theirs = min(r["wall_s"] for r in ours), min(r["wall_s"] for r in theirs)
-    return {"file": path.name, "runs": repeat, "ours_s": [round(r["wall_s"], 2) for r in ours],
-            "osmnx_s": [round(r["wall_s"], 2) for r in theirs], "ours_best_s": round(best_ours, 2),
-            "osmnx_best_s": round(best_theirs, 2), "ratio": round(best_theirs / best_ours, 1),
-            "ours_peak_mb": round(max(r["peak_mb"] for r in ours)),
-            "osmnx_peak_mb": round(max(r["peak_mb"] for r in theirs))}
-
-
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--out", type=Path, help="keep the tiled files here (reused when present)")
@@ -333,8 +307,8 @@ def main() -> int:
     parser.add_argument("--no-grow", action="store_true", help="do not grow Krems' copy out of the largest file")
     parser.add_argument("--towns", type=int, default=24, metavar="N",
                         help="also clip the first N copies of the largest file together, in one go (default 24; 0: no)")
-    parser.add_argument("--osmnx-repeat", type=int, default=3, metavar="N",
-                        help="runs of each side against osmnx on north-bayreuth (default 3; 0: skip)")
+    parser.add_argument("--osmnx-repeat", type=int, default=5, metavar="N",
+                        help="runs of each side against osmnx on north-bayreuth (default 5; 0: skip)")
     parser.add_argument("--json", action="store_true", help="print the figures as one JSON object")
     args = parser.parse_args()
     tmp = None
@@ -406,11 +380,10 @@ def run(out_dir: Path, sizes: tuple[int, ...], args: argparse.Namespace) -> int:
             if importlib.util.find_spec("osmnx") is None:
                 say(args, "osmnx is not installed (pip install -e '.[bench]'): no whole-command ratio")
             else:
-                o = report["osmnx"] = osmnx_ratio(FIXTURES / "north-bayreuth.osm.gz", args.osmnx_repeat, work)
-                say(args, f"whole command on {o['file']}, imports included, best of {o['runs']}: osm-expand simplify "
-                          f"{o['ours_best_s']:.2f} s (runs {o['ours_s']}, peak {o['ours_peak_mb']} MB), osmnx "
-                          f"graph_from_xml + project_graph + consolidate_intersections(10) {o['osmnx_best_s']:.2f} s "
-                          f"(runs {o['osmnx_s']}, peak {o['osmnx_peak_mb']} MB): {o['ratio']}x")
+                from simplify_vs_osmnx import render_whole, whole_command_ratio  # this folder's sibling script
+
+                o = report["osmnx"] = whole_command_ratio(FIXTURES / "north-bayreuth.osm.gz", args.osmnx_repeat)
+                say(args, render_whole(o))
     if args.json:
         print(json.dumps(report))
     return 0

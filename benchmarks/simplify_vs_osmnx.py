@@ -1,8 +1,20 @@
 """Time osmnx and osm-expand simplifying the same OSM file, in the same run.
 
-    python benchmarks/simplify_vs_osmnx.py [--repeat N] [--json] [FILE ...]
+    python benchmarks/simplify_vs_osmnx.py [--repeat N] [--whole N] [--json] [FILE ...]
 
-What is compared
+Two comparisons, each printed with its ratio:
+
+The whole command (``--whole`` runs of each side, default 5; 0 skips it)
+    ``osm-expand simplify FILE -o OUT.osm -q`` against osmnx's whole script
+    for the same job (``import osmnx``; ``graph_from_xml`` with its default
+    simplification; ``project_graph``; ``consolidate_intersections(10)``),
+    each a fresh process, interpreter start and imports included, what a user
+    waits for. The runs are interleaved; the ratio is of the best wall times.
+    Before timing, this checkout's packages are byte-compiled (``compileall``)
+    as ``pip install`` does for osmnx: otherwise an editable install run with
+    ``PYTHONDONTWRITEBYTECODE`` set recompiles every module on every start.
+
+The work alone (``--repeat`` runs, default 3), sides as follows:
     osmnx:  the chain the benchmark issue names, as a user would write it:
             graph_from_xml, then simplify_graph, project_graph and
             consolidate_intersections(tolerance=10). The headline ratio.
@@ -39,13 +51,16 @@ How it measures, and why
 from __future__ import annotations
 
 import argparse
+import compileall
 import importlib.util
+import os
 import json
 import platform
 import resource
 import statistics
 import subprocess
 import sys
+import tempfile
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
@@ -151,6 +166,72 @@ def run_side(side: str, path: str) -> dict:
         result.update(ok=True, seconds=sum(phases.values()), phases=phases, counts=counts)
     result["peak_rss_mb"] = peak_rss_mb()
     return result
+
+
+# ------------------------------------------------------------- whole command --
+
+#: ``osm-expand`` as installed (``osm_expand.cli:main``), run from this checkout.
+OURS_COMMAND = "import sys; from osm_expand.cli import main; sys.exit(main())"
+
+#: osmnx's whole script for what ``osm-expand simplify`` does: read the XML into a simplified graph
+#: (graph_from_xml's default simplify=True), project it and consolidate intersections within 10 m.
+OSMNX_SCRIPT = """
+import sys
+import osmnx as ox
+G = ox.graph_from_xml(sys.argv[1])
+G = ox.project_graph(G)
+G = ox.consolidate_intersections(G, tolerance=10)
+print(G.number_of_nodes(), G.number_of_edges())
+"""
+
+
+def byte_compile_ours() -> None:
+    """Write this checkout's bytecode, as an installed package has it."""
+    for package in ("osm_expand", "simplify", "synth"):
+        if (REPO / package).is_dir():
+            compileall.compile_dir(REPO / package, quiet=1)
+
+
+def timed_process(code: str, *args: str) -> tuple[float, float]:
+    """Wall seconds and peak memory (MB, the child's own ``ru_maxrss``) of ``python -c code args``."""
+    with tempfile.TemporaryFile() as err:
+        start = time.perf_counter()
+        proc = subprocess.Popen([sys.executable, "-c", code, *args], cwd=REPO, stdout=subprocess.DEVNULL,
+                                stderr=err, env={**os.environ, "PYTHONPATH": str(REPO)})
+        _, status, usage = os.wait4(proc.pid, 0)
+        wall = time.perf_counter() - start
+        if os.waitstatus_to_exitcode(status) != 0:
+            err.seek(0)
+            tail = (err.read().decode().strip().splitlines() or ["no message"])[-1]
+            raise RuntimeError(f"{code.split(';')[0].strip() or 'script'} failed: {tail}")
+    return wall, usage.ru_maxrss / 1024  # Linux: kilobytes
+
+
+def whole_command_ratio(path: Path, repeat: int) -> dict:
+    """``osm-expand simplify`` against osmnx's script, fresh processes, interleaved; best wall of each."""
+    byte_compile_ours()
+    ours, theirs = [], []
+    with tempfile.TemporaryDirectory(prefix="osm-expand-whole-") as tmp:
+        out = str(Path(tmp) / "simplified.osm")
+        for i in range(repeat):
+            print(f"{path.name}: whole commands, run {i + 1}/{repeat}", file=sys.stderr, flush=True)
+            ours.append(timed_process(OURS_COMMAND, "simplify", str(path), "-o", out, "-q"))
+            theirs.append(timed_process(OSMNX_SCRIPT, str(path)))
+    best_ours, best_theirs = min(w for w, _ in ours), min(w for w, _ in theirs)
+    return {"file": path.name, "runs": repeat, "ours_s": [round(w, 3) for w, _ in ours],
+            "osmnx_s": [round(w, 2) for w, _ in theirs], "ours_best_s": round(best_ours, 3),
+            "osmnx_best_s": round(best_theirs, 2), "ratio": round(best_theirs / best_ours, 1),
+            "ours_median_s": round(statistics.median(w for w, _ in ours), 3),
+            "osmnx_median_s": round(statistics.median(w for w, _ in theirs), 2),
+            "ours_peak_mb": round(max(m for _, m in ours)), "osmnx_peak_mb": round(max(m for _, m in theirs))}
+
+
+def render_whole(w: dict) -> str:
+    return (f"whole command on {w['file']}, fresh processes, imports included, best of {w['runs']}: "
+            f"osm-expand simplify {w['ours_best_s']:.2f} s (median {w['ours_median_s']:.2f}, peak "
+            f"{w['ours_peak_mb']} MB), osmnx graph_from_xml + project_graph + consolidate_intersections(10) "
+            f"{w['osmnx_best_s']:.2f} s (median {w['osmnx_median_s']:.2f}, peak {w['osmnx_peak_mb']} MB): "
+            f"{w['ratio']}x")
 
 
 # -------------------------------------------------------------------- parent --
@@ -317,7 +398,9 @@ def parse_args(argv: list[str] | None) -> argparse.Namespace:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("files", nargs="*", type=Path, default=list(DEFAULT_FILES),
                    help="OSM files (default: fixtures/north-bayreuth.osm.gz)")
-    p.add_argument("--repeat", type=int, default=3, help="runs per side and file (default 3)")
+    p.add_argument("--repeat", type=int, default=3, help="runs per side and file, work alone (default 3)")
+    p.add_argument("--whole", type=int, default=5, metavar="N",
+                   help="runs of each whole command on the first file (default 5; 0: skip)")
     p.add_argument("--timeout", type=float, default=1800, help="seconds before a run counts as failed")
     p.add_argument("--json", action="store_true", help="print one JSON object instead of the table")
     p.add_argument("--side", choices=SIDES, help="internal: run one side once here and print one JSON line")
@@ -338,8 +421,13 @@ def main(argv: list[str] | None = None) -> int:
         print(f"error: {'no such file: ' + ', '.join(missing) if missing else '--repeat must be >= 1'}",
               file=sys.stderr)
         return 2
+    whole = whole_command_ratio(args.files[0].resolve(), args.whole) if args.whole > 0 else None
     results = {path.resolve(): bench_file(path.resolve(), args.repeat, args.timeout) for path in args.files}
-    print(render_json(results, args.repeat) if args.json else render_text(results, args.repeat))
+    if args.json:
+        report = json.loads(render_json(results, args.repeat))
+        print(json.dumps({**report, "whole_command": whole}, indent=2))
+    else:
+        print(render_text(results, args.repeat) + ("\n\n" + render_whole(whole) if whole else ""))
     return 0
 
 

@@ -2,19 +2,16 @@
 
 Every junction is a disc of ``cluster_radius``; discs that overlap, directly
 or through a chain, form a cluster that becomes one junction at its centroid
-(dual carriageways, complex junctions, sloppy editing). A KD-tree finds the
-overlaps and a sparse connected-components pass groups them, instead of the
+(dual carriageways, complex junctions, sloppy editing). An STRtree finds the
+overlaps and a vectorised connected-components pass groups them, instead of the
 thesis's all-pairs distance loop. Shape points within the radius of the new
 junction are dropped so approaches run straight into it.
 """
 from __future__ import annotations
 
 import numpy as np
-from scipy.sparse import coo_matrix
-from scipy.sparse.csgraph import connected_components
-from scipy.spatial import cKDTree
-
 from osm_expand.model import Street, StreetNetwork
+from osm_expand.model.components import close_pairs, component_labels
 from simplify.options import SimplifyOptions
 from osm_expand.model.topology import append_nodes, junction_mask, replace_nodes, split_self_touching
 
@@ -25,12 +22,10 @@ def fuse_clusters(net: StreetNetwork, opts: SimplifyOptions) -> tuple[StreetNetw
     nodes = np.flatnonzero(junction)
     if len(nodes) < 2:
         return net, 0
-    pairs = cKDTree(net.xy[nodes]).query_pairs(2 * opts.cluster_radius, output_type="ndarray")
+    pairs = close_pairs(net.xy[nodes], 2 * opts.cluster_radius)
     if len(pairs) == 0:
         return net, 0
-    n = len(nodes)
-    graph = coo_matrix((np.ones(len(pairs)), (pairs[:, 0], pairs[:, 1])), shape=(n, n))
-    _, label = connected_components(graph, directed=False)
+    label = component_labels(len(nodes), pairs[:, 0], pairs[:, 1])
     sizes = np.bincount(label)
     multi = np.flatnonzero(sizes > 1)
     centres = np.zeros((len(multi), 2))

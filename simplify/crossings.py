@@ -11,10 +11,8 @@ from collections import defaultdict
 
 import numpy as np
 import shapely
-from scipy.cluster.hierarchy import DisjointSet
-from scipy.spatial import cKDTree
-
 from osm_expand.model import Street, StreetNetwork, closest_on_segments
+from osm_expand.model.components import UnionFind, close_pairs, component_labels, nearest_within
 from simplify.options import SimplifyOptions
 from osm_expand.model.topology import append_nodes, clean_nodes, flat_nodes, split_self_touching
 
@@ -134,26 +132,14 @@ def _crossing_params(a1, b1, a2, b2):
 
 def _dedupe_points(points: np.ndarray, tol: float) -> np.ndarray:
     """Label crossing points so that coincident ones (three streets at a point) share a node."""
-    n = len(points)
-    labels = np.arange(n)
-    if n < 2:
-        return labels
-    ds = DisjointSet(range(n))
-    for i, j in cKDTree(points).query_pairs(tol):
-        ds.merge(i, j)
-    roots = {r: i for i, r in enumerate(sorted({ds[i] for i in range(n)}))}
-    return np.array([roots[ds[i]] for i in range(n)], dtype=np.intp)
+    pairs = close_pairs(points, tol)
+    return component_labels(len(points), pairs[:, 0], pairs[:, 1])
 
 
 def _existing_vertex(xy: np.ndarray, candidates: np.ndarray, points: np.ndarray, tol: float) -> np.ndarray:
     """For each crossing point, a vertex already there (a third street's node), or -1."""
-    out = np.full(len(points), -1, dtype=np.int64)
-    if len(points) == 0 or len(candidates) == 0:
-        return out
-    dist, idx = cKDTree(xy[candidates]).query(points, distance_upper_bound=tol)
-    hit = np.isfinite(dist)
-    out[hit] = candidates[idx[hit]]
-    return out
+    near = nearest_within(points, xy[candidates], tol)
+    return np.where(near >= 0, candidates[near], -1) if len(candidates) else near
 
 
 def _representatives(points: np.ndarray, labels: np.ndarray) -> np.ndarray:
@@ -168,7 +154,7 @@ def _merge_map(pairs: list[tuple[int, int]]) -> dict[int, int]:
     """Node → representative (the smallest index) for coincident distinct nodes."""
     if not pairs:
         return {}
-    ds = DisjointSet()
+    ds = UnionFind()
     for a, b in pairs:
         ds.add(a)
         ds.add(b)

@@ -14,10 +14,10 @@ from dataclasses import replace
 from itertools import combinations
 
 import numpy as np
-from scipy.cluster.hierarchy import DisjointSet
 
 from osm_expand.model.highways import rank
 from osm_expand.model import Street, StreetNetwork
+from osm_expand.model.components import UnionFind
 from simplify.options import SimplifyOptions
 from osm_expand.model.topology import end_angles, heading, headings, lengths
 
@@ -43,7 +43,7 @@ def merge_streets(net: StreetNetwork, opts: SimplifyOptions) -> tuple[StreetNetw
     for cands in _candidates(net, list(ends_at.values()), opts):
         proposals += _best_pairs(cands)
     proposals.sort(key=lambda p: (-p[0], -p[1], p[2], p[3]))
-    chains = DisjointSet(range(len(streets)))
+    chains = UnionFind(range(len(streets)))
     free_ends = {k: [s.nodes[0], s.nodes[-1]] for k, s in enumerate(streets)}
     partner: dict[End, End] = {}
     for _, _, e1, e2 in proposals:
@@ -108,7 +108,7 @@ def _best_pairs(cands: list[Candidate]) -> list[Candidate]:
     return out
 
 
-def _chain_groups(chains: DisjointSet, n: int) -> list[list[int]]:
+def _chain_groups(chains: UnionFind, n: int) -> list[list[int]]:
     groups: dict[int, list[int]] = {}
     for k in range(n):
         groups.setdefault(chains[k], []).append(k)

@@ -11,9 +11,9 @@ from __future__ import annotations
 
 import numpy as np
 import shapely
-from scipy.cluster.hierarchy import DisjointSet
 
 from osm_expand.model import Street, StreetNetwork
+from osm_expand.model.components import UnionFind
 from simplify.options import SimplifyOptions
 from osm_expand.model.topology import append_nodes, replace_nodes
 
@@ -72,7 +72,7 @@ def _tagged_groups(streets: tuple[Street, ...]) -> list[list[int]]:
     tagged = [k for k, s in enumerate(streets) if s.junction in ROUNDABOUT_TAGS]
     if not tagged:
         return []
-    ds = DisjointSet(tagged)
+    ds = UnionFind(tagged)
     owner: dict[int, int] = {}
     for k in tagged:
         for n in streets[k].nodes:

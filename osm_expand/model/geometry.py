@@ -2,7 +2,6 @@
 from __future__ import annotations
 
 import numpy as np
-from scipy.spatial import cKDTree
 
 
 def polyline_length(xy: np.ndarray) -> float:
@@ -96,6 +95,8 @@ def match_points(points: np.ndarray, known: np.ndarray, tolerance: float = 0.0) 
             index.setdefault(key, i)
         return np.fromiter((index.get(key, -1) for key in map(tuple, points.tolist())), dtype=np.int64,
                            count=len(points))
+    from scipy.spatial import cKDTree  # here, not at the top: the simplify path never imports SciPy
+
     dist, idx = cKDTree(known).query(points, distance_upper_bound=tolerance)
     hit = np.isfinite(dist)
     out[hit] = idx[hit]

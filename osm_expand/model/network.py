@@ -17,6 +17,7 @@ import numpy as np
 import shapely
 
 from osm_expand.errors import InputError
+from osm_expand.model.components import close_pairs, component_labels
 from osm_expand.model.geometry import match_points, polyline_length
 from osm_expand.model.projection import LocalProjection
 
@@ -251,15 +252,10 @@ def _same_points(pts: np.ndarray, tolerance: float = SAME_NODE) -> np.ndarray:
     first of them, so labels increase in order of first appearance."""
     if len(pts) < 2:
         return np.arange(len(pts))
-    from scipy.sparse import coo_matrix
-    from scipy.sparse.csgraph import connected_components
-    from scipy.spatial import cKDTree
-
-    pairs = cKDTree(pts).query_pairs(tolerance, output_type="ndarray")
+    pairs = close_pairs(pts, tolerance)
     if not len(pairs):
         return np.arange(len(pts))
-    graph = coo_matrix((np.ones(len(pairs)), (pairs[:, 0], pairs[:, 1])), shape=(len(pts), len(pts)))
-    _, label = connected_components(graph, directed=False)
+    label = component_labels(len(pts), pairs[:, 0], pairs[:, 1])
     first = np.full(label.max() + 1, len(pts))
     np.minimum.at(first, label, np.arange(len(pts)))
     return first[label]

@@ -13,12 +13,17 @@ import numpy as np
 
 
 @lru_cache(maxsize=16)
-def _transformers(proj_string: str):
-    """Forward and inverse transformers, made once per projection (PROJ takes ~10 ms to set one up)."""
-    from pyproj import Transformer  # pyproj only when a projection is used: it is slow to import
+def _proj(proj_string: str):
+    """The projection, made once per string.
 
-    return (Transformer.from_crs("EPSG:4326", proj_string, always_xy=True),
-            Transformer.from_crs(proj_string, "EPSG:4326", always_xy=True))
+    A ``Proj`` projects geographic coordinates on its own ellipsoid (WGS84
+    here) both ways, giving bit for bit what a ``Transformer`` from EPSG:4326
+    gives, in 0.6 ms instead of the 28 ms two transformers take to set up
+    (their EPSG lookup in PROJ's database).
+    """
+    from pyproj import Proj  # pyproj only when a projection is used: it is slow to import
+
+    return Proj(proj_string)
 
 
 @dataclass(frozen=True)
@@ -32,11 +37,11 @@ class LocalProjection:
                 "+x_0=0 +y_0=0 +ellps=WGS84 +units=m +no_defs")
 
     def to_xy(self, lon: np.ndarray, lat: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        x, y = _transformers(self.proj_string)[0].transform(np.asarray(lon, dtype=float), np.asarray(lat, dtype=float))
+        x, y = _proj(self.proj_string)(np.asarray(lon, dtype=float), np.asarray(lat, dtype=float))
         return np.asarray(x), np.asarray(y)
 
     def to_lonlat(self, x: np.ndarray, y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        lon, lat = _transformers(self.proj_string)[1].transform(np.asarray(x, dtype=float), np.asarray(y, dtype=float))
+        lon, lat = _proj(self.proj_string)(np.asarray(x, dtype=float), np.asarray(y, dtype=float), inverse=True)
         return np.asarray(lon), np.asarray(lat)
 
     @classmethod

@@ -8,6 +8,7 @@ the thesis's "twice in one street".
 from __future__ import annotations
 
 from collections.abc import Iterable, Sequence
+import math
 from itertools import chain
 
 import numpy as np
@@ -98,11 +99,15 @@ def spaced_points(pts: np.ndarray, step: float, fixed: np.ndarray | None = None)
     n = len(pts)
     must = np.zeros(n, dtype=bool) if fixed is None else np.asarray(fixed, dtype=bool).copy()
     must[[0, n - 1]] = True
-    next_must = np.minimum.accumulate(np.where(must, np.arange(n), n)[::-1])[::-1]
+    next_must = np.minimum.accumulate(np.where(must, np.arange(n), n)[::-1])[::-1].tolist()
+    xy, must = np.asarray(pts, dtype=float).tolist(), must.tolist()  # Python floats: a point at a time
     keep = [0]
     for i in range(1, n - 1):
-        if must[i] or (np.hypot(*(pts[i] - pts[keep[-1]])) >= step
-                       and np.hypot(*(pts[next_must[i + 1]] - pts[i])) >= step):
+        if must[i]:
+            keep.append(i)
+            continue
+        (x, y), (kx, ky), (nx, ny) = xy[i], xy[keep[-1]], xy[next_must[i + 1]]
+        if math.hypot(x - kx, y - ky) >= step and math.hypot(nx - x, ny - y) >= step:
             keep.append(i)
     return keep + [n - 1] if n > 1 else keep
 
