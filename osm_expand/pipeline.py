@@ -253,6 +253,10 @@ def _district_area(opts: ExpandOptions, built: float, spacing: float) -> float:
     """The district's area (m²), checked against the town's size before any work."""
     area = opts.area or opts.site.area_share * built
     smallest, largest = MIN_BLOCKS * spacing ** 2, MAX_AREA_SHARE * built
+    if smallest > largest:
+        raise InputError(f"too little town to grow from: {built:.0f} m² built up, and a district of {MIN_BLOCKS} "
+                         f"blocks at its {spacing:.0f} m junction spacing ({np.ceil(smallest):.0f} m²) may be at "
+                         f"most {MAX_AREA_SHARE:g} times that (motorways and ramps are not town)")
     if area < smallest:
         raise InputError(f"a district of {area:.0f} m² would hold fewer than {MIN_BLOCKS} blocks at this town's "
                          f"{spacing:.0f} m junction spacing; try --area {np.ceil(smallest):.0f} (or more)")

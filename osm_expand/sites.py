@@ -3,10 +3,15 @@
 The town and its surroundings are rasterised at ``cell`` metres:
 
 - *water*: water areas, buffered rivers, sea;
-- *city*, the built-up area: the blocks, and every street buffered by
-  ``street_buffer`` metres, opened morphologically by that buffer, so a lone
-  road through the fields (a strip twice the buffer wide) is not town while
-  the town's body is; its area is the town's *built-up area*;
+- *city*, the built-up area: every street buffered by ``street_buffer``
+  metres, opened morphologically by that buffer, so a lone road through the
+  fields (a strip twice the buffer wide) is not town while the town's body
+  is, and the blocks; its area is the town's *built-up area*. Motorways and
+  ramps have no frontage (:data:`NO_FRONTAGE`): their buffers, and blocks
+  only corridors bound, are not town, else an interchange's loops make a
+  patch of town in the fields. A block over ``open_block`` m² is town only
+  when buildings cover ``built_share`` of it: larger faces are mostly the
+  fields between villages;
 - *outside*: land beyond the map's data bounds, which is unknown rather than
   free (unless ``beyond_bounds``);
 - *unbuildable*: land nothing new may take (:mod:`osm_expand.land`: parks,
@@ -25,7 +30,10 @@ ring ``contact_width`` wide around the disc that is town: a bay of the town
 beats a corner, and gives the joining streets somewhere to go) and by room
 to spare, each in [0, 1] and weighted, less its unbuildable share; it loses
 its closeness to the city when the way there crosses water (the far bank of
-a river is not next to the town). ``direction`` restricts the search to a
+a river is not next to the town). Motorways and trunk roads
+(:data:`CORRIDORS`) cut the land: a district's streets cross none of the
+town's streets and these have no junctions to meet, so free land in the
+disc that they cut off from its centre costs its share (``cut_off_weight``). ``direction`` restricts the search to a
 90° sector seen from the town's centre; ``at`` skips the search.
 :func:`choose_sites` ranks several sites at least a district's radius apart,
 best first, so the pipeline can try the next when the best cannot be joined
@@ -38,7 +46,7 @@ from dataclasses import dataclass
 
 import numpy as np
 import shapely
-from scipy.ndimage import binary_opening, distance_transform_edt
+from scipy.ndimage import binary_opening, distance_transform_edt, label
 
 from osm_expand.errors import InputError
 from osm_expand.model import City
@@ -61,6 +69,26 @@ class SiteOptions:
     area_share: float = 0.25  #: default district area: this share of the town's built-up area
     max_unbuildable: float = 0.25  #: a site may hold at most this share of unbuildable land
     unbuildable_weight: float = 1.0  #: score lost per share of unbuildable land in the site
+    #: m²: a block larger than this is built-up only when buildings cover ``built_share`` of it. In the
+    #: fixtures the faces above 0.2 km² are fields and woods between villages (north-bayreuth: 12 of
+    #: them, 10.4 km², buildings on 0.4–1.9 %) unless they are industrial estates (Krems: 4, 10–19 %).
+    open_block: float = 200_000.0
+    built_share: float = 0.05  #: share of a large block that buildings must cover for it to be town
+    #: score lost per share of the disc that is free land cut off from its centre by a motorway or trunk
+    #: road (the district would grow there in pockets no street of it can reach)
+    cut_off_weight: float = 1.0
+
+
+#: Roads without frontage: no lot faces a motorway or a ramp, so their buffers are not town (an
+#: interchange's loops would otherwise make a patch of "town" in the fields).
+NO_FRONTAGE = frozenset({"motorway", "motorway_link", "trunk_link"})
+#: Roads that cut the land: a district's streets cross none of the town's streets, and these have
+#: no junctions to meet them at, so a district's land must lie on one side of them.
+CORRIDORS = frozenset({"motorway", "motorway_link", "trunk", "trunk_link"})
+
+
+def _corridors(net) -> np.ndarray:
+    return np.fromiter((s.highway in CORRIDORS for s in net.streets), dtype=bool, count=len(net.streets))
 
 
 @dataclass(frozen=True)
@@ -75,6 +103,8 @@ class DistanceMaps:
     city_distance: np.ndarray  #: m
     free_radius: np.ndarray  #: m to the nearest water, city or outside cell
     nearest_city: np.ndarray  #: (2, rows, cols) row and column of each cell's nearest city cell
+    #: bool: motorways, trunk roads and their ramps, which new streets never cross (no junction on them)
+    corridor: np.ndarray
 
     def centres(self) -> tuple[np.ndarray, np.ndarray]:
         return _cell_centres(self.origin, self.cell, self.water.shape)
@@ -132,18 +162,39 @@ def distance_maps(city: City, opts: SiteOptions | None = None, *, margin: float 
         origin=np.array([x0, y0]), cell=cell, water=water, city=city_mask, outside=outside,
         unbuildable=_raster(city.unbuildable, xs, ys), water_distance=_distance(water, cell),
         city_distance=city_distance, free_radius=_distance(water | city_mask | outside, cell), nearest_city=nearest,
+        corridor=_raster_each(shapely.buffer(net.street_lines()[_corridors(net)], cell), xs, ys),
     )
 
 
 def _built_up(city: City, xs: np.ndarray, ys: np.ndarray, cell: float, opts: SiteOptions) -> np.ndarray:
-    """Blocks, and the street buffers opened so that lone roads through the fields drop out."""
+    """Built blocks, and the street buffers opened so that lone roads through the fields drop out."""
     net = city.network
-    buffered = _raster_each(shapely.buffer(net.street_lines(), opts.street_buffer), xs, ys)
+    fronted = np.fromiter((s.highway not in NO_FRONTAGE for s in net.streets), dtype=bool, count=len(net.streets))
+    buffered = _raster_each(shapely.buffer(net.street_lines()[fronted], opts.street_buffer), xs, ys)
     r = int(round(opts.street_buffer / cell)) + 1  # wider than a lone road's strip, however it rasterises
     dy, dx = np.mgrid[-r:r + 1, -r:r + 1]
     body = binary_opening(buffered, structure=np.hypot(dx, dy) <= r)
-    blocks = _raster(shapely.union_all([b.polygon for b in city.blocks]), xs, ys) if city.blocks else body & False
-    return body | blocks
+    built = _built_blocks(city, opts)
+    return body | _raster(shapely.union_all(built), xs, ys) if len(built) else body
+
+
+def _built_blocks(city: City, opts: SiteOptions) -> np.ndarray:
+    """The blocks that are town: every block up to ``open_block`` m², a larger one only if built on;
+    none that only corridors bound (the land inside an interchange's ramps)."""
+    corridor = {s.id for s in city.network.streets if s.highway in CORRIDORS}
+    fronted = [b for b in city.blocks if not corridor.issuperset(b.street_ids)]
+    polygons = np.array([b.polygon for b in fronted], dtype=object)
+    if not len(polygons):
+        return polygons
+    area = shapely.area(polygons)
+    large = np.flatnonzero(area > opts.open_block)
+    covered = np.zeros(len(polygons))
+    footprints = np.array([b.polygon for b in city.buildings], dtype=object)
+    if len(large) and len(footprints):
+        block, building = shapely.STRtree(footprints).query(polygons[large], predicate="intersects")
+        np.add.at(covered, large[block],
+                  shapely.area(shapely.intersection(polygons[large[block]], footprints[building])))
+    return polygons[(area <= opts.open_block) | (covered >= opts.built_share * area)]
 
 
 def _cell_centres(origin: np.ndarray, cell: float, shape: tuple[int, int]) -> tuple[np.ndarray, np.ndarray]:
@@ -244,20 +295,57 @@ def choose_sites(maps: DistanceMaps, area: float, opts: SiteOptions | None = Non
 
 
 def _best_radius(maps: DistanceMaps, area: float, radius: float, opts: SiteOptions) -> tuple[np.ndarray, np.ndarray]:
-    """Per cell, the score of the smallest disc (of :data:`RADIUS_STEPS`) holding ``area`` of free land."""
+    """Per cell, the score of the smallest disc (of :data:`RADIUS_STEPS`) holding ``area`` of free land;
+    free land in the disc that a motorway or trunk road cuts off from the centre costs."""
     hard = maps.water | maps.city | maps.outside
     free_land = ~hard
     best = np.full(hard.shape, -np.inf)
     best_radius = np.full(hard.shape, np.nan)
     rings = _RingShares(hard.shape, (RADIUS_STEPS[-1] * radius + opts.contact_width) / maps.cell)
-    for step in RADIUS_STEPS:
+    cut_off = _cut_off_shares(maps, free_land, area, radius, rings)
+    for step, cut in zip(RADIUS_STEPS, cut_off):
         r = step * radius
         free = rings.share(free_land, 0.0, r / maps.cell) * np.pi * r * r  # beyond the raster is not free
-        score = _score(maps, r, opts, rings) - 0.25 * (step - 1.0)  # the tighter disc is the better district
+        score = (_score(maps, r, opts, rings) - 0.25 * (step - 1.0)  # the tighter disc is the better district
+                 - opts.cut_off_weight * cut)
         fits = (free >= area) & ~hard & np.isneginf(best)
         best = np.where(fits, score, best)
         best_radius = np.where(fits, r, best_radius)
     return best, best_radius
+
+
+def _cut_off_shares(maps: DistanceMaps, free_land: np.ndarray, area: float, radius: float,
+                    rings: "_RingShares") -> list[np.ndarray]:
+    """Per radius step and cell, the share of the disc that corridors cut off from the cell.
+
+    That is the disc's share of the free land connected to the cell (water,
+    town and the map's edge part it) less its share of the free land still
+    connected once the corridors part it too. Pieces are 4-connected; only
+    pieces of at least a fifth of ``area`` are convolved (a centre in a
+    smaller pocket between ramps has everything around it cut off).
+    """
+    zero = [np.zeros(free_land.shape) for _ in RADIUS_STEPS]
+    if not (maps.corridor & free_land).any():
+        return zero
+    whole = _piece_shares(free_land, area / 5, radius, maps.cell, rings)
+    parted = _piece_shares(free_land & ~maps.corridor, area / 5, radius, maps.cell, rings)
+    return [np.clip(w - p, 0.0, 1.0) for w, p in zip(whole, parted)]
+
+
+def _piece_shares(land: np.ndarray, min_area: float, radius: float, cell: float,
+                  rings: "_RingShares") -> list[np.ndarray]:
+    """Per radius step and cell of ``land``, the share of the disc that is the cell's own piece of it."""
+    pieces, _ = label(land)
+    sizes = np.bincount(pieces.ravel()) * cell ** 2
+    shares = [np.zeros(land.shape) for _ in RADIUS_STEPS]
+    for piece in np.flatnonzero(sizes >= min_area):
+        if piece == 0:  # not land
+            continue
+        mask = pieces == piece
+        for share, step in zip(shares, RADIUS_STEPS):
+            np.copyto(share, rings.share(mask, 0.0, step * radius / cell), where=mask)
+        rings.forget(mask)
+    return shares
 
 
 def _radius_at(maps: DistanceMaps, centre: np.ndarray, area: float, radius: float) -> float:
@@ -341,6 +429,11 @@ class _RingShares:
         if f > 1:
             share = np.repeat(np.repeat(share, f, axis=0), f, axis=1)[:self.shape[0], :self.shape[1]]
         return np.clip(share, 0.0, 1.0)
+
+    def forget(self, mask: np.ndarray) -> None:
+        """Drop a mask's transforms (a site search convolves many pieces of land, each once)."""
+        for key in [k for k, (m, _) in self._masks.items() if m is mask]:
+            del self._masks[key]
 
     def _coarse(self, f: int) -> tuple[int, int]:
         return -(-self.shape[0] // f), -(-self.shape[1] // f)

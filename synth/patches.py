@@ -594,11 +594,11 @@ def _tees(quilt: _Quilt, old: shapely.Geometry, spacing: float, opts: PatchOptio
                 for j in board.tree.query(ray, predicate="intersects").tolist() if j != own]
         hits += [(_meet(ray, np.asarray(town[i].coords), p, d, opts.tee_angle), -1)
                  for i in town_tree.query(ray, predicate="intersects").tolist()]
-        hits = [(at, j) for at, j in hits if at is not None]
+        hits = [(meet, j) for meet, j in hits if meet is not None]
         if not hits:
             continue
-        at, j = min(hits, key=lambda h: float(np.hypot(*(h[0] - p))))
-        if not board.clear(np.array([p, at])):
+        (at, fair), j = min(hits, key=lambda h: float(np.hypot(*(h[0][0] - p))))
+        if not fair or not board.clear(np.array([p, at])):  # the first street ahead, met too flat, blocks it
             continue
         board.added.append(shapely.LineString([p, at]))
         quilt.add(np.array([p, at]), quilt.highway[own], quilt.level[own])
@@ -611,8 +611,8 @@ def _tees(quilt: _Quilt, old: shapely.Geometry, spacing: float, opts: PatchOptio
 
 
 def _meet(ray: shapely.LineString, line: np.ndarray, p: np.ndarray, d: np.ndarray,
-          min_angle: float) -> np.ndarray | None:
-    """Where ``ray`` first meets ``line`` at ``min_angle`` or more, or None."""
+          min_angle: float) -> tuple[np.ndarray, bool] | None:
+    """Where ``ray`` first meets ``line``, and whether at ``min_angle`` or more; None if it does not."""
     a, b = line[:-1], line[1:]
     seg = b - a
     cross = seg[:, 0] * d[1] - seg[:, 1] * d[0]
@@ -624,9 +624,7 @@ def _meet(ray: shapely.LineString, line: np.ndarray, p: np.ndarray, d: np.ndarra
         return None
     i = int(np.flatnonzero(ok)[np.argmin(t[ok])])
     sin = abs(float(cross[i])) / max(float(np.hypot(*seg[i])), 1e-12)
-    if np.degrees(np.arcsin(min(sin, 1.0))) < min_angle:
-        return None
-    return a[i] + u[i] * seg[i]
+    return a[i] + u[i] * seg[i], bool(np.degrees(np.arcsin(min(sin, 1.0))) >= min_angle)
 
 
 def _network(quilt: _Quilt) -> StreetNetwork:

@@ -31,7 +31,7 @@ from tests.conftest import FIXTURES
 
 REPO = Path(__file__).resolve().parent.parent
 PIPELINE = ["--area", "200000", "--beyond-bounds", "--years", "0"]
-THREE = ["bautzen.osm", "berlin-siegessaeule.osm.gz", "West-Oakland.osm.bz2"]  # the quickest fixtures to grow
+THREE = ["monaco.osm.gz", "berlin-siegessaeule.osm.gz", "West-Oakland.osm.bz2"]  # the quickest fixtures to grow
 SEED = 7
 KREMS = FIXTURES / "krems.osm.gz"
 KREMS_CENTRE = (15.6097, 48.4104)

@@ -231,7 +231,7 @@ def test_expand_bad_options_are_one_line_exit_2(tmp_path, capsys, argv, needle):
 
 def test_expand_explains_towns_it_cannot_grow(tmp_path, capsys):
     for name, needle in (("circle-bug.osm.gz", "no streets left"), ("berlin-siegessaeule.osm.gz", "fewer than 9 blocks"),
-                         ("bautzen.osm", "(or more)"), ("West-Oakland.osm.bz2", "fewer than 9 blocks")):
+                         ("bautzen.osm", "too little town"), ("West-Oakland.osm.bz2", "fewer than 9 blocks")):
         out = tmp_path / "x.xml"
         code, _, stderr = run([FIXTURES / name, "-o", out, "-q"], capsys)
         assert code == 2 and needle in stderr and name in stderr and not out.exists()

@@ -325,7 +325,7 @@ def test_the_districts_blocks_take_lots_and_buildings_from_the_engine():
                             rng=rng)
     made = place_buildings(lots, traffic_per_street={}, built_streets=set(ids), rng=rng,
                            obstacles=[result.city.water_geometry(), *(b.polygon for b in result.city.buildings)])
-    assert len(mine) >= 10 and len(lots) >= 100 and len(made) >= 100
+    assert len(mine) >= 10 and len(lots) >= 100 and len(made) >= 0.9 * len(lots)  # nearly every lot is built on
     houses = [fp.rectangle.polygon for fp in made]
     assert not shapely.STRtree(lines).query(houses, predicate="intersects").size
 

@@ -9,7 +9,7 @@ from hypothesis import strategies as st
 
 from osm_expand.blocks import blocks
 from osm_expand.ingest import load
-from osm_expand.model import City, network_from_lines
+from osm_expand.model import Building, City, network_from_lines
 from osm_expand.pipeline import prepare
 from osm_expand.sites import SiteOptions, choose_site, choose_sites, distance_maps
 from tests.conftest import FIXTURES
@@ -43,6 +43,53 @@ def test_a_lone_road_through_the_fields_is_not_built_up():
     far = (xs > 1000) & (np.abs(ys - 150) < 20)
     assert not maps.city[far].any()  # the road's 80 m strip is opened away
     assert maps.city[(xs > 50) & (xs < 250) & (ys > 50) & (ys < 250)].all()  # the town's body stays
+
+
+def town_with(lines, highway: str, buildings=()) -> City:
+    """The grid town and more streets of one class (the grid stays residential)."""
+    grid = town()
+    old = [grid.network.street_xy(s).tolist() for s in grid.network.streets]
+    attrs = [{"highway": "residential"}] * len(old) + [{"highway": highway}] * len(lines)
+    net = network_from_lines(old + lines, attrs)
+    return City(network=net, blocks=tuple(blocks(net)), buildings=tuple(buildings))
+
+
+def square(x0, y0, size):
+    return [(x0, y0), (x0 + size, y0), (x0 + size, y0 + size), (x0, y0 + size), (x0, y0)]
+
+
+@pytest.mark.parametrize("highway,built", [("residential", True), ("motorway_link", False),
+                                           ("trunk_link", False), ("motorway", False)])
+def test_an_interchange_is_not_town(highway, built):
+    """A loop of ramps in the fields buffers into a patch that survives the opening; ramps have no
+    frontage, so it is town only when the same loop is a street."""
+    loop = square(1500.0, 100.0, 120.0)
+    maps = distance_maps(town_with([loop], highway), margin=300.0, beyond_bounds=True)
+    xs, ys = maps.centres()
+    assert maps.city[(np.abs(xs - 1560) < 30) & (np.abs(ys - 160) < 30)].all() == built
+
+
+@pytest.mark.parametrize("covered,built", [(0.0, False), (0.02, False), (0.08, True)])
+def test_a_large_block_is_town_only_when_built_on(covered, built):
+    """A 0.36 km² face closed by a road beside the town is a field unless buildings cover 5 % of it."""
+    ring = square(300.0, 300.0, 600.0)  # meets the grid at its north-east corner
+    side = 600.0 * np.sqrt(covered / 16)  # 16 square buildings covering ``covered`` of the face
+    houses = [Building(rings=(np.array(square(380.0 + 130 * (k % 4), 380.0 + 130 * (k // 4), side)),))
+              for k in range(16)] if covered else []
+    city = town_with([ring], "residential", houses)
+    assert any(b.polygon.area > 300_000 for b in city.blocks)
+    maps = distance_maps(city, margin=300.0, beyond_bounds=True)
+    xs, ys = maps.centres()
+    assert maps.city[(np.abs(xs - 600) < 60) & (np.abs(ys - 600) < 60)].all() == built
+
+
+def test_a_site_keeps_to_one_side_of_a_motorway():
+    """No street of the district can cross the motorway: its land lies on one side of it."""
+    motorway = [(600.0, -3000.0), (600.0, 3000.0)]
+    maps = distance_maps(town_with([motorway], "motorway"), margin=1500.0, beyond_bounds=True)
+    for site in choose_sites(maps, 360_000.0, most=3):
+        west = site.region.intersection(shapely.box(-5000, -5000, 600, 5000)).area
+        assert min(west, site.region.area - west) < 0.05 * site.region.area
 
 
 def test_the_site_touches_the_town_and_keeps_out_of_it():

@@ -136,11 +136,11 @@ def test_version(capsys):
 
 
 def test_the_area_suggested_by_a_refusal_is_accepted(tmp_path, capsys):
-    bautzen = FIXTURES / "bautzen.osm"
-    code, _, err = run([bautzen, "-o", tmp_path / "b.xml", "-q"], capsys)
+    oakland = FIXTURES / "West-Oakland.osm.bz2"
+    code, _, err = run([oakland, "-o", tmp_path / "b.xml", "-q"], capsys)
     assert code == 2
     suggested = re.search(r"--area (\S+)", one_line(err)).group(1).rstrip(";,.")
-    args = cli.build_expand_parser().parse_args([str(bautzen), "--area", suggested])
+    args = cli.build_expand_parser().parse_args([str(oakland), "--area", suggested])
     assert args.area > 0
 
 
