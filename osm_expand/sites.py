@@ -33,8 +33,9 @@ its closeness to the city when the way there crosses water (the far bank of
 a river is not next to the town). Motorways and trunk roads
 (:data:`CORRIDORS`) cut the land: a district's streets cross none of the
 town's streets and these have no junctions to meet, so free land in the
-disc that they cut off from its centre costs its share (``cut_off_weight``). ``direction`` restricts the search to a
-90° sector seen from the town's centre; ``at`` skips the search.
+disc that they cut off from its centre costs its share
+(``cut_off_weight``). ``direction`` restricts the search to a 90° sector
+seen from the town's centre; ``at`` skips the search.
 :func:`choose_sites` ranks several sites at least a district's radius apart,
 best first, so the pipeline can try the next when the best cannot be joined
 to the town.
@@ -175,7 +176,7 @@ def _built_up(city: City, xs: np.ndarray, ys: np.ndarray, cell: float, opts: Sit
     dy, dx = np.mgrid[-r:r + 1, -r:r + 1]
     body = binary_opening(buffered, structure=np.hypot(dx, dy) <= r)
     built = _built_blocks(city, opts)
-    return body | _raster(shapely.union_all(built), xs, ys) if len(built) else body
+    return (body | _raster(shapely.union_all(built), xs, ys)) if len(built) else body
 
 
 def _built_blocks(city: City, opts: SiteOptions) -> np.ndarray:
