@@ -304,19 +304,8 @@ def _in_file(city: Path, exc: InputError, args: argparse.Namespace) -> InputErro
     return InputError(f"{city}: {exc}{hint}")
 
 
-def _simplified_writer(kind: str) -> Callable:
-    """The one writer a simplified network needs (the export package would import all of them: the
-    urbanenvironment writer pulls in the engine's segment table)."""
-    if kind == "osm":
-        from osm_expand.export.osm import write_osm
-
-        return write_osm
-    from osm_expand.export.geojson import write_geojson
-
-    return write_geojson
-
-
 def cmd_simplify(args: argparse.Namespace, log: Progress) -> dict:
+    from osm_expand import export
     from osm_expand.gcpause import cyclic_gc_paused
     from osm_expand.ingest import load
     from osm_expand.model import City
@@ -336,7 +325,8 @@ def cmd_simplify(args: argparse.Namespace, log: Progress) -> dict:
         opts = SimplifyOptions() if args.cluster_radius is None else SimplifyOptions(cluster_radius=args.cluster_radius)
         result = _simplify_or_fail(city, net, args, opts)
         log(f"{result.report['junctions']} junctions, {result.report['streets']} streets; writing {out}")
-        _simplified_writer(kind)(City(network=result.network), out)
+        write = export.write_osm if kind == "osm" else export.write_geojson  # loads that writer alone
+        write(City(network=result.network), out)
         broken = {k: v for k, v in violations(result.network).items() if v}
     if broken:  # never expected: say so rather than hand over a flawed network silently
         print(f"{PROG}: warning: {out}: simplified network still has {broken}; please report this input",

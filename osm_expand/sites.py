@@ -88,8 +88,9 @@ NO_FRONTAGE = frozenset({"motorway", "motorway_link", "trunk_link"})
 CORRIDORS = frozenset({"motorway", "motorway_link", "trunk", "trunk_link"})
 
 
-def _corridors(net) -> np.ndarray:
-    return np.fromiter((s.highway in CORRIDORS for s in net.streets), dtype=bool, count=len(net.streets))
+def _of_class(net, classes: frozenset[str]) -> np.ndarray:
+    """Per street, whether its highway class is one of ``classes``."""
+    return np.fromiter((s.highway in classes for s in net.streets), dtype=bool, count=len(net.streets))
 
 
 @dataclass(frozen=True)
@@ -152,7 +153,8 @@ def distance_maps(city: City, opts: SiteOptions | None = None, *, margin: float 
     nx, ny = int(np.ceil((x1 - x0) / cell)), int(np.ceil((y1 - y0) / cell))
     xs, ys = _cell_centres(np.array([x0, y0]), cell, (ny, nx))
     water = _raster(city.water_geometry(), xs, ys)
-    city_mask = _built_up(city, xs, ys, cell, opts) & ~water
+    lines = net.street_lines()
+    city_mask = _built_up(city, lines, xs, ys, cell, opts) & ~water
     outside = np.zeros_like(water) if beyond_bounds else ~_raster(city.bounds_polygon, xs, ys)
     if city_mask.any():
         city_cells, nearest = distance_transform_edt(~city_mask, return_indices=True)
@@ -163,15 +165,16 @@ def distance_maps(city: City, opts: SiteOptions | None = None, *, margin: float 
         origin=np.array([x0, y0]), cell=cell, water=water, city=city_mask, outside=outside,
         unbuildable=_raster(city.unbuildable, xs, ys), water_distance=_distance(water, cell),
         city_distance=city_distance, free_radius=_distance(water | city_mask | outside, cell), nearest_city=nearest,
-        corridor=_raster_each(shapely.buffer(net.street_lines()[_corridors(net)], cell), xs, ys),
+        corridor=_raster_each(shapely.buffer(lines[_of_class(net, CORRIDORS)], cell), xs, ys),
     )
 
 
-def _built_up(city: City, xs: np.ndarray, ys: np.ndarray, cell: float, opts: SiteOptions) -> np.ndarray:
-    """Built blocks, and the street buffers opened so that lone roads through the fields drop out."""
-    net = city.network
-    fronted = np.fromiter((s.highway not in NO_FRONTAGE for s in net.streets), dtype=bool, count=len(net.streets))
-    buffered = _raster_each(shapely.buffer(net.street_lines()[fronted], opts.street_buffer), xs, ys)
+def _built_up(city: City, lines: np.ndarray, xs: np.ndarray, ys: np.ndarray, cell: float,
+              opts: SiteOptions) -> np.ndarray:
+    """Built blocks, and the street buffers (``lines``: the streets') opened so that lone roads through
+    the fields drop out."""
+    fronted = ~_of_class(city.network, NO_FRONTAGE)
+    buffered = _raster_each(shapely.buffer(lines[fronted], opts.street_buffer), xs, ys)
     r = int(round(opts.street_buffer / cell)) + 1  # wider than a lone road's strip, however it rasterises
     dy, dx = np.mgrid[-r:r + 1, -r:r + 1]
     body = binary_opening(buffered, structure=np.hypot(dx, dy) <= r)

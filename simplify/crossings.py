@@ -11,8 +11,8 @@ from collections import defaultdict
 
 import numpy as np
 import shapely
-from osm_expand.model import Street, StreetNetwork, closest_on_segments
-from osm_expand.model.components import UnionFind, close_pairs, component_labels, nearest_within
+from osm_expand.model import Street, StreetNetwork, closest_on_segments, match_points
+from osm_expand.model.components import UnionFind, close_pairs, component_labels
 from simplify.options import SimplifyOptions
 from osm_expand.model.topology import append_nodes, clean_nodes, flat_nodes, split_self_touching
 
@@ -138,7 +138,7 @@ def _dedupe_points(points: np.ndarray, tol: float) -> np.ndarray:
 
 def _existing_vertex(xy: np.ndarray, candidates: np.ndarray, points: np.ndarray, tol: float) -> np.ndarray:
     """For each crossing point, a vertex already there (a third street's node), or -1."""
-    near = nearest_within(points, xy[candidates], tol)
+    near = match_points(points, xy[candidates], tol)
     return np.where(near >= 0, candidates[near], -1) if len(candidates) else near
 
 

@@ -28,7 +28,7 @@ def end_angle(xy: np.ndarray, a: Street, a_start: bool, b: Street, b_start: bool
     """Angle (degrees) between two streets leaving the same node: 180 is straight on."""
     ha = heading(xy, a.nodes, a_start, reach)
     hb = heading(xy, b.nodes, b_start, reach)
-    return float(np.degrees(np.arccos(np.clip(ha @ hb, -1.0, 1.0))))
+    return float(end_angles(ha[None], hb[None])[0])
 
 
 def merge_streets(net: StreetNetwork, opts: SimplifyOptions) -> tuple[StreetNetwork, int]:

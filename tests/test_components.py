@@ -17,7 +17,8 @@ from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import connected_components
 from scipy.spatial import cKDTree
 
-from osm_expand.model.components import UnionFind, close_pairs, component_labels, nearest_within
+from osm_expand.model import match_points
+from osm_expand.model.components import UnionFind, close_pairs, component_labels
 
 from conftest import FIXTURES
 
@@ -57,8 +58,8 @@ def test_close_pairs_are_kdtree_pairs(pts, radius):
 
 
 @given(points, points, st.sampled_from([0.3, 1.0, 5.0]))
-def test_nearest_within_finds_a_nearest_known_point(pts, known, radius):
-    found = nearest_within(pts, known, radius)
+def test_match_points_within_a_radius_finds_a_nearest_known_point(pts, known, radius):
+    found = match_points(pts, known, radius)
     if not len(known):
         assert (found == -1).all()
         return

@@ -466,10 +466,8 @@ def place_buildings(lots: Sequence[Lot], *, traffic_per_street: Mapping[int, flo
         back = opts.back_setback[0] + f[2] * (opts.back_setback[1] - opts.back_setback[0])
         built.sort(key=lambda s: (-_traffic(traffic_per_street, s), -lot.frontage_length(s), s))
         least = (opts.front_setback[0], opts.side_setback[0], opts.back_setback[0])
-        drawn = (front, side_sb, back)
-        for setbacks in (drawn, least):  # a shallow lot builds at the least setbacks
-            setbacks = tuple(max(x, EDGE_CLEARANCE) for x in setbacks)
-            found = _room(lot, built, setbacks, opts, resolution)
+        for setbacks in ((front, side_sb, back), least):  # a shallow lot builds at the least setbacks
+            found = _room(lot, built, tuple(max(x, EDGE_CLEARANCE) for x in setbacks), opts, resolution)
             if found is not None:
                 room.append((k, *found))
                 break

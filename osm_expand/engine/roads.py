@@ -35,6 +35,7 @@ from osm_expand.engine.traffic import TrafficMemory, follow, trade_major
 from osm_expand.joins import add_streets
 from osm_expand.land import matches, UNBUILDABLE
 from osm_expand.model import City, Origin, Status
+from osm_expand.model.highways import MAJOR
 from osm_expand.model.topology import without_segments
 
 #: Highway class of a new major road by type: a bypass is a through road, the others town roads.
@@ -42,8 +43,6 @@ ROAD_CLASS = {RoadType.BYPASS: "trunk", RoadType.CITY: "primary", RoadType.SMOOT
               RoadType.REBUILDING_CITY: "primary"}
 #: A reused minor street that becomes part of a major road is reclassified to this.
 UPGRADED = "secondary"
-#: Highway classes a reused street keeps as they are.
-MAJOR_CLASSES = ("motorway", "trunk", "primary", "secondary")
 #: Metres of land around the map's bounds the lattice covers.
 LATTICE_MARGIN = 100.0
 #: Cell (m) of the raster of forbidden land (unbuildable areas and buildings) the lattice samples:
@@ -165,11 +164,12 @@ def _apply(city: City, table: SegmentTable, plan, *, year: int, era: str, old_to
     the history allows it (``old_town``: ``rebuild_old_town = true``)."""
     streets = list(city.network.streets)
     width = float(plan.width)
-    minor = np.array([streets[k].highway not in MAJOR_CLASSES for k in table.street[plan.reused].tolist()], bool)
+    reused = table.street[plan.reused].tolist()
+    minor = np.array([streets[k].highway not in MAJOR for k in reused], dtype=bool)
     upgraded = float(table.length[plan.reused[minor]].sum())
-    for k in set(table.street[plan.reused].tolist()):
+    for k in set(reused):
         s = streets[k]
-        highway = s.highway if s.highway in MAJOR_CLASSES else UPGRADED
+        highway = s.highway if s.highway in MAJOR else UPGRADED  # a major road as mapped keeps its class
         streets[k] = replace(s, highway=highway)
     for k in set(table.street[plan.widen].tolist()):
         streets[k] = replace(streets[k], width=max(width, streets[k].width or 0.0))

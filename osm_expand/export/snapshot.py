@@ -14,6 +14,7 @@ import numpy as np
 
 from osm_expand.export.atomic import atomic_write
 from osm_expand.model import City, Origin
+from osm_expand.model.highways import MAJOR
 
 #: Traffic at or above this percentile of the streets' traffic is drawn fully red.
 TOP_PERCENTILE = 95.0
@@ -40,7 +41,7 @@ def write_snapshot(city: City, traffic: Mapping[int, float], path: str | os.Path
         ax.add_collection(PolyCollection([b.ring for b in city.buildings], facecolors="0.82", edgecolors="none"))
         values = np.array([traffic.get(s.id, 0.0) for s in net.streets])
         top = float(np.percentile(values[values > 0], TOP_PERCENTILE)) if (values > 0).any() else 1.0
-        major = np.array([s.highway in ("motorway", "trunk", "primary", "secondary") for s in net.streets])
+        major = np.array([s.highway in MAJOR for s in net.streets])
         lines = LineCollection([net.street_xy(s) for s in net.streets], cmap="RdYlGn_r",
                                norm=Normalize(0.0, max(top, 1.0)), linewidths=np.where(major, 2.0, 0.9))
         lines.set_array(values)

@@ -5,8 +5,8 @@ importing any SciPy submodule costs 0.12–0.16 s (its array-API layer), a
 quarter of ``osm-expand simplify``'s whole run on a town. The simplify passes
 need only components of small graphs, a union–find and radius queries on
 junctions, so they use these: NumPy for the components, a textbook union–find,
-and shapely's STRtree (already imported) for the geometry. The growth engine,
-which imports SciPy anyway, keeps using it.
+and shapely's STRtree (already imported) for the geometry; the nearest known
+point within a radius is :func:`osm_expand.model.geometry.match_points`.
 """
 from __future__ import annotations
 
@@ -94,14 +94,3 @@ def close_pairs(points: np.ndarray, radius: float) -> np.ndarray:
     pairs = np.column_stack([a[keep], b[keep]])
     return pairs[np.lexsort((pairs[:, 1], pairs[:, 0]))]
 
-
-def nearest_within(points: np.ndarray, known: np.ndarray, radius: float) -> np.ndarray:
-    """For each point, the index of its nearest ``known`` point at most ``radius`` away, or -1."""
-    points = np.asarray(points, dtype=float).reshape(-1, 2)
-    out = np.full(len(points), -1, dtype=np.int64)
-    if not len(points) or not len(known):
-        return out
-    tree = shapely.STRtree(shapely.points(np.asarray(known, dtype=float).reshape(-1, 2)))
-    src, hit = tree.query_nearest(shapely.points(points), max_distance=radius, all_matches=False)
-    out[src] = hit
-    return out

@@ -95,11 +95,11 @@ def match_points(points: np.ndarray, known: np.ndarray, tolerance: float = 0.0) 
             index.setdefault(key, i)
         return np.fromiter((index.get(key, -1) for key in map(tuple, points.tolist())), dtype=np.int64,
                            count=len(points))
-    from scipy.spatial import cKDTree  # here, not at the top: the simplify path never imports SciPy
+    import shapely  # STRtree, not SciPy's cKDTree: the simplify path must not pay SciPy's import
 
-    dist, idx = cKDTree(known).query(points, distance_upper_bound=tolerance)
-    hit = np.isfinite(dist)
-    out[hit] = idx[hit]
+    src, hit = shapely.STRtree(shapely.points(known)).query_nearest(shapely.points(points), max_distance=tolerance,
+                                                                    all_matches=False)
+    out[src] = hit
     return out
 
 

@@ -11,6 +11,9 @@ DRIVABLE: frozenset[str] = frozenset({
     "residential", "living_street", "road",
     "motorway_link", "trunk_link", "primary_link", "secondary_link", "tertiary_link",
 })
+#: The major road classes: a street of these is a major road as mapped (roads keep it when reused,
+#: snapshots draw it thick); their ``_link`` ramps are not in it.
+MAJOR: tuple[str, ...] = ("motorway", "trunk", "primary", "secondary")
 SERVICE: frozenset[str] = frozenset({"service"})
 PATHS: frozenset[str] = frozenset({
     "footway", "path", "track", "pedestrian", "cycleway", "bridleway", "steps", "busway",

@@ -122,13 +122,11 @@ def piece_table(streets: Sequence[Street], junction: np.ndarray) -> dict[str, np
 
     Columns: ``street``, positions ``a`` and ``b`` along it, end nodes ``u``, ``v``.
     """
-    sizes = np.fromiter((len(s.nodes) for s in streets), dtype=np.int64, count=len(streets))
-    if not len(sizes):
+    if not streets:
         empty = np.zeros(0, dtype=np.int64)
         return {"street": empty, "a": empty, "b": empty, "u": empty, "v": empty}
-    offsets = np.concatenate([[0], np.cumsum(sizes)])
-    nodes = np.fromiter((n for s in streets for n in s.nodes), dtype=np.int64, count=int(offsets[-1]))
-    owner = np.repeat(np.arange(len(streets)), sizes)
+    nodes, owner = flat_nodes(streets)
+    offsets = np.concatenate([[0], np.cumsum(np.bincount(owner, minlength=len(streets)))])
     bound = junction[nodes].copy()
     bound[offsets[:-1]] = True
     bound[offsets[1:] - 1] = True
