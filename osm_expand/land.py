@@ -1,4 +1,28 @@
-"""Which land is not free to build on, from what the map says.
+"""Which land is free to build on, and at what cost, from what the map says (the land model).
+
+Three kinds of land, read once by :func:`read_land` into a
+:class:`~osm_expand.model.land.Land` that the sites, every growth pattern,
+the engine's growth and the build-out share:
+
+- **Unbuildable** (below): nothing new, ever.
+- **Taken**: land the town uses though the map may not show it. The
+  *frontage* of every town street: land behind it to the depth the town's
+  own mapped buildings show (:func:`frontage_depth`: the 90th percentile of
+  how far the rear of a building stands from its street, plus a rear
+  margin, per class group where the town has enough buildings; otherwise
+  :attr:`LandOptions.default_depth`). Residential streets and their kin are
+  town streets by their class; other roads only where they pass the town
+  (within a frontage depth of buildings, settlement land use or a
+  residential street's frontage), so a country road between villages has
+  none. And mapped *settlement* land use (:data:`SETTLEMENT`). Where the
+  town's buildings are mapped (within :attr:`LandOptions.survey_radius` of
+  one), land without a building is shown to be empty and is not taken: a
+  town whose houses are not mapped still reads as occupied along its
+  streets, cul-de-sacs included, and a town whose houses are mapped keeps
+  its gaps.
+- **Land cover** (:data:`LAND_COVER`): farmland and meadow are the usual
+  greenfield, forest dearer, and so on; a cost in [0, 1) that the site
+  score weighs and the report sums for what the growth took.
 
 Unbuildable (a documented default, configurable with
 :class:`LandOptions` or ``--unbuildable``): cemeteries, railway land,
@@ -10,17 +34,50 @@ town are added by :attr:`osm_expand.model.City.occupied`.
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
+from types import MappingProxyType
+from collections.abc import Mapping
 
 import numpy as np
 import shapely
 
 from osm_expand.errors import InputError
-from osm_expand.model import City
+from osm_expand.model import City, Land, Origin
+from osm_expand.model.topology import segment_degree
 
-#: ``key=value`` (or ``key=*`` for any value) of mapped areas that are not buildable.
+#: ``key=value`` (or ``key=*`` for any value) of mapped areas that are not buildable. Wetland is
+#: protected nearly everywhere (Ramsar convention; EU Habitats Directive), so it is here with water.
 UNBUILDABLE = ("landuse=cemetery", "amenity=grave_yard", "landuse=railway", "landuse=military", "military=*",
-               "aeroway=*", "leisure=park", "leisure=nature_reserve", "landuse=landfill", "landuse=quarry")
+               "aeroway=*", "leisure=park", "leisure=nature_reserve", "landuse=landfill", "landuse=quarry",
+               "natural=wetland")
+#: Mapped land use that is the town itself: homes, work, farmyards, gardens, sports grounds. Land
+#: under it is taken unless the town's mapped buildings show it empty.
+SETTLEMENT = ("landuse=residential", "landuse=commercial", "landuse=retail", "landuse=industrial",
+              "landuse=farmyard", "landuse=farm", "landuse=garages", "landuse=allotments", "landuse=construction",
+              "landuse=religious", "landuse=education", "landuse=institutional", "landuse=depot", "landuse=port",
+              "leisure=garden", "leisure=pitch", "leisure=sports_centre", "leisure=stadium",
+              "leisure=playground", "leisure=swimming_pool", "leisure=track")
+#: Development cost of mapped land cover, 0 (the usual greenfield) to 1 (as bad as unbuildable). Most
+#: land taken by European towns was farmland and pasture (EEA, "Land take in Europe", 2019: about
+#: 78 % agricultural land); grass and rough grazing come next; heath and scrub need clearing; orchards
+#: and vineyards are capital in the ground and often protected landscape (the Wachau around Krems is
+#: a World Heritage site); forest needs a clearing permit and replacement planting (e.g. Germany's
+#: Bundeswaldgesetz §9); golf courses and bare rock are rarely built on. Unmapped land costs 0.
+LAND_COVER: Mapping[str, float] = MappingProxyType({
+    "landuse=farmland": 0.0, "landuse=meadow": 0.0, "landuse=greenfield": 0.0, "landuse=brownfield": 0.0,
+    "landuse=grass": 0.1, "natural=grassland": 0.1, "leisure=common": 0.2, "landuse=plant_nursery": 0.3,
+    "natural=heath": 0.3, "natural=scrub": 0.3, "landuse=orchard": 0.4, "landuse=vineyard": 0.6,
+    "landuse=forest": 0.6, "natural=wood": 0.6, "leisure=golf_course": 0.7, "natural=bare_rock": 0.8,
+    "natural=beach": 0.8,
+})
+#: Highway classes that are town streets by their class: they are mapped where people live (their
+#: frontage is taken wherever they run). Other classes have frontage only where they pass the town.
+TOWN_STREETS = frozenset({"residential", "living_street", "service", "pedestrian"})
+#: Classes whose frontage depth is learned apart: main roads carry larger buildings, set further back.
+MAIN_ROADS = frozenset({"trunk", "primary", "secondary", "tertiary",
+                        "trunk_link", "primary_link", "secondary_link", "tertiary_link"})
+#: Roads without frontage: no lot faces a motorway or a ramp.
+NO_FRONTAGE = frozenset({"motorway", "motorway_link", "trunk_link"})
 
 
 @dataclass(frozen=True)
@@ -29,12 +86,46 @@ class LandOptions:
     unbuildable: tuple[str, ...] = UNBUILDABLE
     #: Metres kept clear around existing buildings (their minimum rectangles, as the XML draws them).
     building_margin: float = 2.0
+    #: Mapped land use that is the town (taken unless shown empty), as ``key=value`` or ``key=*``.
+    settlement: tuple[str, ...] = SETTLEMENT
+    #: Percentile of how far a building's rear stands from its nearest street (the issue's example).
+    depth_percentile: float = 90.0
+    #: m behind the rear of the houses: a back garden. 10 m is the common minimum rear yard of
+    #: zoning codes (e.g. New York's 30 ft; German plots keep 3 m to the boundary and more to the next house).
+    rear_margin: float = 10.0
+    #: Frontage depth (m) when the town has too few buildings mapped to learn it: the median of the learned
+    #: depths of Krems (82), north-bayreuth (71) and Monaco (62), i.e. 61 m p90 + 10 m.
+    default_depth: float = 71.0
+    #: Fewest buildings near streets (of a class group) to learn its depth from ...
+    min_buildings: int = 200
+    #: ... and at least this many per 100 m of town street: below it the buildings are a few landmarks
+    #: (Campo Grande: 102 buildings on 700 km of street), whose depths are no town's.
+    min_buildings_per_100m: float = 0.5
+    #: A building this far (m) from every street faces none (a farmstead in the fields); not learned from.
+    max_setback: float = 150.0
+    #: Where a building is mapped within this many metres, the map is taken to show every building, so
+    #: land without one is empty: a little under the default frontage depth, so a gap of two or three
+    #: houses in a mapped street is free and a whole unmapped street is not.
+    survey_radius: float = 60.0
+    #: Development cost of mapped land cover (``key=value`` to a cost in [0, 1)).
+    cover: Mapping[str, float] = field(default_factory=lambda: LAND_COVER)
+    #: Taken land in pieces smaller than this (m²) is dropped (slivers between buffers).
+    min_piece: float = 50.0
 
     def __post_init__(self) -> None:
-        for rule in self.unbuildable:
+        for rule in (*self.unbuildable, *self.settlement, *self.cover):
             key, sep, value = rule.partition("=")
             if not sep or not key or not value:
-                raise InputError(f"unbuildable: {rule!r} is not KEY=VALUE or KEY=*")
+                raise InputError(f"land rule {rule!r} is not KEY=VALUE or KEY=*")
+        for name in ("rear_margin", "default_depth", "max_setback", "survey_radius", "min_piece"):
+            value = getattr(self, name)
+            if not (np.isfinite(value) and value >= 0):
+                raise InputError(f"land option {name} must be a finite number of metres >= 0, got {value!r}")
+        if not 0.0 <= self.depth_percentile <= 100.0:
+            raise InputError(f"land option depth_percentile must be in [0, 100], got {self.depth_percentile!r}")
+        bad = {k: v for k, v in self.cover.items() if not 0.0 <= v < 1.0}
+        if bad:
+            raise InputError(f"land cover costs must be in [0, 1), got {bad}")
 
 
 def parse_rules(text: str) -> tuple[str, ...]:
@@ -44,7 +135,7 @@ def parse_rules(text: str) -> tuple[str, ...]:
     return rules
 
 
-def matches(key: str, value: str, rules: tuple[str, ...]) -> bool:
+def matches(key: str, value: str, rules: tuple[str, ...] | Mapping[str, float]) -> bool:
     """Does a mapped area ``key=value`` fall under one of ``rules``?"""
     return any(r == f"{key}=*" or r == f"{key}={value}" for r in rules)
 
@@ -65,3 +156,200 @@ def building_outlines(city: City) -> np.ndarray:
         return np.empty(0, dtype=object)
     polys = np.array([shapely.Polygon(b.ring) for b in city.buildings], dtype=object)
     return shapely.oriented_envelope(polys)
+
+
+def _footprints(city: City) -> np.ndarray:
+    polys = np.array([b.polygon for b in city.buildings if b.origin == Origin.SOURCE], dtype=object)
+    return shapely.make_valid(polys) if len(polys) else polys
+
+
+def _fronted(city: City) -> tuple[np.ndarray, np.ndarray]:
+    """Indices of the town's streets that have frontage, and their LineStrings."""
+    net = city.network
+    keep = np.array([s.origin == Origin.SOURCE and s.highway not in NO_FRONTAGE for s in net.streets], dtype=bool)
+    lines = net.street_lines()
+    return np.flatnonzero(keep), lines[keep] if len(lines) else lines
+
+
+def frontage_depth(city: City, options: LandOptions | None = None) -> tuple[dict[str, float], str]:
+    """How deep behind its streets the town stands (m), per class group, and whether it was learned.
+
+    For every mapped building within ``max_setback`` of a street with
+    frontage, the distance from that (nearest) street to the building's
+    farthest corner: where its rear is. The frontage depth of a class group
+    (``major``: :data:`MAIN_ROADS`; ``minor``: the rest) is the
+    ``depth_percentile`` of those distances plus ``rear_margin``, learned
+    where the group has ``min_buildings`` and the town at least
+    ``min_buildings_per_100m``; a group that has too few takes the whole
+    town's, and a town that has too few the default.
+
+    Returns
+    -------
+    ({"major": m, "minor": m}, "learned" | "default")
+    """
+    opts = options or LandOptions()
+    default = {"major": opts.default_depth, "minor": opts.default_depth}
+    index, lines = _fronted(city)
+    polys = _footprints(city)
+    if not len(polys) or not len(lines):
+        return default, "default"
+    if len(polys) < opts.min_buildings_per_100m * float(shapely.length(lines).sum()) / 100.0:
+        return default, "default"
+    tree = shapely.STRtree(lines)
+    building, line = tree.query_nearest(shapely.centroid(polys), max_distance=opts.max_setback, all_matches=False)
+    if len(building) < opts.min_buildings:
+        return default, "default"
+    coords, owner = shapely.get_coordinates(shapely.get_exterior_ring(polys[building]), return_index=True)
+    far = np.zeros(len(building))
+    np.maximum.at(far, owner, shapely.distance(shapely.points(coords), lines[line][owner]))
+    major = np.array([city.network.streets[index[j]].highway in MAIN_ROADS for j in line.tolist()], dtype=bool)
+    whole = float(np.percentile(far, opts.depth_percentile)) + opts.rear_margin
+    out = {}
+    for group, mask in (("major", major), ("minor", ~major)):
+        enough = mask.sum() >= opts.min_buildings
+        out[group] = float(np.percentile(far[mask], opts.depth_percentile)) + opts.rear_margin if enough else whole
+    return out, "learned"
+
+
+def read_land(city: City, options: LandOptions | None = None) -> Land:
+    """The land model of a town as mapped (module docstring).
+
+    Parameters
+    ----------
+    city : City
+        The town as read (its buildings, streets and mapped areas).
+    options : LandOptions
+
+    Returns
+    -------
+    Land
+        ``taken``, ``town`` and ``cover`` as arrays of polygons (metres).
+    """
+    opts = options or LandOptions()
+    depth, source = frontage_depth(city, opts)
+    footprints = _footprints(city)
+    settlement = [a.polygon for a in city.areas if matches(a.key, a.value, opts.settlement)]
+    frontage, lines, widths = _frontage(city, depth, footprints, settlement)
+    frontage_arr = np.array(frontage, dtype=object)
+    settled = np.array(settlement, dtype=object)
+    if len(footprints) and opts.survey_radius > 0:
+        frontage_arr = _less(frontage_arr, _empty_cells(lines, widths, footprints, opts.survey_radius))
+        settled = _less(settled, shapely.buffer(footprints, opts.survey_radius, quad_segs=4))
+    taken = np.concatenate([shapely.get_parts(frontage_arr), shapely.get_parts(settled)]) \
+        if len(frontage_arr) + len(settled) else np.empty(0, dtype=object)
+    taken = taken[(shapely.get_type_id(taken) == 3) & (shapely.area(taken) >= opts.min_piece)] if len(taken) else taken
+    claimed = np.array([*frontage, *settlement], dtype=object)
+    town = np.array([*claimed.tolist(), *footprints.tolist()], dtype=object)
+    cover = [(a.polygon, f"{a.key}={a.value}") for a in city.areas if matches(a.key, a.value, opts.cover)]
+    kinds = tuple(kind for _, kind in cover)
+    costs = np.array([_cost(kind, opts.cover) for kind in kinds], dtype=float)
+    return Land(taken=taken, town=town, cover=np.array([p for p, _ in cover], dtype=object), cover_kind=kinds,
+                cover_cost=costs, frontage_depth=depth, depth_source=source, survey_radius=opts.survey_radius)
+
+
+def _cost(kind: str, table: Mapping[str, float]) -> float:
+    key = kind.split("=", 1)[0]
+    return float(table.get(kind, table.get(f"{key}=*", 0.0)))
+
+
+def _frontage(city: City, depth: dict[str, float], footprints: np.ndarray,
+              settlement: list) -> tuple[list, np.ndarray, np.ndarray]:
+    """The frontage strips of the town's streets (module docstring), as polygons, and the lines and
+    depths they were drawn from.
+
+    A strip is the street buffered with flat ends, plus a disc at each end
+    that meets another street: a dead end's frontage stops at its tip, so
+    a street may continue it into the fields (how towns grow past their
+    cul-de-sacs).
+    """
+    index, lines = _fronted(city)
+    if not len(lines):
+        return [], np.empty(0, dtype=object), np.zeros(0)
+    net = city.network
+    streets = [net.streets[k] for k in index.tolist()]
+    width = np.array([depth["major"] if s.highway in MAIN_ROADS else depth["minor"] for s in streets])
+    by_class = np.array([s.highway in TOWN_STREETS for s in streets], dtype=bool)
+    drawn, drawn_width = [lines[by_class]], [width[by_class]]
+    evidence = [*footprints.tolist(), *settlement,
+                *shapely.buffer(lines[by_class], width[by_class], cap_style="flat").tolist()]
+    others = np.flatnonzero(~by_class)
+    if len(others) and evidence:
+        pieces, owner = _pieces(lines[others])
+        tree = shapely.STRtree(np.array(evidence, dtype=object))
+        near, _ = tree.query(shapely.centroid(pieces), predicate="dwithin", distance=float(width.max()))
+        kept = np.unique(near)
+        if len(kept):
+            roads = np.unique(owner[kept])
+            merged = [shapely.line_merge(shapely.multilinestrings(pieces[kept][owner[kept] == j]))
+                      for j in roads.tolist()]
+            drawn.append(np.array([g for m in merged for g in shapely.get_parts(m)], dtype=object))
+            drawn_width.append(np.array([width[others][j] for j, m in zip(roads.tolist(), merged)
+                                         for _ in shapely.get_parts(m)]))
+    drawn_lines, drawn_w = np.concatenate(drawn), np.concatenate(drawn_width)
+    strips = shapely.buffer(drawn_lines, drawn_w, cap_style="flat").tolist()
+    degree = segment_degree(net.streets, len(net.xy))
+    ends = [(s.nodes[0], w) for s, w in zip(streets, width)] + [(s.nodes[-1], w) for s, w in zip(streets, width)]
+    joints = [(n, w) for n, w in ends if degree[n] > 1]
+    discs: list = []
+    if joints and strips:
+        discs = shapely.buffer(shapely.points(net.xy[[n for n, _ in joints]]), [w for _, w in joints]).tolist()
+        # a disc at a junction fills the corner between two streets' strips; only where a strip is
+        hit, _ = shapely.STRtree(np.array(strips, dtype=object)).query(np.array(discs, dtype=object),
+                                                                      predicate="intersects")
+        discs = [discs[k] for k in np.unique(hit).tolist()]
+    return [p for p in [*strips, *discs] if not p.is_empty], drawn_lines, drawn_w
+
+
+#: Metres of a road tested at a time for passing the town.
+PIECE = 50.0
+
+
+def _pieces(lines: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """``lines`` cut into pieces of at most :data:`PIECE` metres: the pieces and the line each came from."""
+    dense = shapely.segmentize(lines, PIECE)
+    coords, owner = shapely.get_coordinates(dense, return_index=True)
+    same = owner[1:] == owner[:-1]
+    a, b = coords[:-1][same], coords[1:][same]
+    pieces = shapely.linestrings(np.stack([a, b], axis=1))
+    return pieces, owner[:-1][same]
+
+
+def _empty_cells(lines: np.ndarray, widths: np.ndarray, footprints: np.ndarray, radius: float) -> np.ndarray:
+    """Frontage the mapped buildings show to be empty: each side of each :data:`PIECE` of street, out
+    to its depth, that holds no building although one is mapped within ``radius`` of it.
+
+    The unit is a stretch of street and everything behind it to the frontage
+    depth, so a back garden is never "empty" (its house is in the stretch)
+    while a gap between houses, or the far side of a street that has houses
+    on one side only, is.
+    """
+    if not len(lines):
+        return np.empty(0, dtype=object)
+    pieces, owner = _pieces(lines)
+    w = widths[owner]
+    cells = np.concatenate([shapely.buffer(pieces, w, cap_style="flat", single_sided=True),
+                            shapely.buffer(pieces, -w, cap_style="flat", single_sided=True)])
+    tree = shapely.STRtree(footprints)
+    has_building = np.zeros(len(cells), dtype=bool)
+    has_building[tree.query(cells, predicate="intersects")[0]] = True
+    surveyed = np.zeros(len(cells), dtype=bool)
+    surveyed[tree.query(cells, predicate="dwithin", distance=radius)[0]] = True
+    empty = cells[surveyed & ~has_building]
+    return shapely.buffer(empty, 0.5, join_style="mitre") if len(empty) else empty
+
+
+def _less(claimed: np.ndarray, holes: np.ndarray) -> np.ndarray:
+    """Each of ``claimed`` less the union of the ``holes`` that meet it (in the same order)."""
+    if not len(claimed) or not len(holes):
+        return claimed
+    which, near = shapely.STRtree(holes).query(claimed, predicate="intersects")
+    order = np.argsort(which, kind="stable")
+    which, near = which[order], near[order]
+    out = claimed.copy()
+    if not len(which):
+        return out
+    cut = np.flatnonzero(np.r_[True, which[1:] != which[:-1]])
+    for start, stop in zip(cut.tolist(), [*cut[1:].tolist(), len(which)]):
+        k = int(which[start])
+        out[k] = shapely.difference(claimed[k], shapely.union_all(holes[near[start:stop]]))
+    return out

@@ -27,9 +27,9 @@ from osm_expand.fidelity import FidelityReport, fidelity
 from osm_expand.measures import LineSet, NetworkMeasures, measure_network
 from osm_expand.heights import with_heights
 from osm_expand.joins import JoinReport, join_growth
-from osm_expand.land import LandOptions, unbuildable
+from osm_expand.land import LandOptions, read_land, unbuildable
 from osm_expand.model import City, Origin, Status, StreetNetwork, polyline_length
-from osm_expand.sites import Site, SiteOptions, choose_sites, distance_maps
+from osm_expand.sites import Site, SiteOptions, choose_sites, distance_maps, district_region
 from simplify import simplify
 from simplify.example import Example, build_example
 from simplify.hierarchy import with_levels
@@ -59,7 +59,7 @@ class ExpandOptions:
     seed: int = 0
     direction: str | None = None  #: N, NE, ..., or None for the best site anywhere
     at: tuple[float, float] | None = None  #: site centre in metres
-    area: float | None = None  #: m²; default: ``site.area_share`` of the built-up area
+    area: float | None = None  #: m²; default: ``site.area_share`` of the built-up area, at most ``site.neighbourhood_area``
     beyond_bounds: bool = False  #: allow the site outside the map's data bounds
     pattern: str = "example"  #: growth pattern: see :data:`PATTERNS`
     fidelity: bool = True  #: judge the district against real parts of the town (:mod:`osm_expand.fidelity`)
@@ -136,9 +136,10 @@ def learn(city: City) -> Learned:
 
 
 def prepare(city: City, land: LandOptions | None = None) -> City:
-    """The city with its blocks (from the streets as mapped), unbuildable land and building heights."""
+    """The city with its blocks (from the streets as mapped), unbuildable land, the land model (frontage,
+    settlement, land cover: :func:`osm_expand.land.read_land`) and building heights."""
     return with_heights(city).replace(blocks=tuple(blocks(city.network, year=None)),
-                                      unbuildable=unbuildable(city, land))
+                                      unbuildable=unbuildable(city, land), land=read_land(city, land))
 
 
 def expand(city: City, options: ExpandOptions | None = None, *, pattern: GrowthPattern | None = None,
@@ -191,7 +192,7 @@ def expand(city: City, options: ExpandOptions | None = None, *, pattern: GrowthP
     tried = []
     for attempt, site in enumerate(sites):
         progress(f"growing streets ({pattern.name}) at site {attempt + 1}")
-        region = site.region if opts.beyond_bounds else shapely.intersection(site.region, city.bounds_polygon)
+        region = district_region(city, site, bounds=None if opts.beyond_bounds else city.bounds_polygon)
         growth = pattern.grow(city, region, np.random.default_rng([opts.seed, attempt]))
         grown, joins = join_growth(city, growth.streets, spacing=spacing, year=city.year)
         if joins.joins >= MIN_JOINS:
@@ -251,7 +252,7 @@ def _margin(city: City) -> float:
 
 def _district_area(opts: ExpandOptions, built: float, spacing: float) -> float:
     """The district's area (m²), checked against the town's size before any work."""
-    area = opts.area or opts.site.area_share * built
+    area = opts.area or min(opts.site.area_share * built, max(opts.site.neighbourhood_area, MIN_BLOCKS * spacing ** 2))
     smallest, largest = MIN_BLOCKS * spacing ** 2, MAX_AREA_SHARE * built
     if smallest > largest:
         raise InputError(f"too little town to grow from: {built:.0f} m² built up, and a district of {MIN_BLOCKS} "

@@ -3,15 +3,14 @@
 The town and its surroundings are rasterised at ``cell`` metres:
 
 - *water*: water areas, buffered rivers, sea;
-- *city*, the built-up area: every street buffered by ``street_buffer``
-  metres, opened morphologically by that buffer, so a lone road through the
-  fields (a strip twice the buffer wide) is not town while the town's body
-  is, and the blocks; its area is the town's *built-up area*. Motorways and
-  ramps have no frontage (:data:`NO_FRONTAGE`): their buffers, and blocks
-  only corridors bound, are not town, else an interchange's loops make a
-  patch of town in the fields. A block over ``open_block`` m² is town only
-  when buildings cover ``built_share`` of it: larger faces are mostly the
-  fields between villages;
+- *city*, the built-up area: the town's land (:mod:`osm_expand.land`: the
+  frontage of its streets to the depth its buildings show, its settlement
+  land use and buildings; a country road between villages has no
+  frontage, and neither have motorways and ramps) and the blocks that are
+  town (a block over :data:`~osm_expand.model.land.OPEN_BLOCK` m² only when
+  built on; none that only corridors bound, else an interchange's loops
+  make a patch of town in the fields); its area is the town's *built-up
+  area*;
 - *outside*: land beyond the map's data bounds, which is unknown rather than
   free (unless ``beyond_bounds``);
 - *unbuildable*: land nothing new may take (:mod:`osm_expand.land`: parks,
@@ -28,7 +27,8 @@ A site scores by closeness to the city and to water (1 when the district's
 disc touches them, falling off with the gap), by *contact* (the share of a
 ring ``contact_width`` wide around the disc that is town: a bay of the town
 beats a corner, and gives the joining streets somewhere to go) and by room
-to spare, each in [0, 1] and weighted, less its unbuildable share; it loses
+to spare, each in [0, 1] and weighted, less its unbuildable share and the
+mean development cost of its land cover (fields before forest); it loses
 its closeness to the city when the way there crosses water (the far bank of
 a river is not next to the town). Motorways and trunk roads
 (:data:`CORRIDORS`) cut the land: a district's streets cross none of the
@@ -47,10 +47,11 @@ from dataclasses import dataclass
 
 import numpy as np
 import shapely
-from scipy.ndimage import binary_opening, distance_transform_edt, label
+from scipy.ndimage import distance_transform_edt, label
 
 from osm_expand.errors import InputError
-from osm_expand.model import City
+from osm_expand.land import read_land
+from osm_expand.model import City, Land
 
 DIRECTIONS = {"E": 0, "NE": 45, "N": 90, "NW": 135, "W": 180, "SW": 225, "S": 270, "SE": 315}
 #: The raster never has more cells than this (the cell grows instead).
@@ -66,23 +67,22 @@ class SiteOptions:
     room_weight: float = 0.25  #: weight of free room beyond the district's radius
     contact_weight: float = 1.0  #: weight of the share of the ring around the site that is town
     contact_width: float = 200.0  #: m: the ring around the district whose share of town is its contact
-    street_buffer: float = 40.0  #: m either side of a street that counts as built-up (frontage lots)
-    area_share: float = 0.25  #: default district area: this share of the town's built-up area
+    area_share: float = 0.25  #: default district area: this share of the town's built-up area ...
+    #: ... but at most one neighbourhood unit (m²): Perry's (1929) 160 acres, the land within a
+    #: quarter-mile walk of its centre: a new quarter, not a second town (Campo Grande's quarter of its
+    #: built-up area is 20 km²)
+    neighbourhood_area: float = 650_000.0
     max_unbuildable: float = 0.25  #: a site may hold at most this share of unbuildable land
     unbuildable_weight: float = 1.0  #: score lost per share of unbuildable land in the site
-    #: m²: a block larger than this is built-up only when buildings cover ``built_share`` of it. In the
-    #: fixtures the faces above 0.2 km² are fields and woods between villages (north-bayreuth: 12 of
-    #: them, 10.4 km², buildings on 0.4–1.9 %) unless they are industrial estates (Krems: 4, 10–19 %).
-    open_block: float = 200_000.0
-    built_share: float = 0.05  #: share of a large block that buildings must cover for it to be town
+    #: score lost per unit of the disc's mean land-cover cost (:data:`osm_expand.land.LAND_COVER`: 0 for
+    #: farmland, 0.6 for forest): a disc of forest loses about what a quarter of unbuildable land costs
+    #: plus its water bonus, so a town grows onto its fields first, into its woods when nothing else is near.
+    cover_weight: float = 0.75
     #: score lost per share of the disc that is free land cut off from its centre by a motorway or trunk
     #: road (the district would grow there in pockets no street of it can reach)
     cut_off_weight: float = 1.0
 
 
-#: Roads without frontage: no lot faces a motorway or a ramp, so their buffers are not town (an
-#: interchange's loops would otherwise make a patch of "town" in the fields).
-NO_FRONTAGE = frozenset({"motorway", "motorway_link", "trunk_link"})
 #: Roads that cut the land: a district's streets cross none of the town's streets, and these have
 #: no junctions to meet them at, so a district's land must lie on one side of them.
 CORRIDORS = frozenset({"motorway", "motorway_link", "trunk", "trunk_link"})
@@ -107,6 +107,8 @@ class DistanceMaps:
     nearest_city: np.ndarray  #: (2, rows, cols) row and column of each cell's nearest city cell
     #: bool: motorways, trunk roads and their ramps, which new streets never cross (no junction on them)
     corridor: np.ndarray
+    #: development cost of the land cover in each cell, 0 (farmland, unmapped) to < 1
+    cost: np.ndarray | None = None
 
     def centres(self) -> tuple[np.ndarray, np.ndarray]:
         return _cell_centres(self.origin, self.cell, self.water.shape)
@@ -154,7 +156,8 @@ def distance_maps(city: City, opts: SiteOptions | None = None, *, margin: float 
     xs, ys = _cell_centres(np.array([x0, y0]), cell, (ny, nx))
     water = _raster(city.water_geometry(), xs, ys)
     lines = net.street_lines()
-    city_mask = _built_up(city, lines, xs, ys, cell, opts) & ~water
+    land = city.land if city.land is not None else read_land(city)
+    city_mask = _built_up(city, land, xs, ys) & ~water
     outside = np.zeros_like(water) if beyond_bounds else ~_raster(city.bounds_polygon, xs, ys)
     if city_mask.any():
         city_cells, nearest = distance_transform_edt(~city_mask, return_indices=True)
@@ -166,39 +169,28 @@ def distance_maps(city: City, opts: SiteOptions | None = None, *, margin: float 
         unbuildable=_raster(city.unbuildable, xs, ys), water_distance=_distance(water, cell),
         city_distance=city_distance, free_radius=_distance(water | city_mask | outside, cell), nearest_city=nearest,
         corridor=_raster_each(shapely.buffer(lines[_of_class(net, CORRIDORS)], cell), xs, ys),
+        cost=_cost_raster(land, xs, ys),
     )
 
 
-def _built_up(city: City, lines: np.ndarray, xs: np.ndarray, ys: np.ndarray, cell: float,
-              opts: SiteOptions) -> np.ndarray:
-    """Built blocks, and the street buffers (``lines``: the streets') opened so that lone roads through
-    the fields drop out."""
-    fronted = ~_of_class(city.network, NO_FRONTAGE)
-    buffered = _raster_each(shapely.buffer(lines[fronted], opts.street_buffer), xs, ys)
-    r = int(round(opts.street_buffer / cell)) + 1  # wider than a lone road's strip, however it rasterises
-    dy, dx = np.mgrid[-r:r + 1, -r:r + 1]
-    body = binary_opening(buffered, structure=np.hypot(dx, dy) <= r)
-    built = _built_blocks(city, opts)
-    return (body | _raster(shapely.union_all(built), xs, ys)) if len(built) else body
-
-
-def _built_blocks(city: City, opts: SiteOptions) -> np.ndarray:
-    """The blocks that are town: every block up to ``open_block`` m², a larger one only if built on;
-    none that only corridors bound (the land inside an interchange's ramps)."""
+def _built_up(city: City, land: Land, xs: np.ndarray, ys: np.ndarray) -> np.ndarray:
+    """The built-up land (:class:`~osm_expand.model.land.Land`: the frontage of the town's streets, its
+    settlement land use and buildings) and the blocks that are town (:meth:`City.town_block_polygons`:
+    none that only corridors bound, the land inside an interchange's ramps)."""
+    built = _raster_each(land.town, xs, ys) if len(land.town) else np.zeros(xs.shape, dtype=bool)
     corridor = {s.id for s in city.network.streets if s.highway in CORRIDORS}
-    fronted = [b for b in city.blocks if not corridor.issuperset(b.street_ids)]
-    polygons = np.array([b.polygon for b in fronted], dtype=object)
-    if not len(polygons):
-        return polygons
-    area = shapely.area(polygons)
-    large = np.flatnonzero(area > opts.open_block)
-    covered = np.zeros(len(polygons))
-    footprints = np.array([b.polygon for b in city.buildings], dtype=object)
-    if len(large) and len(footprints):
-        block, building = shapely.STRtree(footprints).query(polygons[large], predicate="intersects")
-        np.add.at(covered, large[block],
-                  shapely.area(shapely.intersection(polygons[large[block]], footprints[building])))
-    return polygons[(area <= opts.open_block) | (covered >= opts.built_share * area)]
+    fronted = city.replace(blocks=tuple(b for b in city.blocks if not corridor.issuperset(b.street_ids)))
+    blocks = fronted.town_block_polygons()
+    return built | _raster_each(blocks, xs, ys) if len(blocks) else built
+
+
+def _cost_raster(land: Land, xs: np.ndarray, ys: np.ndarray) -> np.ndarray:
+    """Per cell, the highest development cost of the land cover mapped there (0 where none is)."""
+    cost = np.zeros(xs.shape)
+    for value in np.unique(land.cover_cost).tolist():
+        if value > 0:
+            cost = np.where(_raster_each(land.cover[land.cover_cost == value], xs, ys), np.maximum(cost, value), cost)
+    return cost
 
 
 def _cell_centres(origin: np.ndarray, cell: float, shape: tuple[int, int]) -> tuple[np.ndarray, np.ndarray]:
@@ -312,7 +304,8 @@ def _best_radius(maps: DistanceMaps, area: float, radius: float, opts: SiteOptio
         free = rings.share(free_land, 0.0, r / maps.cell) * np.pi * r * r  # beyond the raster is not free
         score = (_score(maps, r, opts, rings) - 0.25 * (step - 1.0)  # the tighter disc is the better district
                  - opts.cut_off_weight * cut)
-        fits = (free >= area) & ~hard & np.isneginf(best)
+        # a centre keeps a cell off the water: a shore cell's centre may lie in the water as drawn
+        fits = (free >= area) & ~hard & (maps.water_distance > maps.cell) & np.isneginf(best)
         best = np.where(fits, score, best)
         best_radius = np.where(fits, r, best_radius)
     return best, best_radius
@@ -387,8 +380,9 @@ def _score(maps: DistanceMaps, radius: float, opts: SiteOptions, rings: "_RingSh
     room = np.clip((maps.free_radius - radius) / radius, 0.0, 1.0)
     contact = rings.share(maps.city, radius / maps.cell, (radius + opts.contact_width) / maps.cell)
     taken = rings.share(maps.unbuildable, 0.0, radius / maps.cell)
+    cover = rings.share(maps.cost, 0.0, radius / maps.cell) if maps.cost is not None else 0.0
     score = (opts.city_weight * near_city + opts.contact_weight * contact + opts.water_weight * near_water
-             + opts.room_weight * room - opts.unbuildable_weight * taken)
+             + opts.room_weight * room - opts.unbuildable_weight * taken - opts.cover_weight * cover)
     return np.where(taken <= opts.max_unbuildable, score, -np.inf)
 
 
@@ -531,3 +525,55 @@ def _in_sector(maps: DistanceMaps, xs: np.ndarray, ys: np.ndarray, bearing_deg: 
     centre = maps.origin + (np.array([cx, cy]) + 0.5) * maps.cell
     angle = np.degrees(np.arctan2(ys - centre[1], xs - centre[0]))
     return np.abs((angle - bearing_deg + 180.0) % 360.0 - 180.0) <= 45.0
+
+
+#: A district's region grows to these multiples of its site's radius until its piece of free land holds
+#: :data:`REGION_SHARE` of the district's area.
+REGION_STEPS = (1.0, 1.25, 1.5, 2.0, 2.5)
+REGION_SHARE = 0.8
+
+
+def district_region(city: City, site: Site, *, clearance: float = 1.0,
+                    bounds: shapely.Geometry | None = None) -> shapely.Geometry:
+    """Where a district grows: the one piece of free land around the site's centre.
+
+    The town's streets cut the free land into pieces (no new street crosses
+    them; they are met only in tees), and so do water and the land the town
+    takes. A district grown over several pieces is several scraps, so it
+    takes the piece nearest the site's centre, in a disc grown
+    (:data:`REGION_STEPS`) until that piece holds :data:`REGION_SHARE` of
+    the site's area. Falls back to the site's disc when no free land is near.
+
+    Parameters
+    ----------
+    city : City
+    site : Site
+    clearance : float
+        Metres kept free along the town's streets when cutting the land.
+    bounds : polygon, optional
+        Land outside it is not free (the map's data bounds).
+    """
+    radius = float(np.sqrt(site.area / np.pi))
+    centre = shapely.Point(site.centre)
+    best = None
+    for step in REGION_STEPS:
+        disc = centre.buffer(step * radius, 32)
+        if bounds is not None:
+            disc = shapely.intersection(disc, bounds)
+        occupied = city.occupied_within(disc)
+        lines = city.network.street_lines()
+        near = lines[shapely.intersects(lines, disc)] if len(lines) else lines
+        cut = shapely.union_all([occupied, *shapely.buffer(near, clearance).tolist()])
+        free = shapely.make_valid(shapely.difference(disc, cut))
+        parts = [p for p in shapely.get_parts(free) if p.geom_type == "Polygon" and not p.is_empty]
+        if not parts:
+            continue
+        area = np.array([p.area for p in parts])
+        gap = shapely.distance(centre, np.array(parts, dtype=object))
+        big = area >= 0.25 * site.area
+        pool = np.flatnonzero(big) if big.any() else np.arange(len(parts))
+        piece = parts[int(pool[np.argmin(gap[pool])])]
+        best = piece
+        if piece.area >= REGION_SHARE * site.area:
+            break
+    return best if best is not None else site.region

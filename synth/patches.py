@@ -31,7 +31,10 @@ walk loses (shapes, dead ends, the town's density); patches keep all three.
    end is trimmed back to its last junction, so no street ends where a seam
    or the site's edge cut it, and none traces the edge.
 5. **Pieces.** Fragments shorter than ``min_fragment`` spacings go, and so
-   do pieces that can be joined neither to the rest nor to the town.
+   do pieces that can be joined neither to the rest nor to the town; each
+   piece left is joined to the largest by the shortest straight street
+   between their junctions and ends that crosses nothing (a district is one
+   network, not a scatter).
 """
 from __future__ import annotations
 
@@ -103,6 +106,8 @@ class _Source:
     broken: cKDTree | None = None
     #: bridges and tunnels: copied as ordinary streets where, in the copy, they cross nothing
     layered: np.ndarray | None = None
+    #: (J, 2) the town's junctions (degree ≥ 3): neighbourhoods are centred on them
+    junctions: np.ndarray = field(default_factory=lambda: np.zeros((0, 2)))
 
 
 @dataclass
@@ -199,6 +204,7 @@ def _quilt(source: _Source, quilt: _Quilt, centres: np.ndarray, cells: list, reg
         tees = _tees(stitched, old, spacing, opts, occupied)
         net = _trim(_network(stitched), stitched, shapely.boundary(region), opts.keep_out * spacing)
         net = _keep_joinable(net, old, spacing, opts)
+        net = _connect_pieces(net, old, occupied, opts.link_reach * spacing)
         length = net.total_length()
         if length >= target or placed >= len(centres):
             break
@@ -229,9 +235,11 @@ def _source(city: City, example: Example, everything: bool = False) -> _Source:
     level = np.array([min((level_of.get(i, deepest) for i in s.osm_ids), default=deepest) for s in keep])
     left_out = {n for s, c in zip(net.streets, copied) if not c for n in s.nodes}
     broken = sorted({n for s in keep for n in s.nodes} & left_out)
+    junctions = net.xy[segment_degree(keep, len(net.xy)) >= 3]
     return _Source(lines=lines, highway=tuple(s.highway for s in keep), level=level, tree=shapely.STRtree(lines),
                    broken=cKDTree(net.xy[broken]) if broken else None,
-                   layered=np.array([s.bridge or s.tunnel or s.layer != 0 for s in keep], dtype=bool))
+                   layered=np.array([s.bridge or s.tunnel or s.layer != 0 for s in keep], dtype=bool),
+                   junctions=junctions)
 
 
 def _free_land(occupied: shapely.Geometry, region: shapely.Geometry, old: shapely.Geometry, clearance: float,
@@ -261,9 +269,24 @@ def _density(source: _Source, centres: np.ndarray, radius: float) -> np.ndarray:
                      for d in discs]) / (np.pi * radius ** 2)
 
 
+def _neighbourhood_points(source: _Source, n: int, radius: float, rng: np.random.Generator) -> np.ndarray:
+    """Centres of the town's *neighbourhoods*: ``2n`` junctions drawn at random, the denser half of them
+    by junctions within ``radius`` kept (the fidelity yardstick's rule: on an extract that is mostly
+    countryside, a random point of its streets is a country road, a dense junction is the town).
+    Streets points by length when the town has too few junctions."""
+    junctions = source.junctions
+    if len(junctions) < 8:
+        return _street_points(source, n, rng)
+    drawn = junctions[rng.choice(len(junctions), size=min(2 * n, len(junctions)), replace=len(junctions) < 2 * n)]
+    count = np.array([len(hit) for hit in cKDTree(junctions).query_ball_point(drawn, radius)])
+    order = np.argsort(-count, kind="stable")
+    return drawn[order[:max(len(drawn) // 2, 1)]]
+
+
 def _target_density(source: _Source, area: float, n: int, rng: np.random.Generator) -> float:
-    """The median street density (m per m²) of the town's own districts of ``area`` m²."""
-    return float(np.median(_density(source, _street_points(source, n, rng), float(np.sqrt(area / np.pi)))))
+    """The median street density (m per m²) of the town's own neighbourhoods of ``area`` m²."""
+    radius = float(np.sqrt(area / np.pi))
+    return float(np.median(_density(source, _neighbourhood_points(source, n, radius, rng), radius)))
 
 
 #: What makes a patch typical of its town (measured on each candidate patch, in this order).
@@ -282,7 +305,7 @@ def _candidate_patches(source: _Source, size: float, opts: PatchOptions, rng: np
     fabric rather than its oddities. A candidate within one patch of a better
     one goes to the back, so neighbouring cells differ.
     """
-    centres = _street_points(source, opts.candidates, rng)
+    centres = _neighbourhood_points(source, opts.candidates, size / 2, rng)
     local = _density(source, centres, size / 2)
     median = float(np.median(local))
     lo, hi = opts.density_band
@@ -713,3 +736,48 @@ def _keep_joinable(net: StreetNetwork, old: shapely.Geometry, spacing: float, op
             keep += streets
             kept.append(geom)
     return net.replace(streets=tuple(net.streets[k] for k in sorted(keep)))
+
+
+def _connect_pieces(net: StreetNetwork, old: shapely.Geometry, occupied: shapely.Geometry,
+                    reach: float) -> StreetNetwork:
+    """Join each smaller piece of the district to the largest, by the shortest straight street (of at
+    most ``reach`` metres) between their nodes that touches no street, nothing occupied and no other
+    link on the way; pieces it cannot reach stay as they are."""
+    if len(net.streets) < 2:
+        return net
+    from osm_expand.model.components import component_labels
+
+    ends = np.array([(a, b) for s in net.streets for a, b in zip(s.nodes[:-1], s.nodes[1:])], dtype=np.intp)
+    label = component_labels(len(net.xy), ends[:, 0], ends[:, 1])
+    used = np.unique(ends)
+    sizes = np.bincount(label[used], minlength=int(label.max()) + 1)
+    main = int(np.argmax(sizes))
+    lines = [net.street_xy(st) for st in net.streets]
+    quilt = _Quilt(xy=list(lines))
+    board = _Board(quilt, occupied, old)
+    links: list[np.ndarray] = []
+    joined = {main}
+    for piece in np.argsort(-sizes, kind="stable").tolist():
+        if piece in joined or sizes[piece] == 0:
+            continue
+        mine = used[label[used] == piece]
+        rest = used[np.isin(label[used], list(joined))]
+        dist, near = cKDTree(net.xy[rest]).query(net.xy[mine], k=min(3, len(rest)))
+        dist, near = np.atleast_2d(dist.T).T, np.atleast_2d(near.T).T
+        order = np.argsort(dist, axis=None, kind="stable")
+        for flat in order[:24].tolist():
+            i, j = np.unravel_index(flat, dist.shape)
+            if not dist[i, j] <= reach:
+                break
+            path = np.array([net.xy[mine[i]], net.xy[rest[near[i, j]]]])
+            if board.clear(path):
+                board.added.append(shapely.LineString(path))
+                links.append(path)
+                joined.add(piece)
+                break
+    if not links:
+        return net
+    attrs = [{"highway": st.highway, "hierarchy": st.hierarchy, "origin": Origin.GROWN} for st in net.streets]
+    attrs += [{"highway": "residential", "hierarchy": max((st.hierarchy for st in net.streets), default=0),
+               "origin": Origin.GROWN}] * len(links)
+    return network_from_lines(lines + links, attrs)

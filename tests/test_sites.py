@@ -9,22 +9,28 @@ from hypothesis import strategies as st
 
 from osm_expand.blocks import blocks
 from osm_expand.ingest import load
+from osm_expand.land import LandOptions, read_land
 from osm_expand.model import Building, City, network_from_lines
 from osm_expand.pipeline import prepare
 from osm_expand.sites import SiteOptions, choose_site, choose_sites, distance_maps
 from tests.conftest import FIXTURES
 
 
+#: Frontage of the synthetic towns' streets (m): narrow, so distances in the tests are easy to reckon.
+DEPTH = 10.0
+
+
 def town(size=3, step=100.0) -> City:
     span = [i * step for i in range(size + 1)]
     lines = [[(x, y) for x in span] for y in span] + [[(x, y) for y in span] for x in span]
     net = network_from_lines(lines)
-    return City(network=net, blocks=tuple(blocks(net)))
+    city = City(network=net, blocks=tuple(blocks(net)))
+    return city.replace(land=read_land(city, LandOptions(default_depth=DEPTH)))
 
 
 def test_free_radius_is_the_exact_distance_to_the_town():
     city = town()
-    maps = distance_maps(city, SiteOptions(cell=10.0, street_buffer=10.0), margin=1000.0, beyond_bounds=True)
+    maps = distance_maps(city, SiteOptions(cell=10.0), margin=1000.0, beyond_bounds=True)
     xs, ys = maps.centres()
     # a cell 500 m east of the town's east edge (x = 300) has 500 m of free radius, to a cell
     j = np.argmin(np.abs(xs[0] - 805.0))
@@ -34,14 +40,12 @@ def test_free_radius_is_the_exact_distance_to_the_town():
 
 
 def test_a_lone_road_through_the_fields_is_not_built_up():
+    """A country road has frontage only where it passes the town (a residential street has it anywhere)."""
     road = [(300.0, 150.0), (3000.0, 150.0)]
-    grid = town()
-    net = network_from_lines([grid.network.street_xy(s).tolist() for s in grid.network.streets] + [road])
-    city = City(network=net, blocks=tuple(blocks(net)))
-    maps = distance_maps(city, margin=500.0, beyond_bounds=True)
+    maps = distance_maps(town_with([road], "unclassified"), margin=500.0, beyond_bounds=True)
     xs, ys = maps.centres()
     far = (xs > 1000) & (np.abs(ys - 150) < 20)
-    assert not maps.city[far].any()  # the road's 80 m strip is opened away
+    assert not maps.city[far].any()
     assert maps.city[(xs > 50) & (xs < 250) & (ys > 50) & (ys < 250)].all()  # the town's body stays
 
 
@@ -51,7 +55,8 @@ def town_with(lines, highway: str, buildings=()) -> City:
     old = [grid.network.street_xy(s).tolist() for s in grid.network.streets]
     attrs = [{"highway": "residential"}] * len(old) + [{"highway": highway}] * len(lines)
     net = network_from_lines(old + lines, attrs)
-    return City(network=net, blocks=tuple(blocks(net)), buildings=tuple(buildings))
+    city = City(network=net, blocks=tuple(blocks(net)), buildings=tuple(buildings))
+    return city.replace(land=read_land(city, LandOptions(default_depth=40.0)))
 
 
 def square(x0, y0, size):
@@ -98,7 +103,7 @@ def test_the_site_touches_the_town_and_keeps_out_of_it():
     site = choose_site(maps, area=90_000.0)
     body = shapely.union_all([b.polygon for b in city.blocks])
     assert site is not None and site.region.intersection(body).area < 0.05 * site.region.area
-    assert site.region.distance(body) <= SiteOptions().street_buffer + 2 * maps.cell
+    assert site.region.distance(body) <= DEPTH + 2 * maps.cell
 
 
 @pytest.mark.parametrize("direction,check", [("N", lambda c: c[1] > 300), ("S", lambda c: c[1] < 0),

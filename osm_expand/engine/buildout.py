@@ -283,7 +283,8 @@ def start_buildout(city: City, history: History, rng: np.random.Generator, *,
                                green_distance=town.unit_green, traffic=None, options=lu_opts)
         layout = lot_layout(town.unit_xy, town.unit_area, attrs, options=lu_opts)
         lut = assign_types(layout, lut, types=town.types, rng=rng, options=lu_opts)
-    parts = [g for geom in (*town.water, town.unbuildable) if geom is not None
+    taken = city.land.taken.tolist() if city.land is not None else []  # frontage not shown empty
+    parts = [g for geom in (*town.water, town.unbuildable, *taken) if geom is not None
              for g in shapely.get_parts(geom).tolist() if not g.is_empty and g.area > 0]
     no_build = np.array(parts, dtype=object)
     return BuildoutMemory(town=town, options=opts, calibration=calibration, town_types=lut, lots={}, done=frozenset(),

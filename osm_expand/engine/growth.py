@@ -32,7 +32,7 @@ from osm_expand.engine.nuclei import Nucleus, candidate_points, rank_candidates
 from osm_expand.engine.segments import SegmentTable
 from osm_expand.joins import add_streets, join_growth
 from osm_expand.model import City, Origin, Status, match_points, polyline_length
-from osm_expand.sites import SiteOptions, choose_sites, distance_maps
+from osm_expand.sites import SiteOptions, choose_sites, distance_maps, district_region
 from synth.growth import GrowthPattern
 from synth.patterns import GrowthStep, PatternOptions, grow_streets
 from synth.street_graph import StreetGraph
@@ -141,14 +141,17 @@ def grow_street_pattern(city: City, count: int, options: PatternOptions, nuclei:
 
 
 def _forbidden(city: City) -> shapely.Geometry:
-    """Where no street may go: the blocks (shrunk 1 m) and unbuildable land; water is handled by the
-    pattern's bridges. A collection, not a union: the patterns only ask whether a segment touches it
+    """Where no street may go: the blocks that are town (shrunk 1 m), unbuildable land and the land the
+    town takes (:class:`~osm_expand.model.land.Land`: its frontage and settlement); water is handled by
+    the pattern's bridges. A collection, not a union: the patterns only ask whether a segment touches it
     (GEOS ≥ 3.13 answers that for overlapping parts), and the union of Campo Grande's blocks cost a
     second a year."""
-    blocks = np.array([b.polygon for b in city.blocks], dtype=object)
+    blocks = city.town_block_polygons()
     parts = shapely.buffer(blocks, -1.0).tolist() if len(blocks) else []
     if city.unbuildable is not None:
         parts.append(city.unbuildable)
+    if city.land is not None:
+        parts.extend(city.land.taken.tolist())
     return shapely.GeometryCollection([p for p in parts if not p.is_empty])
 
 
@@ -227,8 +230,7 @@ def grow_district(city: City, pattern: GrowthPattern, length: float, density: fl
     bounds = city.bounds_polygon
     before = len(city.network.streets)
     for k in order.tolist():
-        region = shapely.intersection(sites[k].region, bounds)
-        growth = pattern.grow(city, region, rng)
+        growth = pattern.grow(city, district_region(city, sites[k], bounds=bounds), rng)
         if not growth.streets:
             continue
         grown, joins = join_growth(city, growth.streets, spacing=spacing, origin=Origin.ENGINE, year=year, era=era)

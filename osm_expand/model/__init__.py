@@ -3,6 +3,7 @@
 ``simplify`` and ``synth`` import only from here (and :mod:`osm_expand.errors`):
 
 - :mod:`~osm_expand.model.city` — :class:`City`, :class:`Building`, :class:`Block`, :class:`MappedArea`
+- :mod:`~osm_expand.model.land` — :class:`Land`: frontage, settlement and land cover, the blocks that are town
 - :mod:`~osm_expand.model.network` — :class:`Street`, :class:`StreetNetwork`, :class:`Origin`, :class:`Status`
 - :mod:`~osm_expand.model.topology` — junctions, pieces and degrees of a network
 - :mod:`~osm_expand.model.geometry` — lengths, closest points, node matching, rectangles
@@ -10,9 +11,10 @@
 - :mod:`~osm_expand.model.projection` — the local metric projection
 """
 from osm_expand.model.city import Block, Building, City, Lot, MappedArea, UnplacedWay
+from osm_expand.model.land import Land
 from osm_expand.model.geometry import closest_on_segments, match_points, polyline_length
 from osm_expand.model.network import Context, Origin, Status, Street, StreetNetwork, network_from_lines
 from osm_expand.model.projection import LocalProjection
 
-__all__ = ["Block", "Building", "City", "Context", "LocalProjection", "Lot", "MappedArea", "Origin", "Status", "Street",
+__all__ = ["Block", "Building", "City", "Context", "Land", "LocalProjection", "Lot", "MappedArea", "Origin", "Status", "Street",
            "StreetNetwork", "UnplacedWay", "closest_on_segments", "match_points", "network_from_lines", "polyline_length"]

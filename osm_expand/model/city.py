@@ -17,6 +17,7 @@ from typing import Any
 import numpy as np
 import shapely
 
+from osm_expand.model.land import OPEN_BLOCK, Land, town_blocks
 from osm_expand.model.network import Context, Origin, StreetNetwork, Tags
 from osm_expand.model.projection import LocalProjection
 
@@ -152,6 +153,8 @@ class City:
     unplaced: tuple[UnplacedWay, ...] = ()  #: mapped ways without a drawable shape, given back as mapped
     year: int | None = None  #: the current year (the map's, from its newest object, at ingest)
     unbuildable: shapely.Geometry | None = None  #: land nothing new may take (see :mod:`osm_expand.land`)
+    #: the land as the town uses it: frontage, settlement, land cover (see :mod:`osm_expand.land`)
+    land: Land | None = None
     stats: dict[str, Any] = field(default_factory=dict)  #: what ingest counted
 
     @property
@@ -187,12 +190,29 @@ class City:
         """
         return _land_nobody_takes(self.water, self.sea, None)
 
+    def town_block_polygons(self) -> np.ndarray:
+        """The blocks that are town (:func:`osm_expand.model.land.town_blocks`): a large face of fields
+        between roads is not, so streets may grow into it."""
+        return self._town_of(np.array([b.polygon for b in self.blocks], dtype=object))
+
+    def _town_of(self, polygons: np.ndarray) -> np.ndarray:
+        """Those of the block ``polygons`` that are town (buildings read only when one is large)."""
+        if not len(polygons):
+            return polygons
+        large = shapely.area(polygons) > OPEN_BLOCK
+        footprints = (np.array([b.polygon for b in self.buildings], dtype=object) if large.any()
+                      else np.empty(0, dtype=object))
+        return polygons[town_blocks(polygons, footprints)]
+
     @cached_property
     def occupied(self) -> shapely.Geometry:
-        """Where no new street may go: water, sea, unbuildable land, and the blocks (shrunk 1 m, so
-        streets may run along their edges)."""
-        blocks = shapely.buffer(np.array([b.polygon for b in self.blocks], dtype=object), -1.0)
-        geom = shapely.union_all([_land_nobody_takes(self.water, self.sea, self.unbuildable), *blocks.tolist()])
+        """Where no new street may go: water, sea, unbuildable land, the land the town takes (its
+        frontage and settlement, :class:`~osm_expand.model.land.Land`), and the town's blocks (shrunk
+        1 m, so streets may run along their edges)."""
+        blocks = shapely.buffer(self.town_block_polygons(), -1.0)
+        taken = self.land.taken.tolist() if self.land is not None else []
+        geom = shapely.union_all([_land_nobody_takes(self.water, self.sea, self.unbuildable), *taken,
+                                  *blocks.tolist()])
         shapely.prepare(geom)
         return geom
 
@@ -205,8 +225,9 @@ class City:
         near = parts[tree.query(box, predicate="intersects")] if len(parts) else parts
         blocks = np.array([b.polygon for b in self.blocks], dtype=object)
         if len(blocks):
-            blocks = shapely.buffer(blocks[shapely.intersects(blocks, box)], -1.0)
-        geom = shapely.union_all([*near.tolist(), *blocks.tolist()])
+            blocks = shapely.buffer(self._town_of(blocks[shapely.intersects(blocks, box)]), -1.0)
+        taken = self.land.taken_near(box) if self.land is not None else []
+        geom = shapely.union_all([*near.tolist(), *taken, *blocks.tolist()])
         shapely.prepare(geom)
         return geom
 
