@@ -407,8 +407,9 @@ def cmd_compare(args: argparse.Namespace, log: Progress) -> dict:
 
 
 def _compare_text(a: Path, b: Path, report: dict) -> str:
-    lines = [f"{a} as a district of {b}: off on {report['off']} of 13 measures "
-             f"(a typical real part of {b.name}: {report['typical_off']})"]
+    lines = [f"{a} as a district of {b}: off on {report['off']} of {len(report['measures'])} measures "
+             f"(a typical real neighbourhood of {b.name}: {report['typical_part_off']}); "
+             f"{report['pieces']} piece{'s' if report['pieces'] != 1 else ''} on the map"]
     for name, v in report["measures"].items():
         lines.append(f"  {'ok ' if v['ok'] else 'OFF'} {name:<20} {v['value']}  [{v['low']}, {v['high']}]")
     return "\n".join(lines)
