@@ -33,7 +33,10 @@ _NUMBERS = re.compile(r"^-?\d*\.?\d+(e-?\d+)?(,-?\d*\.?\d+(e-?\d+)?)*$", re.IGNO
 
 
 def _version() -> str:
-    from importlib.metadata import PackageNotFoundError, version  # 20 ms: only when --version is asked for
+    from importlib.metadata import (  # 20 ms: only when --version is asked for
+        PackageNotFoundError,
+        version,
+    )
 
     try:
         return version("osm-expand")
@@ -391,16 +394,20 @@ def cmd_reproduce(args: argparse.Namespace, log: Progress) -> dict:
 
 def cmd_compare(args: argparse.Namespace, log: Progress) -> dict:
     from osm_expand.fidelity import compare
+    from osm_expand.growth_fidelity import city_growth_fidelity
     from osm_expand.ingest import load
 
     a, b = Path(args.city), Path(args.other)
-    lines = []
+    lines, cities = [], []
     for path in (a, b):
         log(f"reading {path}")
-        net = load(path, service=args.service, paths=args.paths, context=False).network
-        lines.append([net.street_xy(s) for s in net.streets])
+        cities.append(load(path, service=args.service, paths=args.paths, context=False))
+        lines.append([cities[-1].network.street_xy(s) for s in cities[-1].network.streets])
     log("measuring")
     report = compare(lines[0], lines[1], rng=args.seed).to_dict()
+    grown = city_growth_fidelity(cities[0], rng=args.seed, town_lines=lines[1])  # A read back from a run's output
+    if grown is not None:
+        report["growth_fidelity"] = grown.to_dict()
     if not args.json:
         print(_compare_text(a, b, report))
     return {"a": str(a), "b": str(b), "seed": args.seed, **report}
@@ -412,6 +419,14 @@ def _compare_text(a: Path, b: Path, report: dict) -> str:
              f"{report['pieces']} piece{'s' if report['pieces'] != 1 else ''} on the map"]
     for name, v in report["measures"].items():
         lines.append(f"  {'ok ' if v['ok'] else 'OFF'} {name:<20} {v['value']}  [{v['low']}, {v['high']}]")
+    grown = report.get("growth_fidelity")
+    if grown:
+        overall, lei = grown["overall"], grown["lei"]
+        if overall:
+            lines.append(f"what the years grew in {a.name}: off on {overall['off']} of {len(overall['measures'])}, "
+                         f"{overall['pieces']} pieces")
+        lines.append(f"  new street length: {lei['infill']} infill, {lei['edge']} edge expansion, "
+                     f"{lei['outlying']} outlying (Landscape Expansion Index)")
     return "\n".join(lines)
 
 
@@ -441,7 +456,7 @@ def _site_point(args: argparse.Namespace, city) -> tuple[float, float] | None:
         lon, lat = args.at_lonlat
         text = f"{lon:g},{lat:g}"
         lon0, lat0, lon1, lat1 = city.context.bounds_lonlat
-        inside = lambda x, y: lon0 <= x <= lon1 and lat0 <= y <= lat1  # noqa: E731
+        inside = lambda x, y: lon0 <= x <= lon1 and lat0 <= y <= lat1
         if inside(lat, lon) and not inside(lon, lat):
             raise InputError(f"--at-lonlat {text}: latitude and longitude look swapped; "
                              f"give longitude first: {lat:g},{lon:g}")
@@ -493,9 +508,9 @@ def _expand_outputs(args: argparse.Namespace) -> tuple[Path, str, Path | None]:
 
 
 def cmd_expand(args: argparse.Namespace, log: Progress) -> dict:
+    from osm_expand.engine.history import load_history
     from osm_expand.ingest import check_readable, load
     from osm_expand.land import LandOptions, parse_rules
-    from osm_expand.engine.history import load_history
     from osm_expand.pipeline import ExpandOptions, expand
 
     city_path = check_readable(args.city)
@@ -560,7 +575,12 @@ def _snapshot_name(stem: str, year: int, era: str) -> str:
 def _write(result, out: Path, kind: str, preview: Path | None, title: str, *, snapshots: Path | None = None,
            pictures: Sequence = (), stem: str = "", debug: list | None = None) -> None:
     """The output, the preview and the snapshots, all or nothing."""
-    from osm_expand.export import all_or_nothing, write_geojson, write_osm, write_urbanenvironment
+    from osm_expand.export import (
+        all_or_nothing,
+        write_geojson,
+        write_osm,
+        write_urbanenvironment,
+    )
 
     writer = {"urbanenvironment": write_urbanenvironment, "osm": write_osm, "geojson": write_geojson}[kind]
     with all_or_nothing():

@@ -24,18 +24,18 @@ import shapely
 from osm_expand.blocks import blocks
 from osm_expand.errors import InputError
 from osm_expand.fidelity import FidelityReport, fidelity
-from osm_expand.measures import LineSet, NetworkMeasures, measure_network
 from osm_expand.heights import with_heights
 from osm_expand.joins import JoinReport, join_growth
 from osm_expand.land import LandOptions, unbuildable
-from osm_expand.model import City, Origin, Status, StreetNetwork, polyline_length
+from osm_expand.measures import LineSet, NetworkMeasures, measure_network
+from osm_expand.model import City, Origin, StreetNetwork, polyline_length
 from osm_expand.sites import Site, SiteOptions, choose_sites, distance_maps
 from simplify import simplify
 from simplify.example import Example, build_example
 from simplify.hierarchy import with_levels
 from simplify.options import SimplifyOptions
-from synth.growth import Growth, GrowthPattern, RandomWalk
 from synth.colonisation_pattern import Colonisation
+from synth.growth import Growth, GrowthPattern, RandomWalk
 from synth.patches import ExamplePatches
 
 #: A district smaller than this many blocks (squares of the town's junction spacing) is refused.
@@ -62,7 +62,9 @@ class ExpandOptions:
     area: float | None = None  #: m²; default: ``site.area_share`` of the built-up area
     beyond_bounds: bool = False  #: allow the site outside the map's data bounds
     pattern: str = "example"  #: growth pattern: see :data:`PATTERNS`
-    fidelity: bool = True  #: judge the district against real parts of the town (:mod:`osm_expand.fidelity`)
+    #: judge the district, and what the years grow, against real neighbourhoods of the town
+    #: (:mod:`osm_expand.fidelity`, :mod:`osm_expand.growth_fidelity`)
+    fidelity: bool = True
     #: The history the city then lives through (:mod:`osm_expand.engine.history`): a bundled name, a
     #: TOML file, or a loaded :class:`~osm_expand.engine.history.History`.
     history: object = "example"
@@ -231,6 +233,13 @@ def mature(result: ExpandResult, options: ExpandOptions, *, progress: Progress =
                  buildout=_buildout(), progress=each_year, snapshot=options.snapshot,
                  snapshot_every=options.snapshot_every)
     report = {**result.report, "engine": engine.report}
+    if options.fidelity:
+        from osm_expand.growth_fidelity import city_growth_fidelity
+
+        progress("judging what the years grew against the town's neighbourhoods")
+        grown = city_growth_fidelity(engine.city, rng=np.random.default_rng([options.seed, 0xF1DE, 1]))
+        if grown is not None:
+            report["growth_fidelity"] = grown.to_dict()
     return replace(result, city=engine.city, report=report)
 
 
