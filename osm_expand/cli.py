@@ -33,10 +33,7 @@ _NUMBERS = re.compile(r"^-?\d*\.?\d+(e-?\d+)?(,-?\d*\.?\d+(e-?\d+)?)*$", re.IGNO
 
 
 def _version() -> str:
-    from importlib.metadata import (  # 20 ms: only when --version is asked for
-        PackageNotFoundError,
-        version,
-    )
+    from importlib.metadata import PackageNotFoundError, version  # 20 ms: only when --version is asked for
 
     try:
         return version("osm-expand")
@@ -456,7 +453,7 @@ def _site_point(args: argparse.Namespace, city) -> tuple[float, float] | None:
         lon, lat = args.at_lonlat
         text = f"{lon:g},{lat:g}"
         lon0, lat0, lon1, lat1 = city.context.bounds_lonlat
-        inside = lambda x, y: lon0 <= x <= lon1 and lat0 <= y <= lat1
+        inside = lambda x, y: lon0 <= x <= lon1 and lat0 <= y <= lat1  # noqa: E731
         if inside(lat, lon) and not inside(lon, lat):
             raise InputError(f"--at-lonlat {text}: latitude and longitude look swapped; "
                              f"give longitude first: {lat:g},{lon:g}")
@@ -508,9 +505,9 @@ def _expand_outputs(args: argparse.Namespace) -> tuple[Path, str, Path | None]:
 
 
 def cmd_expand(args: argparse.Namespace, log: Progress) -> dict:
-    from osm_expand.engine.history import load_history
     from osm_expand.ingest import check_readable, load
     from osm_expand.land import LandOptions, parse_rules
+    from osm_expand.engine.history import load_history
     from osm_expand.pipeline import ExpandOptions, expand
 
     city_path = check_readable(args.city)
@@ -575,12 +572,7 @@ def _snapshot_name(stem: str, year: int, era: str) -> str:
 def _write(result, out: Path, kind: str, preview: Path | None, title: str, *, snapshots: Path | None = None,
            pictures: Sequence = (), stem: str = "", debug: list | None = None) -> None:
     """The output, the preview and the snapshots, all or nothing."""
-    from osm_expand.export import (
-        all_or_nothing,
-        write_geojson,
-        write_osm,
-        write_urbanenvironment,
-    )
+    from osm_expand.export import all_or_nothing, write_geojson, write_osm, write_urbanenvironment
 
     writer = {"urbanenvironment": write_urbanenvironment, "osm": write_osm, "geojson": write_geojson}[kind]
     with all_or_nothing():
