@@ -30,6 +30,7 @@ from dataclasses import dataclass, field
 import numpy as np
 import shapely
 
+from osm_expand.measures import two_core
 from osm_expand.model import Block, Origin, StreetNetwork
 from osm_expand.model.topology import junction_mask, piece_table, split_self_touching
 
@@ -55,22 +56,11 @@ def _pieces(net: StreetNetwork) -> _Pieces:
     streets = [p for s in net.streets for p in split_self_touching(s)]
     junction = junction_mask(streets, len(net.xy))
     table = piece_table(streets, junction)
-    keep = _two_core(table["u"], table["v"], len(net.xy))
+    keep = two_core(table["u"], table["v"], len(net.xy))  # pieces on a cycle or between cycles
     lines = [net.xy[list(streets[k].nodes[a:b + 1])]
              for k, a, b in zip(table["street"][keep].tolist(), table["a"][keep].tolist(), table["b"][keep].tolist())]
     ids = np.array([streets[k].id for k in table["street"][keep].tolist()], dtype=np.int64)
     return _Pieces(u=table["u"][keep], v=table["v"][keep], lines=lines, street_id=ids)
-
-
-def _two_core(u: np.ndarray, v: np.ndarray, n: int) -> np.ndarray:
-    """Pieces that lie on a cycle or between cycles: dead-end trees peeled off, leaf by leaf."""
-    keep = np.ones(len(u), dtype=bool)
-    while True:
-        degree = np.bincount(u[keep], minlength=n) + np.bincount(v[keep], minlength=n)
-        leaf = keep & ((degree[u] == 1) | (degree[v] == 1))
-        if not leaf.any():
-            return keep
-        keep &= ~leaf
 
 
 def faces(net: StreetNetwork) -> list[tuple[np.ndarray, int, np.ndarray]]:

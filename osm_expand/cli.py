@@ -391,26 +391,39 @@ def cmd_reproduce(args: argparse.Namespace, log: Progress) -> dict:
 
 def cmd_compare(args: argparse.Namespace, log: Progress) -> dict:
     from osm_expand.fidelity import compare
+    from osm_expand.growth_fidelity import city_growth_fidelity
     from osm_expand.ingest import load
 
     a, b = Path(args.city), Path(args.other)
-    lines = []
+    lines, cities = [], []
     for path in (a, b):
         log(f"reading {path}")
-        net = load(path, service=args.service, paths=args.paths, context=False).network
-        lines.append([net.street_xy(s) for s in net.streets])
+        cities.append(load(path, service=args.service, paths=args.paths, context=False))
+        lines.append([cities[-1].network.street_xy(s) for s in cities[-1].network.streets])
     log("measuring")
     report = compare(lines[0], lines[1], rng=args.seed).to_dict()
+    grown = city_growth_fidelity(cities[0], rng=args.seed, town_lines=lines[1])  # A read back from a run's output
+    if grown is not None:
+        report["growth_fidelity"] = grown.to_dict()
     if not args.json:
         print(_compare_text(a, b, report))
     return {"a": str(a), "b": str(b), "seed": args.seed, **report}
 
 
 def _compare_text(a: Path, b: Path, report: dict) -> str:
-    lines = [f"{a} as a district of {b}: off on {report['off']} of 13 measures "
-             f"(a typical real part of {b.name}: {report['typical_off']})"]
+    lines = [f"{a} as a district of {b}: off on {report['off']} of {len(report['measures'])} measures "
+             f"(a typical real neighbourhood of {b.name}: {report['typical_part_off']}); "
+             f"{report['pieces']} piece{'s' if report['pieces'] != 1 else ''} on the map"]
     for name, v in report["measures"].items():
         lines.append(f"  {'ok ' if v['ok'] else 'OFF'} {name:<20} {v['value']}  [{v['low']}, {v['high']}]")
+    grown = report.get("growth_fidelity")
+    if grown:
+        overall, lei = grown["overall"], grown["lei"]
+        if overall:
+            lines.append(f"what the years grew in {a.name}: off on {overall['off']} of {len(overall['measures'])}, "
+                         f"{overall['pieces']} pieces")
+        lines.append(f"  new street length: {lei['infill']} infill, {lei['edge']} edge expansion, "
+                     f"{lei['outlying']} outlying (Landscape Expansion Index)")
     return "\n".join(lines)
 
 

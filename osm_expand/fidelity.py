@@ -1,19 +1,24 @@
-"""The fidelity verdict: is a district as alike to its town as the town's own districts are?
+"""The fidelity verdict: is a district as alike to its town as the town's own neighbourhoods are?
 
 A real town is not uniform (its old centre and its suburbs differ), so a
 district is not asked to match the whole town's statistics. It is asked to be
-indistinguishable from a *real part* of the town: a disc of the district's
-area centred on a random point of the town's streets (chosen by length),
-``parts`` of them (at least 16), drawn from the caller's generator.
+indistinguishable from a *real neighbourhood* of the town (issue 20): a disc
+of the district's area centred on a random junction (degree ≥ 3) of the town
+as mapped. Twice as many discs as wanted (``draw_factor``) are drawn from the
+caller's generator and the denser half by junction count kept, ``parts`` of
+them (at least 16), measured on the town's streets inside. Discs centred on
+random street points (the first yardstick) fall mostly on rural roads when
+the extract is mostly countryside, and a scatter of fragments passed them.
 
-Each of the thirteen measures of :mod:`osm_expand.measures` has a rule:
+Each of the fourteen measures of :mod:`osm_expand.measures` has a rule:
 
 - a distribution: the district's Kolmogorov–Smirnov distance to the whole
   town's distribution must be at most the 75th percentile of the real parts'
   KS distances to the town, and never less than 0.10 is required;
 - a scalar: the district's value must lie in the real parts' 10th–90th
   percentile range (the junction and dead-end shares widened by 0.02 each
-  side).
+  side: a share of a few dozen nodes moves in steps of 2–5 %; the 2-core
+  share is a share of length and is not widened).
 
 A measure that breaks its rule is *off*. Real parts are off on a few measures
 too; how many is measured by judging each real part like a district against
@@ -21,6 +26,11 @@ the *other* parts (leave-one-out: the part's own value never widens the range
 it is judged by, as the district's never does). A district is *believable*
 when it is off on no more measures than the median real part (rounded up)
 and never on street density (``density_ok``).
+
+Apart from the verdict the report gives the district's *pieces* (its
+streets buffered 30 m each side and merged: a neighbourhood is one piece,
+a scatter of fragments is many; :func:`osm_expand.measures.count_pieces`)
+and each real part's.
 
 Empty distributions: a KS distance is 1 when exactly one side is empty and
 undefined (NaN, never off) when both are; a scalar that is NaN (no junction
@@ -35,13 +45,19 @@ from dataclasses import dataclass
 
 import numpy as np
 import shapely
+from scipy.spatial import cKDTree
 
 from osm_expand.errors import InputError
 from osm_expand.measures import (DISTRIBUTIONS, LineSet, Measure, MeasureOptions, NetworkMeasures,
-                                 measure_named, measure_network)
+                                 junction_points, measure_named, measure_network)
 
-__all__ = ["FidelityOptions", "FidelityReport", "MeasureVerdict", "TownReference", "compare", "fidelity",
+__all__ = ["DEFAULT_PARTS", "FidelityOptions", "FidelityReport", "MeasureVerdict", "TownReference", "compare", "fidelity",
            "judge", "ks_distance", "real_parts", "town_reference"]
+
+#: Real neighbourhoods kept by default: 32 (the issue asks for at least 16). Sixteen make a 10th–90th
+#: percentile range from two values at each end; with 32 the median neighbourhood's off count moves
+#: less between seeds (Krems: 2.0–2.5 over six seeds against 2.0–3.0 with 16; 0.2 s per reference).
+DEFAULT_PARTS = 32
 
 _SHARES = (Measure.THREE_WAY_SHARE, Measure.FOUR_WAY_SHARE, Measure.DEAD_END_SHARE)
 _ORDER: tuple[Measure, ...] = tuple(Measure)
@@ -63,6 +79,9 @@ class FidelityOptions:
     share_margin: float = 0.02
     #: fewest real parts; the issue asks for at least 16.
     min_parts: int = 16
+    #: discs drawn per real part kept: the denser half by junction count is kept (issue 20), so that
+    #: an extract that is mostly countryside is judged by its town, not by its fields.
+    draw_factor: float = 2.0
     #: corners of the disc windows (a polygon with this many sides, scaled
     #: to the exact area); 64 keeps the clip cheap and the edge within 0.1 %.
     disc_sides: int = 64
@@ -78,6 +97,8 @@ class FidelityOptions:
             raise InputError("fidelity options ks_floor and share_margin must not be negative")
         if self.min_parts < 2:
             raise InputError(f"fidelity option min_parts must be at least 2, got {self.min_parts}")
+        if not self.draw_factor >= 1.0:
+            raise InputError(f"fidelity option draw_factor must be at least 1, got {self.draw_factor!r}")
         if self.disc_sides < 8 or self.disc_sides % 4:
             raise InputError(f"fidelity option disc_sides must be a multiple of 4, at least 8, got {self.disc_sides}")
 
@@ -114,7 +135,7 @@ class MeasureVerdict:
 class TownReference:
     """The town measured whole and in its real parts, ready to judge districts of ``area`` m².
 
-    ``part_values`` is ``(P, 13)`` in :class:`Measure` order: each part's KS
+    ``part_values`` is ``(P, 14)`` in :class:`Measure` order: each part's KS
     distance to the town for a distribution, its value for a scalar.
     """
 
@@ -138,6 +159,11 @@ class FidelityReport:
     district: NetworkMeasures
     reference: TownReference
     options: FidelityOptions
+
+    @property
+    def pieces(self) -> int:
+        """The district's pieces on the map (-1 when not counted)."""
+        return self.district.pieces
 
     @property
     def typical_off(self) -> float:
@@ -167,6 +193,8 @@ class FidelityReport:
             "area_km2": _num(self.reference.area / 1e6), "part_centres": centres,
             "measures": {v.measure.value: v.to_dict() for v in self.verdicts},
             "district": self.district.counts(), "town": self.reference.town.counts(),
+            "pieces": self.pieces, "part_pieces": [p.pieces for p in self.reference.parts],
+            "measure_count": len(self.verdicts),
         }
 
 
@@ -201,42 +229,43 @@ def ks_distance(a: np.ndarray, b_sorted: np.ndarray) -> float:
 
 
 def real_parts(town_lines: Sequence[np.ndarray] | LineSet, area: float, *, n: int = 16,
-               rng: np.random.Generator | int, sides: int = 64) -> tuple[shapely.Polygon, ...]:
-    """Disc windows of ``area`` m² centred on random points of the town's streets.
+               rng: np.random.Generator | int, sides: int = 64, draw_factor: float = 2.0,
+               options: MeasureOptions | None = None) -> tuple[shapely.Polygon, ...]:
+    """Real neighbourhoods: discs of ``area`` m² centred on random junctions of the town, the densest kept.
 
     Parameters
     ----------
     town_lines : the town's polylines, each ``(n_i, 2)`` metres.
     area : m², each disc's area (the district's).
-    n : how many discs.
-    rng : generator (or seed); centres are drawn uniformly by street length.
+    n : how many discs are kept.
+    rng : generator (or seed); ``ceil(n * draw_factor)`` centres are drawn uniformly among the junctions
+        (degree ≥ 3, nodes as :mod:`osm_expand.measures` makes them), without replacement while there are
+        enough.
     sides : the discs are regular polygons with this many sides (a multiple of 4), of exactly ``area``.
+    draw_factor : discs drawn per disc kept; the ``n`` with most junctions inside are kept (ties: first drawn).
 
     Returns
     -------
-    ``n`` shapely polygons, in the order drawn.
+    ``n`` shapely polygons, densest first.
     """
     lines = LineSet.from_lines(town_lines)
     if not area > 0:
         raise InputError(f"real parts need a positive area, got {area!r} m²")
-    same = lines.line_of[1:] == lines.line_of[:-1]
-    a, b = lines.coords[:-1][same], lines.coords[1:][same]
-    cum = np.cumsum(np.hypot(*(b - a).T))
-    if len(cum) == 0 or cum[-1] <= 0:
-        raise InputError("the town has no street to take real parts from")
+    junctions = junction_points(lines, options)
+    if len(junctions) == 0:
+        raise InputError("the town has no junction to centre a real neighbourhood on")
     gen = np.random.default_rng(rng)
-    at = gen.uniform(0.0, cum[-1], n)
-    k = np.minimum(np.searchsorted(cum, at, side="right"), len(cum) - 1)
-    seg = cum[k] - np.r_[0.0, cum][k]
-    t = (at - (cum[k] - seg)) / np.maximum(seg, 1e-12)
-    centres = a[k] + t[:, None] * (b[k] - a[k])
+    draws = max(math.ceil(n * draw_factor), n)
+    centres = junctions[gen.choice(len(junctions), draws, replace=draws > len(junctions))]
     # a regular polygon with ``sides`` corners on radius r has area sides/2 · r² · sin(2π/sides)
     radius = math.sqrt(area / (sides / 2 * math.sin(2 * math.pi / sides)))
+    inside = cKDTree(junctions).query_ball_point(centres, radius, return_length=True)
+    kept = np.argsort(-np.asarray(inside), kind="stable")[:n]
     quad = max(sides // 4, 1)
-    return tuple(shapely.buffer(shapely.points(centres), radius, quad_segs=quad))
+    return tuple(shapely.buffer(shapely.points(centres[kept]), radius, quad_segs=quad))
 
 
-def town_reference(town_lines: Sequence[np.ndarray] | LineSet, area: float, *, parts: int = 16,
+def town_reference(town_lines: Sequence[np.ndarray] | LineSet, area: float, *, parts: int = DEFAULT_PARTS,
                    rng: np.random.Generator | int, town: NetworkMeasures | None = None,
                    options: FidelityOptions | None = None,
                    measure_options: MeasureOptions | None = None) -> TownReference:
@@ -260,9 +289,10 @@ def town_reference(town_lines: Sequence[np.ndarray] | LineSet, area: float, *, p
         raise InputError(f"fidelity needs at least {opts.min_parts} real parts, got {parts}")
     lines = LineSet.from_lines(town_lines)
     if town is None:
-        town = measure_network(lines, options=measure_options)
+        town = measure_network(lines, options=measure_options, pieces=False)
     sorted_town = tuple(np.sort(town.value(m)) for m in DISTRIBUTIONS)
-    windows = real_parts(lines, area, n=parts, rng=rng, sides=opts.disc_sides)
+    windows = real_parts(lines, area, n=parts, rng=rng, sides=opts.disc_sides, draw_factor=opts.draw_factor,
+                         options=measure_options)
     measured = tuple(measure_network(lines, window=w, options=measure_options) for w in windows)
     values = np.array([_values(m, sorted_town) for m in measured])
     return TownReference(town=town, area=float(area), windows=windows, parts=measured, part_values=values,
@@ -270,13 +300,13 @@ def town_reference(town_lines: Sequence[np.ndarray] | LineSet, area: float, *, p
 
 
 def _values(m: NetworkMeasures, sorted_town: tuple[np.ndarray, ...]) -> np.ndarray:
-    """The 13 judged values of one network: KS distances to the town, then the scalars."""
+    """The 14 judged values of one network: KS distances to the town, then the scalars."""
     ks = [ks_distance(m.value(d), ref) for d, ref in zip(DISTRIBUTIONS, sorted_town)]
     return np.array(ks + [m.value(s) for s in _ORDER[len(DISTRIBUTIONS):]], dtype=np.float64)
 
 
 def _limits(part_values: np.ndarray, opts: FidelityOptions) -> tuple[np.ndarray, np.ndarray]:
-    """Allowed (low, high) per measure from the real parts' values ``(P, 13)``."""
+    """Allowed (low, high) per measure from the real parts' values ``(P, 14)``."""
     with warnings.catch_warnings():  # an all-NaN column is an undefined range, handled by the caller
         warnings.simplefilter("ignore", RuntimeWarning)
         ks = np.nanpercentile(part_values[:, _IS_DISTRIBUTION], opts.ks_percentile, axis=0)
@@ -335,7 +365,7 @@ def judge(district: NetworkMeasures, reference: TownReference, *,
 
 
 def fidelity(district_lines: Sequence[np.ndarray], town_lines: Sequence[np.ndarray] | LineSet, *,
-             window: shapely.Polygon | None, open_points: np.ndarray | None = None, parts: int = 16,
+             window: shapely.Polygon | None, open_points: np.ndarray | None = None, parts: int = DEFAULT_PARTS,
              rng: np.random.Generator | int, options: FidelityOptions | None = None,
              measure_options: MeasureOptions | None = None) -> FidelityReport:
     """Judge a district as a part of its town.
@@ -347,7 +377,7 @@ def fidelity(district_lines: Sequence[np.ndarray], town_lines: Sequence[np.ndarr
     window : polygon (metres) of the district's area; None: the district's
         convex hull grown by ``hull_margin``. Real parts have its area.
     open_points : ``(K, 2)`` metres where the district's streets end on the old town.
-    parts : real parts (at least 16).
+    parts : real parts (at least 16; default :data:`DEFAULT_PARTS`).
     rng : generator or seed; same state, same report.
 
     Returns
@@ -366,7 +396,7 @@ def fidelity(district_lines: Sequence[np.ndarray], town_lines: Sequence[np.ndarr
 
 
 def compare(a_lines: Sequence[np.ndarray], b_lines: Sequence[np.ndarray], *, rng: np.random.Generator | int,
-            parts: int = 16, options: FidelityOptions | None = None,
+            parts: int = DEFAULT_PARTS, options: FidelityOptions | None = None,
             measure_options: MeasureOptions | None = None) -> FidelityReport:
     """Judge network A as a district of town B (A's window: its convex hull grown by ``hull_margin``).
 

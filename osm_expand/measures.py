@@ -76,6 +76,20 @@ Scalars (floats, NaN when undefined):
   junctions and dead ends (Boeing's node proportions; open ends and shape
   points are not counted). :mod:`simplify.statistics` reports the 3- and
   4-way shares among junctions only, on the simplified network.
+- ``two_core_share``: the share of the street length left after pruning
+  dead-end trees (issue 20): edges with a dead end are removed, then those
+  that became dead ends, until none is left (:func:`two_core`). Open ends
+  are never pruned: a street cut by the window runs on outside it, and a
+  district's street ending on the old town is joined there. How much of the
+  network forms blocks or runs through: 1 for a grid without stubs, 0 for a
+  tree; NaN with no street.
+
+Apart from the verdict, ``pieces`` counts what the network makes on the
+map: its lines (clipped to the window) buffered ``piece_buffer`` metres each
+side and merged, the number of polygons (issue 20: a neighbourhood is one
+piece). Two lines are in one piece when they are within twice the buffer of
+each other, so the count is the connected components of the lines' "within
+2 × buffer" pairs (an STRtree query), not a union of buffers.
 """
 from __future__ import annotations
 
@@ -93,11 +107,11 @@ from scipy.spatial import cKDTree
 from osm_expand.errors import InputError
 
 __all__ = ["DISTRIBUTIONS", "SCALARS", "LineSet", "Measure", "MeasureOptions", "NetworkMeasures",
-           "measure_named", "measure_network", "orientation_entropy"]
+           "count_pieces", "junction_points", "measure_named", "measure_network", "orientation_entropy", "two_core"]
 
 
 class Measure(StrEnum):
-    """The thirteen measures, in report order: eight distributions, then five scalars."""
+    """The fourteen measures, in report order: eight distributions, then six scalars."""
 
     EDGE_LENGTH = "edge_length"
     CIRCUITY = "circuity"
@@ -112,6 +126,7 @@ class Measure(StrEnum):
     THREE_WAY_SHARE = "three_way_share"
     FOUR_WAY_SHARE = "four_way_share"
     DEAD_END_SHARE = "dead_end_share"
+    TWO_CORE_SHARE = "two_core_share"
 
 
 DISTRIBUTIONS: tuple[Measure, ...] = tuple(Measure)[:8]
@@ -162,6 +177,9 @@ class MeasureOptions:
     #: (about 1 cm) give a 20 m step a direction good to 0.03°; below that a KS distance only compares
     #: rounding noise (a straight grid's 3e-13° against another's 8e-13°).
     angle_resolution: float = 0.1
+    #: m each side: streets buffered this much and merged make a network's pieces (issue 20: 30 m,
+    #: about a building lot's depth, so a street and the houses along it are one strip of town).
+    piece_buffer: float = 30.0
 
     def __post_init__(self) -> None:
         for f in fields(self):
@@ -192,6 +210,7 @@ class NetworkMeasures:
     three_way_share: float
     four_way_share: float
     dead_end_share: float
+    two_core_share: float
     #: m of street inside the window, and the window's area (m²).
     length: float
     area: float
@@ -201,6 +220,8 @@ class NetworkMeasures:
     edges: int
     cut_edges: int
     blocks: int
+    #: pieces on the map (module docstring); -1 when not counted (``pieces=False``).
+    pieces: int = -1
 
     def value(self, measure: Measure | str) -> np.ndarray | float:
         """One measure by name: an array for a distribution, a float for a scalar."""
@@ -210,7 +231,8 @@ class NetworkMeasures:
         """The plain counts, JSON-ready."""
         return {"length_km": round(self.length / 1000, 3), "area_km2": round(self.area / 1e6, 4),
                 "junctions": self.junctions, "dead_ends": self.dead_ends, "open_ends": self.open_ends,
-                "edges": self.edges, "cut_edges": self.cut_edges, "blocks": self.blocks}
+                "edges": self.edges, "cut_edges": self.cut_edges, "blocks": self.blocks,
+                **({"pieces": self.pieces} if self.pieces >= 0 else {})}
 
 
 # ---------------------------------------------------------------- input lines
@@ -423,6 +445,68 @@ def _build_graph(coords: np.ndarray, label: np.ndarray, *, window: shapely.Geome
 # ---------------------------------------------------------------- measures
 
 
+def junction_points(lines: Sequence[np.ndarray] | LineSet, options: MeasureOptions | None = None) -> np.ndarray:
+    """``(K, 2)`` metres: the junctions (degree ≥ 3) of the lines, nodes made as for the measures."""
+    opts = options or MeasureOptions()
+    line_set = LineSet.from_lines(lines)
+    node, xy = _nodes(line_set.coords, opts.node_precision)
+    u, v = _segments(node, line_set.line_of)
+    degree = np.bincount(np.concatenate([u, v]), minlength=len(xy))
+    return xy[degree >= 3]
+
+
+def two_core(u: np.ndarray, v: np.ndarray, n: int, anchored: np.ndarray | None = None) -> np.ndarray:
+    """Which edges ``(u[i], v[i])`` lie in the 2-core: dead-end trees peeled off, leaf by leaf.
+
+    Parameters
+    ----------
+    u, v : ``(E,)`` end nodes of each edge (a loop has ``u == v``: it counts 2 at its node).
+    n : number of nodes.
+    anchored : ``(n,)`` bool, nodes never peeled (open ends: the network runs on beyond them).
+
+    Returns
+    -------
+    ``(E,)`` bool: kept edges. Each round peels every edge with a free end of degree 1, so the
+    rounds are the depth of the deepest tree (a handful on a street graph of junction-to-junction
+    edges), each a vectorised pass.
+    """
+    u, v = np.asarray(u, dtype=np.int64), np.asarray(v, dtype=np.int64)
+    keep = np.ones(len(u), dtype=bool)
+    fixed = np.zeros(n, dtype=bool) if anchored is None else np.asarray(anchored, dtype=bool)
+    while True:
+        degree = np.bincount(u[keep], minlength=n) + np.bincount(v[keep], minlength=n)
+        leaf = (degree == 1) & ~fixed
+        peel = keep & (leaf[u] | leaf[v])
+        if not peel.any():
+            return keep
+        keep &= ~peel
+
+
+def piece_labels(geoms: np.ndarray, buffer: float) -> np.ndarray:
+    """The piece of each line: lines buffered ``buffer`` m each side and merged (module docstring).
+
+    Two buffers overlap when their lines are within ``2 * buffer``; the pieces are the connected
+    components of those pairs (an STRtree query, no union of polygons).
+
+    Returns
+    -------
+    ``(len(geoms),)`` int labels 0..pieces-1.
+    """
+    geoms = np.asarray(geoms, dtype=object)
+    if len(geoms) == 0:
+        return np.zeros(0, dtype=np.int64)
+    tree = shapely.STRtree(geoms)
+    a, b = tree.query(geoms, predicate="dwithin", distance=2.0 * buffer)
+    link = sparse.csr_matrix((np.ones(len(a)), (a, b)), shape=(len(geoms), len(geoms)))
+    return csgraph.connected_components(link, directed=False)[1]
+
+
+def count_pieces(lines: Sequence[np.ndarray] | LineSet, buffer: float = 30.0) -> int:
+    """How many pieces ``lines`` make on the map, buffered ``buffer`` m each side (module docstring)."""
+    labels = piece_labels(LineSet.from_lines(lines).geoms, buffer)
+    return int(labels.max() + 1) if len(labels) else 0
+
+
 def orientation_entropy(vectors: np.ndarray, weights: np.ndarray | None = None, *, bins: int = 36) -> float:
     """Boeing's (2019) orientation entropy of segment directions, in nats.
 
@@ -598,7 +682,8 @@ def _rounded(angles: np.ndarray, resolution: float) -> np.ndarray:
 
 
 def measure_network(lines: Sequence[np.ndarray] | LineSet, *, window: shapely.Geometry | None = None,
-                    open_points: np.ndarray | None = None, options: MeasureOptions | None = None) -> NetworkMeasures:
+                    open_points: np.ndarray | None = None, options: MeasureOptions | None = None,
+                    pieces: bool = True) -> NetworkMeasures:
     """Every measure of a street network inside ``window``.
 
     Parameters
@@ -611,10 +696,11 @@ def measure_network(lines: Sequence[np.ndarray] | LineSet, *, window: shapely.Ge
     open_points : ``(K, 2)`` metres: more open ends (where a district's
         streets end on the old town); nodes within ``open_tolerance``.
     options : :class:`MeasureOptions`.
+    pieces : count the pieces (False for a whole town, where nobody asks and it costs most).
 
     Returns
     -------
-    :class:`NetworkMeasures`: eight distributions, five scalars and counts.
+    :class:`NetworkMeasures`: eight distributions, six scalars and counts.
     """
     opts = options or MeasureOptions()
     line_set = LineSet.from_lines(lines)
@@ -639,6 +725,13 @@ def measure_network(lines: Sequence[np.ndarray] | LineSet, *, window: shapely.Ge
     at_junction = junction[node]
     block_area, compactness = _blocks(g, opts.min_block_area)
     vectors = g.xy[g.head] - g.xy[g.tail]
+    core = two_core(g.start_node, g.end_node, len(g.xy), anchored=g.is_open)
+    n_pieces = -1
+    if pieces:
+        dense = np.unique(label, return_inverse=True)[1].reshape(-1)
+        geoms = shapely.linestrings(coords, indices=dense) if len(coords) else np.empty(0, dtype=object)
+        labels = piece_labels(geoms, opts.piece_buffer)
+        n_pieces = int(labels.max() + 1) if len(labels) else 0
     return NetworkMeasures(
         edge_length=g.length[~cut],
         circuity=g.length[~cut & has_chord] / chord[~cut & has_chord],
@@ -654,7 +747,8 @@ def measure_network(lines: Sequence[np.ndarray] | LineSet, *, window: shapely.Ge
         three_way_share=share(junction & (g.degree == 3)),
         four_way_share=share(junction & (g.degree == 4)),
         dead_end_share=share(dead_end),
+        two_core_share=float(g.seg_len[core[g.edge_of]].sum() / total) if total > 0 else float("nan"),
         length=total, area=area,
         junctions=int(junction.sum()), dead_ends=int(dead_end.sum()), open_ends=int(g.is_open.sum()),
-        edges=len(g.length), cut_edges=int(cut.sum()), blocks=len(block_area),
+        edges=len(g.length), cut_edges=int(cut.sum()), blocks=len(block_area), pieces=n_pieces,
     )

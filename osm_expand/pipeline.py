@@ -62,7 +62,9 @@ class ExpandOptions:
     area: float | None = None  #: m²; default: ``site.area_share`` of the built-up area, at most ``site.neighbourhood_area``
     beyond_bounds: bool = False  #: allow the site outside the map's data bounds
     pattern: str = "example"  #: growth pattern: see :data:`PATTERNS`
-    fidelity: bool = True  #: judge the district against real parts of the town (:mod:`osm_expand.fidelity`)
+    #: judge the district, and what the years grow, against real neighbourhoods of the town
+    #: (:mod:`osm_expand.fidelity`, :mod:`osm_expand.growth_fidelity`)
+    fidelity: bool = True
     #: The history the city then lives through (:mod:`osm_expand.engine.history`): a bundled name, a
     #: TOML file, or a loaded :class:`~osm_expand.engine.history.History`.
     history: object = "example"
@@ -232,6 +234,13 @@ def mature(result: ExpandResult, options: ExpandOptions, *, progress: Progress =
                  buildout=_buildout(), progress=each_year, snapshot=options.snapshot,
                  snapshot_every=options.snapshot_every)
     report = {**result.report, "engine": engine.report}
+    if options.fidelity:
+        from osm_expand.growth_fidelity import city_growth_fidelity
+
+        progress("judging what the years grew against the town's neighbourhoods")
+        grown = city_growth_fidelity(engine.city, rng=np.random.default_rng([options.seed, 0xF1DE, 1]))
+        if grown is not None:
+            report["growth_fidelity"] = grown.to_dict()
     return replace(result, city=engine.city, report=report)
 
 

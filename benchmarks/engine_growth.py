@@ -1,0 +1,105 @@
+"""Does what the engine's years grow read as the town growing? The growth verdict and the LEI per town (issue 20).
+
+For each town: ``osm-expand TOWN`` in-process (default options, seed 0, the
+history's 30 years unless ``--years``), then everything the engine built
+(streets of origin ``engine``) judged against real neighbourhoods of the town
+(:mod:`osm_expand.growth_fidelity`), with ``--refs`` reference seeds (the
+verdict's ranges come from 32 random neighbourhoods, so one reference seed
+moves the off count by one or two). Prints per town: the off count of 14 per
+reference seed and its mean, the dead-end and 2-core shares with the
+neighbourhoods' range (reference seed 0), the pieces the engine's streets
+make on the map, the Landscape Expansion Index shares of new street length
+(infill / edge expansion / outlying), and the times (wall and CPU) of the
+run and of the judging. ``--eras`` adds a line per era.
+
+Issue 20's targets: off on at most 4 of 14, dead-end and 2-core shares in
+range, infill + edge expansion at least 80 % of the new street length.
+
+Usage: ``python benchmarks/engine_growth.py [--history european] [--eras] [TOWN ...]``
+(default: Krems, Andorra, north-bayreuth, Monaco, Krems with ``european``, then Campo Grande;
+Campo Grande takes about 5 minutes and 8 GB).
+"""
+from __future__ import annotations
+
+import argparse
+import time
+from pathlib import Path
+
+import numpy as np
+
+REPO = Path(__file__).resolve().parent.parent
+RUNS = [("krems.osm.gz", "example"), ("andorra.osm.pbf", "example"), ("north-bayreuth.osm.gz", "example"),
+        ("monaco.osm.gz", "example"), ("krems.osm.gz", "european"), ("campo-grande.osm.gz", "example")]
+
+
+def _share(report: dict, name: str) -> str:
+    v = report["measures"][name]
+    mark = "" if v["ok"] else " ✗"
+    return f"{v['value']} [{v['low']}–{v['high']}]{mark}"
+
+
+def run(name: str, history: str, years: int | None, refs: int) -> dict:
+    from osm_expand.growth_fidelity import before_the_years, built_up, growth_fidelity
+    from osm_expand.ingest import load
+    from osm_expand.model import Origin
+    from osm_expand.pipeline import ExpandOptions, expand
+
+    t0, c0 = time.perf_counter(), time.process_time()
+    result = expand(load(REPO / "fixtures" / name), ExpandOptions(seed=0, history=history, years=years,
+                                                                    fidelity=False))
+    run_s, run_cpu = time.perf_counter() - t0, time.process_time() - c0
+    t0, c0 = time.perf_counter(), time.process_time()
+    net = result.city.network
+    town = [net.street_xy(s) for s in net.streets if s.origin == Origin.SOURCE]
+    built = built_up(before_the_years(result.city))
+    judged = [growth_fidelity(net, town, built=built, rng=seed) for seed in range(refs)]
+    judge_s, judge_cpu = (time.perf_counter() - t0) / refs, (time.process_time() - c0) / refs
+    return {"name": name, "history": history, "judged": judged, "run_s": run_s, "run_cpu": run_cpu,
+            "judge_s": judge_s, "judge_cpu": judge_cpu}
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("towns", nargs="*", help="fixture names (default: the five towns and Krems european)")
+    ap.add_argument("--history", default="example", help="history for the towns named (default: example)")
+    ap.add_argument("--years", type=int, default=None, help="years (default: the history's own, 30)")
+    ap.add_argument("--refs", type=int, default=3, help="reference seeds for the verdict (default 3)")
+    ap.add_argument("--eras", action="store_true", help="a line per era too")
+    args = ap.parse_args()
+    runs = [(t, args.history) for t in args.towns] if args.towns else RUNS
+    print("| town | history | off of 14 per reference | mean off | dead-end share [range] | 2-core share [range] "
+          "| pieces | infill / edge / outlying | engine km | run s (CPU) | judging s (CPU) |")
+    print("|---|---|---|---|---|---|---|---|---|---|---|")
+    eras = []
+    for name, history in runs:
+        row = run(name, history, args.years, args.refs)
+        first = row["judged"][0]
+        if first is None or first.overall is None:
+            print(f"| {name} | {history} | no engine street | | | | | | | {row['run_s']:.0f} ({row['run_cpu']:.0f}) | |")
+            continue
+        offs = [g.overall.off for g in row["judged"]]
+        overall = first.overall.to_dict()
+        lei = first.lei.to_dict()
+        print(f"| {name} | {history} | {' '.join(map(str, offs))} | {np.mean(offs):.1f} "
+              f"| {_share(overall, 'dead_end_share')} | {_share(overall, 'two_core_share')} | {overall['pieces']} "
+              f"| {lei['infill']} / {lei['edge']} / {lei['outlying']} | {lei['new_length_km']} "
+              f"| {row['run_s']:.0f} ({row['run_cpu']:.0f}) | {row['judge_s']:.1f} ({row['judge_cpu']:.1f}) |",
+              flush=True)
+        for era, report in first.per_era.items():
+            e = first.lei_per_era[era].to_dict()
+            if report is None:
+                eras.append(f"| {name} | {history} | {era} | | | | | {e['infill']} / {e['edge']} / {e['outlying']} "
+                            f"| {e['new_length_km']} |")
+                continue
+            r = report.to_dict()
+            eras.append(f"| {name} | {history} | {era} | {r['off']} | {_share(r, 'dead_end_share')} "
+                        f"| {_share(r, 'two_core_share')} | {r['pieces']} "
+                        f"| {e['infill']} / {e['edge']} / {e['outlying']} | {e['new_length_km']} |")
+    if args.eras and eras:
+        print("\n| town | history | era | off of 14 | dead-end share [range] | 2-core share [range] | pieces "
+              "| infill / edge / outlying | km |\n|---|---|---|---|---|---|---|---|---|")
+        print("\n".join(eras))
+
+
+if __name__ == "__main__":
+    main()

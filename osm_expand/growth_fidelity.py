@@ -1,0 +1,354 @@
+"""Everything the engine grows, judged: the fidelity verdict and the Landscape Expansion Index (issue 20).
+
+The engine's years add streets all over the city. Issue 20 asks that they
+read as the town growing: alike to the town's real neighbourhoods, and at the
+edge of the built-up land rather than leapfrogging into the fields.
+
+The verdict
+-----------
+The streets with origin ``engine`` (overall, and per era) are judged like a
+district (:mod:`osm_expand.fidelity`): measured inside a *window* made from
+them, with the ends where they meet other streets *open* (an engine street
+that runs from an old street into a field and stops is a dead end; one that
+joins two old streets is part of a block), against real neighbourhoods of the
+town of the window's area.
+
+The window is the streets' land: the lines buffered ``window_close`` metres
+and shrunk back to ``window_margin`` metres around them (a morphological
+closing: the blocks between new streets are inside, no more than a margin of
+field around them is). A disc around scattered streets would count the
+fields between them and make every density look rural; the bare buffer would
+leave out the blocks between the streets and make it look dense. With the
+margin at half a town block (50 m), a window around a district-like patch
+holds what a real neighbourhood disc of its area holds.
+
+The Landscape Expansion Index
+-----------------------------
+Liu et al. (2010), "A new landscape index for quantifying urban expansion
+using multi-temporal remotely sensed data", Landscape Ecology 25:671–682: for
+each *new patch*, ``LEI = 100 · A_old / A_ring`` over a ring around the
+patch; *infill* when LEI > 50, *edge expansion* when 0 < LEI ≤ 50,
+*outlying* when LEI = 0. Here, on vector streets instead of raster cells:
+
+- *new patches*: the new streets buffered ``patch_buffer`` (30 m) each side,
+  merged; each connected piece is a patch (as the ``pieces`` of
+  :mod:`osm_expand.measures`). 30 m is about a building lot's depth: a street
+  with the lots along it is the land it makes urban.
+- *old land*: the built-up land before, as the site search reads it
+  (:func:`osm_expand.sites.distance_maps`' ``city`` raster: street frontage
+  opened so that a lone road through the fields is not town, and the
+  blocks), of the city before the years (the town as mapped, the district
+  and its joins; blocks recomputed so the district's count). For an era,
+  the engine's earlier eras are old too: the raster's cells within
+  ``old_buffer`` (30 m, a lot's depth, as the patches) of their streets.
+  Streets buffered alone were the other choice; they make every rural road
+  "built-up", so a comb hung on a farm track would be edge expansion. The
+  raster is the project's one definition of built-up land, so this index
+  follows it when the land model changes.
+- *ring*: ``ring_width`` around the patch, outside it: 30 m (one lot's
+  depth), at least two raster cells. Its old share is counted on the
+  raster's cells whose centres lie in the ring (a cell outside the raster
+  was never built).
+
+Reported: the shares of new street length lying in infill, edge-expansion
+and outlying patches (each street lies in one patch), overall (the years'
+streets against the city before them) and per era.
+"""
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+import shapely
+
+from osm_expand.blocks import blocks
+from osm_expand.errors import InputError
+from osm_expand.fidelity import (
+    DEFAULT_PARTS,
+    FidelityOptions,
+    FidelityReport,
+    judge,
+    town_reference,
+)
+from osm_expand.measures import (
+    LineSet,
+    MeasureOptions,
+    NetworkMeasures,
+    measure_network,
+    piece_labels,
+)
+from osm_expand.model import City, Origin, StreetNetwork
+from osm_expand.sites import SiteOptions, distance_maps
+
+__all__ = ["BuiltUp", "GrowthFidelity", "GrowthFidelityOptions", "LandscapeExpansion", "before_the_years",
+           "built_up", "city_growth_fidelity", "growth_fidelity", "growth_window", "landscape_expansion"]
+
+
+@dataclass(frozen=True)
+class GrowthFidelityOptions:
+    #: m: the new streets are buffered this much, then shrunk back to ``window_margin``: the blocks between
+    #: them (up to 2 × 150 m across, a large town block) fall inside the window (module docstring).
+    window_close: float = 150.0
+    #: m: the window reaches this far beyond the outermost new streets: half a 100 m town block, as a
+    #: real neighbourhood disc cuts the blocks on its rim in half on average.
+    window_margin: float = 50.0
+    #: m each side: a new street's patch (Liu et al.'s new urban patch): about a building lot's depth.
+    patch_buffer: float = 30.0
+    #: m each side: an earlier era's streets are old land this far (the same lot depth as a patch).
+    old_buffer: float = 30.0
+    #: m: the ring around a patch whose old share is its LEI: one lot's depth of adjacency (and at
+    #: least two cells of the built-up raster, so that the ring holds cells at all).
+    ring_width: float = 30.0
+    #: LEI above this is infill (Liu et al. 2010).
+    infill_above: float = 50.0
+
+    def __post_init__(self) -> None:
+        for name in ("window_close", "window_margin", "patch_buffer", "old_buffer", "ring_width"):
+            if not getattr(self, name) > 0:
+                raise InputError(f"growth fidelity option {name} must be positive, got {getattr(self, name)!r}")
+        if self.window_margin > self.window_close:
+            raise InputError("growth fidelity option window_margin must not exceed window_close")
+        if not 0 <= self.infill_above < 100:
+            raise InputError(f"growth fidelity option infill_above must be in [0, 100), got {self.infill_above!r}")
+
+
+@dataclass(frozen=True, eq=False)
+class LandscapeExpansion:
+    """The LEI of each new patch and the shares of new street length by growth type."""
+
+    lei: np.ndarray  #: (P,) per patch, in [0, 100]
+    patch_length: np.ndarray  #: (P,) m of new street in each patch
+    infill_above: float
+
+    @property
+    def infill(self) -> float:
+        return self._share(self.lei > self.infill_above)
+
+    @property
+    def edge(self) -> float:
+        return self._share((self.lei > 0) & (self.lei <= self.infill_above))
+
+    @property
+    def outlying(self) -> float:
+        return self._share(self.lei <= 0)
+
+    def _share(self, mask: np.ndarray) -> float:
+        total = float(self.patch_length.sum())
+        return float(self.patch_length[mask].sum() / total) if total > 0 else float("nan")
+
+    def to_dict(self) -> dict[str, object]:
+        """JSON-ready: shares of new street length by type, the patch count and the length-weighted mean LEI."""
+        total = float(self.patch_length.sum())
+        mean = float((self.lei * self.patch_length).sum() / total) if total > 0 else float("nan")
+        return {"infill": _num(self.infill), "edge": _num(self.edge), "outlying": _num(self.outlying),
+                "patches": len(self.lei), "mean_lei": _num(mean), "new_length_km": round(total / 1000, 3)}
+
+
+@dataclass(frozen=True, eq=False)
+class GrowthFidelity:
+    """The engine's streets judged overall and per era, and their LEI (overall and per era)."""
+
+    overall: FidelityReport | None
+    per_era: dict[str, FidelityReport | None]
+    lei: LandscapeExpansion
+    lei_per_era: dict[str, LandscapeExpansion]
+
+    def to_dict(self) -> dict[str, object]:
+        return {"overall": _report(self.overall),
+                "per_era": {era: _report(r) for era, r in self.per_era.items()},
+                "lei": {**self.lei.to_dict(), "per_era": {era: v.to_dict() for era, v in self.lei_per_era.items()}}}
+
+
+def _report(r: FidelityReport | None) -> dict[str, object] | None:
+    return None if r is None else r.to_dict()
+
+
+def _num(x: float) -> float | None:
+    return None if not math.isfinite(x) else round(float(x), 4)
+
+
+def growth_window(lines: Sequence[np.ndarray], options: GrowthFidelityOptions | None = None) -> shapely.Geometry:
+    """The land of ``lines``: buffered ``window_close`` m, shrunk back to ``window_margin`` (module docstring)."""
+    opts = options or GrowthFidelityOptions()
+    geoms = LineSet.from_lines(lines).geoms
+    if len(geoms) == 0:
+        return shapely.Polygon()
+    grown = shapely.union_all(shapely.buffer(geoms, opts.window_close, quad_segs=4))
+    return shapely.buffer(grown, opts.window_margin - opts.window_close, quad_segs=4)
+
+
+@dataclass(frozen=True, eq=False)
+class BuiltUp:
+    """Built-up land as a raster: ``mask`` (rows = y, cols = x) of cells ``cell`` m from ``origin``."""
+
+    mask: np.ndarray
+    origin: np.ndarray
+    cell: float
+
+    def cells_in(self, ring: shapely.Geometry) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Centres ``x``, ``y`` of the cells whose centre lies in ``ring`` (within the raster's box or
+        not) and whether each is built up."""
+        x0, y0, x1, y1 = ring.bounds
+        c = self.cell
+        i0, i1 = math.floor((x0 - self.origin[0]) / c), math.ceil((x1 - self.origin[0]) / c)
+        j0, j1 = math.floor((y0 - self.origin[1]) / c), math.ceil((y1 - self.origin[1]) / c)
+        jj, ii = np.mgrid[j0:j1 + 1, i0:i1 + 1]
+        xs, ys = self.origin[0] + (ii + 0.5) * c, self.origin[1] + (jj + 0.5) * c
+        shapely.prepare(ring)
+        inside = shapely.contains_xy(ring, xs, ys)
+        ii, jj, xs, ys = ii[inside], jj[inside], xs[inside], ys[inside]
+        rows, cols = self.mask.shape
+        within = (ii >= 0) & (ii < cols) & (jj >= 0) & (jj < rows)
+        built = np.zeros(len(ii), dtype=bool)
+        built[within] = self.mask[jj[within], ii[within]]
+        return xs, ys, built
+
+
+def built_up(city: City, site: SiteOptions | None = None) -> BuiltUp:
+    """The site search's built-up raster of ``city``, its blocks recomputed from its streets (a grown
+    district's blocks count); no margin is needed (beyond the streets nothing was built)."""
+    with_blocks = city.replace(blocks=tuple(blocks(city.network, year=None)))
+    maps = distance_maps(with_blocks, site, beyond_bounds=True)
+    return BuiltUp(mask=maps.city, origin=np.asarray(maps.origin, dtype=np.float64), cell=float(maps.cell))
+
+
+def before_the_years(city: City) -> City:
+    """``city`` without what the engine built (streets and buildings of origin ``engine``)."""
+    net = city.network
+    return city.replace(network=net.replace(streets=tuple(s for s in net.streets if s.origin != Origin.ENGINE)),
+                        buildings=tuple(b for b in city.buildings if b.origin != Origin.ENGINE), blocks=(), lots=())
+
+
+def landscape_expansion(new_lines: Sequence[np.ndarray], built: BuiltUp, *,
+                        earlier_lines: Sequence[np.ndarray] = (),
+                        options: GrowthFidelityOptions | None = None) -> LandscapeExpansion:
+    """Liu et al.'s (2010) LEI of new street growth against the built-up land before (module docstring).
+
+    Parameters
+    ----------
+    new_lines : the new streets, each ``(n_i, 2)`` metres.
+    built : the built-up land before, as a raster.
+    earlier_lines : streets built since the raster was made, before these: old land within ``old_buffer``.
+
+    Returns
+    -------
+    :class:`LandscapeExpansion`; no patch when there is no new street.
+    """
+    opts = options or GrowthFidelityOptions()
+    new = LineSet.from_lines(new_lines)
+    earlier = LineSet.from_lines(earlier_lines)
+    if len(new.geoms) == 0:
+        return LandscapeExpansion(lei=np.zeros(0), patch_length=np.zeros(0), infill_above=opts.infill_above)
+    label = piece_labels(new.geoms, opts.patch_buffer)
+    n_patches = int(label.max()) + 1
+    buffers = shapely.buffer(new.geoms, opts.patch_buffer, quad_segs=4)
+    order = np.argsort(label, kind="stable")
+    bounds = np.searchsorted(label[order], np.arange(n_patches + 1))
+    ring_width = max(opts.ring_width, 2.0 * built.cell)
+    lei = np.zeros(n_patches)
+    for p in range(n_patches):  # one small union per patch: patches are few, and each sees only land near it
+        patch = shapely.union_all(buffers[order[bounds[p]:bounds[p + 1]]])
+        ring = shapely.difference(shapely.buffer(patch, ring_width, quad_segs=4), patch)
+        xs, ys, old = built.cells_in(ring)
+        if len(xs) == 0:
+            continue
+        near = earlier.tree.query(ring, predicate="dwithin", distance=opts.old_buffer) if len(earlier.geoms) else []
+        if len(near):
+            lines = shapely.multilinestrings(earlier.geoms[near])
+            shapely.prepare(lines)
+            old = old | shapely.dwithin(lines, shapely.points(xs, ys), opts.old_buffer)
+        lei[p] = 100.0 * old.mean()
+    length = np.bincount(label, weights=shapely.length(new.geoms), minlength=n_patches)
+    return LandscapeExpansion(lei=lei, patch_length=length, infill_above=opts.infill_above)
+
+
+def growth_fidelity(network: StreetNetwork, town_lines: Sequence[np.ndarray] | LineSet, *, built: BuiltUp,
+                    rng: np.random.Generator | int, town: NetworkMeasures | None = None,
+                    parts: int = DEFAULT_PARTS, options: GrowthFidelityOptions | None = None,
+                    fidelity_options: FidelityOptions | None = None,
+                    measure_options: MeasureOptions | None = None) -> GrowthFidelity | None:
+    """The engine's streets of ``network`` judged against ``town_lines``' real neighbourhoods, and their LEI.
+
+    Parameters
+    ----------
+    network : a city's streets after the years: those with origin ``engine`` are the growth, their ``era``
+        says when; every other street is what was there before.
+    town_lines : the town as mapped (the yardstick's neighbourhoods are drawn from it).
+    built : the built-up land before the years (:func:`built_up` of :func:`before_the_years`).
+    rng : generator or seed; one stream for all the references (overall first, then eras by first year).
+        An era's streets are open where they meet streets built before them (the town, the district and
+        earlier eras): a stub a later era extends was still a stub when its era ended.
+    town : ``town_lines`` measured whole, when the caller has it.
+
+    Returns
+    -------
+    :class:`GrowthFidelity`, or None when the engine built no street.
+    """
+    opts = options or GrowthFidelityOptions()
+    mopts = measure_options or MeasureOptions()
+    streets = network.streets
+    engine = np.array([s.origin == Origin.ENGINE for s in streets], dtype=bool)
+    if not engine.any():
+        return None
+    gen = np.random.default_rng(rng)
+    town_set = LineSet.from_lines(town_lines)
+    if town is None:
+        town = measure_network(town_set, options=mopts, pieces=False)
+    lines = [network.street_xy(s) for s in streets]
+    flat = np.fromiter((n for s in streets for n in s.nodes), dtype=np.int64)
+    owner = np.repeat(np.arange(len(streets)), [len(s.nodes) for s in streets])
+    era = np.array([s.era or "" for s in streets], dtype=object)
+    year = np.array([s.year if s.year is not None else -(10 ** 9) for s in streets], dtype=np.int64)
+    eras = sorted(set(era[engine]), key=lambda e: (year[engine & (era == e)].min(), e))
+
+    def picked_lines(mask: np.ndarray) -> list[np.ndarray]:
+        return [lines[k] for k in np.flatnonzero(mask)]
+
+    def judged(mine: np.ndarray, there: np.ndarray) -> FidelityReport | None:
+        """``mine`` judged, open where it meets ``there`` (the streets built before it)."""
+        window = growth_window(picked_lines(mine), opts)
+        if window.is_empty or not window.area > 0:
+            return None
+        meets = np.intersect1d(flat[mine[owner]], flat[there[owner]])
+        measured = measure_network(picked_lines(mine), window=window, open_points=network.xy[meets], options=mopts)
+        reference = town_reference(town_set, float(window.area), parts=parts, rng=gen, town=town,
+                                   options=fidelity_options, measure_options=mopts)
+        return judge(measured, reference, options=fidelity_options)
+
+    overall = judged(engine, ~engine)
+    lei = landscape_expansion(picked_lines(engine), built, options=opts)
+    per_era: dict[str, FidelityReport | None] = {}
+    lei_per_era: dict[str, LandscapeExpansion] = {}
+    before = ~engine
+    for e in eras:
+        mine = engine & (era == e)
+        per_era[e] = judged(mine, before)
+        lei_per_era[e] = landscape_expansion(picked_lines(mine), built, earlier_lines=picked_lines(before & engine),
+                                             options=opts)
+        before = before | mine
+    return GrowthFidelity(overall=overall, per_era=per_era, lei=lei, lei_per_era=lei_per_era)
+
+
+def city_growth_fidelity(city: City, *, rng: np.random.Generator | int,
+                         town_lines: Sequence[np.ndarray] | LineSet | None = None,
+                         options: GrowthFidelityOptions | None = None) -> GrowthFidelity | None:
+    """:func:`growth_fidelity` of a city after its years, against its own town as mapped.
+
+    Parameters
+    ----------
+    city : the city after the years (or one read back from the tool's output: streets keep their origin).
+    rng : generator or seed for the references.
+    town_lines : the yardstick's town; default ``city``'s streets of origin ``source``.
+
+    Returns
+    -------
+    :class:`GrowthFidelity`, or None when the engine built no street.
+    """
+    net = city.network
+    if not any(s.origin == Origin.ENGINE for s in net.streets):
+        return None
+    if town_lines is None:
+        town_lines = [net.street_xy(s) for s in net.streets if s.origin == Origin.SOURCE]
+    return growth_fidelity(net, town_lines, built=built_up(before_the_years(city)), rng=rng, options=options)
