@@ -353,3 +353,33 @@ def _less(claimed: np.ndarray, holes: np.ndarray) -> np.ndarray:
         k = int(which[start])
         out[k] = shapely.difference(claimed[k], shapely.union_all(holes[near[start:stop]]))
     return out
+
+
+def land_cover_taken(before: City, after: City) -> dict[str, float]:
+    """m² of each land cover (``key=value``, ``unmapped`` for none) under what grew from ``before`` to
+    ``after``: the new streets with the frontage depth of the town's minor streets either side, less
+    water and the land ``before`` already held (the town's taken land and blocks).
+    """
+    net = after.network
+    known = {s.id for s in before.network.streets}
+    lines = net.street_lines()
+    new = np.array([s.id not in known for s in net.streets], dtype=bool)
+    if not new.any():
+        return {}
+    land = after.land
+    depth = land.frontage_depth.get("minor", LandOptions().default_depth) if land is not None else LandOptions().default_depth
+    took = shapely.union_all(shapely.buffer(lines[new], depth))
+    box = shapely.box(*took.bounds)
+    held = [before.water_geometry(), *(land.taken_near(box) if land is not None else []),
+            *before.town_block_polygons().tolist()]
+    took = shapely.difference(took, shapely.union_all([g for g in held if g is not None and not g.is_empty]))
+    out: dict[str, float] = {}
+    rest = took
+    if land is not None and len(land.cover):
+        for poly, kind in zip(land.cover.tolist(), land.cover_kind):
+            if poly.intersects(took):
+                share = shapely.intersection(took, poly)
+                out[kind] = out.get(kind, 0.0) + float(share.area)
+                rest = shapely.difference(rest, poly)
+    out["unmapped"] = float(rest.area)
+    return {k: round(v) for k, v in sorted(out.items(), key=lambda kv: -kv[1]) if v >= 1.0}

@@ -27,9 +27,9 @@ from osm_expand.fidelity import FidelityReport, fidelity
 from osm_expand.measures import LineSet, NetworkMeasures, measure_network
 from osm_expand.heights import with_heights
 from osm_expand.joins import JoinReport, join_growth
-from osm_expand.land import LandOptions, read_land, unbuildable
+from osm_expand.land import LandOptions, land_cover_taken, read_land, unbuildable
 from osm_expand.model import City, Origin, Status, StreetNetwork, polyline_length
-from osm_expand.sites import Site, SiteOptions, choose_sites, distance_maps, district_region
+from osm_expand.sites import DistanceMaps, Site, SiteOptions, choose_sites, distance_maps, district_region
 from simplify import simplify
 from simplify.example import Example, build_example
 from simplify.hierarchy import with_levels
@@ -46,6 +46,9 @@ MAX_AREA_SHARE = 4.0
 MIN_JOINS = 2
 #: Sites tried, best first, before giving up.
 SITES_TRIED = 5
+#: The report's note when the district grows beyond the map's bounds because the town fills them.
+BEYOND_NOTE = ("the town fills its map: the district grows at its edge beyond the data bounds "
+               "(--within-bounds to refuse instead)")
 #: What :func:`simplified_or_fail` says when nothing is left.
 NOTHING_LEFT = "no streets left after simplification (every street is a dead end or isolated)"
 
@@ -60,7 +63,9 @@ class ExpandOptions:
     direction: str | None = None  #: N, NE, ..., or None for the best site anywhere
     at: tuple[float, float] | None = None  #: site centre in metres
     area: float | None = None  #: m²; default: ``site.area_share`` of the built-up area, at most ``site.neighbourhood_area``
-    beyond_bounds: bool = False  #: allow the site outside the map's data bounds
+    #: land outside the map's data bounds: True free, False never taken, None (default) taken only when the
+    #: town fills its map (no site inside it), with :data:`BEYOND_NOTE` in the report
+    beyond_bounds: bool | None = None
     pattern: str = "example"  #: growth pattern: see :data:`PATTERNS`
     #: judge the district, and what the years grow, against real neighbourhoods of the town
     #: (:mod:`osm_expand.fidelity`, :mod:`osm_expand.growth_fidelity`)
@@ -176,16 +181,12 @@ def expand(city: City, options: ExpandOptions | None = None, *, pattern: GrowthP
     learned = learn(city)
     progress("finding blocks, unbuildable land and a site")
     city = prepare(city, opts.land)
-    maps = distance_maps(city, opts.site, margin=_margin(city), beyond_bounds=opts.beyond_bounds)
+    maps = distance_maps(city, opts.site, margin=_margin(city), beyond_bounds=bool(opts.beyond_bounds))
     area = _district_area(opts, maps.built_area, learned.example.spacing)
-    radius = float(np.sqrt(area / np.pi))
-    if opts.beyond_bounds and 2.5 * radius > _margin(city):
-        maps = distance_maps(city, opts.site, margin=2.5 * radius, beyond_bounds=True)
-    sites = choose_sites(maps, area, opts.site, direction=opts.direction, at=opts.at, most=SITES_TRIED)
+    sites, maps, beyond = _sites(city, maps, area, opts)
     if not sites:
-        hint = "" if opts.beyond_bounds else ", or --beyond-bounds to grow outside them"
-        raise InputError(f"no room for a district of {area:.0f} m² inside the map's bounds; "
-                         f"try a smaller --area{hint}")
+        raise InputError(_no_room(maps, area, learned.example.spacing, beyond))
+    notes = [BEYOND_NOTE] if beyond and not opts.beyond_bounds else []
     if pattern is None:
         if opts.pattern not in PATTERNS:
             raise InputError(f"pattern must be one of {', '.join(PATTERNS)}, got {opts.pattern!r}")
@@ -194,7 +195,7 @@ def expand(city: City, options: ExpandOptions | None = None, *, pattern: GrowthP
     tried = []
     for attempt, site in enumerate(sites):
         progress(f"growing streets ({pattern.name}) at site {attempt + 1}")
-        region = district_region(city, site, bounds=None if opts.beyond_bounds else city.bounds_polygon)
+        region = district_region(city, site, bounds=None if beyond else city.bounds_polygon)
         growth = pattern.grow(city, region, np.random.default_rng([opts.seed, attempt]))
         grown, joins = join_growth(city, growth.streets, spacing=spacing, year=city.year)
         if joins.joins >= MIN_JOINS:
@@ -207,6 +208,8 @@ def expand(city: City, options: ExpandOptions | None = None, *, pattern: GrowthP
         progress("judging the district against real parts of the town")
     judged = _judge(city, grown, growth, joins, opts.seed) if opts.fidelity else None
     report = _report(grown, site, area, spacing, joins, attempt, pattern.name, judged)
+    report.update(beyond_bounds=beyond, land=city.land.to_dict() if city.land is not None else None,
+                  land_cover_taken=land_cover_taken(city, grown), notes=notes)
     result = ExpandResult(city=grown, site=site, learned=learned, joins=joins, growth=growth, fidelity=judged,
                           report=report)
     return mature(result, opts, progress=progress)
@@ -274,6 +277,36 @@ def _district_area(opts: ExpandOptions, built: float, spacing: float) -> float:
         raise InputError(f"--area {area:.0f} is more than {MAX_AREA_SHARE:g} times the town's built-up area "
                          f"({built:.0f} m²); the district may be at most --area {np.floor(largest):.0f}")
     return area
+
+
+def _sites(city: City, maps: DistanceMaps, area: float, opts: ExpandOptions
+           ) -> tuple[list[Site], DistanceMaps, bool]:
+    """The ranked sites, the maps they were found on, and whether they may lie beyond the map's bounds:
+    inside them first unless ``opts.beyond_bounds``; beyond them when that is None and nothing fits
+    inside (the town fills its map)."""
+    beyond = bool(opts.beyond_bounds)
+    radius = float(np.sqrt(area / np.pi))
+    if beyond and 2.5 * radius > _margin(city):
+        maps = distance_maps(city, opts.site, margin=2.5 * radius, beyond_bounds=True)
+    sites = choose_sites(maps, area, opts.site, direction=opts.direction, at=opts.at, most=SITES_TRIED)
+    if not sites and opts.beyond_bounds is None:
+        beyond = True
+        maps = distance_maps(city, opts.site, margin=max(_margin(city), 2.5 * radius), beyond_bounds=True)
+        sites = choose_sites(maps, area, opts.site, direction=opts.direction, at=opts.at, most=SITES_TRIED)
+    return sites, maps, beyond
+
+
+def _no_room(maps: DistanceMaps, area: float, spacing: float, beyond: bool) -> str:
+    """Why no site fits, and an ``--area`` that does: nine tenths of the largest disc of free land
+    (a site holding that much exists by construction), when that still makes a district."""
+    free = ~(maps.water | maps.city | maps.outside)
+    largest = float(np.pi * maps.free_radius[free].max() ** 2) if free.any() else 0.0
+    where = "beyond the map's bounds too" if beyond else "inside the map's bounds"
+    fits = np.floor(0.9 * largest / 1000.0) * 1000.0
+    if fits >= MIN_BLOCKS * spacing ** 2 and fits < area:
+        return f"no room for a district of {area:.0f} m² {where}; try --area {fits:.0f}"
+    hint = "" if beyond else "; try --beyond-bounds to grow outside them"
+    return f"no room for a district of {area:.0f} m² {where}, nor for the smallest ({MIN_BLOCKS} blocks){hint}"
 
 
 def district_area(city: City) -> float:

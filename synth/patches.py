@@ -28,8 +28,11 @@ walk loses (shapes, dead ends, the town's density); patches keep all three.
    ``exp(-½ (gap / σ_L)²) · exp(-½ (turn / σ_θ)²)``, most probable first,
    crossing nothing; one left over runs on to meet the first street ahead
    (of the district or the town) in a tee, at a fair angle; every other cut
-   end is trimmed back to its last junction, so no street ends where a seam
-   or the site's edge cut it, and none traces the edge.
+   end meets its neighbour along the district's edge by a street that follows
+   the edge a few metres inside it (a perimeter street, as real estates
+   have, when the two are within ``seam_gap`` spacings along it); every
+   other cut end is trimmed back to its last junction, so no street ends
+   where a seam or the site's edge cut it.
 5. **Pieces.** Fragments shorter than ``min_fragment`` spacings go, and so
    do pieces that can be joined neither to the rest nor to the town; each
    piece left is joined to the largest by the shortest straight street
@@ -161,8 +164,11 @@ class ExamplePatches:
         size = max(opts.cell_size * spacing, float(np.sqrt(free.area / opts.cells)))
         centres = _centres(free, old_geom, size)
         cells = _cells(free, centres)
-        target = _target_density(_source(city, self.example, everything=True), float(free.area),
-                                 opts.density_discs, rng) * float(free.area)
+        everything = _source(city, self.example, everything=True)
+        radius = float(np.sqrt(free.area / np.pi))
+        around = _neighbourhood_points(everything, opts.density_discs, radius, rng)
+        target = float(np.median(_density(everything, around, radius))) * float(free.area)
+        dead_ends = self._dead_end_share(everything, around, radius)
         key = round(float(np.log(size)) / 0.05)  # sizes within 5 % share a ranking
         if key not in self.cache:
             self.cache[key] = _candidate_patches(source, size, opts, rng, self.measure)
@@ -170,7 +176,8 @@ class ExamplePatches:
         best = None
         for attempt in range(ATTEMPTS):  # other patches when even every cell filled left too little
             quilt = _Quilt(grid=np.roll(patches, -attempt * len(centres), axis=0))
-            result = _quilt(source, quilt, centres, cells, region, old_geom, target, spacing, opts, occupied)
+            result = _quilt(source, quilt, centres, cells, region, old_geom, target, spacing, opts, occupied,
+                            dead_ends)
             if best is None or _misfit(result[0].total_length(), target) < _misfit(best[0].total_length(), target):
                 best = result
             if result[0].total_length() >= 0.9 * target:
@@ -180,9 +187,25 @@ class ExamplePatches:
                         for s in net.streets)
         return Growth(streets=streets, footprint=free,
                       debug={"cells": len(centres), "filled": placed, "target_km": round(target / 1000, 2),
-                             "seam_links": links, "tees": tees})
+                             "seam_links": links, "tees": tees,
+                             "target_dead_end_share": None if dead_ends is None else round(dead_ends, 3)})
+
+    def _dead_end_share(self, source: _Source, centres: np.ndarray, radius: float) -> float | None:
+        """The median dead-end share of the town's neighbourhoods around ``centres`` (None without a
+        ``measure``): what the district's own share should come to."""
+        if self.measure is None or not len(centres):
+            return None
+        if "in_window" not in self.cache:
+            self.cache["in_window"] = self.measure([np.asarray(ln.coords) for ln in source.lines])
+        in_window = self.cache["in_window"]
+        shares = [_level(in_window(shapely.Point(c).buffer(radius, 16)), "dead_end_share")
+                  for c in centres[:DEAD_END_DISCS]]
+        finite = [v for v in shares if np.isfinite(v)]
+        return float(np.median(finite)) if finite else None
 
 
+#: Neighbourhoods measured for the district's target dead-end share.
+DEAD_END_DISCS = 16
 #: Times the cells are filled with other patches when the first patches left the district too sparse.
 ATTEMPTS = 3
 
@@ -194,7 +217,7 @@ def _misfit(length: float, target: float) -> float:
 
 def _quilt(source: _Source, quilt: _Quilt, centres: np.ndarray, cells: list, region: shapely.Geometry,
            old: shapely.Geometry, target: float, spacing: float, opts: PatchOptions,
-           occupied: shapely.Geometry) -> tuple[StreetNetwork, int, int, int]:
+           occupied: shapely.Geometry, dead_ends: float | None = None) -> tuple[StreetNetwork, int, int, int]:
     """Fill cells, stitch and trim; fill more while trimming left too little. The network and counts."""
     placed, keep = 0, 1.0
     for _ in range(MAX_FILLS):
@@ -202,9 +225,12 @@ def _quilt(source: _Source, quilt: _Quilt, centres: np.ndarray, cells: list, reg
         stitched = copy.deepcopy(quilt)
         links = _walk_seams(stitched, spacing, opts, occupied, old)
         tees = _tees(stitched, old, spacing, opts, occupied)
+        tees += _edge_streets(stitched, region, spacing, opts, occupied, old)
         net = _trim(_network(stitched), stitched, shapely.boundary(region), opts.keep_out * spacing)
         net = _keep_joinable(net, old, spacing, opts)
         net = _connect_pieces(net, old, occupied, opts.link_reach * spacing)
+        if dead_ends is not None:
+            net = _fewer_dead_ends(net, old, occupied, spacing, opts, dead_ends)
         length = net.total_length()
         if length >= target or placed >= len(centres):
             break
@@ -781,3 +807,141 @@ def _connect_pieces(net: StreetNetwork, old: shapely.Geometry, occupied: shapely
     attrs += [{"highway": "residential", "hierarchy": max((st.hierarchy for st in net.streets), default=0),
                "origin": Origin.GROWN}] * len(links)
     return network_from_lines(lines + links, attrs)
+
+
+def _fewer_dead_ends(net: StreetNetwork, old: shapely.Geometry, occupied: shapely.Geometry, spacing: float,
+                     opts: PatchOptions, share: float) -> StreetNetwork:
+    """Bring the district's dead-end share down to ``share`` (its town's neighbourhoods' median).
+
+    Copied patches bring the town's cul-de-sacs, and clipping and trimming
+    leave more; a neighbourhood has as many as its town's. Dead ends within
+    ``tee_reach`` of the town are left to the joining step. The others, in
+    order of their chain's length (shortest first), first run on to the
+    first street ahead within ``tee_reach`` in a tee (at a fair angle,
+    crossing nothing); while the share is still too high, those whose chain
+    is shorter than a spacing go.
+    """
+    reach = opts.tee_reach * spacing
+    ends, junctions = _dead_ends(net, old, reach)
+    if _excess(len(ends), junctions, share) <= 0:
+        return net
+    chains = dangling_chains(net.streets, {int(e): net.xy[e] for e in ends})
+    order = sorted(chains, key=lambda e: (_chain_length(net, chains[e]), e))
+    quilt = _Quilt(xy=[net.street_xy(st) for st in net.streets], highway=[st.highway for st in net.streets],
+                   level=[st.hierarchy for st in net.streets])
+    board = _Board(quilt, occupied, old)
+    where = {n: k for k, st in enumerate(net.streets) for n in (st.nodes[0], st.nodes[-1])}
+    made = 0
+    for e in order:
+        if _excess(len(ends) - made, junctions + made, share) <= 0:
+            break
+        st = net.streets[where[e]]
+        inner = st.nodes[1] if st.nodes[0] == e else st.nodes[-2]
+        p = net.xy[e]
+        d = (p - net.xy[inner]) / max(float(np.hypot(*(p - net.xy[inner]))), 1e-12)
+        ray = shapely.LineString([p + d * 1e-3, p + d * reach])
+        hits = [(_meet(ray, quilt.xy[j], p, d, opts.tee_angle), j)
+                for j in board.tree.query(ray, predicate="intersects").tolist() if j != where[e]]
+        hits = [(m, j) for m, j in hits if m is not None]
+        if not hits:
+            continue
+        (at, fair), j = min(hits, key=lambda h: float(np.hypot(*(h[0][0] - p))))
+        if fair and board.clear(np.array([p, at])):
+            board.added.append(shapely.LineString([p, at]))
+            quilt.add(np.array([p, at]), st.highway, st.hierarchy)
+            quilt.splits.setdefault(j, []).append(at)
+            made += 1
+    if made:
+        net = _network(quilt)
+    ends, junctions = _dead_ends(net, old, reach)
+    excess = _excess(len(ends), junctions, share)
+    if excess <= 0:
+        return net
+    chains = dangling_chains(net.streets, {int(e): net.xy[e] for e in ends})
+    drop: set[tuple[int, int]] = set()
+    for e in sorted(chains, key=lambda e: (_chain_length(net, chains[e]), e)):
+        if excess <= 0 or _chain_length(net, chains[e]) >= spacing:
+            break
+        drop |= chains[e]
+        excess -= 1
+    return net.replace(streets=without_segments(net.streets, drop)) if drop else net
+
+
+def _dead_ends(net: StreetNetwork, old: shapely.Geometry, reach: float) -> tuple[np.ndarray, int]:
+    """The district's dead ends farther than ``reach`` from the town, and its junction count."""
+    degree = segment_degree(net.streets, len(net.xy))
+    ends = np.flatnonzero(degree == 1)
+    if len(ends) and not old.is_empty:
+        ends = ends[shapely.distance(old, shapely.points(net.xy[ends])) > reach]
+    return ends, int((degree >= 3).sum())
+
+
+def _excess(dead: int, junctions: int, share: float) -> int:
+    """Dead ends beyond ``share`` of dead ends and junctions together."""
+    allowed = share / (1.0 - share) * junctions if share < 1.0 else float("inf")
+    return int(np.ceil(dead - allowed))
+
+
+def _chain_length(net: StreetNetwork, chain: set[tuple[int, int]]) -> float:
+    return sum(float(np.hypot(*(net.xy[a] - net.xy[b]))) for a, b in chain)
+
+
+#: Metres inside the district's edge that a perimeter street runs.
+EDGE_INSET = 4.0
+
+
+def _edge_streets(quilt: _Quilt, region: shapely.Geometry, spacing: float, opts: PatchOptions,
+                  occupied: shapely.Geometry, old: shapely.Geometry) -> int:
+    """Join cut ends left at the district's edge to their neighbour along it by a perimeter street that
+    follows the edge :data:`EDGE_INSET` metres inside; returns the streets made.
+
+    Trimming them back instead leaves combs of cul-de-sacs along the edge
+    and loses a third of the district's street length; joined, they close
+    the edge blocks, as a housing estate's ring road does.
+    """
+    if len(quilt.cut_xy) < 2:
+        return 0
+    inner = shapely.buffer(region, -EDGE_INSET)
+    rings = [r for poly in shapely.get_parts(inner) if poly.geom_type == "Polygon" for r in [poly.exterior]]
+    if not rings:
+        return 0
+    xy = np.array(quilt.cut_xy)
+    edge = shapely.boundary(region)
+    at_edge = shapely.distance(edge, shapely.points(xy)) < EDGE_INSET + 1.0
+    board = _Board(quilt, occupied, old)
+    used = np.zeros(len(xy), dtype=bool)
+    made = 0
+    for ring in rings:
+        near = np.flatnonzero(at_edge & (shapely.distance(ring, shapely.points(xy)) < EDGE_INSET + 1.0))
+        if len(near) < 2:
+            continue
+        where = shapely.line_locate_point(ring, shapely.points(xy[near]))
+        order = near[np.argsort(where, kind="stable")]
+        where = np.sort(where)
+        total = ring.length
+        pairs = [(k, k + 1) for k in range(len(order) - 1)] + ([(len(order) - 1, 0)] if len(order) > 2 else [])
+        for i, j in pairs:
+            a, b = int(order[i]), int(order[j])
+            if used[a] or used[b] or quilt.cut_piece[a] == quilt.cut_piece[b]:
+                continue
+            along = (where[j] - where[i]) % total
+            if along > opts.seam_gap * spacing:
+                continue
+            run = _ring_run(ring, float(where[i]), along)
+            path = np.vstack([xy[a], run, xy[b]])
+            if len(path) < 2 or not board.clear(path):
+                continue
+            board.added.append(shapely.LineString(path))
+            quilt.add(path, quilt.highway[quilt.cut_piece[a]], quilt.level[quilt.cut_piece[a]])
+            used[a] = used[b] = True
+            made += 1
+    _close(quilt, used)
+    return made
+
+
+def _ring_run(ring: shapely.LinearRing, start: float, along: float) -> np.ndarray:
+    """Points of ``ring`` from ``start`` metres along it, ``along`` metres onward (wrapping), every
+    :data:`CONNECTOR_STEP` metres or so."""
+    n = max(int(np.ceil(along / CONNECTOR_STEP)), 1)
+    at = (start + np.linspace(0.0, along, n + 1)) % ring.length
+    return shapely.get_coordinates(shapely.line_interpolate_point(ring, at))
