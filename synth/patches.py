@@ -476,6 +476,8 @@ def _place(source: _Source, patches: np.ndarray, centres: np.ndarray, cells: lis
         moved = shapely.transform(source.lines[near], move.forward)
         if total + float(shapely.length(shapely.intersection(moved, cell)).sum()) > length:
             anchor = shapely.union_all(filled) if filled else old  # fill from the side touching the rest
+            if anchor.is_empty:  # no town streets near: fill from the cell's centre
+                anchor = shapely.Point(centre)
             cell = _part_of(cell, moved, shapely.ops.nearest_points(cell, anchor)[0], length - total)
             boundary = shapely.boundary(cell)
         filled.append(cell)
