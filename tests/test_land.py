@@ -1,0 +1,117 @@
+"""The land model: frontage learned from the town, taken land, land cover (issue 20)."""
+from __future__ import annotations
+
+from functools import lru_cache
+
+import numpy as np
+import pytest
+import shapely
+
+from osm_expand.blocks import blocks
+from osm_expand.ingest import load
+from osm_expand.land import LAND_COVER, LandOptions, frontage_depth, land_cover_taken, read_land
+from osm_expand.model import Building, City, MappedArea, network_from_lines
+from osm_expand.sites import SiteOptions, choose_site, distance_maps
+from tests.conftest import FIXTURES
+
+
+@lru_cache(maxsize=None)
+def town(name: str) -> City:
+    return load(FIXTURES / name)
+
+
+def square(x0: float, y0: float, size: float) -> np.ndarray:
+    return np.array([(x0, y0), (x0 + size, y0), (x0 + size, y0 + size), (x0, y0 + size), (x0, y0)])
+
+
+def street_city(buildings=(), areas=(), highway="residential") -> City:
+    """One street along y = 0 from x = 0 to 1000, and whatever is given."""
+    net = network_from_lines([[(0.0, 0.0), (1000.0, 0.0)]], [{"highway": highway}])
+    return City(network=net, buildings=tuple(buildings), areas=tuple(areas))
+
+
+@pytest.mark.parametrize("name,low,high", [("krems.osm.gz", 60.0, 100.0), ("north-bayreuth.osm.gz", 55.0, 100.0)])
+def test_the_frontage_depth_is_learned_from_the_towns_buildings(name, low, high):
+    depth, source = frontage_depth(town(name))
+    assert source == "learned"
+    assert low <= depth["minor"] <= high and low <= depth["major"] <= high
+
+
+def test_a_few_landmark_buildings_teach_no_depth():
+    """Campo Grande maps 102 buildings on hundreds of kilometres of street: the default holds."""
+    depth, source = frontage_depth(town("campo-grande.osm.gz"))
+    assert source == "default"
+    assert depth == {"major": LandOptions().default_depth, "minor": LandOptions().default_depth}
+
+
+@pytest.mark.parametrize("name", ["krems.osm.gz", "north-bayreuth.osm.gz"])
+def test_a_town_without_its_buildings_reads_nearly_the_same_occupied_land(name):
+    """Taken out of the file, the buildings still stand on taken land, and the built-up area a site
+    keeps out of is nearly the same."""
+    city = town(name)
+    bare = city.replace(buildings=())
+    taken = shapely.union_all(read_land(bare).taken)
+    shapely.prepare(taken)
+    footprints = np.array([b.polygon for b in city.buildings], dtype=object)
+    on_taken = shapely.covers(taken, shapely.centroid(footprints)).mean()
+    assert on_taken >= 0.95
+    with_buildings = shapely.union_all(read_land(city).town)
+    without = shapely.union_all(read_land(bare).town)
+    overlap = with_buildings.intersection(without).area / with_buildings.union(without).area
+    assert overlap >= 0.8
+
+
+def test_a_gap_between_mapped_houses_is_free_and_an_unmapped_street_is_taken():
+    houses = [Building(rings=(square(x, 10.0, 12.0),)) for x in range(0, 400, 25)]  # x < 400 only
+    land = read_land(street_city(houses), LandOptions(min_buildings=1, min_buildings_per_100m=0.0))
+    taken = shapely.union_all(land.taken)
+    assert taken.covers(shapely.Point(200.0, 20.0))  # among the houses
+    assert not taken.covers(shapely.Point(200.0, -30.0))  # across the street from them: shown empty
+    assert taken.covers(shapely.Point(800.0, 20.0)) and taken.covers(shapely.Point(800.0, -30.0))  # unmapped
+
+
+def test_a_dead_ends_frontage_stops_at_its_tip():
+    land = read_land(street_city())
+    taken = shapely.union_all(land.taken)
+    assert taken.covers(shapely.Point(500.0, 50.0))
+    assert not taken.intersects(shapely.Point(1010.0, 0.0))  # beyond the dead end the fields are free
+
+
+def test_a_country_road_has_no_frontage_in_the_fields():
+    land = read_land(street_city(highway="unclassified"))
+    assert not len(land.taken)
+
+
+def test_settlement_land_use_is_taken_and_fields_are_not():
+    homes = MappedArea(polygon=shapely.box(2000, 2000, 2300, 2300), key="landuse", value="residential")
+    field = MappedArea(polygon=shapely.box(3000, 3000, 3300, 3300), key="landuse", value="farmland")
+    taken = shapely.union_all(read_land(street_city(areas=(homes, field))).taken)
+    assert taken.covers(shapely.Point(2150, 2150)) and not taken.intersects(shapely.Point(3150, 3150))
+
+
+def test_the_land_cover_table_gives_each_cover_its_cost():
+    areas = tuple(MappedArea(polygon=shapely.box(2000 + 400 * k, 0, 2300 + 400 * k, 300), key=kv.split("=")[0],
+                             value=kv.split("=")[1]) for k, kv in enumerate(["landuse=forest", "landuse=farmland"]))
+    land = read_land(street_city(areas=areas))
+    assert dict(zip(land.cover_kind, land.cover_cost.tolist())) == {
+        "landuse=forest": LAND_COVER["landuse=forest"], "landuse=farmland": LAND_COVER["landuse=farmland"]}
+    assert LAND_COVER["landuse=forest"] > LAND_COVER["landuse=farmland"] == 0.0
+
+
+def test_a_site_takes_the_fields_before_the_forest():
+    """A town with forest on its west and farmland on its east grows east, and the report's land cover
+    taken says farmland."""
+    span = [0.0, 100.0, 200.0, 300.0]
+    lines = [[(x, y) for x in span] for y in span] + [[(x, y) for y in span] for x in span]
+    net = network_from_lines(lines)
+    woods = shapely.box(-1500, -1500, 380, 1800).difference(shapely.box(-30, -30, 330, 330))
+    forest = MappedArea(polygon=woods, key="landuse", value="forest")
+    farm = MappedArea(polygon=shapely.box(380, -1500, 1800, 1800), key="landuse", value="farmland")
+    city = City(network=net, blocks=tuple(blocks(net)), areas=(forest, farm))
+    city = city.replace(land=read_land(city, LandOptions(default_depth=20.0)))
+    site = choose_site(distance_maps(city, SiteOptions(), margin=1200.0, beyond_bounds=True), 250_000.0)
+    assert site is not None and site.centre[0] > 300.0
+    grown_line = np.array([[600.0, 100.0], [900.0, 100.0]])
+    grown = city.replace(network=city.network.with_new_streets([grown_line], [{"highway": "residential"}]))
+    took = land_cover_taken(city, grown)
+    assert max(took, key=took.get) == "landuse=farmland"
