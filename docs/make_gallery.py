@@ -42,9 +42,10 @@ def draw(name: str, title: str, seed: int = 0) -> Path:
     fig, axes = plt.subplots(1, 2, figsize=(12, 6.4))
     for ax, centre, lines, colour, shape, caption in (
             (axes[0], np.asarray(part.centroid.coords[0]), town, "0.25", part,
-             f"a real part of {title}: off on {report.part_off[k]} of 13 measures"),
+             f"a real neighbourhood of {title}: off on {report.part_off[k]} of {len(report.verdicts)} measures"),
             (axes[1], np.asarray(window.centroid.coords[0]), new, "tab:red", window,
-             f"the grown district: off on {report.off} of 13 (a typical real part: {report.typical_off:g})")):
+             f"the grown district: off on {report.off} of {len(report.verdicts)} (a typical real neighbourhood: "
+             f"{report.typical_off:g})")):
         ax.add_collection(LineCollection(town, colors="0.75", linewidths=0.6))
         ax.add_collection(LineCollection(lines, colors=colour, linewidths=1.0))
         for poly in shapely.get_parts(shape):

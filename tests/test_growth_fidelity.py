@@ -131,3 +131,21 @@ def test_the_json_report_judges_what_the_years_grew():
                     for s in result.city.network.streets if s.origin == Origin.ENGINE) / 1000
     assert lei["new_length_km"] == pytest.approx(engine_km, abs=2e-3)
     json.dumps(g, allow_nan=False)
+
+
+def test_compare_prints_its_verdict_and_judges_the_years_of_a_run_output(tmp_path, capsys):
+    from osm_expand import cli
+    from osm_expand.export import write_geojson
+
+    krems = str(FIXTURES / "krems.osm.gz")
+    assert cli.main(["compare", krems, krems, "-q"]) == 0  # the text once read a key the report lacks
+    out = capsys.readouterr().out
+    assert "of 14 measures" in out and "piece" in out and "what the years grew" not in out
+    grown = tmp_path / "grown.geojson"
+    write_geojson(krems_years().city, grown)
+    assert cli.main(["compare", str(grown), krems, "-q", "--json"]) == 0
+    report = json.loads(capsys.readouterr().out)
+    g = report["growth_fidelity"]
+    assert set(g) == {"overall", "per_era", "lei"} and len(g["overall"]["measures"]) == len(Measure)
+    assert g["lei"]["new_length_km"] == pytest.approx(krems_years().report["growth_fidelity"]["lei"]["new_length_km"],
+                                                      abs=0.01)
