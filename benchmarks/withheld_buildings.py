@@ -37,10 +37,12 @@ def count(city, real: np.ndarray) -> dict:
     net = city.network
     lines = net.street_lines()
     new = np.array([s.is_new for s in net.streets], dtype=bool)
-    crossed = np.unique(tree.query(lines[new], predicate="intersects")[1]) if new.any() else np.zeros(0)
+    street, hit = tree.query(lines[new], predicate="intersects") if new.any() else (np.zeros(0, int),) * 2
+    origin = np.array([s.origin.value for s in net.streets], dtype=object)[new]
+    by = {o: len(np.unique(hit[origin[street] == o])) for o in sorted(set(origin[street].tolist()))}
     return {"generated": len(generated), "on_real": len(on_real),
             "share": len(on_real) / len(generated) if len(generated) else 0.0,
-            "new_streets": int(new.sum()), "real_crossed": len(crossed)}
+            "new_streets": int(new.sum()), "real_crossed": len(np.unique(hit)), "crossed_by": by}
 
 
 def main() -> None:
@@ -63,7 +65,8 @@ def main() -> None:
             grown = expand(town, ExpandOptions(seed=args.seed, years=args.years, fidelity=False)).city
             c = count(grown, real)
             print(f"| {name} | {label} | {c['generated']} | {c['on_real']} | {100 * c['share']:.1f} % "
-                  f"| {c['new_streets']} | {c['real_crossed']} | {time.process_time() - t0:.1f} |", flush=True)
+                  f"| {c['new_streets']} | {c['real_crossed']} {c['crossed_by'] or ''} | {time.process_time() - t0:.1f} |",
+                  flush=True)
 
 
 if __name__ == "__main__":

@@ -203,13 +203,18 @@ def build_expand_parser() -> argparse.ArgumentParser:
     p.add_argument("--at", metavar="X,Y", help="site centre in metres of the local projection")
     p.add_argument("--at-lonlat", metavar="LON,LAT", help="site centre in degrees (longitude first)")
     p.add_argument("--area", type=float, metavar="M2",
-                   help="district area in m² (default: a quarter of the built-up area; at most four times it)")
+                   help="district area in m² (default: a quarter of the built-up area, at most a neighbourhood "
+                        "unit of 0.65 km², at least nine blocks; at most four times the built-up area)")
     p.add_argument("--pattern", choices=["example", "walk", "colonisation"], default="example",
                    help="how streets grow: example (patches of the town, seams walked; default), walk "
                         "(004's random walk over the town's junctions) or colonisation (001's space "
                         "colonisation, the town's junction spacing as segment length)")
-    p.add_argument("--beyond-bounds", action="store_true",
-                   help="let the district grow outside the map's bounds (land there is unknown)")
+    bounds = p.add_mutually_exclusive_group()
+    bounds.add_argument("--beyond-bounds", action="store_true", default=None,
+                        help="let the district grow outside the map's bounds (land there is unknown; by default "
+                             "only when the town fills its map)")
+    bounds.add_argument("--within-bounds", dest="beyond_bounds", action="store_false",
+                        help="never grow outside the map's bounds: refuse when the town fills its map")
     p.add_argument("--unbuildable", metavar="KEY=VALUE,...",
                    help="mapped areas nobody may build on, replacing the default list "
                         "(landuse=cemetery,leisure=park,aeroway=*,...; '' for none)")
@@ -537,6 +542,8 @@ def cmd_expand(args: argparse.Namespace, log: Progress) -> dict:
     except InputError as exc:
         raise _in_file(city_path, exc, args) from None
     report = result.report
+    for note in report.get("notes", []):  # what a user should know of the result, even with -q
+        print(f"osm-expand: {city_path}: {note}", file=sys.stderr)
     log(f"{len(result.city.new_streets())} new streets; writing {out}")
     title = f"{_stem(city_path)}: the town and what grew (seed {args.seed})"
     debug = list(result.growth.debug.get("features", [])) if args.debug_layers else None

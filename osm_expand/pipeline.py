@@ -264,8 +264,9 @@ def _margin(city: City) -> float:
 
 def _district_area(opts: ExpandOptions, built: float, spacing: float) -> float:
     """The district's area (m²), checked against the town's size before any work."""
-    area = opts.area or min(opts.site.area_share * built, max(opts.site.neighbourhood_area, MIN_BLOCKS * spacing ** 2))
     smallest, largest = MIN_BLOCKS * spacing ** 2, MAX_AREA_SHARE * built
+    # by default a quarter of the town, at least the smallest district and at most a neighbourhood unit
+    area = opts.area or max(min(opts.site.area_share * built, opts.site.neighbourhood_area), smallest)
     if smallest > largest:
         raise InputError(f"too little town to grow from: {built:.0f} m² built up, and a district of {MIN_BLOCKS} "
                          f"blocks at its {spacing:.0f} m junction spacing ({np.ceil(smallest):.0f} m²) may be at "
