@@ -930,7 +930,10 @@ def _edge_streets(quilt: _Quilt, region: shapely.Geometry, spacing: float, opts:
             if along > opts.seam_gap * spacing:
                 continue
             run = _ring_run(ring, float(where[i]), along)
-            path = np.vstack([xy[a], run, xy[b]])
+            raw = np.vstack([xy[a], run, xy[b]])
+            # the edge is a union of buffers, jagged at a few metres: a street follows it smoothly
+            smooth = shapely.get_coordinates(shapely.simplify(shapely.LineString(raw), EDGE_INSET))
+            path = smooth if len(smooth) >= 2 and board.clear(smooth) else raw
             if len(path) < 2 or not board.clear(path):
                 continue
             board.added.append(shapely.LineString(path))
