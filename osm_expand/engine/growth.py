@@ -30,6 +30,7 @@ import shapely
 
 from osm_expand.engine.nuclei import Nucleus, candidate_points, rank_candidates
 from osm_expand.engine.segments import SegmentTable
+from osm_expand.engine.stubs import close_stubs
 from osm_expand.joins import add_streets, join_growth
 from osm_expand.model import City, Origin, Status, match_points, polyline_length
 from osm_expand.sites import SiteOptions, choose_sites, distance_maps, district_region
@@ -42,6 +43,9 @@ from synth.street_graph import StreetGraph
 #: the next-ranked get their turn, so a year grows its G(t) streets where the town has room for them
 #: (one round grew 0 of 11 grid streets a year in Krems' dense centre).
 CANDIDATE_ROUNDS = 4
+#: A street-pattern stub runs on this many junction spacings to the street ahead, and a shorter one that
+#: cannot goes: the reach of the example patches' tees (:class:`synth.patches.PatchOptions`).
+STUB_REACH = 0.6
 #: ℓ, the pathfinding lattice spacing (m): temporary candidate points are ⌊length / 1.25ℓ⌋ per segment (003).
 ELL = 20.0
 
@@ -92,8 +96,12 @@ class GrowthYear:
 
 def grow_street_pattern(city: City, count: int, options: PatternOptions, nuclei: list[Nucleus],
                         memory: GrowthMemory, rng: np.random.Generator, *, year: int, era: str,
-                        centre: np.ndarray) -> tuple[City, GrowthYear]:
-    """Grow ``count`` new streets with a street pattern from the best candidates (003 §3.3.2, 000 §4.2.6)."""
+                        centre: np.ndarray, reach: float | None = None) -> tuple[City, GrowthYear]:
+    """Grow ``count`` new streets with a street pattern from the best candidates (003 §3.3.2, 000 §4.2.6).
+
+    With ``reach`` (m), the year's stubs run on to the street ahead or go
+    (:func:`osm_expand.engine.stubs.close_stubs`): connectedness is the
+    town's whatever the pattern."""
     if count <= 0:
         return city, GrowthYear()
     table = SegmentTable.from_city(city)
@@ -128,6 +136,10 @@ def grow_street_pattern(city: City, count: int, options: PatternOptions, nuclei:
     if not splits:
         return city, GrowthYear()
     lines, bridges = _new_lines(graph, splits, n_segments)
+    if reach is not None and lines:
+        town = city.network
+        lines, bridges, _ = close_stubs(lines, bridges, town.street_lines(), town.xy[town.used_nodes()],
+                                        shapely.GeometryCollection([water, forbidden]), reach=reach)
     if not lines:
         return city, GrowthYear()
     attrs = [{"highway": "residential", "hierarchy": 9, "origin": Origin.ENGINE, "status": Status.PLANNED,

@@ -25,7 +25,7 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 
 from osm_expand.blocks import FaceMemo, blocks
-from osm_expand.engine.growth import GrowthMemory, GrowthOptions, GrowthYear, grow_district, grow_street_pattern
+from osm_expand.engine.growth import STUB_REACH, GrowthMemory, GrowthOptions, GrowthYear, grow_district, grow_street_pattern
 from osm_expand.engine.history import GROWTH_PATTERNS, Era, History, YearValues
 from osm_expand.engine.nuclei import Nucleus, candidate_points, find_nuclei, new_junction_nuclei
 from osm_expand.engine.planarity import without_touching
@@ -266,7 +266,7 @@ def _grow_streets(state: _State, era: Era, now: YearValues, year: int, rng: np.r
     if isinstance(opts, PatternOptions) and opts.angle_space == AngleSpace.WORLD and opts.angle_offset_deg == 0.0:
         opts = replace(opts, angle_offset_deg=bearing)  # a world-space grid follows the town's own grid
     state.city, grown = grow_street_pattern(state.city, count, opts, state.nuclei, state.growth, rng, year=year,
-                                            era=era.name, centre=centre)
+                                            era=era.name, centre=centre, reach=STUB_REACH * spacing)
     return grown
 
 

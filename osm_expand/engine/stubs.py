@@ -1,0 +1,166 @@
+"""Streets that end in the fields: a year's stubs run on to the street ahead, or go (issue 20).
+
+A street pattern (000 §4.2.6) grows streets until a rule stops them; a
+street stopped short of anything is a stub. Real towns have dead ends, but
+as many as their neighbourhoods, not a comb: a year's new streets whose end
+meets nothing run on along their heading to the first street ahead within
+``reach`` (a tee, at a fair angle, crossing no street, water or forbidden
+land on the way); a stub that cannot, and is shorter than ``reach``, is
+dropped (it never met anything), as patches trim their cut ends.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import shapely
+
+#: Ends closer than this (m) are the same point.
+SAME = 1e-3
+
+
+@dataclass(frozen=True)
+class StubReport:
+    """What :func:`close_stubs` did."""
+
+    tees: int = 0  #: stubs that ran on to a street
+    dropped: int = 0  #: stubs that went
+
+
+def close_stubs(lines: list[np.ndarray], bridges: list[bool], town: np.ndarray, town_nodes: np.ndarray,
+                blocked: shapely.Geometry, *, reach: float, min_angle: float = 35.0
+                ) -> tuple[list[np.ndarray], list[bool], StubReport]:
+    """The year's new streets with their stubs run on or dropped (module docstring).
+
+    Parameters
+    ----------
+    lines : the new streets, each ``(n_i, 2)`` metres.
+    bridges : per line, whether it is a bridge (bridges are left alone).
+    town : (S,) LineStrings of the streets that stood before.
+    town_nodes : (N, 2) their nodes: a new street ending on one is joined there.
+    blocked : what a street may not touch (water, forbidden land).
+    reach : metres a stub may run on.
+    min_angle : degrees: a stub meets a street at this angle or more.
+
+    Returns
+    -------
+    (lines, bridges, report): links appended after the lines; a new line a
+    link lands on gets the landing point as a vertex.
+    """
+    lines = [np.asarray(xy, dtype=float) for xy in lines]
+    if not lines:
+        return lines, list(bridges), StubReport()
+    ends = _stub_ends(lines, town, town_nodes)
+    if not ends:
+        return lines, list(bridges), StubReport()
+    town_tree = shapely.STRtree(town) if len(town) else None
+    links: list[np.ndarray] = []
+    closed: set[tuple[int, int]] = set()
+    landed: set[int] = set()
+    for k, side in ends:
+        if bridges[k]:
+            continue
+        xy = lines[k]
+        p, prev = (xy[0], xy[1]) if side == 0 else (xy[-1], xy[-2])
+        d = p - prev
+        d = d / max(float(np.hypot(*d)), 1e-12)
+        hit = _first_ahead(p, d, reach, lines, k, town, town_tree, links, min_angle)
+        if hit is None:
+            continue
+        at, j = hit
+        link = np.array([p, at])
+        if blocked is not None and not blocked.is_empty and blocked.intersects(_inner(link)):
+            continue
+        if j >= 0:
+            lines[j] = _with_vertex(lines[j], at)
+            landed.add(j)
+        links.append(link)
+        closed.add((k, side))
+    left = [(k, s) for k, s in ends if (k, s) not in closed and not bridges[k]]
+    drop = {k for k, s in left if _length(lines[k]) < reach and k not in landed}
+    keep = [k for k in range(len(lines)) if k not in drop]
+    out = [lines[k] for k in keep] + links
+    flags = [bridges[k] for k in keep] + [False] * len(links)
+    return out, flags, StubReport(tees=len(links), dropped=len(drop))
+
+
+def _stub_ends(lines: list[np.ndarray], town: np.ndarray, town_nodes: np.ndarray) -> list[tuple[int, int]]:
+    """(line, 0 or 1) of every end that meets nothing: no other new line's vertex, no town node, no
+    town street."""
+    ends = np.array([xy[i] for xy in lines for i in (0, -1)])
+    owner = np.repeat(np.arange(len(lines)), 2)
+    vertices = np.concatenate(lines)
+    vowner = np.concatenate([np.full(len(xy), k) for k, xy in enumerate(lines)])
+    from scipy.spatial import cKDTree
+
+    on_new = [set(vowner[i].tolist()) - {owner[e]} for e, i in
+              enumerate(cKDTree(vertices).query_ball_point(ends, SAME))]
+    on_town = np.zeros(len(ends), dtype=bool)
+    if len(town_nodes):
+        on_town |= cKDTree(town_nodes).query(ends, distance_upper_bound=SAME)[0] < SAME
+    if len(town):
+        near = shapely.STRtree(town).query(shapely.points(ends), predicate="dwithin", distance=SAME)[0]
+        on_town[near] = True
+    return [(int(owner[e]), e % 2) for e in range(len(ends)) if not on_new[e] and not on_town[e]]
+
+
+def _first_ahead(p: np.ndarray, d: np.ndarray, reach: float, lines: list[np.ndarray], own: int, town: np.ndarray,
+                 town_tree: shapely.STRtree | None, links: list[np.ndarray], min_angle: float
+                 ) -> tuple[np.ndarray, int] | None:
+    """Where the ray from ``p`` along ``d`` first meets a street (new line index, or -1 for the town),
+    if it does so within ``reach``, at ``min_angle`` or more, and nothing else is in the way."""
+    ray = shapely.LineString([p + d * 1e-3, p + d * reach])
+    best: tuple[float, np.ndarray, int, bool] | None = None
+    candidates = [(j, xy) for j, xy in enumerate(lines) if j != own and shapely.intersects(ray, shapely.LineString(xy))]
+    if town_tree is not None:
+        candidates += [(-1, np.asarray(town[i].coords)) for i in town_tree.query(ray, predicate="intersects").tolist()]
+    candidates += [(-2, xy) for xy in links if shapely.intersects(ray, shapely.LineString(xy))]
+    for j, xy in candidates:
+        met = _meet(p, d, xy, reach)
+        if met is not None and (best is None or met[0] < best[0]):
+            best = (met[0], met[1], j, met[2] >= min_angle)
+    if best is None or not best[3] or best[2] == -2:
+        return None
+    return best[1], best[2]
+
+
+def _meet(p: np.ndarray, d: np.ndarray, line: np.ndarray, reach: float) -> tuple[float, np.ndarray, float] | None:
+    """Distance along the ray, point and angle (degrees) of its first crossing with ``line``."""
+    a, b = line[:-1], line[1:]
+    seg = b - a
+    cross = seg[:, 0] * d[1] - seg[:, 1] * d[0]
+    with np.errstate(divide="ignore", invalid="ignore"):
+        t = ((a[:, 0] - p[0]) * seg[:, 1] - (a[:, 1] - p[1]) * seg[:, 0]) / -cross
+        u = ((a[:, 0] - p[0]) * d[1] - (a[:, 1] - p[1]) * d[0]) / -cross
+    ok = np.isfinite(t) & (t > 1e-3) & (t <= reach) & (u >= 0.0) & (u <= 1.0)
+    if not ok.any():
+        return None
+    i = int(np.flatnonzero(ok)[np.argmin(t[ok])])
+    sin = abs(float(cross[i])) / max(float(np.hypot(*seg[i])), 1e-12)
+    return float(t[i]), a[i] + u[i] * seg[i], float(np.degrees(np.arcsin(min(sin, 1.0))))
+
+
+def _inner(link: np.ndarray) -> shapely.LineString:
+    """The link less a metre at each end (it may touch what it joins)."""
+    line = shapely.LineString(link)
+    if line.length <= 2.0:
+        return shapely.LineString()
+    import shapely.ops
+
+    return shapely.ops.substring(line, 1.0, line.length - 1.0)
+
+
+def _with_vertex(xy: np.ndarray, q: np.ndarray) -> np.ndarray:
+    """The polyline with ``q`` (which lies on it) inserted as a vertex where it lies."""
+    a, b = xy[:-1], xy[1:]
+    seg = b - a
+    t = np.clip(((q - a) * seg).sum(axis=1) / np.maximum((seg ** 2).sum(axis=1), 1e-12), 0.0, 1.0)
+    dist = np.hypot(*(a + t[:, None] * seg - q).T)
+    i = int(np.argmin(dist))
+    if np.hypot(*(xy[i] - q)) < SAME or np.hypot(*(xy[i + 1] - q)) < SAME:
+        return xy
+    return np.vstack([xy[:i + 1], q, xy[i + 1:]])
+
+
+def _length(xy: np.ndarray) -> float:
+    return float(np.hypot(*np.diff(xy, axis=0).T).sum())
