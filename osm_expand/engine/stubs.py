@@ -14,6 +14,7 @@ from dataclasses import dataclass
 
 import numpy as np
 import shapely
+import shapely.ops
 
 #: Ends closer than this (m) are the same point.
 SAME = 1e-3
@@ -145,8 +146,6 @@ def _inner(link: np.ndarray) -> shapely.LineString:
     line = shapely.LineString(link)
     if line.length <= 2.0:
         return shapely.LineString()
-    import shapely.ops
-
     return shapely.ops.substring(line, 1.0, line.length - 1.0)
 
 
