@@ -5,7 +5,7 @@ For each town and seed: ``osm-expand CITY`` in-process with default options
 neighbourhoods of the town (:mod:`osm_expand.fidelity`, issue 20). Prints, per
 town, the off count per seed and its mean (of 14 measures), the median real
 neighbourhood's, in how many seeds the street density, the dead-end share and
-the 2-core share are in range (issue 20 asks 4 of 5 for each), the pieces the
+the 2-core share are in range, and in which (y/n per seed; issue 20 asks 4 of 5 for each), the pieces the
 district makes on the map per seed (issue 20: at most 2), how often each
 measure is off, and with ``--table`` the full table (value, range) for the
 first seed; and the time of a whole run.
@@ -67,7 +67,8 @@ def main() -> None:
         rows = run(name, args.seeds, args.pattern, overrides)
         off = [r["off"] for r in rows]
         often = Counter(k for r in rows for k, v in r["measures"].items() if not v["ok"])
-        in_range = " | ".join(f"{sum(r['ok'][k] for r in rows)}/{n}" for k in IN_RANGE)
+        in_range = " | ".join(f"{sum(r['ok'][k] for r in rows)}/{n} ({''.join('y' if r['ok'][k] else 'n' for r in rows)})"
+                              for k in IN_RANGE)
         print(f"| {name} | {' '.join(map(str, off))} | {np.mean(off):.1f} | {rows[0]['typical']:g} "
               f"| {in_range} | {' '.join(str(r['pieces']) for r in rows)} | "
               f"{', '.join(f'{k} {v}' for k, v in often.most_common(4))} | "
