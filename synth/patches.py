@@ -50,7 +50,7 @@ import shapely
 import shapely.ops
 from scipy.spatial import cKDTree
 
-from osm_expand.model import City, Origin, StreetNetwork, network_from_lines
+from osm_expand.model import City, Origin, StreetNetwork, network_from_lines, polyline_length
 from osm_expand.model.geometry import closest_on_segments
 from osm_expand.model.topology import dangling_chains, segment_degree, without_segments
 from simplify.example import Example
@@ -231,6 +231,7 @@ def _quilt(source: _Source, quilt: _Quilt, centres: np.ndarray, cells: list, reg
         net = _connect_pieces(net, old, occupied, opts.link_reach * spacing)
         if dead_ends is not None:
             net = _fewer_dead_ends(net, old, occupied, spacing, opts, dead_ends)
+        net = _planar(net)
         length = net.total_length()
         if length >= target or placed >= len(centres):
             break
@@ -950,3 +951,28 @@ def _ring_run(ring: shapely.LinearRing, start: float, along: float) -> np.ndarra
     n = max(int(np.ceil(along / CONNECTOR_STEP)), 1)
     at = (start + np.linspace(0.0, along, n + 1)) % ring.length
     return shapely.get_coordinates(shapely.line_interpolate_point(ring, at))
+
+
+def _planar(net: StreetNetwork) -> StreetNetwork:
+    """The district with no two streets touching away from a node they share: of each such pair the
+    shorter street goes (the seams, tees and perimeter streets each check what stood when they were
+    made; two cut ends of neighbouring cells can still end a few decimetres past each other)."""
+    if len(net.streets) < 2:
+        return net
+    pairs = [(a, b, k) for k, st in enumerate(net.streets) for a, b in zip(st.nodes[:-1], st.nodes[1:])]
+    seg = np.array([(a, b) for a, b, _ in pairs], dtype=np.intp)
+    owner = np.array([k for _, _, k in pairs])
+    lines = shapely.linestrings(net.xy[seg])
+    left, right = shapely.STRtree(lines).query(lines, predicate="intersects")
+    keep = left < right
+    left, right = left[keep], right[keep]
+    shared = (seg[left][:, :, None] == seg[right][:, None, :]).any(axis=(1, 2))
+    left, right = left[~shared], right[~shared]
+    if not len(left):
+        return net
+    length = np.array([polyline_length(net.street_xy(st)) for st in net.streets])
+    drop = set()
+    for i, j in zip(owner[left].tolist(), owner[right].tolist()):
+        if i != j and i not in drop and j not in drop:
+            drop.add(i if (length[i], i) < (length[j], j) else j)
+    return net.replace(streets=tuple(st for k, st in enumerate(net.streets) if k not in drop))

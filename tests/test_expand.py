@@ -164,7 +164,8 @@ def test_the_district_keeps_off_the_old_blocks_and_out_of_the_water(name):
         line = shapely.LineString(net.street_xy(street))
         assert not line.intersects(old_blocks)
         wet = line.intersection(water).length if not water.is_empty else 0.0
-        assert wet == 0.0 or (street.bridge and wet <= MAX_BRIDGE + 10.0)  # + the 5 m kept at each end
+        # a street may end on the shore: its length in the water is then a rounding error, not a wade
+        assert wet < 1e-6 or (street.bridge and wet <= MAX_BRIDGE + 10.0)  # + the 5 m kept at each end
 
 
 @pytest.mark.parametrize("name", TOWNS)
