@@ -239,11 +239,15 @@ def read_land(city: City, options: LandOptions | None = None) -> Land:
         if len(frontage_arr) + len(settled) else np.empty(0, dtype=object)
     taken = taken[(shapely.get_type_id(taken) == 3) & (shapely.area(taken) >= opts.min_piece)] if len(taken) else taken
     claimed = np.array([*frontage, *settlement], dtype=object)
+    presumed = taken
+    if len(footprints) and opts.survey_radius > 0 and len(claimed):
+        presumed = shapely.get_parts(_less(claimed, shapely.buffer(footprints, opts.survey_radius, quad_segs=4)))
+        presumed = presumed[(shapely.get_type_id(presumed) == 3) & (shapely.area(presumed) >= opts.min_piece)]
     town = np.array([*claimed.tolist(), *footprints.tolist()], dtype=object)
     cover = [(a.polygon, f"{a.key}={a.value}") for a in city.areas if matches(a.key, a.value, opts.cover)]
     kinds = tuple(kind for _, kind in cover)
     costs = np.array([_cost(kind, opts.cover) for kind in kinds], dtype=float)
-    return Land(taken=taken, town=town, cover=np.array([p for p, _ in cover], dtype=object), cover_kind=kinds,
+    return Land(taken=taken, town=town, presumed=presumed, cover=np.array([p for p, _ in cover], dtype=object), cover_kind=kinds,
                 cover_cost=costs, frontage_depth=depth, depth_source=source, survey_radius=opts.survey_radius)
 
 

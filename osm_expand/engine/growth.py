@@ -121,6 +121,8 @@ def grow_street_pattern(city: City, count: int, options: PatternOptions, nuclei:
         z = candidate_points(graph, spawned_mask=graph.spawned, ell=ELL, max_degree=options.max_degree,
                              temporary_points=options.segment_starts, segment_mask=_not_bridges(graph),
                              exclude_points=failed if len(failed) else None)
+        if reach is not None and len(z):
+            z = z.take(np.flatnonzero(_at_the_edge(city, z.xy, reach)))
         if not len(z):
             break
         starts = z.take(rank_candidates(z.xy, nuclei, take=batch))
@@ -153,18 +155,36 @@ def grow_street_pattern(city: City, count: int, options: PatternOptions, nuclei:
     return grown, GrowthYear(streets=len(grown.network.streets) - before, length_m=length, bridges=int(sum(bridges)))
 
 
+def _at_the_edge(city: City, xy: np.ndarray, reach: float) -> np.ndarray:
+    """Per point, whether it lies within ``reach`` of the built-up land: the town's land
+    (:attr:`~osm_expand.model.land.Land.town`) or a street the tool made. Towns grow at the edge of
+    what is built and along its roads, not out of a country road in the fields (Liu et al. 2010's
+    outlying growth)."""
+    near = np.zeros(len(xy), dtype=bool)
+    points = shapely.points(xy)
+    if city.land is not None and len(city.land.town):
+        near[city.land.town_tree.query(points, predicate="dwithin", distance=reach)[0]] = True
+    lines = city.network.street_lines()
+    made = np.array([s.is_new for s in city.network.streets], dtype=bool)
+    if made.any():
+        near[shapely.STRtree(lines[made]).query(points, predicate="dwithin", distance=reach)[0]] = True
+    if city.land is None:
+        near[:] = True
+    return near
+
+
 def _forbidden(city: City) -> shapely.Geometry:
     """Where no street may go: the blocks that are town (shrunk 1 m), unbuildable land and the land the
-    town takes (:class:`~osm_expand.model.land.Land`: its frontage and settlement); water is handled by
-    the pattern's bridges. A collection, not a union: the patterns only ask whether a segment touches it
+    town is presumed to take where no building is mapped near (:attr:`~osm_expand.model.land.Land.presumed`:
+    its frontage and settlement); water is handled by the pattern's bridges. A collection, not a union: the patterns only ask whether a segment touches it
     (GEOS ≥ 3.13 answers that for overlapping parts), and the union of Campo Grande's blocks cost a
     second a year."""
     blocks = city.town_block_polygons()
     parts = shapely.buffer(blocks, -1.0).tolist() if len(blocks) else []
     if city.unbuildable is not None:
         parts.append(city.unbuildable)
-    if city.land is not None:
-        parts.extend(city.land.taken.tolist())
+    if city.land is not None:  # where buildings are mapped, they (unbuildable, with a margin) are what stops a street
+        parts.extend(city.land.presumed.tolist())
     return shapely.GeometryCollection([p for p in parts if not p.is_empty])
 
 

@@ -6,7 +6,11 @@ as many as their neighbourhoods, not a comb: a year's new streets whose end
 meets nothing run on along their heading to the first street ahead within
 ``reach`` (a tee, at a fair angle, crossing no street, water or forbidden
 land on the way); a stub that cannot, and is shorter than ``reach``, is
-dropped (it never met anything), as patches trim their cut ends.
+dropped (it never met anything), as patches trim their cut ends, round
+after round, since a street that lost its branch may become a stub itself.
+A longer stub stays: a street pattern grows trees that later years close
+(dropping every stub beyond the town's dead-end share starved Krems'
+european history to 5 km of street in 50 years, against 25 km).
 """
 from __future__ import annotations
 
@@ -56,8 +60,6 @@ def close_stubs(lines: list[np.ndarray], bridges: list[bool], town: np.ndarray, 
         return lines, list(bridges), StubReport()
     town_tree = shapely.STRtree(town) if len(town) else None
     links: list[np.ndarray] = []
-    closed: set[tuple[int, int]] = set()
-    landed: set[int] = set()
     for k, side in ends:
         if bridges[k]:
             continue
@@ -74,15 +76,31 @@ def close_stubs(lines: list[np.ndarray], bridges: list[bool], town: np.ndarray, 
             continue
         if j >= 0:
             lines[j] = _with_vertex(lines[j], at)
-            landed.add(j)
         links.append(link)
-        closed.add((k, side))
-    left = [(k, s) for k, s in ends if (k, s) not in closed and not bridges[k]]
-    drop = {k for k, s in left if _length(lines[k]) < reach and k not in landed}
+    out = lines + links
+    flags = list(bridges) + [False] * len(links)
+    dropped = 0
+    for _ in range(MAX_ROUNDS):  # a stub dropped can leave the street it hung from a stub in turn
+        out, flags, gone = _drop_stubs(out, flags, town, town_nodes, reach)
+        dropped += gone
+        if not gone:
+            break
+    return out, flags, StubReport(tees=len(links), dropped=dropped)
+
+
+#: Rounds of dropping stubs (each may leave new ones).
+MAX_ROUNDS = 8
+
+
+def _drop_stubs(lines: list[np.ndarray], bridges: list[bool], town: np.ndarray, town_nodes: np.ndarray,
+                reach: float) -> tuple[list[np.ndarray], list[bool], int]:
+    """One round: the stubs shorter than ``reach`` go."""
+    if not lines:
+        return lines, bridges, 0
+    ends = [(k, side) for k, side in _stub_ends(lines, town, town_nodes) if not bridges[k]]
+    drop = {k for k, _ in ends if _length(lines[k]) < reach}
     keep = [k for k in range(len(lines)) if k not in drop]
-    out = [lines[k] for k in keep] + links
-    flags = [bridges[k] for k in keep] + [False] * len(links)
-    return out, flags, StubReport(tees=len(links), dropped=len(drop))
+    return [lines[k] for k in keep], [bridges[k] for k in keep], len(drop)
 
 
 def _stub_ends(lines: list[np.ndarray], town: np.ndarray, town_nodes: np.ndarray) -> list[tuple[int, int]]:

@@ -38,6 +38,9 @@ class Land:
 
     taken: np.ndarray
     town: np.ndarray
+    #: the part of ``taken`` no mapped building is near: presumed occupied, since the map cannot tell.
+    #: Where buildings are mapped they speak for themselves (a street pattern may pass a garden, never a house)
+    presumed: np.ndarray = field(default_factory=lambda: np.empty(0, dtype=object))
     cover: np.ndarray = field(default_factory=lambda: np.empty(0, dtype=object))
     cover_kind: tuple[str, ...] = ()
     cover_cost: np.ndarray = field(default_factory=lambda: np.zeros(0))
@@ -51,6 +54,10 @@ class Land:
     @cached_property
     def taken_tree(self) -> shapely.STRtree:
         return shapely.STRtree(self.taken)
+
+    @cached_property
+    def town_tree(self) -> shapely.STRtree:
+        return shapely.STRtree(self.town)
 
     def taken_near(self, box: shapely.Geometry) -> list[shapely.Geometry]:
         """The parts of ``taken`` that meet ``box``."""
