@@ -28,7 +28,7 @@ from osm_expand.measures import LineSet, NetworkMeasures, measure_network
 from osm_expand.heights import with_heights
 from osm_expand.joins import JoinReport, join_growth
 from osm_expand.land import LandOptions, unbuildable
-from osm_expand.model import City, Origin, Status, StreetNetwork, polyline_length
+from osm_expand.model import City, Origin, Status, StreetNetwork, demolished_ways, polyline_length
 from osm_expand.sites import Site, SiteOptions, choose_sites, distance_maps
 from simplify import simplify
 from simplify.example import Example, build_example
@@ -230,7 +230,8 @@ def mature(result: ExpandResult, options: ExpandOptions, *, progress: Progress =
                  district_pattern=district_pattern(result.learned), join_points=result.joins.at,
                  buildout=_buildout(), progress=each_year, snapshot=options.snapshot,
                  snapshot_every=options.snapshot_every)
-    report = {**result.report, "engine": engine.report}
+    # the mapped ways a history demolished: the OSM output leaves them out, the report lists them
+    report = {**result.report, "engine": engine.report, "demolished_osm_ways": demolished_ways(engine.city)}
     return replace(result, city=engine.city, report=report)
 
 

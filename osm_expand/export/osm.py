@@ -53,7 +53,13 @@ from lxml import etree
 
 from osm_expand.errors import InputError
 from osm_expand.export.atomic import atomic_write
-from osm_expand.export.features import ORIGIN_KEY, building_tags, lot_tags, osm_street_tags, to_lonlat
+from osm_expand.export.features import (
+    ORIGIN_KEY,
+    building_tags,
+    lot_tags,
+    osm_street_tags,
+    to_lonlat,
+)
 from osm_expand.model import Building, City, Origin, demolished_ways
 
 GENERATOR = "osm-expand"
