@@ -603,11 +603,14 @@ def _polygon_parts(footprints: Sequence[shapely.Geometry | np.ndarray]) -> np.nd
         ring = np.asarray(f, dtype=float).reshape(-1, 2)
         if len(ring) >= 3 and np.isfinite(ring).all():
             geoms.append(shapely.Polygon(ring))
-    if not geoms:
-        return np.empty(0, dtype=object)
-    parts = shapely.make_valid(np.array(geoms, dtype=object))
-    for _ in range(2):  # a collection made valid may hold multipolygons
-        parts = shapely.get_parts(parts)
+    # polygons one by one first: GEOS cannot make valid a multipolygon with a collapsed part
+    # ("mixed-dimension"); a bow-tie made valid is a multipolygon, a collection may hold multipolygons
+    polys = _polygons(np.array(geoms, dtype=object))
+    return _polygons(shapely.make_valid(polys))
+
+
+def _polygons(geoms: np.ndarray) -> np.ndarray:
+    parts = shapely.get_parts(shapely.get_parts(geoms))
     return parts[shapely.get_type_id(parts) == 3]
 
 
