@@ -127,9 +127,11 @@ def test_the_osm_output_reads_back_with_node_locations_and_areas(krems_osm):
 # --------------------------------------------------------------------------- point 17: the input plus what grew
 
 
-def assert_input_plus_growth(src: objects, out: objects, gone: frozenset[int] = frozenset()) -> None:
+def assert_input_plus_growth(src: dict, out: dict, gone: frozenset[int] = frozenset(),
+                             cut: frozenset[int] = frozenset()) -> None:
     """Every object of ``src`` in ``out`` (but the demolished ways) with its tags, version and order; the
-    mapped ways' nodes as mapped, with only new nodes put in; nothing missing that the input has."""
+    mapped ways' nodes as mapped (but those ``cut``), with only new nodes put in; nothing missing that
+    the input has."""
     for kind in "nwr":
         lost = set(src[kind]) - set(out[kind]) - (gone if kind == "w" else set())
         assert not lost, (kind, sorted(lost)[:5])
@@ -139,7 +141,7 @@ def assert_input_plus_growth(src: objects, out: objects, gone: frozenset[int] = 
         kept = [i for i in out["order"][kind] if i in src[kind]]
         assert kept == [i for i in src["order"][kind] if i in out[kind]]
     for i, (_, _, refs) in src["w"].items():
-        if i in out["w"]:
+        if i in out["w"] and i not in cut:
             assert [r for r in out["w"][i][2] if r in src["n"] or r < SYNTHETIC_NODE_BASE] == refs, i
     for i, (_, _, members) in src["r"].items():
         assert out["r"][i][2] == [m for m in members if not (m[0] == "w" and m[1] in gone)], i
@@ -181,13 +183,23 @@ def test_demolished_ways_are_left_out_and_reported(tmp_path):
     member_ways = {r for _, _, ms in src["r"].values() for t, r, _ in ms if t == "w"}
     victim = next(s.osm_ids[0] for s in net.streets if s.osm_ids and s.osm_ids[0] in member_ways
                   and sum(1 for t in net.streets if t.osm_ids == s.osm_ids) == 1)
-    streets = tuple(s for s in net.streets if s.osm_ids != (victim,))
-    razed = result.city.replace(network=net.replace(streets=streets))
+    # and one cut in two: its middle stretch demolished (a rebuilding road on the old town)
+    cut_k = next(k for k, s in enumerate(net.streets) if len(s.nodes) >= 6 and s.osm_ids and s.osm_ids[0] != victim
+                 and sum(1 for t in net.streets if t.osm_ids == s.osm_ids) == 1)
+    cut = net.streets[cut_k]
+    halves = (cut.with_nodes(cut.nodes[:3]), cut.with_nodes(cut.nodes[4:]))
+    streets = [s for k, s in enumerate(net.streets) if s.osm_ids != (victim,) and k != cut_k] + list(halves)
+    razed = result.city.replace(network=net.replace(streets=tuple(streets)))
     assert demolished_ways(razed) == [victim] and demolished_ways(result.city) == []
     write_osm(razed, tmp_path / "razed.osm")
     out = objects(tmp_path / "razed.osm")
     assert victim not in out["w"]
-    assert_input_plus_growth(src, out, gone=frozenset({victim}))
+    ids = net.node_ids
+    gone_edge = {int(ids[cut.nodes[2]]), int(ids[cut.nodes[3]])}
+    assert out["w"][cut.osm_ids[0]][2] == ids[list(cut.nodes[:3])].tolist()  # the first half keeps the id
+    assert not any(gone_edge <= set(zip_) for _, _, refs in out["w"].values() for zip_ in zip(refs[:-1], refs[1:]))
+    assert [refs for i, (_, _, refs) in out["w"].items() if i < 0 and refs == ids[list(cut.nodes[4:])].tolist()]
+    assert_input_plus_growth(src, out, gone=frozenset({victim}), cut=frozenset(cut.osm_ids))
 
 
 def test_a_street_is_laid_back_onto_its_mapped_way():
@@ -197,3 +209,8 @@ def test_a_street_is_laid_back_onto_its_mapped_way():
     assert laid_over(refs, [[1, 2, 3], [3, -1, 4]]) == [1, 2, 3, -1, 4, 5, 6]  # parts sharing a node
     assert laid_over(refs, [[3, -1, 2]]) == [1, 2, -1, 3, 4, 5, 6]  # held reversed
     assert laid_over(refs, [[1, 9]]) is None and laid_over(refs, [[-1, 2, 3]]) is None
+    # a gap of the extract (3, 4 missing) is kept; a stretch between two nodes the file has is not
+    gap = [True, True, False, False, True, True]
+    assert laid_over(refs, [[1, 2], [5, 6]], gap) == refs
+    assert laid_over(refs, [[1, 2, 3], [4, 5, 6]], [True] * 6) is None  # 3-4 demolished
+    assert laid_over(refs, [[2, -1, 3, 4, 5, 6]], [True] * 6) is None  # 1-2 demolished

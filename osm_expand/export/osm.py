@@ -206,15 +206,20 @@ def _source_tags(tags: dict[str, str]) -> dict[str, str]:
     return {**tags, ORIGIN_KEY: str(Origin.SOURCE)} if tags else {}
 
 
-def laid_over(refs: Refs, parts: list[Refs]) -> Refs | None:
+def laid_over(refs: Refs, parts: list[Refs], located: list[bool] | None = None) -> Refs | None:
     """The mapped way's node list ``refs`` with each part laid over the run of its mapped nodes.
 
     The city holds a mapped way as one street, or several where a clipped extract cut it, with
     new nodes (tees) put in between its mapped ones. Each part's mapped nodes are a run of
     ``refs`` (or of it reversed); the result is ``refs`` with those runs replaced by the parts,
-    the nodes outside every part kept. None when a part does not fit (the way is then written
-    as its parts).
+    the nodes outside every part kept (those the extract lacks). None when a part does not fit,
+    or when a stretch between two nodes the file has (``located``) is in no part: ingest made a
+    street of every such stretch, so the tool demolished it, and the way is written as its parts.
     """
+    if located is not None:
+        held = {frozenset(e) for part in parts for e in _pairs([r for r in part if r > 0])}
+        if any(located[i] and located[i + 1] and frozenset(e) not in held for i, e in enumerate(_pairs(refs))):
+            return None
     out: Refs = []
     pos = 0
     for part in parts:
@@ -232,6 +237,10 @@ def laid_over(refs: Refs, parts: list[Refs]) -> Refs | None:
         out += refs[pos:start] + part
         pos = start + len(mapped)
     return out + refs[pos:]
+
+
+def _pairs(refs: Refs) -> list[tuple[int, int]]:
+    return list(zip(refs[:-1], refs[1:]))
 
 
 def _run(refs: Refs, run: Refs, start: int) -> int | None:
@@ -387,15 +396,19 @@ def _write_over_source(city: City, new: _New, out: IO[bytes], folder: str) -> No
 
 
 def _lay_parts(src: str, new: _New) -> tuple[dict[int, Refs], dict[int, list[Refs]]]:
-    """The city's streets laid back onto the mapped ways they came from (one read of the file,
-    only those ways reaching Python): (way id → its node list, way id → parts that do not fit)."""
+    """The city's streets laid back onto the mapped ways they came from (one read of the file with
+    node locations, only those ways reaching Python): (way id → its node list, way id → parts that
+    do not fit)."""
     laid: dict[int, Refs] = {}
     split: dict[int, list[Refs]] = {}
     if not new.parts:
         return laid, split
-    fp = osmium.FileProcessor(src, osmium.osm.WAY).with_filter(osmium.filter.IdFilter(new.parts.keys()))
+    fp = (osmium.FileProcessor(src, osmium.osm.NODE | osmium.osm.WAY).with_locations()
+          .with_filter(osmium.filter.EntityFilter(osmium.osm.WAY))
+          .with_filter(osmium.filter.IdFilter(new.parts.keys())))
     for way in fp:
-        refs = laid_over([n.ref for n in way.nodes], new.parts[way.id])
+        located = [n.location.valid() for n in way.nodes]
+        refs = laid_over([n.ref for n in way.nodes], new.parts[way.id], located)
         if refs is None:
             split[way.id] = new.parts[way.id]
         else:
