@@ -214,3 +214,17 @@ def test_a_street_is_laid_back_onto_its_mapped_way():
     assert laid_over(refs, [[1, 2], [5, 6]], gap) == refs
     assert laid_over(refs, [[1, 2, 3], [4, 5, 6]], [True] * 6) is None  # 3-4 demolished
     assert laid_over(refs, [[2, -1, 3, 4, 5, 6]], [True] * 6) is None  # 1-2 demolished
+
+
+def test_an_output_grown_again_keeps_its_new_objects_and_their_ids(krems_osm, tmp_path):
+    """The output fed back in (the next tool may be osm-expand itself): its negative ids and new nodes
+    come back as they were, and the newer objects get ids of their own."""
+    out = tmp_path / "again.osm"
+    assert cli.main([str(krems_osm), "--years", "0", "-o", str(out), "-q", "--seed", "1"]) == 0
+    src, again = objects(krems_osm), objects(out)
+    assert_input_plus_growth(src, again)
+    for kind in "nwr":
+        assert len(set(again["order"][kind])) == len(again["order"][kind])  # no id twice
+    assert len(again["w"]) > len(src["w"]) and min(again["w"]) < min(src["w"])
+    lines = layer(out, "lines")
+    assert (lines.osm_id.astype(np.int64) < 0).sum() > (layer(krems_osm, "lines").osm_id.astype(np.int64) < 0).sum()

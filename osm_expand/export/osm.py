@@ -26,7 +26,8 @@ Ids and order, chosen so that the three readers users have all read the file (ea
   OSM's own ids (1.3e10 in 2025) and leaves 4e13 ids below GDAL's limit.
 - new ways and relations get negative ids, -1, -2, ... (JOSM's ids of new objects), and are
   written before the input's, as ``osmium sort`` orders them (negative ids first by absolute
-  value); libosmium's multipolygon assembly needs that order.
+  value); libosmium's multipolygon assembly needs that order. A map that is itself an output
+  has negative ids already: the new ones follow them, numbered on below the lowest.
 - a mapped way that the city holds in parts it cannot lay back onto the mapped way keeps its id
   on its first part; the other parts get new negative ids, as JOSM does when it splits a way.
 - the file says ``upload="never"``, so JOSM will not upload the new objects.
@@ -155,15 +156,16 @@ def _new_objects(city: City) -> _New:
     street_node[used] = new.nodes.add(net.node_ids[used], to_lonlat(city, net.xy[used]))
     for street in net.streets:
         refs = street_node[list(street.nodes)].tolist()
-        if len(street.osm_ids) == 1 and street.osm_ids[0] > 0:
+        if len(street.osm_ids) == 1 and street.osm_ids[0] != 0:
             new.parts.setdefault(street.osm_ids[0], []).append(refs)
-            new.part_tags.setdefault(street.osm_ids[0], osm_street_tags(street))
+            new.part_tags.setdefault(street.osm_ids[0], _source_tags(dict(street.tags)) if street.tags
+                                     else osm_street_tags(street))
         else:
             new.ways.append((new.new_id(), refs, osm_street_tags(street)))
     from_source = city.source is not None
     relations: dict[int, list[Building]] = defaultdict(list)
     for b in city.buildings:
-        if b.osm_id > 0 and from_source:  # written from the source, as mapped
+        if b.osm_id != 0 and from_source:  # written from the source, as mapped
             continue
         if b.osm_type == "relation" and b.osm_id > 0:
             relations[b.osm_id].append(b)
@@ -202,8 +204,9 @@ def _ring_ids(city: City, nodes: _Nodes, b: Building) -> list[Refs]:
 
 
 def _source_tags(tags: dict[str, str]) -> dict[str, str]:
-    """A mapped object's tags, with its origin when it has any (untagged ways are structure)."""
-    return {**tags, ORIGIN_KEY: str(Origin.SOURCE)} if tags else {}
+    """A mapped object's tags, with its origin when it has tags (untagged ways are structure) and
+    none yet (a map that is an earlier output keeps the origins that output gave)."""
+    return {**tags, ORIGIN_KEY: tags.get(ORIGIN_KEY, str(Origin.SOURCE))} if tags else {}
 
 
 def laid_over(refs: Refs, parts: list[Refs], located: list[bool] | None = None) -> Refs | None:
@@ -377,9 +380,10 @@ def _write_over_source(city: City, new: _New, out: IO[bytes], folder: str) -> No
         base = max(SYNTHETIC_NODE_BASE, largest)
         for i, (lon, lat) in zip(numbered(fresh.tolist(), base), fresh_lonlat.tolist()):
             body.node(_new_attrs(i), lon, lat)
-        for way_id, refs, tags in ways:
-            body.way(_new_attrs(way_id), numbered(refs, base), tags)
+        new_ways = _AfterNegative(lambda below: [body.way(_new_attrs(way_id + below), numbered(refs, base), tags)
+                                                 for way_id, refs, tags in ways])
         for way in osmium.FileProcessor(src, osmium.osm.WAY):
+            new_ways.before(way.id)
             if way.id in gone:
                 continue
             refs = laid.get(way.id)
@@ -387,26 +391,49 @@ def _write_over_source(city: City, new: _New, out: IO[bytes], folder: str) -> No
                 body.way(_mapped_attrs(way), [n.ref for n in way.nodes], _source_tags(dict(way.tags)))
             else:
                 body.way(_mapped_attrs(way), numbered(refs, base), new.part_tags[way.id])
-        for rel_id, members, tags in new.relations:
-            body.relation(_new_attrs(rel_id), members, tags)
+        new_ways.before(1)
+        new_relations = _AfterNegative(lambda below: [body.relation(_new_attrs(rel_id + below), members, tags)
+                                                      for rel_id, members, tags in new.relations])
         for rel in osmium.FileProcessor(src, osmium.osm.RELATION):
+            new_relations.before(rel.id)
             members = [(m.type, m.ref, m.role) for m in rel.members if not (m.type == "w" and m.ref in gone)]
             body.relation(_mapped_attrs(rel), members, _source_tags(dict(rel.tags)))
+        new_relations.before(1)
         _envelope(out, body, city, fresh_lonlat)
+
+
+class _AfterNegative:
+    """Writes the new ways (or relations) once, where ``osmium sort`` puts them: after the input's
+    negative ids (a map that is an earlier output has them), numbered on below the lowest of those,
+    and before its first positive id."""
+
+    def __init__(self, write) -> None:
+        self.write, self.lowest, self.done = write, 0, False
+
+    def before(self, osm_id: int) -> None:
+        if self.done:
+            return
+        if osm_id < 0:
+            self.lowest = min(self.lowest, osm_id)
+            return
+        self.write(self.lowest)
+        self.done = True
 
 
 def _lay_parts(src: str, new: _New) -> tuple[dict[int, Refs], dict[int, list[Refs]]]:
     """The city's streets laid back onto the mapped ways they came from (one read of the file with
-    node locations, only those ways reaching Python): (way id → its node list, way id → parts that
-    do not fit)."""
+    node locations, only its highways reaching Python): (way id → its node list, way id → parts
+    that do not fit)."""
     laid: dict[int, Refs] = {}
     split: dict[int, list[Refs]] = {}
     if not new.parts:
         return laid, split
     fp = (osmium.FileProcessor(src, osmium.osm.NODE | osmium.osm.WAY).with_locations()
           .with_filter(osmium.filter.EntityFilter(osmium.osm.WAY))
-          .with_filter(osmium.filter.IdFilter(new.parts.keys())))
+          .with_filter(osmium.filter.KeyFilter("highway")))  # streets (pyosmium's IdFilter takes no negative ids)
     for way in fp:
+        if way.id not in new.parts:
+            continue
         located = [n.location.valid() for n in way.nodes]
         refs = laid_over([n.ref for n in way.nodes], new.parts[way.id], located)
         if refs is None:

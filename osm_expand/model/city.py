@@ -231,9 +231,10 @@ class City:
 
 def held_ways(city: City) -> set[int]:
     """Ids of the OSM ways the city holds: its streets from the map (each part of one), its mapped
-    buildings drawn as ways, and the ways it keeps without a shape."""
-    held = {s.osm_ids[0] for s in city.network.streets if len(s.osm_ids) == 1 and s.osm_ids[0] > 0}
-    held.update(b.osm_id for b in city.buildings if b.osm_type == "way" and b.osm_id > 0)
+    buildings drawn as ways, and the ways it keeps without a shape. Negative ids count: a map may
+    be an earlier output, whose new ways have them."""
+    held = {s.osm_ids[0] for s in city.network.streets if len(s.osm_ids) == 1 and s.osm_ids[0] != 0}
+    held.update(b.osm_id for b in city.buildings if b.osm_type == "way" and b.osm_id != 0)
     held.update(w.osm_id for w in city.unplaced)
     return held
 
