@@ -46,7 +46,8 @@ def _carried_past(part: shapely.LineString, box: shapely.Polygon) -> shapely.Lin
     minx, miny, maxx, maxy = box.bounds
     reach = 2.0 * float(np.hypot(maxx - minx, maxy - miny)) + 1.0
     edge = box.buffer(1e-6 * reach + 1e-6)  # the edge itself counts as in
-    head, tail = [], []
+    head: list[np.ndarray] = []
+    tail: list[np.ndarray] = []
     for end, toward, out in ((coords[0], coords[1:], head), (coords[-1], coords[-2::-1], tail)):
         if not edge.contains(shapely.Point(end)):
             continue

@@ -40,13 +40,15 @@ ways tagged ``landuse=*`` (``leisure=park`` for parks) by their type
 """
 from __future__ import annotations
 
+import itertools
 import os
 import shutil
 import tempfile
 from collections import defaultdict
+from collections.abc import Callable, Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import IO
+from typing import IO, TypeVar
 
 import numpy as np
 import osmium
@@ -181,8 +183,8 @@ def _new_objects(city: City) -> _New:
                 members.append(("w", way_id, "outer" if k == 0 else "inner"))
         new.relations.append((rel_id, members, {"type": "multipolygon", **building_tags(parts[0])}))
     for lot in city.lots:
-        ring = np.asarray(lot.polygon.exterior.coords)
-        ids = new.nodes.add(np.zeros(len(ring) - 1, dtype=np.int64), to_lonlat(city, ring[:-1]))
+        coords = np.asarray(lot.polygon.exterior.coords)
+        ids = new.nodes.add(np.zeros(len(coords) - 1, dtype=np.int64), to_lonlat(city, coords[:-1]))
         new.ways.append((new.new_id(), [*ids.tolist(), int(ids[0])], lot_tags(lot)))
     if not from_source:
         for way in city.unplaced:  # as mapped: its missing nodes stay missing, as in the input
@@ -243,7 +245,7 @@ def laid_over(refs: Refs, parts: list[Refs], located: list[bool] | None = None) 
 
 
 def _pairs(refs: Refs) -> list[tuple[int, int]]:
-    return list(zip(refs[:-1], refs[1:]))
+    return list(itertools.pairwise(refs))
 
 
 def _run(refs: Refs, run: Refs, start: int) -> int | None:
@@ -371,8 +373,7 @@ def _write_over_source(city: City, new: _New, out: IO[bytes], folder: str) -> No
     largest = 0
     with tempfile.TemporaryFile(dir=folder) as tmp:
         body = _Body(tmp)
-        reader = osmium.FileProcessor(src, osmium.osm.NODE)
-        for node in reader:
+        for node in _read(src, osmium.osm.Node):
             loc = node.location
             if loc.valid():
                 body.node(_mapped_attrs(node), loc.lon, loc.lat, dict(node.tags))
@@ -380,9 +381,17 @@ def _write_over_source(city: City, new: _New, out: IO[bytes], folder: str) -> No
         base = max(SYNTHETIC_NODE_BASE, largest)
         for i, (lon, lat) in zip(numbered(fresh.tolist(), base), fresh_lonlat.tolist()):
             body.node(_new_attrs(i), lon, lat)
-        new_ways = _AfterNegative(lambda below: [body.way(_new_attrs(way_id + below), numbered(refs, base), tags)
-                                                 for way_id, refs, tags in ways])
-        for way in osmium.FileProcessor(src, osmium.osm.WAY):
+
+        def write_new_ways(below: int) -> None:
+            for way_id, refs, tags in ways:
+                body.way(_new_attrs(way_id + below), numbered(refs, base), tags)
+
+        def write_new_relations(below: int) -> None:
+            for rel_id, members, tags in new.relations:
+                body.relation(_new_attrs(rel_id + below), members, tags)
+
+        new_ways = _AfterNegative(write_new_ways)
+        for way in _read(src, osmium.osm.Way):
             new_ways.before(way.id)
             if way.id in gone:
                 continue
@@ -392,9 +401,8 @@ def _write_over_source(city: City, new: _New, out: IO[bytes], folder: str) -> No
             else:
                 body.way(_mapped_attrs(way), numbered(refs, base), new.part_tags[way.id])
         new_ways.before(1)
-        new_relations = _AfterNegative(lambda below: [body.relation(_new_attrs(rel_id + below), members, tags)
-                                                      for rel_id, members, tags in new.relations])
-        for rel in osmium.FileProcessor(src, osmium.osm.RELATION):
+        new_relations = _AfterNegative(write_new_relations)
+        for rel in _read(src, osmium.osm.Relation):
             new_relations.before(rel.id)
             members = [(m.type, m.ref, m.role) for m in rel.members if not (m.type == "w" and m.ref in gone)]
             body.relation(_mapped_attrs(rel), members, _source_tags(dict(rel.tags)))
@@ -402,12 +410,23 @@ def _write_over_source(city: City, new: _New, out: IO[bytes], folder: str) -> No
         _envelope(out, body, city, fresh_lonlat)
 
 
+_Object = TypeVar("_Object", osmium.osm.Node, osmium.osm.Way, osmium.osm.Relation)
+_ENTITY = {osmium.osm.Node: osmium.osm.NODE, osmium.osm.Way: osmium.osm.WAY, osmium.osm.Relation: osmium.osm.RELATION}
+
+
+def _read(src: str, kind: type[_Object]) -> Iterator[_Object]:
+    """The file's objects of one kind, in file order."""
+    for obj in osmium.FileProcessor(src, _ENTITY[kind]):
+        if isinstance(obj, kind):
+            yield obj
+
+
 class _AfterNegative:
     """Writes the new ways (or relations) once, where ``osmium sort`` puts them: after the input's
     negative ids (a map that is an earlier output has them), numbered on below the lowest of those,
     and before its first positive id."""
 
-    def __init__(self, write) -> None:
+    def __init__(self, write: Callable[[int], None]) -> None:
         self.write, self.lowest, self.done = write, 0, False
 
     def before(self, osm_id: int) -> None:
@@ -432,7 +451,7 @@ def _lay_parts(src: str, new: _New) -> tuple[dict[int, Refs], dict[int, list[Ref
           .with_filter(osmium.filter.EntityFilter(osmium.osm.WAY))
           .with_filter(osmium.filter.KeyFilter("highway")))  # streets (pyosmium's IdFilter takes no negative ids)
     for way in fp:
-        if way.id not in new.parts:
+        if not isinstance(way, osmium.osm.Way) or way.id not in new.parts:
             continue
         located = [n.location.valid() for n in way.nodes]
         refs = laid_over([n.ref for n in way.nodes], new.parts[way.id], located)
