@@ -228,3 +228,15 @@ def test_an_output_grown_again_keeps_its_new_objects_and_their_ids(krems_osm, tm
     assert len(again["w"]) > len(src["w"]) and min(again["w"]) < min(src["w"])
     lines = layer(out, "lines")
     assert (lines.osm_id.astype(np.int64) < 0).sum() > (layer(krems_osm, "lines").osm_id.astype(np.int64) < 0).sum()
+
+
+def test_the_simplified_network_opens_in_gdal(tmp_path):
+    """``osm-expand simplify`` writes the simplified streets alone (no source to give back): GDAL reads
+    every way, the nodes the simplifier made included."""
+    out = tmp_path / "s.osm"
+    assert cli.main(["simplify", str(KREMS), "-o", str(out), "-q"]) == 0
+    objs = objects(out)
+    nodes = np.array(objs["order"]["n"], dtype=np.int64)
+    assert (np.diff(nodes) > 0).all() and nodes.max() < GDAL_NODE_ID_LIMIT
+    assert len(layer(out, "lines")) == len(objs["w"])
+    assert not missing_refs(objs)[0]
