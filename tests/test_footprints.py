@@ -392,3 +392,24 @@ def test_a_multipolygon_building_is_measured_as_its_outers():
     bow_tie = shapely.Polygon([(0, 0), (10, 10), (10, 0), (0, 10)])  # made valid: two triangles
     dims = footprint_dimensions([two, bow_tie, np.array([[0.0, 0.0], [5.0, 5.0]])])
     assert sorted(dims[:, 0].tolist()) == pytest.approx([25.0, 25.0, 72.0, 200.0])
+
+
+def test_a_town_whose_buildings_are_not_all_polygons_grows_through_the_engine():
+    """Issue 21, point 14: a town with self-crossing building rings (valid: multipolygons) stopped the
+    default command in the calibration ("iteration over a 0-d array")."""
+    from dataclasses import replace
+
+    from osm_expand.ingest import load
+    from osm_expand.pipeline import ExpandOptions, expand
+    from tests.conftest import FIXTURES
+
+    city = load(FIXTURES / "krems.osm.gz")
+    buildings = list(city.buildings)
+    for k in range(0, 60, 3):  # bow-ties, 12 m across, where the town's buildings are
+        c = buildings[k].rings[0][:-1].mean(axis=0)
+        bow = c + np.array([(-6.0, -6.0), (6.0, 6.0), (6.0, -6.0), (-6.0, 6.0), (-6.0, -6.0)])
+        ids = buildings[k].node_ids[0][:4].tolist()
+        buildings[k] = replace(buildings[k], rings=(bow,), node_ids=(np.array([*ids, ids[0]]),))
+    assert any(shapely.make_valid(b.polygon).geom_type == "MultiPolygon" for b in buildings)
+    result = expand(city.replace(buildings=tuple(buildings)), ExpandOptions(seed=3, years=2, fidelity=False))
+    assert result.report["engine"]["years"] == 2
