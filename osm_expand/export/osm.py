@@ -270,7 +270,7 @@ class _Body:
         self.lat: list[float] = []
 
     def node(self, attrs: dict[str, str], lon: float, lat: float, tags: dict[str, str] | None = None) -> None:
-        el = etree.Element("node", attrs, lat=f"{lat:.7f}", lon=f"{lon:.7f}")
+        el = etree.Element("node", {**attrs, "lat": f"{lat:.7f}", "lon": f"{lon:.7f}"})
         _tags(el, tags or {})
         self.write(el)
         self.lon.append(lon)
