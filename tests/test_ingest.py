@@ -3,6 +3,8 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from osm_expand.model.highways import DRIVABLE, highway_set, rank
 from osm_expand.ingest import _number, load
@@ -151,3 +153,29 @@ def test_numeric_tags(text, value):
 
 def test_rank_orders_classes():
     assert rank("motorway") < rank("motorway_link") < rank("trunk") < rank("residential") < rank("service")
+
+
+@settings(deadline=None)
+@given(st.floats(0.0, 2 * np.pi), st.floats(0.2, 1.0), st.floats(-0.3, 0.3), st.booleans())
+def test_an_open_coastline_divides_the_box_with_land_on_its_left(angle, reach, offset, on_edge):
+    """A straight coast across a 1 km box, entering from outside and ending inside it (``reach`` of the
+    way across) or exactly on its edge: land on the left, sea on the right, along its whole line."""
+    import shapely
+
+    from osm_expand.coastline import assemble_sea
+
+    box = shapely.box(0.0, 0.0, 1000.0, 1000.0)
+    d = np.array([np.cos(angle), np.sin(angle)])
+    left = np.array([-d[1], d[0]])
+    centre = np.array([500.0, 500.0]) + offset * 400.0 * left
+    # where the line leaves the box going forward: the coast ends there (on_edge) or short of it
+    exit_t = min(((1000.0 if di > 0 else 0.0) - ci) / di for di, ci in zip(d, centre) if abs(di) > 1e-9)
+    end_t = exit_t if on_edge else reach * exit_t
+    coast = np.array([centre - 2000.0 * d, centre + end_t * d])
+    sea = shapely.union_all(list(assemble_sea([coast], box)))
+    for t in np.linspace(-400.0, 0.0, 5):
+        p = centre + t * d
+        if not box.contains(shapely.Point(p + 30 * left)) or not box.contains(shapely.Point(p - 30 * left)):
+            continue
+        assert not sea.contains(shapely.Point(p + 30 * left))
+        assert sea.contains(shapely.Point(p - 30 * left))
