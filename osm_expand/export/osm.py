@@ -78,7 +78,7 @@ class _Nodes:
     """The nodes the city's objects use: mapped ones by OSM id, new ones by placeholders -1, -2, ...
 
     New nodes are numbered only when the writer knows the input's largest node id
-    (:meth:`numbered`), so their ids stay above every id of the input.
+    (:func:`numbered`), so their ids stay above every id of the input.
     """
 
     def __init__(self) -> None:
