@@ -10,7 +10,9 @@ way and relation of it is written with its id, version, timestamp and tags, in t
 - the ways a history demolished (:func:`~osm_expand.model.demolished_ways`) are left out, and
   relations lose them as members;
 - every tagged way and relation carries :data:`~osm_expand.export.features.ORIGIN_KEY`
-  (``source``); nodes are left as mapped (GDAL's ``points`` layer is the tagged nodes).
+  (``source``), but for relations tagged with their ``type`` alone (old-style multipolygons,
+  whose tags are on their outer way); nodes are left as mapped (GDAL's ``points`` layer is the
+  tagged nodes).
 
 What the tool made follows :func:`_new_objects`. A city without a source (a simplified
 network, a GeoJSON read back) is written from the city alone: its streets, buildings and lots.
@@ -206,9 +208,11 @@ def _ring_ids(city: City, nodes: _Nodes, b: Building) -> list[Refs]:
 
 
 def _source_tags(tags: dict[str, str]) -> dict[str, str]:
-    """A mapped object's tags, with its origin when it has tags (untagged ways are structure) and
-    none yet (a map that is an earlier output keeps the origins that output gave)."""
-    return {**tags, ORIGIN_KEY: tags.get(ORIGIN_KEY, str(Origin.SOURCE))} if tags else {}
+    """A mapped object's tags, with its origin when it has none yet (a map that is an earlier output
+    keeps the origins that output gave) and tags beyond ``type``: untagged ways are structure, and
+    so is a relation tagged with its type alone, an old-style multipolygon that takes its tags
+    from its outer way (GDAL reads it so only while the relation has no other tag)."""
+    return {**tags, ORIGIN_KEY: tags.get(ORIGIN_KEY, str(Origin.SOURCE))} if set(tags) - {"type"} else tags
 
 
 def laid_over(refs: Refs, parts: list[Refs], located: list[bool] | None = None) -> Refs | None:
