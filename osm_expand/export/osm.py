@@ -46,6 +46,7 @@ import itertools
 import os
 import shutil
 import tempfile
+from array import array
 from collections import defaultdict
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass, field
@@ -270,8 +271,8 @@ class _Body:
 
     def __init__(self, fh: IO[bytes]) -> None:
         self.fh = fh
-        self.lon: list[float] = []
-        self.lat: list[float] = []
+        self.lon = array("d")  # 8 bytes a node, not a Python float's 24 and a list slot
+        self.lat = array("d")
 
     def node(self, attrs: dict[str, str], lon: float, lat: float, tags: dict[str, str] | None = None) -> None:
         el = etree.Element("node", {**attrs, "lat": f"{lat:.7f}", "lon": f"{lon:.7f}"})
@@ -330,7 +331,7 @@ def _mapped_attrs(obj) -> dict[str, str]:
 def _envelope(out: IO[bytes], body: _Body, city: City, extra_lonlat: np.ndarray) -> None:
     """The declaration, ``<osm>``, ``<bounds>`` over every node, the body (a temporary file beside
     the output, gone with the process), ``</osm>``."""
-    lonlat = np.column_stack([np.asarray(body.lon, dtype=float), np.asarray(body.lat, dtype=float)])
+    lonlat = np.column_stack([np.frombuffer(body.lon, dtype=float), np.frombuffer(body.lat, dtype=float)])
     lon0, lat0, lon1, lat1 = _bounds(city, np.concatenate([lonlat.reshape(-1, 2), extra_lonlat.reshape(-1, 2)]))
     out.write(b'<?xml version=\'1.0\' encoding=\'UTF-8\'?>\n')
     out.write(f'<osm version="0.6" generator="{GENERATOR}" upload="never">\n'.encode())
