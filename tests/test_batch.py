@@ -394,7 +394,8 @@ def _reordered(tmp_path: Path, order: tuple[str, ...]) -> Path:
 
     from lxml import etree
 
-    root = etree.parse(gzip.open(KREMS)).getroot()
+    with gzip.open(KREMS) as fh:
+        root = etree.parse(fh).getroot()
     kids = list(root)
     for k in kids:
         root.remove(k)

@@ -119,7 +119,8 @@ def test_bounds_equal_to_the_nodes_extent_keep_the_town_on_land(tmp_path):
 
     src = FIXTURES / "monaco.osm.gz"
     ll = np.array([(n.location.lon, n.location.lat) for n in osmium.FileProcessor(str(src), osmium.osm.NODE)])
-    text = re.sub(r"<bounds[^>]*/>", "", gzip.open(src, "rt", encoding="utf-8").read())
+    with gzip.open(src, "rt", encoding="utf-8") as fh:
+        text = re.sub(r"<bounds[^>]*/>", "", fh.read())
     at = text.index(">", text.index("<osm")) + 1
     (lon0, lat0), (lon1, lat1) = ll.min(axis=0), ll.max(axis=0)
     bounds = f'<bounds minlat="{lat0:.7f}" minlon="{lon0:.7f}" maxlat="{lat1:.7f}" maxlon="{lon1:.7f}"/>'

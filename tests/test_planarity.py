@@ -100,13 +100,15 @@ def test_what_the_net_keeps_has_no_touching_pair(segments):
 def written_crossings(c: City) -> list[tuple[int, int]]:
     """Street pairs that touch away from a shared node in the written file (the referee's reading,
     independent of the engine's code): coordinates to the millimetre, shared ends within 1 cm."""
+    import itertools
+
     import shapely
 
     net = c.network
     segs, owner, layer = [], [], []
     for k, s in enumerate(net.streets):
         pts = np.round(net.street_xy(s), 3)
-        for p, q in zip(pts[:-1], pts[1:]):
+        for p, q in itertools.pairwise(pts):
             segs.append((p, q))
             owner.append(k)
             layer.append(s.layer_key)
@@ -129,9 +131,9 @@ def written_crossings(c: City) -> list[tuple[int, int]]:
 def test_the_district_goes_through_the_net_too():
     """Monaco, seed 7: two streets of the district grown before the engine met 1 mm apart once
     written (an end on the other street, no node); the net judged only the engine's own streets."""
-    from conftest import FIXTURES
     from osm_expand.ingest import load
     from osm_expand.pipeline import ExpandOptions, expand
+    from tests.conftest import FIXTURES
 
     result = expand(load(FIXTURES / "monaco.osm.gz"), ExpandOptions(seed=7, years=0, fidelity=False))
     assert result.report["touching_streets_dropped"] >= 1
