@@ -52,6 +52,7 @@ from collections.abc import Callable, Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import IO, TypeVar
+from xml.sax.saxutils import escape
 
 import numpy as np
 import osmium
@@ -275,11 +276,18 @@ class _Body:
         self.lat = array("d")
 
     def node(self, attrs: dict[str, str], lon: float, lat: float, tags: dict[str, str] | None = None) -> None:
+        """A node; an untagged one (most of a file) formatted directly rather than built by lxml
+        (Andorra's OSM output: 1.64 → 1.39 s CPU), when every attribute is printable text (lxml
+        checks the rest)."""
+        self.lon.append(lon)
+        self.lat.append(lat)
+        if not tags and all(v.isprintable() for v in attrs.values()):
+            text = " ".join(f'{k}="{escape(v, _QUOTE)}"' for k, v in attrs.items())
+            self.fh.write(f'<node {text} lat="{lat:.7f}" lon="{lon:.7f}"/>\n'.encode())
+            return
         el = etree.Element("node", {**attrs, "lat": f"{lat:.7f}", "lon": f"{lon:.7f}"})
         _tags(el, tags or {})
         self.write(el)
-        self.lon.append(lon)
-        self.lat.append(lat)
 
     def way(self, attrs: dict[str, str], refs: list[int], tags: dict[str, str]) -> None:
         el = etree.Element("way", attrs)
@@ -300,6 +308,7 @@ class _Body:
 
 
 _MEMBER_TYPE = {"n": "node", "w": "way", "r": "relation"}
+_QUOTE = {'"': "&quot;"}
 
 
 def _tags(el: etree._Element, tags: dict[str, str]) -> None:
@@ -319,7 +328,7 @@ def _mapped_attrs(obj) -> dict[str, str]:
     attrs = {"id": str(obj.id), "version": str(obj.version or 1)}
     ts = obj.timestamp
     if ts is not None and ts.year > 1970:
-        attrs["timestamp"] = ts.strftime("%Y-%m-%dT%H:%M:%SZ")
+        attrs["timestamp"] = ts.isoformat().replace("+00:00", "Z")  # pyosmium's are UTC, whole seconds
     if obj.changeset:
         attrs["changeset"] = str(obj.changeset)
     if obj.uid:
