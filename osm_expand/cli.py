@@ -528,27 +528,28 @@ def cmd_expand(args: argparse.Namespace, log: Progress) -> dict:
     years = history.years if args.years is None else args.years
     snapshots = _snapshot_dir(args, years)
     with _read_from(args, city_path, out.parent, log) as (src, clip):
+        # the extract stays until the output is written: the OSM output is the extract plus what grew
         log(f"reading {city_path}" + (" (the extract)" if clip else ""))
         city = load(src, service=args.service, paths=args.paths)
-    log.add_stages(len(history.eras_visited(city.year, years)))  # a stage per era the run passes
-    pictures: list = []
-    options = ExpandOptions(seed=args.seed, direction=None if args.direction == "auto" else args.direction,
-                            at=_site_point(args, city), area=args.area, beyond_bounds=args.beyond_bounds, land=land,
-                            pattern=args.pattern, history=history, years=years,
-                            snapshot=(lambda *picture: pictures.append(picture)) if snapshots else None,
-                            snapshot_every=args.snapshot_every)
-    try:
-        result = expand(city, options, progress=log)
-    except InputError as exc:
-        raise _in_file(city_path, exc, args) from None
-    report = result.report
-    for note in report.get("notes", []):  # what a user should know of the result, even with -q
-        print(f"osm-expand: {city_path}: {note}", file=sys.stderr)
-    log(f"{len(result.city.new_streets())} new streets; writing {out}")
-    title = f"{_stem(city_path)}: the town and what grew (seed {args.seed})"
-    debug = list(result.growth.debug.get("features", [])) if args.debug_layers else None
-    _write(result, out, kind, preview, title=title, snapshots=snapshots, pictures=pictures,
-           stem=_stem(city_path), debug=debug)
+        log.add_stages(len(history.eras_visited(city.year, years)))  # a stage per era the run passes
+        pictures: list = []
+        options = ExpandOptions(seed=args.seed, direction=None if args.direction == "auto" else args.direction,
+                                at=_site_point(args, city), area=args.area, beyond_bounds=args.beyond_bounds, land=land,
+                                pattern=args.pattern, history=history, years=years,
+                                snapshot=(lambda *picture: pictures.append(picture)) if snapshots else None,
+                                snapshot_every=args.snapshot_every)
+        try:
+            result = expand(city, options, progress=log)
+        except InputError as exc:
+            raise _in_file(city_path, exc, args) from None
+        report = result.report
+        for note in report.get("notes", []):  # what a user should know of the result, even with -q
+            print(f"osm-expand: {city_path}: {note}", file=sys.stderr)
+        log(f"{len(result.city.new_streets())} new streets; writing {out}")
+        title = f"{_stem(city_path)}: the town and what grew (seed {args.seed})"
+        debug = list(result.growth.debug.get("features", [])) if args.debug_layers else None
+        _write(result, out, kind, preview, title=title, snapshots=snapshots, pictures=pictures,
+               stem=_stem(city_path), debug=debug)
     return {"input": str(city_path), "output": str(out), "format": kind, "seed": args.seed, **clip,
             **({"preview": str(preview)} if preview else {}),
             **({"snapshots": [str(snapshots / _snapshot_name(_stem(city_path), p[1], p[2])) for p in pictures]}

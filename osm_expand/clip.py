@@ -16,9 +16,11 @@
    cross the box edge are assembled whole by libosmium (the Danube's banks
    at Krems) instead of being lost or salvaged in pieces.
 
-Objects keep their ids, tags, versions and timestamps. The input must be
-sorted as usual (nodes, ways, relations); node ids must be positive
-(libosmium's location stores hold no negative ids).
+Objects keep their ids, tags, versions and timestamps. The input may come
+in any order with the default two-pass clip (relations read before their
+ways are matched again once every way is known, one more read); the
+one-pass clip needs nodes before ways and refuses a file that has not.
+Node ids must be positive (libosmium's location stores hold no negative ids).
 
 PBF and XML have no spatial index, so every pass decodes the whole file in
 C++; what reaches Python is chosen by C++ filters. Two strategies
@@ -576,8 +578,10 @@ def _two_pass(src: Path, grid: _Boxes, extracts: _Extracts, scratch: Path, compl
         return found.reads
     # Pass 2 (ways, then relations): C++ lets through only the ways referencing a node inside a box;
     # every relation comes through with the last group and is kept if a member is.
+    order = _Order(src)
     for obj in _tracked(src, found.node_boxes, "node", osmium.osm.WAY, found, max_blocks, contains=True,
                         last_also=osmium.osm.RELATION):
+        order.saw(obj)
         if obj.is_relation():
             found.take_relation(obj)
         elif obj.id not in found.ways:
@@ -587,6 +591,7 @@ def _two_pass(src: Path, grid: _Boxes, extracts: _Extracts, scratch: Path, compl
                     boxes.update(_each(found.node_boxes[n.ref]))
             ordered = tuple(sorted(boxes))
             found.take_way(obj, ordered[0] if len(ordered) == 1 else ordered)
+    order.retake_relations(found)
     # Pass 2b (ways, only if a multipolygon lacks members): the missing member ways.
     missing = found.missing_members() if complete else {}
     for way in _tracked(src, missing, "way", osmium.osm.WAY, found, max_blocks):
@@ -603,6 +608,34 @@ def _two_pass(src: Path, grid: _Boxes, extracts: _Extracts, scratch: Path, compl
                     for b in _each(wanted[node.id]):
                         extracts.add_node(b, node)
     return found.reads
+
+
+class _Order:
+    """Files not sorted as usual (nodes, ways, relations): relations read before the ways they hold
+    were matched against too few ways, so they are read again once every way is known; a way read
+    before its nodes has no location in a one-read clip, which is refused in one line."""
+
+    def __init__(self, src: Path) -> None:
+        self.src = src
+        self.relation_seen = self.way_seen = self.relations_early = False
+
+    def saw(self, obj, *, nodes_first: bool = False) -> None:
+        if obj.is_relation():
+            self.relation_seen = True
+        elif obj.is_way():
+            self.way_seen = True
+            self.relations_early |= self.relation_seen
+        elif nodes_first and self.way_seen:
+            raise InputError(f"{self.src}: not sorted (a node after a way); the one-pass clip needs nodes first: "
+                             f"sort it (osmium sort) or use the default two-pass clip")
+
+    def retake_relations(self, found: _Found) -> None:
+        """Every relation matched again against all kept ways (one more read), if any came early."""
+        if not self.relations_early:
+            return
+        for rel in osmium.FileProcessor(str(self.src), osmium.osm.RELATION):
+            found.take_relation(rel)
+        found.reads += 1
 
 
 def _tracked(src: Path, ids: Iterable[int], kind: str, entities, found: _Found, max_blocks: int, *,
@@ -660,7 +693,9 @@ def _one_pass(src: Path, grid: _Boxes, extracts: _Extracts, index: str, complete
     tagged_nodes = osmium.filter.EmptyTagFilter()
     tagged_nodes.enable_for(osmium.osm.NODE)
     tagged: dict[int, tuple] = {}
+    order = _Order(src)
     for obj in osmium.FileProcessor(str(src)).with_locations(locations).with_filter(tagged_nodes):
+        order.saw(obj, nodes_first=True)
         if obj.is_node():
             loc = obj.location
             _, box = grid.members(np.array([loc.x]), np.array([loc.y]))
@@ -682,6 +717,7 @@ def _one_pass(src: Path, grid: _Boxes, extracts: _Extracts, index: str, complete
         else:
             found.take_relation(obj)
     found.reads += 1
+    order.retake_relations(found)
     missing = found.missing_members() if complete else {}
     if missing:
         tracker = osmium.IdTracker()

@@ -34,7 +34,8 @@ import shapely
 
 from osm_expand.coastline import assemble_sea
 from osm_expand.errors import InputError
-from osm_expand.model import Building, City, Context, MappedArea, Street, StreetNetwork, UnplacedWay
+from osm_expand.model import (Building, City, Context, MappedArea, SourceFile, Street, StreetNetwork, UnplacedWay,
+                              held_ways)
 from osm_expand.model.highways import highway_set
 from osm_expand.model.projection import LocalProjection
 
@@ -132,7 +133,8 @@ def load(path: str | os.PathLike, *, service: bool = False, paths: bool = False,
         raise InputError(f"{p}: not a readable OSM file ({msg})") from None
     if not raw.streets:
         raise InputError(f"{p}: no streets of the selected highway classes" + ("" if service else " (try --service)"))
-    return _build(raw, header_box)
+    city = _build(raw, header_box)
+    return city.replace(source=SourceFile(path=str(p.resolve()), ways=frozenset(held_ways(city)))) if context else city
 
 
 def _is_urbanenvironment(p: Path) -> bool:

@@ -388,6 +388,51 @@ def test_many_boxes_in_one_read_give_the_same_bytes_as_each_alone(tmp_path):
         assert alone[name].read_bytes() == together[name].read_bytes()  # deterministic, independent of the others
 
 
+def _reordered(tmp_path: Path, order: tuple[str, ...]) -> Path:
+    """Krems with its elements in another order than nodes, ways, relations (a hand-made or merged file)."""
+    import gzip
+
+    from lxml import etree
+
+    with gzip.open(KREMS) as fh:
+        root = etree.parse(fh).getroot()
+    kids = list(root)
+    for k in kids:
+        root.remove(k)
+    rank = {tag: i for i, tag in enumerate(("bounds", *order))}
+    for k in sorted(kids, key=lambda e: rank.get(e.tag, len(rank))):
+        root.append(k)
+    path = tmp_path / f"krems-{'-'.join(order)}.osm"
+    etree.ElementTree(root).write(str(path), xml_declaration=True, encoding="UTF-8")
+    return path
+
+
+@pytest.mark.parametrize("strategy", ["two-pass", "one-pass"])
+def test_relations_before_ways_are_clipped_as_from_a_sorted_file(tmp_path, strategy):
+    """Issue 21, point 3: relations read before their ways kept 28 of 64 relations, silently."""
+    box = {"t": (15.58, 48.40, 15.64, 48.43)}
+    unsorted = _reordered(tmp_path, ("node", "relation", "way"))
+    for name, src in (("sorted", KREMS), ("unsorted", unsorted)):
+        (tmp_path / name).mkdir()
+        clip_extracts(src, box, tmp_path / name, options=ClipOptions(strategy=strategy))
+    a, b = _read(tmp_path / "sorted" / "t.osm.pbf"), _read(tmp_path / "unsorted" / "t.osm.pbf")
+    assert len(a[2]) > 40 and a[2] == b[2] and a[1] == b[1] and a[0].keys() == b[0].keys()
+
+
+def test_ways_before_nodes_clip_in_two_passes_and_the_one_pass_clip_refuses_in_one_line(tmp_path, capsys):
+    box = {"t": (15.58, 48.40, 15.64, 48.43)}
+    unsorted = _reordered(tmp_path, ("relation", "way", "node"))
+    for name, src in (("sorted", KREMS), ("unsorted", unsorted)):
+        (tmp_path / name).mkdir()
+        clip_extracts(src, box, tmp_path / name)
+    a, b = _read(tmp_path / "sorted" / "t.osm.pbf"), _read(tmp_path / "unsorted" / "t.osm.pbf")
+    assert a[2] == b[2] and a[1] == b[1] and a[0].keys() == b[0].keys()
+    code = cli.main(["simplify", str(unsorted), "--bbox", "15.58,48.40,15.64,48.43", "--clip-index", "flex_mem",
+                     "-o", str(tmp_path / "x.osm"), "-q"])
+    err = capsys.readouterr().err
+    assert code == 2 and err.count("\n") == 1 and "not sorted" in err and not (tmp_path / "x.osm").exists()
+
+
 def test_id_sets_tracked_group_by_group_give_the_same_extract(tmp_path):
     box = {"centre": box_around(*KREMS_CENTRE, 600)}
     (tmp_path / "one").mkdir()

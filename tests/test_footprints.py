@@ -340,3 +340,76 @@ def test_a_building_at_zero_setbacks_stays_in_its_lot_when_written_to_the_millim
                             rng=np.random.default_rng(0))
     written = shapely.Polygon(np.round(fp.rectangle.corners, 3))
     assert shapely.Polygon(np.round(ring, 3)).contains(written)
+
+
+# footprints of every shape the reader can hand over (issue 21, point 14): polygons with holes, bow-ties
+# (made valid: multipolygons), several outers, rings cut by the extract (lines), too few or repeated points
+_coord = st.floats(-50.0, 50.0, allow_nan=False)
+_points = st.lists(st.tuples(_coord, _coord), min_size=0, max_size=7)
+_box = st.builds(lambda x, y, w, h: shapely.box(x, y, x + w, y + h), _coord, _coord,
+                 st.floats(0.0, 40.0), st.floats(0.0, 40.0))
+
+
+def _ring_geometry(pts):
+    return shapely.Polygon(pts) if len(pts) >= 3 else shapely.LineString(pts) if len(pts) == 2 else shapely.Polygon()
+
+
+_footprint = st.one_of(
+    _box,
+    st.lists(_box, min_size=1, max_size=4).map(shapely.MultiPolygon),  # several outers, maybe overlapping
+    _points.filter(lambda p: len(p) >= 3).map(shapely.Polygon),  # bow-ties, collinear, repeated points
+    _points.map(lambda p: np.asarray(p, dtype=float).reshape(-1, 2)),  # a raw ring, maybe degenerate
+    _points.map(_ring_geometry),
+    st.tuples(_box, _points.filter(lambda p: len(p) >= 2)).map(
+        lambda g: shapely.GeometryCollection([g[0], shapely.LineString(g[1])])),
+    _box.map(lambda b: shapely.Polygon(b.exterior.coords, [shapely.box(*b.centroid.buffer(1.0).bounds).exterior.coords])
+             if b.area > 16 else b),
+)
+
+
+@SWEEP
+@given(st.lists(_footprint, max_size=8), st.booleans())
+def test_footprint_dimensions_take_every_footprint_the_reader_makes(footprints, streets):
+    """No footprint stops the calibration (a held-out US city did, on a multipolygon building);
+    every polygon part of at least 1 m² is measured, each within its rotated rectangle."""
+    lines = [shapely.LineString([(-100, 0), (100, 3)])] if streets else []
+    dims = footprint_dimensions(footprints, street_lines=lines)
+    assert dims.shape[1] == 3 and np.isfinite(dims).all()
+    area, frontage, depth = dims.T
+    assert (area >= 1.0).all() and (frontage > 0).all() and (depth > 0).all()
+    assert (frontage * depth >= area * (1 - 1e-6)).all()
+    def polygons(g):
+        return [p for q in shapely.get_parts(g) for p in shapely.get_parts(q) if p.geom_type == "Polygon"]
+
+    given_ = [f if isinstance(f, shapely.Geometry) else _ring_geometry(f.tolist()) for f in footprints]
+    parts = [p for g in given_ for q in polygons(g) for p in polygons(shapely.make_valid(q)) if p.area >= 1.0]
+    assert len(dims) == len(parts)
+    assert calibrate_sizes(footprints, street_lines=lines).samples.shape == dims.shape
+
+
+def test_a_multipolygon_building_is_measured_as_its_outers():
+    two = shapely.MultiPolygon([shapely.box(0, 0, 10, 20), shapely.box(30, 0, 36, 12)])
+    bow_tie = shapely.Polygon([(0, 0), (10, 10), (10, 0), (0, 10)])  # made valid: two triangles
+    dims = footprint_dimensions([two, bow_tie, np.array([[0.0, 0.0], [5.0, 5.0]])])
+    assert sorted(dims[:, 0].tolist()) == pytest.approx([25.0, 25.0, 72.0, 200.0])
+
+
+def test_a_town_whose_buildings_are_not_all_polygons_grows_through_the_engine():
+    """Issue 21, point 14: a town with self-crossing building rings (valid: multipolygons) stopped the
+    default command in the calibration ("iteration over a 0-d array")."""
+    from dataclasses import replace
+
+    from osm_expand.ingest import load
+    from osm_expand.pipeline import ExpandOptions, expand
+    from tests.conftest import FIXTURES
+
+    city = load(FIXTURES / "krems.osm.gz")
+    buildings = list(city.buildings)
+    for k in range(0, 60, 3):  # bow-ties, 12 m across, where the town's buildings are
+        c = buildings[k].rings[0][:-1].mean(axis=0)
+        bow = c + np.array([(-6.0, -6.0), (6.0, 6.0), (6.0, -6.0), (-6.0, 6.0), (-6.0, -6.0)])
+        ids = buildings[k].node_ids[0][:4].tolist()
+        buildings[k] = replace(buildings[k], rings=(bow,), node_ids=(np.array([*ids, ids[0]]),))
+    assert any(shapely.make_valid(b.polygon).geom_type == "MultiPolygon" for b in buildings)
+    result = expand(city.replace(buildings=tuple(buildings)), ExpandOptions(seed=3, years=2, fidelity=False))
+    assert result.report["engine"]["years"] == 2

@@ -3,6 +3,8 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from osm_expand.model.highways import DRIVABLE, highway_set, rank
 from osm_expand.ingest import _number, load
@@ -85,6 +87,59 @@ def test_context_water_sea_and_buildings():
     assert heights and all(h > 0 for h in heights)
 
 
+def _monaco_on_land(city) -> None:
+    """The town is land and the open sea south-east of it is sea (the harbour too)."""
+    import shapely
+
+    sea = shapely.union_all(list(city.sea))
+    lines = shapely.MultiLineString([city.network.street_xy(s) for s in city.network.streets])
+    assert lines.intersection(sea).length < 0.01 * lines.length
+    buildings = shapely.union_all([b.polygon for b in city.buildings])
+    assert buildings.intersection(sea).area < 0.01 * buildings.area
+    proj = city.projection
+    for lon, lat in ((7.4235, 43.7350), (7.45, 43.72)):  # Port Hercule, offshore
+        assert sea.contains(shapely.Point(*[v[0] for v in proj.to_xy(np.array([lon]), np.array([lat]))]))
+
+
+def test_a_clip_reaching_past_the_coastline_keeps_the_town_on_land(tmp_path):
+    """``--around`` a coastal town clips a box wider than the data: the coastline ends inside it
+    (issue 21, point 2: the whole box was sea, and the run refused as "too little town")."""
+    from osm_expand.clip import box_around, clip
+
+    extract = clip(FIXTURES / "monaco.osm.gz", {"town": box_around(7.4246, 43.7384, 3000)}, tmp_path)["town"]
+    _monaco_on_land(load(extract))
+
+
+def test_bounds_equal_to_the_nodes_extent_keep_the_town_on_land(tmp_path):
+    """A ``<bounds>`` drawn exactly around the nodes: the coastline ends on the box's edge."""
+    import gzip
+    import re
+
+    import osmium
+
+    src = FIXTURES / "monaco.osm.gz"
+    ll = np.array([(n.location.lon, n.location.lat) for n in osmium.FileProcessor(str(src), osmium.osm.NODE)])
+    with gzip.open(src, "rt", encoding="utf-8") as fh:
+        text = re.sub(r"<bounds[^>]*/>", "", fh.read())
+    at = text.index(">", text.index("<osm")) + 1
+    (lon0, lat0), (lon1, lat1) = ll.min(axis=0), ll.max(axis=0)
+    bounds = f'<bounds minlat="{lat0:.7f}" minlon="{lon0:.7f}" maxlat="{lat1:.7f}" maxlon="{lon1:.7f}"/>'
+    path = tmp_path / "monaco.osm"
+    path.write_text(text[:at] + bounds + text[at:], encoding="utf-8")
+    city = load(path)
+    assert city.context.bounds_from_header
+    _monaco_on_land(city)
+
+
+def test_a_coastal_clip_runs_through_the_main_command(tmp_path):
+    from osm_expand import cli
+
+    out = tmp_path / "m.xml"
+    assert cli.main([str(FIXTURES / "monaco.osm.gz"), "--years", "0", "--around", "7.4246,43.7384",
+                     "--radius", "3000", "-o", str(out), "-q"]) == 0
+    assert out.stat().st_size > 0
+
+
 def test_unsorted_file_falls_back_to_closed_way_areas():
     city = load(FIXTURES / "circle-bug.osm.gz", service=True)
     assert len(city.buildings) > 0
@@ -99,3 +154,29 @@ def test_numeric_tags(text, value):
 
 def test_rank_orders_classes():
     assert rank("motorway") < rank("motorway_link") < rank("trunk") < rank("residential") < rank("service")
+
+
+@settings(deadline=None)
+@given(st.floats(0.0, 2 * np.pi), st.floats(0.2, 1.0), st.floats(-0.3, 0.3), st.booleans())
+def test_an_open_coastline_divides_the_box_with_land_on_its_left(angle, reach, offset, on_edge):
+    """A straight coast across a 1 km box, entering from outside and ending inside it (``reach`` of the
+    way across) or exactly on its edge: land on the left, sea on the right, along its whole line."""
+    import shapely
+
+    from osm_expand.coastline import assemble_sea
+
+    box = shapely.box(0.0, 0.0, 1000.0, 1000.0)
+    d = np.array([np.cos(angle), np.sin(angle)])
+    left = np.array([-d[1], d[0]])
+    centre = np.array([500.0, 500.0]) + offset * 400.0 * left
+    # where the line leaves the box going forward: the coast ends there (on_edge) or short of it
+    exit_t = min(((1000.0 if di > 0 else 0.0) - ci) / di for di, ci in zip(d, centre) if abs(di) > 1e-9)
+    end_t = exit_t if on_edge else reach * exit_t
+    coast = np.array([centre - 2000.0 * d, centre + end_t * d])
+    sea = shapely.union_all(list(assemble_sea([coast], box)))
+    for t in np.linspace(-400.0, 0.0, 5):
+        p = centre + t * d
+        if not box.contains(shapely.Point(p + 30 * left)) or not box.contains(shapely.Point(p - 30 * left)):
+            continue
+        assert not sea.contains(shapely.Point(p + 30 * left))
+        assert sea.contains(shapely.Point(p - 30 * left))

@@ -546,7 +546,7 @@ def _curved_fronts(sides: Sequence, street: int) -> list[tuple[np.ndarray, np.nd
 # ----------------------------------------------------------------------------- sizes from the town
 
 
-def footprint_dimensions(footprints: Sequence[shapely.Polygon | np.ndarray], *,
+def footprint_dimensions(footprints: Sequence[shapely.Geometry | np.ndarray], *,
                          street_lines: Sequence[shapely.LineString] = ()) -> np.ndarray:
     """Area, frontage and depth of existing footprints, ``(K, 3)`` (m², m, m).
 
@@ -554,12 +554,16 @@ def footprint_dimensions(footprints: Sequence[shapely.Polygon | np.ndarray], *,
     rectangle; the frontage is the side more nearly parallel to the nearest
     street (its direction 1 m either side of the closest point), or the
     shorter side without streets. Footprints under 1 m² are dropped.
+
+    A footprint is any shapely geometry or a ring of points: a multipolygon
+    building with several outers counts as its polygons (each a building's
+    size), and what is not a polygon once made valid (a ring cut to a line
+    by the extract, fewer than three points) is dropped, as the reader can
+    hand any of these over.
     """
-    polys = np.array([f if isinstance(f, shapely.Polygon) else shapely.Polygon(np.asarray(f))
-                      for f in footprints], dtype=object)
+    polys = _polygon_parts(footprints)
     if not len(polys):
         return np.zeros((0, 3))
-    polys = shapely.make_valid(polys)
     area = shapely.area(polys)
     keep = area >= 1.0
     polys, area = polys[keep], area[keep]
@@ -589,7 +593,28 @@ def footprint_dimensions(footprints: Sequence[shapely.Polygon | np.ndarray], *,
     return np.column_stack([area, frontage, depth])
 
 
-def calibrate_sizes(footprints: Sequence[shapely.Polygon | np.ndarray], *,
+def _polygon_parts(footprints: Sequence[shapely.Geometry | np.ndarray]) -> np.ndarray:
+    """The valid polygons of footprints given as geometries or point rings (see :func:`footprint_dimensions`)."""
+    geoms = []
+    for f in footprints:
+        if isinstance(f, shapely.Geometry):
+            geoms.append(f)
+            continue
+        ring = np.asarray(f, dtype=float).reshape(-1, 2)
+        if len(ring) >= 3 and np.isfinite(ring).all():
+            geoms.append(shapely.Polygon(ring))
+    # polygons one by one first: GEOS cannot make valid a multipolygon with a collapsed part
+    # ("mixed-dimension"); a bow-tie made valid is a multipolygon, a collection may hold multipolygons
+    polys = _polygons(np.array(geoms, dtype=object))
+    return _polygons(shapely.make_valid(polys))
+
+
+def _polygons(geoms: np.ndarray) -> np.ndarray:
+    parts = shapely.get_parts(shapely.get_parts(geoms))
+    return parts[shapely.get_type_id(parts) == 3]
+
+
+def calibrate_sizes(footprints: Sequence[shapely.Geometry | np.ndarray], *,
                     street_lines: Sequence[shapely.LineString] = ()) -> SizeTargets:
     """The town's footprint sizes (area, frontage, depth; see :func:`footprint_dimensions`)."""
     dims = footprint_dimensions(footprints, street_lines=street_lines)

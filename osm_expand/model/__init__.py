@@ -10,11 +10,29 @@
 - :mod:`~osm_expand.model.highways` — which ``highway=*`` values are streets, and their rank
 - :mod:`~osm_expand.model.projection` — the local metric projection
 """
-from osm_expand.model.city import Block, Building, City, Lot, MappedArea, UnplacedWay
+from osm_expand.model.city import (
+                                   Block,
+                                   Building,
+                                   City,
+                                   Lot,
+                                   MappedArea,
+                                   SourceFile,
+                                   UnplacedWay,
+                                   demolished_ways,
+                                   held_ways,
+)
 from osm_expand.model.land import Land
 from osm_expand.model.geometry import closest_on_segments, match_points, polyline_length
-from osm_expand.model.network import Context, Origin, Status, Street, StreetNetwork, network_from_lines
+from osm_expand.model.network import (
+                                   Context,
+                                   Origin,
+                                   Status,
+                                   Street,
+                                   StreetNetwork,
+                                   network_from_lines,
+)
 from osm_expand.model.projection import LocalProjection
 
-__all__ = ["Block", "Building", "City", "Context", "Land", "LocalProjection", "Lot", "MappedArea", "Origin", "Status", "Street",
-           "StreetNetwork", "UnplacedWay", "closest_on_segments", "match_points", "network_from_lines", "polyline_length"]
+__all__ = ["Block", "Building", "City", "Context", "Land", "LocalProjection", "Lot", "MappedArea", "Origin",
+           "SourceFile", "Status", "Street", "StreetNetwork", "UnplacedWay", "closest_on_segments", "demolished_ways",
+           "held_ways", "match_points", "network_from_lines", "polyline_length"]

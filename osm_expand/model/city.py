@@ -89,6 +89,19 @@ class UnplacedWay:
     tags: Tags = ()
 
 
+@dataclass(frozen=True)
+class SourceFile:
+    """The OSM file a city was read from, so the OSM output can give back all of it (not only what
+    the stages use): the writer streams it again rather than the city holding every object.
+
+    ``ways`` are the ids of the ways ingest took into the city (streets, buildings, unplaced ways):
+    one of them the city no longer holds was demolished (:func:`demolished_ways`).
+    """
+
+    path: str
+    ways: frozenset[int] = frozenset()
+
+
 #: Unions of water, sea and unbuildable land by the identity of those objects (the year loop makes a
 #: new City every year, and these parts, shared between them, are the slow part of :attr:`City.occupied`).
 _STATIC_UNIONS: dict[tuple[int, int, int], tuple[Any, shapely.Geometry]] = {}
@@ -156,6 +169,7 @@ class City:
     #: the land as the town uses it: frontage, settlement, land cover (see :mod:`osm_expand.land`)
     land: Land | None = None
     stats: dict[str, Any] = field(default_factory=dict)  #: what ingest counted
+    source: SourceFile | None = None  #: the OSM file read (None: not read from OSM, e.g. a simplified network)
 
     @property
     def context(self) -> Context:
@@ -234,3 +248,19 @@ class City:
     def new_streets(self) -> list[int]:
         """Indices (into ``network.streets``) of the streets the tool made."""
         return [k for k, s in enumerate(self.network.streets) if s.is_new]
+
+
+def held_ways(city: City) -> set[int]:
+    """Ids of the OSM ways the city holds: its streets from the map (each part of one), its mapped
+    buildings drawn as ways, and the ways it keeps without a shape. Negative ids count: a map may
+    be an earlier output, whose new ways have them."""
+    held = {s.osm_ids[0] for s in city.network.streets if len(s.osm_ids) == 1 and s.osm_ids[0] != 0}
+    held.update(b.osm_id for b in city.buildings if b.osm_type == "way" and b.osm_id != 0)
+    held.update(w.osm_id for w in city.unplaced)
+    return held
+
+
+def demolished_ways(city: City) -> list[int]:
+    """Ids, ascending, of the ways read from the map that the city no longer holds (a history
+    demolished them); the OSM output leaves them out."""
+    return sorted(city.source.ways - held_ways(city)) if city.source is not None else []
