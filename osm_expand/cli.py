@@ -14,6 +14,7 @@ from __future__ import annotations
 import argparse
 import contextlib
 import json
+import math
 import os
 import re
 import sys
@@ -251,11 +252,36 @@ COMMAND_USAGE = {
 def _output_path(city: Path, output: str | None, default_suffix: str,
                  writers: dict[str, str] = OUTPUT_WRITERS) -> tuple[Path, str]:
     path = Path(output) if output else city.with_name(_stem(city) + default_suffix)
+    if output == "":
+        raise InputError("-o needs a file name, got ''")
+    if path.is_dir():
+        raise InputError(f"{path}: is a directory; give an output file (-o DIR/NAME{default_suffix})")
     kind = writers.get(path.suffix.lower())
     if kind is None:
         raise InputError(f"{path}: unsupported output type (use {' or '.join(sorted(writers))})")
+    _not_the_input(path, city)
     _writable(path)
     return path, kind
+
+
+def _not_the_input(out: Path, city: Path) -> None:
+    """Refuse an output that is the input itself (by inode, or by real path when it does not exist yet)."""
+    try:
+        same = os.path.samefile(out, city) if out.exists() and city.exists() else \
+            os.path.realpath(out) == os.path.realpath(city)
+    except OSError:
+        same = False
+    if same:
+        raise InputError(f"{out}: is the input file; choose another output (-o) so the town is not overwritten")
+
+
+@contextlib.contextmanager
+def _writing(path: Path) -> Iterator[None]:
+    """A write that fails (disk full, file-size limit, a folder gone) as one line naming the file, exit 2."""
+    try:
+        yield
+    except OSError as exc:
+        raise InputError(f"{path}: cannot write it ({exc.strerror or exc}); nothing was written") from None
 
 
 def _writable(path: Path) -> None:
@@ -314,8 +340,8 @@ def cmd_simplify(args: argparse.Namespace, log: Progress) -> dict:
 
     city = Path(args.city)
     out, kind = _output_path(city, args.output, ".simplified.osm")
-    if args.cluster_radius is not None and not args.cluster_radius > 0:
-        raise InputError(f"--cluster-radius must be positive, got {args.cluster_radius}")
+    if args.cluster_radius is not None and not 0 < args.cluster_radius < float("inf"):
+        raise InputError(f"--cluster-radius must be a positive number of metres, got {args.cluster_radius:g}")
     _check_clip(args)
     with cyclic_gc_paused():  # millions of short-lived objects on a large file (osm_expand.gcpause)
         with _read_from(args, city, out.parent, log) as (src, clip):
@@ -326,7 +352,8 @@ def cmd_simplify(args: argparse.Namespace, log: Progress) -> dict:
         result = _simplify_or_fail(city, net, args, opts)
         log(f"{result.report['junctions']} junctions, {result.report['streets']} streets; writing {out}")
         write = export.write_osm if kind == "osm" else export.write_geojson  # loads that writer alone
-        write(City(network=result.network), out)
+        with _writing(out):
+            write(City(network=result.network), out)
         broken = {k: v for k, v in violations(result.network).items() if v}
     if broken:  # never expected: say so rather than hand over a flawed network silently
         print(f"{PROG}: warning: {out}: simplified network still has {broken}; please report this input",
@@ -436,7 +463,7 @@ def _pair(text: str, flag: str) -> tuple[float, float]:
 
 def _site_point(args: argparse.Namespace, city) -> tuple[float, float] | None:
     """``--at`` / ``--at-lonlat`` in metres, checked against the map's bounds."""
-    if args.at_lonlat:
+    if args.at_lonlat is not None:
         lon, lat = args.at_lonlat
         text = f"{lon:g},{lat:g}"
         lon0, lat0, lon1, lat1 = city.context.bounds_lonlat
@@ -449,7 +476,7 @@ def _site_point(args: argparse.Namespace, city) -> tuple[float, float] | None:
                              f"lat {lat0:.5f}..{lat1:.5f}); use --beyond-bounds to grow outside it")
         x, y = city.projection.to_xy(lon, lat)
         return float(x), float(y)
-    if args.at:
+    if args.at is not None:
         x, y = args.at
         x0, y0, x1, y1 = city.bounds_xy
         if not args.beyond_bounds and not (x0 <= x <= x1 and y0 <= y <= y1):
@@ -461,9 +488,11 @@ def _site_point(args: argparse.Namespace, city) -> tuple[float, float] | None:
 
 def _check_points(args: argparse.Namespace) -> None:
     """Parse ``--at`` and ``--at-lonlat`` (before any work); their bounds are checked once the map is read."""
-    if args.at:
+    if args.at is not None:
         args.at = _pair(args.at, "--at")
-    if args.at_lonlat:
+        if not all(math.isfinite(v) for v in args.at):
+            raise InputError(f"--at expects two finite numbers (metres), got {args.at[0]:g},{args.at[1]:g}")
+    if args.at_lonlat is not None:
         args.at_lonlat = lon, lat = _pair(args.at_lonlat, "--at-lonlat")
         if not (-180 <= lon <= 180 and -90 <= lat <= 90):
             if -180 <= lat <= 180 and -90 <= lon <= 90:
@@ -491,23 +520,42 @@ def _expand_outputs(args: argparse.Namespace) -> tuple[Path, str, Path | None]:
     return out, args.format or kind, preview
 
 
+#: The largest ``--area`` accepted, m²: 10,000 km², far past any district the engine can grow in a run
+#: (Berlin is 891 km²); larger values are typos or fuzz and would only fail later, with a 300-digit number.
+MAX_AREA_M2 = 1e10
+
+
+def check_expand_options(args: argparse.Namespace):
+    """The main command's options that need no input, checked before any work; returns the history.
+
+    Also what ``batch`` checks before its first job (docs/batch.md). Sets
+    ``args.land``, ``args.box``/``args.clip`` and parses ``--at``/``--at-lonlat``.
+    """
+    from osm_expand.engine.history import MAX_YEARS, load_history
+    from osm_expand.land import LandOptions, parse_rules
+
+    if args.area is not None and not (0 < args.area <= MAX_AREA_M2):
+        raise InputError(f"--area must be a positive number of m², at most {MAX_AREA_M2:.0e}, got {args.area:.6g}")
+    args.land = LandOptions() if args.unbuildable is None else LandOptions(unbuildable=parse_rules(args.unbuildable))
+    _check_points(args)
+    _check_clip(args)
+    history = load_history(args.history)
+    years = history.years if args.years is None else args.years
+    if years > MAX_YEARS:
+        raise InputError(f"--years {years}: at most {MAX_YEARS} years can be simulated")
+    return history, years
+
+
 def cmd_expand(args: argparse.Namespace, log: Progress) -> dict:
     from osm_expand.ingest import check_readable, load
-    from osm_expand.land import LandOptions, parse_rules
-    from osm_expand.engine.history import load_history
     from osm_expand.pipeline import ExpandOptions, expand
 
     city_path = check_readable(args.city)
     out, kind, preview = _expand_outputs(args)
     if args.debug_layers and kind != "geojson":
         raise InputError(f"--debug-layers needs a GeoJSON output (-o OUT.geojson), got {out.name}")
-    if args.area is not None and not (args.area > 0 and args.area < float("inf")):
-        raise InputError(f"--area must be positive (m²), got {args.area:g}")
-    land = LandOptions() if args.unbuildable is None else LandOptions(unbuildable=parse_rules(args.unbuildable))
-    _check_points(args)
-    _check_clip(args)
-    history = load_history(args.history)
-    years = history.years if args.years is None else args.years
+    history, years = check_expand_options(args)
+    land = args.land
     snapshots = _snapshot_dir(args, years)
     with _read_from(args, city_path, out.parent, log) as (src, clip):
         log(f"reading {city_path}" + (" (the extract)" if clip else ""))
@@ -548,7 +596,17 @@ def _snapshot_dir(args: argparse.Namespace, years: int) -> Path | None:
         raise InputError(f"--snapshots {folder}: exists and is not a directory")
     if args.snapshot_every == 0:
         raise InputError("--snapshot-every must be 1 or more")
-    _writable((folder if folder.exists() else folder.parent) / "probe.png")
+    existing = folder
+    while not existing.exists() and existing != existing.parent:  # made with its parents when written
+        existing = existing.parent
+    if not existing.is_dir():
+        raise InputError(f"--snapshots {folder}: {existing} is not a directory")
+    try:
+        from osm_expand.export.atomic import check_writable
+
+        check_writable(existing / "probe.png")
+    except OSError as exc:
+        raise InputError(f"--snapshots {folder}: cannot write into {existing} ({exc.strerror})") from None
     return folder
 
 
@@ -562,22 +620,26 @@ def _write(result, out: Path, kind: str, preview: Path | None, title: str, *, sn
     from osm_expand.export import all_or_nothing, write_geojson, write_osm, write_urbanenvironment
 
     writer = {"urbanenvironment": write_urbanenvironment, "osm": write_osm, "geojson": write_geojson}[kind]
-    with all_or_nothing():
-        if debug is not None:
-            write_geojson(result.city, out, debug=debug)
-        else:
-            writer(result.city, out)
+    with _writing(out), all_or_nothing():  # _writing(out) names the output if the final renames fail
+        with _writing(out):
+            if debug is not None:
+                write_geojson(result.city, out, debug=debug)
+            else:
+                writer(result.city, out)
         if preview is not None:
             from osm_expand.export.preview import write_preview
 
-            write_preview(result.city, preview, result.site.region, title=title)
+            with _writing(preview):
+                write_preview(result.city, preview, result.site.region, title=title)
         if snapshots is not None:
             from osm_expand.export.snapshot import write_snapshot
 
-            snapshots.mkdir(parents=True, exist_ok=True)
+            with _writing(snapshots):
+                snapshots.mkdir(parents=True, exist_ok=True)
             for city, year, era, traffic in pictures:
-                write_snapshot(city, traffic, snapshots / _snapshot_name(stem, year, era),
-                               title=f"{stem} in {year}, end of era {era}")
+                picture = snapshots / _snapshot_name(stem, year, era)
+                with _writing(picture):
+                    write_snapshot(city, traffic, picture, title=f"{stem} in {year}, end of era {era}")
 
 
 #: Stages the main command reports (reading, learning, site, growing, judging, writing; "done" ends the last).
@@ -598,6 +660,19 @@ def _join_negative_values(argv: list[str]) -> list[str]:
 
 
 def main(argv: Sequence[str] | None = None) -> int:
+    """Run one command; its exit code (0, 1, 2; 130/143/129 when stopped by SIGINT/SIGTERM/SIGHUP)."""
+    from osm_expand.interrupts import Interrupted, signals_raise
+
+    try:
+        with signals_raise():
+            return _main(argv)
+    except Interrupted as exc:  # landed outside _main's own handler (between its lines)
+        return exc.exit_code
+
+
+def _main(argv: Sequence[str] | None) -> int:
+    from osm_expand.interrupts import Interrupted
+
     argv = _join_negative_values(list(sys.argv[1:] if argv is None else argv))
     if argv and argv[0] in COMMANDS:
         parser, command = build_parser(argv[0]), None
@@ -610,26 +685,38 @@ def main(argv: Sequence[str] | None = None) -> int:
     log = Progress(args.quiet, EXPAND_STAGES if command is cmd_expand else 0)
     try:
         report = (command or COMMANDS[args.command])(args, log)
+        log("done")
+        log.close()
+        if args.json:
+            print(json.dumps(report, sort_keys=True))
+        return 0
     except InputError as exc:
         log.close()
-        print(f"{PROG}: {exc}", file=sys.stderr)
+        print(f"{PROG}: {_one_line(str(exc))}", file=sys.stderr)
         return getattr(exc, "exit_code", 2)
-    except KeyboardInterrupt:
+    except KeyboardInterrupt as exc:  # Ctrl-C, SIGTERM, SIGHUP (osm_expand.interrupts)
         log.close()
-        print(f"{PROG}: interrupted", file=sys.stderr)
-        return 130
+        code = exc.exit_code if isinstance(exc, Interrupted) else 130
+        print(f"{PROG}: interrupted" + (f" ({exc.args[0]})" if code != 130 else ""), file=sys.stderr)
+        return code
+    except MemoryError:
+        log.close()
+        where = getattr(args, "city", None)
+        print(f"{PROG}: {_one_line(str(where)) + ': ' if where else ''}not enough memory for this input",
+              file=sys.stderr)
+        return 2
     except Exception as exc:  # a bug: say so in one line, details on request
         log.close()
         if os.environ.get("OSM_EXPAND_DEBUG"):
             raise
-        print(f"{PROG}: internal error: {type(exc).__name__}: {exc} "
+        print(f"{PROG}: internal error: {type(exc).__name__}: {_one_line(str(exc))} "
               "(set OSM_EXPAND_DEBUG=1 for a traceback)", file=sys.stderr)
         return 1
-    log("done")
-    log.close()
-    if args.json:
-        print(json.dumps(report, sort_keys=True))
-    return 0
+
+
+def _one_line(text: str) -> str:
+    """A message on one line: a file name with a newline or a control character shown escaped."""
+    return "".join(c if c.isprintable() else repr(c)[1:-1] for c in text)
 
 
 if __name__ == "__main__":

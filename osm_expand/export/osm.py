@@ -32,7 +32,7 @@ import numpy as np
 from lxml import etree
 
 from osm_expand.export.atomic import atomic_write
-from osm_expand.export.features import ORIGIN_KEY, building_tags, lot_tags, osm_street_tags, to_lonlat
+from osm_expand.export.features import ORIGIN_KEY, building_tags, lot_tags, osm_street_tags, to_lonlat, xml_text
 from osm_expand.model import Building, City
 
 GENERATOR = "osm-expand"
@@ -109,7 +109,7 @@ def write_osm(city: City, path: str | os.PathLike) -> None:
 
 def _tags(el: etree._Element, tags: dict[str, str]) -> None:
     for k, v in tags.items():
-        etree.SubElement(el, "tag", k=k, v=v)
+        etree.SubElement(el, "tag", k=xml_text(k), v=xml_text(v))
 
 
 def _order(osm_id: int) -> tuple[bool, int]:
