@@ -254,6 +254,13 @@ def _output_path(city: Path, output: str | None, default_suffix: str,
     path = Path(output) if output else city.with_name(_stem(city) + default_suffix)
     if output == "":
         raise InputError("-o needs a file name, got ''")
+    try:
+        return _checked_output(path, city, default_suffix, writers)
+    except OSError as exc:  # a name or path too long, a loop of links, ...
+        raise InputError(f"{path}: cannot write there ({exc.strerror or exc})") from None
+
+
+def _checked_output(path: Path, city: Path, default_suffix: str, writers: dict[str, str]) -> tuple[Path, str]:
     if path.is_dir():
         raise InputError(f"{path}: is a directory; give an output file (-o DIR/NAME{default_suffix})")
     kind = writers.get(path.suffix.lower())
@@ -341,7 +348,7 @@ def cmd_simplify(args: argparse.Namespace, log: Progress) -> dict:
     city = Path(args.city)
     out, kind = _output_path(city, args.output, ".simplified.osm")
     if args.cluster_radius is not None and not 0 < args.cluster_radius < float("inf"):
-        raise InputError(f"--cluster-radius must be a positive number of metres, got {args.cluster_radius:g}")
+        raise InputError(f"--cluster-radius must be positive and finite (metres), got {args.cluster_radius:g}")
     _check_clip(args)
     with cyclic_gc_paused():  # millions of short-lived objects on a large file (osm_expand.gcpause)
         with _read_from(args, city, out.parent, log) as (src, clip):
@@ -434,8 +441,10 @@ def cmd_compare(args: argparse.Namespace, log: Progress) -> dict:
 
 
 def _compare_text(a: Path, b: Path, report: dict) -> str:
+    typical = report.get("typical_part_off")
+    typical_text = "no real part of its size" if typical is None or typical != typical else f"{typical:g}"
     lines = [f"{a} as a district of {b}: off on {report['off']} of 13 measures "
-             f"(a typical real part of {b.name}: {report['typical_off']})"]
+             f"(a typical real part of {b.name}: {typical_text})"]
     for name, v in report["measures"].items():
         lines.append(f"  {'ok ' if v['ok'] else 'OFF'} {name:<20} {v['value']}  [{v['low']}, {v['high']}]")
     return "\n".join(lines)
@@ -516,7 +525,10 @@ def _expand_outputs(args: argparse.Namespace) -> tuple[Path, str, Path | None]:
         preview = Path(args.preview)
         if preview.suffix.lower() not in (".png", ".svg"):
             raise InputError(f"{args.preview}: the preview must be .png or .svg")
-        _writable(preview)
+        try:
+            _writable(preview)
+        except OSError as exc:
+            raise InputError(f"{preview}: cannot write there ({exc.strerror or exc})") from None
     return out, args.format or kind, preview
 
 

@@ -78,6 +78,13 @@ class _Raw:
 def check_readable(path: str | os.PathLike, suffixes: tuple[str, ...] = SUFFIXES) -> Path:
     """Fail early, in one line, on paths osmium would choke on or misread."""
     p = Path(path)
+    try:
+        return _check_readable(p, suffixes)
+    except OSError as exc:  # a name too long, a loop of links, ...
+        raise InputError(f"{p}: cannot read it ({exc.strerror or exc})") from None
+
+
+def _check_readable(p: Path, suffixes: tuple[str, ...]) -> Path:
     if not p.exists():
         raise InputError(f"{p}: no such file")
     if p.is_dir():
