@@ -25,9 +25,9 @@ from lxml import etree
 
 from osm_expand import cli
 from osm_expand.engine import history
+from tests.conftest import FIXTURES
 
 MAX_YEARS = getattr(history, "MAX_YEARS", 1000)  # (getattr: this file also runs against the code before it)
-from tests.conftest import FIXTURES
 
 ROOT = Path(__file__).resolve().parent.parent
 #: West-Oakland grows in about a second with these (its map is too small for the default area).
