@@ -52,7 +52,7 @@ class _VersionAction(argparse.Action):
 
 class _Parser(argparse.ArgumentParser):
     def error(self, message: str) -> None:  # one line, exit 2
-        self.exit(2, f"{PROG}: error: {message} (see '{PROG} --help')\n")
+        self.exit(2, f"{PROG}: error: {_one_line(message)} (see '{PROG} --help')\n")
 
 
 class Progress:
