@@ -547,7 +547,7 @@ def check_expand_options(args: argparse.Namespace):
     from osm_expand.land import LandOptions, parse_rules
 
     if args.area is not None and not (0 < args.area <= MAX_AREA_M2):
-        raise InputError(f"--area must be a positive number of m², at most {MAX_AREA_M2:.0e}, got {args.area:.6g}")
+        raise InputError(f"--area must be positive (m²) and at most {MAX_AREA_M2:.0e}, got {args.area:.6g}")
     args.land = LandOptions() if args.unbuildable is None else LandOptions(unbuildable=parse_rules(args.unbuildable))
     _check_points(args)
     _check_clip(args)

@@ -107,7 +107,7 @@ def _from_geojson(path: Path) -> City:
                     if f["geometry"]["type"] in ("Polygon", "MultiPolygon")]
     except InputError as exc:
         raise InputError(f"{path}: {exc}") from None
-    except (*_BAD, UnicodeDecodeError) as exc:
+    except (*_BAD, UnicodeDecodeError, OSError) as exc:
         raise InputError(f"{path}: not a readable GeoJSON street network ({type(exc).__name__}: {exc})") from None
     if not lines:
         raise InputError(f"{path}: no LineString streets in the GeoJSON")
@@ -164,7 +164,7 @@ def _from_urbanenvironment(path: Path) -> City:
                                       year=fields.get("year")))
     except InputError as exc:
         raise InputError(f"{path}: {exc}") from None
-    except (etree.XMLSyntaxError, *_BAD) as exc:
+    except (etree.XMLSyntaxError, OSError, *_BAD) as exc:
         raise InputError(f"{path}: not a readable urbanenvironment file ({exc})") from None
     if not lines:
         raise InputError(f"{path}: no streets in the urbanenvironment file")
