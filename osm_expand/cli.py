@@ -675,8 +675,12 @@ def main(argv: Sequence[str] | None = None) -> int:
     """Run one command; its exit code (0, 1, 2; 130/143/129 when stopped by SIGINT/SIGTERM/SIGHUP)."""
     from osm_expand.interrupts import Interrupted, signals_raise
 
+    import warnings
+
     try:
-        with signals_raise():
+        with signals_raise(), warnings.catch_warnings():
+            if not os.environ.get("OSM_EXPAND_DEBUG"):  # a library's warning is no line for the user (issue 21)
+                warnings.simplefilter("ignore")
             return _main(argv)
     except Interrupted as exc:  # landed outside _main's own handler (between its lines)
         return exc.exit_code
