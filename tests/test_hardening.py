@@ -418,3 +418,22 @@ def test_point13_messages(tmp_path, capsys, oakland):
     blocked.write_text("")
     message = refused([oakland, "--years", "1", "-q", "--snapshots", blocked / "a" / "b", *out])
     assert "probe.png" not in message and "--snapshots" in message
+
+
+def test_point12_library_warnings_never_reach_stderr(monkeypatch, capsys):
+    import warnings
+
+    import numpy as np
+
+    def noisy(args, log):
+        np.divide(np.zeros(1), np.zeros(1))  # numpy's RuntimeWarning, as sites.py raised on degenerate rings
+        return {}
+
+    monkeypatch.setitem(cli.COMMANDS, "stats", noisy)
+    monkeypatch.delenv("OSM_EXPAND_DEBUG", raising=False)
+    with warnings.catch_warnings():
+        warnings.simplefilter("always")
+        warnings.showwarning = lambda m, c, f, n, file=None, line=None: sys.stderr.write(
+            warnings.formatwarning(m, c, f, n, line))  # as a plain interpreter prints them
+        code, _, err = run(["stats", "any.osm", "-q"], capsys)
+    assert code == 0 and err == ""
