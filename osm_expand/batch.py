@@ -532,12 +532,16 @@ def _local_cluster(n: int):
 def _make_out_dir(out: Path) -> None:
     if out.exists() and not out.is_dir():
         raise InputError(f"{out}: is not a folder")
-    if not out.exists():
-        if not out.parent.is_dir():
-            raise InputError(f"{out}: its parent folder does not exist")
-        out.mkdir()
-    if not os.access(out, os.W_OK):
-        raise InputError(f"{out}: the output folder is not writable")
+    from osm_expand.export.atomic import check_writable
+
+    try:
+        if not out.exists():
+            if not out.parent.is_dir():
+                raise InputError(f"{out}: its parent folder does not exist")
+            out.mkdir()
+        check_writable(out / "summary.json")  # a real probe: root passes os.access() on a read-only mount
+    except OSError as exc:
+        raise InputError(f"{out}: the output folder cannot be made or written ({exc.strerror or exc})") from None
 
 
 def _clip_towns(src: Path, table: list[Town], out: Path, job: Callable[[str, Path], Job],
