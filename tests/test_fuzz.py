@@ -4,7 +4,8 @@ Every case runs ``osm_expand.cli.main`` in this process on a small input —
 a tiny synthetic town and West-Oakland, in every format the tool reads,
 and the bundled history and a towns table — after one mutation:
 truncation at a random offset, flipped bytes, shuffled or duplicated
-lines (elements), a number replaced by an out-of-range or non-finite one,
+elements (lines of OSM XML and TOML, elements of the tool's XML, features
+of its GeoJSON), a number replaced by an out-of-range or non-finite one,
 odd characters in tag values and in the file's name. Every case must end
 in exit 0 with a valid output, or exit 2 with exactly one line on stderr;
 never an internal error, a traceback, a warning, a temporary file left.
@@ -111,7 +112,9 @@ def mutated(draw, data: bytes) -> bytes:
         for _ in range(draw(st.integers(1, 8))):
             b[draw(st.integers(0, len(b) - 1))] ^= draw(st.integers(1, 255))
         return bytes(b)
-    lines = data.split(b"\n")
+    # elements: a line each in OSM XML and TOML; the tool's own XML and GeoJSON are one line
+    sep = b"\n" if data.count(b"\n") > 50 else b'},{"type":"Feature"' if data.startswith(b"{") else b"><"
+    lines = data.split(sep)
     if how in ("shuffle", "duplicate") and len(lines) > 2:
         i = draw(st.integers(0, len(lines) - 2))
         j = draw(st.integers(i + 1, min(len(lines), i + 40)))
@@ -120,7 +123,7 @@ def mutated(draw, data: bytes) -> bytes:
             part = draw(st.permutations(part))
         else:
             part = part + part
-        return b"\n".join(lines[:i] + list(part) + lines[j:])
+        return sep.join(lines[:i] + list(part) + lines[j:])
     text = data.decode("utf-8", "replace")
     if how == "number":
         spots = list(re.finditer(r'(?<=")-?\d+\.?\d*(?:e-?\d+)?(?=")|(?<=[\[,])-?\d+\.\d+(?=[\],])', text))
