@@ -673,21 +673,21 @@ def _join_negative_values(argv: list[str]) -> list[str]:
 
 def main(argv: Sequence[str] | None = None) -> int:
     """Run one command; its exit code (0, 1, 2; 130/143/129 when stopped by SIGINT/SIGTERM/SIGHUP)."""
-    from osm_expand.interrupts import Interrupted, signals_raise
-
     import warnings
+
+    from osm_expand.interrupts import Interrupted, signals_raise
 
     try:
         with signals_raise(), warnings.catch_warnings():
             if not os.environ.get("OSM_EXPAND_DEBUG"):  # a library's warning is no line for the user (issue 21)
                 warnings.simplefilter("ignore")
             return _main(argv)
-    except Interrupted as exc:  # landed outside _main's own handler (between its lines)
-        return exc.exit_code
+    except Interrupted as exc:  # landed outside _main's own handler (parsing the arguments, say)
+        return _interrupted(exc)
 
 
 def _main(argv: Sequence[str] | None) -> int:
-    from osm_expand.interrupts import Interrupted
+    from osm_expand.interrupts import Interrupted, received
 
     argv = _join_negative_values(list(sys.argv[1:] if argv is None else argv))
     if argv and argv[0] in COMMANDS:
@@ -701,6 +701,8 @@ def _main(argv: Sequence[str] | None) -> int:
     log = Progress(args.quiet, EXPAND_STAGES if command is cmd_expand else 0)
     try:
         report = (command or COMMANDS[args.command])(args, log)
+        if (stopped := received()) is not None:  # a signal whose exception a library swallowed
+            raise stopped
         log("done")
         log.close()
         if args.json:
@@ -712,9 +714,7 @@ def _main(argv: Sequence[str] | None) -> int:
         return getattr(exc, "exit_code", 2)
     except KeyboardInterrupt as exc:  # Ctrl-C, SIGTERM, SIGHUP (osm_expand.interrupts)
         log.close()
-        code = exc.exit_code if isinstance(exc, Interrupted) else 130
-        print(f"{PROG}: interrupted" + (f" ({exc.args[0]})" if code != 130 else ""), file=sys.stderr)
-        return code
+        return _interrupted(exc if isinstance(exc, Interrupted) else Interrupted())
     except MemoryError:
         log.close()
         where = getattr(args, "city", None)
@@ -723,11 +723,20 @@ def _main(argv: Sequence[str] | None) -> int:
         return 2
     except Exception as exc:  # a bug: say so in one line, details on request
         log.close()
+        stopped = received()
+        if stopped is not None:  # the interrupt, turned into another exception by a C extension's callback
+            return _interrupted(stopped)
         if os.environ.get("OSM_EXPAND_DEBUG"):
             raise
         print(f"{PROG}: internal error: {type(exc).__name__}: {_one_line(str(exc))} "
               "(set OSM_EXPAND_DEBUG=1 for a traceback)", file=sys.stderr)
         return 1
+
+
+def _interrupted(exc) -> int:
+    """Say so (naming the signal unless it is Ctrl-C); the exit code, 128 + the signal's number."""
+    print(f"{PROG}: interrupted" + (f" ({exc.args[0]})" if exc.exit_code != 130 else ""), file=sys.stderr)
+    return exc.exit_code
 
 
 def _one_line(text: str) -> str:

@@ -45,7 +45,18 @@ def _main_thread() -> bool:
     return threading.current_thread() is threading.main_thread()
 
 
+#: Signals raised as :class:`Interrupted` since :func:`signals_raise` began: an exception raised inside a C
+#: extension's callback can be swallowed or turned into another, so the signal itself is remembered.
+_RECEIVED: list[int] = []
+
+
+def received() -> Interrupted | None:
+    """The interrupt of a signal that came (even if some library swallowed its exception), or None."""
+    return Interrupted(_RECEIVED[0]) if _RECEIVED else None
+
+
 def _raise(signum: int, frame: object) -> None:
+    _RECEIVED.append(signum)
     raise Interrupted(signum)
 
 
@@ -59,6 +70,7 @@ def signals_raise() -> Iterator[None]:
         yield
         return
     old = {s: signal.getsignal(s) for s in SIGNALS}
+    _RECEIVED.clear()
     for s, handler in old.items():
         if handler is not signal.SIG_IGN:
             signal.signal(s, _raise)
@@ -67,6 +79,7 @@ def signals_raise() -> Iterator[None]:
     finally:
         for s, handler in old.items():
             signal.signal(s, handler if handler is not None else signal.SIG_DFL)
+        _RECEIVED.clear()
 
 
 @contextlib.contextmanager
@@ -74,7 +87,9 @@ def deferred() -> Iterator[None]:
     """Hold the signals back inside the block; the first one noted is raised when it ends.
 
     Nested blocks hold them until the outermost ends. The exception the
-    block raises itself wins over a noted signal.
+    block raises itself wins over a noted signal. A signal that came
+    earlier but whose exception a library swallowed (:func:`received`) is
+    raised here too, so the file it guards does not land.
     """
     if not _main_thread():
         yield
@@ -98,6 +113,9 @@ def deferred() -> Iterator[None]:
         if callable(handler):
             handler(noted[0], None)  # the handler that was in place: ours raises, Python's raises KeyboardInterrupt
         raise Interrupted(noted[0])  # SIG_DFL: stop all the same, cleanly
+    swallowed = received()
+    if swallowed is not None:  # an earlier signal's exception was lost in a library: nothing lands
+        raise swallowed
 
 
 def _note_into(noted: list[int]):

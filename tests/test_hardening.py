@@ -67,9 +67,11 @@ def oakland_outputs(tmp_path_factory, oakland) -> dict[str, Path]:
 
 
 def subprocess_main(script: str, cwd: Path, timeout: float = 120, **kwargs) -> subprocess.CompletedProcess:
-    """``script`` (which calls ``osm_expand.cli.main``) in a fresh interpreter on this worktree."""
+    """``script`` (which calls ``osm_expand.cli.main``) in a fresh interpreter on this worktree, with Ctrl-C
+    raising as in a terminal (a background job, a CI runner, inherits SIGINT ignored)."""
     env = {**os.environ, "PYTHONPATH": str(ROOT)}
-    return subprocess.run([sys.executable, "-c", textwrap.dedent(script)], cwd=cwd, env=env, capture_output=True,
+    script = "import signal; signal.signal(signal.SIGINT, signal.default_int_handler)\n" + textwrap.dedent(script)
+    return subprocess.run([sys.executable, "-c", script], cwd=cwd, env=env, capture_output=True,
                           text=True, timeout=timeout, **kwargs)
 
 
@@ -374,6 +376,28 @@ def test_point11_ctrl_c_between_the_renames_leaves_all_or_nothing(tmp_path, oakl
     assert proc.stderr.strip() == "osm-expand: interrupted"
     assert leftovers(tmp_path) == []  # no temporary file: both outputs landed whole, or neither
     assert (tmp_path / "out.osm").exists() == (tmp_path / "out.png").exists()
+
+
+@pytest.mark.parametrize("signum", [signal.SIGINT, signal.SIGTERM])
+def test_point11_an_interrupt_a_library_swallows_still_stops_the_run(tmp_path, oakland, signum):
+    """As a C extension's callback may swallow the exception: the run ends interrupted, nothing lands."""
+    script = f"""
+        import os, sys
+        from osm_expand import cli, pipeline
+        real = pipeline.expand
+        def expand(*args, **kwargs):
+            try:
+                os.kill(os.getpid(), {int(signum)})
+            except BaseException:
+                pass  # swallowed
+            return real(*args, **kwargs)
+        pipeline.expand = expand
+        sys.exit(cli.main({[str(oakland), *GROW, '-o', 'out.xml']!r}))
+    """
+    proc = subprocess_main(script, tmp_path)
+    assert proc.returncode == 128 + signum, proc.stderr
+    assert proc.stderr.strip().startswith("osm-expand: interrupted")
+    assert not (tmp_path / "out.xml").exists() and leftovers(tmp_path) == []
 
 
 # --- 12: nothing else on stderr --------------------------------------------------------------------------
