@@ -568,7 +568,7 @@ def cmd_expand(args: argparse.Namespace, log: Progress) -> dict:
         raise InputError(f"--debug-layers needs a GeoJSON output (-o OUT.geojson), got {out.name}")
     history, years = check_expand_options(args)
     land = args.land
-    snapshots = _snapshot_dir(args, years)
+    snapshots = _snapshot_dir(args, years, history, _stem(city_path))
     with _read_from(args, city_path, out.parent, log) as (src, clip):
         log(f"reading {city_path}" + (" (the extract)" if clip else ""))
         city = load(src, service=args.service, paths=args.paths)
@@ -595,8 +595,15 @@ def cmd_expand(args: argparse.Namespace, log: Progress) -> dict:
                if snapshots else {}), **report}
 
 
-def _snapshot_dir(args: argparse.Namespace, years: int) -> Path | None:
-    """``--snapshots DIR``, checked before any work (made if missing)."""
+def _snapshot_dir(args: argparse.Namespace, years: int, history=None, stem: str = "") -> Path | None:
+    """``--snapshots DIR``, checked before any work (made if missing), and the pictures' names with it."""
+    try:
+        return _checked_snapshot_dir(args, years, history, stem)
+    except OSError as exc:  # a name or path too long, ...
+        raise InputError(f"--snapshots {args.snapshots}: cannot write there ({exc.strerror or exc})") from None
+
+
+def _checked_snapshot_dir(args: argparse.Namespace, years: int, history, stem: str) -> Path | None:
     if args.snapshot_every is not None and not args.snapshots:
         raise InputError("--snapshot-every needs --snapshots DIR")
     if not args.snapshots:
@@ -617,6 +624,9 @@ def _snapshot_dir(args: argparse.Namespace, years: int) -> Path | None:
         from osm_expand.export.atomic import check_writable
 
         check_writable(existing / "probe.png")
+        if history is not None:  # the longest picture name: a six-digit year, the longest era name
+            era = max((e.name for e in history.eras), key=len, default="")
+            check_writable(existing / _snapshot_name(stem, 999999, era))
     except OSError as exc:
         raise InputError(f"--snapshots {folder}: cannot write into {existing} ({exc.strerror})") from None
     return folder

@@ -274,6 +274,31 @@ def test_point7_a_name_too_long_is_refused_before_the_work(tmp_path, capsys, oak
     assert code == 2 and "File name too long" in one_line(err) and "reading" not in err
 
 
+@pytest.mark.parametrize("where", ["input", "simplify", "preview", "snapshots", "snapshot names", "path"])
+def test_point7_names_and_paths_too_long_are_one_line_before_the_work(tmp_path, capsys, oakland, where):
+    long = "n" * 300
+    city, argv = oakland, ["-o", tmp_path / "o.xml"]
+    if where == "input":
+        city = tmp_path / f"{long}.osm"
+    elif where == "simplify":
+        argv = ["simplify", oakland, "-o", tmp_path / f"{long}.osm"]
+    elif where == "preview":
+        argv += ["--preview", tmp_path / f"{long}.png"]
+    elif where == "snapshots":
+        argv += ["--years", "1", "--snapshots", tmp_path / long]
+    elif where == "snapshot names":  # NAME-YEAR-ERA.png: fits for the output, not for the pictures
+        city = tmp_path / ("w" * 235 + ".osm")
+        shutil.copy(oakland, city)
+        argv += ["--years", "1", "--snapshots", tmp_path / "pictures"]
+    else:
+        argv = ["-o", Path("/tmp", *["d" * 200] * 25, "o.xml")]
+    if where != "simplify":
+        argv = [city, *argv] + ([] if "--years" in argv else GROW[:2])
+    code, _, err = run([*argv, "-q"], capsys)
+    assert code == 2 and "too long" in one_line(err)
+    assert sorted(p.name for p in tmp_path.iterdir()) == ([city.name] if where == "snapshot names" else [])
+
+
 def test_point7_a_full_disk_is_one_line_exit_2(tmp_path, oakland):
     out = tmp_path / "out.xml"
     out.write_text("the user's earlier file")
