@@ -585,7 +585,7 @@ def cmd_expand(args: argparse.Namespace, log: Progress) -> dict:
         raise _in_file(city_path, exc, args) from None
     report = result.report
     log(f"{len(result.city.new_streets())} new streets; writing {out}")
-    title = f"{_stem(city_path)}: the town and what grew (seed {args.seed})"
+    title = f"{_shown(_stem(city_path))}: the town and what grew (seed {args.seed})"
     debug = list(result.growth.debug.get("features", [])) if args.debug_layers else None
     _write(result, out, kind, preview, title=title, snapshots=snapshots, pictures=pictures,
            stem=_stem(city_path), debug=debug)
@@ -661,7 +661,7 @@ def _write(result, out: Path, kind: str, preview: Path | None, title: str, *, sn
             for city, year, era, traffic in pictures:
                 picture = snapshots / _snapshot_name(stem, year, era)
                 with _writing(picture):
-                    write_snapshot(city, traffic, picture, title=f"{stem} in {year}, end of era {era}")
+                    write_snapshot(city, traffic, picture, title=f"{_shown(stem)} in {year}, end of era {era}")
 
 
 #: Stages the main command reports (reading, learning, site, growing, judging, writing; "done" ends the last).
@@ -747,6 +747,12 @@ def _interrupted(exc) -> int:
     """Say so (naming the signal unless it is Ctrl-C); the exit code, 128 + the signal's number."""
     print(f"{PROG}: interrupted" + (f" ({exc.args[0]})" if exc.exit_code != 130 else ""), file=sys.stderr)
     return exc.exit_code
+
+
+def _shown(name: str) -> str:
+    """A file name as a picture's title shows it: bytes that are not UTF-8 (kept by Python as lone
+    surrogates, which matplotlib refuses) as U+FFFD."""
+    return os.fsencode(name).decode("utf-8", "replace")
 
 
 def _one_line(text: str) -> str:

@@ -463,6 +463,13 @@ def test_point13_messages(tmp_path, capsys, oakland):
     assert "probe.png" not in message and "--snapshots" in message
 
 
+def test_point12_a_non_utf8_file_name_with_a_preview(tmp_path, capsys, oakland):
+    city = Path(os.fsdecode(bytes(tmp_path) + b"/\xff\xfe.osm"))  # not UTF-8: a lone surrogate in Python
+    shutil.copy(oakland, city)
+    code, _, err = run([city, *GROW, "-o", tmp_path / "o.xml", "--preview", tmp_path / "o.png"], capsys)
+    assert code == 0 and err == "" and (tmp_path / "o.png").stat().st_size > 0
+
+
 def test_point12_library_warnings_never_reach_stderr(monkeypatch, capsys):
     import warnings
 
