@@ -155,7 +155,10 @@ def _check_missing(path: str, missing: set[int]) -> None:
 
     One more read of the nodes, in C++ (an id filter), only when some street has a gap.
     """
-    for node in osmium.FileProcessor(path, osmium.osm.NODE).with_filter(osmium.filter.IdFilter(missing)):
+    wanted = {i for i in missing if i > 0}  # IdFilter takes unsigned ids; libosmium never locates negative ones
+    if not wanted:
+        return
+    for node in osmium.FileProcessor(path, osmium.osm.NODE).with_filter(osmium.filter.IdFilter(wanted)):
         raise InputError(f"node {node.id} has no valid lat/lon (a coordinate missing or unreadable)")
 
 

@@ -139,8 +139,10 @@ def mutated(draw, data: bytes) -> bytes:
     return text.encode("utf-8", "surrogatepass")
 
 
-odd_names = st.text(st.characters(codec="utf-8", exclude_characters="/\x00"), min_size=1, max_size=40).filter(
-    lambda s: s not in (".", ".."))
+odd_names = st.one_of(
+    st.text(st.characters(codec="utf-8", exclude_characters="/\x00"), min_size=1, max_size=40),
+    st.binary(min_size=1, max_size=40).map(lambda b: os.fsdecode(b.replace(b"/", b"_").replace(b"\x00", b"_"))),
+).filter(lambda s: s not in (".", ".."))  # text, or bytes that are not UTF-8 (lone surrogates in Python)
 
 
 # --- the check ------------------------------------------------------------------------------------------
@@ -240,7 +242,8 @@ def test_fuzz_expand(data):
         path = _input(tmp, source, blob, "in", data.draw(st.sampled_from(["plain", "gz", "bz2"])))
         out = tmp / (data.draw(odd_names) + data.draw(st.sampled_from([".xml", ".osm", ".geojson"])))
         area = data.draw(st.sampled_from([[], ["--area", "200000", "--beyond-bounds"]]))
-        check("expand", [path, "-q", "--years", "0", *area, "-o", out], tmp, out)
+        preview = data.draw(st.sampled_from([[], [], [], ["--preview", tmp / (data.draw(odd_names) + ".png")]]))
+        check("expand", [path, "-q", "--years", "0", *area, *preview, "-o", out], tmp, out)
 
 
 @FUZZ
