@@ -8,10 +8,14 @@ raise :class:`Interrupted`, a :class:`KeyboardInterrupt`, so every
 ``with``/``finally`` that cleans up after Ctrl-C cleans up after them too.
 
 :func:`deferred` holds the signals back while a file is written: raised
-inside lxml's or matplotlib's write callbacks, an interrupt was once lost
-(exit 0) and once turned into a TypeError. There the signal is noted and
-raised when the block ends, before the file is renamed into place, so the
-temporary file is removed and the target is untouched.
+inside a C extension's callback (lxml's writer calls the file's ``write``,
+matplotlib its own), an exception can be lost or turned into another (issue
+21 saw an interrupt end in exit 0 once and in a TypeError once). There the
+signal is noted and raised when the block ends, before the file is renamed
+into place, so the temporary file is removed and the target is untouched.
+A signal whose exception was swallowed anywhere else is remembered
+(:func:`received`): the next file is not renamed into place, and the run
+ends interrupted all the same.
 
 Signal handlers are process state: only the command line installs them,
 and only from the main thread (a batch worker's thread leaves them alone).

@@ -59,7 +59,8 @@ def atomic_write(path: str | os.PathLike, mode: str = "wb") -> Iterator[IO]:
     fd, tmp = tempfile.mkstemp(prefix=_temp_prefix(target), suffix=".tmp", dir=target.parent or ".")
     try:
         with deferred():
-            text = {} if "b" in mode else {"encoding": "utf-8", "newline": "\n", "errors": "replace"}  # a lone surrogate
+            # errors="replace": a lone surrogate (a name read from "\ud800" in JSON) cannot be UTF-8
+            text = {} if "b" in mode else {"encoding": "utf-8", "newline": "\n", "errors": "replace"}
             with os.fdopen(fd, mode, **text) as fh:
                 yield fh
             os.chmod(tmp, 0o666 & ~_umask())  # mkstemp's 0600 is for the temporary file only
