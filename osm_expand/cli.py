@@ -642,12 +642,11 @@ def _write(result, out: Path, kind: str, preview: Path | None, title: str, *, sn
     from osm_expand.export import all_or_nothing, write_geojson, write_osm, write_urbanenvironment
 
     writer = {"urbanenvironment": write_urbanenvironment, "osm": write_osm, "geojson": write_geojson}[kind]
-    with _writing(out), all_or_nothing():  # _writing(out) names the output if the final renames fail
-        with _writing(out):
-            if debug is not None:
-                write_geojson(result.city, out, debug=debug)
-            else:
-                writer(result.city, out)
+    with _writing(out), all_or_nothing():  # a failure of the output's writing or of the final renames
+        if debug is not None:
+            write_geojson(result.city, out, debug=debug)
+        else:
+            writer(result.city, out)
         if preview is not None:
             from osm_expand.export.preview import write_preview
 
