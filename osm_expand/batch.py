@@ -291,8 +291,13 @@ def read_towns(path: str | os.PathLike) -> list[Town]:
     p = Path(path)
     if not p.is_file():
         raise InputError(f"{p}: no such towns table")
-    with open(p, newline="", encoding="utf-8-sig") as fh:
-        rows = list(csv.reader(fh))
+    try:
+        with open(p, newline="", encoding="utf-8-sig") as fh:
+            rows = list(csv.reader(fh))
+    except UnicodeDecodeError as exc:
+        raise InputError(f"{p}: not UTF-8 text (byte {exc.start}); save the towns table as UTF-8") from None
+    except csv.Error as exc:
+        raise InputError(f"{p}: not a readable CSV table ({exc})") from None
     rows = [r for r in rows if any(cell.strip() for cell in r)]
     if not rows:
         raise InputError(f"{p}: empty towns table (expected a header name,lon,lat,radius and one row per town)")
@@ -352,14 +357,20 @@ def check_pipeline_args(args: Sequence[str]) -> list[str]:
         if flag in _PER_JOB:
             raise InputError(f"batch: {flag} is set per job by the batch (outputs are DIR/NAME.expanded.*, "
                              "seeds derive from --seed, previews come with --preview png|svg)")
+    from osm_expand.cli import check_expand_options
+
     parser = build_expand_parser()
     err = io.StringIO()
     try:
         with contextlib.redirect_stderr(err):
-            parser.parse_args(["CITY.osm", *args])
+            namespace = parser.parse_args(["CITY.osm", *args])
     except SystemExit:
         message = err.getvalue().strip().splitlines()
         raise InputError(f"batch: pipeline options: {message[-1] if message else ' '.join(args)}") from None
+    try:
+        check_expand_options(namespace)  # --area nan, a broken --history, ...: refused before the first job
+    except InputError as exc:
+        raise InputError(f"batch: pipeline options: {exc}") from None
     return args
 
 
@@ -521,12 +532,16 @@ def _local_cluster(n: int):
 def _make_out_dir(out: Path) -> None:
     if out.exists() and not out.is_dir():
         raise InputError(f"{out}: is not a folder")
-    if not out.exists():
-        if not out.parent.is_dir():
-            raise InputError(f"{out}: its parent folder does not exist")
-        out.mkdir()
-    if not os.access(out, os.W_OK):
-        raise InputError(f"{out}: the output folder is not writable")
+    from osm_expand.export.atomic import check_writable
+
+    try:
+        if not out.exists():
+            if not out.parent.is_dir():
+                raise InputError(f"{out}: its parent folder does not exist")
+            out.mkdir()
+        check_writable(out / "summary.json")  # a real probe: root passes os.access() on a read-only mount
+    except OSError as exc:
+        raise InputError(f"{out}: the output folder cannot be made or written ({exc.strerror or exc})") from None
 
 
 def _clip_towns(src: Path, table: list[Town], out: Path, job: Callable[[str, Path], Job],

@@ -14,6 +14,7 @@ from __future__ import annotations
 import argparse
 import contextlib
 import json
+import math
 import os
 import re
 import sys
@@ -51,7 +52,7 @@ class _VersionAction(argparse.Action):
 
 class _Parser(argparse.ArgumentParser):
     def error(self, message: str) -> None:  # one line, exit 2
-        self.exit(2, f"{PROG}: error: {message} (see '{PROG} --help')\n")
+        self.exit(2, f"{PROG}: error: {_one_line(message)} (see '{PROG} --help')\n")
 
 
 class Progress:
@@ -256,11 +257,43 @@ COMMAND_USAGE = {
 def _output_path(city: Path, output: str | None, default_suffix: str,
                  writers: dict[str, str] = OUTPUT_WRITERS) -> tuple[Path, str]:
     path = Path(output) if output else city.with_name(_stem(city) + default_suffix)
+    if output == "":
+        raise InputError("-o needs a file name, got ''")
+    try:
+        return _checked_output(path, city, default_suffix, writers)
+    except OSError as exc:  # a name or path too long, a loop of links, ...
+        raise InputError(f"{path}: cannot write there ({exc.strerror or exc})") from None
+
+
+def _checked_output(path: Path, city: Path, default_suffix: str, writers: dict[str, str]) -> tuple[Path, str]:
+    if path.is_dir():
+        raise InputError(f"{path}: is a directory; give an output file (-o DIR/NAME{default_suffix})")
     kind = writers.get(path.suffix.lower())
     if kind is None:
         raise InputError(f"{path}: unsupported output type (use {' or '.join(sorted(writers))})")
+    _not_the_input(path, city)
     _writable(path)
     return path, kind
+
+
+def _not_the_input(out: Path, city: Path) -> None:
+    """Refuse an output that is the input itself (by inode, or by real path when it does not exist yet)."""
+    try:
+        same = os.path.samefile(out, city) if out.exists() and city.exists() else \
+            os.path.realpath(out) == os.path.realpath(city)
+    except OSError:
+        same = False
+    if same:
+        raise InputError(f"{out}: is the input file; choose another output (-o) so the town is not overwritten")
+
+
+@contextlib.contextmanager
+def _writing(path: Path) -> Iterator[None]:
+    """A write that fails (disk full, file-size limit, a folder gone) as one line naming the file, exit 2."""
+    try:
+        yield
+    except OSError as exc:
+        raise InputError(f"{path}: cannot write it ({exc.strerror or exc}); nothing was written") from None
 
 
 def _writable(path: Path) -> None:
@@ -319,8 +352,8 @@ def cmd_simplify(args: argparse.Namespace, log: Progress) -> dict:
 
     city = Path(args.city)
     out, kind = _output_path(city, args.output, ".simplified.osm")
-    if args.cluster_radius is not None and not args.cluster_radius > 0:
-        raise InputError(f"--cluster-radius must be positive, got {args.cluster_radius}")
+    if args.cluster_radius is not None and not 0 < args.cluster_radius < float("inf"):
+        raise InputError(f"--cluster-radius must be positive and finite (metres), got {args.cluster_radius:g}")
     _check_clip(args)
     with cyclic_gc_paused():  # millions of short-lived objects on a large file (osm_expand.gcpause)
         with _read_from(args, city, out.parent, log) as (src, clip):
@@ -331,7 +364,8 @@ def cmd_simplify(args: argparse.Namespace, log: Progress) -> dict:
         result = _simplify_or_fail(city, net, args, opts)
         log(f"{result.report['junctions']} junctions, {result.report['streets']} streets; writing {out}")
         write = export.write_osm if kind == "osm" else export.write_geojson  # loads that writer alone
-        write(City(network=result.network), out)
+        with _writing(out):
+            write(City(network=result.network), out)
         broken = {k: v for k, v in violations(result.network).items() if v}
     if broken:  # never expected: say so rather than hand over a flawed network silently
         print(f"{PROG}: warning: {out}: simplified network still has {broken}; please report this input",
@@ -416,8 +450,10 @@ def cmd_compare(args: argparse.Namespace, log: Progress) -> dict:
 
 
 def _compare_text(a: Path, b: Path, report: dict) -> str:
+    typical = report.get("typical_part_off")
+    typical_text = "no real neighbourhood of its size" if typical is None or typical != typical else f"{typical:g}"
     lines = [f"{a} as a district of {b}: off on {report['off']} of {len(report['measures'])} measures "
-             f"(a typical real neighbourhood of {b.name}: {report['typical_part_off']}); "
+             f"(a typical real neighbourhood of {b.name}: {typical_text}); "
              f"{report['pieces']} piece{'s' if report['pieces'] != 1 else ''} on the map"]
     for name, v in report["measures"].items():
         lines.append(f"  {'ok ' if v['ok'] else 'OFF'} {name:<20} {v['value']}  [{v['low']}, {v['high']}]")
@@ -454,7 +490,7 @@ def _pair(text: str, flag: str) -> tuple[float, float]:
 
 def _site_point(args: argparse.Namespace, city) -> tuple[float, float] | None:
     """``--at`` / ``--at-lonlat`` in metres, checked against the map's bounds."""
-    if args.at_lonlat:
+    if args.at_lonlat is not None:
         lon, lat = args.at_lonlat
         text = f"{lon:g},{lat:g}"
         lon0, lat0, lon1, lat1 = city.context.bounds_lonlat
@@ -467,7 +503,7 @@ def _site_point(args: argparse.Namespace, city) -> tuple[float, float] | None:
                              f"lat {lat0:.5f}..{lat1:.5f}); use --beyond-bounds to grow outside it")
         x, y = city.projection.to_xy(lon, lat)
         return float(x), float(y)
-    if args.at:
+    if args.at is not None:
         x, y = args.at
         x0, y0, x1, y1 = city.bounds_xy
         if not args.beyond_bounds and not (x0 <= x <= x1 and y0 <= y <= y1):
@@ -479,9 +515,11 @@ def _site_point(args: argparse.Namespace, city) -> tuple[float, float] | None:
 
 def _check_points(args: argparse.Namespace) -> None:
     """Parse ``--at`` and ``--at-lonlat`` (before any work); their bounds are checked once the map is read."""
-    if args.at:
+    if args.at is not None:
         args.at = _pair(args.at, "--at")
-    if args.at_lonlat:
+        if not all(math.isfinite(v) for v in args.at):
+            raise InputError(f"--at expects two finite numbers (metres), got {args.at[0]:g},{args.at[1]:g}")
+    if args.at_lonlat is not None:
         args.at_lonlat = lon, lat = _pair(args.at_lonlat, "--at-lonlat")
         if not (-180 <= lon <= 180 and -90 <= lat <= 90):
             if -180 <= lat <= 180 and -90 <= lon <= 90:
@@ -505,28 +543,50 @@ def _expand_outputs(args: argparse.Namespace) -> tuple[Path, str, Path | None]:
         preview = Path(args.preview)
         if preview.suffix.lower() not in (".png", ".svg"):
             raise InputError(f"{args.preview}: the preview must be .png or .svg")
-        _writable(preview)
+        try:
+            _writable(preview)
+        except OSError as exc:
+            raise InputError(f"{preview}: cannot write there ({exc.strerror or exc})") from None
     return out, args.format or kind, preview
+
+
+#: The largest ``--area`` accepted, m²: 10,000 km², far past any district the engine can grow in a run
+#: (Berlin is 891 km²); larger values are typos or fuzz and would only fail later, with a 300-digit number.
+MAX_AREA_M2 = 1e10
+
+
+def check_expand_options(args: argparse.Namespace):
+    """The main command's options that need no input, checked before any work; returns the history.
+
+    Also what ``batch`` checks before its first job (docs/batch.md). Sets
+    ``args.land``, ``args.box``/``args.clip`` and parses ``--at``/``--at-lonlat``.
+    """
+    from osm_expand.engine.history import MAX_YEARS, load_history
+    from osm_expand.land import LandOptions, parse_rules
+
+    if args.area is not None and not (0 < args.area <= MAX_AREA_M2):
+        raise InputError(f"--area must be positive (m²) and at most {MAX_AREA_M2:.0e}, got {args.area:.6g}")
+    args.land = LandOptions() if args.unbuildable is None else LandOptions(unbuildable=parse_rules(args.unbuildable))
+    _check_points(args)
+    _check_clip(args)
+    history = load_history(args.history)
+    years = history.years if args.years is None else args.years
+    if years > MAX_YEARS:
+        raise InputError(f"--years {years}: at most {MAX_YEARS} years can be simulated")
+    return history, years
 
 
 def cmd_expand(args: argparse.Namespace, log: Progress) -> dict:
     from osm_expand.ingest import check_readable, load
-    from osm_expand.land import LandOptions, parse_rules
-    from osm_expand.engine.history import load_history
     from osm_expand.pipeline import ExpandOptions, expand
 
     city_path = check_readable(args.city)
     out, kind, preview = _expand_outputs(args)
     if args.debug_layers and kind != "geojson":
         raise InputError(f"--debug-layers needs a GeoJSON output (-o OUT.geojson), got {out.name}")
-    if args.area is not None and not (args.area > 0 and args.area < float("inf")):
-        raise InputError(f"--area must be positive (m²), got {args.area:g}")
-    land = LandOptions() if args.unbuildable is None else LandOptions(unbuildable=parse_rules(args.unbuildable))
-    _check_points(args)
-    _check_clip(args)
-    history = load_history(args.history)
-    years = history.years if args.years is None else args.years
-    snapshots = _snapshot_dir(args, years)
+    history, years = check_expand_options(args)
+    land = args.land
+    snapshots = _snapshot_dir(args, years, history, _stem(city_path))
     with _read_from(args, city_path, out.parent, log) as (src, clip):
         # the extract stays until the output is written: the OSM output is the extract plus what grew
         log(f"reading {city_path}" + (" (the extract)" if clip else ""))
@@ -546,7 +606,7 @@ def cmd_expand(args: argparse.Namespace, log: Progress) -> dict:
         for note in report.get("notes", []):  # what a user should know of the result, even with -q
             print(f"osm-expand: {city_path}: {note}", file=sys.stderr)
         log(f"{len(result.city.new_streets())} new streets; writing {out}")
-        title = f"{_stem(city_path)}: the town and what grew (seed {args.seed})"
+        title = f"{_shown(_stem(city_path))}: the town and what grew (seed {args.seed})"
         debug = list(result.growth.debug.get("features", [])) if args.debug_layers else None
         _write(result, out, kind, preview, title=title, snapshots=snapshots, pictures=pictures,
                stem=_stem(city_path), debug=debug)
@@ -556,8 +616,15 @@ def cmd_expand(args: argparse.Namespace, log: Progress) -> dict:
                if snapshots else {}), **report}
 
 
-def _snapshot_dir(args: argparse.Namespace, years: int) -> Path | None:
-    """``--snapshots DIR``, checked before any work (made if missing)."""
+def _snapshot_dir(args: argparse.Namespace, years: int, history=None, stem: str = "") -> Path | None:
+    """``--snapshots DIR``, checked before any work (made if missing), and the pictures' names with it."""
+    try:
+        return _checked_snapshot_dir(args, years, history, stem)
+    except OSError as exc:  # a name or path too long, ...
+        raise InputError(f"--snapshots {args.snapshots}: cannot write there ({exc.strerror or exc})") from None
+
+
+def _checked_snapshot_dir(args: argparse.Namespace, years: int, history, stem: str) -> Path | None:
     if args.snapshot_every is not None and not args.snapshots:
         raise InputError("--snapshot-every needs --snapshots DIR")
     if not args.snapshots:
@@ -569,7 +636,20 @@ def _snapshot_dir(args: argparse.Namespace, years: int) -> Path | None:
         raise InputError(f"--snapshots {folder}: exists and is not a directory")
     if args.snapshot_every == 0:
         raise InputError("--snapshot-every must be 1 or more")
-    _writable((folder if folder.exists() else folder.parent) / "probe.png")
+    existing = folder
+    while not existing.exists() and existing != existing.parent:  # made with its parents when written
+        existing = existing.parent
+    if not existing.is_dir():
+        raise InputError(f"--snapshots {folder}: {existing} is not a directory")
+    try:
+        from osm_expand.export.atomic import check_writable
+
+        check_writable(existing / "probe.png")
+        if history is not None:  # the longest picture name: a six-digit year, the longest era name
+            era = max((e.name for e in history.eras), key=len, default="")
+            check_writable(existing / _snapshot_name(stem, 999999, era))
+    except OSError as exc:
+        raise InputError(f"--snapshots {folder}: cannot write into {existing} ({exc.strerror})") from None
     return folder
 
 
@@ -583,7 +663,7 @@ def _write(result, out: Path, kind: str, preview: Path | None, title: str, *, sn
     from osm_expand.export import all_or_nothing, write_geojson, write_osm, write_urbanenvironment
 
     writer = {"urbanenvironment": write_urbanenvironment, "osm": write_osm, "geojson": write_geojson}[kind]
-    with all_or_nothing():
+    with _writing(out), all_or_nothing():  # a failure of the output's writing or of the final renames
         if debug is not None:
             write_geojson(result.city, out, debug=debug)
         else:
@@ -591,14 +671,17 @@ def _write(result, out: Path, kind: str, preview: Path | None, title: str, *, sn
         if preview is not None:
             from osm_expand.export.preview import write_preview
 
-            write_preview(result.city, preview, result.site.region, title=title)
+            with _writing(preview):
+                write_preview(result.city, preview, result.site.region, title=title)
         if snapshots is not None:
             from osm_expand.export.snapshot import write_snapshot
 
-            snapshots.mkdir(parents=True, exist_ok=True)
+            with _writing(snapshots):
+                snapshots.mkdir(parents=True, exist_ok=True)
             for city, year, era, traffic in pictures:
-                write_snapshot(city, traffic, snapshots / _snapshot_name(stem, year, era),
-                               title=f"{stem} in {year}, end of era {era}")
+                picture = snapshots / _snapshot_name(stem, year, era)
+                with _writing(picture):
+                    write_snapshot(city, traffic, picture, title=f"{_shown(stem)} in {year}, end of era {era}")
 
 
 #: Stages the main command reports (reading, learning, site, growing, judging, writing; "done" ends the last).
@@ -619,6 +702,23 @@ def _join_negative_values(argv: list[str]) -> list[str]:
 
 
 def main(argv: Sequence[str] | None = None) -> int:
+    """Run one command; its exit code (0, 1, 2; 130/143/129 when stopped by SIGINT/SIGTERM/SIGHUP)."""
+    import warnings
+
+    from osm_expand.interrupts import Interrupted, signals_raise
+
+    try:
+        with signals_raise(), warnings.catch_warnings():
+            if not os.environ.get("OSM_EXPAND_DEBUG"):  # a library's warning is no line for the user (issue 21)
+                warnings.simplefilter("ignore")
+            return _main(argv)
+    except Interrupted as exc:  # landed outside _main's own handler (parsing the arguments, say)
+        return _interrupted(exc)
+
+
+def _main(argv: Sequence[str] | None) -> int:
+    from osm_expand.interrupts import Interrupted, received
+
     argv = _join_negative_values(list(sys.argv[1:] if argv is None else argv))
     if argv and argv[0] in COMMANDS:
         parser, command = build_parser(argv[0]), None
@@ -631,26 +731,53 @@ def main(argv: Sequence[str] | None = None) -> int:
     log = Progress(args.quiet, EXPAND_STAGES if command is cmd_expand else 0)
     try:
         report = (command or COMMANDS[args.command])(args, log)
+        if (stopped := received()) is not None:  # a signal whose exception a library swallowed
+            raise stopped
+        log("done")
+        log.close()
+        if args.json:
+            print(json.dumps(report, sort_keys=True))
+        return 0
     except InputError as exc:
         log.close()
-        print(f"{PROG}: {exc}", file=sys.stderr)
+        print(f"{PROG}: {_one_line(str(exc))}", file=sys.stderr)
         return getattr(exc, "exit_code", 2)
-    except KeyboardInterrupt:
+    except KeyboardInterrupt as exc:  # Ctrl-C, SIGTERM, SIGHUP (osm_expand.interrupts)
         log.close()
-        print(f"{PROG}: interrupted", file=sys.stderr)
-        return 130
+        return _interrupted(exc if isinstance(exc, Interrupted) else Interrupted())
+    except MemoryError:
+        log.close()
+        where = getattr(args, "city", None)
+        print(f"{PROG}: {_one_line(str(where)) + ': ' if where else ''}not enough memory for this input",
+              file=sys.stderr)
+        return 2
     except Exception as exc:  # a bug: say so in one line, details on request
         log.close()
+        stopped = received()
+        if stopped is not None:  # the interrupt, turned into another exception by a C extension's callback
+            return _interrupted(stopped)
         if os.environ.get("OSM_EXPAND_DEBUG"):
             raise
-        print(f"{PROG}: internal error: {type(exc).__name__}: {exc} "
+        print(f"{PROG}: internal error: {type(exc).__name__}: {_one_line(str(exc))} "
               "(set OSM_EXPAND_DEBUG=1 for a traceback)", file=sys.stderr)
         return 1
-    log("done")
-    log.close()
-    if args.json:
-        print(json.dumps(report, sort_keys=True))
-    return 0
+
+
+def _interrupted(exc) -> int:
+    """Say so (naming the signal unless it is Ctrl-C); the exit code, 128 + the signal's number."""
+    print(f"{PROG}: interrupted" + (f" ({exc.args[0]})" if exc.exit_code != 130 else ""), file=sys.stderr)
+    return exc.exit_code
+
+
+def _shown(name: str) -> str:
+    """A file name as a picture's title shows it: bytes that are not UTF-8 (kept by Python as lone
+    surrogates, which matplotlib refuses) as U+FFFD."""
+    return os.fsencode(name).decode("utf-8", "replace")
+
+
+def _one_line(text: str) -> str:
+    """A message on one line: a file name with a newline or a control character shown escaped."""
+    return "".join(c if c.isprintable() else repr(c)[1:-1] for c in text)
 
 
 if __name__ == "__main__":

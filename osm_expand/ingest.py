@@ -72,11 +72,20 @@ class _Raw:
     unplaced: list[tuple[int, list[int], list[tuple[int, tuple[float, float]]], dict]] = field(default_factory=list)
     areas: list[tuple[list[list[tuple[float, float]]], str, str, int]] = field(default_factory=list)
     newest: int = 0  # the newest object's timestamp (seconds since 1970)
+    #: street nodes the file gave no location (absent from a clipped extract, or without lat/lon)
+    missing: set[int] = field(default_factory=set)
 
 
 def check_readable(path: str | os.PathLike, suffixes: tuple[str, ...] = SUFFIXES) -> Path:
     """Fail early, in one line, on paths osmium would choke on or misread."""
     p = Path(path)
+    try:
+        return _check_readable(p, suffixes)
+    except OSError as exc:  # a name too long, a loop of links, ...
+        raise InputError(f"{p}: cannot read it ({exc.strerror or exc})") from None
+
+
+def _check_readable(p: Path, suffixes: tuple[str, ...]) -> Path:
     if not p.exists():
         raise InputError(f"{p}: no such file")
     if p.is_dir():
@@ -133,7 +142,12 @@ def load(path: str | os.PathLike, *, service: bool = False, paths: bool = False,
         raise InputError(f"{p}: not a readable OSM file ({msg})") from None
     if not raw.streets:
         raise InputError(f"{p}: no streets of the selected highway classes" + ("" if service else " (try --service)"))
-    city = _build(raw, header_box)
+    try:
+        if raw.missing:
+            _check_missing(str(p), raw.missing)
+        city = _build(raw, header_box)
+    except InputError as exc:
+        raise InputError(f"{p}: {exc}") from None
     return city.replace(source=SourceFile(path=str(p.resolve()), ways=frozenset(held_ways(city)))) if context else city
 
 
@@ -280,6 +294,8 @@ def _take_way(way, kept: frozenset[str], raw: _Raw) -> None:
         raw.input_ways += 1
         runs, clipped = _way_runs(way)
         raw.clipped_ways += clipped
+        if clipped:
+            raw.missing.update(nd.ref for nd in way.nodes if not nd.location.valid())
         if not runs:  # not one stretch of two known nodes: kept as mapped, drawn nowhere
             _take_unplaced(way, raw)
             return
@@ -376,8 +392,50 @@ def _number(text: str | None) -> float | None:
     return value if math.isfinite(value) else None
 
 
+#: A header box is the map's bounds only when a local projection can cover it: less than this many degrees
+#: of longitude and short of the poles (``--bbox -180,-90,180,90`` writes the whole globe into the extract's
+#: header; projected, its corners are infinite). Wider boxes give way to the data's own bounds.
+MAX_HEADER_SPAN_DEG = 90.0
+MAX_HEADER_LAT_DEG = 85.0
+
+
+def _check_coordinates(ids: np.ndarray, lonlat: np.ndarray) -> None:
+    """Refuse street nodes whose coordinates cannot be the town's.
+
+    - Longitudes spanning more than 180°: the town crosses the antimeridian,
+      which a local projection centred on its bounds cannot represent.
+    - A latitude or longitude of exactly 0 in a town far from the equator or
+      the prime meridian: libosmium reads a three-digit exponent
+      (``lat="1e400"``) as 0, which would put a node thousands of km away.
+    """
+    if not len(lonlat):
+        return
+    lo, hi = lonlat.min(axis=0), lonlat.max(axis=0)
+    if hi[0] - lo[0] > 180:
+        raise InputError("the streets cross the antimeridian (longitude ±180, not supported); "
+                         "clip the town on one side of it")
+    typical = np.median(np.abs(lonlat), axis=0)
+    for axis, name in ((1, "lat"), (0, "lon")):
+        zero = np.flatnonzero(lonlat[:, axis] == 0.0)
+        if len(zero) and typical[axis] > 1.0:
+            raise InputError(f"node {int(ids[zero[0]])} has {name} 0, far from the rest of the town "
+                             f"({name} {np.median(lonlat[:, axis]):.4f}); a coordinate that is not a number "
+                             "in range (such as 1e400) is read as 0")
+
+
+def _usable_header(header_box: tuple | None) -> tuple | None:
+    if header_box is None:
+        return None
+    lon0, lat0, lon1, lat1 = header_box
+    if lon1 - lon0 >= MAX_HEADER_SPAN_DEG or max(abs(lat0), abs(lat1)) >= MAX_HEADER_LAT_DEG:
+        return None
+    return header_box
+
+
 def _build(raw: _Raw, header_box: tuple | None) -> City:
     ids, lonlat, streets_idx = _index_nodes(raw.streets)
+    _check_coordinates(ids, lonlat)
+    header_box = _usable_header(header_box)
     bounds = header_box or _data_bounds(lonlat)
     proj = LocalProjection.centred_on(bounds)
     xy = _project(lonlat, proj)

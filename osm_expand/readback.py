@@ -7,6 +7,7 @@ back as footprints with their height and origin.
 from __future__ import annotations
 
 import json
+import math
 from pathlib import Path
 
 import numpy as np
@@ -65,63 +66,106 @@ def _city(lines: list[np.ndarray], attrs: list[dict], buildings: list[Building],
     return City(network=net.replace(stats=stats), buildings=tuple(buildings), stats=stats)
 
 
+#: What a malformed file raises while it is read: each is the file's fault, reported in one line.
+_BAD = (ValueError, KeyError, TypeError, IndexError, AttributeError, RecursionError, OverflowError)
+
+
+def _points(value, what: str, least: int) -> np.ndarray:
+    """An ``(n, 2)`` array of finite coordinates with ``n >= least``, or InputError naming ``what``."""
+    a = np.asarray(value, dtype=float)
+    if a.ndim != 2 or a.shape[1] < 2 or len(a) < least:
+        raise InputError(f"{what}: expected at least {least} points of two coordinates")
+    a = a[:, :2]
+    if not np.isfinite(a).all():
+        raise InputError(f"{what}: a coordinate is not a finite number")
+    return a
+
+
+def _osm_id(value) -> int:
+    """An ``osm_id`` property: a whole number (0 when absent)."""
+    if value in (None, ""):
+        return 0
+    if isinstance(value, bool) or not (isinstance(value, int) or str(value).lstrip("-").isdigit()):
+        raise InputError(f"bad osm_id {value!r} (a whole number expected)")
+    return int(value)
+
+
+def _projection(lon0: float, lat0: float) -> LocalProjection:
+    if not (math.isfinite(lon0) and math.isfinite(lat0) and -180 <= lon0 <= 180 and -90 < lat0 < 90):
+        raise InputError(f"bad projection centre lon0={lon0:g}, lat0={lat0:g} (degrees expected)")
+    return LocalProjection(lon0, lat0)
+
+
 def _from_geojson(path: Path) -> City:
     try:
         doc = json.loads(path.read_text(encoding="utf-8"))
         features = [f for f in doc["features"] if f.get("geometry")]
-        lines = [np.asarray(f["geometry"]["coordinates"], dtype=float)[:, :2]
-                 for f in features if f["geometry"]["type"] == "LineString"]
-        props = [f.get("properties") or {} for f in features if f["geometry"]["type"] == "LineString"]
+        streets = [f for f in features if f["geometry"]["type"] == "LineString"]
+        lines = [_points(f["geometry"]["coordinates"], f"street {k}", 2) for k, f in enumerate(streets)]
+        props = [f.get("properties") or {} for f in streets]
         polygons = [(f["geometry"], f.get("properties") or {}) for f in features
                     if f["geometry"]["type"] in ("Polygon", "MultiPolygon")]
-    except (ValueError, KeyError, TypeError, IndexError, UnicodeDecodeError, AttributeError) as exc:
+    except InputError as exc:
+        raise InputError(f"{path}: {exc}") from None
+    except (*_BAD, UnicodeDecodeError, OSError) as exc:
         raise InputError(f"{path}: not a readable GeoJSON street network ({type(exc).__name__}: {exc})") from None
     if not lines:
         raise InputError(f"{path}: no LineString streets in the GeoJSON")
     allpts = np.concatenate(lines)
-    if not np.isfinite(allpts).all() or np.abs(allpts[:, 0]).max() > 180 or np.abs(allpts[:, 1]).max() > 90:
+    if np.abs(allpts[:, 0]).max() > 180 or np.abs(allpts[:, 1]).max() > 90:
         raise InputError(f"{path}: coordinates out of range (GeoJSON must be lon/lat)")
     lo, hi = allpts.min(axis=0), allpts.max(axis=0)
+    if hi[0] - lo[0] > 180:
+        raise InputError(f"{path}: the streets cross the antimeridian (longitude ±180, not supported)")
     proj = LocalProjection.centred_on((float(lo[0]), float(lo[1]), float(hi[0]), float(hi[1])))
     to_xy = lambda a: np.column_stack(proj.to_xy(a[:, 0], a[:, 1]))  # noqa: E731
     try:
         attrs = [_street_fields(p) for p in props]
+        buildings = []
+        for k, (geom, p) in enumerate(polygons):
+            polys = geom["coordinates"] if geom["type"] == "MultiPolygon" else [geom["coordinates"]]
+            fields = _model_fields({"origin": p.get("origin", "source"), "year": p.get("year")})
+            for rings in polys:
+                buildings.append(Building(rings=tuple(to_xy(_points(r, f"building {k}", 4)) for r in rings),
+                                          height=_number(str(p.get("height", ""))), osm_id=_osm_id(p.get("osm_id")),
+                                          origin=fields.get("origin", Origin.SOURCE)))
     except InputError as exc:
         raise InputError(f"{path}: {exc}") from None
-    buildings = []
-    for geom, p in polygons:
-        polys = geom["coordinates"] if geom["type"] == "MultiPolygon" else [geom["coordinates"]]
-        for rings in polys:
-            buildings.append(Building(rings=tuple(to_xy(np.asarray(r, dtype=float)[:, :2]) for r in rings),
-                                      height=_number(str(p.get("height", ""))), osm_id=int(p.get("osm_id") or 0),
-                                      origin=Origin(p.get("origin", "source"))))
+    except _BAD as exc:
+        raise InputError(f"{path}: not a readable GeoJSON street network ({type(exc).__name__}: {exc})") from None
     return _city([to_xy(ln) for ln in lines], attrs, buildings, proj)
 
 
 def _from_urbanenvironment(path: Path) -> City:
     try:
         root = etree.parse(str(path), etree.XMLParser(resolve_entities=False, no_network=True, huge_tree=True)).getroot()
-        proj = LocalProjection(float(root.get("lon0", 0.0)), float(root.get("lat0", 0.0)))
+        proj = _projection(float(root.get("lon0", 0.0)), float(root.get("lat0", 0.0)))
         lines, attrs = [], []
-        for st in root.iterfind("streets/street"):
-            segs = np.array([[float(sg.get(k)) for k in ("x1", "y1", "x2", "y2")] for sg in st.iterfind("segment")])
+        for k, st in enumerate(root.iterfind("streets/street")):
+            segs = np.array([[float(sg.get(c)) for c in ("x1", "y1", "x2", "y2")] for sg in st.iterfind("segment")])
+            if len(segs) and not np.isfinite(segs).all():
+                raise InputError(f"street {k}: a coordinate is not a finite number")
             props = dict(st.attrib)
             if props.get("osm_id"):
-                props["osm_ids"] = [int(props["osm_id"])]
+                props["osm_ids"] = [_osm_id(props["osm_id"])]
             fields = _street_fields(props)
             for run in _chains(segs):
                 lines.append(run)
                 attrs.append(fields)
-        buildings = [
-            Building(rings=(np.array([[float(n.get("x")), float(n.get("y"))] for n in (*b.iterfind("node"),
-                                                                                       b.find("node"))]),),
-                     height=float(b.get("height")), osm_id=int(b.get("osm_id", 0)),
-                     origin=Origin(b.get("origin", "source")), year=int(b.get("year")) if b.get("year") else None)
-            for b in root.iterfind("buildings/building")]
-    except (etree.XMLSyntaxError, ValueError, TypeError) as exc:
-        raise InputError(f"{path}: not a readable urbanenvironment file ({exc})") from None
+        buildings = []
+        for k, b in enumerate(root.iterfind("buildings/building")):
+            ring = _points([[float(n.get("x")), float(n.get("y"))] for n in b.iterfind("node")], f"building {k}", 3)
+            fields = _model_fields({"origin": b.get("origin", "source"), "year": b.get("year")})
+            height = float(b.get("height"))
+            if not math.isfinite(height):
+                raise InputError(f"building {k}: height {b.get('height')!r} is not a finite number")
+            buildings.append(Building(rings=(np.vstack([ring, ring[:1]]),), height=height,
+                                      osm_id=_osm_id(b.get("osm_id")), origin=fields.get("origin", Origin.SOURCE),
+                                      year=fields.get("year")))
     except InputError as exc:
         raise InputError(f"{path}: {exc}") from None
+    except (etree.XMLSyntaxError, OSError, *_BAD) as exc:
+        raise InputError(f"{path}: not a readable urbanenvironment file ({exc})") from None
     if not lines:
         raise InputError(f"{path}: no streets in the urbanenvironment file")
     return _city(lines, attrs, buildings, proj)

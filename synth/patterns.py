@@ -257,6 +257,8 @@ class PatternOptions:
         for key in ("max_degree", "attempts_per_start", "streets_per_start"):
             if getattr(self, key) < 1:
                 raise bad(key, "must be ≥ 1")
+            if getattr(self, key) > MAX_TRIES:  # a loop count: 10**9 would hang the run without a word
+                raise bad(key, f"must be ≤ {MAX_TRIES}")
         if self.max_degree < 2:
             raise bad("max_degree", "must be ≥ 2")
 
@@ -268,6 +270,11 @@ class PatternOptions:
         if unknown:
             raise InputError(f"pattern options: unknown key(s) {', '.join(unknown)}")
         return cls(**values)
+
+
+#: Largest per-start loop count (``attempts_per_start``, ``streets_per_start``, ``max_degree``): the
+#: defaults are 8, 1 and 4; a thousand tries per start is already far past any use.
+MAX_TRIES = 1000
 
 
 # --------------------------------------------------------------------------- parameter sets

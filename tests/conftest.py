@@ -39,3 +39,24 @@ def simplified(name: str, service: bool = False) -> SimplifyResult:
 @pytest.fixture
 def fixtures_dir() -> Path:
     return FIXTURES
+
+
+def pytest_terminal_summary(terminalreporter):
+    """The fuzz suite's exit codes (tests/test_fuzz.py), when it ran."""
+    import sys
+
+    fuzz = sys.modules.get("tests.test_fuzz") or sys.modules.get("test_fuzz")
+    if fuzz is None or not fuzz.EXIT_CODES:
+        return
+    counts = fuzz.EXIT_CODES
+    tests = sorted({t for t, _ in counts})
+    terminalreporter.section("fuzz: exit codes")
+    for t in tests:
+        row = {c: n for (name, c), n in counts.items() if name == t}
+        terminalreporter.write_line(f"{t:>10}: " + ", ".join(f"exit {c}: {n}" for c, n in sorted(row.items())))
+    total = sum(counts.values())
+    by_code: dict[int, int] = {}
+    for (_, c), n in counts.items():
+        by_code[c] = by_code.get(c, 0) + n
+    terminalreporter.write_line(f"{'all':>10}: {total} cases; "
+                                + ", ".join(f"exit {c}: {n}" for c, n in sorted(by_code.items())))

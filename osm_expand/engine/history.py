@@ -113,7 +113,7 @@ from synth.patterns import PATTERNS, PatternOptions
 from synth.walk import WalkOptions
 
 __all__ = [
-    "Anchor", "Clock", "DEFAULT_HISTORY", "DEFAULT_YEARS", "Era", "GROWTH_PATTERNS", "History", "KernelOptions",
+    "Anchor", "Clock", "DEFAULT_HISTORY", "DEFAULT_YEARS", "MAX_YEARS", "Era", "GROWTH_PATTERNS", "History", "KernelOptions",
     "PatternSettings", "YearValues", "bundled", "history_from_mapping", "load_history",
 ]
 
@@ -122,6 +122,16 @@ DEFAULT_HISTORY = "example"
 #: Years a history runs when it does not say (``years``): "what could this town look like in 50 years"
 #: (DESIGN.md's users), about two generations of building.
 DEFAULT_YEARS = 50
+#: Most years a run may simulate (``--years``, ``years``): a simulated year costs seconds to tens of
+#: seconds on the fixture towns (Campo Grande's 30 years take 298 s), so 1,000 years are hours to days
+#: of work; more is a typo, and would run on without a word.
+MAX_YEARS = 1000
+#: Largest G(t) (share of the network's segments added in one year): 1.0 doubles the network in a
+#: year, a hundred times the fastest real growth (1.1 %/year, see DEFAULT_GROWTH); more never finishes.
+MAX_GROWTH = 1.0
+#: Largest history file read, bytes: the bundled ones are under 10 kB; ``--history /dev/zero`` would
+#: otherwise be read until memory runs out.
+MAX_HISTORY_BYTES = 1 << 20
 #: G(t) when a history does not give ``growth``: 1 % of the segments a year, Germany's settlement and
 #: transport area around 2000 (129 ha a day on about 43,000 km², 1.1 %/year; Destatis).
 DEFAULT_GROWTH = 0.01
@@ -574,6 +584,8 @@ def load_history(name_or_path: str | os.PathLike[str] = DEFAULT_HISTORY) -> Hist
 def _read(name_or_path: str | os.PathLike[str]) -> tuple[str, str, str, str]:
     """The file's text, its label for messages, its source and its stem."""
     given = os.fspath(name_or_path)
+    if not given.strip():
+        raise InputError(f"history {given!r}: give a bundled history ({', '.join(bundled())}) or a .toml file")
     if given in bundled():
         text = resources.files("osm_expand").joinpath("histories", f"{given}.toml").read_text(encoding="utf-8")
         return text, f"{given}.toml", f"bundled:{given}", given
@@ -583,8 +595,14 @@ def _read(name_or_path: str | os.PathLike[str]) -> tuple[str, str, str, str]:
             raise InputError(f"history {given!r}: not a bundled history ({', '.join(bundled())}) "
                              "nor a .toml file")
         raise InputError(f"{given}: no such history file")
+    if path.is_dir():
+        raise InputError(f"{given}: is a directory, not a history file")
     try:
-        return path.read_text(encoding="utf-8"), given, str(path), path.stem
+        with open(path, "rb") as fh:
+            data = fh.read(MAX_HISTORY_BYTES + 1)
+        if len(data) > MAX_HISTORY_BYTES:
+            raise InputError(f"{given}: too large for a history file (more than {MAX_HISTORY_BYTES >> 20} MB)")
+        return data.decode("utf-8-sig"), given, str(path), path.stem  # -sig: a BOM (Windows editors) is fine
     except UnicodeDecodeError:
         raise InputError(f"{given}: not a text file (UTF-8 TOML expected)") from None
     except OSError as e:
@@ -680,13 +698,16 @@ class _Reader:
             self.fail(key, f"unknown value {value!r} (valid: {', '.join(valid)})")
         return kind(value)
 
-    def function(self, value: Any, key: str, *, low: float | None = None, strict: bool = False) -> TimeFunction:
+    def function(self, value: Any, key: str, *, low: float | None = None, strict: bool = False,
+                 high: float | None = None) -> TimeFunction:
         try:
             fn = TimeFunction.from_toml(value, key)
         except InputError as e:
             raise InputError(f"{self.label}: {e}") from None
         if low is not None and (fn.low <= low if strict else fn.low < low):
             self.fail(key, f"values must be {'>' if strict else '≥'} {low:g}, got {fn.low:g}")
+        if high is not None and fn.high > high:
+            self.fail(key, f"values must be ≤ {high:g}, got {fn.high:g}")
         return fn
 
     # ------------------------------------------------------------------ options dataclasses
@@ -763,8 +784,8 @@ class _Reader:
                 self.fail(required, "missing")
         start = self.integer(data["start"], "start")
         years = self.integer(data.get("years", DEFAULT_YEARS), "years")
-        if years < 0:
-            self.fail("years", f"must be ≥ 0, got {years}")
+        if not 0 <= years <= MAX_YEARS:
+            self.fail("years", f"must be 0 to {MAX_YEARS}, got {years}")
         eras = self.eras(data["eras"])
         if start < eras[0].start:
             self.fail("start", f"{start} is before the first era (eras[0].start = {eras[0].start})")
@@ -778,7 +799,7 @@ class _Reader:
         return History(
             name=self.text(data.get("name", default_name), "name"), source=source, start=start,
             anchor=self.choice(data.get("anchor", Anchor.MAP.value), "anchor", Anchor), years=years, eras=eras,
-            growth=self.function(data.get("growth", DEFAULT_GROWTH), "growth", low=0.0),
+            growth=self.function(data.get("growth", DEFAULT_GROWTH), "growth", low=0.0, high=MAX_GROWTH),
             traffic=self.function(data.get("traffic", default_traffic), "traffic", low=0.0),
             avgprice=self.function(data.get("avgprice", DEFAULT_AVGPRICE), "avgprice", low=0.0, strict=True),
             **self.roads(data.get("roads", {}), options.routing),

@@ -8,6 +8,8 @@ origin, so a user can select the new district with one expression:
 """
 from __future__ import annotations
 
+import re
+
 import numpy as np
 
 from osm_expand.model import Building, City, Lot, Origin, Street
@@ -17,6 +19,22 @@ from osm_expand.model import Building, City, Lot, Origin, Street
 ORIGIN_KEY = "osm_expand:origin"
 #: OSM tag key of the year an object was built in the simulation.
 YEAR_KEY = "osm_expand:year"
+#: Characters XML 1.0 forbids (control characters, surrogates, U+FFFE/U+FFFF): lxml refuses to write them.
+_NOT_XML = re.compile("[^\t\n\r\x20-\ud7ff\ue000-\ufffd\U00010000-\U0010ffff]")
+
+
+def xml_text(text: str) -> str:
+    """``text`` with the characters XML cannot hold replaced by U+FFFD.
+
+    A street name with U+0001 (possible in PBF, GeoJSON or a history's
+    names) would otherwise stop the XML and OSM writers after the whole run.
+    """
+    return _NOT_XML.sub("\ufffd", text)
+
+
+def xml_attrs(attrs: dict[str, str]) -> dict[str, str]:
+    """Every key and value made safe for XML (:func:`xml_text`)."""
+    return {xml_text(k): xml_text(v) for k, v in attrs.items()}
 
 
 def street_tags(street: Street) -> dict[str, str]:

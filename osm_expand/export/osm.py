@@ -66,6 +66,8 @@ from osm_expand.export.features import (
     lot_tags,
     osm_street_tags,
     to_lonlat,
+    xml_attrs,
+    xml_text,
 )
 from osm_expand.model import Building, City, Origin, demolished_ways
 
@@ -285,19 +287,19 @@ class _Body:
             text = " ".join(f'{k}="{escape(v, _QUOTE)}"' for k, v in attrs.items())
             self.fh.write(f'<node {text} lat="{lat:.7f}" lon="{lon:.7f}"/>\n'.encode())
             return
-        el = etree.Element("node", {**attrs, "lat": f"{lat:.7f}", "lon": f"{lon:.7f}"})
+        el = etree.Element("node", {**xml_attrs(attrs), "lat": f"{lat:.7f}", "lon": f"{lon:.7f}"})
         _tags(el, tags or {})
         self.write(el)
 
     def way(self, attrs: dict[str, str], refs: list[int], tags: dict[str, str]) -> None:
-        el = etree.Element("way", attrs)
+        el = etree.Element("way", xml_attrs(attrs))
         for n in refs:
             etree.SubElement(el, "nd", ref=str(n))
         _tags(el, tags)
         self.write(el)
 
     def relation(self, attrs: dict[str, str], members: Members, tags: dict[str, str]) -> None:
-        el = etree.Element("relation", attrs)
+        el = etree.Element("relation", xml_attrs(attrs))
         for kind, ref, role in members:
             etree.SubElement(el, "member", type=_MEMBER_TYPE[kind], ref=str(ref), role=role)
         _tags(el, tags)
@@ -312,8 +314,8 @@ _QUOTE = {'"': "&quot;"}
 
 
 def _tags(el: etree._Element, tags: dict[str, str]) -> None:
-    for k, v in tags.items():
-        etree.SubElement(el, "tag", k=k, v=v)
+    for k, v in tags.items():  # a name with U+0001 (possible in PBF or GeoJSON) must not stop the writer
+        etree.SubElement(el, "tag", k=xml_text(k), v=xml_text(v))
 
 
 def _new_attrs(osm_id: int) -> dict[str, str]:

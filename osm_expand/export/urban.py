@@ -27,7 +27,7 @@ from lxml import etree
 
 from osm_expand.engine.segments import is_major, street_width
 from osm_expand.export.atomic import atomic_write
-from osm_expand.export.features import street_tags
+from osm_expand.export.features import street_tags, xml_attrs
 from osm_expand.model import Block, Building, City, Lot, Origin, Street
 from osm_expand.model.geometry import minimum_rectangle
 
@@ -58,7 +58,7 @@ def _street_attrs(s: Street) -> dict[str, str]:
         attrs["year"] = str(s.year)
     if s.era:
         attrs["era"] = s.era
-    return attrs
+    return xml_attrs(attrs)
 
 
 def _building_attrs(b: Building) -> dict[str, str]:
@@ -73,7 +73,7 @@ def _building_attrs(b: Building) -> dict[str, str]:
         attrs["landuse"] = b.land_use
     if b.lot is not None:
         attrs["lot"] = str(b.lot)
-    return attrs
+    return xml_attrs(attrs)
 
 
 def _lot_attrs(lot: Lot) -> dict[str, str]:
@@ -81,7 +81,7 @@ def _lot_attrs(lot: Lot) -> dict[str, str]:
              "people": f"{lot.people:.1f}"}
     if lot.year is not None:
         attrs["year"] = str(lot.year)
-    return attrs
+    return xml_attrs(attrs)
 
 
 def _block_attrs(block: Block) -> dict[str, str]:
@@ -90,7 +90,7 @@ def _block_attrs(block: Block) -> dict[str, str]:
         attrs["year"] = str(block.year)
     if block.land_use:
         attrs["landuse"] = block.land_use
-    return attrs
+    return xml_attrs(attrs)
 
 
 def _outline(tag: str, attrs: dict[str, str], polygon: shapely.Polygon) -> etree._Element:
