@@ -25,7 +25,7 @@ import numpy as np
 import shapely
 
 from osm_expand.engine.history import History, YearValues
-from osm_expand.engine.lattice import BuiltUpArea, Lattice, Raster, Segments, build_lattice, built_up_area, pathfinding_graph
+from osm_expand.engine.lattice import BuiltUpArea, Lattice, Raster, Segments, build_lattice, built_up_area, implicit_graph
 from osm_expand.engine.majorroads import RoadType, plan_major_road, propose_route
 from osm_expand.engine.planarity import without_touching
 from osm_expand.engine.routing import Choice, choose, route_over_major_roads
@@ -152,7 +152,7 @@ def _graph(city: City, traffic: TrafficMemory, memory: RoadMemory, now: YearValu
                           previous=memory.built, options=history.options.built_up)
     lattice = memory.lattice.with_built_up(built.area)
     memory = replace(memory, lattice=lattice, built=built)
-    return pathfinding_graph(lattice, segments, built, costs=now.costs, options=history.options.graph), memory
+    return implicit_graph(lattice, segments, built, costs=now.costs, options=history.options.graph), memory
 
 
 def _apply(city: City, table: SegmentTable, plan, *, year: int, era: str, old_town: bool = False

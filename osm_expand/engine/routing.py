@@ -40,7 +40,7 @@ from scipy.sparse import csr_matrix
 from scipy.sparse.csgraph import dijkstra
 from scipy.spatial import cKDTree
 
-from osm_expand.engine.lattice import ROAD_KINDS, EdgeKind, PathGraph
+from osm_expand.engine.lattice import ROAD_KINDS, EdgeCosts, EdgeKind, GraphWindow, ImplicitGraph, PathGraph
 from osm_expand.errors import InputError
 
 __all__ = ["RoutingOptions", "Route", "turn_penalty", "find_route", "route_over_major_roads", "Choice",
@@ -69,8 +69,20 @@ class RoutingOptions:
     #: m, the first (cheap, inexact) search keeps within this of the plain shortest route;
     #: its cost bounds the exact second search (5ℓ)
     corridor_width: float = 100.0
+    #: m, the first window of an implicit G′ reaches this far beyond the two ends' bounding box
+    #: (a few hundred metres: a route that bends round a block or a river bank stays inside);
+    #: it doubles until the window provably holds the best route
+    window_margin: float = 400.0
+    #: share of the two ends' distance added to ``window_margin`` for the first window (long
+    #: routes wander further from the straight line)
+    window_share: float = 0.25
+    #: a window covering more than this share of the map becomes the whole map (a second,
+    #: larger window would cost more than searching the map at once)
+    whole_share: float = 0.5
 
     def __post_init__(self) -> None:
+        if not (self.window_margin > 0 and self.window_share >= 0):
+            raise InputError("RoutingOptions: window_margin must be positive and window_share not negative")
         if not (self.turn_width > 0 and self.turn_height >= 0):
             raise InputError("RoutingOptions: turn_width must be positive and turn_height not negative")
         if self.heading_bins < 4:
@@ -128,14 +140,17 @@ def _bin_penalties(opts: RoutingOptions) -> np.ndarray:
     return turn_penalty(np.pi - turn, centre=opts.turn_centre, width=opts.turn_width, height=opts.turn_height)
 
 
-def find_route(graph: PathGraph, source: int, target: int, *, kinds: Sequence[EdgeKind] = ROAD_KINDS,
+def find_route(graph: PathGraph | ImplicitGraph, source: int, target: int, *, kinds: Sequence[EdgeKind] = ROAD_KINDS,
                street_ok: np.ndarray | None = None, options: RoutingOptions | None = None) -> Route | None:
     """The least-cost route on G′ with turn penalties (003 §3.4.2, PROPOSEFROMNEW).
 
     Parameters
     ----------
     graph
-        G′ from :func:`osm_expand.engine.lattice.pathfinding_graph`.
+        G′ from :func:`osm_expand.engine.lattice.pathfinding_graph`, or an
+        :class:`~osm_expand.engine.lattice.ImplicitGraph` (searched in windows
+        that grow until the route is provably the whole map's best, see
+        :func:`_implicit_route`).
     source, target
         G′ vertices (e.g. ``graph.node_vertex(node)`` for street nodes).
     kinds
@@ -153,14 +168,91 @@ def find_route(graph: PathGraph, source: int, target: int, *, kinds: Sequence[Ed
         None when the target cannot be reached.
     """
     opts = options or RoutingOptions()
+    if isinstance(graph, ImplicitGraph):
+        return _implicit_route(graph, source, target, kinds, street_ok, opts)
+    return _search(graph, source, target, kinds, street_ok, opts)[0]
+
+
+def _search(graph: PathGraph, source: int, target: int, kinds: Sequence[EdgeKind], street_ok: np.ndarray | None,
+            opts: RoutingOptions) -> tuple[Route | None, np.ndarray | None]:
+    """:func:`find_route` on a G′, and the plain (turn-free) distances from the source."""
     if source == target:
-        return _route(graph, [source], *graph.masks(kinds, street_ok), 0.0)
+        return _route(graph, [source], *graph.masks(kinds, street_ok), 0.0), None
     lat, extra = graph.masks(kinds, street_ok)
     with graph.restricted(kinds, street_ok) as matrix:
         from_source, pred = dijkstra(matrix, indices=source, return_predecessors=True)
         if not np.isfinite(from_source[target]):
-            return None
-        return _best_route(graph, matrix, lat, extra, source, target, from_source, pred, opts)
+            return None, from_source
+        return _best_route(graph, matrix, lat, extra, source, target, from_source, pred, opts), from_source
+
+
+#: Edge kinds whose edges touch the lattice (a search over none of them needs no lattice).
+_LATTICE_KINDS = frozenset({EdgeKind.LAND, EdgeKind.WATER, EdgeKind.HARBOUR, EdgeKind.BRIDGE, EdgeKind.STITCH})
+
+
+def cheapest_unit_cost(costs: EdgeCosts, kinds: Sequence[EdgeKind]) -> float:
+    """The least cost per metre of straight distance any edge of the given kinds can have.
+
+    Every edge weighs ``length · max(1, O1 · slope)`` times its kind's
+    coefficient (streets also × C6 when extendible), and a straight edge is
+    at least as long as the distance between its ends; turn penalties are
+    not negative. So ``distance × this`` never overestimates what is left of
+    a route: an admissible bound (A*'s heuristic).
+    """
+    c6 = min(1.0, costs.extendible)
+    per = {EdgeKind.LAND: 1.0, EdgeKind.WATER: 1.0, EdgeKind.STITCH: 1.0, EdgeKind.HARBOUR: costs.harbour,
+           EdgeKind.BRIDGE: costs.bridge, EdgeKind.MAJOR: costs.major * c6, EdgeKind.MINOR: costs.minor * c6,
+           EdgeKind.BUILT_HARBOUR: costs.built_harbour * c6}
+    return min(per[EdgeKind(k)] for k in kinds)
+
+
+def _implicit_route(graph: ImplicitGraph, source: int, target: int, kinds: Sequence[EdgeKind],
+                    street_ok: np.ndarray | None, opts: RoutingOptions) -> Route | None:
+    """The whole map's best route, searched on G′ over growing windows of the lattice.
+
+    Each window holds every edge of G′ between its vertices except those
+    from its ``exits`` (:class:`~osm_expand.engine.lattice.GraphWindow`). A
+    route that leaves the window first reaches an exit x at no less than the
+    window's plain distance d(x), then needs at least ``|x − t| · c`` more
+    (:func:`cheapest_unit_cost`). When no exit has ``d(x) + |x − t| · c``
+    below the cost of the window's best route, no route through the rest of
+    the map can be cheaper, and the window's route is the map's (equal cost;
+    of several equal ones it may be another). Else the margin doubles. The
+    lattice edges are generated only for the windows searched, so memory
+    and time follow the corridor a route can use, not the map.
+    """
+    ends = graph.vertex_xy([source, target])
+    lo, hi = ends.min(axis=0), ends.max(axis=0)
+    if not set(kinds) & _LATTICE_KINDS:  # streets only: the lattice plays no part, any window is exact
+        window = graph.window((lo[0], lo[1], lo[0], lo[1]))
+        return _on_map(window, *_search(window.graph, *window.from_map([source, target]).tolist(), kinds,
+                                        street_ok, opts))
+    c = cheapest_unit_cost(graph.costs, kinds)
+    margin = opts.window_margin + opts.window_share * float(np.hypot(*(hi - lo)))
+    x0, y0, x1, y1 = graph.lattice.bounds
+    while True:
+        bounds = (lo[0] - margin, lo[1] - margin, hi[0] + margin, hi[1] + margin)
+        seen = (min(bounds[2], x1) - max(bounds[0], x0)) * (min(bounds[3], y1) - max(bounds[1], y0))
+        if seen > opts.whole_share * (x1 - x0) * (y1 - y0):  # a window nearly the map's size: take the map
+            bounds = (x0, y0, x1, y1)
+        window = graph.window(bounds)
+        s, t = window.from_map([source, target]).tolist()
+        route, from_source = _search(window.graph, s, t, kinds, street_ok, opts)
+        if window.whole or from_source is None:
+            return _on_map(window, route, from_source)
+        bound = route.cost if route is not None else np.inf
+        exits = window.exits
+        below = from_source[exits] + c * np.hypot(*(window.graph.xy[exits] - ends[1]).T)
+        if not (below < (bound - 1e-9 * bound if np.isfinite(bound) else np.inf)).any():
+            return _on_map(window, route, from_source)
+        margin *= 2.0
+
+
+def _on_map(window: GraphWindow, route: Route | None, _from_source: np.ndarray | None = None) -> Route | None:
+    """A window's route with the map's G′ vertex numbers."""
+    if route is None:
+        return None
+    return replace(route, vertices=window.to_map(route.vertices))
 
 
 def _best_route(graph: PathGraph, matrix: csr_matrix, lat: np.ndarray, extra: np.ndarray, source: int, target: int,
