@@ -607,10 +607,10 @@ def test_on_krems_the_implicit_search_finds_routes_of_the_same_cost_in_a_part_of
     monkeypatch.setattr(ImplicitGraph, "window", lambda self, bounds: seen.append(
         (w := window(self, bounds)).graph.lattice.n_vertices) or w)
     rng = np.random.default_rng(3)
-    nodes = np.concatenate([exits[:3], rng.choice(len(segs.xy), 6, replace=False)])
-    for a, b in zip(nodes[:-1], nodes[1:]):
+    nodes = np.concatenate([exits[:3], rng.choice(len(segs.xy), 2, replace=False)])
+    for k, (a, b) in enumerate(zip(nodes[:-1], nodes[1:])):
         s, t = g.node_vertex(int(a)), g.node_vertex(int(b))
-        for road_type in (RoadType.CITY, RoadType.BYPASS, RoadType.SMOOTH_CITY):
+        for road_type in (RoadType.CITY, RoadType.BYPASS if k % 2 else RoadType.SMOOTH_CITY):
             old, new = propose_route(g, s, t, road_type), propose_route(implicit, s, t, road_type)
             assert (old is None) == (new is None)
             if old is not None:

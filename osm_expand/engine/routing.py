@@ -217,7 +217,8 @@ def _implicit_route(graph: ImplicitGraph, source: int, target: int, kinds: Seque
     (:func:`cheapest_unit_cost`). When no exit has ``d(x) + |x − t| · c``
     below the cost of the window's best route, no route through the rest of
     the map can be cheaper, and the window's route is the map's (equal cost;
-    of several equal ones it may be another). Else the margin doubles. The
+    of several equal ones it may be another). Else the margin doubles on the
+    sides near the exits that fell short. The
     lattice edges are generated only for the windows searched, so memory
     and time follow the corridor a route can use, not the map.
     """
@@ -228,10 +229,11 @@ def _implicit_route(graph: ImplicitGraph, source: int, target: int, kinds: Seque
         return _on_map(window, *_search(window.graph, *window.from_map([source, target]).tolist(), kinds,
                                         street_ok, opts))
     c = cheapest_unit_cost(graph.costs, kinds)
-    margin = opts.window_margin + opts.window_share * float(np.hypot(*(hi - lo)))
+    margin = np.full(4, opts.window_margin + opts.window_share * float(np.hypot(*(hi - lo))))  # left, bottom, right, top
     x0, y0, x1, y1 = graph.lattice.bounds
+    reach = graph.options.stitch_radius + graph.lattice.radius * graph.lattice.spacing
     while True:
-        bounds = (lo[0] - margin, lo[1] - margin, hi[0] + margin, hi[1] + margin)
+        bounds = (lo[0] - margin[0], lo[1] - margin[1], hi[0] + margin[2], hi[1] + margin[3])
         seen = (min(bounds[2], x1) - max(bounds[0], x0)) * (min(bounds[3], y1) - max(bounds[1], y0))
         if seen > opts.whole_share * (x1 - x0) * (y1 - y0):  # a window nearly the map's size: take the map
             bounds = (x0, y0, x1, y1)
@@ -243,9 +245,15 @@ def _implicit_route(graph: ImplicitGraph, source: int, target: int, kinds: Seque
         bound = route.cost if route is not None else np.inf
         exits = window.exits
         below = from_source[exits] + c * np.hypot(*(window.graph.xy[exits] - ends[1]).T)
-        if not (below < (bound - 1e-9 * bound if np.isfinite(bound) else np.inf)).any():
+        short = exits[below < (bound - 1e-9 * bound if np.isfinite(bound) else np.inf)]
+        if not len(short):
             return _on_map(window, route, from_source)
-        margin *= 2.0
+        # the sides a cheaper route might leave by move out; the others stay
+        (wx0, wy0), (wx1, wy1) = window.graph.lattice.bounds[:2], window.graph.lattice.bounds[2:]
+        px, py = window.graph.xy[short].T
+        side = np.array([(px < wx0 + reach).any(), (py < wy0 + reach).any(),
+                         (px > wx1 - reach).any(), (py > wy1 - reach).any()])
+        margin = np.where(side if side.any() else True, 2.0 * margin, margin)
 
 
 def _on_map(window: GraphWindow, route: Route | None, _from_source: np.ndarray | None = None) -> Route | None:
