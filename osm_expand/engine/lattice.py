@@ -492,7 +492,7 @@ class Lattice:
         """
         if area is None or area.is_empty:
             return self
-        fine = self.built_up | _rasterise(area, self.fine_origin, self.fine_step, self.built_up.shape)
+        fine = _rasterise(area, self.fine_origin, self.fine_step, self.built_up.shape, known=self.built_up)
         if np.array_equal(fine, self.built_up):
             return self
         return replace(self, built_up=fine, _cache={})
@@ -800,17 +800,20 @@ def _resample_linear(raster: Raster | None, origin: np.ndarray, step: float,
     return map_coordinates(np.asarray(raster.values, dtype=float), [rows, cols], order=1, mode="nearest")
 
 
-def _rasterise(geom: shapely.Geometry, origin: np.ndarray, step: float, shape: tuple[int, int]) -> np.ndarray:
-    """Fine points covered by ``geom`` (only the points inside its bounding box are tested)."""
-    out = np.zeros(shape, dtype=bool)
+def _rasterise(geom: shapely.Geometry, origin: np.ndarray, step: float, shape: tuple[int, int],
+               known: np.ndarray | None = None) -> np.ndarray:
+    """Fine points covered by ``geom`` (only the points inside its bounding box are tested),
+    or-ed with ``known``, whose true points are not tested again (B only grows: each year
+    tests only the ground it did not cover yet)."""
+    out = np.zeros(shape, dtype=bool) if known is None else known.copy()
     gx0, gy0, gx1, gy1 = geom.bounds
     j0, j1 = max(int(np.floor((gx0 - origin[0]) / step)), 0), min(int(np.ceil((gx1 - origin[0]) / step)) + 1, shape[1])
     i0, i1 = max(int(np.floor((gy0 - origin[1]) / step)), 0), min(int(np.ceil((gy1 - origin[1]) / step)) + 1, shape[0])
     if j1 <= j0 or i1 <= i0:
         return out
-    xs, ys = np.meshgrid(origin[0] + np.arange(j0, j1) * step, origin[1] + np.arange(i0, i1) * step)
+    ii, jj = np.nonzero(~out[i0:i1, j0:j1])
     shapely.prepare(geom)
-    out[i0:i1, j0:j1] = shapely.intersects_xy(geom, xs, ys)
+    out[i0 + ii, j0 + jj] = shapely.intersects_xy(geom, origin[0] + (j0 + jj) * step, origin[1] + (i0 + ii) * step)
     return out
 
 

@@ -343,7 +343,8 @@ def _sorted_csr(n_rows: int, groups: list[tuple[np.ndarray, np.ndarray, np.ndarr
     """
     counts = [np.bincount(rows, minlength=n_rows) for rows, _, _ in groups]
     indptr = np.concatenate([[0], np.cumsum(np.sum(counts, axis=0))])
-    indices = np.empty(indptr[-1], dtype=np.int64)
+    # scipy's Dijkstra runs on 32-bit indices: made so at once, not copied later
+    indices = np.empty(indptr[-1], dtype=np.int32 if max(n_rows, int(indptr[-1])) < 2**31 else np.int64)
     data = np.empty(indptr[-1])
     before = np.zeros(n_rows, dtype=np.int64)  # entries of earlier groups in each row
     for (rows, cols, values), count in zip(groups, counts):
