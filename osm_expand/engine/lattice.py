@@ -22,10 +22,13 @@ raster masks). Marching along each edge (``samples_per_spacing`` samples per
   shortest crossing are kept (000 keeps the shortest ray, i.e. a bridge
   roughly perpendicular to the bank; the slack lets a road keep its line).
 
-Forbidden samples end an edge; forbidden vertices have no edges. The whole
-lattice is built with array slicing: for a direction and a sample offset the
-samples of *every* vertex are one strided slice of a fine raster, so there is
-no Python loop over vertices.
+Forbidden samples end an edge; forbidden vertices have no edges. Edges are
+made with array slicing: for a direction and a sample offset the samples of
+*every* vertex are one strided slice of a fine raster, so there is no Python
+loop over vertices. :func:`build_lattice` keeps only the fine rasters and
+the bridges (their filter needs the whole map); the land, water and harbour
+edges of a rectangle of vertices (:meth:`Lattice.window`) are generated from
+the rasters when that window is first searched.
 
 **B** (003 Eq. 1) is ``FILL(S) \\ ∪ FILL(B_T) ∪ NB(S) ∪ ∪ NB(B_T)``: the
 built-up blocks plus a neighbourhood of every street on the shell or on a
@@ -46,9 +49,19 @@ points on the shell and on terrain blocks to nearby live land vertices, and
 between shell points (003 Fig. 9), none crossing or grazing a street,
 entering a built-up block or touching water. Edge costs are multiplied by
 C1…C6 (003 §3.4.2) by kind. The lattice part of G′ stays a table (vertex ×
-direction); the other edges are short arrays. Its CSR matrix is laid out
-with a fixed number of slots per lattice vertex, so it is built without
-sorting millions of edges, and cached.
+direction); the other edges are short arrays. Its CSR matrix holds the
+allowed edges row by row, so it is built without sorting, and cached.
+
+**The implicit G′** (:func:`implicit_graph`, what the engine uses): a year's
+street part (pieces, split points, shell stitches; :func:`street_part`) and
+nothing over the whole map. A search asks for G′ over a window of the
+lattice (:meth:`ImplicitGraph.window`): exactly the whole G′'s edges between
+the window's vertices, except at its *exits* (vertices near an open side,
+street points whose stitches could reach past it, ends of long bridges that
+cross it), and :func:`osm_expand.engine.routing.find_route` grows the window
+until no exit can lead to a cheaper route. On Campo Grande (a lattice of
+1118 × 532 vertices) the whole G′ had 134 million adjacency entries; a
+window holds the corridor a route can use.
 
 The water and forbidden rasters should be drawn generously
 (:meth:`Raster.from_geometry`: a cell is water when water comes within half

@@ -12,9 +12,12 @@ and the extendible ones are widened to A(t). A rebuilding city road
 demolishes the engine's own minor streets under it; the town as mapped is
 never demolished.
 
-The lattice is built once per run (it covers the map's bounds); B and G′
-are rebuilt only in a year that needs a road, so most years cost nothing
-here.
+The lattice (its rasters and bridges) is built once per run (it covers
+the map's bounds); B and G′'s street part are rebuilt only in a year that
+needs a road, so most years cost nothing here. G′ is implicit
+(:class:`~osm_expand.engine.lattice.ImplicitGraph`): each search makes the
+lattice's edges of the window it needs, and a re-route over major roads
+makes none.
 """
 from __future__ import annotations
 
