@@ -217,8 +217,8 @@ def _implicit_route(graph: ImplicitGraph, source: int, target: int, kinds: Seque
     (:func:`cheapest_unit_cost`). When no exit has ``d(x) + |x − t| · c``
     below the cost of the window's best route, no route through the rest of
     the map can be cheaper, and the window's route is the map's (equal cost;
-    of several equal ones it may be another). Else the margin doubles on the
-    sides near the exits that fell short. The
+    of several equal ones it may be another). Else the window grows as far
+    as a cheaper route could go (:func:`_grown`). The
     lattice edges are generated only for the windows searched, so memory
     and time follow the corridor a route can use, not the map.
     """
@@ -229,31 +229,59 @@ def _implicit_route(graph: ImplicitGraph, source: int, target: int, kinds: Seque
         return _on_map(window, *_search(window.graph, *window.from_map([source, target]).tolist(), kinds,
                                         street_ok, opts))
     c = cheapest_unit_cost(graph.costs, kinds)
-    margin = np.full(4, opts.window_margin + opts.window_share * float(np.hypot(*(hi - lo))))  # left, bottom, right, top
-    x0, y0, x1, y1 = graph.lattice.bounds
+    margin = opts.window_margin + opts.window_share * float(np.hypot(*(hi - lo)))
+    bounds = np.array([lo[0] - margin, lo[1] - margin, hi[0] + margin, hi[1] + margin])
+    whole = np.array(graph.lattice.bounds)
     reach = graph.options.stitch_radius + graph.lattice.radius * graph.lattice.spacing
     while True:
-        bounds = (lo[0] - margin[0], lo[1] - margin[1], hi[0] + margin[2], hi[1] + margin[3])
-        seen = (min(bounds[2], x1) - max(bounds[0], x0)) * (min(bounds[3], y1) - max(bounds[1], y0))
-        if seen > opts.whole_share * (x1 - x0) * (y1 - y0):  # a window nearly the map's size: take the map
-            bounds = (x0, y0, x1, y1)
-        window = graph.window(bounds)
+        seen = np.prod(np.minimum(bounds[2:], whole[2:]) - np.maximum(bounds[:2], whole[:2]))
+        if seen > opts.whole_share * np.prod(whole[2:] - whole[:2]):  # nearly the map's size: take the map
+            bounds = whole
+        window = graph.window(tuple(bounds))
         s, t = window.from_map([source, target]).tolist()
         route, from_source = _search(window.graph, s, t, kinds, street_ok, opts)
         if window.whole or from_source is None:
             return _on_map(window, route, from_source)
-        bound = route.cost if route is not None else np.inf
+        cost = route.cost if route is not None else np.inf
         exits = window.exits
         below = from_source[exits] + c * np.hypot(*(window.graph.xy[exits] - ends[1]).T)
-        short = exits[below < (bound - 1e-9 * bound if np.isfinite(bound) else np.inf)]
-        if not len(short):
+        short = below < (cost - 1e-9 * cost if np.isfinite(cost) else np.inf)
+        if not short.any():
             return _on_map(window, route, from_source)
-        # the sides a cheaper route might leave by move out; the others stay
-        (wx0, wy0), (wx1, wy1) = window.graph.lattice.bounds[:2], window.graph.lattice.bounds[2:]
-        px, py = window.graph.xy[short].T
-        side = np.array([(px < wx0 + reach).any(), (py < wy0 + reach).any(),
-                         (px > wx1 - reach).any(), (py > wy1 - reach).any()])
-        margin = np.where(side if side.any() else True, 2.0 * margin, margin)
+        bounds = _grown(bounds, np.array(window.graph.lattice.bounds), window.graph.xy[exits[short]],
+                        from_source[exits[short]], ends[1], cost, c, reach)
+
+
+def _grown(bounds: np.ndarray, inside: np.ndarray, exits: np.ndarray, reached: np.ndarray, target: np.ndarray,
+           cost: float, c: float, reach: float) -> np.ndarray:
+    """The next window: wide enough for every route that could still beat ``cost``.
+
+    A route leaving by exit x (reached at ``d``) and passing a point y
+    costs at least ``d + c·(|x − y| + |y − t|)``, so y lies in the ellipse
+    with foci x and t whose string is ``(cost − d) / c``: the window takes
+    in each such ellipse's bounding box. The sides near the exits move out
+    by at least ``2 · reach`` (past the band where a point is an exit), so
+    every step makes progress; without a finite cost every side doubles
+    its distance to the ends.
+    """
+    px, py = exits.T
+    near = np.array([(px < inside[0] + reach).any(), (py < inside[1] + reach).any(),
+                     (px > inside[2] - reach).any(), (py > inside[3] - reach).any()])
+    step = np.where(near, 2.0 * reach, 0.0) * np.array([-1, -1, 1, 1])
+    out = bounds + step
+    if not np.isfinite(cost) or not near.any():
+        centre = np.tile(0.5 * (bounds[:2] + bounds[2:]), 2)
+        return np.where(near | ~np.isfinite(cost) | ~near.any(), centre + 2.0 * (bounds - centre), out)
+    a = 0.5 * (cost - reached) / c  # semi-major axes
+    f = 0.5 * np.hypot(*(target - exits).T)  # half the focal distance (< a: x is short)
+    b = np.sqrt(np.maximum(a * a - f * f, 0.0))
+    theta = np.arctan2(target[1] - py, target[0] - px)
+    hx = np.sqrt((a * np.cos(theta)) ** 2 + (b * np.sin(theta)) ** 2)
+    hy = np.sqrt((a * np.sin(theta)) ** 2 + (b * np.cos(theta)) ** 2)
+    mx, my = 0.5 * (px + target[0]), 0.5 * (py + target[1])
+    box = np.array([(mx - hx).min() - reach, (my - hy).min() - reach, (mx + hx).max() + reach,
+                    (my + hy).max() + reach])
+    return np.concatenate([np.minimum(out[:2], box[:2]), np.maximum(out[2:], box[2:])])
 
 
 def _on_map(window: GraphWindow, route: Route | None, _from_source: np.ndarray | None = None) -> Route | None:
