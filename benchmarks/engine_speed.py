@@ -17,15 +17,20 @@ band: that is the curve of seconds per year against streets. The stage
 split (growth, blocks, traffic, roads, build-out) is the loop's own
 ``report["seconds"]``, summed over the run. CPU seconds of the process are
 printed too: they move less than wall time when other jobs share the
-machine's 2 cores.
+machine's 2 cores. Each town runs in a child process of its own, so its
+peak memory (``peak_mb``: the child's ``ru_maxrss``, imports and the
+town's load and district included) is the town's alone.
 
-Target (issue 10): about 3,000 streets at ≤ 1 s a year (Weber et al. 2009
-grew 3,005 streets in 58 s for a whole run).
+Targets: issue 10, about 3,000 streets at ≤ 1 s a year (Weber et al. 2009
+grew 3,005 streets in 58 s for a whole run); issue 22, ≤ 1 s of CPU a year
+at 5,000 streets.
 """
 from __future__ import annotations
 
 import argparse
 import json
+import multiprocessing
+import resource
 import statistics
 import sys
 import time
@@ -74,6 +79,13 @@ def measure(path: Path, history_name: str, years: int, seed: int) -> dict:
             "by_streets": _by_streets(kept), "timeline": timeline}
 
 
+def _measured(args: tuple) -> dict:
+    """:func:`measure` in this (child) process, with its peak memory."""
+    row = measure(*args)
+    row["peak_mb"] = round(resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024)
+    return row
+
+
 def _by_streets(timeline: list[list]) -> list[dict]:
     """Median wall and CPU seconds per year in bands of 500 streets."""
     bands: dict[int, list[list]] = {}
@@ -94,15 +106,20 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--json", action="store_true")
     args = parser.parse_args(argv)
     paths = [Path(t) for t in args.towns] or [ROOT / "fixtures" / t for t in TOWNS]
-    rows = [measure(p, args.history, args.years, args.seed) for p in paths]
+    rows = []
+    for p in paths:  # a fresh child per town: its peak memory is its own
+        with multiprocessing.get_context("spawn").Pool(1, maxtasksperchild=1) as pool:
+            rows.append(pool.apply(_measured, ((p, args.history, args.years, args.seed),)))
     if args.json:
         print(json.dumps(rows, indent=1))
         return 0
-    print(f"{'town':24} {'streets':>15} {'s/year med':>10} {'max':>6} {'lattice':>8} {'wall':>7} {'cpu':>7}  stages (s)")
+    print(f"{'town':24} {'streets':>15} {'s/year med':>10} {'max':>6} {'lattice':>8} {'wall':>7} {'cpu':>7} "
+          f"{'peak MB':>8}  stages (s)")
     for r in rows:
         stages = " ".join(f"{k}={v}" for k, v in r["stages_s"].items())
         print(f"{r['town']:24} {r['streets_start']:>6} → {r['streets_end']:<6} {r['s_per_year_median']:>10} "
-              f"{r['s_per_year_max']:>6} {r['lattice_s']:>8} {r['total_wall_s']:>7} {r['total_cpu_s']:>7}  {stages}")
+              f"{r['s_per_year_max']:>6} {r['lattice_s']:>8} {r['total_wall_s']:>7} {r['total_cpu_s']:>7} "
+              f"{r['peak_mb']:>8}  {stages}")
         for band in r["by_streets"]:
             print(f"    streets {band['streets']:>11}: {band['years']:>4} years, median {band['s_per_year_median']} s "
                   f"(CPU {band['cpu_per_year_median']} s), max {band['s_per_year_max']} s")

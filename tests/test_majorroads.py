@@ -11,7 +11,7 @@ from hypothesis import strategies as st
 
 from osm_expand.engine.lattice import (
     NO_EDGE, EdgeCosts, EdgeKind, LatticeOptions, Raster, Segments, VertexClass, build_lattice,
-    built_up_area, lattice_directions, pathfinding_graph, segment_sides,
+    built_up_area, implicit_graph, lattice_directions, pathfinding_graph, segment_sides,
 )
 from osm_expand.engine.majorroads import (
     MajorRoadOptions, RoadType, allowed_streets, centroid_smoothing, chaikin, max_turn, parse_road_type,
@@ -335,6 +335,39 @@ def test_pruned_search_finds_the_same_cost_as_searching_everything(seed):
         assert route.cost == pytest.approx(full[1], abs=1e-5)
 
 
+@settings(max_examples=12, deadline=None)
+@given(st.integers(0, 2**32 - 1))
+def test_the_implicit_search_in_growing_windows_finds_the_cost_of_the_whole_map(seed):
+    """A town, a river and forbidden blobs; small first windows force the windows to grow."""
+    rng = np.random.default_rng(seed)
+    extent = (0, 0, 1000, 1000)
+    centres, radii = rng.uniform(50, 950, (5, 2)), rng.uniform(20, 80, 5)
+    blobs = raster(lambda x, y: (np.hypot(x[..., None] - centres[:, 0], y[..., None] - centres[:, 1])
+                                 < radii).any(axis=-1), extent, cell=10.0)
+    y_lo = float(rng.uniform(100, 800))
+    segs = Segments.from_lines(grid_lines(350, 350, 3, 100), major=[bool(b) for b in rng.integers(0, 2, 8)],
+                               width=[6.0] * 8)
+    built = built_up_area(blocks_of(segs), segs)
+    lat = build_lattice(extent, water=river(extent, y_lo, y_lo + 60), forbidden=blobs,
+                        options=LatticeOptions(radius=int(rng.integers(2, 5)))).with_built_up(built.area)
+    implicit = implicit_graph(lat, segs, built)
+    whole = implicit.whole()
+    live = whole.live_vertices()
+    opts = RoutingOptions(turn_height=float(rng.uniform(20, 400)), window_margin=float(rng.uniform(20, 200)),
+                          window_share=0.0)
+    for _ in range(3):
+        s, t = (int(v) for v in rng.choice(live, 2, replace=False))
+        old = find_route(whole, s, t, options=opts)
+        new = find_route(implicit, s, t, options=opts)
+        assert (old is None) == (new is None)
+        if old is not None:
+            assert new.cost == pytest.approx(old.cost, rel=1e-9, abs=1e-6)
+            lat_ok, extra_ok = whole.masks()
+            steps = [whole.step(int(u), int(v), lat_ok, extra_ok) for u, v in zip(new.vertices[:-1], new.vertices[1:])]
+            assert sum(s["weight"] for s in steps) == pytest.approx(float(new.edge_weight.sum()))  # edges of G′
+            assert np.array_equal(whole.xy[new.vertices], new.xy)
+
+
 # ---------------------------------------------------------------- smoothing
 
 
@@ -521,15 +554,16 @@ def krems():
     water_raster = Raster.from_geometry(water, extent, cell=10.0)
     built = built_up_area(blocks_of(segs), segs, water=water)
     lat = build_lattice(extent, water=water_raster).with_built_up(built.area)
-    g = pathfinding_graph(lat, segs, built)
+    implicit = implicit_graph(lat, segs, built)
+    g = implicit.whole()
     degree = np.bincount(segs.uv[segs.major].ravel(), minlength=len(segs.xy))
     edge = np.minimum.reduce([segs.xy[:, 0] - x0, x1 - segs.xy[:, 0], segs.xy[:, 1] - y0, y1 - segs.xy[:, 1]])
     exits = np.flatnonzero((degree == 1) & (edge < 200))
-    return g, segs, exits, water_raster
+    return g, segs, exits, water_raster, implicit
 
 
 def test_krems_new_major_roads_stay_dry_and_bridge_only_where_they_must(krems):
-    g, segs, exits, water = krems
+    g, segs, exits, water, _ = krems
     assert len(exits) >= 3
     xy = segs.xy[exits]
     west, north, south_east = exits[np.argmin(xy[:, 0])], exits[np.argmax(xy[:, 1])], exits[np.argmin(xy[:, 1])]
@@ -560,3 +594,30 @@ def test_krems_new_major_roads_stay_dry_and_bridge_only_where_they_must(krems):
                           initial=np.inf).max(initial=0.0) < 0.01
         assert plan.bridges <= 1
     assert built_something > 0
+
+
+def test_on_krems_the_implicit_search_finds_routes_of_the_same_cost_in_a_part_of_the_map(krems, monkeypatch):
+    """The issue's equal-cost test on a real town: every road type between the exits and
+    between random street nodes costs the same searched in windows as on the whole map's G′
+    (the old search), and a route across part of the town generates only part of the lattice."""
+    from osm_expand.engine.lattice import ImplicitGraph
+    g, segs, exits, _, implicit = krems
+    seen: list[int] = []
+    window = ImplicitGraph.window
+    monkeypatch.setattr(ImplicitGraph, "window", lambda self, bounds: seen.append(
+        (w := window(self, bounds)).graph.lattice.n_vertices) or w)
+    rng = np.random.default_rng(3)
+    nodes = np.concatenate([exits[:3], rng.choice(len(segs.xy), 2, replace=False)])
+    for k, (a, b) in enumerate(zip(nodes[:-1], nodes[1:])):
+        s, t = g.node_vertex(int(a)), g.node_vertex(int(b))
+        for road_type in (RoadType.CITY, RoadType.BYPASS if k % 2 else RoadType.SMOOTH_CITY):
+            old, new = propose_route(g, s, t, road_type), propose_route(implicit, s, t, road_type)
+            assert (old is None) == (new is None)
+            if old is not None:
+                assert new.cost == pytest.approx(old.cost, rel=1e-9)
+                assert new.length == pytest.approx(old.length, rel=0.2)  # same cost, nearly the same road
+        old, new = route_over_major_roads(g, s, t), route_over_major_roads(implicit, s, t)
+        assert (old is None) == (new is None)
+        if old is not None:
+            assert new.cost == pytest.approx(old.cost, rel=1e-9)
+    assert min(seen) < g.n_lattice / 4

@@ -22,10 +22,13 @@ raster masks). Marching along each edge (``samples_per_spacing`` samples per
   shortest crossing are kept (000 keeps the shortest ray, i.e. a bridge
   roughly perpendicular to the bank; the slack lets a road keep its line).
 
-Forbidden samples end an edge; forbidden vertices have no edges. The whole
-lattice is built with array slicing: for a direction and a sample offset the
-samples of *every* vertex are one strided slice of a fine raster, so there is
-no Python loop over vertices.
+Forbidden samples end an edge; forbidden vertices have no edges. Edges are
+made with array slicing: for a direction and a sample offset the samples of
+*every* vertex are one strided slice of a fine raster, so there is no Python
+loop over vertices. :func:`build_lattice` keeps only the fine rasters and
+the bridges (their filter needs the whole map); the land, water and harbour
+edges of a rectangle of vertices (:meth:`Lattice.window`) are generated from
+the rasters when that window is first searched.
 
 **B** (003 Eq. 1) is ``FILL(S) \\ ∪ FILL(B_T) ∪ NB(S) ∪ ∪ NB(B_T)``: the
 built-up blocks plus a neighbourhood of every street on the shell or on a
@@ -46,9 +49,19 @@ points on the shell and on terrain blocks to nearby live land vertices, and
 between shell points (003 Fig. 9), none crossing or grazing a street,
 entering a built-up block or touching water. Edge costs are multiplied by
 C1…C6 (003 §3.4.2) by kind. The lattice part of G′ stays a table (vertex ×
-direction); the other edges are short arrays. Its CSR matrix is laid out
-with a fixed number of slots per lattice vertex, so it is built without
-sorting millions of edges, and cached.
+direction); the other edges are short arrays. Its CSR matrix holds the
+allowed edges row by row, so it is built without sorting, and cached.
+
+**The implicit G′** (:func:`implicit_graph`, what the engine uses): a year's
+street part (pieces, split points, shell stitches; :func:`street_part`) and
+nothing over the whole map. A search asks for G′ over a window of the
+lattice (:meth:`ImplicitGraph.window`): exactly the whole G′'s edges between
+the window's vertices, except at its *exits* (vertices near an open side,
+street points whose stitches could reach past it, ends of long bridges that
+cross it), and :func:`osm_expand.engine.routing.find_route` grows the window
+until no exit can lead to a cheaper route. On Campo Grande (a lattice of
+1118 × 532 vertices) the whole G′ had 134 million adjacency entries; a
+window holds the corridor a route can use.
 
 The water and forbidden rasters should be drawn generously
 (:meth:`Raster.from_geometry`: a cell is water when water comes within half
@@ -74,7 +87,8 @@ from osm_expand.errors import InputError
 __all__ = [
     "VertexClass", "EdgeKind", "Raster", "LatticeOptions", "Lattice", "build_lattice",
     "lattice_directions", "Segments", "BuiltUpOptions", "BuiltUpArea", "built_up_area",
-    "segment_sides", "EdgeCosts", "GraphOptions", "PathGraph", "pathfinding_graph",
+    "segment_sides", "EdgeCosts", "GraphOptions", "PathGraph", "pathfinding_graph", "StreetPart", "street_part",
+    "GraphWindow", "ImplicitGraph", "implicit_graph",
 ]
 
 
@@ -243,51 +257,73 @@ def lattice_directions(radius: int) -> np.ndarray:
 
 #: ``unit_kind`` value of a missing edge.
 NO_EDGE = 255
+#: A CSR of G′ drops its empty lattice slots when fewer than this share of them hold an edge.
+COMPACT_SHARE = 0.5
 
 
 @dataclass(frozen=True)
 class Lattice:
-    """The pathfinding graph G as tables over the vertex grid.
+    """The pathfinding graph G over a rectangle of vertices, its edges made when asked for.
 
-    Vertex ``i · nx + j`` sits at ``origin + (j, i) · spacing``. The unit
-    edge from vertex v along half-direction k (``directions[k]``, k < D/2)
-    is ``unit_kind[k, v]`` (:data:`NO_EDGE` when there is none) with weight
-    ``unit_weight[k, v]``: one grid per direction, so building the lattice
-    and removing B work on whole contiguous grids and nothing is sorted.
-    Bridges of several steps are separate arrays. ``directed_kind`` /
-    ``directed_weight`` hold the same live edges seen from both ends, for G′.
-    The fine raster (``spacing / samples``) keeps the water, forbidden and
-    built-up masks for later checks. Never mutated: :meth:`with_built_up`
-    returns a new one.
+    A lattice stores no edge table: only the fine rasters of the whole map
+    (water, forbidden, built-up B, height; ``spacing / samples`` apart) and
+    the bridges the whole-map filter kept (one-step bridges as keys, longer
+    ones as arrays). A *window* (:meth:`window`) is the same map seen
+    through a rectangle of its vertices, sharing those rasters: its edges
+    are the map's edges with both ends in the rectangle, generated from the
+    rasters when first asked for (:attr:`unit_kind` …, cached), so a search
+    that touches a corridor of the map pays for that corridor only.
+
+    Vertex ``i · nx + j`` of a lattice sits at ``origin + (j, i) · spacing``
+    and is map vertex ``(offset[0] + i) · map_nx + offset[1] + j``. The
+    unit edge from vertex v along half-direction k (``directions[k]``,
+    k < D/2) is ``unit_kind[k, v]`` (:data:`NO_EDGE` when there is none)
+    with weight ``unit_weight[k, v]``. ``directed_kind`` /
+    ``directed_weight`` hold the live edges seen from both ends, for G′.
+    Never mutated: :meth:`with_built_up` returns a new one.
     """
 
-    origin: np.ndarray  #: (2,) m, position of vertex 0
+    origin: np.ndarray  #: (2,) m, position of vertex 0 (of this window)
     spacing: float  #: m, ℓ
-    shape: tuple[int, int]  #: (ny, nx) vertices
+    shape: tuple[int, int]  #: (ny, nx) vertices of this window
     samples: int  #: fine raster samples per ℓ
     directions: np.ndarray  #: (D, 2) int lattice directions, second half the first reversed
-    vertex_class: np.ndarray  #: (V,) uint8 VertexClass
-    unit_kind: np.ndarray  #: (D/2, V) uint8 EdgeKind (LAND, WATER, HARBOUR, BRIDGE) or NO_EDGE
-    unit_weight: np.ndarray  #: (D/2, V) float32 length · max(1, O1 · slope), before C1…C6
-    unit_removed: np.ndarray  #: (D/2, V) bool, land edges that traverse B (permanent)
-    #: (V, D) uint8: the live unit edges seen from both ends (row = tail vertex; column
-    #: ``k + D/2`` of w is the edge of ``w − d_k``), kept in step with ``unit_removed``
-    directed_kind: np.ndarray
-    directed_weight: np.ndarray  #: (V, D) float32, weights of ``directed_kind``
-    bridge_src: np.ndarray  #: (K,) int64, bridges of two or more steps
-    bridge_dst: np.ndarray  #: (K,) int64
-    bridge_direction: np.ndarray  #: (K,) int64 half-direction index
-    bridge_length: np.ndarray  #: (K,) m
-    water: np.ndarray  #: fine raster bool
-    forbidden: np.ndarray  #: fine raster bool
-    built_up: np.ndarray  #: fine raster bool, B (monotone)
+    water: np.ndarray  #: fine raster bool over the whole map
+    forbidden: np.ndarray  #: fine raster bool over the whole map
+    built_up: np.ndarray  #: fine raster bool over the whole map, B (monotone)
+    #: sorted keys ``k · V_map + v_map`` of the one-step bridges (half-direction k from map vertex v)
+    #: that the whole-map bridge filter kept
+    bridge_keys: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=np.int64))
+    #: (K, 4) int64 bridges of two or more steps over the whole map: map src, map dst,
+    #: half-direction, steps
+    map_bridges: np.ndarray = field(default_factory=lambda: np.zeros((0, 4), dtype=np.int64))
     height: np.ndarray | None = None  #: fine raster float64 m, or None (flat)
     slope_weight: float = 17.19  #: O1, also for the street and stitch edges of G′
     slope_cutoff: float = 0.577  #: rise/run above which a new stretch of road is not built
+    offset: tuple[int, int] = (0, 0)  #: (row, col) of vertex 0 in the map's vertex grid
+    map_shape: tuple[int, int] | None = None  #: (ny, nx) vertices of the whole map (None: this shape)
+    map_origin: np.ndarray | None = None  #: (2,) m, the map's vertex 0 (None: ``origin``)
+    _cache: dict = field(default_factory=dict, repr=False, compare=False)
 
     @property
     def n_vertices(self) -> int:
         return self.shape[0] * self.shape[1]
+
+    @property
+    def full_shape(self) -> tuple[int, int]:
+        """(ny, nx) vertices of the whole map."""
+        return self.shape if self.map_shape is None else self.map_shape
+
+    @property
+    def bounds(self) -> tuple[float, float, float, float]:
+        """``(xmin, ymin, xmax, ymax)`` m of this lattice's vertices."""
+        x0, y0 = self.origin
+        return (float(x0), float(y0), float(x0 + (self.shape[1] - 1) * self.spacing),
+                float(y0 + (self.shape[0] - 1) * self.spacing))
+
+    @property
+    def is_whole_map(self) -> bool:
+        return tuple(self.offset) == (0, 0) and tuple(self.shape) == tuple(self.full_shape)
 
     @property
     def radius(self) -> int:
@@ -299,6 +335,11 @@ class Lattice:
         return self.spacing / self.samples
 
     @property
+    def fine_origin(self) -> np.ndarray:
+        """(2,) m, position of fine raster point (0, 0): the map's vertex 0."""
+        return self.origin if self.map_origin is None else self.map_origin
+
+    @property
     def direction_length(self) -> np.ndarray:
         """(D,) m, length of the unit edge along each direction."""
         return np.hypot(*self.directions.T) * self.spacing
@@ -308,16 +349,112 @@ class Lattice:
         """(D,) vertex index step along each direction."""
         return self.directions[:, 1] * self.shape[1] + self.directions[:, 0]
 
+    @property
+    def vertex_class(self) -> np.ndarray:
+        """(V,) uint8 :class:`VertexClass` of each vertex (from the fine rasters)."""
+        f, (ny, nx), (r0, c0) = self.samples, self.shape, self.offset
+        rows, cols = slice(r0 * f, (r0 + ny - 1) * f + 1, f), slice(c0 * f, (c0 + nx - 1) * f + 1, f)
+        return np.where(self.forbidden[rows, cols], VertexClass.FORBIDDEN,
+                        np.where(self.water[rows, cols], VertexClass.WATER, VertexClass.LAND)).astype(np.uint8).ravel()
+
     def vertex_xy(self, index: np.ndarray | None = None) -> np.ndarray:
         """Positions of vertices (all when ``index`` is None), ``(n, 2)`` m."""
         ny, nx = self.shape
         idx = np.arange(ny * nx) if index is None else np.asarray(index)
-        return self.origin + np.stack([idx % nx, idx // nx], axis=-1) * self.spacing
+        if self.map_origin is None:
+            return self.origin + np.stack([idx % nx, idx // nx], axis=-1) * self.spacing
+        # a window: the same arithmetic as the map's, so a vertex has the same position in both
+        return self.map_origin + np.stack([self.offset[1] + idx % nx, self.offset[0] + idx // nx],
+                                          axis=-1) * self.spacing
+
+    def map_vertex(self, index: np.ndarray) -> np.ndarray:
+        """The map vertex of each of this lattice's vertices."""
+        idx = np.asarray(index, dtype=np.int64)
+        nx = self.shape[1]
+        return (self.offset[0] + idx // nx) * self.full_shape[1] + self.offset[1] + idx % nx
+
+    def window(self, row: int, col: int, rows: int, cols: int) -> "Lattice":
+        """The map seen through the vertices ``[row, row + rows) × [col, col + cols)`` of this
+        lattice (clipped to it): same rasters, edges with both ends inside; nothing is computed yet."""
+        ny, nx = self.shape
+        r0, c0 = min(max(int(row), 0), ny - 1), min(max(int(col), 0), nx - 1)
+        r1, c1 = min(max(int(row + rows), r0 + 1), ny), min(max(int(col + cols), c0 + 1), nx)
+        if (r0, c0, r1, c1) == (0, 0, ny, nx):
+            return self
+        offset = (self.offset[0] + r0, self.offset[1] + c0)
+        return replace(self, origin=self.fine_origin + np.array([offset[1], offset[0]]) * self.spacing,
+                       shape=(r1 - r0, c1 - c0), offset=offset, map_shape=self.full_shape,
+                       map_origin=self.fine_origin, _cache={})
+
+    # the edge tables, generated from the rasters on first use
+
+    @property
+    def unit_kind(self) -> np.ndarray:
+        """(D/2, V) uint8 EdgeKind (LAND, WATER, HARBOUR, BRIDGE) or NO_EDGE."""
+        return self._units()[0]
+
+    @property
+    def unit_weight(self) -> np.ndarray:
+        """(D/2, V) float32 length · max(1, O1 · slope), before C1…C6."""
+        return self._units()[1]
+
+    @property
+    def unit_removed(self) -> np.ndarray:
+        """(D/2, V) bool, land edges that traverse B (permanent: B only grows)."""
+        return self._units()[2]
+
+    @property
+    def directed_kind(self) -> np.ndarray:
+        """(V, D) uint8: the live unit edges seen from both ends (row = tail vertex; column
+        ``k + D/2`` of w is the edge of ``w − d_k``)."""
+        return self.directed_tables()[0]
+
+    @property
+    def directed_weight(self) -> np.ndarray:
+        """(V, D) float32, weights of :attr:`directed_kind`."""
+        return self.directed_tables()[1]
+
+    @property
+    def bridge_src(self) -> np.ndarray:
+        """(K,) int64, bridges of two or more steps with both ends in this lattice (its vertices)."""
+        return self._bridges()[0]
+
+    @property
+    def bridge_dst(self) -> np.ndarray:
+        return self._bridges()[1]
+
+    @property
+    def bridge_direction(self) -> np.ndarray:
+        return self._bridges()[2]
+
+    @property
+    def bridge_length(self) -> np.ndarray:
+        """(K,) m."""
+        return self._bridges()[3]
+
+    def _bridges(self) -> tuple[np.ndarray, ...]:
+        if "bridges" not in self._cache:
+            src, dst, k, steps = (self.map_bridges[:, i] for i in range(4))
+            a, b = self._local(src), self._local(dst)
+            keep = (a >= 0) & (b >= 0)
+            self._cache["bridges"] = (a[keep], b[keep], k[keep], steps[keep] * self.direction_length[k[keep]])
+        return self._cache["bridges"]
+
+    def _local(self, map_vertex: np.ndarray) -> np.ndarray:
+        """This lattice's index of map vertices, −1 outside it."""
+        mnx = self.full_shape[1]
+        r, c = map_vertex // mnx - self.offset[0], map_vertex % mnx - self.offset[1]
+        inside = (r >= 0) & (r < self.shape[0]) & (c >= 0) & (c < self.shape[1])
+        return np.where(inside, r * self.shape[1] + c, -1)
+
+    def _units(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        if "units" not in self._cache:
+            self._cache["units"] = _unit_tables(self)
+        return self._cache["units"]
 
     def edges(self, *, live: bool = False) -> dict[str, np.ndarray]:
         """All undirected edges as arrays ``src, dst, kind, direction, length, removed``
         (unit edges, then long bridges); with ``live`` without those removed by B."""
-        half = len(self.directions) // 2
         mask = self.unit_kind != NO_EDGE
         if live:
             mask &= ~self.unit_removed
@@ -335,7 +472,7 @@ class Lattice:
 
     def fine_lookup(self, mask: np.ndarray, xy: np.ndarray, outside: bool = True) -> np.ndarray:
         """Value of a fine-raster mask at points ``(..., 2)`` (nearest fine point)."""
-        ij = np.rint((np.asarray(xy) - self.origin) / self.fine_step).astype(np.int64)
+        ij = np.rint((np.asarray(xy) - self.fine_origin) / self.fine_step).astype(np.int64)
         rows, cols = mask.shape
         inside = (ij[..., 1] >= 0) & (ij[..., 1] < rows) & (ij[..., 0] >= 0) & (ij[..., 0] < cols)
         value = mask[np.clip(ij[..., 1], 0, rows - 1), np.clip(ij[..., 0], 0, cols - 1)]
@@ -345,16 +482,17 @@ class Lattice:
         """Height at points (nearest fine point), or None without a height raster."""
         if self.height is None:
             return None
-        ij = np.rint((np.asarray(xy) - self.origin) / self.fine_step).astype(np.int64)
+        ij = np.rint((np.asarray(xy) - self.fine_origin) / self.fine_step).astype(np.int64)
         rows, cols = self.height.shape
         return self.height[np.clip(ij[..., 1], 0, rows - 1), np.clip(ij[..., 0], 0, cols - 1)]
 
     def with_built_up(self, area: shapely.Geometry | None) -> "Lattice":
-        """This lattice with B grown by ``area`` and every land edge that traverses it removed.
+        """This lattice with B grown by ``area``: every land edge that traverses it is removed.
 
         003 §3.4.2: B can only expand, so removal is permanent: the result's
         ``built_up`` and ``unit_removed`` are supersets of this one's. Water,
-        harbour and bridge edges stay (003 removes land edges only).
+        harbour and bridge edges stay (003 removes land edges only). Only the
+        B raster changes here; the edges follow it when they are generated.
 
         Parameters
         ----------
@@ -369,23 +507,10 @@ class Lattice:
         """
         if area is None or area.is_empty:
             return self
-        fine = self.built_up | _rasterise(area, self.origin, self.fine_step, self.built_up.shape)
+        fine = _rasterise(area, self.fine_origin, self.fine_step, self.built_up.shape, known=self.built_up)
         if np.array_equal(fine, self.built_up):
             return self
-        removed = self.unit_removed.copy()
-        directed = self.directed_kind.copy()
-        half = len(self.directions) // 2
-        offset = self.direction_offset
-        padded, pad = _pad(fine, self.radius * self.samples, False)
-        for k in range(half):
-            touched = np.zeros(self.shape, dtype=bool)
-            for oy, ox in _offsets(self.directions[k], self.samples):
-                touched |= _slice(padded, pad, oy, ox, self.shape, self.samples)
-            new = np.flatnonzero(touched.ravel() & (self.unit_kind[k] == EdgeKind.LAND) & ~removed[k])
-            removed[k, new] = True
-            directed[new, k] = NO_EDGE
-            directed[new + offset[k], half + k] = NO_EDGE
-        return replace(self, built_up=fine, unit_removed=removed, directed_kind=directed)
+        return replace(self, built_up=fine, _cache={})
 
     def directed_tables(self) -> tuple[np.ndarray, np.ndarray]:
         """Live unit edges in both directions: ``(V, D)`` kind (uint8, NO_EDGE) and weight (float32).
@@ -393,7 +518,63 @@ class Lattice:
         Row = tail vertex. Column ``k + D/2`` of vertex w holds the edge that
         arrives at w along direction k, i.e. the unit edge of vertex ``w − d_k``.
         """
-        return self.directed_kind, self.directed_weight
+        if "directed" not in self._cache:
+            kind, weight, removed = self._units()
+            live = np.where(removed, np.uint8(NO_EDGE), kind)
+            self._cache["directed"] = _directed(live, weight, self.directions, self.shape)
+        return self._cache["directed"]
+
+
+def _crop(a: np.ndarray, row: int, col: int, shape: tuple[int, int], value) -> np.ndarray:
+    """``a[row:row + h, col:col + w]`` with ``value`` where that lies outside ``a``."""
+    h, w = shape
+    out = np.full((h, w), value, dtype=a.dtype)
+    r0, c0 = max(row, 0), max(col, 0)
+    r1, c1 = min(row + h, a.shape[0]), min(col + w, a.shape[1])
+    if r1 > r0 and c1 > c0:
+        out[r0 - row:r1 - row, c0 - col:c1 - col] = a[r0:r1, c0:c1]
+    return out
+
+
+def _unit_tables(lat: Lattice) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Kind, weight and removal by B of every unit edge of a lattice (window), from the rasters.
+
+    The fine rasters are cropped to the window plus ``radius`` vertices on
+    each side (beyond the map: dry, forbidden, flat), then each direction's
+    samples are strided slices as in :func:`build_lattice`. An edge with an
+    end outside the window is not generated; a one-step bridge is kept when
+    the whole-map filter kept it (:attr:`Lattice.bridge_keys`).
+    """
+    f, (ny, nx), pad = lat.samples, lat.shape, lat.radius * lat.samples
+    fine_shape = ((ny - 1) * f + 1 + 2 * pad, (nx - 1) * f + 1 + 2 * pad)
+    row, col = lat.offset[0] * f - pad, lat.offset[1] * f - pad
+    pw = _crop(lat.water, row, col, fine_shape, False)
+    pf = _crop(lat.forbidden, row, col, fine_shape, True)
+    pb = _crop(lat.built_up, row, col, fine_shape, False)
+    ph = None if lat.height is None else _crop(lat.height, row, col, fine_shape, 0.0)
+    half = len(lat.directions) // 2
+    n = ny * nx
+    unit_kind = np.full((half, n), NO_EDGE, dtype=np.uint8)
+    unit_weight = np.zeros((half, n), dtype=np.float32)
+    removed = np.zeros((half, n), dtype=bool)
+    opts = replace(LatticeOptions(), slope_weight=lat.slope_weight, slope_cutoff=lat.slope_cutoff)
+    map_v = lat.map_vertex(np.arange(n)) if len(lat.bridge_keys) else None
+    v_map = lat.full_shape[0] * lat.full_shape[1]
+    for k in range(half):
+        profile, slope = _profiles(lat.directions[k], pw, pf, ph, pad, (ny, nx), f, lat.spacing)
+        unit_kind[k], unit_weight[k] = _unit_edges(lat.directions[k], profile, slope, lat.spacing, opts)
+        bridge = np.flatnonzero(unit_kind[k] == EdgeKind.BRIDGE)
+        if len(bridge):
+            kept = np.zeros(len(bridge), dtype=bool) if map_v is None else \
+                np.isin(k * v_map + map_v[bridge], lat.bridge_keys, assume_unique=True)
+            unit_kind[k, bridge[~kept]] = NO_EDGE
+        land = unit_kind[k] == EdgeKind.LAND
+        if land.any():
+            touched = np.zeros((ny, nx), dtype=bool)
+            for oy, ox in _offsets(lat.directions[k], f):
+                touched |= _slice(pb, pad, oy, ox, (ny, nx), f)
+            removed[k] = land & touched.ravel()
+    return unit_kind, unit_weight, removed
 
 
 def _directed(unit_kind: np.ndarray, unit_weight: np.ndarray, directions: np.ndarray,
@@ -407,8 +588,9 @@ def _directed(unit_kind: np.ndarray, unit_weight: np.ndarray, directions: np.nda
     out_kind[:half], out_weight[:half] = kind, weight
     for k, (dx, dy) in enumerate(directions[:half].tolist()):
         # the edge of (iy − dy, ix − dx), seen from its head (iy, ix)
-        ys, yt = slice(0, ny - dy), slice(dy, ny)
-        xs, xt = (slice(0, nx - dx), slice(dx, nx)) if dx >= 0 else (slice(-dx, nx), slice(0, nx + dx))
+        ys, yt = slice(0, max(ny - dy, 0)), slice(min(dy, ny), ny)
+        xs, xt = (slice(0, max(nx - dx, 0)), slice(min(dx, nx), nx)) if dx >= 0 else \
+            (slice(min(-dx, nx), nx), slice(0, max(nx + dx, 0)))
         out_kind[half + k, yt, xt] = kind[k, ys, xs]
         out_weight[half + k, yt, xt] = weight[k, ys, xs]
     n = ny * nx
@@ -420,6 +602,11 @@ def build_lattice(extent: tuple[float, float, float, float], *, water: Raster | 
                   forbidden: Raster | None = None, height: Raster | None = None,
                   options: LatticeOptions | None = None) -> Lattice:
     """Build the pathfinding lattice G over a rectangle (003 §3.2.2; 000 §4.2.3).
+
+    Only the fine rasters and the bridges are made here (bridges need the
+    whole map: a crossing is kept when it is near the shortest from either
+    of its ends); the land, water and harbour edges are generated from the
+    rasters when a window of the lattice is first searched.
 
     Parameters
     ----------
@@ -451,38 +638,35 @@ def build_lattice(extent: tuple[float, float, float, float], *, water: Raster | 
     water_f = _resample_any(water, origin, step, fine_shape)
     forbidden_f = _resample_any(forbidden, origin, step, fine_shape)
     height_f = _resample_linear(height, origin, step, fine_shape)
-    vclass = np.where(forbidden_f[::f, ::f], VertexClass.FORBIDDEN,
-                      np.where(water_f[::f, ::f], VertexClass.WATER, VertexClass.LAND)).astype(np.uint8).ravel()
     directions = lattice_directions(opts.radius)
     half = len(directions) // 2
     pad = opts.radius * f
     pw, _ = _pad(water_f, pad, False)
     pf, _ = _pad(forbidden_f, pad, True)
     ph = None if height_f is None else _pad(height_f, pad, 0.0)[0]
-    unit_kind = np.full((half, ny * nx), NO_EDGE, dtype=np.uint8)
-    unit_weight = np.zeros((half, ny * nx), dtype=np.float32)
-    bridges = []
+    unit_src, unit_k, bridges = [], [], []
     for k in range(half):
-        profile, slope = _profiles(directions[k], pw, pf, ph, pad, (ny, nx), f, ell)
-        unit_kind[k], unit_weight[k] = _unit_edges(directions[k], profile, slope, ell, opts)
+        profile, _ = _profiles(directions[k], pw, pf, None if ph is None else ph, pad, (ny, nx), f, ell)
+        src = np.flatnonzero(profile.ravel() == _LWL)  # one-step bridges (_unit_edges)
+        unit_src.append(src)
+        unit_k.append(np.full(len(src), k, dtype=np.int64))
         bridges.append(_long_bridges(k, directions[k], profile, (ny, nx), ell, opts))
+    ub_src, ub_k = np.concatenate(unit_src), np.concatenate(unit_k)
     bsrc, bdst, bdir, blen = (np.concatenate(c) for c in zip(*bridges))
     # of the crossings from a vertex keep the near-shortest (000: the shortest ray)
-    unit_bridge = np.flatnonzero(unit_kind.ravel() == EdgeKind.BRIDGE)
-    ub_k, ub_src = unit_bridge // (ny * nx), unit_bridge % (ny * nx)
     offset = directions[:, 1] * nx + directions[:, 0]
     length = np.hypot(*directions.T) * ell
     keep = _bridge_filter(np.concatenate([ub_src, bsrc]), np.concatenate([ub_src + offset[ub_k], bdst]),
                           np.concatenate([length[ub_k], blen]), ny * nx, opts.bridge_slack)
-    np.put(unit_kind, unit_bridge[~keep[:len(unit_bridge)]], NO_EDGE)
-    keep = keep[len(unit_bridge):]
-    directed_kind, directed_weight = _directed(unit_kind, unit_weight, directions, (ny, nx))
+    n_unit = len(ub_src)
+    keys = np.sort(ub_k[keep[:n_unit]] * (ny * nx) + ub_src[keep[:n_unit]])
+    keep = keep[n_unit:]
+    steps = np.rint(blen / np.maximum(length[bdir], 1e-9)).astype(np.int64)
+    map_bridges = np.stack([bsrc, bdst, bdir, steps], axis=1)[keep].astype(np.int64).reshape(-1, 4)
     return Lattice(
-        origin=origin, spacing=ell, shape=(ny, nx), samples=f, directions=directions, vertex_class=vclass,
-        unit_kind=unit_kind, unit_weight=unit_weight, unit_removed=np.zeros(unit_kind.shape, dtype=bool),
-        directed_kind=directed_kind, directed_weight=directed_weight,
-        bridge_src=bsrc[keep], bridge_dst=bdst[keep], bridge_direction=bdir[keep], bridge_length=blen[keep],
-        water=water_f, forbidden=forbidden_f, built_up=np.zeros(fine_shape, dtype=bool), height=height_f,
+        origin=origin, spacing=ell, shape=(ny, nx), samples=f, directions=directions,
+        water=water_f, forbidden=forbidden_f, built_up=np.zeros(fine_shape, dtype=bool),
+        bridge_keys=keys, map_bridges=map_bridges, height=height_f,
         slope_weight=opts.slope_weight, slope_cutoff=opts.slope_cutoff,
     )
 
@@ -631,17 +815,20 @@ def _resample_linear(raster: Raster | None, origin: np.ndarray, step: float,
     return map_coordinates(np.asarray(raster.values, dtype=float), [rows, cols], order=1, mode="nearest")
 
 
-def _rasterise(geom: shapely.Geometry, origin: np.ndarray, step: float, shape: tuple[int, int]) -> np.ndarray:
-    """Fine points covered by ``geom`` (only the points inside its bounding box are tested)."""
-    out = np.zeros(shape, dtype=bool)
+def _rasterise(geom: shapely.Geometry, origin: np.ndarray, step: float, shape: tuple[int, int],
+               known: np.ndarray | None = None) -> np.ndarray:
+    """Fine points covered by ``geom`` (only the points inside its bounding box are tested),
+    or-ed with ``known``, whose true points are not tested again (B only grows: each year
+    tests only the ground it did not cover yet)."""
+    out = np.zeros(shape, dtype=bool) if known is None else known.copy()
     gx0, gy0, gx1, gy1 = geom.bounds
     j0, j1 = max(int(np.floor((gx0 - origin[0]) / step)), 0), min(int(np.ceil((gx1 - origin[0]) / step)) + 1, shape[1])
     i0, i1 = max(int(np.floor((gy0 - origin[1]) / step)), 0), min(int(np.ceil((gy1 - origin[1]) / step)) + 1, shape[0])
     if j1 <= j0 or i1 <= i0:
         return out
-    xs, ys = np.meshgrid(origin[0] + np.arange(j0, j1) * step, origin[1] + np.arange(i0, i1) * step)
+    ii, jj = np.nonzero(~out[i0:i1, j0:j1])
     shapely.prepare(geom)
-    out[i0:i1, j0:j1] = shapely.intersects_xy(geom, xs, ys)
+    out[i0 + ii, j0 + jj] = shapely.intersects_xy(geom, origin[0] + (j0 + jj) * step, origin[1] + (i0 + ii) * step)
     return out
 
 
@@ -957,8 +1144,7 @@ class PathGraph:
     def matrix(self, kinds: Sequence[EdgeKind] = ROAD_KINDS) -> csr_matrix:
         """CSR adjacency ``(V′, V′)`` over the edges of the given kinds (cached: the two most recent).
 
-        Missing lattice edges are infinite self-loops (scipy's Dijkstra never
-        relaxes an infinite edge). Use :meth:`restricted` to leave streets out.
+        Only the allowed edges are in it. Use :meth:`restricted` to leave streets out.
         """
         return self._base(kinds)[0]
 
@@ -989,11 +1175,14 @@ class PathGraph:
         return self._cache[key]
 
     def _csr(self, lat: np.ndarray, extra: np.ndarray) -> tuple[csr_matrix, np.ndarray, np.ndarray]:
-        """One CSR without sorting or compacting, and where each allowed other edge sits in it.
+        """One CSR without sorting, and where each allowed other edge sits in it.
 
         Every lattice row has a fixed number of slots: its D directions (when
         any lattice kind is allowed), then room for its other edges; a missing
-        edge is an infinite self-loop. Street rows follow, packed.
+        edge is an infinite self-loop. Street rows follow, packed. Contiguous
+        writes make it fast; when most slots are empty (a built-up window) the
+        missing edges are then dropped in one masked pass, which keeps memory
+        to the edges that exist.
         """
         n_lat, n_dir = lat.shape
         n_dir = n_dir if lat.any() else 0
@@ -1028,6 +1217,15 @@ class PathGraph:
         data[pos] = self.weight[ex]
         indptr = np.concatenate([np.arange(n_lat + 1, dtype=np.int64) * slots,
                                  n_lat * slots + np.cumsum(ex_counts[n_lat:])])
+        if n_dir and n_lat and np.count_nonzero(lat) < COMPACT_SHARE * n_lat * slots:
+            keep = np.isfinite(data)
+            grid_keep = keep[:n_lat * slots].reshape(n_lat, slots)
+            row_counts = np.concatenate([grid_keep.sum(axis=1), ex_counts[n_lat:]])
+            live_lat = grid_keep[:, :n_dir].sum(axis=1)
+            indptr = np.concatenate([[0], np.cumsum(row_counts)])
+            indices, data = indices[keep], data[keep]
+            pos = np.where(on_lattice, indptr[ex_src] + live_lat[np.minimum(ex_src, n_lat - 1)] + rank,
+                           indptr[ex_src] + rank)
         return csr_matrix((data, indices, indptr), shape=(n, n)), ex, pos
 
     def step(self, u: int, v: int, lat: np.ndarray, extra: np.ndarray) -> dict[str, float]:
@@ -1070,14 +1268,99 @@ class PathGraph:
         return int(candidates[np.argmin(d)])
 
 
+@dataclass(frozen=True)
+class StreetPart:
+    """The street side of G′ for one year, the same whichever window of the lattice is searched.
+
+    Street points are numbered street-locally: node j is j, split point p is
+    ``N + p``; in a G′ they follow the lattice's vertices.
+    """
+
+    segments: Segments
+    blocks: shapely.Geometry | None  #: the built-up blocks (stitches stay out of them)
+    extendible: np.ndarray  #: (S,) bool, at most one built-up side (C6)
+    split_xy: np.ndarray  #: (P, 2) m
+    split_parent: np.ndarray  #: (P,) parent segment of each split point
+    pieces: np.ndarray  #: (Q, 3) segment, from code, to code (see :func:`_split_segments`)
+    xy: np.ndarray  #: (N + P, 2) m, street points
+    points: np.ndarray  #: street-local ids of the extendible street points (where stitches start)
+    edges: tuple[np.ndarray, ...]  #: street pieces: u, v (street-local), kind, segment, length, weight
+    shell: tuple[np.ndarray, ...]  #: checked stitches between shell points, as ``edges``
+    tree: shapely.STRtree  #: the segments' lines
+    inner: shapely.Geometry | None  #: the built-up blocks shrunk by 0.5 m (None: none)
+
+
+def street_part(lattice: Lattice, segments: Segments, built: BuiltUpArea | None = None, *,
+                costs: EdgeCosts | None = None, options: GraphOptions | None = None) -> StreetPart:
+    """The street pieces and shell stitches of G′ (003 Fig. 9), made once a year.
+
+    Parameters
+    ----------
+    lattice
+        Any window of the map's lattice (its rasters check the stitches for water).
+    segments, built, costs, options
+        As :func:`pathfinding_graph`.
+
+    Returns
+    -------
+    StreetPart
+    """
+    costs = costs or EdgeCosts()
+    opts = options or GraphOptions()
+    blocks = built.blocks if built is not None else None
+    extendible = segment_sides(segments, blocks) <= 1
+    split_xy, split_parent, pieces = _split_segments(segments, extendible, opts.split_spacing)
+    xy = np.concatenate([segments.xy, split_xy])
+    n_nodes = len(segments.xy)
+    edges = _segment_part(lattice, segments, xy, pieces, extendible, 0, costs)
+    ext_pieces = pieces[extendible[pieces[:, 0]]]
+    points = _code_vertex(np.unique(ext_pieces[:, 1:].ravel()), 0, n_nodes)
+    tree = shapely.STRtree(segments.lines())
+    inner = None
+    if blocks is not None and not blocks.is_empty:
+        inner = shapely.buffer(blocks, -0.5)
+        if inner.is_empty:
+            inner = None
+        else:
+            shapely.prepare(inner)
+    shell = np.zeros((0, 2), dtype=np.int64)
+    if len(points):
+        shell = _nearest_pairs(xy[points], xy[points], points, points, opts.max_shell_stitches + 1,
+                               opts.shell_stitch_radius)
+        shell = np.unique(np.sort(shell[shell[:, 0] != shell[:, 1]], axis=1), axis=0)
+        shell = shell[~_duplicates_piece(shell, pieces, 0, n_nodes, len(xy))]
+        shell = shell[_stitch_ok(lattice, segments, xy, shell, split_parent, 0, opts, tree, inner)]
+    part = StreetPart(segments=segments, blocks=blocks, extendible=extendible, split_xy=split_xy,
+                      split_parent=split_parent, pieces=pieces, xy=xy, points=points, edges=edges,
+                      shell=(), tree=tree, inner=inner)
+    return replace(part, shell=_stitch_edges(lattice, shell, xy))
+
+
+def _stitch_edges(lattice: Lattice, pairs: np.ndarray, xy: np.ndarray) -> tuple[np.ndarray, ...]:
+    """Stitch edges (u, v, kind, segment, length, weight) of checked pairs, none steeper than the cutoff."""
+    u, v = pairs[:, 0], pairs[:, 1]
+    length, weight, slope = _road_weight(lattice, xy, u, v)
+    keep = slope <= lattice.slope_cutoff
+    n = int(keep.sum())
+    return u[keep], v[keep], np.full(n, EdgeKind.STITCH, np.uint8), np.full(n, -1), length[keep], weight[keep]
+
+
+def _shifted(edges: tuple[np.ndarray, ...], by: int) -> tuple[np.ndarray, ...]:
+    u, v, *rest = edges
+    return (u + by, v + by, *rest)
+
+
 def pathfinding_graph(lattice: Lattice, segments: Segments, built: BuiltUpArea | None = None, *,
-                      costs: EdgeCosts | None = None, options: GraphOptions | None = None) -> PathGraph:
+                      costs: EdgeCosts | None = None, options: GraphOptions | None = None,
+                      streets: StreetPart | None = None,
+                      stitch_within: tuple[float, float, float, float] | None = None,
+                      stitch_cache: dict | None = None) -> PathGraph:
     """Assemble G′ from the lattice (B already removed), the segments and stitches (003 §3.4.2).
 
     Parameters
     ----------
     lattice
-        G after :meth:`Lattice.with_built_up`.
+        G after :meth:`Lattice.with_built_up`, or a window of it.
     segments
         The current segment graph.
     built
@@ -1087,6 +1370,11 @@ def pathfinding_graph(lattice: Lattice, segments: Segments, built: BuiltUpArea |
         C1…C6 of this year.
     options
         :class:`GraphOptions`.
+    streets
+        This year's :func:`street_part` (made here when None).
+    stitch_within
+        ``(xmin, ymin, xmax, ymax)`` m: only street points inside get stitches to the
+        lattice (a window's edge: a point nearer to it may miss its nearest vertices).
 
     Returns
     -------
@@ -1098,18 +1386,24 @@ def pathfinding_graph(lattice: Lattice, segments: Segments, built: BuiltUpArea |
     """
     costs = costs or EdgeCosts()
     opts = options or GraphOptions()
-    blocks = built.blocks if built is not None else None
-    extendible = segment_sides(segments, blocks) <= 1
+    if streets is None:
+        streets = street_part(lattice, segments, built, costs=costs, options=opts)
     n_lat = lattice.n_vertices
-    split_xy, split_parent, pieces = _split_segments(segments, extendible, opts.split_spacing)
-    xy = np.concatenate([lattice.vertex_xy(), segments.xy, split_xy])
-    lat_kind, lat_weight, bridges = _lattice_part(lattice, segments, costs)
-    parts = [bridges, _segment_part(lattice, segments, xy, pieces, extendible, n_lat, costs)]
+    xy = np.concatenate([lattice.vertex_xy(), streets.xy])
+    lat_kind, lat_weight, bridges = _lattice_part(lattice, segments, costs, streets.tree)
+    parts = [bridges, _shifted(streets.edges, n_lat)]
     land_or_bridge = np.zeros(256, dtype=bool)
     land_or_bridge[[EdgeKind.LAND, EdgeKind.BRIDGE]] = True
     targets = np.flatnonzero(land_or_bridge[lat_kind].any(axis=1)
                              & (lattice.vertex_class == VertexClass.LAND))
-    parts.append(_stitch_part(lattice, segments, blocks, xy, pieces, split_parent, extendible, targets, opts))
+    points = streets.points
+    if stitch_within is not None and len(points):
+        px, py = streets.xy[points].T
+        points = points[(px >= stitch_within[0]) & (px <= stitch_within[2])
+                        & (py >= stitch_within[1]) & (py <= stitch_within[3])]
+    pairs = _lattice_stitches(lattice, segments, streets, xy, targets, points, opts, stitch_cache)
+    parts.append(_stitch_edges(lattice, pairs, xy))
+    parts.append(_shifted(streets.shell, n_lat))
     src, dst, kind, seg, length, weight = (np.concatenate(c) for c in zip(*parts))
     heading = np.arctan2(xy[dst, 1] - xy[src, 1], xy[dst, 0] - xy[src, 0])
     back = np.where(heading > 0, heading - np.pi, heading + np.pi)
@@ -1120,18 +1414,51 @@ def pathfinding_graph(lattice: Lattice, segments: Segments, built: BuiltUpArea |
     first = np.ones(len(order), dtype=bool)  # of parallel edges keep the cheapest
     first[1:] = (src[order][1:] != src[order][:-1]) | (dst[order][1:] != dst[order][:-1])
     order = order[first]
-    return PathGraph(lattice=lattice, segments=segments, xy=xy, n_lattice=n_lat, split_segment=split_parent,
+    return PathGraph(lattice=lattice, segments=segments, xy=xy, n_lattice=n_lat, split_segment=streets.split_parent,
                      lat_kind=lat_kind, lat_weight=lat_weight, src=src[order], dst=dst[order], kind=kind[order],
                      segment=seg[order], length=length[order], weight=weight[order], heading=heading[order],
-                     extendible=extendible)
+                     extendible=streets.extendible)
 
 
-def _lattice_part(lattice: Lattice, segments: Segments,
-                  costs: EdgeCosts) -> tuple[np.ndarray, np.ndarray, tuple[np.ndarray, ...]]:
+def _lattice_stitches(lattice: Lattice, segments: Segments, streets: StreetPart, xy: np.ndarray, targets: np.ndarray,
+                      points: np.ndarray, opts: GraphOptions, cache: dict | None) -> np.ndarray:
+    """Checked stitches ``(G′ street vertex, lattice vertex)`` from street points (street-local ids)
+    to their nearest live land vertices; with ``cache``, each point is checked once a year."""
+    n_lat = lattice.n_vertices
+    if not len(points) or not len(targets):
+        return np.zeros((0, 2), dtype=np.int64)
+
+    def checked(chosen: np.ndarray) -> np.ndarray:
+        ids = chosen + n_lat
+        pairs = _nearest_pairs(xy[ids], xy[targets], ids, targets, opts.max_stitches, opts.stitch_radius,
+                               keys=lattice.map_vertex(targets))
+        return pairs[_stitch_ok(lattice, segments, xy, pairs, streets.split_parent, n_lat, opts, streets.tree,
+                                streets.inner)]
+
+    if cache is None:
+        return checked(points)
+    done = cache.setdefault("done", np.zeros(len(streets.xy), dtype=bool))
+    found = cache.setdefault("pairs", [np.zeros((0, 2), dtype=np.int64)])
+    todo = points[~done[points]]
+    if len(todo):
+        pairs = checked(todo)
+        found.append(np.stack([pairs[:, 0] - n_lat, lattice.map_vertex(pairs[:, 1])], axis=1))
+        done[todo] = True
+    every = np.concatenate(found)
+    cache["pairs"] = [every]
+    mine = np.zeros(len(streets.xy), dtype=bool)
+    mine[points] = True
+    every = every[mine[every[:, 0]]]
+    return np.stack([every[:, 0] + n_lat, lattice._local(every[:, 1])], axis=1)
+
+
+def _lattice_part(lattice: Lattice, segments: Segments, costs: EdgeCosts,
+                  tree: shapely.STRtree | None = None) -> tuple[np.ndarray, np.ndarray, tuple[np.ndarray, ...]]:
     """Directed live lattice tables with C3 (harbour) and C5 (bridge), and the long bridges
     as edges; bridges and harbours that cross a street are left out (a new bridge does
     not pass over a road)."""
-    kind, weight = (a.copy() for a in lattice.directed_tables())
+    kind, weight = lattice.directed_tables()
+    lattice._cache.pop("directed", None)  # the tables become G′'s: edited in place, made again if asked for
     is_special = np.zeros(256, dtype=bool)
     is_special[[EdgeKind.BRIDGE, EdgeKind.HARBOUR]] = True
     special = np.flatnonzero(is_special[kind])
@@ -1144,7 +1471,8 @@ def _lattice_part(lattice: Lattice, segments: Segments,
     crossing = np.zeros(len(ends), dtype=bool)
     if len(ends) and len(segments.uv):
         xy = lattice.vertex_xy(ends.ravel()).reshape(-1, 2, 2)
-        hit, _ = shapely.STRtree(segments.lines()).query(shapely.linestrings(xy), predicate="intersects")
+        tree = tree if tree is not None else shapely.STRtree(segments.lines())
+        hit, _ = tree.query(shapely.linestrings(xy), predicate="intersects")
         crossing[hit] = True
     np.put(kind, special[crossing[:len(special)]], NO_EDGE)
     ok = ~crossing[len(special):]
@@ -1152,6 +1480,156 @@ def _lattice_part(lattice: Lattice, segments: Segments,
     bridges = (lattice.bridge_src[ok], lattice.bridge_dst[ok], np.full(n, EdgeKind.BRIDGE, np.uint8),
                np.full(n, -1), lattice.bridge_length[ok], lattice.bridge_length[ok] * costs.bridge)
     return kind, weight, bridges
+
+
+@dataclass(frozen=True)
+class GraphWindow:
+    """G′ over a window of the lattice (:meth:`ImplicitGraph.window`) and how it sits in the map.
+
+    ``graph`` numbers the window's lattice vertices first, then every street
+    point of the map. It holds exactly the edges of the whole G′ between its
+    vertices, except those that start at ``exits``: vertices near the
+    window's edge (their lattice edges, their stitches or a long bridge may
+    leave it). A route that leaves the window passes one of them first.
+    """
+
+    graph: PathGraph
+    whole: bool  #: the window is the whole map
+    exits: np.ndarray  #: window vertices where an edge of G′ may leave the window
+    n_map_lattice: int  #: vertices of the whole map's lattice
+
+    def to_map(self, vertices: np.ndarray) -> np.ndarray:
+        """Map G′ vertex of each window vertex."""
+        v = np.asarray(vertices, dtype=np.int64)
+        n = self.graph.n_lattice
+        return np.where(v < n, self.graph.lattice.map_vertex(np.minimum(v, max(n - 1, 0))),
+                        v - n + self.n_map_lattice)
+
+    def from_map(self, vertices: np.ndarray) -> np.ndarray:
+        """Window vertex of each map G′ vertex (−1 outside the window)."""
+        v = np.asarray(vertices, dtype=np.int64)
+        street = v >= self.n_map_lattice
+        lattice = self.graph.lattice._local(np.where(street, 0, v))
+        return np.where(street, v - self.n_map_lattice + self.graph.n_lattice, lattice)
+
+
+@dataclass(frozen=True)
+class ImplicitGraph:
+    """A year's G′ whose lattice part is made only where a search looks (see :meth:`window`).
+
+    It answers what the major-road step asks of G′ (vertex numbering, street
+    points, which segments are extendible, the rasters) without any table
+    over the whole map; :func:`osm_expand.engine.routing.find_route` searches
+    it in growing windows until the result is provably the whole map's.
+    Vertex numbering is the whole map's G′: lattice vertices, street nodes,
+    split points.
+    """
+
+    lattice: Lattice  #: the whole map (B removed), its edges never generated here
+    segments: Segments
+    streets: StreetPart
+    costs: EdgeCosts
+    options: GraphOptions
+    #: the stitches already checked this year (see :func:`pathfinding_graph`)
+    stitches: dict = field(default_factory=dict, repr=False, compare=False)
+
+    @property
+    def n_lattice(self) -> int:
+        return self.lattice.n_vertices
+
+    @property
+    def n_vertices(self) -> int:
+        return self.n_lattice + len(self.streets.xy)
+
+    @property
+    def split_segment(self) -> np.ndarray:
+        return self.streets.split_parent
+
+    @property
+    def extendible(self) -> np.ndarray:
+        return self.streets.extendible
+
+    def node_vertex(self, node: int) -> int:
+        """The G′ vertex of a street node."""
+        return self.n_lattice + int(node)
+
+    def vertex_xy(self, vertices: np.ndarray) -> np.ndarray:
+        """Positions of G′ vertices, ``(n, 2)`` m."""
+        v = np.atleast_1d(np.asarray(vertices, dtype=np.int64))
+        street = v >= self.n_lattice
+        out = self.lattice.vertex_xy(np.where(street, 0, v))
+        out[street] = self.streets.xy[v[street] - self.n_lattice]
+        return out
+
+    def whole(self) -> PathGraph:
+        """The whole map's G′ (every lattice table made: the old search, for comparison)."""
+        return pathfinding_graph(self.lattice, self.segments, costs=self.costs, options=self.options,
+                                 streets=self.streets)
+
+    def window(self, bounds: tuple[float, float, float, float]) -> GraphWindow:
+        """G′ over the lattice vertices inside ``(xmin, ymin, xmax, ymax)`` m (clipped to the map).
+
+        Lattice vertices within the neighbourhood radius of a side of the
+        window that is not the map's, street points whose stitches could
+        reach past it (stitch radius + radius), and the ends of long bridges
+        that cross it are the window's ``exits``.
+        """
+        lat = self.lattice
+        ny, nx = lat.shape
+        ell = lat.spacing
+        c0 = int(np.floor((bounds[0] - lat.origin[0]) / ell))
+        r0 = int(np.floor((bounds[1] - lat.origin[1]) / ell))
+        c1 = int(np.ceil((bounds[2] - lat.origin[0]) / ell)) + 1
+        r1 = int(np.ceil((bounds[3] - lat.origin[1]) / ell)) + 1
+        sub = lat.window(r0, c0, r1 - r0, c1 - c0)
+        whole = sub is lat
+        r0, c0 = sub.offset
+        h, w = sub.shape
+        open_side = (c0 > 0, r0 > 0, c0 + w < nx, r0 + h < ny)  # left, bottom, right, top
+        band = sub.radius
+        x0, y0 = sub.origin
+        x1, y1 = sub.origin + (np.array([w, h]) - 1) * ell
+        reach = self.options.stitch_radius + band * ell
+        within = None
+        exits: list[np.ndarray] = []
+        if not whole:
+            within = (x0 + reach if open_side[0] else -np.inf, y0 + reach if open_side[1] else -np.inf,
+                      x1 - reach if open_side[2] else np.inf, y1 - reach if open_side[3] else np.inf)
+            iy, ix = np.divmod(np.arange(h * w), w)
+            near = ((open_side[0] & (ix < band)) | (open_side[1] & (iy < band))
+                    | (open_side[2] & (ix >= w - band)) | (open_side[3] & (iy >= h - band)))
+            exits.append(np.flatnonzero(near))
+            pts = self.streets.points
+            px, py = self.streets.xy[pts].T
+            outside = (px < within[0]) | (px > within[2]) | (py < within[1]) | (py > within[3])
+            exits.append(sub.n_vertices + pts[outside])
+            a, b = sub._local(lat.map_bridges[:, 0]), sub._local(lat.map_bridges[:, 1])
+            exits.append(np.where(a >= 0, a, b)[(a >= 0) != (b >= 0)])
+        graph = pathfinding_graph(sub, self.segments, costs=self.costs, options=self.options, streets=self.streets,
+                                  stitch_within=within, stitch_cache=self.stitches)
+        sub._cache.clear()  # the edge tables live on in the graph's; a window is searched once
+        return GraphWindow(graph=graph, whole=whole, exits=np.unique(np.concatenate(exits)) if exits
+                           else np.zeros(0, dtype=np.int64), n_map_lattice=lat.n_vertices)
+
+
+def implicit_graph(lattice: Lattice, segments: Segments, built: BuiltUpArea | None = None, *,
+                   costs: EdgeCosts | None = None, options: GraphOptions | None = None) -> ImplicitGraph:
+    """This year's G′ without its lattice tables: only the street part is made now.
+
+    Parameters
+    ----------
+    lattice, segments, built, costs, options
+        As :func:`pathfinding_graph`.
+
+    Returns
+    -------
+    ImplicitGraph
+    """
+    costs = costs or EdgeCosts()
+    opts = options or GraphOptions()
+    return ImplicitGraph(lattice=lattice, segments=segments,
+                         streets=street_part(lattice, segments, built, costs=costs, options=opts),
+                         costs=costs, options=opts)
 
 
 def _split_segments(segments: Segments, split: np.ndarray, spacing: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -1217,42 +1695,37 @@ def _road_weight(lattice: Lattice, xy: np.ndarray, u: np.ndarray, v: np.ndarray)
     return length, length * np.maximum(1.0, lattice.slope_weight * slope), slope
 
 
-def _stitch_part(lattice: Lattice, segments: Segments, blocks: shapely.Geometry | None, xy: np.ndarray,
-                 pieces: np.ndarray, split_parent: np.ndarray, extendible: np.ndarray, targets: np.ndarray,
-                 opts: GraphOptions) -> tuple[np.ndarray, ...]:
-    """Stitches from shell and terrain-block street points to live land vertices, and between shell points."""
-    n_lat, n_nodes = lattice.n_vertices, len(segments.xy)
-    ext_pieces = pieces[extendible[pieces[:, 0]]]
-    codes = np.unique(ext_pieces[:, 1:].ravel())
-    points = _code_vertex(codes, n_lat, n_nodes)
-    if not len(points):
-        e = np.zeros(0, dtype=np.int64)
-        return e, e, np.zeros(0, np.uint8), e, np.zeros(0), np.zeros(0)
-    pairs = [np.zeros((0, 2), dtype=np.int64)]
-    if len(targets):
-        pairs.append(_nearest_pairs(xy[points], xy[targets], points, targets, opts.max_stitches,
-                                    opts.stitch_radius))
-    shell = _nearest_pairs(xy[points], xy[points], points, points, opts.max_shell_stitches + 1,
-                           opts.shell_stitch_radius)
-    shell = np.unique(np.sort(shell[shell[:, 0] != shell[:, 1]], axis=1), axis=0)
-    pairs.append(shell[~_duplicates_piece(shell, pieces, n_lat, n_nodes, len(xy))])
-    pairs = np.concatenate(pairs)
-    pairs = pairs[_stitch_ok(lattice, segments, blocks, xy, pairs, split_parent, n_lat, opts)]
-    u, v = pairs[:, 0], pairs[:, 1]
-    length, weight, slope = _road_weight(lattice, xy, u, v)
-    keep = slope <= lattice.slope_cutoff
-    return (u[keep], v[keep], np.full(int(keep.sum()), EdgeKind.STITCH, np.uint8), np.full(int(keep.sum()), -1),
-            length[keep], weight[keep])
-
-
 def _nearest_pairs(from_xy: np.ndarray, to_xy: np.ndarray, from_id: np.ndarray, to_id: np.ndarray, k: int,
-                   radius: float) -> np.ndarray:
-    """Pairs (from, to) of each point and its ``k`` nearest candidates within ``radius``."""
-    k = min(k, len(to_xy))
-    _, hit = cKDTree(to_xy).query(from_xy, k=k, distance_upper_bound=radius)
-    hit = np.asarray(hit).reshape(len(from_xy), k)
-    found = hit < len(to_xy)
-    return np.stack([np.broadcast_to(from_id[:, None], hit.shape)[found], to_id[hit[found]]], axis=1)
+                   radius: float, keys: np.ndarray | None = None) -> np.ndarray:
+    """Pairs (from, to) of each point and its ``k`` nearest candidates within ``radius``.
+
+    Of equally near candidates the one with the smaller key (``to_id`` by
+    default) wins, so the choice never depends on which other candidates
+    exist: street points on a grid town are often equally far from several
+    lattice vertices, and a window of the lattice must stitch a point to
+    the same vertices as the whole map.
+    """
+    n = len(to_xy)
+    k = min(k, n)
+    if not k or not len(from_xy):
+        return np.zeros((0, 2), dtype=np.int64)
+    keys = to_id if keys is None else np.asarray(keys)
+    tree = cKDTree(to_xy)
+    kk = min(2 * k, n)
+    while True:
+        dist, hit = tree.query(from_xy, k=kk, distance_upper_bound=radius)
+        dist, hit = np.asarray(dist).reshape(len(from_xy), kk), np.asarray(hit).reshape(len(from_xy), kk)
+        if kk == n or not (np.isfinite(dist[:, k - 1]) & (dist[:, kk - 1] == dist[:, k - 1])).any():
+            break
+        kk = min(2 * kk, n)  # a tie at the k-th nearest may go on past the candidates asked for
+    found = hit < n
+    row = np.broadcast_to(np.arange(len(from_xy))[:, None], hit.shape)[found]
+    cand = hit[found]
+    order = np.lexsort((keys[cand], dist[found], row))
+    row, cand = row[order], cand[order]
+    start = np.searchsorted(row, row, side="left")
+    first = np.arange(len(row)) - start < k
+    return np.stack([from_id[row[first]], to_id[cand[first]]], axis=1)
 
 
 def _duplicates_piece(pairs: np.ndarray, pieces: np.ndarray, n_lat: int, n_nodes: int, n: int) -> np.ndarray:
@@ -1262,10 +1735,12 @@ def _duplicates_piece(pairs: np.ndarray, pieces: np.ndarray, n_lat: int, n_nodes
     return np.isin(pairs[:, 0] * np.int64(n) + pairs[:, 1], ends[:, 0] * np.int64(n) + ends[:, 1])
 
 
-def _stitch_ok(lattice: Lattice, segments: Segments, blocks: shapely.Geometry | None, xy: np.ndarray,
-               pairs: np.ndarray, split_parent: np.ndarray, n_lat: int, opts: GraphOptions) -> np.ndarray:
+def _stitch_ok(lattice: Lattice, segments: Segments, xy: np.ndarray, pairs: np.ndarray, split_parent: np.ndarray,
+               n_lat: int, opts: GraphOptions, tree: shapely.STRtree | None = None,
+               inner: shapely.Geometry | None = None) -> np.ndarray:
     """Stitches that cross no street, keep ``clearance`` from every street away from
-    their ends, enter no built-up block and touch no water or forbidden ground."""
+    their ends, enter no built-up block (``inner``: the blocks shrunk by 0.5 m) and touch
+    no water or forbidden ground."""
     n_nodes = len(segments.xy)
     a, b = xy[pairs[:, 0]], xy[pairs[:, 1]]
     length = np.hypot(*(b - a).T)
@@ -1278,7 +1753,7 @@ def _stitch_ok(lattice: Lattice, segments: Segments, blocks: shapely.Geometry | 
     ok &= ~wet.any(axis=1)
     if len(segments.uv):
         lines = shapely.linestrings(np.stack([a, b], axis=1))
-        tree = shapely.STRtree(segments.lines())
+        tree = tree if tree is not None else shapely.STRtree(segments.lines())
         # crossing a street not incident to either end
         stitch, seg = tree.query(lines, predicate="intersects")
         incident = _incident(pairs[stitch], seg, segments, split_parent, n_lat, n_nodes)
@@ -1288,11 +1763,8 @@ def _stitch_ok(lattice: Lattice, segments: Segments, blocks: shapely.Geometry | 
         core = shapely.linestrings(np.stack([a + trim[:, None] * (b - a), b - trim[:, None] * (b - a)], axis=1))
         stitch, _ = tree.query(core, predicate="dwithin", distance=opts.clearance)
         ok[stitch] = False
-        if blocks is not None and not blocks.is_empty:
-            inner = shapely.buffer(blocks, -0.5)
-            if not inner.is_empty:
-                shapely.prepare(inner)
-                ok &= ~shapely.intersects(inner, core)
+        if inner is not None:
+            ok &= ~shapely.intersects(inner, core)
     return ok
 
 

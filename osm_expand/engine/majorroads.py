@@ -45,13 +45,13 @@ trade routes lack ``demand`` capacity, with this year's R(t) and O1…O4::
 """
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from enum import StrEnum
 
 import numpy as np
 import shapely
 
-from osm_expand.engine.lattice import ROAD_KINDS, EdgeKind, PathGraph
+from osm_expand.engine.lattice import ROAD_KINDS, EdgeKind, ImplicitGraph, PathGraph
 from osm_expand.engine.routing import Route, RoutingOptions, find_route
 from osm_expand.errors import InputError
 
@@ -159,7 +159,7 @@ class MajorRoadPlan:
         return sum(r.bridge for r in self.new_roads)
 
 
-def allowed_streets(graph: PathGraph, road_type: RoadType | str, *,
+def allowed_streets(graph: PathGraph | ImplicitGraph, road_type: RoadType | str, *,
                     options: MajorRoadOptions | None = None) -> np.ndarray | None:
     """Which segments a road of this type may run along (000 §4.2.7).
 
@@ -188,7 +188,7 @@ def allowed_streets(graph: PathGraph, road_type: RoadType | str, *,
     return np.zeros(len(graph.extendible), dtype=bool)
 
 
-def propose_route(graph: PathGraph, source: int, target: int, road_type: RoadType | str, *, demand: float = 0.0,
+def propose_route(graph: PathGraph | ImplicitGraph, source: int, target: int, road_type: RoadType | str, *, demand: float = 0.0,
                   routing: RoutingOptions | None = None, options: MajorRoadOptions | None = None) -> Route | None:
     """PROPOSEFROMNEW (003 §3.4.2) for a road type: the turn-penalised route on G′.
 
@@ -218,9 +218,7 @@ def propose_route(graph: PathGraph, source: int, target: int, road_type: RoadTyp
     kind = parse_road_type(road_type)
     routing = routing or RoutingOptions()
     if kind is RoadType.SMOOTH_CITY:
-        routing = RoutingOptions(turn_centre=routing.turn_centre, turn_width=routing.turn_width,
-                                 turn_height=routing.turn_height * opts.smooth_turn_factor,
-                                 heading_bins=routing.heading_bins, corridor_width=routing.corridor_width)
+        routing = replace(routing, turn_height=routing.turn_height * opts.smooth_turn_factor)
     kinds = list(ROAD_KINDS)
     if opts.water_routes:
         kinds += [EdgeKind.WATER, EdgeKind.HARBOUR, EdgeKind.BUILT_HARBOUR]
@@ -230,7 +228,7 @@ def propose_route(graph: PathGraph, source: int, target: int, road_type: RoadTyp
     return find_route(graph, source, target, kinds=kinds, street_ok=street_ok, options=routing)
 
 
-def capacity_ok(graph: PathGraph, demand: float) -> np.ndarray:
+def capacity_ok(graph: PathGraph | ImplicitGraph, demand: float) -> np.ndarray:
     """Segments that can carry ``demand`` more traffic (000 §4.2.8).
 
     Parameters
@@ -377,7 +375,7 @@ def smooth_polyline(xy: np.ndarray, pinned: np.ndarray, *, step: float = 40.0, i
 # ---------------------------------------------------------------- building
 
 
-def plan_major_road(graph: PathGraph, route: Route, road_type: RoadType | str, width: float, *,
+def plan_major_road(graph: PathGraph | ImplicitGraph, route: Route, road_type: RoadType | str, width: float, *,
                     lots: np.ndarray | None = None, options: MajorRoadOptions | None = None) -> MajorRoadPlan:
     """Turn a route on G′ into new roads, upgrades, widenings and demolitions (000 §4.2.7).
 
@@ -451,7 +449,7 @@ def _unique_in_order(values: np.ndarray) -> np.ndarray:
     return values[np.sort(first)].astype(np.int64)
 
 
-def _pins(graph: PathGraph, route: Route, start: int, end: int) -> np.ndarray:
+def _pins(graph: PathGraph | ImplicitGraph, route: Route, start: int, end: int) -> np.ndarray:
     """Inside a rebuilt stretch: street nodes where a major road the route does not follow meets it."""
     segs = graph.segments
     node = route.vertices[start:end + 1] - graph.n_lattice
@@ -461,7 +459,7 @@ def _pins(graph: PathGraph, route: Route, start: int, end: int) -> np.ndarray:
     return is_node & np.isin(node, segs.uv[crossing].ravel())
 
 
-def _smoothed(graph: PathGraph, xy: np.ndarray, pins: np.ndarray, rebuild: bool,
+def _smoothed(graph: PathGraph | ImplicitGraph, xy: np.ndarray, pins: np.ndarray, rebuild: bool,
               opts: MajorRoadOptions) -> np.ndarray:
     """The smoothest of (centroid + Chaikin, Chaikin, as found) that stays dry and crosses no street
     it must not (for a rebuilding road: no major road or bridge away from its pins)."""
@@ -478,7 +476,7 @@ def _smoothed(graph: PathGraph, xy: np.ndarray, pins: np.ndarray, rebuild: bool,
     return xy.copy()
 
 
-def _acceptable(graph: PathGraph, xy: np.ndarray, pinned_xy: np.ndarray, rebuild: bool) -> bool:
+def _acceptable(graph: PathGraph | ImplicitGraph, xy: np.ndarray, pinned_xy: np.ndarray, rebuild: bool) -> bool:
     lattice = graph.lattice
     dense = _resample(xy, lattice.fine_step)
     if lattice.fine_lookup(lattice.water | lattice.forbidden, dense).any():
@@ -501,7 +499,7 @@ def _acceptable(graph: PathGraph, xy: np.ndarray, pinned_xy: np.ndarray, rebuild
     return bool((near < 1e-6 + 0.01).all())
 
 
-def _new_road(graph: PathGraph, start: int, end: int, xy: np.ndarray, bridge: bool) -> NewRoad:
+def _new_road(graph: PathGraph | ImplicitGraph, start: int, end: int, xy: np.ndarray, bridge: bool) -> NewRoad:
     def attach(vertex: int) -> tuple[int, int]:
         rel = vertex - graph.n_lattice
         if rel < 0:
@@ -525,7 +523,7 @@ def _along(segs, roads: list[NewRoad], tolerance: float = 1.0) -> np.ndarray:
     return np.sort(near[on]).astype(np.int64)
 
 
-def _demolition(graph: PathGraph, roads: list[NewRoad], width: float, lots: np.ndarray | None,
+def _demolition(graph: PathGraph | ImplicitGraph, roads: list[NewRoad], width: float, lots: np.ndarray | None,
                 opts: MajorRoadOptions) -> tuple[np.ndarray, np.ndarray]:
     """Minor, non-bridge segments and lots under a rebuilding road's corridor (000 §4.2.7).
 

@@ -12,9 +12,12 @@ and the extendible ones are widened to A(t). A rebuilding city road
 demolishes the engine's own minor streets under it; the town as mapped is
 never demolished.
 
-The lattice is built once per run (it covers the map's bounds); B and G′
-are rebuilt only in a year that needs a road, so most years cost nothing
-here.
+The lattice (its rasters and bridges) is built once per run (it covers
+the map's bounds); B and G′'s street part are rebuilt only in a year that
+needs a road, so most years cost nothing here. G′ is implicit
+(:class:`~osm_expand.engine.lattice.ImplicitGraph`): each search makes the
+lattice's edges of the window it needs, and a re-route over major roads
+makes none.
 """
 from __future__ import annotations
 
@@ -25,7 +28,7 @@ import numpy as np
 import shapely
 
 from osm_expand.engine.history import History, YearValues
-from osm_expand.engine.lattice import BuiltUpArea, Lattice, Raster, Segments, build_lattice, built_up_area, pathfinding_graph
+from osm_expand.engine.lattice import BuiltUpArea, Lattice, Raster, Segments, build_lattice, built_up_area, implicit_graph
 from osm_expand.engine.majorroads import RoadType, plan_major_road, propose_route
 from osm_expand.engine.planarity import without_touching
 from osm_expand.engine.routing import Choice, choose, route_over_major_roads
@@ -152,7 +155,7 @@ def _graph(city: City, traffic: TrafficMemory, memory: RoadMemory, now: YearValu
                           previous=memory.built, options=history.options.built_up)
     lattice = memory.lattice.with_built_up(built.area)
     memory = replace(memory, lattice=lattice, built=built)
-    return pathfinding_graph(lattice, segments, built, costs=now.costs, options=history.options.graph), memory
+    return implicit_graph(lattice, segments, built, costs=now.costs, options=history.options.graph), memory
 
 
 def _apply(city: City, table: SegmentTable, plan, *, year: int, era: str, old_town: bool = False

@@ -40,7 +40,7 @@ from scipy.sparse import csr_matrix
 from scipy.sparse.csgraph import dijkstra
 from scipy.spatial import cKDTree
 
-from osm_expand.engine.lattice import ROAD_KINDS, EdgeKind, PathGraph
+from osm_expand.engine.lattice import ROAD_KINDS, EdgeCosts, EdgeKind, GraphWindow, ImplicitGraph, PathGraph
 from osm_expand.errors import InputError
 
 __all__ = ["RoutingOptions", "Route", "turn_penalty", "find_route", "route_over_major_roads", "Choice",
@@ -69,8 +69,20 @@ class RoutingOptions:
     #: m, the first (cheap, inexact) search keeps within this of the plain shortest route;
     #: its cost bounds the exact second search (5ℓ)
     corridor_width: float = 100.0
+    #: m, the first window of an implicit G′ reaches this far beyond the two ends' bounding box
+    #: (a few hundred metres: a route that bends round a block or a river bank stays inside);
+    #: it doubles until the window provably holds the best route
+    window_margin: float = 400.0
+    #: share of the two ends' distance added to ``window_margin`` for the first window (long
+    #: routes wander further from the straight line)
+    window_share: float = 0.25
+    #: a window covering more than this share of the map becomes the whole map (a second,
+    #: larger window would cost more than searching the map at once)
+    whole_share: float = 0.5
 
     def __post_init__(self) -> None:
+        if not (self.window_margin > 0 and self.window_share >= 0):
+            raise InputError("RoutingOptions: window_margin must be positive and window_share not negative")
         if not (self.turn_width > 0 and self.turn_height >= 0):
             raise InputError("RoutingOptions: turn_width must be positive and turn_height not negative")
         if self.heading_bins < 4:
@@ -128,14 +140,17 @@ def _bin_penalties(opts: RoutingOptions) -> np.ndarray:
     return turn_penalty(np.pi - turn, centre=opts.turn_centre, width=opts.turn_width, height=opts.turn_height)
 
 
-def find_route(graph: PathGraph, source: int, target: int, *, kinds: Sequence[EdgeKind] = ROAD_KINDS,
+def find_route(graph: PathGraph | ImplicitGraph, source: int, target: int, *, kinds: Sequence[EdgeKind] = ROAD_KINDS,
                street_ok: np.ndarray | None = None, options: RoutingOptions | None = None) -> Route | None:
     """The least-cost route on G′ with turn penalties (003 §3.4.2, PROPOSEFROMNEW).
 
     Parameters
     ----------
     graph
-        G′ from :func:`osm_expand.engine.lattice.pathfinding_graph`.
+        G′ from :func:`osm_expand.engine.lattice.pathfinding_graph`, or an
+        :class:`~osm_expand.engine.lattice.ImplicitGraph` (searched in windows
+        that grow until the route is provably the whole map's best, see
+        :func:`_implicit_route`).
     source, target
         G′ vertices (e.g. ``graph.node_vertex(node)`` for street nodes).
     kinds
@@ -153,14 +168,127 @@ def find_route(graph: PathGraph, source: int, target: int, *, kinds: Sequence[Ed
         None when the target cannot be reached.
     """
     opts = options or RoutingOptions()
+    if isinstance(graph, ImplicitGraph):
+        return _implicit_route(graph, source, target, kinds, street_ok, opts)
+    return _search(graph, source, target, kinds, street_ok, opts)[0]
+
+
+def _search(graph: PathGraph, source: int, target: int, kinds: Sequence[EdgeKind], street_ok: np.ndarray | None,
+            opts: RoutingOptions) -> tuple[Route | None, np.ndarray | None]:
+    """:func:`find_route` on a G′, and the plain (turn-free) distances from the source."""
     if source == target:
-        return _route(graph, [source], *graph.masks(kinds, street_ok), 0.0)
+        return _route(graph, [source], *graph.masks(kinds, street_ok), 0.0), None
     lat, extra = graph.masks(kinds, street_ok)
     with graph.restricted(kinds, street_ok) as matrix:
         from_source, pred = dijkstra(matrix, indices=source, return_predecessors=True)
         if not np.isfinite(from_source[target]):
-            return None
-        return _best_route(graph, matrix, lat, extra, source, target, from_source, pred, opts)
+            return None, from_source
+        return _best_route(graph, matrix, lat, extra, source, target, from_source, pred, opts), from_source
+
+
+#: Edge kinds whose edges touch the lattice (a search over none of them needs no lattice).
+_LATTICE_KINDS = frozenset({EdgeKind.LAND, EdgeKind.WATER, EdgeKind.HARBOUR, EdgeKind.BRIDGE, EdgeKind.STITCH})
+
+
+def cheapest_unit_cost(costs: EdgeCosts, kinds: Sequence[EdgeKind]) -> float:
+    """The least cost per metre of straight distance any edge of the given kinds can have.
+
+    Every edge weighs ``length · max(1, O1 · slope)`` times its kind's
+    coefficient (streets also × C6 when extendible), and a straight edge is
+    at least as long as the distance between its ends; turn penalties are
+    not negative. So ``distance × this`` never overestimates what is left of
+    a route: an admissible bound (A*'s heuristic).
+    """
+    c6 = min(1.0, costs.extendible)
+    per = {EdgeKind.LAND: 1.0, EdgeKind.WATER: 1.0, EdgeKind.STITCH: 1.0, EdgeKind.HARBOUR: costs.harbour,
+           EdgeKind.BRIDGE: costs.bridge, EdgeKind.MAJOR: costs.major * c6, EdgeKind.MINOR: costs.minor * c6,
+           EdgeKind.BUILT_HARBOUR: costs.built_harbour * c6}
+    return min(per[EdgeKind(k)] for k in kinds)
+
+
+def _implicit_route(graph: ImplicitGraph, source: int, target: int, kinds: Sequence[EdgeKind],
+                    street_ok: np.ndarray | None, opts: RoutingOptions) -> Route | None:
+    """The whole map's best route, searched on G′ over growing windows of the lattice.
+
+    Each window holds every edge of G′ between its vertices except those
+    from its ``exits`` (:class:`~osm_expand.engine.lattice.GraphWindow`). A
+    route that leaves the window first reaches an exit x at no less than the
+    window's plain distance d(x), then needs at least ``|x − t| · c`` more
+    (:func:`cheapest_unit_cost`). When no exit has ``d(x) + |x − t| · c``
+    below the cost of the window's best route, no route through the rest of
+    the map can be cheaper, and the window's route is the map's (equal cost;
+    of several equal ones it may be another). Else the window grows as far
+    as a cheaper route could go (:func:`_grown`). The
+    lattice edges are generated only for the windows searched, so memory
+    and time follow the corridor a route can use, not the map.
+    """
+    ends = graph.vertex_xy([source, target])
+    lo, hi = ends.min(axis=0), ends.max(axis=0)
+    if not set(kinds) & _LATTICE_KINDS:  # streets only: the lattice plays no part, any window is exact
+        window = graph.window((lo[0], lo[1], lo[0], lo[1]))
+        return _on_map(window, *_search(window.graph, *window.from_map([source, target]).tolist(), kinds,
+                                        street_ok, opts))
+    c = cheapest_unit_cost(graph.costs, kinds)
+    margin = opts.window_margin + opts.window_share * float(np.hypot(*(hi - lo)))
+    bounds = np.array([lo[0] - margin, lo[1] - margin, hi[0] + margin, hi[1] + margin])
+    whole = np.array(graph.lattice.bounds)
+    reach = graph.options.stitch_radius + graph.lattice.radius * graph.lattice.spacing
+    while True:
+        seen = np.prod(np.minimum(bounds[2:], whole[2:]) - np.maximum(bounds[:2], whole[:2]))
+        if seen > opts.whole_share * np.prod(whole[2:] - whole[:2]):  # nearly the map's size: take the map
+            bounds = whole
+        window = graph.window(tuple(bounds))
+        s, t = window.from_map([source, target]).tolist()
+        route, from_source = _search(window.graph, s, t, kinds, street_ok, opts)
+        if window.whole or from_source is None:
+            return _on_map(window, route, from_source)
+        cost = route.cost if route is not None else np.inf
+        exits = window.exits
+        below = from_source[exits] + c * np.hypot(*(window.graph.xy[exits] - ends[1]).T)
+        short = below < (cost - 1e-9 * cost if np.isfinite(cost) else np.inf)
+        if not short.any():
+            return _on_map(window, route, from_source)
+        bounds = _grown(bounds, np.array(window.graph.lattice.bounds), window.graph.xy[exits[short]],
+                        from_source[exits[short]], ends[1], cost, c, reach)
+
+
+def _grown(bounds: np.ndarray, inside: np.ndarray, exits: np.ndarray, reached: np.ndarray, target: np.ndarray,
+           cost: float, c: float, reach: float) -> np.ndarray:
+    """The next window: wide enough for every route that could still beat ``cost``.
+
+    A route leaving by exit x (reached at ``d``) and passing a point y
+    costs at least ``d + c·(|x − y| + |y − t|)``, so y lies in the ellipse
+    with foci x and t whose string is ``(cost − d) / c``: the window takes
+    in each such ellipse's bounding box. The sides near the exits move out
+    by at least ``2 · reach`` (past the band where a point is an exit), so
+    every step makes progress; without a finite cost every side doubles
+    its distance to the ends.
+    """
+    px, py = exits.T
+    near = np.array([(px < inside[0] + reach).any(), (py < inside[1] + reach).any(),
+                     (px > inside[2] - reach).any(), (py > inside[3] - reach).any()])
+    step = np.where(near, 2.0 * reach, 0.0) * np.array([-1, -1, 1, 1])
+    out = bounds + step
+    if not np.isfinite(cost) or not near.any():
+        centre = np.tile(0.5 * (bounds[:2] + bounds[2:]), 2)
+        return np.where(near | ~np.isfinite(cost) | ~near.any(), centre + 2.0 * (bounds - centre), out)
+    a = 0.5 * (cost - reached) / c  # semi-major axes
+    f = 0.5 * np.hypot(*(target - exits).T)  # half the focal distance (< a: x is short)
+    b = np.sqrt(np.maximum(a * a - f * f, 0.0))
+    theta = np.arctan2(target[1] - py, target[0] - px)
+    hx = np.sqrt((a * np.cos(theta)) ** 2 + (b * np.sin(theta)) ** 2)
+    hy = np.sqrt((a * np.sin(theta)) ** 2 + (b * np.cos(theta)) ** 2)
+    mx, my = 0.5 * (px + target[0]), 0.5 * (py + target[1])
+    box = np.array([(mx - hx).min() - reach, (my - hy).min() - reach, (mx + hx).max() + reach,
+                    (my + hy).max() + reach])
+    return np.concatenate([np.minimum(out[:2], box[:2]), np.maximum(out[2:], box[2:])])
+
+
+def _on_map(window: GraphWindow, route: Route | None, _from_source: np.ndarray | None = None) -> Route | None:
+    """A window's route with the map's G′ vertex numbers."""
+    if route is None:
+        return None
+    return replace(route, vertices=window.to_map(route.vertices))
 
 
 def _best_route(graph: PathGraph, matrix: csr_matrix, lat: np.ndarray, extra: np.ndarray, source: int, target: int,
@@ -243,7 +371,8 @@ def _sorted_csr(n_rows: int, groups: list[tuple[np.ndarray, np.ndarray, np.ndarr
     """
     counts = [np.bincount(rows, minlength=n_rows) for rows, _, _ in groups]
     indptr = np.concatenate([[0], np.cumsum(np.sum(counts, axis=0))])
-    indices = np.empty(indptr[-1], dtype=np.int64)
+    # scipy's Dijkstra runs on 32-bit indices: made so at once, not copied later
+    indices = np.empty(indptr[-1], dtype=np.int32 if max(n_rows, int(indptr[-1])) < 2**31 else np.int64)
     data = np.empty(indptr[-1])
     before = np.zeros(n_rows, dtype=np.int64)  # entries of earlier groups in each row
     for (rows, cols, values), count in zip(groups, counts):
