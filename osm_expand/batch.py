@@ -733,7 +733,8 @@ def add_batch_arguments(parser: argparse.ArgumentParser) -> None:
     for action in build_expand_parser()._actions:
         if not action.option_strings or action.dest in _NOT_PIPELINE:
             continue
-        dest = f"pipeline__{action.dest}"
+        # one dest per flag: two flags may share the main parser's dest (--beyond-bounds / --within-bounds)
+        dest = "pipeline__" + action.option_strings[-1].lstrip("-").replace("-", "_")
         common = {"dest": dest, "help": action.help, "default": argparse.SUPPRESS}
         if isinstance(action, (argparse._StoreTrueAction, argparse._StoreFalseAction)):
             group.add_argument(*action.option_strings, action="store_true", **common)
