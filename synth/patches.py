@@ -226,7 +226,10 @@ def _quilt(source: _Source, quilt: _Quilt, centres: np.ndarray, cells: list, reg
         links = _walk_seams(stitched, spacing, opts, occupied, old)
         tees = _tees(stitched, old, spacing, opts, occupied)
         tees += _edge_streets(stitched, region, spacing, opts, occupied, old)
-        net = _trim(_network(stitched), stitched, shapely.boundary(region), opts.keep_out * spacing)
+        stitched_net = _network(stitched)
+        net = _trim(stitched_net, stitched, shapely.boundary(region), opts.keep_out * spacing,
+                    keep=_stub_budget(stitched_net, stitched, dead_ends, old, opts.tee_reach * spacing),
+                    stub=STUB_LENGTH * spacing)
         net = _keep_joinable(net, old, spacing, opts)
         net = _connect_pieces(net, old, occupied, opts.link_reach * spacing)
         if dead_ends is not None:
@@ -708,9 +711,36 @@ def _insert_points(xy: np.ndarray, points: np.ndarray) -> np.ndarray:
     return np.array(out)
 
 
-def _trim(net: StreetNetwork, quilt: _Quilt, edge: shapely.Geometry, keep_out: float) -> StreetNetwork:
+#: A cut street this many junction spacings long or more may stay as a cul-de-sac (see :func:`_trim`).
+STUB_LENGTH = 0.3
+
+
+def _stub_budget(net: StreetNetwork, quilt: _Quilt, share: float | None, old: shapely.Geometry,
+                 reach: float) -> int:
+    """How many cut streets may stay as cul-de-sacs so that the district's dead-end share comes to
+    ``share`` (its town's neighbourhoods'): the dead ends it has besides its cut ends, and besides
+    those within ``reach`` of the town (the joining step takes them), are fewer."""
+    if share is None or not 0.0 < share < 1.0 or not len(net.xy):
+        return 0
+    degree = segment_degree(net.streets, len(net.xy))
+    cut = np.zeros(len(net.xy), dtype=bool)
+    loose = np.array(quilt.cut_xy).reshape(-1, 2)
+    if len(loose):
+        dist, idx = cKDTree(net.xy).query(loose)
+        cut[idx[dist < 1e-6]] = True
+    ends = np.flatnonzero((degree == 1) & ~cut)
+    if len(ends) and not old.is_empty:
+        ends = ends[shapely.distance(old, shapely.points(net.xy[ends])) > reach]
+    dead = len(ends)
+    return max(int(share / (1.0 - share) * int((degree >= 3).sum())) - dead, 0)
+
+
+def _trim(net: StreetNetwork, quilt: _Quilt, edge: shapely.Geometry, keep_out: float, *, keep: int = 0,
+          stub: float = 0.0) -> StreetNetwork:
     """Cut ends still open are trimmed back to their last junction, except a street of ``keep_out``
-    metres or more that leaves the district at the site's ``edge`` (a road out into the country).
+    metres or more that leaves the district at the site's ``edge`` (a road out into the country), and
+    up to ``keep`` cut streets of ``stub`` metres or more, which stay as cul-de-sacs (a district
+    whose every cut end was closed or trimmed has fewer dead ends than its town's neighbourhoods).
 
     A junction whose other streets were all trimmed becomes an end itself and is trimmed in turn:
     only the town's own dead ends stay dead ends.
@@ -724,11 +754,15 @@ def _trim(net: StreetNetwork, quilt: _Quilt, edge: shapely.Geometry, keep_out: f
     streets = net.streets
     while leaves:
         drop: set[tuple[int, int]] = set()
-        for leaf, chain in dangling_chains(streets, leaves).items():
+        for leaf, chain in sorted(dangling_chains(streets, leaves).items()):
             out_of_town = shapely.distance(edge, shapely.Point(leaves[leaf])) < 1.0
             length = sum(float(np.hypot(*(net.xy[a] - net.xy[b]))) for a, b in chain)
-            if not (out_of_town and length >= keep_out):
-                drop |= chain
+            if out_of_town and length >= keep_out:
+                continue
+            if keep > 0 and length >= stub:
+                keep -= 1
+                continue
+            drop |= chain
         if not drop:
             break
         before = segment_degree(streets, len(net.xy))
