@@ -510,9 +510,9 @@ def _expand_outputs(args: argparse.Namespace) -> tuple[Path, str, Path | None]:
 
 
 def cmd_expand(args: argparse.Namespace, log: Progress) -> dict:
+    from osm_expand.engine.history import load_history
     from osm_expand.ingest import check_readable, load
     from osm_expand.land import LandOptions, parse_rules
-    from osm_expand.engine.history import load_history
     from osm_expand.pipeline import ExpandOptions, expand
 
     city_path = check_readable(args.city)

@@ -48,8 +48,16 @@ import shapely
 from scipy.spatial import cKDTree
 
 from osm_expand.errors import InputError
-from osm_expand.measures import (DISTRIBUTIONS, LineSet, Measure, MeasureOptions, NetworkMeasures,
-                                 junction_points, measure_named, measure_network)
+from osm_expand.measures import (
+    DISTRIBUTIONS,
+    LineSet,
+    Measure,
+    MeasureOptions,
+    NetworkMeasures,
+    junction_points,
+    measure_named,
+    measure_network,
+)
 
 __all__ = ["DEFAULT_PARTS", "FidelityOptions", "FidelityReport", "MeasureVerdict", "TownReference", "compare", "fidelity",
            "judge", "ks_distance", "real_parts", "town_reference"]

@@ -34,9 +34,9 @@ town are added by :attr:`osm_expand.model.City.occupied`.
 """
 from __future__ import annotations
 
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 from types import MappingProxyType
-from collections.abc import Mapping
 
 import numpy as np
 import shapely

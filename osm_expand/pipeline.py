@@ -24,18 +24,18 @@ import shapely
 from osm_expand.blocks import blocks
 from osm_expand.errors import InputError
 from osm_expand.fidelity import FidelityReport, fidelity
-from osm_expand.measures import LineSet, NetworkMeasures, measure_network
 from osm_expand.heights import with_heights
 from osm_expand.joins import JoinReport, join_growth
 from osm_expand.land import LandOptions, land_cover_taken, read_land, unbuildable
+from osm_expand.measures import LineSet, NetworkMeasures, measure_network
 from osm_expand.model import City, Origin, Status, StreetNetwork, polyline_length
 from osm_expand.sites import DistanceMaps, Site, SiteOptions, choose_sites, distance_maps, district_region
 from simplify import simplify
 from simplify.example import Example, build_example
 from simplify.hierarchy import with_levels
 from simplify.options import SimplifyOptions
-from synth.growth import Growth, GrowthPattern, RandomWalk
 from synth.colonisation_pattern import Colonisation
+from synth.growth import Growth, GrowthPattern, RandomWalk
 from synth.patches import ExamplePatches
 
 #: A district smaller than this many blocks (squares of the town's junction spacing) is refused.

@@ -11,10 +11,11 @@ from collections import defaultdict
 
 import numpy as np
 import shapely
+
 from osm_expand.model import Street, StreetNetwork, closest_on_segments, match_points
 from osm_expand.model.components import UnionFind, close_pairs, component_labels
-from simplify.options import SimplifyOptions
 from osm_expand.model.topology import append_nodes, clean_nodes, flat_nodes, split_self_touching
+from simplify.options import SimplifyOptions
 
 
 def segment_table(net: StreetNetwork) -> dict[str, np.ndarray]:

@@ -17,9 +17,9 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from osm_expand.model import StreetNetwork
+from osm_expand.model.topology import MAX_DEGREE, junction_mask, junction_stops, lengths
 from simplify.dead_ends import DeadEnd
 from simplify.hierarchy import with_levels
-from osm_expand.model.topology import MAX_DEGREE, junction_mask, junction_stops, lengths
 
 #: Floors for the Gaussians so a street with few junctions is not infinitely picky.
 MIN_LENGTH_STD = 0.15  # as a share of the mean spacing

@@ -15,8 +15,8 @@ import numpy as np
 from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import breadth_first_order, connected_components
 
-from osm_expand.model.highways import rank
 from osm_expand.model import StreetNetwork
+from osm_expand.model.highways import rank
 from osm_expand.model.topology import lengths
 
 

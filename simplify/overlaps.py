@@ -18,11 +18,10 @@ from collections import defaultdict
 import numpy as np
 import shapely
 
-from osm_expand.model.highways import rank
 from osm_expand.model import Street, StreetNetwork
-from simplify.options import SimplifyOptions
+from osm_expand.model.highways import rank
 from osm_expand.model.topology import clean_nodes, junction_mask, lengths, piece_table
-
+from simplify.options import SimplifyOptions
 
 PieceKey = tuple[int, int]
 #: Pieces closer than this (m) are the same line drawn twice and always go.

@@ -14,8 +14,8 @@ import shapely
 
 from osm_expand.model import Street, StreetNetwork
 from osm_expand.model.components import UnionFind
-from simplify.options import SimplifyOptions
 from osm_expand.model.topology import append_nodes, replace_nodes
+from simplify.options import SimplifyOptions
 
 ROUNDABOUT_TAGS = frozenset({"roundabout", "circular"})
 

@@ -42,7 +42,6 @@ from scipy.spatial import cKDTree
 from osm_expand.model import closest_on_segments
 from synth.segment_index import SegmentIndex
 
-
 #: The level of a border junction's record: a target for walks of every level.
 ANY_LEVEL = -2
 

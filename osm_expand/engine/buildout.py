@@ -89,9 +89,19 @@ from osm_expand.engine.calibration import CalibrationOptions, TownCalibration, c
 from osm_expand.engine.economy import HeightScale, expected_floor_space, lot_economy, occupants, substitute
 from osm_expand.engine.footprints import Footprint, place_buildings
 from osm_expand.engine.history import History, YearValues
-from osm_expand.engine.landuse import (UNASSIGNED, LotLayout, assign_types, block_types, choose_types,
-                                       distance_to, goal_shares, lot_attributes, lot_layout, lot_values,
-                                       update_land_use)
+from osm_expand.engine.landuse import (
+    UNASSIGNED,
+    LotLayout,
+    assign_types,
+    block_types,
+    choose_types,
+    distance_to,
+    goal_shares,
+    lot_attributes,
+    lot_layout,
+    lot_values,
+    update_land_use,
+)
 from osm_expand.engine.lots import NO_STREET, Frontage, LandUse, block_frontage, land_use, subdivide_blocks
 from osm_expand.engine.lots import Lot as EngineLot
 from osm_expand.engine.segments import street_width

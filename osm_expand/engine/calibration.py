@@ -63,8 +63,14 @@ from scipy import ndimage
 from osm_expand.engine.economy import HeightCalibration, calibrate_heights
 from osm_expand.engine.footprints import FootprintOptions, SizeTargets, calibrate_sizes, calibrated_lot_options
 from osm_expand.engine.history import History
-from osm_expand.engine.landuse import (UNASSIGNED, LandUseCalibration, LandUseType, calibrate_landuse, distance_to,
-                                       types_from_polygons)
+from osm_expand.engine.landuse import (
+    UNASSIGNED,
+    LandUseCalibration,
+    LandUseType,
+    calibrate_landuse,
+    distance_to,
+    types_from_polygons,
+)
 from osm_expand.engine.lots import LandUse, LotOptions, land_use
 from osm_expand.errors import InputError
 from osm_expand.land import unbuildable as unbuildable_land

@@ -94,8 +94,15 @@ import numpy as np
 
 from osm_expand.engine.economy import DEFAULT_ECONOMY, EconomyOptions, TypeEconomy
 from osm_expand.engine.footprints import DEFAULT_FOOTPRINT_OPTIONS, FootprintOptions
-from osm_expand.engine.landuse import (DEFAULT_TYPES, Attribute, LandUseOptions, LandUseType, Valuation,
-                                       ValuationTerm, types_from_config)
+from osm_expand.engine.landuse import (
+    DEFAULT_TYPES,
+    Attribute,
+    LandUseOptions,
+    LandUseType,
+    Valuation,
+    ValuationTerm,
+    types_from_config,
+)
 from osm_expand.engine.lattice import BuiltUpOptions, EdgeCosts, GraphOptions, LatticeOptions
 from osm_expand.engine.lots import DEFAULT_LOT_OPTIONS, LandUse, LotOptions
 from osm_expand.engine.majorroads import MajorRoadOptions, RoadType

@@ -25,7 +25,14 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 
 from osm_expand.blocks import FaceMemo, blocks
-from osm_expand.engine.growth import STUB_REACH, GrowthMemory, GrowthOptions, GrowthYear, grow_district, grow_street_pattern
+from osm_expand.engine.growth import (
+    STUB_REACH,
+    GrowthMemory,
+    GrowthOptions,
+    GrowthYear,
+    grow_district,
+    grow_street_pattern,
+)
 from osm_expand.engine.history import GROWTH_PATTERNS, Era, History, YearValues
 from osm_expand.engine.nuclei import Nucleus, candidate_points, find_nuclei, new_junction_nuclei
 from osm_expand.engine.planarity import without_touching

@@ -25,7 +25,15 @@ import numpy as np
 import shapely
 
 from osm_expand.engine.history import History, YearValues
-from osm_expand.engine.lattice import BuiltUpArea, Lattice, Raster, Segments, build_lattice, built_up_area, pathfinding_graph
+from osm_expand.engine.lattice import (
+    BuiltUpArea,
+    Lattice,
+    Raster,
+    Segments,
+    build_lattice,
+    built_up_area,
+    pathfinding_graph,
+)
 from osm_expand.engine.majorroads import RoadType, plan_major_road, propose_route
 from osm_expand.engine.planarity import without_touching
 from osm_expand.engine.routing import Choice, choose, route_over_major_roads
@@ -33,7 +41,7 @@ from osm_expand.engine.segments import SegmentTable
 from osm_expand.engine.trade import add_route, route_between, segment_capacity
 from osm_expand.engine.traffic import TrafficMemory, follow, trade_major
 from osm_expand.joins import add_streets
-from osm_expand.land import matches, UNBUILDABLE
+from osm_expand.land import UNBUILDABLE, matches
 from osm_expand.model import City, Origin, Status
 from osm_expand.model.highways import MAJOR
 from osm_expand.model.topology import without_segments

@@ -32,11 +32,29 @@ import numpy as np
 
 from osm_expand.engine.neighbours import Neighbours, initial_pairs, neighbour_cities
 from osm_expand.engine.segments import SegmentTable, segment_pieces
-from osm_expand.engine.trade import (TradeState, TradeYear, extend_segments, initial_trade_state, remap_segments,
-                                     segment_capacity, trade_report, trade_year)
-from osm_expand.engine.trips import (TripGraph, TripOptions, TripState, extend_trip_state, new_trip_state,
-                                     remap_trip_state, residents_from_blocks, step_trips, trip_graph,
-                                     update_status, update_widths)
+from osm_expand.engine.trade import (
+    TradeState,
+    TradeYear,
+    extend_segments,
+    initial_trade_state,
+    remap_segments,
+    segment_capacity,
+    trade_report,
+    trade_year,
+)
+from osm_expand.engine.trips import (
+    TripGraph,
+    TripOptions,
+    TripState,
+    extend_trip_state,
+    new_trip_state,
+    remap_trip_state,
+    residents_from_blocks,
+    step_trips,
+    trip_graph,
+    update_status,
+    update_widths,
+)
 from osm_expand.model import City, Status, match_points
 
 #: Highway classes a trade route may use (003: "entirely over major roads"; here tertiary too).

@@ -19,8 +19,7 @@ import os
 import numpy as np
 
 from osm_expand.export.atomic import atomic_write
-from osm_expand.export.features import (LANDUSE_KEY, ORIGIN_KEY, YEAR_KEY, building_tags, osm_street_tags,
-                                       to_lonlat)
+from osm_expand.export.features import LANDUSE_KEY, ORIGIN_KEY, YEAR_KEY, building_tags, osm_street_tags, to_lonlat
 from osm_expand.model import City, Origin
 
 

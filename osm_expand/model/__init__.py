@@ -11,8 +11,8 @@
 - :mod:`~osm_expand.model.projection` — the local metric projection
 """
 from osm_expand.model.city import Block, Building, City, Lot, MappedArea, UnplacedWay
-from osm_expand.model.land import Land
 from osm_expand.model.geometry import closest_on_segments, match_points, polyline_length
+from osm_expand.model.land import Land
 from osm_expand.model.network import Context, Origin, Status, Street, StreetNetwork, network_from_lines
 from osm_expand.model.projection import LocalProjection
 
