@@ -28,7 +28,7 @@ from osm_expand.heights import with_heights
 from osm_expand.joins import JoinReport, join_growth
 from osm_expand.land import LandOptions, land_cover_taken, read_land, unbuildable
 from osm_expand.measures import LineSet, NetworkMeasures, measure_network
-from osm_expand.model import City, Origin, Status, StreetNetwork, polyline_length
+from osm_expand.model import City, Origin, StreetNetwork, polyline_length
 from osm_expand.sites import DistanceMaps, Site, SiteOptions, choose_sites, distance_maps, district_region
 from simplify import simplify
 from simplify.example import Example, build_example

@@ -87,7 +87,7 @@ from numpy.typing import NDArray
 from osm_expand.blocks import blocks as find_blocks
 from osm_expand.engine.calibration import CalibrationOptions, TownCalibration, calibrate_town, size_bands
 from osm_expand.engine.economy import HeightScale, expected_floor_space, lot_economy, occupants, substitute
-from osm_expand.engine.footprints import Footprint, place_buildings
+from osm_expand.engine.footprints import place_buildings
 from osm_expand.engine.history import History, YearValues
 from osm_expand.engine.landuse import (
     UNASSIGNED,

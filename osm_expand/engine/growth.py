@@ -35,7 +35,7 @@ from osm_expand.joins import add_streets, join_growth
 from osm_expand.model import City, Origin, Status, match_points, polyline_length
 from osm_expand.sites import SiteOptions, choose_sites, distance_maps, district_region
 from synth.growth import GrowthPattern
-from synth.patterns import GrowthStep, PatternOptions, grow_streets
+from synth.patterns import PatternOptions, grow_streets
 from synth.street_graph import StreetGraph
 
 #: Rounds of candidates a street pattern tries in a year, the batch doubling each round: starts where

@@ -16,7 +16,6 @@ what the engine built, unless the history sets ``rebuild_old_town``).
 """
 from __future__ import annotations
 
-import math
 import time
 from collections import Counter
 from collections.abc import Callable
