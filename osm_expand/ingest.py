@@ -407,7 +407,7 @@ def _year(seconds: int) -> int | None:
         return None
     import datetime
 
-    return datetime.datetime.fromtimestamp(seconds, datetime.timezone.utc).year
+    return datetime.datetime.fromtimestamp(seconds, datetime.UTC).year
 
 
 def _index_nodes(streets) -> tuple[np.ndarray, np.ndarray, list[tuple[int, ...]]]:
