@@ -283,7 +283,7 @@ class _Phase:
     bottom: int
 
     @classmethod
-    def of(cls, opts: ColonisationOptions, number: int) -> "_Phase":
+    def of(cls, opts: ColonisationOptions, number: int) -> _Phase:
         lo, hi = opts.angle_range_1 if number == 1 else opts.angle_range_2
         k = number - 1
         top = PRIMARY if number == 1 else opts.phase2_top_level

@@ -262,7 +262,7 @@ class PatternOptions:
             raise bad("max_degree", "must be ≥ 2")
 
     @classmethod
-    def from_mapping(cls, values: dict[str, Any]) -> "PatternOptions":
+    def from_mapping(cls, values: dict[str, Any]) -> PatternOptions:
         """Options from a mapping (a TOML table); unknown keys raise :class:`InputError`."""
         known = {f.name for f in fields(cls)}
         unknown = sorted(set(values) - known)
@@ -376,13 +376,13 @@ class Start:
     xy: tuple[float, float] = (0.0, 0.0)
 
     @classmethod
-    def at_node(cls, graph: StreetGraph, node: int) -> "Start":
+    def at_node(cls, graph: StreetGraph, node: int) -> Start:
         """The crossing ``node``."""
         x, y = graph.xy[node]
         return cls(node=int(node), xy=(float(x), float(y)))
 
     @classmethod
-    def on_segment(cls, segment: int, point: ArrayLike) -> "Start":
+    def on_segment(cls, segment: int, point: ArrayLike) -> Start:
         """A point (m) on ``segment``."""
         x, y = np.asarray(point, dtype=np.float64)
         return cls(segment=int(segment), xy=(float(x), float(y)))
@@ -566,7 +566,7 @@ class _Candidates:
 
     @classmethod
     def gather(cls, graph: StreetGraph, p: NDArray[np.float64], e: NDArray[np.float64],
-               options: PatternOptions) -> "_Candidates":
+               options: PatternOptions) -> _Candidates:
         """Segments that any proposal from p with Default end e can meet or come near."""
         look = p + options.look_ahead * (e - p)
         margin = options.snap_radius_m + max(options.min_cs_distance_m, options.min_cc_distance_m) + 1.0

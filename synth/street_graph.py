@@ -81,7 +81,7 @@ class StreetGraph:
     @classmethod
     def from_segments(cls, xy: ArrayLike, edges: ArrayLike, *, created: ArrayLike | None = None,
                       bridge: ArrayLike | None = None, major: ArrayLike | None = None,
-                      cell: float | None = None) -> "StreetGraph":
+                      cell: float | None = None) -> StreetGraph:
         """Build a graph from node positions and segment end pairs, vectorised.
 
         Parameters
@@ -149,7 +149,7 @@ class StreetGraph:
         for key, ids in _group_by_cell(cells, seg):
             idx.grid[key] = ids
 
-    def copy(self) -> "StreetGraph":
+    def copy(self) -> StreetGraph:
         """An independent copy (arrays, adjacency and both grids)."""
         g = StreetGraph(cell=self.cell, capacity=len(self._xy))
         for name in ("n_nodes", "n_segments"):

@@ -84,14 +84,14 @@ class NodeCloud:
         return len(self.xy)
 
     @classmethod
-    def from_example(cls, ex, take: np.ndarray | None = None, xy: np.ndarray | None = None) -> "NodeCloud":
+    def from_example(cls, ex, take: np.ndarray | None = None, xy: np.ndarray | None = None) -> NodeCloud:
         """The example's junctions (or those in ``take``, placed at ``xy``) with their records."""
         pick = slice(None) if take is None else take
         return cls(xy=(ex.xy[pick] if xy is None else xy).copy(), level=ex.level[pick],
                    length_mean=ex.length_mean[pick], length_std=ex.length_std[pick],
                    angle_mean=ex.angle_mean[pick], angle_std=ex.angle_std[pick], cap=ex.record_cap[pick])
 
-    def stacked(self, other: "NodeCloud") -> "NodeCloud":
+    def stacked(self, other: NodeCloud) -> NodeCloud:
         """This cloud followed by ``other`` (junction ids of ``other`` shift by ``len(self)``)."""
         return NodeCloud(**{f: np.concatenate([getattr(self, f), getattr(other, f)]) for f in
                             ("xy", "level", "length_mean", "length_std", "angle_mean", "angle_std", "cap")})
@@ -385,7 +385,7 @@ def random_walk(cloud: NodeCloud, seed: int = 0, options: WalkOptions | None = N
     return WalkResult(streets=streets, drawn=walker.index, segment=walker.segment)
 
 
-def _starts(cloud: NodeCloud, level: int, rng: np.random.Generator, walker: "_Walker") -> list[tuple[int, int]]:
+def _starts(cloud: NodeCloud, level: int, rng: np.random.Generator, walker: _Walker) -> list[tuple[int, int]]:
     """Records of this level, street ends first, the least ambiguous first step first.
 
     A walk whose first step is clear claims its junctions before an

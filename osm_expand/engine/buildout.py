@@ -161,7 +161,7 @@ class BuildoutYear:
     land_use_proposed: int = 0  #: proposals of the land-use update (002 Table 3)
     land_use_changes: int = 0  #: lots and town units whose type changed
 
-    def __add__(self, other: "BuildoutYear") -> "BuildoutYear":
+    def __add__(self, other: BuildoutYear) -> BuildoutYear:
         return BuildoutYear(*(getattr(self, f) + getattr(other, f) for f in self.__dataclass_fields__))
 
     def to_dict(self) -> dict[str, int]:
@@ -324,7 +324,7 @@ class _Streets:
         object.__setattr__(self, "line_tree", shapely.STRtree(self.lines))
         object.__setattr__(self, "carriageway_tree", shapely.STRtree(self.carriageways))
 
-    def only_recent(self) -> "_Streets":
+    def only_recent(self) -> _Streets:
         """The streets that are new or changed since last year: the only ones that can have come to lie
         over a lot or building, since lots and buildings are made clear of every street there is."""
         if self.recent is None or self.recent.all():

@@ -85,7 +85,7 @@ class GrowthYear:
     bridges: int = 0
     districts: int = 0  #: districts grown by a district pattern
 
-    def __add__(self, other: "GrowthYear") -> "GrowthYear":
+    def __add__(self, other: GrowthYear) -> GrowthYear:
         return GrowthYear(self.streets + other.streets, self.length_m + other.length_m,
                           self.bridges + other.bridges, self.districts + other.districts)
 

@@ -479,7 +479,7 @@ class _Compiled:
         return len(self.names)
 
     @cached_property
-    def table(self) -> "_TermTable":
+    def table(self) -> _TermTable:
         """All terms as arrays, for :func:`_values`."""
         flat = [(t, term) for t, terms in enumerate(self.terms) for term in terms]
         kinds = np.array([term.kind for _, term in flat], dtype=object)

@@ -123,7 +123,7 @@ class Raster:
 
     @classmethod
     def from_geometry(cls, geom: shapely.Geometry | None, extent: tuple[float, float, float, float],
-                      cell: float = 10.0) -> "Raster":
+                      cell: float = 10.0) -> Raster:
         """A boolean raster of the cells that ``geom`` touches (or comes within half a cell's
         diagonal of, so that no thin river is lost between cell centres).
 
@@ -152,7 +152,7 @@ class Raster:
 
     @classmethod
     def from_polygons(cls, polygons: list, extent: tuple[float, float, float, float],
-                      cell: float = 10.0) -> "Raster":
+                      cell: float = 10.0) -> Raster:
         """Like :meth:`from_geometry` for many small polygons (buildings), without their union.
 
         PIL fills each polygon and its outline (scan lines, in C; holes are
@@ -349,7 +349,7 @@ class Lattice:
         rows, cols = self.height.shape
         return self.height[np.clip(ij[..., 1], 0, rows - 1), np.clip(ij[..., 0], 0, cols - 1)]
 
-    def with_built_up(self, area: shapely.Geometry | None) -> "Lattice":
+    def with_built_up(self, area: shapely.Geometry | None) -> Lattice:
         """This lattice with B grown by ``area`` and every land edge that traverses it removed.
 
         003 §3.4.2: B can only expand, so removal is permanent: the result's
@@ -678,7 +678,7 @@ class Segments:
 
     @classmethod
     def from_lines(cls, lines: Sequence[np.ndarray], *, major: Sequence[bool], width: Sequence[float],
-                   bridge: Sequence[bool] | None = None, available: Sequence[float] | None = None) -> "Segments":
+                   bridge: Sequence[bool] | None = None, available: Sequence[float] | None = None) -> Segments:
         """Segments from polylines; points equal to the micrometre become one node.
 
         Parameters

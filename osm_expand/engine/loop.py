@@ -110,7 +110,7 @@ class _State:
 
 def run(city: City, history: History, *, years: int, seed: int, spacing: float,
         district_pattern: PatternFactory, join_points: np.ndarray | None = None,
-        options: EngineOptions = EngineOptions(), buildout: "Buildout | None" = None,
+        options: EngineOptions = EngineOptions(), buildout: Buildout | None = None,
         progress: YearProgress | None = None, snapshot: Snapshot | None = None,
         snapshot_every: int | None = None) -> EngineResult:
     """Let ``city`` live through ``years`` years of ``history``.

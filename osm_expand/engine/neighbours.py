@@ -235,7 +235,7 @@ class _Exits:
     kind: NDArray[np.str_]
     rank: NDArray[np.float64]  # importance: lower is kept first when there are too many
 
-    def take(self, index: NDArray[np.intp]) -> "_Exits":
+    def take(self, index: NDArray[np.intp]) -> _Exits:
         return _Exits(self.entry_xy[index], self.direction[index], self.exit_node[index],
                       self.kind[index], self.rank[index])
 

@@ -138,7 +138,7 @@ class Candidates:
     def __len__(self) -> int:
         return len(self.xy)
 
-    def take(self, index: ArrayLike) -> "Candidates":
+    def take(self, index: ArrayLike) -> Candidates:
         """The candidates at ``index`` (int array), in that order."""
         i = np.asarray(index, dtype=np.int64)
         return Candidates(self.xy[i], self.node[i], self.segment[i], self.t[i])

@@ -79,7 +79,7 @@ class RoadsYear:
     #: "new roads" that lie wholly on major roads: all they do is widen the extendible ones to A(t)
     widened: int = 0
 
-    def __add__(self, other: "RoadsYear") -> "RoadsYear":
+    def __add__(self, other: RoadsYear) -> RoadsYear:
         return RoadsYear(self.built + other.built, self.rerouted + other.rerouted, self.bridges + other.bridges,
                          self.length_m + other.length_m, self.demolished + other.demolished,
                          self.upgraded_m + other.upgraded_m, self.widened + other.widened)

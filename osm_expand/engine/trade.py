@@ -232,7 +232,7 @@ class TradeYear:
         """Plain JSON-ready values."""
         return {k: getattr(self, k) for k in self.__dataclass_fields__}
 
-    def __add__(self, other: "TradeYear") -> "TradeYear":
+    def __add__(self, other: TradeYear) -> TradeYear:
         return TradeYear(*(getattr(self, k) + getattr(other, k) for k in self.__dataclass_fields__))
 
 

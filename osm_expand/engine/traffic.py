@@ -90,7 +90,7 @@ class TrafficYear:
     #: Trade routes with no capacity left (T_A(P) ≤ 0, 003 §3.4.2): where capacity ran out, at the worst year
     routes_at_capacity: int = 0
 
-    def __add__(self, other: "TrafficYear") -> "TrafficYear":
+    def __add__(self, other: TrafficYear) -> TrafficYear:
         return TrafficYear(self.trips + other.trips, self.people + other.people, self.built + other.built,
                            self.widened + other.widened, self.trade + other.trade,
                            max(self.routes_over_capacity, other.routes_over_capacity),

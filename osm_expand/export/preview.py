@@ -37,7 +37,7 @@ class ColorBy(enum.StrEnum):
     YEAR = "year"
 
     @classmethod
-    def parse(cls, value: str) -> "ColorBy":
+    def parse(cls, value: str) -> ColorBy:
         try:
             return cls(value)
         except ValueError:
