@@ -49,10 +49,10 @@ Weber's organic, grid and radial patterns (002 §3.1) and the eras' patterns
 from __future__ import annotations
 
 import math
+from collections.abc import Iterator, Sequence
 from dataclasses import dataclass, field, fields, replace
 from enum import StrEnum
 from typing import Any, Protocol
-from collections.abc import Iterator, Sequence
 
 import numpy as np
 import shapely

@@ -58,11 +58,11 @@ across it without a bridge.
 """
 from __future__ import annotations
 
+from collections.abc import Iterator, Sequence
 from contextlib import contextmanager
 from dataclasses import dataclass, field, replace
 from enum import IntEnum
 from math import gcd
-from collections.abc import Iterator, Sequence
 
 import numpy as np
 import shapely

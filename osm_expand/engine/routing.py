@@ -31,9 +31,9 @@ the exact search covers only a narrow ellipse around the best route.
 """
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass, replace
 from enum import StrEnum
-from collections.abc import Sequence
 
 import numpy as np
 from scipy.sparse import csr_matrix
