@@ -781,7 +781,7 @@ class _Extracts:
                 else:
                     tmp[k].unlink(missing_ok=True)
         finally:
-            for k, writer in self.writers.items():
+            for writer in self.writers.values():
                 writer.close()
             self.writers.clear()
             for path in tmp.values():

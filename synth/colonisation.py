@@ -942,7 +942,7 @@ class _Colonist:
         roi = o.radius_of_influence * self.sl
         self._activate(aps, net.xy[np.flatnonzero(~net.retired[:net.n])], roi)
         iterations = grown = 0
-        for iterations in range(1, o.max_iterations + 1):
+        for iterations in range(1, o.max_iterations + 1):  # noqa: B007 (read after the loop: the count run)
             pairs = self._influence(aps, ph, roi)
             if pairs is None:
                 break
@@ -1295,13 +1295,13 @@ class _Colonist:
             net.index.remove(net.eslot[e])
         ok = True
         if check:
-            for k, e in edges:
+            for k, _ in edges:
                 if not self._segment_ok(net.xy[k], to, k, m, ph, target_dirs=None, angles=False):
                     ok = False
                     break
         if ok:
             net.xy[m] = to
-        for k, e in edges:
+        for _, e in edges:
             u, v = net.eu[e], net.ev[e]
             net.eslot[e] = net.index.add(net.xy[u].copy(), net.xy[v].copy(), u, v)
         return ok

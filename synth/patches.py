@@ -698,10 +698,10 @@ def _insert_points(xy: np.ndarray, points: np.ndarray) -> np.ndarray:
         t, _, d = closest_on_segments(q[None, :], a, b)
         i = int(np.argmin(d))
         where.append((i, float(t[i]), q))
-    out, k = [], 0
+    out = []
     for i in range(len(xy)):
         out.append(xy[i])
-        for seg, _, q in sorted((w for w in where if w[0] == i), key=lambda w: w[1]):
+        for _, _, q in sorted((w for w in where if w[0] == i), key=lambda w: w[1]):
             if not (np.array_equal(q, xy[i]) or (i + 1 < len(xy) and np.array_equal(q, xy[i + 1]))):
                 out.append(q)
     return np.array(out)

@@ -887,7 +887,7 @@ def _substitute(work: _Year, units: _Units) -> None:
 
 def _build(work: _Year, units: _Units) -> None:
     """Step 6: buildings on lots near built streets, with floors and heights from the economy."""
-    town, history = work.town, work.history
+    town = work.town
     built_ids = work.streets.built_ids
     types = town.types
     classes = [land_use(t.lot_size_key) for t in types]
@@ -989,7 +989,7 @@ def _obstacles(work: _Year, lots: Sequence[EngineLot]) -> list[shapely.Geometry]
 
 def _result(work: _Year, units: _Units, new_ids: list[int]) -> tuple[City, BuildoutMemory, BuildoutYear]:
     """Step 7: people per lot, the city's lots, buildings and blocks; the memory for next year."""
-    town, types = work.town, work.town.types
+    types = work.town.types
     ids = units.ids
     fs = np.array([(work.buildings[k].levels or 0.0) * work.footprint(k)[1] if k in work.buildings else np.nan
                    for k in ids])

@@ -317,7 +317,6 @@ class Lattice:
     def edges(self, *, live: bool = False) -> dict[str, np.ndarray]:
         """All undirected edges as arrays ``src, dst, kind, direction, length, removed``
         (unit edges, then long bridges); with ``live`` without those removed by B."""
-        half = len(self.directions) // 2
         mask = self.unit_kind != NO_EDGE
         if live:
             mask &= ~self.unit_removed
