@@ -376,7 +376,8 @@ def _output_suffix(args: Sequence[str]) -> str:
 # --- running -----------------------------------------------------------------------------------------
 
 
-def run_batch(inputs: Sequence[str | os.PathLike], out_dir: str | os.PathLike, *, towns: str | os.PathLike | None = None,
+def run_batch(inputs: Sequence[str | os.PathLike], out_dir: str | os.PathLike, *,
+              towns: str | os.PathLike | None = None,
               workers: int | None = None, scheduler: str | None = None, seed: int = 0,
               pipeline_args: Sequence[str] = (), preview: str | None = None, progress: bool = False,
               log: Callable[[str], None] | None = None) -> BatchSummary:
@@ -657,7 +658,8 @@ def _preflight(client, scheduler: str, inputs: list[str], out: Path) -> None:
     try:
         answers = client.run(probe, paths, str(out), on_error="return")
     except Exception as exc:  # noqa: BLE001 - the workers could not even run the probe
-        raise InputError(f"--scheduler {scheduler}: its workers cannot run osm-expand ({type(exc).__name__}: {exc})") from None
+        raise InputError(f"--scheduler {scheduler}: its workers cannot run osm-expand "
+                         f"({type(exc).__name__}: {exc})") from None
     mine = (_version(), source_digest())
     for address, answer in sorted(answers.items()):
         if isinstance(answer, BaseException):
@@ -669,7 +671,8 @@ def _preflight(client, scheduler: str, inputs: list[str], out: Path) -> None:
                              "install the same version on the workers")
         if answer["unreadable"]:
             raise InputError(f"--scheduler {scheduler}: worker {address} cannot read {answer['unreadable'][0]}"
-                             + (f" and {len(answer['unreadable']) - 1} more inputs" if len(answer["unreadable"]) > 1 else "")
+                             + (f" and {len(answer['unreadable']) - 1} more inputs"
+                                if len(answer["unreadable"]) > 1 else "")
                              + " (put the inputs on a folder every worker sees)")
         if not answer["out_dir_ok"]:
             raise InputError(f"--scheduler {scheduler}: worker {address} cannot write to {out} "
@@ -755,7 +758,8 @@ def cmd_batch(args: argparse.Namespace, log: Callable[[str], None]) -> dict:
     summary_path = Path(summary.out_dir) / "summary.json"
     if not failed:
         if not args.json:
-            print(f"{_count(len(summary.jobs), 'job')} ok in {summary.seconds:.1f} s on {summary.where}; {summary_path}")
+            print(f"{_count(len(summary.jobs), 'job')} ok in {summary.seconds:.1f} s on {summary.where}; "
+                  f"{summary_path}")
         return report
     for job in failed:
         print(f"osm-expand: batch: {job.name} failed: {job.error}", file=sys.stderr)

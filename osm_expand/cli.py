@@ -195,7 +195,8 @@ def build_expand_parser() -> argparse.ArgumentParser:
     _add_clip_options(p)
     p.add_argument("-o", "--output", help="output file: .xml (urbanenvironment), .osm or .geojson "
                                           "(default: CITY.expanded.xml beside the input)")
-    p.add_argument("--format", choices=sorted(FORMAT_SUFFIX), help="output format (default: from -o, else urbanenvironment)")
+    p.add_argument("--format", choices=sorted(FORMAT_SUFFIX),
+                   help="output format (default: from -o, else urbanenvironment)")
     p.add_argument("--preview", metavar="OUT.png|OUT.svg", help="also draw a map of the result")
     p.add_argument("--seed", type=_seed, default=0, help="random seed (0 or more); the same seed gives the same bytes")
     p.add_argument("--direction", choices=["auto", "N", "NE", "E", "SE", "S", "SW", "W", "NW"], default="auto",

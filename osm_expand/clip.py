@@ -206,7 +206,8 @@ def box_around(lon: float, lat: float, radius_m: float) -> Box:
     except (TypeError, ValueError):
         raise InputError(f"--around expects numbers, got {lon!r},{lat!r} and radius {radius_m!r}") from None
     if not (math.isfinite(lon) and math.isfinite(lat) and -180 <= lon <= 180 and -90 < lat < 90):
-        swapped = " (latitude and longitude swapped? the order is LON,LAT)" if -90 < lon < 90 and abs(lat) <= 180 else ""
+        swapped = (" (latitude and longitude swapped? the order is LON,LAT)"
+                   if -90 < lon < 90 and abs(lat) <= 180 else "")
         raise InputError(f"--around {lon:g},{lat:g}: not a longitude,latitude{swapped}")
     if not (math.isfinite(radius_m) and radius_m > 0):
         raise InputError(f"--radius must be a positive number of metres, got {radius_m:g}")
@@ -628,7 +629,8 @@ def _tracked(src: Path, ids: Iterable[int], kind: str, entities, found: _Found, 
         filt = tracker.contains_filter() if contains else tracker.id_filter()
         filt.enable_for(entities)
         last = g == len(cuts) - 2
-        yield from osmium.FileProcessor(str(src), entities | (last_also if last else osmium.osm.NOTHING)).with_filter(filt)
+        yield from osmium.FileProcessor(str(src),
+                                        entities | (last_also if last else osmium.osm.NOTHING)).with_filter(filt)
         found.reads += 1
         del filt, tracker
 

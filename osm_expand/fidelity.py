@@ -59,8 +59,8 @@ from osm_expand.measures import (
     measure_network,
 )
 
-__all__ = ["DEFAULT_PARTS", "FidelityOptions", "FidelityReport", "MeasureVerdict", "TownReference", "compare", "fidelity",
-           "judge", "ks_distance", "real_parts", "town_reference"]
+__all__ = ["DEFAULT_PARTS", "FidelityOptions", "FidelityReport", "MeasureVerdict", "TownReference", "compare",
+           "fidelity", "judge", "ks_distance", "real_parts", "town_reference"]
 
 #: Real neighbourhoods kept by default: 32 (the issue asks for at least 16). Sixteen make a 10th–90th
 #: percentile range from two values at each end; with 32 the median neighbourhood's off count moves

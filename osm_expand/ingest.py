@@ -65,7 +65,8 @@ class _Raw:
     water_areas: list[list[list[tuple[float, float]]]] = field(default_factory=list)
     coastline: list[list[tuple[float, float]]] = field(default_factory=list)
     #: (rings as (node ids, lon/lat), tags, osm type, osm id)
-    buildings: list[tuple[list[tuple[list[int], list[tuple[float, float]]]], dict, str, int]] = field(default_factory=list)
+    buildings: list[tuple[list[tuple[list[int], list[tuple[float, float]]]], dict, str, int]] = field(
+        default_factory=list)
     clipped_buildings: int = 0
     #: ways kept as mapped but without a drawable shape: (id, refs, located refs and lon/lat, tags)
     unplaced: list[tuple[int, list[int], list[tuple[int, tuple[float, float]]], dict]] = field(default_factory=list)

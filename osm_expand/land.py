@@ -367,7 +367,8 @@ def land_cover_taken(before: City, after: City) -> dict[str, float]:
     if not new.any():
         return {}
     land = after.land
-    depth = land.frontage_depth.get("minor", LandOptions().default_depth) if land is not None else LandOptions().default_depth
+    depth = (land.frontage_depth.get("minor", LandOptions().default_depth) if land is not None
+             else LandOptions().default_depth)
     took = shapely.union_all(shapely.buffer(lines[new], depth))
     box = shapely.box(*took.bounds)
     held = [before.water_geometry(), *(land.taken_near(box) if land is not None else []),

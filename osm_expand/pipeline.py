@@ -62,7 +62,8 @@ class ExpandOptions:
     seed: int = 0
     direction: str | None = None  #: N, NE, ..., or None for the best site anywhere
     at: tuple[float, float] | None = None  #: site centre in metres
-    area: float | None = None  #: m²; default: ``site.area_share`` of the built-up area, at most ``site.neighbourhood_area``
+    #: m²; default: ``site.area_share`` of the built-up area, at most ``site.neighbourhood_area``
+    area: float | None = None
     #: land outside the map's data bounds: True free, False never taken, None (default) taken only when the
     #: town fills its map (no site inside it), with :data:`BEYOND_NOTE` in the report
     beyond_bounds: bool | None = None

@@ -100,7 +100,8 @@ def _from_geojson(path: Path) -> City:
 
 def _from_urbanenvironment(path: Path) -> City:
     try:
-        root = etree.parse(str(path), etree.XMLParser(resolve_entities=False, no_network=True, huge_tree=True)).getroot()
+        root = etree.parse(str(path),
+                           etree.XMLParser(resolve_entities=False, no_network=True, huge_tree=True)).getroot()
         proj = LocalProjection(float(root.get("lon0", 0.0)), float(root.get("lat0", 0.0)))
         lines, attrs = [], []
         for st in root.iterfind("streets/street"):

@@ -128,7 +128,8 @@ def build_example(net: StreetNetwork, dead_ends: list[DeadEnd] = ()) -> Example:
     return Example(
         network=net, junctions=nodes, street=street, level=level,
         length_mean=pick(0), length_std=pick(1), angle_mean=pick(2), angle_std=pick(3),
-        degree=degree, record_cap=cap, streets=stats, dead_ends_per_level=_dead_ends_by_level(net, nodes, level, dead_ends),
+        degree=degree, record_cap=cap, streets=stats,
+        dead_ends_per_level=_dead_ends_by_level(net, nodes, level, dead_ends),
     )
 
 

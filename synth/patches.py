@@ -510,7 +510,8 @@ def _cell_pieces(source: _Source, near: np.ndarray, clipped: np.ndarray) -> list
 
 def _was_broken(source: _Source, move: _Transform, end: np.ndarray) -> bool:
     """Did this end meet a street that is not copied (a motorway, a bridge) in the town?"""
-    return source.broken is not None and source.broken.query(move.back(end[None, :]), distance_upper_bound=1e-6)[0][0] < 1e-6
+    return (source.broken is not None
+            and source.broken.query(move.back(end[None, :]), distance_upper_bound=1e-6)[0][0] < 1e-6)
 
 
 def _part_of(cell: shapely.Geometry, lines: np.ndarray, anchor: shapely.Point, need: float) -> shapely.Geometry:

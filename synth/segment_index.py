@@ -74,8 +74,10 @@ def _orient(a, b, c) -> np.ndarray:
 
 
 def _on_segment(a, b, c) -> np.ndarray:
-    return ((np.minimum(a[..., 0], b[..., 0]) - EPS <= c[..., 0]) & (c[..., 0] <= np.maximum(a[..., 0], b[..., 0]) + EPS)
-            & (np.minimum(a[..., 1], b[..., 1]) - EPS <= c[..., 1]) & (c[..., 1] <= np.maximum(a[..., 1], b[..., 1]) + EPS))
+    return ((np.minimum(a[..., 0], b[..., 0]) - EPS <= c[..., 0])
+            & (c[..., 0] <= np.maximum(a[..., 0], b[..., 0]) + EPS)
+            & (np.minimum(a[..., 1], b[..., 1]) - EPS <= c[..., 1])
+            & (c[..., 1] <= np.maximum(a[..., 1], b[..., 1]) + EPS))
 
 
 def _intersects(a: np.ndarray, b: np.ndarray, p: np.ndarray, q: np.ndarray) -> np.ndarray:

@@ -207,7 +207,8 @@ class _Walker:
         street's loose end: joining it continues the street. Untaken breaks ties.
         """
         c = self.c
-        diff = np.abs(c.length_mean[cand] - c.length_mean[cur, rec]) + np.abs(c.angle_mean[cand] - c.angle_mean[cur, rec])
+        diff = (np.abs(c.length_mean[cand] - c.length_mean[cur, rec])
+                + np.abs(c.angle_mean[cand] - c.angle_mean[cur, rec]))
         diff = diff + np.where(self.used[cand] > 0, 1e-6, 0.0)
         diff = np.where(free, np.nan_to_num(diff, nan=np.inf), np.inf)
         return np.argmin(diff, axis=1)

@@ -72,7 +72,8 @@ class GrowthMemory:
     """What street growth remembers from year to year (not part of the city)."""
 
     spawned: set[int] = field(default_factory=set)  #: city nodes that spawned streets (or never will)
-    failed: np.ndarray = field(default_factory=lambda: np.zeros((0, 2)))  #: (F, 2) points where growth failed (003: finished)
+    #: (F, 2) points where growth failed (003: finished)
+    failed: np.ndarray = field(default_factory=lambda: np.zeros((0, 2)))
     owed: float = 0.0  #: street length a district pattern owes (m)
 
 

@@ -488,7 +488,8 @@ class _Compiled:
         n_static = len(STATIC_ATTRIBUTES)
         # columns of [static | cluster per type | influence per type]
         column = np.where(codes < _CLUSTER_CODE, codes,
-                          np.where(codes == _CLUSTER_CODE, n_static + owner, n_static + self.n + codes - _INFLUENCE_CODE))
+                          np.where(codes == _CLUSTER_CODE, n_static + owner,
+                                   n_static + self.n + codes - _INFLUENCE_CODE))
         gain = np.array([term.gain for _, term in flat], dtype=np.float64)
         with np.errstate(divide="ignore"):
             exponent = np.log(1.0 - gain) / np.log(0.5)

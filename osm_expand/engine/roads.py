@@ -123,7 +123,8 @@ def major_roads_year(city: City, traffic: TrafficMemory, memory: RoadMemory, sho
         traffic = follow(traffic, city)
         route = _route(traffic, city, int(nodes[pair[0]]), int(nodes[pair[1]]))
         if route is not None:
-            traffic = replace(traffic, trade=add_route(traffic.trade, pair, route, float(traffic.table.length[route].sum()),
+            traffic = replace(traffic, trade=add_route(traffic.trade, pair, route,
+                                                       float(traffic.table.length[route].sum()),
                                                        n_segments=len(traffic.table)))
         junctions += [r.xy[0] for r in plan.new_roads] + [r.xy[-1] for r in plan.new_roads]
         # the city changed: G′ is made again next time, B grown from what it was

@@ -16,5 +16,6 @@ from osm_expand.model.land import Land
 from osm_expand.model.network import Context, Origin, Status, Street, StreetNetwork, network_from_lines
 from osm_expand.model.projection import LocalProjection
 
-__all__ = ["Block", "Building", "City", "Context", "Land", "LocalProjection", "Lot", "MappedArea", "Origin", "Status", "Street",
-           "StreetNetwork", "UnplacedWay", "closest_on_segments", "match_points", "network_from_lines", "polyline_length"]
+__all__ = ["Block", "Building", "City", "Context", "Land", "LocalProjection", "Lot", "MappedArea", "Origin", "Status",
+           "Street", "StreetNetwork", "UnplacedWay", "closest_on_segments", "match_points", "network_from_lines",
+           "polyline_length"]
