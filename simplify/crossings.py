@@ -155,7 +155,7 @@ def _merge_map(pairs: list[tuple[int, int]]) -> dict[int, int]:
     """Node → representative (the smallest index) for coincident distinct nodes."""
     if not pairs:
         return {}
-    ds = UnionFind()
+    ds: UnionFind[int] = UnionFind()
     for a, b in pairs:
         ds.add(a)
         ds.add(b)

@@ -12,6 +12,7 @@ shapes again, and the dead ends simplification removed, per level.
 """
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -96,7 +97,7 @@ def _summaries(stats: list[StreetStats]) -> np.ndarray:
     return out
 
 
-def build_example(net: StreetNetwork, dead_ends: list[DeadEnd] = ()) -> Example:
+def build_example(net: StreetNetwork, dead_ends: Sequence[DeadEnd] = ()) -> Example:
     """The example of a simplified network (junctions with two records each)."""
     net = with_levels(net)
     n = len(net.xy)

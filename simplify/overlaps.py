@@ -108,7 +108,8 @@ class _LazyLengths:
     """Street lengths, computed only for the few streets that have duplicates."""
 
     def __init__(self, net: StreetNetwork):
-        self.net, self.cache = net, {}
+        self.net = net
+        self.cache: dict[int, float] = {}
 
     def __getitem__(self, k: int) -> float:
         if k not in self.cache:

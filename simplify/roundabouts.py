@@ -61,9 +61,9 @@ def _approaches(net: StreetNetwork, groups: list[list[int]]) -> list[int]:
             continue
         last = len(s.nodes) - 1
         for i, n in enumerate(s.nodes):
-            g = ring_of.get(n)
-            if g is not None:
-                count[g] += 1 if i in (0, last) else 2
+            ring = ring_of.get(n)
+            if ring is not None:
+                count[ring] += 1 if i in (0, last) else 2
     return count
 
 

@@ -233,7 +233,7 @@ class _SegmentKeys:
         if not dup.any():
             return [run]
         pieces, begin = [], 0
-        for i in np.flatnonzero(dup):
+        for i in np.flatnonzero(dup).tolist():
             if i > begin:
                 pieces.append(run[begin:i + 1])
             begin = i + 1
