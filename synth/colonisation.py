@@ -73,7 +73,7 @@ import math
 from collections.abc import Sequence
 from dataclasses import dataclass, field, fields
 from enum import StrEnum
-from typing import Any
+from typing import Any, cast
 
 import numpy as np
 import shapely
@@ -1127,6 +1127,7 @@ class _Colonist:
         the flow: 001 §5.2 has a source "prevent any suggested road to grow
         towards it" and sinks "force the network to grow towards them".
         """
+        assert self.flow is not None  # called only with a flow field (see the caller)
         f = self.flow.direction(at[None, :])[0]
         if not f.any():
             return d
@@ -1241,11 +1242,11 @@ class _Colonist:
         if hit is not None:
             k, t_along = hit
         else:
-            t_along, _, dist = closest_on_segments(q, a, b)
+            t_all, _, dist = closest_on_segments(q, a, b)
             k = int(np.argmin(dist))
             if dist[k] > radius:
                 return "free", -1, q
-            t_along = float(t_along[k])
+            t_along = float(t_all[k])
         u, v = (int(x) for x in net.index.ends[slots[k]])
         length = float(np.hypot(*(b[k] - a[k])))
         margin = max(o.min_segment_m, 0.1 * self.sl)
@@ -1483,8 +1484,9 @@ class _Colonist:
             lv = int(level[edge_of.get((path[0], path[1]), edge_of.get((path[1], path[0]), 0))])
             streets.append(GrownStreet(nodes=tuple(path), xy=xy[path], level=lv, highway=o.highways[lv]))
         joined = sorted({int(m) for m in edges.ravel() if net.fixed[m]})
-        joins = tuple(Join(node=m, xy=(float(xy[m, 0]), float(xy[m, 1])), seed=net.seed_ref[m][0],
-                           segment=net.seed_ref[m][1], vertex=net.seed_ref[m][2]) for m in joined)
+        seed_of = cast(list[tuple[int, int, bool]], net.seed_ref)  # the joined nodes are fixed: each has one
+        joins = tuple(Join(node=m, xy=(float(xy[m, 0]), float(xy[m, 1])), seed=seed_of[m][0],
+                           segment=seed_of[m][1], vertex=seed_of[m][2]) for m in joined)
         ap_xy = np.vstack([a for a, _, _ in self.ap_log]) if self.ap_log else np.zeros((0, 2))
         ap_phase = np.concatenate([np.full(len(a), p) for a, p, _ in self.ap_log]) if self.ap_log else np.zeros(0)
         ap_alive = np.concatenate([al for _, _, al in self.ap_log]) if self.ap_log else np.zeros(0, dtype=bool)

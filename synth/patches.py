@@ -182,6 +182,7 @@ class ExamplePatches:
                 best = result
             if result[0].total_length() >= 0.9 * target:
                 break
+        assert best is not None  # the loop runs at least once
         net, placed, links, tees = best
         streets = tuple(NewStreet(xy=net.street_xy(s), hierarchy=max(s.hierarchy, 0), highway=s.highway)
                         for s in net.streets)
@@ -346,7 +347,8 @@ def _candidate_patches(source: _Source, size: float, opts: PatchOptions, rng: np
         spread = np.nanpercentile(values, 75, axis=0) - np.nanpercentile(values, 25, axis=0)
         z = np.nan_to_num(np.abs(values - centre) / np.where(spread > 0, spread, 1.0), nan=3.0)
         good = good[np.argsort(np.sqrt((z ** 2).sum(axis=1)), kind="stable")]
-    first, later = [], []
+    first: list[int] = []
+    later: list[int] = []
     for i in good.tolist():
         (later if any(np.hypot(*(centres[i] - centres[j])) < size for j in first) else first).append(i)
     return centres[first + later]
@@ -646,10 +648,10 @@ def _tees(quilt: _Quilt, old: shapely.Geometry, spacing: float, opts: PatchOptio
                 for j in board.tree.query(ray, predicate="intersects").tolist() if j != own]
         hits += [(_meet(ray, np.asarray(town[i].coords), p, d, opts.tee_angle), -1)
                  for i in town_tree.query(ray, predicate="intersects").tolist()]
-        hits = [(meet, j) for meet, j in hits if meet is not None]
-        if not hits:
+        met = [(meet, j) for meet, j in hits if meet is not None]
+        if not met:
             continue
-        (at, fair), j = min(hits, key=lambda h: float(np.hypot(*(h[0][0] - p))))
+        (at, fair), j = min(met, key=lambda h: float(np.hypot(*(h[0][0] - p))))
         if not fair or not board.clear(np.array([p, at])):  # the first street ahead, met too flat, blocks it
             continue
         board.added.append(shapely.LineString([p, at]))
@@ -845,10 +847,10 @@ def _fewer_dead_ends(net: StreetNetwork, old: shapely.Geometry, occupied: shapel
         ray = shapely.LineString([p + d * 1e-3, p + d * reach])
         hits = [(_meet(ray, quilt.xy[j], p, d, opts.tee_angle), j)
                 for j in board.tree.query(ray, predicate="intersects").tolist() if j != where[e]]
-        hits = [(m, j) for m, j in hits if m is not None]
-        if not hits:
+        met = [(m, j) for m, j in hits if m is not None]
+        if not met:
             continue
-        (at, fair), j = min(hits, key=lambda h: float(np.hypot(*(h[0][0] - p))))
+        (at, fair), j = min(met, key=lambda h: float(np.hypot(*(h[0][0] - p))))
         if fair and board.clear(np.array([p, at])):
             board.added.append(shapely.LineString([p, at]))
             quilt.add(np.array([p, at]), st.highway, st.hierarchy)

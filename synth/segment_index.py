@@ -54,10 +54,10 @@ class SegmentIndex:
 
     def crosses(self, a: np.ndarray, b: np.ndarray, u: int, v: int) -> bool:
         """Does segment u–v (at a–b) touch a stored segment anywhere but at a shared end node?"""
-        ids = {k for c in self._cells(a, b) for k in self.grid.get(c, ())}
-        if not ids:
+        near = {k for c in self._cells(a, b) for k in self.grid.get(c, ())}
+        if not near:
             return False
-        ids = np.fromiter(ids, dtype=np.int64)
+        ids = np.fromiter(near, dtype=np.int64)
         ids = ids[self.active[ids]]
         ends, p, q = self.ends[ids], self.a[ids], self.b[ids]
         shared = (ends[:, 0] == u) | (ends[:, 0] == v) | (ends[:, 1] == u) | (ends[:, 1] == v)

@@ -400,8 +400,9 @@ def _group_by_cell(cells: NDArray[np.int64], ids: NDArray[np.int64]):
 
 
 def _grid_lookup(grid: dict, lo: ArrayLike, hi: ArrayLike, cell: float) -> list[list[int]]:
-    ilo, jlo = math.floor(lo[0] / cell), math.floor(lo[1] / cell)
-    ihi, jhi = math.floor(hi[0] / cell), math.floor(hi[1] / cell)
+    lo_xy, hi_xy = np.asarray(lo), np.asarray(hi)
+    ilo, jlo = math.floor(lo_xy[0] / cell), math.floor(lo_xy[1] / cell)
+    ihi, jhi = math.floor(hi_xy[0] / cell), math.floor(hi_xy[1] / cell)
     out = []
     for i in range(ilo, ihi + 1):
         for j in range(jlo, jhi + 1):

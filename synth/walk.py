@@ -33,6 +33,7 @@ differ. Streets are read off at the end as chains of linked records.
 """
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -125,7 +126,7 @@ class _Walker:
         if obstacles is not None:
             shapely.prepare(obstacles)
 
-    def scores(self, cur: int, rec: int, prev: int | None, level: int):
+    def scores(self, cur: int, rec: int, prev: int | None, level: int | None):
         """Candidate targets, the record each would use, and their transition probabilities."""
         c = self.c
         mu, sd = c.length_mean[cur, rec], c.length_std[cur, rec]
@@ -173,7 +174,7 @@ class _Walker:
         factor = np.exp(-0.5 * (dl ** 2 + da ** 2) / width ** 2)
         return np.where(c.level[cand, rec_c] == ANY_LEVEL, 1.0, factor)  # border junctions: any street
 
-    def step(self, cur: int, rec: int, prev: int | None, level: int,
+    def step(self, cur: int, rec: int, prev: int | None, level: int | None,
              threshold: float) -> tuple[int, int] | None:
         cand, rec_c, p = self.scores(cur, rec, prev, level)
         order = np.argsort(-p, kind="stable")
@@ -335,6 +336,7 @@ class _Walker:
     def streets(self) -> list[tuple[int, list[int]]]:
         """Chains of linked records as (level of the chain's first record, junction sequence)."""
         done: set[tuple[int, int]] = set()
+        cur: tuple[int, int] | None
         out = []
         for first in sorted(self.links, key=lambda k: (int(self.c.level[k]), len(self.links[k]) != 1, k)):
             if first in done:
@@ -356,8 +358,8 @@ class _Walker:
 SCHEDULE = (0.9, 0.6, 0.3, 0.1)
 
 
-def random_walk(cloud: NodeCloud, seed: int = 0, options: WalkOptions | None = None,
-                obstacles=None, fixed: list[tuple[np.ndarray, np.ndarray, int, int]] = ()) -> WalkResult:
+def random_walk(cloud: NodeCloud, seed: int | np.random.Generator = 0, options: WalkOptions | None = None,
+                obstacles=None, fixed: Sequence[tuple[np.ndarray, np.ndarray, int, int]] = ()) -> WalkResult:
     """Connect ``cloud`` into streets; same seed, same streets.
 
     ``fixed`` are segments already there (an old town's streets) that no step may cross,
