@@ -319,6 +319,9 @@ class _Streets:
     changed: frozenset[int] = frozenset()
     #: (S,) bool: streets new since last year, or whose nodes or width changed (all on the first year)
     recent: NDArray[np.bool_] | None = None
+    #: the trees over ``lines`` and ``carriageways``, built in ``__post_init__``
+    line_tree: shapely.STRtree = field(init=False, repr=False)
+    carriageway_tree: shapely.STRtree = field(init=False, repr=False)
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "line_tree", shapely.STRtree(self.lines))
