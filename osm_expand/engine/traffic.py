@@ -174,7 +174,7 @@ def _segment_lookup(table: SegmentTable, a: np.ndarray, b: np.ndarray) -> np.nda
 
 def _lot_people(city: City, table: SegmentTable) -> np.ndarray:
     """The lots' people on the middle segment of the street each lot faces."""
-    first = {}
+    first: dict[int, list[int]] = {}
     for k, sid in enumerate(table.street_id.tolist()):
         first.setdefault(sid, []).append(k)
     people = np.zeros(len(table))
