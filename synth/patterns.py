@@ -362,9 +362,18 @@ def pattern(name: str, **overrides: Any) -> PatternOptions:
 class StartPoints(Protocol):
     """Starts given as arrays, e.g. :class:`osm_expand.engine.nuclei.Candidates`."""
 
-    node: NDArray[np.int64]      #: (S,) node id, or -1 for a point on a segment
-    segment: NDArray[np.int64]   #: (S,) segment id for a point on a segment, else -1
-    xy: NDArray[np.float64]      #: (S, 2) position (m)
+    # Read-only members (properties), so that frozen dataclasses such as Candidates match.
+    @property
+    def node(self) -> NDArray[np.int64]:
+        """(S,) node id, or -1 for a point on a segment."""
+
+    @property
+    def segment(self) -> NDArray[np.int64]:
+        """(S,) segment id for a point on a segment, else -1."""
+
+    @property
+    def xy(self) -> NDArray[np.float64]:
+        """(S, 2) position (m)."""
 
 
 @dataclass(frozen=True)
