@@ -946,7 +946,9 @@ class _Reader:
         if not isinstance(value, list) or not all(isinstance(e, Mapping) for e in value) or not value:
             self.fail("land_use", "expected a non-empty list of tables ([[land_use]])")
         bundled_types = {t.name: t for t in DEFAULT_TYPES}
-        entries, economies, seen = [], [], {}
+        entries: list[dict[str, Any]] = []
+        economies: list[TypeEconomy] = []
+        seen: dict[str, int] = {}
         for k, entry in enumerate(value):
             key = f"land_use[{k}]"
             self.known(entry, key, _LAND_USE)
@@ -961,14 +963,15 @@ class _Reader:
                 if known is None and required not in entry:
                     self.fail(f"{key}.{required}", f"missing (needed for a type that is not bundled: "
                               f"{', '.join(bundled_types)})")
-            goal = self.number(entry["goal"], f"{key}.goal") if "goal" in entry else known.goal  # type: ignore
+            # below, known is None only where the entry has the key: fail() refused the rest just above
+            goal = self.number(entry["goal"], f"{key}.goal") if "goal" in entry else known.goal  # type: ignore[union-attr]
             if goal < 0:
                 self.fail(f"{key}.goal", f"must be ≥ 0 (a share of lot area), got {goal:g}")
             lot_size = self.text(entry.get("lot_size", known.lot_size if known else ""), f"{key}.lot_size")
             if (lot_size or name) not in {u.value for u in LandUse}:
                 self.fail(f"{key}.lot_size", f"{lot_size or name!r} is not a lot class (valid: "
                           f"{', '.join(u.value for u in LandUse)}); a new type names the class it is built like")
-            terms = self.terms(entry["terms"], f"{key}.terms") if "terms" in entry else known.terms  # type: ignore
+            terms = self.terms(entry["terms"], f"{key}.terms") if "terms" in entry else known.terms  # type: ignore[union-attr]
             entries.append({"name": name, "goal": goal, "lot_size": lot_size,
                             "terms": [asdict(t) for t in terms]})
             base = _economy_of(name, lot_size or name)

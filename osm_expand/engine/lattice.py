@@ -530,6 +530,7 @@ def _profiles(d: np.ndarray, pw: np.ndarray, pf: np.ndarray, ph: np.ndarray | No
         else:
             changes += w != prev_w
         prev_w = w
+    assert first_w is not None and prev_w is not None  # offsets has at least two points
     profile = np.full(shape, _MIXED, dtype=np.uint8)
     ok = ~any_forbidden
     profile[ok & (n_water == 0)] = _L
@@ -1212,7 +1213,9 @@ def _road_weight(lattice: Lattice, xy: np.ndarray, u: np.ndarray, v: np.ndarray)
     length = np.hypot(*(xy[v] - xy[u]).T)
     slope = np.zeros(len(u))
     if lattice.height is not None and len(u):
-        slope = np.abs(lattice.height_at(xy[v]) - lattice.height_at(xy[u])) / np.maximum(length, 1e-9)
+        at_v, at_u = lattice.height_at(xy[v]), lattice.height_at(xy[u])
+        assert at_v is not None and at_u is not None  # the lattice has heights
+        slope = np.abs(at_v - at_u) / np.maximum(length, 1e-9)
     return length, length * np.maximum(1.0, lattice.slope_weight * slope), slope
 
 
@@ -1227,15 +1230,15 @@ def _stitch_part(lattice: Lattice, segments: Segments, blocks: shapely.Geometry 
     if not len(points):
         e = np.zeros(0, dtype=np.int64)
         return e, e, np.zeros(0, np.uint8), e, np.zeros(0), np.zeros(0)
-    pairs = [np.zeros((0, 2), dtype=np.int64)]
+    found = [np.zeros((0, 2), dtype=np.int64)]
     if len(targets):
-        pairs.append(_nearest_pairs(xy[points], xy[targets], points, targets, opts.max_stitches,
+        found.append(_nearest_pairs(xy[points], xy[targets], points, targets, opts.max_stitches,
                                     opts.stitch_radius))
     shell = _nearest_pairs(xy[points], xy[points], points, points, opts.max_shell_stitches + 1,
                            opts.shell_stitch_radius)
     shell = np.unique(np.sort(shell[shell[:, 0] != shell[:, 1]], axis=1), axis=0)
-    pairs.append(shell[~_duplicates_piece(shell, pieces, n_lat, n_nodes, len(xy))])
-    pairs = np.concatenate(pairs)
+    found.append(shell[~_duplicates_piece(shell, pieces, n_lat, n_nodes, len(xy))])
+    pairs = np.concatenate(found)
     pairs = pairs[_stitch_ok(lattice, segments, blocks, xy, pairs, split_parent, n_lat, opts)]
     u, v = pairs[:, 0], pairs[:, 1]
     length, weight, slope = _road_weight(lattice, xy, u, v)

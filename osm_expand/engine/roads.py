@@ -159,6 +159,7 @@ def _graph(city: City, traffic: TrafficMemory, memory: RoadMemory, now: YearValu
     segments = _segments(city, traffic, now.o2)
     built = built_up_area([b.polygon for b in city.blocks], segments, water=city.water_geometry(),
                           previous=memory.built, options=history.options.built_up)
+    assert memory.lattice is not None  # built above on the first year
     lattice = memory.lattice.with_built_up(built.area)
     memory = replace(memory, lattice=lattice, built=built)
     return pathfinding_graph(lattice, segments, built, costs=now.costs, options=history.options.graph), memory
