@@ -261,7 +261,8 @@ def _disjoint(polys: list[shapely.Polygon], pairs: np.ndarray) -> list[tuple[int
     if not polys:
         return []
     polys = list(polys)
-    drop, holes = set(), {}
+    drop: set[int] = set()
+    holes: dict[int, list[int]] = {}
     for i, j in pairs.tolist():
         shared = polys[i].intersection(polys[j]).area
         if shared <= 1.0:

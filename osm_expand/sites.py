@@ -226,9 +226,9 @@ def _raster_each(polygons: np.ndarray, xs: np.ndarray, ys: np.ndarray) -> np.nda
     buffering the town's MultiLineString (which nodes every crossing). A hole
     of one polygon is cleared only where no hole-free polygon covers it.
     """
-    polygons = [p for p in shapely.get_parts(polygons) if p.geom_type == "Polygon" and not p.is_empty]
-    plain = [p for p in polygons if not p.interiors]
-    holed = [p for p in polygons if p.interiors]
+    parts = [p for p in shapely.get_parts(polygons) if p.geom_type == "Polygon" and not p.is_empty]
+    plain = [p for p in parts if not p.interiors]
+    holed = [p for p in parts if p.interiors]
     filled = _raster(shapely.GeometryCollection(plain), xs, ys) if plain else np.zeros(xs.shape, dtype=bool)
     if holed:
         filled = filled | _raster(shapely.GeometryCollection(holed), xs, ys)

@@ -25,7 +25,7 @@ from osm_expand.model import City, Origin
 
 def _model_props(tags: dict[str, str]) -> dict:
     """OSM-style tags with the tool's keys as plain properties: ``origin``, ``year``, ``era``, ``landuse``, ``lot``."""
-    props = {k: v for k, v in tags.items() if not k.startswith("osm_expand:")}
+    props: dict[str, str | int] = {k: v for k, v in tags.items() if not k.startswith("osm_expand:")}
     props["origin"] = tags[ORIGIN_KEY]
     if YEAR_KEY in tags:
         props["year"] = int(tags[YEAR_KEY])
