@@ -168,7 +168,7 @@ def check_box(box: Iterable[float], what: str = "box") -> Box:
     if w >= e or s >= n:
         swap = " (latitude and longitude swapped? the order is W,S,E,N)" if s < w and n < e and s < n else ""
         raise InputError(f"{what} {text}: empty box, west must be less than east and south less than north{swap}")
-    return values  # type: ignore[return-value]
+    return values
 
 
 def parse_bbox(text: str, what: str = "--bbox") -> Box:
@@ -570,8 +570,8 @@ def _two_pass(src: Path, grid: _Boxes, extracts: _Extracts, scratch: Path, compl
             osmium.apply(reader, osmium.NodeLocationsForWays(store))
         found.reads += 1
         del store  # unmapped; its data stay in the file
-        for ids, boxes in _scan_store(store_path, grid):
-            for node_id, box in zip(ids.tolist(), boxes.tolist()):
+        for ids, in_box in _scan_store(store_path, grid):
+            for node_id, box in zip(ids.tolist(), in_box.tolist()):
                 _add(found.node_boxes, node_id, box)
     if not found.node_boxes:
         return found.reads
@@ -662,14 +662,16 @@ def _one_pass(src: Path, grid: _Boxes, extracts: _Extracts, index: str, complete
     tagged_nodes = osmium.filter.EmptyTagFilter()
     tagged_nodes.enable_for(osmium.osm.NODE)
     tagged: dict[int, tuple] = {}
-    for obj in osmium.FileProcessor(str(src)).with_locations(locations).with_filter(tagged_nodes):
-        if obj.is_node():
+    # with_locations() is annotated as taking a str but takes a LocationTable too (pyosmium 4's file_processor.py)
+    reader = osmium.FileProcessor(str(src)).with_locations(locations)  # type: ignore[arg-type]
+    for obj in reader.with_filter(tagged_nodes):
+        if isinstance(obj, osmium.osm.Node):  # obj.is_node(), in a form type checkers narrow on
             loc = obj.location
             _, box = grid.members(np.array([loc.x]), np.array([loc.y]))
             for b in box.tolist():
                 _add(found.node_boxes, obj.id, b)
                 tagged[obj.id] = (loc.lon, loc.lat, dict(obj.tags), _meta(obj))
-        elif obj.is_way():
+        elif isinstance(obj, osmium.osm.Way):
             refs, xs, ys = [], [], []
             for nr in obj.nodes:
                 refs.append(nr.ref)

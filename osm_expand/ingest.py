@@ -157,14 +157,14 @@ def _read(path: str, kept: frozenset[str], context: bool, relations: bool) -> tu
     raw = _Raw()
     assembled: set[int] = set()
     for obj in fp:
-        if obj.is_way():
+        if isinstance(obj, osmium.osm.Way):  # obj.is_way(), in a form type checkers narrow on
             raw.newest = max(raw.newest, _seconds(obj))
             _take_way(obj, kept, raw)
             if context and obj.is_closed():
                 _take_closed_way(obj, raw)
             elif context and obj.tags.get("building", "no") != "no" and "highway" not in obj.tags:
                 _take_unplaced(obj, raw)  # a building drawn as an open way: a mapping error, kept as mapped
-        elif obj.is_area() and not obj.from_way():  # closed ways are taken above, as ways
+        elif isinstance(obj, osmium.osm.Area) and not obj.from_way():  # closed ways are taken above, as ways
             raw.newest = max(raw.newest, _seconds(obj))
             assembled.add(obj.orig_id())
             _take_relation_area(obj, raw)
@@ -187,6 +187,7 @@ def _salvage_multipolygons(path: str, keys: list[str], assembled: set[int], raw:
     """
     relations = []
     for rel in osmium.FileProcessor(path, osmium.osm.RELATION).with_filter(osmium.filter.KeyFilter(*keys)):
+        assert isinstance(rel, osmium.osm.Relation)  # the processor reads relations only
         if rel.tags.get("type") == "multipolygon" and rel.id not in assembled and _area_kind(rel.tags):
             relations.append((rel.id, dict(rel.tags), [(m.ref, m.role) for m in rel.members if m.type == "w"]))
             raw.newest = max(raw.newest, _seconds(rel))
@@ -236,6 +237,7 @@ def _closed_rings(parts: list[Ring]) -> list[Ring]:
 def _take_rings(rings: list[Ring], tags: dict, rel_id: int, raw: _Raw) -> None:
     """One outer ring (and its holes) of a multipolygon relation, by its kind."""
     kind = _area_kind(tags)
+    assert kind is not None  # callers pass only relations of a kind that is kept
     if kind[0] == "building":
         raw.buildings.append((rings, tags, "relation", rel_id))
     elif kind[0] == "water":
@@ -382,7 +384,8 @@ def _build(raw: _Raw, header_box: tuple | None) -> City:
     xy = _project(lonlat, proj)
     streets = tuple(Street(nodes=nodes, id=k, **attrs)
                     for k, (nodes, (_, _, attrs)) in enumerate(zip(streets_idx, raw.streets)))
-    context = Context(projection=proj, bounds_lonlat=tuple(float(v) for v in bounds),
+    lon0, lat0, lon1, lat1 = (float(v) for v in bounds)
+    context = Context(projection=proj, bounds_lonlat=(lon0, lat0, lon1, lat1),
                       bounds_from_header=header_box is not None)
     stats = {"input_ways": raw.input_ways, "input_nodes": int(len(ids)), "clipped_ways": raw.clipped_ways,
              "streets": len(streets), "buildings": len(raw.buildings), "clipped_buildings": raw.clipped_buildings,
