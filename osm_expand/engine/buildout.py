@@ -778,6 +778,7 @@ class _Units:
 
     def row(self, lot_id: int) -> int:
         """The unit row of a lot."""
+        # set in __post_init__ (a frozen dataclass), so not a declared field
         return self._rows[lot_id]  # type: ignore[attr-defined]
 
 

@@ -141,6 +141,7 @@ DEFAULT_AVGPRICE = 100.0
 
 
 def _field_default(cls: type, name: str) -> Any:
+    # cls is an options dataclass; ``type`` does not tell mypy so
     f = cls.__dataclass_fields__[name]  # type: ignore[attr-defined]
     return f.default_factory() if f.default_factory is not MISSING else f.default
 

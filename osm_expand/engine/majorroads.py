@@ -87,6 +87,7 @@ def _parse(enum: type[StrEnum], value: str, what: str) -> StrEnum:
 
 def parse_road_type(value: str) -> RoadType:
     """A :class:`RoadType` from its name; :class:`InputError` listing the valid ones otherwise."""
+    # _parse returns the member of the enum it is given (typed as the StrEnum base)
     return _parse(RoadType, value, "road type")  # type: ignore[return-value]
 
 
