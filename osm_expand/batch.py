@@ -57,6 +57,7 @@ from dataclasses import asdict, dataclass, field
 from enum import StrEnum
 from functools import lru_cache
 from pathlib import Path
+from typing import Any
 
 from osm_expand.errors import InputError
 
@@ -387,7 +388,8 @@ def _output_suffix(args: Sequence[str]) -> str:
 # --- running -----------------------------------------------------------------------------------------
 
 
-def run_batch(inputs: Sequence[str | os.PathLike], out_dir: str | os.PathLike, *, towns: str | os.PathLike | None = None,
+def run_batch(inputs: Sequence[str | os.PathLike], out_dir: str | os.PathLike, *,
+              towns: str | os.PathLike | None = None,
               workers: int | None = None, scheduler: str | None = None, seed: int = 0,
               pipeline_args: Sequence[str] = (), preview: str | None = None, progress: bool = False,
               log: Callable[[str], None] | None = None) -> BatchSummary:
@@ -440,8 +442,8 @@ def run_batch(inputs: Sequence[str | os.PathLike], out_dir: str | os.PathLike, *
     if not dask_ok and (scheduler is not None or workers != 1):
         raise InputError(f"batch with several workers needs Dask: {INSTALL_HINT} (or run the jobs one by one "
                          "with --workers 1)")
-    inputs = [Path(p) for p in inputs]
-    if not inputs:
+    paths = [Path(p) for p in inputs]
+    if not paths:
         raise InputError("batch: no inputs")
     out = Path(out_dir).resolve()
     suffix = _output_suffix(args)
@@ -453,20 +455,20 @@ def run_batch(inputs: Sequence[str | os.PathLike], out_dir: str | os.PathLike, *
 
     # Everything that can be checked is checked before any work.
     if towns is not None:
-        if len(inputs) != 1:
-            raise InputError(f"batch --towns takes exactly one input (the large file), got {len(inputs)}")
+        if len(paths) != 1:
+            raise InputError(f"batch --towns takes exactly one input (the large file), got {len(paths)}")
         clipping = sorted({a.split("=", 1)[0] for a in args} & _CLIP_OPTIONS)
         if clipping:
             raise InputError(f"batch --towns clips each town out of the input itself; drop {', '.join(clipping)}")
         from osm_expand.ingest import OSM_SUFFIXES, check_readable
 
-        check_readable(inputs[0], OSM_SUFFIXES)
+        check_readable(paths[0], OSM_SUFFIXES)
         table = read_towns(towns)
         for t in table:
             _check_name(t.name, str(towns))
         jobs: list[Job] = []
     else:
-        jobs = _file_jobs(inputs, job)
+        jobs = _file_jobs(paths, job)
     _make_out_dir(out)
     failed_early: list[JobResult] = []
     clips: dict = {}
@@ -478,7 +480,7 @@ def run_batch(inputs: Sequence[str | os.PathLike], out_dir: str | os.PathLike, *
             where = f"the cluster at {client.scheduler.address}"
             _preflight(client, scheduler, [j.input for j in jobs], out)
         if towns is not None:
-            jobs, failed_early, clips = _clip_towns(inputs[0], table, out, job, say)
+            jobs, failed_early, clips = _clip_towns(paths[0], table, out, job, say)
         (out / "logs").mkdir(exist_ok=True)
         if dask_ok and client is None and jobs:
             from distributed import Client
@@ -504,7 +506,8 @@ def _file_jobs(inputs: list[Path], job: Callable[[str, Path], Job]) -> list[Job]
     """One job per input file, named by its stem (two inputs of one name are refused)."""
     from osm_expand.ingest import check_readable
 
-    jobs, names = [], {}
+    jobs: list[Job] = []
+    names: dict[str, Path] = {}
     for path in inputs:
         check_readable(path)
         name = job_name(path)
@@ -640,7 +643,9 @@ def source_digest() -> str:
 
     h = hashlib.blake2b(digest_size=8)
     for package in _PACKAGES:
-        root = Path(importlib.import_module(package).__file__).parent
+        module_file = importlib.import_module(package).__file__
+        assert module_file is not None  # the three packages are imported from files
+        root = Path(module_file).parent
         for path in sorted(root.rglob("*.py")):
             h.update(f"{package}/{path.relative_to(root).as_posix()}\0".encode())
             h.update(path.read_bytes())
@@ -672,7 +677,8 @@ def _preflight(client, scheduler: str, inputs: list[str], out: Path) -> None:
     try:
         answers = client.run(probe, paths, str(out), on_error="return")
     except Exception as exc:  # noqa: BLE001 - the workers could not even run the probe
-        raise InputError(f"--scheduler {scheduler}: its workers cannot run osm-expand ({type(exc).__name__}: {exc})") from None
+        raise InputError(f"--scheduler {scheduler}: its workers cannot run osm-expand "
+                         f"({type(exc).__name__}: {exc})") from None
     mine = (_version(), source_digest())
     for address, answer in sorted(answers.items()):
         if isinstance(answer, BaseException):
@@ -684,7 +690,8 @@ def _preflight(client, scheduler: str, inputs: list[str], out: Path) -> None:
                              "install the same version on the workers")
         if answer["unreadable"]:
             raise InputError(f"--scheduler {scheduler}: worker {address} cannot read {answer['unreadable'][0]}"
-                             + (f" and {len(answer['unreadable']) - 1} more inputs" if len(answer["unreadable"]) > 1 else "")
+                             + (f" and {len(answer['unreadable']) - 1} more inputs"
+                                if len(answer["unreadable"]) > 1 else "")
                              + " (put the inputs on a folder every worker sees)")
         if not answer["out_dir_ok"]:
             raise InputError(f"--scheduler {scheduler}: worker {address} cannot write to {out} "
@@ -735,7 +742,7 @@ def add_batch_arguments(parser: argparse.ArgumentParser) -> None:
             continue
         # one dest per flag: two flags may share the main parser's dest (--beyond-bounds / --within-bounds)
         dest = "pipeline__" + action.option_strings[-1].lstrip("-").replace("-", "_")
-        common = {"dest": dest, "help": action.help, "default": argparse.SUPPRESS}
+        common: dict[str, Any] = {"dest": dest, "help": action.help, "default": argparse.SUPPRESS}
         if isinstance(action, (argparse._StoreTrueAction, argparse._StoreFalseAction)):
             group.add_argument(*action.option_strings, action="store_true", **common)
             copied.append((dest, action.option_strings[-1], False))
@@ -771,7 +778,8 @@ def cmd_batch(args: argparse.Namespace, log: Callable[[str], None]) -> dict:
     summary_path = Path(summary.out_dir) / "summary.json"
     if not failed:
         if not args.json:
-            print(f"{_count(len(summary.jobs), 'job')} ok in {summary.seconds:.1f} s on {summary.where}; {summary_path}")
+            print(f"{_count(len(summary.jobs), 'job')} ok in {summary.seconds:.1f} s on {summary.where}; "
+                  f"{summary_path}")
         return report
     for job in failed:
         print(f"osm-expand: batch: {job.name} failed: {job.error}", file=sys.stderr)

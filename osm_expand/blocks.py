@@ -212,7 +212,8 @@ def _edge_streets(poly: shapely.Polygon, face: shapely.Polygon, ids: np.ndarray)
     for (a, b), k in zip(zip(map(tuple, coords[:-1].tolist()), map(tuple, coords[1:].tolist())), ids.tolist()):
         lookup[(a, b)] = lookup[(b, a)] = k
     ext = np.asarray(poly.exterior.coords)
-    return np.array([lookup.get((a, b), -1) for a, b in zip(map(tuple, ext[:-1].tolist()), map(tuple, ext[1:].tolist()))],
+    return np.array([lookup.get((a, b), -1)
+                     for a, b in zip(map(tuple, ext[:-1].tolist()), map(tuple, ext[1:].tolist()))],
                     dtype=np.int64)
 
 
@@ -260,7 +261,8 @@ def _disjoint(polys: list[shapely.Polygon], pairs: np.ndarray) -> list[tuple[int
     if not polys:
         return []
     polys = list(polys)
-    drop, holes = set(), {}
+    drop: set[int] = set()
+    holes: dict[int, list[int]] = {}
     for i, j in pairs.tolist():
         shared = polys[i].intersection(polys[j]).area
         if shared <= 1.0:

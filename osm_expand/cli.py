@@ -21,6 +21,7 @@ import sys
 import time
 from collections.abc import Callable, Iterator, Sequence
 from pathlib import Path
+from typing import NoReturn
 
 from osm_expand.errors import InputError
 
@@ -51,7 +52,7 @@ class _VersionAction(argparse.Action):
 
 
 class _Parser(argparse.ArgumentParser):
-    def error(self, message: str) -> None:  # one line, exit 2
+    def error(self, message: str) -> NoReturn:  # one line, exit 2
         self.exit(2, f"{PROG}: error: {_one_line(message)} (see '{PROG} --help')\n")
 
 
@@ -196,7 +197,8 @@ def build_expand_parser() -> argparse.ArgumentParser:
     _add_clip_options(p)
     p.add_argument("-o", "--output", help="output file: .xml (urbanenvironment), .osm or .geojson "
                                           "(default: CITY.expanded.xml beside the input)")
-    p.add_argument("--format", choices=sorted(FORMAT_SUFFIX), help="output format (default: from -o, else urbanenvironment)")
+    p.add_argument("--format", choices=sorted(FORMAT_SUFFIX),
+                   help="output format (default: from -o, else urbanenvironment)")
     p.add_argument("--preview", metavar="OUT.png|OUT.svg", help="also draw a map of the result")
     p.add_argument("--seed", type=_seed, default=0, help="random seed (0 or more); the same seed gives the same bytes")
     p.add_argument("--direction", choices=["auto", "N", "NE", "E", "SE", "S", "SW", "W", "NW"], default="auto",

@@ -170,7 +170,7 @@ def check_box(box: Iterable[float], what: str = "box") -> Box:
     if w >= e or s >= n:
         swap = " (latitude and longitude swapped? the order is W,S,E,N)" if s < w and n < e and s < n else ""
         raise InputError(f"{what} {text}: empty box, west must be less than east and south less than north{swap}")
-    return values  # type: ignore[return-value]
+    return values
 
 
 def parse_bbox(text: str, what: str = "--bbox") -> Box:
@@ -208,7 +208,8 @@ def box_around(lon: float, lat: float, radius_m: float) -> Box:
     except (TypeError, ValueError):
         raise InputError(f"--around expects numbers, got {lon!r},{lat!r} and radius {radius_m!r}") from None
     if not (math.isfinite(lon) and math.isfinite(lat) and -180 <= lon <= 180 and -90 < lat < 90):
-        swapped = " (latitude and longitude swapped? the order is LON,LAT)" if -90 < lon < 90 and abs(lat) <= 180 else ""
+        swapped = (" (latitude and longitude swapped? the order is LON,LAT)"
+                   if -90 < lon < 90 and abs(lat) <= 180 else "")
         raise InputError(f"--around {lon:g},{lat:g}: not a longitude,latitude{swapped}")
     if not (math.isfinite(radius_m) and radius_m > 0):
         raise InputError(f"--radius must be a positive number of metres, got {radius_m:g}")
@@ -571,8 +572,8 @@ def _two_pass(src: Path, grid: _Boxes, extracts: _Extracts, scratch: Path, compl
             osmium.apply(reader, osmium.NodeLocationsForWays(store))
         found.reads += 1
         del store  # unmapped; its data stay in the file
-        for ids, boxes in _scan_store(store_path, grid):
-            for node_id, box in zip(ids.tolist(), boxes.tolist()):
+        for ids, in_box in _scan_store(store_path, grid):
+            for node_id, box in zip(ids.tolist(), in_box.tolist()):
                 _add(found.node_boxes, node_id, box)
     if not found.node_boxes:
         return found.reads
@@ -661,7 +662,8 @@ def _tracked(src: Path, ids: Iterable[int], kind: str, entities, found: _Found, 
         filt = tracker.contains_filter() if contains else tracker.id_filter()
         filt.enable_for(entities)
         last = g == len(cuts) - 2
-        yield from osmium.FileProcessor(str(src), entities | (last_also if last else osmium.osm.NOTHING)).with_filter(filt)
+        yield from osmium.FileProcessor(str(src),
+                                        entities | (last_also if last else osmium.osm.NOTHING)).with_filter(filt)
         found.reads += 1
         del filt, tracker
 
@@ -694,15 +696,17 @@ def _one_pass(src: Path, grid: _Boxes, extracts: _Extracts, index: str, complete
     tagged_nodes.enable_for(osmium.osm.NODE)
     tagged: dict[int, tuple] = {}
     order = _Order(src)
-    for obj in osmium.FileProcessor(str(src)).with_locations(locations).with_filter(tagged_nodes):
+    # with_locations() is annotated as taking a str but takes a LocationTable too (pyosmium 4's file_processor.py)
+    reader = osmium.FileProcessor(str(src)).with_locations(locations)  # type: ignore[arg-type]
+    for obj in reader.with_filter(tagged_nodes):
         order.saw(obj, nodes_first=True)
-        if obj.is_node():
+        if isinstance(obj, osmium.osm.Node):  # obj.is_node(), in a form type checkers narrow on
             loc = obj.location
             _, box = grid.members(np.array([loc.x]), np.array([loc.y]))
             for b in box.tolist():
                 _add(found.node_boxes, obj.id, b)
                 tagged[obj.id] = (loc.lon, loc.lat, dict(obj.tags), _meta(obj))
-        elif obj.is_way():
+        elif isinstance(obj, osmium.osm.Way):
             refs, xs, ys = [], [], []
             for nr in obj.nodes:
                 refs.append(nr.ref)
@@ -817,7 +821,7 @@ class _Extracts:
                 else:
                     tmp[k].unlink(missing_ok=True)
         finally:
-            for k, writer in self.writers.items():
+            for writer in self.writers.values():
                 writer.close()
             self.writers.clear()
             for path in tmp.values():

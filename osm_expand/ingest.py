@@ -34,8 +34,17 @@ import shapely
 
 from osm_expand.coastline import assemble_sea
 from osm_expand.errors import InputError
-from osm_expand.model import (Building, City, Context, MappedArea, SourceFile, Street, StreetNetwork, UnplacedWay,
-                              held_ways)
+from osm_expand.model import (
+    Building,
+    City,
+    Context,
+    MappedArea,
+    SourceFile,
+    Street,
+    StreetNetwork,
+    UnplacedWay,
+    held_ways,
+)
 from osm_expand.model.highways import highway_set
 from osm_expand.model.projection import LocalProjection
 
@@ -66,7 +75,8 @@ class _Raw:
     water_areas: list[list[list[tuple[float, float]]]] = field(default_factory=list)
     coastline: list[list[tuple[float, float]]] = field(default_factory=list)
     #: (rings as (node ids, lon/lat), tags, osm type, osm id)
-    buildings: list[tuple[list[tuple[list[int], list[tuple[float, float]]]], dict, str, int]] = field(default_factory=list)
+    buildings: list[tuple[list[tuple[list[int], list[tuple[float, float]]]], dict, str, int]] = field(
+        default_factory=list)
     clipped_buildings: int = 0
     #: ways kept as mapped but without a drawable shape: (id, refs, located refs and lon/lat, tags)
     unplaced: list[tuple[int, list[int], list[tuple[int, tuple[float, float]]], dict]] = field(default_factory=list)
@@ -185,14 +195,14 @@ def _read(path: str, kept: frozenset[str], context: bool, relations: bool) -> tu
     raw = _Raw()
     assembled: set[int] = set()
     for obj in fp:
-        if obj.is_way():
+        if isinstance(obj, osmium.osm.Way):  # obj.is_way(), in a form type checkers narrow on
             raw.newest = max(raw.newest, _seconds(obj))
             _take_way(obj, kept, raw)
             if context and obj.is_closed():
                 _take_closed_way(obj, raw)
             elif context and obj.tags.get("building", "no") != "no" and "highway" not in obj.tags:
                 _take_unplaced(obj, raw)  # a building drawn as an open way: a mapping error, kept as mapped
-        elif obj.is_area() and not obj.from_way():  # closed ways are taken above, as ways
+        elif isinstance(obj, osmium.osm.Area) and not obj.from_way():  # closed ways are taken above, as ways
             raw.newest = max(raw.newest, _seconds(obj))
             assembled.add(obj.orig_id())
             _take_relation_area(obj, raw)
@@ -215,6 +225,7 @@ def _salvage_multipolygons(path: str, keys: list[str], assembled: set[int], raw:
     """
     relations = []
     for rel in osmium.FileProcessor(path, osmium.osm.RELATION).with_filter(osmium.filter.KeyFilter(*keys)):
+        assert isinstance(rel, osmium.osm.Relation)  # the processor reads relations only
         if rel.tags.get("type") == "multipolygon" and rel.id not in assembled and _area_kind(rel.tags):
             relations.append((rel.id, dict(rel.tags), [(m.ref, m.role) for m in rel.members if m.type == "w"]))
             raw.newest = max(raw.newest, _seconds(rel))
@@ -264,6 +275,7 @@ def _closed_rings(parts: list[Ring]) -> list[Ring]:
 def _take_rings(rings: list[Ring], tags: dict, rel_id: int, raw: _Raw) -> None:
     """One outer ring (and its holes) of a multipolygon relation, by its kind."""
     kind = _area_kind(tags)
+    assert kind is not None  # callers pass only relations of a kind that is kept
     if kind[0] == "building":
         raw.buildings.append((rings, tags, "relation", rel_id))
     elif kind[0] == "water":
@@ -454,7 +466,8 @@ def _build(raw: _Raw, header_box: tuple | None) -> City:
     xy = _project(lonlat, proj)
     streets = tuple(Street(nodes=nodes, id=k, **attrs)
                     for k, (nodes, (_, _, attrs)) in enumerate(zip(streets_idx, raw.streets)))
-    context = Context(projection=proj, bounds_lonlat=tuple(float(v) for v in bounds),
+    lon0, lat0, lon1, lat1 = (float(v) for v in bounds)
+    context = Context(projection=proj, bounds_lonlat=(lon0, lat0, lon1, lat1),
                       bounds_from_header=header_box is not None)
     stats = {"input_ways": raw.input_ways, "input_nodes": int(len(ids)), "clipped_ways": raw.clipped_ways,
              "streets": len(streets), "buildings": len(raw.buildings), "clipped_buildings": raw.clipped_buildings,
@@ -480,7 +493,7 @@ def _year(seconds: int) -> int | None:
         return None
     import datetime
 
-    return datetime.datetime.fromtimestamp(seconds, datetime.timezone.utc).year
+    return datetime.datetime.fromtimestamp(seconds, datetime.UTC).year
 
 
 def _index_nodes(streets) -> tuple[np.ndarray, np.ndarray, list[tuple[int, ...]]]:

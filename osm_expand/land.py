@@ -34,9 +34,9 @@ town are added by :attr:`osm_expand.model.City.occupied`.
 """
 from __future__ import annotations
 
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 from types import MappingProxyType
-from collections.abc import Mapping
 
 import numpy as np
 import shapely
@@ -247,7 +247,8 @@ def read_land(city: City, options: LandOptions | None = None) -> Land:
     cover = [(a.polygon, f"{a.key}={a.value}") for a in city.areas if matches(a.key, a.value, opts.cover)]
     kinds = tuple(kind for _, kind in cover)
     costs = np.array([_cost(kind, opts.cover) for kind in kinds], dtype=float)
-    return Land(taken=taken, town=town, presumed=presumed, cover=np.array([p for p, _ in cover], dtype=object), cover_kind=kinds,
+    return Land(taken=taken, town=town, presumed=presumed, cover=np.array([p for p, _ in cover], dtype=object),
+                cover_kind=kinds,
                 cover_cost=costs, frontage_depth=depth, depth_source=source, survey_radius=opts.survey_radius)
 
 
@@ -371,7 +372,8 @@ def land_cover_taken(before: City, after: City) -> dict[str, float]:
     if not new.any():
         return {}
     land = after.land
-    depth = land.frontage_depth.get("minor", LandOptions().default_depth) if land is not None else LandOptions().default_depth
+    depth = (land.frontage_depth.get("minor", LandOptions().default_depth) if land is not None
+             else LandOptions().default_depth)
     took = shapely.union_all(shapely.buffer(lines[new], depth))
     box = shapely.box(*took.bounds)
     held = [before.water_geometry(), *(land.taken_near(box) if land is not None else []),

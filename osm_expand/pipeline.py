@@ -15,8 +15,10 @@ it; there is no import cycle to dodge).
 """
 from __future__ import annotations
 
+import os
 from collections.abc import Callable
 from dataclasses import dataclass, field, replace
+from typing import TYPE_CHECKING, cast
 
 import numpy as np
 import shapely
@@ -29,15 +31,21 @@ from osm_expand.heights import with_heights
 from osm_expand.joins import JoinReport, join_growth
 from osm_expand.land import LandOptions, land_cover_taken, read_land, unbuildable
 from osm_expand.measures import LineSet, NetworkMeasures, measure_network
-from osm_expand.model import City, Origin, Status, StreetNetwork, demolished_ways, polyline_length
+from osm_expand.model import City, Origin, StreetNetwork, demolished_ways, polyline_length
 from osm_expand.sites import DistanceMaps, Site, SiteOptions, choose_sites, distance_maps, district_region
 from simplify import simplify
 from simplify.example import Example, build_example
 from simplify.hierarchy import with_levels
 from simplify.options import SimplifyOptions
+from synth.colonisation import ColonisationOptions
 from synth.colonisation_pattern import Colonisation
 from synth.growth import Growth, GrowthPattern, RandomWalk
-from synth.patches import ExamplePatches
+from synth.patches import ExamplePatches, PatchOptions
+from synth.walk import WalkOptions
+
+if TYPE_CHECKING:
+    from osm_expand.engine.history import History
+    from osm_expand.engine.loop import Snapshot
 
 #: A district smaller than this many blocks (squares of the town's junction spacing) is refused.
 MIN_BLOCKS = 9
@@ -63,7 +71,8 @@ class ExpandOptions:
     seed: int = 0
     direction: str | None = None  #: N, NE, ..., or None for the best site anywhere
     at: tuple[float, float] | None = None  #: site centre in metres
-    area: float | None = None  #: m²; default: ``site.area_share`` of the built-up area, at most ``site.neighbourhood_area``
+    #: m²; default: ``site.area_share`` of the built-up area, at most ``site.neighbourhood_area``
+    area: float | None = None
     #: land outside the map's data bounds: True free, False never taken, None (default) taken only when the
     #: town fills its map (no site inside it), with :data:`BEYOND_NOTE` in the report
     beyond_bounds: bool | None = None
@@ -73,9 +82,10 @@ class ExpandOptions:
     fidelity: bool = True
     #: The history the city then lives through (:mod:`osm_expand.engine.history`): a bundled name, a
     #: TOML file, or a loaded :class:`~osm_expand.engine.history.History`.
-    history: object = "example"
+    history: str | os.PathLike[str] | History = "example"
     years: int | None = None  #: years of history to simulate; None: the history's own ``years``; 0: none
-    snapshot: object = None  #: called as ``snapshot(city, year, era, traffic)`` after each era (or every N years)
+    #: called as ``snapshot(city, year, era, traffic)`` after each era (or every N years)
+    snapshot: Snapshot | None = None
     snapshot_every: int | None = None  #: years between snapshots; None: one per era
     site: SiteOptions = field(default_factory=SiteOptions)
     land: LandOptions = field(default_factory=LandOptions)
@@ -108,7 +118,7 @@ def _measure_in_windows(lines: list) -> Callable[[shapely.Geometry], NetworkMeas
 
 
 #: Growth patterns by name (``--pattern``): each builds from what the town taught.
-PATTERNS = {
+PATTERNS: dict[str, Callable[[Learned], GrowthPattern]] = {
     "example": lambda learned: ExamplePatches(learned.example, measure=_measure_in_windows),
     "walk": lambda learned: RandomWalk(learned.example),
     "colonisation": lambda learned: Colonisation(learned.example),
@@ -119,11 +129,11 @@ def district_pattern(learned: Learned) -> Callable[[str, object], GrowthPattern]
     """The engine's factory of district patterns for an era: ``(name, options) -> GrowthPattern``."""
     def make(name: str, options: object) -> GrowthPattern:
         if name == "example":
-            return ExamplePatches(learned.example, options=options, measure=_measure_in_windows)
+            return ExamplePatches(learned.example, options=cast(PatchOptions, options), measure=_measure_in_windows)
         if name == "walk":
-            return RandomWalk(learned.example, options=options)
+            return RandomWalk(learned.example, options=cast(WalkOptions, options))
         if name == "colonisation":
-            return Colonisation(learned.example, options=options)
+            return Colonisation(learned.example, options=cast(ColonisationOptions, options))
         raise InputError(f"district pattern must be one of {', '.join(PATTERNS)}, got {name!r}")
     return make
 

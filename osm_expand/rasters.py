@@ -139,7 +139,8 @@ def _read_pgm(path: Path) -> tuple[np.ndarray, int]:
     magic = data[:2]
     if magic not in (b"P2", b"P5"):
         raise InputError(f"{path}: not a PGM file (magic number {magic!r}, expected P2 or P5)")
-    fields, pos = [], 2
+    fields: list[int] = []
+    pos = 2
     while len(fields) < 3:  # width, height, maxval; '#' starts a comment up to the end of the line
         while pos < len(data) and data[pos:pos + 1].isspace():
             pos += 1

@@ -138,7 +138,8 @@ def _from_geojson(path: Path) -> City:
 
 def _from_urbanenvironment(path: Path) -> City:
     try:
-        root = etree.parse(str(path), etree.XMLParser(resolve_entities=False, no_network=True, huge_tree=True)).getroot()
+        parser = etree.XMLParser(resolve_entities=False, no_network=True, huge_tree=True)
+        root = etree.parse(str(path), parser).getroot()
         proj = _projection(float(root.get("lon0", 0.0)), float(root.get("lat0", 0.0)))
         lines, attrs = [], []
         for k, st in enumerate(root.iterfind("streets/street")):

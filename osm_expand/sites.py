@@ -226,9 +226,9 @@ def _raster_each(polygons: np.ndarray, xs: np.ndarray, ys: np.ndarray) -> np.nda
     buffering the town's MultiLineString (which nodes every crossing). A hole
     of one polygon is cleared only where no hole-free polygon covers it.
     """
-    polygons = [p for p in shapely.get_parts(polygons) if p.geom_type == "Polygon" and not p.is_empty]
-    plain = [p for p in polygons if not p.interiors]
-    holed = [p for p in polygons if p.interiors]
+    parts = [p for p in shapely.get_parts(polygons) if p.geom_type == "Polygon" and not p.is_empty]
+    plain = [p for p in parts if not p.interiors]
+    holed = [p for p in parts if p.interiors]
     filled = _raster(shapely.GeometryCollection(plain), xs, ys) if plain else np.zeros(xs.shape, dtype=bool)
     if holed:
         filled = filled | _raster(shapely.GeometryCollection(holed), xs, ys)
@@ -312,7 +312,7 @@ def _best_radius(maps: DistanceMaps, area: float, radius: float, opts: SiteOptio
 
 
 def _cut_off_shares(maps: DistanceMaps, free_land: np.ndarray, area: float, radius: float,
-                    rings: "_RingShares") -> list[np.ndarray]:
+                    rings: _RingShares) -> list[np.ndarray]:
     """Per radius step and cell, the share of the disc that corridors cut off from the cell.
 
     That is the disc's share of the free land connected to the cell (water,
@@ -330,7 +330,7 @@ def _cut_off_shares(maps: DistanceMaps, free_land: np.ndarray, area: float, radi
 
 
 def _piece_shares(land: np.ndarray, min_area: float, radius: float, cell: float,
-                  rings: "_RingShares") -> list[np.ndarray]:
+                  rings: _RingShares) -> list[np.ndarray]:
     """Per radius step and cell of ``land``, the share of the disc that is the cell's own piece of it."""
     pieces, _ = label(land)
     sizes = np.bincount(pieces.ravel()) * cell ** 2
@@ -368,7 +368,7 @@ def _disc(centre: np.ndarray, radius: float, area: float, score: float) -> Site:
     return Site(centre=centre, area=area, region=shapely.Point(centre).buffer(radius, 64), score=score)
 
 
-def _score(maps: DistanceMaps, radius: float, opts: SiteOptions, rings: "_RingShares") -> np.ndarray:
+def _score(maps: DistanceMaps, radius: float, opts: SiteOptions, rings: _RingShares) -> np.ndarray:
     """1 for a disc that touches the city (or water), falling off with the gap; room beyond need adds a
     little; unbuildable land inside costs. -inf where the disc holds too much unbuildable land."""
     gap_city = np.maximum(maps.city_distance - radius, 0.0)

@@ -10,10 +10,11 @@ junction are dropped so approaches run straight into it.
 from __future__ import annotations
 
 import numpy as np
+
 from osm_expand.model import Street, StreetNetwork
 from osm_expand.model.components import close_pairs, component_labels
-from simplify.options import SimplifyOptions
 from osm_expand.model.topology import append_nodes, junction_mask, replace_nodes, split_self_touching
+from simplify.options import SimplifyOptions
 
 
 def fuse_clusters(net: StreetNetwork, opts: SimplifyOptions) -> tuple[StreetNetwork, int]:

@@ -11,10 +11,11 @@ from collections import defaultdict
 
 import numpy as np
 import shapely
+
 from osm_expand.model import Street, StreetNetwork, closest_on_segments, match_points
 from osm_expand.model.components import UnionFind, close_pairs, component_labels
-from simplify.options import SimplifyOptions
 from osm_expand.model.topology import append_nodes, clean_nodes, flat_nodes, split_self_touching
+from simplify.options import SimplifyOptions
 
 
 def segment_table(net: StreetNetwork) -> dict[str, np.ndarray]:
@@ -154,7 +155,7 @@ def _merge_map(pairs: list[tuple[int, int]]) -> dict[int, int]:
     """Node → representative (the smallest index) for coincident distinct nodes."""
     if not pairs:
         return {}
-    ds = UnionFind()
+    ds: UnionFind[int] = UnionFind()
     for a, b in pairs:
         ds.add(a)
         ds.add(b)

@@ -101,7 +101,9 @@ class _Work:
             self.removed.append(DeadEnd(-1, lengths(self.xy, nodes), street.highway))
             self._set(k, None)
             return []
-        end = len(nodes) - 1 - self._first_junction(nodes[::-1])
+        back = self._first_junction(nodes[::-1])
+        assert back is not None  # start found a junction, so the search from the other end does too
+        end = len(nodes) - 1 - back
         if start > 0:
             self.removed.append(DeadEnd(nodes[start], lengths(self.xy, nodes[:start + 1]), street.highway))
         if end < len(nodes) - 1:
@@ -123,7 +125,9 @@ class _Work:
 
     def _set(self, k: int, street: Street | None) -> None:
         """Replace (or with None remove) street ``k``; a node it no longer has loses one street."""
-        gone = set(self.streets[k].nodes).difference(street.nodes if street is not None else ())
+        old = self.streets[k]
+        assert old is not None, "a removed street is never set again"
+        gone = set(old.nodes).difference(street.nodes if street is not None else ())
         for n in gone:
             self.counts[n] -= 1
         self.touched |= gone
@@ -133,8 +137,9 @@ class _Work:
         """Streets that now end at ``node`` without anyone else there."""
         if self.counts[node] != 1:
             return []
-        (k,) = (j for j in self._streets_at(node) if self.streets[j] is not None and node in self.streets[j].nodes)
+        (k,) = (j for j in self._streets_at(node) if (t := self.streets[j]) is not None and node in t.nodes)
         s = self.streets[k]
+        assert s is not None  # chosen above among the streets still there
         return [k] if node in (s.nodes[0], s.nodes[-1]) and not s.is_closed else []
 
     def _streets_at(self, node: int) -> set[int]:

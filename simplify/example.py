@@ -12,14 +12,15 @@ shapes again, and the dead ends simplification removed, per level.
 """
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
 
 from osm_expand.model import StreetNetwork
+from osm_expand.model.topology import MAX_DEGREE, junction_mask, junction_stops, lengths
 from simplify.dead_ends import DeadEnd
 from simplify.hierarchy import with_levels
-from osm_expand.model.topology import MAX_DEGREE, junction_mask, junction_stops, lengths
 
 #: Floors for the Gaussians so a street with few junctions is not infinitely picky.
 MIN_LENGTH_STD = 0.15  # as a share of the mean spacing
@@ -96,7 +97,7 @@ def _summaries(stats: list[StreetStats]) -> np.ndarray:
     return out
 
 
-def build_example(net: StreetNetwork, dead_ends: list[DeadEnd] = ()) -> Example:
+def build_example(net: StreetNetwork, dead_ends: Sequence[DeadEnd] = ()) -> Example:
     """The example of a simplified network (junctions with two records each)."""
     net = with_levels(net)
     n = len(net.xy)
@@ -128,7 +129,8 @@ def build_example(net: StreetNetwork, dead_ends: list[DeadEnd] = ()) -> Example:
     return Example(
         network=net, junctions=nodes, street=street, level=level,
         length_mean=pick(0), length_std=pick(1), angle_mean=pick(2), angle_std=pick(3),
-        degree=degree, record_cap=cap, streets=stats, dead_ends_per_level=_dead_ends_by_level(net, nodes, level, dead_ends),
+        degree=degree, record_cap=cap, streets=stats,
+        dead_ends_per_level=_dead_ends_by_level(net, nodes, level, dead_ends),
     )
 
 

@@ -15,8 +15,8 @@ import numpy as np
 from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import breadth_first_order, connected_components
 
-from osm_expand.model.highways import rank
 from osm_expand.model import StreetNetwork
+from osm_expand.model.highways import rank
 from osm_expand.model.topology import lengths
 
 
@@ -27,7 +27,8 @@ def street_adjacency(net: StreetNetwork):
     nodes = np.fromiter((v for s in net.streets for v in s.nodes), dtype=np.int64, count=len(owner))
     order = np.lexsort((owner, nodes))
     nodes, owner = nodes[order], owner[order]
-    rows, cols = [], []
+    rows: list[np.ndarray] = []
+    cols: list[np.ndarray] = []
     d = 1
     while d < len(nodes):  # a node joins a handful of streets: pair entries up to that far apart
         same = nodes[d:] == nodes[:-d]
@@ -37,9 +38,9 @@ def street_adjacency(net: StreetNetwork):
         rows.append(owner[:-d][pair])
         cols.append(owner[d:][pair])
         d += 1
-    rows = np.concatenate(rows) if rows else np.zeros(0, dtype=np.int64)
-    cols = np.concatenate(cols) if cols else np.zeros(0, dtype=np.int64)
-    m = coo_matrix((np.ones(len(rows)), (rows, cols)), shape=(n, n)).tocsr()
+    row = np.concatenate(rows) if rows else np.zeros(0, dtype=np.int64)
+    col = np.concatenate(cols) if cols else np.zeros(0, dtype=np.int64)
+    m = coo_matrix((np.ones(len(row)), (row, col)), shape=(n, n)).tocsr()
     return ((m + m.T) > 0).astype(np.int8)
 
 

@@ -10,9 +10,9 @@ import numpy as np
 import shapely
 
 from osm_expand.model import StreetNetwork
+from osm_expand.model.topology import street_counts
 from simplify.crossings import candidate_pairs, segment_lines, segment_table
 from simplify.dead_ends import dead_end_count
-from osm_expand.model.topology import street_counts
 
 
 def violations(net: StreetNetwork) -> dict[str, int]:

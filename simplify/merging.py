@@ -15,11 +15,11 @@ from itertools import combinations
 
 import numpy as np
 
-from osm_expand.model.highways import rank
 from osm_expand.model import Street, StreetNetwork
 from osm_expand.model.components import UnionFind
-from simplify.options import SimplifyOptions
+from osm_expand.model.highways import rank
 from osm_expand.model.topology import end_angles, heading, headings, lengths
+from simplify.options import SimplifyOptions
 
 End = tuple[int, bool]  # (street index, True for its first node)
 

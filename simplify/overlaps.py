@@ -18,11 +18,10 @@ from collections import defaultdict
 import numpy as np
 import shapely
 
-from osm_expand.model.highways import rank
 from osm_expand.model import Street, StreetNetwork
-from simplify.options import SimplifyOptions
+from osm_expand.model.highways import rank
 from osm_expand.model.topology import clean_nodes, junction_mask, lengths, piece_table
-
+from simplify.options import SimplifyOptions
 
 PieceKey = tuple[int, int]
 #: Pieces closer than this (m) are the same line drawn twice and always go.
@@ -109,7 +108,8 @@ class _LazyLengths:
     """Street lengths, computed only for the few streets that have duplicates."""
 
     def __init__(self, net: StreetNetwork):
-        self.net, self.cache = net, {}
+        self.net = net
+        self.cache: dict[int, float] = {}
 
     def __getitem__(self, k: int) -> float:
         if k not in self.cache:

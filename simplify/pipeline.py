@@ -16,6 +16,7 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 
 from osm_expand.model import StreetNetwork
+from osm_expand.model.topology import clean_nodes, junction_mask, spaced_points, summary
 from simplify.cleanup import MAX_ROUNDS, cleanup
 from simplify.clusters import fuse_clusters
 from simplify.crossings import add_missing_intersections
@@ -24,7 +25,6 @@ from simplify.intersections import extract_intersections
 from simplify.merging import merge_streets
 from simplify.options import SimplifyOptions
 from simplify.roundabouts import collapse_roundabouts
-from osm_expand.model.topology import clean_nodes, junction_mask, spaced_points, summary
 from simplify.two_street import enforce_two_streets
 
 

@@ -14,8 +14,8 @@ import shapely
 
 from osm_expand.model import Street, StreetNetwork
 from osm_expand.model.components import UnionFind
-from simplify.options import SimplifyOptions
 from osm_expand.model.topology import append_nodes, replace_nodes
+from simplify.options import SimplifyOptions
 
 ROUNDABOUT_TAGS = frozenset({"roundabout", "circular"})
 
@@ -61,9 +61,9 @@ def _approaches(net: StreetNetwork, groups: list[list[int]]) -> list[int]:
             continue
         last = len(s.nodes) - 1
         for i, n in enumerate(s.nodes):
-            g = ring_of.get(n)
-            if g is not None:
-                count[g] += 1 if i in (0, last) else 2
+            ring = ring_of.get(n)
+            if ring is not None:
+                count[ring] += 1 if i in (0, last) else 2
     return count
 
 

@@ -21,12 +21,12 @@ from itertools import combinations
 
 import numpy as np
 
-from osm_expand.model.highways import rank
 from osm_expand.model import Street, StreetNetwork
+from osm_expand.model.highways import rank
+from osm_expand.model.topology import append_nodes, heading, lengths, point_along
 from simplify.merging import combine, end_angle
 from simplify.options import SimplifyOptions
 from simplify.streetset import StreetSet
-from osm_expand.model.topology import append_nodes, heading, lengths, point_along
 
 
 class _Nodes:

@@ -73,7 +73,7 @@ import math
 from collections.abc import Sequence
 from dataclasses import dataclass, field, fields
 from enum import StrEnum
-from typing import Any
+from typing import Any, cast
 
 import numpy as np
 import shapely
@@ -283,7 +283,7 @@ class _Phase:
     bottom: int
 
     @classmethod
-    def of(cls, opts: ColonisationOptions, number: int) -> "_Phase":
+    def of(cls, opts: ColonisationOptions, number: int) -> _Phase:
         lo, hi = opts.angle_range_1 if number == 1 else opts.angle_range_2
         k = number - 1
         top = PRIMARY if number == 1 else opts.phase2_top_level
@@ -942,7 +942,7 @@ class _Colonist:
         roi = o.radius_of_influence * self.sl
         self._activate(aps, net.xy[np.flatnonzero(~net.retired[:net.n])], roi)
         iterations = grown = 0
-        for iterations in range(1, o.max_iterations + 1):
+        for iterations in range(1, o.max_iterations + 1):  # noqa: B007 (read after the loop: the count run)
             pairs = self._influence(aps, ph, roi)
             if pairs is None:
                 break
@@ -1127,6 +1127,7 @@ class _Colonist:
         the flow: 001 §5.2 has a source "prevent any suggested road to grow
         towards it" and sinks "force the network to grow towards them".
         """
+        assert self.flow is not None  # called only with a flow field (see the caller)
         f = self.flow.direction(at[None, :])[0]
         if not f.any():
             return d
@@ -1241,11 +1242,11 @@ class _Colonist:
         if hit is not None:
             k, t_along = hit
         else:
-            t_along, _, dist = closest_on_segments(q, a, b)
+            t_all, _, dist = closest_on_segments(q, a, b)
             k = int(np.argmin(dist))
             if dist[k] > radius:
                 return "free", -1, q
-            t_along = float(t_along[k])
+            t_along = float(t_all[k])
         u, v = (int(x) for x in net.index.ends[slots[k]])
         length = float(np.hypot(*(b[k] - a[k])))
         margin = max(o.min_segment_m, 0.1 * self.sl)
@@ -1295,13 +1296,13 @@ class _Colonist:
             net.index.remove(net.eslot[e])
         ok = True
         if check:
-            for k, e in edges:
+            for k, _ in edges:
                 if not self._segment_ok(net.xy[k], to, k, m, ph, target_dirs=None, angles=False):
                     ok = False
                     break
         if ok:
             net.xy[m] = to
-        for k, e in edges:
+        for _, e in edges:
             u, v = net.eu[e], net.ev[e]
             net.eslot[e] = net.index.add(net.xy[u].copy(), net.xy[v].copy(), u, v)
         return ok
@@ -1483,8 +1484,9 @@ class _Colonist:
             lv = int(level[edge_of.get((path[0], path[1]), edge_of.get((path[1], path[0]), 0))])
             streets.append(GrownStreet(nodes=tuple(path), xy=xy[path], level=lv, highway=o.highways[lv]))
         joined = sorted({int(m) for m in edges.ravel() if net.fixed[m]})
-        joins = tuple(Join(node=m, xy=(float(xy[m, 0]), float(xy[m, 1])), seed=net.seed_ref[m][0],
-                           segment=net.seed_ref[m][1], vertex=net.seed_ref[m][2]) for m in joined)
+        seed_of = cast(list[tuple[int, int, bool]], net.seed_ref)  # the joined nodes are fixed: each has one
+        joins = tuple(Join(node=m, xy=(float(xy[m, 0]), float(xy[m, 1])), seed=seed_of[m][0],
+                           segment=seed_of[m][1], vertex=seed_of[m][2]) for m in joined)
         ap_xy = np.vstack([a for a, _, _ in self.ap_log]) if self.ap_log else np.zeros((0, 2))
         ap_phase = np.concatenate([np.full(len(a), p) for a, p, _ in self.ap_log]) if self.ap_log else np.zeros(0)
         ap_alive = np.concatenate([al for _, _, al in self.ap_log]) if self.ap_log else np.zeros(0, dtype=bool)

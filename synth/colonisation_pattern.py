@@ -369,6 +369,7 @@ def town_highways(city: City, kernel: tuple[str, str, str]) -> tuple[str, str, s
         if cls not in have and cls in CLASS_LADDER:
             pick = next((c for c in CLASS_LADDER[CLASS_LADDER.index(cls):] if c in have), cls)
         out.append(pick)
+    # one pick per class of the three-class kernel: three, as annotated
     return tuple(out)  # type: ignore[return-value]
 
 

@@ -66,7 +66,8 @@ def place(example: Example, region, obstacles=None, rotation_deg: float = 0.0) -
     free = _free_points(region, obstacles, spacing / 2)
     gap = np.full(len(free), np.inf)  # free point → nearest placed junction
     from_copied = np.full(len(example.xy), np.inf)  # example junction → nearest centre copied so far
-    placed, ids = [], []
+    placed: list[np.ndarray] = []
+    ids: list[np.ndarray] = []
     hole, hole_radius = np.array(shapely.centroid(region).coords[0]), radius
     for copy in range(MAX_COPIES):
         far = from_copied >= hole_radius
@@ -150,6 +151,7 @@ def grow(example: Example, region: shapely.Geometry, *, obstacles: shapely.Geome
                        fixed=fixed)
     rng = shape_rng
     if shapes:
+        assert walk.drawn is not None  # random_walk always returns its index
         points, stubs = add_dead_ends(example, cloud.xy, walk.streets, region, obstacles, rng,
                                       walk.drawn, walk.segment)
         streets = shaped_streets(example, points, walk.streets + stubs, obstacles, rng, walk.drawn, walk.segment,

@@ -50,7 +50,9 @@ class Growth:
 class GrowthPattern(Protocol):
     """Grows streets in a region of a city."""
 
-    name: str
+    @property
+    def name(self) -> str:
+        """The pattern's name, in progress lines and reports (read-only: a class attribute will do)."""
 
     def grow(self, city: City, region: shapely.Geometry, rng: np.random.Generator) -> Growth:
         """New streets inside ``region`` that touch nothing in ``city.occupied`` and cross no street."""

@@ -182,6 +182,7 @@ class ExamplePatches:
                 best = result
             if result[0].total_length() >= 0.9 * target:
                 break
+        assert best is not None  # the loop runs at least once
         net, placed, links, tees = best
         streets = tuple(NewStreet(xy=net.street_xy(s), hierarchy=max(s.hierarchy, 0), highway=s.highway)
                         for s in net.streets)
@@ -350,7 +351,8 @@ def _candidate_patches(source: _Source, size: float, opts: PatchOptions, rng: np
         spread = np.nanpercentile(values, 75, axis=0) - np.nanpercentile(values, 25, axis=0)
         z = np.nan_to_num(np.abs(values - centre) / np.where(spread > 0, spread, 1.0), nan=3.0)
         good = good[np.argsort(np.sqrt((z ** 2).sum(axis=1)), kind="stable")]
-    first, later = [], []
+    first: list[int] = []
+    later: list[int] = []
     for i in good.tolist():
         (later if any(np.hypot(*(centres[i] - centres[j])) < size for j in first) else first).append(i)
     return centres[first + later]
@@ -514,7 +516,8 @@ def _cell_pieces(source: _Source, near: np.ndarray, clipped: np.ndarray) -> list
 
 def _was_broken(source: _Source, move: _Transform, end: np.ndarray) -> bool:
     """Did this end meet a street that is not copied (a motorway, a bridge) in the town?"""
-    return source.broken is not None and source.broken.query(move.back(end[None, :]), distance_upper_bound=1e-6)[0][0] < 1e-6
+    return (source.broken is not None
+            and source.broken.query(move.back(end[None, :]), distance_upper_bound=1e-6)[0][0] < 1e-6)
 
 
 def _part_of(cell: shapely.Geometry, lines: np.ndarray, anchor: shapely.Point, need: float) -> shapely.Geometry:
@@ -649,10 +652,10 @@ def _tees(quilt: _Quilt, old: shapely.Geometry, spacing: float, opts: PatchOptio
                 for j in board.tree.query(ray, predicate="intersects").tolist() if j != own]
         hits += [(_meet(ray, np.asarray(town[i].coords), p, d, opts.tee_angle), -1)
                  for i in town_tree.query(ray, predicate="intersects").tolist()]
-        hits = [(meet, j) for meet, j in hits if meet is not None]
-        if not hits:
+        met = [(meet, j) for meet, j in hits if meet is not None]
+        if not met:
             continue
-        (at, fair), j = min(hits, key=lambda h: float(np.hypot(*(h[0][0] - p))))
+        (at, fair), j = min(met, key=lambda h: float(np.hypot(*(h[0][0] - p))))
         if not fair or not board.clear(np.array([p, at])):  # the first street ahead, met too flat, blocks it
             continue
         board.added.append(shapely.LineString([p, at]))
@@ -702,10 +705,10 @@ def _insert_points(xy: np.ndarray, points: np.ndarray) -> np.ndarray:
         t, _, d = closest_on_segments(q[None, :], a, b)
         i = int(np.argmin(d))
         where.append((i, float(t[i]), q))
-    out, k = [], 0
+    out = []
     for i in range(len(xy)):
         out.append(xy[i])
-        for seg, _, q in sorted((w for w in where if w[0] == i), key=lambda w: w[1]):
+        for _, _, q in sorted((w for w in where if w[0] == i), key=lambda w: w[1]):
             if not (np.array_equal(q, xy[i]) or (i + 1 < len(xy) and np.array_equal(q, xy[i + 1]))):
                 out.append(q)
     return np.array(out)
@@ -879,10 +882,10 @@ def _fewer_dead_ends(net: StreetNetwork, old: shapely.Geometry, occupied: shapel
         ray = shapely.LineString([p + d * 1e-3, p + d * reach])
         hits = [(_meet(ray, quilt.xy[j], p, d, opts.tee_angle), j)
                 for j in board.tree.query(ray, predicate="intersects").tolist() if j != where[e]]
-        hits = [(m, j) for m, j in hits if m is not None]
-        if not hits:
+        met = [(m, j) for m, j in hits if m is not None]
+        if not met:
             continue
-        (at, fair), j = min(hits, key=lambda h: float(np.hypot(*(h[0][0] - p))))
+        (at, fair), j = min(met, key=lambda h: float(np.hypot(*(h[0][0] - p))))
         if fair and board.clear(np.array([p, at])):
             board.added.append(shapely.LineString([p, at]))
             quilt.add(np.array([p, at]), st.highway, st.hierarchy)

@@ -49,9 +49,10 @@ Weber's organic, grid and radial patterns (002 §3.1) and the eras' patterns
 from __future__ import annotations
 
 import math
+from collections.abc import Iterator, Sequence
 from dataclasses import dataclass, field, fields, replace
 from enum import StrEnum
-from typing import Any, Iterator, Protocol, Sequence
+from typing import Any, Protocol
 
 import numpy as np
 import shapely
@@ -263,7 +264,7 @@ class PatternOptions:
             raise bad("max_degree", "must be ≥ 2")
 
     @classmethod
-    def from_mapping(cls, values: dict[str, Any]) -> "PatternOptions":
+    def from_mapping(cls, values: dict[str, Any]) -> PatternOptions:
         """Options from a mapping (a TOML table); unknown keys raise :class:`InputError`."""
         known = {f.name for f in fields(cls)}
         unknown = sorted(set(values) - known)
@@ -368,9 +369,18 @@ def pattern(name: str, **overrides: Any) -> PatternOptions:
 class StartPoints(Protocol):
     """Starts given as arrays, e.g. :class:`osm_expand.engine.nuclei.Candidates`."""
 
-    node: NDArray[np.int64]      #: (S,) node id, or -1 for a point on a segment
-    segment: NDArray[np.int64]   #: (S,) segment id for a point on a segment, else -1
-    xy: NDArray[np.float64]      #: (S, 2) position (m)
+    # Read-only members (properties), so that frozen dataclasses such as Candidates match.
+    @property
+    def node(self) -> NDArray[np.int64]:
+        """(S,) node id, or -1 for a point on a segment."""
+
+    @property
+    def segment(self) -> NDArray[np.int64]:
+        """(S,) segment id for a point on a segment, else -1."""
+
+    @property
+    def xy(self) -> NDArray[np.float64]:
+        """(S, 2) position (m)."""
 
 
 @dataclass(frozen=True)
@@ -382,13 +392,13 @@ class Start:
     xy: tuple[float, float] = (0.0, 0.0)
 
     @classmethod
-    def at_node(cls, graph: StreetGraph, node: int) -> "Start":
+    def at_node(cls, graph: StreetGraph, node: int) -> Start:
         """The crossing ``node``."""
         x, y = graph.xy[node]
         return cls(node=int(node), xy=(float(x), float(y)))
 
     @classmethod
-    def on_segment(cls, segment: int, point: ArrayLike) -> "Start":
+    def on_segment(cls, segment: int, point: ArrayLike) -> Start:
         """A point (m) on ``segment``."""
         x, y = np.asarray(point, dtype=np.float64)
         return cls(segment=int(segment), xy=(float(x), float(y)))
@@ -572,7 +582,7 @@ class _Candidates:
 
     @classmethod
     def gather(cls, graph: StreetGraph, p: NDArray[np.float64], e: NDArray[np.float64],
-               options: PatternOptions) -> "_Candidates":
+               options: PatternOptions) -> _Candidates:
         """Segments that any proposal from p with Default end e can meet or come near."""
         look = p + options.look_ahead * (e - p)
         margin = options.snap_radius_m + max(options.min_cs_distance_m, options.min_cc_distance_m) + 1.0

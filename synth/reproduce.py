@@ -10,8 +10,8 @@ from collections import defaultdict
 
 import numpy as np
 
-from simplify.example import Example
 from osm_expand.model.topology import junction_mask, junction_stops
+from simplify.example import Example
 from synth.walk import NodeCloud, WalkOptions, WalkResult, random_walk
 
 

@@ -54,10 +54,10 @@ class SegmentIndex:
 
     def crosses(self, a: np.ndarray, b: np.ndarray, u: int, v: int) -> bool:
         """Does segment u–v (at a–b) touch a stored segment anywhere but at a shared end node?"""
-        ids = {k for c in self._cells(a, b) for k in self.grid.get(c, ())}
-        if not ids:
+        near = {k for c in self._cells(a, b) for k in self.grid.get(c, ())}
+        if not near:
             return False
-        ids = np.fromiter(ids, dtype=np.int64)
+        ids = np.fromiter(near, dtype=np.int64)
         ids = ids[self.active[ids]]
         ends, p, q = self.ends[ids], self.a[ids], self.b[ids]
         shared = (ends[:, 0] == u) | (ends[:, 0] == v) | (ends[:, 1] == u) | (ends[:, 1] == v)
@@ -74,8 +74,10 @@ def _orient(a, b, c) -> np.ndarray:
 
 
 def _on_segment(a, b, c) -> np.ndarray:
-    return ((np.minimum(a[..., 0], b[..., 0]) - EPS <= c[..., 0]) & (c[..., 0] <= np.maximum(a[..., 0], b[..., 0]) + EPS)
-            & (np.minimum(a[..., 1], b[..., 1]) - EPS <= c[..., 1]) & (c[..., 1] <= np.maximum(a[..., 1], b[..., 1]) + EPS))
+    return ((np.minimum(a[..., 0], b[..., 0]) - EPS <= c[..., 0])
+            & (c[..., 0] <= np.maximum(a[..., 0], b[..., 0]) + EPS)
+            & (np.minimum(a[..., 1], b[..., 1]) - EPS <= c[..., 1])
+            & (c[..., 1] <= np.maximum(a[..., 1], b[..., 1]) + EPS))
 
 
 def _intersects(a: np.ndarray, b: np.ndarray, p: np.ndarray, q: np.ndarray) -> np.ndarray:

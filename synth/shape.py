@@ -15,8 +15,8 @@ from __future__ import annotations
 import numpy as np
 import shapely
 
-from simplify.example import Example
 from osm_expand.model.topology import junction_mask, junction_stops, spaced_points
+from simplify.example import Example
 from synth.segment_index import SegmentIndex
 
 Street = tuple[int, list[int]]

@@ -81,7 +81,7 @@ class StreetGraph:
     @classmethod
     def from_segments(cls, xy: ArrayLike, edges: ArrayLike, *, created: ArrayLike | None = None,
                       bridge: ArrayLike | None = None, major: ArrayLike | None = None,
-                      cell: float | None = None) -> "StreetGraph":
+                      cell: float | None = None) -> StreetGraph:
         """Build a graph from node positions and segment end pairs, vectorised.
 
         Parameters
@@ -149,7 +149,7 @@ class StreetGraph:
         for key, ids in _group_by_cell(cells, seg):
             idx.grid[key] = ids
 
-    def copy(self) -> "StreetGraph":
+    def copy(self) -> StreetGraph:
         """An independent copy (arrays, adjacency and both grids)."""
         g = StreetGraph(cell=self.cell, capacity=len(self._xy))
         for name in ("n_nodes", "n_segments"):
@@ -400,8 +400,9 @@ def _group_by_cell(cells: NDArray[np.int64], ids: NDArray[np.int64]):
 
 
 def _grid_lookup(grid: dict, lo: ArrayLike, hi: ArrayLike, cell: float) -> list[list[int]]:
-    ilo, jlo = math.floor(lo[0] / cell), math.floor(lo[1] / cell)
-    ihi, jhi = math.floor(hi[0] / cell), math.floor(hi[1] / cell)
+    lo_xy, hi_xy = np.asarray(lo), np.asarray(hi)
+    ilo, jlo = math.floor(lo_xy[0] / cell), math.floor(lo_xy[1] / cell)
+    ihi, jhi = math.floor(hi_xy[0] / cell), math.floor(hi_xy[1] / cell)
     out = []
     for i in range(ilo, ihi + 1):
         for j in range(jlo, jhi + 1):

@@ -33,6 +33,7 @@ differ. Streets are read off at the end as chains of linked records.
 """
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -41,7 +42,6 @@ from scipy.spatial import cKDTree
 
 from osm_expand.model import closest_on_segments
 from synth.segment_index import SegmentIndex
-
 
 #: The level of a border junction's record: a target for walks of every level.
 ANY_LEVEL = -2
@@ -85,14 +85,14 @@ class NodeCloud:
         return len(self.xy)
 
     @classmethod
-    def from_example(cls, ex, take: np.ndarray | None = None, xy: np.ndarray | None = None) -> "NodeCloud":
+    def from_example(cls, ex, take: np.ndarray | None = None, xy: np.ndarray | None = None) -> NodeCloud:
         """The example's junctions (or those in ``take``, placed at ``xy``) with their records."""
         pick = slice(None) if take is None else take
         return cls(xy=(ex.xy[pick] if xy is None else xy).copy(), level=ex.level[pick],
                    length_mean=ex.length_mean[pick], length_std=ex.length_std[pick],
                    angle_mean=ex.angle_mean[pick], angle_std=ex.angle_std[pick], cap=ex.record_cap[pick])
 
-    def stacked(self, other: "NodeCloud") -> "NodeCloud":
+    def stacked(self, other: NodeCloud) -> NodeCloud:
         """This cloud followed by ``other`` (junction ids of ``other`` shift by ``len(self)``)."""
         return NodeCloud(**{f: np.concatenate([getattr(self, f), getattr(other, f)]) for f in
                             ("xy", "level", "length_mean", "length_std", "angle_mean", "angle_std", "cap")})
@@ -126,7 +126,7 @@ class _Walker:
         if obstacles is not None:
             shapely.prepare(obstacles)
 
-    def scores(self, cur: int, rec: int, prev: int | None, level: int):
+    def scores(self, cur: int, rec: int, prev: int | None, level: int | None):
         """Candidate targets, the record each would use, and their transition probabilities."""
         c = self.c
         mu, sd = c.length_mean[cur, rec], c.length_std[cur, rec]
@@ -174,7 +174,7 @@ class _Walker:
         factor = np.exp(-0.5 * (dl ** 2 + da ** 2) / width ** 2)
         return np.where(c.level[cand, rec_c] == ANY_LEVEL, 1.0, factor)  # border junctions: any street
 
-    def step(self, cur: int, rec: int, prev: int | None, level: int,
+    def step(self, cur: int, rec: int, prev: int | None, level: int | None,
              threshold: float) -> tuple[int, int] | None:
         cand, rec_c, p = self.scores(cur, rec, prev, level)
         order = np.argsort(-p, kind="stable")
@@ -208,7 +208,8 @@ class _Walker:
         street's loose end: joining it continues the street. Untaken breaks ties.
         """
         c = self.c
-        diff = np.abs(c.length_mean[cand] - c.length_mean[cur, rec]) + np.abs(c.angle_mean[cand] - c.angle_mean[cur, rec])
+        diff = (np.abs(c.length_mean[cand] - c.length_mean[cur, rec])
+                + np.abs(c.angle_mean[cand] - c.angle_mean[cur, rec]))
         diff = diff + np.where(self.used[cand] > 0, 1e-6, 0.0)
         diff = np.where(free, np.nan_to_num(diff, nan=np.inf), np.inf)
         return np.argmin(diff, axis=1)
@@ -335,6 +336,7 @@ class _Walker:
     def streets(self) -> list[tuple[int, list[int]]]:
         """Chains of linked records as (level of the chain's first record, junction sequence)."""
         done: set[tuple[int, int]] = set()
+        cur: tuple[int, int] | None
         out = []
         for first in sorted(self.links, key=lambda k: (int(self.c.level[k]), len(self.links[k]) != 1, k)):
             if first in done:
@@ -356,8 +358,8 @@ class _Walker:
 SCHEDULE = (0.9, 0.6, 0.3, 0.1)
 
 
-def random_walk(cloud: NodeCloud, seed: int = 0, options: WalkOptions | None = None,
-                obstacles=None, fixed: list[tuple[np.ndarray, np.ndarray, int, int]] = ()) -> WalkResult:
+def random_walk(cloud: NodeCloud, seed: int | np.random.Generator = 0, options: WalkOptions | None = None,
+                obstacles=None, fixed: Sequence[tuple[np.ndarray, np.ndarray, int, int]] = ()) -> WalkResult:
     """Connect ``cloud`` into streets; same seed, same streets.
 
     ``fixed`` are segments already there (an old town's streets) that no step may cross,
@@ -386,7 +388,7 @@ def random_walk(cloud: NodeCloud, seed: int = 0, options: WalkOptions | None = N
     return WalkResult(streets=streets, drawn=walker.index, segment=walker.segment)
 
 
-def _starts(cloud: NodeCloud, level: int, rng: np.random.Generator, walker: "_Walker") -> list[tuple[int, int]]:
+def _starts(cloud: NodeCloud, level: int, rng: np.random.Generator, walker: _Walker) -> list[tuple[int, int]]:
     """Records of this level, street ends first, the least ambiguous first step first.
 
     A walk whose first step is clear claims its junctions before an

@@ -87,11 +87,21 @@ from numpy.typing import NDArray
 from osm_expand.blocks import blocks as find_blocks
 from osm_expand.engine.calibration import CalibrationOptions, TownCalibration, calibrate_town, size_bands
 from osm_expand.engine.economy import HeightScale, expected_floor_space, lot_economy, occupants, substitute
-from osm_expand.engine.footprints import Footprint, place_buildings
+from osm_expand.engine.footprints import place_buildings
 from osm_expand.engine.history import History, YearValues
-from osm_expand.engine.landuse import (UNASSIGNED, LotLayout, assign_types, block_types, choose_types,
-                                       distance_to, goal_shares, lot_attributes, lot_layout, lot_values,
-                                       update_land_use)
+from osm_expand.engine.landuse import (
+    UNASSIGNED,
+    LotLayout,
+    assign_types,
+    block_types,
+    choose_types,
+    distance_to,
+    goal_shares,
+    lot_attributes,
+    lot_layout,
+    lot_values,
+    update_land_use,
+)
 from osm_expand.engine.lots import NO_STREET, Frontage, LandUse, block_frontage, land_use, subdivide_blocks
 from osm_expand.engine.lots import Lot as EngineLot
 from osm_expand.engine.segments import street_width
@@ -151,7 +161,7 @@ class BuildoutYear:
     land_use_proposed: int = 0  #: proposals of the land-use update (002 Table 3)
     land_use_changes: int = 0  #: lots and town units whose type changed
 
-    def __add__(self, other: "BuildoutYear") -> "BuildoutYear":
+    def __add__(self, other: BuildoutYear) -> BuildoutYear:
         return BuildoutYear(*(getattr(self, f) + getattr(other, f) for f in self.__dataclass_fields__))
 
     def to_dict(self) -> dict[str, int]:
@@ -309,12 +319,15 @@ class _Streets:
     changed: frozenset[int] = frozenset()
     #: (S,) bool: streets new since last year, or whose nodes or width changed (all on the first year)
     recent: NDArray[np.bool_] | None = None
+    #: the trees over ``lines`` and ``carriageways``, built in ``__post_init__``
+    line_tree: shapely.STRtree = field(init=False, repr=False)
+    carriageway_tree: shapely.STRtree = field(init=False, repr=False)
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "line_tree", shapely.STRtree(self.lines))
         object.__setattr__(self, "carriageway_tree", shapely.STRtree(self.carriageways))
 
-    def only_recent(self) -> "_Streets":
+    def only_recent(self) -> _Streets:
         """The streets that are new or changed since last year: the only ones that can have come to lie
         over a lot or building, since lots and buildings are made clear of every street there is."""
         if self.recent is None or self.recent.all():
@@ -765,6 +778,7 @@ class _Units:
 
     def row(self, lot_id: int) -> int:
         """The unit row of a lot."""
+        # set in __post_init__ (a frozen dataclass), so not a declared field
         return self._rows[lot_id]  # type: ignore[attr-defined]
 
 
@@ -877,7 +891,7 @@ def _substitute(work: _Year, units: _Units) -> None:
 
 def _build(work: _Year, units: _Units) -> None:
     """Step 6: buildings on lots near built streets, with floors and heights from the economy."""
-    town, history = work.town, work.history
+    town = work.town
     built_ids = work.streets.built_ids
     types = town.types
     classes = [land_use(t.lot_size_key) for t in types]
@@ -979,7 +993,7 @@ def _obstacles(work: _Year, lots: Sequence[EngineLot]) -> list[shapely.Geometry]
 
 def _result(work: _Year, units: _Units, new_ids: list[int]) -> tuple[City, BuildoutMemory, BuildoutYear]:
     """Step 7: people per lot, the city's lots, buildings and blocks; the memory for next year."""
-    town, types = work.town, work.town.types
+    types = work.town.types
     ids = units.ids
     fs = np.array([(work.buildings[k].levels or 0.0) * work.footprint(k)[1] if k in work.buildings else np.nan
                    for k in ids])

@@ -67,7 +67,7 @@ def _quartiles(values: np.ndarray) -> list[float] | None:
     return [_r(v, 1) for v in np.percentile(values, [25, 50, 75])]
 
 
-def buildout_report(city: City, memory: "BuildoutMemory", history: "History", *,
+def buildout_report(city: City, memory: BuildoutMemory, history: History, *,
                     options: ReportOptions | None = None) -> dict[str, Any]:
     """The build-out's measures (module docstring).
 
@@ -144,7 +144,7 @@ def buildout_report(city: City, memory: "BuildoutMemory", history: "History", *,
     return report
 
 
-def _similarity(memory: "BuildoutMemory", options: ReportOptions) -> dict[str, Any] | None:
+def _similarity(memory: BuildoutMemory, options: ReportOptions) -> dict[str, Any] | None:
     """Weber's similarity of the real land use and the simulated one over the old town (002 §6)."""
     town = memory.town
     if town.landuse is None or len(town.unit_xy) < 2:

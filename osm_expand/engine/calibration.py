@@ -63,8 +63,14 @@ from scipy import ndimage
 from osm_expand.engine.economy import HeightCalibration, calibrate_heights
 from osm_expand.engine.footprints import FootprintOptions, SizeTargets, calibrate_sizes, calibrated_lot_options
 from osm_expand.engine.history import History
-from osm_expand.engine.landuse import (UNASSIGNED, LandUseCalibration, LandUseType, calibrate_landuse, distance_to,
-                                       types_from_polygons)
+from osm_expand.engine.landuse import (
+    UNASSIGNED,
+    LandUseCalibration,
+    LandUseType,
+    calibrate_landuse,
+    distance_to,
+    types_from_polygons,
+)
 from osm_expand.engine.lots import LandUse, LotOptions, land_use
 from osm_expand.errors import InputError
 from osm_expand.land import unbuildable as unbuildable_land
@@ -483,7 +489,7 @@ def calibrate_town(city: City, history: History, *,
         footprint_options=footprint_options, building_shares=shares,
         polygons=polygons, water=water, green=green, unbuildable=unbuildable,
         unit_xy=unit_xy, unit_area=unit_area, unit_real=np.asarray(unit_real, dtype=np.int64),
-        unit_floor_space=floor_space, unit_street=unit_street,
+        unit_floor_space=np.asarray(floor_space, dtype=np.float64), unit_street=unit_street,
         unit_water=distance_to(unit_xy, water), unit_green=distance_to(unit_xy, green))
 
 

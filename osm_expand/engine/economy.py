@@ -557,8 +557,8 @@ def lot_economy(area: NDArray[np.float64], envelope_area: NDArray[np.float64], l
         scale = fit_height_scale(sample, calibration, options=options)
     floors = building_floors(raw, lut, scale, economies=economies)
     built = floors * np.asarray(envelope_area, dtype=np.float64)
-    return LotEconomy(price, margin, demand, floors, floors * calibration.storey_height,
-                      occupants(built, area, lut, economies=economies), scale, raw)
+    return LotEconomy(price, margin, demand, floors, np.asarray(floors * calibration.storey_height, dtype=np.float64),
+                      occupants(np.asarray(built, dtype=np.float64), area, lut, economies=economies), scale, raw)
 
 
 # --------------------------------------------------------------------------- substitution (002 §5.4)

@@ -51,6 +51,7 @@ from collections.abc import Collection, Mapping, Sequence
 from dataclasses import dataclass, replace
 from functools import cached_property
 from types import MappingProxyType
+from typing import cast
 
 import numpy as np
 import shapely
@@ -375,7 +376,7 @@ def _is_built(built: Collection[int] | np.ndarray, street: int) -> bool:
 
 
 def _targets(room: list[tuple[int, int, Rectangle]], uses: list[LandUse], draw: np.ndarray,
-             options: Mapping[str, FootprintOptions], sizes: SizeTargets | None) -> list[tuple[float, float]]:
+             options: Mapping[LandUse, FootprintOptions], sizes: SizeTargets | None) -> list[tuple[float, float]]:
     """Size target (m², frontage/depth) per lot with room for a building.
 
     From the town (``sizes``): per land use, lots ranked by the room they
@@ -415,7 +416,7 @@ def _shrink(rect: Rectangle, frontage: float, depth: float) -> Rectangle:
 
 def place_buildings(lots: Sequence[Lot], *, traffic_per_street: Mapping[int, float] | np.ndarray,
                     built_streets: Collection[int] | np.ndarray,
-                    options: Mapping[str, FootprintOptions] = DEFAULT_FOOTPRINT_OPTIONS,
+                    options: Mapping[LandUse, FootprintOptions] = DEFAULT_FOOTPRINT_OPTIONS,
                     rng: np.random.Generator, sizes: SizeTargets | None = None,
                     obstacles: Sequence[shapely.Geometry] = (), resolution: float = 0.5) -> list[Footprint]:
     """A building footprint per lot near a built street (002 §2.2, §5.3; 004 §4.3.4).
@@ -467,7 +468,8 @@ def place_buildings(lots: Sequence[Lot], *, traffic_per_street: Mapping[int, flo
         built.sort(key=lambda s: (-_traffic(traffic_per_street, s), -lot.frontage_length(s), s))
         least = (opts.front_setback[0], opts.side_setback[0], opts.back_setback[0])
         for setbacks in ((front, side_sb, back), least):  # a shallow lot builds at the least setbacks
-            found = _room(lot, built, tuple(max(x, EDGE_CLEARANCE) for x in setbacks), opts, resolution)
+            clear = cast(tuple[float, float, float], tuple(max(x, EDGE_CLEARANCE) for x in setbacks))
+            found = _room(lot, built, clear, opts, resolution)
             if found is not None:
                 room.append((k, *found))
                 break
@@ -475,9 +477,9 @@ def place_buildings(lots: Sequence[Lot], *, traffic_per_street: Mapping[int, flo
     out: list[Footprint] = []
     for (k, street, rect), (area, ratio) in zip(room, targets):
         opts = options[uses[k]]
-        w, d = _fit(np.array(rect.frontage), np.array(rect.depth), area, ratio, opts.max_ratio)
-        w = max(float(w), min(opts.min_side, rect.frontage))
-        d = max(float(d), min(opts.min_side, rect.depth))
+        fit_w, fit_d = _fit(np.array(rect.frontage), np.array(rect.depth), area, ratio, opts.max_ratio)
+        w = max(float(fit_w), min(opts.min_side, rect.frontage))
+        d = max(float(fit_d), min(opts.min_side, rect.depth))
         out.append(Footprint(rectangle=_shrink(rect, w, d), lot=k, street=street, land_use=uses[k].value))
     if obstacles and out:
         tree = shapely.STRtree(list(obstacles))
@@ -622,8 +624,8 @@ def calibrate_sizes(footprints: Sequence[shapely.Geometry | np.ndarray], *,
 
 
 def calibrated_lot_options(sizes: SizeTargets, *,
-                           lot_options: Mapping[str, LotOptions] = DEFAULT_LOT_OPTIONS,
-                           footprint_options: Mapping[str, FootprintOptions] = DEFAULT_FOOTPRINT_OPTIONS,
+                           lot_options: Mapping[LandUse, LotOptions] = DEFAULT_LOT_OPTIONS,
+                           footprint_options: Mapping[LandUse, FootprintOptions] = DEFAULT_FOOTPRINT_OPTIONS,
                            lot_factor: float = 1.6) -> dict[LandUse, LotOptions]:
     """Lot options sized to hold the town's buildings (002 §5.1 ``maxarea_t`` from the town).
 

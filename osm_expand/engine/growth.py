@@ -35,7 +35,7 @@ from osm_expand.joins import add_streets, join_growth
 from osm_expand.model import City, Origin, Status, match_points, polyline_length
 from osm_expand.sites import SiteOptions, choose_sites, distance_maps, district_region
 from synth.growth import GrowthPattern
-from synth.patterns import GrowthStep, PatternOptions, grow_streets
+from synth.patterns import PatternOptions, grow_streets
 from synth.street_graph import StreetGraph
 
 #: Rounds of candidates a street pattern tries in a year, the batch doubling each round: starts where
@@ -73,7 +73,8 @@ class GrowthMemory:
     """What street growth remembers from year to year (not part of the city)."""
 
     spawned: set[int] = field(default_factory=set)  #: city nodes that spawned streets (or never will)
-    failed: np.ndarray = field(default_factory=lambda: np.zeros((0, 2)))  #: (F, 2) points where growth failed (003: finished)
+    #: (F, 2) points where growth failed (003: finished)
+    failed: np.ndarray = field(default_factory=lambda: np.zeros((0, 2)))
     owed: float = 0.0  #: street length a district pattern owes (m)
 
 
@@ -86,7 +87,7 @@ class GrowthYear:
     bridges: int = 0
     districts: int = 0  #: districts grown by a district pattern
 
-    def __add__(self, other: "GrowthYear") -> "GrowthYear":
+    def __add__(self, other: GrowthYear) -> GrowthYear:
         return GrowthYear(self.streets + other.streets, self.length_m + other.length_m,
                           self.bridges + other.bridges, self.districts + other.districts)
 
@@ -176,7 +177,8 @@ def _at_the_edge(city: City, xy: np.ndarray, reach: float) -> np.ndarray:
 def _forbidden(city: City) -> shapely.Geometry:
     """Where no street may go: the blocks that are town (shrunk 1 m), unbuildable land and the land the
     town is presumed to take where no building is mapped near (:attr:`~osm_expand.model.land.Land.presumed`:
-    its frontage and settlement); water is handled by the pattern's bridges. A collection, not a union: the patterns only ask whether a segment touches it
+    its frontage and settlement); water is handled by the pattern's bridges. A collection, not a union:
+    the patterns only ask whether a segment touches it
     (GEOS ≥ 3.13 answers that for overlapping parts), and the union of Campo Grande's blocks cost a
     second a year."""
     blocks = city.town_block_polygons()

@@ -94,8 +94,15 @@ import numpy as np
 
 from osm_expand.engine.economy import DEFAULT_ECONOMY, EconomyOptions, TypeEconomy
 from osm_expand.engine.footprints import DEFAULT_FOOTPRINT_OPTIONS, FootprintOptions
-from osm_expand.engine.landuse import (DEFAULT_TYPES, Attribute, LandUseOptions, LandUseType, Valuation,
-                                       ValuationTerm, types_from_config)
+from osm_expand.engine.landuse import (
+    DEFAULT_TYPES,
+    Attribute,
+    LandUseOptions,
+    LandUseType,
+    Valuation,
+    ValuationTerm,
+    types_from_config,
+)
 from osm_expand.engine.lattice import BuiltUpOptions, EdgeCosts, GraphOptions, LatticeOptions
 from osm_expand.engine.lots import DEFAULT_LOT_OPTIONS, LandUse, LotOptions
 from osm_expand.engine.majorroads import MajorRoadOptions, RoadType
@@ -113,7 +120,8 @@ from synth.patterns import PATTERNS, PatternOptions
 from synth.walk import WalkOptions
 
 __all__ = [
-    "Anchor", "Clock", "DEFAULT_HISTORY", "DEFAULT_YEARS", "MAX_YEARS", "Era", "GROWTH_PATTERNS", "History", "KernelOptions",
+    "Anchor", "Clock", "DEFAULT_HISTORY", "DEFAULT_YEARS", "MAX_YEARS", "Era", "GROWTH_PATTERNS", "History",
+    "KernelOptions",
     "PatternSettings", "YearValues", "bundled", "history_from_mapping", "load_history",
 ]
 
@@ -144,6 +152,7 @@ DEFAULT_AVGPRICE = 100.0
 
 
 def _field_default(cls: type, name: str) -> Any:
+    # cls is an options dataclass; ``type`` does not tell mypy so
     f = cls.__dataclass_fields__[name]  # type: ignore[attr-defined]
     return f.default_factory() if f.default_factory is not MISSING else f.default
 
@@ -960,7 +969,9 @@ class _Reader:
         if not isinstance(value, list) or not all(isinstance(e, Mapping) for e in value) or not value:
             self.fail("land_use", "expected a non-empty list of tables ([[land_use]])")
         bundled_types = {t.name: t for t in DEFAULT_TYPES}
-        entries, economies, seen = [], [], {}
+        entries: list[dict[str, Any]] = []
+        economies: list[TypeEconomy] = []
+        seen: dict[str, int] = {}
         for k, entry in enumerate(value):
             key = f"land_use[{k}]"
             self.known(entry, key, _LAND_USE)
@@ -975,14 +986,15 @@ class _Reader:
                 if known is None and required not in entry:
                     self.fail(f"{key}.{required}", f"missing (needed for a type that is not bundled: "
                               f"{', '.join(bundled_types)})")
-            goal = self.number(entry["goal"], f"{key}.goal") if "goal" in entry else known.goal  # type: ignore
+            # below, known is None only where the entry has the key: fail() refused the rest just above
+            goal = self.number(entry["goal"], f"{key}.goal") if "goal" in entry else known.goal  # type: ignore[union-attr]
             if goal < 0:
                 self.fail(f"{key}.goal", f"must be ≥ 0 (a share of lot area), got {goal:g}")
             lot_size = self.text(entry.get("lot_size", known.lot_size if known else ""), f"{key}.lot_size")
             if (lot_size or name) not in {u.value for u in LandUse}:
                 self.fail(f"{key}.lot_size", f"{lot_size or name!r} is not a lot class (valid: "
                           f"{', '.join(u.value for u in LandUse)}); a new type names the class it is built like")
-            terms = self.terms(entry["terms"], f"{key}.terms") if "terms" in entry else known.terms  # type: ignore
+            terms = self.terms(entry["terms"], f"{key}.terms") if "terms" in entry else known.terms  # type: ignore[union-attr]
             entries.append({"name": name, "goal": goal, "lot_size": lot_size,
                             "terms": [asdict(t) for t in terms]})
             base = _economy_of(name, lot_size or name)

@@ -80,7 +80,6 @@ area (:func:`block_types`).
 from __future__ import annotations
 
 import math
-
 from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
 from enum import StrEnum
@@ -147,7 +146,7 @@ def _choice(enum: type[StrEnum], value: Any, key: str) -> Any:
     try:
         return enum(value)
     except ValueError:
-        valid = ", ".join(m.value for m in enum)  # type: ignore[attr-defined]
+        valid = ", ".join(m.value for m in enum)
         raise InputError(f"{key}: {value!r} is not one of {valid}") from None
 
 
@@ -480,7 +479,7 @@ class _Compiled:
         return len(self.names)
 
     @cached_property
-    def table(self) -> "_TermTable":
+    def table(self) -> _TermTable:
         """All terms as arrays, for :func:`_values`."""
         flat = [(t, term) for t, terms in enumerate(self.terms) for term in terms]
         kinds = np.array([term.kind for _, term in flat], dtype=object)
@@ -489,7 +488,8 @@ class _Compiled:
         n_static = len(STATIC_ATTRIBUTES)
         # columns of [static | cluster per type | influence per type]
         column = np.where(codes < _CLUSTER_CODE, codes,
-                          np.where(codes == _CLUSTER_CODE, n_static + owner, n_static + self.n + codes - _INFLUENCE_CODE))
+                          np.where(codes == _CLUSTER_CODE, n_static + owner,
+                                   n_static + self.n + codes - _INFLUENCE_CODE))
         gain = np.array([term.gain for _, term in flat], dtype=np.float64)
         with np.errstate(divide="ignore"):
             exponent = np.log(1.0 - gain) / np.log(0.5)
@@ -864,7 +864,8 @@ def area_shares(area: NDArray[np.float64], lut: NDArray[np.int64], n_types: int)
     """Share of the assigned lot area per type (002 Eq. 3), shape (T,); zeros with none assigned."""
     lut = np.asarray(lut)
     assigned = lut >= 0
-    per = np.bincount(lut[assigned], weights=np.asarray(area)[assigned], minlength=n_types)
+    per = np.asarray(np.bincount(lut[assigned], weights=np.asarray(area)[assigned], minlength=n_types),
+                     dtype=np.float64)
     total = per.sum()
     return per / total if total > 0 else per
 
@@ -1184,7 +1185,7 @@ def assign_types(layout: LotLayout, lut: NDArray[np.int64], *, types: Sequence[L
     new_lots = rng.permutation(np.flatnonzero(lut < 0))
     if len(new_lots) == 0:
         return state.lut
-    per = np.bincount(lut[lut >= 0], weights=layout.area[lut >= 0], minlength=ct.n)
+    per = np.asarray(np.bincount(lut[lut >= 0], weights=layout.area[lut >= 0], minlength=ct.n), dtype=np.float64)
     for lots in _chunks(new_lots, _chunk_size(layout.n, options)):
         state.apply(lots, _greedy(state.values[lots], layout.area[lots], per, ct, options))
     return state.lut
@@ -1242,9 +1243,9 @@ def choose_types(layout: LotLayout, lut: NDArray[np.int64], xy: NDArray[np.float
     sums = np.zeros((u, ct.n))
     if len(other):
         np.add.at(sums, owner, w[:, None] * onehot[other])
-    wsum = np.bincount(owner, weights=w, minlength=u)
+    wsum = np.asarray(np.bincount(owner, weights=w, minlength=u), dtype=np.float64)
     values = _values(ct, np.asarray(attributes, dtype=np.float64).reshape(u, -1), counts, sums, wsum, k)
-    per = np.bincount(lut[ok], weights=layout.area[ok], minlength=ct.n)
+    per = np.asarray(np.bincount(lut[ok], weights=layout.area[ok], minlength=ct.n), dtype=np.float64)
     return _greedy(values, np.asarray(area, dtype=np.float64).reshape(u), per, ct, options)
 
 
@@ -1387,7 +1388,7 @@ def _classified_pieces(polygons: Sequence[tuple[Any, str]], types: Sequence[Land
         footprints = np.asarray(list(buildings), dtype=object)
         foot = shapely.STRtree(footprints)
         high = resolve["_residential_high"]
-        for i in np.flatnonzero(residential):
+        for i in np.flatnonzero(residential).tolist():
             hits = foot.query(pieces[i], predicate="intersects")
             covered = shapely.area(shapely.intersection(footprints[hits], pieces[i])).sum() if len(hits) else 0.0
             if shapely.area(pieces[i]) > 0 and covered / shapely.area(pieces[i]) > options.high_density_coverage:

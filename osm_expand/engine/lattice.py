@@ -71,11 +71,11 @@ across it without a bridge.
 """
 from __future__ import annotations
 
+from collections.abc import Iterator, Sequence
 from contextlib import contextmanager
 from dataclasses import dataclass, field, replace
 from enum import IntEnum
 from math import gcd
-from typing import Iterator, Sequence
 
 import numpy as np
 import shapely
@@ -137,7 +137,7 @@ class Raster:
 
     @classmethod
     def from_geometry(cls, geom: shapely.Geometry | None, extent: tuple[float, float, float, float],
-                      cell: float = 10.0) -> "Raster":
+                      cell: float = 10.0) -> Raster:
         """A boolean raster of the cells that ``geom`` touches (or comes within half a cell's
         diagonal of, so that no thin river is lost between cell centres).
 
@@ -166,7 +166,7 @@ class Raster:
 
     @classmethod
     def from_polygons(cls, polygons: list, extent: tuple[float, float, float, float],
-                      cell: float = 10.0) -> "Raster":
+                      cell: float = 10.0) -> Raster:
         """Like :meth:`from_geometry` for many small polygons (buildings), without their union.
 
         PIL fills each polygon and its outline (scan lines, in C; holes are
@@ -373,7 +373,7 @@ class Lattice:
         nx = self.shape[1]
         return (self.offset[0] + idx // nx) * self.full_shape[1] + self.offset[1] + idx % nx
 
-    def window(self, row: int, col: int, rows: int, cols: int) -> "Lattice":
+    def window(self, row: int, col: int, rows: int, cols: int) -> Lattice:
         """The map seen through the vertices ``[row, row + rows) × [col, col + cols)`` of this
         lattice (clipped to it): same rasters, edges with both ends inside; nothing is computed yet."""
         ny, nx = self.shape
@@ -486,7 +486,7 @@ class Lattice:
         rows, cols = self.height.shape
         return self.height[np.clip(ij[..., 1], 0, rows - 1), np.clip(ij[..., 0], 0, cols - 1)]
 
-    def with_built_up(self, area: shapely.Geometry | None) -> "Lattice":
+    def with_built_up(self, area: shapely.Geometry | None) -> Lattice:
         """This lattice with B grown by ``area``: every land edge that traverses it is removed.
 
         003 §3.4.2: B can only expand, so removal is permanent: the result's
@@ -715,6 +715,7 @@ def _profiles(d: np.ndarray, pw: np.ndarray, pf: np.ndarray, ph: np.ndarray | No
         else:
             changes += w != prev_w
         prev_w = w
+    assert first_w is not None and prev_w is not None  # offsets has at least two points
     profile = np.full(shape, _MIXED, dtype=np.uint8)
     ok = ~any_forbidden
     profile[ok & (n_water == 0)] = _L
@@ -865,7 +866,7 @@ class Segments:
 
     @classmethod
     def from_lines(cls, lines: Sequence[np.ndarray], *, major: Sequence[bool], width: Sequence[float],
-                   bridge: Sequence[bool] | None = None, available: Sequence[float] | None = None) -> "Segments":
+                   bridge: Sequence[bool] | None = None, available: Sequence[float] | None = None) -> Segments:
         """Segments from polylines; points equal to the micrometre become one node.
 
         Parameters
@@ -1691,7 +1692,9 @@ def _road_weight(lattice: Lattice, xy: np.ndarray, u: np.ndarray, v: np.ndarray)
     length = np.hypot(*(xy[v] - xy[u]).T)
     slope = np.zeros(len(u))
     if lattice.height is not None and len(u):
-        slope = np.abs(lattice.height_at(xy[v]) - lattice.height_at(xy[u])) / np.maximum(length, 1e-9)
+        at_v, at_u = lattice.height_at(xy[v]), lattice.height_at(xy[u])
+        assert at_v is not None and at_u is not None  # the lattice has heights
+        slope = np.abs(at_v - at_u) / np.maximum(length, 1e-9)
     return length, length * np.maximum(1.0, lattice.slope_weight * slope), slope
 
 

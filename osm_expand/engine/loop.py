@@ -16,16 +16,23 @@ what the engine built, unless the history sets ``rebuild_old_town``).
 """
 from __future__ import annotations
 
-import math
 import time
-from collections import Counter
+from collections import defaultdict
 from collections.abc import Callable
 from dataclasses import dataclass, field, replace
+from typing import TYPE_CHECKING, cast
 
 import numpy as np
 
 from osm_expand.blocks import FaceMemo, blocks
-from osm_expand.engine.growth import STUB_REACH, GrowthMemory, GrowthOptions, GrowthYear, grow_district, grow_street_pattern
+from osm_expand.engine.growth import (
+    STUB_REACH,
+    GrowthMemory,
+    GrowthOptions,
+    GrowthYear,
+    grow_district,
+    grow_street_pattern,
+)
 from osm_expand.engine.history import GROWTH_PATTERNS, Era, History, YearValues
 from osm_expand.engine.nuclei import Nucleus, candidate_points, find_nuclei, new_junction_nuclei
 from osm_expand.engine.planarity import without_touching
@@ -35,6 +42,9 @@ from osm_expand.engine.traffic import TrafficMemory, TrafficYear, start_traffic,
 from osm_expand.model import City, Origin
 from synth.growth import GrowthPattern
 from synth.patterns import AngleSpace, PatternOptions
+
+if TYPE_CHECKING:
+    from osm_expand.engine.buildout import BuildoutYear
 
 #: Builds an era's district pattern (``example``, ``walk``, ``colonisation``) from its options.
 PatternFactory = Callable[[str, object], GrowthPattern]
@@ -65,7 +75,7 @@ class EraReport:
     growth: GrowthYear = field(default_factory=GrowthYear)
     traffic: TrafficYear = field(default_factory=TrafficYear)
     roads: RoadsYear = field(default_factory=RoadsYear)
-    buildout: object | None = None
+    buildout: BuildoutYear | None = None
 
     def to_dict(self) -> dict:
         out = {"era": self.name, "years": [self.first_year, self.last_year],
@@ -98,13 +108,13 @@ class _State:
     buildout: object | None = None
     patterns: dict[str, GrowthPattern] = field(default_factory=dict)  #: district patterns by era
     carry: float = 0.0
-    seconds: Counter = field(default_factory=Counter)
+    seconds: defaultdict[str, float] = field(default_factory=lambda: defaultdict(float))
     faces: FaceMemo = field(default_factory=FaceMemo)  #: last year's faces: blocks redo only what changed
 
 
 def run(city: City, history: History, *, years: int, seed: int, spacing: float,
         district_pattern: PatternFactory, join_points: np.ndarray | None = None,
-        options: EngineOptions = EngineOptions(), buildout: "Buildout | None" = None,
+        options: EngineOptions = EngineOptions(), buildout: Buildout | None = None,
         progress: YearProgress | None = None, snapshot: Snapshot | None = None,
         snapshot_every: int | None = None) -> EngineResult:
     """Let ``city`` live through ``years`` years of ``history``.
@@ -262,7 +272,7 @@ def _grow_streets(state: _State, era: Era, now: YearValues, year: int, rng: np.r
         else:  # no site took a district: wait until a bigger one is owed (its disc reaches further)
             state.growth.owed -= options.growth.min_district * spacing
         return grown
-    opts = era.options
+    opts = cast(PatternOptions, era.options)  # a street pattern's era holds PatternOptions
     if isinstance(opts, PatternOptions) and opts.angle_space == AngleSpace.WORLD and opts.angle_offset_deg == 0.0:
         opts = replace(opts, angle_offset_deg=bearing)  # a world-space grid follows the town's own grid
     state.city, grown = grow_street_pattern(state.city, count, opts, state.nuclei, state.growth, rng, year=year,

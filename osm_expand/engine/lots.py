@@ -275,10 +275,10 @@ def block_frontage(blocks: Sequence[shapely.Polygon], street_lines: Sequence[sha
     if len(ids) != len(street_lines) or len(width) != len(street_lines):
         raise InputError("street_lines, street_ids and widths must have the same length")
     rings, owner = [], []
-    for b, poly in enumerate(blocks):
+    for block, poly in enumerate(blocks):
         for ring in [poly.exterior, *poly.interiors]:
             rings.append(np.asarray(ring.coords))
-            owner.append(b)
+            owner.append(block)
     out: list[list[Frontage]] = [[] for _ in blocks]
     if not rings or not len(street_lines):
         return out
@@ -682,7 +682,7 @@ def _lots_of(shrunk: shapely.Geometry, frontage: Sequence[Frontage], opts: LotOp
 
 def subdivide_blocks(blocks: Sequence[shapely.Polygon], frontages: Sequence[Sequence[Frontage]],
                      land_uses: Sequence[str], *,
-                     options: Mapping[str, LotOptions] = DEFAULT_LOT_OPTIONS,
+                     options: Mapping[LandUse, LotOptions] = DEFAULT_LOT_OPTIONS,
                      rng: np.random.Generator) -> list[Lot]:
     """Lots of many blocks: :func:`subdivide` per block, with the shrink done in one batch.
 

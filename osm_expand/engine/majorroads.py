@@ -87,6 +87,7 @@ def _parse(enum: type[StrEnum], value: str, what: str) -> StrEnum:
 
 def parse_road_type(value: str) -> RoadType:
     """A :class:`RoadType` from its name; :class:`InputError` listing the valid ones otherwise."""
+    # _parse returns the member of the enum it is given (typed as the StrEnum base)
     return _parse(RoadType, value, "road type")  # type: ignore[return-value]
 
 
@@ -188,7 +189,8 @@ def allowed_streets(graph: PathGraph | ImplicitGraph, road_type: RoadType | str,
     return np.zeros(len(graph.extendible), dtype=bool)
 
 
-def propose_route(graph: PathGraph | ImplicitGraph, source: int, target: int, road_type: RoadType | str, *, demand: float = 0.0,
+def propose_route(graph: PathGraph | ImplicitGraph, source: int, target: int, road_type: RoadType | str, *,
+                  demand: float = 0.0,
                   routing: RoutingOptions | None = None, options: MajorRoadOptions | None = None) -> Route | None:
     """PROPOSEFROMNEW (003 §3.4.2) for a road type: the turn-penalised route on G′.
 

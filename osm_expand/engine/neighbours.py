@@ -235,7 +235,7 @@ class _Exits:
     kind: NDArray[np.str_]
     rank: NDArray[np.float64]  # importance: lower is kept first when there are too many
 
-    def take(self, index: NDArray[np.intp]) -> "_Exits":
+    def take(self, index: NDArray[np.intp]) -> _Exits:
         return _Exits(self.entry_xy[index], self.direction[index], self.exit_node[index],
                       self.kind[index], self.rank[index])
 
@@ -379,7 +379,7 @@ def _fallback(exits: _Exits, centre: NDArray[np.float64], b: NDArray[np.float64]
 
 # --------------------------------------------------------------------------- public API
 
-def neighbour_cities(xy: NDArray[np.float64], edges: NDArray[np.integer], highway: Sequence[str],
+def neighbour_cities(xy: NDArray[np.float64], edges: NDArray[np.integer], highway: Sequence[str] | NDArray[np.str_],
                      bounds: Bounds, rng: np.random.Generator, *,
                      water: Sequence[shapely.Geometry] = (),
                      centre: tuple[float, float] | None = None,
@@ -420,15 +420,15 @@ def neighbour_cities(xy: NDArray[np.float64], edges: NDArray[np.integer], highwa
     b = _check_bounds(bounds)
     xy = np.asarray(xy, dtype=np.float64).reshape(-1, 2)
     edges = np.asarray(edges, dtype=np.intp).reshape(-1, 2)
-    highway = np.asarray(highway, dtype=str).reshape(-1)
-    if len(highway) != len(edges):
-        raise InputError(f"neighbours: {len(edges)} edges but {len(highway)} highway classes")
+    classes = np.asarray(highway, dtype=str).reshape(-1)
+    if len(classes) != len(edges):
+        raise InputError(f"neighbours: {len(edges)} edges but {len(classes)} highway classes")
     if len(edges) and (edges.min() < 0 or edges.max() >= len(xy)):
         raise InputError("neighbours: an edge refers to a node that does not exist")
     x = np.array([(b[0] + b[2]) / 2, (b[1] + b[3]) / 2]) if centre is None else np.asarray(centre, float)
     if _inset(x[None, :], b)[0] <= 0:
         raise InputError(f"neighbours: centre {tuple(x)} is not inside the bounds {tuple(b)}")
-    road = _road_exits(xy, edges, highway, b, options)
+    road = _road_exits(xy, edges, classes, b, options)
     wet = _water_exits(water, b, options)
     exits = _Exits(*(np.concatenate([getattr(road, f), getattr(wet, f)])
                      for f in ("entry_xy", "direction", "exit_node", "kind", "rank")))

@@ -28,9 +28,10 @@ Everything is arrays in metres: no city object is needed.
 """
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass
 from enum import StrEnum
-from typing import Any, Sequence
+from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -137,7 +138,7 @@ class Candidates:
     def __len__(self) -> int:
         return len(self.xy)
 
-    def take(self, index: ArrayLike) -> "Candidates":
+    def take(self, index: ArrayLike) -> Candidates:
         """The candidates at ``index`` (int array), in that order."""
         i = np.asarray(index, dtype=np.int64)
         return Candidates(self.xy[i], self.node[i], self.segment[i], self.t[i])

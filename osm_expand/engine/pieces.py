@@ -23,7 +23,7 @@ class Pieces:
     flat: NDArray[np.int64]  #: (offsets[-1],)
 
     @classmethod
-    def of(cls, pieces: "Pieces | Sequence[Sequence[int]]") -> "Pieces":
+    def of(cls, pieces: Pieces | Sequence[Sequence[int]]) -> Pieces:
         """``pieces`` as it is, or built from one sequence of new ids per old segment.
 
         >>> Pieces.of([[0], [1, 5], []]).sizes.tolist()

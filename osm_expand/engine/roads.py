@@ -28,7 +28,15 @@ import numpy as np
 import shapely
 
 from osm_expand.engine.history import History, YearValues
-from osm_expand.engine.lattice import BuiltUpArea, Lattice, Raster, Segments, build_lattice, built_up_area, implicit_graph
+from osm_expand.engine.lattice import (
+    BuiltUpArea,
+    Lattice,
+    Raster,
+    Segments,
+    build_lattice,
+    built_up_area,
+    implicit_graph,
+)
 from osm_expand.engine.majorroads import RoadType, plan_major_road, propose_route
 from osm_expand.engine.planarity import without_touching
 from osm_expand.engine.routing import Choice, choose, route_over_major_roads
@@ -36,7 +44,7 @@ from osm_expand.engine.segments import SegmentTable
 from osm_expand.engine.trade import add_route, route_between, segment_capacity
 from osm_expand.engine.traffic import TrafficMemory, follow, trade_major
 from osm_expand.joins import add_streets
-from osm_expand.land import matches, UNBUILDABLE
+from osm_expand.land import UNBUILDABLE, matches
 from osm_expand.model import City, Origin, Status
 from osm_expand.model.highways import MAJOR
 from osm_expand.model.topology import without_segments
@@ -74,7 +82,7 @@ class RoadsYear:
     #: "new roads" that lie wholly on major roads: all they do is widen the extendible ones to A(t)
     widened: int = 0
 
-    def __add__(self, other: "RoadsYear") -> "RoadsYear":
+    def __add__(self, other: RoadsYear) -> RoadsYear:
         return RoadsYear(self.built + other.built, self.rerouted + other.rerouted, self.bridges + other.bridges,
                          self.length_m + other.length_m, self.demolished + other.demolished,
                          self.upgraded_m + other.upgraded_m, self.widened + other.widened)
@@ -118,7 +126,8 @@ def major_roads_year(city: City, traffic: TrafficMemory, memory: RoadMemory, sho
         traffic = follow(traffic, city)
         route = _route(traffic, city, int(nodes[pair[0]]), int(nodes[pair[1]]))
         if route is not None:
-            traffic = replace(traffic, trade=add_route(traffic.trade, pair, route, float(traffic.table.length[route].sum()),
+            traffic = replace(traffic, trade=add_route(traffic.trade, pair, route,
+                                                       float(traffic.table.length[route].sum()),
                                                        n_segments=len(traffic.table)))
         junctions += [r.xy[0] for r in plan.new_roads] + [r.xy[-1] for r in plan.new_roads]
         # the city changed: G′ is made again next time, B grown from what it was
@@ -153,6 +162,7 @@ def _graph(city: City, traffic: TrafficMemory, memory: RoadMemory, now: YearValu
     segments = _segments(city, traffic, now.o2)
     built = built_up_area([b.polygon for b in city.blocks], segments, water=city.water_geometry(),
                           previous=memory.built, options=history.options.built_up)
+    assert memory.lattice is not None  # built above on the first year
     lattice = memory.lattice.with_built_up(built.area)
     memory = replace(memory, lattice=lattice, built=built)
     return implicit_graph(lattice, segments, built, costs=now.costs, options=history.options.graph), memory

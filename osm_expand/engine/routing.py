@@ -31,9 +31,9 @@ the exact search covers only a narrow ellipse around the best route.
 """
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass, replace
 from enum import StrEnum
-from typing import Sequence
 
 import numpy as np
 from scipy.sparse import csr_matrix
@@ -222,12 +222,12 @@ def _implicit_route(graph: ImplicitGraph, source: int, target: int, kinds: Seque
     lattice edges are generated only for the windows searched, so memory
     and time follow the corridor a route can use, not the map.
     """
-    ends = graph.vertex_xy([source, target])
+    ends = graph.vertex_xy(np.array([source, target]))
     lo, hi = ends.min(axis=0), ends.max(axis=0)
     if not set(kinds) & _LATTICE_KINDS:  # streets only: the lattice plays no part, any window is exact
         window = graph.window((lo[0], lo[1], lo[0], lo[1]))
-        return _on_map(window, *_search(window.graph, *window.from_map([source, target]).tolist(), kinds,
-                                        street_ok, opts))
+        s, t = window.from_map(np.array([source, target])).tolist()
+        return _on_map(window, *_search(window.graph, s, t, kinds, street_ok, opts))
     c = cheapest_unit_cost(graph.costs, kinds)
     margin = opts.window_margin + opts.window_share * float(np.hypot(*(hi - lo)))
     bounds = np.array([lo[0] - margin, lo[1] - margin, hi[0] + margin, hi[1] + margin])
@@ -238,7 +238,7 @@ def _implicit_route(graph: ImplicitGraph, source: int, target: int, kinds: Seque
         if seen > opts.whole_share * np.prod(whole[2:] - whole[:2]):  # nearly the map's size: take the map
             bounds = whole
         window = graph.window(tuple(bounds))
-        s, t = window.from_map([source, target]).tolist()
+        s, t = window.from_map(np.array([source, target])).tolist()
         route, from_source = _search(window.graph, s, t, kinds, street_ok, opts)
         if window.whole or from_source is None:
             return _on_map(window, route, from_source)

@@ -59,7 +59,7 @@ class SegmentTable:
     first: np.ndarray  #: (S + 1,) the first segment of each street (segments of street k: first[k]..first[k+1])
 
     @classmethod
-    def from_city(cls, city: City) -> "SegmentTable":
+    def from_city(cls, city: City) -> SegmentTable:
         """The table of ``city``'s streets; the last network's table comes back as it is.
 
         A year asks for the same network's table several times (growth,
@@ -73,7 +73,7 @@ class SegmentTable:
         return table
 
     @classmethod
-    def _build(cls, city: City) -> "SegmentTable":
+    def _build(cls, city: City) -> SegmentTable:
         streets = city.network.streets
         sizes = np.array([len(s.nodes) - 1 for s in streets], dtype=np.int64)
         nodes = [np.asarray(s.nodes, dtype=np.int64) for s in streets]

@@ -100,7 +100,7 @@ class TimeFunction:
         object.__setattr__(self, "interpolation", kind)
 
     @classmethod
-    def constant(cls, value: float) -> "TimeFunction":
+    def constant(cls, value: float) -> TimeFunction:
         """The same ``value`` in every year."""
         return cls((0.0,), (float(value),))
 
@@ -154,7 +154,7 @@ class TimeFunction:
         return {"points": points, "interpolation": self.interpolation.value}
 
     @classmethod
-    def from_toml(cls, value: Any, key: str) -> "TimeFunction":
+    def from_toml(cls, value: Any, key: str) -> TimeFunction:
         """A time function from a TOML value; errors name ``key``.
 
         Parameters
@@ -195,7 +195,7 @@ class TimeFunction:
         return cls.constant(_number(value, key))
 
     @classmethod
-    def _from_points(cls, points: Any, key: str, kind: Interpolation) -> "TimeFunction":
+    def _from_points(cls, points: Any, key: str, kind: Interpolation) -> TimeFunction:
         if not isinstance(points, (list, tuple)) or not points:
             raise InputError(f"{key}: expected a non-empty list of [year, value] pairs, got {points!r}")
         years: list[float] = []

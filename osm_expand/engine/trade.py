@@ -232,7 +232,7 @@ class TradeYear:
         """Plain JSON-ready values."""
         return {k: getattr(self, k) for k in self.__dataclass_fields__}
 
-    def __add__(self, other: "TradeYear") -> "TradeYear":
+    def __add__(self, other: TradeYear) -> TradeYear:
         return TradeYear(*(getattr(self, k) + getattr(other, k) for k in self.__dataclass_fields__))
 
 
@@ -579,7 +579,8 @@ def trade_report(state: TradeState, segment_capacity: NDArray[np.floating]) -> T
     )
 
 
-def trade_year(state: TradeState, pairs: Sequence[Sequence[int]], increase: float | Mapping[Pair, float],
+def trade_year(state: TradeState, pairs: Sequence[Sequence[int]] | NDArray[np.integer],
+               increase: float | Mapping[Pair, float],
                segment_capacity: NDArray[np.floating], *,
                propose: Proposer | None = None) -> tuple[TradeState, NDArray[np.float64], TradeYear]:
     """One pass of 003 Algorithm 2 over all pairs (the TRAFFICSIMULATION step of Algorithm 1).
@@ -678,8 +679,8 @@ def route_between(edges: NDArray[np.integer], weight: NDArray[np.floating], usab
     nodes = [int(target_node)]
     while nodes[-1] != source_node:
         nodes.append(int(pred[nodes[-1]]))
-    nodes = np.array(nodes[::-1])
-    lookup = np.searchsorted(a * n + b, nodes[:-1] * n + nodes[1:])  # (a, b) rows are sorted
+    path = np.array(nodes[::-1])
+    lookup = np.searchsorted(a * n + b, path[:-1] * n + path[1:])  # (a, b) rows are sorted
     return sid[lookup].astype(np.int64)
 
 

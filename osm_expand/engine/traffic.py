@@ -32,11 +32,29 @@ import numpy as np
 
 from osm_expand.engine.neighbours import Neighbours, initial_pairs, neighbour_cities
 from osm_expand.engine.segments import SegmentTable, segment_pieces
-from osm_expand.engine.trade import (TradeState, TradeYear, extend_segments, initial_trade_state, remap_segments,
-                                     segment_capacity, trade_report, trade_year)
-from osm_expand.engine.trips import (TripGraph, TripOptions, TripState, extend_trip_state, new_trip_state,
-                                     remap_trip_state, residents_from_blocks, step_trips, trip_graph,
-                                     update_status, update_widths)
+from osm_expand.engine.trade import (
+    TradeState,
+    TradeYear,
+    extend_segments,
+    initial_trade_state,
+    remap_segments,
+    segment_capacity,
+    trade_report,
+    trade_year,
+)
+from osm_expand.engine.trips import (
+    TripGraph,
+    TripOptions,
+    TripState,
+    extend_trip_state,
+    new_trip_state,
+    remap_trip_state,
+    residents_from_blocks,
+    step_trips,
+    trip_graph,
+    update_status,
+    update_widths,
+)
 from osm_expand.model import City, Status, match_points
 
 #: Highway classes a trade route may use (003: "entirely over major roads"; here tertiary too).
@@ -72,7 +90,7 @@ class TrafficYear:
     #: Trade routes with no capacity left (T_A(P) ≤ 0, 003 §3.4.2): where capacity ran out, at the worst year
     routes_at_capacity: int = 0
 
-    def __add__(self, other: "TrafficYear") -> "TrafficYear":
+    def __add__(self, other: TrafficYear) -> TrafficYear:
         return TrafficYear(self.trips + other.trips, self.people + other.people, self.built + other.built,
                            self.widened + other.widened, self.trade + other.trade,
                            max(self.routes_over_capacity, other.routes_over_capacity),
@@ -156,7 +174,7 @@ def _segment_lookup(table: SegmentTable, a: np.ndarray, b: np.ndarray) -> np.nda
 
 def _lot_people(city: City, table: SegmentTable) -> np.ndarray:
     """The lots' people on the middle segment of the street each lot faces."""
-    first = {}
+    first: dict[int, list[int]] = {}
     for k, sid in enumerate(table.street_id.tolist()):
         first.setdefault(sid, []).append(k)
     people = np.zeros(len(table))

@@ -227,7 +227,8 @@ def _settings(options: TripOptions) -> tuple[float, float, float]:
 
 
 def _segment_inputs(xy: NDArray[np.floating], edges: NDArray[np.integer], length: NDArray[np.floating] | None,
-                    major: NDArray[np.bool_] | None) -> tuple[NDArray, NDArray, NDArray, NDArray]:
+                    major: NDArray[np.bool_] | None,
+                    ) -> tuple[NDArray[np.int64], NDArray[np.float64], NDArray[np.float64], NDArray[np.bool_]]:
     xy = np.asarray(xy, dtype=np.float64).reshape(-1, 2)
     edges = np.asarray(edges, dtype=np.int64).reshape(-1, 2)
     if len(edges) and (edges.min() < 0 or edges.max() >= len(xy)):
@@ -273,7 +274,7 @@ def _build(edges: NDArray[np.int64], ends: NDArray[np.float64], length: NDArray[
     cols = np.r_[d2, np.arange(e), np.arange(e, 2 * e)]
     data = np.r_[weight, np.full(2 * e, _MIN_ARC)]
     matrix = sparse.csr_matrix((data, (rows, cols)), shape=(3 * e, 3 * e))
-    frozen = [np.array(a) for a in (edges, ends, length, major, cost)]
+    frozen = (np.array(edges), np.array(ends), np.array(length), np.array(major), np.array(cost))
     for a in frozen:
         a.flags.writeable = False
     return TripGraph(*frozen, matrix, _settings(options))
@@ -393,7 +394,8 @@ def residents_from_lots(lot_residents: NDArray[np.floating], lot_segment: NDArra
     return np.bincount(seg[ok], weights=res[ok], minlength=n_segments).astype(np.float64)
 
 
-def residents_from_blocks(block_area: NDArray[np.floating], block_segments: Sequence[Sequence[int]],
+def residents_from_blocks(block_area: NDArray[np.floating],
+                          block_segments: Sequence[Sequence[int]] | Sequence[NDArray[np.integer]],
                           segment_length: NDArray[np.floating], *,
                           options: TripOptions = TripOptions()) -> NDArray[np.float64]:
     """Residents per segment before lots exist: block area × ``density``, shared by side length.

@@ -60,8 +60,9 @@ def atomic_write(path: str | os.PathLike, mode: str = "wb") -> Iterator[IO]:
     try:
         with deferred():
             # errors="replace": a lone surrogate (a name read from "\ud800" in JSON) cannot be UTF-8
-            text = {} if "b" in mode else {"encoding": "utf-8", "newline": "\n", "errors": "replace"}
-            with os.fdopen(fd, mode, **text) as fh:
+            binary = "b" in mode
+            with os.fdopen(fd, mode, encoding=None if binary else "utf-8", newline=None if binary else "\n",
+                           errors=None if binary else "replace") as fh:
                 yield fh
             os.chmod(tmp, 0o666 & ~_umask())  # mkstemp's 0600 is for the temporary file only
         pending = _PENDING.get()
@@ -93,7 +94,7 @@ def all_or_nothing() -> Iterator[None]:
 
     with deferred():  # all the renames, or (an error) none of the files left behind
         try:
-            for k, (tmp, target) in enumerate(pending):
+            for k, (tmp, target) in enumerate(pending):  # noqa: B007 (k is read in the except below)
                 os.replace(tmp, target)
         except BaseException:
             for tmp, _ in pending[k:]:

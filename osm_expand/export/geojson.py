@@ -19,14 +19,13 @@ import os
 import numpy as np
 
 from osm_expand.export.atomic import atomic_write
-from osm_expand.export.features import (LANDUSE_KEY, ORIGIN_KEY, YEAR_KEY, building_tags, osm_street_tags,
-                                       to_lonlat)
+from osm_expand.export.features import LANDUSE_KEY, ORIGIN_KEY, YEAR_KEY, building_tags, osm_street_tags, to_lonlat
 from osm_expand.model import City, Origin
 
 
 def _model_props(tags: dict[str, str]) -> dict:
     """OSM-style tags with the tool's keys as plain properties: ``origin``, ``year``, ``era``, ``landuse``, ``lot``."""
-    props = {k: v for k, v in tags.items() if not k.startswith("osm_expand:")}
+    props: dict[str, str | int] = {k: v for k, v in tags.items() if not k.startswith("osm_expand:")}
     props["origin"] = tags[ORIGIN_KEY]
     if YEAR_KEY in tags:
         props["year"] = int(tags[YEAR_KEY])

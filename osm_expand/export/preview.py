@@ -13,6 +13,8 @@ from __future__ import annotations
 
 import enum
 import os
+from collections.abc import Sequence
+from typing import cast
 
 import numpy as np
 import shapely
@@ -37,7 +39,7 @@ class ColorBy(enum.StrEnum):
     YEAR = "year"
 
     @classmethod
-    def parse(cls, value: str) -> "ColorBy":
+    def parse(cls, value: str) -> ColorBy:
         try:
             return cls(value)
         except ValueError:
@@ -47,8 +49,10 @@ class ColorBy(enum.StrEnum):
 def _landuse_colours(names: list[str]) -> dict[str, str]:
     """A colour per land-use type name: the bundled ones fixed, others from tab10 in name order."""
     import matplotlib
+    from matplotlib.colors import ListedColormap
 
-    spare = [c for c in matplotlib.colormaps["tab10"].colors]
+    tab10 = cast(ListedColormap, matplotlib.colormaps["tab10"])
+    spare = [c for c in cast(Sequence[tuple[float, float, float]], tab10.colors)]  # tab10 lists RGB triples
     out, k = {}, 0
     for name in sorted(set(names)):
         if name in LANDUSE_COLOURS:

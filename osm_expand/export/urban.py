@@ -7,8 +7,8 @@ own buildings are written as the minimum rotated rectangle of their
 footprint. Only optional attributes are added: on the root the PROJ string
 and origin that georeference the coordinates; on each street its id, OSM id,
 name, class, hierarchy, origin (``source``, ``grown``, ``join``,
-``engine``), layer, bridge, tunnel, width, status, year and era; on each street also its ``kind`` (``major`` or ``minor``, 003's classes:
-motorway to secondary and their links are major) and its ``width`` in metres
+``engine``), layer, bridge, tunnel, width, status, year and era; on each street also its ``kind``
+(``major`` or ``minor``, 003's classes: motorway to secondary and their links are major) and its ``width`` in metres
 (mapped, from its lanes, or its class's); on each building its origin, OSM
 id, year, floors, land use and lot. After the buildings, when the city has
 them, ``<lots>`` (each ``<lot>`` with its outline as ``node x y``, its id,

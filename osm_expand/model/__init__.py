@@ -21,8 +21,8 @@ from osm_expand.model.city import (
                                    demolished_ways,
                                    held_ways,
 )
-from osm_expand.model.land import Land
 from osm_expand.model.geometry import closest_on_segments, match_points, polyline_length
+from osm_expand.model.land import Land
 from osm_expand.model.network import (
                                    Context,
                                    Origin,

@@ -193,7 +193,7 @@ class City:
         lat = np.array([lat0, lat0, lat1, lat1])
         return shapely.Polygon(np.column_stack(proj.to_xy(lon, lat)))
 
-    def replace(self, **changes: Any) -> "City":
+    def replace(self, **changes: Any) -> City:
         return replace(self, **changes)
 
     def water_geometry(self) -> shapely.Geometry:

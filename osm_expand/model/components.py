@@ -11,6 +11,7 @@ point within a radius is :func:`osm_expand.model.geometry.match_points`.
 from __future__ import annotations
 
 from collections.abc import Hashable, Iterable
+from typing import Generic, TypeVar
 
 import numpy as np
 import shapely
@@ -44,21 +45,24 @@ def component_labels(n: int, i: np.ndarray, j: np.ndarray) -> np.ndarray:
     return np.unique(parent, return_inverse=True)[1].reshape(-1)
 
 
-class UnionFind:
+_T = TypeVar("_T", bound=Hashable)
+
+
+class UnionFind(Generic[_T]):
     """Disjoint sets of hashable items, for merges decided one at a time (union by size, path halving)."""
 
-    def __init__(self, items: Iterable[Hashable] = ()) -> None:
-        self._parent: dict[Hashable, Hashable] = {}
-        self._size: dict[Hashable, int] = {}
+    def __init__(self, items: Iterable[_T] = ()) -> None:
+        self._parent: dict[_T, _T] = {}
+        self._size: dict[_T, int] = {}
         for item in items:
             self.add(item)
 
-    def add(self, item: Hashable) -> None:
+    def add(self, item: _T) -> None:
         if item not in self._parent:
             self._parent[item] = item
             self._size[item] = 1
 
-    def __getitem__(self, item: Hashable) -> Hashable:
+    def __getitem__(self, item: _T) -> _T:
         """The representative of ``item``'s set."""
         parent = self._parent
         while parent[item] != item:
@@ -66,10 +70,10 @@ class UnionFind:
             item = parent[item]
         return item
 
-    def connected(self, a: Hashable, b: Hashable) -> bool:
+    def connected(self, a: _T, b: _T) -> bool:
         return self[a] == self[b]
 
-    def merge(self, a: Hashable, b: Hashable) -> None:
+    def merge(self, a: _T, b: _T) -> None:
         ra, rb = self[a], self[b]
         if ra == rb:
             return
@@ -78,9 +82,9 @@ class UnionFind:
         self._parent[rb] = ra
         self._size[ra] += self._size[rb]
 
-    def subsets(self) -> list[list[Hashable]]:
+    def subsets(self) -> list[list[_T]]:
         """The sets, each in the order its items were added."""
-        groups: dict[Hashable, list[Hashable]] = {}
+        groups: dict[_T, list[_T]] = {}
         for item in self._parent:
             groups.setdefault(self[item], []).append(item)
         return list(groups.values())

@@ -31,7 +31,7 @@ class Origin(enum.StrEnum):
     ENGINE = "engine"  #: built by the engine during the simulated years
 
     @classmethod
-    def parse(cls, value: str) -> "Origin":
+    def parse(cls, value: str) -> Origin:
         return _parse(cls, value, "origin")
 
 
@@ -42,7 +42,7 @@ class Status(enum.StrEnum):
     PLANNED = "planned"
 
     @classmethod
-    def parse(cls, value: str) -> "Status":
+    def parse(cls, value: str) -> Status:
         return _parse(cls, value, "status")
 
 
@@ -100,7 +100,7 @@ class Street:
         """Made by the tool (grown, joining, or built by the engine), not mapped."""
         return self.origin != Origin.SOURCE
 
-    def with_nodes(self, nodes: tuple[int, ...] | list[int]) -> "Street":
+    def with_nodes(self, nodes: tuple[int, ...] | list[int]) -> Street:
         return replace(self, nodes=tuple(nodes))
 
 
@@ -133,7 +133,7 @@ class StreetNetwork:
     context: Context
     stats: dict[str, Any] = field(default_factory=dict)
 
-    def replace(self, **changes: Any) -> "StreetNetwork":
+    def replace(self, **changes: Any) -> StreetNetwork:
         return replace(self, **changes)
 
     def street_xy(self, street: Street) -> np.ndarray:
@@ -161,7 +161,7 @@ class StreetNetwork:
         return max((s.id for s in self.streets), default=-1) + 1
 
     def with_new_streets(self, lines: Sequence[np.ndarray], attrs: Sequence[Mapping[str, Any]], *,
-                         one_street_per_segment: bool = False, same_node: float | None = None) -> "StreetNetwork":
+                         one_street_per_segment: bool = False, same_node: float | None = None) -> StreetNetwork:
         """This network plus streets along ``lines`` (metres), each with the given :class:`Street` fields.
 
         A point within :data:`SAME_NODE` (1 mm) of a node of this network is
@@ -233,7 +233,7 @@ class _SegmentKeys:
         if not dup.any():
             return [run]
         pieces, begin = [], 0
-        for i in np.flatnonzero(dup):
+        for i in np.flatnonzero(dup).tolist():
             if i > begin:
                 pieces.append(run[begin:i + 1])
             begin = i + 1

@@ -45,6 +45,6 @@ class LocalProjection:
         return np.asarray(lon), np.asarray(lat)
 
     @classmethod
-    def centred_on(cls, bounds_lonlat: tuple[float, float, float, float]) -> "LocalProjection":
+    def centred_on(cls, bounds_lonlat: tuple[float, float, float, float]) -> LocalProjection:
         lon_min, lat_min, lon_max, lat_max = bounds_lonlat
         return cls(round((lon_min + lon_max) / 2, 7), round((lat_min + lat_max) / 2, 7))

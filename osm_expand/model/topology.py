@@ -7,8 +7,8 @@ the thesis's "twice in one street".
 """
 from __future__ import annotations
 
-from collections.abc import Iterable, Sequence
 import math
+from collections.abc import Iterable, Sequence
 from itertools import chain
 
 import numpy as np
