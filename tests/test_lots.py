@@ -260,3 +260,15 @@ def test_every_labelled_lot_edge_faces_the_street_it_names(seed):
         for a, b, street in lot.frontage():
             mid = shapely.Point(0.5 * (a + b))
             assert abs(mid.distance(shapely.LineString(by_id[street].line)) - 6.0) < 0.25 + 0.05 * 6.0
+
+
+def test_frontage_inside_a_block_survives_geometry_geos_cannot_intersect():
+    """Krems, seed 1, second year: an invalid block face stopped the run with a TopologyException."""
+    import shapely
+
+    from osm_expand.engine.lots import _intersections
+
+    bow_tie = shapely.Polygon([(0, 0), (10, 10), (10, 0), (0, 10), (0, 0)])  # invalid: it crosses itself
+    line = shapely.LineString([(-5, 5), (15, 5)])
+    out = _intersections(np.array([line], dtype=object), np.array([bow_tie], dtype=object))
+    assert len(out) == 1 and out[0].length > 0

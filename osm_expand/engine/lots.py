@@ -61,6 +61,7 @@ from types import MappingProxyType
 
 import numpy as np
 import shapely
+import shapely.errors
 import shapely.ops
 
 from osm_expand.errors import InputError
@@ -334,11 +335,37 @@ def _add_inside(out: list[list[Frontage]], blocks: Sequence[shapely.Polygon],
     b, s = shapely.STRtree(lines).query(cores, predicate="intersects")
     order = np.lexsort((s, b))
     b, s = b[order], s[order]
-    for block, street, geom in zip(b.tolist(), s.tolist(), shapely.intersection(lines[s], cores[b])):
+    for block, street, geom in zip(b.tolist(), s.tolist(), _intersections(lines[s], cores[b])):
         for piece in shapely.get_parts(shapely.line_merge(geom) if geom.geom_type == "MultiLineString" else geom):
             if piece.geom_type == "LineString" and piece.length > 2 * tolerance:
                 out[block].append(Frontage(line=np.asarray(piece.coords), street=int(ids[street]),
                                            width=float(width[street])))
+
+
+def _intersections(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """``shapely.intersection(a, b)`` pairwise; a pair GEOS cannot intersect ("found non-noded
+    intersection", "side location conflict": Krems seed 1 in its second year) is tried again by
+    :func:`_intersection`."""
+    try:
+        return shapely.intersection(a, b)
+    except shapely.errors.GEOSException:
+        out = []
+        for x, y in zip(a.tolist(), b.tolist()):
+            out.append(_intersection(x, y))
+        return np.array(out, dtype=object)
+
+
+def _intersection(x: shapely.Geometry, y: shapely.Geometry) -> shapely.Geometry:
+    """One pair: as it is, then made valid (a block face that touches itself), then on a 1 mm grid;
+    empty when GEOS can do none (the street then has no frontage inside that block)."""
+    for attempt in (lambda: shapely.intersection(x, y),
+                    lambda: shapely.intersection(shapely.make_valid(x), shapely.make_valid(y)),
+                    lambda: shapely.intersection(shapely.make_valid(x), shapely.make_valid(y), grid_size=1e-3)):
+        try:
+            return attempt()
+        except shapely.errors.GEOSException:
+            continue
+    return shapely.GeometryCollection()
 
 
 def _runs(labels: np.ndarray) -> list[tuple[int, int]]:
