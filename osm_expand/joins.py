@@ -61,7 +61,7 @@ ON_STREET = 1e-3
 
 def join_growth(city: City, streets: Sequence, *, spacing: float, origin: Origin = Origin.GROWN,
                 status: Status = Status.PLANNED, year: int | None = None, era: str | None = None,
-                most: int = 8) -> tuple[City, JoinReport]:
+                most: int = 8, cross_taken: bool = False) -> tuple[City, JoinReport]:
     """The shared joining step after any growth pattern: its streets into the city, joined to the town.
 
     Parameters
@@ -80,7 +80,8 @@ def join_growth(city: City, streets: Sequence, *, spacing: float, origin: Origin
               "origin": origin, "status": status, "year": year, "era": era} for s in streets]
     grown = add_streets(city, [s.xy for s in streets], attrs)
     new = list(range(len(city.network.streets), len(grown.network.streets)))
-    return join_to_town(grown, new, reach=2 * spacing, spread=2 * spacing, most=most, year=year, era=era)
+    return join_to_town(grown, new, reach=2 * spacing, spread=2 * spacing, most=most, year=year, era=era,
+                        cross_taken=cross_taken)
 
 
 def add_streets(city: City, lines: Sequence[np.ndarray], attrs: Sequence[dict]) -> City:
@@ -229,7 +230,8 @@ def _trim(pts: np.ndarray, by: float) -> np.ndarray:
 
 
 def join_to_town(city: City, new: Sequence[int], *, reach: float, spread: float, most: int = 8,
-                 year: int | None = None, era: str | None = None) -> tuple[City, JoinReport]:
+                 year: int | None = None, era: str | None = None, cross_taken: bool = False
+                 ) -> tuple[City, JoinReport]:
     """Add joining streets from the streets ``new`` (indices) to the town until it is joined at ``most`` places.
 
     Parameters
@@ -257,7 +259,7 @@ def join_to_town(city: City, new: Sequence[int], *, reach: float, spread: float,
     if not new or not old:
         return city, _report(net, new, 0, 0)
     near = shapely.MultiLineString([net.street_xy(net.streets[k]) for k in new]).envelope.buffer(reach + spread + 1.0)
-    board = _Board(net, city.occupied_within(near), city.water_geometry(), year, era)
+    board = _Board(net, city.occupied_within(near, taken=not cross_taken), city.water_geometry(), year, era)
     board.joined_at = [net.xy[n] for n in sorted(_shared_nodes(net, new))]
     border = _border(net, old)
     for link in _candidates(net, new, old, border, reach, spread):

@@ -58,6 +58,11 @@ SITES_TRIED = 5
 #: The report's note when the district grows beyond the map's bounds because the town fills them.
 BEYOND_NOTE = ("the town fills its map: the district grows at its edge beyond the data bounds "
                "(--within-bounds to refuse instead)")
+#: The report's note when the district could be joined only across the town's presumed frontage.
+CROSSED_NOTE = ("the district is joined to the town between houses the map does not show (no site could be "
+                "joined around the town's frontage)")
+#: Every note the report may carry (the command line prints each on stderr, even with -q).
+NOTES = (BEYOND_NOTE, CROSSED_NOTE)
 #: What :func:`simplified_or_fail` says when nothing is left.
 NOTHING_LEFT = "no streets left after simplification (every street is a dead end or isolated)"
 
@@ -204,6 +209,7 @@ def expand(city: City, options: ExpandOptions | None = None, *, pattern: GrowthP
         pattern = PATTERNS[opts.pattern](learned)
     spacing = learned.example.spacing
     tried = []
+    grown_at = []
     for attempt, site in enumerate(sites):
         progress(f"growing streets ({pattern.name}) at site {attempt + 1}")
         region = district_region(city, site, bounds=None if beyond else city.bounds_polygon)
@@ -211,10 +217,12 @@ def expand(city: City, options: ExpandOptions | None = None, *, pattern: GrowthP
         grown, joins = join_growth(city, growth.streets, spacing=spacing, year=city.year)
         if joins.joins >= MIN_JOINS:
             break
+        grown_at.append(growth)
         tried.append(f"site {attempt + 1}: {len(growth.streets)} streets, {joins.joins} joins")
-    else:
-        raise InputError(f"the district cannot be joined to the town by {MIN_JOINS} streets at any of the "
-                         f"{len(sites)} best sites ({'; '.join(tried)}); try --at or another --direction")
+    else:  # the town's frontage wraps every site: join between its presumed houses rather than not at all
+        attempt, growth, grown, joins = _join_across_frontage(city, grown_at, spacing, tried)
+        site = sites[attempt]
+        notes.append(CROSSED_NOTE)
     # the engine's planarity net, over the district too: the pattern's exact checks miss streets that
     # touch once written to the millimetre (Monaco, seed 7: an end 1 mm from another street)
     grown, untouched = without_touching(grown, known={s.id for s in city.network.streets})
@@ -228,6 +236,18 @@ def expand(city: City, options: ExpandOptions | None = None, *, pattern: GrowthP
     result = ExpandResult(city=grown, site=site, learned=learned, joins=joins, growth=growth, fidelity=judged,
                           report=report)
     return mature(result, opts, progress=progress)
+
+
+def _join_across_frontage(city: City, grown_at: list[Growth], spacing: float, tried: list[str]
+                          ) -> tuple[int, Growth, City, JoinReport]:
+    """The first of the sites' growths that joins the town when its joining streets may cross the town's
+    presumed frontage (:attr:`~osm_expand.model.land.Land.taken`); :class:`InputError` when none does."""
+    for attempt, growth in enumerate(grown_at):
+        grown, joins = join_growth(city, growth.streets, spacing=spacing, year=city.year, cross_taken=True)
+        if joins.joins >= MIN_JOINS:
+            return attempt, growth, grown, joins
+    raise InputError(f"the district cannot be joined to the town by {MIN_JOINS} streets at any of the "
+                     f"{len(grown_at)} best sites ({'; '.join(tried)}); try --at or another --direction")
 
 
 def mature(result: ExpandResult, options: ExpandOptions, *, progress: Progress = lambda message: None

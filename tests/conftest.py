@@ -60,3 +60,11 @@ def pytest_terminal_summary(terminalreporter):
         by_code[c] = by_code.get(c, 0) + n
     terminalreporter.write_line(f"{'all':>10}: {total} cases; "
                                 + ", ".join(f"exit {c}: {n}" for c, n in sorted(by_code.items())))
+
+
+def notes_only(err: str) -> bool:
+    """Is every line of ``err`` one of the notes a successful run prints (the district grew beyond the
+    map's bounds, or was joined across the town's presumed frontage), and nothing else?"""
+    from osm_expand.pipeline import NOTES
+
+    return all(line.startswith("osm-expand: ") and line.endswith(NOTES) for line in err.splitlines())
