@@ -282,6 +282,20 @@ class Colonisation:
                 "report": result.report}
 
 
+def _across_frontage(city: City, region: shapely.Geometry) -> shapely.Geometry:
+    """The region and the town's presumed frontage beside it (out to the frontage depth, none of the
+    rest occupied): the roads grow from the town's streets, which the frontage keeps a depth away from
+    the free land; its attraction points stay on the free land (the footprint)."""
+    land = city.land
+    if land is None or not len(land.taken):
+        return region
+    depth = max(land.frontage_depth.values(), default=0.0) + 1.0
+    wide = shapely.buffer(region, depth)
+    grown = shapely.make_valid(shapely.difference(wide, city.occupied_within(wide, taken=False)))
+    parts = [p for p in shapely.get_parts(grown) if p.intersects(region)]
+    return shapely.union_all([region, *parts]) if parts else region
+
+
 def _setup(city: City, region: shapely.Geometry, opts: ColonisationOptions,
            pattern: ColonisationPatternOptions) -> _Setup:
     """Region (with a corridor or spill), seeds and forbidden ground for the kernel."""
@@ -289,6 +303,7 @@ def _setup(city: City, region: shapely.Geometry, opts: ColonisationOptions,
     region = shapely.make_valid(region)
     if not pattern.confined:
         region = shapely.buffer(region, opts.radius_of_influence * sl)
+    region = _across_frontage(city, region)
     net = city.network
     town = [k for k, s in enumerate(net.streets) if s.origin == Origin.SOURCE]
     lines = net.street_lines()[np.asarray(town, dtype=np.intp)]
@@ -305,7 +320,9 @@ def _setup(city: City, region: shapely.Geometry, opts: ColonisationOptions,
     hits = _reaching(tree, region, reach, None) if tree is not None else np.zeros(0, dtype=np.int64)
     seeds = [shapely.get_coordinates(lines[k]) for k in hits.tolist() if joinable[k]]
     roads = [lines[k] for k in hits.tolist() if ground[k] and barred[k]]
-    forbidden = city.occupied_within(region)
+    # its roads grow out of the town's streets: they may pass the town's presumed frontage (its attraction
+    # points lie only on free land, the footprint), else they could never leave the streets they start on
+    forbidden = city.occupied_within(region, taken=False)
     if roads:  # the union costs a second on a large town: only when there is something to add
         forbidden = shapely.union_all([forbidden, *shapely.buffer(np.array(roads, dtype=object), ROAD_CLEARANCE)])
     return _Setup(region=region, corridor=corridor, seeds=seeds, forbidden=forbidden)

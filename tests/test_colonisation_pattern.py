@@ -325,7 +325,8 @@ def test_the_districts_blocks_take_lots_and_buildings_from_the_engine():
                             rng=rng)
     made = place_buildings(lots, traffic_per_street={}, built_streets=set(ids), rng=rng,
                            obstacles=[result.city.water_geometry(), *(b.polygon for b in result.city.buildings)])
-    assert len(mine) >= 10 and len(lots) >= 100 and len(made) >= 0.9 * len(lots)  # nearly every lot is built on
+    # a neighbourhood-sized district (issue 20) has a few blocks; each is split, and nearly every lot built on
+    assert len(mine) >= 3 and len(lots) >= 5 * len(mine) and len(made) >= 0.9 * len(lots)
     houses = [fp.rectangle.polygon for fp in made]
     assert not shapely.STRtree(lines).query(houses, predicate="intersects").size
 
