@@ -7,7 +7,8 @@ across it and a grid town (100 m blocks) in its middle, a fifth of the side
 wide, with one major street through it. Printed per map, in seconds (best of
 ``--repeat``; CPU time of this process, then wall time):
 
-- ``lattice``: :func:`build_lattice` (once per map),
+- ``lattice``: :func:`build_lattice` (once per map: its rasters and bridges; the
+  land, water and harbour edges are generated with G′),
 - ``B``: :func:`built_up_area` and :meth:`Lattice.with_built_up` (each year),
 - ``G′``: :func:`pathfinding_graph` (each year that proposes a road),
 - ``CSR``: the cached adjacency matrix of G′ (first route of the year),

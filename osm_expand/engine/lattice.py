@@ -322,10 +322,6 @@ class Lattice:
                 float(y0 + (self.shape[0] - 1) * self.spacing))
 
     @property
-    def is_whole_map(self) -> bool:
-        return tuple(self.offset) == (0, 0) and tuple(self.shape) == tuple(self.full_shape)
-
-    @property
     def radius(self) -> int:
         return int(np.abs(self.directions).max())
 

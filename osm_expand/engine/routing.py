@@ -284,7 +284,7 @@ def _grown(bounds: np.ndarray, inside: np.ndarray, exits: np.ndarray, reached: n
     return np.concatenate([np.minimum(out[:2], box[:2]), np.maximum(out[2:], box[2:])])
 
 
-def _on_map(window: GraphWindow, route: Route | None, _from_source: np.ndarray | None = None) -> Route | None:
+def _on_map(window: GraphWindow, route: Route | None, *_) -> Route | None:
     """A window's route with the map's G′ vertex numbers."""
     if route is None:
         return None
