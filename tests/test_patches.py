@@ -58,9 +58,6 @@ def district(name: str, seed: int):
     return expand(load(FIXTURES / name), ExpandOptions(seed=seed, years=0))
 
 
-@pytest.mark.xfail(reason="issue 20: judged against the town's real neighbourhoods (the corrected yardstick) "
-                          "today's district is off on 9-11 of 14; the land and growth work of issue 20 is to "
-                          "make it pass", strict=False)
 @pytest.mark.parametrize("name", ["krems.osm.gz", "andorra.osm.pbf"])
 def test_the_district_is_as_alike_to_its_town_as_the_towns_own_districts(name):
     """Issue 9's verdict (seed 0): off on at most 3 of the 14 measures, and never on street density."""
