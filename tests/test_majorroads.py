@@ -621,3 +621,25 @@ def test_on_krems_the_implicit_search_finds_routes_of_the_same_cost_in_a_part_of
         if old is not None:
             assert new.cost == pytest.approx(old.cost, rel=1e-9)
     assert min(seen) < g.n_lattice / 4
+
+
+def test_new_roads_keep_out_of_buildings_as_the_outputs_draw_them():
+    """Krems, seed 1: a new primary road ran through the minimum rectangles (what the XML draws) of two
+    huge mapped building outlines (0.21 and 0.035 km²) while missing the outlines themselves."""
+    import shapely
+
+    from osm_expand.ingest import load
+    from osm_expand.land import building_outlines
+    from osm_expand.model import Origin
+    from osm_expand.pipeline import ExpandOptions, expand
+    from tests.conftest import FIXTURES
+
+    city = expand(load(FIXTURES / "krems.osm.gz"), ExpandOptions(seed=1, fidelity=False)).city
+    net = city.network
+    roads = [shapely.LineString(net.street_xy(s)) for s in net.streets
+             if s.origin == Origin.ENGINE and s.highway in ("primary", "secondary", "trunk")]
+    town = city.replace(buildings=tuple(b for b in city.buildings if b.origin == Origin.SOURCE))
+    outlines = building_outlines(town)
+    assert roads
+    crossed = shapely.STRtree(outlines).query(roads, predicate="crosses")
+    assert not crossed.size

@@ -25,7 +25,6 @@ from collections import Counter
 from dataclasses import dataclass, field, replace
 
 import numpy as np
-import shapely
 
 from osm_expand.engine.history import History, YearValues
 from osm_expand.engine.lattice import (
@@ -44,7 +43,7 @@ from osm_expand.engine.segments import SegmentTable
 from osm_expand.engine.trade import add_route, route_between, segment_capacity
 from osm_expand.engine.traffic import TrafficMemory, follow, trade_major
 from osm_expand.joins import add_streets
-from osm_expand.land import UNBUILDABLE, matches
+from osm_expand.land import UNBUILDABLE, building_outlines, matches
 from osm_expand.model import City, Origin, Status
 from osm_expand.model.highways import MAJOR
 from osm_expand.model.topology import without_segments
@@ -155,7 +154,9 @@ def _graph(city: City, traffic: TrafficMemory, memory: RoadMemory, now: YearValu
         cell = history.options.lattice.spacing
         water = Raster.from_geometry(city.water_geometry(), extent, cell)
         areas = [a.polygon for a in city.areas if matches(a.key, a.value, UNBUILDABLE)]
-        houses = [shapely.Polygon(b.ring) for b in city.buildings]  # a new road never runs through a building
+        # a new road never runs through a building as the outputs draw it (its minimum rectangle: a huge
+        # mapped outline's rectangle reaches well past it, and Krems seed 1's new road ran through two)
+        houses = building_outlines(city).tolist()
         forbidden = Raster.from_polygons(areas + houses, extent, BUILDING_CELL) if areas or houses else None
         memory = replace(memory, lattice=build_lattice(extent, water=water, forbidden=forbidden,
                                                        options=history.options.lattice))
