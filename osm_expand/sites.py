@@ -556,12 +556,12 @@ def district_region(city: City, site: Site, *, clearance: float = 1.0,
     radius = float(np.sqrt(site.area / np.pi))
     centre = shapely.Point(site.centre)
     best = None
+    lines = city.network.street_lines()
     for step in REGION_STEPS:
         disc = centre.buffer(step * radius, 32)
         if bounds is not None:
             disc = shapely.intersection(disc, bounds)
         occupied = city.occupied_within(disc)
-        lines = city.network.street_lines()
         near = lines[shapely.intersects(lines, disc)] if len(lines) else lines
         cut = shapely.union_all([occupied, *shapely.buffer(near, clearance).tolist()])
         free = shapely.make_valid(shapely.difference(disc, cut))

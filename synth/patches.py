@@ -51,7 +51,7 @@ import shapely.ops
 from scipy.spatial import cKDTree
 
 from osm_expand.model import City, Origin, StreetNetwork, network_from_lines, polyline_length
-from osm_expand.model.geometry import closest_on_segments
+from osm_expand.model.geometry import closest_on_segments, ray_meet
 from osm_expand.model.topology import dangling_chains, segment_degree, without_segments
 from simplify.example import Example
 from synth.growth import Growth, NewStreet, streets_near
@@ -671,18 +671,8 @@ def _tees(quilt: _Quilt, old: shapely.Geometry, spacing: float, opts: PatchOptio
 def _meet(ray: shapely.LineString, line: np.ndarray, p: np.ndarray, d: np.ndarray,
           min_angle: float) -> tuple[np.ndarray, bool] | None:
     """Where ``ray`` first meets ``line``, and whether at ``min_angle`` or more; None if it does not."""
-    a, b = line[:-1], line[1:]
-    seg = b - a
-    cross = seg[:, 0] * d[1] - seg[:, 1] * d[0]
-    with np.errstate(divide="ignore", invalid="ignore"):
-        t = ((a[:, 0] - p[0]) * seg[:, 1] - (a[:, 1] - p[1]) * seg[:, 0]) / -cross  # along the ray
-        u = ((a[:, 0] - p[0]) * d[1] - (a[:, 1] - p[1]) * d[0]) / -cross  # along the segment
-    ok = np.isfinite(t) & (t > 1e-3) & (t <= ray.length + 1e-3) & (u >= 0.0) & (u <= 1.0)
-    if not ok.any():
-        return None
-    i = int(np.flatnonzero(ok)[np.argmin(t[ok])])
-    sin = abs(float(cross[i])) / max(float(np.hypot(*seg[i])), 1e-12)
-    return a[i] + u[i] * seg[i], bool(np.degrees(np.arcsin(min(sin, 1.0))) >= min_angle)
+    met = ray_meet(p, d, line, ray.length + 1e-3)
+    return None if met is None else (met[1], met[2] >= min_angle)
 
 
 def _network(quilt: _Quilt) -> StreetNetwork:

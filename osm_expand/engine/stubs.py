@@ -20,6 +20,8 @@ import numpy as np
 import shapely
 import shapely.ops
 
+from osm_expand.model.geometry import polyline_length, ray_meet
+
 #: Ends closer than this (m) are the same point.
 SAME = 1e-3
 
@@ -98,7 +100,7 @@ def _drop_stubs(lines: list[np.ndarray], bridges: list[bool], town: np.ndarray, 
     if not lines:
         return lines, bridges, 0
     ends = [(k, side) for k, side in _stub_ends(lines, town, town_nodes) if not bridges[k]]
-    drop = {k for k, _ in ends if _length(lines[k]) < reach}
+    drop = {k for k, _ in ends if polyline_length(lines[k]) < reach}
     keep = [k for k in range(len(lines)) if k not in drop]
     return [lines[k] for k in keep], [bridges[k] for k in keep], len(drop)
 
@@ -135,28 +137,12 @@ def _first_ahead(p: np.ndarray, d: np.ndarray, reach: float, lines: list[np.ndar
         candidates += [(-1, np.asarray(town[i].coords)) for i in town_tree.query(ray, predicate="intersects").tolist()]
     candidates += [(-2, xy) for xy in links if shapely.intersects(ray, shapely.LineString(xy))]
     for j, xy in candidates:
-        met = _meet(p, d, xy, reach)
+        met = ray_meet(p, d, xy, reach)
         if met is not None and (best is None or met[0] < best[0]):
             best = (met[0], met[1], j, met[2] >= min_angle)
     if best is None or not best[3] or best[2] == -2:
         return None
     return best[1], best[2]
-
-
-def _meet(p: np.ndarray, d: np.ndarray, line: np.ndarray, reach: float) -> tuple[float, np.ndarray, float] | None:
-    """Distance along the ray, point and angle (degrees) of its first crossing with ``line``."""
-    a, b = line[:-1], line[1:]
-    seg = b - a
-    cross = seg[:, 0] * d[1] - seg[:, 1] * d[0]
-    with np.errstate(divide="ignore", invalid="ignore"):
-        t = ((a[:, 0] - p[0]) * seg[:, 1] - (a[:, 1] - p[1]) * seg[:, 0]) / -cross
-        u = ((a[:, 0] - p[0]) * d[1] - (a[:, 1] - p[1]) * d[0]) / -cross
-    ok = np.isfinite(t) & (t > 1e-3) & (t <= reach) & (u >= 0.0) & (u <= 1.0)
-    if not ok.any():
-        return None
-    i = int(np.flatnonzero(ok)[np.argmin(t[ok])])
-    sin = abs(float(cross[i])) / max(float(np.hypot(*seg[i])), 1e-12)
-    return float(t[i]), a[i] + u[i] * seg[i], float(np.degrees(np.arcsin(min(sin, 1.0))))
 
 
 def _inner(link: np.ndarray) -> shapely.LineString:
@@ -177,7 +163,3 @@ def _with_vertex(xy: np.ndarray, q: np.ndarray) -> np.ndarray:
     if np.hypot(*(xy[i] - q)) < SAME or np.hypot(*(xy[i + 1] - q)) < SAME:
         return xy
     return np.vstack([xy[:i + 1], q, xy[i + 1:]])
-
-
-def _length(xy: np.ndarray) -> float:
-    return float(np.hypot(*np.diff(xy, axis=0).T).sum())

@@ -29,6 +29,30 @@ def polyline_length(xy: np.ndarray) -> float:
     return float(np.hypot(*np.diff(xy, axis=0).T).sum())
 
 
+def ray_meet(p: np.ndarray, d: np.ndarray, line: np.ndarray, reach: float
+             ) -> tuple[float, np.ndarray, float] | None:
+    """Where the ray from ``p`` along the unit vector ``d`` first crosses the polyline ``line``
+    ``(n, 2)`` within ``reach`` metres: (distance along the ray, the point, the angle in degrees
+    between ray and segment, 0–90); None when it does not.
+
+    >>> t, q, angle = ray_meet(np.zeros(2), np.array([1.0, 0.0]), np.array([[5.0, -1], [5, 1]]), 10.0)
+    >>> float(t), q.tolist(), round(angle)
+    (5.0, [5.0, 0.0], 90)
+    """
+    a, b = line[:-1], line[1:]
+    seg = b - a
+    cross = seg[:, 0] * d[1] - seg[:, 1] * d[0]
+    with np.errstate(divide="ignore", invalid="ignore"):
+        t = ((a[:, 0] - p[0]) * seg[:, 1] - (a[:, 1] - p[1]) * seg[:, 0]) / -cross  # along the ray
+        u = ((a[:, 0] - p[0]) * d[1] - (a[:, 1] - p[1]) * d[0]) / -cross  # along the segment
+    ok = np.isfinite(t) & (t > 1e-3) & (t <= reach) & (u >= 0.0) & (u <= 1.0)
+    if not ok.any():
+        return None
+    i = int(np.flatnonzero(ok)[np.argmin(t[ok])])
+    sin = abs(float(cross[i])) / max(float(np.hypot(*seg[i])), 1e-12)
+    return float(t[i]), a[i] + u[i] * seg[i], float(np.degrees(np.arcsin(min(sin, 1.0))))
+
+
 def closest_on_segments(pt: np.ndarray, a: np.ndarray, b: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """The closest point of segments a→b to point(s) ``pt`` (broadcast).
 
