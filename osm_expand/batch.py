@@ -59,7 +59,7 @@ from functools import lru_cache
 from pathlib import Path
 from typing import Any
 
-from osm_expand.errors import InputError
+from osm_expand.errors import InputError, OptionError, OutputError, UnreadableInputError
 
 __all__ = ["BatchSummary", "Job", "JobResult", "JobStatus", "JobsFailed", "Town", "add_batch_arguments", "cmd_batch",
            "derive_seed", "read_towns", "run_batch", "run_job"]
@@ -291,48 +291,49 @@ def read_towns(path: str | os.PathLike) -> list[Town]:
 
     p = Path(path)
     if not p.is_file():
-        raise InputError(f"{p}: no such towns table")
+        raise UnreadableInputError(f"{p}: no such towns table")
     try:
         with open(p, newline="", encoding="utf-8-sig") as fh:
             rows = list(csv.reader(fh))
     except UnicodeDecodeError as exc:
-        raise InputError(f"{p}: not UTF-8 text (byte {exc.start}); save the towns table as UTF-8") from None
+        raise UnreadableInputError(f"{p}: not UTF-8 text (byte {exc.start}); save the towns table as UTF-8") from None
     except csv.Error as exc:
-        raise InputError(f"{p}: not a readable CSV table ({exc})") from None
+        raise UnreadableInputError(f"{p}: not a readable CSV table ({exc})") from None
     rows = [r for r in rows if any(cell.strip() for cell in r)]
     if not rows:
-        raise InputError(f"{p}: empty towns table (expected a header name,lon,lat,radius and one row per town)")
+        raise UnreadableInputError(f"{p}: empty towns table (expected a header name,lon,lat,radius and one row "
+                                   "per town)")
     header = [c.strip().lower() for c in rows[0]]
     missing = [c for c in ("name", "lon", "lat", "radius") if c not in header]
     if missing:
-        raise InputError(f"{p}: the header lacks {', '.join(missing)} (expected name,lon,lat,radius)")
+        raise UnreadableInputError(f"{p}: the header lacks {', '.join(missing)} (expected name,lon,lat,radius)")
     col = {c: header.index(c) for c in ("name", "lon", "lat", "radius")}
     towns, seen = [], set()
     for line, row in enumerate(rows[1:], start=2):
         where = f"{p} line {line}"
         if len(row) < len(header):
-            raise InputError(f"{where}: {len(row)} columns, the header has {len(header)}")
+            raise UnreadableInputError(f"{where}: {len(row)} columns, the header has {len(header)}")
         name = row[col["name"]].strip()
         if not name:
-            raise InputError(f"{where}: no name")
+            raise UnreadableInputError(f"{where}: no name")
         if name in seen:
-            raise InputError(f"{where}: the name {name!r} is used twice (names name the outputs)")
+            raise UnreadableInputError(f"{where}: the name {name!r} is used twice (names name the outputs)")
         seen.add(name)
         values = {}
         for key in ("lon", "lat", "radius"):
             try:
                 values[key] = float(row[col[key]])
             except ValueError:
-                raise InputError(f"{where}: {key} {row[col[key]]!r} is not a number") from None
+                raise UnreadableInputError(f"{where}: {key} {row[col[key]]!r} is not a number") from None
             if not math.isfinite(values[key]):
-                raise InputError(f"{where}: {key} {row[col[key]]!r} is not a finite number")
+                raise UnreadableInputError(f"{where}: {key} {row[col[key]]!r} is not a finite number")
         try:
             box_around(values["lon"], values["lat"], values["radius"])
         except InputError as exc:
-            raise InputError(f"{where} ({name}): {exc}") from None
+            raise UnreadableInputError(f"{where} ({name}): {exc}") from None  # the table is at fault
         towns.append(Town(name, values["lon"], values["lat"], values["radius"]))
     if not towns:
-        raise InputError(f"{p}: no towns below the header")
+        raise UnreadableInputError(f"{p}: no towns below the header")
     return towns
 
 
@@ -342,7 +343,7 @@ def _check_name(name: str, what: str) -> None:
     try:
         check(name)
     except InputError:
-        raise InputError(f"{what}: {name!r} cannot name output files (no slashes or control characters)") from None
+        raise OptionError(f"{what}: {name!r} cannot name output files (no slashes or control characters)") from None
 
 
 # --- the pipeline options passed through ---------------------------------------------------------------
@@ -356,8 +357,8 @@ def check_pipeline_args(args: Sequence[str]) -> list[str]:
     for a in args:
         flag = a.split("=", 1)[0]
         if flag in _PER_JOB:
-            raise InputError(f"batch: {flag} is set per job by the batch (outputs are DIR/NAME.expanded.*, "
-                             "seeds derive from --seed, previews come with --preview png|svg)")
+            raise OptionError(f"batch: {flag} is set per job by the batch (outputs are DIR/NAME.expanded.*, "
+                              "seeds derive from --seed, previews come with --preview png|svg)")
     from osm_expand.cli import check_expand_options
 
     parser = build_expand_parser()
@@ -367,11 +368,11 @@ def check_pipeline_args(args: Sequence[str]) -> list[str]:
             namespace = parser.parse_args(["CITY.osm", *args])
     except SystemExit:
         message = err.getvalue().strip().splitlines()
-        raise InputError(f"batch: pipeline options: {message[-1] if message else ' '.join(args)}") from None
+        raise OptionError(f"batch: pipeline options: {message[-1] if message else ' '.join(args)}") from None
     try:
         check_expand_options(namespace)  # --area nan, a broken --history, ...: refused before the first job
     except InputError as exc:
-        raise InputError(f"batch: pipeline options: {exc}") from None
+        raise OptionError(f"batch: pipeline options: {exc}") from None
     return args
 
 
@@ -430,21 +431,21 @@ def run_batch(inputs: Sequence[str | os.PathLike], out_dir: str | os.PathLike, *
     say = log or (lambda message: None)
     t0 = time.perf_counter()
     if not isinstance(seed, int) or seed < 0:
-        raise InputError(f"--seed must be 0 or more, got {seed}")
+        raise OptionError(f"--seed must be 0 or more, got {seed}")
     if workers is not None and scheduler is not None:
-        raise InputError("batch: give --workers or --scheduler, not both")
+        raise OptionError("batch: give --workers or --scheduler, not both")
     if workers is not None and workers < 1:
-        raise InputError(f"--workers must be 1 or more, got {workers}")
+        raise OptionError(f"--workers must be 1 or more, got {workers}")
     if preview not in (None, "png", "svg"):
-        raise InputError(f"--preview must be png or svg, got {preview!r}")
+        raise OptionError(f"--preview must be png or svg, got {preview!r}")
     args = check_pipeline_args(pipeline_args)
     dask_ok = _dask_available()
     if not dask_ok and (scheduler is not None or workers != 1):
-        raise InputError(f"batch with several workers needs Dask: {INSTALL_HINT} (or run the jobs one by one "
-                         "with --workers 1)")
+        raise OptionError(f"batch with several workers needs Dask: {INSTALL_HINT} (or run the jobs one by one "
+                          "with --workers 1)")
     paths = [Path(p) for p in inputs]
     if not paths:
-        raise InputError("batch: no inputs")
+        raise OptionError("batch: no inputs")
     out = Path(out_dir).resolve()
     suffix = _output_suffix(args)
 
@@ -456,10 +457,10 @@ def run_batch(inputs: Sequence[str | os.PathLike], out_dir: str | os.PathLike, *
     # Everything that can be checked is checked before any work.
     if towns is not None:
         if len(paths) != 1:
-            raise InputError(f"batch --towns takes exactly one input (the large file), got {len(paths)}")
+            raise OptionError(f"batch --towns takes exactly one input (the large file), got {len(paths)}")
         clipping = sorted({a.split("=", 1)[0] for a in args} & _CLIP_OPTIONS)
         if clipping:
-            raise InputError(f"batch --towns clips each town out of the input itself; drop {', '.join(clipping)}")
+            raise OptionError(f"batch --towns clips each town out of the input itself; drop {', '.join(clipping)}")
         from osm_expand.ingest import OSM_SUFFIXES, check_readable
 
         check_readable(paths[0], OSM_SUFFIXES)
@@ -513,7 +514,7 @@ def _file_jobs(inputs: list[Path], job: Callable[[str, Path], Job]) -> list[Job]
         name = job_name(path)
         _check_name(name, str(path))
         if name in names:
-            raise InputError(f"batch: {names[name]} and {path} would both be named {name!r}; rename one")
+            raise OptionError(f"batch: {names[name]} and {path} would both be named {name!r}; rename one")
         names[name] = path
         jobs.append(job(name, path))
     return jobs
@@ -534,17 +535,17 @@ def _local_cluster(n: int):
 
 def _make_out_dir(out: Path) -> None:
     if out.exists() and not out.is_dir():
-        raise InputError(f"{out}: is not a folder")
+        raise OutputError(f"{out}: is not a folder")
     from osm_expand.export.atomic import check_writable
 
     try:
         if not out.exists():
             if not out.parent.is_dir():
-                raise InputError(f"{out}: its parent folder does not exist")
+                raise OutputError(f"{out}: its parent folder does not exist")
             out.mkdir()
         check_writable(out / "summary.json")  # a real probe: root passes os.access() on a read-only mount
     except OSError as exc:
-        raise InputError(f"{out}: the output folder cannot be made or written ({exc.strerror or exc})") from None
+        raise OutputError(f"{out}: the output folder cannot be made or written ({exc.strerror or exc})") from None
 
 
 def _clip_towns(src: Path, table: list[Town], out: Path, job: Callable[[str, Path], Job],

@@ -23,7 +23,7 @@ from collections.abc import Callable, Iterator, Sequence
 from pathlib import Path
 from typing import NoReturn
 
-from osm_expand.errors import InputError
+from osm_expand.errors import InputError, OptionError, OutputError
 
 PROG = "osm-expand"
 OUTPUT_WRITERS = {".osm": "osm", ".geojson": "geojson", ".json": "geojson"}
@@ -117,7 +117,7 @@ def _check_clip(args: argparse.Namespace) -> None:
     args.box = args.clip = None
     if args.bbox is None and args.around is None and args.radius is None:
         if args.clip_index is not None:
-            raise InputError("--clip-index needs --bbox or --around")
+            raise OptionError("--clip-index needs --bbox or --around")
         return
     from osm_expand.clip import options_for_index, requested_box
 
@@ -260,19 +260,19 @@ def _output_path(city: Path, output: str | None, default_suffix: str,
                  writers: dict[str, str] = OUTPUT_WRITERS) -> tuple[Path, str]:
     path = Path(output) if output else city.with_name(_stem(city) + default_suffix)
     if output == "":
-        raise InputError("-o needs a file name, got ''")
+        raise OptionError("-o needs a file name, got ''")
     try:
         return _checked_output(path, city, default_suffix, writers)
     except OSError as exc:  # a name or path too long, a loop of links, ...
-        raise InputError(f"{path}: cannot write there ({exc.strerror or exc})") from None
+        raise OutputError(f"{path}: cannot write there ({exc.strerror or exc})") from None
 
 
 def _checked_output(path: Path, city: Path, default_suffix: str, writers: dict[str, str]) -> tuple[Path, str]:
     if path.is_dir():
-        raise InputError(f"{path}: is a directory; give an output file (-o DIR/NAME{default_suffix})")
+        raise OutputError(f"{path}: is a directory; give an output file (-o DIR/NAME{default_suffix})")
     kind = writers.get(path.suffix.lower())
     if kind is None:
-        raise InputError(f"{path}: unsupported output type (use {' or '.join(sorted(writers))})")
+        raise OptionError(f"{path}: unsupported output type (use {' or '.join(sorted(writers))})")
     _not_the_input(path, city)
     _writable(path)
     return path, kind
@@ -286,7 +286,7 @@ def _not_the_input(out: Path, city: Path) -> None:
     except OSError:
         same = False
     if same:
-        raise InputError(f"{out}: is the input file; choose another output (-o) so the town is not overwritten")
+        raise OutputError(f"{out}: is the input file; choose another output (-o) so the town is not overwritten")
 
 
 @contextlib.contextmanager
@@ -295,7 +295,7 @@ def _writing(path: Path) -> Iterator[None]:
     try:
         yield
     except OSError as exc:
-        raise InputError(f"{path}: cannot write it ({exc.strerror or exc}); nothing was written") from None
+        raise OutputError(f"{path}: cannot write it ({exc.strerror or exc}); nothing was written") from None
 
 
 def _writable(path: Path) -> None:
@@ -303,13 +303,13 @@ def _writable(path: Path) -> None:
     from osm_expand.export.atomic import check_writable
 
     if path.is_dir():
-        raise InputError(f"{path}: is a directory")
+        raise OutputError(f"{path}: is a directory")
     if not path.parent.exists() and str(path.parent) != "":
-        raise InputError(f"{path}: output directory does not exist")
+        raise OutputError(f"{path}: output directory does not exist")
     try:
         check_writable(path)
     except OSError as exc:
-        raise InputError(f"{path}: cannot write there, the folder is not writable ({exc.strerror})") from None
+        raise OutputError(f"{path}: cannot write there, the folder is not writable ({exc.strerror})") from None
 
 
 def _stem(path: Path) -> str:
@@ -341,7 +341,7 @@ def _in_file(city: Path, exc: InputError, args: argparse.Namespace) -> InputErro
     from osm_expand.pipeline import NOTHING_LEFT
 
     hint = "; try --service" if str(exc) == NOTHING_LEFT and not args.service else ""
-    return InputError(f"{city}: {exc}{hint}")
+    return type(exc)(f"{city}: {exc}{hint}")  # the same kind of error (osm_expand.errors), naming the file
 
 
 def cmd_simplify(args: argparse.Namespace, log: Progress) -> dict:
@@ -355,7 +355,7 @@ def cmd_simplify(args: argparse.Namespace, log: Progress) -> dict:
     city = Path(args.city)
     out, kind = _output_path(city, args.output, ".simplified.osm")
     if args.cluster_radius is not None and not 0 < args.cluster_radius < float("inf"):
-        raise InputError(f"--cluster-radius must be positive and finite (metres), got {args.cluster_radius:g}")
+        raise OptionError(f"--cluster-radius must be positive and finite (metres), got {args.cluster_radius:g}")
     _check_clip(args)
     with cyclic_gc_paused():  # millions of short-lived objects on a large file (osm_expand.gcpause)
         with _read_from(args, city, out.parent, log) as (src, clip):
@@ -486,7 +486,7 @@ def _pair(text: str, flag: str) -> tuple[float, float]:
     try:
         a, b = (float(v) for v in text.split(","))
     except ValueError:
-        raise InputError(f"{flag} expects two numbers separated by a comma, got {text!r}") from None
+        raise OptionError(f"{flag} expects two numbers separated by a comma, got {text!r}") from None
     return a, b
 
 
@@ -498,19 +498,19 @@ def _site_point(args: argparse.Namespace, city) -> tuple[float, float] | None:
         lon0, lat0, lon1, lat1 = city.context.bounds_lonlat
         inside = lambda x, y: lon0 <= x <= lon1 and lat0 <= y <= lat1  # noqa: E731
         if inside(lat, lon) and not inside(lon, lat):
-            raise InputError(f"--at-lonlat {text}: latitude and longitude look swapped; "
-                             f"give longitude first: {lat:g},{lon:g}")
+            raise OptionError(f"--at-lonlat {text}: latitude and longitude look swapped; "
+                              f"give longitude first: {lat:g},{lon:g}")
         if not inside(lon, lat) and not args.beyond_bounds:
-            raise InputError(f"--at-lonlat {text} is outside the map (lon {lon0:.5f}..{lon1:.5f}, "
-                             f"lat {lat0:.5f}..{lat1:.5f}); use --beyond-bounds to grow outside it")
+            raise OptionError(f"--at-lonlat {text} is outside the map (lon {lon0:.5f}..{lon1:.5f}, "
+                              f"lat {lat0:.5f}..{lat1:.5f}); use --beyond-bounds to grow outside it")
         x, y = city.projection.to_xy(lon, lat)
         return float(x), float(y)
     if args.at is not None:
         x, y = args.at
         x0, y0, x1, y1 = city.bounds_xy
         if not args.beyond_bounds and not (x0 <= x <= x1 and y0 <= y <= y1):
-            raise InputError(f"--at {x:g},{y:g} is outside the map (x {x0:.0f}..{x1:.0f}, y {y0:.0f}..{y1:.0f} m); "
-                             "use --beyond-bounds to grow outside it")
+            raise OptionError(f"--at {x:g},{y:g} is outside the map (x {x0:.0f}..{x1:.0f}, y {y0:.0f}..{y1:.0f} m); "
+                              "use --beyond-bounds to grow outside it")
         return x, y
     return None
 
@@ -520,14 +520,14 @@ def _check_points(args: argparse.Namespace) -> None:
     if args.at is not None:
         args.at = _pair(args.at, "--at")
         if not all(math.isfinite(v) for v in args.at):
-            raise InputError(f"--at expects two finite numbers (metres), got {args.at[0]:g},{args.at[1]:g}")
+            raise OptionError(f"--at expects two finite numbers (metres), got {args.at[0]:g},{args.at[1]:g}")
     if args.at_lonlat is not None:
         args.at_lonlat = lon, lat = _pair(args.at_lonlat, "--at-lonlat")
         if not (-180 <= lon <= 180 and -90 <= lat <= 90):
             if -180 <= lat <= 180 and -90 <= lon <= 90:
-                raise InputError(f"--at-lonlat {lon:g},{lat:g}: latitude and longitude look swapped; "
-                                 f"give longitude first: {lat:g},{lon:g}")
-            raise InputError(f"--at-lonlat {lon:g},{lat:g} is not a longitude,latitude")
+                raise OptionError(f"--at-lonlat {lon:g},{lat:g}: latitude and longitude look swapped; "
+                                  f"give longitude first: {lat:g},{lon:g}")
+            raise OptionError(f"--at-lonlat {lon:g},{lat:g} is not a longitude,latitude")
 
 
 def _expand_outputs(args: argparse.Namespace) -> tuple[Path, str, Path | None]:
@@ -536,19 +536,19 @@ def _expand_outputs(args: argparse.Namespace) -> tuple[Path, str, Path | None]:
     if args.format and args.output:
         suffix_kind = EXPAND_WRITERS.get(Path(args.output).suffix.lower())
         if suffix_kind is not None and suffix_kind != args.format:
-            raise InputError(f"--format {args.format} contradicts the output {args.output} "
-                             f"(a {Path(args.output).suffix} file is {suffix_kind}); change one of them")
+            raise OptionError(f"--format {args.format} contradicts the output {args.output} "
+                              f"(a {Path(args.output).suffix} file is {suffix_kind}); change one of them")
     default = FORMAT_SUFFIX[args.format or "urbanenvironment"]
     out, kind = _output_path(city, args.output, ".expanded" + default, EXPAND_WRITERS)
     preview = None
     if args.preview:
         preview = Path(args.preview)
         if preview.suffix.lower() not in (".png", ".svg"):
-            raise InputError(f"{args.preview}: the preview must be .png or .svg")
+            raise OptionError(f"{args.preview}: the preview must be .png or .svg")
         try:
             _writable(preview)
         except OSError as exc:
-            raise InputError(f"{preview}: cannot write there ({exc.strerror or exc})") from None
+            raise OutputError(f"{preview}: cannot write there ({exc.strerror or exc})") from None
     return out, args.format or kind, preview
 
 
@@ -567,14 +567,14 @@ def check_expand_options(args: argparse.Namespace):
     from osm_expand.land import LandOptions, parse_rules
 
     if args.area is not None and not (0 < args.area <= MAX_AREA_M2):
-        raise InputError(f"--area must be positive (m²) and at most {MAX_AREA_M2:.0e}, got {args.area:.6g}")
+        raise OptionError(f"--area must be positive (m²) and at most {MAX_AREA_M2:.0e}, got {args.area:.6g}")
     args.land = LandOptions() if args.unbuildable is None else LandOptions(unbuildable=parse_rules(args.unbuildable))
     _check_points(args)
     _check_clip(args)
     history = load_history(args.history)
     years = history.years if args.years is None else args.years
     if years > MAX_YEARS:
-        raise InputError(f"--years {years}: at most {MAX_YEARS} years can be simulated")
+        raise OptionError(f"--years {years}: at most {MAX_YEARS} years can be simulated")
     return history, years
 
 
@@ -585,7 +585,7 @@ def cmd_expand(args: argparse.Namespace, log: Progress) -> dict:
     city_path = check_readable(args.city)
     out, kind, preview = _expand_outputs(args)
     if args.debug_layers and kind != "geojson":
-        raise InputError(f"--debug-layers needs a GeoJSON output (-o OUT.geojson), got {out.name}")
+        raise OptionError(f"--debug-layers needs a GeoJSON output (-o OUT.geojson), got {out.name}")
     history, years = check_expand_options(args)
     land = args.land
     snapshots = _snapshot_dir(args, years, history, _stem(city_path))
@@ -623,26 +623,26 @@ def _snapshot_dir(args: argparse.Namespace, years: int, history=None, stem: str 
     try:
         return _checked_snapshot_dir(args, years, history, stem)
     except OSError as exc:  # a name or path too long, ...
-        raise InputError(f"--snapshots {args.snapshots}: cannot write there ({exc.strerror or exc})") from None
+        raise OutputError(f"--snapshots {args.snapshots}: cannot write there ({exc.strerror or exc})") from None
 
 
 def _checked_snapshot_dir(args: argparse.Namespace, years: int, history, stem: str) -> Path | None:
     if args.snapshot_every is not None and not args.snapshots:
-        raise InputError("--snapshot-every needs --snapshots DIR")
+        raise OptionError("--snapshot-every needs --snapshots DIR")
     if not args.snapshots:
         return None
     if years == 0:
-        raise InputError("--snapshots needs simulated years (--years 0 was given)")
+        raise OptionError("--snapshots needs simulated years (--years 0 was given)")
     folder = Path(args.snapshots)
     if folder.exists() and not folder.is_dir():
-        raise InputError(f"--snapshots {folder}: exists and is not a directory")
+        raise OutputError(f"--snapshots {folder}: exists and is not a directory")
     if args.snapshot_every == 0:
-        raise InputError("--snapshot-every must be 1 or more")
+        raise OptionError("--snapshot-every must be 1 or more")
     existing = folder
     while not existing.exists() and existing != existing.parent:  # made with its parents when written
         existing = existing.parent
     if not existing.is_dir():
-        raise InputError(f"--snapshots {folder}: {existing} is not a directory")
+        raise OutputError(f"--snapshots {folder}: {existing} is not a directory")
     try:
         from osm_expand.export.atomic import check_writable
 
@@ -651,7 +651,7 @@ def _checked_snapshot_dir(args: argparse.Namespace, years: int, history, stem: s
             era = max((e.name for e in history.eras), key=len, default="")
             check_writable(existing / _snapshot_name(stem, 999999, era))
     except OSError as exc:
-        raise InputError(f"--snapshots {folder}: cannot write into {existing} ({exc.strerror})") from None
+        raise OutputError(f"--snapshots {folder}: cannot write into {existing} ({exc.strerror})") from None
     return folder
 
 

@@ -68,7 +68,7 @@ import numpy as np
 import osmium
 from osmium.osm.mutable import Node, Relation, Way
 
-from osm_expand.errors import InputError
+from osm_expand.errors import InputError, OptionError, OutputError, UnreadableInputError
 
 __all__ = ["Box", "ClipOptions", "ClipResult", "ClipStrategy", "box_around", "check_box", "clip", "clip_extracts",
            "clipped", "options_for_index", "parse_bbox", "requested_box"]
@@ -158,18 +158,18 @@ def check_box(box: Iterable[float], what: str = "box") -> Box:
     try:
         values = tuple(float(v) for v in box)
     except (TypeError, ValueError):
-        raise InputError(f"{what}: expects four numbers W,S,E,N, got {box!r}") from None
+        raise OptionError(f"{what}: expects four numbers W,S,E,N, got {box!r}") from None
     if len(values) != 4:
-        raise InputError(f"{what}: expects four numbers W,S,E,N, got {len(values)}")
+        raise OptionError(f"{what}: expects four numbers W,S,E,N, got {len(values)}")
     w, s, e, n = values
     text = f"{w:g},{s:g},{e:g},{n:g}"
     if not all(math.isfinite(v) for v in values):
-        raise InputError(f"{what} {text}: not finite numbers")
+        raise OptionError(f"{what} {text}: not finite numbers")
     if not (-180 <= w <= 180 and -180 <= e <= 180 and -90 <= s <= 90 and -90 <= n <= 90):
-        raise InputError(f"{what} {text}: outside the globe (longitudes -180..180, latitudes -90..90, W,S,E,N)")
+        raise OptionError(f"{what} {text}: outside the globe (longitudes -180..180, latitudes -90..90, W,S,E,N)")
     if w >= e or s >= n:
         swap = " (latitude and longitude swapped? the order is W,S,E,N)" if s < w and n < e and s < n else ""
-        raise InputError(f"{what} {text}: empty box, west must be less than east and south less than north{swap}")
+        raise OptionError(f"{what} {text}: empty box, west must be less than east and south less than north{swap}")
     return values
 
 
@@ -177,11 +177,11 @@ def parse_bbox(text: str, what: str = "--bbox") -> Box:
     """``"W,S,E,N"`` → a checked box (see :func:`check_box`)."""
     parts = [p.strip() for p in str(text).split(",")]
     if len(parts) != 4:
-        raise InputError(f"{what} expects four numbers W,S,E,N separated by commas, got {text!r}")
+        raise OptionError(f"{what} expects four numbers W,S,E,N separated by commas, got {text!r}")
     try:
         return check_box([float(p) for p in parts], what)
     except ValueError:
-        raise InputError(f"{what} expects four numbers W,S,E,N separated by commas, got {text!r}") from None
+        raise OptionError(f"{what} expects four numbers W,S,E,N separated by commas, got {text!r}") from None
 
 
 def box_around(lon: float, lat: float, radius_m: float) -> Box:
@@ -206,20 +206,20 @@ def box_around(lon: float, lat: float, radius_m: float) -> Box:
     try:
         lon, lat, radius_m = float(lon), float(lat), float(radius_m)
     except (TypeError, ValueError):
-        raise InputError(f"--around expects numbers, got {lon!r},{lat!r} and radius {radius_m!r}") from None
+        raise OptionError(f"--around expects numbers, got {lon!r},{lat!r} and radius {radius_m!r}") from None
     if not (math.isfinite(lon) and math.isfinite(lat) and -180 <= lon <= 180 and -90 < lat < 90):
         swapped = (" (latitude and longitude swapped? the order is LON,LAT)"
                    if -90 < lon < 90 and abs(lat) <= 180 else "")
-        raise InputError(f"--around {lon:g},{lat:g}: not a longitude,latitude{swapped}")
+        raise OptionError(f"--around {lon:g},{lat:g}: not a longitude,latitude{swapped}")
     if not (math.isfinite(radius_m) and radius_m > 0):
-        raise InputError(f"--radius must be a positive number of metres, got {radius_m:g}")
+        raise OptionError(f"--radius must be a positive number of metres, got {radius_m:g}")
     dlat = math.degrees(radius_m / EARTH_RADIUS_M)
     if abs(lat) + dlat >= 90:
-        raise InputError(f"--around {lon:g},{lat:g} --radius {radius_m:g}: the box reaches a pole")
+        raise OptionError(f"--around {lon:g},{lat:g} --radius {radius_m:g}: the box reaches a pole")
     dlon = dlat / math.cos(math.radians(lat))
     if not (-180 <= lon - dlon and lon + dlon <= 180):
-        raise InputError(f"--around {lon:g},{lat:g} --radius {radius_m:g}: the box crosses the antimeridian "
-                         "(not supported)")
+        raise OptionError(f"--around {lon:g},{lat:g} --radius {radius_m:g}: the box crosses the antimeridian "
+                          "(not supported)")
     return (lon - dlon, lat - dlat, lon + dlon, lat + dlat)
 
 
@@ -246,20 +246,20 @@ def requested_box(*, bbox: str | None = None, around: str | None = None, radius:
         Both options, ``--around`` without ``--radius`` (or the reverse), or a bad box.
     """
     if bbox is not None and (around is not None or radius is not None):
-        raise InputError("give --bbox or --around with --radius, not both")
+        raise OptionError("give --bbox or --around with --radius, not both")
     if bbox is not None:
         return parse_bbox(bbox)
     if around is None and radius is None:
         return None
     if around is None:
-        raise InputError("--radius needs --around LON,LAT")
+        raise OptionError("--radius needs --around LON,LAT")
     if radius is None:
-        raise InputError("--around needs --radius M (metres from the point to the box's sides)")
+        raise OptionError("--around needs --radius M (metres from the point to the box's sides)")
     parts = [p.strip() for p in str(around).split(",")]
     try:
         lon, lat = (float(p) for p in parts)
     except ValueError:
-        raise InputError(f"--around expects two numbers LON,LAT separated by a comma, got {around!r}") from None
+        raise OptionError(f"--around expects two numbers LON,LAT separated by a comma, got {around!r}") from None
     return box_around(lon, lat, radius)
 
 
@@ -275,8 +275,8 @@ def options_for_index(index: str | None) -> ClipOptions:
         return ClipOptions()
     kinds = osmium.index.map_types()
     if index.split(",")[0] not in kinds:
-        raise InputError(f"--clip-index {index!r} is not one of {', '.join(kinds)} "
-                         "(file-backed ones take ,PATH: sparse_file_array,/big/disk/nodes.idx)")
+        raise OptionError(f"--clip-index {index!r} is not one of {', '.join(kinds)} "
+                          "(file-backed ones take ,PATH: sparse_file_array,/big/disk/nodes.idx)")
     return ClipOptions(strategy=ClipStrategy.ONE_PASS.value, index=index)
 
 
@@ -319,7 +319,7 @@ def clipped(path: str | os.PathLike, box: Iterable[float], *, scratch: str | os.
 
 def _check_name(name: str) -> str:
     if not isinstance(name, str) or not _NAME.match(name) or name.strip() != name or name in (".", ".."):
-        raise InputError(f"{name!r} cannot name an extract (no slashes, control characters or surrounding spaces)")
+        raise OptionError(f"{name!r} cannot name an extract (no slashes, control characters or surrounding spaces)")
     return name
 
 
@@ -421,21 +421,21 @@ def clip_extracts(path: str | os.PathLike, boxes: Mapping[str, Iterable[float]],
     src = check_readable(path, OSM_SUFFIXES)
     out = Path(out_dir)
     if not out.is_dir():
-        raise InputError(f"{out}: output folder does not exist")
+        raise OutputError(f"{out}: output folder does not exist")
     if not os.access(out, os.W_OK):
-        raise InputError(f"{out}: output folder is not writable")
+        raise OutputError(f"{out}: output folder is not writable")
     try:
         strategy = ClipStrategy(options.strategy)
     except ValueError:
-        raise InputError(f"clip strategy {options.strategy!r} is not one of "
-                         f"{', '.join(s.value for s in ClipStrategy)}") from None
+        raise OptionError(f"clip strategy {options.strategy!r} is not one of "
+                          f"{', '.join(s.value for s in ClipStrategy)}") from None
     checked = {_check_name(name): check_box(box, f"box {name}") for name, box in boxes.items()}
     if not checked:
-        raise InputError("no boxes to clip")
+        raise OptionError("no boxes to clip")
     if strategy is ClipStrategy.ONE_PASS and options.index.split(",")[0] not in osmium.index.map_types():
-        raise InputError(f"node-location index {options.index!r} is not one of {', '.join(osmium.index.map_types())}")
+        raise OptionError(f"node-location index {options.index!r} is not one of {', '.join(osmium.index.map_types())}")
     if options.max_id_set_mb < ID_BLOCK_BYTES >> 20:
-        raise InputError(f"max_id_set_mb must be at least {ID_BLOCK_BYTES >> 20}, got {options.max_id_set_mb}")
+        raise OptionError(f"max_id_set_mb must be at least {ID_BLOCK_BYTES >> 20}, got {options.max_id_set_mb}")
     result = ClipResult()
     try:
         result.why_empty.update(_outside_header_bounds(src, checked))
@@ -459,7 +459,7 @@ def clip_extracts(path: str | os.PathLike, boxes: Mapping[str, Iterable[float]],
         raise
     except (RuntimeError, ValueError) as exc:
         msg = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
-        raise InputError(f"{src}: not a readable OSM file ({msg})") from None
+        raise UnreadableInputError(f"{src}: not a readable OSM file ({msg})") from None
     result.empty = [name for name in checked if name in result.why_empty]
     return result
 
@@ -627,8 +627,8 @@ class _Order:
             self.way_seen = True
             self.relations_early |= self.relation_seen
         elif nodes_first and self.way_seen:
-            raise InputError(f"{self.src}: not sorted (a node after a way); the one-pass clip needs nodes first: "
-                             f"sort it (osmium sort) or use the default two-pass clip")
+            raise UnreadableInputError(f"{self.src}: not sorted (a node after a way); the one-pass clip needs nodes "
+                                       "first: sort it (osmium sort) or use the default two-pass clip")
 
     def retake_relations(self, found: _Found) -> None:
         """Every relation matched again against all kept ways (one more read), if any came early."""

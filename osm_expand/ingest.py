@@ -33,7 +33,7 @@ import osmium
 import shapely
 
 from osm_expand.coastline import assemble_sea
-from osm_expand.errors import InputError
+from osm_expand.errors import InputError, UnreadableInputError
 from osm_expand.model import (
     Building,
     City,
@@ -92,20 +92,20 @@ def check_readable(path: str | os.PathLike, suffixes: tuple[str, ...] = SUFFIXES
     try:
         return _check_readable(p, suffixes)
     except OSError as exc:  # a name too long, a loop of links, ...
-        raise InputError(f"{p}: cannot read it ({exc.strerror or exc})") from None
+        raise UnreadableInputError(f"{p}: cannot read it ({exc.strerror or exc})") from None
 
 
 def _check_readable(p: Path, suffixes: tuple[str, ...]) -> Path:
     if not p.exists():
-        raise InputError(f"{p}: no such file")
+        raise UnreadableInputError(f"{p}: no such file")
     if p.is_dir():
-        raise InputError(f"{p}: is a directory, not an OSM file")
+        raise UnreadableInputError(f"{p}: is a directory, not an OSM file")
     if not os.access(p, os.R_OK):
-        raise InputError(f"{p}: permission denied")
+        raise UnreadableInputError(f"{p}: permission denied")
     if p.stat().st_size == 0:
-        raise InputError(f"{p}: file is empty")
+        raise UnreadableInputError(f"{p}: file is empty")
     if not p.name.lower().endswith(suffixes):
-        raise InputError(f"{p}: unsupported file type (expected {', '.join(OSM_SUFFIXES[:4])})")
+        raise UnreadableInputError(f"{p}: unsupported file type (expected {', '.join(OSM_SUFFIXES[:4])})")
     return p
 
 
@@ -144,20 +144,21 @@ def load(path: str | os.PathLike, *, service: bool = False, paths: bool = False,
             # files still give their closed-way buildings, water and areas.
             raw, header_box = _read(str(p), kept, context, relations=False)
     except InputError as exc:
-        raise InputError(f"{p}: {exc}") from None
+        raise UnreadableInputError(f"{p}: {exc}") from None
     except osmium.InvalidLocationError as exc:
-        raise InputError(f"{p}: a node has an invalid location ({exc})") from None
+        raise UnreadableInputError(f"{p}: a node has an invalid location ({exc})") from None
     except (RuntimeError, ValueError, OSError) as exc:
         msg = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
-        raise InputError(f"{p}: not a readable OSM file ({msg})") from None
+        raise UnreadableInputError(f"{p}: not a readable OSM file ({msg})") from None
     if not raw.streets:
-        raise InputError(f"{p}: no streets of the selected highway classes" + ("" if service else " (try --service)"))
+        raise UnreadableInputError(f"{p}: no streets of the selected highway classes"
+                                   + ("" if service else " (try --service)"))
     try:
         if raw.missing:
             _check_missing(str(p), raw.missing)
         city = _build(raw, header_box)
     except InputError as exc:
-        raise InputError(f"{p}: {exc}") from None
+        raise UnreadableInputError(f"{p}: {exc}") from None
     return city.replace(source=SourceFile(path=str(p.resolve()), ways=frozenset(held_ways(city)))) if context else city
 
 
@@ -171,7 +172,7 @@ def _check_missing(path: str, missing: set[int]) -> None:
     if not wanted:
         return
     for node in osmium.FileProcessor(path, osmium.osm.NODE).with_filter(osmium.filter.IdFilter(wanted)):
-        raise InputError(f"node {node.id} has no valid lat/lon (a coordinate missing or unreadable)")
+        raise UnreadableInputError(f"node {node.id} has no valid lat/lon (a coordinate missing or unreadable)")
 
 
 def _is_urbanenvironment(p: Path) -> bool:
@@ -299,8 +300,8 @@ def _way_runs(way) -> tuple[list[tuple[list[int], list[tuple[float, float]]]], b
             coords.append((loc.lon, loc.lat))
             continue
         if loc.x != _UNDEFINED or loc.y != _UNDEFINED:
-            raise InputError(f"node {nd.ref} has coordinates out of range "
-                             f"(lon {loc.x / 1e7:.7f}, lat {loc.y / 1e7:.7f})")
+            raise UnreadableInputError(f"node {nd.ref} has coordinates out of range "
+                                       f"(lon {loc.x / 1e7:.7f}, lat {loc.y / 1e7:.7f})")
         clipped = True
         if len(refs) >= 2:
             runs.append((refs, coords))
@@ -437,15 +438,15 @@ def _check_coordinates(ids: np.ndarray, lonlat: np.ndarray) -> None:
         return
     lo, hi = lonlat.min(axis=0), lonlat.max(axis=0)
     if hi[0] - lo[0] > 180:
-        raise InputError("the streets cross the antimeridian (longitude ±180, not supported); "
-                         "clip the town on one side of it")
+        raise UnreadableInputError("the streets cross the antimeridian (longitude ±180, not supported); "
+                                   "clip the town on one side of it")
     typical = np.median(np.abs(lonlat), axis=0)
     for axis, name in ((1, "lat"), (0, "lon")):
         zero = np.flatnonzero(lonlat[:, axis] == 0.0)
         if len(zero) and typical[axis] > 1.0:
-            raise InputError(f"node {int(ids[zero[0]])} has {name} 0, far from the rest of the town "
-                             f"({name} {np.median(lonlat[:, axis]):.4f}); a coordinate that is not a number "
-                             "in range (such as 1e400) is read as 0")
+            raise UnreadableInputError(f"node {int(ids[zero[0]])} has {name} 0, far from the rest of the town "
+                                       f"({name} {np.median(lonlat[:, axis]):.4f}); a coordinate that is not a number "
+                                       "in range (such as 1e400) is read as 0")
 
 
 def _usable_header(header_box: tuple | None) -> tuple | None:

@@ -41,7 +41,7 @@ from types import MappingProxyType
 import numpy as np
 import shapely
 
-from osm_expand.errors import InputError
+from osm_expand.errors import OptionError
 from osm_expand.model import City, Land, Origin
 from osm_expand.model.topology import segment_degree
 
@@ -116,16 +116,16 @@ class LandOptions:
         for rule in (*self.unbuildable, *self.settlement, *self.cover):
             key, sep, value = rule.partition("=")
             if not sep or not key or not value:
-                raise InputError(f"land rule {rule!r} is not KEY=VALUE or KEY=*")
+                raise OptionError(f"land rule {rule!r} is not KEY=VALUE or KEY=*")
         for name in ("rear_margin", "default_depth", "max_setback", "survey_radius", "min_piece"):
             value = getattr(self, name)
             if not (np.isfinite(value) and value >= 0):
-                raise InputError(f"land option {name} must be a finite number of metres >= 0, got {value!r}")
+                raise OptionError(f"land option {name} must be a finite number of metres >= 0, got {value!r}")
         if not 0.0 <= self.depth_percentile <= 100.0:
-            raise InputError(f"land option depth_percentile must be in [0, 100], got {self.depth_percentile!r}")
+            raise OptionError(f"land option depth_percentile must be in [0, 100], got {self.depth_percentile!r}")
         bad = {k: v for k, v in self.cover.items() if not 0.0 <= v < 1.0}
         if bad:
-            raise InputError(f"land cover costs must be in [0, 1), got {bad}")
+            raise OptionError(f"land cover costs must be in [0, 1), got {bad}")
 
 
 def parse_rules(text: str) -> tuple[str, ...]:

@@ -25,7 +25,7 @@ import shapely
 
 from osm_expand.blocks import blocks
 from osm_expand.engine.planarity import without_touching
-from osm_expand.errors import InputError
+from osm_expand.errors import InputError, NoRoomError, OptionError
 from osm_expand.fidelity import FidelityReport, fidelity
 from osm_expand.heights import with_heights
 from osm_expand.joins import JoinReport, join_growth
@@ -139,7 +139,7 @@ def district_pattern(learned: Learned) -> Callable[[str, object], GrowthPattern]
             return RandomWalk(learned.example, options=cast(WalkOptions, options))
         if name == "colonisation":
             return Colonisation(learned.example, options=cast(ColonisationOptions, options))
-        raise InputError(f"district pattern must be one of {', '.join(PATTERNS)}, got {name!r}")
+        raise OptionError(f"district pattern must be one of {', '.join(PATTERNS)}, got {name!r}")
     return make
 
 
@@ -201,11 +201,11 @@ def expand(city: City, options: ExpandOptions | None = None, *, pattern: GrowthP
     area = _district_area(opts, maps.built_area, learned.example.spacing)
     sites, maps, beyond = _sites(city, maps, area, opts)
     if not sites:
-        raise InputError(_no_room(maps, area, learned.example.spacing, beyond))
+        raise NoRoomError(_no_room(maps, area, learned.example.spacing, beyond))
     notes = [BEYOND_NOTE] if beyond and not opts.beyond_bounds else []
     if pattern is None:
         if opts.pattern not in PATTERNS:
-            raise InputError(f"pattern must be one of {', '.join(PATTERNS)}, got {opts.pattern!r}")
+            raise OptionError(f"pattern must be one of {', '.join(PATTERNS)}, got {opts.pattern!r}")
         pattern = PATTERNS[opts.pattern](learned)
     spacing = learned.example.spacing
     tried = []

@@ -13,7 +13,7 @@ from pathlib import Path
 import numpy as np
 from lxml import etree
 
-from osm_expand.errors import InputError
+from osm_expand.errors import InputError, UnreadableInputError
 from osm_expand.ingest import _number, street_attrs
 from osm_expand.model import Building, City, LocalProjection, Origin, Status, network_from_lines
 
@@ -41,7 +41,7 @@ def _model_fields(props: dict) -> dict:
         if props.get("hierarchy") not in (None, ""):
             out["hierarchy"] = int(props["hierarchy"])
     except (ValueError, TypeError) as exc:
-        raise InputError(f"bad attribute ({exc})") from None
+        raise UnreadableInputError(f"bad attribute ({exc})") from None
     if props.get("era"):
         out["era"] = str(props["era"])
     return out
@@ -74,10 +74,10 @@ def _points(value, what: str, least: int) -> np.ndarray:
     """An ``(n, 2)`` array of finite coordinates with ``n >= least``, or InputError naming ``what``."""
     a = np.asarray(value, dtype=float)
     if a.ndim != 2 or a.shape[1] < 2 or len(a) < least:
-        raise InputError(f"{what}: expected at least {least} points of two coordinates")
+        raise UnreadableInputError(f"{what}: expected at least {least} points of two coordinates")
     a = a[:, :2]
     if not np.isfinite(a).all():
-        raise InputError(f"{what}: a coordinate is not a finite number")
+        raise UnreadableInputError(f"{what}: a coordinate is not a finite number")
     return a
 
 
@@ -86,13 +86,13 @@ def _osm_id(value) -> int:
     if value in (None, ""):
         return 0
     if isinstance(value, bool) or not (isinstance(value, int) or str(value).lstrip("-").isdigit()):
-        raise InputError(f"bad osm_id {value!r} (a whole number expected)")
+        raise UnreadableInputError(f"bad osm_id {value!r} (a whole number expected)")
     return int(value)
 
 
 def _projection(lon0: float, lat0: float) -> LocalProjection:
     if not (math.isfinite(lon0) and math.isfinite(lat0) and -180 <= lon0 <= 180 and -90 < lat0 < 90):
-        raise InputError(f"bad projection centre lon0={lon0:g}, lat0={lat0:g} (degrees expected)")
+        raise UnreadableInputError(f"bad projection centre lon0={lon0:g}, lat0={lat0:g} (degrees expected)")
     return LocalProjection(lon0, lat0)
 
 
@@ -106,17 +106,18 @@ def _from_geojson(path: Path) -> City:
         polygons = [(f["geometry"], f.get("properties") or {}) for f in features
                     if f["geometry"]["type"] in ("Polygon", "MultiPolygon")]
     except InputError as exc:
-        raise InputError(f"{path}: {exc}") from None
+        raise UnreadableInputError(f"{path}: {exc}") from None
     except (*_BAD, UnicodeDecodeError, OSError) as exc:
-        raise InputError(f"{path}: not a readable GeoJSON street network ({type(exc).__name__}: {exc})") from None
+        raise UnreadableInputError(f"{path}: not a readable GeoJSON street network "
+                                   f"({type(exc).__name__}: {exc})") from None
     if not lines:
-        raise InputError(f"{path}: no LineString streets in the GeoJSON")
+        raise UnreadableInputError(f"{path}: no LineString streets in the GeoJSON")
     allpts = np.concatenate(lines)
     if np.abs(allpts[:, 0]).max() > 180 or np.abs(allpts[:, 1]).max() > 90:
-        raise InputError(f"{path}: coordinates out of range (GeoJSON must be lon/lat)")
+        raise UnreadableInputError(f"{path}: coordinates out of range (GeoJSON must be lon/lat)")
     lo, hi = allpts.min(axis=0), allpts.max(axis=0)
     if hi[0] - lo[0] > 180:
-        raise InputError(f"{path}: the streets cross the antimeridian (longitude ±180, not supported)")
+        raise UnreadableInputError(f"{path}: the streets cross the antimeridian (longitude ±180, not supported)")
     proj = LocalProjection.centred_on((float(lo[0]), float(lo[1]), float(hi[0]), float(hi[1])))
     to_xy = lambda a: np.column_stack(proj.to_xy(a[:, 0], a[:, 1]))  # noqa: E731
     try:
@@ -130,9 +131,10 @@ def _from_geojson(path: Path) -> City:
                                           height=_number(str(p.get("height", ""))), osm_id=_osm_id(p.get("osm_id")),
                                           origin=fields.get("origin", Origin.SOURCE)))
     except InputError as exc:
-        raise InputError(f"{path}: {exc}") from None
+        raise UnreadableInputError(f"{path}: {exc}") from None
     except _BAD as exc:
-        raise InputError(f"{path}: not a readable GeoJSON street network ({type(exc).__name__}: {exc})") from None
+        raise UnreadableInputError(f"{path}: not a readable GeoJSON street network "
+                                   f"({type(exc).__name__}: {exc})") from None
     return _city([to_xy(ln) for ln in lines], attrs, buildings, proj)
 
 
@@ -145,7 +147,7 @@ def _from_urbanenvironment(path: Path) -> City:
         for k, st in enumerate(root.iterfind("streets/street")):
             segs = np.array([[float(sg.get(c)) for c in ("x1", "y1", "x2", "y2")] for sg in st.iterfind("segment")])
             if len(segs) and not np.isfinite(segs).all():
-                raise InputError(f"street {k}: a coordinate is not a finite number")
+                raise UnreadableInputError(f"street {k}: a coordinate is not a finite number")
             props = dict(st.attrib)
             if props.get("osm_id"):
                 props["osm_ids"] = [_osm_id(props["osm_id"])]
@@ -159,16 +161,16 @@ def _from_urbanenvironment(path: Path) -> City:
             fields = _model_fields({"origin": b.get("origin", "source"), "year": b.get("year")})
             height = float(b.get("height"))
             if not math.isfinite(height):
-                raise InputError(f"building {k}: height {b.get('height')!r} is not a finite number")
+                raise UnreadableInputError(f"building {k}: height {b.get('height')!r} is not a finite number")
             buildings.append(Building(rings=(np.vstack([ring, ring[:1]]),), height=height,
                                       osm_id=_osm_id(b.get("osm_id")), origin=fields.get("origin", Origin.SOURCE),
                                       year=fields.get("year")))
     except InputError as exc:
-        raise InputError(f"{path}: {exc}") from None
+        raise UnreadableInputError(f"{path}: {exc}") from None
     except (etree.XMLSyntaxError, OSError, *_BAD) as exc:
-        raise InputError(f"{path}: not a readable urbanenvironment file ({exc})") from None
+        raise UnreadableInputError(f"{path}: not a readable urbanenvironment file ({exc})") from None
     if not lines:
-        raise InputError(f"{path}: no streets in the urbanenvironment file")
+        raise UnreadableInputError(f"{path}: no streets in the urbanenvironment file")
     return _city(lines, attrs, buildings, proj)
 
 

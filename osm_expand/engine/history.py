@@ -112,7 +112,7 @@ from osm_expand.engine.routing import RoutingOptions, choose
 from osm_expand.engine.timefn import TimeFunction
 from osm_expand.engine.trade import TradeOptions, draw_traffic_factor
 from osm_expand.engine.trips import TripOptions
-from osm_expand.errors import InputError
+from osm_expand.errors import HistoryError, InputError
 from synth.colonisation import ColonisationOptions
 from synth.growth import RandomWalk
 from synth.patches import ExamplePatches, PatchOptions
@@ -459,7 +459,7 @@ class History:
         starts = [e.start for e in self.eras]
         k = int(np.searchsorted(starts, year, side="right")) - 1
         if k < 0:
-            raise InputError(f"history {self.name!r}: year {year} is before its first era ({starts[0]})")
+            raise HistoryError(f"history {self.name!r}: year {year} is before its first era ({starts[0]})")
         return self.eras[k]
 
     def values_at(self, year: int, *, traffic_factor: float = 1.0) -> YearValues:
@@ -526,8 +526,8 @@ class History:
             for e in self.eras:
                 if e.name == era:
                     return e.options
-            raise InputError(f"history {self.name!r} has no era {era!r} "
-                             f"(eras: {', '.join(dict.fromkeys(e.name for e in self.eras))})")
+            raise HistoryError(f"history {self.name!r} has no era {era!r} "
+                               f"(eras: {', '.join(dict.fromkeys(e.name for e in self.eras))})")
         return era.options
 
     def major_road_type(self, rng: np.random.Generator, year: int) -> RoadType:
@@ -586,7 +586,7 @@ def load_history(name_or_path: str | os.PathLike[str] = DEFAULT_HISTORY) -> Hist
     try:
         data = tomllib.loads(text)
     except tomllib.TOMLDecodeError as e:
-        raise InputError(f"{label}: not valid TOML: {e}") from None
+        raise HistoryError(f"{label}: not valid TOML: {e}") from None
     return history_from_mapping(data, label=label, source=source, default_name=stem)
 
 
@@ -594,28 +594,28 @@ def _read(name_or_path: str | os.PathLike[str]) -> tuple[str, str, str, str]:
     """The file's text, its label for messages, its source and its stem."""
     given = os.fspath(name_or_path)
     if not given.strip():
-        raise InputError(f"history {given!r}: give a bundled history ({', '.join(bundled())}) or a .toml file")
+        raise HistoryError(f"history {given!r}: give a bundled history ({', '.join(bundled())}) or a .toml file")
     if given in bundled():
         text = resources.files("osm_expand").joinpath("histories", f"{given}.toml").read_text(encoding="utf-8")
         return text, f"{given}.toml", f"bundled:{given}", given
     path = Path(given)
     if not path.exists():
         if path.suffix != ".toml" and os.sep not in given:
-            raise InputError(f"history {given!r}: not a bundled history ({', '.join(bundled())}) "
-                             "nor a .toml file")
-        raise InputError(f"{given}: no such history file")
+            raise HistoryError(f"history {given!r}: not a bundled history ({', '.join(bundled())}) "
+                               "nor a .toml file")
+        raise HistoryError(f"{given}: no such history file")
     if path.is_dir():
-        raise InputError(f"{given}: is a directory, not a history file")
+        raise HistoryError(f"{given}: is a directory, not a history file")
     try:
         with open(path, "rb") as fh:
             data = fh.read(MAX_HISTORY_BYTES + 1)
         if len(data) > MAX_HISTORY_BYTES:
-            raise InputError(f"{given}: too large for a history file (more than {MAX_HISTORY_BYTES >> 20} MB)")
+            raise HistoryError(f"{given}: too large for a history file (more than {MAX_HISTORY_BYTES >> 20} MB)")
         return data.decode("utf-8-sig"), given, str(path), path.stem  # -sig: a BOM (Windows editors) is fine
     except UnicodeDecodeError:
-        raise InputError(f"{given}: not a text file (UTF-8 TOML expected)") from None
+        raise HistoryError(f"{given}: not a text file (UTF-8 TOML expected)") from None
     except OSError as e:
-        raise InputError(f"{given}: cannot read: {e.strerror or e}") from None
+        raise HistoryError(f"{given}: cannot read: {e.strerror or e}") from None
 
 
 def history_from_mapping(data: Mapping[str, Any], *, label: str = "<history>", source: str = "",
@@ -664,7 +664,7 @@ class _Reader:
         self.label = label
 
     def fail(self, key: str, why: str) -> NoReturn:
-        raise InputError(f"{self.label}: {key}: {why}")
+        raise HistoryError(f"{self.label}: {key}: {why}")
 
     # ------------------------------------------------------------------ plain values
 
@@ -712,7 +712,7 @@ class _Reader:
         try:
             fn = TimeFunction.from_toml(value, key)
         except InputError as e:
-            raise InputError(f"{self.label}: {e}") from None
+            raise HistoryError(f"{self.label}: {e}") from None
         if low is not None and (fn.low <= low if strict else fn.low < low):
             self.fail(key, f"values must be {'>' if strict else '≥'} {low:g}, got {fn.low:g}")
         if high is not None and fn.high > high:
@@ -1010,7 +1010,7 @@ class _Reader:
         try:
             types_ = types_from_config(entries)
         except InputError as e:
-            raise InputError(f"{self.label}: {e}") from None
+            raise HistoryError(f"{self.label}: {e}") from None
         return types_, tuple(economies)
 
     def terms(self, value: Any, key: str) -> tuple[ValuationTerm, ...]:

@@ -58,7 +58,7 @@ import numpy as np
 import osmium
 from lxml import etree
 
-from osm_expand.errors import InputError
+from osm_expand.errors import UnreadableInputError
 from osm_expand.export.atomic import atomic_write
 from osm_expand.export.features import (
     ORIGIN_KEY,
@@ -377,7 +377,7 @@ def _write_over_source(city: City, new: _New, out: IO[bytes], folder: str) -> No
     assert city.source is not None
     src = city.source.path
     if not Path(src).is_file():
-        raise InputError(f"{src}: the town's OSM file is gone (it is read again to write the OSM output)")
+        raise UnreadableInputError(f"{src}: the town's OSM file is gone (it is read again to write the OSM output)")
     gone = set(demolished_ways(city))
     laid, split = _lay_parts(src, new)
     ways = list(new.ways)

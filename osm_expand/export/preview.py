@@ -19,7 +19,7 @@ from typing import cast
 import numpy as np
 import shapely
 
-from osm_expand.errors import InputError
+from osm_expand.errors import OptionError
 from osm_expand.export.atomic import atomic_write
 from osm_expand.model import City, Origin
 
@@ -43,7 +43,7 @@ class ColorBy(enum.StrEnum):
         try:
             return cls(value)
         except ValueError:
-            raise InputError(f"color_by must be one of {', '.join(m.value for m in cls)}, got {value!r}") from None
+            raise OptionError(f"color_by must be one of {', '.join(m.value for m in cls)}, got {value!r}") from None
 
 
 def _landuse_colours(names: list[str]) -> dict[str, str]:
@@ -101,7 +101,7 @@ def write_preview(city: City, path: str | os.PathLike, site_region: shapely.Geom
         if extent is not None:
             x0, y0, x1, y1 = (float(v) for v in extent)
             if not (x1 > x0 and y1 > y0):
-                raise InputError(f"extent must be (x0, y0, x1, y1) with x1 > x0 and y1 > y0, got {extent!r}")
+                raise OptionError(f"extent must be (x0, y0, x1, y1) with x1 > x0 and y1 > y0, got {extent!r}")
         aspect = (y1 - y0) / max(x1 - x0, 1.0)
         fig, ax = plt.subplots(figsize=(10, float(np.clip(10 * aspect, 4, 14)) + 0.6))
         water = [np.asarray(p.exterior.coords) for g in (*city.water, *city.sea)

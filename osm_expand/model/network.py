@@ -16,7 +16,7 @@ from typing import Any
 import numpy as np
 import shapely
 
-from osm_expand.errors import InputError
+from osm_expand.errors import OptionError
 from osm_expand.model.components import close_pairs, component_labels
 from osm_expand.model.geometry import match_points, polyline_length
 from osm_expand.model.projection import LocalProjection
@@ -50,7 +50,7 @@ def _parse(cls: type[enum.StrEnum], value: str, what: str):
     try:
         return cls(value)
     except ValueError:
-        raise InputError(f"{what} must be one of {', '.join(m.value for m in cls)}, got {value!r}") from None
+        raise OptionError(f"{what} must be one of {', '.join(m.value for m in cls)}, got {value!r}") from None
 
 
 Tags = tuple[tuple[str, str], ...]
