@@ -1,9 +1,14 @@
 """Many towns in one go: ``osm-expand batch``, one job per town, on Dask (``dask.distributed``).
 
 A job is exactly the main command, ``osm-expand INPUT -o DIR/NAME.expanded.xml
---seed SEED [pipeline options]``, called in a worker (:func:`run_job`), its
-stderr captured in ``DIR/logs/NAME.log``. So a job's output is byte for byte
-what that single command writes, and anyone can rerun one job alone.
+--seed SEED [pipeline options]``: a worker (:func:`run_job`) parses those
+arguments into an :class:`~osm_expand.app.ExpandRequest` and calls
+:func:`osm_expand.app.run_expand`, the function the main command calls, its
+progress and errors written to ``DIR/logs/NAME.log``. So a job's output is
+byte for byte what that single command writes, and anyone can rerun one job
+alone. The pipeline options are declared once
+(:data:`osm_expand.app.EXPAND_ARGUMENTS`); this module never imports the
+command line (:mod:`osm_expand.cli`).
 
 Jobs come from input files (one each, named by the file's stem) or from the
 rows of a towns table (``name,lon,lat,radius`` in degrees and metres) against
@@ -45,20 +50,20 @@ import argparse
 import contextlib
 import csv
 import hashlib
-import io
 import json
 import math
 import os
 import sys
 import threading
 import time
+import typing
 from collections.abc import Callable, Iterator, Sequence
 from dataclasses import asdict, dataclass, field
 from enum import StrEnum
 from functools import lru_cache
 from pathlib import Path
-from typing import Any
 
+from osm_expand.app import EXPAND_ARGUMENTS, Argument, ExpandRequest, add_arguments, check_options, exit_code, one_line
 from osm_expand.errors import InputError, OptionError, OutputError, UnreadableInputError
 
 __all__ = ["BatchSummary", "Job", "JobResult", "JobStatus", "JobsFailed", "Town", "add_batch_arguments", "cmd_batch",
@@ -76,9 +81,9 @@ _PER_JOB = {"-o", "--output", "--seed", "--preview", "--version", "-h", "--help"
 #: Main-command options that clip the input (a towns table does that itself).
 _CLIP_OPTIONS = {"--bbox", "--around", "--radius", "--clip-index"}
 #: Options of the main command that are the batch's own (not copied into the batch parser).
-_NOT_PIPELINE = {"city", "output", "seed", "preview", "json", "quiet", "help", "version"}
-#: The main command's exit code after Ctrl-C.
-INTERRUPTED = 130
+_NOT_PIPELINE = {"output", "seed", "preview"}
+#: The main command's options a batch passes to every job, in the main command's order.
+PIPELINE_ARGUMENTS: tuple[Argument, ...] = tuple(a for a in EXPAND_ARGUMENTS if a.dest not in _NOT_PIPELINE)
 #: The seed derivation's modulus: seeds stay below 2**31, valid for every numpy generator.
 SEED_MODULUS = 2 ** 31
 #: Packages whose sources must match between this process and a cluster's workers.
@@ -126,7 +131,7 @@ class Job:
     def argv(self) -> list[str]:
         """The main command's arguments for this job."""
         extra = ["--preview", self.preview] if self.preview else []
-        return [self.input, "-o", self.output, "--seed", str(self.seed), *extra, *self.args, "--json"]
+        return [self.input, "-o", self.output, "--seed", str(self.seed), *extra, *self.args]
 
 
 class JobStatus(StrEnum):
@@ -209,29 +214,47 @@ _ONE_JOB_AT_A_TIME = threading.Lock()
 def run_job(job: Job) -> JobResult:
     """Run one job as the main command does; never raises for the job's own failure.
 
-    The main command's stderr goes to ``job.log``; its ``--json`` report
-    (stdout) gives the counts. pyosmium gets one thread. An interrupt
-    (Ctrl-C) is not a job's failure: it propagates.
+    The job's arguments are parsed as the main command parses them and run
+    by :func:`osm_expand.app.run_expand`; its progress, notes and one-line
+    error go to ``job.log`` (a timed line each, as the main command prints
+    them when stderr is no terminal), its report gives the counts. pyosmium
+    gets one thread. An interrupt (Ctrl-C) is not a job's failure: it
+    propagates.
     """
-    from osm_expand.cli import main
+    import warnings
+
+    from osm_expand.app import run_expand
 
     with _ONE_JOB_AT_A_TIME:
         t0 = time.perf_counter()
-        stdout = io.StringIO()
+        report: dict = {}
         with open(job.log, "w", encoding="utf-8") as log, _environment(OSMIUM_POOL_THREADS="1"), \
-                contextlib.redirect_stderr(log), contextlib.redirect_stdout(stdout):
+                contextlib.redirect_stderr(log), warnings.catch_warnings():
+            if not os.environ.get("OSM_EXPAND_DEBUG"):  # a library's warning is no line for the user (issue 21)
+                warnings.simplefilter("ignore")
+
+            def say(message: str) -> None:
+                print(f"[{time.perf_counter() - t0:6.2f}s] {message}", file=log, flush=True)
+
             try:
-                code = main(job.argv())
-            except Exception as exc:  # noqa: BLE001 - main catches its own; anything else is this job's failure
-                print(f"osm-expand: {type(exc).__name__}: {exc}", file=log)
-                code = 1
+                report = run_expand(_job_request(job), progress=say)
+                say("done")
+                code = 0
+            except (KeyboardInterrupt, SystemExit):
+                raise
+            except InputError as exc:
+                print(f"{_PREFIX}{one_line(str(exc))}", file=log)
+                code = exit_code(exc)
+            except MemoryError as exc:
+                print(f"{_PREFIX}{one_line(job.input)}: not enough memory for this input", file=log)
+                code = exit_code(exc)
+            except Exception as exc:  # noqa: BLE001 - a bug in this job: recorded, the others go on
+                print(f"{_PREFIX}internal error: {type(exc).__name__}: {one_line(str(exc))}", file=log)
+                code = exit_code(exc)
         seconds = time.perf_counter() - t0
-    if code == INTERRUPTED:
-        raise KeyboardInterrupt
     result = JobResult(name=job.name, input=job.input, status=JobStatus.OK if code == 0 else JobStatus.FAILED,
                        seconds=round(seconds, 2), seed=job.seed, exit_code=code, log=job.log)
     if code == 0:
-        report = _last_json(stdout.getvalue())
         result.counts = {k: v for k, v in sorted(report.items())
                          if isinstance(v, (int, float)) and not isinstance(v, bool)}
         result.outputs = [job.output] + ([job.preview] if job.preview else [])
@@ -240,13 +263,28 @@ def run_job(job: Job) -> JobResult:
     return result
 
 
-def _last_json(text: str) -> dict:
-    for line in reversed(text.strip().splitlines()):
-        with contextlib.suppress(ValueError):
-            value = json.loads(line)
-            if isinstance(value, dict):
-                return value
-    return {}
+class _ArgumentsParser(argparse.ArgumentParser):
+    """The main command's options parsed without printing or exiting: a bad one is an :class:`OptionError`."""
+
+    def error(self, message: str) -> typing.NoReturn:
+        raise OptionError(message)
+
+
+def _request_parser() -> argparse.ArgumentParser:
+    """A parser of the main command's arguments (the input and :data:`~osm_expand.app.EXPAND_ARGUMENTS`)."""
+    parser = _ArgumentsParser(prog="osm-expand", add_help=False)
+    parser.add_argument("city")
+    add_arguments(parser, EXPAND_ARGUMENTS)
+    return parser
+
+
+def request_from_argv(argv: Sequence[str]) -> ExpandRequest:
+    """The request of a main command's arguments (``INPUT -o OUT --seed N [pipeline options]``)."""
+    return ExpandRequest.from_namespace(_request_parser().parse_args(list(argv)))
+
+
+def _job_request(job: Job) -> ExpandRequest:
+    return request_from_argv(job.argv())
 
 
 def _error_line(log: Path, code: int) -> str:
@@ -351,28 +389,20 @@ def _check_name(name: str, what: str) -> None:
 
 def check_pipeline_args(args: Sequence[str]) -> list[str]:
     """The pipeline options as the main command accepts them, checked before any job runs."""
-    from osm_expand.cli import build_expand_parser
-
     args = [str(a) for a in args]
     for a in args:
         flag = a.split("=", 1)[0]
         if flag in _PER_JOB:
             raise OptionError(f"batch: {flag} is set per job by the batch (outputs are DIR/NAME.expanded.*, "
                               "seeds derive from --seed, previews come with --preview png|svg)")
-    from osm_expand.cli import check_expand_options
-
-    parser = build_expand_parser()
-    err = io.StringIO()
     try:
-        with contextlib.redirect_stderr(err):
-            namespace = parser.parse_args(["CITY.osm", *args])
-    except SystemExit:
-        message = err.getvalue().strip().splitlines()
-        raise OptionError(f"batch: pipeline options: {message[-1] if message else ' '.join(args)}") from None
+        request = request_from_argv(["CITY.osm", *args])
+    except OptionError as exc:
+        raise OptionError(f"batch: pipeline options: {one_line(str(exc))}") from None
     try:
-        check_expand_options(namespace)  # --area nan, a broken --history, ...: refused before the first job
+        check_options(request)  # --area nan, a broken --history, ...: refused before the first job
     except InputError as exc:
-        raise OptionError(f"batch: pipeline options: {exc}") from None
+        raise type(exc)(f"batch: pipeline options: {exc}") from None
     return args
 
 
@@ -713,11 +743,11 @@ def _write_summary(path: Path, summary: BatchSummary) -> None:
 def add_batch_arguments(parser: argparse.ArgumentParser) -> None:
     """The ``batch`` sub-command's options, the main command's pipeline options included.
 
-    The pipeline options are copied from ``build_expand_parser()`` (so new
-    ones follow automatically) and kept as text, to be passed to every job
-    as given.
+    The pipeline options are the main command's own table
+    (:data:`PIPELINE_ARGUMENTS`, from :data:`osm_expand.app.EXPAND_ARGUMENTS`,
+    so new ones follow automatically), kept as text, to be passed to every
+    job as given.
     """
-    from osm_expand.cli import build_expand_parser
 
     parser.description = ("Grow many towns: one job per input, or per row of --towns against one large input "
                           "(read once), on a local Dask cluster or an existing one.")
@@ -737,21 +767,9 @@ def add_batch_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--json", action="store_true", help="print the batch report as one JSON object on stdout")
     parser.add_argument("-q", "--quiet", action="store_true", help="no progress on stderr")
     group = parser.add_argument_group("pipeline options (passed to every job as given; see osm-expand --help)")
-    copied = []
-    for action in build_expand_parser()._actions:
-        if not action.option_strings or action.dest in _NOT_PIPELINE:
-            continue
-        # one dest per flag: two flags may share the main parser's dest (--beyond-bounds / --within-bounds)
-        dest = "pipeline__" + action.option_strings[-1].lstrip("-").replace("-", "_")
-        common: dict[str, Any] = {"dest": dest, "help": action.help, "default": argparse.SUPPRESS}
-        if isinstance(action, (argparse._StoreTrueAction, argparse._StoreFalseAction)):
-            group.add_argument(*action.option_strings, action="store_true", **common)
-            copied.append((dest, action.option_strings[-1], False))
-        elif isinstance(action, argparse._StoreAction):
-            group.add_argument(*action.option_strings, metavar=action.metavar or action.dest.upper(),
-                               choices=action.choices, **common)
-            copied.append((dest, action.option_strings[-1], True))
-    parser.set_defaults(batch_pipeline_options=tuple(copied))
+    add_arguments(group, PIPELINE_ARGUMENTS, as_text=True, dest_prefix="pipeline__")
+    parser.set_defaults(batch_pipeline_options=tuple(
+        ("pipeline__" + a.flag.lstrip("-").replace("-", "_"), a.flag, a.takes_value) for a in PIPELINE_ARGUMENTS))
 
 
 def pipeline_argv(args: argparse.Namespace) -> list[str]:

@@ -65,9 +65,9 @@ def test_each_named_error_is_one_line_and_exit_2_at_the_command_line(capsys, arg
     assert code == 2 and needle in err and len(err.strip().splitlines()) == 1
 
 
-def test_the_file_named_in_a_wrapped_error_keeps_its_kind(tmp_path):
+def test_the_file_named_in_a_wrapped_error_keeps_its_kind():
     """The command line prefixes the input's name to a pipeline error: the error keeps its class."""
-    import argparse
+    from osm_expand.app import in_file
 
-    exc = cli._in_file(FIXTURES / "krems.osm.gz", NoRoomError("no room"), argparse.Namespace(service=False))
+    exc = in_file(FIXTURES / "krems.osm.gz", NoRoomError("no room"), service=False)
     assert isinstance(exc, NoRoomError) and str(exc).endswith("krems.osm.gz: no room")
