@@ -22,9 +22,7 @@ globe are an :class:`~osm_expand.errors.InputError` naming the file.
 """
 from __future__ import annotations
 
-import math
 import os
-import re
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -47,6 +45,8 @@ from osm_expand.model import (
 )
 from osm_expand.model.highways import highway_set
 from osm_expand.model.projection import LocalProjection
+from osm_expand.osmtags import number as _number  # the name tests and old callers use
+from osm_expand.osmtags import street_attrs
 
 OSM_SUFFIXES = (".osm", ".osm.gz", ".osm.bz2", ".osm.pbf", ".pbf", ".xml.gz", ".xml.bz2")
 #: Files ``load`` reads: OSM extracts, and the tool's own GeoJSON and urbanenvironment outputs.
@@ -383,39 +383,6 @@ def _take_relation_area(area, raw: _Raw) -> None:
     for outer in area.outer_rings():
         rings = [outer] + list(area.inner_rings(outer))
         _take_rings([([n.ref for n in r], [(n.lon, n.lat) for n in r]) for r in rings], tags, area.orig_id(), raw)
-
-
-def street_attrs(way_id: int, tags) -> dict:
-    """The typed :class:`Street` fields of a way's tags (and the tags themselves)."""
-    layer = _number(tags.get("layer"))
-    return {
-        "highway": tags.get("highway"),
-        "name": tags.get("name"),
-        "layer": int(layer) if layer is not None and abs(layer) < 10 else 0,
-        "bridge": tags.get("bridge", "no") not in ("no", "false", "0"),
-        "tunnel": tags.get("tunnel", "no") not in ("no", "false", "0"),
-        "junction": tags.get("junction"),
-        "lanes": _number(tags.get("lanes")),
-        "width": _number(tags.get("width")),
-        "osm_ids": (way_id,),
-        "tags": tuple(dict(tags).items()),
-    }
-
-
-_NUMBER = re.compile(r"^\s*(-?\d+(?:[.,]\d+)?)\s*(m|meters?|metres?|ft|')?\s*$", re.IGNORECASE)
-
-
-def _number(text: str | None) -> float | None:
-    """Parse OSM numeric tags such as ``12``, ``12.5 m`` or ``40'``; None if unusable."""
-    if not text:
-        return None
-    m = _NUMBER.match(text.split(";")[0])
-    if not m:
-        return None
-    value = float(m.group(1).replace(",", "."))
-    if m.group(2) and m.group(2).lower() in ("ft", "'"):
-        value *= 0.3048
-    return value if math.isfinite(value) else None
 
 
 #: A header box is the map's bounds only when a local projection can cover it: less than this many degrees

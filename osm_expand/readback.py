@@ -14,8 +14,9 @@ import numpy as np
 from lxml import etree
 
 from osm_expand.errors import InputError, UnreadableInputError
-from osm_expand.ingest import _number, street_attrs
 from osm_expand.model import Building, City, LocalProjection, Origin, Status, network_from_lines
+from osm_expand.osmtags import number as _number
+from osm_expand.osmtags import street_attrs
 
 #: Street attributes of the formats that are not OSM tags.
 _MODEL_KEYS = ("origin", "year", "era", "status", "hierarchy", "osm_ids", "osm_id", "id")

@@ -85,6 +85,7 @@ import shapely
 from numpy.typing import NDArray
 
 from osm_expand.blocks import blocks as find_blocks
+from osm_expand.engine.buildout_report import buildout_report  # re-exported
 from osm_expand.engine.calibration import CalibrationOptions, TownCalibration, calibrate_town, size_bands
 from osm_expand.engine.economy import HeightScale, expected_floor_space, lot_economy, occupants, substitute
 from osm_expand.engine.footprints import place_buildings
@@ -1047,6 +1048,3 @@ def town_people(memory: BuildoutMemory, history: History) -> tuple[NDArray[np.fl
     town = memory.town
     occ = occupants(town.unit_floor_space, town.unit_area, memory.town_types, economies=history.economies)
     return town.unit_xy, occ.people
-
-
-from osm_expand.engine.buildout_report import buildout_report  # noqa: E402  (re-exported; it reads the memory)

@@ -22,9 +22,10 @@
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, Protocol
 
 import numpy as np
+from numpy.typing import NDArray
 
 from osm_expand.engine.landuse import UNASSIGNED, area_shares, rasterise_lots, rasterise_polygons, similarity
 from osm_expand.engine.lots import land_use
@@ -32,10 +33,23 @@ from osm_expand.errors import InputError
 from osm_expand.model import City, Origin
 
 if TYPE_CHECKING:
-    from osm_expand.engine.buildout import BuildoutMemory
+    from osm_expand.engine.calibration import TownCalibration
     from osm_expand.engine.history import History
 
-__all__ = ["ReportOptions", "buildout_report"]
+__all__ = ["BuildoutMemory", "ReportOptions", "buildout_report"]
+
+
+class BuildoutMemory(Protocol):
+    """What the report reads of the build-out's memory (:class:`osm_expand.engine.buildout.BuildoutMemory`).
+
+    A protocol, so that this module does not import :mod:`osm_expand.engine.buildout`, which imports it (the
+    circle the two modules once closed with an import at the bottom of ``buildout.py``).
+    """
+
+    @property
+    def town(self) -> TownCalibration: ...  #: the town's calibration: its units, outlines and sizes
+    @property
+    def town_types(self) -> NDArray[np.int64]: ...  #: (U,) simulated land-use type of each town unit
 
 
 @dataclass(frozen=True)
