@@ -62,8 +62,8 @@ def _run(args: list[str], out: Path) -> tuple[str, float, float]:
     wall = time.perf_counter() - t0
     cpu = (c1.children_user - c0.children_user) + (c1.children_system - c0.children_system)
     if proc.returncode != 0:
-        msg = proc.stderr.strip().splitlines()[-1:] or ["(no stderr)"]
-        return f"exit {proc.returncode}: {msg[0]}", wall, cpu
+        msg = (proc.stderr.strip().splitlines()[-1:] or ["(no stderr)"])[0].replace(str(ROOT) + os.sep, "")
+        return f"exit {proc.returncode}: {msg}", wall, cpu  # a refusal must stay the same refusal
     return _sha256(out), wall, cpu
 
 

@@ -1,10 +1,9 @@
 """Shared fixtures: the real OSM extracts, loaded and simplified once per session."""
 from __future__ import annotations
 
-from functools import lru_cache
-from pathlib import Path
-
 import os
+from functools import cache
+from pathlib import Path
 
 import pytest
 from hypothesis import settings
@@ -26,12 +25,12 @@ TOWNS = ["krems.osm.gz", "campo-grande.osm.gz", "monaco.osm.gz", "andorra.osm.pb
 ALL = TOWNS + ["circle-bug.osm.gz"]
 
 
-@lru_cache(maxsize=None)
+@cache
 def loaded(name: str, service: bool = False) -> StreetNetwork:
     return load(FIXTURES / name, service=service, context=False).network
 
 
-@lru_cache(maxsize=None)
+@cache
 def simplified(name: str, service: bool = False) -> SimplifyResult:
     return simplify(loaded(name, service))
 

@@ -5,8 +5,7 @@ from __future__ import annotations
 import pytest
 
 from osm_expand import cli, errors
-from osm_expand.errors import (HistoryError, InputError, NoRoomError, OptionError, OutputError,
-                               UnreadableInputError)
+from osm_expand.errors import HistoryError, InputError, NoRoomError, OptionError, OutputError, UnreadableInputError
 from tests.conftest import FIXTURES
 
 NAMED = (UnreadableInputError, OptionError, HistoryError, NoRoomError, OutputError)

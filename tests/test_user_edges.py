@@ -5,10 +5,8 @@ checks run before any work, so a refusal is quick.
 """
 from __future__ import annotations
 
-import gzip
 import json
 import re
-import shlex
 import subprocess
 import sys
 import time
