@@ -1,9 +1,10 @@
 """Shared fixtures: the real OSM extracts, loaded and simplified once per session."""
 from __future__ import annotations
 
-import os
-from functools import cache
+from functools import lru_cache
 from pathlib import Path
+
+import os
 
 import pytest
 from hypothesis import settings
@@ -25,12 +26,12 @@ TOWNS = ["krems.osm.gz", "campo-grande.osm.gz", "monaco.osm.gz", "andorra.osm.pb
 ALL = TOWNS + ["circle-bug.osm.gz"]
 
 
-@cache
+@lru_cache(maxsize=None)
 def loaded(name: str, service: bool = False) -> StreetNetwork:
     return load(FIXTURES / name, service=service, context=False).network
 
 
-@cache
+@lru_cache(maxsize=None)
 def simplified(name: str, service: bool = False) -> SimplifyResult:
     return simplify(loaded(name, service))
 

@@ -22,14 +22,8 @@ import shapely
 from lxml import etree
 
 from osm_expand.blocks import blocks
-from osm_expand.engine.buildout import (
-    BuildoutOptions,
-    BuildoutYear,
-    buildout_report,
-    buildout_year,
-    start_buildout,
-    town_people,
-)
+from osm_expand.engine.buildout import (BuildoutOptions, BuildoutYear, buildout_report, buildout_year,
+                                        start_buildout, town_people)
 from osm_expand.engine.calibration import CalibrationOptions, find_centres, tag_number, town_units
 from osm_expand.engine.history import load_history
 from osm_expand.engine.segments import street_width
@@ -195,7 +189,7 @@ def test_a_new_block_around_a_town_building_is_built_out_beyond_its_clearance():
 
 
 def test_a_lot_whose_street_changed_faces_the_street_its_edge_lies_on():
-    from osm_expand.engine.buildout import LotState, _relabel, _Streets
+    from osm_expand.engine.buildout import LotState, _Streets, _relabel
     from osm_expand.engine.lots import NO_STREET
     from osm_expand.engine.lots import Lot as EngineLot
 

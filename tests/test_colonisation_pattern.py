@@ -18,13 +18,8 @@ from osm_expand.ingest import load
 from osm_expand.model import City, Origin, network_from_lines
 from osm_expand.pipeline import ExpandOptions, expand, learn
 from synth.colonisation import ColonisationOptions
-from synth.colonisation_pattern import (
-    DEBUG_LAYERS,
-    Colonisation,
-    ColonisationPatternOptions,
-    colonisation_from_config,
-    town_highways,
-)
+from synth.colonisation_pattern import (DEBUG_LAYERS, Colonisation, ColonisationPatternOptions,
+                                        colonisation_from_config, town_highways)
 from synth.flowfield import FlowPrimitive
 from tests.conftest import FIXTURES
 

@@ -31,12 +31,12 @@ ERA_KEYS = {"era", "years", "streets_grown", "trips", "routes_over_capacity", "r
             "bridges_built", "buildings_built", "lots_made"}
 
 
-@functools.cache
+@functools.lru_cache(maxsize=None)
 def town():
     return load(KREMS)
 
 
-@functools.cache
+@functools.lru_cache(maxsize=None)
 def matured(history: str, years: int | None):
     return expand(town(), ExpandOptions(seed=0, history=history, years=years, fidelity=False))
 

@@ -28,7 +28,7 @@ import re
 import shutil
 import tempfile
 import warnings
-from functools import cache
+from functools import lru_cache
 from pathlib import Path
 
 import osmium
@@ -79,7 +79,7 @@ def synthetic_town(lon0: float = 15.0, lat0: float = 48.0, n: int = 5) -> str:
     return "\n".join(lines) + "\n"
 
 
-@cache
+@lru_cache(maxsize=None)
 def sources() -> dict[str, bytes]:
     """The inputs to mutate, by name: OSM XML, PBF, and the tool's own GeoJSON and XML outputs."""
     tmp = Path(tempfile.mkdtemp(prefix="fuzz-sources-"))
@@ -296,7 +296,7 @@ def test_fuzz_history(data):
 @given(st.data())
 def test_fuzz_towns_table(data):
     """A towns table, mutated: refused in one line, or its towns (far from the tiny town) fail alone."""
-    table = b"name,lon,lat,radius\nfar,100.0,10.0,500\nfurther,-60.5,-30.25,1000\n"
+    table = "name,lon,lat,radius\nfar,100.0,10.0,500\nfurther,-60.5,-30.25,1000\n".encode()
     blob = data.draw(mutated(table))
     encoding = data.draw(st.sampled_from(["utf-8", "latin-1", "utf-16"]))
     blob = blob.decode("utf-8", "replace").encode(encoding, "replace")

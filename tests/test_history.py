@@ -3,26 +3,17 @@ from __future__ import annotations
 
 import json
 import math
+from dataclasses import replace
 import re
 import textwrap
-from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
 import pytest
 
 from osm_expand.engine.economy import DEFAULT_ECONOMY
-from osm_expand.engine.history import (
-    DEFAULT_HISTORY,
-    GROWTH_PATTERNS,
-    Anchor,
-    Clock,
-    History,
-    KernelOptions,
-    bundled,
-    history_from_mapping,
-    load_history,
-)
+from osm_expand.engine.history import (DEFAULT_HISTORY, GROWTH_PATTERNS, Anchor, Clock, History, KernelOptions,
+                                       bundled, history_from_mapping, load_history)
 from osm_expand.engine.landuse import DEFAULT_TYPES, LandUseOptions, runs_this_year
 from osm_expand.engine.lattice import EdgeCosts
 from osm_expand.engine.lots import DEFAULT_LOT_OPTIONS, LandUse, LotOptions

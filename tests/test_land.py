@@ -1,7 +1,7 @@
 """The land model: frontage learned from the town, taken land, land cover (issue 20)."""
 from __future__ import annotations
 
-from functools import cache
+from functools import lru_cache
 
 import numpy as np
 import pytest
@@ -15,7 +15,7 @@ from osm_expand.sites import SiteOptions, choose_site, distance_maps
 from tests.conftest import FIXTURES
 
 
-@cache
+@lru_cache(maxsize=None)
 def town(name: str) -> City:
     return load(FIXTURES / name)
 

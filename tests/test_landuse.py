@@ -9,6 +9,7 @@ from osm_expand.engine import landuse as lu
 from osm_expand.engine.landuse import LandUseOptions, LandUseType, ValuationTerm
 from osm_expand.errors import InputError
 
+
 # --------------------------------------------------------------------------- builders
 
 def grid_lots(n: int, rng: np.random.Generator, spacing: float = 30.0):

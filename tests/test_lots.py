@@ -7,18 +7,8 @@ import shapely
 
 from osm_expand.blocks import blocks
 from osm_expand.engine.lots import (
-    DEFAULT_LOT_OPTIONS,
-    NO_STREET,
-    Frontage,
-    LandUse,
-    LotOptions,
-    _cast,
-    _split_ring,
-    block_frontage,
-    land_use,
-    shrink_block,
-    subdivide,
-    subdivide_blocks,
+    DEFAULT_LOT_OPTIONS, NO_STREET, Frontage, LandUse, LotOptions, _cast, _split_ring, block_frontage,
+    land_use, shrink_block, subdivide, subdivide_blocks,
 )
 from osm_expand.errors import InputError
 from osm_expand.model import network_from_lines

@@ -10,39 +10,15 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from osm_expand.engine.lattice import (
-    NO_EDGE,
-    EdgeCosts,
-    EdgeKind,
-    LatticeOptions,
-    Raster,
-    Segments,
-    VertexClass,
-    build_lattice,
-    built_up_area,
-    implicit_graph,
-    lattice_directions,
-    pathfinding_graph,
-    segment_sides,
+    NO_EDGE, EdgeCosts, EdgeKind, LatticeOptions, Raster, Segments, VertexClass, build_lattice,
+    built_up_area, implicit_graph, lattice_directions, pathfinding_graph, segment_sides,
 )
 from osm_expand.engine.majorroads import (
-    MajorRoadOptions,
-    RoadType,
-    allowed_streets,
-    centroid_smoothing,
-    chaikin,
-    max_turn,
-    parse_road_type,
-    plan_major_road,
-    propose_route,
-    smooth_polyline,
+    MajorRoadOptions, RoadType, allowed_streets, centroid_smoothing, chaikin, max_turn, parse_road_type,
+    plan_major_road, propose_route, smooth_polyline,
 )
 from osm_expand.engine.routing import (
-    Choice,
-    RoutingOptions,
-    choose,
-    find_route,
-    route_over_major_roads,
-    turn_penalty,
+    Choice, RoutingOptions, choose, find_route, route_over_major_roads, turn_penalty,
 )
 from osm_expand.errors import InputError
 
@@ -566,7 +542,6 @@ MAJOR_HIGHWAYS = {"motorway", "trunk", "primary", "secondary", "tertiary"}
 @pytest.fixture(scope="module")
 def krems():
     from conftest import FIXTURES
-
     from osm_expand.ingest import load
     net, water = network_and_water(load(FIXTURES / "krems.osm.gz"))
     major = [s.highway.removesuffix("_link") in MAJOR_HIGHWAYS for s in net.streets]

@@ -5,8 +5,10 @@ checks run before any work, so a refusal is quick.
 """
 from __future__ import annotations
 
+import gzip
 import json
 import re
+import shlex
 import subprocess
 import sys
 import time
