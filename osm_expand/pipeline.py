@@ -18,30 +18,26 @@ from __future__ import annotations
 import os
 from collections.abc import Callable
 from dataclasses import dataclass, field, replace
-from typing import TYPE_CHECKING, cast
+from typing import TYPE_CHECKING
 
 import numpy as np
 import shapely
 
 from osm_expand.blocks import blocks
 from osm_expand.engine.planarity import without_touching
-from osm_expand.errors import InputError, NoRoomError, OptionError
+from osm_expand.errors import InputError, NoRoomError
 from osm_expand.fidelity import FidelityReport, fidelity
+from osm_expand.growth_patterns import make_pattern
 from osm_expand.heights import with_heights
 from osm_expand.joins import JoinReport, join_growth
 from osm_expand.land import LandOptions, land_cover_taken, read_land, unbuildable
-from osm_expand.measures import LineSet, NetworkMeasures, measure_network
 from osm_expand.model import City, Origin, StreetNetwork, demolished_ways, polyline_length
 from osm_expand.sites import DistanceMaps, Site, SiteOptions, choose_sites, distance_maps, district_region
 from simplify import simplify
 from simplify.example import Example, build_example
 from simplify.hierarchy import with_levels
 from simplify.options import SimplifyOptions
-from synth.colonisation import ColonisationOptions
-from synth.colonisation_pattern import Colonisation
-from synth.growth import Growth, GrowthPattern, RandomWalk
-from synth.patches import ExamplePatches, PatchOptions
-from synth.walk import WalkOptions
+from synth.growth import Growth, GrowthPattern
 
 if TYPE_CHECKING:
     from osm_expand.engine.history import History
@@ -81,7 +77,7 @@ class ExpandOptions:
     #: land outside the map's data bounds: True free, False never taken, None (default) taken only when the
     #: town fills its map (no site inside it), with :data:`BEYOND_NOTE` in the report
     beyond_bounds: bool | None = None
-    pattern: str = "example"  #: growth pattern: see :data:`PATTERNS`
+    pattern: str = "example"  #: growth pattern: a name of :data:`osm_expand.growth_patterns.PATTERN_NAMES`
     #: judge the district, and what the years grow, against real neighbourhoods of the town
     #: (:mod:`osm_expand.fidelity`, :mod:`osm_expand.growth_fidelity`)
     fidelity: bool = True
@@ -116,31 +112,10 @@ class ExpandResult:
     report: dict
 
 
-def _measure_in_windows(lines: list) -> Callable[[shapely.Geometry], NetworkMeasures]:
-    """The measures of ``lines`` in any window, the lines indexed once."""
-    indexed = LineSet.from_lines(lines)
-    return lambda window: measure_network(indexed, window=window)
-
-
-#: Growth patterns by name (``--pattern``): each builds from what the town taught.
-PATTERNS: dict[str, Callable[[Learned], GrowthPattern]] = {
-    "example": lambda learned: ExamplePatches(learned.example, measure=_measure_in_windows),
-    "walk": lambda learned: RandomWalk(learned.example),
-    "colonisation": lambda learned: Colonisation(learned.example),
-}
-
-
 def district_pattern(learned: Learned) -> Callable[[str, object], GrowthPattern]:
-    """The engine's factory of district patterns for an era: ``(name, options) -> GrowthPattern``."""
-    def make(name: str, options: object) -> GrowthPattern:
-        if name == "example":
-            return ExamplePatches(learned.example, options=cast(PatchOptions, options), measure=_measure_in_windows)
-        if name == "walk":
-            return RandomWalk(learned.example, options=cast(WalkOptions, options))
-        if name == "colonisation":
-            return Colonisation(learned.example, options=cast(ColonisationOptions, options))
-        raise OptionError(f"district pattern must be one of {', '.join(PATTERNS)}, got {name!r}")
-    return make
+    """The engine's factory of district patterns for an era: ``(name, options) -> GrowthPattern``, from the
+    registry of growth patterns (:mod:`osm_expand.growth_patterns`) over the town's example."""
+    return lambda name, options: make_pattern(name, learned.example, options)
 
 
 def simplified_or_fail(raw: StreetNetwork, options: SimplifyOptions | None = None):
@@ -204,9 +179,7 @@ def expand(city: City, options: ExpandOptions | None = None, *, pattern: GrowthP
         raise NoRoomError(_no_room(maps, area, learned.example.spacing, beyond))
     notes = [BEYOND_NOTE] if beyond and not opts.beyond_bounds else []
     if pattern is None:
-        if opts.pattern not in PATTERNS:
-            raise OptionError(f"pattern must be one of {', '.join(PATTERNS)}, got {opts.pattern!r}")
-        pattern = PATTERNS[opts.pattern](learned)
+        pattern = make_pattern(opts.pattern, learned.example)  # OptionError for a name not in the registry
     spacing = learned.example.spacing
     tried = []
     grown_at = []

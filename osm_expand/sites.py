@@ -51,7 +51,7 @@ from scipy.ndimage import distance_transform_edt, label
 
 from osm_expand.errors import InputError
 from osm_expand.land import read_land
-from osm_expand.model import City, Land
+from osm_expand.model import City, Land, highways
 
 DIRECTIONS = {"E": 0, "NE": 45, "N": 90, "NW": 135, "W": 180, "SW": 225, "S": 270, "SE": 315}
 #: The raster never has more cells than this (the cell grows instead).
@@ -85,7 +85,7 @@ class SiteOptions:
 
 #: Roads that cut the land: a district's streets cross none of the town's streets, and these have
 #: no junctions to meet them at, so a district's land must lie on one side of them.
-CORRIDORS = frozenset({"motorway", "motorway_link", "trunk", "trunk_link"})
+CORRIDORS = highways.CORRIDORS
 
 
 def _of_class(net, classes: frozenset[str]) -> np.ndarray:

@@ -101,7 +101,7 @@ import shapely
 from scipy.spatial import cKDTree
 
 from osm_expand.errors import InputError
-from osm_expand.model import City, Origin
+from osm_expand.model import City, Origin, highways
 from simplify.example import Example
 from synth.colonisation import ColonisationOptions, ColonisationResult, colonise
 from synth.flowfield import FlowField, FlowPrimitive, flow_field
@@ -115,7 +115,7 @@ __all__ = ["DEBUG_LAYERS", "TOWN_OPTIONS", "Colonisation", "ColonisationPatternO
 DEBUG_LAYERS = ("attraction_point", "flow_vector", "flow_primitive", "colonisation_region", "colonisation_corridor",
                 "colonisation_join", "parameters")
 #: Classes from most to least important that a kernel class may move down to (see ``town_classes``).
-CLASS_LADDER = ("primary", "secondary", "tertiary", "unclassified", "residential", "living_street")
+CLASS_LADDER = highways.CLASS_LADDER
 #: A town node this close to a kernel node is that node (m): coordinates copied exactly.
 SAME_NODE = 1e-6
 #: Never-joined roads are forbidden this far either side of their centre line (m).

@@ -50,14 +50,14 @@ import shapely
 import shapely.ops
 from scipy.spatial import cKDTree
 
-from osm_expand.model import City, Origin, StreetNetwork, network_from_lines, polyline_length
+from osm_expand.model import City, Origin, StreetNetwork, highways, network_from_lines, polyline_length
 from osm_expand.model.geometry import closest_on_segments, ray_meet
 from osm_expand.model.topology import dangling_chains, segment_degree, without_segments
 from simplify.example import Example
 from synth.growth import Growth, NewStreet, streets_near
 
 #: Highway classes never copied into a district: a piece of motorway in a housing estate is no street.
-NOT_COPIED = ("motorway", "trunk", "motorway_link", "trunk_link")
+NOT_COPIED = highways.CORRIDORS
 
 
 @dataclass(frozen=True)

@@ -59,6 +59,7 @@ import shapely
 from numpy.typing import ArrayLike, NDArray
 
 from osm_expand.errors import InputError
+from osm_expand.model.enums import parse_enum
 from synth.segment_index import _intersects
 from synth.street_graph import StreetGraph
 
@@ -123,11 +124,7 @@ class Rule(StrEnum):
 
 
 def _enum(kind: type[StrEnum], value: Any, key: str) -> StrEnum:
-    try:
-        return kind(value)
-    except ValueError:
-        valid = ", ".join(m.value for m in kind)
-        raise InputError(f"pattern option {key}: {value!r} is not one of {valid}") from None
+    return parse_enum(kind, value, f"pattern option {key}")
 
 
 @dataclass(frozen=True)

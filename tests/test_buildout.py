@@ -507,7 +507,7 @@ def test_the_preview_colours_buildings_by_origin_land_use_or_year(outputs, tmp_p
 
 def test_the_preview_refuses_an_unknown_colouring(outputs, tmp_path):
     city, _ = outputs
-    with pytest.raises(InputError, match="color_by must be one of origin, landuse, year"):
+    with pytest.raises(InputError, match="color_by: 'height' is not one of origin, landuse, year"):
         write_preview(city, tmp_path / "x.png", color_by="height")
 
 

@@ -340,7 +340,7 @@ def test_a_wrong_type(tmp_path):
           r": options\.land_use\.update_interval: must be at least 1 year, got 0")
     fails(tmp_path, MINIMAL + "[eras.pattern_options]\nmin_length_m = -1\n",
           r": eras\[0\]\.pattern_options: pattern option min_length_m: must be > 0")
-    fails(tmp_path, 'anchor = "now"\n' + MINIMAL, r": anchor: unknown value 'now' \(valid: map, start\)")
+    fails(tmp_path, 'anchor = "now"\n' + MINIMAL, r": anchor: 'now' is not one of map, start")
     fails(tmp_path, "eras = 3\nstart = 0\n", r": eras: expected a list of tables")
 
 
@@ -373,7 +373,7 @@ def test_bad_land_use(tmp_path):
     fails(tmp_path, MINIMAL + '[[land_use]]\nname = "farm"\ngoal = 0.2\nterms = []\n',
           r": land_use\[0\]\.lot_size: 'farm' is not a lot class")
     fails(tmp_path, MINIMAL + '[[land_use]]\nname = "park"\n[[land_use.terms]]\nweight = 1.0\nkind = "ramp"\n'
-          'attribute = "traffic"\nlow = 0.0\nhigh = 1.0\n', r": land_use\[0\]\.terms\[0\]\.kind: unknown value 'ramp'")
+          'attribute = "traffic"\nlow = 0.0\nhigh = 1.0\n', r": land_use\[0\]\.terms\[0\]\.kind: 'ramp' is not one of")
     fails(tmp_path, MINIMAL + '[[land_use]]\nname = "park"\n[[land_use]]\nname = "park"\n',
           r": land_use\[1\]\.name: type 'park' is already defined in land_use\[0\]")
     fails(tmp_path, MINIMAL + '[[land_use]]\nname = "park"\n[[land_use.terms]]\nweight = 1.0\nkind = "linear_up"\n'

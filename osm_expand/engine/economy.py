@@ -64,6 +64,7 @@ from scipy.special import ndtr, ndtri
 
 from osm_expand.engine.landuse import valuate
 from osm_expand.errors import InputError
+from osm_expand.model.enums import parse_enum
 
 __all__ = [
     "HeightShape", "TypeEconomy", "DEFAULT_ECONOMY", "EconomyOptions",
@@ -184,11 +185,7 @@ class EconomyOptions:
 
 
 def _shape(options: EconomyOptions) -> HeightShape:
-    try:
-        return HeightShape(options.shape)
-    except ValueError:
-        valid = ", ".join(s.value for s in HeightShape)
-        raise InputError(f"economy shape: {options.shape!r} is not one of {valid}") from None
+    return parse_enum(HeightShape, options.shape, "economy shape")
 
 
 def _per_type(lut: NDArray[np.int64], economies: Sequence[TypeEconomy],

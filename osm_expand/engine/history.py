@@ -113,9 +113,10 @@ from osm_expand.engine.timefn import TimeFunction
 from osm_expand.engine.trade import TradeOptions, draw_traffic_factor
 from osm_expand.engine.trips import TripOptions
 from osm_expand.errors import HistoryError, InputError
+from osm_expand.growth_patterns import era_defaults
+from osm_expand.model.enums import parse_enum
 from synth.colonisation import ColonisationOptions
-from synth.growth import RandomWalk
-from synth.patches import ExamplePatches, PatchOptions
+from synth.patches import PatchOptions
 from synth.patterns import PATTERNS, PatternOptions
 from synth.walk import WalkOptions
 
@@ -163,15 +164,11 @@ def _narrowest_major_road() -> float:
     return t.major_min_lanes * t.lane_width + 2.0 * t.sidewalk_width
 
 
-#: Growth patterns that grow whole districts, by name, with their kernel's default options (the same
-#: defaults the pattern classes use: :class:`~synth.patches.ExamplePatches`,
-#: :class:`~synth.growth.RandomWalk`, :mod:`synth.colonisation`). The Beneš street patterns
-#: (:data:`synth.patterns.PATTERNS`) grow from starts (003 §3.3.2).
-GROWTH_PATTERNS: Mapping[str, Any] = MappingProxyType({
-    "example": _field_default(ExamplePatches, "options"),
-    "walk": _field_default(RandomWalk, "options"),
-    "colonisation": ColonisationOptions(),
-})
+#: Growth patterns that grow whole districts, by name, with the options an era starts from: the registry of
+#: growth patterns (:mod:`osm_expand.growth_patterns`, which the command line's ``--pattern`` and the
+#: pipeline read too). The Beneš street patterns (:data:`synth.patterns.PATTERNS`) grow from starts
+#: (003 §3.3.2).
+GROWTH_PATTERNS: Mapping[str, Any] = MappingProxyType(era_defaults())
 
 #: An era's pattern options: the kernel's own options object.
 PatternSettings = PatternOptions | PatchOptions | WalkOptions | ColonisationOptions
@@ -702,10 +699,9 @@ class _Reader:
         return value
 
     def choice(self, value: Any, key: str, kind: type[StrEnum]) -> Any:
-        valid = [m.value for m in kind]
-        if not isinstance(value, str) or value not in valid:
-            self.fail(key, f"unknown value {value!r} (valid: {', '.join(valid)})")
-        return kind(value)
+        if not isinstance(value, str):  # a StrEnum takes only its text
+            self.fail(key, f"expected one of {', '.join(m.value for m in kind)}, got {value!r}")
+        return parse_enum(kind, value, f"{self.label}: {key}", error=HistoryError)
 
     def function(self, value: Any, key: str, *, low: float | None = None, strict: bool = False,
                  high: float | None = None) -> TimeFunction:

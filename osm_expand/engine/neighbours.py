@@ -42,6 +42,7 @@ from scipy.sparse.csgraph import connected_components
 from scipy.spatial import cKDTree
 
 from osm_expand.errors import InputError
+from osm_expand.model import highways
 
 __all__ = [
     "NeighbourKind",
@@ -69,7 +70,7 @@ class NeighbourKind(enum.StrEnum):
 class NeighbourOptions:
     #: Highway classes whose map exits lead to a neighbouring city (the issue's
     #: "motorway/trunk/primary/secondary"); ``*_link`` ramps are not exits.
-    exit_classes: tuple[str, ...] = ("motorway", "trunk", "primary", "secondary")
+    exit_classes: tuple[str, ...] = highways.MAJOR
     #: A major road's dead end this close (m) to the bounds, inside or out,
     #: leaves the map; a segment crossing the bounds attaches at its outer node when that
     #: is this close beyond them (else at its inner node). Clipped extracts

@@ -14,11 +14,10 @@ from dataclasses import dataclass
 import numpy as np
 
 from osm_expand.engine.pieces import Pieces
-from osm_expand.model import City, Status, Street
+from osm_expand.model import City, Status, Street, highways
 
 #: Highway classes that are major roads (003's major roads: the trade routes run on them).
-MAJOR = frozenset({"motorway", "trunk", "primary", "secondary", "motorway_link", "trunk_link", "primary_link",
-                   "secondary_link"})
+MAJOR = highways.MAJOR_AND_LINKS
 #: Carriageway width (m) by class when the map says neither ``width`` nor ``lanes`` (RAS-06 / AASHTO:
 #: 3.5 m lanes; two lanes on most town streets, four on primaries, more on motorways).
 DEFAULT_WIDTH = {"motorway": 22.0, "trunk": 15.0, "primary": 14.0, "secondary": 10.0, "tertiary": 8.0,

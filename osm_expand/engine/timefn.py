@@ -35,6 +35,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from osm_expand.errors import InputError
+from osm_expand.model.enums import parse_enum
 
 __all__ = ["Interpolation", "TimeFunction"]
 
@@ -90,11 +91,7 @@ class TimeFunction:
             raise InputError("time function: years and values must be finite numbers")
         if any(b <= a for a, b in zip(years, years[1:])):
             raise InputError(f"time function: years must increase, got {list(years)}")
-        try:
-            kind = Interpolation(self.interpolation)
-        except ValueError:
-            valid = ", ".join(i.value for i in Interpolation)
-            raise InputError(f"time function: interpolation {self.interpolation!r} is not one of {valid}") from None
+        kind = parse_enum(Interpolation, self.interpolation, "time function: interpolation")
         object.__setattr__(self, "years", years)
         object.__setattr__(self, "values", values)
         object.__setattr__(self, "interpolation", kind)
@@ -182,11 +179,9 @@ class TimeFunction:
                 raise InputError(f"{key}.{unknown[0]}: unknown key (valid: points, interpolation)")
             if "points" not in value:
                 raise InputError(f"{key}.points: missing (a list of [year, value] pairs)")
-            kind = value.get("interpolation", Interpolation.LINEAR.value)
-            if kind not in {i.value for i in Interpolation}:
-                valid = ", ".join(i.value for i in Interpolation)
-                raise InputError(f"{key}.interpolation: {kind!r} is not one of {valid}")
-            return cls._from_points(value["points"], f"{key}.points", Interpolation(kind))
+            kind = parse_enum(Interpolation, value.get("interpolation", Interpolation.LINEAR.value),
+                              f"{key}.interpolation")
+            return cls._from_points(value["points"], f"{key}.points", kind)
         if isinstance(value, (list, tuple)):
             return cls._from_points(value, key, Interpolation.LINEAR)
         if isinstance(value, bool) or not isinstance(value, (int, float)):

@@ -22,6 +22,7 @@ import shapely
 from osm_expand.errors import OptionError
 from osm_expand.export.atomic import atomic_write
 from osm_expand.model import City, Origin
+from osm_expand.model.enums import parse_enum
 
 #: Generated buildings of one colour when coloured by origin.
 NEW_BUILDING = "#e8a33d"
@@ -40,10 +41,7 @@ class ColorBy(enum.StrEnum):
 
     @classmethod
     def parse(cls, value: str) -> ColorBy:
-        try:
-            return cls(value)
-        except ValueError:
-            raise OptionError(f"color_by must be one of {', '.join(m.value for m in cls)}, got {value!r}") from None
+        return parse_enum(cls, value, "color_by")
 
 
 def _landuse_colours(names: list[str]) -> dict[str, str]:

@@ -14,6 +14,16 @@ DRIVABLE: frozenset[str] = frozenset({
 #: The major road classes: a street of these is a major road as mapped (roads keep it when reused,
 #: snapshots draw it thick); their ``_link`` ramps are not in it.
 MAJOR: tuple[str, ...] = ("motorway", "trunk", "primary", "secondary")
+#: The major classes with their ``_link`` ramps: a segment of these is a major road to the engine's
+#: traffic, lattice and widths (003's major roads, on which trade routes run).
+MAJOR_AND_LINKS: frozenset[str] = frozenset({*MAJOR, *(f"{c}_link" for c in MAJOR)})
+#: Motorways and trunk roads with their ramps: they have no junctions for a new street to meet, so they
+#: cut the land (a district's land lies on one side of them, :mod:`osm_expand.sites`), and no piece of
+#: them is ever copied into a district (:mod:`synth.patches`).
+CORRIDORS: frozenset[str] = frozenset({"motorway", "motorway_link", "trunk", "trunk_link"})
+#: Town street classes from most to least important, below the corridors: a grown street's class may
+#: move down this ladder to one the town has (:mod:`synth.colonisation_pattern`).
+CLASS_LADDER: tuple[str, ...] = ("primary", "secondary", "tertiary", "unclassified", "residential", "living_street")
 SERVICE: frozenset[str] = frozenset({"service"})
 PATHS: frozenset[str] = frozenset({
     "footway", "path", "track", "pedestrian", "cycleway", "bridleway", "steps", "busway",

@@ -16,8 +16,8 @@ from typing import Any
 import numpy as np
 import shapely
 
-from osm_expand.errors import OptionError
 from osm_expand.model.components import close_pairs, component_labels
+from osm_expand.model.enums import parse_enum
 from osm_expand.model.geometry import match_points, polyline_length
 from osm_expand.model.projection import LocalProjection
 
@@ -32,7 +32,7 @@ class Origin(enum.StrEnum):
 
     @classmethod
     def parse(cls, value: str) -> Origin:
-        return _parse(cls, value, "origin")
+        return parse_enum(cls, value, "origin")
 
 
 class Status(enum.StrEnum):
@@ -43,14 +43,7 @@ class Status(enum.StrEnum):
 
     @classmethod
     def parse(cls, value: str) -> Status:
-        return _parse(cls, value, "status")
-
-
-def _parse(cls: type[enum.StrEnum], value: str, what: str):
-    try:
-        return cls(value)
-    except ValueError:
-        raise OptionError(f"{what} must be one of {', '.join(m.value for m in cls)}, got {value!r}") from None
+        return parse_enum(cls, value, "status")
 
 
 Tags = tuple[tuple[str, str], ...]
