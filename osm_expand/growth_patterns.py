@@ -58,23 +58,18 @@ def _colonisation(example: Example, options: Any) -> GrowthPattern:
     return Colonisation(example) if options is None else Colonisation(example, options=options)
 
 
-def _field_default(cls: type, name: str) -> Any:
-    from dataclasses import MISSING
-
-    f = cls.__dataclass_fields__[name]  # type: ignore[attr-defined]
-    return f.default_factory() if f.default_factory is not MISSING else f.default
-
-
 def _example_era() -> Any:
+    from osm_expand.model.options import field_default
     from synth.patches import ExamplePatches
 
-    return _field_default(ExamplePatches, "options")
+    return field_default(ExamplePatches, "options")
 
 
 def _walk_era() -> Any:
+    from osm_expand.model.options import field_default
     from synth.growth import RandomWalk
 
-    return _field_default(RandomWalk, "options")
+    return field_default(RandomWalk, "options")
 
 
 def _colonisation_era() -> Any:
