@@ -125,3 +125,21 @@ def test_the_command_line_and_batch_stand_apart_on_the_application_layer():
     assert not {m for m, _ in imports("osm_expand.app")} & {"osm_expand.cli", "osm_expand.batch"}
     source = modules()["osm_expand.batch"].read_text(encoding="utf-8")
     assert "argparse._" not in source and "._actions" not in source  # no argparse internals
+
+
+def test_the_architecture_page_names_only_files_and_functions_that_exist():
+    """docs/architecture.md's pictures and its "where is ..." table stay true to the code."""
+    import re
+
+    page = (ROOT / "docs" / "architecture.md").read_text(encoding="utf-8")
+    path = r"((?:osm_expand|simplify|synth|engine)/[\w/]*?(?:\.py|/(?!\w)))"
+    named = re.findall(path + r"(?:`? *(?:\|? *`|: *)(\w+))?", page)
+    assert len(named) > 40 and sum(bool(f) for _, f in named) > 30
+    for path, function in named:
+        where = ROOT / ("osm_expand/" + path if path.startswith("engine/") else path)
+        assert where.exists(), path
+        if function and where.suffix == ".py":
+            source = where.read_text(encoding="utf-8")
+            assert re.search(rf"^(def|class) {function}\b|^{function}\b.*=", source, re.M), (path, function)
+    for question in ("where are roundabouts fused", "where is traffic assigned", "where are lots split"):
+        assert question in page
