@@ -33,7 +33,7 @@ Where jobs run:
   file). Before any job, every worker must import the same osm-expand
   (version and source) and see the inputs and the output folder; if not,
   one line says which worker lacks what. A user's cluster is never shut down.
-  A job captures its process's stdout and stderr, so a worker runs one job
+  A job captures its process's stderr into its log, so a worker runs one job
   at a time: give workers one thread (``dask worker --nthreads 1``);
 - without Dask installed, ``workers=1`` runs the jobs one after the other in
   this process (no isolation from a crash); anything else says how to
@@ -206,7 +206,7 @@ def _environment(**values: str) -> Iterator[None]:
                 os.environ[k] = v
 
 
-#: One job at a time per process: a job redirects the process's stdout and stderr, so a worker
+#: One job at a time per process: a job redirects the process's stderr, so a worker
 #: with several threads (a user's cluster) still runs its jobs one after the other.
 _ONE_JOB_AT_A_TIME = threading.Lock()
 
