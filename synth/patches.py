@@ -129,6 +129,8 @@ class _Quilt:
     splits: dict[int, list[np.ndarray]] = field(default_factory=dict)
     #: the patch centres (in the town) the cells take, in order
     grid: np.ndarray = field(default_factory=lambda: np.zeros((0, 2)))
+    #: the tees made from cut ends onto streets of the district: (cut end, foot) pairs
+    tees: list[tuple[np.ndarray, np.ndarray]] = field(default_factory=list)
 
     def add(self, xy: np.ndarray, highway: str, level: int) -> int:
         self.xy.append(xy)
@@ -199,13 +201,15 @@ class ExamplePatches:
         if "in_window" not in self.cache:
             self.cache["in_window"] = self.measure([np.asarray(ln.coords) for ln in source.lines])
         in_window = self.cache["in_window"]
-        shares = [_level(in_window(shapely.Point(c).buffer(radius, 16)), "dead_end_share")
-                  for c in centres[:DEAD_END_DISCS]]
+        # ``centres`` come densest first: an even spread over them is the yardstick's sample (the denser
+        # half of random junctions), where the first few would be the town's core, with its fewest dead ends
+        pick = np.unique(np.linspace(0, len(centres) - 1, min(DEAD_END_DISCS, len(centres))).round().astype(int))
+        shares = [_level(in_window(shapely.Point(c).buffer(radius, 16)), "dead_end_share") for c in centres[pick]]
         finite = [v for v in shares if np.isfinite(v)]
         return float(np.median(finite)) if finite else None
 
 
-#: Neighbourhoods measured for the district's target dead-end share.
+#: Neighbourhoods measured for the district's target dead-end share (spread evenly over the ranked ones).
 DEAD_END_DISCS = 16
 #: Times the cells are filled with other patches when the first patches left the district too sparse.
 ATTEMPTS = 3
@@ -228,13 +232,15 @@ def _quilt(source: _Source, quilt: _Quilt, centres: np.ndarray, cells: list, reg
         tees = _tees(stitched, old, spacing, opts, occupied)
         tees += _edge_streets(stitched, region, spacing, opts, occupied, old)
         stitched_net = _network(stitched)
-        net = _trim(stitched_net, stitched, shapely.boundary(region), opts.keep_out * spacing,
+        edge = shapely.boundary(region)
+        net = _trim(stitched_net, stitched, edge, opts.keep_out * spacing,
                     keep=_stub_budget(stitched_net, stitched, dead_ends, old, opts.tee_reach * spacing),
                     stub=STUB_LENGTH * spacing)
         net = _keep_joinable(net, old, spacing, opts)
         net = _connect_pieces(net, old, occupied, opts.link_reach * spacing)
         if dead_ends is not None:
-            net = _fewer_dead_ends(net, old, occupied, spacing, opts, dead_ends)
+            net = _fewer_dead_ends(net, old, occupied, spacing, opts, dead_ends, edge)
+            net = _more_dead_ends(net, stitched.tees, old, edge, spacing, opts, dead_ends)
         net = _planar(net)
         length = net.total_length()
         if length >= target or placed >= len(centres):
@@ -662,6 +668,7 @@ def _tees(quilt: _Quilt, old: shapely.Geometry, spacing: float, opts: PatchOptio
         quilt.add(np.array([p, at]), quilt.highway[own], quilt.level[own])
         if j >= 0:
             quilt.splits.setdefault(j, []).append(at)
+            quilt.tees.append((p, at))
         used[k] = True
         tees += 1
     _close(quilt, used)
@@ -732,8 +739,9 @@ def _trim(net: StreetNetwork, quilt: _Quilt, edge: shapely.Geometry, keep_out: f
           stub: float = 0.0) -> StreetNetwork:
     """Cut ends still open are trimmed back to their last junction, except a street of ``keep_out``
     metres or more that leaves the district at the site's ``edge`` (a road out into the country), and
-    up to ``keep`` cut streets of ``stub`` metres or more, which stay as cul-de-sacs (a district
-    whose every cut end was closed or trimmed has fewer dead ends than its town's neighbourhoods).
+    up to ``keep`` cut streets of ``stub`` metres or more ending inside the district, which stay as
+    cul-de-sacs (a district whose every cut end was closed or trimmed has fewer dead ends than its
+    town's neighbourhoods; a stub left where the edge cut it would stop at the field's margin).
 
     A junction whose other streets were all trimmed becomes an end itself and is trimmed in turn:
     only the town's own dead ends stay dead ends.
@@ -748,11 +756,11 @@ def _trim(net: StreetNetwork, quilt: _Quilt, edge: shapely.Geometry, keep_out: f
     while leaves:
         drop: set[tuple[int, int]] = set()
         for leaf, chain in sorted(dangling_chains(streets, leaves).items()):
-            out_of_town = shapely.distance(edge, shapely.Point(leaves[leaf])) < 1.0
+            out_of_town = shapely.distance(edge, shapely.Point(leaves[leaf])) < ON_EDGE
             length = sum(float(np.hypot(*(net.xy[a] - net.xy[b]))) for a, b in chain)
             if out_of_town and length >= keep_out:
                 continue
-            if keep > 0 and length >= stub:
+            if keep > 0 and length >= stub and not out_of_town:
                 keep -= 1
                 continue
             drop |= chain
@@ -840,19 +848,22 @@ def _connect_pieces(net: StreetNetwork, old: shapely.Geometry, occupied: shapely
 
 
 def _fewer_dead_ends(net: StreetNetwork, old: shapely.Geometry, occupied: shapely.Geometry, spacing: float,
-                     opts: PatchOptions, share: float) -> StreetNetwork:
+                     opts: PatchOptions, share: float, edge: shapely.Geometry | None = None) -> StreetNetwork:
     """Bring the district's dead-end share down to ``share`` (its town's neighbourhoods' median).
 
     Copied patches bring the town's cul-de-sacs, and clipping and trimming
     leave more; a neighbourhood has as many as its town's. Dead ends within
-    ``tee_reach`` of the town are left to the joining step. The others, in
+    ``tee_reach`` of the town are left to the joining step, and a road out
+    that ends on the district's ``edge`` leaves it (the yardstick reads it
+    as a street running on, as it does a real neighbourhood's streets cut by
+    its disc) and is no cul-de-sac of the district. The others, in
     order of their chain's length (shortest first), first run on to the
     first street ahead within ``tee_reach`` in a tee (at a fair angle,
     crossing nothing); while the share is still too high, those whose chain
     is shorter than a spacing go.
     """
     reach = opts.tee_reach * spacing
-    ends, junctions = _dead_ends(net, old, reach)
+    ends, junctions = _dead_ends(net, old, reach, edge)
     if _excess(len(ends), junctions, share) <= 0:
         return net
     chains = dangling_chains(net.streets, {int(e): net.xy[e] for e in ends})
@@ -883,7 +894,7 @@ def _fewer_dead_ends(net: StreetNetwork, old: shapely.Geometry, occupied: shapel
             made += 1
     if made:
         net = _network(quilt)
-    ends, junctions = _dead_ends(net, old, reach)
+    ends, junctions = _dead_ends(net, old, reach, edge)
     excess = _excess(len(ends), junctions, share)
     if excess <= 0:
         return net
@@ -897,12 +908,75 @@ def _fewer_dead_ends(net: StreetNetwork, old: shapely.Geometry, occupied: shapel
     return net.replace(streets=without_segments(net.streets, drop)) if drop else net
 
 
-def _dead_ends(net: StreetNetwork, old: shapely.Geometry, reach: float) -> tuple[np.ndarray, int]:
-    """The district's dead ends farther than ``reach`` from the town, and its junction count."""
+#: The joining step links the district to the town within this many spacings (``osm_expand.joins``: two):
+#: a cul-de-sac made nearer would be joined.
+JOIN_REACH = 2.0
+
+
+def _more_dead_ends(net: StreetNetwork, tees: list[tuple[np.ndarray, np.ndarray]], old: shapely.Geometry,
+                    edge: shapely.Geometry, spacing: float, opts: PatchOptions, share: float) -> StreetNetwork:
+    """Bring the district's dead-end share up towards ``share`` (its town's neighbourhoods' median).
+
+    The seams close almost every cut street (in a tee onto the street ahead,
+    or into a neighbour's), so a small district can end with no cul-de-sac
+    at all and every metre of it on a loop, where its town's neighbourhoods
+    have a tenth to a quarter of their nodes at dead ends. While the share
+    is short of ``share``, a tee onto the district's own streets is taken
+    back, so that its cut street stays a cul-de-sac: only where the
+    district stays one network without it, where the cul-de-sac is at
+    least :data:`STUB_LENGTH` spacings long, and farther than
+    :data:`JOIN_REACH` spacings from the town (the joining step would join
+    it) and off the district's edge (there it would be a road out);
+    longest cul-de-sac first, as the town's own are streets, not nubs.
+    """
+    if not tees or not len(net.xy) or not 0.0 < share < 1.0:
+        return net
+    import networkx as nx
+
+    ratio, reach = share / (1.0 - share), opts.tee_reach * spacing
+    tree = cKDTree(net.xy)
+    cut_end, foot = np.array([t[0] for t in tees]), np.array([t[1] for t in tees])
+    da, a = tree.query(cut_end)
+    db, b = tree.query(foot)
+    ok = (da < 1e-6) & (db < 1e-6) & (a != b)
+    ok &= shapely.distance(edge, shapely.points(cut_end)) >= ON_EDGE
+    if not old.is_empty:
+        ok &= shapely.distance(old, shapely.points(cut_end)) > JOIN_REACH * spacing
+    # each tee as its segment (smaller node first) -> the cut end it leaves open
+    open_end = {(int(min(i, j)), int(max(i, j))): int(i) for i, j in zip(a[ok], b[ok])}
+    while open_end:
+        ends, junctions = _dead_ends(net, old, reach, edge)
+        if len(ends) + 1 > ratio * (junctions - 1) + 0.5:  # one more would overshoot more than it helps
+            break
+        graph = nx.Graph([(u, v) for st in net.streets for u, v in zip(st.nodes[:-1], st.nodes[1:])])
+        bridges = {(min(u, v), max(u, v)) for u, v in nx.bridges(graph)}
+        degree = segment_degree(net.streets, len(net.xy))
+        best = None
+        for seg, end in sorted(open_end.items()):
+            if seg in bridges or not graph.has_edge(*seg) or degree[end] != 2:
+                continue
+            rest = without_segments(net.streets, {seg})
+            length = _chain_length(net, dangling_chains(rest, [end]).get(end, set()))
+            if length >= STUB_LENGTH * spacing and (best is None or length > best[0]):
+                best = (length, seg, rest)
+        if best is None:
+            break
+        _, seg, rest = best
+        del open_end[seg]
+        net = net.replace(streets=rest)
+    return net
+
+
+def _dead_ends(net: StreetNetwork, old: shapely.Geometry, reach: float, edge: shapely.Geometry | None = None
+               ) -> tuple[np.ndarray, int]:
+    """The district's dead ends farther than ``reach`` from the town and not on its ``edge`` (roads out),
+    and its junction count."""
     degree = segment_degree(net.streets, len(net.xy))
     ends = np.flatnonzero(degree == 1)
     if len(ends) and not old.is_empty:
         ends = ends[shapely.distance(old, shapely.points(net.xy[ends])) > reach]
+    if len(ends) and edge is not None:
+        ends = ends[shapely.distance(edge, shapely.points(net.xy[ends])) >= ON_EDGE]
     return ends, int((degree >= 3).sum())
 
 
@@ -916,6 +990,8 @@ def _chain_length(net: StreetNetwork, chain: set[tuple[int, int]]) -> float:
     return sum(float(np.hypot(*(net.xy[a] - net.xy[b]))) for a, b in chain)
 
 
+#: An end this close to the district's edge (m) lies on it: a road out, as :func:`_trim` keeps them.
+ON_EDGE = 1.0
 #: Metres inside the district's edge that a perimeter street runs.
 EDGE_INSET = 4.0
 
