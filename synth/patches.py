@@ -170,7 +170,7 @@ class ExamplePatches:
         radius = float(np.sqrt(free.area / np.pi))
         around = _neighbourhood_points(everything, opts.density_discs, radius, rng)
         target = float(np.median(_density(everything, around, radius))) * float(free.area)
-        dead_ends = self._dead_end_share(everything, around, radius)
+        aim = self._aim(everything, around, radius)
         key = round(float(np.log(size)) / 0.05)  # sizes within 5 % share a ranking
         if key not in self.cache:
             self.cache[key] = _candidate_patches(source, size, opts, rng, self.measure)
@@ -178,8 +178,7 @@ class ExamplePatches:
         best = None
         for attempt in range(ATTEMPTS):  # other patches when even every cell filled left too little
             quilt = _Quilt(grid=np.roll(patches, -attempt * len(centres), axis=0))
-            result = _quilt(source, quilt, centres, cells, region, old_geom, target, spacing, opts, occupied,
-                            dead_ends)
+            result = _quilt(source, quilt, centres, cells, region, old_geom, target, spacing, opts, occupied, aim)
             if best is None or _misfit(result[0].total_length(), target) < _misfit(best[0].total_length(), target):
                 best = result
             if result[0].total_length() >= 0.9 * target:
@@ -191,11 +190,12 @@ class ExamplePatches:
         return Growth(streets=streets, footprint=free,
                       debug={"cells": len(centres), "filled": placed, "target_km": round(target / 1000, 2),
                              "seam_links": links, "tees": tees,
-                             "target_dead_end_share": None if dead_ends is None else round(dead_ends, 3)})
+                             "target_dead_end_share": None if aim is None else round(aim.dead_end_share, 3),
+                             "target_two_core_share": None if aim is None else round(aim.two_core_share, 3)})
 
-    def _dead_end_share(self, source: _Source, centres: np.ndarray, radius: float) -> float | None:
-        """The median dead-end share of the town's neighbourhoods around ``centres`` (None without a
-        ``measure``): what the district's own share should come to."""
+    def _aim(self, source: _Source, centres: np.ndarray, radius: float) -> _Aim | None:
+        """The median dead-end and 2-core shares of the town's neighbourhoods around ``centres`` (None
+        without a ``measure``): what the district's own should come to."""
         if self.measure is None or not len(centres):
             return None
         if "in_window" not in self.cache:
@@ -204,9 +204,29 @@ class ExamplePatches:
         # ``centres`` come densest first: an even spread over them is the yardstick's sample (the denser
         # half of random junctions), where the first few would be the town's core, with its fewest dead ends
         pick = np.unique(np.linspace(0, len(centres) - 1, min(DEAD_END_DISCS, len(centres))).round().astype(int))
-        shares = [_level(in_window(shapely.Point(c).buffer(radius, 16)), "dead_end_share") for c in centres[pick]]
-        finite = [v for v in shares if np.isfinite(v)]
-        return float(np.median(finite)) if finite else None
+        measured = [in_window(shapely.Point(c).buffer(radius, 16)) for c in centres[pick]]
+        shares = np.array([[_level(m, "dead_end_share"), _level(m, "two_core_share")] for m in measured])
+        finite = np.isfinite(shares).all(axis=1)
+        if not finite.any():
+            return None
+        dead, core = np.median(shares[finite], axis=0)
+        return _Aim(dead_end_share=float(dead), two_core_share=float(core))
+
+
+@dataclass(frozen=True)
+class _Aim:
+    """What the district's topology aims at: its town's neighbourhoods' median dead-end share (of
+    junctions and dead ends) and 2-core share (of street length)."""
+
+    dead_end_share: float
+    two_core_share: float
+
+    def off_core_room(self, net: StreetNetwork, anchored: np.ndarray) -> float:
+        """Metres of ``net`` that may still lie off its 2-core (on dead-end trees) for its 2-core share
+        to stay at or above the aim's; ``anchored`` nodes (roads out, ends the joining step takes, cut
+        ends still open) are never pruned, as the yardstick never prunes open ends."""
+        total = net.total_length()
+        return (1.0 - self.two_core_share) * total - (total - _core_length(net, anchored))
 
 
 #: Neighbourhoods measured for the district's target dead-end share (spread evenly over the ranked ones).
@@ -222,7 +242,7 @@ def _misfit(length: float, target: float) -> float:
 
 def _quilt(source: _Source, quilt: _Quilt, centres: np.ndarray, cells: list, region: shapely.Geometry,
            old: shapely.Geometry, target: float, spacing: float, opts: PatchOptions,
-           occupied: shapely.Geometry, dead_ends: float | None = None) -> tuple[StreetNetwork, int, int, int]:
+           occupied: shapely.Geometry, aim: _Aim | None = None) -> tuple[StreetNetwork, int, int, int]:
     """Fill cells, stitch and trim; fill more while trimming left too little. The network and counts."""
     placed, keep = 0, 1.0
     for _ in range(MAX_FILLS):
@@ -233,14 +253,14 @@ def _quilt(source: _Source, quilt: _Quilt, centres: np.ndarray, cells: list, reg
         tees += _edge_streets(stitched, region, spacing, opts, occupied, old)
         stitched_net = _network(stitched)
         edge = shapely.boundary(region)
-        net = _trim(stitched_net, stitched, edge, opts.keep_out * spacing,
-                    keep=_stub_budget(stitched_net, stitched, dead_ends, old, opts.tee_reach * spacing),
-                    stub=STUB_LENGTH * spacing)
+        keep, room = _stub_budget(stitched_net, stitched, aim, old, opts.tee_reach * spacing, edge)
+        net = _trim(stitched_net, stitched, edge, opts.keep_out * spacing, keep=keep, stub=STUB_LENGTH * spacing,
+                    room=room)
         net = _keep_joinable(net, old, spacing, opts)
         net = _connect_pieces(net, old, occupied, opts.link_reach * spacing)
-        if dead_ends is not None:
-            net = _fewer_dead_ends(net, old, occupied, spacing, opts, dead_ends, edge)
-            net = _more_dead_ends(net, stitched.tees, old, edge, spacing, opts, dead_ends)
+        if aim is not None:
+            net = _fewer_dead_ends(net, old, occupied, spacing, opts, aim.dead_end_share, edge)
+            net = _more_dead_ends(net, stitched.tees, old, edge, spacing, opts, aim)
         net = _planar(net)
         length = net.total_length()
         if length >= target or placed >= len(centres):
@@ -715,13 +735,15 @@ def _insert_points(xy: np.ndarray, points: np.ndarray) -> np.ndarray:
 STUB_LENGTH = 0.3
 
 
-def _stub_budget(net: StreetNetwork, quilt: _Quilt, share: float | None, old: shapely.Geometry,
-                 reach: float) -> int:
-    """How many cut streets may stay as cul-de-sacs so that the district's dead-end share comes to
-    ``share`` (its town's neighbourhoods'): the dead ends it has besides its cut ends, and besides
-    those within ``reach`` of the town (the joining step takes them), are fewer."""
-    if share is None or not 0.0 < share < 1.0 or not len(net.xy):
-        return 0
+def _stub_budget(net: StreetNetwork, quilt: _Quilt, aim: _Aim | None, old: shapely.Geometry,
+                 reach: float, edge: shapely.Geometry) -> tuple[int, float]:
+    """How many cut streets may stay as cul-de-sacs, and how many metres they may hold together, so
+    that the district's dead-end share comes to its town's neighbourhoods' and its 2-core share stays
+    at or above theirs (:class:`_Aim`): the dead ends it has besides its cut ends, those on its ``edge``
+    and those within ``reach`` of the town (the joining step takes them), are fewer."""
+    if aim is None or not 0.0 < aim.dead_end_share < 1.0 or not len(net.xy):
+        return 0, 0.0
+    share = aim.dead_end_share
     degree = segment_degree(net.streets, len(net.xy))
     cut = np.zeros(len(net.xy), dtype=bool)
     loose = np.array(quilt.cut_xy).reshape(-1, 2)
@@ -729,19 +751,51 @@ def _stub_budget(net: StreetNetwork, quilt: _Quilt, share: float | None, old: sh
         dist, idx = cKDTree(net.xy).query(loose)
         cut[idx[dist < 1e-6]] = True
     ends = np.flatnonzero((degree == 1) & ~cut)
-    if len(ends) and not old.is_empty:
-        ends = ends[shapely.distance(old, shapely.points(net.xy[ends])) > reach]
-    dead = len(ends)
-    return max(int(share / (1.0 - share) * int((degree >= 3).sum())) - dead, 0)
+    anchored = cut.copy()
+    if len(ends):
+        out = _leaves_out(net.xy[ends], old, reach, edge)
+        anchored[ends[out]] = True
+        ends = ends[~out]
+    room = max(aim.off_core_room(net, anchored), 0.0)
+    return max(int(share / (1.0 - share) * int((degree >= 3).sum())) - len(ends), 0), room
+
+
+def _leaves_out(xy: np.ndarray, old: shapely.Geometry, reach: float, edge: shapely.Geometry | None) -> np.ndarray:
+    """Which of the ends at ``xy`` leave the district: within ``reach`` of the town (the joining step
+    joins them) or on its ``edge`` (roads out); the others are its cul-de-sacs."""
+    out = np.zeros(len(xy), dtype=bool)
+    if len(xy) and not old.is_empty:
+        out |= shapely.distance(old, shapely.points(xy)) <= reach
+    if len(xy) and edge is not None:
+        out |= shapely.distance(edge, shapely.points(xy)) < ON_EDGE
+    return out
+
+
+def _core_length(net: StreetNetwork, anchored: np.ndarray) -> float:
+    """Metres of ``net`` on its 2-core: what is left after pruning dead ends (never an ``anchored``
+    node) and the ends that leaves, until none is left (the yardstick's 2-core share, in metres)."""
+    seg = np.array([(a, b) for st in net.streets for a, b in zip(st.nodes[:-1], st.nodes[1:])], dtype=np.intp)
+    if not len(seg):
+        return 0.0
+    alive = np.ones(len(seg), dtype=bool)
+    while True:
+        degree = np.bincount(seg[alive].ravel(), minlength=len(net.xy))
+        leaf = (degree == 1) & ~anchored
+        cut = alive & (leaf[seg[:, 0]] | leaf[seg[:, 1]])
+        if not cut.any():
+            break
+        alive &= ~cut
+    return float(np.hypot(*(net.xy[seg[alive, 0]] - net.xy[seg[alive, 1]]).T).sum())
 
 
 def _trim(net: StreetNetwork, quilt: _Quilt, edge: shapely.Geometry, keep_out: float, *, keep: int = 0,
-          stub: float = 0.0) -> StreetNetwork:
+          stub: float = 0.0, room: float = float("inf")) -> StreetNetwork:
     """Cut ends still open are trimmed back to their last junction, except a street of ``keep_out``
     metres or more that leaves the district at the site's ``edge`` (a road out into the country), and
     up to ``keep`` cut streets of ``stub`` metres or more ending inside the district, which stay as
     cul-de-sacs (a district whose every cut end was closed or trimmed has fewer dead ends than its
-    town's neighbourhoods; a stub left where the edge cut it would stop at the field's margin).
+    town's neighbourhoods; a stub left where the edge cut it would stop at the field's margin),
+    shortest first and ``room`` metres of them at most (the length its 2-core may lose).
 
     A junction whose other streets were all trimmed becomes an end itself and is trimmed in turn:
     only the town's own dead ends stay dead ends.
@@ -755,13 +809,15 @@ def _trim(net: StreetNetwork, quilt: _Quilt, edge: shapely.Geometry, keep_out: f
     streets = net.streets
     while leaves:
         drop: set[tuple[int, int]] = set()
-        for leaf, chain in sorted(dangling_chains(streets, leaves).items()):
+        chains = dangling_chains(streets, leaves)
+        length = {leaf: _chain_length(net, chain) for leaf, chain in chains.items()}
+        for leaf, chain in sorted(chains.items(), key=lambda c: (length[c[0]], c[0])):
             out_of_town = shapely.distance(edge, shapely.Point(leaves[leaf])) < ON_EDGE
-            length = sum(float(np.hypot(*(net.xy[a] - net.xy[b]))) for a, b in chain)
-            if out_of_town and length >= keep_out:
+            if out_of_town and length[leaf] >= keep_out:
                 continue
-            if keep > 0 and length >= stub and not out_of_town:
+            if keep > 0 and stub <= length[leaf] <= room and not out_of_town:
                 keep -= 1
+                room -= length[leaf]
                 continue
             drop |= chain
         if not drop:
@@ -914,8 +970,8 @@ JOIN_REACH = 2.0
 
 
 def _more_dead_ends(net: StreetNetwork, tees: list[tuple[np.ndarray, np.ndarray]], old: shapely.Geometry,
-                    edge: shapely.Geometry, spacing: float, opts: PatchOptions, share: float) -> StreetNetwork:
-    """Bring the district's dead-end share up towards ``share`` (its town's neighbourhoods' median).
+                    edge: shapely.Geometry, spacing: float, opts: PatchOptions, aim: _Aim) -> StreetNetwork:
+    """Bring the district's dead-end share up towards its town's neighbourhoods' median (``aim``).
 
     The seams close almost every cut street (in a tee onto the street ahead,
     or into a neighbour's), so a small district can end with no cul-de-sac
@@ -927,8 +983,10 @@ def _more_dead_ends(net: StreetNetwork, tees: list[tuple[np.ndarray, np.ndarray]
     least :data:`STUB_LENGTH` spacings long, and farther than
     :data:`JOIN_REACH` spacings from the town (the joining step would join
     it) and off the district's edge (there it would be a road out);
-    longest cul-de-sac first, as the town's own are streets, not nubs.
+    shortest cul-de-sac first, and only while the district's 2-core share
+    stays at or above the neighbourhoods' median.
     """
+    share = aim.dead_end_share
     if not tees or not len(net.xy) or not 0.0 < share < 1.0:
         return net
     import networkx as nx
@@ -951,13 +1009,17 @@ def _more_dead_ends(net: StreetNetwork, tees: list[tuple[np.ndarray, np.ndarray]
         graph = nx.Graph([(u, v) for st in net.streets for u, v in zip(st.nodes[:-1], st.nodes[1:])])
         bridges = {(min(u, v), max(u, v)) for u, v in nx.bridges(graph)}
         degree = segment_degree(net.streets, len(net.xy))
+        leaves = np.flatnonzero(degree == 1)
+        anchored = np.zeros(len(net.xy), dtype=bool)
+        anchored[leaves[_leaves_out(net.xy[leaves], old, reach, edge)]] = True
+        room = aim.off_core_room(net, anchored)
         best = None
         for seg, end in sorted(open_end.items()):
             if seg in bridges or not graph.has_edge(*seg) or degree[end] != 2:
                 continue
             rest = without_segments(net.streets, {seg})
             length = _chain_length(net, dangling_chains(rest, [end]).get(end, set()))
-            if length >= STUB_LENGTH * spacing and (best is None or length > best[0]):
+            if STUB_LENGTH * spacing <= length <= room and (best is None or length < best[0]):
                 best = (length, seg, rest)
         if best is None:
             break
@@ -973,10 +1035,7 @@ def _dead_ends(net: StreetNetwork, old: shapely.Geometry, reach: float, edge: sh
     and its junction count."""
     degree = segment_degree(net.streets, len(net.xy))
     ends = np.flatnonzero(degree == 1)
-    if len(ends) and not old.is_empty:
-        ends = ends[shapely.distance(old, shapely.points(net.xy[ends])) > reach]
-    if len(ends) and edge is not None:
-        ends = ends[shapely.distance(edge, shapely.points(net.xy[ends])) >= ON_EDGE]
+    ends = ends[~_leaves_out(net.xy[ends], old, reach, edge)]
     return ends, int((degree >= 3).sum())
 
 
