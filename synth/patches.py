@@ -95,6 +95,14 @@ class PatchOptions:
     min_fragment: float = 2.0
     #: A piece is kept only if a street of the rest or of the town lies this many spacings from it.
     link_reach: float = 2.0
+    #: Parts of the free land under this many squares of the junction spacing are left open, but for the
+    #: largest: the pipeline's smallest district (``MIN_BLOCKS``); a sliver between the town's roads holds
+    #: a scrap of streets, a second piece on the map, not a neighbourhood (Monaco: 0.01 km² beside 0.7).
+    min_land: float = 9.0
+    #: Dead ends closed for the 2-core share's sake leave at least this share of the dead ends the aimed
+    #: dead-end share allows: the town's neighbourhoods' 10th percentile is about 0.3-0.5 of their
+    #: median (Krems 0.03-0.05 of 0.10, Monaco 0.05-0.10 of 0.13; district_fidelity.py --table).
+    dead_end_floor: float = 0.5
 
 
 @dataclass(frozen=True)
@@ -160,7 +168,7 @@ class ExamplePatches:
         old = streets_near(city.network, region.buffer(opts.tee_reach * spacing + 1.0))
         old_geom = shapely.MultiLineString(old) if old else shapely.MultiLineString()
         occupied = city.occupied_within(region.buffer(2.0 * opts.tee_reach * spacing + 50.0))
-        free = _free_land(occupied, region, old_geom, opts.clearance * spacing, spacing)
+        free = _free_land(occupied, region, old_geom, opts.clearance * spacing, spacing, opts.min_land)
         if free.is_empty or not len(source.lines):
             return Growth(streets=(), footprint=free)
         size = max(opts.cell_size * spacing, float(np.sqrt(free.area / opts.cells)))
@@ -259,7 +267,7 @@ def _quilt(source: _Source, quilt: _Quilt, centres: np.ndarray, cells: list, reg
         net = _keep_joinable(net, old, spacing, opts)
         net = _connect_pieces(net, old, occupied, opts.link_reach * spacing)
         if aim is not None:
-            net = _fewer_dead_ends(net, old, occupied, spacing, opts, aim.dead_end_share, edge)
+            net = _fewer_dead_ends(net, old, occupied, spacing, opts, aim, edge)
             net = _more_dead_ends(net, stitched.tees, old, edge, spacing, opts, aim)
         net = _planar(net)
         length = net.total_length()
@@ -300,13 +308,17 @@ def _source(city: City, example: Example, everything: bool = False) -> _Source:
 
 
 def _free_land(occupied: shapely.Geometry, region: shapely.Geometry, old: shapely.Geometry, clearance: float,
-               spacing: float) -> shapely.Geometry:
-    """The region less everything occupied and a strip along the town's streets; crumbs dropped."""
+               spacing: float, min_land: float = 1.0) -> shapely.Geometry:
+    """The region less everything occupied and a strip along the town's streets; parts under ``min_land``
+    squares of the ``spacing`` dropped, but for the largest."""
     free = shapely.make_valid(shapely.difference(region, occupied))
     if not old.is_empty:
         free = shapely.make_valid(shapely.difference(free, shapely.buffer(old, clearance)))
     parts = [p for p in shapely.get_parts(free) if p.geom_type == "Polygon" and p.area >= spacing ** 2]
-    return shapely.union_all(parts) if parts else shapely.Polygon()
+    if not parts:
+        return shapely.Polygon()
+    largest = max(p.area for p in parts)
+    return shapely.union_all([p for p in parts if p.area >= min(min_land * spacing ** 2, largest)])
 
 
 def _street_points(source: _Source, n: int, rng: np.random.Generator) -> np.ndarray:
@@ -904,8 +916,9 @@ def _connect_pieces(net: StreetNetwork, old: shapely.Geometry, occupied: shapely
 
 
 def _fewer_dead_ends(net: StreetNetwork, old: shapely.Geometry, occupied: shapely.Geometry, spacing: float,
-                     opts: PatchOptions, share: float, edge: shapely.Geometry | None = None) -> StreetNetwork:
-    """Bring the district's dead-end share down to ``share`` (its town's neighbourhoods' median).
+                     opts: PatchOptions, aim: _Aim, edge: shapely.Geometry | None = None) -> StreetNetwork:
+    """Bring the district's dead-end share down to its town's neighbourhoods' median, and its 2-core
+    share up to theirs (``aim``).
 
     Copied patches bring the town's cul-de-sacs, and clipping and trimming
     leave more; a neighbourhood has as many as its town's. Dead ends within
@@ -916,21 +929,35 @@ def _fewer_dead_ends(net: StreetNetwork, old: shapely.Geometry, occupied: shapel
     order of their chain's length (shortest first), first run on to the
     first street ahead within ``tee_reach`` in a tee (at a fair angle,
     crossing nothing); while the share is still too high, those whose chain
-    is shorter than a spacing go.
+    is shorter than a spacing go. A district whose dead-end share is right
+    can still hang too much of its length on dead-end trees (the town's
+    long cul-de-sacs copied whole, Monaco's hairpins): while its 2-core
+    share is short of the aim, the longest chains run on to a tee too, as
+    long as its dead ends stay at ``dead_end_floor`` of the aimed share.
     """
+    share = aim.dead_end_share
     reach = opts.tee_reach * spacing
     ends, junctions = _dead_ends(net, old, reach, edge)
-    if _excess(len(ends), junctions, share) <= 0:
+    leaves = np.flatnonzero(segment_degree(net.streets, len(net.xy)) == 1)
+    anchored = np.zeros(len(net.xy), dtype=bool)
+    anchored[leaves[_leaves_out(net.xy[leaves], old, reach, edge)]] = True
+    room = aim.off_core_room(net, anchored)
+    over = _excess(len(ends), junctions, share) > 0
+    if not over and room >= 0:
         return net
     chains = dangling_chains(net.streets, {int(e): net.xy[e] for e in ends})
-    order = sorted(chains, key=lambda e: (_chain_length(net, chains[e]), e))
+    length = {e: _chain_length(net, chains[e]) for e in chains}
+    # too many dead ends: the shortest chains first; only too little on loops: the longest
+    order = sorted(chains, key=lambda e: (length[e], e) if over else (-length[e], e))
+    ratio = share / (1.0 - share) if share < 1.0 else float("inf")
     quilt = _Quilt(xy=[net.street_xy(st) for st in net.streets], highway=[st.highway for st in net.streets],
                    level=[st.hierarchy for st in net.streets])
     board = _Board(quilt, occupied, old)
     where = {n: k for k, st in enumerate(net.streets) for n in (st.nodes[0], st.nodes[-1])}
     made = 0
     for e in order:
-        if _excess(len(ends) - made, junctions + made, share) <= 0:
+        if _excess(len(ends) - made, junctions + made, share) <= 0 and (
+                room >= 0 or len(ends) - made - 1 < opts.dead_end_floor * ratio * (junctions + made + 1)):
             break
         st = net.streets[where[e]]
         inner = st.nodes[1] if st.nodes[0] == e else st.nodes[-2]
@@ -948,20 +975,45 @@ def _fewer_dead_ends(net: StreetNetwork, old: shapely.Geometry, occupied: shapel
             quilt.add(np.array([p, at]), st.highway, st.hierarchy)
             quilt.splits.setdefault(j, []).append(at)
             made += 1
+            room += length[e]
     if made:
         net = _network(quilt)
     ends, junctions = _dead_ends(net, old, reach, edge)
     excess = _excess(len(ends), junctions, share)
-    if excess <= 0:
-        return net
-    chains = dangling_chains(net.streets, {int(e): net.xy[e] for e in ends})
-    drop: set[tuple[int, int]] = set()
-    for e in sorted(chains, key=lambda e: (_chain_length(net, chains[e]), e)):
-        if excess <= 0 or _chain_length(net, chains[e]) >= spacing:
+    if excess > 0:
+        chains = dangling_chains(net.streets, {int(e): net.xy[e] for e in ends})
+        drop: set[tuple[int, int]] = set()
+        for e in sorted(chains, key=lambda e: (_chain_length(net, chains[e]), e)):
+            if excess <= 0 or _chain_length(net, chains[e]) >= spacing:
+                break
+            drop |= chains[e]
+            excess -= 1
+        net = net.replace(streets=without_segments(net.streets, drop)) if drop else net
+    return _shorter_trees(net, old, reach, edge, aim, opts.dead_end_floor)
+
+
+def _shorter_trees(net: StreetNetwork, old: shapely.Geometry, reach: float, edge: shapely.Geometry | None,
+                   aim: _Aim, floor: float) -> StreetNetwork:
+    """Prune cul-de-sacs that met nothing while the district's 2-core share is short of ``aim``'s and
+    its dead ends stay at ``floor`` of those the aimed share allows: each time the shortest that
+    makes up the shortfall, else the longest (the least street length lost for the 2-core gained)."""
+    ratio = aim.dead_end_share / (1.0 - aim.dead_end_share) if aim.dead_end_share < 1.0 else float("inf")
+    for _ in range(len(net.streets)):
+        ends, junctions = _dead_ends(net, old, reach, edge)
+        if not len(ends) or len(ends) - 1 < floor * ratio * junctions:
             break
-        drop |= chains[e]
-        excess -= 1
-    return net.replace(streets=without_segments(net.streets, drop)) if drop else net
+        leaves = np.flatnonzero(segment_degree(net.streets, len(net.xy)) == 1)
+        anchored = np.zeros(len(net.xy), dtype=bool)
+        anchored[leaves[_leaves_out(net.xy[leaves], old, reach, edge)]] = True
+        room = aim.off_core_room(net, anchored)
+        if room >= 0:
+            break
+        chains = dangling_chains(net.streets, {int(e): net.xy[e] for e in ends})
+        length = {e: _chain_length(net, c) for e, c in chains.items()}
+        enough = [e for e in sorted(chains) if length[e] >= -room]
+        e = min(enough, key=lambda e: length[e]) if enough else max(sorted(chains), key=lambda e: length[e])
+        net = net.replace(streets=without_segments(net.streets, chains[e]))
+    return net
 
 
 #: The joining step links the district to the town within this many spacings (``osm_expand.joins``: two):
