@@ -261,8 +261,8 @@ def _quilt(source: _Source, quilt: _Quilt, centres: np.ndarray, cells: list, reg
         tees += _edge_streets(stitched, region, spacing, opts, occupied, old)
         stitched_net = _network(stitched)
         edge = shapely.boundary(region)
-        keep, room = _stub_budget(stitched_net, stitched, aim, old, opts.tee_reach * spacing, edge)
-        net = _trim(stitched_net, stitched, edge, opts.keep_out * spacing, keep=keep, stub=STUB_LENGTH * spacing,
+        stubs, room = _stub_budget(stitched_net, stitched, aim, old, opts.tee_reach * spacing, edge)
+        net = _trim(stitched_net, stitched, edge, opts.keep_out * spacing, keep=stubs, stub=STUB_LENGTH * spacing,
                     room=room)
         net = _keep_joinable(net, old, spacing, opts)
         net = _connect_pieces(net, old, occupied, opts.link_reach * spacing)
