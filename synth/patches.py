@@ -178,7 +178,7 @@ class ExamplePatches:
         radius = float(np.sqrt(free.area / np.pi))
         around = _neighbourhood_points(everything, opts.density_discs, radius, rng)
         target = float(np.median(_density(everything, around, radius))) * float(free.area)
-        aim = self._aim(everything, around, radius)
+        aim = self._aim(everything, around, radius, city.network)
         key = round(float(np.log(size)) / 0.05)  # sizes within 5 % share a ranking
         if key not in self.cache:
             self.cache[key] = _candidate_patches(source, size, opts, rng, self.measure)
@@ -201,7 +201,7 @@ class ExamplePatches:
                              "target_dead_end_share": None if aim is None else round(aim.dead_end_share, 3),
                              "target_two_core_share": None if aim is None else round(aim.two_core_share, 3)})
 
-    def _aim(self, source: _Source, centres: np.ndarray, radius: float) -> _Aim | None:
+    def _aim(self, source: _Source, centres: np.ndarray, radius: float, town: StreetNetwork) -> _Aim | None:
         """The median dead-end and 2-core shares of the town's neighbourhoods around ``centres`` (None
         without a ``measure``): what the district's own should come to."""
         if self.measure is None or not len(centres):
@@ -218,7 +218,9 @@ class ExamplePatches:
         if not finite.any():
             return None
         dead, core = np.median(shares[finite], axis=0)
-        return _Aim(dead_end_share=float(dead), two_core_share=float(core))
+        if "cul_de_sac" not in self.cache:
+            self.cache["cul_de_sac"] = _cul_de_sac_length(town)
+        return _Aim(dead_end_share=float(dead), two_core_share=float(core), cul_de_sac=self.cache["cul_de_sac"])
 
 
 @dataclass(frozen=True)
@@ -228,6 +230,9 @@ class _Aim:
 
     dead_end_share: float
     two_core_share: float
+    #: the town's median cul-de-sac (m, from its dead end back to its junction): the length kept stubs
+    #: come nearest first (0: shortest first)
+    cul_de_sac: float = 0.0
 
     def off_core_room(self, net: StreetNetwork, anchored: np.ndarray) -> float:
         """Metres of ``net`` that may still lie off its 2-core (on dead-end trees) for its 2-core share
@@ -263,7 +268,7 @@ def _quilt(source: _Source, quilt: _Quilt, centres: np.ndarray, cells: list, reg
         edge = shapely.boundary(region)
         stubs, room = _stub_budget(stitched_net, stitched, aim, old, opts.tee_reach * spacing, edge)
         net = _trim(stitched_net, stitched, edge, opts.keep_out * spacing, keep=stubs, stub=STUB_LENGTH * spacing,
-                    room=room)
+                    room=room, like=aim.cul_de_sac if aim is not None else 0.0)
         net = _keep_joinable(net, old, spacing, opts)
         net = _connect_pieces(net, old, occupied, opts.link_reach * spacing)
         if aim is not None:
@@ -783,6 +788,16 @@ def _leaves_out(xy: np.ndarray, old: shapely.Geometry, reach: float, edge: shape
     return out
 
 
+def _cul_de_sac_length(town: StreetNetwork) -> float:
+    """The median length (m) of the town's cul-de-sacs as mapped: from each dead end of its own
+    streets back to the nearest junction (0 when it has none)."""
+    mapped = [st for st in town.streets if st.origin == Origin.SOURCE]
+    degree = segment_degree(mapped, len(town.xy))
+    chains = dangling_chains(mapped, np.flatnonzero(degree == 1).tolist())
+    lengths = [_chain_length(town, c) for c in chains.values()]
+    return float(np.median(lengths)) if lengths else 0.0
+
+
 def _core_length(net: StreetNetwork, anchored: np.ndarray) -> float:
     """Metres of ``net`` on its 2-core: what is left after pruning dead ends (never an ``anchored``
     node) and the ends that leaves, until none is left (the yardstick's 2-core share, in metres)."""
@@ -801,13 +816,15 @@ def _core_length(net: StreetNetwork, anchored: np.ndarray) -> float:
 
 
 def _trim(net: StreetNetwork, quilt: _Quilt, edge: shapely.Geometry, keep_out: float, *, keep: int = 0,
-          stub: float = 0.0, room: float = float("inf")) -> StreetNetwork:
+          stub: float = 0.0, room: float = float("inf"), like: float = 0.0) -> StreetNetwork:
     """Cut ends still open are trimmed back to their last junction, except a street of ``keep_out``
     metres or more that leaves the district at the site's ``edge`` (a road out into the country), and
     up to ``keep`` cut streets of ``stub`` metres or more ending inside the district, which stay as
     cul-de-sacs (a district whose every cut end was closed or trimmed has fewer dead ends than its
     town's neighbourhoods; a stub left where the edge cut it would stop at the field's margin),
-    shortest first and ``room`` metres of them at most (the length its 2-core may lose).
+    those nearest ``like`` metres long first (the town's own cul-de-sacs; a district of 30 m nubs has
+    the town's dead-end share but not its edge lengths), and ``room`` metres of them at most (the
+    length its 2-core may lose).
 
     A junction whose other streets were all trimmed becomes an end itself and is trimmed in turn:
     only the town's own dead ends stay dead ends.
@@ -823,7 +840,7 @@ def _trim(net: StreetNetwork, quilt: _Quilt, edge: shapely.Geometry, keep_out: f
         drop: set[tuple[int, int]] = set()
         chains = dangling_chains(streets, leaves)
         length = {leaf: _chain_length(net, chain) for leaf, chain in chains.items()}
-        for leaf, chain in sorted(chains.items(), key=lambda c: (length[c[0]], c[0])):
+        for leaf, chain in sorted(chains.items(), key=lambda c: (abs(length[c[0]] - like), c[0])):
             out_of_town = shapely.distance(edge, shapely.Point(leaves[leaf])) < ON_EDGE
             if out_of_town and length[leaf] >= keep_out:
                 continue
@@ -1035,8 +1052,8 @@ def _more_dead_ends(net: StreetNetwork, tees: list[tuple[np.ndarray, np.ndarray]
     least :data:`STUB_LENGTH` spacings long, and farther than
     :data:`JOIN_REACH` spacings from the town (the joining step would join
     it) and off the district's edge (there it would be a road out);
-    shortest cul-de-sac first, and only while the district's 2-core share
-    stays at or above the neighbourhoods' median.
+    the cul-de-sac nearest the town's median length first, and only while
+    the district's 2-core share stays at or above the neighbourhoods' median.
     """
     share = aim.dead_end_share
     if not tees or not len(net.xy) or not 0.0 < share < 1.0:
@@ -1071,7 +1088,8 @@ def _more_dead_ends(net: StreetNetwork, tees: list[tuple[np.ndarray, np.ndarray]
                 continue
             rest = without_segments(net.streets, {seg})
             length = _chain_length(net, dangling_chains(rest, [end]).get(end, set()))
-            if STUB_LENGTH * spacing <= length <= room and (best is None or length < best[0]):
+            if STUB_LENGTH * spacing <= length <= room and (
+                    best is None or abs(length - aim.cul_de_sac) < abs(best[0] - aim.cul_de_sac)):
                 best = (length, seg, rest)
         if best is None:
             break
