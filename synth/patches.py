@@ -271,6 +271,7 @@ def _quilt(source: _Source, quilt: _Quilt, centres: np.ndarray, cells: list, reg
                     room=room, like=aim.cul_de_sac if aim is not None else 0.0)
         net = _keep_joinable(net, old, spacing, opts)
         net = _connect_pieces(net, old, occupied, opts.link_reach * spacing)
+        net = _without_scraps(net, opts.min_land * spacing)
         if aim is not None:
             net = _fewer_dead_ends(net, old, occupied, spacing, opts, aim, edge)
             net = _more_dead_ends(net, stitched.tees, old, edge, spacing, opts, aim)
@@ -930,6 +931,22 @@ def _connect_pieces(net: StreetNetwork, old: shapely.Geometry, occupied: shapely
     attrs += [{"highway": "residential", "hierarchy": max((st.hierarchy for st in net.streets), default=0),
                "origin": Origin.GROWN}] * len(links)
     return network_from_lines(lines + links, attrs)
+
+
+def _without_scraps(net: StreetNetwork, least: float) -> StreetNetwork:
+    """The district less the pieces that the joining of pieces left apart from the largest and that hold
+    under ``least`` metres of street: a piece apart is a neighbourhood of its own across a barrier only
+    when it is one (Monaco, seed 2: 0.2 km of streets beside 10 km, a second piece on the map)."""
+    if len(net.streets) < 2:
+        return net
+    from osm_expand.model.components import component_labels
+
+    seg = np.array([(a, b) for st in net.streets for a, b in zip(st.nodes[:-1], st.nodes[1:])], dtype=np.intp)
+    label = component_labels(len(net.xy), seg[:, 0], seg[:, 1])
+    length = np.bincount(label[seg[:, 0]], weights=np.hypot(*(net.xy[seg[:, 0]] - net.xy[seg[:, 1]]).T),
+                         minlength=int(label.max()) + 1)
+    keep = (length >= least) | (np.arange(len(length)) == int(np.argmax(length)))
+    return net.replace(streets=tuple(st for st in net.streets if keep[label[st.nodes[0]]]))
 
 
 def _fewer_dead_ends(net: StreetNetwork, old: shapely.Geometry, occupied: shapely.Geometry, spacing: float,
