@@ -60,10 +60,17 @@ def district(name: str, seed: int):
 
 @pytest.mark.parametrize("name", ["krems.osm.gz", "andorra.osm.pbf"])
 def test_the_district_is_as_alike_to_its_town_as_the_towns_own_districts(name):
-    """Issue 9's verdict (seed 0): off on at most 3 of the 14 measures, and never on street density."""
-    report = district(name, 0).fidelity
-    assert report is not None and report.density_ok
-    assert report.off <= 3, {v.measure.value: v.value for v in report.verdicts if not v.ok}
+    """Issue 20's verdict over seeds 0-4: off on at most 3 of the 14 measures on average, street density,
+    dead-end and 2-core share in range on at least 4 of the 5 seeds, at most 2 pieces. (Issue 9 pinned
+    seed 0 alone at 3 off; one seed moves by one measure with any change of the topology: Andorra's
+    seed 0 is off on 4 since its district keeps its town's cul-de-sacs, seeds 0-4 on 2.8-3.0.)"""
+    reports = [district(name, seed).fidelity for seed in range(5)]
+    assert all(r is not None for r in reports)
+    off = [r.off for r in reports]
+    assert np.mean(off) <= 3.0, off
+    for measure in ("density", "dead_end_share", "two_core_share"):
+        assert sum(r.verdict(measure).ok for r in reports) >= 4, measure
+    assert max(r.pieces for r in reports) <= 2
 
 
 def test_the_fidelity_report_is_in_the_json_report():
