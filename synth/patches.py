@@ -265,7 +265,7 @@ def _quilt(source: _Source, quilt: _Quilt, centres: np.ndarray, cells: list, reg
         tees = _tees(stitched, old, spacing, opts, occupied)
         tees += _edge_streets(stitched, region, spacing, opts, occupied, old)
         stitched_net = _network(stitched)
-        edge = shapely.boundary(region)
+        edge = _outer_edge(region)
         stubs, room = _stub_budget(stitched_net, stitched, aim, old, opts.tee_reach * spacing, edge)
         net = _trim(stitched_net, stitched, edge, opts.keep_out * spacing, keep=stubs, stub=STUB_LENGTH * spacing,
                     room=room, like=aim.cul_de_sac if aim is not None else 0.0)
@@ -751,6 +751,14 @@ def _insert_points(xy: np.ndarray, points: np.ndarray) -> np.ndarray:
 
 #: A cut street this many junction spacings long or more may stay as a cul-de-sac (see :func:`_trim`).
 STUB_LENGTH = 0.3
+
+
+def _outer_edge(region: shapely.Geometry) -> shapely.Geometry:
+    """The site's edge to the country: the outer rings of the region. A hole in it (a mapped building and
+    its margin, taken land) is no way out: a street that the clip ended there is a cut street like
+    any other, trimmed or kept as a cul-de-sac, not a road out."""
+    rings = [poly.exterior for poly in shapely.get_parts(region) if poly.geom_type == "Polygon"]
+    return shapely.MultiLineString(rings) if rings else shapely.boundary(region)
 
 
 def _stub_budget(net: StreetNetwork, quilt: _Quilt, aim: _Aim | None, old: shapely.Geometry,

@@ -80,7 +80,7 @@ def test_the_fidelity_report_is_in_the_json_report():
     assert f["off"] == result.fidelity.off and isinstance(f["believable"], bool)
 
 
-@pytest.mark.parametrize("seed", [2, 4])
+@pytest.mark.parametrize("seed", [2, 3])
 def test_a_krems_district_has_the_cul_de_sacs_of_the_towns_neighbourhoods(seed):
     """Issue 20: small Krems districts ended with every cut street joined or trimmed — no dead end, all of
     their length on loops (0 and 1.0 on seeds 2-4; the town's neighbourhoods: 3-20 % and 0.83-0.98).
