@@ -37,7 +37,17 @@ walk loses (shapes, dead ends, the town's density); patches keep all three.
    do pieces that can be joined neither to the rest nor to the town; each
    piece left is joined to the largest by the shortest straight street
    between their junctions and ends that crosses nothing (a district is one
-   network, not a scatter).
+   network, not a scatter); a piece still apart stays only when it holds a
+   district's worth of street (``min_land`` spacings), and parts of the free
+   land smaller than that are left open, but for the largest.
+6. **Topology.** The district aims at its town's neighbourhoods' median
+   dead-end share and 2-core share (:class:`_Aim`, measured on an even
+   spread of the neighbourhoods) and at the town's median cul-de-sac
+   length: cut streets stay as cul-de-sacs within that budget, too many
+   dead ends run on to tees or go, too few reopen tees onto the district's
+   own streets, and too little length on loops closes or prunes the longest
+   cul-de-sacs. Dead ends are counted as the fidelity yardstick counts
+   them: a road out on the site's outer edge runs on and is none.
 """
 from __future__ import annotations
 
