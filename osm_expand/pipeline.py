@@ -329,9 +329,13 @@ def _judge(town: City, grown: City, growth: Growth, joins: JoinReport, seed: int
     """The district against real parts of the town as mapped (its own random stream: growth is unchanged)."""
     net = grown.network
     district = [net.street_xy(net.streets[k]) for k in grown.new_streets()]
-    window = growth.footprint
-    if not district or window is None or window.is_empty:
+    if not district or growth.footprint is None or growth.footprint.is_empty:
         return None
+    # the footprint's holes (mapped buildings with their margin, taken land) filled: the yardstick reads
+    # a street ending on its window's boundary as cut by it and running on, which a street ending at a
+    # house inside the district does not (Krems seed 2: 12 dead ends on the map, 4 counted with the holes)
+    window = shapely.union_all([shapely.Polygon(p.exterior) for p in shapely.get_parts(growth.footprint)
+                                if p.geom_type == "Polygon"])
     town_lines = [town.network.street_xy(s) for s in town.network.streets]
     return fidelity(district, town_lines, window=window, open_points=joins.at,
                     rng=np.random.default_rng([seed, 0xF1DE]))

@@ -37,7 +37,17 @@ walk loses (shapes, dead ends, the town's density); patches keep all three.
    do pieces that can be joined neither to the rest nor to the town; each
    piece left is joined to the largest by the shortest straight street
    between their junctions and ends that crosses nothing (a district is one
-   network, not a scatter).
+   network, not a scatter); a piece still apart stays only when it holds a
+   district's worth of street (``min_land`` spacings), and parts of the free
+   land smaller than that are left open, but for the largest.
+6. **Topology.** The district aims at its town's neighbourhoods' median
+   dead-end share and 2-core share (:class:`_Aim`, measured on an even
+   spread of the neighbourhoods) and at the town's median cul-de-sac
+   length: cut streets stay as cul-de-sacs within that budget, too many
+   dead ends run on to tees or go, too few reopen tees onto the district's
+   own streets, and too little length on loops closes or prunes the longest
+   cul-de-sacs. Dead ends are counted as the fidelity yardstick counts
+   them: a road out on the site's outer edge runs on and is none.
 """
 from __future__ import annotations
 
@@ -95,6 +105,14 @@ class PatchOptions:
     min_fragment: float = 2.0
     #: A piece is kept only if a street of the rest or of the town lies this many spacings from it.
     link_reach: float = 2.0
+    #: Parts of the free land under this many squares of the junction spacing are left open, but for the
+    #: largest: the pipeline's smallest district (``MIN_BLOCKS``); a sliver between the town's roads holds
+    #: a scrap of streets, a second piece on the map, not a neighbourhood (Monaco: 0.01 km² beside 0.7).
+    min_land: float = 9.0
+    #: Dead ends closed for the 2-core share's sake leave at least this share of the dead ends the aimed
+    #: dead-end share allows: the town's neighbourhoods' 10th percentile is about 0.3-0.5 of their
+    #: median (Krems 0.03-0.05 of 0.10, Monaco 0.05-0.10 of 0.13; district_fidelity.py --table).
+    dead_end_floor: float = 0.5
 
 
 @dataclass(frozen=True)
@@ -129,6 +147,8 @@ class _Quilt:
     splits: dict[int, list[np.ndarray]] = field(default_factory=dict)
     #: the patch centres (in the town) the cells take, in order
     grid: np.ndarray = field(default_factory=lambda: np.zeros((0, 2)))
+    #: the tees made from cut ends onto streets of the district: (cut end, foot) pairs
+    tees: list[tuple[np.ndarray, np.ndarray]] = field(default_factory=list)
 
     def add(self, xy: np.ndarray, highway: str, level: int) -> int:
         self.xy.append(xy)
@@ -158,7 +178,7 @@ class ExamplePatches:
         old = streets_near(city.network, region.buffer(opts.tee_reach * spacing + 1.0))
         old_geom = shapely.MultiLineString(old) if old else shapely.MultiLineString()
         occupied = city.occupied_within(region.buffer(2.0 * opts.tee_reach * spacing + 50.0))
-        free = _free_land(occupied, region, old_geom, opts.clearance * spacing, spacing)
+        free = _free_land(occupied, region, old_geom, opts.clearance * spacing, spacing, opts.min_land)
         if free.is_empty or not len(source.lines):
             return Growth(streets=(), footprint=free)
         size = max(opts.cell_size * spacing, float(np.sqrt(free.area / opts.cells)))
@@ -168,7 +188,7 @@ class ExamplePatches:
         radius = float(np.sqrt(free.area / np.pi))
         around = _neighbourhood_points(everything, opts.density_discs, radius, rng)
         target = float(np.median(_density(everything, around, radius))) * float(free.area)
-        dead_ends = self._dead_end_share(everything, around, radius)
+        aim = self._aim(everything, around, radius, city.network)
         key = round(float(np.log(size)) / 0.05)  # sizes within 5 % share a ranking
         if key not in self.cache:
             self.cache[key] = _candidate_patches(source, size, opts, rng, self.measure)
@@ -176,8 +196,7 @@ class ExamplePatches:
         best = None
         for attempt in range(ATTEMPTS):  # other patches when even every cell filled left too little
             quilt = _Quilt(grid=np.roll(patches, -attempt * len(centres), axis=0))
-            result = _quilt(source, quilt, centres, cells, region, old_geom, target, spacing, opts, occupied,
-                            dead_ends)
+            result = _quilt(source, quilt, centres, cells, region, old_geom, target, spacing, opts, occupied, aim)
             if best is None or _misfit(result[0].total_length(), target) < _misfit(best[0].total_length(), target):
                 best = result
             if result[0].total_length() >= 0.9 * target:
@@ -189,23 +208,51 @@ class ExamplePatches:
         return Growth(streets=streets, footprint=free,
                       debug={"cells": len(centres), "filled": placed, "target_km": round(target / 1000, 2),
                              "seam_links": links, "tees": tees,
-                             "target_dead_end_share": None if dead_ends is None else round(dead_ends, 3)})
+                             "target_dead_end_share": None if aim is None else round(aim.dead_end_share, 3),
+                             "target_two_core_share": None if aim is None else round(aim.two_core_share, 3)})
 
-    def _dead_end_share(self, source: _Source, centres: np.ndarray, radius: float) -> float | None:
-        """The median dead-end share of the town's neighbourhoods around ``centres`` (None without a
-        ``measure``): what the district's own share should come to."""
+    def _aim(self, source: _Source, centres: np.ndarray, radius: float, town: StreetNetwork) -> _Aim | None:
+        """The median dead-end and 2-core shares of the town's neighbourhoods around ``centres`` (None
+        without a ``measure``): what the district's own should come to."""
         if self.measure is None or not len(centres):
             return None
         if "in_window" not in self.cache:
             self.cache["in_window"] = self.measure([np.asarray(ln.coords) for ln in source.lines])
         in_window = self.cache["in_window"]
-        shares = [_level(in_window(shapely.Point(c).buffer(radius, 16)), "dead_end_share")
-                  for c in centres[:DEAD_END_DISCS]]
-        finite = [v for v in shares if np.isfinite(v)]
-        return float(np.median(finite)) if finite else None
+        # ``centres`` come densest first: an even spread over them is the yardstick's sample (the denser
+        # half of random junctions), where the first few would be the town's core, with its fewest dead ends
+        pick = np.unique(np.linspace(0, len(centres) - 1, min(DEAD_END_DISCS, len(centres))).round().astype(int))
+        measured = [in_window(shapely.Point(c).buffer(radius, 16)) for c in centres[pick]]
+        shares = np.array([[_level(m, "dead_end_share"), _level(m, "two_core_share")] for m in measured])
+        finite = np.isfinite(shares).all(axis=1)
+        if not finite.any():
+            return None
+        dead, core = np.median(shares[finite], axis=0)
+        if "cul_de_sac" not in self.cache:
+            self.cache["cul_de_sac"] = _cul_de_sac_length(town)
+        return _Aim(dead_end_share=float(dead), two_core_share=float(core), cul_de_sac=self.cache["cul_de_sac"])
 
 
-#: Neighbourhoods measured for the district's target dead-end share.
+@dataclass(frozen=True)
+class _Aim:
+    """What the district's topology aims at: its town's neighbourhoods' median dead-end share (of
+    junctions and dead ends) and 2-core share (of street length)."""
+
+    dead_end_share: float
+    two_core_share: float
+    #: the town's median cul-de-sac (m, from its dead end back to its junction): the length kept stubs
+    #: come nearest first (0: shortest first)
+    cul_de_sac: float = 0.0
+
+    def off_core_room(self, net: StreetNetwork, anchored: np.ndarray) -> float:
+        """Metres of ``net`` that may still lie off its 2-core (on dead-end trees) for its 2-core share
+        to stay at or above the aim's; ``anchored`` nodes (roads out, ends the joining step takes, cut
+        ends still open) are never pruned, as the yardstick never prunes open ends."""
+        total = net.total_length()
+        return (1.0 - self.two_core_share) * total - (total - _core_length(net, anchored))
+
+
+#: Neighbourhoods measured for the district's target dead-end share (spread evenly over the ranked ones).
 DEAD_END_DISCS = 16
 #: Times the cells are filled with other patches when the first patches left the district too sparse.
 ATTEMPTS = 3
@@ -218,7 +265,7 @@ def _misfit(length: float, target: float) -> float:
 
 def _quilt(source: _Source, quilt: _Quilt, centres: np.ndarray, cells: list, region: shapely.Geometry,
            old: shapely.Geometry, target: float, spacing: float, opts: PatchOptions,
-           occupied: shapely.Geometry, dead_ends: float | None = None) -> tuple[StreetNetwork, int, int, int]:
+           occupied: shapely.Geometry, aim: _Aim | None = None) -> tuple[StreetNetwork, int, int, int]:
     """Fill cells, stitch and trim; fill more while trimming left too little. The network and counts."""
     placed, keep = 0, 1.0
     for _ in range(MAX_FILLS):
@@ -228,13 +275,16 @@ def _quilt(source: _Source, quilt: _Quilt, centres: np.ndarray, cells: list, reg
         tees = _tees(stitched, old, spacing, opts, occupied)
         tees += _edge_streets(stitched, region, spacing, opts, occupied, old)
         stitched_net = _network(stitched)
-        net = _trim(stitched_net, stitched, shapely.boundary(region), opts.keep_out * spacing,
-                    keep=_stub_budget(stitched_net, stitched, dead_ends, old, opts.tee_reach * spacing),
-                    stub=STUB_LENGTH * spacing)
+        edge = _outer_edge(region)
+        stubs, room = _stub_budget(stitched_net, stitched, aim, old, opts.tee_reach * spacing, edge)
+        net = _trim(stitched_net, stitched, edge, opts.keep_out * spacing, keep=stubs, stub=STUB_LENGTH * spacing,
+                    room=room, like=aim.cul_de_sac if aim is not None else 0.0)
         net = _keep_joinable(net, old, spacing, opts)
         net = _connect_pieces(net, old, occupied, opts.link_reach * spacing)
-        if dead_ends is not None:
-            net = _fewer_dead_ends(net, old, occupied, spacing, opts, dead_ends)
+        net = _without_scraps(net, opts.min_land * spacing)
+        if aim is not None:
+            net = _fewer_dead_ends(net, old, occupied, spacing, opts, aim, edge)
+            net = _more_dead_ends(net, stitched.tees, old, edge, spacing, opts, aim)
         net = _planar(net)
         length = net.total_length()
         if length >= target or placed >= len(centres):
@@ -274,13 +324,17 @@ def _source(city: City, example: Example, everything: bool = False) -> _Source:
 
 
 def _free_land(occupied: shapely.Geometry, region: shapely.Geometry, old: shapely.Geometry, clearance: float,
-               spacing: float) -> shapely.Geometry:
-    """The region less everything occupied and a strip along the town's streets; crumbs dropped."""
+               spacing: float, min_land: float = 1.0) -> shapely.Geometry:
+    """The region less everything occupied and a strip along the town's streets; parts under ``min_land``
+    squares of the ``spacing`` dropped, but for the largest."""
     free = shapely.make_valid(shapely.difference(region, occupied))
     if not old.is_empty:
         free = shapely.make_valid(shapely.difference(free, shapely.buffer(old, clearance)))
     parts = [p for p in shapely.get_parts(free) if p.geom_type == "Polygon" and p.area >= spacing ** 2]
-    return shapely.union_all(parts) if parts else shapely.Polygon()
+    if not parts:
+        return shapely.Polygon()
+    largest = max(p.area for p in parts)
+    return shapely.union_all([p for p in parts if p.area >= min(min_land * spacing ** 2, largest)])
 
 
 def _street_points(source: _Source, n: int, rng: np.random.Generator) -> np.ndarray:
@@ -662,6 +716,7 @@ def _tees(quilt: _Quilt, old: shapely.Geometry, spacing: float, opts: PatchOptio
         quilt.add(np.array([p, at]), quilt.highway[own], quilt.level[own])
         if j >= 0:
             quilt.splits.setdefault(j, []).append(at)
+            quilt.tees.append((p, at))
         used[k] = True
         tees += 1
     _close(quilt, used)
@@ -708,13 +763,23 @@ def _insert_points(xy: np.ndarray, points: np.ndarray) -> np.ndarray:
 STUB_LENGTH = 0.3
 
 
-def _stub_budget(net: StreetNetwork, quilt: _Quilt, share: float | None, old: shapely.Geometry,
-                 reach: float) -> int:
-    """How many cut streets may stay as cul-de-sacs so that the district's dead-end share comes to
-    ``share`` (its town's neighbourhoods'): the dead ends it has besides its cut ends, and besides
-    those within ``reach`` of the town (the joining step takes them), are fewer."""
-    if share is None or not 0.0 < share < 1.0 or not len(net.xy):
-        return 0
+def _outer_edge(region: shapely.Geometry) -> shapely.Geometry:
+    """The site's edge to the country: the outer rings of the region. A hole in it (a mapped building and
+    its margin, taken land) is no way out: a street that the clip ended there is a cut street like
+    any other, trimmed or kept as a cul-de-sac, not a road out."""
+    rings = [poly.exterior for poly in shapely.get_parts(region) if poly.geom_type == "Polygon"]
+    return shapely.MultiLineString(rings) if rings else shapely.boundary(region)
+
+
+def _stub_budget(net: StreetNetwork, quilt: _Quilt, aim: _Aim | None, old: shapely.Geometry,
+                 reach: float, edge: shapely.Geometry) -> tuple[int, float]:
+    """How many cut streets may stay as cul-de-sacs, and how many metres they may hold together, so
+    that the district's dead-end share comes to its town's neighbourhoods' and its 2-core share stays
+    at or above theirs (:class:`_Aim`): the dead ends it has besides its cut ends, those on its ``edge``
+    and those within ``reach`` of the town (the joining step takes them), are fewer."""
+    if aim is None or not 0.0 < aim.dead_end_share < 1.0 or not len(net.xy):
+        return 0, 0.0
+    share = aim.dead_end_share
     degree = segment_degree(net.streets, len(net.xy))
     cut = np.zeros(len(net.xy), dtype=bool)
     loose = np.array(quilt.cut_xy).reshape(-1, 2)
@@ -722,18 +787,63 @@ def _stub_budget(net: StreetNetwork, quilt: _Quilt, share: float | None, old: sh
         dist, idx = cKDTree(net.xy).query(loose)
         cut[idx[dist < 1e-6]] = True
     ends = np.flatnonzero((degree == 1) & ~cut)
-    if len(ends) and not old.is_empty:
-        ends = ends[shapely.distance(old, shapely.points(net.xy[ends])) > reach]
-    dead = len(ends)
-    return max(int(share / (1.0 - share) * int((degree >= 3).sum())) - dead, 0)
+    anchored = cut.copy()
+    if len(ends):
+        out = _leaves_out(net.xy[ends], old, reach, edge)
+        anchored[ends[out]] = True
+        ends = ends[~out]
+    room = max(aim.off_core_room(net, anchored), 0.0)
+    return max(int(share / (1.0 - share) * int((degree >= 3).sum())) - len(ends), 0), room
+
+
+def _leaves_out(xy: np.ndarray, old: shapely.Geometry, reach: float, edge: shapely.Geometry | None) -> np.ndarray:
+    """Which of the ends at ``xy`` leave the district: within ``reach`` of the town (the joining step
+    joins them) or on its ``edge`` (roads out); the others are its cul-de-sacs."""
+    out = np.zeros(len(xy), dtype=bool)
+    if len(xy) and not old.is_empty:
+        out |= shapely.distance(old, shapely.points(xy)) <= reach
+    if len(xy) and edge is not None:
+        out |= shapely.distance(edge, shapely.points(xy)) < ON_EDGE
+    return out
+
+
+def _cul_de_sac_length(town: StreetNetwork) -> float:
+    """The median length (m) of the town's cul-de-sacs as mapped: from each dead end of its own
+    streets back to the nearest junction (0 when it has none)."""
+    mapped = [st for st in town.streets if st.origin == Origin.SOURCE]
+    degree = segment_degree(mapped, len(town.xy))
+    chains = dangling_chains(mapped, np.flatnonzero(degree == 1).tolist())
+    lengths = [_chain_length(town, c) for c in chains.values()]
+    return float(np.median(lengths)) if lengths else 0.0
+
+
+def _core_length(net: StreetNetwork, anchored: np.ndarray) -> float:
+    """Metres of ``net`` on its 2-core: what is left after pruning dead ends (never an ``anchored``
+    node) and the ends that leaves, until none is left (the yardstick's 2-core share, in metres)."""
+    seg = np.array([(a, b) for st in net.streets for a, b in zip(st.nodes[:-1], st.nodes[1:])], dtype=np.intp)
+    if not len(seg):
+        return 0.0
+    alive = np.ones(len(seg), dtype=bool)
+    while True:
+        degree = np.bincount(seg[alive].ravel(), minlength=len(net.xy))
+        leaf = (degree == 1) & ~anchored
+        cut = alive & (leaf[seg[:, 0]] | leaf[seg[:, 1]])
+        if not cut.any():
+            break
+        alive &= ~cut
+    return float(np.hypot(*(net.xy[seg[alive, 0]] - net.xy[seg[alive, 1]]).T).sum())
 
 
 def _trim(net: StreetNetwork, quilt: _Quilt, edge: shapely.Geometry, keep_out: float, *, keep: int = 0,
-          stub: float = 0.0) -> StreetNetwork:
+          stub: float = 0.0, room: float = float("inf"), like: float = 0.0) -> StreetNetwork:
     """Cut ends still open are trimmed back to their last junction, except a street of ``keep_out``
     metres or more that leaves the district at the site's ``edge`` (a road out into the country), and
-    up to ``keep`` cut streets of ``stub`` metres or more, which stay as cul-de-sacs (a district
-    whose every cut end was closed or trimmed has fewer dead ends than its town's neighbourhoods).
+    up to ``keep`` cut streets of ``stub`` metres or more ending inside the district, which stay as
+    cul-de-sacs (a district whose every cut end was closed or trimmed has fewer dead ends than its
+    town's neighbourhoods; a stub left where the edge cut it would stop at the field's margin),
+    those nearest ``like`` metres long first (the town's own cul-de-sacs; a district of 30 m nubs has
+    the town's dead-end share but not its edge lengths), and ``room`` metres of them at most (the
+    length its 2-core may lose).
 
     A junction whose other streets were all trimmed becomes an end itself and is trimmed in turn:
     only the town's own dead ends stay dead ends.
@@ -747,13 +857,15 @@ def _trim(net: StreetNetwork, quilt: _Quilt, edge: shapely.Geometry, keep_out: f
     streets = net.streets
     while leaves:
         drop: set[tuple[int, int]] = set()
-        for leaf, chain in sorted(dangling_chains(streets, leaves).items()):
-            out_of_town = shapely.distance(edge, shapely.Point(leaves[leaf])) < 1.0
-            length = sum(float(np.hypot(*(net.xy[a] - net.xy[b]))) for a, b in chain)
-            if out_of_town and length >= keep_out:
+        chains = dangling_chains(streets, leaves)
+        length = {leaf: _chain_length(net, chain) for leaf, chain in chains.items()}
+        for leaf, chain in sorted(chains.items(), key=lambda c: (abs(length[c[0]] - like), c[0])):
+            out_of_town = shapely.distance(edge, shapely.Point(leaves[leaf])) < ON_EDGE
+            if out_of_town and length[leaf] >= keep_out:
                 continue
-            if keep > 0 and length >= stub:
+            if keep > 0 and stub <= length[leaf] <= room and not out_of_town:
                 keep -= 1
+                room -= length[leaf]
                 continue
             drop |= chain
         if not drop:
@@ -839,31 +951,65 @@ def _connect_pieces(net: StreetNetwork, old: shapely.Geometry, occupied: shapely
     return network_from_lines(lines + links, attrs)
 
 
+def _without_scraps(net: StreetNetwork, least: float) -> StreetNetwork:
+    """The district less the pieces that the joining of pieces left apart from the largest and that hold
+    under ``least`` metres of street: a piece apart is a neighbourhood of its own across a barrier only
+    when it is one (Monaco, seed 2: 0.2 km of streets beside 10 km, a second piece on the map)."""
+    if len(net.streets) < 2:
+        return net
+    from osm_expand.model.components import component_labels
+
+    seg = np.array([(a, b) for st in net.streets for a, b in zip(st.nodes[:-1], st.nodes[1:])], dtype=np.intp)
+    label = component_labels(len(net.xy), seg[:, 0], seg[:, 1])
+    length = np.bincount(label[seg[:, 0]], weights=np.hypot(*(net.xy[seg[:, 0]] - net.xy[seg[:, 1]]).T),
+                         minlength=int(label.max()) + 1)
+    keep = (length >= least) | (np.arange(len(length)) == int(np.argmax(length)))
+    return net.replace(streets=tuple(st for st in net.streets if keep[label[st.nodes[0]]]))
+
+
 def _fewer_dead_ends(net: StreetNetwork, old: shapely.Geometry, occupied: shapely.Geometry, spacing: float,
-                     opts: PatchOptions, share: float) -> StreetNetwork:
-    """Bring the district's dead-end share down to ``share`` (its town's neighbourhoods' median).
+                     opts: PatchOptions, aim: _Aim, edge: shapely.Geometry | None = None) -> StreetNetwork:
+    """Bring the district's dead-end share down to its town's neighbourhoods' median, and its 2-core
+    share up to theirs (``aim``).
 
     Copied patches bring the town's cul-de-sacs, and clipping and trimming
     leave more; a neighbourhood has as many as its town's. Dead ends within
-    ``tee_reach`` of the town are left to the joining step. The others, in
+    ``tee_reach`` of the town are left to the joining step, and a road out
+    that ends on the district's ``edge`` leaves it (the yardstick reads it
+    as a street running on, as it does a real neighbourhood's streets cut by
+    its disc) and is no cul-de-sac of the district. The others, in
     order of their chain's length (shortest first), first run on to the
     first street ahead within ``tee_reach`` in a tee (at a fair angle,
     crossing nothing); while the share is still too high, those whose chain
-    is shorter than a spacing go.
+    is shorter than a spacing go. A district whose dead-end share is right
+    can still hang too much of its length on dead-end trees (the town's
+    long cul-de-sacs copied whole, Monaco's hairpins): while its 2-core
+    share is short of the aim, the longest chains run on to a tee too, as
+    long as its dead ends stay at ``dead_end_floor`` of the aimed share.
     """
+    share = aim.dead_end_share
     reach = opts.tee_reach * spacing
-    ends, junctions = _dead_ends(net, old, reach)
-    if _excess(len(ends), junctions, share) <= 0:
+    ends, junctions = _dead_ends(net, old, reach, edge)
+    leaves = np.flatnonzero(segment_degree(net.streets, len(net.xy)) == 1)
+    anchored = np.zeros(len(net.xy), dtype=bool)
+    anchored[leaves[_leaves_out(net.xy[leaves], old, reach, edge)]] = True
+    room = aim.off_core_room(net, anchored)
+    over = _excess(len(ends), junctions, share) > 0
+    if not over and room >= 0:
         return net
     chains = dangling_chains(net.streets, {int(e): net.xy[e] for e in ends})
-    order = sorted(chains, key=lambda e: (_chain_length(net, chains[e]), e))
+    length = {e: _chain_length(net, chains[e]) for e in chains}
+    # too many dead ends: the shortest chains first; only too little on loops: the longest
+    order = sorted(chains, key=lambda e: (length[e], e) if over else (-length[e], e))
+    ratio = share / (1.0 - share) if share < 1.0 else float("inf")
     quilt = _Quilt(xy=[net.street_xy(st) for st in net.streets], highway=[st.highway for st in net.streets],
                    level=[st.hierarchy for st in net.streets])
     board = _Board(quilt, occupied, old)
     where = {n: k for k, st in enumerate(net.streets) for n in (st.nodes[0], st.nodes[-1])}
     made = 0
     for e in order:
-        if _excess(len(ends) - made, junctions + made, share) <= 0:
+        if _excess(len(ends) - made, junctions + made, share) <= 0 and (
+                room >= 0 or len(ends) - made - 1 < opts.dead_end_floor * ratio * (junctions + made + 1)):
             break
         st = net.streets[where[e]]
         inner = st.nodes[1] if st.nodes[0] == e else st.nodes[-2]
@@ -881,28 +1027,120 @@ def _fewer_dead_ends(net: StreetNetwork, old: shapely.Geometry, occupied: shapel
             quilt.add(np.array([p, at]), st.highway, st.hierarchy)
             quilt.splits.setdefault(j, []).append(at)
             made += 1
+            room += length[e]
     if made:
         net = _network(quilt)
-    ends, junctions = _dead_ends(net, old, reach)
+    ends, junctions = _dead_ends(net, old, reach, edge)
     excess = _excess(len(ends), junctions, share)
-    if excess <= 0:
-        return net
-    chains = dangling_chains(net.streets, {int(e): net.xy[e] for e in ends})
-    drop: set[tuple[int, int]] = set()
-    for e in sorted(chains, key=lambda e: (_chain_length(net, chains[e]), e)):
-        if excess <= 0 or _chain_length(net, chains[e]) >= spacing:
+    if excess > 0:
+        chains = dangling_chains(net.streets, {int(e): net.xy[e] for e in ends})
+        drop: set[tuple[int, int]] = set()
+        for e in sorted(chains, key=lambda e: (_chain_length(net, chains[e]), e)):
+            if excess <= 0 or _chain_length(net, chains[e]) >= spacing:
+                break
+            drop |= chains[e]
+            excess -= 1
+        net = net.replace(streets=without_segments(net.streets, drop)) if drop else net
+    return _shorter_trees(net, old, reach, edge, aim, opts.dead_end_floor)
+
+
+def _shorter_trees(net: StreetNetwork, old: shapely.Geometry, reach: float, edge: shapely.Geometry | None,
+                   aim: _Aim, floor: float) -> StreetNetwork:
+    """Prune cul-de-sacs that met nothing while the district's 2-core share is short of ``aim``'s and
+    its dead ends stay at ``floor`` of those the aimed share allows: each time the shortest that
+    makes up the shortfall, else the longest (the least street length lost for the 2-core gained)."""
+    ratio = aim.dead_end_share / (1.0 - aim.dead_end_share) if aim.dead_end_share < 1.0 else float("inf")
+    for _ in range(len(net.streets)):
+        ends, junctions = _dead_ends(net, old, reach, edge)
+        if not len(ends) or len(ends) - 1 < floor * ratio * junctions:
             break
-        drop |= chains[e]
-        excess -= 1
-    return net.replace(streets=without_segments(net.streets, drop)) if drop else net
+        leaves = np.flatnonzero(segment_degree(net.streets, len(net.xy)) == 1)
+        anchored = np.zeros(len(net.xy), dtype=bool)
+        anchored[leaves[_leaves_out(net.xy[leaves], old, reach, edge)]] = True
+        room = aim.off_core_room(net, anchored)
+        if room >= 0:
+            break
+        chains = dangling_chains(net.streets, {int(e): net.xy[e] for e in ends})
+        length = {e: _chain_length(net, c) for e, c in chains.items()}
+        enough = [e for e in sorted(chains) if length[e] >= -room]
+        e = min(enough, key=lambda e: length[e]) if enough else max(sorted(chains), key=lambda e: length[e])
+        net = net.replace(streets=without_segments(net.streets, chains[e]))
+    return net
 
 
-def _dead_ends(net: StreetNetwork, old: shapely.Geometry, reach: float) -> tuple[np.ndarray, int]:
-    """The district's dead ends farther than ``reach`` from the town, and its junction count."""
+#: The joining step links the district to the town within this many spacings (``osm_expand.joins``: two):
+#: a cul-de-sac made nearer would be joined.
+JOIN_REACH = 2.0
+
+
+def _more_dead_ends(net: StreetNetwork, tees: list[tuple[np.ndarray, np.ndarray]], old: shapely.Geometry,
+                    edge: shapely.Geometry, spacing: float, opts: PatchOptions, aim: _Aim) -> StreetNetwork:
+    """Bring the district's dead-end share up towards its town's neighbourhoods' median (``aim``).
+
+    The seams close almost every cut street (in a tee onto the street ahead,
+    or into a neighbour's), so a small district can end with no cul-de-sac
+    at all and every metre of it on a loop, where its town's neighbourhoods
+    have a tenth to a quarter of their nodes at dead ends. While the share
+    is short of ``share``, a tee onto the district's own streets is taken
+    back, so that its cut street stays a cul-de-sac: only where the
+    district stays one network without it, where the cul-de-sac is at
+    least :data:`STUB_LENGTH` spacings long, and farther than
+    :data:`JOIN_REACH` spacings from the town (the joining step would join
+    it) and off the district's edge (there it would be a road out);
+    the cul-de-sac nearest the town's median length first, and only while
+    the district's 2-core share stays at or above the neighbourhoods' median.
+    """
+    share = aim.dead_end_share
+    if not tees or not len(net.xy) or not 0.0 < share < 1.0:
+        return net
+    import networkx as nx
+
+    ratio, reach = share / (1.0 - share), opts.tee_reach * spacing
+    tree = cKDTree(net.xy)
+    cut_end, foot = np.array([t[0] for t in tees]), np.array([t[1] for t in tees])
+    da, a = tree.query(cut_end)
+    db, b = tree.query(foot)
+    ok = (da < 1e-6) & (db < 1e-6) & (a != b)
+    ok &= shapely.distance(edge, shapely.points(cut_end)) >= ON_EDGE
+    if not old.is_empty:
+        ok &= shapely.distance(old, shapely.points(cut_end)) > JOIN_REACH * spacing
+    # each tee as its segment (smaller node first) -> the cut end it leaves open
+    open_end = {(int(min(i, j)), int(max(i, j))): int(i) for i, j in zip(a[ok], b[ok])}
+    while open_end:
+        ends, junctions = _dead_ends(net, old, reach, edge)
+        if len(ends) + 1 > ratio * (junctions - 1) + 0.5:  # one more would overshoot more than it helps
+            break
+        graph = nx.Graph([(u, v) for st in net.streets for u, v in zip(st.nodes[:-1], st.nodes[1:])])
+        bridges = {(min(u, v), max(u, v)) for u, v in nx.bridges(graph)}
+        degree = segment_degree(net.streets, len(net.xy))
+        leaves = np.flatnonzero(degree == 1)
+        anchored = np.zeros(len(net.xy), dtype=bool)
+        anchored[leaves[_leaves_out(net.xy[leaves], old, reach, edge)]] = True
+        room = aim.off_core_room(net, anchored)
+        best = None
+        for seg, end in sorted(open_end.items()):
+            if seg in bridges or not graph.has_edge(*seg) or degree[end] != 2:
+                continue
+            rest = without_segments(net.streets, {seg})
+            length = _chain_length(net, dangling_chains(rest, [end]).get(end, set()))
+            if STUB_LENGTH * spacing <= length <= room and (
+                    best is None or abs(length - aim.cul_de_sac) < abs(best[0] - aim.cul_de_sac)):
+                best = (length, seg, rest)
+        if best is None:
+            break
+        _, seg, rest = best
+        del open_end[seg]
+        net = net.replace(streets=rest)
+    return net
+
+
+def _dead_ends(net: StreetNetwork, old: shapely.Geometry, reach: float, edge: shapely.Geometry | None = None
+               ) -> tuple[np.ndarray, int]:
+    """The district's dead ends farther than ``reach`` from the town and not on its ``edge`` (roads out),
+    and its junction count."""
     degree = segment_degree(net.streets, len(net.xy))
     ends = np.flatnonzero(degree == 1)
-    if len(ends) and not old.is_empty:
-        ends = ends[shapely.distance(old, shapely.points(net.xy[ends])) > reach]
+    ends = ends[~_leaves_out(net.xy[ends], old, reach, edge)]
     return ends, int((degree >= 3).sum())
 
 
@@ -916,6 +1154,8 @@ def _chain_length(net: StreetNetwork, chain: set[tuple[int, int]]) -> float:
     return sum(float(np.hypot(*(net.xy[a] - net.xy[b]))) for a, b in chain)
 
 
+#: An end this close to the district's edge (m) lies on it: a road out, as :func:`_trim` keeps them.
+ON_EDGE = 1.0
 #: Metres inside the district's edge that a perimeter street runs.
 EDGE_INSET = 4.0
 

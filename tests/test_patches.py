@@ -11,7 +11,7 @@ from osm_expand.ingest import load
 from osm_expand.model import network_from_lines
 from osm_expand.model.topology import dangling_chains, without_segments
 from osm_expand.pipeline import ExpandOptions, expand
-from synth.patches import _connector, _Quilt, _trim
+from synth.patches import PatchOptions, _Aim, _connector, _free_land, _more_dead_ends, _Quilt, _trim
 from tests.conftest import FIXTURES
 
 
@@ -60,10 +60,17 @@ def district(name: str, seed: int):
 
 @pytest.mark.parametrize("name", ["krems.osm.gz", "andorra.osm.pbf"])
 def test_the_district_is_as_alike_to_its_town_as_the_towns_own_districts(name):
-    """Issue 9's verdict (seed 0): off on at most 3 of the 14 measures, and never on street density."""
-    report = district(name, 0).fidelity
-    assert report is not None and report.density_ok
-    assert report.off <= 3, {v.measure.value: v.value for v in report.verdicts if not v.ok}
+    """Issue 20's verdict over seeds 0-4: off on at most 3 of the 14 measures on average, street density,
+    dead-end and 2-core share in range on at least 4 of the 5 seeds, at most 2 pieces. (Issue 9 pinned
+    seed 0 alone at 3 off; one seed moves by one measure with any change of the topology: Andorra's
+    seed 0 is off on 4 since its district keeps its town's cul-de-sacs, seeds 0-4 on 2.8-3.0.)"""
+    reports = [district(name, seed).fidelity for seed in range(5)]
+    assert all(r is not None for r in reports)
+    off = [r.off for r in reports]
+    assert np.mean(off) <= 3.0, off
+    for measure in ("density", "dead_end_share", "two_core_share"):
+        assert sum(r.verdict(measure).ok for r in reports) >= 4, measure
+    assert max(r.pieces for r in reports) <= 2
 
 
 def test_the_fidelity_report_is_in_the_json_report():
@@ -71,3 +78,52 @@ def test_the_fidelity_report_is_in_the_json_report():
     f = result.report["fidelity"]
     assert set(f["measures"]) == {v.measure.value for v in result.fidelity.verdicts} and len(f["measures"]) == 14
     assert f["off"] == result.fidelity.off and isinstance(f["believable"], bool)
+
+
+@pytest.mark.parametrize("seed", [2, 3])
+def test_a_krems_district_has_the_cul_de_sacs_of_the_towns_neighbourhoods(seed):
+    """Issue 20: small Krems districts ended with every cut street joined or trimmed — no dead end, all of
+    their length on loops (0 and 1.0 on seeds 2-4; the town's neighbourhoods: 3-20 % and 0.83-0.98).
+    Roads out at the district's outer edge are read as running on, as the streets a real neighbourhood's
+    disc cuts are; the district keeps cul-de-sacs inside it (seed 4 still ends with one, 0.036 against
+    0.041: issue 20 asks 4 of 5 seeds)."""
+    report = district("krems.osm.gz", seed).fidelity
+    assert report is not None and report.district.dead_ends > 0
+    for name in ("dead_end_share", "two_core_share"):
+        verdict = report.verdict(name)
+        assert verdict.ok, (name, verdict.value, verdict.low, verdict.high)
+
+
+def test_a_monaco_district_is_one_piece_with_the_towns_share_on_loops():
+    """Issue 20: Monaco's district came in two pieces (a street scrap on a 0.01 km² sliver of free land
+    beside the 0.7 km² site) with 84 % of its length on loops against the neighbourhoods' 89-93 %."""
+    report = district("monaco.osm.gz", 0).fidelity
+    assert report is not None and report.pieces == 1
+    verdict = report.verdict("two_core_share")
+    assert verdict.ok, (verdict.value, verdict.low, verdict.high)
+
+
+def test_a_sliver_of_free_land_beside_the_site_is_left_open():
+    big, sliver = shapely.box(0, 0, 1000, 1000), shapely.box(1100, 0, 1150, 100)
+    free = _free_land(shapely.Polygon(), shapely.union(big, sliver), shapely.MultiLineString(), 1.0, 50.0, 9.0)
+    assert free.equals(big)
+    # the largest part stays even when it is small itself
+    alone = _free_land(shapely.Polygon(), sliver, shapely.MultiLineString(), 1.0, 50.0, 9.0)
+    assert alone.equals(sliver)
+
+
+def test_a_tee_is_taken_back_for_a_cul_de_sac_while_the_district_has_too_few():
+    # a ladder: two rails and three rungs, plus a street whose cut end was teed onto the far rail
+    rungs = [[(x, 0.0), (x, 200.0)] for x in (0.0, 200.0, 400.0)]
+    stem = [[(100.0, 0.0), (100.0, 120.0)], [(100.0, 120.0), (100.0, 200.0)]]  # the second is the tee
+    net = network_from_lines([[(0.0, 0.0), (100.0, 0.0), (200.0, 0.0), (400.0, 0.0)],
+                              [(0.0, 200.0), (100.0, 200.0), (200.0, 200.0), (400.0, 200.0)], *rungs, *stem])
+    tees = [(np.array([100.0, 120.0]), np.array([100.0, 200.0]))]
+    far = shapely.LineString([(5000, 5000), (5100, 5000)])
+    spacing = 100.0
+    wanting = _more_dead_ends(net, tees, far, far, spacing, PatchOptions(), _Aim(0.25, 0.5))
+    assert len(wanting.streets) == len(net.streets) - 1  # the tee went: a cul-de-sac of 120 m
+    enough = _more_dead_ends(net, tees, far, far, spacing, PatchOptions(), _Aim(0.05, 0.5))
+    assert len(enough.streets) == len(net.streets)  # no dead end wanted
+    looped = _more_dead_ends(net, tees, far, far, spacing, PatchOptions(), _Aim(0.25, 0.99))
+    assert len(looped.streets) == len(net.streets)  # the 2-core may not lose 120 m
