@@ -33,7 +33,7 @@ from osm_expand.engine.segments import SegmentTable
 from osm_expand.engine.stubs import close_stubs
 from osm_expand.joins import add_streets, join_growth
 from osm_expand.model import City, Origin, Status, match_points, polyline_length
-from osm_expand.sites import SiteOptions, choose_sites, distance_maps, district_region
+from osm_expand.sites import DistanceMaps, SiteOptions, choose_sites, distance_maps, district_region
 from synth.growth import GrowthPattern
 from synth.patterns import PatternOptions, grow_streets
 from synth.street_graph import StreetGraph
@@ -143,7 +143,7 @@ def grow_street_pattern(city: City, count: int, options: PatternOptions, nuclei:
     if reach is not None and lines:
         town = city.network
         lines, bridges, _ = close_stubs(lines, bridges, town.street_lines(), town.xy[town.used_nodes()],
-                                        shapely.GeometryCollection([water, forbidden]), reach=reach)
+                                        shapely.GeometryCollection([water, forbidden]), reach=reach, loops=True)
     if not lines:
         return city, GrowthYear()
     attrs = [{"highway": "residential", "hierarchy": 9, "origin": Origin.ENGINE, "status": Status.PLANNED,
@@ -250,7 +250,11 @@ def grow_district(city: City, pattern: GrowthPattern, length: float, density: fl
     the town, near water, with room), re-ranked by the nuclei of growth
     (003 §3.3.2: distance to the nearest nucleus × (1 − strength)); the
     first whose district joins the town at :attr:`GrowthOptions.min_joins`
-    places is built.
+    places within a junction spacing of its built-up land (the sites'
+    raster, which the LEI reads too: joined to a country road in the
+    fields, Monaco's second district grew as outlying growth) is built,
+    its stubs run on or dropped as a street pattern's
+    (:func:`_district_stubs_closed`).
     """
     area = max(length / max(density, 1e-9), 9.0 * spacing ** 2)
     pts = city.network.xy[city.network.used_nodes()]
@@ -269,9 +273,42 @@ def grow_district(city: City, pattern: GrowthPattern, length: float, density: fl
         if not growth.streets:
             continue
         grown, joins = join_growth(city, growth.streets, spacing=spacing, origin=Origin.ENGINE, year=year, era=era)
-        if joins.joins >= options.min_joins:
+        if (_built_up_distance(maps, joins.at) <= STUB_REACH * spacing).sum() >= options.min_joins:
+            grown = _district_stubs_closed(city, grown, before, reach=STUB_REACH * spacing)
             new = grown.network.streets[before:]
             made = sum(polyline_length(grown.network.street_xy(s)) for s in new)
             return grown, GrowthYear(streets=len(new), length_m=made, bridges=sum(s.bridge for s in new),
                                      districts=1)
     return city, GrowthYear()
+
+
+def _built_up_distance(maps: DistanceMaps, xy: np.ndarray) -> np.ndarray:
+    """Per point, metres to the built-up land of the site rasters (infinite off the rasters)."""
+    xy = np.asarray(xy, dtype=float).reshape(-1, 2)
+    col = np.floor((xy[:, 0] - maps.origin[0]) / maps.cell).astype(np.int64)
+    row = np.floor((xy[:, 1] - maps.origin[1]) / maps.cell).astype(np.int64)
+    rows, cols = maps.city_distance.shape
+    inside = (row >= 0) & (row < rows) & (col >= 0) & (col < cols)
+    out = np.full(len(xy), np.inf)
+    out[inside] = maps.city_distance[row[inside], col[inside]]
+    return out
+
+
+def _district_stubs_closed(city: City, grown: City, before: int, *, reach: float) -> City:
+    """``grown`` (``city`` with a joined district: its streets from index ``before`` on) with the district's
+    stubs run on to the street ahead or dropped (:func:`osm_expand.engine.stubs.close_stubs`), as a street
+    pattern's year's are: the district pattern copies the town's patches, and their cut ends read as dead
+    ends (Monaco's engine district: 20 % dead ends against its neighbourhoods' 5–18 %). Run after the
+    joining step, so that an end it joined to the town is no stub; the joining streets stay as they are."""
+    net, town = grown.network, city.network
+    new = net.streets[before:]
+    lines, bridges, report = close_stubs([net.street_xy(s) for s in new], [s.bridge for s in new],
+                                         town.street_lines(), town.xy[town.used_nodes()],
+                                         shapely.GeometryCollection([city.water_geometry(), _forbidden(city)]),
+                                         reach=reach, fixed=[s.origin != Origin.ENGINE for s in new])
+    if not report.tees and not report.dropped:
+        return grown
+    attrs = [{"highway": new[k].highway, "hierarchy": new[k].hierarchy, "origin": new[k].origin,
+              "status": new[k].status, "year": new[k].year, "era": new[k].era, "bridge": b,
+              "layer": new[k].layer if b else 0} for k, b in zip(report.source, bridges)]
+    return add_streets(city, lines, attrs)

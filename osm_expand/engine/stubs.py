@@ -32,10 +32,13 @@ class StubReport:
 
     tees: int = 0  #: stubs that ran on to a street
     dropped: int = 0  #: stubs that went
+    #: per line returned, the input line it is (or, for a link, the stub it runs on): whose attributes it takes
+    source: tuple[int, ...] = ()
 
 
 def close_stubs(lines: list[np.ndarray], bridges: list[bool], town: np.ndarray, town_nodes: np.ndarray,
-                blocked: shapely.Geometry, *, reach: float, min_angle: float = 35.0
+                blocked: shapely.Geometry, *, reach: float, min_angle: float = 35.0,
+                fixed: list[bool] | None = None, loops: bool = False
                 ) -> tuple[list[np.ndarray], list[bool], StubReport]:
     """The year's new streets with their stubs run on or dropped (module docstring).
 
@@ -48,6 +51,10 @@ def close_stubs(lines: list[np.ndarray], bridges: list[bool], town: np.ndarray, 
     blocked : what a street may not touch (water, forbidden land).
     reach : metres a stub may run on.
     min_angle : degrees: a stub meets a street at this angle or more.
+    fixed : per line, whether it is left alone like a bridge (a district's joining streets: they are what
+        joins it to the town); none by default.
+    loops : whether a piece of the new streets that makes no loop (with the town taken as one point) goes
+        too: a tree hung on the town at one point adds only dead ends (:func:`_in_loops`).
 
     Returns
     -------
@@ -55,15 +62,18 @@ def close_stubs(lines: list[np.ndarray], bridges: list[bool], town: np.ndarray, 
     link lands on gets the landing point as a vertex.
     """
     lines = [np.asarray(xy, dtype=float) for xy in lines]
+    alone = [bool(b) or bool(f) for b, f in zip(bridges, fixed or [False] * len(lines))]
+    kept = StubReport(source=tuple(range(len(lines))))
     if not lines:
-        return lines, list(bridges), StubReport()
+        return lines, list(bridges), kept
     ends = _stub_ends(lines, town, town_nodes)
     if not ends:
-        return lines, list(bridges), StubReport()
+        return lines, list(bridges), kept
     town_tree = shapely.STRtree(town) if len(town) else None
     links: list[np.ndarray] = []
+    linked: list[int] = []
     for k, side in ends:
-        if bridges[k]:
+        if alone[k]:
             continue
         xy = lines[k]
         p, prev = (xy[0], xy[1]) if side == 0 else (xy[-1], xy[-2])
@@ -79,30 +89,81 @@ def close_stubs(lines: list[np.ndarray], bridges: list[bool], town: np.ndarray, 
         if j >= 0:
             lines[j] = _with_vertex(lines[j], at)
         links.append(link)
+        linked.append(k)
     out = lines + links
-    flags = list(bridges) + [False] * len(links)
-    dropped = 0
+    flags = np.array(list(bridges) + [False] * len(links), dtype=bool)
+    left_alone = np.array(alone + [False] * len(links), dtype=bool)
+    at = np.arange(len(out))  # each line's place in ``lines + links``
     for _ in range(MAX_ROUNDS):  # a stub dropped can leave the street it hung from a stub in turn
-        out, flags, gone = _drop_stubs(out, flags, town, town_nodes, reach)
-        dropped += gone
-        if not gone:
+        keep = _drop_stubs([out[i] for i in at.tolist()], left_alone[at].tolist(), town, town_nodes, reach)
+        if len(keep) == len(at):
             break
-    return out, flags, StubReport(tees=len(links), dropped=dropped)
+        at = at[keep]
+    if loops and len(at):
+        at = at[_in_loops([out[i] for i in at.tolist()], left_alone[at], town, town_nodes)]
+    source = np.array(list(range(len(lines))) + linked, dtype=np.int64)[at]
+    return ([out[i] for i in at.tolist()], flags[at].tolist(),
+            StubReport(tees=len(links), dropped=len(out) - len(at), source=tuple(source.tolist())))
 
 
 #: Rounds of dropping stubs (each may leave new ones).
 MAX_ROUNDS = 8
 
 
-def _drop_stubs(lines: list[np.ndarray], bridges: list[bool], town: np.ndarray, town_nodes: np.ndarray,
-                reach: float) -> tuple[list[np.ndarray], list[bool], int]:
-    """One round: the stubs shorter than ``reach`` go."""
+def _drop_stubs(lines: list[np.ndarray], alone: list[bool], town: np.ndarray, town_nodes: np.ndarray,
+                reach: float) -> np.ndarray:
+    """One round: the indices of the lines kept, the stubs shorter than ``reach`` (not left alone) gone."""
     if not lines:
-        return lines, bridges, 0
-    ends = [(k, side) for k, side in _stub_ends(lines, town, town_nodes) if not bridges[k]]
+        return np.zeros(0, dtype=np.int64)
+    ends = [(k, side) for k, side in _stub_ends(lines, town, town_nodes) if not alone[k]]
     drop = {k for k, _ in ends if polyline_length(lines[k]) < reach}
-    keep = [k for k in range(len(lines)) if k not in drop]
-    return [lines[k] for k in keep], [bridges[k] for k in keep], len(drop)
+    return np.array([k for k in range(len(lines)) if k not in drop], dtype=np.int64)
+
+
+def _in_loops(lines: list[np.ndarray], alone: np.ndarray, town: np.ndarray, town_nodes: np.ndarray) -> np.ndarray:
+    """Indices of the lines in a piece that closes a loop, or left alone.
+
+    A piece is a connected set of the lines, apart from the town; with every
+    point where it meets the town taken as one point T, it closes a loop when
+    it has more edges than non-town points (E − V + 1 ≥ 1 with T among the
+    V): joined to the town at two places, or holding a ring. A piece joined
+    once and holding no ring is a tree hung on the town, a comb's tooth
+    (Krems' european history's postwar spurs: half its junctions dead ends)
+    that no later year came back to close. A district needs two joins for
+    the same reason (:attr:`~osm_expand.engine.growth.GrowthOptions.min_joins`).
+    """
+    from osm_expand.model.components import component_labels
+    from osm_expand.model.geometry import match_points
+
+    vertices = np.concatenate(lines)
+    owner = np.concatenate([np.full(len(xy), k) for k, xy in enumerate(lines)])
+    key = np.round(vertices / SAME).astype(np.int64)
+    node = np.unique(key, axis=0, return_inverse=True)[1].ravel()
+    n = int(node.max()) + 1
+    first = np.zeros(n, dtype=np.int64)
+    first[node[::-1]] = np.arange(len(node))[::-1]
+    xy = vertices[first]
+    on_town = np.zeros(n, dtype=bool)
+    if len(town_nodes):
+        on_town |= match_points(xy, town_nodes, SAME) >= 0
+    if len(town):
+        on_town[shapely.STRtree(town).query(shapely.points(xy), predicate="dwithin", distance=SAME)[0]] = True
+    same_line = (owner[1:] == owner[:-1]) & (node[1:] != node[:-1])
+    u, v = node[:-1][same_line], node[1:][same_line]
+    edge_line = owner[:-1][same_line]
+    inner = ~on_town[u] & ~on_town[v]
+    label = component_labels(n, u[inner], v[inner])  # the pieces apart from the town
+    piece = np.where(on_town[u], label[v], label[u])  # each edge's piece (a town-to-town edge: its own end's)
+    town_town = on_town[u] & on_town[v]
+    edges = np.bincount(piece[~town_town], minlength=n)
+    points = np.bincount(label[~on_town], minlength=n)
+    touches = np.zeros(n, dtype=bool)
+    touches[piece[(on_town[u] | on_town[v]) & ~town_town]] = True
+    loop = edges - (points + touches) + 1 >= 1
+    keep = np.asarray(alone, dtype=bool).copy()
+    keep[np.unique(edge_line[town_town])] = True
+    keep[np.unique(edge_line[~town_town][loop[piece[~town_town]]])] = True
+    return np.flatnonzero(keep)
 
 
 def _stub_ends(lines: list[np.ndarray], town: np.ndarray, town_nodes: np.ndarray) -> list[tuple[int, int]]:
