@@ -13,9 +13,10 @@ TOWN_NODES = np.array([[0.0, 0.0], [1000.0, 0.0]])
 NOTHING = shapely.GeometryCollection()
 
 
-def test_a_tree_hung_on_the_town_at_one_point_goes_with_loops_and_stays_without():
+def test_a_lone_street_hung_on_the_town_goes_with_loops_and_stays_without():
     """A 200 m spur (longer than the reach, so no stub rule drops it) is a comb's tooth; a street joined
-    to the town at both ends and a ring on a stem close loops and stay."""
+    to the town at both ends and a ring on a stem close loops and stay, and so does a branching tree (a
+    cluster of culs-de-sac)."""
     spur = np.array([[100.0, 0], [100, 200]])
     u_turn = [np.array([[300.0, 0], [300, 150], [500, 150]]), np.array([[500.0, 150], [500, 0]])]
     stem = np.array([[700.0, 0], [700, 100]])
@@ -25,6 +26,9 @@ def test_a_tree_hung_on_the_town_at_one_point_goes_with_loops_and_stays_without(
     assert report.source == (1, 2, 3, 4) and len(kept) == 4 and flags == [False] * 4
     kept, _, report = close_stubs(lines, [False] * 5, TOWN, TOWN_NODES, NOTHING, reach=50.0)
     assert report.source == (0, 1, 2, 3, 4)
+    tree = [np.array([[100.0, 0], [100, 200]]), np.array([[100.0, 200], [0, 300]]), np.array([[100.0, 200], [200, 300]])]
+    kept, _, report = close_stubs(tree, [False] * 3, TOWN, TOWN_NODES, NOTHING, reach=50.0, loops=True)
+    assert report.source == (0, 1, 2)
 
 
 def test_a_stub_runs_on_to_the_street_ahead_and_the_link_takes_its_attributes():
@@ -38,15 +42,6 @@ def test_a_stub_runs_on_to_the_street_ahead_and_the_link_takes_its_attributes():
     assert report.tees == 1 and report.source == (0, 1, 2, 3, 3)
     assert np.allclose(kept[-1], [[200, 270], [200, 300]])
     assert any(np.allclose(p, [200, 300]) for p in kept[0])
-
-
-def test_fixed_lines_are_never_dropped():
-    """A district's joining street stays even when the district street it joined went."""
-    join = np.array([[100.0, 0], [100, 40]])
-    short = np.array([[100.0, 40], [120, 40]])
-    kept, _, report = close_stubs([join, short], [False, False], TOWN, TOWN_NODES, NOTHING, reach=50.0,
-                                  fixed=[True, False])
-    assert report.source == (0,)
 
 
 @settings(max_examples=40, deadline=None)
