@@ -10,7 +10,11 @@ dropped (it never met anything), as patches trim their cut ends, round
 after round, since a street that lost its branch may become a stub itself.
 A longer stub stays: a street pattern grows trees that later years close
 (dropping every stub beyond the town's dead-end share starved Krems'
-european history to 5 km of street in 50 years, against 25 km).
+european history to 5 km of street in 50 years, against 25 km). Except
+where no later year can: a pattern without Snap and Extend (``suburban``)
+never runs a street on to another, so with ``loops`` a lone street hung on
+the town at one point, a comb's tooth, goes too (:func:`_in_loops`);
+branching trees, clusters of culs-de-sac, stay.
 """
 from __future__ import annotations
 
