@@ -26,7 +26,8 @@ def test_a_lone_street_hung_on_the_town_goes_with_loops_and_stays_without():
     assert report.source == (1, 2, 3, 4) and len(kept) == 4 and flags == [False] * 4
     kept, _, report = close_stubs(lines, [False] * 5, TOWN, TOWN_NODES, NOTHING, reach=50.0)
     assert report.source == (0, 1, 2, 3, 4)
-    tree = [np.array([[100.0, 0], [100, 200]]), np.array([[100.0, 200], [0, 300]]), np.array([[100.0, 200], [200, 300]])]
+    tree = [np.array([[100.0, 0], [100, 200]]), np.array([[100.0, 200], [0, 300]]),
+            np.array([[100.0, 200], [200, 300]])]
     kept, _, report = close_stubs(tree, [False] * 3, TOWN, TOWN_NODES, NOTHING, reach=50.0, loops=True)
     assert report.source == (0, 1, 2)
 
