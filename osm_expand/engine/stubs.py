@@ -24,7 +24,8 @@ import numpy as np
 import shapely
 import shapely.ops
 
-from osm_expand.model.geometry import polyline_length, ray_meet
+from osm_expand.model.components import component_labels
+from osm_expand.model.geometry import match_points, polyline_length, ray_meet
 
 #: Ends closer than this (m) are the same point.
 SAME = 1e-3
@@ -63,18 +64,17 @@ def close_stubs(lines: list[np.ndarray], bridges: list[bool], town: np.ndarray, 
     link lands on gets the landing point as a vertex.
     """
     lines = [np.asarray(xy, dtype=float) for xy in lines]
-    alone = [bool(b) for b in bridges]
-    kept = StubReport(source=tuple(range(len(lines))))
+    unchanged = StubReport(source=tuple(range(len(lines))))
     if not lines:
-        return lines, list(bridges), kept
+        return lines, list(bridges), unchanged
     ends = _stub_ends(lines, town, town_nodes)
     if not ends:
-        return lines, list(bridges), kept
+        return lines, list(bridges), unchanged
     town_tree = shapely.STRtree(town) if len(town) else None
     links: list[np.ndarray] = []
     linked: list[int] = []
     for k, side in ends:
-        if alone[k]:
+        if bridges[k]:
             continue
         xy = lines[k]
         p, prev = (xy[0], xy[1]) if side == 0 else (xy[-1], xy[-2])
@@ -92,16 +92,15 @@ def close_stubs(lines: list[np.ndarray], bridges: list[bool], town: np.ndarray, 
         links.append(link)
         linked.append(k)
     out = lines + links
-    flags = np.array(list(bridges) + [False] * len(links), dtype=bool)
-    left_alone = np.array(alone + [False] * len(links), dtype=bool)
+    flags = np.array([bool(b) for b in bridges] + [False] * len(links), dtype=bool)
     at = np.arange(len(out))  # each line's place in ``lines + links``
     for _ in range(MAX_ROUNDS):  # a stub dropped can leave the street it hung from a stub in turn
-        keep = _drop_stubs([out[i] for i in at.tolist()], left_alone[at].tolist(), town, town_nodes, reach)
+        keep = _drop_stubs([out[i] for i in at.tolist()], flags[at].tolist(), town, town_nodes, reach)
         if len(keep) == len(at):
             break
         at = at[keep]
     if loops and len(at):
-        at = at[_in_loops([out[i] for i in at.tolist()], left_alone[at], town, town_nodes)]
+        at = at[_in_loops([out[i] for i in at.tolist()], flags[at], town, town_nodes)]
     source = np.array(list(range(len(lines))) + linked, dtype=np.int64)[at]
     return ([out[i] for i in at.tolist()], flags[at].tolist(),
             StubReport(tees=len(links), dropped=len(out) - len(at), source=tuple(source.tolist())))
@@ -111,20 +110,19 @@ def close_stubs(lines: list[np.ndarray], bridges: list[bool], town: np.ndarray, 
 MAX_ROUNDS = 8
 
 
-def _drop_stubs(lines: list[np.ndarray], alone: list[bool], town: np.ndarray, town_nodes: np.ndarray,
+def _drop_stubs(lines: list[np.ndarray], bridges: list[bool], town: np.ndarray, town_nodes: np.ndarray,
                 reach: float) -> np.ndarray:
-    """One round: the indices of the lines kept, the stubs shorter than ``reach`` (not left alone) gone."""
+    """One round: the indices of the lines kept, the stubs shorter than ``reach`` (bridges aside) gone."""
     if not lines:
         return np.zeros(0, dtype=np.int64)
-    ends = [(k, side) for k, side in _stub_ends(lines, town, town_nodes) if not alone[k]]
+    ends = [(k, side) for k, side in _stub_ends(lines, town, town_nodes) if not bridges[k]]
     drop = {k for k, _ in ends if polyline_length(lines[k]) < reach}
     return np.array([k for k in range(len(lines)) if k not in drop], dtype=np.int64)
 
 
-def _in_loops(lines: list[np.ndarray], alone: np.ndarray, town: np.ndarray, town_nodes: np.ndarray, *,
-              trees: bool = True) -> np.ndarray:
-    """Indices of the lines in a piece that closes a loop, or (with ``trees``) of more than one line, or
-    left alone.
+def _in_loops(lines: list[np.ndarray], bridges: np.ndarray, town: np.ndarray, town_nodes: np.ndarray
+              ) -> np.ndarray:
+    """Indices of the lines in a piece that closes a loop or holds more than one line, and the bridges.
 
     A piece is a connected set of the lines, apart from the town; with every
     point where it meets the town taken as one point T, it closes a loop when
@@ -132,15 +130,12 @@ def _in_loops(lines: list[np.ndarray], alone: np.ndarray, town: np.ndarray, town
     V): joined to the town at two places, or holding a ring. A piece joined
     once and holding no ring is a tree hung on the town. A lone street so
     hung is a comb's tooth (Krems' european history's postwar spurs: half
-    its junctions dead ends) and goes; with ``trees`` a branching tree
-    stays: a cluster of culs-de-sac, which suburbs have (dropping those too
-    left Krems' european streets more connected than its neighbourhoods:
-    2-core share 0.94 against 0.80–0.93). A district needs two joins for
+    its junctions dead ends) and goes; a branching tree stays: a cluster of
+    culs-de-sac, which suburbs have (dropping those too left Krems'
+    european streets more connected than its neighbourhoods: 2-core share
+    0.94 against 0.80–0.93). A district needs two joins for
     the same reason (:attr:`~osm_expand.engine.growth.GrowthOptions.min_joins`).
     """
-    from osm_expand.model.components import component_labels
-    from osm_expand.model.geometry import match_points
-
     vertices = np.concatenate(lines)
     owner = np.concatenate([np.full(len(xy), k) for k, xy in enumerate(lines)])
     key = np.round(vertices / SAME).astype(np.int64)
@@ -170,8 +165,8 @@ def _in_loops(lines: list[np.ndarray], alone: np.ndarray, town: np.ndarray, town
     first_piece = np.full(len(lines), -1, dtype=np.int64)
     first_piece[edge_line[~town_town]] = piece[~town_town]
     np.add.at(piece_lines, first_piece[first_piece >= 0], 1)
-    ok = loop | (piece_lines >= 2) if trees else loop
-    keep = np.asarray(alone, dtype=bool).copy()
+    ok = loop | (piece_lines >= 2)
+    keep = np.asarray(bridges, dtype=bool).copy()
     keep[np.unique(edge_line[town_town])] = True
     keep[np.unique(edge_line[~town_town][ok[piece[~town_town]]])] = True
     return np.flatnonzero(keep)
