@@ -149,3 +149,16 @@ def test_compare_prints_its_verdict_and_judges_the_years_of_a_run_output(tmp_pat
     assert set(g) == {"overall", "per_era", "lei"} and len(g["overall"]["measures"]) == len(Measure)
     assert g["lei"]["new_length_km"] == pytest.approx(krems_years().report["growth_fidelity"]["lei"]["new_length_km"],
                                                       abs=0.01)
+
+
+def test_krems_european_years_are_as_connected_as_its_neighbourhoods():
+    """Krems' ``european`` history (seed 0, 50 years): its suburban eras hung lone streets on the town, combs
+    (dead-end share 0.22 against its neighbourhoods' 0.09–0.20); they go now (issue 20). The engine's
+    dead-end and 2-core shares lie in the range of the town's real neighbourhoods, and nearly all of its
+    street length is infill or edge expansion."""
+    city = expand(load(FIXTURES / "krems.osm.gz"), ExpandOptions(seed=0, history="european", fidelity=False)).city
+    g = city_growth_fidelity(city, rng=0)
+    assert g is not None and g.overall is not None
+    measures = g.overall.to_dict()["measures"]
+    assert measures["dead_end_share"]["ok"] and measures["two_core_share"]["ok"]
+    assert g.lei.infill + g.lei.edge >= 0.8

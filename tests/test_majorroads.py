@@ -643,3 +643,47 @@ def test_new_roads_keep_out_of_buildings_as_the_outputs_draw_them():
     assert roads
     crossed = shapely.STRtree(outlines).query(roads, predicate="crosses")
     assert not crossed.size
+
+
+def test_new_roads_keep_out_of_the_houses_the_map_does_not_show():
+    """Krems with its buildings withheld, seed 0: a new primary road ran through the town's presumed frontage
+    behind its streets and crossed 4 of the real (withheld) buildings; the lattice now forbids the presumed
+    frontage (a stitch may still cross it), so the roads are still built and cross none (issue 20)."""
+    import shapely
+
+    from osm_expand.ingest import load
+    from osm_expand.model import Origin
+    from osm_expand.pipeline import ExpandOptions, expand
+    from tests.conftest import FIXTURES
+
+    mapped = load(FIXTURES / "krems.osm.gz")
+    city = expand(mapped.replace(buildings=()), ExpandOptions(seed=0, fidelity=False)).city
+    net = city.network
+    roads = [shapely.LineString(net.street_xy(s)) for s in net.streets
+             if s.origin == Origin.ENGINE and s.highway in ("primary", "secondary", "trunk")]
+    assert roads
+    real = [b.polygon for b in mapped.buildings]
+    assert not shapely.STRtree(real).query(roads, predicate="intersects").size
+
+
+def test_a_stitch_may_cross_stitch_only_ground_that_no_lattice_edge_may():
+    """:attr:`Lattice.stitch_only` (the town's presumed frontage) is forbidden to the lattice's vertices and
+    edges, as ``forbidden`` is, but stitches from the streets still cross it to the land beyond."""
+    extent = (0, 0, 1000, 1000)
+    segs = Segments.from_lines(grid_lines(350, 350, 3, 100), major=[False] * 8, width=[6.0] * 8)
+    built = built_up_area(blocks_of(segs), segs)
+    frontage = shapely.box(350, 350, 650, 650).buffer(40.0, join_style="mitre")  # 40 m behind the shell
+    opts = LatticeOptions(radius=4)
+    graphs = {}
+    for kind in ("stitch_only", "forbidden"):
+        lat = build_lattice(extent, options=opts, **{kind: Raster.from_geometry(frontage, extent, CELL)})
+        graphs[kind] = pathfinding_graph(lat.with_built_up(built.area), segs, built)
+    soft, hard = graphs["stitch_only"], graphs["forbidden"]
+    assert np.array_equal(soft.lattice.vertex_class, hard.lattice.vertex_class)
+    for g in (soft, hard):  # no lattice edge runs through the frontage
+        lattice = (g.kind != EdgeKind.STITCH) & (g.src < g.n_lattice) & (g.dst < g.n_lattice)
+        assert not g.lattice.fine_lookup(g.lattice.forbidden, samples_along(g.lattice, g.src[lattice],
+                                                                           g.dst[lattice])).any()
+    stitches = {name: int(((g.kind == EdgeKind.STITCH) & ((g.src < g.n_lattice) | (g.dst < g.n_lattice))).sum())
+                for name, g in graphs.items()}
+    assert stitches["stitch_only"] > 20 and stitches["forbidden"] == 0

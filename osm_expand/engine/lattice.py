@@ -303,6 +303,10 @@ class Lattice:
     offset: tuple[int, int] = (0, 0)  #: (row, col) of vertex 0 in the map's vertex grid
     map_shape: tuple[int, int] | None = None  #: (ny, nx) vertices of the whole map (None: this shape)
     map_origin: np.ndarray | None = None  #: (2,) m, the map's vertex 0 (None: ``origin``)
+    #: fine raster bool over the whole map, or None: the part of ``forbidden`` a stitch may cross (the
+    #: town's presumed frontage, :attr:`~osm_expand.model.land.Land.presumed`): no new road runs through
+    #: the houses the map does not show, but one may leave a street across them, as one between houses
+    stitch_only: np.ndarray | None = None
     _cache: dict = field(default_factory=dict, repr=False, compare=False)
 
     @property
@@ -596,7 +600,7 @@ def _directed(unit_kind: np.ndarray, unit_weight: np.ndarray, directions: np.nda
 
 def build_lattice(extent: tuple[float, float, float, float], *, water: Raster | None = None,
                   forbidden: Raster | None = None, height: Raster | None = None,
-                  options: LatticeOptions | None = None) -> Lattice:
+                  options: LatticeOptions | None = None, stitch_only: Raster | None = None) -> Lattice:
     """Build the pathfinding lattice G over a rectangle (003 §3.2.2; 000 §4.2.3).
 
     Only the fine rasters and the bridges are made here (bridges need the
@@ -616,6 +620,9 @@ def build_lattice(extent: tuple[float, float, float, float], *, water: Raster | 
         Elevation raster in metres, sampled bilinearly; missing: flat.
     options
         :class:`LatticeOptions`.
+    stitch_only
+        Boolean raster of ground forbidden to the lattice that a stitch of G′ may still cross
+        (:attr:`Lattice.stitch_only`); missing: none.
 
     Returns
     -------
@@ -633,6 +640,10 @@ def build_lattice(extent: tuple[float, float, float, float], *, water: Raster | 
     step = ell / f
     water_f = _resample_any(water, origin, step, fine_shape)
     forbidden_f = _resample_any(forbidden, origin, step, fine_shape)
+    stitch_f = None if stitch_only is None else _resample_any(stitch_only, origin, step, fine_shape)
+    if stitch_f is not None:
+        stitch_f &= ~forbidden_f & ~water_f
+        forbidden_f = forbidden_f | stitch_f
     height_f = _resample_linear(height, origin, step, fine_shape)
     directions = lattice_directions(opts.radius)
     half = len(directions) // 2
@@ -663,7 +674,7 @@ def build_lattice(extent: tuple[float, float, float, float], *, water: Raster | 
         origin=origin, spacing=ell, shape=(ny, nx), samples=f, directions=directions,
         water=water_f, forbidden=forbidden_f, built_up=np.zeros(fine_shape, dtype=bool),
         bridge_keys=keys, map_bridges=map_bridges, height=height_f,
-        slope_weight=opts.slope_weight, slope_cutoff=opts.slope_cutoff,
+        slope_weight=opts.slope_weight, slope_cutoff=opts.slope_cutoff, stitch_only=stitch_f,
     )
 
 
@@ -1739,7 +1750,7 @@ def _stitch_ok(lattice: Lattice, segments: Segments, xy: np.ndarray, pairs: np.n
                inner: shapely.Geometry | None = None) -> np.ndarray:
     """Stitches that cross no street, keep ``clearance`` from every street away from
     their ends, enter no built-up block (``inner``: the blocks shrunk by 0.5 m) and touch
-    no water or forbidden ground."""
+    no water or forbidden ground (but :attr:`Lattice.stitch_only`)."""
     n_nodes = len(segments.xy)
     a, b = xy[pairs[:, 0]], xy[pairs[:, 1]]
     length = np.hypot(*(b - a).T)
@@ -1748,7 +1759,10 @@ def _stitch_ok(lattice: Lattice, segments: Segments, xy: np.ndarray, pairs: np.n
     n_samples = max(int(np.ceil(opts.shell_stitch_radius / lattice.fine_step)) + 1, 2)
     t = np.linspace(0.0, 1.0, n_samples)
     samples = a[:, None, :] + t[None, :, None] * (b - a)[:, None, :]
-    wet = lattice.fine_lookup(lattice.water | lattice.forbidden, samples)
+    blocked = lattice.water | lattice.forbidden
+    if lattice.stitch_only is not None:
+        blocked &= ~lattice.stitch_only
+    wet = lattice.fine_lookup(blocked, samples)
     ok &= ~wet.any(axis=1)
     if len(segments.uv):
         lines = shapely.linestrings(np.stack([a, b], axis=1))
