@@ -257,8 +257,6 @@ def lattice_directions(radius: int) -> np.ndarray:
 
 #: ``unit_kind`` value of a missing edge.
 NO_EDGE = 255
-#: A CSR of G′ drops its empty lattice slots when fewer than this share of them hold an edge.
-COMPACT_SHARE = 0.5
 
 
 @dataclass(frozen=True)
@@ -1172,57 +1170,38 @@ class PathGraph:
         return self._cache[key]
 
     def _csr(self, lat: np.ndarray, extra: np.ndarray) -> tuple[csr_matrix, np.ndarray, np.ndarray]:
-        """One CSR without sorting, and where each allowed other edge sits in it.
+        """One CSR of the allowed edges, without sorting, and where each allowed other edge sits in it.
 
-        Every lattice row has a fixed number of slots: its D directions (when
-        any lattice kind is allowed), then room for its other edges; a missing
-        edge is an infinite self-loop. Street rows follow, packed. Contiguous
-        writes make it fast; when most slots are empty (a built-up window) the
-        missing edges are then dropped in one masked pass, which keeps memory
-        to the edges that exist.
+        A row holds its live lattice edges in direction order, then its other
+        edges in their (tail-sorted) order; both go straight to their places
+        from counts and offsets, so only the edges that exist are ever written
+        (a town-sized window has ~10⁸ lattice slots, most of them empty in
+        built-up land: writing every slot and dropping the empty ones cost
+        about a second and 12 bytes a slot per window).
         """
         n_lat, n_dir = lat.shape
-        n_dir = n_dir if lat.any() else 0
         n = self.n_vertices
+        live = np.flatnonzero(lat)  # row-major: by tail vertex, then direction
+        lat_rows = live // n_dir if n_dir else live
+        lat_dirs = live - lat_rows * n_dir
+        lat_counts = np.bincount(lat_rows, minlength=n)
         ex = np.flatnonzero(extra)
         ex_src = self.src[ex]
         ex_counts = np.bincount(ex_src, minlength=n)
-        ex_start = np.concatenate([[0], np.cumsum(ex_counts)])
-        rank = np.arange(len(ex)) - ex_start[ex_src]
-        slots = n_dir + int(ex_counts[:n_lat].max(initial=0))
-        on_lattice = ex_src < n_lat
-        n_street = int((~on_lattice).sum())
-        total = n_lat * slots + n_street
+        indptr = np.zeros(n + 1, dtype=np.int64)
+        np.cumsum(lat_counts + ex_counts, out=indptr[1:])
+        total = int(indptr[-1])
         index_type = np.int32 if max(total, n) < 2**31 else np.int64
         indices = np.empty(total, dtype=index_type)
         data = np.empty(total)
-        grid_index = indices[:n_lat * slots].reshape(n_lat, slots)
-        grid_data = data[:n_lat * slots].reshape(n_lat, slots)
-        rows = np.arange(n_lat, dtype=index_type)[:, None]
-        if n_dir:  # each slot written once: ~10⁸ of them on a town-sized map
-            offset = self.lattice.direction_offset.astype(index_type)
-            np.add(rows, offset, out=grid_index[:, :n_dir])
-            np.copyto(grid_index[:, :n_dir], rows, where=~lat)
-            np.copyto(grid_data[:, :n_dir], np.inf)
-            np.copyto(grid_data[:, :n_dir], self.lat_weight, where=lat)
-        grid_index[:, n_dir:] = rows
-        grid_data[:, n_dir:] = np.inf
-        pos = np.empty(len(ex), dtype=np.int64)
-        pos[on_lattice] = ex_src[on_lattice] * slots + n_dir + rank[on_lattice]
-        pos[~on_lattice] = n_lat * slots + np.arange(n_street)  # already sorted by tail
+        lat_first = np.cumsum(lat_counts) - lat_counts  # index in ``live`` of each row's first edge
+        lat_pos = indptr[lat_rows] + np.arange(len(live)) - lat_first[lat_rows]
+        indices[lat_pos] = lat_rows + self.lattice.direction_offset[lat_dirs]
+        data[lat_pos] = self.lat_weight.reshape(-1)[live]
+        ex_first = np.cumsum(ex_counts) - ex_counts
+        pos = indptr[ex_src] + lat_counts[ex_src] + np.arange(len(ex)) - ex_first[ex_src]
         indices[pos] = self.dst[ex]
         data[pos] = self.weight[ex]
-        indptr = np.concatenate([np.arange(n_lat + 1, dtype=np.int64) * slots,
-                                 n_lat * slots + np.cumsum(ex_counts[n_lat:])])
-        if n_dir and n_lat and np.count_nonzero(lat) < COMPACT_SHARE * n_lat * slots:
-            keep = np.isfinite(data)
-            grid_keep = keep[:n_lat * slots].reshape(n_lat, slots)
-            row_counts = np.concatenate([grid_keep.sum(axis=1), ex_counts[n_lat:]])
-            live_lat = grid_keep[:, :n_dir].sum(axis=1)
-            indptr = np.concatenate([[0], np.cumsum(row_counts)])
-            indices, data = indices[keep], data[keep]
-            pos = np.where(on_lattice, indptr[ex_src] + live_lat[np.minimum(ex_src, n_lat - 1)] + rank,
-                           indptr[ex_src] + rank)
         return csr_matrix((data, indices, indptr), shape=(n, n)), ex, pos
 
     def step(self, u: int, v: int, lat: np.ndarray, extra: np.ndarray) -> dict[str, float]:
