@@ -1173,18 +1173,19 @@ class PathGraph:
         """One CSR of the allowed edges, without sorting, and where each allowed other edge sits in it.
 
         A row holds its live lattice edges in direction order, then its other
-        edges in their (tail-sorted) order; both go straight to their places
-        from counts and offsets, so only the edges that exist are ever written
-        (a town-sized window has ~10⁸ lattice slots, most of them empty in
-        built-up land: writing every slot and dropping the empty ones cost
-        about a second and 12 bytes a slot per window).
+        edges in their (tail-sorted) order. Only the edges that exist are
+        written, each straight to its place: a lattice edge ``j`` (in row-major
+        order of ``lat``) goes to ``j`` + the other edges of earlier rows, an
+        other edge ``i`` to ``i`` + the lattice edges of its row and earlier
+        ones. The lattice part is done in blocks of rows, so the temporaries
+        stay a few MB while the whole map's window has ~5·10⁷ edges (writing
+        every slot of the ``(V, D)`` table and dropping the empty ones cost a
+        second and 12 bytes a slot per window, and per-edge int64 indices 3 GB).
         """
         n_lat, n_dir = lat.shape
         n = self.n_vertices
-        live = np.flatnonzero(lat)  # row-major: by tail vertex, then direction
-        lat_rows = live // n_dir if n_dir else live
-        lat_dirs = live - lat_rows * n_dir
-        lat_counts = np.bincount(lat_rows, minlength=n)
+        lat_counts = np.zeros(n, dtype=np.int64)
+        lat_counts[:n_lat] = np.count_nonzero(lat, axis=1)
         ex = np.flatnonzero(extra)
         ex_src = self.src[ex]
         ex_counts = np.bincount(ex_src, minlength=n)
@@ -1194,12 +1195,22 @@ class PathGraph:
         index_type = np.int32 if max(total, n) < 2**31 else np.int64
         indices = np.empty(total, dtype=index_type)
         data = np.empty(total)
-        lat_first = np.cumsum(lat_counts) - lat_counts  # index in ``live`` of each row's first edge
-        lat_pos = indptr[lat_rows] + np.arange(len(live)) - lat_first[lat_rows]
-        indices[lat_pos] = lat_rows + self.lattice.direction_offset[lat_dirs]
-        data[lat_pos] = self.lat_weight.reshape(-1)[live]
-        ex_first = np.cumsum(ex_counts) - ex_counts
-        pos = indptr[ex_src] + lat_counts[ex_src] + np.arange(len(ex)) - ex_first[ex_src]
+        lat_through = np.cumsum(lat_counts)  # lattice edges in rows up to each row
+        ex_before = np.cumsum(ex_counts) - ex_counts  # other edges in the rows before each row
+        offset = self.lattice.direction_offset.astype(index_type)
+        block = max(1, (1 << 22) // max(n_dir, 1))
+        done = 0
+        for a in range(0, n_lat, block):
+            b = min(a + block, n_lat)
+            live = lat[a:b]
+            k = int(lat_through[b - 1]) - done
+            if not k:
+                continue
+            pos = np.arange(done, done + k) + np.repeat(ex_before[a:b], lat_counts[a:b])
+            indices[pos] = (np.arange(a, b, dtype=index_type)[:, None] + offset)[live]
+            data[pos] = self.lat_weight[a:b][live]
+            done += k
+        pos = np.arange(len(ex)) + lat_through[ex_src]
         indices[pos] = self.dst[ex]
         data[pos] = self.weight[ex]
         return csr_matrix((data, indices, indptr), shape=(n, n)), ex, pos
