@@ -577,19 +577,20 @@ def _directed(unit_kind: np.ndarray, unit_weight: np.ndarray, directions: np.nda
     ny, nx = shape
     half = len(directions) // 2
     kind, weight = unit_kind.reshape(half, ny, nx), unit_weight.reshape(half, ny, nx)
-    out_kind = np.full((2 * half, ny, nx), NO_EDGE, dtype=np.uint8)
-    out_weight = np.zeros((2 * half, ny, nx), dtype=np.float32)
-    out_kind[:half], out_weight[:half] = kind, weight
+    # written in the (V, D) layout at once: no (D, V) table and no transposed copy of it
+    out_kind = np.full((ny, nx, 2 * half), NO_EDGE, dtype=np.uint8)
+    out_weight = np.zeros((ny, nx, 2 * half), dtype=np.float32)
+    out_kind[:, :, :half] = kind.transpose(1, 2, 0)
+    out_weight[:, :, :half] = weight.transpose(1, 2, 0)
     for k, (dx, dy) in enumerate(directions[:half].tolist()):
         # the edge of (iy − dy, ix − dx), seen from its head (iy, ix)
         ys, yt = slice(0, max(ny - dy, 0)), slice(min(dy, ny), ny)
         xs, xt = (slice(0, max(nx - dx, 0)), slice(min(dx, nx), nx)) if dx >= 0 else \
             (slice(min(-dx, nx), nx), slice(0, max(nx + dx, 0)))
-        out_kind[half + k, yt, xt] = kind[k, ys, xs]
-        out_weight[half + k, yt, xt] = weight[k, ys, xs]
+        out_kind[yt, xt, half + k] = kind[k, ys, xs]
+        out_weight[yt, xt, half + k] = weight[k, ys, xs]
     n = ny * nx
-    return (np.ascontiguousarray(out_kind.reshape(2 * half, n).T),
-            np.ascontiguousarray(out_weight.reshape(2 * half, n).T))
+    return out_kind.reshape(n, 2 * half), out_weight.reshape(n, 2 * half)
 
 
 def build_lattice(extent: tuple[float, float, float, float], *, water: Raster | None = None,
@@ -1741,19 +1742,24 @@ def _stitch_ok(lattice: Lattice, segments: Segments, xy: np.ndarray, pairs: np.n
     wet = lattice.fine_lookup(lattice.water | lattice.forbidden, samples)
     ok &= ~wet.any(axis=1)
     if len(segments.uv):
-        lines = shapely.linestrings(np.stack([a, b], axis=1))
+        # only the stitches still standing are made into lines and checked, each test on
+        # fewer of them (most stitches of a window fail one test or another)
         tree = tree if tree is not None else shapely.STRtree(segments.lines())
         # crossing a street not incident to either end
-        stitch, seg = tree.query(lines, predicate="intersects")
-        incident = _incident(pairs[stitch], seg, segments, split_parent, n_lat, n_nodes)
-        ok[stitch[~incident]] = False
+        live = np.flatnonzero(ok)
+        stitch, seg = tree.query(shapely.linestrings(np.stack([a[live], b[live]], axis=1)), predicate="intersects")
+        incident = _incident(pairs[live[stitch]], seg, segments, split_parent, n_lat, n_nodes)
+        ok[live[stitch[~incident]]] = False
         # grazing any street away from the ends
+        live = np.flatnonzero(ok)
+        a, b, length = a[live], b[live], length[live]
         trim = np.minimum(0.25 * length, 3.0 * opts.clearance) / np.maximum(length, 1e-9)
         core = shapely.linestrings(np.stack([a + trim[:, None] * (b - a), b - trim[:, None] * (b - a)], axis=1))
         stitch, _ = tree.query(core, predicate="dwithin", distance=opts.clearance)
-        ok[stitch] = False
+        ok[live[stitch]] = False
         if inner is not None:
-            ok &= ~shapely.intersects(inner, core)
+            rest = np.flatnonzero(ok[live])
+            ok[live[rest]] = ~shapely.intersects(inner, core[rest])
     return ok
 
 
