@@ -301,6 +301,12 @@ class Lattice:
     offset: tuple[int, int] = (0, 0)  #: (row, col) of vertex 0 in the map's vertex grid
     map_shape: tuple[int, int] | None = None  #: (ny, nx) vertices of the whole map (None: this shape)
     map_origin: np.ndarray | None = None  #: (2,) m, the map's vertex 0 (None: ``origin``)
+    #: the whole map's unit edges before B, ``(D/2, V_map)`` kind (one-step bridges filtered) and
+    #: weight (None on flat land: the weight is then the edge's length): :func:`build_lattice`
+    #: makes them anyway for the bridges, and they never change (water, forbidden ground and
+    #: height are fixed), so a window crops them instead of sampling the rasters again.
+    #: None: a window samples the rasters
+    map_units: tuple[np.ndarray, np.ndarray | None] | None = field(default=None, repr=False, compare=False)
     _cache: dict = field(default_factory=dict, repr=False, compare=False)
 
     @property
@@ -533,19 +539,25 @@ def _crop(a: np.ndarray, row: int, col: int, shape: tuple[int, int], value) -> n
 def _unit_tables(lat: Lattice) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Kind, weight and removal by B of every unit edge of a lattice (window), from the rasters.
 
-    The fine rasters are cropped to the window plus ``radius`` vertices on
-    each side (beyond the map: dry, forbidden, flat), then each direction's
-    samples are strided slices as in :func:`build_lattice`. An edge with an
-    end outside the window is not generated; a one-step bridge is kept when
-    the whole-map filter kept it (:attr:`Lattice.bridge_keys`).
+    The kinds and weights are the map's (:attr:`Lattice.map_units`, made
+    once by :func:`build_lattice`) cropped to the window; without them, the
+    fine rasters are cropped to the window plus ``radius`` vertices on each
+    side (beyond the map: dry, forbidden, flat), then each direction's
+    samples are strided slices as in :func:`build_lattice` (the same samples:
+    an edge inside the window never reaches past it). An edge with an end
+    outside the window is not generated; a one-step bridge is kept when the
+    whole-map filter kept it (:attr:`Lattice.bridge_keys`). Removal by B is
+    sampled from the B raster, which grows every year.
     """
     f, (ny, nx), pad = lat.samples, lat.shape, lat.radius * lat.samples
     fine_shape = ((ny - 1) * f + 1 + 2 * pad, (nx - 1) * f + 1 + 2 * pad)
     row, col = lat.offset[0] * f - pad, lat.offset[1] * f - pad
-    pw = _crop(lat.water, row, col, fine_shape, False)
-    pf = _crop(lat.forbidden, row, col, fine_shape, True)
     pb = _crop(lat.built_up, row, col, fine_shape, False)
-    ph = None if lat.height is None else _crop(lat.height, row, col, fine_shape, 0.0)
+    pw = pf = ph = None
+    if lat.map_units is None:
+        pw = _crop(lat.water, row, col, fine_shape, False)
+        pf = _crop(lat.forbidden, row, col, fine_shape, True)
+        ph = None if lat.height is None else _crop(lat.height, row, col, fine_shape, 0.0)
     half = len(lat.directions) // 2
     n = ny * nx
     unit_kind = np.full((half, n), NO_EDGE, dtype=np.uint8)
@@ -554,14 +566,26 @@ def _unit_tables(lat: Lattice) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     opts = replace(LatticeOptions(), slope_weight=lat.slope_weight, slope_cutoff=lat.slope_cutoff)
     map_v = lat.map_vertex(np.arange(n)) if len(lat.bridge_keys) else None
     v_map = lat.full_shape[0] * lat.full_shape[1]
+    r0, c0 = lat.offset
+    iy, ix = np.divmod(np.arange(n), nx)
     for k in range(half):
-        profile, slope = _profiles(lat.directions[k], pw, pf, ph, pad, (ny, nx), f, lat.spacing)
-        unit_kind[k], unit_weight[k] = _unit_edges(lat.directions[k], profile, slope, lat.spacing, opts)
-        bridge = np.flatnonzero(unit_kind[k] == EdgeKind.BRIDGE)
-        if len(bridge):
-            kept = np.zeros(len(bridge), dtype=bool) if map_v is None else \
-                np.isin(k * v_map + map_v[bridge], lat.bridge_keys, assume_unique=True)
-            unit_kind[k, bridge[~kept]] = NO_EDGE
+        if lat.map_units is not None:  # the map's edges with both ends in the window
+            map_kind, map_weight = lat.map_units
+            dx, dy = (int(c) for c in lat.directions[k])
+            inside = ((ix + dx >= 0) & (ix + dx < nx) & (iy + dy >= 0) & (iy + dy < ny))
+            unit_kind[k] = np.where(inside, map_kind[k].reshape(lat.full_shape)[r0:r0 + ny, c0:c0 + nx].ravel(),
+                                    np.uint8(NO_EDGE))
+            unit_weight[k] = lat.direction_length[k] if map_weight is None else \
+                map_weight[k].reshape(lat.full_shape)[r0:r0 + ny, c0:c0 + nx].ravel()
+        else:
+            assert pw is not None and pf is not None  # cropped above when there are no map units
+            profile, slope = _profiles(lat.directions[k], pw, pf, ph, pad, (ny, nx), f, lat.spacing)
+            unit_kind[k], unit_weight[k] = _unit_edges(lat.directions[k], profile, slope, lat.spacing, opts)
+            bridge = np.flatnonzero(unit_kind[k] == EdgeKind.BRIDGE)
+            if len(bridge):
+                kept = np.zeros(len(bridge), dtype=bool) if map_v is None else \
+                    np.isin(k * v_map + map_v[bridge], lat.bridge_keys, assume_unique=True)
+                unit_kind[k, bridge[~kept]] = NO_EDGE
         land = unit_kind[k] == EdgeKind.LAND
         if land.any():
             touched = np.zeros((ny, nx), dtype=bool)
@@ -640,8 +664,14 @@ def build_lattice(extent: tuple[float, float, float, float], *, water: Raster | 
     pf, _ = _pad(forbidden_f, pad, True)
     ph = None if height_f is None else _pad(height_f, pad, 0.0)[0]
     unit_src, unit_k, bridges = [], [], []
+    map_kind = np.empty((half, ny * nx), dtype=np.uint8)
+    map_weight = None if ph is None else np.empty((half, ny * nx), dtype=np.float32)
     for k in range(half):
-        profile, _ = _profiles(directions[k], pw, pf, None if ph is None else ph, pad, (ny, nx), f, ell)
+        profile, slope = _profiles(directions[k], pw, pf, None if ph is None else ph, pad, (ny, nx), f, ell)
+        kind_k, weight_k = _unit_edges(directions[k], profile, slope, ell, opts)
+        map_kind[k] = kind_k
+        if map_weight is not None:
+            map_weight[k] = weight_k
         src = np.flatnonzero(profile.ravel() == _LWL)  # one-step bridges (_unit_edges)
         unit_src.append(src)
         unit_k.append(np.full(len(src), k, dtype=np.int64))
@@ -658,11 +688,14 @@ def build_lattice(extent: tuple[float, float, float, float], *, water: Raster | 
     keep = keep[n_unit:]
     steps = np.rint(blen / np.maximum(length[bdir], 1e-9)).astype(np.int64)
     map_bridges = np.stack([bsrc, bdst, bdir, steps], axis=1)[keep].astype(np.int64).reshape(-1, 4)
+    is_bridge = map_kind.reshape(-1) == EdgeKind.BRIDGE  # one-step bridges the filter dropped go
+    map_kind.reshape(-1)[np.flatnonzero(is_bridge)[~np.isin(np.flatnonzero(is_bridge), keys, assume_unique=True)]] \
+        = NO_EDGE
     return Lattice(
         origin=origin, spacing=ell, shape=(ny, nx), samples=f, directions=directions,
         water=water_f, forbidden=forbidden_f, built_up=np.zeros(fine_shape, dtype=bool),
         bridge_keys=keys, map_bridges=map_bridges, height=height_f,
-        slope_weight=opts.slope_weight, slope_cutoff=opts.slope_cutoff,
+        slope_weight=opts.slope_weight, slope_cutoff=opts.slope_cutoff, map_units=(map_kind, map_weight),
     )
 
 
