@@ -391,10 +391,10 @@ def _expanded_search(graph: PathGraph, lat: np.ndarray, extra: np.ndarray, regio
     per = 2 * k + 1  # arr 0…k−1, dep k…2k−1, hub 2k
     # state numbers in 32 bits when they fit (the CSR's are anyway): the entry arrays of a
     # town-sized region are 10⁷–10⁸ long, and half their bytes are the peak of a road year
-    it = np.int32 if n * per < 2**31 else np.int64
+    it = np.dtype(np.int32 if n * per < 2**31 else np.int64)
     local = np.full(graph.n_vertices, -1, dtype=it)
     local[region] = np.arange(n, dtype=it)
-    base = np.arange(n, dtype=it) * it(per)
+    base = np.arange(0, n * per, per, dtype=it)
     i = np.arange(k, dtype=it)
     height = float(penalties.max())
     cheap = np.flatnonzero(penalties < height - 1e-9).astype(it)
