@@ -687,3 +687,72 @@ def test_a_stitch_may_cross_stitch_only_ground_that_no_lattice_edge_may():
     stitches = {name: int(((g.kind == EdgeKind.STITCH) & ((g.src < g.n_lattice) | (g.dst < g.n_lattice))).sum())
                 for name, g in graphs.items()}
     assert stitches["stitch_only"] > 20 and stitches["forbidden"] == 0
+def test_the_search_matrix_of_krems_holds_exactly_the_allowed_edges_of_g_prime(krems):
+    """The CSR the search runs on has one entry per allowed edge of G′ and nothing else: no
+    empty lattice slot is written (they cost a second and 12 bytes a slot per window on a
+    town), each row keeps its lattice edges in direction order before its other edges, and
+    :meth:`PathGraph.restricted` finds every street edge where the CSR put it."""
+    g, segs, *_ = krems
+    rng = np.random.default_rng(0)
+    for kinds in (None, (EdgeKind.MAJOR, EdgeKind.MINOR)):
+        lat, extra = g.masks(*(() if kinds is None else (kinds,)))
+        matrix, ex, pos = g._csr(lat, extra)
+        assert matrix.nnz == np.count_nonzero(lat) + np.count_nonzero(extra)
+        assert np.isfinite(matrix.data).all()
+        live = np.flatnonzero(lat)
+        rows, dirs = np.divmod(live, lat.shape[1])
+        expected = np.concatenate([rows * g.n_vertices + rows + g.lattice.direction_offset[dirs],
+                                   g.src[ex] * g.n_vertices + g.dst[ex]])
+        got = np.repeat(np.arange(g.n_vertices), np.diff(matrix.indptr)) * g.n_vertices + matrix.indices
+        assert np.array_equal(np.sort(got), np.sort(expected))
+        assert np.array_equal(matrix.data[pos], g.weight[ex])  # where ``restricted`` looks
+        assert np.array_equal(matrix.indices[pos], g.dst[ex])
+        some = rng.choice(len(live), min(len(live), 2000), replace=False) if len(live) else []
+        for e in some:  # lattice entries first in their row, in direction order
+            r = rows[e]
+            row = matrix.indices[matrix.indptr[r]:matrix.indptr[r + 1]]
+            assert row[np.count_nonzero(lat[r, :dirs[e]])] == r + g.lattice.direction_offset[dirs[e]]
+
+
+@settings(max_examples=8, deadline=None)
+@given(st.integers(0, 2**32 - 1))
+def test_a_window_crops_the_maps_edges_and_they_equal_the_rasters_own(seed):
+    """A window's unit edges come from the map's tables made once by :func:`build_lattice`
+    (the rasters are not sampled again: each window of a road year did it, a second a window
+    on Campo Grande), and they are exactly what sampling the rasters in the window gives:
+    kinds, weights (a hill) and B's removals, river, bridges and forbidden blobs included."""
+    from dataclasses import replace
+
+    import osm_expand.engine.lattice as lattice_module
+    rng = np.random.default_rng(seed)
+    extent = (0, 0, 800, 600)
+    centres, radii = rng.uniform(50, 750, (4, 2)), rng.uniform(20, 70, 4)
+    blobs = raster(lambda x, y: (np.hypot(x[..., None] - centres[:, 0], y[..., None] - centres[:, 1])
+                                 < radii).any(axis=-1), extent, cell=10.0)
+    y_lo = float(rng.uniform(100, 450))
+    hill = raster(lambda x, y: np.zeros(x.shape, bool), extent, cell=10.0)
+    xs = hill.origin[0] + (np.arange(hill.values.shape[1]) + 0.5) * hill.cell
+    ramp = np.broadcast_to(float(rng.uniform(0.05, 0.4)) * np.maximum(xs - 400, 0.0), hill.values.shape).copy()
+    lat = build_lattice(extent, water=river(extent, y_lo, y_lo + 50), forbidden=blobs,
+                        height=Raster(ramp, hill.origin, 10.0) if seed % 2 else None,
+                        options=LatticeOptions(radius=int(rng.integers(1, 5))))
+    lat = lat.with_built_up(shapely.Point(rng.uniform(100, 700), rng.uniform(100, 500)).buffer(80.0))
+    ny, nx = lat.shape
+    r0, c0 = int(rng.integers(0, ny // 2)), int(rng.integers(0, nx // 2))
+    window = lat.window(r0, c0, int(rng.integers(5, ny)), int(rng.integers(5, nx)))
+    sampled = replace(window, map_units=None, _cache={})
+    calls = []
+    profiles = lattice_module._profiles
+    try:
+        lattice_module._profiles = lambda *a: calls.append(1) or profiles(*a)
+        cropped = (window.unit_kind, window.unit_weight, window.unit_removed)
+        assert not calls
+        expected = (sampled.unit_kind, sampled.unit_weight, sampled.unit_removed)
+        assert calls
+    finally:
+        lattice_module._profiles = profiles
+    live = expected[0] != NO_EDGE
+    assert np.array_equal(cropped[0], expected[0])
+    assert np.array_equal(cropped[1][live], expected[1][live])
+    assert np.array_equal(cropped[2], expected[2])
+    assert live.any()

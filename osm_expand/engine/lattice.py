@@ -257,8 +257,6 @@ def lattice_directions(radius: int) -> np.ndarray:
 
 #: ``unit_kind`` value of a missing edge.
 NO_EDGE = 255
-#: A CSR of G′ drops its empty lattice slots when fewer than this share of them hold an edge.
-COMPACT_SHARE = 0.5
 
 
 @dataclass(frozen=True)
@@ -307,6 +305,12 @@ class Lattice:
     #: town's presumed frontage, :attr:`~osm_expand.model.land.Land.presumed`): no new road runs through
     #: the houses the map does not show, but one may leave a street across them, as one between houses
     stitch_only: np.ndarray | None = None
+    #: the whole map's unit edges before B, ``(D/2, V_map)`` kind (one-step bridges filtered) and
+    #: weight (None on flat land: the weight is then the edge's length): :func:`build_lattice`
+    #: makes them anyway for the bridges, and they never change (water, forbidden ground and
+    #: height are fixed), so a window crops them instead of sampling the rasters again.
+    #: None: a window samples the rasters
+    map_units: tuple[np.ndarray, np.ndarray | None] | None = field(default=None, repr=False, compare=False)
     _cache: dict = field(default_factory=dict, repr=False, compare=False)
 
     @property
@@ -539,19 +543,25 @@ def _crop(a: np.ndarray, row: int, col: int, shape: tuple[int, int], value) -> n
 def _unit_tables(lat: Lattice) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Kind, weight and removal by B of every unit edge of a lattice (window), from the rasters.
 
-    The fine rasters are cropped to the window plus ``radius`` vertices on
-    each side (beyond the map: dry, forbidden, flat), then each direction's
-    samples are strided slices as in :func:`build_lattice`. An edge with an
-    end outside the window is not generated; a one-step bridge is kept when
-    the whole-map filter kept it (:attr:`Lattice.bridge_keys`).
+    The kinds and weights are the map's (:attr:`Lattice.map_units`, made
+    once by :func:`build_lattice`) cropped to the window; without them, the
+    fine rasters are cropped to the window plus ``radius`` vertices on each
+    side (beyond the map: dry, forbidden, flat), then each direction's
+    samples are strided slices as in :func:`build_lattice` (the same samples:
+    an edge inside the window never reaches past it). An edge with an end
+    outside the window is not generated; a one-step bridge is kept when the
+    whole-map filter kept it (:attr:`Lattice.bridge_keys`). Removal by B is
+    sampled from the B raster, which grows every year.
     """
     f, (ny, nx), pad = lat.samples, lat.shape, lat.radius * lat.samples
     fine_shape = ((ny - 1) * f + 1 + 2 * pad, (nx - 1) * f + 1 + 2 * pad)
     row, col = lat.offset[0] * f - pad, lat.offset[1] * f - pad
-    pw = _crop(lat.water, row, col, fine_shape, False)
-    pf = _crop(lat.forbidden, row, col, fine_shape, True)
     pb = _crop(lat.built_up, row, col, fine_shape, False)
-    ph = None if lat.height is None else _crop(lat.height, row, col, fine_shape, 0.0)
+    pw = pf = ph = None
+    if lat.map_units is None:
+        pw = _crop(lat.water, row, col, fine_shape, False)
+        pf = _crop(lat.forbidden, row, col, fine_shape, True)
+        ph = None if lat.height is None else _crop(lat.height, row, col, fine_shape, 0.0)
     half = len(lat.directions) // 2
     n = ny * nx
     unit_kind = np.full((half, n), NO_EDGE, dtype=np.uint8)
@@ -560,14 +570,26 @@ def _unit_tables(lat: Lattice) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     opts = replace(LatticeOptions(), slope_weight=lat.slope_weight, slope_cutoff=lat.slope_cutoff)
     map_v = lat.map_vertex(np.arange(n)) if len(lat.bridge_keys) else None
     v_map = lat.full_shape[0] * lat.full_shape[1]
+    r0, c0 = lat.offset
+    iy, ix = np.divmod(np.arange(n), nx)
     for k in range(half):
-        profile, slope = _profiles(lat.directions[k], pw, pf, ph, pad, (ny, nx), f, lat.spacing)
-        unit_kind[k], unit_weight[k] = _unit_edges(lat.directions[k], profile, slope, lat.spacing, opts)
-        bridge = np.flatnonzero(unit_kind[k] == EdgeKind.BRIDGE)
-        if len(bridge):
-            kept = np.zeros(len(bridge), dtype=bool) if map_v is None else \
-                np.isin(k * v_map + map_v[bridge], lat.bridge_keys, assume_unique=True)
-            unit_kind[k, bridge[~kept]] = NO_EDGE
+        if lat.map_units is not None:  # the map's edges with both ends in the window
+            map_kind, map_weight = lat.map_units
+            dx, dy = (int(c) for c in lat.directions[k])
+            inside = ((ix + dx >= 0) & (ix + dx < nx) & (iy + dy >= 0) & (iy + dy < ny))
+            unit_kind[k] = np.where(inside, map_kind[k].reshape(lat.full_shape)[r0:r0 + ny, c0:c0 + nx].ravel(),
+                                    np.uint8(NO_EDGE))
+            unit_weight[k] = lat.direction_length[k] if map_weight is None else \
+                map_weight[k].reshape(lat.full_shape)[r0:r0 + ny, c0:c0 + nx].ravel()
+        else:
+            assert pw is not None and pf is not None  # cropped above when there are no map units
+            profile, slope = _profiles(lat.directions[k], pw, pf, ph, pad, (ny, nx), f, lat.spacing)
+            unit_kind[k], unit_weight[k] = _unit_edges(lat.directions[k], profile, slope, lat.spacing, opts)
+            bridge = np.flatnonzero(unit_kind[k] == EdgeKind.BRIDGE)
+            if len(bridge):
+                kept = np.zeros(len(bridge), dtype=bool) if map_v is None else \
+                    np.isin(k * v_map + map_v[bridge], lat.bridge_keys, assume_unique=True)
+                unit_kind[k, bridge[~kept]] = NO_EDGE
         land = unit_kind[k] == EdgeKind.LAND
         if land.any():
             touched = np.zeros((ny, nx), dtype=bool)
@@ -583,19 +605,20 @@ def _directed(unit_kind: np.ndarray, unit_weight: np.ndarray, directions: np.nda
     ny, nx = shape
     half = len(directions) // 2
     kind, weight = unit_kind.reshape(half, ny, nx), unit_weight.reshape(half, ny, nx)
-    out_kind = np.full((2 * half, ny, nx), NO_EDGE, dtype=np.uint8)
-    out_weight = np.zeros((2 * half, ny, nx), dtype=np.float32)
-    out_kind[:half], out_weight[:half] = kind, weight
+    # written in the (V, D) layout at once: no (D, V) table and no transposed copy of it
+    out_kind = np.full((ny, nx, 2 * half), NO_EDGE, dtype=np.uint8)
+    out_weight = np.zeros((ny, nx, 2 * half), dtype=np.float32)
+    out_kind[:, :, :half] = kind.transpose(1, 2, 0)
+    out_weight[:, :, :half] = weight.transpose(1, 2, 0)
     for k, (dx, dy) in enumerate(directions[:half].tolist()):
         # the edge of (iy − dy, ix − dx), seen from its head (iy, ix)
         ys, yt = slice(0, max(ny - dy, 0)), slice(min(dy, ny), ny)
         xs, xt = (slice(0, max(nx - dx, 0)), slice(min(dx, nx), nx)) if dx >= 0 else \
             (slice(min(-dx, nx), nx), slice(0, max(nx + dx, 0)))
-        out_kind[half + k, yt, xt] = kind[k, ys, xs]
-        out_weight[half + k, yt, xt] = weight[k, ys, xs]
+        out_kind[yt, xt, half + k] = kind[k, ys, xs]
+        out_weight[yt, xt, half + k] = weight[k, ys, xs]
     n = ny * nx
-    return (np.ascontiguousarray(out_kind.reshape(2 * half, n).T),
-            np.ascontiguousarray(out_weight.reshape(2 * half, n).T))
+    return out_kind.reshape(n, 2 * half), out_weight.reshape(n, 2 * half)
 
 
 def build_lattice(extent: tuple[float, float, float, float], *, water: Raster | None = None,
@@ -652,8 +675,14 @@ def build_lattice(extent: tuple[float, float, float, float], *, water: Raster | 
     pf, _ = _pad(forbidden_f, pad, True)
     ph = None if height_f is None else _pad(height_f, pad, 0.0)[0]
     unit_src, unit_k, bridges = [], [], []
+    map_kind = np.empty((half, ny * nx), dtype=np.uint8)
+    map_weight = None if ph is None else np.empty((half, ny * nx), dtype=np.float32)
     for k in range(half):
-        profile, _ = _profiles(directions[k], pw, pf, None if ph is None else ph, pad, (ny, nx), f, ell)
+        profile, slope = _profiles(directions[k], pw, pf, None if ph is None else ph, pad, (ny, nx), f, ell)
+        kind_k, weight_k = _unit_edges(directions[k], profile, slope, ell, opts)
+        map_kind[k] = kind_k
+        if map_weight is not None:
+            map_weight[k] = weight_k
         src = np.flatnonzero(profile.ravel() == _LWL)  # one-step bridges (_unit_edges)
         unit_src.append(src)
         unit_k.append(np.full(len(src), k, dtype=np.int64))
@@ -670,11 +699,15 @@ def build_lattice(extent: tuple[float, float, float, float], *, water: Raster | 
     keep = keep[n_unit:]
     steps = np.rint(blen / np.maximum(length[bdir], 1e-9)).astype(np.int64)
     map_bridges = np.stack([bsrc, bdst, bdir, steps], axis=1)[keep].astype(np.int64).reshape(-1, 4)
+    is_bridge = map_kind.reshape(-1) == EdgeKind.BRIDGE  # one-step bridges the filter dropped go
+    map_kind.reshape(-1)[np.flatnonzero(is_bridge)[~np.isin(np.flatnonzero(is_bridge), keys, assume_unique=True)]] \
+        = NO_EDGE
     return Lattice(
         origin=origin, spacing=ell, shape=(ny, nx), samples=f, directions=directions,
         water=water_f, forbidden=forbidden_f, built_up=np.zeros(fine_shape, dtype=bool),
         bridge_keys=keys, map_bridges=map_bridges, height=height_f,
         slope_weight=opts.slope_weight, slope_cutoff=opts.slope_cutoff, stitch_only=stitch_f,
+        map_units=(map_kind, map_weight),
     )
 
 
@@ -1183,57 +1216,49 @@ class PathGraph:
         return self._cache[key]
 
     def _csr(self, lat: np.ndarray, extra: np.ndarray) -> tuple[csr_matrix, np.ndarray, np.ndarray]:
-        """One CSR without sorting, and where each allowed other edge sits in it.
+        """One CSR of the allowed edges, without sorting, and where each allowed other edge sits in it.
 
-        Every lattice row has a fixed number of slots: its D directions (when
-        any lattice kind is allowed), then room for its other edges; a missing
-        edge is an infinite self-loop. Street rows follow, packed. Contiguous
-        writes make it fast; when most slots are empty (a built-up window) the
-        missing edges are then dropped in one masked pass, which keeps memory
-        to the edges that exist.
+        A row holds its live lattice edges in direction order, then its other
+        edges in their (tail-sorted) order. Only the edges that exist are
+        written, each straight to its place: a lattice edge ``j`` (in row-major
+        order of ``lat``) goes to ``j`` + the other edges of earlier rows, an
+        other edge ``i`` to ``i`` + the lattice edges of its row and earlier
+        ones. The lattice part is done in blocks of rows, so the temporaries
+        stay a few MB while the whole map's window has ~5·10⁷ edges (writing
+        every slot of the ``(V, D)`` table and dropping the empty ones cost a
+        second and 12 bytes a slot per window, and per-edge int64 indices 3 GB).
         """
         n_lat, n_dir = lat.shape
-        n_dir = n_dir if lat.any() else 0
         n = self.n_vertices
+        lat_counts = np.zeros(n, dtype=np.int64)
+        lat_counts[:n_lat] = np.count_nonzero(lat, axis=1)
         ex = np.flatnonzero(extra)
         ex_src = self.src[ex]
         ex_counts = np.bincount(ex_src, minlength=n)
-        ex_start = np.concatenate([[0], np.cumsum(ex_counts)])
-        rank = np.arange(len(ex)) - ex_start[ex_src]
-        slots = n_dir + int(ex_counts[:n_lat].max(initial=0))
-        on_lattice = ex_src < n_lat
-        n_street = int((~on_lattice).sum())
-        total = n_lat * slots + n_street
+        indptr = np.zeros(n + 1, dtype=np.int64)
+        np.cumsum(lat_counts + ex_counts, out=indptr[1:])
+        total = int(indptr[-1])
         index_type = np.int32 if max(total, n) < 2**31 else np.int64
         indices = np.empty(total, dtype=index_type)
         data = np.empty(total)
-        grid_index = indices[:n_lat * slots].reshape(n_lat, slots)
-        grid_data = data[:n_lat * slots].reshape(n_lat, slots)
-        rows = np.arange(n_lat, dtype=index_type)[:, None]
-        if n_dir:  # each slot written once: ~10⁸ of them on a town-sized map
-            offset = self.lattice.direction_offset.astype(index_type)
-            np.add(rows, offset, out=grid_index[:, :n_dir])
-            np.copyto(grid_index[:, :n_dir], rows, where=~lat)
-            np.copyto(grid_data[:, :n_dir], np.inf)
-            np.copyto(grid_data[:, :n_dir], self.lat_weight, where=lat)
-        grid_index[:, n_dir:] = rows
-        grid_data[:, n_dir:] = np.inf
-        pos = np.empty(len(ex), dtype=np.int64)
-        pos[on_lattice] = ex_src[on_lattice] * slots + n_dir + rank[on_lattice]
-        pos[~on_lattice] = n_lat * slots + np.arange(n_street)  # already sorted by tail
+        lat_through = np.cumsum(lat_counts)  # lattice edges in rows up to each row
+        ex_before = np.cumsum(ex_counts) - ex_counts  # other edges in the rows before each row
+        offset = self.lattice.direction_offset.astype(index_type)
+        block = max(1, (1 << 22) // max(n_dir, 1))
+        done = 0
+        for a in range(0, n_lat, block):
+            b = min(a + block, n_lat)
+            live = lat[a:b]
+            k = int(lat_through[b - 1]) - done
+            if not k:
+                continue
+            pos = np.arange(done, done + k) + np.repeat(ex_before[a:b], lat_counts[a:b])
+            indices[pos] = (np.arange(a, b, dtype=index_type)[:, None] + offset)[live]
+            data[pos] = self.lat_weight[a:b][live]
+            done += k
+        pos = np.arange(len(ex)) + lat_through[ex_src]
         indices[pos] = self.dst[ex]
         data[pos] = self.weight[ex]
-        indptr = np.concatenate([np.arange(n_lat + 1, dtype=np.int64) * slots,
-                                 n_lat * slots + np.cumsum(ex_counts[n_lat:])])
-        if n_dir and n_lat and np.count_nonzero(lat) < COMPACT_SHARE * n_lat * slots:
-            keep = np.isfinite(data)
-            grid_keep = keep[:n_lat * slots].reshape(n_lat, slots)
-            row_counts = np.concatenate([grid_keep.sum(axis=1), ex_counts[n_lat:]])
-            live_lat = grid_keep[:, :n_dir].sum(axis=1)
-            indptr = np.concatenate([[0], np.cumsum(row_counts)])
-            indices, data = indices[keep], data[keep]
-            pos = np.where(on_lattice, indptr[ex_src] + live_lat[np.minimum(ex_src, n_lat - 1)] + rank,
-                           indptr[ex_src] + rank)
         return csr_matrix((data, indices, indptr), shape=(n, n)), ex, pos
 
     def step(self, u: int, v: int, lat: np.ndarray, extra: np.ndarray) -> dict[str, float]:
@@ -1765,19 +1790,24 @@ def _stitch_ok(lattice: Lattice, segments: Segments, xy: np.ndarray, pairs: np.n
     wet = lattice.fine_lookup(blocked, samples)
     ok &= ~wet.any(axis=1)
     if len(segments.uv):
-        lines = shapely.linestrings(np.stack([a, b], axis=1))
+        # only the stitches still standing are made into lines and checked, each test on
+        # fewer of them (most stitches of a window fail one test or another)
         tree = tree if tree is not None else shapely.STRtree(segments.lines())
         # crossing a street not incident to either end
-        stitch, seg = tree.query(lines, predicate="intersects")
-        incident = _incident(pairs[stitch], seg, segments, split_parent, n_lat, n_nodes)
-        ok[stitch[~incident]] = False
+        live = np.flatnonzero(ok)
+        stitch, seg = tree.query(shapely.linestrings(np.stack([a[live], b[live]], axis=1)), predicate="intersects")
+        incident = _incident(pairs[live[stitch]], seg, segments, split_parent, n_lat, n_nodes)
+        ok[live[stitch[~incident]]] = False
         # grazing any street away from the ends
+        live = np.flatnonzero(ok)
+        a, b, length = a[live], b[live], length[live]
         trim = np.minimum(0.25 * length, 3.0 * opts.clearance) / np.maximum(length, 1e-9)
         core = shapely.linestrings(np.stack([a + trim[:, None] * (b - a), b - trim[:, None] * (b - a)], axis=1))
         stitch, _ = tree.query(core, predicate="dwithin", distance=opts.clearance)
-        ok[stitch] = False
+        ok[live[stitch]] = False
         if inner is not None:
-            ok &= ~shapely.intersects(inner, core)
+            rest = np.flatnonzero(ok[live])
+            ok[live[rest]] = ~shapely.intersects(inner, core[rest])
     return ok
 
 

@@ -389,12 +389,15 @@ def _expanded_search(graph: PathGraph, lat: np.ndarray, extra: np.ndarray, regio
     """Dijkstra on the heading-expanded graph over ``region``; the vertex path and its cost."""
     n = len(region)
     per = 2 * k + 1  # arr 0…k−1, dep k…2k−1, hub 2k
-    local = np.full(graph.n_vertices, -1, dtype=np.int64)
-    local[region] = np.arange(n)
-    base = np.arange(n) * per
-    i = np.arange(k)
+    # state numbers in 32 bits when they fit (the CSR's are anyway): the entry arrays of a
+    # town-sized region are 10⁷–10⁸ long, and half their bytes are the peak of a road year
+    it = np.dtype(np.int32 if n * per < 2**31 else np.int64)
+    local = np.full(graph.n_vertices, -1, dtype=it)
+    local[region] = np.arange(n, dtype=it)
+    base = np.arange(0, n * per, per, dtype=it)
+    i = np.arange(k, dtype=it)
     height = float(penalties.max())
-    cheap = np.flatnonzero(penalties < height - 1e-9)
+    cheap = np.flatnonzero(penalties < height - 1e-9).astype(it)
     groups = []
     # turns: arr(v, i) → dep(v, i + q) where P < S_p, then arr(v, i) → hub(v) at S_p
     arr = (base[:, None] + i).ravel()
@@ -403,7 +406,7 @@ def _expanded_search(graph: PathGraph, lat: np.ndarray, extra: np.ndarray, regio
     groups.append((arr, np.repeat(base + 2 * k, k), np.full(n * k, max(height, _EPS))))
     # lattice moves dep(u, b) → arr(v, b), columns taken in bin order so rows stay sorted
     n_lat, n_dir = lat.shape
-    dir_bin = _bins(graph.direction_heading, k)
+    dir_bin = _bins(graph.direction_heading, k).astype(it)
     by_bin = np.argsort(dir_bin, kind="stable")
     lat_region = region[region < n_lat]
     flat = np.flatnonzero(lat[lat_region][:, by_bin])
@@ -417,7 +420,7 @@ def _expanded_search(graph: PathGraph, lat: np.ndarray, extra: np.ndarray, regio
                    graph.lat_weight[u, d].astype(np.float64)))
     # other moves (streets, stitches, long bridges)
     e = np.flatnonzero(extra & (local[graph.src] >= 0) & (local[graph.dst] >= 0))
-    b = _bins(graph.heading[e], k)
+    b = _bins(graph.heading[e], k).astype(it)
     rows = local[graph.src[e]] * per + k + b
     order = np.argsort(rows, kind="stable")
     groups.append((rows[order], (local[graph.dst[e]] * per + b)[order], graph.weight[e][order]))
