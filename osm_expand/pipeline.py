@@ -117,9 +117,14 @@ class ExpandResult:
 
 
 def _measure_in_windows(lines: list) -> Callable[[shapely.Geometry], NetworkMeasures]:
-    """The measures of ``lines`` in any window, the lines indexed once."""
+    """The measures of ``lines`` in any window, the lines indexed once.
+
+    Without the count of pieces: the patterns rank windows by their shape measures and dead-end
+    share, and counting pieces (a buffered STRtree query per window) was a third of the 2,800
+    windows' 25 s on Campo Grande's 30 years.
+    """
     indexed = LineSet.from_lines(lines)
-    return lambda window: measure_network(indexed, window=window)
+    return lambda window: measure_network(indexed, window=window, pieces=False)
 
 
 #: Growth patterns by name (``--pattern``): each builds from what the town taught.

@@ -209,14 +209,29 @@ def _raster(geom, xs: np.ndarray, ys: np.ndarray) -> np.ndarray:
     cell = float(xs[0, 1] - x0) if nx > 1 else float(ys[1, 0] - y0)
     image = Image.new("1", (nx, ny), 0)
     draw = ImageDraw.Draw(image)
-    to_px = lambda ring: [tuple(p) for p in ((np.asarray(ring.coords) - (x0, y0)) / cell).tolist()]  # noqa: E731
-    for poly in shapely.get_parts(shapely.get_parts(geom)):
-        if poly.geom_type != "Polygon" or poly.is_empty:
-            continue
-        draw.polygon(to_px(poly.exterior), fill=1)
-        for hole in poly.interiors:
-            draw.polygon(to_px(hole), fill=0)
+    rings, fill = _rings(shapely.get_parts(shapely.get_parts(geom)))
+    coords, owner = shapely.get_coordinates(rings, return_index=True)
+    px = ((coords - (x0, y0)) / cell).ravel().tolist()  # every ring's pixels in one pass, flat x, y, x, y
+    ends = 2 * np.cumsum(np.bincount(owner, minlength=len(rings)))
+    for start, stop, value in zip([0, *ends[:-1].tolist()], ends.tolist(), fill.tolist()):
+        draw.polygon(px[start:stop], fill=value)
     return np.asarray(image, dtype=bool)
+
+
+def _rings(parts: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The rings of the polygons among ``parts`` in drawing order (each exterior, then its holes), and
+    the fill of each (1, 0 for a hole): the shapes read once for all, not a Python call per ring
+    (Campo Grande's built-up land has half a million)."""
+    polys = parts[(shapely.get_type_id(parts) == 3) & ~shapely.is_empty(parts)]
+    holes = shapely.get_num_interior_rings(polys)
+    first = np.arange(len(polys)) + np.concatenate([[0], np.cumsum(holes)[:-1]])  # each exterior's place
+    rings = np.empty(len(polys) + int(holes.sum()), dtype=object)
+    fill = np.zeros(len(rings), dtype=np.int64)
+    rings[first], fill[first] = shapely.get_exterior_ring(polys), 1
+    owner = np.repeat(np.arange(len(polys)), holes)
+    nth = np.arange(len(owner)) - np.repeat(np.cumsum(holes) - holes, holes)  # which hole of its polygon
+    rings[first[owner] + 1 + nth] = shapely.get_interior_ring(polys[owner], nth)
+    return rings, fill
 
 
 def _raster_each(polygons: np.ndarray, xs: np.ndarray, ys: np.ndarray) -> np.ndarray:

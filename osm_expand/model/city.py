@@ -136,6 +136,28 @@ def _land_parts(water: tuple, sea: tuple, unbuildable: shapely.Geometry | None
 _PART_TREES: dict[int, tuple[shapely.Geometry, np.ndarray, shapely.STRtree]] = {}
 
 
+def _footprints(buildings: tuple[Building, ...]) -> np.ndarray:
+    """The buildings' polygons, (B,) object array, made once for the very same tuple of buildings.
+
+    Every district the engine grows asks which blocks are town several times
+    (:meth:`City.occupied_within`), and the year's City shares its buildings
+    with last year's until the build-out adds some: making Campo Grande's
+    polygons each time took 7.6 s of a 30-year run (293,000 polygons).
+    """
+    hit = _FOOTPRINTS.get(id(buildings))
+    if hit is not None and hit[0] is buildings:
+        return hit[1]
+    polygons = np.array([b.polygon for b in buildings], dtype=object)
+    polygons.flags.writeable = False
+    if len(_FOOTPRINTS) > 8:
+        _FOOTPRINTS.clear()
+    _FOOTPRINTS[id(buildings)] = (buildings, polygons)  # keeps the tuple alive, so its id is not reused
+    return polygons
+
+
+_FOOTPRINTS: dict[int, tuple[tuple, np.ndarray]] = {}
+
+
 @dataclass(frozen=True, eq=False)
 class Block:
     """A block: a face of the street graph (004 §4.3) that knows the streets around it.
@@ -214,8 +236,7 @@ class City:
         if not len(polygons):
             return polygons
         large = shapely.area(polygons) > OPEN_BLOCK
-        footprints = (np.array([b.polygon for b in self.buildings], dtype=object) if large.any()
-                      else np.empty(0, dtype=object))
+        footprints = _footprints(self.buildings) if large.any() else np.empty(0, dtype=object)
         return polygons[town_blocks(polygons, footprints)]
 
     @cached_property
