@@ -4,6 +4,14 @@
     python benchmarks/engine_speed.py fixtures/monaco.osm.gz --years 20 --history european
     python benchmarks/engine_speed.py fixtures/krems.osm.gz --years 150 --history european   # to ~3,300 streets
     python benchmarks/engine_speed.py --json > engine.json
+    python benchmarks/engine_speed.py --synthetic 10000 --years 30   # Campo Grande tiled to ~10,000 streets
+
+``--synthetic N`` adds a synthetic town of about N streets: copies of
+``--tile`` (default Campo Grande, 4,800 streets as mapped) laid edge to edge
+on a square grid, ids shifted per copy, written as a sorted ``.osm.pbf`` by
+:func:`benchmarks.large_inputs.write_tiled` (kept in ``--out``, reused when
+there). The copies touch but their streets do not join: one map whose
+engine has N streets to keep up with, as issue 22 asks.
 
 For each town: load, grow the district (``--years 0`` work, not timed), then
 run the engine's year loop (:func:`osm_expand.engine.loop.run`) with the
@@ -29,10 +37,12 @@ from __future__ import annotations
 
 import argparse
 import json
+import math
 import multiprocessing
 import resource
 import statistics
 import sys
+import tempfile
 import time
 from pathlib import Path
 
@@ -97,6 +107,25 @@ def _by_streets(timeline: list[list]) -> list[dict]:
              "cpu_per_year_median": round(statistics.median(r[2] for r in v), 3)} for k, v in sorted(bands.items())]
 
 
+def synthetic_town(streets: int, tile: Path, out_dir: Path) -> Path:
+    """A town of about ``streets`` streets: copies of ``tile`` edge to edge (see the module docstring)."""
+    from benchmarks.large_inputs import read_town, write_tiled
+
+    per_copy = len(load(tile).network.streets)
+    copies = max(1, round(streets / max(per_copy, 1)))
+    path = out_dir / f"synthetic-{tile.name.split('.')[0]}-x{copies}.osm.pbf"
+    if path.exists():
+        return path
+    town = read_town(tile)
+    side = math.ceil(math.sqrt(copies))
+    w, h = town.box[2] - town.box[0], town.box[3] - town.box[1]
+    placed = [(town, (k % side) * w, (k // side) * h) for k in range(copies)]
+    meta = write_tiled(placed, path)
+    print(f"built {path.name}: {copies} copies of {tile.name} ({per_copy} streets each), {meta['nodes']:,} nodes",
+          file=sys.stderr)
+    return path
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("towns", nargs="*", help="OSM files (default: three bundled towns)")
@@ -104,8 +133,15 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--history", default="example")
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--json", action="store_true")
+    parser.add_argument("--synthetic", type=int, metavar="N", help="also a synthetic town of about N streets")
+    parser.add_argument("--tile", type=Path, default=ROOT / "fixtures" / "campo-grande.osm.gz",
+                        help="the fixture tiled into the synthetic town")
+    parser.add_argument("--out", type=Path, default=Path(tempfile.gettempdir()),
+                        help="where the synthetic town is written (and reused from)")
     args = parser.parse_args(argv)
-    paths = [Path(t) for t in args.towns] or [ROOT / "fixtures" / t for t in TOWNS]
+    paths = [Path(t) for t in args.towns] or ([] if args.synthetic else [ROOT / "fixtures" / t for t in TOWNS])
+    if args.synthetic:
+        paths.append(synthetic_town(args.synthetic, args.tile, args.out))
     rows = []
     for p in paths:  # a fresh child per town: its peak memory is its own
         with multiprocessing.get_context("spawn").Pool(1, maxtasksperchild=1) as pool:
