@@ -1,0 +1,34 @@
+"""The engine's speed-ups (issue 22) give what the slow ways gave: same segments, same rasters, same bytes."""
+from __future__ import annotations
+
+import numpy as np
+import shapely
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from osm_expand.joins import _segments_near
+from osm_expand.model import network_from_lines
+
+coords = st.floats(0, 200, allow_nan=False)
+polylines = st.lists(st.lists(st.tuples(coords, coords), min_size=2, max_size=6), min_size=1, max_size=12)
+
+
+@settings(max_examples=60, deadline=None)
+@given(polylines, st.lists(st.tuples(coords, coords), min_size=1, max_size=5), st.floats(0.5, 30),
+       st.integers(0, 12))
+def test_segments_near_points_are_every_segment_within_reach(lines, points, reach, count):
+    """Every segment of the first ``count`` streets within ``reach`` of a point is among those kept, with
+    its street, its place in the street and its ends (the tee insertion's old per-segment loop)."""
+    net = network_from_lines(lines)
+    count = min(count, len(net.streets))
+    pts = np.array(points, dtype=float)
+    owner, first, a, b = _segments_near(net, count, pts, reach)
+    kept = {(int(k), int(i)) for k, i in zip(owner, first)}
+    for k, s in enumerate(net.streets[:count]):
+        for i in range(len(s.nodes) - 1):
+            seg = shapely.LineString(net.xy[list(s.nodes[i:i + 2])])
+            if shapely.dwithin(seg, shapely.points(pts), reach).any():
+                assert (k, i) in kept
+    for k, i, p, q in zip(owner.tolist(), first.tolist(), a, b):
+        nodes = net.streets[k].nodes
+        assert np.array_equal(p, net.xy[nodes[i]]) and np.array_equal(q, net.xy[nodes[i + 1]])
