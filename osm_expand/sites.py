@@ -200,16 +200,21 @@ def _cell_centres(origin: np.ndarray, cell: float, shape: tuple[int, int]) -> tu
 
 def _raster(geom, xs: np.ndarray, ys: np.ndarray) -> np.ndarray:
     """Cells whose centre lies in ``geom``, rasterised by PIL's polygon filler (scan lines, in C)."""
-    from PIL import Image, ImageDraw
-
     if geom is None or geom.is_empty:
         return np.zeros(xs.shape, dtype=bool)
+    return _fill(shapely.get_parts(shapely.get_parts(geom)), xs, ys)
+
+
+def _fill(parts: np.ndarray, xs: np.ndarray, ys: np.ndarray) -> np.ndarray:
+    """:func:`_raster` of the polygons among ``parts`` (an array of geometries), drawn in their order."""
+    from PIL import Image, ImageDraw
+
     ny, nx = xs.shape
     x0, y0 = xs[0, 0], ys[0, 0]
     cell = float(xs[0, 1] - x0) if nx > 1 else float(ys[1, 0] - y0)
     image = Image.new("1", (nx, ny), 0)
     draw = ImageDraw.Draw(image)
-    rings, fill = _rings(shapely.get_parts(shapely.get_parts(geom)))
+    rings, fill = _rings(parts)
     coords, owner = shapely.get_coordinates(rings, return_index=True)
     px = ((coords - (x0, y0)) / cell).ravel().tolist()  # every ring's pixels in one pass, flat x, y, x, y
     ends = 2 * np.cumsum(np.bincount(owner, minlength=len(rings)))
@@ -224,7 +229,7 @@ def _rings(parts: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     (Campo Grande's built-up land has half a million)."""
     polys = parts[(shapely.get_type_id(parts) == 3) & ~shapely.is_empty(parts)]
     holes = shapely.get_num_interior_rings(polys)
-    first = np.arange(len(polys)) + np.concatenate([[0], np.cumsum(holes)[:-1]])  # each exterior's place
+    first = np.arange(len(polys)) + np.cumsum(holes) - holes  # each exterior's place
     rings = np.empty(len(polys) + int(holes.sum()), dtype=object)
     fill = np.zeros(len(rings), dtype=np.int64)
     rings[first], fill[first] = shapely.get_exterior_ring(polys), 1
@@ -241,12 +246,12 @@ def _raster_each(polygons: np.ndarray, xs: np.ndarray, ys: np.ndarray) -> np.nda
     buffering the town's MultiLineString (which nodes every crossing). A hole
     of one polygon is cleared only where no hole-free polygon covers it.
     """
-    parts = [p for p in shapely.get_parts(polygons) if p.geom_type == "Polygon" and not p.is_empty]
-    plain = [p for p in parts if not p.interiors]
-    holed = [p for p in parts if p.interiors]
-    filled = _raster(shapely.GeometryCollection(plain), xs, ys) if plain else np.zeros(xs.shape, dtype=bool)
-    if holed:
-        filled = filled | _raster(shapely.GeometryCollection(holed), xs, ys)
+    parts = shapely.get_parts(polygons)
+    parts = parts[(shapely.get_type_id(parts) == 3) & ~shapely.is_empty(parts)]  # polygons, as _rings keeps
+    holed = shapely.get_num_interior_rings(parts) > 0
+    filled = _fill(parts[~holed], xs, ys)
+    if holed.any():
+        filled = filled | _fill(parts[holed], xs, ys)
     return filled
 
 
