@@ -27,7 +27,9 @@ split (growth, blocks, traffic, roads, build-out) is the loop's own
 printed too: they move less than wall time when other jobs share the
 machine's 2 cores. Each town runs in a child process of its own, so its
 peak memory (``peak_mb``: the child's ``ru_maxrss``, imports and the
-town's load and district included) is the town's alone.
+town's load and district included) is the town's alone. Each year is also
+told on stderr as it ends (streets, wall and CPU seconds), so a run too slow
+to finish still shows how far it got.
 
 Targets: issue 10, about 3,000 streets at ≤ 1 s a year (Weber et al. 2009
 grew 3,005 streets in 58 s for a whole run); issue 22, ≤ 1 s of CPU a year
@@ -64,10 +66,15 @@ def measure(path: Path, history_name: str, years: int, seed: int) -> dict:
     stamps: list[tuple[float, float]] = []
     streets: list[int] = []
     cpu0, t0 = time.process_time(), time.perf_counter()
+    def progress(done: int, total: int, era: str) -> None:
+        stamps.append((time.perf_counter(), time.process_time()))
+        last = stamps[-2] if len(stamps) > 1 else (t0, cpu0)
+        print(f"{path.name} year {done}/{total} ({era}): {streets[-1] if streets else '?'} streets, "
+              f"{stamps[-1][0] - last[0]:.2f} s wall, {stamps[-1][1] - last[1]:.2f} s CPU", file=sys.stderr, flush=True)
+
     engine = run(grown.city, history, years=years, seed=seed, spacing=grown.learned.example.spacing,
                  district_pattern=district_pattern(grown.learned), join_points=grown.joins.at,
-                 buildout=_buildout(),
-                 progress=lambda done, total, era: stamps.append((time.perf_counter(), time.process_time())),
+                 buildout=_buildout(), progress=progress,
                  snapshot=lambda c, year, era, traffic: streets.append(len(c.network.streets)), snapshot_every=1)
     wall, cpu = time.perf_counter() - t0, time.process_time() - cpu0
     seconds = engine.seconds
