@@ -10,6 +10,7 @@ pipeline; they are never handed back as the town.
 """
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass, field, replace
 from functools import cached_property
 from typing import Any
@@ -144,18 +145,37 @@ def _footprints(buildings: tuple[Building, ...]) -> np.ndarray:
     with last year's until the build-out adds some: making Campo Grande's
     polygons each time took 7.6 s of a 30-year run (293,000 polygons).
     """
-    hit = _FOOTPRINTS.get(id(buildings))
-    if hit is not None and hit[0] is buildings:
+    return _by_identity(_FOOTPRINTS, buildings, lambda: _frozen(np.array([b.polygon for b in buildings], dtype=object)))
+
+
+def _block_index(blocks: tuple[Block, ...]) -> tuple[np.ndarray, shapely.STRtree]:
+    """The blocks' polygons and a tree over them, made once for the very same tuple of blocks (the
+    blocks change once a year; a district asks for those near it five to ten times)."""
+    def make() -> tuple[np.ndarray, shapely.STRtree]:
+        polygons = _frozen(np.array([b.polygon for b in blocks], dtype=object))
+        return polygons, shapely.STRtree(polygons)
+    return _by_identity(_BLOCKS, blocks, make)
+
+
+def _by_identity(store: dict, key: tuple, make: Callable[[], Any]) -> Any:
+    """``make()`` once for the very same ``key`` object (a City's tuple, shared between the years' Cities)."""
+    hit = store.get(id(key))
+    if hit is not None and hit[0] is key:
         return hit[1]
-    polygons = np.array([b.polygon for b in buildings], dtype=object)
-    polygons.flags.writeable = False
-    if len(_FOOTPRINTS) > 8:
-        _FOOTPRINTS.clear()
-    _FOOTPRINTS[id(buildings)] = (buildings, polygons)  # keeps the tuple alive, so its id is not reused
-    return polygons
+    value = make()
+    if len(store) > 8:
+        store.clear()
+    store[id(key)] = (key, value)  # keeps the key alive, so its id is not reused
+    return value
+
+
+def _frozen(array: np.ndarray) -> np.ndarray:
+    array.flags.writeable = False  # shared between callers: nobody may change it in place
+    return array
 
 
 _FOOTPRINTS: dict[int, tuple[tuple, np.ndarray]] = {}
+_BLOCKS: dict[int, tuple[tuple, tuple[np.ndarray, shapely.STRtree]]] = {}
 
 
 @dataclass(frozen=True, eq=False)
@@ -229,7 +249,7 @@ class City:
     def town_block_polygons(self) -> np.ndarray:
         """The blocks that are town (:func:`osm_expand.model.land.town_blocks`): a large face of fields
         between roads is not, so streets may grow into it."""
-        return self._town_of(np.array([b.polygon for b in self.blocks], dtype=object))
+        return self._town_of(_block_index(self.blocks)[0])
 
     def _town_of(self, polygons: np.ndarray) -> np.ndarray:
         """Those of the block ``polygons`` that are town (buildings read only when one is large)."""
@@ -260,9 +280,9 @@ class City:
         box = shapely.box(*area.bounds)
         parts, tree = _land_parts(self.water, self.sea, self.unbuildable)
         near = parts[tree.query(box, predicate="intersects")] if len(parts) else parts
-        blocks = np.array([b.polygon for b in self.blocks], dtype=object)
-        if len(blocks):
-            blocks = shapely.buffer(self._town_of(blocks[shapely.intersects(blocks, box)]), -1.0)
+        blocks, block_tree = _block_index(self.blocks)
+        if len(blocks):  # those meeting the box, in the blocks' order
+            blocks = shapely.buffer(self._town_of(blocks[np.sort(block_tree.query(box, predicate="intersects"))]), -1.0)
         held = self.land.taken_near(box) if self.land is not None and taken else []
         geom = shapely.union_all([*near.tolist(), *held, *blocks.tolist()])
         shapely.prepare(geom)
