@@ -90,13 +90,11 @@ def faces(net: StreetNetwork) -> list[tuple[np.ndarray, int, np.ndarray]]:
     ring_points = points[index]
     ring_ids = np.repeat(pc.street_id[piece], steps)
     bounds = np.concatenate([[0], np.cumsum(steps)[cycle_start[1:] - 1], [len(index)]])
-    out = []
-    for k in range(len(cycle_start)):
-        a, b = int(bounds[k]), int(bounds[k + 1])
-        ring = np.vstack([ring_points[a:b], ring_points[a:a + 1]])
-        edges = int((cycle_start[k + 1] if k + 1 < len(cycle_start) else len(sequence)) - cycle_start[k])
-        out.append((ring, edges, ring_ids[a:b]))
-    return out
+    # every ring closed at once (its first point again after its last), then cut into faces
+    closed = ring_points[np.insert(np.arange(len(index)), bounds[1:], bounds[:-1])]
+    rings = np.split(closed, bounds[1:-1] + np.arange(1, len(bounds) - 1))
+    edges = np.diff(np.append(cycle_start, len(sequence))).tolist()
+    return list(zip(rings, edges, np.split(ring_ids, bounds[1:-1])))
 
 
 def _face_cycles(pc: _Pieces) -> tuple[np.ndarray, np.ndarray]:
