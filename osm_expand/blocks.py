@@ -118,7 +118,10 @@ def _face_cycles(pc: _Pieces) -> tuple[np.ndarray, np.ndarray]:
     degree = np.bincount(start)[start]
     twin = np.arange(2 * n) ^ 1
     tail = node_first[twin]
-    nxt = around[tail + (rank[twin] - tail - 1) % degree[twin]].tolist()
+    following = around[tail + (rank[twin] - tail - 1) % degree[twin]]
+    if np.array_equal(np.sort(following), np.arange(2 * n)):
+        return _cycles(following)
+    nxt = following.tolist()  # not a permutation (never seen): walk it as it is
     used = [False] * (2 * n)
     sequence: list[int] = []
     cycle_start: list[int] = []
@@ -132,6 +135,29 @@ def _face_cycles(pc: _Pieces) -> tuple[np.ndarray, np.ndarray]:
             sequence.append(h)
             h = nxt[h]
     return np.array(sequence, dtype=np.int64), np.array(cycle_start, dtype=np.int64)
+
+
+def _cycles(nxt: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The cycles of the permutation ``nxt``, each from its least element, in the order of those:
+    :func:`_face_cycles`' walk in vectorised rounds (the walk in Python was 3 s of Campo Grande's
+    30 years). Each element learns its cycle's least by doubling windows along the cycle (when
+    no window's least changes from one round to the next, every one is the cycle's), then its
+    place by list ranking (pointer jumping) on the cycle cut before its least."""
+    m = len(nxt)
+    least, step = np.arange(m), nxt.copy()
+    while True:  # least[h]: the least of the 2^k elements from h on
+        wider = np.minimum(least, least[step])
+        if np.array_equal(wider, least):
+            break
+        least, step = wider, step[step]
+    end = nxt == least  # the element before the cycle's least ends the walk
+    left = np.where(end, 0, 1)  # steps left to the end
+    jump = np.where(end, np.arange(m), nxt)
+    while not np.array_equal(jump, jump[jump]):
+        left, jump = left + left[jump], jump[jump]
+    place = np.bincount(least, minlength=m)[least] - 1 - left
+    sequence = np.lexsort((place, least)).astype(np.int64)
+    return sequence, np.flatnonzero(place[sequence] == 0).astype(np.int64)
 
 
 @dataclass

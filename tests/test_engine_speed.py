@@ -56,3 +56,32 @@ def test_a_window_measured_for_some_measures_gives_those_as_measured_for_all():
         with pytest.raises(ValueError):
             quick.value(Measure.ALIGNMENT)
         assert quick.blocks == -1 and quick.pieces == -1 and full.blocks >= 0
+
+
+@settings(max_examples=80, deadline=None)
+@given(st.lists(st.integers(0, 10 ** 6), min_size=1, max_size=200, unique=True), st.integers(0, 2))
+def test_the_cycles_of_a_permutation_are_the_walks_from_each_least_element(keys, shape):
+    """The faces' walk vectorised (:func:`osm_expand.blocks._cycles`): each cycle from its least element,
+    the cycles in the order of those, as the walk from every unused element found them."""
+    from osm_expand.blocks import _cycles
+
+    m = len(keys)
+    order = np.argsort(keys)  # a permutation drawn by hypothesis
+    nxt = order.copy()
+    if shape == 1:  # one long cycle
+        nxt = np.empty(m, dtype=np.int64)
+        nxt[order] = np.roll(order, -1)
+    elif shape == 2:  # fixed points only
+        nxt = np.arange(m)
+    walk = nxt.tolist()
+    used, sequence, starts = [False] * m, [], []
+    for h0 in range(m):
+        if not used[h0]:
+            starts.append(len(sequence))
+            h = h0
+            while not used[h]:
+                used[h] = True
+                sequence.append(h)
+                h = walk[h]
+    got = _cycles(np.asarray(nxt))
+    assert got[0].tolist() == sequence and got[1].tolist() == starts
