@@ -4,6 +4,14 @@
     python benchmarks/engine_speed.py fixtures/monaco.osm.gz --years 20 --history european
     python benchmarks/engine_speed.py fixtures/krems.osm.gz --years 150 --history european   # to ~3,300 streets
     python benchmarks/engine_speed.py --json > engine.json
+    python benchmarks/engine_speed.py --synthetic 10000 --years 30   # Campo Grande tiled to ~10,000 streets
+
+``--synthetic N`` adds a synthetic town of about N streets: copies of
+``--tile`` (default Campo Grande, 4,800 streets as mapped) laid edge to edge
+on a square grid, ids shifted per copy, written as a sorted ``.osm.pbf`` by
+:func:`benchmarks.large_inputs.write_tiled` (kept in ``--out``, reused when
+there). The copies touch but their streets do not join: one map whose
+engine has N streets to keep up with, as issue 22 asks.
 
 For each town: load, grow the district (``--years 0`` work, not timed), then
 run the engine's year loop (:func:`osm_expand.engine.loop.run`) with the
@@ -19,7 +27,9 @@ split (growth, blocks, traffic, roads, build-out) is the loop's own
 printed too: they move less than wall time when other jobs share the
 machine's 2 cores. Each town runs in a child process of its own, so its
 peak memory (``peak_mb``: the child's ``ru_maxrss``, imports and the
-town's load and district included) is the town's alone.
+town's load and district included) is the town's alone. Each year is also
+told on stderr as it ends (streets, wall and CPU seconds), so a run too slow
+to finish still shows how far it got.
 
 Targets: issue 10, about 3,000 streets at ≤ 1 s a year (Weber et al. 2009
 grew 3,005 streets in 58 s for a whole run); issue 22, ≤ 1 s of CPU a year
@@ -29,10 +39,12 @@ from __future__ import annotations
 
 import argparse
 import json
+import math
 import multiprocessing
 import resource
 import statistics
 import sys
+import tempfile
 import time
 from pathlib import Path
 
@@ -54,10 +66,15 @@ def measure(path: Path, history_name: str, years: int, seed: int) -> dict:
     stamps: list[tuple[float, float]] = []
     streets: list[int] = []
     cpu0, t0 = time.process_time(), time.perf_counter()
+    def progress(done: int, total: int, era: str) -> None:
+        stamps.append((time.perf_counter(), time.process_time()))
+        last = stamps[-2] if len(stamps) > 1 else (t0, cpu0)
+        print(f"{path.name} year {done}/{total} ({era}): {streets[-1] if streets else '?'} streets, "
+              f"{stamps[-1][0] - last[0]:.2f} s wall, {stamps[-1][1] - last[1]:.2f} s CPU", file=sys.stderr, flush=True)
+
     engine = run(grown.city, history, years=years, seed=seed, spacing=grown.learned.example.spacing,
                  district_pattern=district_pattern(grown.learned), join_points=grown.joins.at,
-                 buildout=_buildout(),
-                 progress=lambda done, total, era: stamps.append((time.perf_counter(), time.process_time())),
+                 buildout=_buildout(), progress=progress,
                  snapshot=lambda c, year, era, traffic: streets.append(len(c.network.streets)), snapshot_every=1)
     wall, cpu = time.perf_counter() - t0, time.process_time() - cpu0
     seconds = engine.seconds
@@ -97,6 +114,25 @@ def _by_streets(timeline: list[list]) -> list[dict]:
              "cpu_per_year_median": round(statistics.median(r[2] for r in v), 3)} for k, v in sorted(bands.items())]
 
 
+def synthetic_town(streets: int, tile: Path, out_dir: Path) -> Path:
+    """A town of about ``streets`` streets: copies of ``tile`` edge to edge (see the module docstring)."""
+    from benchmarks.large_inputs import read_town, write_tiled
+
+    per_copy = len(load(tile).network.streets)
+    copies = max(1, round(streets / max(per_copy, 1)))
+    path = out_dir / f"synthetic-{tile.name.split('.')[0]}-x{copies}.osm.pbf"
+    if path.exists():
+        return path
+    town = read_town(tile)
+    side = math.ceil(math.sqrt(copies))
+    w, h = town.box[2] - town.box[0], town.box[3] - town.box[1]
+    placed = [(town, (k % side) * w, (k // side) * h) for k in range(copies)]
+    meta = write_tiled(placed, path)
+    print(f"built {path.name}: {copies} copies of {tile.name} ({per_copy} streets each), {meta['nodes']:,} nodes",
+          file=sys.stderr)
+    return path
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("towns", nargs="*", help="OSM files (default: three bundled towns)")
@@ -104,8 +140,15 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--history", default="example")
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--json", action="store_true")
+    parser.add_argument("--synthetic", type=int, metavar="N", help="also a synthetic town of about N streets")
+    parser.add_argument("--tile", type=Path, default=ROOT / "fixtures" / "campo-grande.osm.gz",
+                        help="the fixture tiled into the synthetic town")
+    parser.add_argument("--out", type=Path, default=Path(tempfile.gettempdir()),
+                        help="where the synthetic town is written (and reused from)")
     args = parser.parse_args(argv)
-    paths = [Path(t) for t in args.towns] or [ROOT / "fixtures" / t for t in TOWNS]
+    paths = [Path(t) for t in args.towns] or ([] if args.synthetic else [ROOT / "fixtures" / t for t in TOWNS])
+    if args.synthetic:
+        paths.append(synthetic_town(args.synthetic, args.tile, args.out))
     rows = []
     for p in paths:  # a fresh child per town: its peak memory is its own
         with multiprocessing.get_context("spawn").Pool(1, maxtasksperchild=1) as pool:

@@ -168,10 +168,11 @@ def write_tiled(placed: list[tuple[Town, float, float]], out: Path) -> dict:
                                              tags=tags, version=version, timestamp=ts))
             counts["relations"] += len(town.relations)
     tmp.replace(out)
-    krems = next((town, dlon, dlat) for town, dlon, dlat in placed if town.name == KREMS and dlon == 0 and dlat == 0)
+    krems = next(((town, dlon, dlat) for town, dlon, dlat in placed if town.name == KREMS and dlon == 0 and dlat == 0),
+                 None)  # a town tiled on itself (benchmarks/engine_speed.py --synthetic) has no Krems copy
     boxes = [[town.name, k, town.box[0] + dlon, town.box[1] + dlat, town.box[2] + dlon, town.box[3] + dlat]
              for k, (town, dlon, dlat) in enumerate(placed)]
-    return {**counts, "copies": len(placed), "krems_box": list(krems[0].box), "boxes": boxes}
+    return {**counts, "copies": len(placed), "krems_box": list(krems[0].box) if krems else None, "boxes": boxes}
 
 
 def build(out_dir: Path, sizes: tuple[int, ...]) -> dict[int, tuple[Path, dict]]:

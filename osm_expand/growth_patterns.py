@@ -31,11 +31,18 @@ __all__ = ["PATTERN_HELP", "PATTERN_NAMES", "GrowthPatternEntry", "era_defaults"
 
 def measure_in_windows(lines: list) -> Callable[[shapely.Geometry], NetworkMeasures]:
     """The measures of ``lines`` in any window, the lines indexed once (what the example patches compare
-    their candidate patches with; ``synth`` knows only the model, so the caller hands it in)."""
+    their candidate patches with; ``synth`` knows only the model, so the caller hands it in).
+
+    Only what the example patches read (:data:`synth.patches.TYPICAL`, the dead-end and 2-core shares):
+    the pieces, strokes, blocks and alignment of Campo Grande's 2,800 windows in 30 years were
+    two thirds of their 25 s.
+    """
     from osm_expand.measures import LineSet, measure_network
+    from synth.patches import TYPICAL
 
     indexed = LineSet.from_lines(lines)
-    return lambda window: measure_network(indexed, window=window)
+    wanted = (*TYPICAL, "dead_end_share", "two_core_share")
+    return lambda window: measure_network(indexed, window=window, pieces=False, wanted=wanted)
 
 
 def _example(example: Example, options: Any) -> GrowthPattern:

@@ -101,20 +101,15 @@ def _insert_tees(net: StreetNetwork, old_count: int, ends: np.ndarray) -> Street
     """Insert each of the nodes ``ends`` into the town street segment it lies on (if any)."""
     if not len(ends):
         return net
-    owner, first = [], []
-    for k, s in enumerate(net.streets[:old_count]):
-        owner += [k] * (len(s.nodes) - 1)
-        first += list(range(len(s.nodes) - 1))
-    if not owner:
+    owner, first, a, b = _segments_near(net, old_count, net.xy[ends], ON_STREET)
+    if not len(owner):
         return net
-    a = np.array([net.xy[net.streets[k].nodes[i]] for k, i in zip(owner, first)])
-    b = np.array([net.xy[net.streets[k].nodes[i + 1]] for k, i in zip(owner, first)])
     tree = shapely.STRtree(shapely.linestrings(np.stack([a, b], axis=1)))
     pts, segs = tree.query(shapely.points(net.xy[ends]), predicate="dwithin", distance=ON_STREET)
     streets = list(net.streets)
     inserts: dict[int, list[tuple[int, float, int]]] = {}
     for p_i, s_i in zip(pts.tolist(), segs.tolist()):
-        node, k, i = int(ends[p_i]), owner[s_i], first[s_i]
+        node, k, i = int(ends[p_i]), int(owner[s_i]), int(first[s_i])
         if node in streets[k].nodes:
             continue
         t, _, d = closest_on_segments(net.xy[node], a[s_i], b[s_i])
@@ -126,6 +121,25 @@ def _insert_tees(net: StreetNetwork, old_count: int, ends: np.ndarray) -> Street
             nodes.insert(i + 1, node)
         streets[k] = streets[k].with_nodes(nodes)
     return net.replace(streets=tuple(streets))
+
+
+def _segments_near(net: StreetNetwork, count: int, points: np.ndarray, reach: float
+                   ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """The segments of the first ``count`` streets whose box comes within ``reach`` of the box of
+    ``points``: each one's street, its position in the street, and its two ends. Gathered in one
+    pass over the node arrays (a Python loop over Campo Grande's 50,000 segments took 10 s of a
+    30-year run), and only those that can be within reach go into the caller's tree."""
+    streets = net.streets[:count]
+    sizes = np.fromiter((len(s.nodes) for s in streets), dtype=np.int64, count=len(streets))
+    nodes = np.fromiter((n for s in streets for n in s.nodes), dtype=np.intp, count=int(sizes.sum()))
+    per = np.maximum(sizes - 1, 0)
+    owner = np.repeat(np.arange(len(streets)), per)
+    first = np.arange(int(per.sum())) - np.repeat(np.cumsum(per) - per, per)
+    at = np.repeat(np.cumsum(sizes) - sizes, per) + first
+    a, b = net.xy[nodes[at]], net.xy[nodes[at + 1]]
+    lo, hi = points.min(axis=0) - reach, points.max(axis=0) + reach
+    near = np.flatnonzero(((np.minimum(a, b) <= hi) & (np.maximum(a, b) >= lo)).all(axis=1))
+    return owner[near], first[near], a[near], b[near]
 
 
 @dataclass(frozen=True)

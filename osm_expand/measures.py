@@ -222,10 +222,15 @@ class NetworkMeasures:
     blocks: int
     #: pieces on the map (module docstring); -1 when not counted (``pieces=False``).
     pieces: int = -1
+    #: measures not computed (``measure_network(wanted=...)``): empty here, and :meth:`value` refuses them.
+    left_out: frozenset[Measure] = frozenset()
 
     def value(self, measure: Measure | str) -> np.ndarray | float:
         """One measure by name: an array for a distribution, a float for a scalar."""
-        return getattr(self, measure_named(measure).value)
+        m = measure_named(measure)
+        if m in self.left_out:
+            raise ValueError(f"measure {m.value!r} was not computed (left out by measure_network's wanted)")
+        return getattr(self, m.value)
 
     def counts(self) -> dict[str, float]:
         """The plain counts, JSON-ready."""
@@ -683,7 +688,7 @@ def _rounded(angles: np.ndarray, resolution: float) -> np.ndarray:
 
 def measure_network(lines: Sequence[np.ndarray] | LineSet, *, window: shapely.Geometry | None = None,
                     open_points: np.ndarray | None = None, options: MeasureOptions | None = None,
-                    pieces: bool = True) -> NetworkMeasures:
+                    pieces: bool = True, wanted: Sequence[Measure | str] | None = None) -> NetworkMeasures:
     """Every measure of a street network inside ``window``.
 
     Parameters
@@ -697,12 +702,20 @@ def measure_network(lines: Sequence[np.ndarray] | LineSet, *, window: shapely.Ge
         streets end on the old town); nodes within ``open_tolerance``.
     options : :class:`MeasureOptions`.
     pieces : count the pieces (False for a whole town, where nobody asks and it costs most).
+    wanted : the measures the caller reads (default: all). Of the others, the costly ones are left
+        out (strokes, blocks — their count is then -1 — and alignment: half of a window's time,
+        for a pattern ranking thousands of windows by five measures); they come back empty and
+        :meth:`NetworkMeasures.value` refuses them. What is computed is the same either way.
 
     Returns
     -------
     :class:`NetworkMeasures`: eight distributions, six scalars and counts.
     """
     opts = options or MeasureOptions()
+    asked = set(Measure) if wanted is None else {measure_named(m) for m in wanted}
+    left_out = frozenset({Measure.STROKE_LENGTH, Measure.BLOCK_AREA, Measure.BLOCK_COMPACTNESS, Measure.ALIGNMENT}
+                         - asked)
+    blocks_left_out = {Measure.BLOCK_AREA, Measure.BLOCK_COMPACTNESS} <= left_out
     line_set = LineSet.from_lines(lines)
     if window is None:
         region = line_set.hull(opts.hull_margin)
@@ -723,7 +736,7 @@ def measure_network(lines: Sequence[np.ndarray] | LineSet, *, window: shapely.Ge
     has_chord = chord >= opts.min_chord
     node, edge, angle = _edge_ends(g, opts.heading_reach)
     at_junction = junction[node]
-    block_area, compactness = _blocks(g, opts.min_block_area)
+    block_area, compactness = (np.zeros(0), np.zeros(0)) if blocks_left_out else _blocks(g, opts.min_block_area)
     vectors = g.xy[g.head] - g.xy[g.tail]
     core = two_core(g.start_node, g.end_node, len(g.xy), anchored=g.is_open)
     n_pieces = -1
@@ -735,12 +748,13 @@ def measure_network(lines: Sequence[np.ndarray] | LineSet, *, window: shapely.Ge
     return NetworkMeasures(
         edge_length=g.length[~cut],
         circuity=g.length[~cut & has_chord] / chord[~cut & has_chord],
-        stroke_length=_strokes(g, node[at_junction], edge[at_junction], angle[at_junction], opts.stroke_deflection),
+        stroke_length=np.zeros(0) if Measure.STROKE_LENGTH in left_out else
+        _strokes(g, node[at_junction], edge[at_junction], angle[at_junction], opts.stroke_deflection),
         junction_angle=_rounded(_junction_angles(node[at_junction], angle[at_junction]), opts.angle_resolution),
         block_area=block_area,
         block_compactness=compactness,
-        alignment=_rounded(_alignment(g, has_chord, opts.alignment_neighbours, opts.alignment_radius),
-                           opts.angle_resolution),
+        alignment=np.zeros(0) if Measure.ALIGNMENT in left_out else
+        _rounded(_alignment(g, has_chord, opts.alignment_neighbours, opts.alignment_radius), opts.angle_resolution),
         curvature=_rounded(_curvature(g, opts.curvature_step), opts.angle_resolution),
         density=total * 1000.0 / area if area > 0 else float("nan"),
         orientation_entropy=orientation_entropy(vectors, bins=opts.orientation_bins),
@@ -750,5 +764,6 @@ def measure_network(lines: Sequence[np.ndarray] | LineSet, *, window: shapely.Ge
         two_core_share=float(g.seg_len[core[g.edge_of]].sum() / total) if total > 0 else float("nan"),
         length=total, area=area,
         junctions=int(junction.sum()), dead_ends=int(dead_end.sum()), open_ends=int(g.is_open.sum()),
-        edges=len(g.length), cut_edges=int(cut.sum()), blocks=len(block_area), pieces=n_pieces,
+        edges=len(g.length), cut_edges=int(cut.sum()), blocks=-1 if blocks_left_out else len(block_area),
+        pieces=n_pieces, left_out=left_out,
     )

@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 import json
+import pickle
 
 import numpy as np
 import pytest
@@ -183,3 +184,15 @@ def test_street_lines_are_the_streets_polylines_in_order():
     for line, street in zip(lines.tolist(), net.streets):
         assert np.array_equal(shapely.get_coordinates(line), net.street_xy(street))
     assert len(net.replace(streets=()).street_lines()) == 0
+
+
+def test_street_lines_are_made_once_per_network_and_read_only():
+    net = loaded("krems.osm.gz")
+    lines = net.street_lines()
+    assert net.street_lines() is lines  # the engine asks six times a district
+    with pytest.raises(ValueError):
+        lines[0] = None  # shared: nobody may change them in place
+    again = pickle.loads(pickle.dumps(net))
+    assert "_street_lines" not in again.__dict__ and shapely.equals(again.street_lines(), lines).all()
+    moved = net.replace(xy=net.xy + 1.0)  # a new network makes its own lines
+    assert np.allclose(shapely.get_coordinates(moved.street_lines()), shapely.get_coordinates(lines) + 1.0)

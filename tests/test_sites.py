@@ -182,3 +182,26 @@ def test_ring_shares_are_the_mean_of_the_mask_over_the_ring(inner, outer):
     if f > 1:
         want = np.repeat(np.repeat(want, f, axis=0), f, axis=1)[:120, :97]
     assert np.allclose(got, want, atol=1e-9)
+
+
+@settings(max_examples=40, deadline=None)
+@given(st.lists(st.tuples(st.floats(40, 360), st.floats(40, 260), st.floats(20, 80), st.floats(0.3, 0.8)),
+                min_size=1, max_size=6))
+def test_the_raster_fills_polygons_and_clears_their_holes(discs):
+    """Every ring drawn in order (exterior, then its holes): a cell whose centre is two cells clear of
+    every ring (the filler sets the pixels its outline touches) is set exactly when the centre lies in
+    the polygons (holes, overlaps, a hole another polygon covers again)."""
+    from osm_expand.sites import _cell_centres, _raster
+
+    xs, ys = _cell_centres(np.array([0.0, 0.0]), 4.0, (80, 100))
+    polys = [shapely.Point(x, y).buffer(r).difference(shapely.Point(x + 1, y).buffer(r * h)) for x, y, r, h in discs]
+    geom = shapely.GeometryCollection([*polys, shapely.LineString([(0, 0), (9, 9)]), shapely.Polygon()])
+    filled = _raster(geom, xs, ys)
+    inside = np.zeros(xs.shape, dtype=bool)
+    for p in polys:  # each polygon's fill over the earlier ones, its hole cleared (the filler's order)
+        inside |= shapely.contains_xy(shapely.Polygon(p.exterior), xs, ys)
+        for hole in p.interiors:
+            inside &= ~shapely.contains_xy(shapely.Polygon(hole), xs, ys)
+    rings = shapely.MultiLineString([r for p in polys for r in (p.exterior, *p.interiors)])
+    clear = shapely.distance(rings, shapely.points(xs, ys)) > 8.0
+    assert np.array_equal(filled[clear], inside[clear])

@@ -317,11 +317,10 @@ def _town_bearing(table: SegmentTable) -> float:
 def _with_blocks(city: City, year: int | None, faces: FaceMemo) -> City:
     """The city with its blocks recomputed; a block's origin and year from the streets around it."""
     found = blocks(city.network, year=year, memo=faces)
-    by_id = {s.id: s for s in city.network.streets}
+    new_by_id = {s.id: s for s in city.network.streets if s.origin != Origin.SOURCE}  # most blocks have none
     out = []
     for blk in found:
-        streets = [by_id[i] for i in blk.street_ids if i in by_id]
-        new = [s for s in streets if s.origin != Origin.SOURCE]
+        new = [new_by_id[i] for i in blk.street_ids if i in new_by_id]
         if not new:
             out.append(replace(blk, origin=Origin.SOURCE, year=None))
             continue

@@ -133,12 +133,30 @@ class StreetNetwork:
         return self.xy[np.asarray(street.nodes, dtype=np.intp)]
 
     def street_lines(self) -> np.ndarray:
-        """Every street's polyline as a LineString, (S,) object array in street order, made in one call."""
+        """Every street's polyline as a LineString, (S,) object array in street order, made in one call.
+
+        Made once per network and handed back read-only: a district of the engine asks for the
+        lines of the same network six times (sites, region, pattern, joins), 28 ms each on Campo
+        Grande's 10,000 streets (13.8 s of a 30-year run before the memo); a network is never
+        changed in place, so its lines never go stale.
+        """
+        lines = self.__dict__.get("_street_lines")
+        if lines is None:
+            lines = self._make_street_lines()
+            lines.flags.writeable = False
+            self.__dict__["_street_lines"] = lines  # frozen: the memo bypasses __setattr__, as cached_property does
+        return lines
+
+    def _make_street_lines(self) -> np.ndarray:
         if not self.streets:
             return np.empty(0, dtype=object)
         sizes = np.fromiter((len(s.nodes) for s in self.streets), dtype=np.int64, count=len(self.streets))
         nodes = np.fromiter((n for s in self.streets for n in s.nodes), dtype=np.intp, count=int(sizes.sum()))
         return shapely.linestrings(self.xy[nodes], indices=np.repeat(np.arange(len(sizes)), sizes))
+
+    def __getstate__(self) -> dict:
+        """Pickled without the memo of :meth:`street_lines` (it is remade on demand)."""
+        return {k: v for k, v in self.__dict__.items() if k != "_street_lines"}
 
     def used_nodes(self) -> np.ndarray:
         """Sorted indices of the nodes that some street references."""
