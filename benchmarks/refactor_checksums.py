@@ -19,7 +19,7 @@ named. ``--check`` compares only the cases both sides hold.
 
 ``benchmarks/refactor_checksums.json`` holds the baseline of issue 23's
 refactor: main at c903331, before any of it (Krems and Monaco, every
-fixture's ``simplify``; Campo Grande's default and ``european`` runs, whose
+fixture's ``simplify``; Campo Grande's three runs, whose
 outputs were the same before and after the refactor: the default's recorded
 in full after it, its first 64 bits before).
 """
