@@ -35,23 +35,23 @@ def test_segments_near_points_are_every_segment_within_reach(lines, points, reac
 
 
 def test_a_window_measured_for_some_measures_gives_those_as_measured_for_all():
-    """The patterns' windows (:func:`osm_expand.pipeline._measure_in_windows`) skip strokes, blocks and
+    """The patterns' windows (:func:`osm_expand.growth_patterns.measure_in_windows`) skip strokes, blocks and
     alignment; what they read is what the full measurement gives, and a skipped measure is refused."""
     import pytest
 
+    from osm_expand.growth_patterns import measure_in_windows
     from osm_expand.measures import LineSet, Measure, measure_network
-    from osm_expand.pipeline import _measure_in_windows
     from synth.patches import TYPICAL
     from tests.conftest import loaded
 
     net = loaded("krems.osm.gz")
     lines = [net.street_xy(s) for s in net.streets]
     indexed = LineSet.from_lines(lines)
-    in_window = _measure_in_windows(lines)
+    in_window = measure_in_windows(lines)
     for centre in net.xy[:: max(len(net.xy) // 5, 1)][:5]:
         window = shapely.Point(centre).buffer(400.0)
         full, quick = measure_network(indexed, window=window), in_window(window)
-        for name in (*TYPICAL, "dead_end_share"):
+        for name in (*TYPICAL, "dead_end_share", "two_core_share"):
             assert np.array_equal(np.asarray(full.value(name)), np.asarray(quick.value(name)), equal_nan=True)
         with pytest.raises(ValueError):
             quick.value(Measure.ALIGNMENT)
