@@ -756,3 +756,37 @@ def test_a_window_crops_the_maps_edges_and_they_equal_the_rasters_own(seed):
     assert np.array_equal(cropped[1][live], expected[1][live])
     assert np.array_equal(cropped[2], expected[2])
     assert live.any()
+
+
+def test_water_that_meets_the_edge_of_the_map_goes_on_beyond_it():
+    """The sea does not stop at the map's bounds: a bay meeting the right and bottom edges carries on
+    across the lattice's margin there, round the corner too; the land's edges stay land."""
+    from osm_expand.engine.roads import water_beyond_the_map
+
+    sea = shapely.Polygon([(600, 0), (1000, 0), (1000, 500), (800, 300)])  # meets the bottom and right edges
+    wet = water_beyond_the_map(sea, (0, 0, 1000, 1000), 100.0)
+    assert wet.covers(sea)
+    assert wet.contains(shapely.Point(900, -50)) and wet.contains(shapely.Point(1050, 200))
+    assert wet.contains(shapely.Point(1050, -50))  # the corner
+    assert not wet.intersects(shapely.Point(300, -50)) and not wet.intersects(shapely.Point(1050, 800))
+    assert water_beyond_the_map(shapely.Polygon(), (0, 0, 1000, 1000), 100.0).is_empty
+
+
+def test_monacos_new_roads_do_not_run_round_the_sea_beyond_the_map():
+    """Monaco, default years, seed 0: a new road of a later year ran along the map's edge round the
+    whole bay, through the lattice's margin beyond the sea (the sea was cut at the bounds, the margin
+    left as land); the margin beyond water is water now, and no new street runs there."""
+    from osm_expand.engine.roads import LATTICE_MARGIN, water_beyond_the_map
+    from osm_expand.ingest import load
+    from osm_expand.model import Origin
+    from osm_expand.pipeline import ExpandOptions, expand
+    from tests.conftest import FIXTURES
+
+    mapped = load(FIXTURES / "monaco.osm.gz")
+    city = expand(mapped, ExpandOptions(seed=0, fidelity=False)).city
+    sea = mapped.water_geometry()
+    beyond = shapely.difference(water_beyond_the_map(sea, mapped.bounds_xy, LATTICE_MARGIN), sea.buffer(1.0))
+    net = city.network
+    new = [shapely.LineString(net.street_xy(s)) for s in net.streets if s.origin == Origin.ENGINE]
+    assert new
+    assert not shapely.intersects(shapely.union_all(new), beyond.buffer(-5.0))

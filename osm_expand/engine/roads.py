@@ -25,6 +25,7 @@ from collections import Counter
 from dataclasses import dataclass, field, replace
 
 import numpy as np
+import shapely
 
 from osm_expand.engine.history import History, YearValues
 from osm_expand.engine.lattice import (
@@ -139,6 +140,40 @@ def major_roads_year(city: City, traffic: TrafficMemory, memory: RoadMemory, sho
     return city, traffic, memory, report, np.array(junctions).reshape(-1, 2)
 
 
+def water_beyond_the_map(water: shapely.Geometry, bounds: tuple[float, float, float, float],
+                         margin: float) -> shapely.Geometry:
+    """``water`` carried on across the lattice's margin beyond the map's ``bounds``.
+
+    The map stops at its bounds, the sea and the river do not: where water meets the edge of the
+    map, it goes on outward by ``margin`` (and round a corner it fills). Left as land, the margin
+    was a strip round the sea: Monaco's new road of a later year ran along the map's edge through
+    it, round the whole bay.
+    """
+    if water.is_empty or margin <= 0:
+        return water
+    x0, y0, x1, y1 = map(float, bounds)
+    corners = np.array([[x0, y0], [x1, y0], [x1, y1], [x0, y1]])
+    outward = np.array([[0.0, -1.0], [1.0, 0.0], [0.0, 1.0], [-1.0, 0.0]])  # below, right, above, left
+    wet = shapely.buffer(water, 1.0)  # what reaches the edge within a metre meets it
+    beyond = []
+    for k in range(4):
+        a, b = corners[k], corners[(k + 1) % 4]
+        along = (b - a) / max(float(np.hypot(*(b - a))), 1e-9)
+        for part in shapely.get_parts(shapely.intersection(shapely.LineString([a, b]), wet)):
+            coords = shapely.get_coordinates(part)
+            if len(coords) < 2:
+                continue
+            start, end = coords[0], coords[-1]
+            if np.dot(end - start, along) < 0:
+                start, end = end, start
+            # a stretch reaching a corner runs on round it, so that no gap opens at the corner
+            start = start - along * margin if np.hypot(*(start - a)) < 1.0 else start
+            end = end + along * margin if np.hypot(*(end - b)) < 1.0 else end
+            out = outward[k] * margin
+            beyond.append(shapely.Polygon([start, end, end + out, start + out]))
+    return shapely.union_all([water, *beyond]) if beyond else water
+
+
 def _segments(city: City, traffic: TrafficMemory, o2: float) -> Segments:
     table = traffic.table
     cap = segment_capacity(table.width) * (o2 / 100.0)
@@ -152,7 +187,8 @@ def _graph(city: City, traffic: TrafficMemory, memory: RoadMemory, now: YearValu
         x0, y0, x1, y1 = city.bounds_xy
         extent = (x0 - LATTICE_MARGIN, y0 - LATTICE_MARGIN, x1 + LATTICE_MARGIN, y1 + LATTICE_MARGIN)
         cell = history.options.lattice.spacing
-        water = Raster.from_geometry(city.water_geometry(), extent, cell)
+        water = Raster.from_geometry(water_beyond_the_map(city.water_geometry(), city.bounds_xy, LATTICE_MARGIN),
+                                     extent, cell)
         areas = [a.polygon for a in city.areas if matches(a.key, a.value, UNBUILDABLE)]
         # a new road never runs through a building as the outputs draw it (its minimum rectangle: a huge
         # mapped outline's rectangle reaches well past it, and Krems seed 1's new road ran through two)
