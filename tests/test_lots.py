@@ -218,7 +218,7 @@ def test_many_blocks_lot_areas_stay_within_the_configured_bounds():
 
 
 def test_bad_inputs_raise_input_errors():
-    with pytest.raises(InputError, match="valid: residential_low"):
+    with pytest.raises(InputError, match="is not one of residential_low"):
         land_use("suburbia")
     with pytest.raises(InputError, match="min_ratio"):
         LotOptions(min_ratio=1.5)

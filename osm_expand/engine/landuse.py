@@ -92,7 +92,8 @@ from numpy.typing import NDArray
 from scipy import sparse
 from scipy.spatial import cKDTree
 
-from osm_expand.errors import InputError
+from osm_expand.errors import HistoryError, InputError
+from osm_expand.model.enums import parse_enum
 
 __all__ = [
     "Attribute", "Valuation", "UNASSIGNED", "STATIC_ATTRIBUTES",
@@ -140,14 +141,6 @@ STATIC_ATTRIBUTES: tuple[Attribute, ...] = (
 )
 _CLUSTER_CODE = len(STATIC_ATTRIBUTES)
 _INFLUENCE_CODE = _CLUSTER_CODE + 1  # + index of the influencing type
-
-
-def _choice(enum: type[StrEnum], value: Any, key: str) -> Any:
-    try:
-        return enum(value)
-    except ValueError:
-        valid = ", ".join(m.value for m in enum)
-        raise InputError(f"{key}: {value!r} is not one of {valid}") from None
 
 
 @dataclass(frozen=True)
@@ -357,8 +350,9 @@ def valuate(kind: str, x: NDArray[np.float64] | float, low: float, high: float, 
     ndarray, shape (L,)
         Values in [0, 1].
     """
-    kind = _KINDS.get(kind) or _choice(Valuation, kind, "valuation kind")  # the land-use update calls this
-    x = np.asarray(x, dtype=np.float64)                                    # ~10⁵ times a run: no enum lookup
+    # the land-use update calls this ~10⁵ times a run: a known kind skips the enum lookup
+    kind = _KINDS.get(kind) or parse_enum(Valuation, kind, "valuation kind", error=HistoryError)
+    x = np.asarray(x, dtype=np.float64)
     if kind is Valuation.STEP:
         out = ((x >= low) & (x <= high)).astype(np.float64)
         return out
@@ -562,8 +556,8 @@ def _compile(types: Sequence[LandUseType], available: Sequence[bool]) -> _Compil
         terms = []
         for j, term in enumerate(t.terms):
             where = f"land_use {t.name!r} term {j}"
-            kind = _choice(Valuation, term.kind, f"{where} kind")
-            attribute = _choice(Attribute, term.attribute, f"{where} attribute")
+            kind = parse_enum(Valuation, term.kind, f"{where} kind", error=HistoryError)
+            attribute = parse_enum(Attribute, term.attribute, f"{where} attribute", error=HistoryError)
             if not (term.weight >= 0 and np.isfinite(term.weight)):
                 raise InputError(f"{where} weight: must be finite and ≥ 0, got {term.weight}")
             if kind is not Valuation.STEP and not term.low < term.high:

@@ -65,6 +65,7 @@ import shapely.errors
 import shapely.ops
 
 from osm_expand.errors import InputError
+from osm_expand.model.enums import parse_enum
 
 __all__ = [
     "DEFAULT_LOT_OPTIONS", "NO_STREET", "Frontage", "LandUse", "Lot", "LotOptions", "Side",
@@ -94,11 +95,7 @@ class LandUse(StrEnum):
 
 def land_use(value: str) -> LandUse:
     """The :class:`LandUse` named ``value``; :class:`InputError` listing the valid ones otherwise."""
-    try:
-        return LandUse(value)
-    except ValueError:
-        valid = ", ".join(t.value for t in LandUse)
-        raise InputError(f"unknown land use {value!r} (valid: {valid})") from None
+    return parse_enum(LandUse, value, "land use")
 
 
 @dataclass(frozen=True)

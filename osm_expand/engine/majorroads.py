@@ -54,6 +54,7 @@ import shapely
 from osm_expand.engine.lattice import ROAD_KINDS, EdgeKind, ImplicitGraph, PathGraph
 from osm_expand.engine.routing import Route, RoutingOptions, find_route
 from osm_expand.errors import InputError
+from osm_expand.model.enums import parse_enum
 
 __all__ = ["RoadType", "BypassStreets", "MajorRoadOptions", "NewRoad", "MajorRoadPlan", "parse_road_type",
            "allowed_streets", "capacity_ok", "propose_route", "plan_major_road", "smooth_polyline",
@@ -77,18 +78,9 @@ class BypassStreets(StrEnum):
     NONE = "none"  #: no existing street
 
 
-def _parse(enum: type[StrEnum], value: str, what: str) -> StrEnum:
-    try:
-        return enum(value)
-    except ValueError:
-        valid = ", ".join(m.value for m in enum)
-        raise InputError(f"{what}: unknown value {value!r}; valid: {valid}") from None
-
-
 def parse_road_type(value: str) -> RoadType:
     """A :class:`RoadType` from its name; :class:`InputError` listing the valid ones otherwise."""
-    # _parse returns the member of the enum it is given (typed as the StrEnum base)
-    return _parse(RoadType, value, "road type")  # type: ignore[return-value]
+    return parse_enum(RoadType, value, "road type")
 
 
 @dataclass(frozen=True)
@@ -116,7 +108,7 @@ class MajorRoadOptions:
                              "demolish_margin not negative")
         if self.chaikin_iterations < 0:
             raise InputError("MajorRoadOptions.chaikin_iterations must not be negative")
-        _parse(BypassStreets, self.bypass_streets, "MajorRoadOptions.bypass_streets")
+        parse_enum(BypassStreets, self.bypass_streets, "MajorRoadOptions.bypass_streets")
 
 
 @dataclass(frozen=True)
@@ -181,7 +173,7 @@ def allowed_streets(graph: PathGraph | ImplicitGraph, road_type: RoadType | str,
     opts = options or MajorRoadOptions()
     if parse_road_type(road_type) is not RoadType.BYPASS:
         return None
-    which = _parse(BypassStreets, opts.bypass_streets, "MajorRoadOptions.bypass_streets")
+    which = parse_enum(BypassStreets, opts.bypass_streets, "MajorRoadOptions.bypass_streets")
     if which is BypassStreets.INTERIOR:
         return ~graph.extendible
     if which is BypassStreets.EXTERIOR:

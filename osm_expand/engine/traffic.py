@@ -56,10 +56,10 @@ from osm_expand.engine.trips import (
     update_widths,
 )
 from osm_expand.model import City, Status, match_points
+from osm_expand.model.highways import TRADE
 
-#: Highway classes a trade route may use (003: "entirely over major roads"; here tertiary too).
-TRADE_CLASSES = frozenset({"motorway", "trunk", "primary", "secondary", "tertiary", "motorway_link", "trunk_link",
-                           "primary_link", "secondary_link", "tertiary_link"})
+#: Highway classes a trade route may use (the model's named set).
+TRADE_CLASSES = TRADE
 
 
 @dataclass
