@@ -60,26 +60,25 @@ def _quiet(message: str) -> None:
 # --- the main command's options, declared once ----------------------------------------------------------
 
 
-def seed_value(text: str) -> int:
-    """``--seed``: a whole number, 0 or more (argparse's ``type``)."""
+def _whole_number(text: str, subject: str, unit: str) -> int:
+    """``text`` as a whole number, 0 or more; argparse's one-line refusal otherwise (``subject`` starts it)."""
     try:
         value = int(text)
     except ValueError:
-        raise argparse.ArgumentTypeError(f"--seed must be a whole number, got {text!r}") from None
+        raise argparse.ArgumentTypeError(f"{subject}must be a whole number{unit}, got {text!r}") from None
     if value < 0:
-        raise argparse.ArgumentTypeError(f"--seed must be 0 or more, got {value}")
+        raise argparse.ArgumentTypeError(f"{subject}must be 0 or more, got {value}")
     return value
+
+
+def seed_value(text: str) -> int:
+    """``--seed``: a whole number, 0 or more (argparse's ``type``)."""
+    return _whole_number(text, "--seed ", "")
 
 
 def years_value(text: str) -> int:
     """``--years`` and ``--snapshot-every``: a whole number of years, 0 or more (argparse's ``type``)."""
-    try:
-        value = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"must be a whole number of years, got {text!r}") from None
-    if value < 0:
-        raise argparse.ArgumentTypeError(f"must be 0 or more, got {value}")
-    return value
+    return _whole_number(text, "", " of years")
 
 
 @dataclass(frozen=True)

@@ -81,9 +81,14 @@ def signals_raise() -> Iterator[None]:
     try:
         yield
     finally:
-        for s, handler in old.items():
-            signal.signal(s, handler if handler is not None else signal.SIG_DFL)
+        _restore(old)
         _RECEIVED.clear()
+
+
+def _restore(handlers: dict) -> None:
+    """Put the signal handlers back as they were (a handler Python did not install reads as None: default)."""
+    for s, handler in handlers.items():
+        signal.signal(s, handler if handler is not None else signal.SIG_DFL)
 
 
 @contextlib.contextmanager
@@ -110,8 +115,7 @@ def deferred() -> Iterator[None]:
     try:
         yield
     finally:
-        for s, handler in held.items():
-            signal.signal(s, handler if handler is not None else signal.SIG_DFL)
+        _restore(held)
     if noted:
         handler = old[noted[0]]
         if callable(handler):

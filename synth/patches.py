@@ -631,6 +631,13 @@ class _Board:
         return bool((shapely.is_empty(touches) | shapely.covers(ends, touches)).all())
 
 
+def _lay(board: _Board, quilt: _Quilt, path: np.ndarray, end: int) -> None:
+    """Lay ``path`` from the cut street ``end`` into the quilt, of that street's class and level, and on the
+    board so that later links keep clear of it."""
+    board.added.append(shapely.LineString(path))
+    quilt.add(path, quilt.highway[quilt.cut_piece[end]], quilt.level[quilt.cut_piece[end]])
+
+
 def _walk_seams(quilt: _Quilt, spacing: float, opts: PatchOptions, occupied: shapely.Geometry,
                 old: shapely.Geometry) -> int:
     """Continue cut streets across the seams, most probable transition first; returns the links made."""
@@ -657,8 +664,7 @@ def _walk_seams(quilt: _Quilt, spacing: float, opts: PatchOptions, occupied: sha
             path = _connector(xy[a], heading[a], xy[b], heading[b])
             if not board.clear(path):
                 continue
-            board.added.append(shapely.LineString(path))
-            quilt.add(path, quilt.highway[quilt.cut_piece[a]], quilt.level[quilt.cut_piece[a]])
+            _lay(board, quilt, path, a)
         used[a] = used[b] = True
         links += 1
     _close(quilt, used)
@@ -1204,8 +1210,7 @@ def _edge_streets(quilt: _Quilt, region: shapely.Geometry, spacing: float, opts:
             path = smooth if len(smooth) >= 2 and board.clear(smooth) else raw
             if len(path) < 2 or not board.clear(path):
                 continue
-            board.added.append(shapely.LineString(path))
-            quilt.add(path, quilt.highway[quilt.cut_piece[a]], quilt.level[quilt.cut_piece[a]])
+            _lay(board, quilt, path, a)
             used[a] = used[b] = True
             made += 1
     _close(quilt, used)
