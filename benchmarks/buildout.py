@@ -142,7 +142,7 @@ def _insert(net, k: int, point: np.ndarray):
 
 def run(path: Path, history_name: str, years: int | None, seed: int, xml: Path | None, referee: Path | None) -> dict:
     from osm_expand.blocks import blocks
-    from osm_expand.engine.buildout import BuildoutYear, buildout_report, buildout_year, start_buildout
+    from osm_expand.engine.buildout.year import BuildoutYear, buildout_report, buildout_year, start_buildout
     from osm_expand.engine.history import load_history
 
     city = expanded(path)
@@ -185,7 +185,7 @@ def engine_run(path: Path, history_name: str, years: int | None, seed: int, xml:
                referee: Path | None) -> dict:
     """The CLI's run (district, then the engine's years) with the build-out's calls timed, wall and CPU."""
     import osm_expand.pipeline as pipeline
-    from osm_expand.engine.buildout import buildout_report, buildout_year, start_buildout
+    from osm_expand.engine.buildout.year import buildout_report, buildout_year, start_buildout
     from osm_expand.engine.loop import Buildout
     from osm_expand.ingest import load
     from osm_expand.pipeline import ExpandOptions, expand

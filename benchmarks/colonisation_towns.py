@@ -10,8 +10,8 @@ once), which is what ``osm-expand TOWN --pattern colonisation --seed s
 default history ``example``), so the engine builds lots and buildings in the
 district's blocks. With ``--years 0`` no engine runs, and the district's
 blocks are split into lots and given buildings here by the engine's kernels
-(:func:`osm_expand.engine.lots.subdivide_blocks`,
-:func:`osm_expand.engine.footprints.place_buildings`; every street built,
+(:func:`osm_expand.engine.buildout.lots.subdivide_blocks`,
+:func:`osm_expand.engine.buildout.footprints.place_buildings`; every street built,
 low-density residential, widths by class from :data:`WIDTH`), a quick stand-in.
 
 The whole city is written as ``<urbanenvironment>``
@@ -53,8 +53,8 @@ WIDTH = {"primary": 14.0, "secondary": 12.0, "tertiary": 10.0, "unclassified": 8
 def district_buildings(result, rng: np.random.Generator) -> tuple[int, int, list]:
     """Blocks of the district, lots, and building footprints placed by the engine's kernels."""
     from osm_expand.blocks import blocks
-    from osm_expand.engine.footprints import place_buildings
-    from osm_expand.engine.lots import block_frontage, subdivide_blocks
+    from osm_expand.engine.buildout.footprints import place_buildings
+    from osm_expand.engine.buildout.lots import block_frontage, subdivide_blocks
     from osm_expand.model import Building, Origin
 
     city = result.city

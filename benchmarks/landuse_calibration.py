@@ -39,8 +39,8 @@ import osmium
 import shapely
 from scipy.spatial import cKDTree
 
-from osm_expand.engine import economy as ec
-from osm_expand.engine import landuse as lu
+from osm_expand.engine.buildout import economy as ec
+from osm_expand.engine.buildout import landuse as lu
 from osm_expand.ingest import load
 
 REPO = Path(__file__).resolve().parent.parent

@@ -24,8 +24,8 @@ import time
 import numpy as np
 import shapely
 
-from osm_expand.engine import economy as ec
-from osm_expand.engine import landuse as lu
+from osm_expand.engine.buildout import economy as ec
+from osm_expand.engine.buildout import landuse as lu
 
 
 def synthetic_lots(n: int, rng: np.random.Generator) -> dict:

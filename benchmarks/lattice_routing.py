@@ -28,10 +28,15 @@ from typing import Callable
 import numpy as np
 import shapely
 
-from osm_expand.engine.lattice import (
-    LatticeOptions, Raster, Segments, build_lattice, built_up_area, pathfinding_graph,
+from osm_expand.engine.roads.lattice import (
+    LatticeOptions,
+    Raster,
+    Segments,
+    build_lattice,
+    built_up_area,
+    pathfinding_graph,
 )
-from osm_expand.engine.majorroads import RoadType, plan_major_road, propose_route
+from osm_expand.engine.roads.road_types import RoadType, plan_major_road, propose_route
 
 REPO = Path(__file__).resolve().parent.parent
 

@@ -5,8 +5,8 @@
 For each town (default: Krems and Andorra, 73 + 171 blocks): its blocks
 (faces of the simplified network), their frontage from the bounding streets
 and from the town's streets as mapped that run into blocks, lots
-(:func:`osm_expand.engine.lots.subdivide_blocks`) and buildings
-(:func:`osm_expand.engine.footprints.place_buildings`) calibrated from the
+(:func:`osm_expand.engine.buildout.lots.subdivide_blocks`) and buildings
+(:func:`osm_expand.engine.buildout.footprints.place_buildings`) calibrated from the
 town's own footprints. Prints the seconds for lots and for buildings, the
 lot-area quartiles per land use against its ``max_area``, and the generated
 footprint-area median next to the town's, and counts of what must not
@@ -41,8 +41,8 @@ def town(path: Path):
     The one place that touches the ingest/simplify/blocks APIs, which may change shape.
     """
     from osm_expand.blocks import blocks
-    from osm_expand.model.highways import rank
     from osm_expand.ingest import load
+    from osm_expand.model.highways import rank
     from simplify import simplify
 
     city = load(path)
@@ -57,8 +57,8 @@ def town(path: Path):
 
 
 def run(path: Path, seed: int, mix: bool) -> None:
-    from osm_expand.engine.footprints import calibrate_sizes, calibrated_lot_options, place_buildings
-    from osm_expand.engine.lots import block_frontage, subdivide_blocks
+    from osm_expand.engine.buildout.footprints import calibrate_sizes, calibrated_lot_options, place_buildings
+    from osm_expand.engine.buildout.lots import block_frontage, subdivide_blocks
 
     bl, lines, ids, widths, traffic, footprints, raw_lines = town(path)
     rng = np.random.default_rng(seed)

@@ -23,7 +23,7 @@ import time
 
 import numpy as np
 
-from osm_expand.engine.nuclei import candidate_points, find_nuclei, rank_candidates
+from osm_expand.engine.growth.nuclei import candidate_points, find_nuclei, rank_candidates
 from synth.patterns import PATTERNS, grow_streets
 from synth.street_graph import StreetGraph
 

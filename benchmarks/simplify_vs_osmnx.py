@@ -53,8 +53,8 @@ from __future__ import annotations
 import argparse
 import compileall
 import importlib.util
-import os
 import json
+import os
 import platform
 import resource
 import statistics

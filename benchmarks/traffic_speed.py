@@ -29,9 +29,16 @@ import time
 
 import numpy as np
 
-from osm_expand.engine.trade import add_route, new_trade_state, segment_capacity, trade_year
-from osm_expand.engine.trips import (TripOptions, extend_trip_state, new_trip_state, step_trips,
-                                     trip_graph, update_status, update_widths)
+from osm_expand.engine.traffic.trade import add_route, new_trade_state, segment_capacity, trade_year
+from osm_expand.engine.traffic.trips import (
+    TripOptions,
+    extend_trip_state,
+    new_trip_state,
+    step_trips,
+    trip_graph,
+    update_status,
+    update_widths,
+)
 
 
 def perturbed_grid(segments: int, rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray]:

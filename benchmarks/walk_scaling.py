@@ -14,7 +14,6 @@ import time
 from dataclasses import replace
 from pathlib import Path
 
-
 from osm_expand.ingest import load
 from simplify import simplify
 from simplify.example import build_example

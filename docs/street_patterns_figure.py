@@ -18,7 +18,7 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 import shapely  # noqa: E402
 
-from osm_expand.engine.nuclei import candidate_points, find_nuclei, rank_candidates  # noqa: E402
+from osm_expand.engine.growth.nuclei import candidate_points, find_nuclei, rank_candidates  # noqa: E402
 from synth.patterns import PATTERNS, grow_streets  # noqa: E402
 from synth.street_graph import StreetGraph  # noqa: E402
 

@@ -258,8 +258,8 @@ def mature(result: ExpandResult, options: ExpandOptions, *, progress: Progress =
 
 def _buildout():
     """The build-out stage for the engine: land use, lots and buildings each year (issue 11)."""
-    from osm_expand.engine.buildout import buildout_year, start_buildout
-    from osm_expand.engine.buildout_report import buildout_report
+    from osm_expand.engine.buildout.report import buildout_report
+    from osm_expand.engine.buildout.year import buildout_year, start_buildout
     from osm_expand.engine.loop import Buildout
 
     return Buildout(start=start_buildout, year=buildout_year, report=buildout_report)

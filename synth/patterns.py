@@ -364,7 +364,7 @@ def pattern(name: str, **overrides: Any) -> PatternOptions:
 # --------------------------------------------------------------------------- starts and proposals
 
 class StartPoints(Protocol):
-    """Starts given as arrays, e.g. :class:`osm_expand.engine.nuclei.Candidates`."""
+    """Starts given as arrays, e.g. :class:`osm_expand.engine.growth.nuclei.Candidates`."""
 
     # Read-only members (properties), so that frozen dataclasses such as Candidates match.
     @property
@@ -1000,7 +1000,7 @@ def grow_streets(graph: StreetGraph, starts: StartPoints | ArrayLike | Sequence[
     starts : int array of shape (S,), sequence of Start, or StartPoints
         Node ids, or objects with ``node`` (-1 for a point on a segment),
         ``segment`` and ``xy`` arrays (e.g. the ranked candidates of
-        :func:`osm_expand.engine.nuclei.candidate_points`). A segment start
+        :func:`osm_expand.engine.growth.nuclei.candidate_points`). A segment start
         whose segment was split earlier in the call is found again by position;
         segment starts are skipped when the pattern's ``segment_starts`` is False.
     options : PatternOptions

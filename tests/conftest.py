@@ -1,10 +1,9 @@
 """Shared fixtures: the real OSM extracts, loaded and simplified once per session."""
 from __future__ import annotations
 
+import os
 from functools import lru_cache
 from pathlib import Path
-
-import os
 
 import pytest
 from hypothesis import settings

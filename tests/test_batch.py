@@ -22,8 +22,19 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from osm_expand import cli
-from osm_expand.batch import (INSTALL_HINT, Job, JobResult, JobsFailed, _gather, _local_cluster, add_batch_arguments,
-                              cmd_batch, derive_seed, read_towns, run_batch)
+from osm_expand.batch import (
+    INSTALL_HINT,
+    Job,
+    JobResult,
+    JobsFailed,
+    _gather,
+    _local_cluster,
+    add_batch_arguments,
+    cmd_batch,
+    derive_seed,
+    read_towns,
+    run_batch,
+)
 from osm_expand.clip import ClipOptions, _Boxes, box_around, check_box, clip, clip_extracts, parse_bbox
 from osm_expand.errors import InputError
 from osm_expand.ingest import load

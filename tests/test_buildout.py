@@ -22,9 +22,15 @@ import shapely
 from lxml import etree
 
 from osm_expand.blocks import blocks
-from osm_expand.engine.buildout import (BuildoutOptions, BuildoutYear, buildout_report, buildout_year,
-                                        start_buildout, town_people)
-from osm_expand.engine.calibration import CalibrationOptions, find_centres, tag_number, town_units
+from osm_expand.engine.buildout.calibration import CalibrationOptions, find_centres, tag_number, town_units
+from osm_expand.engine.buildout.year import (
+    BuildoutOptions,
+    BuildoutYear,
+    buildout_report,
+    buildout_year,
+    start_buildout,
+    town_people,
+)
 from osm_expand.engine.history import load_history
 from osm_expand.engine.segments import street_width
 from osm_expand.errors import InputError
@@ -189,9 +195,9 @@ def test_a_new_block_around_a_town_building_is_built_out_beyond_its_clearance():
 
 
 def test_a_lot_whose_street_changed_faces_the_street_its_edge_lies_on():
-    from osm_expand.engine.buildout import LotState, _Streets, _relabel
-    from osm_expand.engine.lots import NO_STREET
-    from osm_expand.engine.lots import Lot as EngineLot
+    from osm_expand.engine.buildout.lots import NO_STREET
+    from osm_expand.engine.buildout.lots import Lot as EngineLot
+    from osm_expand.engine.buildout.year import LotState, _relabel, _Streets
 
     # a 20 m × 30 m lot behind a 7.5 m street along y = 0 (its front edge 3.75 m from the centre line)
     lot = EngineLot(ring=np.array([[0.0, 3.75], [20.0, 3.75], [20.0, 33.75], [0.0, 33.75]]),
@@ -523,7 +529,7 @@ def test_the_preview_draws_a_window_and_refuses_an_empty_one(outputs, tmp_path):
 
 
 def test_the_update_proposes_only_allowed_types_and_draws_the_same_numbers():
-    from osm_expand.engine import landuse as lu
+    from osm_expand.engine.buildout import landuse as lu
 
     rng = np.random.default_rng(0)
     xy = rng.uniform(0, 600, (300, 2))
@@ -547,7 +553,7 @@ def test_the_update_proposes_only_allowed_types_and_draws_the_same_numbers():
 def test_changed_lots_keep_the_bounds_of_their_new_type():
     _, city, memory, _, _ = built_out("andorra.osm.pbf")
     types = {t.name: t for t in memory.town.types}
-    from osm_expand.engine.lots import land_use
+    from osm_expand.engine.buildout.lots import land_use
 
     for lot in city.lots:
         state = memory.lots[lot.id]

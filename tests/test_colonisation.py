@@ -11,11 +11,28 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from osm_expand.errors import InputError
-from synth.colonisation import (ColonisationOptions, ColonisationResult, _Colonist, _Phase, chain_streets, colonise,
-                                connection_force, constrain_turn, extra_pruning, ideal_directions)
+from synth.colonisation import (
+    ColonisationOptions,
+    ColonisationResult,
+    _Colonist,
+    _Phase,
+    chain_streets,
+    colonise,
+    connection_force,
+    constrain_turn,
+    extra_pruning,
+    ideal_directions,
+)
 from synth.flowfield import FlowPrimitive, flow_field, primitive_velocity
-from synth.infomaps import (InfoMapOptions, Raster, border_from_geometries, density_from_points, forbidden_cells,
-                            slopes_within, town_density)
+from synth.infomaps import (
+    InfoMapOptions,
+    Raster,
+    border_from_geometries,
+    density_from_points,
+    forbidden_cells,
+    slopes_within,
+    town_density,
+)
 
 SL = 100.0
 

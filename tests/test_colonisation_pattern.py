@@ -18,8 +18,13 @@ from osm_expand.ingest import load
 from osm_expand.model import City, Origin, network_from_lines
 from osm_expand.pipeline import ExpandOptions, expand, learn
 from synth.colonisation import ColonisationOptions
-from synth.colonisation_pattern import (DEBUG_LAYERS, Colonisation, ColonisationPatternOptions,
-                                        colonisation_from_config, town_highways)
+from synth.colonisation_pattern import (
+    DEBUG_LAYERS,
+    Colonisation,
+    ColonisationPatternOptions,
+    colonisation_from_config,
+    town_highways,
+)
 from synth.flowfield import FlowPrimitive
 from tests.conftest import FIXTURES
 
@@ -312,8 +317,8 @@ def test_the_same_seed_grows_the_same_streets():
 def test_the_districts_blocks_take_lots_and_buildings_from_the_engine():
     """Blocks with a grown street on their edge split into lots, and the lots take buildings off the streets."""
     from osm_expand.blocks import blocks
-    from osm_expand.engine.footprints import place_buildings
-    from osm_expand.engine.lots import block_frontage, subdivide_blocks
+    from osm_expand.engine.buildout.footprints import place_buildings
+    from osm_expand.engine.buildout.lots import block_frontage, subdivide_blocks
 
     result = expanded("krems.osm.gz")
     net = result.city.network

@@ -10,6 +10,7 @@ import subprocess
 import sys
 
 import numpy as np
+from conftest import FIXTURES
 from hypothesis import given
 from hypothesis import strategies as st
 from scipy.cluster.hierarchy import DisjointSet
@@ -19,8 +20,6 @@ from scipy.spatial import cKDTree
 
 from osm_expand.model import match_points
 from osm_expand.model.components import UnionFind, close_pairs, component_labels
-
-from conftest import FIXTURES
 
 edges = st.integers(1, 60).flatmap(
     lambda n: st.tuples(st.just(n), st.lists(st.tuples(st.integers(0, n - 1), st.integers(0, n - 1)), max_size=120)))

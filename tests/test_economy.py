@@ -4,8 +4,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from osm_expand.engine import economy as ec
-from osm_expand.engine.economy import EconomyOptions, HeightCalibration, HeightScale, TypeEconomy
+from osm_expand.engine.buildout import economy as ec
+from osm_expand.engine.buildout.economy import EconomyOptions, HeightCalibration, HeightScale, TypeEconomy
 from osm_expand.errors import InputError
 
 #: Deterministic economics: no margin spread.

@@ -14,10 +14,18 @@ from scipy.spatial import cKDTree
 from scipy.stats import ks_2samp
 
 from osm_expand.errors import InputError
-from osm_expand.fidelity import (FidelityOptions, compare, fidelity, judge, ks_distance, real_parts,
-                                 town_reference)
-from osm_expand.measures import (DISTRIBUTIONS, LineSet, Measure, MeasureOptions, count_pieces, junction_points,
-                                 measure_network, orientation_entropy, two_core)
+from osm_expand.fidelity import FidelityOptions, compare, fidelity, judge, ks_distance, real_parts, town_reference
+from osm_expand.measures import (
+    DISTRIBUTIONS,
+    LineSet,
+    Measure,
+    MeasureOptions,
+    count_pieces,
+    junction_points,
+    measure_network,
+    orientation_entropy,
+    two_core,
+)
 from tests.conftest import loaded
 
 

@@ -11,12 +11,12 @@ import shapely
 from osm_expand.export import write_geojson, write_osm
 from osm_expand.ingest import load
 from osm_expand.model import City, network_from_lines
+from osm_expand.model.topology import junction_mask
 from simplify import SimplifyOptions, simplify
 from simplify.crossings import add_missing_intersections
 from simplify.intersections import extract_intersections
 from simplify.invariants import violations
 from simplify.quality import length_within, pruned_reference
-from osm_expand.model.topology import junction_mask
 from tests.conftest import FIXTURES, TOWNS, loaded, simplified
 
 

@@ -9,11 +9,17 @@ import shapely
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from osm_expand.engine.footprints import (
-    DEFAULT_FOOTPRINT_OPTIONS, FootprintOptions, Rectangle, calibrate_sizes, calibrated_lot_options,
-    footprint_dimensions, largest_street_rectangle, place_buildings,
+from osm_expand.engine.buildout.footprints import (
+    DEFAULT_FOOTPRINT_OPTIONS,
+    FootprintOptions,
+    Rectangle,
+    calibrate_sizes,
+    calibrated_lot_options,
+    footprint_dimensions,
+    largest_street_rectangle,
+    place_buildings,
 )
-from osm_expand.engine.lots import DEFAULT_LOT_OPTIONS, Frontage, LandUse, Lot, subdivide
+from osm_expand.engine.buildout.lots import DEFAULT_LOT_OPTIONS, Frontage, LandUse, Lot, subdivide
 from osm_expand.errors import InputError
 
 SWEEP = settings(deadline=None, suppress_health_check=[HealthCheck.too_slow])  # profile: 100, thorough 2000

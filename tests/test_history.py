@@ -3,23 +3,32 @@ from __future__ import annotations
 
 import json
 import math
-from dataclasses import replace
 import re
 import textwrap
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
 import pytest
 
-from osm_expand.engine.economy import DEFAULT_ECONOMY
-from osm_expand.engine.history import (DEFAULT_HISTORY, GROWTH_PATTERNS, Anchor, Clock, History, KernelOptions,
-                                       bundled, history_from_mapping, load_history)
-from osm_expand.engine.landuse import DEFAULT_TYPES, LandUseOptions, runs_this_year
-from osm_expand.engine.lattice import EdgeCosts
-from osm_expand.engine.lots import DEFAULT_LOT_OPTIONS, LandUse, LotOptions
-from osm_expand.engine.majorroads import RoadType
-from osm_expand.engine.routing import RoutingOptions
-from osm_expand.engine.timefn import Interpolation, TimeFunction
+from osm_expand.engine.buildout.economy import DEFAULT_ECONOMY
+from osm_expand.engine.buildout.landuse import DEFAULT_TYPES, LandUseOptions, runs_this_year
+from osm_expand.engine.buildout.lots import DEFAULT_LOT_OPTIONS, LandUse, LotOptions
+from osm_expand.engine.history import (
+    DEFAULT_HISTORY,
+    GROWTH_PATTERNS,
+    Anchor,
+    Clock,
+    History,
+    KernelOptions,
+    bundled,
+    history_from_mapping,
+    load_history,
+)
+from osm_expand.engine.history.timefn import Interpolation, TimeFunction
+from osm_expand.engine.roads.lattice import EdgeCosts
+from osm_expand.engine.roads.road_types import RoadType
+from osm_expand.engine.roads.routing import RoutingOptions
 from osm_expand.errors import InputError
 from synth.colonisation import ColonisationOptions
 from synth.patches import PatchOptions

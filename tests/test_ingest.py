@@ -6,8 +6,8 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from osm_expand.model.highways import DRIVABLE, highway_set, rank
 from osm_expand.ingest import _number, load
+from osm_expand.model.highways import DRIVABLE, highway_set, rank
 from tests.conftest import ALL, FIXTURES, loaded
 
 

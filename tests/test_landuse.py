@@ -5,10 +5,9 @@ import numpy as np
 import pytest
 import shapely
 
-from osm_expand.engine import landuse as lu
-from osm_expand.engine.landuse import LandUseOptions, LandUseType, ValuationTerm
+from osm_expand.engine.buildout import landuse as lu
+from osm_expand.engine.buildout.landuse import LandUseOptions, LandUseType, ValuationTerm
 from osm_expand.errors import InputError
-
 
 # --------------------------------------------------------------------------- builders
 

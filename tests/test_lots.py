@@ -6,9 +6,19 @@ import pytest
 import shapely
 
 from osm_expand.blocks import blocks
-from osm_expand.engine.lots import (
-    DEFAULT_LOT_OPTIONS, NO_STREET, Frontage, LandUse, LotOptions, _cast, _split_ring, block_frontage,
-    land_use, shrink_block, subdivide, subdivide_blocks,
+from osm_expand.engine.buildout.lots import (
+    DEFAULT_LOT_OPTIONS,
+    NO_STREET,
+    Frontage,
+    LandUse,
+    LotOptions,
+    _cast,
+    _split_ring,
+    block_frontage,
+    land_use,
+    shrink_block,
+    subdivide,
+    subdivide_blocks,
 )
 from osm_expand.errors import InputError
 from osm_expand.model import network_from_lines
@@ -234,7 +244,7 @@ def test_bad_inputs_raise_input_errors():
 
 def test_dropping_a_null_closing_edge_keeps_each_label_on_its_edge():
     """A shrunk ring may end where it starts (the closing edge null): labels must not shift by one."""
-    from osm_expand.engine.lots import _clean
+    from osm_expand.engine.buildout.lots import _clean
     ring = np.array([(0.0, 0.0), (100.0, 0.0), (100.0, 50.0), (0.0, 50.0), (0.0, 1e-7)])
     labels = np.array([10, 11, 12, 13, 99])  # edge 4 (back to the start) is null
     r, lab = _clean(ring, labels)
@@ -266,7 +276,7 @@ def test_frontage_inside_a_block_survives_geometry_geos_cannot_intersect():
     """Krems, seed 1, second year: an invalid block face stopped the run with a TopologyException."""
     import shapely
 
-    from osm_expand.engine.lots import _intersections
+    from osm_expand.engine.buildout.lots import _intersections
 
     bow_tie = shapely.Polygon([(0, 0), (10, 10), (10, 0), (0, 10), (0, 0)])  # invalid: it crosses itself
     line = shapely.LineString([(-5, 5), (15, 5)])

@@ -9,16 +9,40 @@ import shapely
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from osm_expand.engine.lattice import (
-    NO_EDGE, EdgeCosts, EdgeKind, LatticeOptions, Raster, Segments, VertexClass, build_lattice,
-    built_up_area, implicit_graph, lattice_directions, pathfinding_graph, segment_sides,
+from osm_expand.engine.roads.lattice import (
+    NO_EDGE,
+    EdgeCosts,
+    EdgeKind,
+    LatticeOptions,
+    Raster,
+    Segments,
+    VertexClass,
+    build_lattice,
+    built_up_area,
+    implicit_graph,
+    lattice_directions,
+    pathfinding_graph,
+    segment_sides,
 )
-from osm_expand.engine.majorroads import (
-    MajorRoadOptions, RoadType, allowed_streets, centroid_smoothing, chaikin, max_turn, parse_road_type,
-    plan_major_road, propose_route, smooth_polyline,
+from osm_expand.engine.roads.road_types import (
+    MajorRoadOptions,
+    RoadType,
+    allowed_streets,
+    centroid_smoothing,
+    chaikin,
+    max_turn,
+    parse_road_type,
+    plan_major_road,
+    propose_route,
+    smooth_polyline,
 )
-from osm_expand.engine.routing import (
-    Choice, RoutingOptions, choose, find_route, route_over_major_roads, turn_penalty,
+from osm_expand.engine.roads.routing import (
+    Choice,
+    RoutingOptions,
+    choose,
+    find_route,
+    route_over_major_roads,
+    turn_penalty,
 )
 from osm_expand.errors import InputError
 
@@ -314,7 +338,7 @@ def test_on_an_open_field_the_penalised_route_turns_once():
 @settings(max_examples=10, deadline=None)
 @given(st.integers(0, 2**32 - 1))
 def test_pruned_search_finds_the_same_cost_as_searching_everything(seed):
-    from osm_expand.engine.routing import _bin_penalties, _expanded_search
+    from osm_expand.engine.roads.routing import _bin_penalties, _expanded_search
     rng = np.random.default_rng(seed)
     extent = (0, 0, 600, 600)
     centres, radii = rng.uniform(50, 550, (6, 2)), rng.uniform(20, 90, 6)
@@ -542,6 +566,7 @@ MAJOR_HIGHWAYS = {"motorway", "trunk", "primary", "secondary", "tertiary"}
 @pytest.fixture(scope="module")
 def krems():
     from conftest import FIXTURES
+
     from osm_expand.ingest import load
     net, water = network_and_water(load(FIXTURES / "krems.osm.gz"))
     major = [s.highway.removesuffix("_link") in MAJOR_HIGHWAYS for s in net.streets]
@@ -600,7 +625,7 @@ def test_on_krems_the_implicit_search_finds_routes_of_the_same_cost_in_a_part_of
     """The issue's equal-cost test on a real town: every road type between the exits and
     between random street nodes costs the same searched in windows as on the whole map's G′
     (the old search), and a route across part of the town generates only part of the lattice."""
-    from osm_expand.engine.lattice import ImplicitGraph
+    from osm_expand.engine.roads.lattice import ImplicitGraph
     g, segs, exits, _, implicit = krems
     seen: list[int] = []
     window = ImplicitGraph.window
@@ -723,7 +748,7 @@ def test_a_window_crops_the_maps_edges_and_they_equal_the_rasters_own(seed):
     kinds, weights (a hill) and B's removals, river, bridges and forbidden blobs included."""
     from dataclasses import replace
 
-    import osm_expand.engine.lattice as lattice_module
+    import osm_expand.engine.roads.lattice as lattice_module
     rng = np.random.default_rng(seed)
     extent = (0, 0, 800, 600)
     centres, radii = rng.uniform(50, 750, (4, 2)), rng.uniform(20, 70, 4)
@@ -761,7 +786,7 @@ def test_a_window_crops_the_maps_edges_and_they_equal_the_rasters_own(seed):
 def test_water_that_meets_the_edge_of_the_map_goes_on_beyond_it():
     """The sea does not stop at the map's bounds: a bay meeting the right and bottom edges carries on
     across the lattice's margin there, round the corner too; the land's edges stay land."""
-    from osm_expand.engine.roads import water_beyond_the_map
+    from osm_expand.engine.roads.major_roads import water_beyond_the_map
 
     sea = shapely.Polygon([(600, 0), (1000, 0), (1000, 500), (800, 300)])  # meets the bottom and right edges
     wet = water_beyond_the_map(sea, (0, 0, 1000, 1000), 100.0)
@@ -776,7 +801,7 @@ def test_monacos_new_roads_do_not_run_round_the_sea_beyond_the_map():
     """Monaco, default years, seed 0: a new road of a later year ran along the map's edge round the
     whole bay, through the lattice's margin beyond the sea (the sea was cut at the bounds, the margin
     left as land); the margin beyond water is water now, and no new street runs there."""
-    from osm_expand.engine.roads import LATTICE_MARGIN, water_beyond_the_map
+    from osm_expand.engine.roads.major_roads import LATTICE_MARGIN, water_beyond_the_map
     from osm_expand.ingest import load
     from osm_expand.model import Origin
     from osm_expand.pipeline import ExpandOptions, expand

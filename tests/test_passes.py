@@ -5,6 +5,7 @@ import numpy as np
 import pytest
 
 from osm_expand.model import network_from_lines
+from osm_expand.model.topology import junction_mask, street_counts
 from simplify import SimplifyOptions, simplify
 from simplify.clusters import fuse_clusters
 from simplify.crossings import add_missing_intersections
@@ -14,7 +15,6 @@ from simplify.invariants import violations
 from simplify.merging import merge_streets
 from simplify.overlaps import remove_overlaps
 from simplify.roundabouts import collapse_roundabouts
-from osm_expand.model.topology import junction_mask, street_counts
 from simplify.two_street import enforce_two_streets
 
 OPTS = SimplifyOptions()

@@ -9,12 +9,33 @@ import shapely
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from osm_expand.engine.nuclei import (Candidates, NucleiOptions, Nucleus, NucleusKind, candidate_points,
-                                      candidate_rank, edge_attenuation, find_nuclei, new_junction_nuclei,
-                                      rank_candidates)
+from osm_expand.engine.growth.nuclei import (
+    Candidates,
+    NucleiOptions,
+    Nucleus,
+    NucleusKind,
+    candidate_points,
+    candidate_rank,
+    edge_attenuation,
+    find_nuclei,
+    new_junction_nuclei,
+    rank_candidates,
+)
 from osm_expand.errors import InputError
-from synth.patterns import (GRID_19TH_CENTURY, PATTERNS, RADIAL, PatternOptions, Proposal, Rule, Start,
-                            StreetProposal, check_proposal, grow_streets, pattern, propose)
+from synth.patterns import (
+    GRID_19TH_CENTURY,
+    PATTERNS,
+    RADIAL,
+    PatternOptions,
+    Proposal,
+    Rule,
+    Start,
+    StreetProposal,
+    check_proposal,
+    grow_streets,
+    pattern,
+    propose,
+)
 from synth.segment_index import _intersects
 from synth.street_graph import StreetGraph
 

@@ -36,8 +36,8 @@ def test_each_registered_pattern_is_made_over_a_real_towns_example():
 
 
 def test_every_choice_is_refused_in_the_same_words():
-    from osm_expand.engine.economy import EconomyOptions
-    from osm_expand.engine.timefn import TimeFunction
+    from osm_expand.engine.buildout.economy import EconomyOptions
+    from osm_expand.engine.history.timefn import TimeFunction
     from osm_expand.export.preview import ColorBy
     from osm_expand.model import Status
     from synth.patterns import PatternOptions
@@ -54,7 +54,8 @@ def test_every_choice_is_refused_in_the_same_words():
 
 def test_the_named_sets_of_highway_classes_live_in_the_model():
     from osm_expand import sites
-    from osm_expand.engine import neighbours, segments
+    from osm_expand.engine import segments
+    from osm_expand.engine.traffic import neighbours
     from synth import colonisation_pattern, patches
 
     assert sites.CORRIDORS is highways.CORRIDORS and patches.NOT_COPIED is highways.CORRIDORS

@@ -12,6 +12,7 @@ from itertools import combinations
 import numpy as np
 import pytest
 import shapely
+from conftest import FIXTURES
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
@@ -29,8 +30,6 @@ from simplify.invariants import _unshared_crossings
 from simplify.merging import end_angle
 from simplify.overlaps import OverlapPlan, remove_overlaps
 from simplify.streetset import StreetSet
-
-from conftest import FIXTURES
 
 OPTS = SimplifyOptions()
 TOWNS = ["krems.osm.gz", "monaco.osm.gz", "andorra.osm.pbf", "north-bayreuth.osm.gz", "campo-grande.osm.gz"]

@@ -15,7 +15,6 @@ from osm_expand.pipeline import prepare
 from osm_expand.sites import SiteOptions, choose_site, choose_sites, distance_maps
 from tests.conftest import FIXTURES
 
-
 #: Frontage of the synthetic towns' streets (m): narrow, so distances in the tests are easy to reckon.
 DEPTH = 10.0
 

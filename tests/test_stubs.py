@@ -6,7 +6,7 @@ import shapely
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from osm_expand.engine.stubs import close_stubs
+from osm_expand.engine.growth.stubs import close_stubs
 
 TOWN = np.array([shapely.LineString([(0, 0), (1000, 0)])], dtype=object)
 TOWN_NODES = np.array([[0.0, 0.0], [1000.0, 0.0]])

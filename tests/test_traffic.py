@@ -11,16 +11,44 @@ import shapely
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from osm_expand.engine.neighbours import (NeighbourKind, NeighbourOptions, initial_pairs,
-                                          neighbour_cities, neighbour_pairs)
-from osm_expand.engine.trade import (TradeOptions, add_route, assign_increase, extend_segments,
-                                     initial_trade_state, new_trade_state, pair_capacity, redistribute,
-                                     remap_segments, route_between, segment_capacity, segments_with_room,
-                                     trade_report, trade_year)
-from osm_expand.engine.trips import (TripOptions, extend_trip_state, new_trip_state, remap_trip_state,
-                                     residents_from_blocks, residents_from_lots, shortest_route,
-                                     step_trips, travel_costs, trip_graph, update_status, update_widths,
-                                     width_for_traffic)
+from osm_expand.engine.traffic.neighbours import (
+    NeighbourKind,
+    NeighbourOptions,
+    initial_pairs,
+    neighbour_cities,
+    neighbour_pairs,
+)
+from osm_expand.engine.traffic.trade import (
+    TradeOptions,
+    add_route,
+    assign_increase,
+    extend_segments,
+    initial_trade_state,
+    new_trade_state,
+    pair_capacity,
+    redistribute,
+    remap_segments,
+    route_between,
+    segment_capacity,
+    segments_with_room,
+    trade_report,
+    trade_year,
+)
+from osm_expand.engine.traffic.trips import (
+    TripOptions,
+    extend_trip_state,
+    new_trip_state,
+    remap_trip_state,
+    residents_from_blocks,
+    residents_from_lots,
+    shortest_route,
+    step_trips,
+    travel_costs,
+    trip_graph,
+    update_status,
+    update_widths,
+    width_for_traffic,
+)
 from osm_expand.errors import InputError
 
 BOX = (-1000.0, -1000.0, 1000.0, 1000.0)

@@ -25,7 +25,7 @@ from typing import TYPE_CHECKING, cast
 import numpy as np
 
 from osm_expand.blocks import FaceMemo, blocks
-from osm_expand.engine.growth import (
+from osm_expand.engine.growth.minor_streets import (
     STUB_REACH,
     GrowthMemory,
     GrowthOptions,
@@ -33,18 +33,18 @@ from osm_expand.engine.growth import (
     grow_district,
     grow_street_pattern,
 )
+from osm_expand.engine.growth.nuclei import Nucleus, candidate_points, find_nuclei, new_junction_nuclei
 from osm_expand.engine.history import GROWTH_PATTERNS, Era, History, YearValues
-from osm_expand.engine.nuclei import Nucleus, candidate_points, find_nuclei, new_junction_nuclei
 from osm_expand.engine.planarity import without_touching
-from osm_expand.engine.roads import RoadMemory, RoadsYear, major_roads_year
+from osm_expand.engine.roads.major_roads import RoadMemory, RoadsYear, major_roads_year
 from osm_expand.engine.segments import SegmentTable
-from osm_expand.engine.traffic import TrafficMemory, TrafficYear, start_traffic, traffic_year
+from osm_expand.engine.traffic.simulation import TrafficMemory, TrafficYear, start_traffic, traffic_year
 from osm_expand.model import City, Origin
 from synth.growth import GrowthPattern
 from synth.patterns import AngleSpace, PatternOptions
 
 if TYPE_CHECKING:
-    from osm_expand.engine.buildout import BuildoutYear
+    from osm_expand.engine.buildout.year import BuildoutYear
 
 #: Builds an era's district pattern (``example``, ``walk``, ``colonisation``) from its options.
 PatternFactory = Callable[[str, object], GrowthPattern]

@@ -18,7 +18,7 @@ MAJOR: tuple[str, ...] = ("motorway", "trunk", "primary", "secondary")
 #: traffic, lattice and widths (003's major roads, on which trade routes run).
 MAJOR_AND_LINKS: frozenset[str] = frozenset({*MAJOR, *(f"{c}_link" for c in MAJOR)})
 #: The classes a trade route may run on (003: "entirely over major roads"; here tertiary too), with their
-#: ``_link`` ramps (:mod:`osm_expand.engine.traffic`).
+#: ``_link`` ramps (:mod:`osm_expand.engine.traffic.simulation`).
 TRADE: frozenset[str] = frozenset({*MAJOR_AND_LINKS, "tertiary", "tertiary_link"})
 #: Motorways and trunk roads with their ramps: they have no junctions for a new street to meet, so they
 #: cut the land (a district's land lies on one side of them, :mod:`osm_expand.sites`), and no piece of

@@ -35,13 +35,13 @@ wrong``).
   too, so ``traffic`` is its own function, in 003's traffic units
   (``O2·width`` is a segment's capacity) per pair of neighbouring cities,
   and the city's t(t) = b·traffic(t) with b drawn by :meth:`History.traffic_factor`
-  (:func:`osm_expand.engine.trade.draw_traffic_factor`). 003's Algorithm 2
+  (:func:`osm_expand.engine.traffic.trade.draw_traffic_factor`). 003's Algorithm 2
   needs only the yearly increase t(t) − t(t−1) (trade routes start empty,
   003 §3.4.2), so the bundled functions are rates: 000 §4.2.8's own traffic
   drift, (E[r] − c2)·c3 = (0.5 − 0.3)·50 = 10 units a year, is the modern one.
 - *A(t) is a width.* 003 §3.4.2 calls A(t) both "recommended traffic
   capacity" and "the recommended width" that new major roads are widened to;
-  :func:`osm_expand.engine.majorroads.plan_major_road` takes a width, so A(t)
+  :func:`osm_expand.engine.roads.road_types.plan_major_road` takes a width, so A(t)
   is in metres (its capacity is O2·A(t)).
 - *The clock.* ``anchor = "map"``: the history's years are calendar years
   and a run begins in the map's year (in ``start`` when the map has no year
@@ -86,21 +86,21 @@ from typing import Any
 
 import numpy as np
 
-from osm_expand.engine.economy import EconomyOptions, TypeEconomy
-from osm_expand.engine.footprints import FootprintOptions
-from osm_expand.engine.landuse import (
+from osm_expand.engine.buildout.economy import EconomyOptions, TypeEconomy
+from osm_expand.engine.buildout.footprints import FootprintOptions
+from osm_expand.engine.buildout.landuse import (
     LandUseOptions,
     LandUseType,
 )
-from osm_expand.engine.lattice import BuiltUpOptions, EdgeCosts, GraphOptions, LatticeOptions
-from osm_expand.engine.lots import LandUse, LotOptions
-from osm_expand.engine.majorroads import MajorRoadOptions, RoadType
-from osm_expand.engine.neighbours import NeighbourOptions
-from osm_expand.engine.nuclei import NucleiOptions
-from osm_expand.engine.routing import RoutingOptions
-from osm_expand.engine.timefn import TimeFunction
-from osm_expand.engine.trade import TradeOptions, draw_traffic_factor
-from osm_expand.engine.trips import TripOptions
+from osm_expand.engine.buildout.lots import LandUse, LotOptions
+from osm_expand.engine.growth.nuclei import NucleiOptions
+from osm_expand.engine.history.timefn import TimeFunction
+from osm_expand.engine.roads.lattice import BuiltUpOptions, EdgeCosts, GraphOptions, LatticeOptions
+from osm_expand.engine.roads.road_types import MajorRoadOptions, RoadType
+from osm_expand.engine.roads.routing import RoutingOptions
+from osm_expand.engine.traffic.neighbours import NeighbourOptions
+from osm_expand.engine.traffic.trade import TradeOptions, draw_traffic_factor
+from osm_expand.engine.traffic.trips import TripOptions
 from osm_expand.errors import HistoryError
 from osm_expand.growth_patterns import era_defaults
 from synth.colonisation import ColonisationOptions
@@ -131,7 +131,7 @@ DEFAULT_GROWTH = 0.01
 #: Traffic rise per year (units per pair of neighbouring cities) when ``traffic`` is not given:
 #: 000 §4.2.8's drift Δt = (r − c2)·c3 with r ~ U(0, 1), c2 = 0.3, c3 = 50, i.e. 10 a year on average.
 DEFAULT_TRAFFIC_RATE = 10.0
-#: avgprice(t) when not given: the level the bundled margins assume (:mod:`osm_expand.engine.economy`:
+#: avgprice(t) when not given: the level the bundled margins assume (:mod:`osm_expand.engine.buildout.economy`:
 #: avgprice · margin is each type's floor-area ratio at 100).
 DEFAULT_AVGPRICE = 100.0
 
@@ -268,12 +268,12 @@ class YearValues:
     road_width : float
         A(t), metres: the width of new major roads and of widened extendible segments (003 §3.4.2).
     costs : EdgeCosts
-        C1…C6 (003 §3.4.2) for :func:`~osm_expand.engine.lattice.pathfinding_graph`.
+        C1…C6 (003 §3.4.2) for :func:`~osm_expand.engine.roads.lattice.pathfinding_graph`.
     routing : RoutingOptions
         The turn penalty P(t, α) (003 Fig. 6) with the history's routing options.
     o1, o2, o3, o4 : float
         003's time-independent coefficients: slope weight, capacity per metre
-        of width, length and cost weights of WINNER (:func:`~osm_expand.engine.routing.choose`).
+        of width, length and cost weights of WINNER (:func:`~osm_expand.engine.roads.routing.choose`).
     land_use_update : bool
         Whether the land-use update (002 §4.1, Table 3) runs this year: in
         the era's first year and every ``land_use_interval`` years after.
@@ -345,7 +345,7 @@ class History:
         P(t, α)'s centre S_c and width S_w (degrees of α, 180° = straight on)
         and height S_p (cost units; 003 Fig. 6).
     costs : mapping of str to TimeFunction
-        C1…C6 by :class:`~osm_expand.engine.lattice.EdgeCosts` field
+        C1…C6 by :class:`~osm_expand.engine.roads.lattice.EdgeCosts` field
         (major, minor, harbour, built_harbour, bridge, extendible).
     o1, o2, o3, o4 : float
         003's time-independent coefficients.
@@ -466,7 +466,7 @@ class History:
 
         :class:`~synth.patterns.PatternOptions` for a Beneš pattern (grow from
         ⌈streets / ``streets_per_start``⌉ starts ranked by
-        :func:`~osm_expand.engine.nuclei.rank_candidates`; a world-space grid's
+        :func:`~osm_expand.engine.growth.nuclei.rank_candidates`; a world-space grid's
         ``angle_offset_deg`` is the loop's to set from the town's bearings),
         :class:`~synth.patches.PatchOptions` for ``example``,
         :class:`~synth.walk.WalkOptions` for ``walk``,

@@ -26,8 +26,17 @@ from pathlib import Path
 from types import MappingProxyType
 from typing import Any, NoReturn
 
-from osm_expand.engine.economy import DEFAULT_ECONOMY, TypeEconomy
-from osm_expand.engine.footprints import DEFAULT_FOOTPRINT_OPTIONS, FootprintOptions
+from osm_expand.engine.buildout.economy import DEFAULT_ECONOMY, TypeEconomy
+from osm_expand.engine.buildout.footprints import DEFAULT_FOOTPRINT_OPTIONS, FootprintOptions
+from osm_expand.engine.buildout.landuse import (
+    DEFAULT_TYPES,
+    Attribute,
+    LandUseType,
+    Valuation,
+    ValuationTerm,
+    types_from_config,
+)
+from osm_expand.engine.buildout.lots import DEFAULT_LOT_OPTIONS, LandUse, LotOptions
 from osm_expand.engine.history.model import (
     DEFAULT_AVGPRICE,
     DEFAULT_GROWTH,
@@ -43,21 +52,12 @@ from osm_expand.engine.history.model import (
     KernelOptions,
     PatternSettings,
 )
-from osm_expand.engine.landuse import (
-    DEFAULT_TYPES,
-    Attribute,
-    LandUseType,
-    Valuation,
-    ValuationTerm,
-    types_from_config,
-)
-from osm_expand.engine.lattice import EdgeCosts, LatticeOptions
-from osm_expand.engine.lots import DEFAULT_LOT_OPTIONS, LandUse, LotOptions
-from osm_expand.engine.majorroads import RoadType
-from osm_expand.engine.routing import RoutingOptions, choose
-from osm_expand.engine.timefn import TimeFunction
-from osm_expand.engine.trade import TradeOptions
-from osm_expand.engine.trips import TripOptions
+from osm_expand.engine.history.timefn import TimeFunction
+from osm_expand.engine.roads.lattice import EdgeCosts, LatticeOptions
+from osm_expand.engine.roads.road_types import RoadType
+from osm_expand.engine.roads.routing import RoutingOptions, choose
+from osm_expand.engine.traffic.trade import TradeOptions
+from osm_expand.engine.traffic.trips import TripOptions
 from osm_expand.errors import HistoryError, InputError
 from osm_expand.model.enums import parse_enum
 from osm_expand.model.options import field_default

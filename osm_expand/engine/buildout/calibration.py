@@ -1,6 +1,6 @@
 """What the town itself says about its land use, lots and buildings (issue 11's calibration).
 
-The build-out (:mod:`osm_expand.engine.buildout`) fills new blocks with lots
+The build-out (:mod:`osm_expand.engine.buildout.year`) fills new blocks with lots
 and buildings that should look like the town's own. Before the first year it
 reads, from the town as mapped (never changing it):
 
@@ -8,7 +8,7 @@ reads, from the town as mapped (never changing it):
   rotated rectangles, which is what the ``<urbanenvironment>`` XML draws and
   what no generated building may overlap.
 - **Sizes** (002 §5.1 ``maxarea_t``, 004 §4.3.4): footprint area, frontage
-  and depth (:func:`~osm_expand.engine.footprints.calibrate_sizes`). The
+  and depth (:func:`~osm_expand.engine.buildout.footprints.calibrate_sizes`). The
   town's footprint-area distribution is then shared out among the lot
   classes that build (:func:`size_bands`): each class draws its buildings
   from a band of the town's area quantiles, as wide as its share of the
@@ -20,10 +20,10 @@ reads, from the town as mapped (never changing it):
   distribution and left Krems' median 12–36 % high); the build-out restacks
   the bands each year by the buildings it has and is about to build. Lot
   options are sized to hold these buildings
-  (:func:`~osm_expand.engine.footprints.calibrated_lot_options`).
+  (:func:`~osm_expand.engine.buildout.footprints.calibrated_lot_options`).
 - **Heights** (002 §5.2, 004 §4.3.4): storey height and height distribution
   from the ``height`` / ``building:levels`` *tags*
-  (:func:`~osm_expand.engine.economy.calibrate_heights`); without tags the
+  (:func:`~osm_expand.engine.buildout.economy.calibrate_heights`); without tags the
   documented defaults (3 m storeys, 2–3–4 floors). ``Building.height`` is
   not read: the pipeline fills it for every building from the same tags or
   the town's typical height, which would make untagged towns look tagged.
@@ -35,7 +35,7 @@ reads, from the town as mapped (never changing it):
   the streets' nodes.
 - **Land use** (002 §4; issue: "calibrate from OSM"): the town's ``landuse=*``
   and ``leisure=*`` polygons give its own shares and the goals
-  (:func:`~osm_expand.engine.landuse.calibrate_landuse`, clipped to the town:
+  (:func:`~osm_expand.engine.buildout.landuse.calibrate_landuse`, clipped to the town:
   its buildings buffered by ``town_buffer``).
 - **Town units**: the land-use simulation needs the old town as lots (the
   neighbourhood of new lots, the city's shares, and the comparison with the
@@ -60,10 +60,9 @@ import shapely
 from numpy.typing import NDArray
 from scipy import ndimage
 
-from osm_expand.engine.economy import HeightCalibration, calibrate_heights
-from osm_expand.engine.footprints import FootprintOptions, SizeTargets, calibrate_sizes, calibrated_lot_options
-from osm_expand.engine.history import History
-from osm_expand.engine.landuse import (
+from osm_expand.engine.buildout.economy import HeightCalibration, calibrate_heights
+from osm_expand.engine.buildout.footprints import FootprintOptions, SizeTargets, calibrate_sizes, calibrated_lot_options
+from osm_expand.engine.buildout.landuse import (
     UNASSIGNED,
     LandUseCalibration,
     LandUseType,
@@ -71,7 +70,8 @@ from osm_expand.engine.landuse import (
     distance_to,
     types_from_polygons,
 )
-from osm_expand.engine.lots import LandUse, LotOptions, land_use
+from osm_expand.engine.buildout.lots import LandUse, LotOptions, land_use
+from osm_expand.engine.history import History
 from osm_expand.errors import InputError
 from osm_expand.land import unbuildable as unbuildable_land
 from osm_expand.model import City, Origin
@@ -309,9 +309,9 @@ def building_shares(types: Sequence[LandUseType], lot_options: Mapping[LandUse, 
 
     Examples
     --------
-    >>> from osm_expand.engine.landuse import DEFAULT_TYPES
-    >>> from osm_expand.engine.lots import DEFAULT_LOT_OPTIONS
-    >>> from osm_expand.engine.footprints import DEFAULT_FOOTPRINT_OPTIONS
+    >>> from osm_expand.engine.buildout.landuse import DEFAULT_TYPES
+    >>> from osm_expand.engine.buildout.lots import DEFAULT_LOT_OPTIONS
+    >>> from osm_expand.engine.buildout.footprints import DEFAULT_FOOTPRINT_OPTIONS
     >>> shares = building_shares(DEFAULT_TYPES, DEFAULT_LOT_OPTIONS, DEFAULT_FOOTPRINT_OPTIONS)
     >>> {c.value: round(v, 3) for c, v in shares.items()}
     {'residential_low': 0.692, 'residential_high': 0.208, 'commercial': 0.075, 'industrial': 0.025}
@@ -349,7 +349,7 @@ def size_bands(counts: Mapping[LandUse, float], footprint_options: Mapping[LandU
 
     Examples
     --------
-    >>> from osm_expand.engine.footprints import DEFAULT_FOOTPRINT_OPTIONS
+    >>> from osm_expand.engine.buildout.footprints import DEFAULT_FOOTPRINT_OPTIONS
     >>> bands = size_bands({LandUse.INDUSTRIAL: 1, LandUse.RESIDENTIAL_LOW: 3}, DEFAULT_FOOTPRINT_OPTIONS, overlap=0.1)
     >>> bands[LandUse.RESIDENTIAL_LOW].size_band, bands[LandUse.INDUSTRIAL].size_band
     ((0.0, 0.85), (0.65, 1.0))

@@ -134,7 +134,7 @@ def _in_loops(lines: list[np.ndarray], bridges: np.ndarray, town: np.ndarray, to
     culs-de-sac, which suburbs have (dropping those too left Krems'
     european streets more connected than its neighbourhoods: 2-core share
     0.94 against 0.80–0.93). A district needs two joins for
-    the same reason (:attr:`~osm_expand.engine.growth.GrowthOptions.min_joins`).
+    the same reason (:attr:`~osm_expand.engine.growth.minor_streets.GrowthOptions.min_joins`).
     """
     vertices = np.concatenate(lines)
     owner = np.concatenate([np.full(len(xy), k) for k, xy in enumerate(lines)])

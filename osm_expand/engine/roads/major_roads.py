@@ -5,7 +5,7 @@ re-route the shortfall over existing major roads with room, or build a new
 road on the pathfinding graph G′ (the lattice with land, water and bridge
 edges, the built-up area B removed, the streets stitched in) as the era's
 road type — whichever scores less ``O3·length + O4·cost``
-(:func:`osm_expand.engine.routing.choose`). A new road's stretches join the
+(:func:`osm_expand.engine.roads.routing.choose`). A new road's stretches join the
 city as major streets (``primary``; a bypass ``trunk``), origin ``engine``,
 built at once with the width A(t); the streets it runs along become major
 and the extendible ones are widened to A(t). A rebuilding city road
@@ -15,7 +15,7 @@ never demolished.
 The lattice (its rasters and bridges) is built once per run (it covers
 the map's bounds); B and G′'s street part are rebuilt only in a year that
 needs a road, so most years cost nothing here. G′ is implicit
-(:class:`~osm_expand.engine.lattice.ImplicitGraph`): each search makes the
+(:class:`~osm_expand.engine.roads.lattice.ImplicitGraph`): each search makes the
 lattice's edges of the window it needs, and a re-route over major roads
 makes none.
 """
@@ -28,7 +28,8 @@ import numpy as np
 import shapely
 
 from osm_expand.engine.history import History, YearValues
-from osm_expand.engine.lattice import (
+from osm_expand.engine.planarity import without_touching
+from osm_expand.engine.roads.lattice import (
     BuiltUpArea,
     Lattice,
     Raster,
@@ -37,12 +38,11 @@ from osm_expand.engine.lattice import (
     built_up_area,
     implicit_graph,
 )
-from osm_expand.engine.majorroads import RoadType, plan_major_road, propose_route
-from osm_expand.engine.planarity import without_touching
-from osm_expand.engine.routing import Choice, choose, route_over_major_roads
+from osm_expand.engine.roads.road_types import RoadType, plan_major_road, propose_route
+from osm_expand.engine.roads.routing import Choice, choose, route_over_major_roads
 from osm_expand.engine.segments import SegmentTable
-from osm_expand.engine.trade import add_route, route_between, segment_capacity
-from osm_expand.engine.traffic import TrafficMemory, follow, trade_major
+from osm_expand.engine.traffic.simulation import TrafficMemory, follow, trade_major
+from osm_expand.engine.traffic.trade import add_route, route_between, segment_capacity
 from osm_expand.joins import add_streets
 from osm_expand.land import UNBUILDABLE, building_outlines, matches
 from osm_expand.model import City, Origin, Status

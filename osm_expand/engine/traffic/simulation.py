@@ -1,6 +1,6 @@
 """The year's traffic (003 Algorithm 1, TRAFFICSIMULATION; 002 §3.2): trips, trade, status, widths.
 
-- **Trips inside the town** (002 §3.2, :mod:`osm_expand.engine.trips`):
+- **Trips inside the town** (002 §3.2, :mod:`osm_expand.engine.traffic.trips`):
   residents per street (from the lots' people once there are lots, else
   block area × a density, shared by the block's sides), gravity
   destinations, travel times with turn costs; new and changed streets and a
@@ -8,16 +8,16 @@
 - **Status and widths**: a planned street is built when its traffic passes
   the threshold; widths follow traffic after a delay (002).
 - **Trade between neighbouring cities** (003 §3.4, Algorithm 2,
-  :mod:`osm_expand.engine.trade`): the yearly increase t(t) − t(t−1) per
+  :mod:`osm_expand.engine.traffic.trade`): the yearly increase t(t) − t(t−1) per
   pair is distributed over the pair's trade routes by length; pairs that
   fall short are handed to the major-road step
-  (:mod:`osm_expand.engine.roads`), which re-routes them over major roads
+  (:mod:`osm_expand.engine.roads.major_roads`), which re-routes them over major roads
   with room or builds a new road. The trade step runs over *all* pairs
   first and the major roads are built after it (not inside Algorithm 2's
   loop), so the segment table stays fixed during the pass.
 
 Neighbouring cities come from where the real town's major roads leave the
-map (:mod:`osm_expand.engine.neighbours`); for trade routes, tertiary roads
+map (:mod:`osm_expand.engine.traffic.neighbours`); for trade routes, tertiary roads
 and all links count as major roads too (the issue's towns join their exits
 over them). Only pairs that trade by road are simulated: a neighbour
 reached over water (a river or the sea leaving the map) trades by ship,
@@ -30,9 +30,9 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
-from osm_expand.engine.neighbours import Neighbours, initial_pairs, neighbour_cities
 from osm_expand.engine.segments import SegmentTable, segment_pieces
-from osm_expand.engine.trade import (
+from osm_expand.engine.traffic.neighbours import Neighbours, initial_pairs, neighbour_cities
+from osm_expand.engine.traffic.trade import (
     TradeState,
     TradeYear,
     extend_segments,
@@ -42,7 +42,7 @@ from osm_expand.engine.trade import (
     trade_report,
     trade_year,
 )
-from osm_expand.engine.trips import (
+from osm_expand.engine.traffic.trips import (
     TripGraph,
     TripOptions,
     TripState,

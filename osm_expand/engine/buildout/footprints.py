@@ -56,7 +56,7 @@ from typing import cast
 import numpy as np
 import shapely
 
-from osm_expand.engine.lots import DEFAULT_LOT_OPTIONS, LandUse, Lot, LotOptions, land_use
+from osm_expand.engine.buildout.lots import DEFAULT_LOT_OPTIONS, LandUse, Lot, LotOptions, land_use
 from osm_expand.errors import InputError
 
 __all__ = [
@@ -423,7 +423,7 @@ def place_buildings(lots: Sequence[Lot], *, traffic_per_street: Mapping[int, flo
 
     Parameters
     ----------
-    lots : the lots (:func:`osm_expand.engine.lots.subdivide_blocks`).
+    lots : the lots (:func:`osm_expand.engine.buildout.lots.subdivide_blocks`).
     traffic_per_street : traffic per street id (a mapping, or an array
         indexed by id); the building faces the built frontage street with the
         most traffic (ties: the longer frontage, then the smaller id) where

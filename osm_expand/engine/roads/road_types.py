@@ -51,8 +51,8 @@ from enum import StrEnum
 import numpy as np
 import shapely
 
-from osm_expand.engine.lattice import ROAD_KINDS, EdgeKind, ImplicitGraph, PathGraph
-from osm_expand.engine.routing import Route, RoutingOptions, find_route
+from osm_expand.engine.roads.lattice import ROAD_KINDS, EdgeKind, ImplicitGraph, PathGraph
+from osm_expand.engine.roads.routing import Route, RoutingOptions, find_route
 from osm_expand.errors import InputError
 from osm_expand.model.enums import parse_enum
 
@@ -378,7 +378,7 @@ def plan_major_road(graph: PathGraph | ImplicitGraph, route: Route, road_type: R
     graph
         The G′ the route was found on.
     route
-        From :func:`propose_route` (or :func:`osm_expand.engine.routing.find_route`).
+        From :func:`propose_route` (or :func:`osm_expand.engine.roads.routing.find_route`).
     road_type
         :class:`RoadType` of this era.
     width

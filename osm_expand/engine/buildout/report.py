@@ -27,22 +27,22 @@ from typing import TYPE_CHECKING, Any, Protocol
 import numpy as np
 from numpy.typing import NDArray
 
-from osm_expand.engine.landuse import UNASSIGNED, area_shares, rasterise_lots, rasterise_polygons, similarity
-from osm_expand.engine.lots import land_use
+from osm_expand.engine.buildout.landuse import UNASSIGNED, area_shares, rasterise_lots, rasterise_polygons, similarity
+from osm_expand.engine.buildout.lots import land_use
 from osm_expand.errors import InputError
 from osm_expand.model import City, Origin
 
 if TYPE_CHECKING:
-    from osm_expand.engine.calibration import TownCalibration
+    from osm_expand.engine.buildout.calibration import TownCalibration
     from osm_expand.engine.history import History
 
 __all__ = ["BuildoutMemory", "ReportOptions", "buildout_report"]
 
 
 class BuildoutMemory(Protocol):
-    """What the report reads of the build-out's memory (:class:`osm_expand.engine.buildout.BuildoutMemory`).
+    """What the report reads of the build-out's memory (:class:`osm_expand.engine.buildout.year.BuildoutMemory`).
 
-    A protocol, so that this module does not import :mod:`osm_expand.engine.buildout`, which imports it (the
+    A protocol, so that this module does not import :mod:`osm_expand.engine.buildout.year`, which imports it (the
     circle the two modules once closed with an import at the bottom of ``buildout.py``).
     """
 
@@ -88,7 +88,7 @@ def buildout_report(city: City, memory: BuildoutMemory, history: History, *,
     Parameters
     ----------
     city : City
-        The city after the last :func:`~osm_expand.engine.buildout.buildout_year`.
+        The city after the last :func:`~osm_expand.engine.buildout.year.buildout_year`.
     memory : BuildoutMemory
         The memory returned with it.
     history : History

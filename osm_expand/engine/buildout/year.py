@@ -27,17 +27,17 @@ use, lots and buildings). One year:
    split, widened, gone) faces again the streets its edges lie on.
 3. **Types and lots** (002 §4.1, §5.1). A new block's land-use type is the
    one that raises the system value most against the lots around it
-   (:func:`~osm_expand.engine.landuse.choose_types`); a healing block keeps
+   (:func:`~osm_expand.engine.buildout.landuse.choose_types`); a healing block keeps
    the type of its surviving lots. The block is shrunk by half the street
    widths and split recursively by the lot rules of its type's lot class
-   (:func:`~osm_expand.engine.lots.subdivide_blocks`, sizes calibrated on
+   (:func:`~osm_expand.engine.buildout.lots.subdivide_blocks`, sizes calibrated on
    the town); lots without street access are discarded and so are lots a
    street centre line crosses or that reach onto a carriageway (a bridge
    over a block, a wider street overlapping the one the block's edge was
    given to). The lots inherit the block's type.
 4. **Land-use update** (002 §4.1, Table 3) in the years the history says
    (``YearValues.land_use_update``): over the old town's units and all lots
-   (:mod:`osm_expand.engine.calibration`), with this year's traffic. A lot
+   (:mod:`osm_expand.engine.buildout.calibration`), with this year's traffic. A lot
    may only take a type whose lot class's ``min_area``..``max_area`` holds
    its area (a house lot does not become an industrial estate; lots of
    every type keep their class's bounds).
@@ -49,12 +49,12 @@ use, lots and buildings). One year:
    that front a *built* street and whose type builds get the largest
    rectangle facing the built street with the most traffic, within the
    setbacks of their lot class and sized after the town's footprints
-   (:func:`~osm_expand.engine.footprints.place_buildings`); none may touch a
+   (:func:`~osm_expand.engine.buildout.footprints.place_buildings`); none may touch a
    carriageway, a building of the town (its minimum rectangle, as the XML
    draws it) or another generated building. A lot where nothing fits is not
    tried again until its type or its built streets change. Floors and
    height come from 002's economy with 004's centre fall-off
-   (:func:`~osm_expand.engine.economy.lot_economy`). The height scale is
+   (:func:`~osm_expand.engine.buildout.economy.lot_economy`). The height scale is
    fitted every year on the raw floors of all the generated buildings
    standing (each from the year it was built) and this year's together, so
    that the district as a whole keeps the town's tagged (or default) median
@@ -62,17 +62,17 @@ use, lots and buildings). One year:
    place — builds taller (002).
 7. **People** (002 §3.2, §5.2): each lot's residents, jobs and visitors from
    its building's floor space and its land use
-   (:func:`~osm_expand.engine.economy.occupants`): floor space per resident
+   (:func:`~osm_expand.engine.buildout.economy.occupants`): floor space per resident
    or job per type, visitors per m² of park; ``Lot.people`` is their sum,
    which the traffic step's trip model reads. A lot without a building yet
    counts the floor space its land use expects
-   (:func:`~osm_expand.engine.economy.expected_floor_space`; 002 §4: "the
+   (:func:`~osm_expand.engine.buildout.economy.expected_floor_space`; 002 §4: "the
    number of residents per lot depends on the land use value"): otherwise
    no trip would ever start on a planned street, it would never carry the
    traffic that gets it built (002 §3.2), and its lots would wait forever.
 
 What the town itself teaches (sizes, heights, centres, land-use goals and
-the old town's units) is read once by :func:`~osm_expand.engine.calibration.calibrate_town`.
+the old town's units) is read once by :func:`~osm_expand.engine.buildout.calibration.calibrate_town`.
 """
 from __future__ import annotations
 
@@ -85,12 +85,10 @@ import shapely
 from numpy.typing import NDArray
 
 from osm_expand.blocks import blocks as find_blocks
-from osm_expand.engine.buildout_report import buildout_report  # re-exported
-from osm_expand.engine.calibration import CalibrationOptions, TownCalibration, calibrate_town, size_bands
-from osm_expand.engine.economy import HeightScale, expected_floor_space, lot_economy, occupants, substitute
-from osm_expand.engine.footprints import place_buildings
-from osm_expand.engine.history import History, YearValues
-from osm_expand.engine.landuse import (
+from osm_expand.engine.buildout.calibration import CalibrationOptions, TownCalibration, calibrate_town, size_bands
+from osm_expand.engine.buildout.economy import HeightScale, expected_floor_space, lot_economy, occupants, substitute
+from osm_expand.engine.buildout.footprints import place_buildings
+from osm_expand.engine.buildout.landuse import (
     UNASSIGNED,
     LotLayout,
     assign_types,
@@ -103,8 +101,10 @@ from osm_expand.engine.landuse import (
     lot_values,
     update_land_use,
 )
-from osm_expand.engine.lots import NO_STREET, Frontage, LandUse, block_frontage, land_use, subdivide_blocks
-from osm_expand.engine.lots import Lot as EngineLot
+from osm_expand.engine.buildout.lots import NO_STREET, Frontage, LandUse, block_frontage, land_use, subdivide_blocks
+from osm_expand.engine.buildout.lots import Lot as EngineLot
+from osm_expand.engine.buildout.report import buildout_report  # re-exported
+from osm_expand.engine.history import History, YearValues
 from osm_expand.engine.segments import street_width
 from osm_expand.errors import InputError
 from osm_expand.model import Block, Building, City, Lot, Origin, Status
@@ -174,7 +174,7 @@ class BuildoutYear:
 class LotState:
     """What the build-out remembers about one lot beyond the city's :class:`~osm_expand.model.Lot`."""
 
-    lot: EngineLot  #: ring and the street each edge faces (:class:`osm_expand.engine.lots.Lot`)
+    lot: EngineLot  #: ring and the street each edge faces (:class:`osm_expand.engine.buildout.lots.Lot`)
     type: int  #: land-use type index into ``TownCalibration.types``
     year: int  #: year the lot was made
     point: tuple[float, float]  #: a point inside the lot (m): its place for land use and block matching
@@ -271,9 +271,9 @@ def start_buildout(city: City, history: History, rng: np.random.Generator, *,
     -------
     BuildoutMemory
         Town units take the type of the mapped land use they lie in
-        (:func:`~osm_expand.engine.landuse.types_from_polygons`); the others
+        (:func:`~osm_expand.engine.buildout.landuse.types_from_polygons`); the others
         the type that raises the system value most
-        (:func:`~osm_expand.engine.landuse.assign_types`).
+        (:func:`~osm_expand.engine.buildout.landuse.assign_types`).
 
     Raises
     ------
@@ -675,7 +675,7 @@ def _with_near_streets(parts: Sequence[shapely.Polygon], frontage: list[list[Fro
                        streets: _Streets) -> list[list[Frontage]]:
     """Each part's frontage plus the whole centre line of every street whose carriageway reaches into it.
 
-    :func:`~osm_expand.engine.lots.block_frontage` gives each boundary edge to
+    :func:`~osm_expand.engine.buildout.lots.block_frontage` gives each boundary edge to
     the one street nearest it, so where two streets run close (a town street
     and a grown one beside it, a wide road meeting at an acute angle) the
     shrink by the frontage alone leaves land on the other one's carriageway,
@@ -950,7 +950,7 @@ def _build(work: _Year, units: _Units) -> None:
 
 
 def _bands(work: _Year, candidates: Sequence[LandUse], classes: Sequence[LandUse]) -> dict:
-    """Footprint options with this year's size bands (:func:`~osm_expand.engine.calibration.size_bands`).
+    """Footprint options with this year's size bands (:func:`~osm_expand.engine.buildout.calibration.size_bands`).
 
     The bands are stacked by the buildings standing and about to be built,
     per lot class, plus ``band_prior`` buildings in the expected shares, so
@@ -1040,7 +1040,7 @@ def town_people(memory: BuildoutMemory, history: History) -> tuple[NDArray[np.fl
 
     Floor space (footprint × storeys from the tags or the town's median
     height) over the floor space per person of the unit's current type
-    (:func:`~osm_expand.engine.economy.occupants`), plus visitors of parks.
+    (:func:`~osm_expand.engine.buildout.economy.occupants`), plus visitors of parks.
     The trip model reads ``Lot.people`` of the generated lots; the old town
     has no lots, so the loop adds these at each unit's nearest street
     (``TownCalibration.unit_street``).

@@ -2,7 +2,7 @@
 
 Where: the candidate set Z (crossings that have not spawned streets, and
 temporary points on long segments) ranked by the nuclei of growth
-(:mod:`osm_expand.engine.nuclei`, 003 §3.3.2). How: the era's pattern.
+(:mod:`osm_expand.engine.growth.nuclei`, 003 §3.3.2). How: the era's pattern.
 
 - **Street patterns** (000 §4.2.6: ``organic``, ``grid``, ``radial``,
   ``medieval``, ...; :mod:`synth.patterns`) grow this year's number of new
@@ -28,9 +28,9 @@ from dataclasses import dataclass, field
 import numpy as np
 import shapely
 
-from osm_expand.engine.nuclei import Nucleus, candidate_points, rank_candidates
+from osm_expand.engine.growth.nuclei import Nucleus, candidate_points, rank_candidates
+from osm_expand.engine.growth.stubs import close_stubs
 from osm_expand.engine.segments import SegmentTable
-from osm_expand.engine.stubs import close_stubs
 from osm_expand.joins import add_streets, join_growth
 from osm_expand.model import City, Origin, Status, match_points, polyline_length
 from osm_expand.sites import DistanceMaps, SiteOptions, choose_sites, distance_maps, district_region
@@ -102,7 +102,7 @@ def grow_street_pattern(city: City, count: int, options: PatternOptions, nuclei:
     """Grow ``count`` new streets with a street pattern from the best candidates (003 §3.3.2, 000 §4.2.6).
 
     With ``reach`` (m), the year's stubs run on to the street ahead or go
-    (:func:`osm_expand.engine.stubs.close_stubs`): connectedness is the
+    (:func:`osm_expand.engine.growth.stubs.close_stubs`): connectedness is the
     town's whatever the pattern."""
     if count <= 0:
         return city, GrowthYear()
@@ -161,7 +161,7 @@ def _never_closes(options: PatternOptions) -> bool:
     """Whether a pattern's later streets never close a tree it grew: without Snap and Extend (000 §4.2.6;
     ``suburban``) no street ever runs on to another's end, so a tree hung on the town at one point stays a
     comb's tooth for good (Krems' european history: its two suburban eras made 22 of the engine's 26 dead
-    ends on 8 of its 25 km), and it goes (:func:`osm_expand.engine.stubs.close_stubs`' ``loops``). A pattern
+    ends on 8 of its 25 km), and it goes (:func:`osm_expand.engine.growth.stubs.close_stubs`' ``loops``). A pattern
     that snaps or extends closes its trees in later years: dropping them each year starved the grid of
     Krems' Gründerzeit from 15.4 km to 2.9."""
     return not (options.snap_enabled or options.extend_enabled)
@@ -265,7 +265,7 @@ def grow_district(city: City, pattern: GrowthPattern, length: float, density: fl
     raster, which the LEI reads too: joined to a country road in the
     fields, Monaco's second district grew as outlying growth) is built.
     Its stubs are the pattern's: closing them as a street pattern's are
-    (:mod:`osm_expand.engine.stubs`) left north-bayreuth's engine streets
+    (:mod:`osm_expand.engine.growth.stubs`) left north-bayreuth's engine streets
     with 7 % dead ends against its neighbourhoods' 17–41 %.
     """
     area = max(length / max(density, 1e-9), 9.0 * spacing ** 2)

@@ -40,7 +40,7 @@ from scipy.sparse import csr_matrix
 from scipy.sparse.csgraph import dijkstra
 from scipy.spatial import cKDTree
 
-from osm_expand.engine.lattice import ROAD_KINDS, EdgeCosts, EdgeKind, GraphWindow, ImplicitGraph, PathGraph
+from osm_expand.engine.roads.lattice import ROAD_KINDS, EdgeCosts, EdgeKind, GraphWindow, ImplicitGraph, PathGraph
 from osm_expand.errors import InputError
 
 __all__ = ["RoutingOptions", "Route", "turn_penalty", "find_route", "route_over_major_roads", "Choice",
@@ -147,8 +147,8 @@ def find_route(graph: PathGraph | ImplicitGraph, source: int, target: int, *, ki
     Parameters
     ----------
     graph
-        G′ from :func:`osm_expand.engine.lattice.pathfinding_graph`, or an
-        :class:`~osm_expand.engine.lattice.ImplicitGraph` (searched in windows
+        G′ from :func:`osm_expand.engine.roads.lattice.pathfinding_graph`, or an
+        :class:`~osm_expand.engine.roads.lattice.ImplicitGraph` (searched in windows
         that grow until the route is provably the whole map's best, see
         :func:`_implicit_route`).
     source, target
@@ -211,7 +211,7 @@ def _implicit_route(graph: ImplicitGraph, source: int, target: int, kinds: Seque
     """The whole map's best route, searched on G′ over growing windows of the lattice.
 
     Each window holds every edge of G′ between its vertices except those
-    from its ``exits`` (:class:`~osm_expand.engine.lattice.GraphWindow`). A
+    from its ``exits`` (:class:`~osm_expand.engine.roads.lattice.GraphWindow`). A
     route that leaves the window first reaches an exit x at no less than the
     window's plain distance d(x), then needs at least ``|x − t| · c`` more
     (:func:`cheapest_unit_cost`). When no exit has ``d(x) + |x − t| · c``

@@ -58,7 +58,7 @@ nothing over the whole map. A search asks for G′ over a window of the
 lattice (:meth:`ImplicitGraph.window`): exactly the whole G′'s edges between
 the window's vertices, except at its *exits* (vertices near an open side,
 street points whose stitches could reach past it, ends of long bridges that
-cross it), and :func:`osm_expand.engine.routing.find_route` grows the window
+cross it), and :func:`osm_expand.engine.roads.routing.find_route` grows the window
 until no exit can lead to a cheaper route. On Campo Grande (a lattice of
 1118 × 532 vertices) the whole G′ had 134 million adjacency entries; a
 window holds the corridor a route can use.
@@ -1552,7 +1552,7 @@ class ImplicitGraph:
 
     It answers what the major-road step asks of G′ (vertex numbering, street
     points, which segments are extendible, the rasters) without any table
-    over the whole map; :func:`osm_expand.engine.routing.find_route` searches
+    over the whole map; :func:`osm_expand.engine.roads.routing.find_route` searches
     it in growing windows until the result is provably the whole map's.
     Vertex numbering is the whole map's G′: lattice vertices, street nodes,
     split points.
