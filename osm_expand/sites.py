@@ -42,7 +42,8 @@ to the town.
 """
 from __future__ import annotations
 
-from collections.abc import Iterator
+import weakref
+from collections.abc import Callable, Hashable, Iterator
 from dataclasses import dataclass
 
 import numpy as np
@@ -158,7 +159,7 @@ def distance_maps(city: City, opts: SiteOptions | None = None, *, margin: float 
     lines = net.street_lines()
     land = city.land if city.land is not None else read_land(city)
     city_mask = _built_up(city, land, xs, ys) & ~water
-    outside = np.zeros_like(water) if beyond_bounds else ~_raster(city.bounds_polygon, xs, ys)
+    outside = np.zeros_like(water) if beyond_bounds else ~_raster(city.bounds_polygon, xs, ys, remember=False)
     if city_mask.any():
         city_cells, nearest = distance_transform_edt(~city_mask, return_indices=True)
         city_distance, nearest = city_cells * cell, nearest.astype(np.int32)
@@ -198,28 +199,48 @@ def _cell_centres(origin: np.ndarray, cell: float, shape: tuple[int, int]) -> tu
     return np.meshgrid(origin[0] + (np.arange(nx) + 0.5) * cell, origin[1] + (np.arange(ny) + 0.5) * cell)
 
 
-def _raster(geom, xs: np.ndarray, ys: np.ndarray) -> np.ndarray:
-    """Cells whose centre lies in ``geom``, rasterised by PIL's polygon filler (scan lines, in C)."""
+def _raster(geom, xs: np.ndarray, ys: np.ndarray, *, remember: bool = True) -> np.ndarray:
+    """Cells whose centre lies in ``geom``, rasterised by PIL's polygon filler (scan lines, in C).
+    ``remember``: ``geom`` is the model's, asked for again next year (:func:`_remembered`)."""
     if geom is None or geom.is_empty:
         return np.zeros(xs.shape, dtype=bool)
-    return _fill(shapely.get_parts(shapely.get_parts(geom)), xs, ys)
+    def outline() -> tuple[_Outline, ...]:
+        return (_outline(shapely.get_parts(shapely.get_parts(geom))),)
+    return _drawn(_remembered(geom, None, outline) if remember else outline(), xs, ys)
 
 
-def _fill(parts: np.ndarray, xs: np.ndarray, ys: np.ndarray) -> np.ndarray:
-    """:func:`_raster` of the polygons among ``parts`` (an array of geometries), drawn in their order."""
+@dataclass(frozen=True)
+class _Outline:
+    """Polygons' rings ready to draw: what does not depend on the raster, read from the shapes once."""
+
+    coords: np.ndarray  #: (M, 2) every ring's points, ring after ring, metres
+    ends: list[int]  #: where each ring ends in the flat x, y, x, y list of ``coords``
+    fill: list[int]  #: per ring, 1 (an exterior) or 0 (a hole)
+
+
+def _outline(parts: np.ndarray) -> _Outline:
+    """The :class:`_Outline` of the polygons among ``parts`` (an array of geometries), in their order."""
+    rings, fill = _rings(parts)
+    coords, owner = shapely.get_coordinates(rings, return_index=True)
+    ends = 2 * np.cumsum(np.bincount(owner, minlength=len(rings)))
+    return _Outline(coords=coords, ends=ends.tolist(), fill=fill.tolist())
+
+
+def _draw(outline: _Outline, xs: np.ndarray, ys: np.ndarray) -> np.ndarray:
+    """Fill ``outline``'s rings in order on the raster of cell centres ``xs``, ``ys``: each exterior set,
+    each hole cleared. PIL's C filler is called directly (what ``ImageDraw.polygon(xy, fill=v)`` does,
+    without its Python wrapper per ring: Campo Grande's built-up land has 11,000 polygons a year)."""
     from PIL import Image, ImageDraw
 
     ny, nx = xs.shape
     x0, y0 = xs[0, 0], ys[0, 0]
     cell = float(xs[0, 1] - x0) if nx > 1 else float(ys[1, 0] - y0)
     image = Image.new("1", (nx, ny), 0)
-    draw = ImageDraw.Draw(image)
-    rings, fill = _rings(parts)
-    coords, owner = shapely.get_coordinates(rings, return_index=True)
-    px = ((coords - (x0, y0)) / cell).ravel().tolist()  # every ring's pixels in one pass, flat x, y, x, y
-    ends = 2 * np.cumsum(np.bincount(owner, minlength=len(rings)))
-    for start, stop, value in zip([0, *ends[:-1].tolist()], ends.tolist(), fill.tolist()):
-        draw.polygon(px[start:stop], fill=value)
+    draw = ImageDraw.Draw(image).draw
+    ink = [draw.draw_ink(0), draw.draw_ink(1)]
+    px = ((outline.coords - (x0, y0)) / cell).ravel().tolist()  # every ring's pixels in one pass, flat x, y, x, y
+    for start, stop, value in zip([0, *outline.ends[:-1]], outline.ends, outline.fill):
+        draw.draw_polygon(px[start:stop], ink[value], 1)
     return np.asarray(image, dtype=bool)
 
 
@@ -246,13 +267,50 @@ def _raster_each(polygons: np.ndarray, xs: np.ndarray, ys: np.ndarray) -> np.nda
     buffering the town's MultiLineString (which nodes every crossing). A hole
     of one polygon is cleared only where no hole-free polygon covers it.
     """
+    return _drawn(_outlines_each(polygons), xs, ys)
+
+
+def _outlines_each(polygons: np.ndarray) -> tuple[_Outline, ...]:
+    """:func:`_raster_each`'s outlines: the hole-free polygons, then (drawn apart) those with holes."""
     parts = shapely.get_parts(polygons)
     parts = parts[(shapely.get_type_id(parts) == 3) & ~shapely.is_empty(parts)]  # polygons, as _rings keeps
     holed = shapely.get_num_interior_rings(parts) > 0
-    filled = _fill(parts[~holed], xs, ys)
-    if holed.any():
-        filled = filled | _fill(parts[holed], xs, ys)
+    return (_outline(parts[~holed]), _outline(parts[holed])) if holed.any() else (_outline(parts),)
+
+
+def _drawn(outlines: tuple[_Outline, ...], xs: np.ndarray, ys: np.ndarray) -> np.ndarray:
+    """The union of the rasters of ``outlines``, each drawn on its own."""
+    filled = _draw(outlines[0], xs, ys)
+    for more in outlines[1:]:
+        filled = filled | _draw(more, xs, ys)
     return filled
+
+
+#: The outlines of the last few shapes of the model rasterised (:func:`_remembered`).
+_OUTLINES: dict[tuple[int, Hashable], tuple[weakref.ref, tuple[_Outline, ...]]] = {}
+_OUTLINES_KEPT = 8
+
+
+def _remembered(source: object, tag: Hashable, make: Callable[[], tuple[_Outline, ...]]) -> tuple[_Outline, ...]:
+    """``make()``, the outlines of ``tag`` of ``source``, read again only for another object.
+
+    ``source`` is a shape or object of the model that never changes once made
+    (the :class:`~osm_expand.model.land.Land`, the water's union): the engine
+    rasterises the same land every year, on a raster whose cell follows the
+    district's size, and the rings do not change with the raster (reading
+    them was half of :func:`distance_maps` on Campo Grande). ``source`` is held
+    by weak reference: a new object at a dead one's address is not taken for it.
+    """
+    key = (id(source), tag)
+    hit = _OUTLINES.get(key)
+    if hit is not None and hit[0]() is source:
+        _OUTLINES[key] = _OUTLINES.pop(key)  # the most recently used last
+        return hit[1]
+    made = make()
+    if len(_OUTLINES) >= _OUTLINES_KEPT:
+        _OUTLINES.pop(next(iter(_OUTLINES)))
+    _OUTLINES[key] = (weakref.ref(source), made)
+    return made
 
 
 def _distance(mask: np.ndarray, cell: float) -> np.ndarray:

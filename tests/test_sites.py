@@ -204,3 +204,27 @@ def test_the_raster_fills_polygons_and_clears_their_holes(discs):
     rings = shapely.MultiLineString([r for p in polys for r in (p.exterior, *p.interiors)])
     clear = shapely.distance(rings, shapely.points(xs, ys)) > 8.0
     assert np.array_equal(filled[clear], inside[clear])
+
+
+def test_remembered_outlines_give_the_rasters_read_afresh():
+    """The land's and water's rings are read once and kept (:func:`osm_expand.sites._remembered`):
+    the maps of a town asked again, on another cell, equal those made with nothing remembered,
+    and a new object at a dead one's address is read afresh."""
+    from osm_expand import sites
+
+    city = prepare(load(FIXTURES / "krems.osm.gz"))
+    fields = ("water", "city", "outside", "unbuildable", "water_distance", "city_distance", "free_radius",
+              "nearest_city", "corridor", "cost")
+    for cell in (10.0, 23.0, 10.0):
+        sites._OUTLINES.clear()
+        fresh = distance_maps(city, SiteOptions(cell=cell), margin=500.0)
+        again = distance_maps(city, SiteOptions(cell=cell), margin=500.0)  # every outline from the memo
+        assert sites._OUTLINES
+        for name in fields:
+            assert np.array_equal(getattr(fresh, name), getattr(again, name)), name
+    xs, ys = sites._cell_centres(np.array([0.0, 0.0]), 1.0, (20, 20))
+    first = sites._raster(shapely.box(2, 2, 5, 5), xs, ys)
+    second = sites._raster(shapely.box(10, 10, 15, 15), xs, ys)  # the first box is gone: its id may come back
+    assert np.array_equal(first, sites._raster(shapely.box(2, 2, 5, 5), xs, ys, remember=False))
+    assert np.array_equal(second, sites._raster(shapely.box(10, 10, 15, 15), xs, ys, remember=False))
+    assert not (first & second).any()
