@@ -97,6 +97,22 @@ def test_what_the_net_keeps_has_no_touching_pair(segments):
     assert len(kept.network.streets) + dropped == len(c.network.streets)
 
 
+@settings(max_examples=60, deadline=None)
+@given(st.lists(st.tuples(st.floats(0, 200), st.floats(0, 200), st.floats(0, 200), st.floats(0, 200), st.booleans()),
+                min_size=2, max_size=12))
+def test_probing_some_streets_finds_their_pairs_among_all(segments):
+    """Only segments near the probed ones are searched: the pairs are those of probing every street
+    that have a probed street, the probed one first (of two probed streets, the lower index first)."""
+    rows = [(x0, y0, x1, y1, p) for x0, y0, x1, y1, p in segments if np.hypot(x1 - x0, y1 - y0) > 1.0]
+    if len(rows) < 2:
+        return
+    c = city([[(x0, y0), (x1, y1)] for x0, y0, x1, y1, _ in rows], [NEW] * len(rows))
+    probe = np.resize(np.array([p for *_, p in rows], dtype=bool), len(c.network.streets))
+    every = touching_pairs(c, np.ones(len(c.network.streets), dtype=bool)).tolist()
+    want = sorted({(a, b) if probe[a] else (b, a) for a, b in every if probe[a] or probe[b]})
+    assert sorted(map(tuple, touching_pairs(c, probe).tolist())) == want
+
+
 def written_crossings(c: City) -> list[tuple[int, int]]:
     """Street pairs that touch away from a shared node in the written file (the referee's reading,
     independent of the engine's code): coordinates to the millimetre, shared ends within 1 cm."""

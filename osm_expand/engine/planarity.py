@@ -55,8 +55,14 @@ def touching_pairs(city: City, probe: np.ndarray) -> np.ndarray:
     ends = np.round(net.xy, DECIMALS)[uv]  # (E, 2, 2)
     lines = shapely.linestrings(ends)
     mine = np.flatnonzero(probe[owner])
-    left, right = shapely.STRtree(lines).query(lines[mine], predicate="intersects")
-    left = mine[left]
+    if not len(mine):
+        return np.zeros((0, 2), dtype=np.int64)
+    # only segments whose box meets the probed segments' box can touch them: the tree holds those
+    # (a year's new streets are one district; the town's 50,000 segments were treed every year)
+    lo, hi = ends[mine].min(axis=(0, 1)), ends[mine].max(axis=(0, 1))
+    near = np.flatnonzero((ends.min(axis=1) <= hi).all(axis=1) & (ends.max(axis=1) >= lo).all(axis=1))
+    left, right = shapely.STRtree(lines[near]).query(lines[mine], predicate="intersects")
+    left, right = mine[left], near[right]
     a, b = owner[left], owner[right]
     layers: dict = {}
     layer = np.array([layers.setdefault(s.layer_key, len(layers)) for s in net.streets], dtype=np.int64)
