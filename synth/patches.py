@@ -174,7 +174,7 @@ class ExamplePatches:
 
     def grow(self, city: City, region: shapely.Geometry, rng: np.random.Generator) -> Growth:
         opts, spacing = self.options, self.example.spacing
-        source = _source(city, self.example)
+        source = self._source(city)
         old = streets_near(city.network, region.buffer(opts.tee_reach * spacing + 1.0))
         old_geom = shapely.MultiLineString(old) if old else shapely.MultiLineString()
         occupied = city.occupied_within(region.buffer(2.0 * opts.tee_reach * spacing + 50.0))
@@ -184,7 +184,7 @@ class ExamplePatches:
         size = max(opts.cell_size * spacing, float(np.sqrt(free.area / opts.cells)))
         centres = _centres(free, old_geom, size)
         cells = _cells(free, centres)
-        everything = _source(city, self.example, everything=True)
+        everything = self._source(city, everything=True)
         radius = float(np.sqrt(free.area / np.pi))
         around = _neighbourhood_points(everything, opts.density_discs, radius, rng)
         target = float(np.median(_density(everything, around, radius))) * float(free.area)
@@ -210,6 +210,17 @@ class ExamplePatches:
                              "seam_links": links, "tees": tees,
                              "target_dead_end_share": None if aim is None else round(aim.dead_end_share, 3),
                              "target_two_core_share": None if aim is None else round(aim.two_core_share, 3)})
+
+    def _source(self, city: City, everything: bool = False) -> _Source:
+        """:func:`_source` of ``city``, kept for the next district grown on the same network (the engine
+        tries up to five sites a year on one city, and reading the town's streets was 5 % of a try)."""
+        key = ("source", everything)
+        hit = self.cache.get(key)
+        if hit is not None and hit[0] is city.network:
+            return hit[1]
+        made = _source(city, self.example, everything=everything)
+        self.cache[key] = (city.network, made)
+        return made
 
     def _aim(self, source: _Source, centres: np.ndarray, radius: float, town: StreetNetwork) -> _Aim | None:
         """The median dead-end and 2-core shares of the town's neighbourhoods around ``centres`` (None

@@ -127,3 +127,29 @@ def test_a_tee_is_taken_back_for_a_cul_de_sac_while_the_district_has_too_few():
     assert len(enough.streets) == len(net.streets)  # no dead end wanted
     looped = _more_dead_ends(net, tees, far, far, spacing, PatchOptions(), _Aim(0.25, 0.99))
     assert len(looped.streets) == len(net.streets)  # the 2-core may not lose 120 m
+
+
+def test_the_towns_streets_kept_between_districts_are_those_read_afresh():
+    """ExamplePatches keeps the town's copyable streets for the next district on the same network
+    (the engine tries several sites a year): the kept ones equal a fresh reading, and a district
+    grown from them is the one grown by a new object with the same random state."""
+    from osm_expand.growth_patterns import measure_in_windows
+    from synth.patches import ExamplePatches, _source
+
+    grown = district("krems.osm.gz", 0)
+    city = grown.city
+    pattern = ExamplePatches(grown.learned.example, measure=measure_in_windows)
+    for everything in (False, True):
+        kept, fresh = pattern._source(city, everything), _source(city, pattern.example, everything=everything)
+        assert pattern._source(city, everything) is kept
+        assert shapely.equals_exact(kept.lines, fresh.lines, 0).all() and kept.highway == fresh.highway
+        assert np.array_equal(kept.level, fresh.level) and np.array_equal(kept.junctions, fresh.junctions)
+    region = shapely.Point(city.network.xy[city.network.used_nodes()].mean(axis=0)).buffer(400.0)
+    pattern.grow(city, region, np.random.default_rng(3))  # ranks the town's patches for this size
+    again = pattern.grow(city, region, np.random.default_rng(3))  # from what it kept
+    other = ExamplePatches(grown.learned.example, measure=measure_in_windows)
+    other.cache.update({k: v for k, v in pattern.cache.items() if not (isinstance(k, tuple) and k[0] == "source")})
+    fresh_grow = other.grow(city, region, np.random.default_rng(3))  # the same but for the kept streets
+    assert len(again.streets) == len(fresh_grow.streets) > 0
+    for a, b in zip(again.streets, fresh_grow.streets):
+        assert np.array_equal(a.xy, b.xy)
