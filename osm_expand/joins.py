@@ -84,38 +84,6 @@ def join_growth(city: City, streets: Sequence, *, spacing: float, origin: Origin
                         cross_taken=cross_taken)
 
 
-def within_reach(city: City, lines: Sequence[np.ndarray], *, spacing: float) -> bool:
-    """Whether :func:`join_growth` could join streets along ``lines`` to the town at all.
-
-    Every join is on a town (source) street: a node the new streets share
-    with it, a tee on it, or a joining street to it at most ``2 * spacing``
-    long (:func:`join_growth`'s reach). So when no town street comes within
-    that reach of ``lines`` (with a further ``spacing`` to spare for the
-    nodes merged on the way in), the join finds no place, and a caller
-    that keeps only a joined district need not run it: the engine's late
-    years on Campo Grande tried four such districts a year, beside its
-    earlier engine districts, at 0.1 s of CPU each.
-
-    Parameters
-    ----------
-    city : City
-        The town before the new streets.
-    lines : sequence of (n, 2) float arrays
-        The new streets, metres.
-    spacing : float
-        The town's junction spacing (m), as given to :func:`join_growth`.
-    """
-    net = city.network
-    source = np.fromiter((s.origin == Origin.SOURCE for s in net.streets), dtype=bool, count=len(net.streets))
-    if not len(lines) or not source.any():
-        return False
-    town = shapely.STRtree(net.street_lines()[source])
-    sizes = [len(xy) for xy in lines]
-    new = shapely.linestrings(np.concatenate([np.asarray(xy, dtype=float) for xy in lines]),
-                              indices=np.repeat(np.arange(len(lines)), sizes))
-    return bool(len(town.query(new, predicate="dwithin", distance=3.0 * spacing)[0]))
-
-
 def add_streets(city: City, lines: Sequence[np.ndarray], attrs: Sequence[dict]) -> City:
     """The city with new streets along ``lines``.
 

@@ -31,7 +31,7 @@ import shapely
 from osm_expand.engine.growth.nuclei import Nucleus, candidate_points, rank_candidates
 from osm_expand.engine.growth.stubs import close_stubs
 from osm_expand.engine.segments import SegmentTable
-from osm_expand.joins import add_streets, join_growth, within_reach
+from osm_expand.joins import add_streets, join_growth
 from osm_expand.model import City, Origin, Status, match_points, polyline_length
 from osm_expand.sites import DistanceMaps, SiteOptions, choose_sites, distance_maps, district_region
 from synth.growth import GrowthPattern
@@ -284,8 +284,6 @@ def grow_district(city: City, pattern: GrowthPattern, length: float, density: fl
         growth = pattern.grow(city, district_region(city, sites[k], bounds=bounds), rng)
         if not growth.streets:
             continue
-        if options.min_joins > 0 and not within_reach(city, [s.xy for s in growth.streets], spacing=spacing):
-            continue  # no town street in the join's reach: it would find no place (the same answer, sooner)
         grown, joins = join_growth(city, growth.streets, spacing=spacing, origin=Origin.ENGINE, year=year, era=era)
         if (_built_up_distance(maps, joins.at) <= STUB_REACH * spacing).sum() >= options.min_joins:
             new = grown.network.streets[before:]
