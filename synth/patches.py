@@ -60,7 +60,7 @@ import shapely
 import shapely.ops
 from scipy.spatial import cKDTree
 
-from osm_expand.model import City, Origin, StreetNetwork, highways, network_from_lines, polyline_length
+from osm_expand.model import City, Origin, StreetNetwork, chord_bends, highways, network_from_lines, polyline_length
 from osm_expand.model.geometry import closest_on_segments, ray_meet
 from osm_expand.model.topology import dangling_chains, segment_degree, without_segments
 from simplify.example import Example
@@ -91,8 +91,20 @@ class PatchOptions:
     seam_gap: float = 1.2
     #: ... if the street turns by at most this much there (degrees).
     seam_turn: float = 75.0
-    #: Spread of the seam's transition probability: gap (in spacings) and turn (degrees).
+    #: Spread of the seam's transition probability: gap (in spacings) and bend (degrees).
     seam_sigma: tuple[float, float] = (0.4, 30.0)
+    #: A seam link bends, chord by chord (:data:`BEND_STEP`), no more sharply than this share of the
+    #: town's own chord bends do: a link between two cut streets that do not line up is a zig-zag
+    #: across the seam (Krems seed 0: a third of the district's bends over 45° were seam links). The
+    #: town's 99th percentile (Krems 41°, north-bayreuth 54°, Campo Grande 34°, Monaco 84°, Andorra
+    #: 92°) turns away only the zig-zags; its 90th (8°, 13°, 0.1°, 27°, 26°) turned away most links,
+    #: and the cut streets trimmed instead cost Monaco and Krems their density (1.0: no limit) ...
+    seam_bend_quantile: float = 0.99
+    #: ... or this many degrees where the town's bends are not measured (no ``measure``).
+    seam_bend: float = 20.0
+    #: A cut street whose trimming would leave its junction a corner sharper than this (degrees) is
+    #: the first kept as a cul-de-sac (within the dead-end budget): an L where the town had a T.
+    corner_bend: float = 45.0
     #: A cut end left over runs on this many spacings to meet a street in a tee ...
     tee_reach: float = 0.6
     #: ... meeting it at this angle or more (degrees).
@@ -189,6 +201,7 @@ class ExamplePatches:
         around = _neighbourhood_points(everything, opts.density_discs, radius, rng)
         target = float(np.median(_density(everything, around, radius))) * float(free.area)
         aim = self._aim(everything, around, radius, city.network)
+        bend = self._bend_limit(everything)
         key = round(float(np.log(size)) / 0.05)  # sizes within 5 % share a ranking
         if key not in self.cache:
             self.cache[key] = _candidate_patches(source, size, opts, rng, self.measure)
@@ -196,7 +209,8 @@ class ExamplePatches:
         best = None
         for attempt in range(ATTEMPTS):  # other patches when even every cell filled left too little
             quilt = _Quilt(grid=np.roll(patches, -attempt * len(centres), axis=0))
-            result = _quilt(source, quilt, centres, cells, region, old_geom, target, spacing, opts, occupied, aim)
+            result = _quilt(source, quilt, centres, cells, region, old_geom, target, spacing, opts, occupied, aim,
+                            bend)
             if best is None or _misfit(result[0].total_length(), target) < _misfit(best[0].total_length(), target):
                 best = result
             if result[0].total_length() >= 0.9 * target:
@@ -210,6 +224,19 @@ class ExamplePatches:
                              "seam_links": links, "tees": tees,
                              "target_dead_end_share": None if aim is None else round(aim.dead_end_share, 3),
                              "target_two_core_share": None if aim is None else round(aim.two_core_share, 3)})
+
+    def _bend_limit(self, source: _Source) -> float:
+        """The sharpest bend (degrees per :data:`BEND_STEP` chord) a seam link may make: the town's own
+        ``seam_bend_quantile`` (``seam_bend`` without a ``measure``)."""
+        opts = self.options
+        if self.measure is None or not len(source.lines):
+            return opts.seam_bend
+        if "bend" not in self.cache:
+            lines = [np.asarray(ln.coords) for ln in source.lines]
+            hull = shapely.MultiLineString(lines).convex_hull.buffer(1.0)
+            bends = np.asarray(self.measure(lines)(hull).value("curvature"))
+            self.cache["bend"] = float(np.quantile(bends, opts.seam_bend_quantile)) if len(bends) else opts.seam_bend
+        return self.cache["bend"]
 
     def _aim(self, source: _Source, centres: np.ndarray, radius: float, town: StreetNetwork) -> _Aim | None:
         """The median dead-end and 2-core shares of the town's neighbourhoods around ``centres`` (None
@@ -265,20 +292,21 @@ def _misfit(length: float, target: float) -> float:
 
 def _quilt(source: _Source, quilt: _Quilt, centres: np.ndarray, cells: list, region: shapely.Geometry,
            old: shapely.Geometry, target: float, spacing: float, opts: PatchOptions,
-           occupied: shapely.Geometry, aim: _Aim | None = None) -> tuple[StreetNetwork, int, int, int]:
+           occupied: shapely.Geometry, aim: _Aim | None = None, bend: float = float("inf")
+           ) -> tuple[StreetNetwork, int, int, int]:
     """Fill cells, stitch and trim; fill more while trimming left too little. The network and counts."""
     placed, keep = 0, 1.0
     for _ in range(MAX_FILLS):
         placed = _place(source, quilt.grid, centres, cells, quilt, placed, target / keep, spacing, old, opts)
         stitched = copy.deepcopy(quilt)
-        links = _walk_seams(stitched, spacing, opts, occupied, old)
+        links = _walk_seams(stitched, spacing, opts, occupied, old, bend)
         tees = _tees(stitched, old, spacing, opts, occupied)
         tees += _edge_streets(stitched, region, spacing, opts, occupied, old)
         stitched_net = _network(stitched)
         edge = _outer_edge(region)
         stubs, room = _stub_budget(stitched_net, stitched, aim, old, opts.tee_reach * spacing, edge)
         net = _trim(stitched_net, stitched, edge, opts.keep_out * spacing, keep=stubs, stub=STUB_LENGTH * spacing,
-                    room=room, like=aim.cul_de_sac if aim is not None else 0.0)
+                    room=room, like=aim.cul_de_sac if aim is not None else 0.0, corner_bend=opts.corner_bend)
         net = _keep_joinable(net, old, spacing, opts)
         net = _connect_pieces(net, old, occupied, opts.link_reach * spacing)
         net = _without_scraps(net, opts.min_land * spacing)
@@ -639,8 +667,15 @@ def _lay(board: _Board, quilt: _Quilt, path: np.ndarray, end: int) -> None:
 
 
 def _walk_seams(quilt: _Quilt, spacing: float, opts: PatchOptions, occupied: shapely.Geometry,
-                old: shapely.Geometry) -> int:
-    """Continue cut streets across the seams, most probable transition first; returns the links made."""
+                old: shapely.Geometry, bend: float = float("inf")) -> int:
+    """Continue cut streets across the seams, most probable transition first; returns the links made.
+
+    A transition is judged by how the street bends on its way through the link (:func:`_link_bend`,
+    read chord by chord as the town's streets are), not by the angle between the two cut streets
+    alone: two parallel streets cut side by side have no angle between them, but the link that joins
+    them turns across the seam and back, a zig-zag. Links bending more than ``bend`` degrees are not
+    made; those cut ends run on to a tee, along the edge, or are trimmed.
+    """
     if len(quilt.cut_xy) < 2:
         return 0
     xy, heading = np.array(quilt.cut_xy), np.array(quilt.cut_heading)
@@ -651,14 +686,15 @@ def _walk_seams(quilt: _Quilt, spacing: float, opts: PatchOptions, occupied: sha
         return 0
     gap = np.hypot(*(xy[pairs[:, 1]] - xy[pairs[:, 0]]).T)
     turn = np.degrees(np.arccos(np.clip(-(heading[pairs[:, 0]] * heading[pairs[:, 1]]).sum(axis=1), -1.0, 1.0)))
+    bends = np.array([_link_bend(xy[a], heading[a], xy[b], heading[b]) for a, b in pairs.tolist()])
     sg, st = opts.seam_sigma
-    p = np.exp(-0.5 * (gap / (sg * spacing)) ** 2) * np.exp(-0.5 * (turn / st) ** 2)
+    p = np.exp(-0.5 * (gap / (sg * spacing)) ** 2) * np.exp(-0.5 * (bends / st) ** 2)
     board = _Board(quilt, occupied, old)
     used = np.zeros(len(xy), dtype=bool)
     links = 0
     for k in np.argsort(-p, kind="stable").tolist():
         a, b = pairs[k]
-        if used[a] or used[b] or turn[k] > opts.seam_turn:
+        if used[a] or used[b] or turn[k] > opts.seam_turn or bends[k] > bend:
             continue
         if gap[k] > 1e-6:
             path = _connector(xy[a], heading[a], xy[b], heading[b])
@@ -687,6 +723,21 @@ def _connector(a: np.ndarray, da: np.ndarray, b: np.ndarray, db: np.ndarray) -> 
     pts = (1 - t) ** 3 * a + 3 * (1 - t) ** 2 * t * p1 + 3 * (1 - t) * t ** 2 * p2 + t ** 3 * b
     pts[0], pts[-1] = a, b
     return pts
+
+
+#: Metres of chord over which a street's bends are read (the fidelity yardstick's curvature step,
+#: ``osm_expand.measures.MeasureOptions.curvature_step``).
+BEND_STEP = 20.0
+
+
+def _link_bend(a: np.ndarray, da: np.ndarray, b: np.ndarray, db: np.ndarray) -> float:
+    """The sharpest bend (degrees per :data:`BEND_STEP` chord) of the street that runs into cut end
+    ``a`` (heading ``da`` out of it), through the seam link to ``b`` and on into ``b``'s street: read
+    at the two cut ends and at every point of the link, the streets behind taken straight."""
+    link = _connector(a, da, b, db)
+    path = np.vstack([a - da * BEND_STEP, link, b - db * BEND_STEP])
+    at = BEND_STEP + np.concatenate([[0.0], np.cumsum(np.hypot(*np.diff(link, axis=0).T))])
+    return float(chord_bends(path, at, BEND_STEP).max())
 
 
 def _close(quilt: _Quilt, used: np.ndarray) -> None:
@@ -841,7 +892,8 @@ def _core_length(net: StreetNetwork, anchored: np.ndarray) -> float:
 
 
 def _trim(net: StreetNetwork, quilt: _Quilt, edge: shapely.Geometry, keep_out: float, *, keep: int = 0,
-          stub: float = 0.0, room: float = float("inf"), like: float = 0.0) -> StreetNetwork:
+          stub: float = 0.0, room: float = float("inf"), like: float = 0.0,
+          corner_bend: float = float("inf")) -> StreetNetwork:
     """Cut ends still open are trimmed back to their last junction, except a street of ``keep_out``
     metres or more that leaves the district at the site's ``edge`` (a road out into the country), and
     up to ``keep`` cut streets of ``stub`` metres or more ending inside the district, which stay as
@@ -849,7 +901,10 @@ def _trim(net: StreetNetwork, quilt: _Quilt, edge: shapely.Geometry, keep_out: f
     town's neighbourhoods; a stub left where the edge cut it would stop at the field's margin),
     those nearest ``like`` metres long first (the town's own cul-de-sacs; a district of 30 m nubs has
     the town's dead-end share but not its edge lengths), and ``room`` metres of them at most (the
-    length its 2-core may lose).
+    length its 2-core may lose). Those whose trimming would leave their junction a corner sharper
+    than ``corner_bend`` degrees (a T cut in its arm is an L) stay first: the seams cut the town's
+    tees wherever they fall, and the L-bends left were the district's sharpest (Krems seed 0: 16 of
+    its 28 bends over 45°), where a T with a short arm is what the town has.
 
     A junction whose other streets were all trimmed becomes an end itself and is trimmed in turn:
     only the town's own dead ends stay dead ends.
@@ -865,7 +920,8 @@ def _trim(net: StreetNetwork, quilt: _Quilt, edge: shapely.Geometry, keep_out: f
         drop: set[tuple[int, int]] = set()
         chains = dangling_chains(streets, leaves)
         length = {leaf: _chain_length(net, chain) for leaf, chain in chains.items()}
-        for leaf, chain in sorted(chains.items(), key=lambda c: (abs(length[c[0]] - like), c[0])):
+        corner = {leaf: _leaves_corner(net, streets, chain) > corner_bend for leaf, chain in chains.items()}
+        for leaf, chain in sorted(chains.items(), key=lambda c: (not corner[c[0]], abs(length[c[0]] - like), c[0])):
             out_of_town = shapely.distance(edge, shapely.Point(leaves[leaf])) < ON_EDGE
             if out_of_town and length[leaf] >= keep_out:
                 continue
@@ -881,6 +937,27 @@ def _trim(net: StreetNetwork, quilt: _Quilt, edge: shapely.Geometry, keep_out: f
         after = segment_degree(streets, len(net.xy))
         leaves = {int(n): net.xy[n] for n in np.flatnonzero((after == 1) & (before > 1))}
     return net.replace(streets=streets)
+
+
+def _leaves_corner(net: StreetNetwork, streets: tuple, chain: set[tuple[int, int]]) -> float:
+    """How sharply the streets left at the junction of a dangling ``chain`` turn (degrees) once it is
+    trimmed, when that leaves the junction with two segments; 0 otherwise (a junction still, or none)."""
+    ends = {n for seg in chain for n in seg}
+    around: dict[int, list[int]] = {}
+    for st in streets:
+        for a, b in zip(st.nodes[:-1], st.nodes[1:]):
+            if (min(a, b), max(a, b)) in chain:
+                continue
+            if a in ends:
+                around.setdefault(a, []).append(b)
+            if b in ends:
+                around.setdefault(b, []).append(a)
+    for node, other in around.items():
+        if len(other) == 2:
+            d1, d2 = net.xy[node] - net.xy[other[0]], net.xy[other[1]] - net.xy[node]
+            turn = np.arctan2(d2[1], d2[0]) - np.arctan2(d1[1], d1[0])
+            return float(np.degrees(abs((turn + np.pi) % (2 * np.pi) - np.pi)))
+    return 0.0
 
 
 def _keep_joinable(net: StreetNetwork, old: shapely.Geometry, spacing: float, opts: PatchOptions) -> StreetNetwork:
