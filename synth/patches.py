@@ -93,18 +93,19 @@ class PatchOptions:
     seam_turn: float = 75.0
     #: Spread of the seam's transition probability: gap (in spacings) and bend (degrees).
     seam_sigma: tuple[float, float] = (0.4, 30.0)
-    #: A seam link bends, chord by chord (:data:`BEND_STEP`), no more sharply than this share of the
-    #: town's own chord bends do: a link between two cut streets that do not line up is a zig-zag
-    #: across the seam (Krems seed 0: a third of the district's bends over 45° were seam links). The
-    #: town's 99th percentile (Krems 41°, north-bayreuth 54°, Campo Grande 34°, Monaco 84°, Andorra
-    #: 92°) turns away only the zig-zags; its 90th (8°, 13°, 0.1°, 27°, 26°) turned away most links,
-    #: and the cut streets trimmed instead cost Monaco and Krems their density (1.0: no limit) ...
-    seam_bend_quantile: float = 0.99
+    #: When set, a seam link is judged by how the street bends through it, chord by chord
+    #: (:data:`BEND_STEP`), and bends no more sharply than this share of the town's own chord bends
+    #: do: a link between two cut streets that do not line up is a zig-zag across the seam (Krems seed
+    #: 0: a third of the district's bends over 45° were seam links). Off by default: over seeds 0-4 of
+    #: the five benchmark towns neither the 90th nor the 99th percentile brought the curvature into
+    #: range, and the cut streets trimmed instead cost Monaco and Krems measures (README, issue 20) ...
+    seam_bend_quantile: float | None = None
     #: ... or this many degrees where the town's bends are not measured (no ``measure``).
     seam_bend: float = 20.0
-    #: A cut street whose trimming would leave its junction a corner sharper than this (degrees) is
-    #: the first kept as a cul-de-sac (within the dead-end budget): an L where the town had a T.
-    corner_bend: float = 45.0
+    #: When set, a cut street whose trimming would leave its junction a corner sharper than this
+    #: (degrees) is the first kept as a cul-de-sac (within the dead-end budget): an L where the town
+    #: had a T. Off by default, for the same reason.
+    corner_bend: float | None = None
     #: A cut end left over runs on this many spacings to meet a street in a tee ...
     tee_reach: float = 0.6
     #: ... meeting it at this angle or more (degrees).
@@ -227,8 +228,10 @@ class ExamplePatches:
 
     def _bend_limit(self, source: _Source) -> float:
         """The sharpest bend (degrees per :data:`BEND_STEP` chord) a seam link may make: the town's own
-        ``seam_bend_quantile`` (``seam_bend`` without a ``measure``)."""
+        ``seam_bend_quantile`` (``seam_bend`` without a ``measure``; inf, no limit, when it is None)."""
         opts = self.options
+        if opts.seam_bend_quantile is None:
+            return float("inf")
         if self.measure is None or not len(source.lines):
             return opts.seam_bend
         if "bend" not in self.cache:
@@ -306,7 +309,8 @@ def _quilt(source: _Source, quilt: _Quilt, centres: np.ndarray, cells: list, reg
         edge = _outer_edge(region)
         stubs, room = _stub_budget(stitched_net, stitched, aim, old, opts.tee_reach * spacing, edge)
         net = _trim(stitched_net, stitched, edge, opts.keep_out * spacing, keep=stubs, stub=STUB_LENGTH * spacing,
-                    room=room, like=aim.cul_de_sac if aim is not None else 0.0, corner_bend=opts.corner_bend)
+                    room=room, like=aim.cul_de_sac if aim is not None else 0.0,
+                    corner_bend=float("inf") if opts.corner_bend is None else opts.corner_bend)
         net = _keep_joinable(net, old, spacing, opts)
         net = _connect_pieces(net, old, occupied, opts.link_reach * spacing)
         net = _without_scraps(net, opts.min_land * spacing)
@@ -686,7 +690,10 @@ def _walk_seams(quilt: _Quilt, spacing: float, opts: PatchOptions, occupied: sha
         return 0
     gap = np.hypot(*(xy[pairs[:, 1]] - xy[pairs[:, 0]]).T)
     turn = np.degrees(np.arccos(np.clip(-(heading[pairs[:, 0]] * heading[pairs[:, 1]]).sum(axis=1), -1.0, 1.0)))
-    bends = np.array([_link_bend(xy[a], heading[a], xy[b], heading[b]) for a, b in pairs.tolist()])
+    if np.isfinite(bend):
+        bends = np.array([_link_bend(xy[a], heading[a], xy[b], heading[b]) for a, b in pairs.tolist()])
+    else:  # no limit: 004's transition on the angle between the two cut streets
+        bends = turn
     sg, st = opts.seam_sigma
     p = np.exp(-0.5 * (gap / (sg * spacing)) ** 2) * np.exp(-0.5 * (bends / st) ** 2)
     board = _Board(quilt, occupied, old)
@@ -920,7 +927,8 @@ def _trim(net: StreetNetwork, quilt: _Quilt, edge: shapely.Geometry, keep_out: f
         drop: set[tuple[int, int]] = set()
         chains = dangling_chains(streets, leaves)
         length = {leaf: _chain_length(net, chain) for leaf, chain in chains.items()}
-        corner = {leaf: _leaves_corner(net, streets, chain) > corner_bend for leaf, chain in chains.items()}
+        corner = {leaf: np.isfinite(corner_bend) and _leaves_corner(net, streets, chain) > corner_bend
+                  for leaf, chain in chains.items()}
         for leaf, chain in sorted(chains.items(), key=lambda c: (not corner[c[0]], abs(length[c[0]] - like), c[0])):
             out_of_town = shapely.distance(edge, shapely.Point(leaves[leaf])) < ON_EDGE
             if out_of_town and length[leaf] >= keep_out:
