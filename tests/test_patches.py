@@ -8,10 +8,21 @@ import pytest
 import shapely
 
 from osm_expand.ingest import load
-from osm_expand.model import network_from_lines
+from osm_expand.model import chord_bends, network_from_lines
 from osm_expand.model.topology import dangling_chains, without_segments
 from osm_expand.pipeline import ExpandOptions, expand
-from synth.patches import PatchOptions, _Aim, _connector, _free_land, _more_dead_ends, _Quilt, _trim, _walk_seams
+from synth.patches import (
+    BEND_STEP,
+    PatchOptions,
+    _Aim,
+    _connector,
+    _edge_streets,
+    _free_land,
+    _more_dead_ends,
+    _Quilt,
+    _trim,
+    _walk_seams,
+)
 from tests.conftest import FIXTURES
 
 
@@ -96,6 +107,22 @@ def test_a_cut_street_whose_trimming_would_leave_an_l_bend_stays_as_the_cul_de_s
                     corner_bend=45.0)
     left = {tuple(map(float, p)) for st in trimmed.streets for p in trimmed.street_xy(st)}
     assert (60.0, 0.0) in left and (350.0, 0.0) not in left
+
+
+def test_a_perimeter_street_runs_straight_past_the_jagged_edge_of_the_free_land():
+    """Issue 20 (h26d): the free land's edge is jagged at every plot, and the perimeter street that
+    followed it a few metres inside wiggled with it (north-bayreuth seed 0: most of the district's
+    bends over 20°). Pulled taut (``perimeter_tees``), it runs straight where the edge lets it."""
+    bays = [shapely.box(x, -12.0, x + 14.0, 1.0) for x in (115.0, 145.0)]  # the edge steps out and back
+    region = shapely.union_all([shapely.box(0.0, 0.0, 300.0, 300.0), *bays])
+    quilt = _cut_quilt([[(100.0, 200.0), (100.0, 0.0)], [(175.0, 200.0), (175.0, 0.0)]], [(0, -1), (1, -1)], [0, 0])
+    made = _edge_streets(quilt, region, 100.0, PatchOptions(perimeter_tees=True), shapely.Polygon(),
+                          shapely.MultiLineString())
+    assert made == 1
+    street = quilt.xy[2]
+    assert sorted([tuple(street[0]), tuple(street[-1])]) == [(100.0, 4.0), (175.0, 4.0)]  # tees 4 m inside
+    along = np.linspace(0.0, shapely.LineString(street).length, 9)
+    assert chord_bends(street, along, BEND_STEP).max() < 1.0
 
 
 @functools.cache
