@@ -113,7 +113,8 @@ class PatchOptions:
     #: curvature came into range on 5 of 5 seeds and Krems and north-bayreuth were off on fewer measures
     #: (0.8, 1.6 of 14), but Monaco's many short perimeter pieces put it off on 6.8 (edge and stroke
     #: length, circuity) and Andorra on 3.8; alone, Krems 0.4, north-bayreuth 2.2, Campo Grande 1.6,
-    #: Andorra 5.4, Monaco 5.2, the curvature still off on 12 of the 25 runs (README, issue 20).
+    #: Andorra 5.4, Monaco 5.2, the curvature in range on 3, 0, 2 and 0 of 5 seeds for Krems,
+    #: north-bayreuth, Campo Grande and Monaco (README, issue 20).
     perimeter_tees: bool = False
     #: A cut end left over runs on this many spacings to meet a street in a tee ...
     tee_reach: float = 0.6
