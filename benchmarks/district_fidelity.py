@@ -29,12 +29,14 @@ TOWNS = ["krems.osm.gz", "andorra.osm.pbf", "north-bayreuth.osm.gz", "campo-gran
 
 
 def run(name: str, seeds: list[int], pattern: str, overrides: dict) -> list[dict]:
+    from osm_expand.growth_patterns import make_pattern
     from osm_expand.ingest import load
     from osm_expand.pipeline import ExpandOptions, expand, learn
-    from synth.patches import ExamplePatches, PatchOptions
+    from synth.patches import PatchOptions
 
     city = load(REPO / "fixtures" / name)
-    grower = ExamplePatches(learn(city).example, PatchOptions(**overrides)) if overrides else None
+    # through the registry, as the pipeline makes it: with the measure that ranks patches and sets the aim
+    grower = make_pattern("example", learn(city).example, PatchOptions(**overrides)) if overrides else None
     rows = []
     for seed in seeds:
         t0 = time.perf_counter()

@@ -8,10 +8,21 @@ import pytest
 import shapely
 
 from osm_expand.ingest import load
-from osm_expand.model import network_from_lines
+from osm_expand.model import chord_bends, network_from_lines
 from osm_expand.model.topology import dangling_chains, without_segments
 from osm_expand.pipeline import ExpandOptions, expand
-from synth.patches import PatchOptions, _Aim, _connector, _free_land, _more_dead_ends, _Quilt, _trim
+from synth.patches import (
+    BEND_STEP,
+    PatchOptions,
+    _Aim,
+    _connector,
+    _edge_streets,
+    _free_land,
+    _more_dead_ends,
+    _Quilt,
+    _trim,
+    _walk_seams,
+)
 from tests.conftest import FIXTURES
 
 
@@ -51,6 +62,67 @@ def test_a_seam_connector_is_a_smooth_curve_between_the_two_cut_ends():
     step = np.diff(path, axis=0)
     turn = np.degrees(np.abs(np.diff(np.unwrap(np.arctan2(step[:, 1], step[:, 0])))))
     assert turn.max() < 25.0 and shapely.LineString(path).is_simple
+
+
+def _cut_quilt(pieces, ends, cells):
+    """A quilt of ``pieces`` whose cut ends are ``ends`` (piece, which end: 0 or -1), in ``cells``."""
+    quilt = _Quilt()
+    for xy in pieces:
+        quilt.add(np.array(xy, dtype=float), "residential", 1)
+    for (k, which), cell in zip(ends, cells):
+        xy = quilt.xy[k]
+        end, prev = (xy[0], xy[1]) if which == 0 else (xy[-1], xy[-2])
+        quilt.cut_xy.append(end)
+        quilt.cut_heading.append((end - prev) / np.hypot(*(end - prev)))
+        quilt.cut_cell.append(cell)
+        quilt.cut_piece.append(k)
+    return quilt
+
+
+def test_a_seam_link_between_cut_streets_that_do_not_line_up_is_not_made():
+    """Issue 20 (h26d): two streets cut side by side by a seam have no angle between them, and the link
+    that joined them turned across the seam and back, a zig-zag (Krems seed 0: a third of the district's
+    bends over 45°). A link is judged by how the street bends through it, chord by chord."""
+    side_by_side = [[(0.0, 0.0), (100.0, 0.0)], [(200.0, 30.0), (100.0, 30.0)]]
+    in_line = [[(0.0, 300.0), (100.0, 300.0)], [(230.0, 300.0), (130.0, 300.0)]]
+    quilt = _cut_quilt(side_by_side + in_line, [(0, -1), (1, -1), (2, -1), (3, -1)], [0, 1, 0, 1])
+    links = _walk_seams(quilt, 100.0, PatchOptions(seam_bend_quantile=0.9), shapely.Polygon(),
+                        shapely.MultiLineString(), 20.0)
+    assert links == 1 and len(quilt.xy) == 5
+    link = quilt.xy[4]
+    assert {tuple(link[0]), tuple(link[-1])} == {(100.0, 300.0), (130.0, 300.0)}  # the streets in line
+
+
+def test_a_cut_street_whose_trimming_would_leave_an_l_bend_stays_as_the_cul_de_sac_first():
+    """Issue 20 (h26d): trimming a cut street back to its junction turned the town's tees into L-bends,
+    the district's sharpest bends (Krems seed 0: 16 of its 28 over 45°). With room for one cul-de-sac,
+    the arm of the T stays and the street off a straight one goes, though the latter is nearer the
+    town's cul-de-sac length."""
+    tee_arm = [[(0.0, 0.0), (0.0, -100.0)], [(0.0, 0.0), (-100.0, 0.0)], [(0.0, 0.0), (60.0, 0.0)]]
+    off_straight = [[(300.0, 0.0), (300.0, -100.0)], [(300.0, 0.0), (300.0, 100.0)], [(300.0, 0.0), (350.0, 0.0)]]
+    net = network_from_lines(tee_arm + off_straight)
+    quilt = _Quilt(cut_xy=[np.array([60.0, 0.0]), np.array([350.0, 0.0])])
+    far = shapely.LineString([(5000, 5000), (5100, 5000)])
+    trimmed = _trim(net, quilt, edge=far, keep_out=1e9, keep=1, stub=10.0, like=50.0,
+                    corner_bend=45.0)
+    left = {tuple(map(float, p)) for st in trimmed.streets for p in trimmed.street_xy(st)}
+    assert (60.0, 0.0) in left and (350.0, 0.0) not in left
+
+
+def test_a_perimeter_street_runs_straight_past_the_jagged_edge_of_the_free_land():
+    """Issue 20 (h26d): the free land's edge is jagged at every plot, and the perimeter street that
+    followed it a few metres inside wiggled with it (north-bayreuth seed 0: most of the district's
+    bends over 20°). Pulled taut (``perimeter_tees``), it runs straight where the edge lets it."""
+    bays = [shapely.box(x, -12.0, x + 14.0, 1.0) for x in (115.0, 145.0)]  # the edge steps out and back
+    region = shapely.union_all([shapely.box(0.0, 0.0, 300.0, 300.0), *bays])
+    quilt = _cut_quilt([[(100.0, 200.0), (100.0, 0.0)], [(175.0, 200.0), (175.0, 0.0)]], [(0, -1), (1, -1)], [0, 0])
+    made = _edge_streets(quilt, region, 100.0, PatchOptions(perimeter_tees=True), shapely.Polygon(),
+                          shapely.MultiLineString())
+    assert made == 1
+    street = quilt.xy[2]
+    assert sorted([tuple(street[0]), tuple(street[-1])]) == [(100.0, 4.0), (175.0, 4.0)]  # tees 4 m inside
+    along = np.linspace(0.0, shapely.LineString(street).length, 9)
+    assert chord_bends(street, along, BEND_STEP).max() < 1.0
 
 
 @functools.cache

@@ -29,6 +29,37 @@ def polyline_length(xy: np.ndarray) -> float:
     return float(np.hypot(*np.diff(xy, axis=0).T).sum())
 
 
+def chord_bends(xy: np.ndarray, at: np.ndarray, step: float) -> np.ndarray:
+    """How sharply a polyline bends at arc positions ``at`` as chords of ``step`` metres see it: the
+    heading change (degrees, 0–180) from the chord ending at each position to the chord starting there.
+
+    The fidelity yardstick reads a street's curvature the same way (``measures``' ``curvature``:
+    consecutive chords of 20 m), so a street made with its bends read this way bends as it will be
+    judged: a jog of a metre is no bend, a corner is one wherever it falls between the samples.
+    Chords are clipped at the polyline's ends.
+
+    >>> xy = np.array([[0.0, 0.0], [40.0, 0.0], [40.0, 40.0]])
+    >>> chord_bends(xy, np.array([10.0, 40.0]), 20.0).round().tolist()
+    [0.0, 90.0]
+    """
+    seg = np.hypot(*np.diff(xy, axis=0).T)
+    cum = np.concatenate([[0.0], np.cumsum(seg)])
+
+    def point(s: np.ndarray) -> np.ndarray:
+        s = np.clip(s, 0.0, cum[-1])
+        k = np.clip(np.searchsorted(cum, s, side="right") - 1, 0, len(seg) - 1)
+        t = np.divide(s - cum[k], seg[k], out=np.zeros_like(s), where=seg[k] > 0)
+        return xy[k] + t[:, None] * (xy[k + 1] - xy[k])
+
+    at = np.asarray(at, dtype=np.float64)
+    here = point(at)
+    back, ahead = here - point(at - step), point(at + step) - here
+    turn = np.arctan2(ahead[:, 1], ahead[:, 0]) - np.arctan2(back[:, 1], back[:, 0])
+    bend = np.degrees(np.abs((turn + np.pi) % (2 * np.pi) - np.pi))
+    flat = (np.hypot(*back.T) < 1e-9) | (np.hypot(*ahead.T) < 1e-9)  # at an end: no chord on one side
+    return np.where(flat, 0.0, bend)
+
+
 def ray_meet(p: np.ndarray, d: np.ndarray, line: np.ndarray, reach: float
              ) -> tuple[float, np.ndarray, float] | None:
     """Where the ray from ``p`` along the unit vector ``d`` first crosses the polyline ``line``
