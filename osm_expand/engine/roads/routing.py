@@ -40,6 +40,7 @@ from scipy.sparse import csr_matrix
 from scipy.sparse.csgraph import dijkstra
 from scipy.spatial import cKDTree
 
+from osm_expand.engine.roads.bound import CoarseBound, coarse_bound
 from osm_expand.engine.roads.lattice import ROAD_KINDS, EdgeCosts, EdgeKind, GraphWindow, ImplicitGraph, PathGraph
 from osm_expand.errors import InputError
 
@@ -233,6 +234,7 @@ def _implicit_route(graph: ImplicitGraph, source: int, target: int, kinds: Seque
     bounds = np.array([lo[0] - margin, lo[1] - margin, hi[0] + margin, hi[1] + margin])
     whole = np.array(graph.lattice.bounds)
     reach = graph.options.stitch_radius + graph.lattice.radius * graph.lattice.spacing
+    guide: tuple[CoarseBound, np.ndarray, np.ndarray] | None = None  # made when the first window is not enough
     while True:
         seen = np.prod(np.minimum(bounds[2:], whole[2:]) - np.maximum(bounds[:2], whole[:2]))
         if seen > opts.whole_share * np.prod(whole[2:] - whole[:2]):  # nearly the map's size: take the map
@@ -244,12 +246,31 @@ def _implicit_route(graph: ImplicitGraph, source: int, target: int, kinds: Seque
             return _on_map(window, route, from_source)
         cost = route.cost if route is not None else np.inf
         exits = window.exits
-        below = from_source[exits] + c * np.hypot(*(window.graph.xy[exits] - ends[1]).T)
-        short = below < (cost - 1e-9 * cost if np.isfinite(cost) else np.inf)
+        exit_xy = window.graph.xy[exits]
+        below = from_source[exits] + c * np.hypot(*(exit_xy - ends[1]).T)
+        limit = cost - 1e-9 * cost if np.isfinite(cost) else np.inf
+        if guide is not None or (below < limit).any():
+            if guide is None:  # the straight-line bound is weak: ask the cells what a metre costs
+                coarse = coarse_bound(graph, kinds, street_ok)
+                guide = (coarse, coarse.from_point(ends[0]), coarse.from_point(ends[1]))
+            coarse, from_s, to_t = guide
+            below = np.maximum(below, from_source[exits] + coarse.at(to_t, exit_xy))
+        short = below < limit
         if not short.any():
             return _on_map(window, route, from_source)
-        bounds = _grown(bounds, np.array(window.graph.lattice.bounds), window.graph.xy[exits[short]],
-                        from_source[exits[short]], ends[1], cost, c, reach)
+        assert guide is not None  # made above whenever an exit is short
+        coarse, from_s, to_t = guide
+        # every route cheaper than ``cost`` lies in the cells where g + h ≤ cost: the window takes them in
+        box = coarse.box(from_s + to_t <= (cost + 1e-9 * cost + 1e-6 if np.isfinite(cost) else np.inf))
+        grown = None
+        if box is not None:
+            pad = reach + 2.0 * graph.lattice.spacing
+            grown = np.concatenate([np.minimum(bounds[:2], box[:2] - pad), np.maximum(bounds[2:], box[2:] + pad)])
+        if grown is None or np.array_equal(np.clip(grown, np.tile(whole[:2], 2), np.tile(whole[2:], 2)),
+                                           np.clip(bounds, np.tile(whole[:2], 2), np.tile(whole[2:], 2))):
+            grown = _grown(bounds, np.array(window.graph.lattice.bounds), exit_xy[short],
+                           from_source[exits[short]], ends[1], cost, c, reach)
+        bounds = grown
 
 
 def _grown(bounds: np.ndarray, inside: np.ndarray, exits: np.ndarray, reached: np.ndarray, target: np.ndarray,
