@@ -11,7 +11,6 @@ from hypothesis import strategies as st
 
 from osm_expand.engine.roads.lattice import (
     NO_EDGE,
-    ROAD_KINDS,
     EdgeCosts,
     EdgeKind,
     LatticeOptions,
@@ -817,40 +816,3 @@ def test_monacos_new_roads_do_not_run_round_the_sea_beyond_the_map():
     assert new
     assert not shapely.intersects(shapely.union_all(new), beyond.buffer(-5.0))
 
-
-@settings(max_examples=12, deadline=None)
-@given(st.integers(0, 2**32 - 1))
-def test_the_coarse_bound_never_overstates_what_is_left_of_a_route(seed):
-    """The cells' bound (``roads.bound``) is admissible: at every vertex of G′ at most the plain
-    (turn-free, hence lowest) distance to the target on the whole map, for roads, for a bypass's
-    streets and with water routes; so the windowed search stays exact."""
-    from scipy.sparse.csgraph import dijkstra
-
-    from osm_expand.engine.roads.bound import BoundOptions, coarse_bound
-    rng = np.random.default_rng(seed)
-    extent = (0, 0, 1000, 1000)
-    centres, radii = rng.uniform(50, 950, (5, 2)), rng.uniform(20, 80, 5)
-    blobs = raster(lambda x, y: (np.hypot(x[..., None] - centres[:, 0], y[..., None] - centres[:, 1])
-                                 < radii).any(axis=-1), extent, cell=10.0)
-    y_lo = float(rng.uniform(100, 800))
-    segs = Segments.from_lines(grid_lines(350, 350, 3, 100), major=[bool(b) for b in rng.integers(0, 2, 8)],
-                               width=[6.0] * 8)
-    built = built_up_area(blocks_of(segs), segs)
-    lat = build_lattice(extent, water=river(extent, y_lo, y_lo + 60), forbidden=blobs,
-                        options=LatticeOptions(radius=int(rng.integers(2, 5)))).with_built_up(built.area)
-    implicit = implicit_graph(lat, segs, built)
-    whole = implicit.whole()
-    live = whole.live_vertices()
-    options = BoundOptions(cells_per_side=int(rng.integers(1, 6)), ring=int(rng.integers(2, 6)))
-    for kinds, street_ok in ((ROAD_KINDS, None), (ROAD_KINDS, rng.integers(0, 2, len(segs.uv)).astype(bool)),
-                             (tuple(EdgeKind), None)):
-        coarse = coarse_bound(implicit, kinds, street_ok, options)
-        t = int(rng.choice(live))
-        to_t = coarse.from_point(whole.xy[t])
-        with whole.restricted(kinds, street_ok) as matrix:
-            plain = dijkstra(matrix, indices=t)  # G′ is symmetric
-        reached = np.isfinite(plain)
-        bound = coarse.at(to_t, whole.xy[reached])
-        assert (bound <= plain[reached] + 1e-9).all()
-        far = plain[reached] > 20.0 * coarse.ring * coarse.cell  # (the unit costs are at most C5 = 15)
-        assert (bound[far] > 0).all()  # and it says something

@@ -40,7 +40,6 @@ from scipy.sparse import csr_matrix
 from scipy.sparse.csgraph import dijkstra
 from scipy.spatial import cKDTree
 
-from osm_expand.engine.roads.bound import CoarseBound, coarse_bound
 from osm_expand.engine.roads.lattice import ROAD_KINDS, EdgeCosts, EdgeKind, GraphWindow, ImplicitGraph, PathGraph
 from osm_expand.errors import InputError
 
@@ -234,7 +233,7 @@ def _implicit_route(graph: ImplicitGraph, source: int, target: int, kinds: Seque
     bounds = np.array([lo[0] - margin, lo[1] - margin, hi[0] + margin, hi[1] + margin])
     whole = np.array(graph.lattice.bounds)
     reach = graph.options.stitch_radius + graph.lattice.radius * graph.lattice.spacing
-    guide: tuple[CoarseBound, np.ndarray, np.ndarray] | None = None  # made when the first window is not enough
+    penalties = _bin_penalties(opts)
     while True:
         seen = np.prod(np.minimum(bounds[2:], whole[2:]) - np.maximum(bounds[:2], whole[:2]))
         if seen > opts.whole_share * np.prod(whole[2:] - whole[:2]):  # nearly the map's size: take the map
@@ -245,36 +244,58 @@ def _implicit_route(graph: ImplicitGraph, source: int, target: int, kinds: Seque
         if window.whole or from_source is None:
             return _on_map(window, route, from_source)
         cost = route.cost if route is not None else np.inf
+        limit = cost - 1e-9 * cost if np.isfinite(cost) else np.inf
         exits = window.exits
         exit_xy = window.graph.xy[exits]
-        below = from_source[exits] + c * np.hypot(*(exit_xy - ends[1]).T)
-        limit = cost - 1e-9 * cost if np.isfinite(cost) else np.inf
-        if guide is not None or (below < limit).any():
-            if guide is None:  # the straight-line bound is weak: ask the cells what a metre costs
-                coarse = coarse_bound(graph, kinds, street_ok)
-                guide = (coarse, coarse.from_point(ends[0]), coarse.from_point(ends[1]))
-            coarse, from_s, to_t = guide
-            below = np.maximum(below, from_source[exits] + coarse.at(to_t, exit_xy))
-        short = below < limit
+        rest = c * np.hypot(*(exit_xy - ends[1]).T)  # what is left from an exit, at least
+        reached = from_source[exits]
+        short = reached + rest < limit
+        back = 0.0
+        if short.any() and np.isfinite(cost) and opts.turn_height > 0:
+            # A route that leaves the window first reaches an exit x and last leaves one y, and its parts
+            # before x and after y lie in the window: it costs at least A(x) + B(y), the least
+            # turn-penalised costs of arriving at x from the source and at y from the target (reversed, a
+            # route costs the same). In a street grid turns are most of a route's cost (Campo Grande:
+            # 5,270 of 8,867 cost units), so these are far above the plain distances.
+            lat_ok, extra_ok = window.graph.masks(kinds, street_ok)
+            arrive = _arrival_costs(window.graph, lat_ok, extra_ok, np.array([s, t]), exits, penalties,
+                                    opts.heading_bins, limit)
+            reached = np.maximum(reached, arrive[0])
+            back = float(arrive[1].min(initial=np.inf))  # B(y) of the cheapest last exit
+            rest = np.maximum(rest, back)
+            short = reached + rest < limit
+            # between its first exit x and its last y a route goes at least |x − y| at c a metre
+            rest[short] = np.maximum(rest[short], _via_exits(exit_xy[short], exit_xy, arrive[1],
+                                                             c, limit - reached[short].min(initial=np.inf)))
+            short = reached + rest < limit
         if not short.any():
             return _on_map(window, route, from_source)
-        assert guide is not None  # made above whenever an exit is short
-        coarse, from_s, to_t = guide
-        # every route cheaper than ``cost`` lies in the cells where g + h ≤ cost: the window takes them in
-        box = coarse.box(from_s + to_t <= (cost + 1e-9 * cost + 1e-6 if np.isfinite(cost) else np.inf))
-        grown = None
-        if box is not None:
-            pad = reach + 2.0 * graph.lattice.spacing
-            grown = np.concatenate([np.minimum(bounds[:2], box[:2] - pad), np.maximum(bounds[2:], box[2:] + pad)])
-        if grown is None or np.array_equal(np.clip(grown, np.tile(whole[:2], 2), np.tile(whole[2:], 2)),
-                                           np.clip(bounds, np.tile(whole[:2], 2), np.tile(whole[2:], 2))):
-            grown = _grown(bounds, np.array(window.graph.lattice.bounds), exit_xy[short],
-                           from_source[exits[short]], ends[1], cost, c, reach)
+        grown = _grown(bounds, np.array(window.graph.lattice.bounds), exit_xy[short], reached[short], ends[1],
+                       cost, c, reach, back)
         bounds = grown
 
 
+def _via_exits(first: np.ndarray, exits: np.ndarray, back: np.ndarray, c: float, below: float,
+               most: int = 20_000_000) -> np.ndarray:
+    """``min_y c·|x − y| + B(y)`` for each first exit x over the exits y whose ``B(y)`` is below ``below``
+    (the others cannot end a cheaper route), in blocks; −∞ (no bound) when that would take more than
+    ``most`` pairs."""
+    keep = back < below
+    ys, yb = exits[keep], back[keep]
+    out = np.full(len(first), np.inf)
+    if not len(ys):
+        return out
+    if len(first) * len(ys) > most:
+        return np.full(len(first), -np.inf)
+    block = max(1, most // (20 * len(ys)))
+    for a in range(0, len(first), block):
+        d = np.hypot(first[a:a + block, None, 0] - ys[None, :, 0], first[a:a + block, None, 1] - ys[None, :, 1])
+        out[a:a + block] = (c * d + yb[None, :]).min(axis=1)
+    return out
+
+
 def _grown(bounds: np.ndarray, inside: np.ndarray, exits: np.ndarray, reached: np.ndarray, target: np.ndarray,
-           cost: float, c: float, reach: float) -> np.ndarray:
+           cost: float, c: float, reach: float, after: float = 0.0) -> np.ndarray:
     """The next window: wide enough for every route that could still beat ``cost``.
 
     A route leaving by exit x (reached at ``d``) and passing a point y
@@ -283,7 +304,10 @@ def _grown(bounds: np.ndarray, inside: np.ndarray, exits: np.ndarray, reached: n
     in each such ellipse's bounding box. The sides near the exits move out
     by at least ``2 · reach`` (past the band where a point is an exit), so
     every step makes progress; without a finite cost every side doubles
-    its distance to the ends.
+    its distance to the ends. A route that must still pay ``after`` once
+    back in the window (the least cost from its last exit to the target)
+    strays at most ``(cost − d − after) / c`` from x: each box is cut to
+    that square round its exit.
     """
     px, py = exits.T
     near = np.array([(px < inside[0] + reach).any(), (py < inside[1] + reach).any(),
@@ -300,8 +324,9 @@ def _grown(bounds: np.ndarray, inside: np.ndarray, exits: np.ndarray, reached: n
     hx = np.sqrt((a * np.cos(theta)) ** 2 + (b * np.sin(theta)) ** 2)
     hy = np.sqrt((a * np.sin(theta)) ** 2 + (b * np.cos(theta)) ** 2)
     mx, my = 0.5 * (px + target[0]), 0.5 * (py + target[1])
-    box = np.array([(mx - hx).min() - reach, (my - hy).min() - reach, (mx + hx).max() + reach,
-                    (my + hy).max() + reach])
+    r = np.maximum(cost - reached - after, 0.0) / c
+    box = np.array([np.maximum(mx - hx, px - r).min() - reach, np.maximum(my - hy, py - r).min() - reach,
+                    np.minimum(mx + hx, px + r).max() + reach, np.minimum(my + hy, py + r).max() + reach])
     return np.concatenate([np.minimum(out[:2], box[:2]), np.maximum(out[2:], box[2:])])
 
 
@@ -405,9 +430,10 @@ def _sorted_csr(n_rows: int, groups: list[tuple[np.ndarray, np.ndarray, np.ndarr
     return csr_matrix((data, indices, indptr), shape=(n_rows, n_rows))
 
 
-def _expanded_search(graph: PathGraph, lat: np.ndarray, extra: np.ndarray, region: np.ndarray, source: int,
-                     target: int, penalties: np.ndarray, k: int, limit: float) -> tuple[list[int], float] | None:
-    """Dijkstra on the heading-expanded graph over ``region``; the vertex path and its cost."""
+def _expanded_graph(graph: PathGraph, lat: np.ndarray, extra: np.ndarray, region: np.ndarray, penalties: np.ndarray,
+                    k: int) -> tuple[csr_matrix, np.ndarray]:
+    """The heading-expanded graph over ``region`` (state ``local · (2k + 1) + j``: arrivals j < k,
+    departures k ≤ j < 2k, the hub 2k) and each G′ vertex's local number (−1 outside)."""
     n = len(region)
     per = 2 * k + 1  # arr 0…k−1, dep k…2k−1, hub 2k
     # state numbers in 32 bits when they fit (the CSR's are anyway): the entry arrays of a
@@ -447,7 +473,16 @@ def _expanded_search(graph: PathGraph, lat: np.ndarray, extra: np.ndarray, regio
     groups.append((rows[order], (local[graph.dst[e]] * per + b)[order], graph.weight[e][order]))
     # hub(v) → dep(v, j), free
     groups.append((np.repeat(base + 2 * k, k), (base[:, None] + k + i).ravel(), np.full(n * k, _EPS)))
-    expanded = _sorted_csr(n * per, groups)
+    return _sorted_csr(n * per, groups), local
+
+
+def _expanded_search(graph: PathGraph, lat: np.ndarray, extra: np.ndarray, region: np.ndarray, source: int,
+                     target: int, penalties: np.ndarray, k: int, limit: float) -> tuple[list[int], float] | None:
+    """Dijkstra on the heading-expanded graph over ``region``; the vertex path and its cost."""
+    n = len(region)
+    per = 2 * k + 1
+    expanded, local = _expanded_graph(graph, lat, extra, region, penalties, k)
+    i = np.arange(k, dtype=local.dtype)
     start = local[source] * per + 2 * k
     dist, pred = dijkstra(expanded, indices=start, return_predecessors=True, limit=limit + 2 * n * _EPS)
     arrivals = local[target] * per + i
@@ -459,6 +494,22 @@ def _expanded_search(graph: PathGraph, lat: np.ndarray, extra: np.ndarray, regio
     keep = np.ones(len(vertices), dtype=bool)
     keep[1:] = vertices[1:] != vertices[:-1]
     return vertices[keep].tolist(), float(dist[best])
+
+
+def _arrival_costs(graph: PathGraph, lat: np.ndarray, extra: np.ndarray, sources: np.ndarray, vertices: np.ndarray,
+                   penalties: np.ndarray, k: int, limit: float) -> np.ndarray:
+    """``(len(sources), len(vertices))``: the least turn-penalised cost of arriving at each vertex from
+    each source over the whole of ``graph`` (∞ at or above ``limit``)."""
+    per = 2 * k + 1
+    region = np.arange(graph.n_vertices)
+    expanded, local = _expanded_graph(graph, lat, extra, region, penalties, k)
+    starts = local[np.asarray(sources)].astype(np.int64) * per + 2 * k
+    dist = dijkstra(expanded, indices=starts, limit=limit + 2 * len(region) * _EPS)
+    at = local[np.asarray(vertices)].astype(np.int64) * per
+    arrivals = dist[:, at[:, None] + np.arange(k)].min(axis=2)
+    arrivals[np.asarray(sources)[:, None] == np.asarray(vertices)[None, :]] = 0.0
+    # the free transitions weigh _EPS each: take them off so that the cost is never overstated
+    return np.maximum(arrivals - 2 * len(region) * per * _EPS, 0.0)
 
 
 def route_over_major_roads(graph: PathGraph, source: int, target: int, *, demand: float = 0.0,
