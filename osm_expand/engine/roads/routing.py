@@ -423,71 +423,105 @@ def _route(graph: PathGraph, vertices: Sequence[int], lat: np.ndarray, extra: np
                  edge_length=column("length", float), edge_weight=column("weight", float), turn_cost=turn_cost)
 
 
-def _sorted_csr(n_rows: int, groups: list[tuple[np.ndarray, np.ndarray, np.ndarray]]) -> csr_matrix:
+#: vertices per block when the expanded graph's entries are written (about a million entries a block)
+_BLOCK = 8192
+
+
+def _sorted_csr(n_rows: int, groups: list) -> csr_matrix:
     """A CSR matrix from groups of entries whose rows are each already non-decreasing.
 
-    Rows are merged group by group (a row holds the first group's entries,
-    then the second's, …) with counts and offsets only: no sort.
+    Each group is a function giving its entries as chunks ``(rows, cols,
+    values)``: rows non-decreasing, chunks in row order, a row never split
+    between chunks. Rows are merged group by group (a row holds the first
+    group's entries, then the second's, …) with counts and offsets only: no
+    sort, and no array as long as a group (a town's region has 10⁷–10⁸
+    entries: whole-group temporaries were the peak of a road year).
     """
-    counts = [np.bincount(rows, minlength=n_rows) for rows, _, _ in groups]
-    indptr = np.concatenate([[0], np.cumsum(np.sum(counts, axis=0))])
+    indptr = np.zeros(n_rows + 1, dtype=np.int64)
+    for make in groups:
+        for rows, _, _ in make():
+            if len(rows):
+                count = np.bincount(rows - rows[0])
+                indptr[1 + rows[0]:1 + rows[0] + len(count)] += count
+    np.cumsum(indptr, out=indptr)
     # scipy's Dijkstra runs on 32-bit indices: made so at once, not copied later
     indices = np.empty(indptr[-1], dtype=np.int32 if max(n_rows, int(indptr[-1])) < 2**31 else np.int64)
     data = np.empty(indptr[-1])
-    before = np.zeros(n_rows, dtype=np.int64)  # entries of earlier groups in each row
-    for (rows, cols, values), count in zip(groups, counts):
-        group_start = np.cumsum(count) - count
-        pos = indptr[rows] + before[rows] + np.arange(len(rows)) - group_start[rows]
-        indices[pos] = cols
-        data[pos] = values
-        before += count
+    before = np.zeros(n_rows, dtype=np.int32)  # entries of earlier groups in each row
+    for make in groups:
+        for rows, cols, values in make():
+            if not len(rows):
+                continue
+            rel = rows - rows[0]
+            count = np.bincount(rel)
+            rank = np.arange(len(rows)) - (np.cumsum(count) - count)[rel]
+            pos = indptr[rows] + before[rows] + rank
+            indices[pos] = cols
+            data[pos] = values
+            before[rows[0]:rows[0] + len(count)] += count.astype(np.int32)
     return csr_matrix((data, indices, indptr), shape=(n_rows, n_rows))
 
 
 def _expanded_graph(graph: PathGraph, lat: np.ndarray, extra: np.ndarray, region: np.ndarray, penalties: np.ndarray,
                     k: int) -> tuple[csr_matrix, np.ndarray]:
-    """The heading-expanded graph over ``region`` (state ``local · (2k + 1) + j``: arrivals j < k,
-    departures k ≤ j < 2k, the hub 2k) and each G′ vertex's local number (−1 outside)."""
+    """The heading-expanded graph over ``region`` (sorted; state ``local · (2k + 1) + j``: arrivals
+    j < k, departures k ≤ j < 2k, the hub 2k) and each G′ vertex's local number (−1 outside)."""
     n = len(region)
     per = 2 * k + 1  # arr 0…k−1, dep k…2k−1, hub 2k
-    # state numbers in 32 bits when they fit (the CSR's are anyway): the entry arrays of a
-    # town-sized region are 10⁷–10⁸ long, and half their bytes are the peak of a road year
+    # state numbers in 32 bits when they fit (the CSR's are anyway)
     it = np.dtype(np.int32 if n * per < 2**31 else np.int64)
     local = np.full(graph.n_vertices, -1, dtype=it)
     local[region] = np.arange(n, dtype=it)
-    base = np.arange(0, n * per, per, dtype=it)
     i = np.arange(k, dtype=it)
     height = float(penalties.max())
     cheap = np.flatnonzero(penalties < height - 1e-9).astype(it)
-    groups = []
-    # turns: arr(v, i) → dep(v, i + q) where P < S_p, then arr(v, i) → hub(v) at S_p
-    arr = (base[:, None] + i).ravel()
-    groups.append((np.repeat(arr, len(cheap)), (base[:, None, None] + k + (i[:, None] + cheap) % k).ravel(),
-                   np.tile(np.maximum(penalties[cheap], _EPS), n * k)))
-    groups.append((arr, np.repeat(base + 2 * k, k), np.full(n * k, max(height, _EPS))))
-    # lattice moves dep(u, b) → arr(v, b), columns taken in bin order so rows stay sorted
+    cheap_cost = np.maximum(penalties[cheap], _EPS)
+    blocks = [(a, min(a + _BLOCK, n)) for a in range(0, n, _BLOCK)]
+
+    def bases(a: int, b: int) -> np.ndarray:
+        return np.arange(a * per, b * per, per, dtype=it)
+
+    def turns():  # arr(v, i) → dep(v, i + q) where P < S_p
+        for a, b in blocks:
+            base = bases(a, b)
+            yield (np.repeat((base[:, None] + i).ravel(), len(cheap)),
+                   (base[:, None, None] + k + (i[:, None] + cheap) % k).ravel(), np.tile(cheap_cost, (b - a) * k))
+
+    def to_hub():  # arr(v, i) → hub(v) at S_p
+        for a, b in blocks:
+            base = bases(a, b)
+            yield (base[:, None] + i).ravel(), np.repeat(base + 2 * k, k), np.full((b - a) * k, max(height, _EPS))
+
     n_lat, n_dir = lat.shape
     dir_bin = _bins(graph.direction_heading, k).astype(it)
     by_bin = np.argsort(dir_bin, kind="stable")
     lat_region = region[region < n_lat]
-    flat = np.flatnonzero(lat[lat_region][:, by_bin])
-    r = flat // n_dir
-    d = by_bin[flat - r * n_dir]
-    u = lat_region[r]
-    v = u + graph.lattice.direction_offset[d]
-    keep = local[v] >= 0
-    u, v, d = u[keep], v[keep], d[keep]
-    groups.append((local[u] * per + k + dir_bin[d], local[v] * per + dir_bin[d],
-                   graph.lat_weight[u, d].astype(np.float64)))
-    # other moves (streets, stitches, long bridges)
-    e = np.flatnonzero(extra & (local[graph.src] >= 0) & (local[graph.dst] >= 0))
-    b = _bins(graph.heading[e], k).astype(it)
-    rows = local[graph.src[e]] * per + k + b
-    order = np.argsort(rows, kind="stable")
-    groups.append((rows[order], (local[graph.dst[e]] * per + b)[order], graph.weight[e][order]))
-    # hub(v) → dep(v, j), free
-    groups.append((np.repeat(base + 2 * k, k), (base[:, None] + k + i).ravel(), np.full(n * k, _EPS)))
-    return _sorted_csr(n * per, groups), local
+
+    def moves():  # lattice moves dep(u, b) → arr(v, b), columns taken in bin order so rows stay sorted
+        for a in range(0, len(lat_region), _BLOCK):
+            part = lat_region[a:a + _BLOCK]
+            flat = np.flatnonzero(lat[part][:, by_bin])
+            r = flat // n_dir
+            d = by_bin[flat - r * n_dir]
+            u = part[r]
+            v = u + graph.lattice.direction_offset[d]
+            keep = local[v] >= 0
+            u, v, d = u[keep], v[keep], d[keep]
+            yield local[u] * per + k + dir_bin[d], local[v] * per + dir_bin[d], graph.lat_weight[u, d].astype(np.float64)
+
+    def others():  # streets, stitches, long bridges
+        e = np.flatnonzero(extra & (local[graph.src] >= 0) & (local[graph.dst] >= 0))
+        b = _bins(graph.heading[e], k).astype(it)
+        rows = local[graph.src[e]] * per + k + b
+        order = np.argsort(rows, kind="stable")
+        yield rows[order], (local[graph.dst[e]] * per + b)[order], graph.weight[e][order]
+
+    def from_hub():  # hub(v) → dep(v, j), free
+        for a, b in blocks:
+            base = bases(a, b)
+            yield np.repeat(base + 2 * k, k), (base[:, None] + k + i).ravel(), np.full((b - a) * k, _EPS)
+
+    return _sorted_csr(n * per, [turns, to_hub, moves, others, from_hub]), local
 
 
 def _expanded_search(graph: PathGraph, lat: np.ndarray, extra: np.ndarray, region: np.ndarray, source: int,
