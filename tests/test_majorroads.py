@@ -815,3 +815,46 @@ def test_monacos_new_roads_do_not_run_round_the_sea_beyond_the_map():
     new = [shapely.LineString(net.street_xy(s)) for s in net.streets if s.origin == Origin.ENGINE]
     assert new
     assert not shapely.intersects(shapely.union_all(new), beyond.buffer(-5.0))
+
+
+
+@settings(max_examples=8, deadline=None)
+@given(st.integers(0, 2**32 - 1))
+def test_counting_turns_at_the_exits_keeps_the_search_exact(seed):
+    """Issue 22: a window is proved with the turn-penalised costs of arriving at its exits from
+    both ends (``routing._arrival_costs``, ``_via_exits``) and grows a quarter a side at a time. On
+    a street grid under heavy turn penalties, with tiny first windows, every route costs what the
+    whole map's G′ (the old search) gives, and the turn test is what ends the search at least once."""
+    from osm_expand.engine.roads import routing
+    rng = np.random.default_rng(seed)
+    extent = (0, 0, 1600, 1600)
+    n = int(rng.integers(4, 8))
+    lines = grid_lines(400, 400, n, 800 / n)
+    segs = Segments.from_lines(lines, major=[bool(b) for b in rng.integers(0, 2, len(lines))],
+                               width=[6.0] * len(lines))
+    built = built_up_area(blocks_of(segs), segs)
+    lat = build_lattice(extent, options=LatticeOptions(radius=int(rng.integers(2, 4)))).with_built_up(built.area)
+    implicit = implicit_graph(lat, segs, built)
+    whole = implicit.whole()
+    opts = RoutingOptions(turn_height=float(rng.uniform(150, 600)), window_margin=float(rng.uniform(20, 120)),
+                          window_share=0.0)
+    calls = []
+    arrival = routing._arrival_costs
+
+    def counted(*args, **kwargs):
+        calls.append(1)
+        return arrival(*args, **kwargs)
+
+    routing._arrival_costs = counted
+    try:
+        for _ in range(3):
+            a, b = (int(v) for v in rng.choice(len(segs.xy), 2, replace=False))
+            s, t = whole.node_vertex(a), whole.node_vertex(b)
+            old = find_route(whole, s, t, options=opts)
+            new = find_route(implicit, s, t, options=opts)
+            assert (old is None) == (new is None)
+            if old is not None:
+                assert new.cost == pytest.approx(old.cost, rel=1e-9, abs=1e-6)
+    finally:
+        routing._arrival_costs = arrival
+    assert calls

@@ -79,10 +79,15 @@ class RoutingOptions:
     #: a window covering more than this share of the map becomes the whole map (a second,
     #: larger window would cost more than searching the map at once)
     whole_share: float = 0.5
+    #: a window that may still miss a cheaper route grows by at most this share of its size a side
+    #: (at least twice its exits' reach) before it is searched again; 0.25 took Campo Grande's first
+    #: two road searches from 8.7 + 6.8 s and 1.6 GB to 2.0 + 5.2 s and 1.0 GB (0.5: 3.2 + 6.3 s, 1.2 GB)
+    growth_share: float = 0.25
 
     def __post_init__(self) -> None:
-        if not (self.window_margin > 0 and self.window_share >= 0):
-            raise InputError("RoutingOptions: window_margin must be positive and window_share not negative")
+        if not (self.window_margin > 0 and self.window_share >= 0 and self.growth_share > 0):
+            raise InputError("RoutingOptions: window_margin and growth_share must be positive and window_share "
+                             "not negative")
         if not (self.turn_width > 0 and self.turn_height >= 0):
             raise InputError("RoutingOptions: turn_width must be positive and turn_height not negative")
         if self.heading_bins < 4:
@@ -212,15 +217,29 @@ def _implicit_route(graph: ImplicitGraph, source: int, target: int, kinds: Seque
 
     Each window holds every edge of G′ between its vertices except those
     from its ``exits`` (:class:`~osm_expand.engine.roads.lattice.GraphWindow`). A
-    route that leaves the window first reaches an exit x at no less than the
-    window's plain distance d(x), then needs at least ``|x − t| · c`` more
-    (:func:`cheapest_unit_cost`). When no exit has ``d(x) + |x − t| · c``
-    below the cost of the window's best route, no route through the rest of
-    the map can be cheaper, and the window's route is the map's (equal cost;
-    of several equal ones it may be another). Else the window grows as far
-    as a cheaper route could go (:func:`_grown`). The
-    lattice edges are generated only for the windows searched, so memory
-    and time follow the corridor a route can use, not the map.
+    route that leaves the window first reaches an exit x, and last leaves
+    one y, and its parts before x and after y use the window's edges only.
+    So it costs at least ``A(x) + max(c·|x − t|, min_y c·|x − y| + B(y))``,
+    where A and B are the least turn-penalised costs of arriving at an exit
+    from the source and from the target inside the window (a route costs
+    the same reversed) and c the least cost a metre
+    (:func:`cheapest_unit_cost`); the plain distance stands in for A when
+    that alone already settles it. When no exit's bound is below the cost
+    of the window's best route, no route through the rest of the map can be
+    cheaper and the window's route is the map's (equal cost; of several
+    equal ones it may be another). Else the window grows, by at most
+    ``growth_share`` of its size a side, towards where a cheaper route
+    could go (:func:`_grown`). The lattice edges are generated only for the
+    windows searched, so memory and time follow the corridor a route can
+    use, not the map.
+
+    Counting turns is what keeps the windows small: in a street grid they
+    are most of a route's cost (Campo Grande's first new road: 5,270 of
+    8,867 cost units), and the straight-line bound with C1·C6 = 0.4 a metre
+    let exits 2.5 times the route's length away look promising, so most
+    searches ended on the whole map. A coarse bound from the cells' least
+    cost a metre (a Dijkstra over 60 m cells) was tried first and was
+    weaker than the straight line there.
     """
     ends = graph.vertex_xy(np.array([source, target]))
     lo, hi = ends.min(axis=0), ends.max(axis=0)
@@ -233,6 +252,7 @@ def _implicit_route(graph: ImplicitGraph, source: int, target: int, kinds: Seque
     bounds = np.array([lo[0] - margin, lo[1] - margin, hi[0] + margin, hi[1] + margin])
     whole = np.array(graph.lattice.bounds)
     reach = graph.options.stitch_radius + graph.lattice.radius * graph.lattice.spacing
+    penalties = _bin_penalties(opts)
     while True:
         seen = np.prod(np.minimum(bounds[2:], whole[2:]) - np.maximum(bounds[:2], whole[:2]))
         if seen > opts.whole_share * np.prod(whole[2:] - whole[:2]):  # nearly the map's size: take the map
@@ -243,17 +263,68 @@ def _implicit_route(graph: ImplicitGraph, source: int, target: int, kinds: Seque
         if window.whole or from_source is None:
             return _on_map(window, route, from_source)
         cost = route.cost if route is not None else np.inf
+        limit = cost - 1e-9 * cost if np.isfinite(cost) else np.inf
         exits = window.exits
-        below = from_source[exits] + c * np.hypot(*(window.graph.xy[exits] - ends[1]).T)
-        short = below < (cost - 1e-9 * cost if np.isfinite(cost) else np.inf)
+        exit_xy = window.graph.xy[exits]
+        rest = c * np.hypot(*(exit_xy - ends[1]).T)  # what is left from an exit, at least
+        reached = from_source[exits]
+        short = reached + rest < limit
+        back = 0.0
+        if short.any() and np.isfinite(cost) and opts.turn_height > 0:
+            # A route that leaves the window first reaches an exit x and last leaves one y, and its parts
+            # before x and after y lie in the window: it costs at least A(x) + B(y), the least
+            # turn-penalised costs of arriving at x from the source and at y from the target (reversed, a
+            # route costs the same). In a street grid turns are most of a route's cost (Campo Grande:
+            # 5,270 of 8,867 cost units), so these are far above the plain distances.
+            lat_ok, extra_ok = window.graph.masks(kinds, street_ok)
+            with window.graph.restricted(kinds, street_ok) as matrix:  # the plain distances bound the regions
+                from_target = dijkstra(matrix, indices=t, limit=limit)
+            arrive = np.stack([_arrival_costs(window.graph, lat_ok, extra_ok, end, np.flatnonzero(plain < limit),
+                                              exits, penalties, opts.heading_bins, limit)
+                               for end, plain in ((s, from_source), (t, from_target))])
+            reached = np.maximum(reached, arrive[0])
+            back = float(arrive[1].min(initial=np.inf))  # B(y) of the cheapest last exit
+            rest = np.maximum(rest, back)
+            short = reached + rest < limit
+            # between its first exit x and its last y a route goes at least |x − y| at c a metre
+            rest[short] = np.maximum(rest[short], _via_exits(exit_xy[short], exit_xy, arrive[1],
+                                                             c, limit - reached[short].min(initial=np.inf)))
+            short = reached + rest < limit
         if not short.any():
             return _on_map(window, route, from_source)
-        bounds = _grown(bounds, np.array(window.graph.lattice.bounds), window.graph.xy[exits[short]],
-                        from_source[exits[short]], ends[1], cost, c, reach)
+        grown = _grown(bounds, np.array(window.graph.lattice.bounds), exit_xy[short], reached[short], ends[1],
+                       cost, c, reach, back)
+        if np.isfinite(cost):
+            # grow a side by at most a share of the window: the exits of a larger window are dearer to
+            # arrive at (more turns), so a step or two of growth usually proves the route, where the
+            # ellipses of the nearer exits would take in most of the map at once
+            size = np.tile(bounds[2:] - bounds[:2], 2)
+            step = np.maximum(opts.growth_share * size, 2.0 * reach) * np.array([-1, -1, 1, 1])
+            grown = np.where(step < 0, np.maximum(grown, bounds + step), np.minimum(grown, bounds + step))
+        bounds = grown
+
+
+def _via_exits(first: np.ndarray, exits: np.ndarray, back: np.ndarray, c: float, below: float,
+               most: int = 20_000_000) -> np.ndarray:
+    """``min_y c·|x − y| + B(y)`` for each first exit x over the exits y whose ``B(y)`` is below ``below``
+    (the others cannot end a cheaper route), in blocks; −∞ (no bound) when that would take more than
+    ``most`` pairs."""
+    keep = back < below
+    ys, yb = exits[keep], back[keep]
+    out = np.full(len(first), np.inf)
+    if not len(ys):
+        return out
+    if len(first) * len(ys) > most:
+        return np.full(len(first), -np.inf)
+    block = max(1, most // (20 * len(ys)))
+    for a in range(0, len(first), block):
+        d = np.hypot(first[a:a + block, None, 0] - ys[None, :, 0], first[a:a + block, None, 1] - ys[None, :, 1])
+        out[a:a + block] = (c * d + yb[None, :]).min(axis=1)
+    return out
 
 
 def _grown(bounds: np.ndarray, inside: np.ndarray, exits: np.ndarray, reached: np.ndarray, target: np.ndarray,
-           cost: float, c: float, reach: float) -> np.ndarray:
+           cost: float, c: float, reach: float, after: float = 0.0) -> np.ndarray:
     """The next window: wide enough for every route that could still beat ``cost``.
 
     A route leaving by exit x (reached at ``d``) and passing a point y
@@ -262,7 +333,10 @@ def _grown(bounds: np.ndarray, inside: np.ndarray, exits: np.ndarray, reached: n
     in each such ellipse's bounding box. The sides near the exits move out
     by at least ``2 · reach`` (past the band where a point is an exit), so
     every step makes progress; without a finite cost every side doubles
-    its distance to the ends.
+    its distance to the ends. A route that must still pay ``after`` once
+    back in the window (the least cost from its last exit to the target)
+    strays at most ``(cost − d − after) / c`` from x: each box is cut to
+    that square round its exit.
     """
     px, py = exits.T
     near = np.array([(px < inside[0] + reach).any(), (py < inside[1] + reach).any(),
@@ -279,8 +353,9 @@ def _grown(bounds: np.ndarray, inside: np.ndarray, exits: np.ndarray, reached: n
     hx = np.sqrt((a * np.cos(theta)) ** 2 + (b * np.sin(theta)) ** 2)
     hy = np.sqrt((a * np.sin(theta)) ** 2 + (b * np.cos(theta)) ** 2)
     mx, my = 0.5 * (px + target[0]), 0.5 * (py + target[1])
-    box = np.array([(mx - hx).min() - reach, (my - hy).min() - reach, (mx + hx).max() + reach,
-                    (my + hy).max() + reach])
+    r = np.maximum(cost - reached - after, 0.0) / c
+    box = np.array([np.maximum(mx - hx, px - r).min() - reach, np.maximum(my - hy, py - r).min() - reach,
+                    np.minimum(mx + hx, px + r).max() + reach, np.minimum(my + hy, py + r).max() + reach])
     return np.concatenate([np.minimum(out[:2], box[:2]), np.maximum(out[2:], box[2:])])
 
 
@@ -363,70 +438,115 @@ def _route(graph: PathGraph, vertices: Sequence[int], lat: np.ndarray, extra: np
                  edge_length=column("length", float), edge_weight=column("weight", float), turn_cost=turn_cost)
 
 
-def _sorted_csr(n_rows: int, groups: list[tuple[np.ndarray, np.ndarray, np.ndarray]]) -> csr_matrix:
+#: vertices per block when the expanded graph's entries are written (about a million entries a block)
+_BLOCK = 8192
+
+
+def _sorted_csr(n_rows: int, groups: list) -> csr_matrix:
     """A CSR matrix from groups of entries whose rows are each already non-decreasing.
 
-    Rows are merged group by group (a row holds the first group's entries,
-    then the second's, …) with counts and offsets only: no sort.
+    Each group is a function giving its entries as chunks ``(rows, cols,
+    values)``: rows non-decreasing, chunks in row order, a row never split
+    between chunks. Rows are merged group by group (a row holds the first
+    group's entries, then the second's, …) with counts and offsets only: no
+    sort, and no array as long as a group (a town's region has 10⁷–10⁸
+    entries: whole-group temporaries were the peak of a road year).
     """
-    counts = [np.bincount(rows, minlength=n_rows) for rows, _, _ in groups]
-    indptr = np.concatenate([[0], np.cumsum(np.sum(counts, axis=0))])
+    indptr = np.zeros(n_rows + 1, dtype=np.int64)
+    for make in groups:
+        for rows, _, _ in make():
+            if len(rows):
+                count = np.bincount(rows - rows[0])
+                indptr[1 + rows[0]:1 + rows[0] + len(count)] += count
+    np.cumsum(indptr, out=indptr)
     # scipy's Dijkstra runs on 32-bit indices: made so at once, not copied later
     indices = np.empty(indptr[-1], dtype=np.int32 if max(n_rows, int(indptr[-1])) < 2**31 else np.int64)
     data = np.empty(indptr[-1])
-    before = np.zeros(n_rows, dtype=np.int64)  # entries of earlier groups in each row
-    for (rows, cols, values), count in zip(groups, counts):
-        group_start = np.cumsum(count) - count
-        pos = indptr[rows] + before[rows] + np.arange(len(rows)) - group_start[rows]
-        indices[pos] = cols
-        data[pos] = values
-        before += count
+    before = np.zeros(n_rows, dtype=np.int32)  # entries of earlier groups in each row
+    for make in groups:
+        for rows, cols, values in make():
+            if not len(rows):
+                continue
+            rel = rows - rows[0]
+            count = np.bincount(rel)
+            rank = np.arange(len(rows)) - (np.cumsum(count) - count)[rel]
+            pos = indptr[rows] + before[rows] + rank
+            indices[pos] = cols
+            data[pos] = values
+            before[rows[0]:rows[0] + len(count)] += count.astype(np.int32)
     return csr_matrix((data, indices, indptr), shape=(n_rows, n_rows))
+
+
+def _expanded_graph(graph: PathGraph, lat: np.ndarray, extra: np.ndarray, region: np.ndarray, penalties: np.ndarray,
+                    k: int) -> tuple[csr_matrix, np.ndarray]:
+    """The heading-expanded graph over ``region`` (sorted; state ``local · (2k + 1) + j``: arrivals
+    j < k, departures k ≤ j < 2k, the hub 2k) and each G′ vertex's local number (−1 outside)."""
+    n = len(region)
+    per = 2 * k + 1  # arr 0…k−1, dep k…2k−1, hub 2k
+    # state numbers in 32 bits when they fit (the CSR's are anyway)
+    it = np.dtype(np.int32 if n * per < 2**31 else np.int64)
+    local = np.full(graph.n_vertices, -1, dtype=it)
+    local[region] = np.arange(n, dtype=it)
+    i = np.arange(k, dtype=it)
+    height = float(penalties.max())
+    cheap = np.flatnonzero(penalties < height - 1e-9).astype(it)
+    cheap_cost = np.maximum(penalties[cheap], _EPS)
+    blocks = [(a, min(a + _BLOCK, n)) for a in range(0, n, _BLOCK)]
+
+    def bases(a: int, b: int) -> np.ndarray:
+        return np.arange(a * per, b * per, per, dtype=it)
+
+    def turns():  # arr(v, i) → dep(v, i + q) where P < S_p
+        for a, b in blocks:
+            base = bases(a, b)
+            yield (np.repeat((base[:, None] + i).ravel(), len(cheap)),
+                   (base[:, None, None] + k + (i[:, None] + cheap) % k).ravel(), np.tile(cheap_cost, (b - a) * k))
+
+    def to_hub():  # arr(v, i) → hub(v) at S_p
+        for a, b in blocks:
+            base = bases(a, b)
+            yield (base[:, None] + i).ravel(), np.repeat(base + 2 * k, k), np.full((b - a) * k, max(height, _EPS))
+
+    n_lat, n_dir = lat.shape
+    dir_bin = _bins(graph.direction_heading, k).astype(it)
+    by_bin = np.argsort(dir_bin, kind="stable")
+    lat_region = region[region < n_lat]
+
+    def moves():  # lattice moves dep(u, b) → arr(v, b), columns taken in bin order so rows stay sorted
+        for a in range(0, len(lat_region), _BLOCK):
+            part = lat_region[a:a + _BLOCK]
+            flat = np.flatnonzero(lat[part][:, by_bin])
+            r = flat // n_dir
+            d = by_bin[flat - r * n_dir]
+            u = part[r]
+            v = u + graph.lattice.direction_offset[d]
+            keep = local[v] >= 0
+            u, v, d = u[keep], v[keep], d[keep]
+            weight = graph.lat_weight[u, d].astype(np.float64)
+            yield local[u] * per + k + dir_bin[d], local[v] * per + dir_bin[d], weight
+
+    def others():  # streets, stitches, long bridges
+        e = np.flatnonzero(extra & (local[graph.src] >= 0) & (local[graph.dst] >= 0))
+        b = _bins(graph.heading[e], k).astype(it)
+        rows = local[graph.src[e]] * per + k + b
+        order = np.argsort(rows, kind="stable")
+        yield rows[order], (local[graph.dst[e]] * per + b)[order], graph.weight[e][order]
+
+    def from_hub():  # hub(v) → dep(v, j), free
+        for a, b in blocks:
+            base = bases(a, b)
+            yield np.repeat(base + 2 * k, k), (base[:, None] + k + i).ravel(), np.full((b - a) * k, _EPS)
+
+    return _sorted_csr(n * per, [turns, to_hub, moves, others, from_hub]), local
 
 
 def _expanded_search(graph: PathGraph, lat: np.ndarray, extra: np.ndarray, region: np.ndarray, source: int,
                      target: int, penalties: np.ndarray, k: int, limit: float) -> tuple[list[int], float] | None:
     """Dijkstra on the heading-expanded graph over ``region``; the vertex path and its cost."""
     n = len(region)
-    per = 2 * k + 1  # arr 0…k−1, dep k…2k−1, hub 2k
-    # state numbers in 32 bits when they fit (the CSR's are anyway): the entry arrays of a
-    # town-sized region are 10⁷–10⁸ long, and half their bytes are the peak of a road year
-    it = np.dtype(np.int32 if n * per < 2**31 else np.int64)
-    local = np.full(graph.n_vertices, -1, dtype=it)
-    local[region] = np.arange(n, dtype=it)
-    base = np.arange(0, n * per, per, dtype=it)
-    i = np.arange(k, dtype=it)
-    height = float(penalties.max())
-    cheap = np.flatnonzero(penalties < height - 1e-9).astype(it)
-    groups = []
-    # turns: arr(v, i) → dep(v, i + q) where P < S_p, then arr(v, i) → hub(v) at S_p
-    arr = (base[:, None] + i).ravel()
-    groups.append((np.repeat(arr, len(cheap)), (base[:, None, None] + k + (i[:, None] + cheap) % k).ravel(),
-                   np.tile(np.maximum(penalties[cheap], _EPS), n * k)))
-    groups.append((arr, np.repeat(base + 2 * k, k), np.full(n * k, max(height, _EPS))))
-    # lattice moves dep(u, b) → arr(v, b), columns taken in bin order so rows stay sorted
-    n_lat, n_dir = lat.shape
-    dir_bin = _bins(graph.direction_heading, k).astype(it)
-    by_bin = np.argsort(dir_bin, kind="stable")
-    lat_region = region[region < n_lat]
-    flat = np.flatnonzero(lat[lat_region][:, by_bin])
-    r = flat // n_dir
-    d = by_bin[flat - r * n_dir]
-    u = lat_region[r]
-    v = u + graph.lattice.direction_offset[d]
-    keep = local[v] >= 0
-    u, v, d = u[keep], v[keep], d[keep]
-    groups.append((local[u] * per + k + dir_bin[d], local[v] * per + dir_bin[d],
-                   graph.lat_weight[u, d].astype(np.float64)))
-    # other moves (streets, stitches, long bridges)
-    e = np.flatnonzero(extra & (local[graph.src] >= 0) & (local[graph.dst] >= 0))
-    b = _bins(graph.heading[e], k).astype(it)
-    rows = local[graph.src[e]] * per + k + b
-    order = np.argsort(rows, kind="stable")
-    groups.append((rows[order], (local[graph.dst[e]] * per + b)[order], graph.weight[e][order]))
-    # hub(v) → dep(v, j), free
-    groups.append((np.repeat(base + 2 * k, k), (base[:, None] + k + i).ravel(), np.full(n * k, _EPS)))
-    expanded = _sorted_csr(n * per, groups)
+    per = 2 * k + 1
+    expanded, local = _expanded_graph(graph, lat, extra, region, penalties, k)
+    i = np.arange(k, dtype=local.dtype)
     start = local[source] * per + 2 * k
     dist, pred = dijkstra(expanded, indices=start, return_predecessors=True, limit=limit + 2 * n * _EPS)
     arrivals = local[target] * per + i
@@ -438,6 +558,22 @@ def _expanded_search(graph: PathGraph, lat: np.ndarray, extra: np.ndarray, regio
     keep = np.ones(len(vertices), dtype=bool)
     keep[1:] = vertices[1:] != vertices[:-1]
     return vertices[keep].tolist(), float(dist[best])
+
+
+def _arrival_costs(graph: PathGraph, lat: np.ndarray, extra: np.ndarray, source: int, region: np.ndarray,
+                   vertices: np.ndarray, penalties: np.ndarray, k: int, limit: float) -> np.ndarray:
+    """The least turn-penalised cost of arriving at each of ``vertices`` from ``source`` over ``region``
+    (∞ at or above ``limit``, and outside the region: take in every vertex whose plain distance from
+    the source is below ``limit``, so that no arrival below it is missed)."""
+    per = 2 * k + 1
+    expanded, local = _expanded_graph(graph, lat, extra, region, penalties, k)
+    dist = dijkstra(expanded, indices=int(local[source]) * per + 2 * k, limit=limit + 2 * len(region) * per * _EPS)
+    at = local[np.asarray(vertices)].astype(np.int64)
+    arrivals = dist[(np.maximum(at, 0) * per)[:, None] + np.arange(k)].min(axis=1)
+    arrivals[at < 0] = np.inf
+    arrivals[np.asarray(vertices) == source] = 0.0
+    # the free transitions weigh _EPS each: take them off so that the cost is never overstated
+    return np.maximum(arrivals - 2 * len(region) * per * _EPS, 0.0)
 
 
 def route_over_major_roads(graph: PathGraph, source: int, target: int, *, demand: float = 0.0,
