@@ -248,7 +248,8 @@ def test_krems_european_years_grow_at_the_edge_and_close_their_loops():
     assert g.lei.infill + g.lei.edge >= 0.8
 
 
-@pytest.mark.xfail(strict=True, reason="issue 20 open: judged per piece (one disc per district-sized piece, not one "
-                   "disc of the summed area) the dead-end share 0.1494 is 0.0005 above the range 0.048–0.149")
 def test_krems_european_years_have_no_more_dead_ends_than_its_neighbourhoods():
+    """Judged per piece, the clusters of culs-de-sac its suburban eras hung on the town (which they never
+    close) left a dead-end share of 0.1494 against its neighbourhoods' 0.048–0.149; they go now: 0.085 in
+    0.026–0.152."""
     assert krems_european_years().overall.to_dict()["measures"]["dead_end_share"]["ok"]
