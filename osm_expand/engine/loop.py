@@ -265,11 +265,10 @@ def _grow_streets(state: _State, era: Era, now: YearValues, year: int, rng: np.r
         if era.name not in state.patterns:  # one object per era: it keeps what it learned between districts
             state.patterns[era.name] = district_pattern(era.pattern, era.options)
         pattern = state.patterns[era.name]
-        density = options.growth.district_density / spacing
-        state.city, grown = grow_district(state.city, pattern, state.growth.owed, density, state.nuclei,
+        state.city, grown = grow_district(state.city, pattern, state.growth.owed, 2.0 / spacing, state.nuclei,
                                           state.growth, rng, spacing=spacing, year=year, era=era.name)
-        if grown.districts:  # a district longer than owed is paid back by the next years' G(t)
-            state.growth.owed -= grown.length_m
+        if grown.districts:
+            state.growth.owed = max(state.growth.owed - grown.length_m, 0.0)
         else:  # no site took a district: wait until a bigger one is owed (its disc reaches further)
             state.growth.owed -= options.growth.min_district * spacing
         return grown

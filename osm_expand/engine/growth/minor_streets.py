@@ -14,9 +14,8 @@ temporary points on long segments) ranked by the nuclei of growth
   length is owed until it makes a district of at least
   :attr:`GrowthOptions.min_district` junction spacings of street, which then
   grows in a disc around the best-ranked candidate (holding the owed length
-  at :attr:`GrowthOptions.district_density`; the pattern fills it to the
-  town's own density, and what it grows beyond the owed length the next
-  years' G(t) pay back) and joins the town by the shared joining step.
+  at the town's own street density) and joins the town by the shared joining
+  step.
 
 New streets are ``planned`` (002 §2: they become built when traffic uses
 them), with the year and era they were built in and origin ``engine``.
@@ -58,15 +57,6 @@ class GrowthOptions:
     #: a district of about fifteen blocks (a grid of spacing s has 2/s metres of street per m²), not a
     #: street at a time (the patterns work at the district scale, and a district is a few blocks).
     min_district: float = 30.0
-    #: A district's site holds the owed length at this density, in metres of street per m² times the
-    #: junction spacing s. A grid has 2/s, and at 2/s a district of 30 spacings had a site of 15 s², less
-    #: than one patch cell of the example pattern (5 × 5 spacings, ``synth.patches.PatchOptions.cell_size``):
-    #: one patch of the town's dense fabric cut to a small disc, too connected and too straight (Andorra's
-    #: 2-core share 0.94 against its neighbourhoods' 0.79–0.93, Monaco's 0.97 against 0.88–0.97). The
-    #: town's neighbourhoods hold 1.5–1.7 s of street per s² (Krems 15.2 km/km² at its 110 m spacing,
-    #: north-bayreuth 11.2 at 154 m, discs of 0.2 km²); at 1/s the site holds a whole cell, which the pattern
-    #: fills to the town's density (Andorra 0.91, Monaco 0.89, both in range; issue 20).
-    district_density: float = 1.0
     #: Sites tried per district, best first (as the pipeline's first district).
     sites_tried: int = 5
     #: A district joined to the town at fewer places is not built (as the pipeline's first district).
@@ -265,7 +255,7 @@ def _new_lines(graph: StreetGraph, splits: list[tuple[np.ndarray, np.ndarray]], 
 def grow_district(city: City, pattern: GrowthPattern, length: float, density: float, nuclei: list[Nucleus],
                   memory: GrowthMemory, rng: np.random.Generator, *, spacing: float, year: int, era: str,
                   options: GrowthOptions = GrowthOptions()) -> tuple[City, GrowthYear]:
-    """A district of about ``length`` metres of street (its site of ``length / density`` m²) on the best free site.
+    """A district of about ``length`` metres of street (at ``density`` m per m²) on the best free site.
 
     The sites are the pipeline's (:mod:`osm_expand.sites`: free land next to
     the town, near water, with room), re-ranked by the nuclei of growth
@@ -274,23 +264,17 @@ def grow_district(city: City, pattern: GrowthPattern, length: float, density: fl
     places within a junction spacing of its built-up land (the sites'
     raster, which the LEI reads too: joined to a country road in the
     fields, Monaco's second district grew as outlying growth) is built.
-    Where no site of that area is free, the largest that is (halving down to nine blocks) is tried.
     Its stubs are the pattern's: closing them as a street pattern's are
     (:mod:`osm_expand.engine.growth.stubs`) left north-bayreuth's engine streets
     with 7 % dead ends against its neighbourhoods' 17–41 %.
     """
-    smallest = 9.0 * spacing ** 2
-    area = max(length / max(density, 1e-9), smallest)
+    area = max(length / max(density, 1e-9), 9.0 * spacing ** 2)
     pts = city.network.xy[city.network.used_nodes()]
     margin = 0.5 * float(np.hypot(*(pts.max(axis=0) - pts.min(axis=0)))) if len(pts) else 0.0
-    while True:  # the owed district where it fits, else the largest that does
-        radius = math.sqrt(area / math.pi)
-        site_options = SiteOptions(cell=max(SiteOptions.cell, radius / options.site_cells_per_radius))
-        maps = distance_maps(city, site_options, margin=margin)
-        sites = choose_sites(maps, area, site_options, most=options.sites_tried)
-        if sites or area <= smallest:
-            break
-        area = max(area / 2.0, smallest)
+    radius = math.sqrt(area / math.pi)
+    site_options = SiteOptions(cell=max(SiteOptions.cell, radius / options.site_cells_per_radius))
+    maps = distance_maps(city, site_options, margin=margin)
+    sites = choose_sites(maps, area, site_options, most=options.sites_tried)
     if not sites:
         return city, GrowthYear()
     order = rank_candidates(np.array([s.centre for s in sites]), nuclei, take=len(sites))
