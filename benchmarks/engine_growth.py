@@ -1,8 +1,9 @@
 """Does what the engine's years grow read as the town growing? The growth verdict and the LEI per town (issue 20).
 
 For each town: ``osm-expand TOWN`` in-process (default options, seed 0, the
-history's 30 years unless ``--years``), then everything the engine built
-(streets of origin ``engine``) judged against real neighbourhoods of the town
+history's 30 years unless ``--years``), then the engine's street growth
+(streets of origin ``engine`` but its major roads, whose length is printed
+apart) judged against real neighbourhoods of the town
 (:mod:`osm_expand.growth_fidelity`), with ``--refs`` reference seeds (the
 verdict's ranges come from 32 random neighbourhoods, so one reference seed
 moves the off count by one or two). Prints per town: the off count of 14 per
@@ -68,14 +69,15 @@ def main() -> None:
     args = ap.parse_args()
     runs = [(t, args.history) for t in args.towns] if args.towns else RUNS
     print("| town | history | off of 14 per reference | mean off | dead-end share [range] | 2-core share [range] "
-          "| pieces | infill / edge / outlying | engine km | run s (CPU) | judging s (CPU) |")
-    print("|---|---|---|---|---|---|---|---|---|---|---|")
+          "| pieces | infill / edge / outlying | street growth km | major roads km | run s (CPU) | judging s (CPU) |")
+    print("|---|---|---|---|---|---|---|---|---|---|---|---|")
     eras = []
     for name, history in runs:
         row = run(name, history, args.years, args.refs)
         first = row["judged"][0]
         if first is None or first.overall is None:
-            print(f"| {name} | {history} | no engine street | | | | | | | {row['run_s']:.0f} ({row['run_cpu']:.0f}) | |")
+            print(f"| {name} | {history} | no engine street | | | | | | | | "
+                  f"{row['run_s']:.0f} ({row['run_cpu']:.0f}) | |")
             continue
         offs = [g.overall.off for g in row["judged"]]
         overall = first.overall.to_dict()
@@ -83,6 +85,7 @@ def main() -> None:
         print(f"| {name} | {history} | {' '.join(map(str, offs))} | {np.mean(offs):.1f} "
               f"| {_share(overall, 'dead_end_share')} | {_share(overall, 'two_core_share')} | {overall['pieces']} "
               f"| {lei['infill']} / {lei['edge']} / {lei['outlying']} | {lei['new_length_km']} "
+              f"| {first.major_roads_m / 1000:.1f} "
               f"| {row['run_s']:.0f} ({row['run_cpu']:.0f}) | {row['judge_s']:.1f} ({row['judge_cpu']:.1f}) |",
               flush=True)
         for era, report in first.per_era.items():

@@ -60,7 +60,7 @@ from osm_expand.measures import (
 )
 
 __all__ = ["DEFAULT_PARTS", "FidelityOptions", "FidelityReport", "MeasureVerdict", "TownReference", "compare",
-           "fidelity", "judge", "ks_distance", "real_parts", "town_reference"]
+           "fidelity", "judge", "ks_distance", "real_parts", "reference_in", "town_reference"]
 
 #: Real neighbourhoods kept by default: 32 (the issue asks for at least 16). Sixteen make a 10th–90th
 #: percentile range from two values at each end; with 32 the median neighbourhood's off count moves
@@ -149,7 +149,7 @@ class TownReference:
 
     town: NetworkMeasures
     area: float
-    windows: tuple[shapely.Polygon, ...]
+    windows: tuple[shapely.Geometry, ...]  #: discs, or unions of discs (one per piece of a growth)
     parts: tuple[NetworkMeasures, ...]
     part_values: np.ndarray
     sorted_town: tuple[np.ndarray, ...]  # the town's distributions, sorted
@@ -296,13 +296,33 @@ def town_reference(town_lines: Sequence[np.ndarray] | LineSet, area: float, *, p
     if parts < opts.min_parts:
         raise InputError(f"fidelity needs at least {opts.min_parts} real parts, got {parts}")
     lines = LineSet.from_lines(town_lines)
+    windows = real_parts(lines, area, n=parts, rng=rng, sides=opts.disc_sides, draw_factor=opts.draw_factor,
+                         options=measure_options)
+    return reference_in(lines, windows, area=area, town=town, measure_options=measure_options)
+
+
+def reference_in(town_lines: Sequence[np.ndarray] | LineSet, windows: Sequence[shapely.Geometry], *,
+                 area: float | None = None, town: NetworkMeasures | None = None,
+                 measure_options: MeasureOptions | None = None) -> TownReference:
+    """The town measured whole and in the given real-part ``windows`` (discs, or unions of discs).
+
+    :func:`town_reference` draws one disc per part; a growth of several
+    pieces is judged against unions of one disc per piece
+    (:func:`osm_expand.growth_fidelity.growth_fidelity`), measured here the same way.
+
+    Returns
+    -------
+    :class:`TownReference` whose ``area`` is ``area`` (default: the windows' mean area).
+    """
+    lines = LineSet.from_lines(town_lines)
     if town is None:
         town = measure_network(lines, options=measure_options, pieces=False)
     sorted_town = tuple(np.sort(town.value(m)) for m in DISTRIBUTIONS)
-    windows = real_parts(lines, area, n=parts, rng=rng, sides=opts.disc_sides, draw_factor=opts.draw_factor,
-                         options=measure_options)
+    windows = tuple(windows)
     measured = tuple(measure_network(lines, window=w, options=measure_options) for w in windows)
     values = np.array([_values(m, sorted_town) for m in measured])
+    if area is None:
+        area = float(np.mean(shapely.area(np.asarray(windows, dtype=object)))) if windows else 0.0
     return TownReference(town=town, area=float(area), windows=windows, parts=measured, part_values=values,
                          sorted_town=sorted_town)
 

@@ -13,10 +13,10 @@ TOWN_NODES = np.array([[0.0, 0.0], [1000.0, 0.0]])
 NOTHING = shapely.GeometryCollection()
 
 
-def test_a_lone_street_hung_on_the_town_goes_with_loops_and_stays_without():
+def test_a_tree_hung_on_the_town_goes_with_loops_and_stays_without():
     """A 200 m spur (longer than the reach, so no stub rule drops it) is a comb's tooth; a street joined
-    to the town at both ends and a ring on a stem close loops and stay, and so does a branching tree (a
-    cluster of culs-de-sac)."""
+    to the town at both ends and a ring on a stem close loops and stay; a branching tree (a cluster of
+    culs-de-sac that a pattern without Snap and Extend never closes) goes like the spur."""
     spur = np.array([[100.0, 0], [100, 200]])
     u_turn = [np.array([[300.0, 0], [300, 150], [500, 150]]), np.array([[500.0, 150], [500, 0]])]
     stem = np.array([[700.0, 0], [700, 100]])
@@ -29,6 +29,8 @@ def test_a_lone_street_hung_on_the_town_goes_with_loops_and_stays_without():
     tree = [np.array([[100.0, 0], [100, 200]]), np.array([[100.0, 200], [0, 300]]),
             np.array([[100.0, 200], [200, 300]])]
     kept, _, report = close_stubs(tree, [False] * 3, TOWN, TOWN_NODES, NOTHING, reach=50.0, loops=True)
+    assert report.source == () and kept == [] and report.dropped == 3
+    kept, _, report = close_stubs(tree, [False] * 3, TOWN, TOWN_NODES, NOTHING, reach=50.0)
     assert report.source == (0, 1, 2)
 
 
