@@ -67,7 +67,7 @@ def expanded(path: Path):
     from osm_expand.model import Status
     from osm_expand.pipeline import ExpandOptions, expand
 
-    city = expand(load(path), ExpandOptions(seed=0, fidelity=False, years=0)).city
+    city = expand(load(path), ExpandOptions(seed=0, fidelity=False)).city
     net = city.network
     return city.replace(network=net.replace(streets=tuple(
         replace(s, status=Status.PLANNED) if s.is_new else s for s in net.streets)))

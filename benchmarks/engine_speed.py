@@ -63,7 +63,7 @@ TOWNS = ["krems.osm.gz", "north-bayreuth.osm.gz", "campo-grande.osm.gz"]
 
 def measure(path: Path, history_name: str, years: int, seed: int, roads_per_year: int = 1) -> dict:
     city = load(path)
-    grown = expand(city, ExpandOptions(seed=seed, years=0, fidelity=False))
+    grown = expand(city, ExpandOptions(seed=seed, fidelity=False))
     history = load_history(history_name)
     stamps: list[tuple[float, float]] = []
     streets: list[int] = []

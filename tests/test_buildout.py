@@ -60,7 +60,7 @@ def with_blocks(city, year):
 @functools.cache
 def expanded(name: str):
     """The town as mapped plus its grown district, every street built, blocks recomputed."""
-    city = expand(load(FIXTURES / name), ExpandOptions(seed=0, fidelity=False, years=0)).city
+    city = expand(load(FIXTURES / name), ExpandOptions(seed=0, fidelity=False)).city
     net = city.network.replace(streets=tuple(replace(s, status=Status.BUILT) for s in city.network.streets))
     return with_blocks(city.replace(network=net), city.year)
 

@@ -406,8 +406,7 @@ def test_a_town_whose_buildings_are_not_all_polygons_grows_through_the_engine():
     from dataclasses import replace
 
     from osm_expand.ingest import load
-    from osm_expand.pipeline import ExpandOptions, expand
-    from tests.conftest import FIXTURES
+    from tests.conftest import FIXTURES, expanded_and_matured
 
     city = load(FIXTURES / "krems.osm.gz")
     buildings = list(city.buildings)
@@ -417,5 +416,5 @@ def test_a_town_whose_buildings_are_not_all_polygons_grows_through_the_engine():
         ids = buildings[k].node_ids[0][:4].tolist()
         buildings[k] = replace(buildings[k], rings=(bow,), node_ids=(np.array([*ids, ids[0]]),))
     assert any(shapely.make_valid(b.polygon).geom_type == "MultiPolygon" for b in buildings)
-    result = expand(city.replace(buildings=tuple(buildings)), ExpandOptions(seed=3, years=2, fidelity=False))
+    result = expanded_and_matured(city.replace(buildings=tuple(buildings)), seed=3, years=2)
     assert result.report["engine"]["years"] == 2

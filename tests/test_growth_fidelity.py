@@ -21,8 +21,7 @@ from osm_expand.growth_fidelity import (
 from osm_expand.ingest import load
 from osm_expand.measures import Measure
 from osm_expand.model import City, Origin, network_from_lines
-from osm_expand.pipeline import ExpandOptions, expand
-from tests.conftest import FIXTURES
+from tests.conftest import FIXTURES, expanded_and_matured
 from tests.test_fidelity import grid
 
 
@@ -113,9 +112,9 @@ def test_no_engine_street_no_growth_verdict():
     assert city_growth_fidelity(City(network=source_only), rng=0) is None
 
 
-@functools.cache
+@functools.lru_cache(maxsize=None)
 def krems_years():
-    return expand(load(FIXTURES / "krems.osm.gz"), ExpandOptions(seed=0))
+    return expanded_and_matured(load(FIXTURES / "krems.osm.gz"), seed=0, fidelity=True)
 
 
 def test_the_json_report_judges_what_the_years_grew():
@@ -156,7 +155,7 @@ def test_krems_european_years_are_as_connected_as_its_neighbourhoods():
     (dead-end share 0.22 against its neighbourhoods' 0.09–0.20); they go now (issue 20). The engine's
     dead-end and 2-core shares lie in the range of the town's real neighbourhoods, and nearly all of its
     street length is infill or edge expansion."""
-    city = expand(load(FIXTURES / "krems.osm.gz"), ExpandOptions(seed=0, history="european", fidelity=False)).city
+    city = expanded_and_matured(load(FIXTURES / "krems.osm.gz"), seed=0, history="european").city
     g = city_growth_fidelity(city, rng=0)
     assert g is not None and g.overall is not None
     measures = g.overall.to_dict()["measures"]

@@ -55,7 +55,7 @@ def test_a_seam_connector_is_a_smooth_curve_between_the_two_cut_ends():
 
 @functools.cache
 def district(name: str, seed: int):
-    return expand(load(FIXTURES / name), ExpandOptions(seed=seed, years=0))
+    return expand(load(FIXTURES / name), ExpandOptions(seed=seed))
 
 
 @pytest.mark.parametrize("name", ["krems.osm.gz", "andorra.osm.pbf"])
