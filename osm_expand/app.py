@@ -27,7 +27,7 @@ import math
 import os
 import sys
 from collections.abc import Callable, Iterator, Sequence
-from dataclasses import dataclass, field, fields, replace
+from dataclasses import dataclass, field, fields
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -607,7 +607,7 @@ def run_expand(request: ExpandRequest, *, progress: Log = _quiet, stages: Callab
         One of its named kinds (:mod:`osm_expand.errors`), naming the file; nothing is written.
     """
     from osm_expand.ingest import check_readable, load
-    from osm_expand.maturation import MatureOptions, mature
+    from osm_expand.maturation import MatureOptions, mature_result
     from osm_expand.pipeline import ExpandOptions, expand
 
     city_path = check_readable(request.city)
@@ -631,14 +631,12 @@ def run_expand(request: ExpandRequest, *, progress: Log = _quiet, stages: Callab
                                 beyond_bounds=request.beyond_bounds, land=checked.land, pattern=request.pattern)
         try:
             result = expand(city, options, progress=progress)
-            grown = mature(result.city, history, MatureOptions(years=years, snapshot_every=request.snapshot_every),
-                           request.seed, learned=result.learned, join_points=result.joins.at,
-                           snapshot=(lambda *picture: pictures.append(picture)) if snapshots else None,
-                           progress=progress)
+            result = mature_result(result, history, MatureOptions(years=years, snapshot_every=request.snapshot_every),
+                                   request.seed, progress=progress,
+                                   snapshot=(lambda *picture: pictures.append(picture)) if snapshots else None)
         except InputError as exc:
             raise in_file(city_path, exc, request.service) from None
-        report = {**result.report, **grown.report}
-        result = replace(result, city=grown.city, report=report)
+        report = result.report
         for text in report.get("notes", []):  # what a user should know of the result, even with -q
             say(text)
         progress(f"{len(result.city.new_streets())} new streets; writing {out}")

@@ -7,6 +7,7 @@ and joined), then :func:`mature`::
     history = load_history("european")
     grown = mature(result.city, history, MatureOptions(years=20), seed=0,
                    learned=result.learned, join_points=result.joins.at)
+    # or, the expand result with the city after the years and both reports: mature_result(result, history, ...)
 
 :func:`mature` is :func:`osm_expand.engine.loop.start` and one
 :func:`osm_expand.engine.loop.step` per year; it sums the years per era and
@@ -16,16 +17,16 @@ is loaded by the caller, once (:func:`osm_expand.engine.history.load_history`).
 from __future__ import annotations
 
 from collections.abc import Callable
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
 from osm_expand.engine.history import History
 from osm_expand.engine.loop import EngineOptions, EngineState, EraReport, start, step, summary
 from osm_expand.model import City, demolished_ways
-from osm_expand.pipeline import Learned, Progress, district_pattern, learn
+from osm_expand.pipeline import ExpandResult, Learned, Progress, district_pattern, learn
 
-__all__ = ["Maturation", "MatureOptions", "Snapshot", "YearProgress", "mature"]
+__all__ = ["Maturation", "MatureOptions", "Snapshot", "YearProgress", "mature", "mature_result"]
 
 #: Called with the city, the calendar year, the era and traffic per street id when a snapshot is due.
 Snapshot = Callable[[City, int, str, dict[int, float]], None]
@@ -130,6 +131,17 @@ def mature(city: City, history: History, options: MatureOptions | None = None, s
         if grown is not None:
             report["growth_fidelity"] = grown.to_dict()
     return Maturation(state.city, report)
+
+
+def mature_result(result: ExpandResult, history: History, options: MatureOptions | None = None, seed: int = 0, *,
+                  snapshot: Snapshot | None = None, progress: Progress = lambda message: None,
+                  each_year: YearProgress | None = None) -> ExpandResult:
+    """:func:`mature` of an expanded city, as the command line runs it: ``result`` with the city after the
+    years and the report of both (the district's, then ``engine``, ``demolished_osm_ways``,
+    ``growth_fidelity``). ``seed`` is the expand's."""
+    grown = mature(result.city, history, options, seed, learned=result.learned, join_points=result.joins.at,
+                   snapshot=snapshot, progress=progress, each_year=each_year)
+    return replace(result, city=grown.city, report={**result.report, **grown.report})
 
 
 def _take(snapshot: Snapshot, state: EngineState, era: EraReport) -> None:

@@ -73,13 +73,9 @@ def expanded_and_matured(city, *, seed: int = 0, history: str = "example", years
                          fidelity: bool = False, **options):
     """``expand`` then ``mature``, as the command line runs them: the expand result with the city after the
     years and the two reports merged (the command line's report)."""
-    from dataclasses import replace
-
     from osm_expand.engine.history import load_history
-    from osm_expand.maturation import MatureOptions, mature
+    from osm_expand.maturation import MatureOptions, mature_result
     from osm_expand.pipeline import ExpandOptions, expand
 
     result = expand(city, ExpandOptions(seed=seed, fidelity=fidelity, **options))
-    grown = mature(result.city, load_history(history), MatureOptions(years=years, fidelity=fidelity), seed,
-                   learned=result.learned, join_points=result.joins.at)
-    return replace(result, city=grown.city, report={**result.report, **grown.report})
+    return mature_result(result, load_history(history), MatureOptions(years=years, fidelity=fidelity), seed)
