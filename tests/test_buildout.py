@@ -32,7 +32,6 @@ from osm_expand.engine.buildout.year import (
     town_people,
 )
 from osm_expand.engine.history import load_history
-from osm_expand.engine.segments import street_width
 from osm_expand.errors import InputError
 from osm_expand.export import write_geojson, write_osm, write_urbanenvironment
 from osm_expand.export.preview import write_preview
@@ -40,6 +39,7 @@ from osm_expand.export.urban import validate
 from osm_expand.ingest import load
 from osm_expand.model import Building, Lot, Origin, Status
 from osm_expand.model.highways import rank
+from osm_expand.model.segments import street_width
 from osm_expand.pipeline import ExpandOptions, expand
 from tests.conftest import FIXTURES
 

@@ -18,10 +18,10 @@ import shapely
 
 from osm_expand import cli
 from osm_expand.engine.history import load_history
-from osm_expand.engine.segments import is_major
 from osm_expand.ingest import load
 from osm_expand.joins import MAX_BRIDGE
 from osm_expand.model import Origin, Status
+from osm_expand.model.segments import is_major
 from osm_expand.pipeline import ExpandOptions, expand
 from tests.conftest import FIXTURES, expanded_and_matured
 

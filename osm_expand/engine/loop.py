@@ -48,9 +48,9 @@ from osm_expand.engine.growth.nuclei import Nucleus, candidate_points, find_nucl
 from osm_expand.engine.history import GROWTH_PATTERNS, Clock, Era, History, YearValues
 from osm_expand.engine.planarity import without_touching
 from osm_expand.engine.roads.major_roads import RoadMemory, RoadsYear, major_roads_year
-from osm_expand.engine.segments import SegmentTable
 from osm_expand.engine.traffic.simulation import TrafficMemory, TrafficYear, start_traffic, traffic_year
 from osm_expand.model import City, Origin
+from osm_expand.model.segments import SegmentTable
 from synth.growth import GrowthPattern
 from synth.patterns import AngleSpace, PatternOptions
 

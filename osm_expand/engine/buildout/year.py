@@ -11,7 +11,7 @@ use, lots and buildings). One year:
    street's width either side of its centre line) is demolished with its
    building. A building on a carriageway or crossed by a centre line goes
    alone; its lot keeps its place. Streets the map leaves without a width
-   get their class's (:func:`osm_expand.engine.segments.street_width`).
+   get their class's (:func:`osm_expand.model.segments.street_width`).
 2. **Blocks to build out.** Block ids are renumbered whenever the loop
    recomputes blocks, so surviving lots find their block geometrically (a
    point inside the lot). A block is built out when it touches at least one
@@ -105,9 +105,9 @@ from osm_expand.engine.buildout.lots import NO_STREET, Frontage, LandUse, block_
 from osm_expand.engine.buildout.lots import Lot as EngineLot
 from osm_expand.engine.buildout.report import buildout_report  # re-exported
 from osm_expand.engine.history import History, YearValues
-from osm_expand.engine.segments import street_width
 from osm_expand.errors import InputError
 from osm_expand.model import Block, Building, City, Lot, Origin, Status
+from osm_expand.model.segments import street_width
 
 __all__ = ["BuildoutMemory", "BuildoutOptions", "BuildoutYear", "LotState", "buildout_report", "buildout_year",
            "start_buildout", "town_people"]
