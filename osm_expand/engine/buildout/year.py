@@ -88,19 +88,9 @@ from osm_expand.blocks import blocks as find_blocks
 from osm_expand.engine.buildout.calibration import CalibrationOptions, TownCalibration, calibrate_town, size_bands
 from osm_expand.engine.buildout.economy import HeightScale, expected_floor_space, lot_economy, occupants, substitute
 from osm_expand.engine.buildout.footprints import place_buildings
-from osm_expand.engine.buildout.landuse import (
-    UNASSIGNED,
-    LotLayout,
-    assign_types,
-    block_types,
-    choose_types,
-    distance_to,
-    goal_shares,
-    lot_attributes,
-    lot_layout,
-    lot_values,
-    update_land_use,
-)
+from osm_expand.engine.buildout.landuse import assign_types, block_types, choose_types, update_land_use
+from osm_expand.engine.buildout.landuse_types import UNASSIGNED, goal_shares
+from osm_expand.engine.buildout.lot_values import LotLayout, distance_to, lot_attributes, lot_layout, lot_values
 from osm_expand.engine.buildout.lots import NO_STREET, Frontage, LandUse, block_frontage, land_use, subdivide_blocks
 from osm_expand.engine.buildout.lots import Lot as EngineLot
 from osm_expand.engine.buildout.report import buildout_report  # re-exported
@@ -271,7 +261,7 @@ def start_buildout(city: City, history: History, rng: np.random.Generator, *,
     -------
     BuildoutMemory
         Town units take the type of the mapped land use they lie in
-        (:func:`~osm_expand.engine.buildout.landuse.types_from_polygons`); the others
+        (:func:`~osm_expand.engine.buildout.landuse_osm.types_from_polygons`); the others
         the type that raises the system value most
         (:func:`~osm_expand.engine.buildout.landuse.assign_types`).
 
