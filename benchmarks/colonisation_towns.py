@@ -3,8 +3,9 @@
     python benchmarks/colonisation_towns.py [--seeds 0 1 2] [--years N] [--draw DIR [--png NAME] [--dpi N]]
                                             [--out DIR] [TOWN ...]
 
-For each town and seed: ``expand(city, ExpandOptions(seed=s, years=N),
-pattern=Colonisation(example))`` in-process (the town is read and learned
+For each town and seed: ``expand(city, ExpandOptions(seed=s),
+pattern=Colonisation(example))`` then ``mature_result(result, example
+history, MatureOptions(years=N), s)`` in-process (the town is read and learned
 once), which is what ``osm-expand TOWN --pattern colonisation --seed s
 --years N`` runs; without ``--years`` the history's own years (30 for the
 default history ``example``), so the engine builds lots and buildings in the
@@ -81,9 +82,11 @@ def district_buildings(result, rng: np.random.Generator) -> tuple[int, int, list
 
 def run(name: str, seeds: list[int], years: int | None, draw: Path | None, png: str, out_dir: Path,
         dpi: int = 70) -> list[dict]:
+    from osm_expand.engine.history import load_history
     from osm_expand.export import write_urbanenvironment
     from osm_expand.export.urban import validate
     from osm_expand.ingest import load
+    from osm_expand.maturation import MatureOptions, mature_result
     from osm_expand.pipeline import ExpandOptions, expand, learn
     from synth.colonisation_pattern import Colonisation
 
@@ -93,7 +96,8 @@ def run(name: str, seeds: list[int], years: int | None, draw: Path | None, png: 
     rows = []
     for seed in seeds:
         t0 = time.perf_counter()
-        result = expand(city, ExpandOptions(seed=seed, years=years), pattern=pattern)
+        result = mature_result(expand(city, ExpandOptions(seed=seed), pattern=pattern), load_history("example"),
+                               MatureOptions(years=years), seed)
         seconds = time.perf_counter() - t0
         built, stand_in = result.city, None
         if years == 0:

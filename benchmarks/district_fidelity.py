@@ -40,7 +40,7 @@ def run(name: str, seeds: list[int], pattern: str, overrides: dict) -> list[dict
     rows = []
     for seed in seeds:
         t0 = time.perf_counter()
-        result = expand(city, ExpandOptions(seed=seed, pattern=pattern, years=0), pattern=grower)
+        result = expand(city, ExpandOptions(seed=seed, pattern=pattern), pattern=grower)
         total = time.perf_counter() - t0
         f = result.report["fidelity"]
         rows.append({"seed": seed, "off": f["off"], "density_ok": f["density_ok"], "typical": f["typical_part_off"],

@@ -40,14 +40,16 @@ def _share(report: dict, name: str) -> str:
 
 
 def run(name: str, history: str, years: int | None, refs: int) -> dict:
+    from osm_expand.engine.history import load_history
     from osm_expand.growth_fidelity import before_the_years, built_up, growth_fidelity
     from osm_expand.ingest import load
+    from osm_expand.maturation import MatureOptions, mature_result
     from osm_expand.model import Origin
     from osm_expand.pipeline import ExpandOptions, expand
 
     t0, c0 = time.perf_counter(), time.process_time()
-    result = expand(load(REPO / "fixtures" / name), ExpandOptions(seed=0, history=history, years=years,
-                                                                    fidelity=False))
+    result = mature_result(expand(load(REPO / "fixtures" / name), ExpandOptions(seed=0, fidelity=False)),
+                           load_history(history), MatureOptions(years=years, fidelity=False), 0)
     run_s, run_cpu = time.perf_counter() - t0, time.process_time() - c0
     t0, c0 = time.perf_counter(), time.process_time()
     net = result.city.network

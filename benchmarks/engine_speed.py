@@ -16,7 +16,7 @@ engine has N streets to keep up with, as issue 22 asks. ``--roads-per-year
 whose road search does not fit in memory.
 
 For each town: load, grow the district (``--years 0`` work, not timed), then
-run the engine's year loop (:func:`osm_expand.engine.loop.run`) with the
+run the engine's year loop (:func:`osm_expand.maturation.mature`) with the
 build-out for ``--years`` years and time every year (wall clock, from the
 loop's progress callback). The pathfinding lattice is built once, the first
 time a trade route runs short, and is reported apart (it is 003's one-off
@@ -54,16 +54,17 @@ ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
 
 from osm_expand.engine.history import load_history  # noqa: E402
-from osm_expand.engine.loop import EngineOptions, run  # noqa: E402
+from osm_expand.engine.loop import EngineOptions  # noqa: E402
 from osm_expand.ingest import load  # noqa: E402
-from osm_expand.pipeline import ExpandOptions, _buildout, district_pattern, expand  # noqa: E402
+from osm_expand.maturation import MatureOptions, mature  # noqa: E402
+from osm_expand.pipeline import ExpandOptions, expand  # noqa: E402
 
 TOWNS = ["krems.osm.gz", "north-bayreuth.osm.gz", "campo-grande.osm.gz"]
 
 
 def measure(path: Path, history_name: str, years: int, seed: int, roads_per_year: int = 1) -> dict:
     city = load(path)
-    grown = expand(city, ExpandOptions(seed=seed, years=0, fidelity=False))
+    grown = expand(city, ExpandOptions(seed=seed, fidelity=False))
     history = load_history(history_name)
     stamps: list[tuple[float, float]] = []
     streets: list[int] = []
@@ -74,12 +75,12 @@ def measure(path: Path, history_name: str, years: int, seed: int, roads_per_year
         print(f"{path.name} year {done}/{total} ({era}): {streets[-1] if streets else '?'} streets, "
               f"{stamps[-1][0] - last[0]:.2f} s wall, {stamps[-1][1] - last[1]:.2f} s CPU", file=sys.stderr, flush=True)
 
-    engine = run(grown.city, history, years=years, seed=seed, spacing=grown.learned.example.spacing,
-                 district_pattern=district_pattern(grown.learned), join_points=grown.joins.at,
-                 buildout=_buildout(), progress=progress, options=EngineOptions(roads_per_year=roads_per_year),
-                 snapshot=lambda c, year, era, traffic: streets.append(len(c.network.streets)), snapshot_every=1)
+    engine = mature(grown.city, history, MatureOptions(years=years, fidelity=False, snapshot_every=1,
+                                                      engine=EngineOptions(roads_per_year=roads_per_year)),
+                    seed, learned=grown.learned, join_points=grown.joins.at, each_year=progress,
+                    snapshot=lambda c, year, era, traffic: streets.append(len(c.network.streets)))
     wall, cpu = time.perf_counter() - t0, time.process_time() - cpu0
-    seconds = engine.seconds
+    seconds = engine.report["engine"]["seconds"]
     start = seconds.get("start", 0.0)  # wall; CPU of the start is taken as the same
     previous = [(t0 + start, cpu0 + start), *stamps[:-1]]
     timeline = [[n, round(b[0] - a[0], 3), round(b[1] - a[1], 3)] for n, a, b in zip(streets, previous, stamps)]

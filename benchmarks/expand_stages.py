@@ -21,9 +21,11 @@ REPO = Path(__file__).resolve().parent.parent
 
 
 def stage_times(path: Path, seed: int, out: Path) -> dict[str, float]:
+    from osm_expand.engine.history import load_history
     from osm_expand.export import write_geojson, write_osm, write_urbanenvironment
     from osm_expand.export.preview import write_preview
     from osm_expand.ingest import load
+    from osm_expand.maturation import MatureOptions, mature_result
     from osm_expand.pipeline import ExpandOptions, expand
 
     times: dict[str, float] = {}
@@ -38,8 +40,9 @@ def stage_times(path: Path, seed: int, out: Path) -> dict[str, float]:
     mark("learn the town (simplify + example)")
     stages = {"finding": "blocks, land, site", "growing": "growth + joins", "judging": "fidelity score",
               "simulating": "engine (the default history's years)"}
-    result = expand(city, ExpandOptions(seed=seed),
-                    progress=lambda msg: mark(stages[msg.split()[0]]) if msg.split()[0] in stages else None)
+    staged = lambda msg: mark(stages[msg.split()[0]]) if msg.split()[0] in stages else None  # noqa: E731
+    result = mature_result(expand(city, ExpandOptions(seed=seed), progress=staged), load_history("example"),
+                           MatureOptions(), seed, progress=staged)
     mark("write urbanenvironment")
     write_urbanenvironment(result.city, out / "a.xml")
     mark("write osm")

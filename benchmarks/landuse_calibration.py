@@ -41,6 +41,10 @@ from scipy.spatial import cKDTree
 
 from osm_expand.engine.buildout import economy as ec
 from osm_expand.engine.buildout import landuse as lu
+from osm_expand.engine.buildout import landuse_osm as lo
+from osm_expand.engine.buildout import landuse_types as lt
+from osm_expand.engine.buildout import lot_values as lv
+from osm_expand.engine.buildout import similarity as ls
 from osm_expand.ingest import load
 
 REPO = Path(__file__).resolve().parent.parent
@@ -95,13 +99,13 @@ def town(path: Path, years: int, seed: int, cell: float, half: float) -> dict:
     traffic = np.zeros(n)
     np.maximum.at(traffic, pi, weights[li])
     outline = shapely.union_all(shapely.buffer(np.asarray(footprints, dtype=object), 60.0))
-    cal = lu.calibrate_landuse(polygons, outline, buildings=footprints)
-    types = cal.with_goals(lu.DEFAULT_TYPES)
-    attrs = lu.lot_attributes(xy, centres=centre, water=list(ctx.water) + list(ctx.sea), green=green,
+    cal = lo.calibrate_landuse(polygons, outline, buildings=footprints)
+    types = cal.with_goals(lt.DEFAULT_TYPES)
+    attrs = lv.lot_attributes(xy, centres=centre, water=list(ctx.water) + list(ctx.sea), green=green,
                               traffic=traffic)
     area = foot_area / 0.35
-    layout = lu.lot_layout(xy, area, attrs)
-    lut = lu.assign_types(layout, np.full(n, lu.UNASSIGNED), types=types, rng=rng)
+    layout = lv.lot_layout(xy, area, attrs)
+    lut = lu.assign_types(layout, np.full(n, lt.UNASSIGNED), types=types, rng=rng)
     result = None
     for _ in range(years):
         result = lu.update_land_use(layout, lut, types=types, rng=rng)
@@ -109,18 +113,18 @@ def town(path: Path, years: int, seed: int, cell: float, half: float) -> dict:
     x0, y0 = np.maximum(xy.min(axis=0), centre[0] - half)
     x1, y1 = np.minimum(xy.max(axis=0), centre[0] + half)
     bounds = (x0, y0, x1, y1)
-    real = lu.rasterise_polygons(polygons, bounds=bounds, cell=cell, buildings=footprints)
-    sim = lu.rasterise_lots(xy, lut, bounds=bounds, cell=cell, max_distance=40.0)
-    shuffled = lu.rasterise_lots(xy, rng.permutation(lut), bounds=bounds, cell=cell, max_distance=40.0)
-    tagged = real != lu.UNASSIGNED
-    both = tagged & (sim != lu.UNASSIGNED)  # cells with a real tag and a lot nearby
+    real = ls.rasterise_polygons(polygons, bounds=bounds, cell=cell, buildings=footprints)
+    sim = ls.rasterise_lots(xy, lut, bounds=bounds, cell=cell, max_distance=40.0)
+    shuffled = ls.rasterise_lots(xy, rng.permutation(lut), bounds=bounds, cell=cell, max_distance=40.0)
+    tagged = real != lt.UNASSIGNED
+    both = tagged & (sim != lt.UNASSIGNED)  # cells with a real tag and a lot nearby
     agree = float((sim[both] == real[both]).mean()) if both.any() else float("nan")
     agree_shuffled = float((shuffled[both] == real[both]).mean()) if both.any() else float("nan")
     sims = {}
     for k in (4, 8, 12):
-        sims[k] = (lu.similarity(real, sim, k, nodata=lu.UNASSIGNED), lu.similarity(real, shuffled, k,
-                                                                                  nodata=lu.UNASSIGNED),
-                   lu.similarity(np.where(tagged, sim, lu.UNASSIGNED), real, k, nodata=lu.UNASSIGNED))
+        sims[k] = (ls.similarity(real, sim, k, nodata=lt.UNASSIGNED), ls.similarity(real, shuffled, k,
+                                                                                  nodata=lt.UNASSIGNED),
+                   ls.similarity(np.where(tagged, sim, lt.UNASSIGNED), real, k, nodata=lt.UNASSIGNED))
     # heights
     h = np.array([np.nan if b.height is None else b.height for b in ctx.buildings])
     lv = np.array([np.nan if b.levels is None else b.levels for b in ctx.buildings])
@@ -130,7 +134,7 @@ def town(path: Path, years: int, seed: int, cell: float, half: float) -> dict:
     built = econ.height > 0
     return {"town": path.name, "lots": n, "polygons": len(polygons), "coverage": cal.coverage,
             "weight": cal.weight, "shares": cal.shares, "goals": cal.goals,
-            "final": lu.area_shares(area, lut, len(types)), "tagged_cells": float(tagged.mean()),
+            "final": lv.area_shares(area, lut, len(types)), "tagged_cells": float(tagged.mean()),
             "raster": real.shape, "both": float(both.mean()), "agree": agree, "agree_shuffled": agree_shuffled,
             "similarity": sims, "heights": hcal, "generated_median": float(np.median(econ.height[built])),
             "generated_quartiles": np.quantile(econ.height[built], [0.25, 0.75]),
@@ -146,7 +150,7 @@ def main() -> None:
     parser.add_argument("--cell", type=float, default=10.0)
     parser.add_argument("--half", type=float, default=1000.0)
     args = parser.parse_args()
-    names = [t.name for t in lu.DEFAULT_TYPES]
+    names = [t.name for t in lt.DEFAULT_TYPES]
     np.set_printoptions(precision=3, suppress=True)
     for path in args.files:
         r = town(path, args.years, args.seed, args.cell, args.half)

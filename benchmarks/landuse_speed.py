@@ -26,6 +26,8 @@ import shapely
 
 from osm_expand.engine.buildout import economy as ec
 from osm_expand.engine.buildout import landuse as lu
+from osm_expand.engine.buildout import landuse_types as lt
+from osm_expand.engine.buildout import lot_values as lv
 
 
 def synthetic_lots(n: int, rng: np.random.Generator) -> dict:
@@ -47,11 +49,11 @@ def run(n: int, years: int, seed: int) -> dict[str, float]:
     rng = np.random.default_rng(seed)
     lots = synthetic_lots(n, rng)
     t0 = time.perf_counter()
-    attrs = lu.lot_attributes(lots["xy"], centres=lots["centre"], water=lots["water"], green=lots["green"],
+    attrs = lv.lot_attributes(lots["xy"], centres=lots["centre"], water=lots["water"], green=lots["green"],
                               traffic=lots["traffic"])
-    layout = lu.lot_layout(lots["xy"], lots["area"], attrs)
+    layout = lv.lot_layout(lots["xy"], lots["area"], attrs)
     t_layout = time.perf_counter() - t0
-    lut = lu.assign_types(layout, np.full(n, lu.UNASSIGNED), types=lu.DEFAULT_TYPES, rng=rng)
+    lut = lu.assign_types(layout, np.full(n, lt.UNASSIGNED), types=lt.DEFAULT_TYPES, rng=rng)
     calibration = ec.calibrate_heights(np.full(1, np.nan), np.full(1, np.nan))
     envelope = lots["area"] * 0.35
     scale = None
@@ -61,7 +63,7 @@ def run(n: int, years: int, seed: int) -> dict[str, float]:
     accepted = 0
     for year in range(years + 1):
         t0 = time.perf_counter()
-        result = lu.update_land_use(layout, lut, types=lu.DEFAULT_TYPES, rng=rng)
+        result = lu.update_land_use(layout, lut, types=lt.DEFAULT_TYPES, rng=rng)
         t1 = time.perf_counter()
         econ = ec.lot_economy(lots["area"], envelope, result.luv, result.lut, attrs[:, 0], avgprice=100.0,
                               calibration=calibration, scale=scale, rng=rng)
@@ -73,7 +75,7 @@ def run(n: int, years: int, seed: int) -> dict[str, float]:
             best["update"] = min(best["update"], t1 - t0)
             best["economy"] = min(best["economy"], t2 - t1)
             accepted = result.accepted
-    goals = lu.goal_shares(lu.DEFAULT_TYPES)
+    goals = lt.goal_shares(lt.DEFAULT_TYPES)
     return {"lots": n, "layout": t_layout, **best, "pairs": layout.weights.nnz,
             "accepted": accepted, "off_goal": float(np.abs(result.shares - goals).max()),
             "median_height": float(np.median(econ.height[econ.height > 0]))}

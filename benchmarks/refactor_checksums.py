@@ -18,10 +18,11 @@ Campo Grande takes about 4 min of CPU per expand run; it is left out unless
 named. ``--check`` compares only the cases both sides hold.
 
 ``benchmarks/refactor_checksums.json`` holds the baseline of issue 23's
-refactor: main at c903331, before any of it (Krems and Monaco, every
-fixture's ``simplify``; Campo Grande's three runs, whose
-outputs were the same before and after the refactor: the default's recorded
-in full after it, its first 64 bits before).
+second refactor (the engine as City → City: ``mature`` and ``step``, the
+segment table and the one ``Lot`` in the model, ``landuse.py`` and
+``app.py`` split): main at 25738d5 (outputs as a1d1f68's), Krems, Monaco
+and Campo Grande's three runs and every fixture's ``simplify``. (The first
+refactor's baseline was main at c903331.)
 """
 
 from __future__ import annotations

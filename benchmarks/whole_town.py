@@ -53,7 +53,7 @@ def check(name: str, out: Path, referee: str | None) -> dict:
 
     path = REPO / "fixtures" / name
     t0 = time.perf_counter()
-    result = expand(load(path), ExpandOptions(seed=0, area=SMALL.get(name), beyond_bounds=name in SMALL, years=0))
+    result = expand(load(path), ExpandOptions(seed=0, area=SMALL.get(name), beyond_bounds=name in SMALL))
     seconds = time.perf_counter() - t0
     write_osm(result.city, out / "t.osm")
     write_urbanenvironment(result.city, out / "t.xml")

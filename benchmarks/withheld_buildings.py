@@ -51,7 +51,9 @@ def main() -> None:
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--years", type=int, default=None, help="default: the history's own (30)")
     args = ap.parse_args()
+    from osm_expand.engine.history import load_history
     from osm_expand.ingest import load
+    from osm_expand.maturation import MatureOptions, mature_result
     from osm_expand.pipeline import ExpandOptions, expand
 
     print("| town | buildings in the file | generated | on a real building | share | new streets "
@@ -62,7 +64,8 @@ def main() -> None:
         real = np.array([b.polygon for b in city.buildings], dtype=object)
         for label, town in (("withheld", city.replace(buildings=())), ("mapped", city)):
             t0 = time.process_time()
-            grown = expand(town, ExpandOptions(seed=args.seed, years=args.years, fidelity=False)).city
+            grown = mature_result(expand(town, ExpandOptions(seed=args.seed, fidelity=False)), load_history("example"),
+                                  MatureOptions(years=args.years, fidelity=False), args.seed).city
             c = count(grown, real)
             print(f"| {name} | {label} | {c['generated']} | {c['on_real']} | {100 * c['share']:.1f} % "
                   f"| {c['new_streets']} | {c['real_crossed']} {c['crossed_by'] or ''} | {time.process_time() - t0:.1f} |",

@@ -33,8 +33,10 @@ def densest_lot(city, radius: float = 300.0) -> np.ndarray:
 
 
 def main() -> None:
+    from osm_expand.engine.history import load_history
     from osm_expand.export.preview import write_preview
     from osm_expand.ingest import load
+    from osm_expand.maturation import MatureOptions, mature_result
     from osm_expand.pipeline import ExpandOptions, expand
 
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
@@ -44,7 +46,8 @@ def main() -> None:
     ap.add_argument("--zoom", type=float, default=900.0, help="side of the zoomed square (m); 0: none")
     ap.add_argument("--dpi", type=int, default=None, help="unused (the preview's own dpi)")
     args = ap.parse_args()
-    result = expand(load(args.file), ExpandOptions(seed=0, history=args.history))
+    result = mature_result(expand(load(args.file), ExpandOptions(seed=0)), load_history(args.history),
+                           MatureOptions(), 0)
     city = result.city
     name = args.file.name.split(".")[0]
     write_preview(city, args.out, title=f"{name}, '{args.history}' history: buildings and lots by land use",

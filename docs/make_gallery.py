@@ -30,7 +30,7 @@ TOWNS = {"krems.osm.gz": "Krems", "andorra.osm.pbf": "Andorra", "north-bayreuth.
 
 def draw(name: str, title: str, seed: int = 0) -> Path:
     city = load(REPO / "fixtures" / name)
-    result = expand(city, ExpandOptions(seed=seed, years=0))
+    result = expand(city, ExpandOptions(seed=seed))
     report = result.fidelity
     net = result.city.network
     town = [net.street_xy(s) for s in net.streets if s.origin == Origin.SOURCE]

@@ -9,16 +9,13 @@ success, and the next site is tried.
 The result is the whole city: the town as mapped plus the district, each
 street marked with its origin. The simplified network and the example are
 how the town was learned; they are returned beside it, never as the town.
-Then :func:`mature` lets it live through the years of a history (the
-engine, imported there so that callers who only grow a district do not load
-it; there is no import cycle to dodge).
+Then :func:`osm_expand.maturation.mature`, a step of its own, lets it live
+through the years of a history (the engine).
 """
 from __future__ import annotations
 
-import os
 from collections.abc import Callable
-from dataclasses import dataclass, field, replace
-from typing import TYPE_CHECKING
+from dataclasses import dataclass, field
 
 import numpy as np
 import shapely
@@ -31,17 +28,13 @@ from osm_expand.growth_patterns import make_pattern
 from osm_expand.heights import with_heights
 from osm_expand.joins import JoinReport, join_growth
 from osm_expand.land import LandOptions, land_cover_taken, read_land, unbuildable
-from osm_expand.model import City, Origin, StreetNetwork, demolished_ways, polyline_length
+from osm_expand.model import City, Origin, StreetNetwork, polyline_length
 from osm_expand.sites import DistanceMaps, Site, SiteOptions, choose_sites, distance_maps, district_region
 from simplify import simplify
 from simplify.example import Example, build_example
 from simplify.hierarchy import with_levels
 from simplify.options import SimplifyOptions
 from synth.growth import Growth, GrowthPattern
-
-if TYPE_CHECKING:
-    from osm_expand.engine.history import History
-    from osm_expand.engine.loop import Snapshot
 
 #: A district smaller than this many blocks (squares of the town's junction spacing) is refused.
 MIN_BLOCKS = 9
@@ -78,16 +71,8 @@ class ExpandOptions:
     #: town fills its map (no site inside it), with :data:`BEYOND_NOTE` in the report
     beyond_bounds: bool | None = None
     pattern: str = "example"  #: growth pattern: a name of :data:`osm_expand.growth_patterns.PATTERN_NAMES`
-    #: judge the district, and what the years grow, against real neighbourhoods of the town
-    #: (:mod:`osm_expand.fidelity`, :mod:`osm_expand.growth_fidelity`)
+    #: judge the district against real neighbourhoods of the town (:mod:`osm_expand.fidelity`)
     fidelity: bool = True
-    #: The history the city then lives through (:mod:`osm_expand.engine.history`): a bundled name, a
-    #: TOML file, or a loaded :class:`~osm_expand.engine.history.History`.
-    history: str | os.PathLike[str] | History = "example"
-    years: int | None = None  #: years of history to simulate; None: the history's own ``years``; 0: none
-    #: called as ``snapshot(city, year, era, traffic)`` after each era (or every N years)
-    snapshot: Snapshot | None = None
-    snapshot_every: int | None = None  #: years between snapshots; None: one per era
     site: SiteOptions = field(default_factory=SiteOptions)
     land: LandOptions = field(default_factory=LandOptions)
 
@@ -206,9 +191,8 @@ def expand(city: City, options: ExpandOptions | None = None, *, pattern: GrowthP
               "touching_streets_dropped": untouched}
     report.update(beyond_bounds=beyond, land=city.land.to_dict() if city.land is not None else None,
                   land_cover_taken=land_cover_taken(city, grown), notes=notes)
-    result = ExpandResult(city=grown, site=site, learned=learned, joins=joins, growth=growth, fidelity=judged,
-                          report=report)
-    return mature(result, opts, progress=progress)
+    return ExpandResult(city=grown, site=site, learned=learned, joins=joins, growth=growth, fidelity=judged,
+                        report=report)
 
 
 def _join_across_frontage(city: City, grown_at: list[Growth], spacing: float, tried: list[str]
@@ -221,48 +205,6 @@ def _join_across_frontage(city: City, grown_at: list[Growth], spacing: float, tr
             return attempt, growth, grown, joins
     raise InputError(f"the district cannot be joined to the town by {MIN_JOINS} streets at any of the "
                      f"{len(grown_at)} best sites ({'; '.join(tried)}); try --at or another --direction")
-
-
-def mature(result: ExpandResult, options: ExpandOptions, *, progress: Progress = lambda message: None
-           ) -> ExpandResult:
-    """The expanded city living through ``options.years`` years of ``options.history`` (the engine)."""
-    from osm_expand.engine.history import History, load_history
-    from osm_expand.engine.loop import run
-
-    history = options.history if isinstance(options.history, History) else load_history(options.history)
-    years = history.years if options.years is None else int(options.years)
-    if years <= 0:
-        return result
-    eras_seen: list[str] = []
-
-    def each_year(done: int, total: int, era: str) -> None:
-        if not eras_seen or eras_seen[-1] != era:
-            eras_seen.append(era)
-            progress(f"simulating {total} years of '{history.name}': era {era}")
-
-    engine = run(result.city, history, years=years, seed=options.seed, spacing=result.learned.example.spacing,
-                 district_pattern=district_pattern(result.learned), join_points=result.joins.at,
-                 buildout=_buildout(), progress=each_year, snapshot=options.snapshot,
-                 snapshot_every=options.snapshot_every)
-    # the mapped ways a history demolished: the OSM output leaves them out, the report lists them
-    report = {**result.report, "engine": engine.report, "demolished_osm_ways": demolished_ways(engine.city)}
-    if options.fidelity:
-        from osm_expand.growth_fidelity import city_growth_fidelity
-
-        progress("judging what the years grew against the town's neighbourhoods")
-        grown = city_growth_fidelity(engine.city, rng=np.random.default_rng([options.seed, 0xF1DE, 1]))
-        if grown is not None:
-            report["growth_fidelity"] = grown.to_dict()
-    return replace(result, city=engine.city, report=report)
-
-
-def _buildout():
-    """The build-out stage for the engine: land use, lots and buildings each year (issue 11)."""
-    from osm_expand.engine.buildout.report import buildout_report
-    from osm_expand.engine.buildout.year import buildout_year, start_buildout
-    from osm_expand.engine.loop import Buildout
-
-    return Buildout(start=start_buildout, year=buildout_year, report=buildout_report)
 
 
 def _margin(city: City) -> float:

@@ -67,3 +67,15 @@ def notes_only(err: str) -> bool:
     from osm_expand.pipeline import NOTES
 
     return all(line.startswith("osm-expand: ") and line.endswith(NOTES) for line in err.splitlines())
+
+
+def expanded_and_matured(city, *, seed: int = 0, history: str = "example", years: int | None = None,
+                         fidelity: bool = False, **options):
+    """``expand`` then ``mature``, as the command line runs them: the expand result with the city after the
+    years and the two reports merged (the command line's report)."""
+    from osm_expand.engine.history import load_history
+    from osm_expand.maturation import MatureOptions, mature_result
+    from osm_expand.pipeline import ExpandOptions, expand
+
+    result = expand(city, ExpandOptions(seed=seed, fidelity=fidelity, **options))
+    return mature_result(result, load_history(history), MatureOptions(years=years, fidelity=fidelity), seed)

@@ -114,7 +114,7 @@ def test_a_face_memo_follows_a_real_town_when_a_district_is_added():
     from tests.conftest import FIXTURES
 
     city = load(FIXTURES / "krems.osm.gz")
-    grown = expand(city, ExpandOptions(seed=0, years=0, fidelity=False)).city
+    grown = expand(city, ExpandOptions(seed=0, fidelity=False)).city
     memo = FaceMemo()
     for net in (city.network, grown.network, city.network):
         _same_blocks(blocks(net, memo=memo), blocks(net))

@@ -32,7 +32,6 @@ from osm_expand.engine.buildout.year import (
     town_people,
 )
 from osm_expand.engine.history import load_history
-from osm_expand.engine.segments import street_width
 from osm_expand.errors import InputError
 from osm_expand.export import write_geojson, write_osm, write_urbanenvironment
 from osm_expand.export.preview import write_preview
@@ -40,6 +39,7 @@ from osm_expand.export.urban import validate
 from osm_expand.ingest import load
 from osm_expand.model import Building, Lot, Origin, Status
 from osm_expand.model.highways import rank
+from osm_expand.model.segments import street_width
 from osm_expand.pipeline import ExpandOptions, expand
 from tests.conftest import FIXTURES
 
@@ -60,7 +60,7 @@ def with_blocks(city, year):
 @functools.cache
 def expanded(name: str):
     """The town as mapped plus its grown district, every street built, blocks recomputed."""
-    city = expand(load(FIXTURES / name), ExpandOptions(seed=0, fidelity=False, years=0)).city
+    city = expand(load(FIXTURES / name), ExpandOptions(seed=0, fidelity=False)).city
     net = city.network.replace(streets=tuple(replace(s, status=Status.BUILT) for s in city.network.streets))
     return with_blocks(city.replace(network=net), city.year)
 
@@ -530,24 +530,26 @@ def test_the_preview_draws_a_window_and_refuses_an_empty_one(outputs, tmp_path):
 
 def test_the_update_proposes_only_allowed_types_and_draws_the_same_numbers():
     from osm_expand.engine.buildout import landuse as lu
+    from osm_expand.engine.buildout import landuse_types as lt
+    from osm_expand.engine.buildout import lot_values as lv
 
     rng = np.random.default_rng(0)
     xy = rng.uniform(0, 600, (300, 2))
     area = rng.uniform(400, 1200, 300)
-    attrs = lu.lot_attributes(xy, centres=np.array([[300.0, 300.0]]), traffic=rng.uniform(0, 1, 300))
-    layout = lu.lot_layout(xy, area, attrs)
-    lut = lu.assign_types(layout, np.full(300, lu.UNASSIGNED), types=lu.DEFAULT_TYPES, rng=np.random.default_rng(1))
-    allowed = np.ones((300, len(lu.DEFAULT_TYPES)), dtype=bool)
+    attrs = lv.lot_attributes(xy, centres=np.array([[300.0, 300.0]]), traffic=rng.uniform(0, 1, 300))
+    layout = lv.lot_layout(xy, area, attrs)
+    lut = lu.assign_types(layout, np.full(300, lt.UNASSIGNED), types=lt.DEFAULT_TYPES, rng=np.random.default_rng(1))
+    allowed = np.ones((300, len(lt.DEFAULT_TYPES)), dtype=bool)
     allowed[:150, :] = False  # the first half may keep what they have and take nothing else
-    a = lu.update_land_use(layout, lut, types=lu.DEFAULT_TYPES, rng=np.random.default_rng(2), allowed=allowed)
+    a = lu.update_land_use(layout, lut, types=lt.DEFAULT_TYPES, rng=np.random.default_rng(2), allowed=allowed)
     assert (a.lut[:150] == lut[:150]).all() and (a.lut[150:] != lut[150:]).any()
     assert a.proposed <= 150
-    free = lu.update_land_use(layout, lut, types=lu.DEFAULT_TYPES, rng=np.random.default_rng(2))
-    everything = lu.update_land_use(layout, lut, types=lu.DEFAULT_TYPES, rng=np.random.default_rng(2),
+    free = lu.update_land_use(layout, lut, types=lt.DEFAULT_TYPES, rng=np.random.default_rng(2))
+    everything = lu.update_land_use(layout, lut, types=lt.DEFAULT_TYPES, rng=np.random.default_rng(2),
                                     allowed=np.ones_like(allowed))
     assert (free.lut == everything.lut).all() and free.proposed == everything.proposed == 300
     with pytest.raises(InputError, match="allowed types"):
-        lu.update_land_use(layout, lut, types=lu.DEFAULT_TYPES, rng=rng, allowed=allowed[:10])
+        lu.update_land_use(layout, lut, types=lt.DEFAULT_TYPES, rng=rng, allowed=allowed[:10])
 
 
 def test_changed_lots_keep_the_bounds_of_their_new_type():

@@ -265,14 +265,16 @@ def test_simplify_and_synth_import_only_the_model_from_osm_expand():
 
 
 def test_the_python_api_mirrors_the_cli(tmp_path, capsys):
-    """osm_expand.load + expand + export write the same bytes as the command with the same seed."""
+    """osm_expand.load + expand + mature + export write the same bytes as the command with the same seed."""
     import osm_expand
     from osm_expand.export import write_osm
 
     city = osm_expand.load(FIXTURES / "West-Oakland.osm.bz2")
-    result = osm_expand.expand(city, osm_expand.ExpandOptions(seed=2, area=200_000.0, beyond_bounds=True,
-                                                                    years=5))
-    write_osm(result.city, tmp_path / "api.osm")
+    result = osm_expand.expand(city, osm_expand.ExpandOptions(seed=2, area=200_000.0, beyond_bounds=True))
+    grown = osm_expand.mature(result.city, osm_expand.load_history("example"), osm_expand.MatureOptions(years=5), 2,
+                              learned=result.learned, join_points=result.joins.at)
+    assert grown.city.year == grown.report["engine"]["last_year"]
+    write_osm(grown.city, tmp_path / "api.osm")
     code, _, err = run([FIXTURES / "West-Oakland.osm.bz2", "--seed", "2", "--area", "200000", "--beyond-bounds",
                         "--years", "5", "-o", tmp_path / "cli.osm", "-q"], capsys)
     assert code == 0, err

@@ -18,12 +18,12 @@ import shapely
 
 from osm_expand import cli
 from osm_expand.engine.history import load_history
-from osm_expand.engine.segments import is_major
 from osm_expand.ingest import load
 from osm_expand.joins import MAX_BRIDGE
 from osm_expand.model import Origin, Status
+from osm_expand.model.segments import is_major
 from osm_expand.pipeline import ExpandOptions, expand
-from tests.conftest import FIXTURES
+from tests.conftest import FIXTURES, expanded_and_matured
 
 KREMS = FIXTURES / "krems.osm.gz"
 EUROPEAN_YEARS = 20
@@ -38,7 +38,7 @@ def town():
 
 @functools.lru_cache(maxsize=None)
 def matured(history: str, years: int | None):
-    return expand(town(), ExpandOptions(seed=0, history=history, years=years, fidelity=False))
+    return expanded_and_matured(town(), seed=0, history=history, years=years)
 
 
 def runs():
@@ -143,8 +143,8 @@ def test_the_default_history_builds_a_major_road_in_krems():
     assert majors and all(s.width >= 11.0 for s in majors)  # two lanes and sidewalks at least
 
 
-def test_years_zero_skips_the_engine():
-    result = expand(town(), ExpandOptions(seed=0, years=0, fidelity=False))
+def test_expand_grows_the_district_and_leaves_the_years_to_mature():
+    result = expand(town(), ExpandOptions(seed=0, fidelity=False))
     assert "engine" not in result.report
     assert not [s for s in result.city.network.streets if s.origin == Origin.ENGINE]
 

@@ -50,7 +50,7 @@ def test_no_room_for_a_district_is_a_no_room_error():
 
     city = load(FIXTURES / "berlin-siegessaeule.osm.gz")
     with pytest.raises(NoRoomError, match="no room"):
-        expand(city, ExpandOptions(beyond_bounds=False, years=0, fidelity=False))
+        expand(city, ExpandOptions(beyond_bounds=False, fidelity=False))
 
 
 @pytest.mark.parametrize(("argv", "needle"), [

@@ -31,7 +31,7 @@ SMALL = {"West-Oakland.osm.bz2": 200_000.0, "berlin-siegessaeule.osm.gz": 150_00
 @functools.cache
 def expanded(name: str):
     city = load(FIXTURES / name)
-    return city, expand(city, ExpandOptions(seed=0, area=SMALL.get(name), beyond_bounds=name in SMALL, years=0))
+    return city, expand(city, ExpandOptions(seed=0, area=SMALL.get(name), beyond_bounds=name in SMALL))
 
 
 @functools.cache

@@ -178,7 +178,7 @@ def test_demolished_ways_are_left_out_and_reported(tmp_path):
     """A way the city no longer holds (a history demolished it) is the only thing missing, and
     relations lose it as a member."""
     city = load(KREMS)
-    result = expand(city, ExpandOptions(seed=0, years=0, fidelity=False))
+    result = expand(city, ExpandOptions(seed=0, fidelity=False))
     net = result.city.network
     src = objects(KREMS)
     member_ways = {r for _, _, ms in src["r"].values() for t, r, _ in ms if t == "w"}

@@ -19,7 +19,7 @@ from osm_expand.engine.buildout.footprints import (
     largest_street_rectangle,
     place_buildings,
 )
-from osm_expand.engine.buildout.lots import DEFAULT_LOT_OPTIONS, Frontage, LandUse, Lot, subdivide
+from osm_expand.engine.buildout.lots import DEFAULT_LOT_OPTIONS, Frontage, LandUse, Lot, lot_sides, subdivide
 from osm_expand.errors import InputError
 
 SWEEP = settings(deadline=None, suppress_health_check=[HealthCheck.too_slow])  # profile: 100, thorough 2000
@@ -235,7 +235,7 @@ def test_a_lot_on_a_curved_street_faces_the_chord_of_its_curve():
     lot = Lot(ring=ring, edge_street=np.array([-1, 0, 0, 0, 0, 0, -1]))
     opts = {LandUse.RESIDENTIAL_LOW: FootprintOptions(side_setback=(1.5, 1.5), front_setback=(2.0, 2.0),
                                                       back_setback=(1.0, 1.0), front_variation=0.0)}
-    assert all(side.length < 6.5 for side in lot.sides() if side.street == 0)
+    assert all(side.length < 6.5 for side in lot_sides(lot) if side.street == 0)
     (fp,) = place_buildings([lot], traffic_per_street={0: 1.0}, built_streets={0}, options=opts,
                             rng=np.random.default_rng(0))
     c = fp.rectangle.corners
@@ -406,8 +406,7 @@ def test_a_town_whose_buildings_are_not_all_polygons_grows_through_the_engine():
     from dataclasses import replace
 
     from osm_expand.ingest import load
-    from osm_expand.pipeline import ExpandOptions, expand
-    from tests.conftest import FIXTURES
+    from tests.conftest import FIXTURES, expanded_and_matured
 
     city = load(FIXTURES / "krems.osm.gz")
     buildings = list(city.buildings)
@@ -417,5 +416,5 @@ def test_a_town_whose_buildings_are_not_all_polygons_grows_through_the_engine():
         ids = buildings[k].node_ids[0][:4].tolist()
         buildings[k] = replace(buildings[k], rings=(bow,), node_ids=(np.array([*ids, ids[0]]),))
     assert any(shapely.make_valid(b.polygon).geom_type == "MultiPolygon" for b in buildings)
-    result = expand(city.replace(buildings=tuple(buildings)), ExpandOptions(seed=3, years=2, fidelity=False))
+    result = expanded_and_matured(city.replace(buildings=tuple(buildings)), seed=3, years=2)
     assert result.report["engine"]["years"] == 2

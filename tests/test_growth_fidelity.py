@@ -25,8 +25,7 @@ from osm_expand.growth_fidelity import (
 from osm_expand.ingest import load
 from osm_expand.measures import LineSet, Measure, measure_network
 from osm_expand.model import City, Origin, network_from_lines
-from osm_expand.pipeline import ExpandOptions, expand
-from tests.conftest import FIXTURES
+from tests.conftest import FIXTURES, expanded_and_matured
 from tests.test_fidelity import grid
 
 
@@ -192,9 +191,9 @@ def test_no_engine_street_no_growth_verdict():
     assert city_growth_fidelity(City(network=source_only), rng=0) is None
 
 
-@functools.cache
+@functools.lru_cache(maxsize=None)
 def krems_years():
-    return expand(load(FIXTURES / "krems.osm.gz"), ExpandOptions(seed=0))
+    return expanded_and_matured(load(FIXTURES / "krems.osm.gz"), seed=0, fidelity=True)
 
 
 def test_the_json_report_judges_what_the_years_grew():
@@ -232,7 +231,7 @@ def test_compare_prints_its_verdict_and_judges_the_years_of_a_run_output(tmp_pat
 
 @functools.cache
 def krems_european_years():
-    city = expand(load(FIXTURES / "krems.osm.gz"), ExpandOptions(seed=0, history="european", fidelity=False)).city
+    city = expanded_and_matured(load(FIXTURES / "krems.osm.gz"), seed=0, history="european").city
     g = city_growth_fidelity(city, rng=0)
     assert g is not None and g.overall is not None
     return g

@@ -12,7 +12,8 @@ import numpy as np
 import pytest
 
 from osm_expand.engine.buildout.economy import DEFAULT_ECONOMY
-from osm_expand.engine.buildout.landuse import DEFAULT_TYPES, LandUseOptions, runs_this_year
+from osm_expand.engine.buildout.landuse import runs_this_year
+from osm_expand.engine.buildout.landuse_types import DEFAULT_TYPES, LandUseOptions
 from osm_expand.engine.buildout.lots import DEFAULT_LOT_OPTIONS, LandUse, LotOptions
 from osm_expand.engine.history import (
     DEFAULT_HISTORY,

@@ -6,7 +6,15 @@ import pytest
 import shapely
 
 from osm_expand.engine.buildout import landuse as lu
-from osm_expand.engine.buildout.landuse import LandUseOptions, LandUseType, ValuationTerm
+
+from osm_expand.engine.buildout import landuse_osm as lo
+
+from osm_expand.engine.buildout import landuse_types as lt
+
+from osm_expand.engine.buildout import lot_values as lv
+
+from osm_expand.engine.buildout import similarity as ls
+from osm_expand.engine.buildout.landuse_types import LandUseOptions, LandUseType, ValuationTerm
 from osm_expand.errors import InputError
 
 # --------------------------------------------------------------------------- builders
@@ -20,8 +28,8 @@ def grid_lots(n: int, rng: np.random.Generator, spacing: float = 30.0):
 def layout_of(xy, area=None, *, traffic=None, options=LandUseOptions(), **kw):
     xy = np.asarray(xy, float)
     area = np.full(len(xy), 500.0) if area is None else np.asarray(area, float)
-    attrs = lu.lot_attributes(xy, centres=xy.mean(0, keepdims=True), traffic=traffic, **kw)
-    return lu.lot_layout(xy, area, attrs, options=options)
+    attrs = lv.lot_attributes(xy, centres=xy.mean(0, keepdims=True), traffic=traffic, **kw)
+    return lv.lot_layout(xy, area, attrs, options=options)
 
 
 def probe_types():
@@ -36,34 +44,34 @@ X = np.array([-1.0, 0.0, 0.25, 0.5, 0.75, 1.0, 2.0])
 
 
 def test_step_is_one_inside_its_bounds_inclusive_and_one_sided_with_inf():
-    assert lu.valuate("step", X, 0.0, 1.0).tolist() == [0, 1, 1, 1, 1, 1, 0]
-    assert lu.valuate("step", X, 0.5, np.inf).tolist() == [0, 0, 0, 1, 1, 1, 1]
-    assert lu.valuate("step", X, -np.inf, 0.25).tolist() == [1, 1, 1, 0, 0, 0, 0]
+    assert lt.valuate("step", X, 0.0, 1.0).tolist() == [0, 1, 1, 1, 1, 1, 0]
+    assert lt.valuate("step", X, 0.5, np.inf).tolist() == [0, 0, 0, 1, 1, 1, 1]
+    assert lt.valuate("step", X, -np.inf, 0.25).tolist() == [1, 1, 1, 0, 0, 0, 0]
 
 
 def test_linear_ramps_go_from_0_at_low_to_1_at_high_and_clip_beyond():
-    up = lu.valuate("linear_up", X, 0.0, 1.0)
+    up = lt.valuate("linear_up", X, 0.0, 1.0)
     np.testing.assert_allclose(up, [0, 0, 0.25, 0.5, 0.75, 1, 1])
-    np.testing.assert_allclose(lu.valuate("linear_down", X, 0.0, 1.0), 1 - up)
-    np.testing.assert_allclose(lu.valuate("linear_up", [10.0, 20.0, 30.0], 10.0, 30.0), [0, 0.5, 1])
+    np.testing.assert_allclose(lt.valuate("linear_down", X, 0.0, 1.0), 1 - up)
+    np.testing.assert_allclose(lt.valuate("linear_up", [10.0, 20.0, 30.0], 10.0, 30.0), [0, 0.5, 1])
 
 
 def test_gain_ramps_are_s_curves_with_the_ramps_ends_and_midpoint():
-    g = lu.valuate("gain_up", X, 0.0, 1.0, gain=0.75)
+    g = lt.valuate("gain_up", X, 0.0, 1.0, gain=0.75)
     np.testing.assert_allclose(g[[0, 1, 3, 5, 6]], [0, 0, 0.5, 1, 1])
     # Perlin's gain(0.75, t) = (2t)²/2 below ½: flat near the bounds, steep in the middle
     np.testing.assert_allclose(g[2], 0.125)
     np.testing.assert_allclose(g[4], 0.875)
-    assert np.all(np.diff(lu.valuate("gain_up", np.linspace(0, 1, 101), 0, 1)) >= 0)
-    np.testing.assert_allclose(lu.valuate("gain_up", X, 0.0, 1.0, gain=0.5), lu.valuate("linear_up", X, 0, 1))
-    np.testing.assert_allclose(lu.valuate("gain_down", X, 0.0, 1.0), 1 - g)
+    assert np.all(np.diff(lt.valuate("gain_up", np.linspace(0, 1, 101), 0, 1)) >= 0)
+    np.testing.assert_allclose(lt.valuate("gain_up", X, 0.0, 1.0, gain=0.5), lt.valuate("linear_up", X, 0, 1))
+    np.testing.assert_allclose(lt.valuate("gain_down", X, 0.0, 1.0), 1 - g)
 
 
 def test_valuation_maps_nan_to_zero_and_rejects_unknown_kinds():
-    for kind in lu.Valuation:
-        assert lu.valuate(kind, np.array([np.nan]), 0.0, 1.0)[0] == 0.0
+    for kind in lt.Valuation:
+        assert lt.valuate(kind, np.array([np.nan]), 0.0, 1.0)[0] == 0.0
     with pytest.raises(InputError, match="step, linear_up, linear_down, gain_up, gain_down"):
-        lu.valuate("ramp", X, 0, 1)
+        lt.valuate("ramp", X, 0, 1)
 
 
 # --------------------------------------------------------------------------- type definitions
@@ -71,18 +79,18 @@ def test_valuation_maps_nan_to_zero_and_rejects_unknown_kinds():
 def test_types_from_config_builds_types_and_names_what_is_wrong():
     entry = {"name": "a", "goal": 1.0, "lot_size": "small",
              "terms": [{"weight": 1.0, "kind": "linear_up", "attribute": "traffic", "low": 0, "high": 1}]}
-    (t,) = lu.types_from_config([entry])
+    (t,) = lt.types_from_config([entry])
     assert t.terms[0].attribute == "traffic" and t.lot_size_key == "small"
     bad_kind = dict(entry, terms=[dict(entry["terms"][0], kind="ramp")])
     with pytest.raises(InputError, match="kind: 'ramp' is not one of step"):
-        lu.types_from_config([bad_kind])
+        lt.types_from_config([bad_kind])
     bad_type = dict(entry, terms=[dict(entry["terms"][0], attribute="influence", of_type="zz")])
     with pytest.raises(InputError, match="of_type: 'zz' is not one of a"):
-        lu.types_from_config([bad_type])
+        lt.types_from_config([bad_type])
     with pytest.raises(InputError, match="missing key 'goal'"):
-        lu.types_from_config([{"name": "a"}])
+        lt.types_from_config([{"name": "a"}])
     with pytest.raises(InputError, match="low must be below high"):
-        lu.types_from_config([dict(entry, terms=[dict(entry["terms"][0], low=1, high=1)])])
+        lt.types_from_config([dict(entry, terms=[dict(entry["terms"][0], low=1, high=1)])])
 
 
 def test_types_read_from_toml():
@@ -113,19 +121,19 @@ name = "housing"
 goal = 0.7
 terms = [{ weight = 1, kind = "step", attribute = "center_dist", low = -inf, high = 0.2 }]
 """
-    industrial, housing = lu.types_from_config(tomllib.loads(text)["land_use"])
+    industrial, housing = lt.types_from_config(tomllib.loads(text)["land_use"])
     assert industrial.terms[1].of_type == "housing" and industrial.lot_size_key == "large"
     assert housing.terms[0].low == -np.inf and housing.lot_size_key == "housing"
 
 
 def test_bundled_types_are_valid_with_goals_summing_to_one():
-    assert {t.name for t in lu.DEFAULT_TYPES} >= {"residential_low", "residential_high", "commercial",
+    assert {t.name for t in lt.DEFAULT_TYPES} >= {"residential_low", "residential_high", "commercial",
                                                  "industrial", "park"}
-    assert lu.goal_shares(lu.DEFAULT_TYPES).sum() == pytest.approx(1.0)
-    for t in lu.DEFAULT_TYPES:
+    assert lt.goal_shares(lt.DEFAULT_TYPES).sum() == pytest.approx(1.0)
+    for t in lt.DEFAULT_TYPES:
         assert sum(term.weight for term in t.terms) == pytest.approx(1.0)
     with pytest.raises(InputError, match="goal"):
-        lu.goal_shares([LandUseType("a", -1.0, ())])
+        lt.goal_shares([LandUseType("a", -1.0, ())])
 
 
 # --------------------------------------------------------------------------- attributes
@@ -135,7 +143,7 @@ def test_cluster_is_the_share_of_the_nearest_lots_with_the_same_type():
     xy = np.column_stack([np.arange(11) * 10.0, np.zeros(11)])
     lay = layout_of(xy, options=LandUseOptions(cluster_neighbours=4))
     lut = np.array([0, 0, 1, 0, 1, 1, 1, 1, 1, 1, 1])
-    values = lu.lot_values(lay, lut, types=probe_types(), options=LandUseOptions(cluster_neighbours=4))
+    values = lv.lot_values(lay, lut, types=probe_types(), options=LandUseOptions(cluster_neighbours=4))
     assert values[0, 0] == pytest.approx(2 / 4)  # lots 1, 3 of type a among 1..4
     assert values[10, 0] == pytest.approx(0.0)
 
@@ -144,34 +152,34 @@ def test_influence_counts_near_lots_more_than_far_ones_and_ignores_lots_beyond_r
     # lot 0 at the origin, one lot of type a at 20 m and one of type b at 200 m, equal areas
     xy = np.array([[0.0, 0.0], [20.0, 0.0], [-200.0, 0.0], [1000.0, 0.0]])
     lay = layout_of(xy)
-    near_a = lu.lot_values(lay, np.array([1, 0, 1, 0]), types=probe_types())[0, 1]
-    far_a = lu.lot_values(lay, np.array([1, 1, 0, 0]), types=probe_types())[0, 1]
+    near_a = lv.lot_values(lay, np.array([1, 0, 1, 0]), types=probe_types())[0, 1]
+    far_a = lv.lot_values(lay, np.array([1, 1, 0, 0]), types=probe_types())[0, 1]
     w_near, w_far = 1 - 20 / 256, 1 - 200 / 256  # linear kernel, the lot at 1 km is outside r
     assert near_a == pytest.approx(w_near / (w_near + w_far))
     assert far_a == pytest.approx(w_far / (w_near + w_far))
     assert near_a > 0.5 > far_a
     # a neighbour's area weighs in: quadruple the far lot's area
     lay4 = layout_of(xy, area=[500, 500, 2000, 500])
-    assert lu.lot_values(lay4, np.array([1, 1, 0, 0]), types=probe_types())[0, 1] == pytest.approx(
+    assert lv.lot_values(lay4, np.array([1, 1, 0, 0]), types=probe_types())[0, 1] == pytest.approx(
         4 * w_far / (w_near + 4 * w_far))
 
 
 def test_centre_distance_is_a_share_of_the_extent_water_and_green_are_in_km():
     xy = np.array([[0.0, 0.0], [300.0, 400.0]])  # extent = 500 m
     water = [shapely.LineString([(0, 100), (300, 100)])]
-    a = lu.lot_attributes(xy, centres=[[0.0, 0.0]], water=water)
+    a = lv.lot_attributes(xy, centres=[[0.0, 0.0]], water=water)
     np.testing.assert_allclose(a[:, 0], [0.0, 1.0])
     np.testing.assert_allclose(a[:, 1], [0.1, 0.3])
     np.testing.assert_allclose(a[:, 2], [1.0, 1.0])  # no park or forest
     assert np.isnan(a[:, 4:]).all()  # no height source
-    b = lu.lot_attributes(xy, centres=[[0.0, 0.0]], extent=1000.0, water_distance=[50.0, 5000.0])
+    b = lv.lot_attributes(xy, centres=[[0.0, 0.0]], extent=1000.0, water_distance=[50.0, 5000.0])
     np.testing.assert_allclose(b[:, 1], [0.05, 1.0])
 
 
 def test_traffic_is_divided_by_its_95th_percentile_and_clipped():
     xy = np.column_stack([np.arange(100.0), np.zeros(100)])
     traffic = np.arange(100.0)
-    a = lu.lot_attributes(xy, centres=[[0, 0]], traffic=traffic)
+    a = lv.lot_attributes(xy, centres=[[0, 0]], traffic=traffic)
     ref = np.quantile(traffic, 0.95)
     np.testing.assert_allclose(a[:50, 3], traffic[:50] / ref)
     assert a[-1, 3] == 1.0
@@ -182,9 +190,9 @@ def test_terms_on_missing_slope_drop_out_and_weights_renormalise():
                                 ValuationTerm(0.5, "linear_up", "traffic", 0.0, 1.0))),)
     xy = np.array([[0.0, 0.0], [50.0, 0.0]])
     without = layout_of(xy, traffic=[0.0, 10.0])
-    np.testing.assert_allclose(lu.lot_values(without, np.zeros(2, int), types=t)[:, 0], [0.0, 1.0])
+    np.testing.assert_allclose(lv.lot_values(without, np.zeros(2, int), types=t)[:, 0], [0.0, 1.0])
     with_slope = layout_of(xy, traffic=[0.0, 10.0], slope=[0.1, 0.0])
-    np.testing.assert_allclose(lu.lot_values(with_slope, np.zeros(2, int), types=t)[:, 0], [0.25, 1.0])
+    np.testing.assert_allclose(lv.lot_values(with_slope, np.zeros(2, int), types=t)[:, 0], [0.25, 1.0])
 
 
 # --------------------------------------------------------------------------- system value and acceptance
@@ -192,11 +200,11 @@ def test_terms_on_missing_slope_drop_out_and_weights_renormalise():
 def test_global_term_is_minus_the_mean_squared_deviation_in_units_of_scale():
     xy = np.array([[0.0, 0.0], [10.0, 0.0], [20.0, 0.0], [30.0, 0.0]])
     lay = layout_of(xy, area=[100, 100, 100, 100])
-    v = lu.system_value(lay, np.array([0, 0, 0, 1]), types=probe_types())
+    v = lv.system_value(lay, np.array([0, 0, 0, 1]), types=probe_types())
     np.testing.assert_allclose(v.shares, [0.75, 0.25])
     assert v.global_value == pytest.approx(-((0.25 / 0.05) ** 2 + (0.25 / 0.05) ** 2) / 2)
     assert v.value == pytest.approx(0.5 * v.global_value + 0.5 * v.local_value)
-    assert lu.system_value(lay, np.array([0, 1, 0, 1]), types=probe_types()).global_value == 0.0
+    assert lv.system_value(lay, np.array([0, 1, 0, 1]), types=probe_types()).global_value == 0.0
 
 
 def test_acceptance_rule_takes_gains_and_rejects_losses_in_proportion_to_the_shortfall():
@@ -228,28 +236,28 @@ def test_local_change_with_externalities_equals_the_change_of_the_system_value()
     rng = np.random.default_rng(5)
     xy, area = grid_lots(300, rng)
     lay = layout_of(xy, area, traffic=rng.gamma(1, 100, 300))
-    types = lu.DEFAULT_TYPES
-    ct = lu._compile(types, lay.available)
+    types = lt.DEFAULT_TYPES
+    ct = lt.compile_types(types, lay.available)
     lut = rng.integers(0, len(types), 300)
     state = lu._State(lay, lut, ct)
     lots = np.array([17, 150, 299])
     new = (lut[lots] + np.array([1, 2, 3])) % len(types)
     predicted = state.values[lots, new] - state.values[lots, lut[lots]] \
         + state.externalities(lots, lut[lots], new) / area[lots]
-    before = lu.system_value(lay, lut, types=types).local_value
+    before = lv.system_value(lay, lut, types=types).local_value
     for i, b, pred in zip(lots, new, predicted):
         after_lut = lut.copy()
         after_lut[i] = b
-        after = lu.system_value(lay, after_lut, types=types).local_value
+        after = lv.system_value(lay, after_lut, types=types).local_value
         assert (after - before) * area.sum() / area[i] == pytest.approx(pred, rel=1e-9, abs=1e-12)
     # incremental bookkeeping matches a recount from scratch
     state.apply(lots, new)
     lut2 = lut.copy()
     lut2[lots] = new
-    counts, sums = lu._type_counts(lay, lut2, len(types))
+    counts, sums = lv.type_counts(lay, lut2, len(types))
     np.testing.assert_allclose(state.counts, counts)
     np.testing.assert_allclose(state.sums, sums)
-    np.testing.assert_allclose(state.values, lu.lot_values(lay, lut2, types=types))
+    np.testing.assert_allclose(state.values, lv.lot_values(lay, lut2, types=types))
 
 
 # --------------------------------------------------------------------------- the update
@@ -259,16 +267,16 @@ def test_update_moves_shares_to_within_0_05_of_the_goals():
     xy, area = grid_lots(2000, rng)
     lay = layout_of(xy, area, traffic=rng.gamma(1, 100, 2000),
                     water=[shapely.LineString([(0, 600), (1400, 700)])])
-    goals = lu.goal_shares(lu.DEFAULT_TYPES)
+    goals = lt.goal_shares(lt.DEFAULT_TYPES)
     lut = np.zeros(2000, dtype=np.int64)  # everything low-density residential
     for _ in range(4):
-        result = lu.update_land_use(lay, lut, types=lu.DEFAULT_TYPES, rng=rng)
+        result = lu.update_land_use(lay, lut, types=lt.DEFAULT_TYPES, rng=rng)
         lut = result.lut
     assert np.abs(result.shares - goals).max() < 0.05
     assert result.proposed == 2000 and 0 < result.accepted < result.proposed
     # and clustering beats a random assignment with the same shares
-    local = lu.system_value(lay, lut, types=lu.DEFAULT_TYPES).local_value
-    shuffled = lu.system_value(lay, rng.permutation(lut), types=lu.DEFAULT_TYPES).local_value
+    local = lv.system_value(lay, lut, types=lt.DEFAULT_TYPES).local_value
+    shuffled = lv.system_value(lay, rng.permutation(lut), types=lt.DEFAULT_TYPES).local_value
     assert local > shuffled + 0.1
 
 
@@ -277,11 +285,11 @@ def test_update_follows_other_goals_too():
     xy, area = grid_lots(800, rng)
     lay = layout_of(xy, area)
     goals = [0.6, 0.1, 0.1, 0.05, 0.15]
-    types = tuple(LandUseType(t.name, g, t.terms) for t, g in zip(lu.DEFAULT_TYPES, goals))
+    types = tuple(LandUseType(t.name, g, t.terms) for t, g in zip(lt.DEFAULT_TYPES, goals))
     lut = rng.integers(0, 5, 800)
     for _ in range(3):
         lut = lu.update_land_use(lay, lut, types=types, rng=rng, sample_share=1.0).lut
-    np.testing.assert_allclose(lu.area_shares(area, lut, 5), goals, atol=0.05)
+    np.testing.assert_allclose(lv.area_shares(area, lut, 5), goals, atol=0.05)
 
 
 def test_update_is_deterministic_and_leaves_the_input_and_unassigned_lots_alone():
@@ -290,24 +298,24 @@ def test_update_is_deterministic_and_leaves_the_input_and_unassigned_lots_alone(
     lay = layout_of(xy, area)
     lut = rng.integers(-1, 5, 400)
     frozen = lut.copy()
-    a = lu.update_land_use(lay, lut, types=lu.DEFAULT_TYPES, rng=np.random.default_rng(9))
-    b = lu.update_land_use(lay, lut, types=lu.DEFAULT_TYPES, rng=np.random.default_rng(9))
+    a = lu.update_land_use(lay, lut, types=lt.DEFAULT_TYPES, rng=np.random.default_rng(9))
+    b = lu.update_land_use(lay, lut, types=lt.DEFAULT_TYPES, rng=np.random.default_rng(9))
     np.testing.assert_array_equal(a.lut, b.lut)
     np.testing.assert_array_equal(lut, frozen)
-    assert (a.lut[lut < 0] == lu.UNASSIGNED).all()
+    assert (a.lut[lut < 0] == lt.UNASSIGNED).all()
     assert a.proposed == (lut >= 0).sum()
-    assert lu.update_land_use(lay, lut, types=lu.DEFAULT_TYPES, rng=rng, sample_share=0.0).accepted == 0
+    assert lu.update_land_use(lay, lut, types=lt.DEFAULT_TYPES, rng=rng, sample_share=0.0).accepted == 0
     with pytest.raises(InputError, match="sample_share"):
-        lu.update_land_use(lay, lut, types=lu.DEFAULT_TYPES, rng=rng, sample_share=-1)
+        lu.update_land_use(lay, lut, types=lt.DEFAULT_TYPES, rng=rng, sample_share=-1)
 
 
 def test_assign_types_fills_new_lots_towards_the_goals():
     rng = np.random.default_rng(4)
     xy, area = grid_lots(1000, rng)
     lay = layout_of(xy, area, traffic=rng.gamma(1, 100, 1000))
-    lut = lu.assign_types(lay, np.full(1000, lu.UNASSIGNED), types=lu.DEFAULT_TYPES, rng=rng)
+    lut = lu.assign_types(lay, np.full(1000, lt.UNASSIGNED), types=lt.DEFAULT_TYPES, rng=rng)
     assert (lut >= 0).all()
-    np.testing.assert_allclose(lu.area_shares(area, lut, 5), lu.goal_shares(lu.DEFAULT_TYPES), atol=0.05)
+    np.testing.assert_allclose(lv.area_shares(area, lut, 5), lt.goal_shares(lt.DEFAULT_TYPES), atol=0.05)
 
 
 def test_choose_types_gives_a_new_block_the_type_around_it():
@@ -318,11 +326,11 @@ def test_choose_types_gives_a_new_block_the_type_around_it():
     types = (LandUseType("a", 0.5, (ValuationTerm(1.0, "linear_up", "cluster", 0.0, 1.0),)),
              LandUseType("b", 0.5, (ValuationTerm(1.0, "linear_up", "cluster", 0.0, 1.0),)))
     units = np.array([[60.0, 300.0], [540.0, 300.0]])
-    attrs = lu.lot_attributes(units, centres=xy.mean(0, keepdims=True))
+    attrs = lv.lot_attributes(units, centres=xy.mean(0, keepdims=True))
     np.testing.assert_array_equal(lu.choose_types(lay, lut, units, [1.0, 1.0], attrs, types=types), [0, 1])
     # many large new blocks share out by the goals instead of all taking the short type
     many = np.tile(units, (10, 1))
-    chosen = lu.choose_types(lay, lut, many, np.full(20, 5e3), lu.lot_attributes(many, centres=[[0, 0]]),
+    chosen = lu.choose_types(lay, lut, many, np.full(20, 5e3), lv.lot_attributes(many, centres=[[0, 0]]),
                              types=types)
     assert 8 <= (chosen == 0).sum() <= 12
 
@@ -330,7 +338,7 @@ def test_choose_types_gives_a_new_block_the_type_around_it():
 def test_block_type_is_the_type_with_most_lot_area():
     block = np.array([0, 0, 0, 1, 1, 2])
     area = np.array([100.0, 60.0, 60.0, 50.0, 50.0, 10.0])
-    lut = np.array([2, 1, 1, 3, 0, lu.UNASSIGNED])
+    lut = np.array([2, 1, 1, 3, 0, lt.UNASSIGNED])
     np.testing.assert_array_equal(lu.block_types(block, area, lut, 4, 4), [1, 0, -1, -1])
 
 
@@ -359,49 +367,49 @@ def test_calibration_takes_shares_from_the_towns_own_tags_with_nested_polygons()
                 (square(200, 0, 50), "industrial"), (square(300, 0, 50), "retail"),
                 (square(400, 0, 100), "forest"), (square(500, 0, 10), "farmland")]
     mapped = 10_000 + 2_500 + 2_500
-    cal = lu.calibrate_landuse(polygons, town_area=mapped / 0.9)
-    names = [t.name for t in lu.DEFAULT_TYPES]
+    cal = lo.calibrate_landuse(polygons, town_area=mapped / 0.9)
+    names = [t.name for t in lt.DEFAULT_TYPES]
     expect = {"residential_low": 9_600, "park": 400, "industrial": 2_500, "commercial": 2_500}
     for name, a in expect.items():
         assert cal.shares[names.index(name)] == pytest.approx(a / mapped)
     assert cal.coverage == pytest.approx(0.9) and cal.weight == 1.0
     np.testing.assert_allclose(cal.goals, cal.shares)
     assert dict(cal.ignored) == {"forest": 1, "farmland": 1}
-    assert [t.goal for t in cal.with_goals(lu.DEFAULT_TYPES)] == pytest.approx(cal.goals.tolist())
+    assert [t.goal for t in cal.with_goals(lt.DEFAULT_TYPES)] == pytest.approx(cal.goals.tolist())
 
 
 def test_calibration_splits_dense_housing_and_blends_thin_coverage_with_the_defaults():
     houses = [square(5 + 20 * i, 5, 15) for i in range(5)]  # 5 × 225 m² on 1 ha: sparse
     blocks = [shapely.box(200, 0, 300, 25), shapely.box(200, 50, 300, 75)]  # half of the second hectare
     polygons = [(square(0, 0, 100), "residential"), (square(200, 0, 100), "residential")]
-    cal = lu.calibrate_landuse(polygons, town_area=20_000.0, buildings=houses + blocks)
-    names = [t.name for t in lu.DEFAULT_TYPES]
+    cal = lo.calibrate_landuse(polygons, town_area=20_000.0, buildings=houses + blocks)
+    names = [t.name for t in lt.DEFAULT_TYPES]
     assert cal.shares[names.index("residential_low")] == pytest.approx(0.5)
     assert cal.shares[names.index("residential_high")] == pytest.approx(0.5)
-    thin = lu.calibrate_landuse(polygons, town_area=100_000.0)  # 20 % coverage → weight 0.25
+    thin = lo.calibrate_landuse(polygons, town_area=100_000.0)  # 20 % coverage → weight 0.25
     assert thin.weight == pytest.approx(0.25)
-    np.testing.assert_allclose(thin.goals, 0.25 * thin.shares + 0.75 * lu.goal_shares(lu.DEFAULT_TYPES))
+    np.testing.assert_allclose(thin.goals, 0.25 * thin.shares + 0.75 * lt.goal_shares(lt.DEFAULT_TYPES))
     # coverage by buildings: two houses in mapped land, two outside → half
     outside = [square(1000 + 20 * i, 0, 15) for i in range(2)]
-    by_houses = lu.calibrate_landuse(polygons, town_area=1.0, buildings=houses[:2] + outside)
+    by_houses = lo.calibrate_landuse(polygons, town_area=1.0, buildings=houses[:2] + outside)
     assert by_houses.coverage == pytest.approx(0.5) and by_houses.weight == pytest.approx(0.5 / 0.8)
-    none = lu.calibrate_landuse([(square(0, 0, 10), "forest")], town_area=1e6)
-    np.testing.assert_allclose(none.goals, lu.goal_shares(lu.DEFAULT_TYPES))
+    none = lo.calibrate_landuse([(square(0, 0, 10), "forest")], town_area=1e6)
+    np.testing.assert_allclose(none.goals, lt.goal_shares(lt.DEFAULT_TYPES))
 
 
 def test_calibration_clips_land_use_to_the_town_outline():
     polygons = [(square(0, 0, 100), "residential"), (square(100, 0, 900), "industrial")]
-    cal = lu.calibrate_landuse(polygons, square(0, 0, 200))  # the industrial valley is mostly outside
-    names = [t.name for t in lu.DEFAULT_TYPES]
+    cal = lo.calibrate_landuse(polygons, square(0, 0, 200))  # the industrial valley is mostly outside
+    names = [t.name for t in lt.DEFAULT_TYPES]
     assert cal.shares[names.index("residential_low")] == pytest.approx(10_000 / 30_000)  # not 10k / 820k
     assert cal.coverage == pytest.approx(30_000 / 40_000)
 
 
 def test_types_from_polygons_reads_the_type_under_each_lot():
     polygons = [(square(0, 0, 100), "residential"), (square(10, 10, 20), "park")]
-    lut = lu.types_from_polygons([[50, 50], [15, 15], [500, 500]], polygons)
-    names = [t.name for t in lu.DEFAULT_TYPES]
-    assert lut.tolist() == [names.index("residential_low"), names.index("park"), lu.UNASSIGNED]
+    lut = lo.types_from_polygons([[50, 50], [15, 15], [500, 500]], polygons)
+    names = [t.name for t in lt.DEFAULT_TYPES]
+    assert lut.tolist() == [names.index("residential_low"), names.index("park"), lt.UNASSIGNED]
 
 
 # --------------------------------------------------------------------------- similarity
@@ -414,39 +422,39 @@ def test_similarity_is_one_for_identical_images_and_lower_for_shuffled_ones():
     rng = np.random.default_rng(0)
     image = blocky(rng)
     shuffled = rng.permutation(image.ravel()).reshape(image.shape)
-    assert lu.similarity(image, image, 8, samples=300) == 1.0
-    s = lu.similarity(image, shuffled, 8, samples=300)
+    assert ls.similarity(image, image, 8, samples=300) == 1.0
+    s = ls.similarity(image, shuffled, 8, samples=300)
     assert s < 0.6
     # a shifted copy still finds every neighbourhood
-    assert lu.similarity(image[5:, 5:], image, 8, samples=300) == 1.0
+    assert ls.similarity(image[5:, 5:], image, 8, samples=300) == 1.0
     # with all windows sampled the best match of a single-valued patch is exact
     flat = np.zeros((10, 10), dtype=int)
     half = np.zeros((10, 10), dtype=int)
     half[:, 5:] = 1
-    assert lu.similarity(flat, half, 4) == 1.0
-    assert lu.similarity(flat, np.ones((10, 10), dtype=int), 4) == 0.0
+    assert ls.similarity(flat, half, 4) == 1.0
+    assert ls.similarity(flat, np.ones((10, 10), dtype=int), 4) == 0.0
 
 
 def test_similarity_skips_nodata_centres_and_checks_n():
     image = np.full((20, 20), -1)
     image[5:15, 5:15] = 2
     reference = np.full((20, 20), 2)
-    assert lu.similarity(image, reference, 3) < 1.0  # windows at the rim hold -1, which Y lacks
-    assert lu.similarity(image, reference, 3, nodata=-1) == 1.0
+    assert ls.similarity(image, reference, 3) < 1.0  # windows at the rim hold -1, which Y lacks
+    assert ls.similarity(image, reference, 3, nodata=-1) == 1.0
     reference[:, 10:] = 1
-    assert lu.similarity(image, reference, 3, nodata=-1) == 1.0  # every tagged patch is all 2 somewhere
+    assert ls.similarity(image, reference, 3, nodata=-1) == 1.0  # every tagged patch is all 2 somewhere
     with pytest.raises(InputError, match="n must lie"):
-        lu.similarity(image, image, 0)
+        ls.similarity(image, image, 0)
 
 
 def test_rasterised_polygons_and_lots_agree_where_lots_sit_in_polygons():
     polygons = [(square(0, 0, 100), "industrial"), (square(100, 0, 100), "retail")]
-    real = lu.rasterise_polygons(polygons, bounds=(0, 0, 200, 100), cell=10)
-    names = [t.name for t in lu.DEFAULT_TYPES]
+    real = ls.rasterise_polygons(polygons, bounds=(0, 0, 200, 100), cell=10)
+    names = [t.name for t in lt.DEFAULT_TYPES]
     xy = np.array([[50.0, 50.0], [150.0, 50.0]])
-    lots = lu.rasterise_lots(xy, lu.types_from_polygons(xy, polygons), bounds=(0, 0, 200, 100), cell=10,
+    lots = ls.rasterise_lots(xy, lo.types_from_polygons(xy, polygons), bounds=(0, 0, 200, 100), cell=10,
                              max_distance=200)
     assert real.shape == (10, 20)
     assert (real[:, :10] == names.index("industrial")).all() and (real[:, 10:] == names.index("commercial")).all()
     np.testing.assert_array_equal(real, lots)
-    assert lu.similarity(lots, real, 4) == 1.0
+    assert ls.similarity(lots, real, 4) == 1.0

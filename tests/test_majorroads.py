@@ -656,10 +656,9 @@ def test_new_roads_keep_out_of_buildings_as_the_outputs_draw_them():
     from osm_expand.ingest import load
     from osm_expand.land import building_outlines
     from osm_expand.model import Origin
-    from osm_expand.pipeline import ExpandOptions, expand
-    from tests.conftest import FIXTURES
+    from tests.conftest import FIXTURES, expanded_and_matured
 
-    city = expand(load(FIXTURES / "krems.osm.gz"), ExpandOptions(seed=1, fidelity=False)).city
+    city = expanded_and_matured(load(FIXTURES / "krems.osm.gz"), seed=1).city
     net = city.network
     roads = [shapely.LineString(net.street_xy(s)) for s in net.streets
              if s.origin == Origin.ENGINE and s.highway in ("primary", "secondary", "trunk")]
@@ -678,11 +677,10 @@ def test_new_roads_keep_out_of_the_houses_the_map_does_not_show():
 
     from osm_expand.ingest import load
     from osm_expand.model import Origin
-    from osm_expand.pipeline import ExpandOptions, expand
-    from tests.conftest import FIXTURES
+    from tests.conftest import FIXTURES, expanded_and_matured
 
     mapped = load(FIXTURES / "krems.osm.gz")
-    city = expand(mapped.replace(buildings=()), ExpandOptions(seed=0, fidelity=False)).city
+    city = expanded_and_matured(mapped.replace(buildings=()), seed=0).city
     net = city.network
     roads = [shapely.LineString(net.street_xy(s)) for s in net.streets
              if s.origin == Origin.ENGINE and s.highway in ("primary", "secondary", "trunk")]
@@ -804,11 +802,10 @@ def test_monacos_new_roads_do_not_run_round_the_sea_beyond_the_map():
     from osm_expand.engine.roads.major_roads import LATTICE_MARGIN, water_beyond_the_map
     from osm_expand.ingest import load
     from osm_expand.model import Origin
-    from osm_expand.pipeline import ExpandOptions, expand
-    from tests.conftest import FIXTURES
+    from tests.conftest import FIXTURES, expanded_and_matured
 
     mapped = load(FIXTURES / "monaco.osm.gz")
-    city = expand(mapped, ExpandOptions(seed=0, fidelity=False)).city
+    city = expanded_and_matured(mapped, seed=0).city
     sea = mapped.water_geometry()
     beyond = shapely.difference(water_beyond_the_map(sea, mapped.bounds_xy, LATTICE_MARGIN), sea.buffer(1.0))
     net = city.network

@@ -127,7 +127,7 @@ def test_a_perimeter_street_runs_straight_past_the_jagged_edge_of_the_free_land(
 
 @functools.cache
 def district(name: str, seed: int):
-    return expand(load(FIXTURES / name), ExpandOptions(seed=seed, years=0))
+    return expand(load(FIXTURES / name), ExpandOptions(seed=seed))
 
 
 @pytest.mark.parametrize("name", ["krems.osm.gz", "andorra.osm.pbf"])

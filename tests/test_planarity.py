@@ -151,7 +151,7 @@ def test_the_district_goes_through_the_net_too():
     from osm_expand.pipeline import ExpandOptions, expand
     from tests.conftest import FIXTURES
 
-    result = expand(load(FIXTURES / "monaco.osm.gz"), ExpandOptions(seed=7, years=0, fidelity=False))
+    result = expand(load(FIXTURES / "monaco.osm.gz"), ExpandOptions(seed=7, fidelity=False))
     assert "touching_streets_dropped" in result.report  # the net ran over the district
     assert written_crossings(result.city) == []
     # and it catches a new street across a district street without a node

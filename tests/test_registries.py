@@ -54,8 +54,8 @@ def test_every_choice_is_refused_in_the_same_words():
 
 def test_the_named_sets_of_highway_classes_live_in_the_model():
     from osm_expand import sites
-    from osm_expand.engine import segments
     from osm_expand.engine.traffic import neighbours
+    from osm_expand.model import segments
     from synth import colonisation_pattern, patches
 
     assert sites.CORRIDORS is highways.CORRIDORS and patches.NOT_COPIED is highways.CORRIDORS

@@ -547,9 +547,9 @@ def _pieces_one_by_one(old_table, city):
 def test_segment_pieces_map_each_old_segment_to_the_run_it_became(seed):
     from dataclasses import replace as with_
 
-    from osm_expand.engine.pieces import Pieces
-    from osm_expand.engine.segments import SegmentTable, segment_pieces
     from osm_expand.model import City, network_from_lines
+    from osm_expand.model.pieces import Pieces
+    from osm_expand.model.segments import SegmentTable, segment_pieces
 
     rng = np.random.default_rng(seed)
     lines = [[(float(x), float(y)), (float(x) + 100.0, float(y)), (float(x) + 200.0, float(y) + 50.0)]

@@ -1,15 +1,23 @@
 """The year loop: a city lives through a history (003 Algorithm 1 with 002 §2.2).
 
-One step is one year::
+One :func:`step` is one year::
 
     grow minor streets → blocks → traffic (trips, status, widths, trade)
     → grow major roads → build out (land use, lots, buildings)
 
-Each stage is a pure function of the city and its own memory (what it
-remembers from year to year and is not part of the city); this module only
-sequences them, keeps the nuclei of growth, and sums what happened into one
-report per era. Everything built carries its ``year`` (the calendar year of
-the step, :class:`~osm_expand.engine.history.Clock`) and ``era``.
+:func:`start` makes the run's :class:`EngineState` (the city plus what the
+stages remember from year to year and is not part of the city) and its
+:class:`EngineContext` (what stays the same all run: the history and its
+clock, the town's spacing and bearing, the random streams, the registry of
+district patterns). :func:`step` is City → City for one year: it hands the
+state on with the city of the year after, whose :attr:`City.year` is the
+year just lived, and a :class:`YearReport`. :func:`osm_expand.maturation.mature`
+runs the steps, sums them per era (:class:`EraReport`) and takes snapshots.
+
+Each stage is a pure function of the city and its own memory; this module
+only sequences them and keeps the nuclei of growth. Everything built
+carries its ``year`` (the calendar year of the step,
+:class:`~osm_expand.engine.history.Clock`) and ``era``.
 
 The town as mapped is never demolished (a rebuilding road demolishes only
 what the engine built, unless the history sets ``rebuild_old_town``).
@@ -18,13 +26,16 @@ from __future__ import annotations
 
 import time
 from collections import defaultdict
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field, replace
-from typing import TYPE_CHECKING, cast
+from types import MappingProxyType
+from typing import cast
 
 import numpy as np
 
 from osm_expand.blocks import FaceMemo, blocks
+from osm_expand.engine.buildout.report import buildout_report
+from osm_expand.engine.buildout.year import BuildoutMemory, BuildoutYear, buildout_year, start_buildout
 from osm_expand.engine.growth.minor_streets import (
     STUB_REACH,
     GrowthMemory,
@@ -34,24 +45,22 @@ from osm_expand.engine.growth.minor_streets import (
     grow_street_pattern,
 )
 from osm_expand.engine.growth.nuclei import Nucleus, candidate_points, find_nuclei, new_junction_nuclei
-from osm_expand.engine.history import GROWTH_PATTERNS, Era, History, YearValues
+from osm_expand.engine.history import GROWTH_PATTERNS, Clock, Era, History, YearValues
 from osm_expand.engine.planarity import without_touching
 from osm_expand.engine.roads.major_roads import RoadMemory, RoadsYear, major_roads_year
-from osm_expand.engine.segments import SegmentTable
 from osm_expand.engine.traffic.simulation import TrafficMemory, TrafficYear, start_traffic, traffic_year
 from osm_expand.model import City, Origin
+from osm_expand.model.segments import SegmentTable
 from synth.growth import GrowthPattern
 from synth.patterns import AngleSpace, PatternOptions
 
-if TYPE_CHECKING:
-    from osm_expand.engine.buildout.year import BuildoutYear
-
 #: Builds an era's district pattern (``example``, ``walk``, ``colonisation``) from its options.
 PatternFactory = Callable[[str, object], GrowthPattern]
-#: Told after every year: (years done, years in all, the era's name).
-YearProgress = Callable[[int, int, str], None]
-#: Called with the city, the calendar year, the era and traffic per street id when a snapshot is due.
-Snapshot = Callable[[City, int, str, dict[int, float]], None]
+#: The random streams of a run, one per stage, each drawn from the run's seed alone (so that one stage
+#: drawing more does not shift another's draws).
+STREAMS = ("growth", "traffic", "roads", "buildout", "nuclei")
+#: The first entropy word of the engine's streams beside the run's seed (the district's are ``[seed, site]``).
+ENGINE_STREAM = 0xE9E
 
 
 @dataclass(frozen=True)
@@ -63,6 +72,77 @@ class EngineOptions:
     #: lets the next year's traffic see the new road first.
     roads_per_year: int = 1
     growth: GrowthOptions = field(default_factory=GrowthOptions)
+
+
+@dataclass(frozen=True)
+class EngineContext:
+    """What stays the same for a whole run: read by every :func:`step`, changed by none.
+
+    The random streams are generators (they move on as they are drawn
+    from); the context holds the same ones all run, one per stage
+    (:data:`STREAMS`).
+    """
+
+    history: History
+    clock: Clock  #: step ``k`` ↔ history and calendar years
+    traffic_factor: float  #: the city's b of t(t) = b·traffic(t) (003 §3.5), drawn once
+    spacing: float  #: the town's junction spacing (m): the scale of district patterns and joins
+    bearing: float  #: the town's dominant street bearing modulo 90° (degrees): a world grid follows it
+    patterns: PatternFactory  #: the registry of district patterns over the town's example
+    streams: Mapping[str, np.random.Generator]
+    options: EngineOptions = EngineOptions()
+
+    def values(self, year: int) -> YearValues:
+        """The history's numbers for calendar year ``year`` (its era among them)."""
+        return self.history.values_at(year - self.clock.offset, traffic_factor=self.traffic_factor)
+
+    def starts_era(self, year: int, previous: str | None) -> bool:
+        """Whether calendar year ``year`` opens an era after a year of era ``previous`` (None: the first
+        year): another era, or the same era named again by a history that restarts it."""
+        era = self.history.era_at(year - self.clock.offset)
+        return previous is None or era.name != previous or era.start == year - self.clock.offset
+
+
+@dataclass
+class EngineState:
+    """The city and what the stages remember from year to year (not part of the city).
+
+    :func:`step` hands the state on: the memories are the stages' own and
+    move on with it, so a state once stepped is spent (step the one it returns).
+    """
+
+    city: City
+    nuclei: list[Nucleus]
+    growth: GrowthMemory
+    traffic: TrafficMemory
+    roads: RoadMemory
+    buildout: BuildoutMemory
+    patterns: dict[str, GrowthPattern] = field(default_factory=dict)  #: district patterns by era
+    carry: float = 0.0  #: the fraction of a street owed from last year
+    seconds: defaultdict[str, float] = field(default_factory=lambda: defaultdict(float))  #: wall time per stage
+    faces: FaceMemo = field(default_factory=FaceMemo)  #: last year's faces: blocks redo only what changed
+
+    def traffic_by_street(self) -> dict[int, float]:
+        """This year's trips per street id (the busiest segment of each street)."""
+        table = self.traffic.table
+        traffic = self.traffic.trips.traffic
+        n = len(self.city.network.streets)
+        if len(traffic) != len(table) or table.first[-1] != len(table) or len(table.first) != n + 1:
+            return {}
+        per = table.per_street(np.asarray(traffic, dtype=float), n, "max")
+        return {s.id: float(v) for s, v in zip(self.city.network.streets, per)}
+
+
+@dataclass(frozen=True)
+class YearReport:
+    """What one year did."""
+
+    year: int  #: calendar year
+    era: str
+    growth: GrowthYear
+    traffic: TrafficYear
+    roads: RoadsYear
+    buildout: BuildoutYear
 
 
 @dataclass
@@ -77,6 +157,14 @@ class EraReport:
     roads: RoadsYear = field(default_factory=RoadsYear)
     buildout: BuildoutYear | None = None
 
+    def add(self, year: YearReport) -> None:
+        """Count ``year`` in this era."""
+        self.last_year = year.year
+        self.growth = self.growth + year.growth
+        self.traffic = self.traffic + year.traffic
+        self.roads = self.roads + year.roads
+        self.buildout = year.buildout if self.buildout is None else self.buildout + year.buildout
+
     def to_dict(self) -> dict:
         out = {"era": self.name, "years": [self.first_year, self.last_year],
                "streets_grown": self.growth.streets, "street_length_km": round(self.growth.length_m / 1000, 3),
@@ -88,142 +176,80 @@ class EraReport:
         return out
 
 
-@dataclass(frozen=True)
-class EngineResult:
-    city: City
-    eras: list[EraReport]
-    seconds: dict[str, float]  #: wall time per stage (``lattice`` apart from ``roads``)
-    report: dict
-
-
-@dataclass
-class _State:
-    """The loop's own state across years."""
-
-    city: City
-    nuclei: list[Nucleus]
-    growth: GrowthMemory
-    traffic: TrafficMemory
-    roads: RoadMemory
-    buildout: object | None = None
-    patterns: dict[str, GrowthPattern] = field(default_factory=dict)  #: district patterns by era
-    carry: float = 0.0
-    seconds: defaultdict[str, float] = field(default_factory=lambda: defaultdict(float))
-    faces: FaceMemo = field(default_factory=FaceMemo)  #: last year's faces: blocks redo only what changed
-
-
-def run(city: City, history: History, *, years: int, seed: int, spacing: float,
-        district_pattern: PatternFactory, join_points: np.ndarray | None = None,
-        options: EngineOptions = EngineOptions(), buildout: Buildout | None = None,
-        progress: YearProgress | None = None, snapshot: Snapshot | None = None,
-        snapshot_every: int | None = None) -> EngineResult:
-    """Let ``city`` live through ``years`` years of ``history``.
+def start(city: City, history: History, *, seed: int, spacing: float, patterns: PatternFactory,
+          join_points: np.ndarray | None = None, options: EngineOptions = EngineOptions()
+          ) -> tuple[EngineState, EngineContext]:
+    """The state and context of a run of ``history`` on ``city``, before its first year.
 
     Parameters
     ----------
     city : City
-        The town as mapped (and any grown district), with its blocks.
+        The town as mapped (and any grown district); its :attr:`~City.year` (the map's) sets the clock.
     history : History
-    years : int
-        Years to simulate (0: the city comes back unchanged).
     seed : int
-        The run's seed: each stage draws from its own stream of it.
+        The run's seed: each stage draws from its own stream of it (:data:`STREAMS`).
     spacing : float
         The town's junction spacing (m): the scale of district patterns and joins.
-    district_pattern : callable
+    patterns : callable
         ``(name, options) -> GrowthPattern`` for the district patterns.
     join_points : ndarray, shape (J, 2), optional
         Where a grown district joins the town: nuclei of growth (003 §3.3.2).
-    buildout : Buildout, optional
-        Land use, lots and buildings; skipped when None.
-    progress : callable, optional
-        Told after each year.
-    snapshot : callable, optional
-        Called at the end of each era, or every ``snapshot_every`` years.
+    options : EngineOptions
+
+    Returns
+    -------
+    (EngineState, EngineContext)
+        The city with its blocks and the stages' first memories; the run's fixed context.
     """
-    if years <= 0:
-        return EngineResult(city, [], {}, {"years": 0})
-    rng = np.random.default_rng([seed, 0xE9E])
-    streams = {name: np.random.default_rng([seed, 0xE9E, k]) for k, name in
-               enumerate(("growth", "traffic", "roads", "buildout", "nuclei"))}
+    rng = np.random.default_rng([seed, ENGINE_STREAM])
+    streams = {name: np.random.default_rng([seed, ENGINE_STREAM, k]) for k, name in enumerate(STREAMS)}
     clock = history.clock(city.year)
     b = history.traffic_factor(rng)
     started = time.perf_counter()
     faces = FaceMemo()
     city = _with_blocks(city, None, faces)
-    state = _State(city=city, nuclei=_initial_nuclei(city, join_points), growth=GrowthMemory(),
-                   traffic=start_traffic(city, streams["traffic"]), roads=RoadMemory(), faces=faces)
-    if buildout is not None:
-        state.buildout = buildout.start(city, history, streams["buildout"])
+    state = EngineState(city=city, nuclei=_initial_nuclei(city, join_points), growth=GrowthMemory(),
+                        traffic=start_traffic(city, streams["traffic"]), roads=RoadMemory(),
+                        buildout=start_buildout(city, history, streams["buildout"]), faces=faces)
     state.seconds["start"] += time.perf_counter() - started
-    bearing = _town_bearing(SegmentTable.from_city(city))
-    eras: list[EraReport] = []
-    for step in range(years):
-        now = history.values_at(clock.history_year(step), traffic_factor=b)
-        year = clock.calendar_year(step)
-        if not eras or eras[-1].name != now.era.name or now.era.start == clock.history_year(step):
-            if eras and snapshot is not None and snapshot_every is None:
-                snapshot(state.city, eras[-1].last_year, eras[-1].name, _traffic_by_street(state))
-            eras.append(EraReport(now.era.name, year, year))
-        report = eras[-1]
-        report.last_year = year
-        _one_year(state, history, now, year, streams, spacing=spacing, district_pattern=district_pattern,
-                  bearing=bearing, options=options, buildout=buildout, report=report)
-        if snapshot is not None and snapshot_every and (step + 1) % snapshot_every == 0:
-            snapshot(state.city, year, now.era.name, _traffic_by_street(state))
-        if progress is not None:
-            progress(step + 1, years, now.era.name)
-    if snapshot is not None and snapshot_every is None:
-        snapshot(state.city, eras[-1].last_year, eras[-1].name, _traffic_by_street(state))
-    result = {"history": history.name, "years": years, "first_year": clock.calendar_year(0),
-              "last_year": clock.calendar_year(years - 1), "traffic_factor": round(b, 4),
-              "neighbour_cities": int(len(state.traffic.neighbours.exit_node)),
-              "trade_pairs": int(len(state.traffic.pairs)), "nuclei": len(state.nuclei),
-              "eras": [e.to_dict() for e in eras],
-              "seconds": {k: round(v, 3) for k, v in sorted(state.seconds.items())}}
-    if buildout is not None and state.buildout is not None:
-        result["buildout"] = buildout.report(state.city, state.buildout, history)
-    return EngineResult(state.city, eras, dict(state.seconds), result)
+    context = EngineContext(history=history, clock=clock, traffic_factor=b, spacing=spacing,
+                            bearing=_town_bearing(SegmentTable.from_city(city)), patterns=patterns,
+                            streams=MappingProxyType(streams), options=options)
+    return state, context
 
 
-@dataclass(frozen=True)
-class Buildout:
-    """The build-out stage as the loop calls it (land use, lots, buildings: issue 11's step)."""
+def step(state: EngineState, context: EngineContext, year: int) -> tuple[EngineState, YearReport]:
+    """One year of the loop: the state with the city after calendar year ``year``, and what it did.
 
-    start: Callable  #: (city, history, rng) -> memory
-    year: Callable  #: (city, memory, history, now, rng, *, year, traffic) -> (city, memory, year report)
-    report: Callable  #: (city, memory, history) -> dict
-
-
-def _one_year(state: _State, history: History, now: YearValues, year: int, streams: dict, *, spacing: float,
-              district_pattern: PatternFactory, bearing: float, options: EngineOptions,
-              buildout: Buildout | None, report: EraReport) -> None:
+    The years of a run are ``context.clock.calendar_year(k)`` for ``k = 0, 1, …``
+    in order (each stage's memory and random stream assume the year before
+    was the one stepped). The returned state's city has ``year`` as its
+    :attr:`~osm_expand.model.City.year`.
+    """
+    now = context.values(year)
     era = now.era
+    streams = context.streams
     t = time.perf_counter()
     before = len(state.city.network.streets)
-    grown = _grow(state, era, now, year, streams["growth"], spacing=spacing, district_pattern=district_pattern,
-                  bearing=bearing, options=options)
-    report.growth = report.growth + grown
+    grown = _grow(state, era, now, year, streams["growth"], spacing=context.spacing,
+                  district_pattern=context.patterns, bearing=context.bearing, options=context.options)
     state.seconds["growth"] += time.perf_counter() - t
     if len(state.city.network.streets) != before:
         t = time.perf_counter()
         state.city = _with_blocks(state.city, year, state.faces)
         state.seconds["blocks"] += time.perf_counter() - t
     t = time.perf_counter()
-    trips = history.options.trips
     state.city, state.traffic, traffic, short = traffic_year(
         state.city, state.traffic, streams["traffic"], year=year, increase=now.traffic_increase, o2=now.o2,
-        options=trips)
-    report.traffic = report.traffic + traffic
+        options=context.history.options.trips)
     state.seconds["traffic"] += time.perf_counter() - t
     t = time.perf_counter()
     had_lattice = state.roads.lattice is not None
     city, state.traffic, state.roads, roads, junctions = major_roads_year(
-        state.city, state.traffic, state.roads, short, history, now, streams["roads"], year=year, era=era.name,
-        most=options.roads_per_year)
+        state.city, state.traffic, state.roads, short, context.history, now, streams["roads"], year=year,
+        era=era.name, most=context.options.roads_per_year)
     spent = time.perf_counter() - t
     state.seconds["lattice" if not had_lattice and state.roads.lattice is not None else "roads"] += spent
-    report.roads = report.roads + roads
     if city is not state.city:
         state.city = _with_blocks(city, year, state.faces)
     if len(junctions):
@@ -231,17 +257,29 @@ def _one_year(state: _State, history: History, now: YearValues, year: int, strea
                              temporary_points=False)
         state.nuclei += new_junction_nuclei(junctions, bounds=state.city.bounds_xy, candidates_xy=z.xy,
                                             rng=streams["nuclei"], existing=state.nuclei,
-                                            options=history.options.nuclei)
-    if buildout is not None:
-        t = time.perf_counter()
-        state.city, state.buildout, built = buildout.year(state.city, state.buildout, history, now,
-                                                          streams["buildout"], year=year,
-                                                          traffic=_traffic_by_street(state))
-        report.buildout = built if report.buildout is None else report.buildout + built
-        state.seconds["buildout"] += time.perf_counter() - t
+                                            options=context.history.options.nuclei)
+    t = time.perf_counter()
+    state.city, state.buildout, built = buildout_year(state.city, state.buildout, context.history, now,
+                                                      streams["buildout"], year=year,
+                                                      traffic=state.traffic_by_street())
+    state.seconds["buildout"] += time.perf_counter() - t
+    state.city = state.city.replace(year=year)
+    return state, YearReport(year=year, era=era.name, growth=grown, traffic=traffic, roads=roads, buildout=built)
 
 
-def _grow(state: _State, era: Era, now: YearValues, year: int, rng: np.random.Generator, *, spacing: float,
+def summary(state: EngineState, context: EngineContext, eras: list[EraReport]) -> dict:
+    """The run's JSON-ready report: its years, the city's traffic factor, what each era did, the build-out's
+    measures and the wall time per stage."""
+    first, last = eras[0].first_year, eras[-1].last_year
+    return {"history": context.history.name, "years": last - first + 1, "first_year": first, "last_year": last,
+            "traffic_factor": round(context.traffic_factor, 4),
+            "neighbour_cities": int(len(state.traffic.neighbours.exit_node)),
+            "trade_pairs": int(len(state.traffic.pairs)), "nuclei": len(state.nuclei),
+            "eras": [e.to_dict() for e in eras],
+            "seconds": {k: round(v, 3) for k, v in sorted(state.seconds.items())},
+            "buildout": buildout_report(state.city, state.buildout, context.history)}
+
+def _grow(state: EngineState, era: Era, now: YearValues, year: int, rng: np.random.Generator, *, spacing: float,
           district_pattern: PatternFactory, bearing: float, options: EngineOptions) -> GrowthYear:
     """This year's minor streets: a street pattern from its starts, or a district once enough is owed."""
     count, state.carry = now.new_streets(_junction_edges(state.city), state.carry)
@@ -254,7 +292,7 @@ def _grow(state: _State, era: Era, now: YearValues, year: int, rng: np.random.Ge
     return grown
 
 
-def _grow_streets(state: _State, era: Era, now: YearValues, year: int, rng: np.random.Generator, count: int, *,
+def _grow_streets(state: EngineState, era: Era, now: YearValues, year: int, rng: np.random.Generator, count: int, *,
                   spacing: float, district_pattern: PatternFactory, bearing: float,
                   options: EngineOptions) -> GrowthYear:
     centre = np.asarray(state.nuclei[0].xy)
@@ -328,14 +366,3 @@ def _with_blocks(city: City, year: int | None, faces: FaceMemo) -> City:
         years = [s.year for s in new if s.year is not None]
         out.append(replace(blk, origin=origin, year=max(years) if years else year))
     return city.replace(blocks=tuple(out))
-
-
-def _traffic_by_street(state: _State) -> dict[int, float]:
-    """This year's trips per street id (the busiest segment of each street)."""
-    table = state.traffic.table
-    traffic = state.traffic.trips.traffic
-    n = len(state.city.network.streets)
-    if len(traffic) != len(table) or table.first[-1] != len(table) or len(table.first) != n + 1:
-        return {}
-    per = table.per_street(np.asarray(traffic, dtype=float), n, "max")
-    return {s.id: float(v) for s, v in zip(state.city.network.streets, per)}

@@ -20,8 +20,8 @@ from __future__ import annotations
 import numpy as np
 import shapely
 
-from osm_expand.engine.segments import SegmentTable
 from osm_expand.model import City, Origin
+from osm_expand.model.segments import SegmentTable
 
 #: Decimals of a metre the XML writes coordinates with (:mod:`osm_expand.export.urban`): segments
 #: are judged as the file will hold them, so two streets a hair apart that the written

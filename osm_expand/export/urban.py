@@ -25,11 +25,11 @@ import numpy as np
 import shapely
 from lxml import etree
 
-from osm_expand.engine.segments import is_major, street_width
 from osm_expand.export.atomic import atomic_write
 from osm_expand.export.features import street_tags, xml_attrs
 from osm_expand.model import Block, Building, City, Lot, Origin, Street
 from osm_expand.model.geometry import minimum_rectangle
+from osm_expand.model.segments import is_major, street_width
 
 #: A building with no height gets this one (m); :mod:`osm_expand.heights` fills heights before export.
 FALLBACK_HEIGHT = 6.0

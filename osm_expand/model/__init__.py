@@ -9,6 +9,9 @@
 - :mod:`~osm_expand.model.geometry` — lengths, closest points, node matching, rectangles
 - :mod:`~osm_expand.model.highways` — which ``highway=*`` values are streets, and their rank
 - :mod:`~osm_expand.model.projection` — the local metric projection
+- :mod:`~osm_expand.model.segments` — :class:`~osm_expand.model.segments.SegmentTable`: the streets as straight
+  segments with per-segment columns (what the engine computes on); :mod:`~osm_expand.model.pieces` — where
+  each segment of an older table went (imported from their modules: the command line's start-up stays light)
 """
 from osm_expand.model.city import (
                                    Block,

@@ -18,6 +18,7 @@ from typing import Any
 import numpy as np
 import shapely
 
+from osm_expand.model.geometry import ring_area, ring_edge_lengths
 from osm_expand.model.land import OPEN_BLOCK, Land, town_blocks
 from osm_expand.model.network import Context, Origin, StreetNetwork, Tags
 from osm_expand.model.projection import LocalProjection
@@ -68,17 +69,65 @@ class MappedArea:
     osm_id: int = 0
 
 
+#: A lot's land use before the build-out gives it one (the bundled ``residential_low`` type's name,
+#: :class:`osm_expand.engine.buildout.lots.LandUse`).
+DEFAULT_LOT_LAND_USE = "residential_low"
+
+
 @dataclass(frozen=True, eq=False)
 class Lot:
-    """A building lot (002 §5.1, 004 §4.3.3): part of a block with access from a street."""
+    """A building lot (002 §5.1, 004 §4.3.3): part of a block with access from a street.
 
-    polygon: shapely.Polygon  #: metres
-    block: int  #: the block's id
-    street: int  #: id of the street it faces (its access; the busiest one it touches)
-    land_use: str  #: the land-use type's name
+    One type from the split of a block (:func:`osm_expand.engine.buildout.lots.subdivide`: the ring and
+    the street each edge faces) to the city's lots the exporters write, whose access street, people, id
+    and year the build-out's year sets (:meth:`placed`). ``ring`` is ``(N, 2)`` metres, counter-clockwise,
+    without the closing point; ``edge_street`` is ``(N,)`` int64: the id of the street edge ``k``
+    (``ring[k] → ring[k + 1]``) faces, or -1.
+    """
+
+    ring: np.ndarray
+    edge_street: np.ndarray
+    block: int = 0  #: the block's id (while the build-out splits blocks: its index among them)
+    land_use: str = DEFAULT_LOT_LAND_USE  #: the land-use type's name
+    street: int = -1  #: id of the street it faces (its access; the busiest one it touches); -1 not yet known
     people: float = 0.0  #: residents, workers and visitors over a day (the trip model's people)
     id: int = -1
     year: int | None = None
+
+    @cached_property
+    def polygon(self) -> shapely.Polygon:
+        """metres."""
+        return shapely.Polygon(self.ring)
+
+    @cached_property
+    def area(self) -> float:
+        """m²."""
+        return ring_area(self.ring)
+
+    @property
+    def streets(self) -> np.ndarray:
+        """Sorted ids of the streets the lot fronts, (K,) int64."""
+        return np.unique(self.edge_street[self.edge_street >= 0])
+
+    def frontage(self) -> list[tuple[np.ndarray, np.ndarray, int]]:
+        """Each street-facing edge as (start (2,), end (2,), street id)."""
+        nxt = np.roll(self.ring, -1, axis=0)
+        return [(self.ring[k], nxt[k], int(self.edge_street[k])) for k in np.flatnonzero(self.edge_street >= 0)]
+
+    def frontage_length(self, street: int | None = None) -> float:
+        """m of the boundary facing ``street`` (any street when None)."""
+        lengths = ring_edge_lengths(self.ring)
+        mask = self.edge_street >= 0 if street is None else self.edge_street == street
+        return float(lengths[mask].sum())
+
+    def placed(self, *, block: int, street: int, land_use: str, people: float, id: int, year: int | None) -> Lot:
+        """The lot as the city holds it at a year's end; its polygon and area, once made, come along (the
+        build-out hands every lot to the city every year)."""
+        out = replace(self, block=block, street=street, land_use=land_use, people=people, id=id, year=year)
+        for name in ("polygon", "area"):
+            if name in self.__dict__:
+                out.__dict__[name] = self.__dict__[name]
+        return out
 
 
 @dataclass(frozen=True, eq=False)

@@ -60,6 +60,22 @@ def chord_bends(xy: np.ndarray, at: np.ndarray, step: float) -> np.ndarray:
     return np.where(flat, 0.0, bend)
 
 
+def ring_area(ring: np.ndarray) -> float:
+    """Signed shoelace area (m²) of a ring given without its closing point, positive counter-clockwise.
+
+    >>> ring_area(np.array([[0.0, 0.0], [2.0, 0.0], [2.0, 3.0], [0.0, 3.0]]))
+    6.0
+    """
+    x, y = ring[:, 0], ring[:, 1]
+    return 0.5 * float(x[:-1] @ y[1:] - x[1:] @ y[:-1] + x[-1] * y[0] - x[0] * y[-1])
+
+
+def ring_edge_lengths(ring: np.ndarray) -> np.ndarray:
+    """Length of each edge ``ring[k] → ring[k + 1]`` of a ring given without its closing point, (N,) metres."""
+    d = np.concatenate((ring[1:], ring[:1])) - ring
+    return np.hypot(d[:, 0], d[:, 1])
+
+
 def ray_meet(p: np.ndarray, d: np.ndarray, line: np.ndarray, reach: float
              ) -> tuple[float, np.ndarray, float] | None:
     """Where the ray from ``p`` along the unit vector ``d`` first crosses the polyline ``line``

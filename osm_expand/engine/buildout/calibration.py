@@ -35,7 +35,7 @@ reads, from the town as mapped (never changing it):
   the streets' nodes.
 - **Land use** (002 §4; issue: "calibrate from OSM"): the town's ``landuse=*``
   and ``leisure=*`` polygons give its own shares and the goals
-  (:func:`~osm_expand.engine.buildout.landuse.calibrate_landuse`, clipped to the town:
+  (:func:`~osm_expand.engine.buildout.landuse_osm.calibrate_landuse`, clipped to the town:
   its buildings buffered by ``town_buffer``).
 - **Town units**: the land-use simulation needs the old town as lots (the
   neighbourhood of new lots, the city's shares, and the comparison with the
@@ -62,14 +62,9 @@ from scipy import ndimage
 
 from osm_expand.engine.buildout.economy import HeightCalibration, calibrate_heights
 from osm_expand.engine.buildout.footprints import FootprintOptions, SizeTargets, calibrate_sizes, calibrated_lot_options
-from osm_expand.engine.buildout.landuse import (
-    UNASSIGNED,
-    LandUseCalibration,
-    LandUseType,
-    calibrate_landuse,
-    distance_to,
-    types_from_polygons,
-)
+from osm_expand.engine.buildout.landuse_osm import LandUseCalibration, calibrate_landuse, types_from_polygons
+from osm_expand.engine.buildout.landuse_types import UNASSIGNED, LandUseType
+from osm_expand.engine.buildout.lot_values import distance_to
 from osm_expand.engine.buildout.lots import LandUse, LotOptions, land_use
 from osm_expand.engine.history import History
 from osm_expand.errors import InputError
@@ -309,7 +304,7 @@ def building_shares(types: Sequence[LandUseType], lot_options: Mapping[LandUse, 
 
     Examples
     --------
-    >>> from osm_expand.engine.buildout.landuse import DEFAULT_TYPES
+    >>> from osm_expand.engine.buildout.landuse_types import DEFAULT_TYPES
     >>> from osm_expand.engine.buildout.lots import DEFAULT_LOT_OPTIONS
     >>> from osm_expand.engine.buildout.footprints import DEFAULT_FOOTPRINT_OPTIONS
     >>> shares = building_shares(DEFAULT_TYPES, DEFAULT_LOT_OPTIONS, DEFAULT_FOOTPRINT_OPTIONS)

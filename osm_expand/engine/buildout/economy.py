@@ -62,7 +62,7 @@ import numpy as np
 from numpy.typing import NDArray
 from scipy.special import ndtr, ndtri
 
-from osm_expand.engine.buildout.landuse import valuate
+from osm_expand.engine.buildout.landuse_types import valuate
 from osm_expand.errors import InputError
 from osm_expand.model.enums import parse_enum
 
@@ -102,7 +102,7 @@ class TypeEconomy:
     max_floors: int = 30
 
 
-#: Bundled economics for :data:`osm_expand.engine.buildout.landuse.DEFAULT_TYPES`.
+#: Bundled economics for :data:`osm_expand.engine.buildout.landuse_types.DEFAULT_TYPES`.
 #: Margins: FAR / 100 (see the module docstring), spread 20 % (002 gives no
 #: numbers). Floor space per person: ~45 m² of living space per person in
 #: Central Europe, plus walls and stairs (gross ≈ 1.2 × living): 55 m² in

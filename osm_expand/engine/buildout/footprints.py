@@ -56,7 +56,7 @@ from typing import cast
 import numpy as np
 import shapely
 
-from osm_expand.engine.buildout.lots import DEFAULT_LOT_OPTIONS, LandUse, Lot, LotOptions, land_use
+from osm_expand.engine.buildout.lots import DEFAULT_LOT_OPTIONS, LandUse, Lot, LotOptions, land_use, lot_sides
 from osm_expand.errors import InputError
 
 __all__ = [
@@ -499,7 +499,7 @@ def _room(lot: Lot, built: Sequence[int], setbacks: tuple[float, float, float], 
     """
     ring = lot.ring
     nxt = np.concatenate((ring[1:], ring[:1]))
-    sides = lot.sides()
+    sides = lot_sides(lot)
     for street in built:
         fronts = [(s.start, s.end) for s in sorted((s for s in sides if s.street == street), key=lambda s: -s.length)]
         for start, end in fronts + _curved_fronts(sides, street):

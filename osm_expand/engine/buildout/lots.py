@@ -56,7 +56,6 @@ import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from enum import StrEnum
-from functools import cached_property
 from types import MappingProxyType
 
 import numpy as np
@@ -65,10 +64,12 @@ import shapely.errors
 import shapely.ops
 
 from osm_expand.errors import InputError
+from osm_expand.model.city import Lot  # the one lot type, re-exported for the build-out's modules
 from osm_expand.model.enums import parse_enum
+from osm_expand.model.geometry import ring_area, ring_edge_lengths
 
 __all__ = [
-    "DEFAULT_LOT_OPTIONS", "NO_STREET", "Frontage", "LandUse", "Lot", "LotOptions", "Side",
+    "DEFAULT_LOT_OPTIONS", "NO_STREET", "Frontage", "LandUse", "Lot", "LotOptions", "Side", "lot_sides",
     "block_frontage", "land_use", "shrink_block", "subdivide", "subdivide_blocks",
 ]
 
@@ -192,48 +193,9 @@ class Side:
     count: int
 
 
-@dataclass(frozen=True, eq=False)
-class Lot:
-    """A lot: its counter-clockwise ring, which street each edge faces, its block and land use.
-
-    ``ring`` is ``(N, 2)`` metres without the closing point; ``edge_street``
-    is ``(N,)`` int64 with the street id edge ``k`` (``ring[k] → ring[k+1]``)
-    faces, or :data:`NO_STREET`.
-    """
-
-    ring: np.ndarray
-    edge_street: np.ndarray
-    block: int = 0
-    land_use: str = LandUse.RESIDENTIAL_LOW.value
-
-    @cached_property
-    def polygon(self) -> shapely.Polygon:
-        return shapely.Polygon(self.ring)
-
-    @cached_property
-    def area(self) -> float:
-        """m²."""
-        return _ring_area(self.ring)
-
-    @property
-    def streets(self) -> np.ndarray:
-        """Sorted ids of the streets the lot fronts, (K,) int64."""
-        return np.unique(self.edge_street[self.edge_street >= 0])
-
-    def frontage(self) -> list[tuple[np.ndarray, np.ndarray, int]]:
-        """Each street-facing edge as (start (2,), end (2,), street id)."""
-        nxt = np.roll(self.ring, -1, axis=0)
-        return [(self.ring[k], nxt[k], int(self.edge_street[k])) for k in np.flatnonzero(self.edge_street >= 0)]
-
-    def frontage_length(self, street: int | None = None) -> float:
-        """m of the boundary facing ``street`` (any street when None)."""
-        lengths = _edge_lengths(self.ring)
-        mask = self.edge_street >= 0 if street is None else self.edge_street == street
-        return float(lengths[mask].sum())
-
-    def sides(self, side_angle: float = 10.0) -> list[Side]:
-        """The ring's edges grouped into sides (002 §5.1 step 1), see :func:`_sides`."""
-        return _sides(self.ring, self.edge_street, side_angle)
+def lot_sides(lot: Lot, side_angle: float = 10.0) -> list[Side]:
+    """The lot ring's edges grouped into sides (002 §5.1 step 1), see :func:`_sides`."""
+    return _sides(lot.ring, lot.edge_street, side_angle)
 
 
 # ----------------------------------------------------------------------------- frontage
@@ -453,20 +415,9 @@ def _next(ring: np.ndarray) -> np.ndarray:
     return np.concatenate((ring[1:], ring[:1]))
 
 
-def _ring_area(ring: np.ndarray) -> float:
-    """Signed shoelace area (m²), positive for a counter-clockwise ring."""
-    x, y = ring[:, 0], ring[:, 1]
-    return 0.5 * float(x[:-1] @ y[1:] - x[1:] @ y[:-1] + x[-1] * y[0] - x[0] * y[-1])
-
-
-def _edge_lengths(ring: np.ndarray) -> np.ndarray:
-    d = _next(ring) - ring
-    return np.hypot(d[:, 0], d[:, 1])
-
-
 def _ccw(poly: shapely.Polygon) -> np.ndarray:
     ring = np.asarray(poly.exterior.coords)[:-1]
-    return ring if _ring_area(ring) > 0 else ring[::-1].copy()
+    return ring if ring_area(ring) > 0 else ring[::-1].copy()
 
 
 def _clean(ring: np.ndarray, labels: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -477,7 +428,7 @@ def _clean(ring: np.ndarray, labels: np.ndarray) -> tuple[np.ndarray, np.ndarray
     when the closing edge n−1 is the null one: vertex 0 would go, label n−1.)
     """
     for _ in range(3):
-        null = _edge_lengths(ring) < _MIN_EDGE
+        null = ring_edge_lengths(ring) < _MIN_EDGE
         if not null.any() or len(ring) <= 3:
             break
         ring, labels = ring[~null], labels[~null]
@@ -612,7 +563,7 @@ def _split_once(ring: np.ndarray, labels: np.ndarray, opts: LotOptions, rng: np.
     """
     fallback = None
     # below twice max_area, keep the split near enough the middle that both parts fit (no extra split)
-    spread = min(opts.offset_spread, max(0.9 * (opts.max_area / _ring_area(ring) - 0.5), 0.0))
+    spread = min(opts.offset_spread, max(0.9 * (opts.max_area / ring_area(ring) - 0.5), 0.0))
     for side, need in _candidate_sides(ring, _sides(ring, labels, opts.side_angle), opts):
         chord = (side.end - side.start) / side.length
         normal = np.array([-chord[1], chord[0]])  # inward for a counter-clockwise ring
@@ -626,7 +577,7 @@ def _split_once(ring: np.ndarray, labels: np.ndarray, opts: LotOptions, rng: np.
             if hit is None:
                 continue
             (ra, la), (rb, lb) = _split_ring(ring, labels, edge, point, hit[0], hit[1])
-            if len(ra) < 3 or len(rb) < 3 or min(_ring_area(ra), _ring_area(rb)) < max(opts.min_area, 1e-9):
+            if len(ra) < 3 or len(rb) < 3 or min(ring_area(ra), ring_area(rb)) < max(opts.min_area, 1e-9):
                 continue
             ratio = min(_ratio(ra, chord), _ratio(rb, chord))
             if ratio < 0.8 * need:
@@ -655,7 +606,7 @@ def _subdivide_ring(ring: np.ndarray, labels: np.ndarray, opts: LotOptions,
         r, lab = stack.pop()
         if not (lab >= 0).any():
             continue  # no street access: discarded (004 §4.3.3)
-        area = _ring_area(r)
+        area = ring_area(r)
         if area > opts.max_area:
             parts = _split_once(r, lab, opts, rng)
             if parts is not None:

@@ -27,8 +27,10 @@ from typing import TYPE_CHECKING, Any, Protocol
 import numpy as np
 from numpy.typing import NDArray
 
-from osm_expand.engine.buildout.landuse import UNASSIGNED, area_shares, rasterise_lots, rasterise_polygons, similarity
+from osm_expand.engine.buildout.landuse_types import UNASSIGNED
+from osm_expand.engine.buildout.lot_values import area_shares
 from osm_expand.engine.buildout.lots import land_use
+from osm_expand.engine.buildout.similarity import rasterise_lots, rasterise_polygons, similarity
 from osm_expand.errors import InputError
 from osm_expand.model import City, Origin
 

@@ -11,7 +11,7 @@ use, lots and buildings). One year:
    street's width either side of its centre line) is demolished with its
    building. A building on a carriageway or crossed by a centre line goes
    alone; its lot keeps its place. Streets the map leaves without a width
-   get their class's (:func:`osm_expand.engine.segments.street_width`).
+   get their class's (:func:`osm_expand.model.segments.street_width`).
 2. **Blocks to build out.** Block ids are renumbered whenever the loop
    recomputes blocks, so surviving lots find their block geometrically (a
    point inside the lot). A block is built out when it touches at least one
@@ -88,26 +88,15 @@ from osm_expand.blocks import blocks as find_blocks
 from osm_expand.engine.buildout.calibration import CalibrationOptions, TownCalibration, calibrate_town, size_bands
 from osm_expand.engine.buildout.economy import HeightScale, expected_floor_space, lot_economy, occupants, substitute
 from osm_expand.engine.buildout.footprints import place_buildings
-from osm_expand.engine.buildout.landuse import (
-    UNASSIGNED,
-    LotLayout,
-    assign_types,
-    block_types,
-    choose_types,
-    distance_to,
-    goal_shares,
-    lot_attributes,
-    lot_layout,
-    lot_values,
-    update_land_use,
-)
+from osm_expand.engine.buildout.landuse import assign_types, block_types, choose_types, update_land_use
+from osm_expand.engine.buildout.landuse_types import UNASSIGNED, goal_shares
+from osm_expand.engine.buildout.lot_values import LotLayout, distance_to, lot_attributes, lot_layout, lot_values
 from osm_expand.engine.buildout.lots import NO_STREET, Frontage, LandUse, block_frontage, land_use, subdivide_blocks
-from osm_expand.engine.buildout.lots import Lot as EngineLot
 from osm_expand.engine.buildout.report import buildout_report  # re-exported
 from osm_expand.engine.history import History, YearValues
-from osm_expand.engine.segments import street_width
 from osm_expand.errors import InputError
 from osm_expand.model import Block, Building, City, Lot, Origin, Status
+from osm_expand.model.segments import street_width
 
 __all__ = ["BuildoutMemory", "BuildoutOptions", "BuildoutYear", "LotState", "buildout_report", "buildout_year",
            "start_buildout", "town_people"]
@@ -174,7 +163,7 @@ class BuildoutYear:
 class LotState:
     """What the build-out remembers about one lot beyond the city's :class:`~osm_expand.model.Lot`."""
 
-    lot: EngineLot  #: ring and the street each edge faces (:class:`osm_expand.engine.buildout.lots.Lot`)
+    lot: Lot  #: ring and the street each edge faces (:class:`osm_expand.model.Lot`)
     type: int  #: land-use type index into ``TownCalibration.types``
     year: int  #: year the lot was made
     point: tuple[float, float]  #: a point inside the lot (m): its place for land use and block matching
@@ -271,7 +260,7 @@ def start_buildout(city: City, history: History, rng: np.random.Generator, *,
     -------
     BuildoutMemory
         Town units take the type of the mapped land use they lie in
-        (:func:`~osm_expand.engine.buildout.landuse.types_from_polygons`); the others
+        (:func:`~osm_expand.engine.buildout.landuse_osm.types_from_polygons`); the others
         the type that raises the system value most
         (:func:`~osm_expand.engine.buildout.landuse.assign_types`).
 
@@ -464,8 +453,8 @@ def _relabel(state: LotState, streets: _Streets, tolerance: float = 1.0) -> LotS
         lab[front[edge[first]]] = streets.ids[cand[first]]
     if not (lab >= 0).any():
         return None
-    return replace(state, lot=EngineLot(ring=ring, edge_street=lab, block=state.lot.block,
-                                        land_use=state.lot.land_use), tried=None)
+    return replace(state, lot=Lot(ring=ring, edge_street=lab, block=state.lot.block, land_use=state.lot.land_use),
+                   tried=None)
 
 
 # ============================================================================ the year
@@ -971,7 +960,7 @@ def _bands(work: _Year, candidates: Sequence[LandUse], classes: Sequence[LandUse
     return size_bands(counts, town.footprint_options, overlap=work.memory.calibration.band_overlap)
 
 
-def _obstacles(work: _Year, lots: Sequence[EngineLot]) -> list[shapely.Geometry]:
+def _obstacles(work: _Year, lots: Sequence[Lot]) -> list[shapely.Geometry]:
     """What no new building may touch near these lots: carriageways, the town's buildings (as the XML draws
     them), the generated buildings standing."""
     polys = np.array([lot.polygon for lot in lots], dtype=object)
@@ -1010,9 +999,9 @@ def _result(work: _Year, units: _Units, new_ids: list[int]) -> tuple[City, Build
     lots = []
     for j, k in enumerate(ids):
         state = work.states[k]
-        lots.append(Lot(polygon=state.lot.polygon, block=int(blocks[work.lot_block[k]].id),
-                        street=_access(work, state, built_ids), land_use=types[state.type].name,
-                        people=float(people[j]), id=k, year=state.year))
+        lots.append(state.lot.placed(block=int(blocks[work.lot_block[k]].id), street=_access(work, state, built_ids),
+                                     land_use=types[state.type].name, people=float(people[j]), id=k,
+                                     year=state.year))
     generated = [work.buildings[k] for k in sorted(work.buildings)]
     kept = [b for b in work.city.buildings
             if not (b.origin == Origin.ENGINE and b.lot is not None and int(b.lot) in work.memory.lots)]

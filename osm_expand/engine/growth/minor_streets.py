@@ -30,9 +30,9 @@ import shapely
 
 from osm_expand.engine.growth.nuclei import Nucleus, candidate_points, rank_candidates
 from osm_expand.engine.growth.stubs import close_stubs
-from osm_expand.engine.segments import SegmentTable
 from osm_expand.joins import add_streets, join_growth
 from osm_expand.model import City, Origin, Status, match_points, polyline_length
+from osm_expand.model.segments import SegmentTable
 from osm_expand.sites import DistanceMaps, SiteOptions, choose_sites, distance_maps, district_region
 from synth.growth import GrowthPattern
 from synth.patterns import PatternOptions, grow_streets

@@ -88,10 +88,7 @@ import numpy as np
 
 from osm_expand.engine.buildout.economy import EconomyOptions, TypeEconomy
 from osm_expand.engine.buildout.footprints import FootprintOptions
-from osm_expand.engine.buildout.landuse import (
-    LandUseOptions,
-    LandUseType,
-)
+from osm_expand.engine.buildout.landuse_types import LandUseOptions, LandUseType
 from osm_expand.engine.buildout.lots import LandUse, LotOptions
 from osm_expand.engine.growth.nuclei import NucleiOptions
 from osm_expand.engine.history.timefn import TimeFunction

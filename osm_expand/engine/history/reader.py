@@ -28,7 +28,7 @@ from typing import Any, NoReturn
 
 from osm_expand.engine.buildout.economy import DEFAULT_ECONOMY, TypeEconomy
 from osm_expand.engine.buildout.footprints import DEFAULT_FOOTPRINT_OPTIONS, FootprintOptions
-from osm_expand.engine.buildout.landuse import (
+from osm_expand.engine.buildout.landuse_types import (
     DEFAULT_TYPES,
     Attribute,
     LandUseType,

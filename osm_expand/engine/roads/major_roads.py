@@ -40,13 +40,13 @@ from osm_expand.engine.roads.lattice import (
 )
 from osm_expand.engine.roads.road_types import RoadType, plan_major_road, propose_route
 from osm_expand.engine.roads.routing import Choice, choose, route_over_major_roads
-from osm_expand.engine.segments import SegmentTable
 from osm_expand.engine.traffic.simulation import TrafficMemory, follow, trade_major
 from osm_expand.engine.traffic.trade import add_route, route_between, segment_capacity
 from osm_expand.joins import add_streets
 from osm_expand.land import UNBUILDABLE, building_outlines, matches
 from osm_expand.model import City, Origin, Status
 from osm_expand.model.highways import MAJOR
+from osm_expand.model.segments import SegmentTable
 from osm_expand.model.topology import without_segments
 
 #: Highway class of a new major road by type: a bypass is a through road, the others town roads.

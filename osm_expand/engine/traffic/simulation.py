@@ -30,7 +30,6 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
-from osm_expand.engine.segments import SegmentTable, segment_pieces
 from osm_expand.engine.traffic.neighbours import Neighbours, initial_pairs, neighbour_cities
 from osm_expand.engine.traffic.trade import (
     TradeState,
@@ -57,6 +56,7 @@ from osm_expand.engine.traffic.trips import (
 )
 from osm_expand.model import City, Status, match_points
 from osm_expand.model.highways import TRADE
+from osm_expand.model.segments import SegmentTable, segment_pieces
 
 #: Highway classes a trade route may use (the model's named set).
 TRADE_CLASSES = TRADE

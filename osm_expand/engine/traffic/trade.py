@@ -62,8 +62,8 @@ from numpy.typing import NDArray
 from scipy import sparse
 from scipy.sparse.csgraph import dijkstra
 
-from osm_expand.engine.pieces import Pieces
 from osm_expand.errors import InputError
+from osm_expand.model.pieces import Pieces
 
 __all__ = [
     "TradeOptions",

@@ -6,6 +6,11 @@ length, width, major or minor, built or planned, bridge, the year it was
 built. The table is derived from the city whenever the engine needs it
 (it is never a second copy of the streets), and per-segment results come
 back to the streets with :meth:`SegmentTable.per_street`.
+
+It lives in the model, beside the streets it is derived from, as the one
+segment table of the code (issue 23); the lattice's
+:class:`~osm_expand.engine.roads.lattice.Segments` and ``synth``'s growing
+:class:`~synth.street_graph.StreetGraph` are still tables of their own.
 """
 from __future__ import annotations
 
@@ -13,8 +18,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from osm_expand.engine.pieces import Pieces
-from osm_expand.model import City, Status, Street, highways
+from osm_expand.model import highways
+from osm_expand.model.city import City
+from osm_expand.model.network import Status, Street
+from osm_expand.model.pieces import Pieces
 
 #: Highway classes that are major roads (003's major roads: the trade routes run on them).
 MAJOR = highways.MAJOR_AND_LINKS
