@@ -1272,6 +1272,22 @@ ON_EDGE = 1.0
 EDGE_INSET = 4.0
 
 
+def _edge_start(quilt: _Quilt, region: shapely.Geometry, occupied: shapely.Geometry, old: shapely.Geometry
+                ) -> tuple[list, np.ndarray, np.ndarray, _Board] | None:
+    """What both ways of walking the site's edge start from: the edge's rings drawn ``EDGE_INSET``
+    inside the region, the cut streets' ends, which of them lie at the edge, and the board new
+    streets are laid on (None: fewer than two cut ends, or no ring)."""
+    if len(quilt.cut_xy) < 2:
+        return None
+    inner = shapely.buffer(region, -EDGE_INSET)
+    rings = [r for poly in shapely.get_parts(inner) if poly.geom_type == "Polygon" for r in [poly.exterior]]
+    if not rings:
+        return None
+    xy = np.array(quilt.cut_xy)
+    at_edge = shapely.distance(shapely.boundary(region), shapely.points(xy)) < EDGE_INSET + 1.0
+    return rings, xy, at_edge, _Board(quilt, occupied, old)
+
+
 def _edge_streets(quilt: _Quilt, region: shapely.Geometry, spacing: float, opts: PatchOptions,
                   occupied: shapely.Geometry, old: shapely.Geometry) -> int:
     """Join cut ends left at the district's edge to their neighbour along it by a perimeter street that
@@ -1283,16 +1299,10 @@ def _edge_streets(quilt: _Quilt, region: shapely.Geometry, spacing: float, opts:
     """
     if opts.perimeter_tees:
         return _perimeter_runs(quilt, region, spacing, opts, occupied, old)
-    if len(quilt.cut_xy) < 2:
+    start = _edge_start(quilt, region, occupied, old)
+    if start is None:
         return 0
-    inner = shapely.buffer(region, -EDGE_INSET)
-    rings = [r for poly in shapely.get_parts(inner) if poly.geom_type == "Polygon" for r in [poly.exterior]]
-    if not rings:
-        return 0
-    xy = np.array(quilt.cut_xy)
-    edge = shapely.boundary(region)
-    at_edge = shapely.distance(edge, shapely.points(xy)) < EDGE_INSET + 1.0
-    board = _Board(quilt, occupied, old)
+    rings, xy, at_edge, board = start
     used = np.zeros(len(xy), dtype=bool)
     made = 0
     for ring in rings:
@@ -1339,16 +1349,10 @@ def _perimeter_runs(quilt: _Quilt, region: shapely.Geometry, spacing: float, opt
     per pair, a U of L-bends along the edge, the sharpest bends of the
     district (north-bayreuth seed 0: 15 of its 34).
     """
-    if len(quilt.cut_xy) < 2:
+    start = _edge_start(quilt, region, occupied, old)
+    if start is None:
         return 0
-    inner = shapely.buffer(region, -EDGE_INSET)
-    rings = [r for poly in shapely.get_parts(inner) if poly.geom_type == "Polygon" for r in [poly.exterior]]
-    if not rings:
-        return 0
-    xy = np.array(quilt.cut_xy)
-    edge = shapely.boundary(region)
-    at_edge = shapely.distance(edge, shapely.points(xy)) < EDGE_INSET + 1.0
-    board = _Board(quilt, occupied, old)
+    rings, xy, at_edge, board = start
     inside = shapely.buffer(region, 0.5)
     shapely.prepare(inside)
     used = np.zeros(len(xy), dtype=bool)
