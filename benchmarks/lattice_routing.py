@@ -28,14 +28,9 @@ from typing import Callable
 import numpy as np
 import shapely
 
-from osm_expand.engine.roads.lattice import (
-    LatticeOptions,
-    Raster,
-    Segments,
-    build_lattice,
-    built_up_area,
-    pathfinding_graph,
-)
+from osm_expand.engine.roads.built_up import Segments, built_up_area
+from osm_expand.engine.roads.lattice import LatticeOptions, Raster, build_lattice
+from osm_expand.engine.roads.path_graph import pathfinding_graph
 from osm_expand.engine.roads.road_types import RoadType, plan_major_road, propose_route
 
 REPO = Path(__file__).resolve().parent.parent

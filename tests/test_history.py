@@ -27,7 +27,7 @@ from osm_expand.engine.history import (
     load_history,
 )
 from osm_expand.engine.history.timefn import Interpolation, TimeFunction
-from osm_expand.engine.roads.lattice import EdgeCosts
+from osm_expand.engine.roads.path_graph import EdgeCosts
 from osm_expand.engine.roads.road_types import RoadType
 from osm_expand.engine.roads.routing import RoutingOptions
 from osm_expand.errors import InputError

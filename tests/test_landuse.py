@@ -6,13 +6,9 @@ import pytest
 import shapely
 
 from osm_expand.engine.buildout import landuse as lu
-
 from osm_expand.engine.buildout import landuse_osm as lo
-
 from osm_expand.engine.buildout import landuse_types as lt
-
 from osm_expand.engine.buildout import lot_values as lv
-
 from osm_expand.engine.buildout import similarity as ls
 from osm_expand.engine.buildout.landuse_types import LandUseOptions, LandUseType, ValuationTerm
 from osm_expand.errors import InputError

@@ -6,24 +6,20 @@ from math import gcd
 import numpy as np
 import pytest
 import shapely
-from hypothesis import given, settings
+from hypothesis import example, given, settings
 from hypothesis import strategies as st
 
+from osm_expand.engine.roads.built_up import Segments, built_up_area, segment_sides
 from osm_expand.engine.roads.lattice import (
     NO_EDGE,
-    EdgeCosts,
     EdgeKind,
     LatticeOptions,
     Raster,
-    Segments,
     VertexClass,
     build_lattice,
-    built_up_area,
-    implicit_graph,
     lattice_directions,
-    pathfinding_graph,
-    segment_sides,
 )
+from osm_expand.engine.roads.path_graph import EdgeCosts, implicit_graph, pathfinding_graph
 from osm_expand.engine.roads.road_types import (
     MajorRoadOptions,
     RoadType,
@@ -361,6 +357,7 @@ def test_pruned_search_finds_the_same_cost_as_searching_everything(seed):
 
 @settings(max_examples=12, deadline=None)
 @given(st.integers(0, 2**32 - 1))
+@example(4194305)  # a bound from the target's side (binned headings reversed) overstated this map's route
 def test_the_implicit_search_in_growing_windows_finds_the_cost_of_the_whole_map(seed):
     """A town, a river and forbidden blobs; small first windows force the windows to grow."""
     rng = np.random.default_rng(seed)
@@ -625,7 +622,7 @@ def test_on_krems_the_implicit_search_finds_routes_of_the_same_cost_in_a_part_of
     """The issue's equal-cost test on a real town: every road type between the exits and
     between random street nodes costs the same searched in windows as on the whole map's G′
     (the old search), and a route across part of the town generates only part of the lattice."""
-    from osm_expand.engine.roads.lattice import ImplicitGraph
+    from osm_expand.engine.roads.path_graph import ImplicitGraph
     g, segs, exits, _, implicit = krems
     seen: list[int] = []
     window = ImplicitGraph.window

@@ -1,10 +1,13 @@
 """Helpers for the frozen options dataclasses every stage takes."""
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import MISSING
 from typing import Any
 
-__all__ = ["field_default"]
+from osm_expand.errors import InputError
+
+__all__ = ["field_default", "require_positive"]
 
 
 def field_default(cls: type, name: str) -> Any:
@@ -20,3 +23,12 @@ def field_default(cls: type, name: str) -> Any:
     """
     f = cls.__dataclass_fields__[name]  # type: ignore[attr-defined]  # cls is an options dataclass
     return f.default_factory() if f.default_factory is not MISSING else f.default
+
+
+def require_positive(opts: object, names: Sequence[str]) -> None:
+    """Raise :class:`~osm_expand.errors.InputError` (one line, exit 2 at the CLI) unless every field
+    ``names`` of ``opts`` is positive: a zero spacing or radius would make an empty or endless lattice."""
+    for name in names:
+        value = getattr(opts, name)
+        if not value > 0:
+            raise InputError(f"{type(opts).__name__}.{name} must be positive, got {value}")

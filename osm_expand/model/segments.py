@@ -9,7 +9,7 @@ back to the streets with :meth:`SegmentTable.per_street`.
 
 It lives in the model, beside the streets it is derived from, as the one
 segment table of the code (issue 23); the lattice's
-:class:`~osm_expand.engine.roads.lattice.Segments` and ``synth``'s growing
+:class:`~osm_expand.engine.roads.built_up.Segments` and ``synth``'s growing
 :class:`~synth.street_graph.StreetGraph` are still tables of their own.
 """
 from __future__ import annotations

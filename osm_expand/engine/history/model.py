@@ -92,7 +92,9 @@ from osm_expand.engine.buildout.landuse_types import LandUseOptions, LandUseType
 from osm_expand.engine.buildout.lots import LandUse, LotOptions
 from osm_expand.engine.growth.nuclei import NucleiOptions
 from osm_expand.engine.history.timefn import TimeFunction
-from osm_expand.engine.roads.lattice import BuiltUpOptions, EdgeCosts, GraphOptions, LatticeOptions
+from osm_expand.engine.roads.built_up import BuiltUpOptions
+from osm_expand.engine.roads.lattice import LatticeOptions
+from osm_expand.engine.roads.path_graph import EdgeCosts, GraphOptions
 from osm_expand.engine.roads.road_types import MajorRoadOptions, RoadType
 from osm_expand.engine.roads.routing import RoutingOptions
 from osm_expand.engine.traffic.neighbours import NeighbourOptions
@@ -265,7 +267,7 @@ class YearValues:
     road_width : float
         A(t), metres: the width of new major roads and of widened extendible segments (003 §3.4.2).
     costs : EdgeCosts
-        C1…C6 (003 §3.4.2) for :func:`~osm_expand.engine.roads.lattice.pathfinding_graph`.
+        C1…C6 (003 §3.4.2) for :func:`~osm_expand.engine.roads.path_graph.pathfinding_graph`.
     routing : RoutingOptions
         The turn penalty P(t, α) (003 Fig. 6) with the history's routing options.
     o1, o2, o3, o4 : float
@@ -342,7 +344,7 @@ class History:
         P(t, α)'s centre S_c and width S_w (degrees of α, 180° = straight on)
         and height S_p (cost units; 003 Fig. 6).
     costs : mapping of str to TimeFunction
-        C1…C6 by :class:`~osm_expand.engine.roads.lattice.EdgeCosts` field
+        C1…C6 by :class:`~osm_expand.engine.roads.path_graph.EdgeCosts` field
         (major, minor, harbour, built_harbour, bridge, extendible).
     o1, o2, o3, o4 : float
         003's time-independent coefficients.

@@ -53,7 +53,8 @@ from osm_expand.engine.history.model import (
     PatternSettings,
 )
 from osm_expand.engine.history.timefn import TimeFunction
-from osm_expand.engine.roads.lattice import EdgeCosts, LatticeOptions
+from osm_expand.engine.roads.lattice import LatticeOptions
+from osm_expand.engine.roads.path_graph import EdgeCosts
 from osm_expand.engine.roads.road_types import RoadType
 from osm_expand.engine.roads.routing import RoutingOptions, choose
 from osm_expand.engine.traffic.trade import TradeOptions

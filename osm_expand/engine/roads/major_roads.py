@@ -15,7 +15,7 @@ never demolished.
 The lattice (its rasters and bridges) is built once per run (it covers
 the map's bounds); B and G′'s street part are rebuilt only in a year that
 needs a road, so most years cost nothing here. G′ is implicit
-(:class:`~osm_expand.engine.roads.lattice.ImplicitGraph`): each search makes the
+(:class:`~osm_expand.engine.roads.path_graph.ImplicitGraph`): each search makes the
 lattice's edges of the window it needs, and a re-route over major roads
 makes none.
 """
@@ -29,15 +29,9 @@ import shapely
 
 from osm_expand.engine.history import History, YearValues
 from osm_expand.engine.planarity import without_touching
-from osm_expand.engine.roads.lattice import (
-    BuiltUpArea,
-    Lattice,
-    Raster,
-    Segments,
-    build_lattice,
-    built_up_area,
-    implicit_graph,
-)
+from osm_expand.engine.roads.built_up import BuiltUpArea, Segments, built_up_area
+from osm_expand.engine.roads.lattice import Lattice, Raster, build_lattice
+from osm_expand.engine.roads.path_graph import implicit_graph
 from osm_expand.engine.roads.road_types import RoadType, plan_major_road, propose_route
 from osm_expand.engine.roads.routing import Choice, choose, route_over_major_roads
 from osm_expand.engine.traffic.simulation import TrafficMemory, follow, trade_major

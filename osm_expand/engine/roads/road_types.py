@@ -51,7 +51,8 @@ from enum import StrEnum
 import numpy as np
 import shapely
 
-from osm_expand.engine.roads.lattice import ROAD_KINDS, EdgeKind, ImplicitGraph, PathGraph
+from osm_expand.engine.roads.lattice import ROAD_KINDS, EdgeKind
+from osm_expand.engine.roads.path_graph import ImplicitGraph, PathGraph
 from osm_expand.engine.roads.routing import Route, RoutingOptions, find_route
 from osm_expand.errors import InputError
 from osm_expand.model.enums import parse_enum

@@ -40,7 +40,8 @@ from scipy.sparse import csr_matrix
 from scipy.sparse.csgraph import dijkstra
 from scipy.spatial import cKDTree
 
-from osm_expand.engine.roads.lattice import ROAD_KINDS, EdgeCosts, EdgeKind, GraphWindow, ImplicitGraph, PathGraph
+from osm_expand.engine.roads.lattice import ROAD_KINDS, EdgeKind
+from osm_expand.engine.roads.path_graph import EdgeCosts, GraphWindow, ImplicitGraph, PathGraph
 from osm_expand.errors import InputError
 
 __all__ = ["RoutingOptions", "Route", "turn_penalty", "find_route", "route_over_major_roads", "Choice",
@@ -152,8 +153,8 @@ def find_route(graph: PathGraph | ImplicitGraph, source: int, target: int, *, ki
     Parameters
     ----------
     graph
-        G′ from :func:`osm_expand.engine.roads.lattice.pathfinding_graph`, or an
-        :class:`~osm_expand.engine.roads.lattice.ImplicitGraph` (searched in windows
+        G′ from :func:`osm_expand.engine.roads.path_graph.pathfinding_graph`, or an
+        :class:`~osm_expand.engine.roads.path_graph.ImplicitGraph` (searched in windows
         that grow until the route is provably the whole map's best, see
         :func:`_implicit_route`).
     source, target
@@ -216,15 +217,13 @@ def _implicit_route(graph: ImplicitGraph, source: int, target: int, kinds: Seque
     """The whole map's best route, searched on G′ over growing windows of the lattice.
 
     Each window holds every edge of G′ between its vertices except those
-    from its ``exits`` (:class:`~osm_expand.engine.roads.lattice.GraphWindow`). A
-    route that leaves the window first reaches an exit x, and last leaves
-    one y, and its parts before x and after y use the window's edges only.
-    So it costs at least ``A(x) + max(c·|x − t|, min_y c·|x − y| + B(y))``,
-    where A and B are the least turn-penalised costs of arriving at an exit
-    from the source and from the target inside the window (a route costs
-    the same reversed) and c the least cost a metre
-    (:func:`cheapest_unit_cost`); the plain distance stands in for A when
-    that alone already settles it. When no exit's bound is below the cost
+    from its ``exits`` (:class:`~osm_expand.engine.roads.path_graph.GraphWindow`). A
+    route that leaves the window first reaches an exit x, and its part
+    before x uses the window's edges only. So it costs at least
+    ``A(x) + c·|x − t|``, where A is the least turn-penalised cost of
+    arriving at an exit from the source inside the window and c the least
+    cost a metre (:func:`cheapest_unit_cost`); the plain distance stands in
+    for A when that alone already settles it. When no exit's bound is below the cost
     of the window's best route, no route through the rest of the map can be
     cheaper and the window's route is the map's (equal cost; of several
     equal ones it may be another). Else the window grows, by at most
@@ -239,7 +238,13 @@ def _implicit_route(graph: ImplicitGraph, source: int, target: int, kinds: Seque
     let exits 2.5 times the route's length away look promising, so most
     searches ended on the whole map. A coarse bound from the cells' least
     cost a metre (a Dijkstra over 60 m cells) was tried first and was
-    weaker than the straight line there.
+    weaker than the straight line there. A matching bound from the target
+    (the least turn-penalised arrival at the route's last exit, searched
+    from the target as if the route cost the same reversed) was tried and
+    dropped: with headings in bins a reversed route's turns fall in other
+    bins and cost otherwise, and the bound overstated a random map's route
+    (``tests/test_majorroads.py``, seed 4194305: 537.5 found against the
+    map's 478.8).
     """
     ends = graph.vertex_xy(np.array([source, target]))
     lo, hi = ends.min(axis=0), ends.max(axis=0)
@@ -269,31 +274,20 @@ def _implicit_route(graph: ImplicitGraph, source: int, target: int, kinds: Seque
         rest = c * np.hypot(*(exit_xy - ends[1]).T)  # what is left from an exit, at least
         reached = from_source[exits]
         short = reached + rest < limit
-        back = 0.0
         if short.any() and np.isfinite(cost) and opts.turn_height > 0:
-            # A route that leaves the window first reaches an exit x and last leaves one y, and its parts
-            # before x and after y lie in the window: it costs at least A(x) + B(y), the least
-            # turn-penalised costs of arriving at x from the source and at y from the target (reversed, a
-            # route costs the same). In a street grid turns are most of a route's cost (Campo Grande:
-            # 5,270 of 8,867 cost units), so these are far above the plain distances.
+            # A route that leaves the window first reaches an exit x, and its part before x lies in the
+            # window: it costs at least A(x), the least turn-penalised cost of arriving at x from the
+            # source. In a street grid turns are most of a route's cost (Campo Grande: 5,270 of 8,867
+            # cost units), so A is far above the plain distance.
             lat_ok, extra_ok = window.graph.masks(kinds, street_ok)
-            with window.graph.restricted(kinds, street_ok) as matrix:  # the plain distances bound the regions
-                from_target = dijkstra(matrix, indices=t, limit=limit)
-            arrive = np.stack([_arrival_costs(window.graph, lat_ok, extra_ok, end, np.flatnonzero(plain < limit),
-                                              exits, penalties, opts.heading_bins, limit)
-                               for end, plain in ((s, from_source), (t, from_target))])
-            reached = np.maximum(reached, arrive[0])
-            back = float(arrive[1].min(initial=np.inf))  # B(y) of the cheapest last exit
-            rest = np.maximum(rest, back)
-            short = reached + rest < limit
-            # between its first exit x and its last y a route goes at least |x − y| at c a metre
-            rest[short] = np.maximum(rest[short], _via_exits(exit_xy[short], exit_xy, arrive[1],
-                                                             c, limit - reached[short].min(initial=np.inf)))
+            arrive = _arrival_costs(window.graph, lat_ok, extra_ok, s, np.flatnonzero(from_source < limit), exits,
+                                    penalties, opts.heading_bins, limit)
+            reached = np.maximum(reached, arrive)
             short = reached + rest < limit
         if not short.any():
             return _on_map(window, route, from_source)
         grown = _grown(bounds, np.array(window.graph.lattice.bounds), exit_xy[short], reached[short], ends[1],
-                       cost, c, reach, back)
+                       cost, c, reach)
         if np.isfinite(cost):
             # grow a side by at most a share of the window: the exits of a larger window are dearer to
             # arrive at (more turns), so a step or two of growth usually proves the route, where the
@@ -304,27 +298,8 @@ def _implicit_route(graph: ImplicitGraph, source: int, target: int, kinds: Seque
         bounds = grown
 
 
-def _via_exits(first: np.ndarray, exits: np.ndarray, back: np.ndarray, c: float, below: float,
-               most: int = 20_000_000) -> np.ndarray:
-    """``min_y c·|x − y| + B(y)`` for each first exit x over the exits y whose ``B(y)`` is below ``below``
-    (the others cannot end a cheaper route), in blocks; −∞ (no bound) when that would take more than
-    ``most`` pairs."""
-    keep = back < below
-    ys, yb = exits[keep], back[keep]
-    out = np.full(len(first), np.inf)
-    if not len(ys):
-        return out
-    if len(first) * len(ys) > most:
-        return np.full(len(first), -np.inf)
-    block = max(1, most // (20 * len(ys)))
-    for a in range(0, len(first), block):
-        d = np.hypot(first[a:a + block, None, 0] - ys[None, :, 0], first[a:a + block, None, 1] - ys[None, :, 1])
-        out[a:a + block] = (c * d + yb[None, :]).min(axis=1)
-    return out
-
-
 def _grown(bounds: np.ndarray, inside: np.ndarray, exits: np.ndarray, reached: np.ndarray, target: np.ndarray,
-           cost: float, c: float, reach: float, after: float = 0.0) -> np.ndarray:
+           cost: float, c: float, reach: float) -> np.ndarray:
     """The next window: wide enough for every route that could still beat ``cost``.
 
     A route leaving by exit x (reached at ``d``) and passing a point y
@@ -333,10 +308,8 @@ def _grown(bounds: np.ndarray, inside: np.ndarray, exits: np.ndarray, reached: n
     in each such ellipse's bounding box. The sides near the exits move out
     by at least ``2 · reach`` (past the band where a point is an exit), so
     every step makes progress; without a finite cost every side doubles
-    its distance to the ends. A route that must still pay ``after`` once
-    back in the window (the least cost from its last exit to the target)
-    strays at most ``(cost − d − after) / c`` from x: each box is cut to
-    that square round its exit.
+    its distance to the ends. A route strays at most ``(cost − d) / c``
+    from x: each box is cut to that square round its exit.
     """
     px, py = exits.T
     near = np.array([(px < inside[0] + reach).any(), (py < inside[1] + reach).any(),
@@ -353,7 +326,7 @@ def _grown(bounds: np.ndarray, inside: np.ndarray, exits: np.ndarray, reached: n
     hx = np.sqrt((a * np.cos(theta)) ** 2 + (b * np.sin(theta)) ** 2)
     hy = np.sqrt((a * np.sin(theta)) ** 2 + (b * np.cos(theta)) ** 2)
     mx, my = 0.5 * (px + target[0]), 0.5 * (py + target[1])
-    r = np.maximum(cost - reached - after, 0.0) / c
+    r = np.maximum(cost - reached, 0.0) / c
     box = np.array([np.maximum(mx - hx, px - r).min() - reach, np.maximum(my - hy, py - r).min() - reach,
                     np.minimum(mx + hx, px + r).max() + reach, np.minimum(my + hy, py + r).max() + reach])
     return np.concatenate([np.minimum(out[:2], box[:2]), np.maximum(out[2:], box[2:])])

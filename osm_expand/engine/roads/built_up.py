@@ -1,0 +1,216 @@
+"""The streets as the roads see them and the built-up area B (003 Eq. 1, §3.4.2).
+
+**B** (003 Eq. 1) is ``FILL(S) \\ ∪ FILL(B_T) ∪ NB(S) ∪ ∪ NB(B_T)``: the
+built-up blocks plus a neighbourhood of every street on the shell or on a
+terrain block. Terrain blocks are those larger than ``terrain_block_area``
+(003's "simple block-area classifier") or holding water (000's water
+blocks). Streets between two built-up blocks lie inside built-up blocks, so
+B is computed as the built-up blocks plus ``neighbourhood`` metres around
+every street, and joined to the previous B: it never shrinks.
+:meth:`Lattice.with_built_up` removes every land edge that traverses B from
+the lattice for good (003: "permanently remove all land edges that traverse
+B"); water, harbour and bridge edges stay.
+"""
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+import shapely
+
+from osm_expand.errors import InputError
+from osm_expand.model.options import require_positive
+
+__all__ = ["Segments", "segment_sides", "BuiltUpOptions", "BuiltUpArea", "built_up_area"]
+
+
+@dataclass(frozen=True)
+class Segments:
+    """The segment graph G = (J, S) (003 §3.2.2) as plain arrays.
+
+    Straight junction-to-junction (or shape-point) segments between nodes.
+    ``available`` is each segment's remaining traffic capacity
+    ``O2 · width − T(s)`` (003 §3.4.2), None when capacity does not matter.
+    """
+
+    xy: np.ndarray  #: (N, 2) float64 m, node positions
+    uv: np.ndarray  #: (S, 2) int, node indices of each segment
+    major: np.ndarray  #: (S,) bool, major road (else minor)
+    width: np.ndarray  #: (S,) float64 m
+    bridge: np.ndarray  #: (S,) bool
+    available: np.ndarray | None = None  #: (S,) remaining capacity, traffic units
+    harbour: np.ndarray | None = None  #: (S,) bool, built harbour segments (C4)
+
+    def __post_init__(self) -> None:
+        n = len(self.uv)
+        if np.ndim(self.xy) != 2 or np.shape(self.xy)[1:] != (2,) or np.shape(self.uv) != (n, 2):
+            raise InputError("segments: xy must be (N, 2) and uv (S, 2)")
+        for name in ("major", "width", "bridge", "available", "harbour"):
+            value = getattr(self, name)
+            if value is not None and np.shape(value) != (n,):
+                raise InputError(f"segments: {name} must have one value per segment ({n}), got {np.shape(value)}")
+        if n and (np.min(self.uv) < 0 or np.max(self.uv) >= len(self.xy)):
+            raise InputError("segments: uv refers to a node that does not exist")
+
+    @classmethod
+    def from_lines(cls, lines: Sequence[np.ndarray], *, major: Sequence[bool], width: Sequence[float],
+                   bridge: Sequence[bool] | None = None, available: Sequence[float] | None = None) -> Segments:
+        """Segments from polylines; points equal to the micrometre become one node.
+
+        Parameters
+        ----------
+        lines
+            Polylines, each ``(M, 2)`` metres; every consecutive pair of points is a segment.
+        major, width, bridge, available
+            One value per polyline, given to all its segments (``bridge``
+            default False, ``available`` default None: unlimited).
+
+        Returns
+        -------
+        Segments
+        """
+        pts = [np.asarray(line, dtype=float).reshape(-1, 2) for line in lines]
+        counts = np.array([len(p) - 1 for p in pts])
+        every = np.concatenate(pts) if pts else np.zeros((0, 2))
+        xy, inverse = np.unique(np.round(every, 6), axis=0, return_inverse=True)
+        inverse = inverse.ravel()
+        starts = np.concatenate([[0], np.cumsum([len(p) for p in pts])])
+        uv = np.concatenate([np.stack([inverse[s:e - 1], inverse[s + 1:e]], axis=1)
+                             for s, e in zip(starts[:-1], starts[1:])]) if pts else np.zeros((0, 2), int)
+        per = lambda values, dtype: np.repeat(np.asarray(values, dtype=dtype), counts)  # noqa: E731
+        keep = uv[:, 0] != uv[:, 1]
+        return cls(
+            xy=xy, uv=uv[keep], major=per(major, bool)[keep], width=per(width, float)[keep],
+            bridge=(per(bridge, bool) if bridge is not None else np.zeros(counts.sum(), bool))[keep],
+            available=None if available is None else per(available, float)[keep],
+        )
+
+    @property
+    def a(self) -> np.ndarray:
+        return self.xy[self.uv[:, 0]]
+
+    @property
+    def b(self) -> np.ndarray:
+        return self.xy[self.uv[:, 1]]
+
+    def lengths(self) -> np.ndarray:
+        return np.hypot(*(self.b - self.a).T)
+
+    def lines(self) -> np.ndarray:
+        """One shapely LineString per segment."""
+        return shapely.linestrings(np.stack([self.a, self.b], axis=1))
+
+
+def segment_sides(segments: Segments, built_blocks: shapely.Geometry | None) -> np.ndarray:
+    """How many sides of each segment touch a built-up block.
+
+    Tested half a width plus 2 m to the left and right of the midpoint. A
+    segment with at most one built-up side is on the shell or a terrain
+    block: *extendible* (003 §3.4.2, C6) and a place to stitch to.
+
+    Parameters
+    ----------
+    segments
+        The segment graph.
+    built_blocks
+        Union of the built-up blocks (:attr:`BuiltUpArea.blocks`); None: none.
+
+    Returns
+    -------
+    numpy.ndarray
+        ``(S,)`` int in {0, 1, 2}.
+    """
+    if built_blocks is None or built_blocks.is_empty or not len(segments.uv):
+        return np.zeros(len(segments.uv), dtype=np.int64)
+    a, b = segments.a, segments.b
+    mid = 0.5 * (a + b)
+    tangent = (b - a) / np.maximum(np.hypot(*(b - a).T), 1e-9)[:, None]
+    normal = np.stack([-tangent[:, 1], tangent[:, 0]], axis=1) * (0.5 * segments.width + 2.0)[:, None]
+    shapely.prepare(built_blocks)
+    left = shapely.contains_xy(built_blocks, *(mid + normal).T)
+    right = shapely.contains_xy(built_blocks, *(mid - normal).T)
+    return left.astype(np.int64) + right
+
+
+# ---------------------------------------------------------------- the built-up area B
+
+
+@dataclass(frozen=True)
+class BuiltUpOptions:
+    """Tunables of the built-up area B (003 Eq. 1)."""
+
+    #: m², blocks larger than this are terrain (fields, forests): 003's block-area classifier.
+    #: 000 §4.2.7 prints "95 m2" (garbled); town blocks rarely exceed a few hectares (Krems:
+    #: 90 % of its blocks are under 2.3 ha), fields between villages do.
+    terrain_block_area: float = 50_000.0
+    #: share of a block under water above which it is a water block, i.e. terrain (000 §4.2.7)
+    water_block_share: float = 0.05
+    #: m, NB: the neighbourhood of the outlines (shell, terrain blocks) that B includes;
+    #: 1.5 ℓ keeps new roads a lattice step clear of the streets they run beside
+    neighbourhood: float = 30.0
+
+    def __post_init__(self) -> None:
+        require_positive(self, ("terrain_block_area", "neighbourhood"))
+
+
+@dataclass(frozen=True)
+class BuiltUpArea:
+    """B and the blocks it came from."""
+
+    area: shapely.Geometry  #: B, monotone over the years
+    blocks: shapely.Geometry  #: union of the current built-up blocks B_B,i
+
+
+def built_up_area(blocks: Sequence[shapely.Geometry], segments: Segments, *,
+                  water: shapely.Geometry | None = None, previous: BuiltUpArea | None = None,
+                  options: BuiltUpOptions | None = None) -> BuiltUpArea:
+    """The built-up area B of 003 Eq. 1, grown from ``previous`` (it never shrinks).
+
+    Parameters
+    ----------
+    blocks
+        Faces of the segment graph (shapely polygons, m), e.g. :func:`osm_expand.blocks.blocks`.
+    segments
+        The segment graph.
+    water
+        Water polygons; blocks with more than ``water_block_share`` water are terrain.
+    previous
+        Last year's B, joined into the result.
+    options
+        :class:`BuiltUpOptions`.
+
+    Returns
+    -------
+    BuiltUpArea
+        ``area`` = previous B ∪ built-up blocks ∪ ``neighbourhood`` m around every
+        segment; ``blocks`` = the built-up blocks of now.
+    """
+    opts = options or BuiltUpOptions()
+    polys = np.array([b for b in blocks if b is not None and not b.is_empty], dtype=object)
+    built = np.ones(len(polys), dtype=bool)
+    if len(polys):
+        area = shapely.area(polys)
+        built &= area <= opts.terrain_block_area
+        if water is not None and not water.is_empty:
+            shapely.prepare(water)
+            wet = shapely.area(shapely.intersection(polys, water))
+            built &= wet <= opts.water_block_share * area
+    built_blocks = shapely.union_all(polys[built]) if built.any() else shapely.Polygon()
+    parts = [built_blocks]
+    if len(segments.uv):
+        lines = segments.lines()
+        if previous is not None:  # B never shrinks: only segments it does not hold yet are buffered
+            shapely.prepare(previous.area)
+            a, b = segments.a, segments.b
+            held = (shapely.contains_xy(previous.area, *a.T) & shapely.contains_xy(previous.area, *b.T)
+                    & shapely.contains_xy(previous.area, *(0.5 * (a + b)).T))
+            lines = lines[~held]
+        if len(lines):
+            # each segment buffered, then one cascaded union: 5× faster than buffering the
+            # multilinestring (Campo Grande's 17,978 segments: 1.7 s against 8.7 s), same polygon
+            parts.extend(shapely.buffer(lines, opts.neighbourhood, quad_segs=4).tolist())
+    if previous is not None:
+        parts.append(previous.area)
+    return BuiltUpArea(area=shapely.union_all(parts), blocks=built_blocks)
+

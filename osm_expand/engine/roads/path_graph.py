@@ -1,0 +1,801 @@
+"""The stitched graph G′ over the lattice G, whole or searched in windows (003 §3.4.2, Fig. 9).
+
+**G′** (:func:`pathfinding_graph`) is that lattice plus the street segments
+(major and minor; long segments on the shell get a point every
+``split_spacing`` m so that a road can join them anywhere, like 003 §3.3's
+temporary nodes) plus *stitches*: short new-road edges from the street
+points on the shell and on terrain blocks to nearby live land vertices, and
+between shell points (003 Fig. 9), none crossing or grazing a street,
+entering a built-up block or touching water. Edge costs are multiplied by
+C1…C6 (003 §3.4.2) by kind. The lattice part of G′ stays a table (vertex ×
+direction); the other edges are short arrays. Its CSR matrix holds the
+allowed edges row by row, so it is built without sorting, and cached.
+
+**The implicit G′** (:func:`implicit_graph`, what the engine uses): a year's
+street part (pieces, split points, shell stitches; :func:`street_part`) and
+nothing over the whole map. A search asks for G′ over a window of the
+lattice (:meth:`ImplicitGraph.window`): exactly the whole G′'s edges between
+the window's vertices, except at its *exits* (vertices near an open side,
+street points whose stitches could reach past it, ends of long bridges that
+cross it), and :func:`osm_expand.engine.roads.routing.find_route` grows the window
+until no exit can lead to a cheaper route. On Campo Grande (a lattice of
+1118 × 532 vertices) the whole G′ had 134 million adjacency entries; a
+window holds the corridor a route can use.
+"""
+from __future__ import annotations
+
+from collections.abc import Iterator, Sequence
+from contextlib import contextmanager
+from dataclasses import dataclass, field, replace
+
+import numpy as np
+import shapely
+from scipy.sparse import csr_matrix
+from scipy.spatial import cKDTree
+
+from osm_expand.engine.roads.built_up import BuiltUpArea, Segments, segment_sides
+from osm_expand.engine.roads.lattice import NO_EDGE, ROAD_KINDS, EdgeKind, Lattice, VertexClass
+from osm_expand.errors import InputError
+from osm_expand.model.options import require_positive
+
+__all__ = [
+    "EdgeCosts", "GraphOptions", "PathGraph", "pathfinding_graph", "StreetPart", "street_part",
+    "GraphWindow", "ImplicitGraph", "implicit_graph",
+]
+
+
+@dataclass(frozen=True)
+class EdgeCosts:
+    """The cost coefficients C1…C6 of R(t) (003 §3.4.2), the current year's values.
+
+    A new road over open land costs 1 per metre of weight; these multiply the
+    other kinds. Defaults (003's table is missing) make a new road reuse major
+    roads, avoid minor streets and build a bridge only when no existing
+    crossing is within a long detour.
+    """
+
+    major: float = 0.5  #: C1, existing major road: reuse is cheap (003: "small value to reuse heavily")
+    minor: float = 2.0  #: C2, existing minor road: avoided if possible (003's own example)
+    harbour: float = 10.0  #: C3, unbuilt harbour
+    built_harbour: float = 1.0  #: C4, built harbour
+    #: C5, unbuilt bridge: 000 §4.2.3 "a very large constant … only when absolutely necessary";
+    #: 15 makes a 300 m bridge cost a 4.5 km detour
+    bridge: float = 15.0
+    #: C6, extendible segment (not between two built-up blocks), multiplies C1/C2: widening is easy
+    extendible: float = 0.8
+
+    def __post_init__(self) -> None:
+        require_positive(self, ("major", "minor", "harbour", "built_harbour", "bridge", "extendible"))
+
+
+@dataclass(frozen=True)
+class GraphOptions:
+    """Tunables of G′: splitting streets and stitching them to the lattice (003 Fig. 9)."""
+
+    #: m, a shell segment longer than 2ℓ gets a point every this many metres (003 §3.3: 1.25ℓ)
+    split_spacing: float = 25.0
+    #: m, street points connect to live land vertices this close (B's 30 m plus 2.5ℓ)
+    stitch_radius: float = 80.0
+    shell_stitch_radius: float = 120.0  #: m, shell points connect to each other this close (003 Fig. 9)
+    #: m, a stitch keeps this far from every street except near its own end
+    clearance: float = 5.0
+    #: stitches per street point to its nearest live land vertices (000 joins all within the
+    #: radius; the nearest 16 give every heading away from the street and keep G′ small)
+    max_stitches: int = 16
+    max_shell_stitches: int = 8  #: stitches per shell point to its nearest shell points
+
+    def __post_init__(self) -> None:
+        require_positive(self, ("split_spacing", "stitch_radius", "shell_stitch_radius", "clearance",
+                         "max_stitches", "max_shell_stitches"))
+
+
+@dataclass(frozen=True)
+class PathGraph:
+    """G′ (003 Fig. 9): lattice vertices, then street nodes, then split points.
+
+    Vertex ``i < n_lattice`` is lattice vertex ``i``; ``n_lattice + j`` is
+    street node ``j``; after those come the split points. The live lattice
+    edges are the directed tables ``lat_kind`` / ``lat_weight`` (row = tail
+    vertex, column = direction, see :meth:`Lattice.directed_tables`); every
+    other edge (long bridges, street pieces, stitches) is in the directed
+    edge arrays, sorted by tail. Every edge exists in both directions with
+    the same weight.
+    """
+
+    lattice: Lattice
+    segments: Segments
+    xy: np.ndarray  #: (V′, 2) m
+    n_lattice: int
+    split_segment: np.ndarray  #: (P,) parent segment of each split point
+    lat_kind: np.ndarray  #: (V, D) uint8 EdgeKind or NO_EDGE
+    lat_weight: np.ndarray  #: (V, D) float32 cost, × C3 / C5 for harbours / bridges
+    src: np.ndarray  #: (E,) int64, sorted
+    dst: np.ndarray  #: (E,) int64
+    kind: np.ndarray  #: (E,) uint8 EdgeKind
+    segment: np.ndarray  #: (E,) int64 street segment (−1 if none)
+    length: np.ndarray  #: (E,) m
+    weight: np.ndarray  #: (E,) cost: length · max(1, O1 · slope) × C1…C6 by kind
+    heading: np.ndarray  #: (E,) radians, direction of travel src → dst
+    extendible: np.ndarray  #: (S,) bool per segment: at most one built-up side (C6)
+    _cache: dict = field(default_factory=dict, repr=False, compare=False)
+
+    @property
+    def n_vertices(self) -> int:
+        return len(self.xy)
+
+    @property
+    def direction_heading(self) -> np.ndarray:
+        """(D,) radians of the lattice directions."""
+        d = self.lattice.directions
+        return np.arctan2(d[:, 1], d[:, 0])
+
+    def node_vertex(self, node: int) -> int:
+        """The G′ vertex of a street node."""
+        return self.n_lattice + int(node)
+
+    def masks(self, kinds: Sequence[EdgeKind] = ROAD_KINDS,
+              street_ok: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+        """Which edges a route may use.
+
+        Parameters
+        ----------
+        kinds
+            The edge kinds allowed.
+        street_ok
+            ``(S,)`` bool per segment, whether its pieces may be used (None: all).
+
+        Returns
+        -------
+        (lattice, other)
+            ``(V, D)`` bool over ``lat_kind`` and ``(E,)`` bool over the other edges.
+        """
+        table = np.zeros(256, dtype=bool)
+        table[[int(k) for k in kinds]] = True
+        lat = table[self.lat_kind]
+        extra = table[self.kind]
+        if street_ok is not None and len(street_ok):
+            extra &= (self.segment < 0) | np.asarray(street_ok, dtype=bool)[np.maximum(self.segment, 0)]
+        return lat, extra
+
+    def matrix(self, kinds: Sequence[EdgeKind] = ROAD_KINDS) -> csr_matrix:
+        """CSR adjacency ``(V′, V′)`` over the edges of the given kinds (cached: the two most recent).
+
+        Only the allowed edges are in it. Use :meth:`restricted` to leave streets out.
+        """
+        return self._base(kinds)[0]
+
+    @contextmanager
+    def restricted(self, kinds: Sequence[EdgeKind] = ROAD_KINDS,
+                   street_ok: np.ndarray | None = None) -> Iterator[csr_matrix]:
+        """:meth:`matrix` with the streets not in ``street_ok`` at infinite weight, for the
+        duration of the ``with`` block (the cached weights are restored afterwards, so no
+        copy of the whole matrix is made)."""
+        base, ex, pos = self._base(kinds)
+        bad = np.zeros(0, dtype=np.int64)
+        if street_ok is not None and len(street_ok):
+            seg = self.segment[ex]
+            bad = pos[(seg >= 0) & ~np.asarray(street_ok, dtype=bool)[np.maximum(seg, 0)]]
+        saved = base.data[bad].copy()
+        base.data[bad] = np.inf
+        try:
+            yield base
+        finally:
+            base.data[bad] = saved
+
+    def _base(self, kinds: Sequence[EdgeKind]) -> tuple[csr_matrix, np.ndarray, np.ndarray]:
+        key = tuple(sorted(int(k) for k in kinds))
+        if key not in self._cache:
+            if len(self._cache) >= 2:
+                self._cache.pop(next(iter(self._cache)))
+            self._cache[key] = self._csr(*self.masks(kinds))
+        return self._cache[key]
+
+    def _csr(self, lat: np.ndarray, extra: np.ndarray) -> tuple[csr_matrix, np.ndarray, np.ndarray]:
+        """One CSR of the allowed edges, without sorting, and where each allowed other edge sits in it.
+
+        A row holds its live lattice edges in direction order, then its other
+        edges in their (tail-sorted) order. Only the edges that exist are
+        written, each straight to its place: a lattice edge ``j`` (in row-major
+        order of ``lat``) goes to ``j`` + the other edges of earlier rows, an
+        other edge ``i`` to ``i`` + the lattice edges of its row and earlier
+        ones. The lattice part is done in blocks of rows, so the temporaries
+        stay a few MB while the whole map's window has ~5·10⁷ edges (writing
+        every slot of the ``(V, D)`` table and dropping the empty ones cost a
+        second and 12 bytes a slot per window, and per-edge int64 indices 3 GB).
+        """
+        n_lat, n_dir = lat.shape
+        n = self.n_vertices
+        lat_counts = np.zeros(n, dtype=np.int64)
+        lat_counts[:n_lat] = np.count_nonzero(lat, axis=1)
+        ex = np.flatnonzero(extra)
+        ex_src = self.src[ex]
+        ex_counts = np.bincount(ex_src, minlength=n)
+        indptr = np.zeros(n + 1, dtype=np.int64)
+        np.cumsum(lat_counts + ex_counts, out=indptr[1:])
+        total = int(indptr[-1])
+        index_type = np.int32 if max(total, n) < 2**31 else np.int64
+        indices = np.empty(total, dtype=index_type)
+        data = np.empty(total)
+        lat_through = np.cumsum(lat_counts)  # lattice edges in rows up to each row
+        ex_before = np.cumsum(ex_counts) - ex_counts  # other edges in the rows before each row
+        offset = self.lattice.direction_offset.astype(index_type)
+        block = max(1, (1 << 22) // max(n_dir, 1))
+        done = 0
+        for a in range(0, n_lat, block):
+            b = min(a + block, n_lat)
+            live = lat[a:b]
+            k = int(lat_through[b - 1]) - done
+            if not k:
+                continue
+            pos = np.arange(done, done + k) + np.repeat(ex_before[a:b], lat_counts[a:b])
+            indices[pos] = (np.arange(a, b, dtype=index_type)[:, None] + offset)[live]
+            data[pos] = self.lat_weight[a:b][live]
+            done += k
+        pos = np.arange(len(ex)) + lat_through[ex_src]
+        indices[pos] = self.dst[ex]
+        data[pos] = self.weight[ex]
+        return csr_matrix((data, indices, indptr), shape=(n, n)), ex, pos
+
+    def step(self, u: int, v: int, lat: np.ndarray, extra: np.ndarray) -> dict[str, float]:
+        """The cheapest allowed edge u → v (``lat``, ``extra`` from :meth:`masks`).
+
+        Returns
+        -------
+        dict
+            ``kind``, ``segment`` (−1 if none), ``length`` (m), ``weight``,
+            ``heading`` (radians); :class:`InputError` when there is no such edge.
+        """
+        best: dict[str, float] | None = None
+        if u < self.n_lattice and v < self.n_lattice:
+            nx = self.lattice.shape[1]
+            d = (v % nx - u % nx, v // nx - u // nx)
+            hit = np.flatnonzero((self.lattice.directions[:, 0] == d[0]) & (self.lattice.directions[:, 1] == d[1]))
+            if len(hit) and lat[u, hit[0]]:
+                k = int(hit[0])
+                best = {"kind": int(self.lat_kind[u, k]), "segment": -1,
+                        "length": float(self.lattice.direction_length[k]),
+                        "weight": float(self.lat_weight[u, k]), "heading": float(self.direction_heading[k])}
+        lo, hi = np.searchsorted(self.src, [u, u + 1])
+        for e in (lo + np.flatnonzero((self.dst[lo:hi] == v) & extra[lo:hi])).tolist():
+            if best is None or self.weight[e] < best["weight"]:
+                best = {"kind": int(self.kind[e]), "segment": int(self.segment[e]), "length": float(self.length[e]),
+                        "weight": float(self.weight[e]), "heading": float(self.heading[e])}
+        if best is None:
+            raise InputError(f"G′ has no allowed edge from vertex {u} to {v}")
+        return best
+
+    def live_vertices(self) -> np.ndarray:
+        """Vertices with at least one edge, sorted."""
+        lat = np.flatnonzero((self.lat_kind != NO_EDGE).any(axis=1))
+        return np.union1d(lat, self.src)
+
+    def nearest_vertex(self, xy: np.ndarray) -> int:
+        """The live vertex nearest to a point ``(2,)`` m."""
+        candidates = self.live_vertices()
+        d = np.hypot(*(self.xy[candidates] - np.asarray(xy, dtype=float)).T)
+        return int(candidates[np.argmin(d)])
+
+
+@dataclass(frozen=True)
+class StreetPart:
+    """The street side of G′ for one year, the same whichever window of the lattice is searched.
+
+    Street points are numbered street-locally: node j is j, split point p is
+    ``N + p``; in a G′ they follow the lattice's vertices.
+    """
+
+    segments: Segments
+    blocks: shapely.Geometry | None  #: the built-up blocks (stitches stay out of them)
+    extendible: np.ndarray  #: (S,) bool, at most one built-up side (C6)
+    split_xy: np.ndarray  #: (P, 2) m
+    split_parent: np.ndarray  #: (P,) parent segment of each split point
+    pieces: np.ndarray  #: (Q, 3) segment, from code, to code (see :func:`_split_segments`)
+    xy: np.ndarray  #: (N + P, 2) m, street points
+    points: np.ndarray  #: street-local ids of the extendible street points (where stitches start)
+    edges: tuple[np.ndarray, ...]  #: street pieces: u, v (street-local), kind, segment, length, weight
+    shell: tuple[np.ndarray, ...]  #: checked stitches between shell points, as ``edges``
+    tree: shapely.STRtree  #: the segments' lines
+    inner: shapely.Geometry | None  #: the built-up blocks shrunk by 0.5 m (None: none)
+
+
+def street_part(lattice: Lattice, segments: Segments, built: BuiltUpArea | None = None, *,
+                costs: EdgeCosts | None = None, options: GraphOptions | None = None) -> StreetPart:
+    """The street pieces and shell stitches of G′ (003 Fig. 9), made once a year.
+
+    Parameters
+    ----------
+    lattice
+        Any window of the map's lattice (its rasters check the stitches for water).
+    segments, built, costs, options
+        As :func:`pathfinding_graph`.
+
+    Returns
+    -------
+    StreetPart
+    """
+    costs = costs or EdgeCosts()
+    opts = options or GraphOptions()
+    blocks = built.blocks if built is not None else None
+    extendible = segment_sides(segments, blocks) <= 1
+    split_xy, split_parent, pieces = _split_segments(segments, extendible, opts.split_spacing)
+    xy = np.concatenate([segments.xy, split_xy])
+    n_nodes = len(segments.xy)
+    edges = _segment_part(lattice, segments, xy, pieces, extendible, 0, costs)
+    ext_pieces = pieces[extendible[pieces[:, 0]]]
+    points = _code_vertex(np.unique(ext_pieces[:, 1:].ravel()), 0, n_nodes)
+    tree = shapely.STRtree(segments.lines())
+    inner = None
+    if blocks is not None and not blocks.is_empty:
+        inner = shapely.buffer(blocks, -0.5)
+        if inner.is_empty:
+            inner = None
+        else:
+            shapely.prepare(inner)
+    shell = np.zeros((0, 2), dtype=np.int64)
+    if len(points):
+        shell = _nearest_pairs(xy[points], xy[points], points, points, opts.max_shell_stitches + 1,
+                               opts.shell_stitch_radius)
+        shell = np.unique(np.sort(shell[shell[:, 0] != shell[:, 1]], axis=1), axis=0)
+        shell = shell[~_duplicates_piece(shell, pieces, 0, n_nodes, len(xy))]
+        shell = shell[_stitch_ok(lattice, segments, xy, shell, split_parent, 0, opts, tree, inner)]
+    part = StreetPart(segments=segments, blocks=blocks, extendible=extendible, split_xy=split_xy,
+                      split_parent=split_parent, pieces=pieces, xy=xy, points=points, edges=edges,
+                      shell=(), tree=tree, inner=inner)
+    return replace(part, shell=_stitch_edges(lattice, shell, xy))
+
+
+def _stitch_edges(lattice: Lattice, pairs: np.ndarray, xy: np.ndarray) -> tuple[np.ndarray, ...]:
+    """Stitch edges (u, v, kind, segment, length, weight) of checked pairs, none steeper than the cutoff."""
+    u, v = pairs[:, 0], pairs[:, 1]
+    length, weight, slope = _road_weight(lattice, xy, u, v)
+    keep = slope <= lattice.slope_cutoff
+    n = int(keep.sum())
+    return u[keep], v[keep], np.full(n, EdgeKind.STITCH, np.uint8), np.full(n, -1), length[keep], weight[keep]
+
+
+def _shifted(edges: tuple[np.ndarray, ...], by: int) -> tuple[np.ndarray, ...]:
+    u, v, *rest = edges
+    return (u + by, v + by, *rest)
+
+
+def pathfinding_graph(lattice: Lattice, segments: Segments, built: BuiltUpArea | None = None, *,
+                      costs: EdgeCosts | None = None, options: GraphOptions | None = None,
+                      streets: StreetPart | None = None,
+                      stitch_within: tuple[float, float, float, float] | None = None,
+                      stitch_cache: dict | None = None) -> PathGraph:
+    """Assemble G′ from the lattice (B already removed), the segments and stitches (003 §3.4.2).
+
+    Parameters
+    ----------
+    lattice
+        G after :meth:`Lattice.with_built_up`, or a window of it.
+    segments
+        The current segment graph.
+    built
+        B and the built-up blocks (for extendible segments and stitch checks);
+        None: no built-up blocks (every segment extendible).
+    costs
+        C1…C6 of this year.
+    options
+        :class:`GraphOptions`.
+    streets
+        This year's :func:`street_part` (made here when None).
+    stitch_within
+        ``(xmin, ymin, xmax, ymax)`` m: only street points inside get stitches to the
+        lattice (a window's edge: a point nearer to it may miss its nearest vertices).
+
+    Returns
+    -------
+    PathGraph
+        Lattice tables plus street, stitch and long-bridge edges in both
+        directions, with kinds, C-weighted costs and headings. Every segment
+        is in it; which ones a route may use (capacity, road type) is a mask
+        given to the search, so one G′ serves a whole year.
+    """
+    costs = costs or EdgeCosts()
+    opts = options or GraphOptions()
+    if streets is None:
+        streets = street_part(lattice, segments, built, costs=costs, options=opts)
+    n_lat = lattice.n_vertices
+    xy = np.concatenate([lattice.vertex_xy(), streets.xy])
+    lat_kind, lat_weight, bridges = _lattice_part(lattice, segments, costs, streets.tree)
+    parts = [bridges, _shifted(streets.edges, n_lat)]
+    land_or_bridge = np.zeros(256, dtype=bool)
+    land_or_bridge[[EdgeKind.LAND, EdgeKind.BRIDGE]] = True
+    targets = np.flatnonzero(land_or_bridge[lat_kind].any(axis=1)
+                             & (lattice.vertex_class == VertexClass.LAND))
+    points = streets.points
+    if stitch_within is not None and len(points):
+        px, py = streets.xy[points].T
+        points = points[(px >= stitch_within[0]) & (px <= stitch_within[2])
+                        & (py >= stitch_within[1]) & (py <= stitch_within[3])]
+    pairs = _lattice_stitches(lattice, segments, streets, xy, targets, points, opts, stitch_cache)
+    parts.append(_stitch_edges(lattice, pairs, xy))
+    parts.append(_shifted(streets.shell, n_lat))
+    src, dst, kind, seg, length, weight = (np.concatenate(c) for c in zip(*parts))
+    heading = np.arctan2(xy[dst, 1] - xy[src, 1], xy[dst, 0] - xy[src, 0])
+    back = np.where(heading > 0, heading - np.pi, heading + np.pi)
+    src, dst = np.concatenate([src, dst]), np.concatenate([dst, src])
+    kind, seg, length, weight = (np.concatenate([a, a]) for a in (kind, seg, length, weight))
+    heading = np.concatenate([heading, back])
+    order = np.lexsort((weight, dst, src))
+    first = np.ones(len(order), dtype=bool)  # of parallel edges keep the cheapest
+    first[1:] = (src[order][1:] != src[order][:-1]) | (dst[order][1:] != dst[order][:-1])
+    order = order[first]
+    return PathGraph(lattice=lattice, segments=segments, xy=xy, n_lattice=n_lat, split_segment=streets.split_parent,
+                     lat_kind=lat_kind, lat_weight=lat_weight, src=src[order], dst=dst[order], kind=kind[order],
+                     segment=seg[order], length=length[order], weight=weight[order], heading=heading[order],
+                     extendible=streets.extendible)
+
+
+def _lattice_stitches(lattice: Lattice, segments: Segments, streets: StreetPart, xy: np.ndarray, targets: np.ndarray,
+                      points: np.ndarray, opts: GraphOptions, cache: dict | None) -> np.ndarray:
+    """Checked stitches ``(G′ street vertex, lattice vertex)`` from street points (street-local ids)
+    to their nearest live land vertices; with ``cache``, each point is checked once a year."""
+    n_lat = lattice.n_vertices
+    if not len(points) or not len(targets):
+        return np.zeros((0, 2), dtype=np.int64)
+
+    def checked(chosen: np.ndarray) -> np.ndarray:
+        ids = chosen + n_lat
+        pairs = _nearest_pairs(xy[ids], xy[targets], ids, targets, opts.max_stitches, opts.stitch_radius,
+                               keys=lattice.map_vertex(targets))
+        return pairs[_stitch_ok(lattice, segments, xy, pairs, streets.split_parent, n_lat, opts, streets.tree,
+                                streets.inner)]
+
+    if cache is None:
+        return checked(points)
+    done = cache.setdefault("done", np.zeros(len(streets.xy), dtype=bool))
+    found = cache.setdefault("pairs", [np.zeros((0, 2), dtype=np.int64)])
+    todo = points[~done[points]]
+    if len(todo):
+        pairs = checked(todo)
+        found.append(np.stack([pairs[:, 0] - n_lat, lattice.map_vertex(pairs[:, 1])], axis=1))
+        done[todo] = True
+    every = np.concatenate(found)
+    cache["pairs"] = [every]
+    mine = np.zeros(len(streets.xy), dtype=bool)
+    mine[points] = True
+    every = every[mine[every[:, 0]]]
+    return np.stack([every[:, 0] + n_lat, lattice._local(every[:, 1])], axis=1)
+
+
+def _lattice_part(lattice: Lattice, segments: Segments, costs: EdgeCosts,
+                  tree: shapely.STRtree | None = None) -> tuple[np.ndarray, np.ndarray, tuple[np.ndarray, ...]]:
+    """Directed live lattice tables with C3 (harbour) and C5 (bridge), and the long bridges
+    as edges; bridges and harbours that cross a street are left out (a new bridge does
+    not pass over a road)."""
+    kind, weight = lattice.directed_tables()
+    lattice._cache.pop("directed", None)  # the tables become G′'s: edited in place, made again if asked for
+    is_special = np.zeros(256, dtype=bool)
+    is_special[[EdgeKind.BRIDGE, EdgeKind.HARBOUR]] = True
+    special = np.flatnonzero(is_special[kind])
+    flat_kind, flat_weight = kind.reshape(-1), weight.reshape(-1)
+    flat_weight[special] *= np.where(flat_kind[special] == EdgeKind.BRIDGE, costs.bridge, costs.harbour)
+    n_dir = kind.shape[1]
+    rows = special // n_dir
+    ends = np.stack([rows, rows + lattice.direction_offset[special - rows * n_dir]], axis=1)
+    ends = np.concatenate([ends, np.stack([lattice.bridge_src, lattice.bridge_dst], axis=1)])
+    crossing = np.zeros(len(ends), dtype=bool)
+    if len(ends) and len(segments.uv):
+        xy = lattice.vertex_xy(ends.ravel()).reshape(-1, 2, 2)
+        tree = tree if tree is not None else shapely.STRtree(segments.lines())
+        hit, _ = tree.query(shapely.linestrings(xy), predicate="intersects")
+        crossing[hit] = True
+    np.put(kind, special[crossing[:len(special)]], NO_EDGE)
+    ok = ~crossing[len(special):]
+    n = int(ok.sum())
+    bridges = (lattice.bridge_src[ok], lattice.bridge_dst[ok], np.full(n, EdgeKind.BRIDGE, np.uint8),
+               np.full(n, -1), lattice.bridge_length[ok], lattice.bridge_length[ok] * costs.bridge)
+    return kind, weight, bridges
+
+
+@dataclass(frozen=True)
+class GraphWindow:
+    """G′ over a window of the lattice (:meth:`ImplicitGraph.window`) and how it sits in the map.
+
+    ``graph`` numbers the window's lattice vertices first, then every street
+    point of the map. It holds exactly the edges of the whole G′ between its
+    vertices, except those that start at ``exits``: vertices near the
+    window's edge (their lattice edges, their stitches or a long bridge may
+    leave it). A route that leaves the window passes one of them first.
+    """
+
+    graph: PathGraph
+    whole: bool  #: the window is the whole map
+    exits: np.ndarray  #: window vertices where an edge of G′ may leave the window
+    n_map_lattice: int  #: vertices of the whole map's lattice
+
+    def to_map(self, vertices: np.ndarray) -> np.ndarray:
+        """Map G′ vertex of each window vertex."""
+        v = np.asarray(vertices, dtype=np.int64)
+        n = self.graph.n_lattice
+        return np.where(v < n, self.graph.lattice.map_vertex(np.minimum(v, max(n - 1, 0))),
+                        v - n + self.n_map_lattice)
+
+    def from_map(self, vertices: np.ndarray) -> np.ndarray:
+        """Window vertex of each map G′ vertex (−1 outside the window)."""
+        v = np.asarray(vertices, dtype=np.int64)
+        street = v >= self.n_map_lattice
+        lattice = self.graph.lattice._local(np.where(street, 0, v))
+        return np.where(street, v - self.n_map_lattice + self.graph.n_lattice, lattice)
+
+
+@dataclass(frozen=True)
+class ImplicitGraph:
+    """A year's G′ whose lattice part is made only where a search looks (see :meth:`window`).
+
+    It answers what the major-road step asks of G′ (vertex numbering, street
+    points, which segments are extendible, the rasters) without any table
+    over the whole map; :func:`osm_expand.engine.roads.routing.find_route` searches
+    it in growing windows until the result is provably the whole map's.
+    Vertex numbering is the whole map's G′: lattice vertices, street nodes,
+    split points.
+    """
+
+    lattice: Lattice  #: the whole map (B removed), its edges never generated here
+    segments: Segments
+    streets: StreetPart
+    costs: EdgeCosts
+    options: GraphOptions
+    #: the stitches already checked this year (see :func:`pathfinding_graph`)
+    stitches: dict = field(default_factory=dict, repr=False, compare=False)
+
+    @property
+    def n_lattice(self) -> int:
+        return self.lattice.n_vertices
+
+    @property
+    def n_vertices(self) -> int:
+        return self.n_lattice + len(self.streets.xy)
+
+    @property
+    def split_segment(self) -> np.ndarray:
+        return self.streets.split_parent
+
+    @property
+    def extendible(self) -> np.ndarray:
+        return self.streets.extendible
+
+    def node_vertex(self, node: int) -> int:
+        """The G′ vertex of a street node."""
+        return self.n_lattice + int(node)
+
+    def vertex_xy(self, vertices: np.ndarray) -> np.ndarray:
+        """Positions of G′ vertices, ``(n, 2)`` m."""
+        v = np.atleast_1d(np.asarray(vertices, dtype=np.int64))
+        street = v >= self.n_lattice
+        out = self.lattice.vertex_xy(np.where(street, 0, v))
+        out[street] = self.streets.xy[v[street] - self.n_lattice]
+        return out
+
+    def whole(self) -> PathGraph:
+        """The whole map's G′ (every lattice table made: the old search, for comparison)."""
+        return pathfinding_graph(self.lattice, self.segments, costs=self.costs, options=self.options,
+                                 streets=self.streets)
+
+    def window(self, bounds: tuple[float, float, float, float]) -> GraphWindow:
+        """G′ over the lattice vertices inside ``(xmin, ymin, xmax, ymax)`` m (clipped to the map).
+
+        Lattice vertices within the neighbourhood radius of a side of the
+        window that is not the map's, street points whose stitches could
+        reach past it (stitch radius + radius), and the ends of long bridges
+        that cross it are the window's ``exits``.
+        """
+        lat = self.lattice
+        ny, nx = lat.shape
+        ell = lat.spacing
+        c0 = int(np.floor((bounds[0] - lat.origin[0]) / ell))
+        r0 = int(np.floor((bounds[1] - lat.origin[1]) / ell))
+        c1 = int(np.ceil((bounds[2] - lat.origin[0]) / ell)) + 1
+        r1 = int(np.ceil((bounds[3] - lat.origin[1]) / ell)) + 1
+        sub = lat.window(r0, c0, r1 - r0, c1 - c0)
+        whole = sub is lat
+        r0, c0 = sub.offset
+        h, w = sub.shape
+        open_side = (c0 > 0, r0 > 0, c0 + w < nx, r0 + h < ny)  # left, bottom, right, top
+        band = sub.radius
+        x0, y0 = sub.origin
+        x1, y1 = sub.origin + (np.array([w, h]) - 1) * ell
+        reach = self.options.stitch_radius + band * ell
+        within = None
+        exits: list[np.ndarray] = []
+        if not whole:
+            within = (x0 + reach if open_side[0] else -np.inf, y0 + reach if open_side[1] else -np.inf,
+                      x1 - reach if open_side[2] else np.inf, y1 - reach if open_side[3] else np.inf)
+            iy, ix = np.divmod(np.arange(h * w), w)
+            near = ((open_side[0] & (ix < band)) | (open_side[1] & (iy < band))
+                    | (open_side[2] & (ix >= w - band)) | (open_side[3] & (iy >= h - band)))
+            exits.append(np.flatnonzero(near))
+            pts = self.streets.points
+            px, py = self.streets.xy[pts].T
+            outside = (px < within[0]) | (px > within[2]) | (py < within[1]) | (py > within[3])
+            exits.append(sub.n_vertices + pts[outside])
+            a, b = sub._local(lat.map_bridges[:, 0]), sub._local(lat.map_bridges[:, 1])
+            exits.append(np.where(a >= 0, a, b)[(a >= 0) != (b >= 0)])
+        graph = pathfinding_graph(sub, self.segments, costs=self.costs, options=self.options, streets=self.streets,
+                                  stitch_within=within, stitch_cache=self.stitches)
+        sub._cache.clear()  # the edge tables live on in the graph's; a window is searched once
+        return GraphWindow(graph=graph, whole=whole, exits=np.unique(np.concatenate(exits)) if exits
+                           else np.zeros(0, dtype=np.int64), n_map_lattice=lat.n_vertices)
+
+
+def implicit_graph(lattice: Lattice, segments: Segments, built: BuiltUpArea | None = None, *,
+                   costs: EdgeCosts | None = None, options: GraphOptions | None = None) -> ImplicitGraph:
+    """This year's G′ without its lattice tables: only the street part is made now.
+
+    Parameters
+    ----------
+    lattice, segments, built, costs, options
+        As :func:`pathfinding_graph`.
+
+    Returns
+    -------
+    ImplicitGraph
+    """
+    costs = costs or EdgeCosts()
+    opts = options or GraphOptions()
+    return ImplicitGraph(lattice=lattice, segments=segments,
+                         streets=street_part(lattice, segments, built, costs=costs, options=opts),
+                         costs=costs, options=opts)
+
+
+def _split_segments(segments: Segments, split: np.ndarray, spacing: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Interior points along the marked segments of at least 2ℓ (= 2 × spacing / 1.25):
+    ⌊length / spacing⌋ equidistant ones, as 003 §3.3 adds temporary nodes.
+
+    Returns the split points, their parent segments, and the pieces as
+    ``(segment, from_vertex_code, to_vertex_code)`` rows where a code ≥ 0 is
+    a node and ``−1 − p`` is split point ``p``.
+    """
+    length = segments.lengths()
+    count = np.where(split & (length >= 2.0 * spacing / 1.25), np.floor(length / spacing).astype(np.int64), 0)
+    parent = np.repeat(np.arange(len(length)), count)
+    first = np.concatenate([[0], np.cumsum(count)])[:-1]
+    rank = np.arange(int(count.sum())) - np.repeat(first, count)
+    t = (rank + 1) / np.repeat(count + 1, count)
+    a, b = segments.a, segments.b
+    split_xy = a[parent] + t[:, None] * (b[parent] - a[parent])
+    # pieces: each segment's chain node u, p1..pk, node v
+    chain_len = count + 2
+    seg_of = np.repeat(np.arange(len(length)), chain_len - 1)
+    codes = np.empty(int(chain_len.sum()), dtype=np.int64)
+    starts = np.concatenate([[0], np.cumsum(chain_len)])[:-1]
+    codes[starts] = segments.uv[:, 0]
+    codes[starts + chain_len - 1] = segments.uv[:, 1]
+    interior = np.ones(len(codes), dtype=bool)
+    interior[starts] = interior[starts + chain_len - 1] = False
+    codes[interior] = -1 - np.arange(int(count.sum()))
+    last = np.zeros(len(codes), dtype=bool)
+    last[starts + chain_len - 1] = True
+    from_code = codes[~last]
+    to_code = codes[np.flatnonzero(~last) + 1]
+    return split_xy, parent, np.stack([seg_of, from_code, to_code], axis=1)
+
+
+def _code_vertex(code: np.ndarray, n_lat: int, n_nodes: int) -> np.ndarray:
+    return np.where(code >= 0, n_lat + code, n_lat + n_nodes + (-1 - code))
+
+
+def _segment_part(lattice: Lattice, segments: Segments, xy: np.ndarray, pieces: np.ndarray,
+                  extendible: np.ndarray, n_lat: int, costs: EdgeCosts) -> tuple[np.ndarray, ...]:
+    """Street pieces with C1 / C2 / C4 and C6; weight = length · max(1, O1 · slope)."""
+    seg = pieces[:, 0]
+    n_nodes = len(segments.xy)
+    u = _code_vertex(pieces[:, 1], n_lat, n_nodes)
+    v = _code_vertex(pieces[:, 2], n_lat, n_nodes)
+    kind = np.where(segments.major[seg], EdgeKind.MAJOR, EdgeKind.MINOR).astype(np.uint8)
+    factor = np.where(segments.major[seg], costs.major, costs.minor)
+    if segments.harbour is not None:
+        kind[segments.harbour[seg]] = EdgeKind.BUILT_HARBOUR
+        factor = np.where(segments.harbour[seg], costs.built_harbour, factor)
+    factor = factor * np.where(extendible[seg], costs.extendible, 1.0)
+    length, weight, _ = _road_weight(lattice, xy, u, v)
+    return u, v, kind, seg, length, weight * factor
+
+
+def _road_weight(lattice: Lattice, xy: np.ndarray, u: np.ndarray, v: np.ndarray) -> tuple[np.ndarray, ...]:
+    """Length, weight ``length · max(1, O1 · slope)`` (slope between the ends) and slope of straight edges."""
+    length = np.hypot(*(xy[v] - xy[u]).T)
+    slope = np.zeros(len(u))
+    if lattice.height is not None and len(u):
+        at_v, at_u = lattice.height_at(xy[v]), lattice.height_at(xy[u])
+        assert at_v is not None and at_u is not None  # the lattice has heights
+        slope = np.abs(at_v - at_u) / np.maximum(length, 1e-9)
+    return length, length * np.maximum(1.0, lattice.slope_weight * slope), slope
+
+
+def _nearest_pairs(from_xy: np.ndarray, to_xy: np.ndarray, from_id: np.ndarray, to_id: np.ndarray, k: int,
+                   radius: float, keys: np.ndarray | None = None) -> np.ndarray:
+    """Pairs (from, to) of each point and its ``k`` nearest candidates within ``radius``.
+
+    Of equally near candidates the one with the smaller key (``to_id`` by
+    default) wins, so the choice never depends on which other candidates
+    exist: street points on a grid town are often equally far from several
+    lattice vertices, and a window of the lattice must stitch a point to
+    the same vertices as the whole map.
+    """
+    n = len(to_xy)
+    k = min(k, n)
+    if not k or not len(from_xy):
+        return np.zeros((0, 2), dtype=np.int64)
+    keys = to_id if keys is None else np.asarray(keys)
+    tree = cKDTree(to_xy)
+    kk = min(2 * k, n)
+    while True:
+        dist, hit = tree.query(from_xy, k=kk, distance_upper_bound=radius)
+        dist, hit = np.asarray(dist).reshape(len(from_xy), kk), np.asarray(hit).reshape(len(from_xy), kk)
+        if kk == n or not (np.isfinite(dist[:, k - 1]) & (dist[:, kk - 1] == dist[:, k - 1])).any():
+            break
+        kk = min(2 * kk, n)  # a tie at the k-th nearest may go on past the candidates asked for
+    found = hit < n
+    row = np.broadcast_to(np.arange(len(from_xy))[:, None], hit.shape)[found]
+    cand = hit[found]
+    order = np.lexsort((keys[cand], dist[found], row))
+    row, cand = row[order], cand[order]
+    start = np.searchsorted(row, row, side="left")
+    first = np.arange(len(row)) - start < k
+    return np.stack([from_id[row[first]], to_id[cand[first]]], axis=1)
+
+
+def _duplicates_piece(pairs: np.ndarray, pieces: np.ndarray, n_lat: int, n_nodes: int, n: int) -> np.ndarray:
+    """Sorted pairs that join the two ends of a street piece (a stitch would lie on the street)."""
+    ends = np.sort(np.stack([_code_vertex(pieces[:, 1], n_lat, n_nodes),
+                             _code_vertex(pieces[:, 2], n_lat, n_nodes)], 1), axis=1)
+    return np.isin(pairs[:, 0] * np.int64(n) + pairs[:, 1], ends[:, 0] * np.int64(n) + ends[:, 1])
+
+
+def _stitch_ok(lattice: Lattice, segments: Segments, xy: np.ndarray, pairs: np.ndarray, split_parent: np.ndarray,
+               n_lat: int, opts: GraphOptions, tree: shapely.STRtree | None = None,
+               inner: shapely.Geometry | None = None) -> np.ndarray:
+    """Stitches that cross no street, keep ``clearance`` from every street away from
+    their ends, enter no built-up block (``inner``: the blocks shrunk by 0.5 m) and touch
+    no water or forbidden ground (but :attr:`Lattice.stitch_only`)."""
+    n_nodes = len(segments.xy)
+    a, b = xy[pairs[:, 0]], xy[pairs[:, 1]]
+    length = np.hypot(*(b - a).T)
+    ok = length > 1e-6
+    # water and forbidden ground along the stitch
+    n_samples = max(int(np.ceil(opts.shell_stitch_radius / lattice.fine_step)) + 1, 2)
+    t = np.linspace(0.0, 1.0, n_samples)
+    samples = a[:, None, :] + t[None, :, None] * (b - a)[:, None, :]
+    blocked = lattice.water | lattice.forbidden
+    if lattice.stitch_only is not None:
+        blocked &= ~lattice.stitch_only
+    wet = lattice.fine_lookup(blocked, samples)
+    ok &= ~wet.any(axis=1)
+    if len(segments.uv):
+        # only the stitches still standing are made into lines and checked, each test on
+        # fewer of them (most stitches of a window fail one test or another)
+        tree = tree if tree is not None else shapely.STRtree(segments.lines())
+        # crossing a street not incident to either end
+        live = np.flatnonzero(ok)
+        stitch, seg = tree.query(shapely.linestrings(np.stack([a[live], b[live]], axis=1)), predicate="intersects")
+        incident = _incident(pairs[live[stitch]], seg, segments, split_parent, n_lat, n_nodes)
+        ok[live[stitch[~incident]]] = False
+        # grazing any street away from the ends
+        live = np.flatnonzero(ok)
+        a, b, length = a[live], b[live], length[live]
+        trim = np.minimum(0.25 * length, 3.0 * opts.clearance) / np.maximum(length, 1e-9)
+        core = shapely.linestrings(np.stack([a + trim[:, None] * (b - a), b - trim[:, None] * (b - a)], axis=1))
+        stitch, _ = tree.query(core, predicate="dwithin", distance=opts.clearance)
+        ok[live[stitch]] = False
+        if inner is not None:
+            rest = np.flatnonzero(ok[live])
+            ok[live[rest]] = ~shapely.intersects(inner, core[rest])
+    return ok
+
+
+def _incident(pairs: np.ndarray, seg: np.ndarray, segments: Segments, split_parent: np.ndarray,
+              n_lat: int, n_nodes: int) -> np.ndarray:
+    """Whether segment ``seg`` touches a street end of the stitch ``pairs`` (node or split point)."""
+    out = np.zeros(len(seg), dtype=bool)
+    for end in (0, 1):
+        node = pairs[:, end] - n_lat
+        is_node = (node >= 0) & (node < n_nodes)
+        out |= is_node & ((segments.uv[seg, 0] == node) | (segments.uv[seg, 1] == node))
+        split = node - n_nodes
+        is_split = split >= 0
+        if is_split.any():
+            out |= is_split & (split_parent[np.where(is_split, split, 0)] == seg)
+    return out
