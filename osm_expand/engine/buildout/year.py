@@ -370,26 +370,35 @@ def _streets(city: City, memo: _Memo) -> tuple[_Streets, int]:
 # ============================================================================ demolition
 
 
+def _on_streets(polys: NDArray[np.object_], streets: _Streets
+                ) -> tuple[NDArray[np.bool_], NDArray[np.intp], NDArray[np.float64]]:
+    """Which of ``polys`` a centre line crosses, (N,) bool, and each (polygon, carriageway) pair that
+    meets: the polygon's index and the m² they share. One pass over the streets' two trees for both
+    kinds of thing a widened or new street may take (lots and buildings)."""
+    crossed = np.zeros(len(polys), dtype=bool)
+    if not len(polys) or not len(streets.lines):
+        return crossed, np.zeros(0, dtype=np.intp), np.zeros(0)
+    idx, _ = streets.line_tree.query(polys, predicate="intersects")
+    crossed[idx] = True
+    idx, cw = streets.carriageway_tree.query(polys, predicate="intersects")
+    on = shapely.area(shapely.intersection(polys[idx], streets.carriageways[cw])) if len(idx) else np.zeros(0)
+    return crossed, idx, on
+
+
 def _lots_hit(polys: NDArray[np.object_], streets: _Streets, overlap: float) -> NDArray[np.bool_]:
     """Lots a centre line crosses, or with more than ``overlap`` of their area on carriageways, (L,) bool."""
-    hit = np.zeros(len(polys), dtype=bool)
-    if not len(polys) or not len(streets.lines):
-        return hit
-    lot_idx, _ = streets.line_tree.query(polys, predicate="intersects")
-    hit[lot_idx] = True
-    lot_idx, cw = streets.carriageway_tree.query(polys, predicate="intersects")
-    if len(lot_idx):
-        on = shapely.area(shapely.intersection(polys[lot_idx], streets.carriageways[cw]))
-        share = np.bincount(lot_idx, weights=on, minlength=len(polys)) / np.maximum(shapely.area(polys), 1e-9)
+    hit, idx, on = _on_streets(polys, streets)
+    if len(idx):
+        share = np.bincount(idx, weights=on, minlength=len(polys)) / np.maximum(shapely.area(polys), 1e-9)
         hit |= share > overlap
     return hit
 
 
 def _buildings_hit(polys: NDArray[np.object_], streets: _Streets, overlap: float) -> NDArray[np.bool_]:
     """Buildings (or new lots) crossed by a centre line or with more than ``overlap`` m² on a carriageway, (N,) bool."""
-    hit = np.zeros(len(polys), dtype=bool)
-    if not len(polys) or not len(streets.lines):
-        return hit
+    hit, idx, on = _on_streets(polys, streets)
+    hit[idx[on > overlap]] = True
+    return hit
     idx, _ = streets.line_tree.query(polys, predicate="intersects")
     hit[idx] = True
     idx, cw = streets.carriageway_tree.query(polys, predicate="intersects")
