@@ -7,7 +7,7 @@ terrain block. Terrain blocks are those larger than ``terrain_block_area``
 blocks). Streets between two built-up blocks lie inside built-up blocks, so
 B is computed as the built-up blocks plus ``neighbourhood`` metres around
 every street, and joined to the previous B: it never shrinks.
-:meth:`Lattice.with_built_up` removes every land edge that traverses B from
+:meth:`~osm_expand.engine.roads.lattice.Lattice.with_built_up` removes every land edge that traverses B from
 the lattice for good (003: "permanently remove all land edges that traverse
 B"); water, harbour and bridge edges stay.
 """
