@@ -376,7 +376,7 @@ def read_towns(path: str | os.PathLike) -> list[Town]:
 
 
 def _check_name(name: str, what: str) -> None:
-    from osm_expand.clip import _check_name as check
+    from osm_expand.clip.extract import _check_name as check
 
     try:
         check(name)

@@ -35,7 +35,8 @@ from osm_expand.batch import (
     read_towns,
     run_batch,
 )
-from osm_expand.clip import ClipOptions, _Boxes, box_around, check_box, clip, clip_extracts, parse_bbox
+from osm_expand.clip import ClipOptions, box_around, check_box, clip, clip_extracts, parse_bbox
+from osm_expand.clip.boxes import _Boxes
 from osm_expand.errors import InputError
 from osm_expand.ingest import load
 from tests.conftest import FIXTURES

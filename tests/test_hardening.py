@@ -133,13 +133,14 @@ def test_point4_signals_while_writing_leave_nothing_behind(tmp_path, oakland, si
 def test_point4_signals_while_clipping_remove_the_node_store(tmp_path, oakland, signum):
     script = f"""
         import os, sys
-        from osm_expand import cli, clip
-        real = clip._scan_store
+        from osm_expand import cli
+        from osm_expand.clip import two_pass
+        real = two_pass._scan_store
         def scan(path, grid):
             assert path.exists()  # the node store is on disk now
             os.kill(os.getpid(), {int(signum)})
             return real(path, grid)
-        clip._scan_store = scan
+        two_pass._scan_store = scan
         sys.exit(cli.main(["simplify", {str(oakland)!r}, "-q", "-o", "out.osm", "--bbox", "-122.31,37.80,-122.29,37.82"]))
     """
     proc = subprocess_main(script, tmp_path)
