@@ -27,14 +27,13 @@ from osm_expand.batch import (
     Job,
     JobResult,
     JobsFailed,
-    _gather,
-    _local_cluster,
     add_batch_arguments,
     cmd_batch,
     derive_seed,
     read_towns,
     run_batch,
 )
+from osm_expand.batch.cluster import _gather, _local_cluster
 from osm_expand.clip import ClipOptions, box_around, check_box, clip, clip_extracts, parse_bbox
 from osm_expand.clip.boxes import _Boxes
 from osm_expand.errors import InputError
@@ -520,7 +519,8 @@ class _FakeClient:
 
 
 def test_the_preflight_says_in_one_line_which_worker_lacks_what(tmp_path):
-    from osm_expand.batch import _preflight, probe
+    from osm_expand.batch import probe
+    from osm_expand.batch.cluster import _preflight
 
     good = probe([str(KREMS)], str(tmp_path))
     assert good["unreadable"] == [] and good["out_dir_ok"]

@@ -97,7 +97,8 @@ from osm_expand.measures.graph import junction_points, two_core
 from osm_expand.measures.kinds import DISTRIBUTIONS, SCALARS, Measure, MeasureOptions, NetworkMeasures, measure_named
 from osm_expand.measures.lines import LineSet
 from osm_expand.measures.network import measure_network
-from osm_expand.measures.shape import count_pieces, orientation_entropy
+from osm_expand.measures.shape import count_pieces, orientation_entropy, piece_labels
 
 __all__ = ["DISTRIBUTIONS", "SCALARS", "LineSet", "Measure", "MeasureOptions", "NetworkMeasures",
-           "count_pieces", "junction_points", "measure_named", "measure_network", "orientation_entropy", "two_core"]
+           "count_pieces", "junction_points", "measure_named", "measure_network", "orientation_entropy", "piece_labels",
+           "two_core"]
