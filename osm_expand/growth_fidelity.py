@@ -105,6 +105,7 @@ from osm_expand.measures import (
     piece_labels,
 )
 from osm_expand.model import City, Origin, Street, StreetNetwork, polyline_length
+from osm_expand.model.options import require_positive
 from osm_expand.sites import SiteOptions, distance_maps
 
 __all__ = ["BuiltUp", "GrowthFidelity", "GrowthFidelityOptions", "LandscapeExpansion", "before_the_years",
@@ -135,9 +136,8 @@ class GrowthFidelityOptions:
     min_piece_area: float = 40_000.0
 
     def __post_init__(self) -> None:
-        for name in ("window_close", "window_margin", "patch_buffer", "old_buffer", "ring_width", "min_piece_area"):
-            if not getattr(self, name) > 0:
-                raise InputError(f"growth fidelity option {name} must be positive, got {getattr(self, name)!r}")
+        require_positive(self, ("window_close", "window_margin", "patch_buffer", "old_buffer", "ring_width",
+                                "min_piece_area"))
         if self.window_margin > self.window_close:
             raise InputError("growth fidelity option window_margin must not exceed window_close")
         if not 0 <= self.infill_above < 100:

@@ -345,7 +345,7 @@ def test_a_wrong_type(tmp_path):
     fails(tmp_path, MINIMAL + "[roads.costs]\nbridge = [[1200, 5], [1300, 0]]\n",
           r": roads\.costs\.bridge: EdgeCosts\.bridge must be positive, got 0")
     fails(tmp_path, MINIMAL + "[roads]\nturn_width_deg = [[1200, 60], [1250, -10]]\n",
-          r": roads: in year 1250: RoutingOptions: turn_width must be positive")
+          r": roads: in year 1250: RoutingOptions\.turn_width must be positive, got -0\.17")
     fails(tmp_path, MINIMAL + "[options.land_use]\nupdate_interval = 0\n",
           r": options\.land_use\.update_interval: must be at least 1 year, got 0")
     fails(tmp_path, MINIMAL + "[eras.pattern_options]\nmin_length_m = -1\n",

@@ -339,7 +339,7 @@ def test_block_type_is_the_type_with_most_lot_area():
 
 
 def test_bad_options_name_their_key():
-    with pytest.raises(InputError, match="goal_scale: must be positive"):
+    with pytest.raises(InputError, match=r"LandUseOptions\.goal_scale must be positive"):
         LandUseOptions(goal_scale=0)
     with pytest.raises(InputError, match="traffic_quantile"):
         LandUseOptions(traffic_quantile=1.5)

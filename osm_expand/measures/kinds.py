@@ -7,6 +7,7 @@ from enum import StrEnum
 import numpy as np
 
 from osm_expand.errors import InputError
+from osm_expand.model.options import require_positive
 
 __all__ = ["DISTRIBUTIONS", "SCALARS", "Measure", "MeasureOptions", "NetworkMeasures", "measure_named"]
 
@@ -83,10 +84,7 @@ class MeasureOptions:
     piece_buffer: float = 30.0
 
     def __post_init__(self) -> None:
-        for f in fields(self):
-            value = getattr(self, f.name)
-            if not value > 0:
-                raise InputError(f"measures option {f.name} must be positive, got {value!r}")
+        require_positive(self, [f.name for f in fields(self)])
 
 
 @dataclass(frozen=True, eq=False)

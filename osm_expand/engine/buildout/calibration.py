@@ -70,6 +70,7 @@ from osm_expand.engine.history import History
 from osm_expand.errors import InputError
 from osm_expand.land import unbuildable as unbuildable_land
 from osm_expand.model import City, Origin
+from osm_expand.model.options import require_positive
 
 __all__ = ["CalibrationOptions", "TownCalibration", "building_shares", "calibrate_town", "find_centres", "size_bands",
            "tag_number", "town_units"]
@@ -116,11 +117,8 @@ class CalibrationOptions:
                               "landuse=village_green", "leisure=park", "leisure=garden", "leisure=nature_reserve")
 
     def __post_init__(self) -> None:
-        positive = ("town_cell", "centre_radius", "centre_cell", "centre_separation", "town_buffer",
-                    "default_coverage")
-        for key in positive:
-            if not getattr(self, key) > 0:
-                raise InputError(f"calibration {key}: must be positive, got {getattr(self, key)}")
+        require_positive(self, ("town_cell", "centre_radius", "centre_cell", "centre_separation", "town_buffer",
+                                "default_coverage"))
         if self.max_centres < 1:
             raise InputError(f"calibration max_centres: must be at least 1, got {self.max_centres}")
         if not 0 < self.secondary_share <= 1:

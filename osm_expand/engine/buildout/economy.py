@@ -65,6 +65,7 @@ from scipy.special import ndtr, ndtri
 from osm_expand.engine.buildout.landuse_types import valuate
 from osm_expand.errors import InputError
 from osm_expand.model.enums import parse_enum
+from osm_expand.model.options import require_positive
 
 __all__ = [
     "HeightShape", "TypeEconomy", "DEFAULT_ECONOMY", "EconomyOptions",
@@ -170,10 +171,8 @@ class EconomyOptions:
 
     def __post_init__(self) -> None:
         _shape(self)
-        for key in ("storey_height", "default_median_floors", "falloff_sigma", "max_spread_exponent",
-                    "margin_truncation"):
-            if not getattr(self, key) > 0:
-                raise InputError(f"economy {key}: must be positive, got {getattr(self, key)}")
+        require_positive(self, ("storey_height", "default_median_floors", "falloff_sigma", "max_spread_exponent",
+                                "margin_truncation"))
         for key in ("noise_sd", "age_weight", "price_weight", "falloff_edge"):
             if not getattr(self, key) >= 0:
                 raise InputError(f"economy {key}: must be ≥ 0, got {getattr(self, key)}")

@@ -21,6 +21,7 @@ from numpy.typing import NDArray
 
 from osm_expand.errors import HistoryError, InputError
 from osm_expand.model.enums import parse_enum
+from osm_expand.model.options import require_positive
 
 #: The type index of a lot that has no land use yet.
 UNASSIGNED = -1
@@ -210,11 +211,8 @@ class LandUseOptions:
     min_calibration_coverage: float = 0.8
 
     def __post_init__(self) -> None:
-        positive = ("influence_radius", "goal_scale", "chunk_share", "amenity_distance_unit",
-                    "min_calibration_coverage")
-        for key in positive:
-            if not getattr(self, key) > 0:
-                raise InputError(f"land_use {key}: must be positive, got {getattr(self, key)}")
+        require_positive(self, ("influence_radius", "goal_scale", "chunk_share", "amenity_distance_unit",
+                                "min_calibration_coverage"))
         for key in ("cluster_neighbours", "global_weight", "local_weight", "reject_slope", "sample_share",
                     "min_chunk"):
             if not getattr(self, key) >= 0:

@@ -96,6 +96,7 @@ from osm_expand.engine.buildout.report import buildout_report  # re-exported
 from osm_expand.engine.history import History, YearValues
 from osm_expand.errors import InputError
 from osm_expand.model import Block, Building, City, Lot, Origin, Status
+from osm_expand.model.options import require_positive
 from osm_expand.model.segments import street_width
 
 __all__ = ["BuildoutMemory", "BuildoutOptions", "BuildoutYear", "LotState", "buildout_report", "buildout_year",
@@ -134,8 +135,7 @@ class BuildoutOptions:
                 raise InputError(f"buildout {key}: must be ≥ 0, got {getattr(self, key)}")
         if not self.band_prior >= 0:
             raise InputError(f"buildout band_prior: must be ≥ 0, got {self.band_prior}")
-        if not self.resolution > 0:
-            raise InputError(f"buildout resolution: must be positive, got {self.resolution}")
+        require_positive(self, ("resolution",))
 
 
 @dataclass(frozen=True)

@@ -56,6 +56,7 @@ from osm_expand.engine.roads.path_graph import ImplicitGraph, PathGraph
 from osm_expand.engine.roads.routing import Route, RoutingOptions, find_route
 from osm_expand.errors import InputError
 from osm_expand.model.enums import parse_enum
+from osm_expand.model.options import require_positive
 
 __all__ = ["RoadType", "BypassStreets", "MajorRoadOptions", "NewRoad", "MajorRoadPlan", "parse_road_type",
            "allowed_streets", "capacity_ok", "propose_route", "plan_major_road", "smooth_polyline",
@@ -104,9 +105,9 @@ class MajorRoadOptions:
     water_routes: bool = False  #: allow waterways and harbours (trade by boat; not a road)
 
     def __post_init__(self) -> None:
-        if not (self.smooth_turn_factor >= 1.0 and self.smoothing_step > 0 and self.demolish_margin >= 0):
-            raise InputError("MajorRoadOptions: smooth_turn_factor must be ≥ 1, smoothing_step positive, "
-                             "demolish_margin not negative")
+        require_positive(self, ("smoothing_step",))
+        if not (self.smooth_turn_factor >= 1.0 and self.demolish_margin >= 0):
+            raise InputError("MajorRoadOptions: smooth_turn_factor must be ≥ 1 and demolish_margin not negative")
         if self.chaikin_iterations < 0:
             raise InputError("MajorRoadOptions.chaikin_iterations must not be negative")
         parse_enum(BypassStreets, self.bypass_streets, "MajorRoadOptions.bypass_streets")

@@ -43,6 +43,7 @@ from scipy.spatial import cKDTree
 from osm_expand.engine.roads.lattice import ROAD_KINDS, EdgeKind
 from osm_expand.engine.roads.path_graph import EdgeCosts, GraphWindow, ImplicitGraph, PathGraph
 from osm_expand.errors import InputError
+from osm_expand.model.options import require_positive
 
 __all__ = ["RoutingOptions", "Route", "turn_penalty", "find_route", "route_over_major_roads", "Choice",
            "choose", "route_score"]
@@ -86,11 +87,9 @@ class RoutingOptions:
     growth_share: float = 0.25
 
     def __post_init__(self) -> None:
-        if not (self.window_margin > 0 and self.window_share >= 0 and self.growth_share > 0):
-            raise InputError("RoutingOptions: window_margin and growth_share must be positive and window_share "
-                             "not negative")
-        if not (self.turn_width > 0 and self.turn_height >= 0):
-            raise InputError("RoutingOptions: turn_width must be positive and turn_height not negative")
+        require_positive(self, ("window_margin", "growth_share", "turn_width"))
+        if not (self.window_share >= 0 and self.turn_height >= 0):
+            raise InputError("RoutingOptions: window_share and turn_height must not be negative")
         if self.heading_bins < 4:
             raise InputError(f"RoutingOptions.heading_bins must be at least 4, got {self.heading_bins}")
 

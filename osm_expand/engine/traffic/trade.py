@@ -63,6 +63,7 @@ from scipy import sparse
 from scipy.sparse.csgraph import dijkstra
 
 from osm_expand.errors import InputError
+from osm_expand.model.options import require_positive
 from osm_expand.model.pieces import Pieces
 
 __all__ = [
@@ -107,8 +108,7 @@ class TradeOptions:
     b_max: float = 1.3
 
     def __post_init__(self) -> None:
-        if not self.o2 > 0:
-            raise InputError(f"trade.o2 must be > 0, got {self.o2}")
+        require_positive(self, ("o2",))
         if not 0 <= self.b_min <= self.b_max:
             raise InputError(f"trade: need 0 ≤ b_min ≤ b_max, got {self.b_min}, {self.b_max}")
 

@@ -58,6 +58,7 @@ from scipy import sparse
 from scipy.sparse.csgraph import dijkstra
 
 from osm_expand.errors import InputError
+from osm_expand.model.options import require_positive
 from osm_expand.model.pieces import Pieces
 
 __all__ = [
@@ -164,11 +165,8 @@ class TripOptions:
         except ValueError:
             raise InputError(f"trips.decay must be one of {', '.join(d.value for d in DistanceDecay)}, "
                              f"got {self.decay!r}") from None
-        positive = ("decay_length", "decay_power", "cutoff", "minor_speed", "major_speed",
-                    "lane_capacity", "lane_width", "target_trips", "max_sources", "batch_sources")
-        for key in positive:
-            if not getattr(self, key) > 0:
-                raise InputError(f"trips.{key} must be > 0, got {getattr(self, key)}")
+        require_positive(self, ("decay_length", "decay_power", "cutoff", "minor_speed", "major_speed",
+                                "lane_capacity", "lane_width", "target_trips", "max_sources", "batch_sources"))
         for key in ("trips_per_resident", "turn_cost", "resident_change", "density",
                     "build_threshold", "sidewalk_width", "width_delay"):
             if not getattr(self, key) >= 0:
