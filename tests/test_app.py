@@ -2,11 +2,14 @@
 from __future__ import annotations
 
 import pytest
+from hypothesis import given
+from hypothesis import strategies as st
 
 from osm_expand import cli
-from osm_expand.app import EXPAND_ARGUMENTS, ExpandRequest, check_options, run_expand
+from osm_expand.app import EXPAND_ARGUMENTS, EXPAND_WRITERS, ExpandRequest, check_options, run_expand, stem
 from osm_expand.batch import PIPELINE_ARGUMENTS, add_batch_arguments, pipeline_argv, request_from_argv
 from osm_expand.errors import HistoryError, OptionError
+from osm_expand.ingest import SUFFIXES
 from tests.conftest import FIXTURES
 
 OAKLAND = FIXTURES / "West-Oakland.osm.bz2"
@@ -48,3 +51,26 @@ def test_batch_offers_every_pipeline_option_of_the_main_command_and_passes_them_
     assert pipeline_argv(args) == ["--pattern=colonisation", "--within-bounds", "--years=2"]
     with pytest.raises(SystemExit):
         parser.parse_args(["in.osm", "--out", "d", "--pattern", "grid"])  # the registry's choices, as text
+
+
+@given(st.text(st.sampled_from("abcXYZ09-_ "), min_size=1, max_size=12), st.sampled_from(sorted(SUFFIXES)),
+       st.booleans())
+def test_the_main_command_and_the_batch_name_an_input_alike_without_its_suffix(base, suffix, upper):
+    """One name of an input (issue 23): the main command's default output and a batch's job are named by
+    ``stem``, which drops the longest suffix of a file the tool reads (``town.xml.gz`` → ``town``)."""
+    name = base + (suffix.upper() if upper else suffix)
+    assert stem(name) == stem(f"/some/folder/{name}") == base
+
+
+def test_a_batch_names_its_jobs_as_the_main_command_names_its_outputs(tmp_path):
+    from osm_expand.app import output_path
+    from osm_expand.batch.jobs import Job
+    from osm_expand.batch.run import _file_jobs
+
+    inputs = [tmp_path / "town.xml.gz", tmp_path / "krems.osm.pbf", tmp_path / "Oakland.geojson"]
+    for path in inputs:
+        path.write_bytes(b"x")
+    jobs = _file_jobs(inputs, lambda name, path: Job(name, str(path), "", "", 0))
+    assert [j.name for j in jobs] == ["town", "krems", "Oakland"]
+    assert [output_path(p, None, ".xml", EXPAND_WRITERS)[0].name for p in inputs] == [
+        "town.xml", "krems.xml", "Oakland.xml"]

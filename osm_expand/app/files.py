@@ -25,13 +25,17 @@ FORMAT_SUFFIX = {"urbanenvironment": ".xml", "osm": ".osm", "geojson": ".geojson
 Log = Callable[[str], None]
 
 
-def stem(path: Path) -> str:
-    """An input's name without its OSM suffixes (``krems.osm.gz`` → ``krems``): outputs are named after it."""
-    name = path.name
-    for suffix in (".osm.gz", ".osm.bz2", ".osm.pbf", ".osm", ".pbf", ".gz", ".bz2", ".xml", ".geojson"):
-        if name.lower().endswith(suffix):
+def stem(path: str | os.PathLike) -> str:
+    """An input's name without the suffix of a file the tool reads (``krems.osm.gz`` → ``krems``, the longest
+    of :data:`osm_expand.ingest.SUFFIXES` that leaves a name): the main command's outputs and a batch's jobs
+    are named after it."""
+    from osm_expand.ingest import SUFFIXES
+
+    name = Path(path).name
+    for suffix in sorted(SUFFIXES, key=len, reverse=True):
+        if name.lower().endswith(suffix) and len(name) > len(suffix):
             return name[: -len(suffix)]
-    return path.stem
+    return Path(path).stem
 
 
 def shown(name: str) -> str:

@@ -48,7 +48,7 @@ from __future__ import annotations
 
 from osm_expand.batch.cluster import INSTALL_HINT, probe, source_digest
 from osm_expand.batch.command import PIPELINE_ARGUMENTS, JobsFailed, add_batch_arguments, cmd_batch, pipeline_argv
-from osm_expand.batch.inputs import FORMAT_SUFFIX, Town, check_pipeline_args, job_name, read_towns
+from osm_expand.batch.inputs import Town, check_pipeline_args, read_towns
 from osm_expand.batch.jobs import (
     SEED_MODULUS,
     BatchSummary,
@@ -64,5 +64,5 @@ from osm_expand.batch.run import run_batch
 __all__ = ["BatchSummary", "Job", "JobResult", "JobStatus", "JobsFailed", "Town", "add_batch_arguments", "cmd_batch",
            "derive_seed", "read_towns", "run_batch", "run_job",
            # more public names of the batch's modules, importable from here as before the split
-           "FORMAT_SUFFIX", "INSTALL_HINT", "PIPELINE_ARGUMENTS", "SEED_MODULUS", "check_pipeline_args", "job_name",
-           "pipeline_argv", "probe", "request_from_argv", "source_digest"]
+           "INSTALL_HINT", "PIPELINE_ARGUMENTS", "SEED_MODULUS", "check_pipeline_args", "pipeline_argv", "probe",
+           "request_from_argv", "source_digest"]

@@ -8,7 +8,7 @@ import sys
 from collections.abc import Callable
 from pathlib import Path
 
-from osm_expand.app import EXPAND_ARGUMENTS, Argument, add_arguments
+from osm_expand.app import EXPAND_ARGUMENTS, PROG, Argument, add_arguments
 from osm_expand.batch.run import _count, run_batch
 from osm_expand.errors import InputError
 
@@ -93,7 +93,7 @@ def cmd_batch(args: argparse.Namespace, log: Callable[[str], None]) -> dict:
                   f"{summary_path}")
         return report
     for job in failed:
-        print(f"osm-expand: batch: {job.name} failed: {job.error}", file=sys.stderr)
+        print(f"{PROG}: batch: {job.name} failed: {job.error}", file=sys.stderr)
     if args.json:
         print(json.dumps(report, sort_keys=True))
     code = 2 if all(job.exit_code == 2 for job in failed) else 1

@@ -9,29 +9,16 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
-from osm_expand.app import check_options, one_line
+from osm_expand.app import FORMAT_SUFFIX, check_options, one_line
 from osm_expand.batch.jobs import request_from_argv
 from osm_expand.errors import InputError, OptionError, UnreadableInputError
 
-__all__ = ["FORMAT_SUFFIX", "Town", "check_pipeline_args", "job_name", "read_towns"]
+__all__ = ["Town", "check_pipeline_args", "read_towns"]
 
-#: Output suffix of each ``--format``.
-FORMAT_SUFFIX = {"urbanenvironment": ".xml", "osm": ".osm", "geojson": ".geojson"}
-#: Suffixes dropped from an input's name to name its job.
-_OSM_SUFFIXES = (".osm.pbf", ".osm.gz", ".osm.bz2", ".osm", ".pbf", ".xml.gz", ".xml.bz2", ".xml", ".geojson", ".json")
 #: Main-command options a batch sets per job itself (refused among the pipeline options).
 _PER_JOB = {"-o", "--output", "--seed", "--preview", "--version", "-h", "--help"}
 #: Main-command options that clip the input (a towns table does that itself).
 _CLIP_OPTIONS = {"--bbox", "--around", "--radius", "--clip-index"}
-
-
-def job_name(path: str | os.PathLike) -> str:
-    """An input's job name: its file name without the OSM suffixes (``krems.osm.gz`` → ``krems``)."""
-    name = Path(path).name
-    for suffix in _OSM_SUFFIXES:
-        if name.lower().endswith(suffix) and len(name) > len(suffix):
-            return name[: -len(suffix)]
-    return name
 
 
 @dataclass(frozen=True)

@@ -14,14 +14,14 @@ from dataclasses import asdict, dataclass, field
 from enum import StrEnum
 from pathlib import Path
 
-from osm_expand.app import EXPAND_ARGUMENTS, ExpandRequest, add_arguments, exit_code, one_line
+from osm_expand.app import EXPAND_ARGUMENTS, PROG, ExpandRequest, add_arguments, exit_code, one_line
 from osm_expand.errors import InputError, OptionError
 
 __all__ = ["SEED_MODULUS", "BatchSummary", "Job", "JobResult", "JobStatus", "derive_seed", "request_from_argv",
            "run_job"]
 
 #: How the main command starts its one-line errors.
-_PREFIX = "osm-expand: "
+_PREFIX = f"{PROG}: "
 #: The seed derivation's modulus: seeds stay below 2**31, valid for every numpy generator.
 SEED_MODULUS = 2 ** 31
 

@@ -8,6 +8,7 @@ import time
 from collections.abc import Callable, Sequence
 from pathlib import Path
 
+from osm_expand.app import stem
 from osm_expand.batch.cluster import (
     INSTALL_HINT,
     _connect,
@@ -23,7 +24,6 @@ from osm_expand.batch.inputs import (
     _check_name,
     _output_suffix,
     check_pipeline_args,
-    job_name,
     read_towns,
 )
 from osm_expand.batch.jobs import BatchSummary, Job, JobResult, JobStatus, derive_seed
@@ -154,7 +154,7 @@ def _file_jobs(inputs: list[Path], job: Callable[[str, Path], Job]) -> list[Job]
     names: dict[str, Path] = {}
     for path in inputs:
         check_readable(path)
-        name = job_name(path)
+        name = stem(path)
         _check_name(name, str(path))
         if name in names:
             raise OptionError(f"batch: {names[name]} and {path} would both be named {name!r}; rename one")

@@ -2,6 +2,7 @@
 nodes they need), whatever the strategy; and the order of a file not sorted as usual (:class:`_Order`)."""
 from __future__ import annotations
 
+from collections.abc import Iterable
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -20,12 +21,17 @@ def _add(table: dict[int, BoxesOf], key: int, boxes: BoxesOf) -> None:
     if old is None or old == boxes:
         table[key] = boxes
         return
-    merged = tuple(sorted({*_each(old), *_each(boxes)}))
-    table[key] = merged[0] if len(merged) == 1 else merged
+    table[key] = _boxes_of({*_each(old), *_each(boxes)})
 
 
 def _each(boxes: BoxesOf) -> tuple[int, ...]:
     return (boxes,) if isinstance(boxes, int) else boxes
+
+
+def _boxes_of(boxes: Iterable[int]) -> BoxesOf:
+    """The compact form of some boxes: the one int, or the sorted tuple of several."""
+    ordered = tuple(sorted(set(boxes)))
+    return ordered[0] if len(ordered) == 1 else ordered
 
 
 @dataclass
@@ -53,8 +59,7 @@ class _Found:
                 boxes.update(_each(table[m.ref]))
         if boxes:
             self.relations[rel.id] = ([(m.type, m.ref, m.role) for m in rel.members], dict(rel.tags), _meta(rel))
-            ordered = tuple(sorted(boxes))
-            self.rel_boxes[rel.id] = ordered[0] if len(ordered) == 1 else ordered
+            self.rel_boxes[rel.id] = _boxes_of(boxes)
 
     def missing_members(self) -> dict[int, BoxesOf]:
         """Member ways of kept multipolygons that some of their boxes lack: way id → those boxes."""
@@ -66,7 +71,7 @@ class _Found:
                 if mtype == "w":
                     lack = set(_each(self.rel_boxes[rel_id])) - set(_each(self.way_boxes.get(ref, ())))
                     if lack:
-                        _add(missing, ref, tuple(sorted(lack)) if len(lack) > 1 else lack.pop())
+                        _add(missing, ref, _boxes_of(lack))
         return missing
 
     def needed_nodes(self) -> dict[int, BoxesOf]:

@@ -9,7 +9,7 @@ import osmium
 from osmium.osm.mutable import Node
 
 from osm_expand.clip.boxes import _Boxes
-from osm_expand.clip.found import _add, _each, _Found, _meta, _Order
+from osm_expand.clip.found import _add, _boxes_of, _each, _Found, _meta, _Order
 from osm_expand.clip.writer import _Extracts, _meta_attrs
 
 
@@ -41,8 +41,7 @@ def _one_pass(src: Path, grid: _Boxes, extracts: _Extracts, index: str, complete
             if box.size:
                 for p, b in zip(point.tolist(), box.tolist()):
                     _add(found.node_boxes, refs[p], b)
-                ordered = tuple(sorted(set(box.tolist())))
-                found.take_way(obj, ordered[0] if len(ordered) == 1 else ordered)
+                found.take_way(obj, _boxes_of(box.tolist()))
         else:
             found.take_relation(obj)
     found.reads += 1

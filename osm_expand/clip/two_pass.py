@@ -10,7 +10,7 @@ import numpy as np
 import osmium
 
 from osm_expand.clip.boxes import _Boxes
-from osm_expand.clip.found import _add, _each, _Found, _Order
+from osm_expand.clip.found import _add, _boxes_of, _each, _Found, _Order
 from osm_expand.clip.writer import _Extracts
 
 __all__ = ["ID_BLOCK", "ID_BLOCK_BYTES"]
@@ -55,8 +55,7 @@ def _two_pass(src: Path, grid: _Boxes, extracts: _Extracts, scratch: Path, compl
             for n in obj.nodes:
                 if n.ref in found.node_boxes:
                     boxes.update(_each(found.node_boxes[n.ref]))
-            ordered = tuple(sorted(boxes))
-            found.take_way(obj, ordered[0] if len(ordered) == 1 else ordered)
+            found.take_way(obj, _boxes_of(boxes))
     order.retake_relations(found)
     # Pass 2b (ways, only if a multipolygon lacks members): the missing member ways.
     missing = found.missing_members() if complete else {}
