@@ -14,8 +14,6 @@ from osm_expand.errors import InputError
 from synth.colonisation import (
     ColonisationOptions,
     ColonisationResult,
-    _Colonist,
-    _Phase,
     chain_streets,
     colonise,
     connection_force,
@@ -23,6 +21,8 @@ from synth.colonisation import (
     extra_pruning,
     ideal_directions,
 )
+from synth.colonisation.kernel import _Colonist
+from synth.colonisation.options import _Phase
 from synth.flowfield import FlowPrimitive, flow_field, primitive_velocity
 from synth.infomaps import (
     InfoMapOptions,

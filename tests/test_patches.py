@@ -11,18 +11,12 @@ from osm_expand.ingest import load
 from osm_expand.model import chord_bends, network_from_lines
 from osm_expand.model.topology import dangling_chains, without_segments
 from osm_expand.pipeline import ExpandOptions, expand
-from synth.patches import (
-    BEND_STEP,
-    PatchOptions,
-    _Aim,
-    _connector,
-    _edge_streets,
-    _free_land,
-    _more_dead_ends,
-    _Quilt,
-    _trim,
-    _walk_seams,
-)
+from synth.patches import BEND_STEP, PatchOptions
+from synth.patches.edges import _edge_streets
+from synth.patches.placing import _free_land
+from synth.patches.quilt import _Quilt
+from synth.patches.seams import _connector, _walk_seams
+from synth.patches.topology import _Aim, _more_dead_ends, _trim
 from tests.conftest import FIXTURES
 
 
@@ -206,7 +200,8 @@ def test_the_towns_streets_kept_between_districts_are_those_read_afresh():
     (the engine tries several sites a year): the kept ones equal a fresh reading, and a district
     grown from them is the one grown by a new object with the same random state."""
     from osm_expand.growth_patterns import measure_in_windows
-    from synth.patches import ExamplePatches, _source
+    from synth.patches import ExamplePatches
+    from synth.patches.source import _source
 
     grown = district("krems.osm.gz", 0)
     city = grown.city

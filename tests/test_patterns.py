@@ -657,7 +657,7 @@ def test_empty_inputs_give_empty_results():
 
 
 def test_angle_pdfs_discrete_continuous_and_gaussian():
-    from synth.patterns import _Sampler
+    from synth.patterns.growing import _Sampler
     rng = np.random.default_rng(0)
     tri = _Sampler(PatternOptions(angle_pdf=((0, 0), (90, 1), (180, 0), (270, 0)), angle_pdf_kind="continuous"))
     a = np.array([tri.angle(rng) for _ in range(4000)])
