@@ -4,7 +4,8 @@ learn the town (simplify → example) → blocks of the town as mapped →
 unbuildable land → distance maps and ranked sites → a growth pattern grows
 streets in the best site → the shared joining step joins them to the real
 streets; a district joined by fewer than :data:`MIN_JOINS` streets is no
-success, and the next site is tried.
+success, and the next site is tried (:func:`osm_expand.district.place_district`,
+the loop the engine's districts use too).
 
 The result is the whole city: the town as mapped plus the district, each
 street marked with its origin. The simplified network and the example are
@@ -21,15 +22,16 @@ import numpy as np
 import shapely
 
 from osm_expand.blocks import blocks
+from osm_expand.district import at_least, place_district
 from osm_expand.engine.planarity import without_touching
 from osm_expand.errors import InputError, NoRoomError
 from osm_expand.fidelity import FidelityReport, fidelity
 from osm_expand.growth_patterns import make_pattern
 from osm_expand.heights import with_heights
-from osm_expand.joins import JoinReport, join_growth
+from osm_expand.joins import JoinReport
 from osm_expand.land import LandOptions, land_cover_taken, read_land, unbuildable
 from osm_expand.model import City, Origin, StreetNetwork, polyline_length
-from osm_expand.sites import DistanceMaps, Site, SiteOptions, choose_sites, distance_maps, district_region
+from osm_expand.sites import DistanceMaps, Site, SiteOptions, choose_sites, distance_maps
 from simplify import simplify
 from simplify.example import Example, build_example
 from simplify.hierarchy import with_levels
@@ -166,20 +168,18 @@ def expand(city: City, options: ExpandOptions | None = None, *, pattern: GrowthP
     if pattern is None:
         pattern = make_pattern(opts.pattern, learned.example)  # OptionError for a name not in the registry
     spacing = learned.example.spacing
-    tried = []
-    grown_at = []
-    for attempt, site in enumerate(sites):
-        progress(f"growing streets ({pattern.name}) at site {attempt + 1}")
-        region = district_region(city, site, bounds=None if beyond else city.bounds_polygon)
-        growth = pattern.grow(city, region, np.random.default_rng([opts.seed, attempt]))
-        grown, joins = join_growth(city, growth.streets, spacing=spacing, year=city.year)
-        if joins.joins >= MIN_JOINS:
-            break
-        grown_at.append(growth)
-        tried.append(f"site {attempt + 1}: {len(growth.streets)} streets, {joins.joins} joins")
-    else:  # the town's frontage wraps every site: join between its presumed houses rather than not at all
-        attempt, growth, grown, joins = _join_across_frontage(city, grown_at, spacing, tried)
-        site = sites[attempt]
+    placement = place_district(
+        city, sites, pattern, spacing=spacing, accept=at_least(MIN_JOINS),
+        rng=lambda attempt: np.random.default_rng([opts.seed, attempt]),
+        bounds=None if beyond else city.bounds_polygon, year=city.year, cross_taken_last=True,
+        progress=lambda attempt: progress(f"growing streets ({pattern.name}) at site {attempt + 1}"))
+    placed = placement.placed
+    if placed is None:
+        raise InputError(f"the district cannot be joined to the town by {MIN_JOINS} streets at any of the "
+                         f"{len(placement.tried)} best sites ({placement.describe_tried()}); "
+                         f"try --at or another --direction")
+    attempt, site, growth, grown, joins = placed.rank, placed.site, placed.growth, placed.city, placed.joins
+    if placed.crossed:
         notes.append(CROSSED_NOTE)
     # the engine's planarity net, over the district too: the pattern's exact checks miss streets that
     # touch once written to the millimetre (Monaco, seed 7: an end 1 mm from another street)
@@ -193,18 +193,6 @@ def expand(city: City, options: ExpandOptions | None = None, *, pattern: GrowthP
                   land_cover_taken=land_cover_taken(city, grown), notes=notes)
     return ExpandResult(city=grown, site=site, learned=learned, joins=joins, growth=growth, fidelity=judged,
                         report=report)
-
-
-def _join_across_frontage(city: City, grown_at: list[Growth], spacing: float, tried: list[str]
-                          ) -> tuple[int, Growth, City, JoinReport]:
-    """The first of the sites' growths that joins the town when its joining streets may cross the town's
-    presumed frontage (:attr:`~osm_expand.model.land.Land.taken`); :class:`InputError` when none does."""
-    for attempt, growth in enumerate(grown_at):
-        grown, joins = join_growth(city, growth.streets, spacing=spacing, year=city.year, cross_taken=True)
-        if joins.joins >= MIN_JOINS:
-            return attempt, growth, grown, joins
-    raise InputError(f"the district cannot be joined to the town by {MIN_JOINS} streets at any of the "
-                     f"{len(grown_at)} best sites ({'; '.join(tried)}); try --at or another --direction")
 
 
 def _margin(city: City) -> float:

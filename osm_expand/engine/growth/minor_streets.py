@@ -28,12 +28,13 @@ from dataclasses import dataclass, field
 import numpy as np
 import shapely
 
+from osm_expand.district import place_district
 from osm_expand.engine.growth.nuclei import Nucleus, candidate_points, rank_candidates
 from osm_expand.engine.growth.stubs import close_stubs
-from osm_expand.joins import add_streets, join_growth
+from osm_expand.joins import add_streets
 from osm_expand.model import City, Origin, Status, match_points, polyline_length
 from osm_expand.model.segments import SegmentTable
-from osm_expand.sites import DistanceMaps, SiteOptions, choose_sites, distance_maps, district_region
+from osm_expand.sites import DistanceMaps, SiteOptions, choose_sites, distance_maps
 from synth.growth import GrowthPattern
 from synth.patterns import PatternOptions, grow_streets
 from synth.street_graph import StreetGraph
@@ -278,19 +279,17 @@ def grow_district(city: City, pattern: GrowthPattern, length: float, density: fl
     if not sites:
         return city, GrowthYear()
     order = rank_candidates(np.array([s.centre for s in sites]), nuclei, take=len(sites))
-    bounds = city.bounds_polygon
     before = len(city.network.streets)
-    for k in order.tolist():
-        growth = pattern.grow(city, district_region(city, sites[k], bounds=bounds), rng)
-        if not growth.streets:
-            continue
-        grown, joins = join_growth(city, growth.streets, spacing=spacing, origin=Origin.ENGINE, year=year, era=era)
-        if (_built_up_distance(maps, joins.at) <= STUB_REACH * spacing).sum() >= options.min_joins:
-            new = grown.network.streets[before:]
-            made = sum(polyline_length(grown.network.street_xy(s)) for s in new)
-            return grown, GrowthYear(streets=len(new), length_m=made, bridges=sum(s.bridge for s in new),
-                                     districts=1)
-    return city, GrowthYear()
+    reach = STUB_REACH * spacing
+    placed = place_district(
+        city, sites, pattern, spacing=spacing, order=order.tolist(), rng=lambda attempt: rng,
+        accept=lambda grown, joins: (_built_up_distance(maps, joins.at) <= reach).sum() >= options.min_joins,
+        bounds=city.bounds_polygon, origin=Origin.ENGINE, year=year, era=era).placed
+    if placed is None:
+        return city, GrowthYear()
+    new = placed.city.network.streets[before:]
+    made = sum(polyline_length(placed.city.network.street_xy(s)) for s in new)
+    return placed.city, GrowthYear(streets=len(new), length_m=made, bridges=sum(s.bridge for s in new), districts=1)
 
 
 def _built_up_distance(maps: DistanceMaps, xy: np.ndarray) -> np.ndarray:

@@ -1,0 +1,84 @@
+"""The one district-placing loop (:mod:`osm_expand.district`) that the pipeline and the engine both call, on
+Krems as mapped: sites tried in the caller's order with the caller's random streams, the first accepted kept
+and stamped as asked, every rejected site reported."""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+import pytest
+
+from osm_expand.district import at_least, place_district
+from osm_expand.growth_patterns import make_pattern
+from osm_expand.ingest import load
+from osm_expand.model import Origin
+from osm_expand.pipeline import _margin, learn, prepare
+from osm_expand.sites import SiteOptions, choose_sites, distance_maps, district_region
+from tests.conftest import FIXTURES
+
+
+@dataclass
+class Recording:
+    """A real pattern that remembers which regions and random streams it was given."""
+
+    pattern: object
+    regions: list = field(default_factory=list)
+    draws: list = field(default_factory=list)
+
+    @property
+    def name(self) -> str:
+        return self.pattern.name
+
+    def grow(self, city, region, rng):
+        self.regions.append(region)
+        self.draws.append(rng)
+        return self.pattern.grow(city, region, rng)
+
+
+@pytest.fixture(scope="module")
+def krems():
+    city = load(FIXTURES / "krems.osm.gz", context=False)
+    learned = learn(city)
+    city = prepare(city)
+    maps = distance_maps(city, SiteOptions(), margin=_margin(city))
+    sites = choose_sites(maps, 650_000.0, SiteOptions(), most=3)  # the default district's area
+    assert len(sites) == 3
+    return city, learned, sites
+
+
+def test_a_district_nobody_accepts_is_not_placed_and_every_site_is_reported_in_the_order_tried(krems):
+    city, learned, sites = krems
+    pattern = Recording(make_pattern("example", learned.example))
+    streams = {}
+
+    def rng(attempt):
+        streams[attempt] = np.random.default_rng([7, attempt])
+        return streams[attempt]
+
+    placement = place_district(city, sites, pattern, spacing=learned.example.spacing,
+                               accept=lambda grown, joins: False, rng=rng, bounds=city.bounds_polygon,
+                               order=[2, 0, 1])
+    assert placement.placed is None
+    assert [t.rank for t in placement.tried] == [2, 0, 1]
+    assert [id(r) for r in pattern.draws] == [id(streams[a]) for a in range(3)]  # attempt n grows on stream n
+    # each region is its site's, in the order given
+    for region, rank in zip(pattern.regions, [2, 0, 1]):
+        assert region.equals(district_region(city, sites[rank], bounds=city.bounds_polygon))
+    assert "site 3:" in placement.describe_tried().split(";")[0]
+
+
+def test_the_first_accepted_district_is_kept_with_the_origin_year_and_era_asked_for(krems):
+    city, learned, sites = krems
+    pattern = make_pattern("example", learned.example)
+    before = len(city.network.streets)
+    placement = place_district(city, sites, pattern, spacing=learned.example.spacing, accept=at_least(2),
+                               rng=lambda attempt: np.random.default_rng([0, attempt]),
+                               bounds=city.bounds_polygon, origin=Origin.ENGINE, year=2031, era="later")
+    placed = placement.placed
+    assert placed is not None and not placed.crossed
+    assert placed.joins.joins >= 2
+    assert [t.rank for t in placement.tried] == list(range(placed.rank))
+    new = placed.city.network.streets[before:]
+    assert {s.origin for s in new} == {Origin.ENGINE, Origin.JOIN}  # the district and its joining streets
+    assert all(s.year == 2031 and s.era == "later" for s in new)
+
