@@ -197,7 +197,8 @@ def test_a_new_block_around_a_town_building_is_built_out_beyond_its_clearance():
 def test_a_lot_whose_street_changed_faces_the_street_its_edge_lies_on():
     from osm_expand.engine.buildout.lots import NO_STREET
     from osm_expand.engine.buildout.lots import Lot as EngineLot
-    from osm_expand.engine.buildout.year import LotState, _relabel, _Streets
+    from osm_expand.engine.buildout.memory import LotState
+    from osm_expand.engine.buildout.streets import _relabel, _Streets
 
     # a 20 m × 30 m lot behind a 7.5 m street along y = 0 (its front edge 3.75 m from the centre line)
     lot = EngineLot(ring=np.array([[0.0, 3.75], [20.0, 3.75], [20.0, 33.75], [0.0, 33.75]]),
