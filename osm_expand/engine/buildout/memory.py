@@ -109,12 +109,17 @@ class _Memo:
     ``footprints``: a generated building's polygon and area by the building
     object's id (checked against the object); ``streets``: each street's
     centre line and carriageway by id, with the nodes and width they were
-    made from.
+    made from; ``block_keys``: a block polygon's key
+    (:func:`~osm_expand.engine.buildout.streets._block_keys`) by the polygon
+    object's id (checked against the object: the blocks keep the polygons of
+    faces that did not change, so a year computes the keys of its new blocks
+    only).
     """
 
     def __init__(self) -> None:
         self.footprints: dict[int, tuple[Building, shapely.Polygon, float]] = {}
         self.streets: dict[int, tuple[tuple[int, ...], float, shapely.Geometry, shapely.Geometry]] = {}
+        self.block_keys: dict[int, tuple[shapely.Polygon, tuple[int, int, int]]] = {}
 
     def footprint(self, b: Building) -> tuple[shapely.Polygon, float]:
         hit = self.footprints.get(id(b))

@@ -24,8 +24,14 @@ from osm_expand.engine.buildout.work import _attributes, _unit_traffic, _Year
 
 def _buildable(work: _Year) -> NDArray[np.bool_]:
     """Blocks that touch a street the tool made, (B,) bool (:func:`_free_land` keeps the town's buildings' land)."""
-    new_ids = set(work.streets.ids[work.streets.new].tolist())
-    return np.array([any(i in new_ids for i in b.street_ids) for b in work.blocks], dtype=bool)
+    blocks = work.blocks
+    if not blocks:
+        return np.zeros(0, dtype=bool)
+    sizes = np.array([len(b.street_ids) for b in blocks], dtype=np.int64)
+    ids = np.fromiter((i for b in blocks for i in b.street_ids), dtype=np.int64, count=int(sizes.sum()))
+    new = np.isin(ids, work.streets.ids[work.streets.new])  # all blocks' streets at once
+    owner = np.repeat(np.arange(len(blocks)), sizes)
+    return np.bincount(owner, weights=new.astype(np.float64), minlength=len(blocks)) > 0
 
 
 def _build_out_blocks(work: _Year, healing: set[int]) -> list[int]:

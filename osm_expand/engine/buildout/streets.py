@@ -6,6 +6,7 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import dataclass, field, replace
+from typing import cast
 
 import numpy as np
 import shapely
@@ -81,8 +82,10 @@ def _streets(city: City, memo: _Memo) -> tuple[_Streets, int]:
         made = shapely.linestrings(coords, indices=np.repeat(np.arange(len(fresh)), sizes))
         lines[fresh] = made
         carriageways[fresh] = shapely.buffer(made, 0.5 * widths[fresh], quad_segs=4)
-    memo.streets = {s.id: (s.nodes, w, lines[k], carriageways[k])
-                    for k, (s, w) in enumerate(zip(streets, widths.tolist()))}
+    for sid in changed - {streets[k].id for k in fresh}:  # gone (a street that changed is made again below)
+        del memo.streets[sid]
+    for k in fresh:  # the others' entries hold as they are
+        memo.streets[streets[k].id] = (streets[k].nodes, float(widths[k]), lines[k], carriageways[k])
     signature = hash(tuple((s.id, s.nodes, w) for s, w in zip(streets, widths.tolist())))
     table = _Streets(ids=np.array([s.id for s in streets], dtype=np.int64), lines=lines, carriageways=carriageways,
                      widths=widths, built=np.array([s.status == Status.BUILT for s in streets], dtype=bool),
@@ -144,14 +147,30 @@ def _on_carriageway(polys: NDArray[np.object_], streets: _Streets, tolerance: fl
     return hit
 
 
-def _block_keys(blocks: Sequence[Block]) -> list[tuple[int, int, int]]:
-    """Each block's identity across recomputations: area and centroid rounded to whole metres."""
+def _block_keys(blocks: Sequence[Block], memo: _Memo | None = None) -> list[tuple[int, int, int]]:
+    """Each block's identity across recomputations: area and centroid rounded to whole metres.
+
+    With ``memo`` (the build-out's, kept from year to year) only the blocks
+    whose polygon objects it has not seen are measured; the memo then holds
+    this year's blocks alone.
+    """
     if not blocks:
+        if memo is not None:
+            memo.block_keys = {}
         return []
-    polys = np.array([b.polygon for b in blocks], dtype=object)
-    area = np.rint(shapely.area(polys)).astype(np.int64)
-    centre = np.rint(shapely.get_coordinates(shapely.centroid(polys))).astype(np.int64)
-    return list(zip(area.tolist(), centre[:, 0].tolist(), centre[:, 1].tolist()))
+    known = memo.block_keys if memo is not None else {}
+    hits = [(b.polygon, known.get(id(b.polygon))) for b in blocks]
+    keys: list[tuple[int, int, int] | None] = [h[1] if h is not None and h[0] is p else None for p, h in hits]
+    todo = [k for k, key in enumerate(keys) if key is None]
+    if todo:
+        polys = np.array([blocks[k].polygon for k in todo], dtype=object)
+        area = np.rint(shapely.area(polys)).astype(np.int64)
+        centre = np.rint(shapely.get_coordinates(shapely.centroid(polys))).astype(np.int64)
+        for k, key in zip(todo, zip(area.tolist(), centre[:, 0].tolist(), centre[:, 1].tolist())):
+            keys[k] = key
+    if memo is not None:
+        memo.block_keys = {id(b.polygon): (b.polygon, key) for b, key in zip(blocks, keys)}
+    return cast(list[tuple[int, int, int]], keys)
 
 
 def _relabel(state: LotState, streets: _Streets, tolerance: float = 1.0) -> LotState | None:

@@ -153,7 +153,7 @@ def buildout_year(city: City, memory: BuildoutMemory, history: History, now: Yea
                  if b.origin == Origin.ENGINE and b.lot is not None and int(b.lot) in states}
     work = _Year(city=city, memory=memory, history=history, now=now, rng=rng, year=int(year), traffic=traffic,
                  streets=streets, blocks=tuple(blocks), states=states, lot_block={}, buildings=buildings,
-                 keys=_block_keys(blocks))
+                 keys=_block_keys(blocks, memory.memo))
     healing = _demolish(work, check=not unchanged)
     new_ids = _build_out_blocks(work, healing)
     units = _land_use(work)
