@@ -57,7 +57,8 @@ def town(path: Path):
 
 
 def run(path: Path, seed: int, mix: bool) -> None:
-    from osm_expand.engine.buildout.footprints import calibrate_sizes, calibrated_lot_options, place_buildings
+    from osm_expand.engine.buildout.footprint_sizes import calibrate_sizes, calibrated_lot_options
+    from osm_expand.engine.buildout.footprints import place_buildings
     from osm_expand.engine.buildout.lots import block_frontage, subdivide_blocks
 
     bl, lines, ids, widths, traffic, footprints, raw_lines = town(path)

@@ -25,6 +25,7 @@ left out, and then does not become a hole in the block around it.
 """
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -86,9 +87,59 @@ def faces(net: StreetNetwork) -> list[tuple[np.ndarray, int, np.ndarray]]:
         bounded), ``edges`` the number of junction-to-junction pieces around
         it, ``street_ids`` the (k,) street id under each ring edge.
     """
+    found = _face_arrays(net)
+    if found is None:
+        return []
+    return list(zip(found.rings(), found.edges, found.street_ids()))
+
+
+@dataclass(frozen=True)
+class _Faces:
+    """Every face of the 2-core as flat arrays: face ``f``'s closed ring is ``closed[ring_at[f]:ring_at[f + 1]]``
+    and the street ids under its edges ``ids[id_at[f]:id_at[f + 1]]`` (one fewer than its points)."""
+
+    closed: np.ndarray  #: (P + F, 2) every ring's points, each ring closed (its first point again after its last)
+    ring_at: np.ndarray  #: (F + 1,)
+    ids: np.ndarray  #: (P,)
+    id_at: np.ndarray  #: (F + 1,)
+    edges: list[int]  #: junction-to-junction pieces around each face
+
+    def rings(self) -> list[np.ndarray]:
+        at = self.ring_at.tolist()
+        return [self.closed[a:b] for a, b in zip(at[:-1], at[1:])]  # views, as np.split gives, a third of its cost
+
+    def street_ids(self) -> list[np.ndarray]:
+        at = self.id_at.tolist()
+        return [self.ids[a:b] for a, b in zip(at[:-1], at[1:])]
+
+    def signed_areas(self) -> np.ndarray:
+        """(F,) each ring's signed area (m², positive counter-clockwise), exactly :func:`_signed_area`'s sign.
+
+        The shoelace sums of all rings at once; where a sum is so near zero
+        that the order of the additions could change its sign, the ring's
+        own :func:`_signed_area` decides, so the blocks are those of the
+        ring-by-ring test.
+        """
+        x, y = self.closed[:, 0], self.closed[:, 1]
+        cross = np.append(x[:-1] * y[1:] - x[1:] * y[:-1], 0.0)  # the step from each point to the next
+        size = np.abs(np.append(x[:-1] * y[1:], 0.0)) + np.abs(np.append(x[1:] * y[:-1], 0.0))
+        last = self.ring_at[1:] - 1  # each ring's last point steps into the next ring: not an edge
+        cross[last], size[last] = 0.0, 0.0
+        start = self.ring_at[:-1]
+        area = 0.5 * np.add.reduceat(cross, start) if len(start) else np.zeros(0)
+        scale = np.add.reduceat(size, start) if len(start) else np.zeros(0)
+        unsure = np.flatnonzero(np.abs(area) <= 1e-9 * scale)
+        for f in unsure.tolist():
+            area[f] = _signed_area(self.closed[self.ring_at[f]:self.ring_at[f + 1]])
+        return area
+
+
+def _face_arrays(net: StreetNetwork) -> _Faces | None:
+    """:func:`faces` as flat arrays (None: no face); :func:`blocks` reads these, to loop in Python only over
+    the faces that may be blocks."""
     pc = _pieces(net)
     if len(pc) == 0:
-        return []
+        return None
     sequence, cycle_start = _face_cycles(pc)
     # half-edge h = 2i runs along piece i, h = 2i + 1 back; each contributes its points but the last
     offsets, points = pc.offsets, pc.points
@@ -103,9 +154,8 @@ def faces(net: StreetNetwork) -> list[tuple[np.ndarray, int, np.ndarray]]:
     bounds = np.concatenate([[0], np.cumsum(steps)[cycle_start[1:] - 1], [len(index)]])
     # every ring closed at once (its first point again after its last), then cut into faces
     closed = ring_points[np.insert(np.arange(len(index)), bounds[1:], bounds[:-1])]
-    rings = np.split(closed, bounds[1:-1] + np.arange(1, len(bounds) - 1))
     edges = np.diff(np.append(cycle_start, len(sequence))).tolist()
-    return list(zip(rings, edges, np.split(ring_ids, bounds[1:-1])))
+    return _Faces(closed=closed, ring_at=bounds + np.arange(len(bounds)), ids=ring_ids, id_at=bounds, edges=edges)
 
 
 def _face_cycles(pc: _Pieces) -> tuple[np.ndarray, np.ndarray]:
@@ -188,7 +238,8 @@ class FaceMemo:
 
 
 def blocks(net: StreetNetwork, options: BlockOptions | None = None, *, origin: Origin = Origin.SOURCE,
-           year: int | None = None, memo: FaceMemo | None = None) -> list[Block]:
+           year: int | None = None, memo: FaceMemo | None = None,
+           stamp: Callable[[tuple[int, ...]], tuple[Origin, int | None]] | None = None) -> list[Block]:
     """The plausible, pairwise disjoint blocks of a network, from its streets' real shapes.
 
     Parameters
@@ -198,6 +249,10 @@ def blocks(net: StreetNetwork, options: BlockOptions | None = None, *, origin: O
     options : BlockOptions
     origin, year
         Stamped on every block.
+    stamp : callable, optional
+        ``stamp(street_ids) -> (origin, year)`` of each block instead (the
+        engine's: from the streets around it), so that a block is made once
+        rather than made and then replaced.
     memo : FaceMemo, optional
         Kept by a caller that asks again after small changes (the engine,
         every year): read, then updated to this network's faces.
@@ -211,31 +266,42 @@ def blocks(net: StreetNetwork, options: BlockOptions | None = None, *, origin: O
     known = memo if memo is not None else FaceMemo()
     seen: dict[bytes, shapely.Polygon | None] = {}
     bounded, keys, edge_count, street_ids = [], [], [], []
-    for ring, edges, ids in faces(net):
-        if len(ring) < 4:
-            continue
+    found = _face_arrays(net)
+    # counter-clockwise rings of at least three edges: the only faces that may be blocks (the memo holds only
+    # rings that passed this test, and a ring is its key, so a remembered ring passes it again)
+    may = np.zeros(0, dtype=np.int64) if found is None else \
+        np.flatnonzero((np.diff(found.ring_at) >= 4) & (found.signed_areas() > 0))
+    ring_at = found.ring_at.tolist() if found is not None else []
+    id_at = found.id_at.tolist() if found is not None else []
+    for f in may.tolist():
+        ring = found.closed[ring_at[f]:ring_at[f + 1]]
         key = ring.tobytes()
-        if key in known.polygons or _signed_area(ring) > 0:  # the memo holds only rings that passed
-            poly = known.polygons[key] if key in known.polygons else _valid_polygon(ring)
-            seen[key] = poly
-            if poly is not None:  # a face walking a street twice or crossing a bridge is left out
-                bounded.append(poly)
-                keys.append(key)
-                edge_count.append(edges)
-                street_ids.append(ids)
+        poly = known.polygons[key] if key in known.polygons else _valid_polygon(ring)
+        seen[key] = poly
+        if poly is not None:  # a face walking a street twice or crossing a bridge is left out
+            bounded.append(poly)
+            keys.append(key)
+            edge_count.append(found.edges[f])
+            street_ids.append(found.ids[id_at[f]:id_at[f + 1]])
     unique = len(set(keys)) == len(keys)  # two faces on one ring (duplicated ways): ask about every face
     pairs = _settled_pairs(bounded, keys, known if unique else FaceMemo())
     if memo is not None:
         memo.polygons = seen if unique else {}
         memo.pairs = {(keys[i], keys[j]) for i, j in pairs.tolist()} if unique else set()
     # holes first (a sliver inside a block is still a hole in it), plausibility after
-    kept = [(k, p) for k, p in _disjoint(bounded, pairs)
-            if edge_count[k] <= opts.max_edges and opts.min_area <= p.area <= opts.max_area]
+    disjoint = _disjoint(bounded, pairs)
+    area = shapely.area(np.array([p for _, p in disjoint], dtype=object)).tolist() if disjoint else []
+    kept = [(k, p) for (k, p), a in zip(disjoint, area)
+            if edge_count[k] <= opts.max_edges and opts.min_area <= a <= opts.max_area]
     out = []
     holes = shapely.get_num_interior_rings(np.array([p for _, p in kept], dtype=object)).tolist() if kept else []
     for i, ((k, p), holed) in enumerate(zip(kept, holes)):  # holes counted at once: p.interiors is slow
-        ids = street_ids[k] if not holed else _edge_streets(p, bounded[k], street_ids[k])
-        out.append(Block(polygon=p, street_ids=tuple(ids.tolist()), id=i, origin=origin, year=year))
+        ids = tuple((street_ids[k] if not holed else _edge_streets(p, bounded[k], street_ids[k])).tolist())
+        if stamp is None:
+            out.append(Block(polygon=p, street_ids=ids, id=i, origin=origin, year=year))
+        else:
+            how, when = stamp(ids)
+            out.append(Block(polygon=p, street_ids=ids, id=i, origin=how, year=when))
     return out
 
 
@@ -313,5 +379,6 @@ def _disjoint(polys: list[shapely.Polygon], pairs: np.ndarray) -> list[tuple[int
             drop.add(large)
     for large, inner in holes.items():
         polys[large] = polys[large].difference(shapely.union_all([polys[k] for k in inner]))
-    return [(k, p) for k, p in enumerate(polys)
-            if k not in drop and not p.is_empty and p.geom_type == "Polygon"]
+    arr = np.array(polys, dtype=object)
+    ok = ~shapely.is_empty(arr) & (shapely.get_type_id(arr) == shapely.GeometryType.POLYGON)  # at once: per
+    return [(k, polys[k]) for k in np.flatnonzero(ok).tolist() if k not in drop]  # polygon, a fifth of blocks()

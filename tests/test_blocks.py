@@ -118,3 +118,45 @@ def test_a_face_memo_follows_a_real_town_when_a_district_is_added():
     memo = FaceMemo()
     for net in (city.network, grown.network, city.network):
         _same_blocks(blocks(net, memo=memo), blocks(net))
+
+
+def test_the_faces_signed_areas_at_once_have_the_sign_of_each_ring_alone():
+    """:func:`_Faces.signed_areas` sums every ring at once; the sign (block or not) is each ring's own,
+    degenerate rings (there and back along one street, zero area) included."""
+    import numpy as np
+    from hypothesis import given, settings
+    from hypothesis import strategies as st
+
+    from osm_expand.blocks import _Faces, _signed_area
+
+    coord = st.floats(-5000.0, 5000.0, allow_nan=False).map(lambda v: round(v, 3))
+    ring = st.lists(st.tuples(coord, coord), min_size=2, max_size=8).map(
+        lambda pts: pts + pts[-2::-1])  # out and back: signed area exactly zero, whatever the rounding
+    plain = st.lists(st.tuples(coord, coord), min_size=3, max_size=8)
+
+    @settings(max_examples=200, deadline=None)
+    @given(st.lists(st.one_of(ring, plain), min_size=1, max_size=6))
+    def check(rings):
+        closed = [np.array(r + r[:1], dtype=float) for r in rings]
+        at = np.concatenate([[0], np.cumsum([len(c) for c in closed])])
+        faces = _Faces(closed=np.concatenate(closed), ring_at=at, ids=np.zeros(0, np.int64),
+                       id_at=at - np.arange(len(at)), edges=[1] * len(closed))
+        got = faces.signed_areas()
+        for c, a in zip(closed, got.tolist()):
+            assert (a > 0) == (_signed_area(c) > 0)
+            assert abs(a - _signed_area(c)) <= 1e-6 * max(1.0, abs(_signed_area(c)))
+
+    check()
+
+
+def test_blocks_stamped_as_they_are_made_are_the_blocks_stamped_afterwards():
+    from osm_expand.blocks import FaceMemo
+    from osm_expand.model import Origin
+
+    net = network_from_lines(grid(4) + grid(2, 50.0, origin=(300.0, 300.0)))
+    stamp = lambda ids: (Origin.ENGINE, 2000 + min(ids)) if max(ids) % 2 else (Origin.SOURCE, None)  # noqa: E731
+    plain = blocks(net, year=1999)
+    stamped = blocks(net, year=1999, memo=FaceMemo(), stamp=stamp)
+    _same_blocks(stamped, plain)
+    assert [(b.id, b.origin, b.year) for b in stamped] == [(b.id, *stamp(b.street_ids)) for b in plain]
+    assert {b.origin for b in stamped} == {Origin.ENGINE, Origin.SOURCE}

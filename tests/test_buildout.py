@@ -197,7 +197,8 @@ def test_a_new_block_around_a_town_building_is_built_out_beyond_its_clearance():
 def test_a_lot_whose_street_changed_faces_the_street_its_edge_lies_on():
     from osm_expand.engine.buildout.lots import NO_STREET
     from osm_expand.engine.buildout.lots import Lot as EngineLot
-    from osm_expand.engine.buildout.year import LotState, _relabel, _Streets
+    from osm_expand.engine.buildout.memory import LotState
+    from osm_expand.engine.buildout.streets import _relabel, _Streets
 
     # a 20 m × 30 m lot behind a 7.5 m street along y = 0 (its front edge 3.75 m from the centre line)
     lot = EngineLot(ring=np.array([[0.0, 3.75], [20.0, 3.75], [20.0, 33.75], [0.0, 33.75]]),
@@ -563,3 +564,40 @@ def test_changed_lots_keep_the_bounds_of_their_new_type():
         made_as = land_use(state.lot.land_use)
         if made_as != land_use(types[lot.land_use].lot_size_key):  # its type moved to another lot class
             assert rule.min_area <= lot.polygon.area <= rule.max_area
+
+
+def test_the_build_outs_yearly_memos_give_what_a_fresh_computation_gives():
+    """The block keys, the streets' geometry and the blocks to build out, carried from year to year,
+    are those computed afresh, while streets are added, widened, moved and removed."""
+    from types import SimpleNamespace
+
+    from osm_expand.engine.buildout.memory import _Memo
+    from osm_expand.engine.buildout.new_lots import _buildable
+    from osm_expand.engine.buildout.streets import _block_keys, _streets
+    from osm_expand.model import City, network_from_lines
+
+    def grid(n, step, x0=0.0):
+        span = [i * step for i in range(n)]
+        return [[(x0 + x, y) for x in span] for y in span] + [[(x0 + x, y) for y in span] for x in span]
+
+    years = [grid(3, 100.0), grid(3, 100.0) + grid(2, 50.0, 400.0), grid(4, 100.0),
+             grid(4, 100.0)[:-1], grid(3, 100.0)]
+    memo = _Memo()
+    for k, lines in enumerate(years):
+        net = network_from_lines(lines)
+        widths = [None if (i + k) % 3 else 4.0 + k for i in range(len(net.streets))]  # widened some years
+        net = net.replace(streets=tuple(replace(s, width=w, origin=Origin.GROWN if i % 2 else Origin.SOURCE)
+                                        for i, (s, w) in enumerate(zip(net.streets, widths))))
+        city = City(network=net)
+        carried, _ = _streets(city, memo)
+        fresh, _ = _streets(city, _Memo())
+        assert np.array_equal(carried.ids, fresh.ids) and np.array_equal(carried.widths, fresh.widths)
+        assert all(a.equals_exact(b, 0.0) for a, b in zip(carried.lines, fresh.lines))
+        assert all(a.equals_exact(b, 0.0) for a, b in zip(carried.carriageways, fresh.carriageways))
+        assert set(memo.streets) == set(fresh.ids.tolist())
+        found = blocks(net)
+        assert _block_keys(found, memo) == _block_keys(found)
+        assert _block_keys(found, memo) == _block_keys(found)  # every polygon known now
+        work = SimpleNamespace(blocks=found, streets=fresh)
+        new_ids = set(fresh.ids[fresh.new].tolist())
+        assert _buildable(work).tolist() == [any(i in new_ids for i in b.street_ids) for b in found]

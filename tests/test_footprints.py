@@ -9,13 +9,11 @@ import shapely
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
+from osm_expand.engine.buildout.footprint_sizes import calibrate_sizes, calibrated_lot_options, footprint_dimensions
 from osm_expand.engine.buildout.footprints import (
     DEFAULT_FOOTPRINT_OPTIONS,
     FootprintOptions,
     Rectangle,
-    calibrate_sizes,
-    calibrated_lot_options,
-    footprint_dimensions,
     largest_street_rectangle,
     place_buildings,
 )

@@ -578,3 +578,38 @@ def test_segment_pieces_map_each_old_segment_to_the_run_it_became(seed):
     want = Pieces.of(_pieces_one_by_one(old, after))
     assert np.array_equal(got.offsets, want.offsets) and np.array_equal(got.flat, want.flat)
     assert all(0 <= s < len(new) for s in got.flat.tolist())
+
+
+def test_the_lots_people_summed_at_once_are_the_sum_lot_by_lot():
+    """``simulation._lot_people`` puts every lot's people on the middle segment of its street at once;
+    the per-segment sums are those of adding the lots one by one, bit for bit."""
+    from types import SimpleNamespace
+
+    from hypothesis import given, settings
+    from hypothesis import strategies as st
+
+    from osm_expand.engine.traffic.simulation import _lot_people
+
+    class Table(SimpleNamespace):
+        def __len__(self):
+            return len(self.street_id)
+
+    people = st.floats(0.0, 500.0, allow_nan=False)
+
+    @settings(max_examples=150, deadline=None)
+    @given(st.lists(st.integers(0, 6), max_size=25),
+           st.lists(st.tuples(st.one_of(st.none(), st.integers(-1, 8)), people), max_size=40))
+    def check(segment_streets, lots):
+        table = Table(street_id=np.array(segment_streets, dtype=np.int64))
+        city = SimpleNamespace(lots=[SimpleNamespace(street=s, people=p) for s, p in lots])
+        first: dict[int, list[int]] = {}
+        for k, sid in enumerate(segment_streets):
+            first.setdefault(sid, []).append(k)
+        want = np.zeros(len(segment_streets))
+        for lot in city.lots:  # the lot-by-lot rule
+            segs = first.get(lot.street)
+            if segs:
+                want[segs[len(segs) // 2]] += lot.people
+        assert np.array_equal(_lot_people(city, table), want)
+
+    check()

@@ -354,15 +354,14 @@ def _town_bearing(table: SegmentTable) -> float:
 
 def _with_blocks(city: City, year: int | None, faces: FaceMemo) -> City:
     """The city with its blocks recomputed; a block's origin and year from the streets around it."""
-    found = blocks(city.network, year=year, memo=faces)
     new_by_id = {s.id: s for s in city.network.streets if s.origin != Origin.SOURCE}  # most blocks have none
-    out = []
-    for blk in found:
-        new = [new_by_id[i] for i in blk.street_ids if i in new_by_id]
+
+    def stamp(street_ids: tuple[int, ...]) -> tuple[Origin, int | None]:
+        new = [new_by_id[i] for i in street_ids if i in new_by_id]
         if not new:
-            out.append(replace(blk, origin=Origin.SOURCE, year=None))
-            continue
+            return Origin.SOURCE, None
         origin = Origin.ENGINE if any(s.origin == Origin.ENGINE for s in new) else Origin.GROWN
         years = [s.year for s in new if s.year is not None]
-        out.append(replace(blk, origin=origin, year=max(years) if years else year))
-    return city.replace(blocks=tuple(out))
+        return origin, max(years) if years else year
+
+    return city.replace(blocks=tuple(blocks(city.network, year=year, memo=faces, stamp=stamp)))

@@ -8,7 +8,7 @@ reads, from the town as mapped (never changing it):
   rotated rectangles, which is what the ``<urbanenvironment>`` XML draws and
   what no generated building may overlap.
 - **Sizes** (002 §5.1 ``maxarea_t``, 004 §4.3.4): footprint area, frontage
-  and depth (:func:`~osm_expand.engine.buildout.footprints.calibrate_sizes`). The
+  and depth (:func:`~osm_expand.engine.buildout.footprint_sizes.calibrate_sizes`). The
   town's footprint-area distribution is then shared out among the lot
   classes that build (:func:`size_bands`): each class draws its buildings
   from a band of the town's area quantiles, as wide as its share of the
@@ -20,7 +20,7 @@ reads, from the town as mapped (never changing it):
   distribution and left Krems' median 12–36 % high); the build-out restacks
   the bands each year by the buildings it has and is about to build. Lot
   options are sized to hold these buildings
-  (:func:`~osm_expand.engine.buildout.footprints.calibrated_lot_options`).
+  (:func:`~osm_expand.engine.buildout.footprint_sizes.calibrated_lot_options`).
 - **Heights** (002 §5.2, 004 §4.3.4): storey height and height distribution
   from the ``height`` / ``building:levels`` *tags*
   (:func:`~osm_expand.engine.buildout.economy.calibrate_heights`); without tags the
@@ -61,7 +61,8 @@ from numpy.typing import NDArray
 from scipy import ndimage
 
 from osm_expand.engine.buildout.economy import HeightCalibration, calibrate_heights
-from osm_expand.engine.buildout.footprints import FootprintOptions, SizeTargets, calibrate_sizes, calibrated_lot_options
+from osm_expand.engine.buildout.footprint_sizes import calibrate_sizes, calibrated_lot_options
+from osm_expand.engine.buildout.footprints import FootprintOptions, SizeTargets
 from osm_expand.engine.buildout.landuse_osm import LandUseCalibration, calibrate_landuse, types_from_polygons
 from osm_expand.engine.buildout.landuse_types import UNASSIGNED, LandUseType
 from osm_expand.engine.buildout.lot_values import distance_to

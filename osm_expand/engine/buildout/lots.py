@@ -48,7 +48,7 @@ most of a field between villages).
 002's table of ``maxarea``/``minratio`` per land use is missing from the
 text; the defaults in :data:`DEFAULT_LOT_OPTIONS` are plausible European
 figures (see each field) and are meant to be calibrated from the town's own
-buildings (:func:`osm_expand.engine.buildout.footprints.calibrated_lot_options`).
+buildings (:func:`osm_expand.engine.buildout.footprint_sizes.calibrated_lot_options`).
 """
 from __future__ import annotations
 

@@ -173,16 +173,23 @@ def _segment_lookup(table: SegmentTable, a: np.ndarray, b: np.ndarray) -> np.nda
 
 
 def _lot_people(city: City, table: SegmentTable) -> np.ndarray:
-    """The lots' people on the middle segment of the street each lot faces."""
-    first: dict[int, list[int]] = {}
-    for k, sid in enumerate(table.street_id.tolist()):
-        first.setdefault(sid, []).append(k)
+    """The lots' people on the middle segment of the street each lot faces.
+
+    All lots at once: a street's segments in table order, its middle one
+    (``segments[len // 2]``) by a stable sort; the people summed per segment
+    in the lots' order, as one by one.
+    """
     people = np.zeros(len(table))
-    for lot in city.lots:
-        segs = first.get(lot.street)
-        if segs:
-            people[segs[len(segs) // 2]] += lot.people
-    return people
+    if not city.lots or not len(table):
+        return people
+    order = np.argsort(table.street_id, kind="stable")  # each street's segments, in table order
+    ids, start, count = np.unique(table.street_id[order], return_index=True, return_counts=True)
+    middle = order[start + count // 2]
+    street = np.array([-1 if lot.street is None else lot.street for lot in city.lots], dtype=np.int64)
+    at = np.minimum(np.searchsorted(ids, street), len(ids) - 1)
+    found = (ids[at] == street) & np.array([lot.street is not None for lot in city.lots], dtype=bool)
+    weights = np.array([lot.people for lot in city.lots], dtype=np.float64)[found]
+    return np.bincount(middle[at[found]], weights=weights, minlength=len(table)).astype(np.float64)
 
 
 def traffic_year(city: City, memory: TrafficMemory, rng: np.random.Generator, *, year: int, increase: float,

@@ -1,0 +1,209 @@
+"""The build-out's view of the year's streets (:class:`_Streets`: centre lines, carriageways, what
+changed since last year) and what they hit: lots and buildings a new or changed street now lies on,
+and a lot's edges given again to the streets they face when one of its streets changed.
+"""
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass, field, replace
+from typing import cast
+
+import numpy as np
+import shapely
+from numpy.typing import NDArray
+
+from osm_expand.engine.buildout.lots import NO_STREET
+from osm_expand.engine.buildout.memory import LotState, _Memo
+from osm_expand.model import Block, City, Lot, Status
+from osm_expand.model.segments import street_width
+
+# ============================================================================ the streets this year
+
+
+@dataclass(frozen=True, eq=False)
+class _Streets:
+    """The city's streets as arrays (S,): id, centre line, carriageway, width, built, made by the tool."""
+
+    ids: NDArray[np.int64]
+    lines: NDArray[np.object_]
+    carriageways: NDArray[np.object_]
+    widths: NDArray[np.float64]
+    built: NDArray[np.bool_]
+    new: NDArray[np.bool_]
+    #: ids of streets whose nodes or width changed since last year, or that are gone
+    changed: frozenset[int] = frozenset()
+    #: (S,) bool: streets new since last year, or whose nodes or width changed (all on the first year)
+    recent: NDArray[np.bool_] | None = None
+    #: the trees over ``lines`` and ``carriageways``, built in ``__post_init__``
+    line_tree: shapely.STRtree = field(init=False, repr=False)
+    carriageway_tree: shapely.STRtree = field(init=False, repr=False)
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "line_tree", shapely.STRtree(self.lines))
+        object.__setattr__(self, "carriageway_tree", shapely.STRtree(self.carriageways))
+
+    def only_recent(self) -> _Streets:
+        """The streets that are new or changed since last year: the only ones that can have come to lie
+        over a lot or building, since lots and buildings are made clear of every street there is."""
+        if self.recent is None or self.recent.all():
+            return self
+        keep = self.recent
+        return _Streets(ids=self.ids[keep], lines=self.lines[keep], carriageways=self.carriageways[keep],
+                        widths=self.widths[keep], built=self.built[keep], new=self.new[keep],
+                        changed=self.changed, recent=None)
+
+    @property
+    def built_ids(self) -> frozenset[int]:
+        return frozenset(self.ids[self.built].tolist())
+
+
+def _streets(city: City, memo: _Memo) -> tuple[_Streets, int]:
+    """The streets as arrays, and a hash of their geometry (ids, nodes, widths)."""
+    net = city.network
+    streets = [s for s in net.streets if len(s.nodes) >= 2]
+    widths = np.array([street_width(s) for s in streets], dtype=np.float64)
+    lines = np.empty(len(streets), dtype=object)
+    carriageways = np.empty(len(streets), dtype=object)
+    fresh = []
+    changed = set(memo.streets) - {s.id for s in streets}
+    first = not memo.streets
+    for k, (s, w) in enumerate(zip(streets, widths.tolist())):
+        hit = memo.streets.get(s.id)
+        if hit is not None and hit[0] == s.nodes and hit[1] == w:
+            lines[k], carriageways[k] = hit[2], hit[3]
+        else:
+            fresh.append(k)
+            if hit is not None:
+                changed.add(s.id)
+    recent = np.ones(len(streets), dtype=bool) if first else np.isin(np.arange(len(streets)), fresh)
+    if fresh:
+        sizes = np.array([len(streets[k].nodes) for k in fresh], dtype=np.int64)
+        coords = net.xy[np.concatenate([np.asarray(streets[k].nodes, dtype=np.intp) for k in fresh])]
+        made = shapely.linestrings(coords, indices=np.repeat(np.arange(len(fresh)), sizes))
+        lines[fresh] = made
+        carriageways[fresh] = shapely.buffer(made, 0.5 * widths[fresh], quad_segs=4)
+    for sid in changed - {streets[k].id for k in fresh}:  # gone (a street that changed is made again below)
+        del memo.streets[sid]
+    for k in fresh:  # the others' entries hold as they are
+        memo.streets[streets[k].id] = (streets[k].nodes, float(widths[k]), lines[k], carriageways[k])
+    signature = hash(tuple((s.id, s.nodes, w) for s, w in zip(streets, widths.tolist())))
+    table = _Streets(ids=np.array([s.id for s in streets], dtype=np.int64), lines=lines, carriageways=carriageways,
+                     widths=widths, built=np.array([s.status == Status.BUILT for s in streets], dtype=bool),
+                     new=np.array([s.is_new for s in streets], dtype=bool), changed=frozenset(changed),
+                     recent=recent)
+    return table, signature
+
+
+# ============================================================================ demolition
+
+
+def _on_streets(polys: NDArray[np.object_], streets: _Streets
+                ) -> tuple[NDArray[np.bool_], NDArray[np.intp], NDArray[np.float64]]:
+    """Which of ``polys`` a centre line crosses, (N,) bool, and each (polygon, carriageway) pair that
+    meets: the polygon's index and the m² they share. One pass over the streets' two trees for both
+    kinds of thing a widened or new street may take (lots and buildings)."""
+    crossed = np.zeros(len(polys), dtype=bool)
+    if not len(polys) or not len(streets.lines):
+        return crossed, np.zeros(0, dtype=np.intp), np.zeros(0)
+    idx, _ = streets.line_tree.query(polys, predicate="intersects")
+    crossed[idx] = True
+    idx, cw = streets.carriageway_tree.query(polys, predicate="intersects")
+    on = shapely.area(shapely.intersection(polys[idx], streets.carriageways[cw])) if len(idx) else np.zeros(0)
+    return crossed, idx, on
+
+
+def _lots_hit(polys: NDArray[np.object_], streets: _Streets, overlap: float) -> NDArray[np.bool_]:
+    """Lots a centre line crosses, or with more than ``overlap`` of their area on carriageways, (L,) bool."""
+    hit, idx, on = _on_streets(polys, streets)
+    if len(idx):
+        share = np.bincount(idx, weights=on, minlength=len(polys)) / np.maximum(shapely.area(polys), 1e-9)
+        hit |= share > overlap
+    return hit
+
+
+def _buildings_hit(polys: NDArray[np.object_], streets: _Streets, overlap: float) -> NDArray[np.bool_]:
+    """Buildings (or new lots) crossed by a centre line or with more than ``overlap`` m² on a carriageway, (N,) bool."""
+    hit, idx, on = _on_streets(polys, streets)
+    hit[idx[on > overlap]] = True
+    return hit
+    idx, _ = streets.line_tree.query(polys, predicate="intersects")
+    hit[idx] = True
+    idx, cw = streets.carriageway_tree.query(polys, predicate="intersects")
+    if len(idx):
+        on = shapely.area(shapely.intersection(polys[idx], streets.carriageways[cw]))
+        hit[idx[on > overlap]] = True
+    return hit
+
+
+def _on_carriageway(polys: NDArray[np.object_], streets: _Streets, tolerance: float = 0.05) -> NDArray[np.bool_]:
+    """Polygons closer than half its width (less ``tolerance`` m) to some street's centre line, (N,) bool."""
+    hit = np.zeros(len(polys), dtype=bool)
+    if not len(polys) or not len(streets.lines):
+        return hit
+    half = 0.5 * streets.widths
+    idx, line = streets.line_tree.query(polys, predicate="dwithin", distance=float(half.max()))
+    close = shapely.distance(polys[idx], streets.lines[line]) < half[line] - tolerance
+    hit[idx[close]] = True
+    return hit
+
+
+def _block_keys(blocks: Sequence[Block], memo: _Memo | None = None) -> list[tuple[int, int, int]]:
+    """Each block's identity across recomputations: area and centroid rounded to whole metres.
+
+    With ``memo`` (the build-out's, kept from year to year) only the blocks
+    whose polygon objects it has not seen are measured; the memo then holds
+    this year's blocks alone.
+    """
+    if not blocks:
+        if memo is not None:
+            memo.block_keys = {}
+        return []
+    known = memo.block_keys if memo is not None else {}
+    hits = [(b.polygon, known.get(id(b.polygon))) for b in blocks]
+    keys: list[tuple[int, int, int] | None] = [h[1] if h is not None and h[0] is p else None for p, h in hits]
+    todo = [k for k, key in enumerate(keys) if key is None]
+    if todo:
+        polys = np.array([blocks[k].polygon for k in todo], dtype=object)
+        area = np.rint(shapely.area(polys)).astype(np.int64)
+        centre = np.rint(shapely.get_coordinates(shapely.centroid(polys))).astype(np.int64)
+        for k, key in zip(todo, zip(area.tolist(), centre[:, 0].tolist(), centre[:, 1].tolist())):
+            keys[k] = key
+    if memo is not None:
+        memo.block_keys = {id(b.polygon): (b.polygon, key) for b, key in zip(blocks, keys)}
+    return cast(list[tuple[int, int, int]], keys)
+
+
+def _relabel(state: LotState, streets: _Streets, tolerance: float = 1.0) -> LotState | None:
+    """The lot with its street-facing edges given again to the streets they lie on, when one of its
+    streets changed (moved, was split, widened or is gone); None when it fronts no street any more.
+
+    An edge that faced a street faces the street whose centre line is nearest to its ends and its
+    midpoint (the largest of the three distances), if that is at most the street's half width plus
+    ``tolerance`` m (a lot's edges lie half the width from the centre line; a widened street comes
+    nearer); else it faces none. Edges that faced no street keep facing none.
+    """
+    if not any(s in streets.changed for s in state.streets):
+        return state
+    ring, lab = state.lot.ring, state.lot.edge_street.copy()
+    front = np.flatnonzero(lab >= 0)
+    lab[front] = NO_STREET
+    if len(streets.lines):
+        a, b = ring[front], ring[(front + 1) % len(ring)]
+        half = 0.5 * streets.widths
+        mids = shapely.points(0.5 * (a + b))
+        edge, cand = streets.line_tree.query(mids, predicate="dwithin", distance=float(half.max()) + tolerance)
+        lines = streets.lines[cand]
+        worst = np.maximum.reduce([shapely.distance(shapely.points(a[edge]), lines),
+                                   shapely.distance(mids[edge], lines),
+                                   shapely.distance(shapely.points(b[edge]), lines)])
+        ok = worst <= half[cand] + tolerance
+        edge, cand, worst = edge[ok], cand[ok], worst[ok]
+        order = np.lexsort((cand, worst, edge))  # per edge, the nearest street first
+        edge, cand = edge[order], cand[order]
+        first = np.ones(len(edge), dtype=bool)
+        first[1:] = edge[1:] != edge[:-1]
+        lab[front[edge[first]]] = streets.ids[cand[first]]
+    if not (lab >= 0).any():
+        return None
+    return replace(state, lot=Lot(ring=ring, edge_street=lab, block=state.lot.block, land_use=state.lot.land_use),
+                   tried=None)
