@@ -84,11 +84,19 @@ class RoutingOptions:
     #: (at least twice its exits' reach) before it is searched again; 0.25 took Campo Grande's first
     #: two road searches from 8.7 + 6.8 s and 1.6 GB to 2.0 + 5.2 s and 1.0 GB (0.5: 3.2 + 6.3 s, 1.2 GB)
     growth_share: float = 0.25
+    #: share of the two ends' distance added to ``window_margin`` for the half-width of a first
+    #: window that is a corridor along their straight line, used when the rectangle round the ends
+    #: would be more than ``whole_share`` of the map (far ends of a large town: the rectangle, then
+    #: the whole map, took the synthetic 10,000-street town past 18 GB in its first search); it
+    #: doubles until the proof holds or it would be as large as that rectangle, then the search goes
+    #: on from the rectangle
+    corridor_share: float = 0.1
 
     def __post_init__(self) -> None:
-        if not (self.window_margin > 0 and self.window_share >= 0 and self.growth_share > 0):
+        if not (self.window_margin > 0 and self.window_share >= 0 and self.growth_share > 0
+                and self.corridor_share >= 0):
             raise InputError("RoutingOptions: window_margin and growth_share must be positive and window_share "
-                             "not negative")
+                             "and corridor_share not negative")
         if not (self.turn_width > 0 and self.turn_height >= 0):
             raise InputError("RoutingOptions: turn_width must be positive and turn_height not negative")
         if self.heading_bins < 4:
@@ -258,11 +266,21 @@ def _implicit_route(graph: ImplicitGraph, source: int, target: int, kinds: Seque
     whole = np.array(graph.lattice.bounds)
     reach = graph.options.stitch_radius + graph.lattice.radius * graph.lattice.spacing
     penalties = _bin_penalties(opts)
+    map_area = float(np.prod(whole[2:] - whole[:2]))
+    distance = float(np.hypot(*(ends[1] - ends[0])))
+    half = opts.window_margin + opts.corridor_share * distance
+    # far ends: the rectangle round them is most of the map, so the first windows are corridors
+    corridor = _seen(bounds, whole) > opts.whole_share * map_area
     while True:
-        seen = np.prod(np.minimum(bounds[2:], whole[2:]) - np.maximum(bounds[:2], whole[:2]))
-        if seen > opts.whole_share * np.prod(whole[2:] - whole[:2]):  # nearly the map's size: take the map
-            bounds = whole
-        window = graph.window(tuple(bounds))
+        if corridor and (distance + 2.0 * half) * 2.0 * half >= _seen(bounds, whole):
+            corridor = False  # a corridor this wide is no smaller than the rectangle: on as before
+        if corridor:
+            box = (lo[0] - half, lo[1] - half, hi[0] + half, hi[1] + half)
+            window = graph.window(box, corridor=(ends[0], ends[1], half))
+        else:
+            if _seen(bounds, whole) > opts.whole_share * map_area:  # nearly the map's size: take the map
+                bounds = whole
+            window = graph.window(tuple(bounds))
         s, t = window.from_map(np.array([source, target])).tolist()
         route, from_source = _search(window.graph, s, t, kinds, street_ok, opts)
         if window.whole or from_source is None:
@@ -286,6 +304,9 @@ def _implicit_route(graph: ImplicitGraph, source: int, target: int, kinds: Seque
             short = reached + rest < limit
         if not short.any():
             return _on_map(window, route, from_source)
+        if corridor:
+            half *= 2.0
+            continue
         grown = _grown(bounds, np.array(window.graph.lattice.bounds), exit_xy[short], reached[short], ends[1],
                        cost, c, reach)
         if np.isfinite(cost):
@@ -296,6 +317,11 @@ def _implicit_route(graph: ImplicitGraph, source: int, target: int, kinds: Seque
             step = np.maximum(opts.growth_share * size, 2.0 * reach) * np.array([-1, -1, 1, 1])
             grown = np.where(step < 0, np.maximum(grown, bounds + step), np.minimum(grown, bounds + step))
         bounds = grown
+
+
+def _seen(bounds: np.ndarray, whole: np.ndarray) -> float:
+    """m², the part of the map a window's bounds cover."""
+    return float(np.prod(np.maximum(np.minimum(bounds[2:], whole[2:]) - np.maximum(bounds[:2], whole[:2]), 0.0)))
 
 
 def _grown(bounds: np.ndarray, inside: np.ndarray, exits: np.ndarray, reached: np.ndarray, target: np.ndarray,
