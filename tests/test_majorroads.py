@@ -626,8 +626,8 @@ def test_on_krems_the_implicit_search_finds_routes_of_the_same_cost_in_a_part_of
     g, segs, exits, _, implicit = krems
     seen: list[int] = []
     window = ImplicitGraph.window
-    monkeypatch.setattr(ImplicitGraph, "window", lambda self, bounds: seen.append(
-        (w := window(self, bounds)).graph.lattice.n_vertices) or w)
+    monkeypatch.setattr(ImplicitGraph, "window", lambda self, bounds, corridor=None: seen.append(
+        (w := window(self, bounds, corridor)).graph.lattice.n_vertices) or w)
     rng = np.random.default_rng(3)
     nodes = np.concatenate([exits[:3], rng.choice(len(segs.xy), 2, replace=False)])
     for k, (a, b) in enumerate(zip(nodes[:-1], nodes[1:])):
@@ -857,9 +857,9 @@ def test_counting_turns_at_the_exits_keeps_the_search_exact(seed):
 @settings(max_examples=10, deadline=None)
 @given(st.integers(0, 2**32 - 1))
 def test_a_corridor_along_far_ends_finds_the_cost_of_the_whole_map(seed):
-    """Issue 22: two ends whose rectangle is most of the map are searched first in a corridor along
-    their straight line (its vertices only, its side's band and the street points near it exits), so
-    memory follows the corridor. On a street grid with a river and forbidden blobs, every route costs
+    """Issue 22: with ``corridor_share`` set (off by default), two ends whose rectangle is most of the
+    map are searched first in a corridor along their straight line (its vertices only, its side's band
+    and the street points near it exits), so memory follows the corridor. On a street grid with a river and forbidden blobs, every route costs
     what the whole map's G′ gives, and some searches end in a corridor."""
     from osm_expand.engine.roads.path_graph import ImplicitGraph
     rng = np.random.default_rng(seed)
@@ -904,3 +904,32 @@ def test_a_corridor_along_far_ends_finds_the_cost_of_the_whole_map(seed):
     finally:
         ImplicitGraph.window = real
     assert any(windows)
+
+
+@settings(max_examples=10, deadline=None)
+@given(st.integers(0, 2**32 - 1))
+def test_shell_stitches_carried_over_from_last_year_equal_those_checked_afresh(seed):
+    """Issue 22: a year's street part reuses last year's street tests of the shell stitches that
+    nothing changed near (``ShellVerdicts``); with streets added and removed between the two
+    years, the stitches equal those of a street part made from scratch."""
+    from osm_expand.engine.roads.path_graph import street_part
+    rng = np.random.default_rng(seed)
+    extent = (0, 0, 1200, 1200)
+    lines = grid_lines(300, 300, int(rng.integers(3, 6)), 120.0)
+    lat = build_lattice(extent, water=river(extent, 1000, 1060), options=LatticeOptions(radius=2))
+
+    def part(lines, previous=None):
+        segs = Segments.from_lines(lines, major=[False] * len(lines), width=[6.0] * len(lines))
+        built = built_up_area(blocks_of(segs), segs)
+        return street_part(lat.with_built_up(built.area), segs, built, previous=previous)
+
+    first = part(lines)
+    later = [lines[k] for k in range(len(lines)) if k != int(rng.integers(len(lines)))]  # one street goes
+    for _ in range(int(rng.integers(1, 4))):  # and a few come, some across the shell
+        a = rng.uniform(150, 1000, 2)
+        later.append(np.stack([a, a + rng.uniform(-250, 250, 2)]))
+    fresh, carried = part(later), part(later, first.verdicts)
+    assert first.verdicts is not None and len(fresh.shell[0])
+    for x, y in zip(fresh.shell, carried.shell):
+        assert np.array_equal(x, y)
+    assert np.array_equal(fresh.verdicts.clear, carried.verdicts.clear)
