@@ -929,7 +929,20 @@ def test_shell_stitches_carried_over_from_last_year_equal_those_checked_afresh(s
         a = rng.uniform(150, 1000, 2)
         later.append(np.stack([a, a + rng.uniform(-250, 250, 2)]))
     fresh, carried = part(later), part(later, first.verdicts)
-    assert first.verdicts is not None and len(fresh.shell[0])
+    assert first.verdicts is not None
     for x, y in zip(fresh.shell, carried.shell):
         assert np.array_equal(x, y)
     assert np.array_equal(fresh.verdicts.clear, carried.verdicts.clear)
+    # the stitches to the lattice likewise, carried from the last G′'s searched windows
+    def graph(lines, previous=None):
+        segs = Segments.from_lines(lines, major=[False] * len(lines), width=[6.0] * len(lines))
+        built = built_up_area(blocks_of(segs), segs)
+        return implicit_graph(lat.with_built_up(built.area), segs, built, previous_lattice=previous)
+
+    box = tuple(float(v) for v in (*rng.uniform(0, 250, 2), *rng.uniform(950, 1200, 2)))
+    last = graph(lines)
+    last.window(box)
+    assert last.lattice_verdicts() is not None
+    new, old = graph(later).window(box).graph, graph(later, last.lattice_verdicts()).window(box).graph
+    for name in ("src", "dst", "kind", "weight"):
+        assert np.array_equal(getattr(new, name), getattr(old, name))

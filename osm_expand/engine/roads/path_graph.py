@@ -40,7 +40,7 @@ from osm_expand.model.options import require_positive
 
 __all__ = [
     "EdgeCosts", "GraphOptions", "PathGraph", "pathfinding_graph", "ShellVerdicts", "StreetPart", "street_part",
-    "GraphWindow", "ImplicitGraph", "implicit_graph",
+    "GraphWindow", "ImplicitGraph", "implicit_graph", "lattice_verdicts",
 ]
 
 
@@ -362,7 +362,7 @@ def street_part(lattice: Lattice, segments: Segments, built: BuiltUpArea | None 
                                opts.shell_stitch_radius)
         shell = np.unique(np.sort(shell[shell[:, 0] != shell[:, 1]], axis=1), axis=0)
         shell = shell[~_duplicates_piece(shell, pieces, 0, n_nodes, len(xy))]
-        ok, verdicts = _shell_ok(lattice, segments, xy, shell, split_parent, opts, tree, inner, previous)
+        ok, verdicts = _carried_ok(lattice, segments, xy, shell, split_parent, 0, opts, tree, inner, previous)
         shell = shell[ok]
     part = StreetPart(segments=segments, blocks=blocks, extendible=extendible, split_xy=split_xy,
                       split_parent=split_parent, pieces=pieces, xy=xy, points=points, edges=edges,
@@ -500,8 +500,13 @@ def _lattice_stitches(lattice: Lattice, segments: Segments, streets: StreetPart,
         ids = chosen + n_lat
         pairs = _nearest_pairs(xy[ids], xy[targets], ids, targets, opts.max_stitches, opts.stitch_radius,
                                keys=lattice.map_vertex(targets))
-        return pairs[_stitch_ok(lattice, segments, xy, pairs, streets.split_parent, n_lat, opts, streets.tree,
-                                streets.inner)]
+        if cache is None:
+            return pairs[_stitch_ok(lattice, segments, xy, pairs, streets.split_parent, n_lat, opts, streets.tree,
+                                    streets.inner)]
+        ok, verdicts = _carried_ok(lattice, segments, xy, pairs, streets.split_parent, n_lat, opts, streets.tree,
+                                   streets.inner, cache.get("previous"))
+        cache.setdefault("verdicts", []).append(verdicts)
+        return pairs[ok]
 
     if cache is None:
         return checked(points)
@@ -598,8 +603,14 @@ class ImplicitGraph:
     streets: StreetPart
     costs: EdgeCosts
     options: GraphOptions
-    #: the stitches already checked this year (see :func:`pathfinding_graph`)
+    #: the stitches already checked this year (see :func:`pathfinding_graph`); ``"previous"``: the
+    #: street verdicts of the last G′'s stitches to the lattice (:meth:`lattice_verdicts`)
     stitches: dict = field(default_factory=dict, repr=False, compare=False)
+
+    def lattice_verdicts(self) -> ShellVerdicts | None:
+        """The street verdicts of every stitch to the lattice checked so far, for the next G′
+        (:func:`implicit_graph`'s ``previous_lattice``); None when none was checked."""
+        return lattice_verdicts(self.stitches)
 
     @property
     def n_lattice(self) -> int:
@@ -706,6 +717,16 @@ class ImplicitGraph:
                            else np.zeros(0, dtype=np.int64), n_map_lattice=lat.n_vertices)
 
 
+def lattice_verdicts(stitches: dict) -> ShellVerdicts | None:
+    """The street verdicts of the stitches to the lattice in an :attr:`ImplicitGraph.stitches`
+    (filled as its windows are searched); None when none was checked."""
+    done = stitches.get("verdicts", [])
+    if not done:
+        return None
+    return ShellVerdicts(segments=done[0].segments, pairs=np.concatenate([v.pairs for v in done]),
+                         clear=np.concatenate([v.clear for v in done]))
+
+
 def _segment_distance(xy: np.ndarray, a: np.ndarray, b: np.ndarray) -> np.ndarray:
     """Distance (m) of each point ``(n, 2)`` from the straight segment a–b."""
     ab = np.asarray(b, dtype=float) - np.asarray(a, dtype=float)
@@ -715,7 +736,8 @@ def _segment_distance(xy: np.ndarray, a: np.ndarray, b: np.ndarray) -> np.ndarra
 
 def implicit_graph(lattice: Lattice, segments: Segments, built: BuiltUpArea | None = None, *,
                    costs: EdgeCosts | None = None, options: GraphOptions | None = None,
-                   previous: ShellVerdicts | None = None) -> ImplicitGraph:
+                   previous: ShellVerdicts | None = None,
+                   previous_lattice: ShellVerdicts | None = None) -> ImplicitGraph:
     """This year's G′ without its lattice tables: only the street part is made now.
 
     Parameters
@@ -724,6 +746,9 @@ def implicit_graph(lattice: Lattice, segments: Segments, built: BuiltUpArea | No
         As :func:`pathfinding_graph`.
     previous
         Last year's shell verdicts (:attr:`StreetPart.verdicts`), see :func:`street_part`.
+    previous_lattice
+        The last G′'s verdicts on the stitches to the lattice (:meth:`ImplicitGraph.lattice_verdicts`):
+        a stitch nothing changed near is not tested against the streets again.
 
     Returns
     -------
@@ -734,7 +759,8 @@ def implicit_graph(lattice: Lattice, segments: Segments, built: BuiltUpArea | No
     return ImplicitGraph(lattice=lattice, segments=segments,
                          streets=street_part(lattice, segments, built, costs=costs, options=opts,
                                              previous=previous),
-                         costs=costs, options=opts)
+                         costs=costs, options=opts,
+                         stitches={} if previous_lattice is None else {"previous": previous_lattice})
 
 
 def _split_segments(segments: Segments, split: np.ndarray, spacing: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -907,17 +933,17 @@ def _keys(values: np.ndarray) -> np.ndarray:
     return v.view(np.dtype((np.void, v.dtype.itemsize * v.shape[1]))).ravel()
 
 
-def _shell_ok(lattice: Lattice, segments: Segments, xy: np.ndarray, pairs: np.ndarray, split_parent: np.ndarray,
-              opts: GraphOptions, tree: shapely.STRtree, inner: shapely.Geometry | None,
-              previous: ShellVerdicts | None) -> tuple[np.ndarray, ShellVerdicts]:
-    """:func:`_stitch_ok` of the shell stitches (street-local ids), the street tests carried over
-    from ``previous`` where nothing near a stitch changed (see :class:`ShellVerdicts`)."""
+def _carried_ok(lattice: Lattice, segments: Segments, xy: np.ndarray, pairs: np.ndarray, split_parent: np.ndarray,
+                n_lat: int, opts: GraphOptions, tree: shapely.STRtree, inner: shapely.Geometry | None,
+                previous: ShellVerdicts | None) -> tuple[np.ndarray, ShellVerdicts]:
+    """:func:`_stitch_ok`, the street tests carried over from ``previous`` where nothing near a
+    stitch changed (see :class:`ShellVerdicts`), and this call's street verdicts."""
     n_nodes = len(segments.xy)
     a, b = segments.a, segments.b
     first = (a[:, 0] < b[:, 0]) | ((a[:, 0] == b[:, 0]) & (a[:, 1] <= b[:, 1]))
     seg_keys = _keys(np.concatenate([np.where(first[:, None], a, b), np.where(first[:, None], b, a)], axis=1))
-    pair_keys = _keys(np.concatenate([xy[pairs[:, 0]], xy[pairs[:, 1]],
-                                      (pairs >= n_nodes).astype(np.float64)], axis=1))
+    end_kind = np.where(pairs < n_lat, 2, np.where(pairs - n_lat >= n_nodes, 1, 0))  # lattice, split, node
+    pair_keys = _keys(np.concatenate([xy[pairs[:, 0]], xy[pairs[:, 1]], end_kind.astype(np.float64)], axis=1))
     dry = _dry(lattice, xy, pairs, opts)
     clear = np.zeros(len(pairs), dtype=bool)
     todo = np.ones(len(pairs), dtype=bool)
@@ -943,7 +969,7 @@ def _shell_ok(lattice: Lattice, segments: Segments, xy: np.ndarray, pairs: np.nd
         clear[reuse] = previous.clear[order][at][reuse]
         todo = ~reuse
     check = np.flatnonzero(todo & dry)
-    clear[check] = _street_clear(segments, xy, pairs[check], split_parent, 0, opts, tree)
+    clear[check] = _street_clear(segments, xy, pairs[check], split_parent, n_lat, opts, tree)
     ok = dry & clear
     if inner is not None:
         live = np.flatnonzero(ok)
