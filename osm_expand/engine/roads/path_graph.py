@@ -21,6 +21,11 @@ cross it), and :func:`osm_expand.engine.roads.routing.find_route` grows the wind
 until no exit can lead to a cheaper route. On Campo Grande (a lattice of
 1118 × 532 vertices) the whole G′ had 134 million adjacency entries; a
 window holds the corridor a route can use.
+
+**From year to year** the stitches' street tests (does it cross or graze a
+street?) are carried over (:class:`ShellVerdicts`): a year's G′ tests again
+only the stitches a segment was added or removed near; the others keep the
+last G′'s verdict, so the result is the one a fresh check gives.
 """
 from __future__ import annotations
 
