@@ -626,8 +626,8 @@ def test_on_krems_the_implicit_search_finds_routes_of_the_same_cost_in_a_part_of
     g, segs, exits, _, implicit = krems
     seen: list[int] = []
     window = ImplicitGraph.window
-    monkeypatch.setattr(ImplicitGraph, "window", lambda self, bounds: seen.append(
-        (w := window(self, bounds)).graph.lattice.n_vertices) or w)
+    monkeypatch.setattr(ImplicitGraph, "window", lambda self, bounds, corridor=None: seen.append(
+        (w := window(self, bounds, corridor)).graph.lattice.n_vertices) or w)
     rng = np.random.default_rng(3)
     nodes = np.concatenate([exits[:3], rng.choice(len(segs.xy), 2, replace=False)])
     for k, (a, b) in enumerate(zip(nodes[:-1], nodes[1:])):
@@ -852,3 +852,97 @@ def test_counting_turns_at_the_exits_keeps_the_search_exact(seed):
     finally:
         routing._arrival_costs = arrival
     assert calls
+
+
+@settings(max_examples=10, deadline=None)
+@given(st.integers(0, 2**32 - 1))
+def test_a_corridor_along_far_ends_finds_the_cost_of_the_whole_map(seed):
+    """Issue 22: with ``corridor_share`` set (off by default), two ends whose rectangle is most of the
+    map are searched first in a corridor along their straight line (its vertices only, its side's band
+    and the street points near it exits), so memory follows the corridor. On a street grid with a river and forbidden blobs, every route costs
+    what the whole map's G′ gives, and some searches end in a corridor."""
+    from osm_expand.engine.roads.path_graph import ImplicitGraph
+    rng = np.random.default_rng(seed)
+    extent = (0, 0, 1600, 1600)
+    centres, radii = rng.uniform(50, 1550, (5, 2)), rng.uniform(20, 80, 5)
+    blobs = raster(lambda x, y: (np.hypot(x[..., None] - centres[:, 0], y[..., None] - centres[:, 1])
+                                 < radii).any(axis=-1), extent, cell=10.0)
+    y_lo = float(rng.uniform(100, 1400))
+    n = int(rng.integers(3, 7))
+    lines = grid_lines(500, 500, n, 600 / n)
+    segs = Segments.from_lines(lines, major=[bool(b) for b in rng.integers(0, 2, len(lines))],
+                               width=[6.0] * len(lines))
+    built = built_up_area(blocks_of(segs), segs)
+    lat = build_lattice(extent, water=river(extent, y_lo, y_lo + 40), forbidden=blobs,
+                        options=LatticeOptions(radius=int(rng.integers(2, 4)))).with_built_up(built.area)
+    implicit = implicit_graph(lat, segs, built)
+    whole = implicit.whole()
+    live = whole.live_vertices()
+    xy = whole.xy[live]
+    opts = RoutingOptions(turn_height=float(rng.uniform(20, 400)), window_margin=float(rng.uniform(20, 80)),
+                          window_share=0.0, corridor_share=float(rng.uniform(0.0, 0.15)),
+                          whole_share=float(rng.uniform(0.05, 0.3)))
+    windows = []
+    real = ImplicitGraph.window
+
+    def counted(self, bounds, corridor=None):
+        windows.append(corridor is not None)
+        return real(self, bounds, corridor)
+
+    ImplicitGraph.window = counted
+    try:
+        for _ in range(3):
+            s = int(live[rng.integers(len(live))])
+            far = np.hypot(*(xy - whole.xy[s]).T)
+            t = int(live[np.argmax(far - rng.uniform(0, 300, len(far)))])  # a far end
+            old = find_route(whole, s, t, options=opts)
+            new = find_route(implicit, s, t, options=opts)
+            assert (old is None) == (new is None)
+            if old is not None:
+                assert new.cost == pytest.approx(old.cost, rel=1e-9, abs=1e-6)
+                assert np.array_equal(whole.xy[new.vertices], new.xy)
+    finally:
+        ImplicitGraph.window = real
+    assert any(windows)
+
+
+@settings(max_examples=10, deadline=None)
+@given(st.integers(0, 2**32 - 1))
+def test_shell_stitches_carried_over_from_last_year_equal_those_checked_afresh(seed):
+    """Issue 22: a year's street part reuses last year's street tests of the shell stitches that
+    nothing changed near (``ShellVerdicts``); with streets added and removed between the two
+    years, the stitches equal those of a street part made from scratch."""
+    from osm_expand.engine.roads.path_graph import street_part
+    rng = np.random.default_rng(seed)
+    extent = (0, 0, 1200, 1200)
+    lines = grid_lines(300, 300, int(rng.integers(3, 6)), 120.0)
+    lat = build_lattice(extent, water=river(extent, 1000, 1060), options=LatticeOptions(radius=2))
+
+    def part(lines, previous=None):
+        segs = Segments.from_lines(lines, major=[False] * len(lines), width=[6.0] * len(lines))
+        built = built_up_area(blocks_of(segs), segs)
+        return street_part(lat.with_built_up(built.area), segs, built, previous=previous)
+
+    first = part(lines)
+    later = [lines[k] for k in range(len(lines)) if k != int(rng.integers(len(lines)))]  # one street goes
+    for _ in range(int(rng.integers(1, 4))):  # and a few come, some across the shell
+        a = rng.uniform(150, 1000, 2)
+        later.append(np.stack([a, a + rng.uniform(-250, 250, 2)]))
+    fresh, carried = part(later), part(later, first.verdicts)
+    assert first.verdicts is not None
+    for x, y in zip(fresh.shell, carried.shell):
+        assert np.array_equal(x, y)
+    assert np.array_equal(fresh.verdicts.clear, carried.verdicts.clear)
+    # the stitches to the lattice likewise, carried from the last G′'s searched windows
+    def graph(lines, previous=None):
+        segs = Segments.from_lines(lines, major=[False] * len(lines), width=[6.0] * len(lines))
+        built = built_up_area(blocks_of(segs), segs)
+        return implicit_graph(lat.with_built_up(built.area), segs, built, previous_lattice=previous)
+
+    box = tuple(float(v) for v in (*rng.uniform(0, 250, 2), *rng.uniform(950, 1200, 2)))
+    last = graph(lines)
+    last.window(box)
+    assert last.lattice_verdicts() is not None
+    new, old = graph(later).window(box).graph, graph(later, last.lattice_verdicts()).window(box).graph
+    for name in ("src", "dst", "kind", "weight"):
+        assert np.array_equal(getattr(new, name), getattr(old, name))

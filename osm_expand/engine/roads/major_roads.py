@@ -31,7 +31,7 @@ from osm_expand.engine.history import History, YearValues
 from osm_expand.engine.planarity import without_touching
 from osm_expand.engine.roads.built_up import BuiltUpArea, Segments, built_up_area
 from osm_expand.engine.roads.lattice import Lattice, Raster, build_lattice
-from osm_expand.engine.roads.path_graph import implicit_graph
+from osm_expand.engine.roads.path_graph import ShellVerdicts, implicit_graph, lattice_verdicts
 from osm_expand.engine.roads.road_types import RoadType, plan_major_road, propose_route
 from osm_expand.engine.roads.routing import Choice, choose, route_over_major_roads
 from osm_expand.engine.traffic.simulation import TrafficMemory, follow, trade_major
@@ -61,6 +61,11 @@ class RoadMemory:
 
     lattice: Lattice | None = None
     built: BuiltUpArea | None = None
+    #: the last G′'s shell-stitch verdicts: a stitch nothing changed near is not checked again
+    verdicts: ShellVerdicts | None = None
+    #: the last G′'s stitches to the lattice, filled as its windows were searched (its verdicts
+    #: are the next G′'s, :func:`~osm_expand.engine.roads.path_graph.lattice_verdicts`)
+    stitches: dict | None = None
 
 
 @dataclass(frozen=True)
@@ -199,8 +204,11 @@ def _graph(city: City, traffic: TrafficMemory, memory: RoadMemory, now: YearValu
                           previous=memory.built, options=history.options.built_up)
     assert memory.lattice is not None  # built above on the first year
     lattice = memory.lattice.with_built_up(built.area)
-    memory = replace(memory, lattice=lattice, built=built)
-    return implicit_graph(lattice, segments, built, costs=now.costs, options=history.options.graph), memory
+    graph = implicit_graph(lattice, segments, built, costs=now.costs, options=history.options.graph,
+                           previous=memory.verdicts,
+                           previous_lattice=None if memory.stitches is None else lattice_verdicts(memory.stitches))
+    return graph, replace(memory, lattice=lattice, built=built, verdicts=graph.streets.verdicts,
+                          stitches=graph.stitches)
 
 
 def _apply(city: City, table: SegmentTable, plan, *, year: int, era: str, old_town: bool = False

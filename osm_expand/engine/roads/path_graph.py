@@ -21,6 +21,11 @@ cross it), and :func:`osm_expand.engine.roads.routing.find_route` grows the wind
 until no exit can lead to a cheaper route. On Campo Grande (a lattice of
 1118 × 532 vertices) the whole G′ had 134 million adjacency entries; a
 window holds the corridor a route can use.
+
+**From year to year** the stitches' street tests (does it cross or graze a
+street?) are carried over (:class:`ShellVerdicts`): a year's G′ tests again
+only the stitches a segment was added or removed near; the others keep the
+last G′'s verdict, so the result is the one a fresh check gives.
 """
 from __future__ import annotations
 
@@ -39,8 +44,8 @@ from osm_expand.errors import InputError
 from osm_expand.model.options import require_positive
 
 __all__ = [
-    "EdgeCosts", "GraphOptions", "PathGraph", "pathfinding_graph", "StreetPart", "street_part",
-    "GraphWindow", "ImplicitGraph", "implicit_graph",
+    "EdgeCosts", "GraphOptions", "PathGraph", "pathfinding_graph", "ShellVerdicts", "StreetPart", "street_part",
+    "GraphWindow", "ImplicitGraph", "implicit_graph", "lattice_verdicts",
 ]
 
 
@@ -296,10 +301,31 @@ class StreetPart:
     shell: tuple[np.ndarray, ...]  #: checked stitches between shell points, as ``edges``
     tree: shapely.STRtree  #: the segments' lines
     inner: shapely.Geometry | None  #: the built-up blocks shrunk by 0.5 m (None: none)
+    #: this year's street verdicts on the shell stitches, for next year's (:func:`street_part`)
+    verdicts: ShellVerdicts | None = None
+
+
+@dataclass(frozen=True)
+class ShellVerdicts:
+    """Which candidate shell stitches cleared the streets in a year, for the next year's check.
+
+    Whether a stitch crosses or grazes a street (:func:`_street_clear`) depends only on
+    the segments within ``clearance`` of it. A year adds a few hundred segments to
+    thousands: a candidate with the same two ends as last year and no segment added
+    or removed within ``clearance`` of it has last year's verdict; only the others are
+    checked again (the street tests were 60 % of :func:`street_part` on Campo
+    Grande, 18 road years: 34 s of 58 s profiled). Water, forbidden ground and the
+    built-up blocks are checked every year (cheap, and the blocks change).
+    """
+
+    segments: np.ndarray  #: (S,) void keys of the segments (both ends' coordinates, ordered)
+    pairs: np.ndarray  #: (M,) void keys of the candidates (both ends' coordinates, each end's kind)
+    clear: np.ndarray  #: (M,) bool, the candidate crossed and grazed no street
 
 
 def street_part(lattice: Lattice, segments: Segments, built: BuiltUpArea | None = None, *,
-                costs: EdgeCosts | None = None, options: GraphOptions | None = None) -> StreetPart:
+                costs: EdgeCosts | None = None, options: GraphOptions | None = None,
+                previous: ShellVerdicts | None = None) -> StreetPart:
     """The street pieces and shell stitches of G′ (003 Fig. 9), made once a year.
 
     Parameters
@@ -308,6 +334,9 @@ def street_part(lattice: Lattice, segments: Segments, built: BuiltUpArea | None 
         Any window of the map's lattice (its rasters check the stitches for water).
     segments, built, costs, options
         As :func:`pathfinding_graph`.
+    previous
+        Last year's :attr:`StreetPart.verdicts` (None: every shell stitch is checked);
+        the result is the same either way.
 
     Returns
     -------
@@ -332,15 +361,17 @@ def street_part(lattice: Lattice, segments: Segments, built: BuiltUpArea | None 
         else:
             shapely.prepare(inner)
     shell = np.zeros((0, 2), dtype=np.int64)
+    verdicts = None
     if len(points):
         shell = _nearest_pairs(xy[points], xy[points], points, points, opts.max_shell_stitches + 1,
                                opts.shell_stitch_radius)
         shell = np.unique(np.sort(shell[shell[:, 0] != shell[:, 1]], axis=1), axis=0)
         shell = shell[~_duplicates_piece(shell, pieces, 0, n_nodes, len(xy))]
-        shell = shell[_stitch_ok(lattice, segments, xy, shell, split_parent, 0, opts, tree, inner)]
+        ok, verdicts = _carried_ok(lattice, segments, xy, shell, split_parent, 0, opts, tree, inner, previous)
+        shell = shell[ok]
     part = StreetPart(segments=segments, blocks=blocks, extendible=extendible, split_xy=split_xy,
                       split_parent=split_parent, pieces=pieces, xy=xy, points=points, edges=edges,
-                      shell=(), tree=tree, inner=inner)
+                      shell=(), tree=tree, inner=inner, verdicts=verdicts)
     return replace(part, shell=_stitch_edges(lattice, shell, xy))
 
 
@@ -362,7 +393,8 @@ def pathfinding_graph(lattice: Lattice, segments: Segments, built: BuiltUpArea |
                       costs: EdgeCosts | None = None, options: GraphOptions | None = None,
                       streets: StreetPart | None = None,
                       stitch_within: tuple[float, float, float, float] | None = None,
-                      stitch_cache: dict | None = None) -> PathGraph:
+                      stitch_cache: dict | None = None, keep: np.ndarray | None = None,
+                      stitch_points: np.ndarray | None = None) -> PathGraph:
     """Assemble G′ from the lattice (B already removed), the segments and stitches (003 §3.4.2).
 
     Parameters
@@ -383,6 +415,14 @@ def pathfinding_graph(lattice: Lattice, segments: Segments, built: BuiltUpArea |
     stitch_within
         ``(xmin, ymin, xmax, ymax)`` m: only street points inside get stitches to the
         lattice (a window's edge: a point nearer to it may miss its nearest vertices).
+    stitch_cache
+        Stitches already checked this year (see :class:`ImplicitGraph`).
+    keep
+        ``(V,)`` bool over the lattice's vertices, or None (all): only the lattice edges
+        between kept vertices are in G′ (a corridor window, :meth:`ImplicitGraph.window`).
+    stitch_points
+        ``(N + P,)`` bool over the street points, or None (all): only these get stitches
+        to the lattice (with ``stitch_within``, those inside it too).
 
     Returns
     -------
@@ -399,6 +439,8 @@ def pathfinding_graph(lattice: Lattice, segments: Segments, built: BuiltUpArea |
     n_lat = lattice.n_vertices
     xy = np.concatenate([lattice.vertex_xy(), streets.xy])
     lat_kind, lat_weight, bridges = _lattice_part(lattice, segments, costs, streets.tree)
+    if keep is not None:
+        bridges = _kept(lat_kind, bridges, lattice, keep)
     parts = [bridges, _shifted(streets.edges, n_lat)]
     land_or_bridge = np.zeros(256, dtype=bool)
     land_or_bridge[[EdgeKind.LAND, EdgeKind.BRIDGE]] = True
@@ -409,6 +451,8 @@ def pathfinding_graph(lattice: Lattice, segments: Segments, built: BuiltUpArea |
         px, py = streets.xy[points].T
         points = points[(px >= stitch_within[0]) & (px <= stitch_within[2])
                         & (py >= stitch_within[1]) & (py <= stitch_within[3])]
+    if stitch_points is not None and len(points):
+        points = points[stitch_points[points]]
     pairs = _lattice_stitches(lattice, segments, streets, xy, targets, points, opts, stitch_cache)
     parts.append(_stitch_edges(lattice, pairs, xy))
     parts.append(_shifted(streets.shell, n_lat))
@@ -428,6 +472,27 @@ def pathfinding_graph(lattice: Lattice, segments: Segments, built: BuiltUpArea |
                      extendible=streets.extendible)
 
 
+def _kept(kind: np.ndarray, bridges: tuple[np.ndarray, ...], lattice: Lattice,
+          keep: np.ndarray) -> tuple[np.ndarray, ...]:
+    """Only the lattice edges between kept vertices: the others of ``kind`` (edited in place) become
+    :data:`NO_EDGE`; the long bridges with both ends kept. Rows are done in blocks (a few MB each)."""
+    n, n_dir = kind.shape
+    offset = lattice.direction_offset
+    kind[~keep] = NO_EDGE
+    rows = np.flatnonzero(keep)
+    block = max(1, (1 << 20) // max(n_dir, 1))
+    for a in range(0, len(rows), block):
+        part = rows[a:a + block]
+        head = part[:, None] + offset
+        gone = ~keep[np.clip(head, 0, n - 1)] | (head < 0) | (head >= n)
+        sub = kind[part]
+        sub[gone] = NO_EDGE
+        kind[part] = sub
+    src, dst, *rest = bridges
+    both = keep[src] & keep[dst]
+    return (src[both], dst[both], *(r[both] for r in rest))
+
+
 def _lattice_stitches(lattice: Lattice, segments: Segments, streets: StreetPart, xy: np.ndarray, targets: np.ndarray,
                       points: np.ndarray, opts: GraphOptions, cache: dict | None) -> np.ndarray:
     """Checked stitches ``(G′ street vertex, lattice vertex)`` from street points (street-local ids)
@@ -440,8 +505,13 @@ def _lattice_stitches(lattice: Lattice, segments: Segments, streets: StreetPart,
         ids = chosen + n_lat
         pairs = _nearest_pairs(xy[ids], xy[targets], ids, targets, opts.max_stitches, opts.stitch_radius,
                                keys=lattice.map_vertex(targets))
-        return pairs[_stitch_ok(lattice, segments, xy, pairs, streets.split_parent, n_lat, opts, streets.tree,
-                                streets.inner)]
+        if cache is None:
+            return pairs[_stitch_ok(lattice, segments, xy, pairs, streets.split_parent, n_lat, opts, streets.tree,
+                                    streets.inner)]
+        ok, verdicts = _carried_ok(lattice, segments, xy, pairs, streets.split_parent, n_lat, opts, streets.tree,
+                                   streets.inner, cache.get("previous"))
+        cache.setdefault("verdicts", []).append(verdicts)
+        return pairs[ok]
 
     if cache is None:
         return checked(points)
@@ -538,8 +608,14 @@ class ImplicitGraph:
     streets: StreetPart
     costs: EdgeCosts
     options: GraphOptions
-    #: the stitches already checked this year (see :func:`pathfinding_graph`)
+    #: the stitches already checked this year (see :func:`pathfinding_graph`); ``"previous"``: the
+    #: street verdicts of the last G′'s stitches to the lattice (:meth:`lattice_verdicts`)
     stitches: dict = field(default_factory=dict, repr=False, compare=False)
+
+    def lattice_verdicts(self) -> ShellVerdicts | None:
+        """The street verdicts of every stitch to the lattice checked so far, for the next G′
+        (:func:`implicit_graph`'s ``previous_lattice``); None when none was checked."""
+        return lattice_verdicts(self.stitches)
 
     @property
     def n_lattice(self) -> int:
@@ -574,13 +650,24 @@ class ImplicitGraph:
         return pathfinding_graph(self.lattice, self.segments, costs=self.costs, options=self.options,
                                  streets=self.streets)
 
-    def window(self, bounds: tuple[float, float, float, float]) -> GraphWindow:
+    def window(self, bounds: tuple[float, float, float, float],
+               corridor: tuple[np.ndarray, np.ndarray, float] | None = None) -> GraphWindow:
         """G′ over the lattice vertices inside ``(xmin, ymin, xmax, ymax)`` m (clipped to the map).
 
         Lattice vertices within the neighbourhood radius of a side of the
         window that is not the map's, street points whose stitches could
         reach past it (stitch radius + radius), and the ends of long bridges
         that cross it are the window's ``exits``.
+
+        With ``corridor = (a, b, half)`` only the lattice vertices of the
+        rectangle within ``half`` m of the straight segment a–b are in the
+        window: for two far ends the rectangle round them is most of the
+        map, the corridor a strip along their line. Its exits are likewise
+        the kept vertices within √2 · radius · ℓ of its side (a lattice
+        edge is at most that long, and the distance to a segment changes
+        by no more than a point moves), the street points within the
+        stitch radius of that band, and the kept ends of long bridges
+        whose other end is not kept.
         """
         lat = self.lattice
         ny, nx = lat.shape
@@ -590,7 +677,7 @@ class ImplicitGraph:
         c1 = int(np.ceil((bounds[2] - lat.origin[0]) / ell)) + 1
         r1 = int(np.ceil((bounds[3] - lat.origin[1]) / ell)) + 1
         sub = lat.window(r0, c0, r1 - r0, c1 - c0)
-        whole = sub is lat
+        whole = sub is lat and corridor is None
         r0, c0 = sub.offset
         h, w = sub.shape
         open_side = (c0 > 0, r0 > 0, c0 + w < nx, r0 + h < ny)  # left, bottom, right, top
@@ -600,7 +687,8 @@ class ImplicitGraph:
         reach = self.options.stitch_radius + band * ell
         within = None
         exits: list[np.ndarray] = []
-        if not whole:
+        a, b = sub._local(lat.map_bridges[:, 0]), sub._local(lat.map_bridges[:, 1])
+        if sub is not lat:
             within = (x0 + reach if open_side[0] else -np.inf, y0 + reach if open_side[1] else -np.inf,
                       x1 - reach if open_side[2] else np.inf, y1 - reach if open_side[3] else np.inf)
             iy, ix = np.divmod(np.arange(h * w), w)
@@ -611,23 +699,61 @@ class ImplicitGraph:
             px, py = self.streets.xy[pts].T
             outside = (px < within[0]) | (px > within[2]) | (py < within[1]) | (py > within[3])
             exits.append(sub.n_vertices + pts[outside])
-            a, b = sub._local(lat.map_bridges[:, 0]), sub._local(lat.map_bridges[:, 1])
-            exits.append(np.where(a >= 0, a, b)[(a >= 0) != (b >= 0)])
+            if corridor is None:
+                exits.append(np.where(a >= 0, a, b)[(a >= 0) != (b >= 0)])
+        keep = stitch_points = None
+        if corridor is not None:
+            start, end, half = corridor
+            edge = np.sqrt(2.0) * band * ell  # the longest lattice edge
+            off = _segment_distance(sub.vertex_xy(), start, end)
+            keep = off <= half
+            exits.append(np.flatnonzero(keep & (off > half - edge)))
+            point_off = _segment_distance(self.streets.xy, start, end)
+            stitch_points = point_off <= half - edge - self.options.stitch_radius
+            pts = self.streets.points
+            exits.append(sub.n_vertices + pts[~stitch_points[pts]])
+            ka, kb = np.where(a >= 0, keep[np.maximum(a, 0)], False), np.where(b >= 0, keep[np.maximum(b, 0)], False)
+            exits.append(np.where(ka, a, b)[ka != kb])
         graph = pathfinding_graph(sub, self.segments, costs=self.costs, options=self.options, streets=self.streets,
-                                  stitch_within=within, stitch_cache=self.stitches)
+                                  stitch_within=within, stitch_cache=self.stitches, keep=keep,
+                                  stitch_points=stitch_points)
         sub._cache.clear()  # the edge tables live on in the graph's; a window is searched once
         return GraphWindow(graph=graph, whole=whole, exits=np.unique(np.concatenate(exits)) if exits
                            else np.zeros(0, dtype=np.int64), n_map_lattice=lat.n_vertices)
 
 
+def lattice_verdicts(stitches: dict) -> ShellVerdicts | None:
+    """The street verdicts of the stitches to the lattice in an :attr:`ImplicitGraph.stitches`
+    (filled as its windows are searched); None when none was checked."""
+    done = stitches.get("verdicts", [])
+    if not done:
+        return None
+    return ShellVerdicts(segments=done[0].segments, pairs=np.concatenate([v.pairs for v in done]),
+                         clear=np.concatenate([v.clear for v in done]))
+
+
+def _segment_distance(xy: np.ndarray, a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Distance (m) of each point ``(n, 2)`` from the straight segment a–b."""
+    ab = np.asarray(b, dtype=float) - np.asarray(a, dtype=float)
+    t = np.clip(((xy - a) @ ab) / max(float(ab @ ab), 1e-12), 0.0, 1.0)
+    return np.hypot(*(xy - a - t[:, None] * ab).T)
+
+
 def implicit_graph(lattice: Lattice, segments: Segments, built: BuiltUpArea | None = None, *,
-                   costs: EdgeCosts | None = None, options: GraphOptions | None = None) -> ImplicitGraph:
+                   costs: EdgeCosts | None = None, options: GraphOptions | None = None,
+                   previous: ShellVerdicts | None = None,
+                   previous_lattice: ShellVerdicts | None = None) -> ImplicitGraph:
     """This year's G′ without its lattice tables: only the street part is made now.
 
     Parameters
     ----------
     lattice, segments, built, costs, options
         As :func:`pathfinding_graph`.
+    previous
+        Last year's shell verdicts (:attr:`StreetPart.verdicts`), see :func:`street_part`.
+    previous_lattice
+        The last G′'s verdicts on the stitches to the lattice (:meth:`ImplicitGraph.lattice_verdicts`):
+        a stitch nothing changed near is not tested against the streets again.
 
     Returns
     -------
@@ -636,8 +762,10 @@ def implicit_graph(lattice: Lattice, segments: Segments, built: BuiltUpArea | No
     costs = costs or EdgeCosts()
     opts = options or GraphOptions()
     return ImplicitGraph(lattice=lattice, segments=segments,
-                         streets=street_part(lattice, segments, built, costs=costs, options=opts),
-                         costs=costs, options=opts)
+                         streets=street_part(lattice, segments, built, costs=costs, options=opts,
+                                             previous=previous),
+                         costs=costs, options=opts,
+                         stitches={} if previous_lattice is None else {"previous": previous_lattice})
 
 
 def _split_segments(segments: Segments, split: np.ndarray, spacing: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -751,39 +879,112 @@ def _stitch_ok(lattice: Lattice, segments: Segments, xy: np.ndarray, pairs: np.n
     """Stitches that cross no street, keep ``clearance`` from every street away from
     their ends, enter no built-up block (``inner``: the blocks shrunk by 0.5 m) and touch
     no water or forbidden ground (but :attr:`Lattice.stitch_only`)."""
-    n_nodes = len(segments.xy)
+    ok = _dry(lattice, xy, pairs, opts)
+    if len(segments.uv):
+        # only the stitches still standing are made into lines and checked, each test on
+        # fewer of them (most stitches of a window fail one test or another)
+        tree = tree if tree is not None else shapely.STRtree(segments.lines())
+        live = np.flatnonzero(ok)
+        ok[live] = _street_clear(segments, xy, pairs[live], split_parent, n_lat, opts, tree)
+        if inner is not None:
+            live = np.flatnonzero(ok)
+            ok[live] = ~shapely.intersects(inner, _core(xy, pairs[live], opts))
+    return ok
+
+
+def _dry(lattice: Lattice, xy: np.ndarray, pairs: np.ndarray, opts: GraphOptions) -> np.ndarray:
+    """Stitches of positive length that touch no water or forbidden ground (but
+    :attr:`Lattice.stitch_only`), sampled at the fine raster's step."""
     a, b = xy[pairs[:, 0]], xy[pairs[:, 1]]
-    length = np.hypot(*(b - a).T)
-    ok = length > 1e-6
-    # water and forbidden ground along the stitch
+    ok = np.hypot(*(b - a).T) > 1e-6
     n_samples = max(int(np.ceil(opts.shell_stitch_radius / lattice.fine_step)) + 1, 2)
     t = np.linspace(0.0, 1.0, n_samples)
     samples = a[:, None, :] + t[None, :, None] * (b - a)[:, None, :]
     blocked = lattice.water | lattice.forbidden
     if lattice.stitch_only is not None:
         blocked &= ~lattice.stitch_only
-    wet = lattice.fine_lookup(blocked, samples)
-    ok &= ~wet.any(axis=1)
-    if len(segments.uv):
-        # only the stitches still standing are made into lines and checked, each test on
-        # fewer of them (most stitches of a window fail one test or another)
-        tree = tree if tree is not None else shapely.STRtree(segments.lines())
-        # crossing a street not incident to either end
-        live = np.flatnonzero(ok)
-        stitch, seg = tree.query(shapely.linestrings(np.stack([a[live], b[live]], axis=1)), predicate="intersects")
-        incident = _incident(pairs[live[stitch]], seg, segments, split_parent, n_lat, n_nodes)
-        ok[live[stitch[~incident]]] = False
-        # grazing any street away from the ends
-        live = np.flatnonzero(ok)
-        a, b, length = a[live], b[live], length[live]
-        trim = np.minimum(0.25 * length, 3.0 * opts.clearance) / np.maximum(length, 1e-9)
-        core = shapely.linestrings(np.stack([a + trim[:, None] * (b - a), b - trim[:, None] * (b - a)], axis=1))
-        stitch, _ = tree.query(core, predicate="dwithin", distance=opts.clearance)
-        ok[live[stitch]] = False
-        if inner is not None:
-            rest = np.flatnonzero(ok[live])
-            ok[live[rest]] = ~shapely.intersects(inner, core[rest])
+    return ok & ~lattice.fine_lookup(blocked, samples).any(axis=1)
+
+
+def _core(xy: np.ndarray, pairs: np.ndarray, opts: GraphOptions) -> np.ndarray:
+    """The stitches as lines trimmed near their ends (by a quarter of their length, at most
+    3 × clearance): what must keep clear of the streets and out of the built-up blocks."""
+    a, b = xy[pairs[:, 0]], xy[pairs[:, 1]]
+    length = np.hypot(*(b - a).T)
+    trim = np.minimum(0.25 * length, 3.0 * opts.clearance) / np.maximum(length, 1e-9)
+    return shapely.linestrings(np.stack([a + trim[:, None] * (b - a), b - trim[:, None] * (b - a)], axis=1))
+
+
+def _street_clear(segments: Segments, xy: np.ndarray, pairs: np.ndarray, split_parent: np.ndarray, n_lat: int,
+                  opts: GraphOptions, tree: shapely.STRtree) -> np.ndarray:
+    """Stitches (of positive length) that cross no street not incident to either end and keep
+    ``clearance`` from every street away from their ends."""
+    ok = np.ones(len(pairs), dtype=bool)
+    if not len(pairs) or not len(segments.uv):
+        return ok
+    a, b = xy[pairs[:, 0]], xy[pairs[:, 1]]
+    stitch, seg = tree.query(shapely.linestrings(np.stack([a, b], axis=1)), predicate="intersects")
+    incident = _incident(pairs[stitch], seg, segments, split_parent, n_lat, len(segments.xy))
+    ok[stitch[~incident]] = False
+    live = np.flatnonzero(ok)
+    stitch, _ = tree.query(_core(xy, pairs[live], opts), predicate="dwithin", distance=opts.clearance)
+    ok[live[stitch]] = False
     return ok
+
+
+def _keys(values: np.ndarray) -> np.ndarray:
+    """One void key per row of a 2-D array (rows compare equal exactly when their bytes do)."""
+    v = np.ascontiguousarray(values)
+    return v.view(np.dtype((np.void, v.dtype.itemsize * v.shape[1]))).ravel()
+
+
+def _carried_ok(lattice: Lattice, segments: Segments, xy: np.ndarray, pairs: np.ndarray, split_parent: np.ndarray,
+                n_lat: int, opts: GraphOptions, tree: shapely.STRtree, inner: shapely.Geometry | None,
+                previous: ShellVerdicts | None) -> tuple[np.ndarray, ShellVerdicts]:
+    """:func:`_stitch_ok`, the street tests carried over from ``previous`` where nothing near a
+    stitch changed (see :class:`ShellVerdicts`), and this call's street verdicts."""
+    n_nodes = len(segments.xy)
+    a, b = segments.a, segments.b
+    first = (a[:, 0] < b[:, 0]) | ((a[:, 0] == b[:, 0]) & (a[:, 1] <= b[:, 1]))
+    seg_keys = _keys(np.concatenate([np.where(first[:, None], a, b), np.where(first[:, None], b, a)], axis=1))
+    end_kind = np.where(pairs < n_lat, 2, np.where(pairs - n_lat >= n_nodes, 1, 0))  # lattice, split, node
+    pair_keys = _keys(np.concatenate([xy[pairs[:, 0]], xy[pairs[:, 1]], end_kind.astype(np.float64)], axis=1))
+    dry = _dry(lattice, xy, pairs, opts)
+    clear = np.zeros(len(pairs), dtype=bool)
+    todo = np.ones(len(pairs), dtype=bool)
+    if previous is not None and len(previous.pairs) and len(pairs):
+        order = np.argsort(previous.pairs)
+        at = np.minimum(np.searchsorted(previous.pairs[order], pair_keys), len(order) - 1)
+        known = previous.pairs[order][at] == pair_keys
+        # segments added or removed (as many times as they were): a stitch near one is checked again
+        old_u, old_n = np.unique(previous.segments, return_counts=True)
+        new_u, new_n = np.unique(seg_keys, return_counts=True)
+        both = np.intersect1d(old_u, new_u)
+        same = both[old_n[np.searchsorted(old_u, both)] == new_n[np.searchsorted(new_u, both)]]
+        changed = np.concatenate([np.flatnonzero(~np.isin(seg_keys, same)),
+                                  len(seg_keys) + np.flatnonzero(~np.isin(previous.segments, same))])
+        ends = np.concatenate([np.stack([a, b], axis=1), _segment_ends(previous.segments)])[changed]
+        near = np.zeros(len(pairs), dtype=bool)
+        if len(ends):
+            hit, _ = shapely.STRtree(shapely.linestrings(ends)).query(
+                shapely.linestrings(np.stack([xy[pairs[:, 0]], xy[pairs[:, 1]]], axis=1)),
+                predicate="dwithin", distance=opts.clearance + 1.0)
+            near[hit] = True
+        reuse = known & ~near
+        clear[reuse] = previous.clear[order][at][reuse]
+        todo = ~reuse
+    check = np.flatnonzero(todo & dry)
+    clear[check] = _street_clear(segments, xy, pairs[check], split_parent, n_lat, opts, tree)
+    ok = dry & clear
+    if inner is not None:
+        live = np.flatnonzero(ok)
+        ok[live] = ~shapely.intersects(inner, _core(xy, pairs[live], opts))
+    return ok, ShellVerdicts(segments=seg_keys, pairs=pair_keys, clear=clear)
+
+
+def _segment_ends(keys: np.ndarray) -> np.ndarray:
+    """``(S, 2, 2)`` ends of the segments from their :class:`ShellVerdicts` keys."""
+    return np.frombuffer(keys.tobytes(), dtype=np.float64).reshape(-1, 2, 2)
 
 
 def _incident(pairs: np.ndarray, seg: np.ndarray, segments: Segments, split_parent: np.ndarray,
