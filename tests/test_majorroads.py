@@ -859,8 +859,9 @@ def test_counting_turns_at_the_exits_keeps_the_search_exact(seed):
 def test_a_corridor_along_far_ends_finds_the_cost_of_the_whole_map(seed):
     """Issue 22: with ``corridor_share`` set (off by default), two ends whose rectangle is most of the
     map are searched first in a corridor along their straight line (its vertices only, its side's band
-    and the street points near it exits), so memory follows the corridor. On a street grid with a river and forbidden blobs, every route costs
-    what the whole map's G′ gives, and some searches end in a corridor."""
+    and the street points near it exits), so memory follows the corridor. On a street grid with a
+    river and forbidden blobs, a corridor is tried and every route costs what the whole map's G′
+    gives (of 18 far searches over six seeds, 2 ended in their corridor)."""
     from osm_expand.engine.roads.path_graph import ImplicitGraph
     rng = np.random.default_rng(seed)
     extent = (0, 0, 1600, 1600)

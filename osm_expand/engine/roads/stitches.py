@@ -1,0 +1,235 @@
+"""The stitches of G′: short new-road edges from the streets to the lattice and between shell points.
+
+003 Fig. 9 joins the town to the lattice G by *stitches*: from each street
+point on the shell or on a terrain block to its nearest live land vertices
+(:func:`nearest_pairs`), and between nearby shell points. A stitch is kept
+only if it crosses no street away from its own ends, keeps ``clearance``
+from every street, enters no built-up block and touches no water or
+forbidden ground (:func:`stitch_ok`). :mod:`osm_expand.engine.roads.path_graph`
+assembles G′ from the lattice, the streets and these stitches.
+
+From year to year the street tests are carried over (:class:`ShellVerdicts`,
+:func:`carried_ok`): a year's G′ tests again only the stitches a segment
+was added or removed near; the others keep the last G′'s verdict, so the
+result is the one a fresh check gives.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import shapely
+from scipy.spatial import cKDTree
+
+from osm_expand.engine.roads.built_up import Segments
+from osm_expand.engine.roads.lattice import Lattice
+from osm_expand.model.options import require_positive
+
+__all__ = ["GraphOptions", "ShellVerdicts", "carried_ok", "lattice_verdicts", "nearest_pairs", "stitch_ok"]
+
+
+@dataclass(frozen=True)
+class GraphOptions:
+    """Tunables of G′: splitting streets and stitching them to the lattice (003 Fig. 9)."""
+
+    #: m, a shell segment longer than 2ℓ gets a point every this many metres (003 §3.3: 1.25ℓ)
+    split_spacing: float = 25.0
+    #: m, street points connect to live land vertices this close (B's 30 m plus 2.5ℓ)
+    stitch_radius: float = 80.0
+    shell_stitch_radius: float = 120.0  #: m, shell points connect to each other this close (003 Fig. 9)
+    #: m, a stitch keeps this far from every street except near its own end
+    clearance: float = 5.0
+    #: stitches per street point to its nearest live land vertices (000 joins all within the
+    #: radius; the nearest 16 give every heading away from the street and keep G′ small)
+    max_stitches: int = 16
+    max_shell_stitches: int = 8  #: stitches per shell point to its nearest shell points
+
+    def __post_init__(self) -> None:
+        require_positive(self, ("split_spacing", "stitch_radius", "shell_stitch_radius", "clearance",
+                         "max_stitches", "max_shell_stitches"))
+
+@dataclass(frozen=True)
+class ShellVerdicts:
+    """Which candidate shell stitches cleared the streets in a year, for the next year's check.
+
+    Whether a stitch crosses or grazes a street (:func:`_street_clear`) depends only on
+    the segments within ``clearance`` of it. A year adds a few hundred segments to
+    thousands: a candidate with the same two ends as last year and no segment added
+    or removed within ``clearance`` of it has last year's verdict; only the others are
+    checked again (the street tests were 60 % of :func:`street_part` on Campo
+    Grande, 18 road years: 34 s of 58 s profiled). Water, forbidden ground and the
+    built-up blocks are checked every year (cheap, and the blocks change).
+    """
+
+    segments: np.ndarray  #: (S,) void keys of the segments (both ends' coordinates, ordered)
+    pairs: np.ndarray  #: (M,) void keys of the candidates (both ends' coordinates, each end's kind)
+    clear: np.ndarray  #: (M,) bool, the candidate crossed and grazed no street
+
+def lattice_verdicts(stitches: dict) -> ShellVerdicts | None:
+    """The street verdicts of the stitches to the lattice in an :attr:`ImplicitGraph.stitches`
+    (filled as its windows are searched); None when none was checked."""
+    done = stitches.get("verdicts", [])
+    if not done:
+        return None
+    return ShellVerdicts(segments=done[0].segments, pairs=np.concatenate([v.pairs for v in done]),
+                         clear=np.concatenate([v.clear for v in done]))
+
+def nearest_pairs(from_xy: np.ndarray, to_xy: np.ndarray, from_id: np.ndarray, to_id: np.ndarray, k: int,
+                   radius: float, keys: np.ndarray | None = None) -> np.ndarray:
+    """Pairs (from, to) of each point and its ``k`` nearest candidates within ``radius``.
+
+    Of equally near candidates the one with the smaller key (``to_id`` by
+    default) wins, so the choice never depends on which other candidates
+    exist: street points on a grid town are often equally far from several
+    lattice vertices, and a window of the lattice must stitch a point to
+    the same vertices as the whole map.
+    """
+    n = len(to_xy)
+    k = min(k, n)
+    if not k or not len(from_xy):
+        return np.zeros((0, 2), dtype=np.int64)
+    keys = to_id if keys is None else np.asarray(keys)
+    tree = cKDTree(to_xy)
+    kk = min(2 * k, n)
+    while True:
+        dist, hit = tree.query(from_xy, k=kk, distance_upper_bound=radius)
+        dist, hit = np.asarray(dist).reshape(len(from_xy), kk), np.asarray(hit).reshape(len(from_xy), kk)
+        if kk == n or not (np.isfinite(dist[:, k - 1]) & (dist[:, kk - 1] == dist[:, k - 1])).any():
+            break
+        kk = min(2 * kk, n)  # a tie at the k-th nearest may go on past the candidates asked for
+    found = hit < n
+    row = np.broadcast_to(np.arange(len(from_xy))[:, None], hit.shape)[found]
+    cand = hit[found]
+    order = np.lexsort((keys[cand], dist[found], row))
+    row, cand = row[order], cand[order]
+    start = np.searchsorted(row, row, side="left")
+    first = np.arange(len(row)) - start < k
+    return np.stack([from_id[row[first]], to_id[cand[first]]], axis=1)
+
+def stitch_ok(lattice: Lattice, segments: Segments, xy: np.ndarray, pairs: np.ndarray, split_parent: np.ndarray,
+               n_lat: int, opts: GraphOptions, tree: shapely.STRtree | None = None,
+               inner: shapely.Geometry | None = None) -> np.ndarray:
+    """Stitches that cross no street, keep ``clearance`` from every street away from
+    their ends, enter no built-up block (``inner``: the blocks shrunk by 0.5 m) and touch
+    no water or forbidden ground (but :attr:`Lattice.stitch_only`)."""
+    ok = _dry(lattice, xy, pairs, opts)
+    if len(segments.uv):
+        # only the stitches still standing are made into lines and checked, each test on
+        # fewer of them (most stitches of a window fail one test or another)
+        tree = tree if tree is not None else shapely.STRtree(segments.lines())
+        live = np.flatnonzero(ok)
+        ok[live] = _street_clear(segments, xy, pairs[live], split_parent, n_lat, opts, tree)
+        if inner is not None:
+            live = np.flatnonzero(ok)
+            ok[live] = ~shapely.intersects(inner, _core(xy, pairs[live], opts))
+    return ok
+
+
+def _dry(lattice: Lattice, xy: np.ndarray, pairs: np.ndarray, opts: GraphOptions) -> np.ndarray:
+    """Stitches of positive length that touch no water or forbidden ground (but
+    :attr:`Lattice.stitch_only`), sampled at the fine raster's step."""
+    a, b = xy[pairs[:, 0]], xy[pairs[:, 1]]
+    ok = np.hypot(*(b - a).T) > 1e-6
+    n_samples = max(int(np.ceil(opts.shell_stitch_radius / lattice.fine_step)) + 1, 2)
+    t = np.linspace(0.0, 1.0, n_samples)
+    samples = a[:, None, :] + t[None, :, None] * (b - a)[:, None, :]
+    blocked = lattice.water | lattice.forbidden
+    if lattice.stitch_only is not None:
+        blocked &= ~lattice.stitch_only
+    return ok & ~lattice.fine_lookup(blocked, samples).any(axis=1)
+
+
+def _core(xy: np.ndarray, pairs: np.ndarray, opts: GraphOptions) -> np.ndarray:
+    """The stitches as lines trimmed near their ends (by a quarter of their length, at most
+    3 × clearance): what must keep clear of the streets and out of the built-up blocks."""
+    a, b = xy[pairs[:, 0]], xy[pairs[:, 1]]
+    length = np.hypot(*(b - a).T)
+    trim = np.minimum(0.25 * length, 3.0 * opts.clearance) / np.maximum(length, 1e-9)
+    return shapely.linestrings(np.stack([a + trim[:, None] * (b - a), b - trim[:, None] * (b - a)], axis=1))
+
+
+def _street_clear(segments: Segments, xy: np.ndarray, pairs: np.ndarray, split_parent: np.ndarray, n_lat: int,
+                  opts: GraphOptions, tree: shapely.STRtree) -> np.ndarray:
+    """Stitches (of positive length) that cross no street not incident to either end and keep
+    ``clearance`` from every street away from their ends."""
+    ok = np.ones(len(pairs), dtype=bool)
+    if not len(pairs) or not len(segments.uv):
+        return ok
+    a, b = xy[pairs[:, 0]], xy[pairs[:, 1]]
+    stitch, seg = tree.query(shapely.linestrings(np.stack([a, b], axis=1)), predicate="intersects")
+    incident = _incident(pairs[stitch], seg, segments, split_parent, n_lat, len(segments.xy))
+    ok[stitch[~incident]] = False
+    live = np.flatnonzero(ok)
+    stitch, _ = tree.query(_core(xy, pairs[live], opts), predicate="dwithin", distance=opts.clearance)
+    ok[live[stitch]] = False
+    return ok
+
+
+def _keys(values: np.ndarray) -> np.ndarray:
+    """One void key per row of a 2-D array (rows compare equal exactly when their bytes do)."""
+    v = np.ascontiguousarray(values)
+    return v.view(np.dtype((np.void, v.dtype.itemsize * v.shape[1]))).ravel()
+
+
+def carried_ok(lattice: Lattice, segments: Segments, xy: np.ndarray, pairs: np.ndarray, split_parent: np.ndarray,
+                n_lat: int, opts: GraphOptions, tree: shapely.STRtree, inner: shapely.Geometry | None,
+                previous: ShellVerdicts | None) -> tuple[np.ndarray, ShellVerdicts]:
+    """:func:`stitch_ok`, the street tests carried over from ``previous`` where nothing near a
+    stitch changed (see :class:`ShellVerdicts`), and this call's street verdicts."""
+    n_nodes = len(segments.xy)
+    a, b = segments.a, segments.b
+    first = (a[:, 0] < b[:, 0]) | ((a[:, 0] == b[:, 0]) & (a[:, 1] <= b[:, 1]))
+    seg_keys = _keys(np.concatenate([np.where(first[:, None], a, b), np.where(first[:, None], b, a)], axis=1))
+    end_kind = np.where(pairs < n_lat, 2, np.where(pairs - n_lat >= n_nodes, 1, 0))  # lattice, split, node
+    pair_keys = _keys(np.concatenate([xy[pairs[:, 0]], xy[pairs[:, 1]], end_kind.astype(np.float64)], axis=1))
+    dry = _dry(lattice, xy, pairs, opts)
+    clear = np.zeros(len(pairs), dtype=bool)
+    todo = np.ones(len(pairs), dtype=bool)
+    if previous is not None and len(previous.pairs) and len(pairs):
+        order = np.argsort(previous.pairs)
+        at = np.minimum(np.searchsorted(previous.pairs[order], pair_keys), len(order) - 1)
+        known = previous.pairs[order][at] == pair_keys
+        # segments added or removed (as many times as they were): a stitch near one is checked again
+        old_u, old_n = np.unique(previous.segments, return_counts=True)
+        new_u, new_n = np.unique(seg_keys, return_counts=True)
+        both = np.intersect1d(old_u, new_u)
+        same = both[old_n[np.searchsorted(old_u, both)] == new_n[np.searchsorted(new_u, both)]]
+        changed = np.concatenate([np.flatnonzero(~np.isin(seg_keys, same)),
+                                  len(seg_keys) + np.flatnonzero(~np.isin(previous.segments, same))])
+        ends = np.concatenate([np.stack([a, b], axis=1), _segment_ends(previous.segments)])[changed]
+        near = np.zeros(len(pairs), dtype=bool)
+        if len(ends):
+            hit, _ = shapely.STRtree(shapely.linestrings(ends)).query(
+                shapely.linestrings(np.stack([xy[pairs[:, 0]], xy[pairs[:, 1]]], axis=1)),
+                predicate="dwithin", distance=opts.clearance + 1.0)
+            near[hit] = True
+        reuse = known & ~near
+        clear[reuse] = previous.clear[order][at][reuse]
+        todo = ~reuse
+    check = np.flatnonzero(todo & dry)
+    clear[check] = _street_clear(segments, xy, pairs[check], split_parent, n_lat, opts, tree)
+    ok = dry & clear
+    if inner is not None:
+        live = np.flatnonzero(ok)
+        ok[live] = ~shapely.intersects(inner, _core(xy, pairs[live], opts))
+    return ok, ShellVerdicts(segments=seg_keys, pairs=pair_keys, clear=clear)
+
+
+def _segment_ends(keys: np.ndarray) -> np.ndarray:
+    """``(S, 2, 2)`` ends of the segments from their :class:`ShellVerdicts` keys."""
+    return np.frombuffer(keys.tobytes(), dtype=np.float64).reshape(-1, 2, 2)
+
+
+def _incident(pairs: np.ndarray, seg: np.ndarray, segments: Segments, split_parent: np.ndarray,
+              n_lat: int, n_nodes: int) -> np.ndarray:
+    """Whether segment ``seg`` touches a street end of the stitch ``pairs`` (node or split point)."""
+    out = np.zeros(len(seg), dtype=bool)
+    for end in (0, 1):
+        node = pairs[:, end] - n_lat
+        is_node = (node >= 0) & (node < n_nodes)
+        out |= is_node & ((segments.uv[seg, 0] == node) | (segments.uv[seg, 1] == node))
+        split = node - n_nodes
+        is_split = split >= 0
+        if is_split.any():
+            out |= is_split & (split_parent[np.where(is_split, split, 0)] == seg)
+    return out
