@@ -8,7 +8,9 @@ neighbourhood's, in how many seeds the street density, the dead-end share and
 the 2-core share are in range, and in which (y/n per seed; issue 20 asks 4 of 5 for each), the pieces the
 district makes on the map per seed (issue 20: at most 2), how often each
 measure is off, and with ``--table`` the full table (value, range) for the
-first seed; and the time of a whole run.
+first seed; and the time of a whole run; and the corners sharper than 45° at degree-2 nodes of the
+district per seed, their mean rate per km beside the town's own (its simplified streets): how wiggly the
+district reads where no junction explains a bend (issue 20's curvature defect).
 
 Usage: ``python benchmarks/district_fidelity.py [--seeds 0 1 2 3 4] [--pattern example] [--table] [TOWN ...]``
 """
@@ -32,7 +34,7 @@ def run(name: str, seeds: list[int], pattern: str, overrides: dict) -> list[dict
     from osm_expand.growth_patterns import make_pattern
     from osm_expand.ingest import load
     from osm_expand.pipeline import ExpandOptions, expand, learn
-    from synth.patches import PatchOptions
+    from synth.patches import PatchOptions, sharp_corners
 
     city = load(REPO / "fixtures" / name)
     # through the registry, as the pipeline makes it: with the measure that ranks patches and sets the aim
@@ -43,10 +45,14 @@ def run(name: str, seeds: list[int], pattern: str, overrides: dict) -> list[dict
         result = expand(city, ExpandOptions(seed=seed, pattern=pattern), pattern=grower)
         total = time.perf_counter() - t0
         f = result.report["fidelity"]
+        corners, km = sharp_corners(result.city.network)
+        town_corners, town_km = sharp_corners(result.learned.simplified, new=False)
         rows.append({"seed": seed, "off": f["off"], "density_ok": f["density_ok"], "typical": f["typical_part_off"],
                      "measures": f["measures"], "streets": result.report["grown_streets"], "seconds": total,
                      "joins": result.report["connections"], "pieces": f["pieces"],
-                     "ok": {k: f["measures"][k]["ok"] for k in IN_RANGE}})
+                     "ok": {k: f["measures"][k]["ok"] for k in IN_RANGE},
+                     "corners": corners, "corners_per_km": corners / max(km, 1e-9),
+                     "town_corners_per_km": town_corners / max(town_km, 1e-9)})
     return rows
 
 
@@ -62,8 +68,9 @@ def main() -> None:
     overrides = {k: json.loads(v) for k, v in (o.split("=", 1) for o in args.option)}
     n = len(args.seeds)
     print("| town | off of 14 per seed | mean off | median real neighbourhood | density in range | "
-          "dead-end share in range | 2-core share in range | pieces per seed | often off | streets | joins | s/run |")
-    print("|---|---|---|---|---|---|---|---|---|---|---|---|")
+          "dead-end share in range | 2-core share in range | pieces per seed | often off | streets | joins | s/run "
+          "| corners > 45° per seed | per km (town's) |")
+    print("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|")
     tables = {}
     for name in args.towns:
         rows = run(name, args.seeds, args.pattern, overrides)
@@ -75,7 +82,9 @@ def main() -> None:
               f"| {in_range} | {' '.join(str(r['pieces']) for r in rows)} | "
               f"{', '.join(f'{k} {v}' for k, v in often.most_common(4))} | "
               f"{np.mean([r['streets'] for r in rows]):.0f} | {np.mean([r['joins'] for r in rows]):.0f} "
-              f"| {np.mean([r['seconds'] for r in rows]):.1f} |", flush=True)
+              f"| {np.mean([r['seconds'] for r in rows]):.1f} | {' '.join(str(r['corners']) for r in rows)} "
+              f"| {np.mean([r['corners_per_km'] for r in rows]):.1f} ({rows[0]['town_corners_per_km']:.1f}) |",
+              flush=True)
         tables[name] = rows[0]["measures"]
     if args.table:
         for name, measures in tables.items():

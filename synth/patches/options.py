@@ -45,6 +45,20 @@ class PatchOptions:
     #: (degrees) is the first kept as a cul-de-sac (within the dead-end budget): an L where the town
     #: had a T. Off by default, for the same reason.
     corner_bend: float | None = None
+    #: With ``corner_bend`` set: a cut street whose trimming would leave such a corner is kept whatever the
+    #: dead-end budget (the tee stays a junction); the dead-end step then runs it on to a tee or, when
+    #: short, drops it. Off by default: seeds 0-2, Krems off 1 0 4 -> 1 1 1 but its turns over 45° at
+    #: degree-2 nodes 41 36 39 -> 38 35 36; Monaco off 1 3 2 -> 5 5 5, turns 95 94 72 -> 107 107 107
+    #: (``district_fidelity.py --option``, issue 20's closing note).
+    keep_tees: bool = False
+    #: When set (degrees), a seam link is made only where the street through it turns no more than this
+    #: at any vertex, where it meets its two cut streets included (:func:`~synth.patches.seams._joint_turn`):
+    #: most of the district's sharp turns at degree-2 nodes are those joints (Krems seed 0: 14 of 41,
+    #: Monaco 28 of 95). Off by default: at 45°, seeds 0-2, Krems' turns 41 36 39 -> 26 24 25 (off
+    #: 1 0 4 -> 2 0 2) but Monaco's district grows 13 km instead of 11 (the refused links are trimmed and
+    #: more cells filled), off 1 3 2 -> 7 7 6 (edge and stroke length, block area, orientation entropy);
+    #: at 75° the same (Krems 26 24 25, off 1 0 2; Monaco off 5 5 7).
+    seam_joint: float | None = None
     #: When set, perimeter streets run on past the cut streets they meet (which meet them in tees
     #: where they cross the edge's inset) and are pulled taut over the jagged edge of the free land
     #: (:func:`_perimeter_runs`), where by default one links each two cut ends along the edge, a U of

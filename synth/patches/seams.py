@@ -20,7 +20,9 @@ def _walk_seams(quilt: _Quilt, spacing: float, opts: PatchOptions, occupied: sha
     read chord by chord as the town's streets are), not by the angle between the two cut streets
     alone: two parallel streets cut side by side have no angle between them, but the link that joins
     them turns across the seam and back, a zig-zag. Links bending more than ``bend`` degrees are not
-    made; those cut ends run on to a tee, along the edge, or are trimmed.
+    made; those cut ends run on to a tee, along the edge, or are trimmed. With ``opts.seam_joint`` set, a
+    link is judged instead by its sharpest vertex turn, where it meets its two streets included
+    (:func:`_joint_turn`): the turn :func:`~synth.patches.topology.corner_turns` counts.
     """
     if len(quilt.cut_xy) < 2:
         return 0
@@ -32,7 +34,10 @@ def _walk_seams(quilt: _Quilt, spacing: float, opts: PatchOptions, occupied: sha
         return 0
     gap = np.hypot(*(xy[pairs[:, 1]] - xy[pairs[:, 0]]).T)
     turn = np.degrees(np.arccos(np.clip(-(heading[pairs[:, 0]] * heading[pairs[:, 1]]).sum(axis=1), -1.0, 1.0)))
-    if np.isfinite(bend):
+    if opts.seam_joint is not None:
+        bend = opts.seam_joint
+        bends = np.array([_joint_turn(xy[a], heading[a], xy[b], heading[b]) for a, b in pairs.tolist()])
+    elif np.isfinite(bend):
         bends = np.array([_link_bend(xy[a], heading[a], xy[b], heading[b]) for a, b in pairs.tolist()])
     else:  # no limit: 004's transition on the angle between the two cut streets
         bends = turn
@@ -119,3 +124,13 @@ def _tees(quilt: _Quilt, old: shapely.Geometry, spacing: float, opts: PatchOptio
         tees += 1
     _close(quilt, used)
     return tees
+
+
+def _joint_turn(a: np.ndarray, da: np.ndarray, b: np.ndarray, db: np.ndarray) -> float:
+    """The sharpest turn (degrees) at a vertex of the street through the seam link from cut end ``a``
+    to ``b``, the cut streets' last metre included: where the link meets its streets and inside it."""
+    path = np.vstack([a - da, _connector(a, da, b, db), b - db])
+    d = np.diff(path, axis=0)
+    h = np.arctan2(d[:, 1], d[:, 0])
+    turn = np.degrees(np.abs((np.diff(h) + np.pi) % (2 * np.pi) - np.pi))
+    return float(turn.max()) if len(turn) else 0.0
