@@ -46,10 +46,11 @@ class PatchOptions:
     #: had a T. Off by default, for the same reason.
     corner_bend: float | None = None
     #: With ``corner_bend`` set: a cut street whose trimming would leave such a corner is kept whatever the
-    #: dead-end budget (the tee stays a junction); the dead-end step then runs it on to a tee or, when
-    #: short, drops it. Off by default: seeds 0-2, Krems off 1 0 4 -> 1 1 1 but its turns over 45° at
-    #: degree-2 nodes 41 36 39 -> 38 35 36; Monaco off 1 3 2 -> 5 5 5, turns 95 94 72 -> 107 107 107
-    #: (``district_fidelity.py --option``, issue 20's closing note).
+    #: dead-end budget, and the dead-end steps (:func:`_fewer_dead_ends`, :func:`_shorter_trees`) never
+    #: drop it: the tee stays a junction. Off by default: seeds 0-2, Krems' turns over 45° at degree-2
+    #: nodes 41 36 39 -> 24 26 26, but its dead-end share goes over the range (off 1 0 4 -> 2 2 1);
+    #: Monaco off 1 3 2 -> 3 2 3, its turns 95 94 72 -> 98 98 98 (the district fills to 13.9 km, not
+    #: 10.9). ``district_fidelity.py --option``, issue 20's closing note.
     keep_tees: bool = False
     #: When set (degrees), a seam link is made only where the street through it turns no more than this
     #: at any vertex, where it meets its two cut streets included (:func:`~synth.patches.seams._joint_turn`):

@@ -293,6 +293,7 @@ def _fewer_dead_ends(net: StreetNetwork, old: shapely.Geometry, occupied: shapel
     """
     share = aim.dead_end_share
     reach = opts.tee_reach * spacing
+    corner = opts.corner_bend if opts.keep_tees and opts.corner_bend is not None else float("inf")
     ends, junctions = _dead_ends(net, old, reach, edge)
     leaves = np.flatnonzero(segment_degree(net.streets, len(net.xy)) == 1)
     anchored = np.zeros(len(net.xy), dtype=bool)
@@ -342,14 +343,16 @@ def _fewer_dead_ends(net: StreetNetwork, old: shapely.Geometry, occupied: shapel
         for e in sorted(chains, key=lambda e: (_chain_length(net, chains[e]), e)):
             if excess <= 0 or _chain_length(net, chains[e]) >= spacing:
                 break
+            if _leaves_corner(net, net.streets, chains[e]) > corner:  # a kept tee (``keep_tees``)
+                continue
             drop |= chains[e]
             excess -= 1
         net = net.replace(streets=without_segments(net.streets, drop)) if drop else net
-    return _shorter_trees(net, old, reach, edge, aim, opts.dead_end_floor)
+    return _shorter_trees(net, old, reach, edge, aim, opts.dead_end_floor, corner)
 
 
 def _shorter_trees(net: StreetNetwork, old: shapely.Geometry, reach: float, edge: shapely.Geometry | None,
-                   aim: _Aim, floor: float) -> StreetNetwork:
+                   aim: _Aim, floor: float, corner: float = float("inf")) -> StreetNetwork:
     """Prune cul-de-sacs that met nothing while the district's 2-core share is short of ``aim``'s and
     its dead ends stay at ``floor`` of those the aimed share allows: each time the shortest that
     makes up the shortfall, else the longest (the least street length lost for the 2-core gained)."""
@@ -365,6 +368,10 @@ def _shorter_trees(net: StreetNetwork, old: shapely.Geometry, reach: float, edge
         if room >= 0:
             break
         chains = dangling_chains(net.streets, {int(e): net.xy[e] for e in ends})
+        if np.isfinite(corner):  # kept tees stay
+            chains = {e: c for e, c in chains.items() if _leaves_corner(net, net.streets, c) <= corner}
+            if not chains:
+                break
         length = {e: _chain_length(net, c) for e, c in chains.items()}
         enough = [e for e in sorted(chains) if length[e] >= -room]
         e = min(enough, key=lambda e: length[e]) if enough else max(sorted(chains), key=lambda e: length[e])
