@@ -87,6 +87,24 @@ def test_a_seam_link_between_cut_streets_that_do_not_line_up_is_not_made():
     assert {tuple(link[0]), tuple(link[-1])} == {(100.0, 300.0), (130.0, 300.0)}  # the streets in line
 
 
+def test_two_cut_ends_closer_than_a_connector_step_meet_halfway_rather_than_jog():
+    """Issue 20 (h27d): most of the district's sharp turns at degree-2 nodes are where a seam link meets
+    its cut streets, and a link under one connector step is a straight piece that turns twice across
+    the seam (here 51° each way). With ``seam_meet`` the two streets' ends move to their midpoint: one
+    node of degree 2 where they turn by a few degrees, and no link piece."""
+    pieces = [[(0.0, 0.0), (50.0, 0.0)], [(104.0, 5.0), (54.0, 5.0)]]
+    for meet, n_pieces in ((True, 2), (False, 3)):
+        quilt = _cut_quilt(pieces, [(0, -1), (1, -1)], [0, 1])
+        assert _walk_seams(quilt, 100.0, PatchOptions(seam_meet=meet), shapely.Polygon(),
+                           shapely.MultiLineString()) == 1
+        assert len(quilt.xy) == n_pieces
+        net = network_from_lines(quilt.xy)
+        turns = corner_turns(net)
+        assert len(turns) == 2 - meet
+        assert (turns.max() < 10.0) if meet else (turns.min() > 45.0)
+    assert tuple(quilt.xy[0][-1]) == (50.0, 0.0)  # by default the streets stay where they were cut
+
+
 def test_a_cut_street_whose_trimming_would_leave_an_l_bend_stays_as_the_cul_de_sac_first():
     """Issue 20 (h26d): trimming a cut street back to its junction turned the town's tees into L-bends,
     the district's sharpest bends (Krems seed 0: 16 of its 28 over 45°). With room for one cul-de-sac,

@@ -60,6 +60,7 @@ class PatchOptions:
     #: more cells filled), off 1 3 2 -> 7 7 6 (edge and stroke length, block area, orientation entropy);
     #: at 75° the same (Krems 26 24 25, off 1 0 2; Monaco off 5 5 7).
     seam_joint: float | None = None
+    seam_meet: bool = False
     #: When set, perimeter streets run on past the cut streets they meet (which meet them in tees
     #: where they cross the edge's inset) and are pulled taut over the jagged edge of the free land
     #: (:func:`_perimeter_runs`), where by default one links each two cut ends along the edge, a U of

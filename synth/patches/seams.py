@@ -54,11 +54,35 @@ def _walk_seams(quilt: _Quilt, spacing: float, opts: PatchOptions, occupied: sha
             path = _connector(xy[a], heading[a], xy[b], heading[b])
             if not board.clear(path):
                 continue
-            _lay(board, quilt, path, a)
+            if not (opts.seam_meet and len(path) == 2 and _meet_midway(quilt, a, b)):
+                _lay(board, quilt, path, a)
         used[a] = used[b] = True
         links += 1
     _close(quilt, used)
     return links
+
+
+def _meet_midway(quilt: _Quilt, a: int, b: int) -> bool:
+    """Cut ends ``a`` and ``b``, closer than a connector step, meet halfway: each street's end moves to
+    their midpoint, where a straight link between them would turn twice across the seam (a jog), so
+    that the offset is spread over the two streets' last pieces. Only where each last piece is at least
+    as long as the gap (else the street's end would turn more than the link); True when done."""
+    ends = []
+    mid = (quilt.cut_xy[a] + quilt.cut_xy[b]) / 2.0
+    gap = float(np.hypot(*(quilt.cut_xy[b] - quilt.cut_xy[a])))
+    for k in (a, b):
+        xy = quilt.xy[quilt.cut_piece[k]]
+        at = 0 if np.array_equal(xy[0], quilt.cut_xy[k]) else len(xy) - 1
+        if not np.array_equal(xy[at], quilt.cut_xy[k]) or len(xy) < 2:
+            return False
+        if float(np.hypot(*(xy[at] - xy[1 if at == 0 else at - 1]))) < gap:
+            return False
+        ends.append((quilt.cut_piece[k], at))
+    for piece, at in ends:
+        moved = quilt.xy[piece].copy()
+        moved[at] = mid
+        quilt.xy[piece] = moved
+    return True
 
 
 #: Metres between the points of a curved seam connector.
