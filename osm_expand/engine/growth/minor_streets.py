@@ -55,8 +55,9 @@ ELL = 20.0
 @dataclass(frozen=True)
 class GrowthOptions:
     #: A district pattern grows once the owed street length reaches this many junction spacings:
-    #: a district of about fifteen blocks (a grid of spacing s has 2/s metres of street per m²), not a
-    #: street at a time (the patterns work at the district scale, and a district is a few blocks).
+    #: a district of about twenty blocks (the towns hold 1.3–1.8/s metres of street per m² of built-up
+    #: land at junction spacing s: :func:`built_up_density`), not a street at a time (the patterns work
+    #: at the district scale, and a district is a few blocks).
     min_district: float = 30.0
     #: Sites tried per district, best first (as the pipeline's first district).
     sites_tried: int = 5
@@ -256,7 +257,11 @@ def _new_lines(graph: StreetGraph, splits: list[tuple[np.ndarray, np.ndarray]], 
 def grow_district(city: City, pattern: GrowthPattern, length: float, density: float, nuclei: list[Nucleus],
                   memory: GrowthMemory, rng: np.random.Generator, *, spacing: float, year: int, era: str,
                   options: GrowthOptions = GrowthOptions()) -> tuple[City, GrowthYear]:
-    """A district of about ``length`` metres of street (at ``density`` m per m²) on the best free site.
+    """A district of about ``length`` metres of street on the best free site.
+
+    The site holds ``length`` at the town's own street density on its
+    built-up land (:func:`built_up_density`), or at ``density`` (m per m²;
+    the loop passes a grid's 2/s) where the town has no built-up land.
 
     The sites are the pipeline's (:mod:`osm_expand.sites`: free land next to
     the town, near water, with room), re-ranked by the nuclei of growth
