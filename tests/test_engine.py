@@ -103,7 +103,9 @@ def test_everything_the_engine_made_has_a_year_an_era_and_stays_dry(history, yea
         assert first <= s.year <= last and s.era in eras
         assert s.status in (Status.BUILT, Status.PLANNED) and s.width and s.width > 0
         wet = shapely.LineString(net.street_xy(s)).intersection(water).length
-        assert wet == 0.0 or (s.bridge and wet <= MAX_BRIDGE + 10.0), (s.id, wet)
+        # a street that touches the water's edge meets it in a point, which GEOS may return as a line of
+        # 1e-13 m (Krems, default history: an engine district's street of 2024): dry, to a millimetre
+        assert wet <= 1e-3 or (s.bridge and wet <= MAX_BRIDGE + 10.0), (s.id, wet)
     made = [b for b in result.city.buildings if b.origin == Origin.ENGINE]
     assert made and all(first <= b.year <= last for b in made)
     footprints = shapely.polygons([b.ring for b in made])

@@ -55,8 +55,9 @@ ELL = 20.0
 @dataclass(frozen=True)
 class GrowthOptions:
     #: A district pattern grows once the owed street length reaches this many junction spacings:
-    #: a district of about fifteen blocks (a grid of spacing s has 2/s metres of street per m²), not a
-    #: street at a time (the patterns work at the district scale, and a district is a few blocks).
+    #: a district of about twenty blocks (the towns hold 1.3–1.8/s metres of street per m² of built-up
+    #: land at junction spacing s: :func:`built_up_density`), not a street at a time (the patterns work
+    #: at the district scale, and a district is a few blocks).
     min_district: float = 30.0
     #: Sites tried per district, best first (as the pipeline's first district).
     sites_tried: int = 5
@@ -256,7 +257,11 @@ def _new_lines(graph: StreetGraph, splits: list[tuple[np.ndarray, np.ndarray]], 
 def grow_district(city: City, pattern: GrowthPattern, length: float, density: float, nuclei: list[Nucleus],
                   memory: GrowthMemory, rng: np.random.Generator, *, spacing: float, year: int, era: str,
                   options: GrowthOptions = GrowthOptions()) -> tuple[City, GrowthYear]:
-    """A district of about ``length`` metres of street (at ``density`` m per m²) on the best free site.
+    """A district of about ``length`` metres of street on the best free site.
+
+    The site holds ``length`` at the town's own street density on its
+    built-up land (:func:`built_up_density`), or at ``density`` (m per m²;
+    the loop passes a grid's 2/s) where the town has no built-up land.
 
     The sites are the pipeline's (:mod:`osm_expand.sites`: free land next to
     the town, near water, with room), re-ranked by the nuclei of growth
@@ -269,12 +274,14 @@ def grow_district(city: City, pattern: GrowthPattern, length: float, density: fl
     (:mod:`osm_expand.engine.growth.stubs`) left north-bayreuth's engine streets
     with 7 % dead ends against its neighbourhoods' 17–41 %.
     """
-    area = max(length / max(density, 1e-9), 9.0 * spacing ** 2)
     pts = city.network.xy[city.network.used_nodes()]
     margin = 0.5 * float(np.hypot(*(pts.max(axis=0) - pts.min(axis=0)))) if len(pts) else 0.0
-    radius = math.sqrt(area / math.pi)
+    # the rasters at the cell of a district at ``density`` (the finer one: the town's density is lower)
+    radius = math.sqrt(max(length / max(density, 1e-9), 9.0 * spacing ** 2) / math.pi)
     site_options = SiteOptions(cell=max(SiteOptions.cell, radius / options.site_cells_per_radius))
     maps = distance_maps(city, site_options, margin=margin)
+    town = built_up_density(city, maps)
+    area = max(length / (town if town > 0 else max(density, 1e-9)), 9.0 * spacing ** 2)
     sites = choose_sites(maps, area, site_options, most=options.sites_tried)
     if not sites:
         return city, GrowthYear()
@@ -290,6 +297,24 @@ def grow_district(city: City, pattern: GrowthPattern, length: float, density: fl
     new = placed.city.network.streets[before:]
     made = sum(polyline_length(placed.city.network.street_xy(s)) for s in new)
     return placed.city, GrowthYear(streets=len(new), length_m=made, bridges=sum(s.bridge for s in new), districts=1)
+
+
+def built_up_density(city: City, maps: DistanceMaps) -> float:
+    """The city's street length on its built-up land per m² of that land (m/m²; 0 without built-up land).
+
+    What a district of the town holds: an engine district's site is its owed street length over this,
+    so it is as large as the town's own streets would need. A grid of spacing s has 2/s; the towns as
+    mapped have 1.3–1.8/s (Andorra 1.33, Krems 1.47, north-bayreuth 1.70, Monaco 1.77 at their junction
+    spacings), since blocks are not squares and not every block side is a street. Sites at 2/s were
+    smaller than one patch cell (5 × 5 spacings), so an engine district was one piece of dense fabric cut
+    to a disc: 2-core shares above the town's range on Andorra (0.94) and Monaco (0.97).
+    Segments count by their midpoints' raster cells.
+    """
+    table = SegmentTable.from_city(city)
+    a, b = table.xy[table.uv[:, 0]], table.xy[table.uv[:, 1]]
+    on = _built_up_distance(maps, (a + b) / 2) <= 0.0
+    area = maps.built_area
+    return float(np.hypot(*(b - a).T)[on].sum() / area) if area > 0 else 0.0
 
 
 def _built_up_distance(maps: DistanceMaps, xy: np.ndarray) -> np.ndarray:
