@@ -266,13 +266,12 @@ def blocks(net: StreetNetwork, options: BlockOptions | None = None, *, origin: O
     known = memo if memo is not None else FaceMemo()
     seen: dict[bytes, shapely.Polygon | None] = {}
     bounded, keys, edge_count, street_ids = [], [], [], []
-    found = _face_arrays(net)
+    found = _face_arrays(net) or _Faces(closed=np.zeros((0, 2)), ring_at=np.zeros(1, dtype=np.int64),
+                                        ids=np.zeros(0, dtype=np.int64), id_at=np.zeros(1, dtype=np.int64), edges=[])
     # counter-clockwise rings of at least three edges: the only faces that may be blocks (the memo holds only
     # rings that passed this test, and a ring is its key, so a remembered ring passes it again)
-    may = np.zeros(0, dtype=np.int64) if found is None else \
-        np.flatnonzero((np.diff(found.ring_at) >= 4) & (found.signed_areas() > 0))
-    ring_at = found.ring_at.tolist() if found is not None else []
-    id_at = found.id_at.tolist() if found is not None else []
+    may = np.flatnonzero((np.diff(found.ring_at) >= 4) & (found.signed_areas() > 0))
+    ring_at, id_at = found.ring_at.tolist(), found.id_at.tolist()
     for f in may.tolist():
         ring = found.closed[ring_at[f]:ring_at[f + 1]]
         key = ring.tobytes()

@@ -168,9 +168,10 @@ def _block_keys(blocks: Sequence[Block], memo: _Memo | None = None) -> list[tupl
         centre = np.rint(shapely.get_coordinates(shapely.centroid(polys))).astype(np.int64)
         for k, key in zip(todo, zip(area.tolist(), centre[:, 0].tolist(), centre[:, 1].tolist())):
             keys[k] = key
+    known_keys = cast(list[tuple[int, int, int]], keys)  # every one measured now
     if memo is not None:
-        memo.block_keys = {id(b.polygon): (b.polygon, key) for b, key in zip(blocks, keys)}
-    return cast(list[tuple[int, int, int]], keys)
+        memo.block_keys = {id(b.polygon): (b.polygon, key) for b, key in zip(blocks, known_keys)}
+    return known_keys
 
 
 def _relabel(state: LotState, streets: _Streets, tolerance: float = 1.0) -> LotState | None:
