@@ -383,7 +383,8 @@ def _main(argv: Sequence[str] | None) -> int:
         args = parser.parse_args(argv)
     except SystemExit as exc:  # --help, --version, or a usage error already printed in one line
         return int(exc.code or 0)
-    log = Progress(args.quiet, EXPAND_STAGES if command is cmd_expand else 0)
+    # without --json the district is not judged (ExpandRequest.from_namespace): one stage fewer
+    log = Progress(args.quiet, EXPAND_STAGES - (not args.json) if command is cmd_expand else 0)
     try:
         report = (command or COMMANDS[args.command])(args, log)
         if (stopped := received()) is not None:  # a signal whose exception a library swallowed

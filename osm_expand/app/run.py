@@ -92,10 +92,12 @@ def run_expand(request: ExpandRequest, *, progress: Log = _quiet, stages: Callab
         pictures: list = []
         options = ExpandOptions(seed=request.seed, direction=None if request.direction == "auto" else request.direction,
                                 at=site_point(request, checked, city), area=request.area,
-                                beyond_bounds=request.beyond_bounds, land=checked.land, pattern=request.pattern)
+                                beyond_bounds=request.beyond_bounds, land=checked.land, pattern=request.pattern,
+                                fidelity=request.judge)
         try:
             result = expand(city, options, progress=progress)
-            result = mature_result(result, history, MatureOptions(years=years, snapshot_every=request.snapshot_every),
+            result = mature_result(result, history, MatureOptions(years=years, snapshot_every=request.snapshot_every,
+                                                                     fidelity=request.judge),
                                    request.seed, progress=progress,
                                    snapshot=(lambda *picture: pictures.append(picture)) if snapshots else None)
         except InputError as exc:
