@@ -22,16 +22,17 @@ from __future__ import annotations
 
 import argparse
 import time
+from collections.abc import Callable
 from pathlib import Path
-from typing import Callable
 
 import numpy as np
 import shapely
 
-from osm_expand.engine.roads.built_up import Segments, built_up_area
+from osm_expand.engine.roads.built_up import built_up_area
 from osm_expand.engine.roads.lattice import LatticeOptions, Raster, build_lattice
 from osm_expand.engine.roads.path_graph import pathfinding_graph
 from osm_expand.engine.roads.road_types import RoadType, plan_major_road, propose_route
+from osm_expand.model.segments import SegmentTable
 
 REPO = Path(__file__).resolve().parent.parent
 
@@ -47,7 +48,7 @@ def timed(work: Callable[[], object], repeat: int) -> tuple[object, float, float
     return result, min(cpu), min(wall)
 
 
-def synthetic_map(side: float) -> tuple[tuple[float, float, float, float], Raster, Segments, list]:
+def synthetic_map(side: float) -> tuple[tuple[float, float, float, float], Raster, SegmentTable, list]:
     """A river across the map and a grid town in the middle (lines noded at every crossing)."""
     extent = (0.0, 0.0, side, side)
     cell = 10.0
@@ -64,19 +65,19 @@ def synthetic_map(side: float) -> tuple[tuple[float, float, float, float], Raste
         lines.append(np.stack([x0 + ticks, np.full(blocks + 1, y0 + t)], axis=1))
         lines.append(np.stack([np.full(blocks + 1, x0 + t), y0 + ticks], axis=1))
         major += [k == blocks // 2, False]
-    segs = Segments.from_lines(lines, major=major, width=[8.0] * len(lines))
+    segs = SegmentTable.from_lines(lines, major=major, width=[8.0] * len(lines))
     faces = list(shapely.get_parts(shapely.polygonize(list(segs.lines()))))
     return extent, water, segs, faces
 
 
-def krems_map() -> tuple[tuple[float, float, float, float], Raster, Segments, list]:
+def krems_map() -> tuple[tuple[float, float, float, float], Raster, SegmentTable, list]:
     """Krems: its streets (tertiary and above major), faces as blocks, the Danube."""
     from osm_expand.ingest import load
     town = load(REPO / "fixtures" / "krems.osm.gz")
     net, wet = town.network, town.water_geometry()
     major = [s.highway.removesuffix("_link") in {"motorway", "trunk", "primary", "secondary", "tertiary"}
              for s in net.streets]
-    segs = Segments.from_lines([net.street_xy(s) for s in net.streets], major=major,
+    segs = SegmentTable.from_lines([net.street_xy(s) for s in net.streets], major=major,
                                width=[12.0 if m else 6.0 for m in major], bridge=[s.bridge for s in net.streets])
     (x0, y0), (x1, y1) = net.xy.min(axis=0) - 100, net.xy.max(axis=0) + 100
     extent = (float(x0), float(y0), float(x1), float(y1))
@@ -84,7 +85,7 @@ def krems_map() -> tuple[tuple[float, float, float, float], Raster, Segments, li
     return extent, water, segs, list(shapely.get_parts(shapely.polygonize(list(segs.lines()))))
 
 
-def run(name: str, extent, water: Raster, segs: Segments, faces: list, repeat: int) -> None:
+def run(name: str, extent, water: Raster, segs: SegmentTable, faces: list, repeat: int) -> None:
     lattice, lat_cpu, lat_wall = timed(lambda: build_lattice(extent, water=water, options=LatticeOptions()), repeat)
     (built, cut), b_cpu, b_wall = timed(lambda: _with_b(lattice, faces, segs), repeat)
     graph, g_cpu, g_wall = timed(lambda: pathfinding_graph(cut, segs, built), repeat)

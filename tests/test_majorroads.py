@@ -1,6 +1,7 @@
 """The pathfinding lattice G, B, G′, turn-penalised routing and major road plans (003 §3.4; 000 §4.2.3, §4.2.7)."""
 from __future__ import annotations
 
+from dataclasses import replace
 from math import gcd
 
 import numpy as np
@@ -9,7 +10,7 @@ import shapely
 from hypothesis import example, given, settings
 from hypothesis import strategies as st
 
-from osm_expand.engine.roads.built_up import Segments, built_up_area, segment_sides
+from osm_expand.engine.roads.built_up import built_up_area, segment_sides
 from osm_expand.engine.roads.lattice import (
     NO_EDGE,
     EdgeKind,
@@ -41,6 +42,7 @@ from osm_expand.engine.roads.routing import (
     turn_penalty,
 )
 from osm_expand.errors import InputError
+from osm_expand.model.segments import SegmentTable
 
 CELL = 5.0
 
@@ -73,7 +75,7 @@ def grid_lines(x0, y0, n, size):
     return lines
 
 
-def blocks_of(segments: Segments) -> list:
+def blocks_of(segments: SegmentTable) -> list:
     return list(shapely.get_parts(shapely.polygonize(list(segments.lines()))))
 
 
@@ -208,7 +210,7 @@ def test_b_never_shrinks(discs):
         assert (grown.built_up >= lat.built_up).all()
         assert ((grown.directed_kind == NO_EDGE) >= (lat.directed_kind == NO_EDGE)).all()
         lat = grown
-        segs = Segments.from_lines([np.array([[x, y], [x + r, y]])], major=[False], width=[6.0])
+        segs = SegmentTable.from_lines([np.array([[x, y], [x + r, y]])], major=[False], width=[6.0])
         new = built_up_area([], segs, previous=area)
         if area is not None:
             assert shapely.area(shapely.difference(area.area, new.area)) < 1e-6
@@ -226,7 +228,7 @@ def test_a_raster_from_geometry_keeps_a_stream_thinner_than_a_cell():
 
 
 def test_built_up_area_follows_equation_1():
-    segs = Segments.from_lines(grid_lines(0, 0, 2, 100) + [np.array([[200, 100], [600, 100]])],
+    segs = SegmentTable.from_lines(grid_lines(0, 0, 2, 100) + [np.array([[200, 100], [600, 100]])],
                                major=[False] * 7, width=[6.0] * 7)
     blocks = blocks_of(segs) + [shapely.box(200, 100, 600, 600)]  # a large terrain block
     b = built_up_area(blocks, segs)
@@ -248,7 +250,7 @@ def town_graph(costs=EdgeCosts(), through_major=False):
     major = [False] * len(lines)
     if through_major:
         major[2] = True  # the horizontal street at y = 450
-    segs = Segments.from_lines(lines, major=major, width=[6.0] * len(lines))
+    segs = SegmentTable.from_lines(lines, major=major, width=[6.0] * len(lines))
     built = built_up_area(blocks_of(segs), segs)
     lat = build_lattice(extent, options=LatticeOptions(radius=4)).with_built_up(built.area)
     return pathfinding_graph(lat, segs, built, costs=costs), segs
@@ -301,7 +303,7 @@ def chicane_graph():
     extent = (-50, -150, 450, 100)
     lines = [np.array([[0, 0], [200, 0], [200, 10], [400, 10], [400, 0]]),
              np.array([[0, 0], [100, -80], [300, -80], [400, 0]])]
-    segs = Segments.from_lines(lines, major=[True, True], width=[8.0, 8.0])
+    segs = SegmentTable.from_lines(lines, major=[True, True], width=[8.0, 8.0])
     lat = build_lattice(extent, forbidden=raster(lambda x, y: np.ones(x.shape, bool), extent, cell=10.0),
                         options=LatticeOptions(radius=2))
     g = pathfinding_graph(lat, segs)
@@ -321,8 +323,7 @@ def test_the_turn_penalty_changes_the_route_plain_dijkstra_takes():
 
 def test_on_an_open_field_the_penalised_route_turns_once():
     lat = build_lattice((0, 0, 300, 300), options=LatticeOptions(radius=1))
-    g = pathfinding_graph(lat, Segments(np.zeros((0, 2)), np.zeros((0, 2), int), np.zeros(0, bool), np.zeros(0),
-                                        np.zeros(0, bool)))
+    g = pathfinding_graph(lat, SegmentTable.from_lines([], major=[], width=[]))
     s, t = g.nearest_vertex([0, 0]), g.nearest_vertex([200, 200])
     route = find_route(g, s, t)
     assert route.length == pytest.approx(400.0)
@@ -341,8 +342,7 @@ def test_pruned_search_finds_the_same_cost_as_searching_everything(seed):
     blobs = raster(lambda x, y: (np.hypot(x[..., None] - centres[:, 0], y[..., None] - centres[:, 1])
                                  < radii).any(axis=-1), extent, cell=10.0)
     lat = build_lattice(extent, forbidden=blobs, options=LatticeOptions(radius=int(rng.integers(1, 4))))
-    g = pathfinding_graph(lat, Segments(np.zeros((0, 2)), np.zeros((0, 2), int), np.zeros(0, bool), np.zeros(0),
-                                        np.zeros(0, bool)))
+    g = pathfinding_graph(lat, SegmentTable.from_lines([], major=[], width=[]))
     live = g.live_vertices()
     s, t = (int(v) for v in rng.choice(live, 2, replace=False))
     opts = RoutingOptions(turn_height=float(rng.uniform(20, 400)))
@@ -366,7 +366,7 @@ def test_the_implicit_search_in_growing_windows_finds_the_cost_of_the_whole_map(
     blobs = raster(lambda x, y: (np.hypot(x[..., None] - centres[:, 0], y[..., None] - centres[:, 1])
                                  < radii).any(axis=-1), extent, cell=10.0)
     y_lo = float(rng.uniform(100, 800))
-    segs = Segments.from_lines(grid_lines(350, 350, 3, 100), major=[bool(b) for b in rng.integers(0, 2, 8)],
+    segs = SegmentTable.from_lines(grid_lines(350, 350, 3, 100), major=[bool(b) for b in rng.integers(0, 2, 8)],
                                width=[6.0] * 8)
     built = built_up_area(blocks_of(segs), segs)
     lat = build_lattice(extent, water=river(extent, y_lo, y_lo + 60), forbidden=blobs,
@@ -424,7 +424,7 @@ def river_graph():
     extent = (0, 0, 800, 600)
     water = river(extent, 250, 330)
     lat = build_lattice(extent, water=water, options=LatticeOptions(radius=4))
-    no_streets = Segments(np.zeros((0, 2)), np.zeros((0, 2), int), np.zeros(0, bool), np.zeros(0), np.zeros(0, bool))
+    no_streets = SegmentTable.from_lines([], major=[], width=[])
     return pathfinding_graph(lat, no_streets), water
 
 
@@ -456,7 +456,7 @@ def test_new_roads_are_smoothed_but_start_and_end_where_the_route_does():
 
 def straight_major_road(available):
     extent = (0, 0, 1000, 600)
-    segs = Segments.from_lines([np.array([[0, 300], [250, 300], [500, 300], [750, 300], [1000, 300]])],
+    segs = SegmentTable.from_lines([np.array([[0, 300], [250, 300], [500, 300], [750, 300], [1000, 300]])],
                                major=[True], width=[6.0], available=[available])
     lat = build_lattice(extent, options=LatticeOptions(radius=4))
     built = built_up_area([], segs)
@@ -501,7 +501,7 @@ def test_a_rebuilding_city_road_demolishes_minor_streets_but_no_major_road():
     lines = grid_lines(100, 100, 4, 100)
     major = [False] * len(lines)
     major[4] = True  # horizontal street y = 300
-    segs = Segments.from_lines(lines, major=major, width=[6.0] * len(lines))
+    segs = SegmentTable.from_lines(lines, major=major, width=[6.0] * len(lines))
     land = raster(lambda x, y: (x > 90) & (x < 510) & (y > 90) & (y < 510), extent)
     forbidden = Raster(~land.values, land.origin, land.cell)
     built = built_up_area(blocks_of(segs), segs)
@@ -541,7 +541,8 @@ def test_bad_choices_and_parameters_raise_input_errors():
     with pytest.raises(InputError, match="spacing"):
         LatticeOptions(spacing=-1.0)
     with pytest.raises(InputError, match="width"):
-        Segments(np.zeros((2, 2)), np.array([[0, 1]]), np.array([True]), np.array([1.0, 2.0]), np.array([False]))
+        replace(SegmentTable.from_lines([np.array([[0.0, 0.0], [1.0, 0.0]])], major=[True], width=[1.0]),
+                width=np.array([1.0, 2.0]))
     with pytest.raises(InputError, match="extent"):
         build_lattice((0, 0, 0, 10))
     with pytest.raises(InputError, match="bridge"):
@@ -567,7 +568,7 @@ def krems():
     from osm_expand.ingest import load
     net, water = network_and_water(load(FIXTURES / "krems.osm.gz"))
     major = [s.highway.removesuffix("_link") in MAJOR_HIGHWAYS for s in net.streets]
-    segs = Segments.from_lines([net.street_xy(s) for s in net.streets], major=major,
+    segs = SegmentTable.from_lines([net.street_xy(s) for s in net.streets], major=major,
                                width=[12.0 if m else 6.0 for m in major], bridge=[s.bridge for s in net.streets])
     x0, y0 = net.xy.min(axis=0) - 100
     x1, y1 = net.xy.max(axis=0) + 100
@@ -690,7 +691,7 @@ def test_a_stitch_may_cross_stitch_only_ground_that_no_lattice_edge_may():
     """:attr:`Lattice.stitch_only` (the town's presumed frontage) is forbidden to the lattice's vertices and
     edges, as ``forbidden`` is, but stitches from the streets still cross it to the land beyond."""
     extent = (0, 0, 1000, 1000)
-    segs = Segments.from_lines(grid_lines(350, 350, 3, 100), major=[False] * 8, width=[6.0] * 8)
+    segs = SegmentTable.from_lines(grid_lines(350, 350, 3, 100), major=[False] * 8, width=[6.0] * 8)
     built = built_up_area(blocks_of(segs), segs)
     frontage = shapely.box(350, 350, 650, 650).buffer(40.0, join_style="mitre")  # 40 m behind the shell
     opts = LatticeOptions(radius=4)
@@ -824,7 +825,7 @@ def test_counting_turns_at_the_exits_keeps_the_search_exact(seed):
     extent = (0, 0, 1600, 1600)
     n = int(rng.integers(4, 8))
     lines = grid_lines(400, 400, n, 800 / n)
-    segs = Segments.from_lines(lines, major=[bool(b) for b in rng.integers(0, 2, len(lines))],
+    segs = SegmentTable.from_lines(lines, major=[bool(b) for b in rng.integers(0, 2, len(lines))],
                                width=[6.0] * len(lines))
     built = built_up_area(blocks_of(segs), segs)
     lat = build_lattice(extent, options=LatticeOptions(radius=int(rng.integers(2, 4)))).with_built_up(built.area)
@@ -871,7 +872,7 @@ def test_a_corridor_along_far_ends_finds_the_cost_of_the_whole_map(seed):
     y_lo = float(rng.uniform(100, 1400))
     n = int(rng.integers(3, 7))
     lines = grid_lines(500, 500, n, 600 / n)
-    segs = Segments.from_lines(lines, major=[bool(b) for b in rng.integers(0, 2, len(lines))],
+    segs = SegmentTable.from_lines(lines, major=[bool(b) for b in rng.integers(0, 2, len(lines))],
                                width=[6.0] * len(lines))
     built = built_up_area(blocks_of(segs), segs)
     lat = build_lattice(extent, water=river(extent, y_lo, y_lo + 40), forbidden=blobs,
@@ -920,7 +921,7 @@ def test_shell_stitches_carried_over_from_last_year_equal_those_checked_afresh(s
     lat = build_lattice(extent, water=river(extent, 1000, 1060), options=LatticeOptions(radius=2))
 
     def part(lines, previous=None):
-        segs = Segments.from_lines(lines, major=[False] * len(lines), width=[6.0] * len(lines))
+        segs = SegmentTable.from_lines(lines, major=[False] * len(lines), width=[6.0] * len(lines))
         built = built_up_area(blocks_of(segs), segs)
         return street_part(lat.with_built_up(built.area), segs, built, previous=previous)
 
@@ -936,7 +937,7 @@ def test_shell_stitches_carried_over_from_last_year_equal_those_checked_afresh(s
     assert np.array_equal(fresh.verdicts.clear, carried.verdicts.clear)
     # the stitches to the lattice likewise, carried from the last G′'s searched windows
     def graph(lines, previous=None):
-        segs = Segments.from_lines(lines, major=[False] * len(lines), width=[6.0] * len(lines))
+        segs = SegmentTable.from_lines(lines, major=[False] * len(lines), width=[6.0] * len(lines))
         built = built_up_area(blocks_of(segs), segs)
         return implicit_graph(lat.with_built_up(built.area), segs, built, previous_lattice=previous)
 

@@ -8,16 +8,23 @@ built. The table is derived from the city whenever the engine needs it
 back to the streets with :meth:`SegmentTable.per_street`.
 
 It lives in the model, beside the streets it is derived from, as the one
-segment table of the code (issue 23); the lattice's
-:class:`~osm_expand.engine.roads.built_up.Segments` and ``synth``'s growing
-:class:`~synth.street_graph.StreetGraph` are still tables of their own.
+segment table of the code (issue 23). The major roads read it with two
+optional columns of their own: each segment's remaining trade capacity
+(``available``) and the built harbour segments (``harbour``);
+:meth:`SegmentTable.from_lines` makes a table of bare polylines for their
+tests. ``synth``'s :class:`~synth.street_graph.StreetGraph` is not a second
+table: it is the growth kernels' mutable graph with its grids, built from
+these arrays (:meth:`~synth.street_graph.StreetGraph.from_segments`).
 """
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
+import shapely
 
+from osm_expand.errors import InputError
 from osm_expand.model import highways
 from osm_expand.model.city import City
 from osm_expand.model.network import Status, Street
@@ -63,6 +70,76 @@ class SegmentTable:
     year: np.ndarray  #: (E,) the year built, -1 for the town as mapped
     street_id: np.ndarray  #: (E,) the street's stable id (:attr:`Street.id`)
     first: np.ndarray  #: (S + 1,) the first segment of each street (segments of street k: first[k]..first[k+1])
+    #: (E,) remaining trade capacity ``O2 · width − T(s)`` (003 §3.4.2, traffic units); None: not read
+    available: np.ndarray | None = None
+    #: (E,) bool, built harbour segments (003's C4); None: none
+    harbour: np.ndarray | None = None
+
+    def __post_init__(self) -> None:
+        n = len(self.uv)
+        if np.ndim(self.xy) != 2 or np.shape(self.xy)[1:] != (2,) or np.shape(self.uv) != (n, 2):
+            raise InputError("segments: xy must be (N, 2) and uv (E, 2)")
+        for name in ("street", "length", "width", "major", "built", "bridge", "year", "street_id", "available",
+                     "harbour"):
+            value = getattr(self, name)
+            if value is not None and np.shape(value) != (n,):
+                raise InputError(f"segments: {name} must have one value per segment ({n}), got {np.shape(value)}")
+        if n and (np.min(self.uv) < 0 or np.max(self.uv) >= len(self.xy)):
+            raise InputError("segments: uv refers to a node that does not exist")
+
+    @classmethod
+    def from_lines(cls, lines: Sequence[np.ndarray], *, major: Sequence[bool], width: Sequence[float],
+                   bridge: Sequence[bool] | None = None, available: Sequence[float] | None = None) -> SegmentTable:
+        """A table of polylines (one street each); points equal to the micrometre become one node.
+
+        Parameters
+        ----------
+        lines
+            Polylines, each ``(M, 2)`` metres; every consecutive pair of points is a segment.
+        major, width, bridge, available
+            One value per polyline, given to all its segments (``bridge``
+            default False, ``available`` default None: unlimited).
+
+        Returns
+        -------
+        SegmentTable
+            Every segment built, of the town as mapped (year −1); a polyline's
+            street id is its index.
+        """
+        pts = [np.asarray(line, dtype=float).reshape(-1, 2) for line in lines]
+        counts = np.array([len(p) - 1 for p in pts], dtype=np.int64)
+        every = np.concatenate(pts) if pts else np.zeros((0, 2))
+        xy, inverse = np.unique(np.round(every, 6), axis=0, return_inverse=True)
+        inverse = inverse.ravel()
+        starts = np.concatenate([[0], np.cumsum([len(p) for p in pts])])
+        uv = np.concatenate([np.stack([inverse[s:e - 1], inverse[s + 1:e]], axis=1)
+                             for s, e in zip(starts[:-1], starts[1:])]) if pts else np.zeros((0, 2), np.int64)
+        per = lambda values, dtype: np.repeat(np.asarray(values, dtype=dtype), counts)  # noqa: E731
+        keep = uv[:, 0] != uv[:, 1]
+        street = per(np.arange(len(pts)), np.int64)[keep]
+        uv = uv[keep]
+        return cls(
+            xy=xy, uv=uv, street=street, length=np.hypot(*(xy[uv[:, 1]] - xy[uv[:, 0]]).T),
+            width=per(width, float)[keep], major=per(major, bool)[keep], built=np.ones(len(uv), bool),
+            bridge=(per(bridge, bool) if bridge is not None else np.zeros(counts.sum(), bool))[keep],
+            year=np.full(len(uv), -1, np.int64), street_id=street.copy(),
+            first=np.searchsorted(street, np.arange(len(pts) + 1)).astype(np.int64),
+            available=None if available is None else per(available, float)[keep],
+        )
+
+    @property
+    def a(self) -> np.ndarray:
+        """(E, 2) each segment's first end."""
+        return self.xy[self.uv[:, 0]]
+
+    @property
+    def b(self) -> np.ndarray:
+        """(E, 2) each segment's second end."""
+        return self.xy[self.uv[:, 1]]
+
+    def lines(self) -> np.ndarray:
+        """One shapely LineString per segment."""
+        return shapely.linestrings(np.stack([self.a, self.b], axis=1))
 
     @classmethod
     def from_city(cls, city: City) -> SegmentTable:

@@ -1,4 +1,7 @@
-"""The streets as the roads see them and the built-up area B (003 Eq. 1, §3.4.2).
+"""The built-up area B (003 Eq. 1, §3.4.2) and which sides of a street it holds.
+
+The streets are the model's :class:`~osm_expand.model.segments.SegmentTable`, read with the
+trade capacity the year left (its optional ``available`` column).
 
 **B** (003 Eq. 1) is ``FILL(S) \\ ∪ FILL(B_T) ∪ NB(S) ∪ ∪ NB(B_T)``: the
 built-up blocks plus a neighbourhood of every street on the shell or on a
@@ -19,90 +22,13 @@ from dataclasses import dataclass
 import numpy as np
 import shapely
 
-from osm_expand.errors import InputError
 from osm_expand.model.options import require_positive
+from osm_expand.model.segments import SegmentTable
 
-__all__ = ["Segments", "segment_sides", "BuiltUpOptions", "BuiltUpArea", "built_up_area"]
-
-
-@dataclass(frozen=True)
-class Segments:
-    """The segment graph G = (J, S) (003 §3.2.2) as plain arrays.
-
-    Straight junction-to-junction (or shape-point) segments between nodes.
-    ``available`` is each segment's remaining traffic capacity
-    ``O2 · width − T(s)`` (003 §3.4.2), None when capacity does not matter.
-    """
-
-    xy: np.ndarray  #: (N, 2) float64 m, node positions
-    uv: np.ndarray  #: (S, 2) int, node indices of each segment
-    major: np.ndarray  #: (S,) bool, major road (else minor)
-    width: np.ndarray  #: (S,) float64 m
-    bridge: np.ndarray  #: (S,) bool
-    available: np.ndarray | None = None  #: (S,) remaining capacity, traffic units
-    harbour: np.ndarray | None = None  #: (S,) bool, built harbour segments (C4)
-
-    def __post_init__(self) -> None:
-        n = len(self.uv)
-        if np.ndim(self.xy) != 2 or np.shape(self.xy)[1:] != (2,) or np.shape(self.uv) != (n, 2):
-            raise InputError("segments: xy must be (N, 2) and uv (S, 2)")
-        for name in ("major", "width", "bridge", "available", "harbour"):
-            value = getattr(self, name)
-            if value is not None and np.shape(value) != (n,):
-                raise InputError(f"segments: {name} must have one value per segment ({n}), got {np.shape(value)}")
-        if n and (np.min(self.uv) < 0 or np.max(self.uv) >= len(self.xy)):
-            raise InputError("segments: uv refers to a node that does not exist")
-
-    @classmethod
-    def from_lines(cls, lines: Sequence[np.ndarray], *, major: Sequence[bool], width: Sequence[float],
-                   bridge: Sequence[bool] | None = None, available: Sequence[float] | None = None) -> Segments:
-        """Segments from polylines; points equal to the micrometre become one node.
-
-        Parameters
-        ----------
-        lines
-            Polylines, each ``(M, 2)`` metres; every consecutive pair of points is a segment.
-        major, width, bridge, available
-            One value per polyline, given to all its segments (``bridge``
-            default False, ``available`` default None: unlimited).
-
-        Returns
-        -------
-        Segments
-        """
-        pts = [np.asarray(line, dtype=float).reshape(-1, 2) for line in lines]
-        counts = np.array([len(p) - 1 for p in pts])
-        every = np.concatenate(pts) if pts else np.zeros((0, 2))
-        xy, inverse = np.unique(np.round(every, 6), axis=0, return_inverse=True)
-        inverse = inverse.ravel()
-        starts = np.concatenate([[0], np.cumsum([len(p) for p in pts])])
-        uv = np.concatenate([np.stack([inverse[s:e - 1], inverse[s + 1:e]], axis=1)
-                             for s, e in zip(starts[:-1], starts[1:])]) if pts else np.zeros((0, 2), int)
-        per = lambda values, dtype: np.repeat(np.asarray(values, dtype=dtype), counts)  # noqa: E731
-        keep = uv[:, 0] != uv[:, 1]
-        return cls(
-            xy=xy, uv=uv[keep], major=per(major, bool)[keep], width=per(width, float)[keep],
-            bridge=(per(bridge, bool) if bridge is not None else np.zeros(counts.sum(), bool))[keep],
-            available=None if available is None else per(available, float)[keep],
-        )
-
-    @property
-    def a(self) -> np.ndarray:
-        return self.xy[self.uv[:, 0]]
-
-    @property
-    def b(self) -> np.ndarray:
-        return self.xy[self.uv[:, 1]]
-
-    def lengths(self) -> np.ndarray:
-        return np.hypot(*(self.b - self.a).T)
-
-    def lines(self) -> np.ndarray:
-        """One shapely LineString per segment."""
-        return shapely.linestrings(np.stack([self.a, self.b], axis=1))
+__all__ = ["segment_sides", "BuiltUpOptions", "BuiltUpArea", "built_up_area"]
 
 
-def segment_sides(segments: Segments, built_blocks: shapely.Geometry | None) -> np.ndarray:
+def segment_sides(segments: SegmentTable, built_blocks: shapely.Geometry | None) -> np.ndarray:
     """How many sides of each segment touch a built-up block.
 
     Tested half a width plus 2 m to the left and right of the midpoint. A
@@ -162,7 +88,7 @@ class BuiltUpArea:
     blocks: shapely.Geometry  #: union of the current built-up blocks B_B,i
 
 
-def built_up_area(blocks: Sequence[shapely.Geometry], segments: Segments, *,
+def built_up_area(blocks: Sequence[shapely.Geometry], segments: SegmentTable, *,
                   water: shapely.Geometry | None = None, previous: BuiltUpArea | None = None,
                   options: BuiltUpOptions | None = None) -> BuiltUpArea:
     """The built-up area B of 003 Eq. 1, grown from ``previous`` (it never shrinks).

@@ -29,7 +29,7 @@ import shapely
 
 from osm_expand.engine.history import History, YearValues
 from osm_expand.engine.planarity import without_touching
-from osm_expand.engine.roads.built_up import BuiltUpArea, Segments, built_up_area
+from osm_expand.engine.roads.built_up import BuiltUpArea, built_up_area
 from osm_expand.engine.roads.lattice import Lattice, Raster, build_lattice
 from osm_expand.engine.roads.path_graph import ShellVerdicts, implicit_graph, lattice_verdicts
 from osm_expand.engine.roads.road_types import RoadType, plan_major_road, propose_route
@@ -173,11 +173,10 @@ def water_beyond_the_map(water: shapely.Geometry, bounds: tuple[float, float, fl
     return shapely.union_all([water, *beyond]) if beyond else water
 
 
-def _segments(city: City, traffic: TrafficMemory, o2: float) -> Segments:
+def _segments(city: City, traffic: TrafficMemory, o2: float) -> SegmentTable:
     table = traffic.table
     cap = segment_capacity(table.width) * (o2 / 100.0)
-    return Segments(xy=table.xy, uv=table.uv, major=trade_major(table, city), width=table.width,
-                    bridge=table.bridge, available=cap - traffic.trade.segment_traffic())
+    return replace(table, major=trade_major(table, city), available=cap - traffic.trade.segment_traffic())
 
 
 def _graph(city: City, traffic: TrafficMemory, memory: RoadMemory, now: YearValues, history: History):

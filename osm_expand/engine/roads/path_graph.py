@@ -35,7 +35,7 @@ import numpy as np
 import shapely
 from scipy.sparse import csr_matrix
 
-from osm_expand.engine.roads.built_up import BuiltUpArea, Segments, segment_sides
+from osm_expand.engine.roads.built_up import BuiltUpArea, segment_sides
 from osm_expand.engine.roads.lattice import NO_EDGE, ROAD_KINDS, EdgeKind, Lattice, VertexClass
 from osm_expand.engine.roads.stitches import (
     GraphOptions,
@@ -47,6 +47,7 @@ from osm_expand.engine.roads.stitches import (
 )
 from osm_expand.errors import InputError
 from osm_expand.model.options import require_positive
+from osm_expand.model.segments import SegmentTable
 
 __all__ = [
     "EdgeCosts", "GraphOptions", "PathGraph", "pathfinding_graph", "ShellVerdicts", "StreetPart", "street_part",
@@ -92,7 +93,7 @@ class PathGraph:
     """
 
     lattice: Lattice
-    segments: Segments
+    segments: SegmentTable
     xy: np.ndarray  #: (V′, 2) m
     n_lattice: int
     split_segment: np.ndarray  #: (P,) parent segment of each split point
@@ -273,7 +274,7 @@ class StreetPart:
     ``N + p``; in a G′ they follow the lattice's vertices.
     """
 
-    segments: Segments
+    segments: SegmentTable
     blocks: shapely.Geometry | None  #: the built-up blocks (stitches stay out of them)
     extendible: np.ndarray  #: (S,) bool, at most one built-up side (C6)
     split_xy: np.ndarray  #: (P, 2) m
@@ -289,7 +290,7 @@ class StreetPart:
     verdicts: ShellVerdicts | None = None
 
 
-def street_part(lattice: Lattice, segments: Segments, built: BuiltUpArea | None = None, *,
+def street_part(lattice: Lattice, segments: SegmentTable, built: BuiltUpArea | None = None, *,
                 costs: EdgeCosts | None = None, options: GraphOptions | None = None,
                 previous: ShellVerdicts | None = None) -> StreetPart:
     """The street pieces and shell stitches of G′ (003 Fig. 9), made once a year.
@@ -355,7 +356,7 @@ def _shifted(edges: tuple[np.ndarray, ...], by: int) -> tuple[np.ndarray, ...]:
     return (u + by, v + by, *rest)
 
 
-def pathfinding_graph(lattice: Lattice, segments: Segments, built: BuiltUpArea | None = None, *,
+def pathfinding_graph(lattice: Lattice, segments: SegmentTable, built: BuiltUpArea | None = None, *,
                       costs: EdgeCosts | None = None, options: GraphOptions | None = None,
                       streets: StreetPart | None = None,
                       stitch_within: tuple[float, float, float, float] | None = None,
@@ -459,7 +460,8 @@ def _kept(kind: np.ndarray, bridges: tuple[np.ndarray, ...], lattice: Lattice,
     return (src[both], dst[both], *(r[both] for r in rest))
 
 
-def _lattice_stitches(lattice: Lattice, segments: Segments, streets: StreetPart, xy: np.ndarray, targets: np.ndarray,
+def _lattice_stitches(lattice: Lattice, segments: SegmentTable, streets: StreetPart, xy: np.ndarray,
+                      targets: np.ndarray,
                       points: np.ndarray, opts: GraphOptions, cache: dict | None) -> np.ndarray:
     """Checked stitches ``(G′ street vertex, lattice vertex)`` from street points (street-local ids)
     to their nearest live land vertices; with ``cache``, each point is checked once a year."""
@@ -496,7 +498,7 @@ def _lattice_stitches(lattice: Lattice, segments: Segments, streets: StreetPart,
     return np.stack([every[:, 0] + n_lat, lattice._local(every[:, 1])], axis=1)
 
 
-def _lattice_part(lattice: Lattice, segments: Segments, costs: EdgeCosts,
+def _lattice_part(lattice: Lattice, segments: SegmentTable, costs: EdgeCosts,
                   tree: shapely.STRtree | None = None) -> tuple[np.ndarray, np.ndarray, tuple[np.ndarray, ...]]:
     """Directed live lattice tables with C3 (harbour) and C5 (bridge), and the long bridges
     as edges; bridges and harbours that cross a street are left out (a new bridge does
@@ -570,7 +572,7 @@ class ImplicitGraph:
     """
 
     lattice: Lattice  #: the whole map (B removed), its edges never generated here
-    segments: Segments
+    segments: SegmentTable
     streets: StreetPart
     costs: EdgeCosts
     options: GraphOptions
@@ -695,7 +697,7 @@ def _segment_distance(xy: np.ndarray, a: np.ndarray, b: np.ndarray) -> np.ndarra
     return np.hypot(*(xy - a - t[:, None] * ab).T)
 
 
-def implicit_graph(lattice: Lattice, segments: Segments, built: BuiltUpArea | None = None, *,
+def implicit_graph(lattice: Lattice, segments: SegmentTable, built: BuiltUpArea | None = None, *,
                    costs: EdgeCosts | None = None, options: GraphOptions | None = None,
                    previous: ShellVerdicts | None = None,
                    previous_lattice: ShellVerdicts | None = None) -> ImplicitGraph:
@@ -724,7 +726,8 @@ def implicit_graph(lattice: Lattice, segments: Segments, built: BuiltUpArea | No
                          stitches={} if previous_lattice is None else {"previous": previous_lattice})
 
 
-def _split_segments(segments: Segments, split: np.ndarray, spacing: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def _split_segments(segments: SegmentTable, split: np.ndarray, spacing: float
+                    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Interior points along the marked segments of at least 2ℓ (= 2 × spacing / 1.25):
     ⌊length / spacing⌋ equidistant ones, as 003 §3.3 adds temporary nodes.
 
@@ -732,7 +735,7 @@ def _split_segments(segments: Segments, split: np.ndarray, spacing: float) -> tu
     ``(segment, from_vertex_code, to_vertex_code)`` rows where a code ≥ 0 is
     a node and ``−1 − p`` is split point ``p``.
     """
-    length = segments.lengths()
+    length = segments.length
     count = np.where(split & (length >= 2.0 * spacing / 1.25), np.floor(length / spacing).astype(np.int64), 0)
     parent = np.repeat(np.arange(len(length)), count)
     first = np.concatenate([[0], np.cumsum(count)])[:-1]
@@ -761,7 +764,7 @@ def _code_vertex(code: np.ndarray, n_lat: int, n_nodes: int) -> np.ndarray:
     return np.where(code >= 0, n_lat + code, n_lat + n_nodes + (-1 - code))
 
 
-def _segment_part(lattice: Lattice, segments: Segments, xy: np.ndarray, pieces: np.ndarray,
+def _segment_part(lattice: Lattice, segments: SegmentTable, xy: np.ndarray, pieces: np.ndarray,
                   extendible: np.ndarray, n_lat: int, costs: EdgeCosts) -> tuple[np.ndarray, ...]:
     """Street pieces with C1 / C2 / C4 and C6; weight = length · max(1, O1 · slope)."""
     seg = pieces[:, 0]

@@ -225,7 +225,7 @@ def propose_route(graph: PathGraph | ImplicitGraph, source: int, target: int, ro
 
 
 def capacity_ok(graph: PathGraph | ImplicitGraph, demand: float) -> np.ndarray:
-    """Segments that can carry ``demand`` more traffic (000 §4.2.8).
+    """SegmentTable that can carry ``demand`` more traffic (000 §4.2.8).
 
     Parameters
     ----------

@@ -21,9 +21,9 @@ import numpy as np
 import shapely
 from scipy.spatial import cKDTree
 
-from osm_expand.engine.roads.built_up import Segments
 from osm_expand.engine.roads.lattice import Lattice
 from osm_expand.model.options import require_positive
+from osm_expand.model.segments import SegmentTable
 
 __all__ = ["GraphOptions", "ShellVerdicts", "carried_ok", "lattice_verdicts", "nearest_pairs", "stitch_ok"]
 
@@ -106,7 +106,7 @@ def nearest_pairs(from_xy: np.ndarray, to_xy: np.ndarray, from_id: np.ndarray, t
     first = np.arange(len(row)) - start < k
     return np.stack([from_id[row[first]], to_id[cand[first]]], axis=1)
 
-def stitch_ok(lattice: Lattice, segments: Segments, xy: np.ndarray, pairs: np.ndarray, split_parent: np.ndarray,
+def stitch_ok(lattice: Lattice, segments: SegmentTable, xy: np.ndarray, pairs: np.ndarray, split_parent: np.ndarray,
                n_lat: int, opts: GraphOptions, tree: shapely.STRtree | None = None,
                inner: shapely.Geometry | None = None) -> np.ndarray:
     """Stitches that cross no street, keep ``clearance`` from every street away from
@@ -148,7 +148,7 @@ def _core(xy: np.ndarray, pairs: np.ndarray, opts: GraphOptions) -> np.ndarray:
     return shapely.linestrings(np.stack([a + trim[:, None] * (b - a), b - trim[:, None] * (b - a)], axis=1))
 
 
-def _street_clear(segments: Segments, xy: np.ndarray, pairs: np.ndarray, split_parent: np.ndarray, n_lat: int,
+def _street_clear(segments: SegmentTable, xy: np.ndarray, pairs: np.ndarray, split_parent: np.ndarray, n_lat: int,
                   opts: GraphOptions, tree: shapely.STRtree) -> np.ndarray:
     """Stitches (of positive length) that cross no street not incident to either end and keep
     ``clearance`` from every street away from their ends."""
@@ -171,7 +171,7 @@ def _keys(values: np.ndarray) -> np.ndarray:
     return v.view(np.dtype((np.void, v.dtype.itemsize * v.shape[1]))).ravel()
 
 
-def carried_ok(lattice: Lattice, segments: Segments, xy: np.ndarray, pairs: np.ndarray, split_parent: np.ndarray,
+def carried_ok(lattice: Lattice, segments: SegmentTable, xy: np.ndarray, pairs: np.ndarray, split_parent: np.ndarray,
                 n_lat: int, opts: GraphOptions, tree: shapely.STRtree, inner: shapely.Geometry | None,
                 previous: ShellVerdicts | None) -> tuple[np.ndarray, ShellVerdicts]:
     """:func:`stitch_ok`, the street tests carried over from ``previous`` where nothing near a
@@ -220,7 +220,7 @@ def _segment_ends(keys: np.ndarray) -> np.ndarray:
     return np.frombuffer(keys.tobytes(), dtype=np.float64).reshape(-1, 2, 2)
 
 
-def _incident(pairs: np.ndarray, seg: np.ndarray, segments: Segments, split_parent: np.ndarray,
+def _incident(pairs: np.ndarray, seg: np.ndarray, segments: SegmentTable, split_parent: np.ndarray,
               n_lat: int, n_nodes: int) -> np.ndarray:
     """Whether segment ``seg`` touches a street end of the stitch ``pairs`` (node or split point)."""
     out = np.zeros(len(seg), dtype=bool)
