@@ -23,17 +23,16 @@ from osm_expand.engine.traffic.trade import (
     add_route,
     assign_increase,
     extend_segments,
-    initial_trade_state,
     new_trade_state,
     pair_capacity,
     redistribute,
     remap_segments,
-    route_between,
     segment_capacity,
     segments_with_room,
     trade_report,
     trade_year,
 )
+from osm_expand.engine.traffic.trade_routes import initial_trade_state, route_between
 from osm_expand.engine.traffic.trips import (
     TripOptions,
     extend_trip_state,

@@ -35,7 +35,8 @@ from osm_expand.engine.roads.path_graph import ShellVerdicts, implicit_graph, la
 from osm_expand.engine.roads.road_types import RoadType, plan_major_road, propose_route
 from osm_expand.engine.roads.routing import Choice, choose, route_over_major_roads
 from osm_expand.engine.traffic.simulation import TrafficMemory, follow, trade_major
-from osm_expand.engine.traffic.trade import add_route, route_between, segment_capacity
+from osm_expand.engine.traffic.trade import add_route, segment_capacity
+from osm_expand.engine.traffic.trade_routes import route_between
 from osm_expand.joins import add_streets
 from osm_expand.land import UNBUILDABLE, building_outlines, matches
 from osm_expand.model import City, Origin, Status

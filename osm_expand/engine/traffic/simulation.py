@@ -35,12 +35,12 @@ from osm_expand.engine.traffic.trade import (
     TradeState,
     TradeYear,
     extend_segments,
-    initial_trade_state,
     remap_segments,
     segment_capacity,
     trade_report,
     trade_year,
 )
+from osm_expand.engine.traffic.trade_routes import initial_trade_state
 from osm_expand.engine.traffic.trips import (
     TripGraph,
     TripOptions,

@@ -41,9 +41,9 @@ What the seed leaves open, and the choice made here:
   O2 changes with the era): a route's availability is clamped at 0, never
   negative; such routes are counted as over capacity in the report.
 
-:func:`initial_trade_state` finds each pair's first route ``P_{i,1}`` over
-the real town's major roads (003 §3.2.2: found, not built, where the roads
-exist); :func:`route_between` is the same minimum-weight search, also the
+:mod:`osm_expand.engine.traffic.trade_routes` finds the routes: each pair's
+first route ``P_{i,1}`` over the real town's major roads (003 §3.2.2: found,
+not built, where the roads exist) and the same minimum-weight search as the
 core of §3.4.2's ``P_A`` over major roads with room. :func:`trade_year`
 runs Algorithm 2 over all pairs with the major-road step as a callback.
 
@@ -59,8 +59,6 @@ from types import MappingProxyType
 
 import numpy as np
 from numpy.typing import NDArray
-from scipy import sparse
-from scipy.sparse.csgraph import dijkstra
 
 from osm_expand.errors import InputError
 from osm_expand.model.options import require_positive
@@ -77,12 +75,10 @@ __all__ = [
     "available_capacity",
     "draw_traffic_factor",
     "extend_segments",
-    "initial_trade_state",
     "new_trade_state",
     "pair_capacity",
     "redistribute",
     "remap_segments",
-    "route_between",
     "route_capacity",
     "segment_capacity",
     "segments_with_room",
@@ -627,103 +623,3 @@ def trade_year(state: TradeState, pairs: Sequence[Sequence[int]] | NDArray[np.in
                 state, short = redistribute(state, key, state.demand[key], cap)
         counts = counts + TradeYear(pairs=1, routes_added=added, unresolved=int(short > 0))
     return state, cap, counts
-
-
-# --------------------------------------------------------------------------- finding routes
-
-def route_between(edges: NDArray[np.integer], weight: NDArray[np.floating], usable: NDArray[np.bool_],
-                  source_node: int, target_node: int) -> NDArray[np.int64] | None:
-    """The minimum-weight path between two nodes over the usable segments.
-
-    003 §3.2.2 finds the first trade route ``P_{i,1}`` of a pair whose road
-    was not built by the initialisation in the segment graph; §3.4.2's
-    ``P_A`` is the same search over major roads with room for the increase
-    (``usable = major & segments_with_room(...)``: the others weigh ∞).
-
-    Parameters
-    ----------
-    edges : (E, 2) int
-        Segment end nodes.
-    weight : (E,) float
-        Segment weights (> 0): lengths, or 003's ``LENGTH · max(1, O1·slope)``.
-    usable : (E,) bool
-        Segments the path may use (both directions).
-    source_node, target_node : int
-        Node ids.
-
-    Returns
-    -------
-    (k,) int64 or None
-        Segment ids from source to target; None when they are not connected.
-    """
-    edges = np.asarray(edges, dtype=np.int64).reshape(-1, 2)
-    w = np.asarray(weight, dtype=np.float64).reshape(-1)
-    ok = np.asarray(usable, dtype=bool).reshape(-1)
-    if not len(w) == len(ok) == len(edges):
-        raise InputError(f"trade: {len(edges)} edges, {len(w)} weights, {len(ok)} usable flags")
-    if source_node == target_node:
-        return np.zeros(0, dtype=np.int64)
-    n = int(max(edges.max(initial=-1), source_node, target_node)) + 1
-    seg = np.flatnonzero(ok & np.isfinite(w))
-    a = np.r_[edges[seg, 0], edges[seg, 1]]
-    b = np.r_[edges[seg, 1], edges[seg, 0]]
-    sid = np.r_[seg, seg]
-    order = np.lexsort((sid, w[sid], b, a))  # parallel segments: keep the lightest, then the lowest id
-    a, b, sid = a[order], b[order], sid[order]
-    first = np.r_[True, (np.diff(a) != 0) | (np.diff(b) != 0)]
-    a, b, sid = a[first], b[first], sid[first]
-    graph = sparse.csr_matrix((np.maximum(w[sid], 1e-9), (a, b)), shape=(n, n))
-    dist, pred = dijkstra(graph, directed=True, indices=int(source_node), return_predecessors=True)
-    if not np.isfinite(dist[target_node]):
-        return None
-    nodes = [int(target_node)]
-    while nodes[-1] != source_node:
-        nodes.append(int(pred[nodes[-1]]))
-    path = np.array(nodes[::-1])
-    lookup = np.searchsorted(a * n + b, path[:-1] * n + path[1:])  # (a, b) rows are sorted
-    return sid[lookup].astype(np.int64)
-
-
-def initial_trade_state(edges: NDArray[np.integer], length: NDArray[np.floating], major: NDArray[np.bool_],
-                        exit_node: NDArray[np.integer], pairs: NDArray[np.integer], *,
-                        weight: NDArray[np.floating] | None = None) -> tuple[TradeState, NDArray[np.intp]]:
-    """First trade route ``P_{i,1}`` of every pair over the real town's major roads (003 §3.2.2).
-
-    Parameters
-    ----------
-    edges : (E, 2) int
-        Segment end nodes.
-    length : (E,) float
-        Segment lengths, m (route length = their sum).
-    major : (E,) bool
-        Major-road segments (trade routes run "entirely over major roads").
-    exit_node : (K,) int
-        Each neighbour's node (:attr:`Neighbours.exit_node`; -1: none).
-    pairs : (P, 2) int
-        Neighbour index pairs (:func:`.neighbours.neighbour_pairs`).
-    weight : (E,) float, optional
-        Path weights (default: ``length``).
-
-    Returns
-    -------
-    state : TradeState
-        One route per connected pair, no traffic yet.
-    missing : (M, 2) intp
-        Pairs without a route: a neighbour without a node (water, generated)
-        or not joined over major roads. The initialisation must build their
-        roads (003 §3.2.2) or the major-road step will propose them.
-    """
-    edges = np.asarray(edges, dtype=np.int64).reshape(-1, 2)
-    length = np.asarray(length, dtype=np.float64).reshape(-1)
-    w = length if weight is None else np.asarray(weight, dtype=np.float64).reshape(-1)
-    nodes = np.asarray(exit_node, dtype=np.int64).reshape(-1)
-    state = new_trade_state(len(edges))
-    missing = []
-    for u, v in np.asarray(pairs, dtype=np.intp).reshape(-1, 2):
-        a, b = nodes[u], nodes[v]
-        path = route_between(edges, w, major, a, b) if a >= 0 and b >= 0 and a != b else None
-        if path is None or len(path) == 0:
-            missing.append((u, v))
-            continue
-        state = add_route(state, (u, v), path, float(length[path].sum()))
-    return state, np.array(missing, dtype=np.intp).reshape(-1, 2)
