@@ -17,12 +17,14 @@ Usage::
 Campo Grande takes about 4 min of CPU per expand run; it is left out unless
 named. ``--check`` compares only the cases both sides hold.
 
-``benchmarks/refactor_checksums.json`` holds the baseline of issue 23's
-second refactor (the engine as City → City: ``mature`` and ``step``, the
-segment table and the one ``Lot`` in the model, ``landuse.py`` and
-``app.py`` split): main at 25738d5 (outputs as a1d1f68's), Krems, Monaco
-and Campo Grande's three runs and every fixture's ``simplify``. (The first
-refactor's baseline was main at c903331.)
+``benchmarks/refactor_checksums.json`` holds the outputs of main after
+issue 23's third refactor (one district-placing function, one segment
+table, synth's, clip's, batch's, measures', the build-out year's, trips'
+and trade's modules split), which left every output as it was, and after
+issue 20's engine districts sized at the town's street density, which
+changed the runs whose history grows districts: Krems, Monaco and Campo
+Grande's three runs and every fixture's ``simplify``. (Earlier baselines:
+main at 25738d5 for the second refactor, c903331 for the first.)
 """
 
 from __future__ import annotations
