@@ -29,6 +29,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from osm_expand.errors import InputError
+from osm_expand.model.geometry import closest_on_segments
 from synth.segment_index import SegmentIndex
 
 __all__ = ["StreetGraph"]
@@ -350,7 +351,7 @@ class StreetGraph:
         if len(ids) == 0:
             return -1
         a, b = self.segment_ends(ids)
-        d = _point_segment_distance(p, a, b)
+        d = closest_on_segments(p, a, b)[2]
         k = int(np.argmin(d))
         return int(ids[k]) if d[k] <= tolerance else -1
 
@@ -414,10 +415,3 @@ def _grid_lookup(grid: dict, lo: ArrayLike, hi: ArrayLike, cell: float) -> list[
 
 def _cell_of(p: NDArray[np.float64], cell: float) -> tuple[int, int]:
     return int(np.floor(p[0] / cell)), int(np.floor(p[1] / cell))
-
-
-def _point_segment_distance(p: NDArray[np.float64], a: NDArray[np.float64],
-                            b: NDArray[np.float64]) -> NDArray[np.float64]:
-    d = b - a
-    t = np.clip(((p - a) * d).sum(-1) / np.maximum((d * d).sum(-1), 1e-24), 0.0, 1.0)
-    return np.hypot(*np.moveaxis(p - (a + t[..., None] * d), -1, 0))

@@ -8,6 +8,7 @@ import numpy as np
 import shapely
 from numpy.typing import NDArray
 
+from osm_expand.model.geometry import closest_on_segments
 from synth.patterns.options import PatternOptions, Rule
 from synth.patterns.proposals import (
     ON_TOLERANCE,
@@ -176,21 +177,12 @@ def _street_rules(p: NDArray[np.float64], q: NDArray[np.float64], cand: _Candida
     return None
 
 
-def _point_segment_distance(x: NDArray[np.float64], a: NDArray[np.float64],
-                            b: NDArray[np.float64]) -> NDArray[np.float64]:
-    """Distance (m) from points x to segments a–b, broadcast over the leading axes."""
-    d = b - a
-    t = np.clip(((x - a) * d).sum(-1) / np.maximum((d * d).sum(-1), 1e-24), 0.0, 1.0)
-    f = x - (a + t[..., None] * d)
-    return np.sqrt((f * f).sum(-1))
-
-
 def _segment_distance(p: NDArray[np.float64], q: NDArray[np.float64], a: NDArray[np.float64],
                       b: NDArray[np.float64]) -> NDArray[np.float64]:
     """Distance (m) between segment p–q and each non-crossing segment a–b: the least end-to-segment distance."""
     ends = np.stack([p, q])[:, None, :]                      # (2, 1, 2) against (K, 2)
-    to_them = _point_segment_distance(ends, a[None], b[None]).min(axis=0)
-    to_us = _point_segment_distance(np.stack([a, b]), p, q).min(axis=0)
+    to_them = closest_on_segments(ends, a[None], b[None])[2].min(axis=0)
+    to_us = closest_on_segments(np.stack([a, b]), p, q)[2].min(axis=0)
     return np.minimum(to_them, to_us)
 
 

@@ -46,6 +46,7 @@ from osm_expand.engine.roads.stitches import (
     stitch_ok,
 )
 from osm_expand.errors import InputError
+from osm_expand.model.geometry import closest_on_segments
 from osm_expand.model.options import require_positive
 from osm_expand.model.segments import SegmentTable
 
@@ -673,10 +674,10 @@ class ImplicitGraph:
         if corridor is not None:
             start, end, half = corridor
             edge = np.sqrt(2.0) * band * ell  # the longest lattice edge
-            off = _segment_distance(sub.vertex_xy(), start, end)
+            off = closest_on_segments(sub.vertex_xy(), start, end)[2]
             keep = off <= half
             exits.append(np.flatnonzero(keep & (off > half - edge)))
-            point_off = _segment_distance(self.streets.xy, start, end)
+            point_off = closest_on_segments(self.streets.xy, start, end)[2]
             stitch_points = point_off <= half - edge - self.options.stitch_radius
             pts = self.streets.points
             exits.append(sub.n_vertices + pts[~stitch_points[pts]])
@@ -688,13 +689,6 @@ class ImplicitGraph:
         sub._cache.clear()  # the edge tables live on in the graph's; a window is searched once
         return GraphWindow(graph=graph, whole=whole, exits=np.unique(np.concatenate(exits)) if exits
                            else np.zeros(0, dtype=np.int64), n_map_lattice=lat.n_vertices)
-
-
-def _segment_distance(xy: np.ndarray, a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """Distance (m) of each point ``(n, 2)`` from the straight segment a–b."""
-    ab = np.asarray(b, dtype=float) - np.asarray(a, dtype=float)
-    t = np.clip(((xy - a) @ ab) / max(float(ab @ ab), 1e-12), 0.0, 1.0)
-    return np.hypot(*(xy - a - t[:, None] * ab).T)
 
 
 def implicit_graph(lattice: Lattice, segments: SegmentTable, built: BuiltUpArea | None = None, *,
