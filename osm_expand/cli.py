@@ -339,8 +339,9 @@ COMMANDS: dict[str, Callable[[argparse.Namespace, Progress], dict]] = {
     "batch": cmd_batch}
 
 
-#: Stages the main command reports (reading, learning, site, growing, judging, writing; "done" ends the last).
-EXPAND_STAGES = 6
+#: Stages the main command always reports (reading, learning, site, growing, writing; "done" ends the last);
+#: judging the district, only with --json, and an era each are added by the run (``stages``).
+EXPAND_STAGES = 5
 
 
 def _join_negative_values(argv: list[str]) -> list[str]:
@@ -383,8 +384,7 @@ def _main(argv: Sequence[str] | None) -> int:
         args = parser.parse_args(argv)
     except SystemExit as exc:  # --help, --version, or a usage error already printed in one line
         return int(exc.code or 0)
-    # without --json the district is not judged (ExpandRequest.from_namespace): one stage fewer
-    log = Progress(args.quiet, EXPAND_STAGES - (not args.json) if command is cmd_expand else 0)
+    log = Progress(args.quiet, EXPAND_STAGES if command is cmd_expand else 0)
     try:
         report = (command or COMMANDS[args.command])(args, log)
         if (stopped := received()) is not None:  # a signal whose exception a library swallowed

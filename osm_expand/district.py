@@ -69,13 +69,13 @@ class Placement:
         return "; ".join(f"site {t.rank + 1}: {len(t.growth.streets)} streets, {t.joins} joins" for t in self.tried)
 
 
-def at_least(joins: int) -> Callable[[City, JoinReport], bool]:
+def at_least(joins: int) -> Callable[[JoinReport], bool]:
     """The acceptance rule that counts every join: ``joins`` places at least."""
-    return lambda city, report: report.joins >= joins
+    return lambda report: report.joins >= joins
 
 
 def place_district(city: City, sites: Sequence[Site], pattern: GrowthPattern, *, spacing: float,
-                   accept: Callable[[City, JoinReport], bool], rng: Callable[[int], np.random.Generator],
+                   accept: Callable[[JoinReport], bool], rng: Callable[[int], np.random.Generator],
                    bounds: shapely.Geometry | None, order: Sequence[int] | None = None,
                    origin: Origin = Origin.GROWN, year: int | None = None, era: str | None = None,
                    cross_taken_last: bool = False, progress: Callable[[int], None] = lambda attempt: None
@@ -93,7 +93,7 @@ def place_district(city: City, sites: Sequence[Site], pattern: GrowthPattern, *,
     spacing : float
         The town's junction spacing (m), for the joining step.
     accept : callable
-        ``(city with the district, JoinReport) -> bool``: whether the district is joined well enough.
+        ``JoinReport -> bool``: whether the district is joined well enough.
     rng : callable
         ``attempt -> Generator``: the random stream of the n-th site tried (0-based, in ``order``).
     bounds : Geometry or None
@@ -118,17 +118,19 @@ def place_district(city: City, sites: Sequence[Site], pattern: GrowthPattern, *,
         progress(attempt)
         region = district_region(city, sites[rank], bounds=bounds)
         growth = pattern.grow(city, region, rng(attempt))
+        joined = 0
         if growth.streets:  # an empty growth joins nowhere
             grown, joins = join_growth(city, growth.streets, spacing=spacing, origin=origin, year=year, era=era)
-            if accept(grown, joins):
+            if accept(joins):
                 return Placement(Placed(rank, sites[rank], growth, grown, joins, crossed=False), tuple(tried))
-        tried.append(Tried(rank, growth, joins.joins if growth.streets else 0))
+            joined = joins.joins
+        tried.append(Tried(rank, growth, joined))
     if cross_taken_last:  # the town's frontage wraps every site: join between its presumed houses
         for t in tried:
             if not t.growth.streets:
                 continue
             grown, joins = join_growth(city, t.growth.streets, spacing=spacing, origin=origin, year=year, era=era,
                                        cross_taken=True)
-            if accept(grown, joins):
+            if accept(joins):
                 return Placement(Placed(t.rank, sites[t.rank], t.growth, grown, joins, crossed=True), tuple(tried))
     return Placement(None, tuple(tried))

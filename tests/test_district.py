@@ -56,7 +56,7 @@ def test_a_district_nobody_accepts_is_not_placed_and_every_site_is_reported_in_t
         return streams[attempt]
 
     placement = place_district(city, sites, pattern, spacing=learned.example.spacing,
-                               accept=lambda grown, joins: False, rng=rng, bounds=city.bounds_polygon,
+                               accept=lambda joins: False, rng=rng, bounds=city.bounds_polygon,
                                order=[2, 0, 1])
     assert placement.placed is None
     assert [t.rank for t in placement.tried] == [2, 0, 1]

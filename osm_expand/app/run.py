@@ -88,7 +88,8 @@ def run_expand(request: ExpandRequest, *, progress: Log = _quiet, stages: Callab
         # the extract stays until the output is written: the OSM output is the extract plus what grew
         progress(f"reading {city_path}" + (" (the extract)" if clip else ""))
         city = load(src, service=request.service, paths=request.paths)
-        stages(len(history.eras_visited(city.year, years)))  # a stage per era the run passes
+        # a stage per era the run passes, and judging the district when asked
+        stages(len(history.eras_visited(city.year, years)) + request.judge)
         pictures: list = []
         options = ExpandOptions(seed=request.seed, direction=None if request.direction == "auto" else request.direction,
                                 at=site_point(request, checked, city), area=request.area,

@@ -155,7 +155,7 @@ class EraReport:
     growth: GrowthYear = field(default_factory=GrowthYear)
     traffic: TrafficYear = field(default_factory=TrafficYear)
     roads: RoadsYear = field(default_factory=RoadsYear)
-    buildout: BuildoutYear | None = None
+    buildout: BuildoutYear = field(default_factory=BuildoutYear)
 
     def add(self, year: YearReport) -> None:
         """Count ``year`` in this era."""
@@ -163,7 +163,7 @@ class EraReport:
         self.growth = self.growth + year.growth
         self.traffic = self.traffic + year.traffic
         self.roads = self.roads + year.roads
-        self.buildout = year.buildout if self.buildout is None else self.buildout + year.buildout
+        self.buildout = self.buildout + year.buildout
 
     def to_dict(self) -> dict:
         out = {"era": self.name, "years": [self.first_year, self.last_year],
@@ -171,8 +171,7 @@ class EraReport:
                "districts": self.growth.districts, **self.traffic.to_dict(), **self.roads.to_dict()}
         out["bridges_built"] = self.roads.bridges + self.growth.bridges
         out["street_bridges"] = self.growth.bridges
-        if self.buildout is not None:
-            out.update(self.buildout.to_dict())
+        out.update(self.buildout.to_dict())
         return out
 
 

@@ -88,12 +88,6 @@ def _neighbourhood_points(source: _Source, n: int, radius: float, rng: np.random
     return drawn[order[:max(len(drawn) // 2, 1)]]
 
 
-def _target_density(source: _Source, area: float, n: int, rng: np.random.Generator) -> float:
-    """The median street density (m per m²) of the town's own neighbourhoods of ``area`` m²."""
-    radius = float(np.sqrt(area / np.pi))
-    return float(np.median(_density(source, _neighbourhood_points(source, n, radius, rng), radius)))
-
-
 #: What makes a patch typical of its town (measured on each candidate patch, in this order).
 TYPICAL = ("curvature", "circuity", "edge_length", "dead_end_share", "three_way_share")
 

@@ -343,7 +343,7 @@ def _fewer_dead_ends(net: StreetNetwork, old: shapely.Geometry, occupied: shapel
         for e in sorted(chains, key=lambda e: (_chain_length(net, chains[e]), e)):
             if excess <= 0 or _chain_length(net, chains[e]) >= spacing:
                 break
-            if _leaves_corner(net, net.streets, chains[e]) > corner:  # a kept tee (``keep_tees``)
+            if np.isfinite(corner) and _leaves_corner(net, net.streets, chains[e]) > corner:  # a kept tee
                 continue
             drop |= chains[e]
             excess -= 1

@@ -26,8 +26,9 @@ def _demolish(work: _Year, *, check: bool = True) -> set[int]:
     block_polys = np.array([b.polygon for b in work.blocks], dtype=object)
     points = shapely.points(np.array([states[k].point for k in order]).reshape(-1, 2))
     within = np.full(len(order), -1, dtype=np.int64)
-    if len(order) and len(block_polys):
-        pt, blk = shapely.STRtree(block_polys).query(points, predicate="within")
+    block_tree = shapely.STRtree(block_polys) if len(block_polys) else None
+    if len(order) and block_tree is not None:
+        pt, blk = block_tree.query(points, predicate="within")
         within[pt] = blk
     healing: set[int] = set()
     gone = 0
@@ -40,8 +41,8 @@ def _demolish(work: _Year, *, check: bool = True) -> set[int]:
                 work.count(buildings_demolished=1)
             if blk >= 0:
                 healing.add(blk)
-            else:  # outside every block: heal the block its land now lies in, if any
-                healing.update(_blocks_under(work, polys[k]))
+            elif block_tree is not None:  # outside every block: heal the block its land now lies in, if any
+                healing.update(block_tree.query(polys[k], predicate="intersects").tolist())
             continue
         states[lot_id] = state
         work.lot_block[lot_id] = blk
@@ -56,9 +57,3 @@ def _demolish(work: _Year, *, check: bool = True) -> set[int]:
             work.count(buildings_demolished=1)
     return healing
 
-
-def _blocks_under(work: _Year, poly: shapely.Polygon) -> list[int]:
-    polys = [b.polygon for b in work.blocks]
-    if not polys:
-        return []
-    return shapely.STRtree(polys).query(poly, predicate="intersects").tolist()

@@ -126,13 +126,6 @@ def _buildings_hit(polys: NDArray[np.object_], streets: _Streets, overlap: float
     hit, idx, on = _on_streets(polys, streets)
     hit[idx[on > overlap]] = True
     return hit
-    idx, _ = streets.line_tree.query(polys, predicate="intersects")
-    hit[idx] = True
-    idx, cw = streets.carriageway_tree.query(polys, predicate="intersects")
-    if len(idx):
-        on = shapely.area(shapely.intersection(polys[idx], streets.carriageways[cw]))
-        hit[idx[on > overlap]] = True
-    return hit
 
 
 def _on_carriageway(polys: NDArray[np.object_], streets: _Streets, tolerance: float = 0.05) -> NDArray[np.bool_]:

@@ -290,7 +290,7 @@ def grow_district(city: City, pattern: GrowthPattern, length: float, density: fl
     reach = STUB_REACH * spacing
     placed = place_district(
         city, sites, pattern, spacing=spacing, order=order.tolist(), rng=lambda attempt: rng,
-        accept=lambda grown, joins: (_built_up_distance(maps, joins.at) <= reach).sum() >= options.min_joins,
+        accept=lambda joins: (_built_up_distance(maps, joins.at) <= reach).sum() >= options.min_joins,
         bounds=city.bounds_polygon, origin=Origin.ENGINE, year=year, era=era).placed
     if placed is None:
         return city, GrowthYear()
@@ -311,10 +311,9 @@ def built_up_density(city: City, maps: DistanceMaps) -> float:
     Segments count by their midpoints' raster cells.
     """
     table = SegmentTable.from_city(city)
-    a, b = table.xy[table.uv[:, 0]], table.xy[table.uv[:, 1]]
-    on = _built_up_distance(maps, (a + b) / 2) <= 0.0
+    on = _built_up_distance(maps, (table.a + table.b) / 2) <= 0.0
     area = maps.built_area
-    return float(np.hypot(*(b - a).T)[on].sum() / area) if area > 0 else 0.0
+    return float(table.length[on].sum() / area) if area > 0 else 0.0
 
 
 def _built_up_distance(maps: DistanceMaps, xy: np.ndarray) -> np.ndarray:

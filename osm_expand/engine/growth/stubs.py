@@ -25,7 +25,7 @@ import shapely
 import shapely.ops
 
 from osm_expand.model.components import component_labels
-from osm_expand.model.geometry import match_points, polyline_length, ray_meet
+from osm_expand.model.geometry import closest_on_segments, match_points, polyline_length, ray_meet
 
 #: Ends closer than this (m) are the same point.
 SAME = 1e-3
@@ -222,11 +222,7 @@ def _inner(link: np.ndarray) -> shapely.LineString:
 
 def _with_vertex(xy: np.ndarray, q: np.ndarray) -> np.ndarray:
     """The polyline with ``q`` (which lies on it) inserted as a vertex where it lies."""
-    a, b = xy[:-1], xy[1:]
-    seg = b - a
-    t = np.clip(((q - a) * seg).sum(axis=1) / np.maximum((seg ** 2).sum(axis=1), 1e-12), 0.0, 1.0)
-    dist = np.hypot(*(a + t[:, None] * seg - q).T)
-    i = int(np.argmin(dist))
+    i = int(np.argmin(closest_on_segments(q, xy[:-1], xy[1:])[2]))
     if np.hypot(*(xy[i] - q)) < SAME or np.hypot(*(xy[i + 1] - q)) < SAME:
         return xy
     return np.vstack([xy[:i + 1], q, xy[i + 1:]])
