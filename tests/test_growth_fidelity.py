@@ -21,6 +21,7 @@ from osm_expand.growth_fidelity import (
     landscape_expansion,
     piece_areas,
     piece_references,
+    streets_land,
 )
 from osm_expand.ingest import load
 from osm_expand.measures import LineSet, Measure, measure_network
@@ -142,12 +143,13 @@ def test_a_growth_of_pieces_is_judged_against_one_disc_per_piece():
     town = grid(n=31, step=100.0, stub=0.0)
     squares = [shapely.box(x, 0.0, x + side, side) for x, side in ((-2000.0, 600.0), (-4000.0, 300.0))]
     window = shapely.union_all(squares)
-    ref = piece_references(town, window, rng=np.random.default_rng(0))
+    discs = GrowthFidelityOptions(references_on_streets_land=False)  # the discs themselves (the grid ends)
+    ref = piece_references(town, window, rng=np.random.default_rng(0), growth_options=discs)
     assert len(ref.windows) == 32 and ref.area == pytest.approx(window.area)
     for w in ref.windows:
         parts = shapely.get_parts(w)
         assert sorted(shapely.area(parts)) == pytest.approx([300.0 ** 2, 600.0 ** 2], rel=1e-6)
-    one = piece_references(town, squares[0], rng=np.random.default_rng(1))
+    one = piece_references(town, squares[0], rng=np.random.default_rng(1), growth_options=discs)
     district = town_reference(town, squares[0].area, rng=np.random.default_rng(1))
     assert all(a.equals(b) for a, b in zip(one.windows, district.windows))
 
@@ -177,13 +179,52 @@ def test_the_towns_own_neighbourhoods_apart_are_judged_alike_by_the_piece_yardst
         lines += [shapely.get_coordinates(g) + shift for g in cut if g.geom_type == "LineString"]
         moved.append(shapely.affinity.translate(disc, *shift))
     window = shapely.union_all(moved)
-    measured = measure_network(lines, window=window)
-    pieces = judge(measured, piece_references(town, window, rng=np.random.default_rng(0)))
+    measured = measure_network(lines, window=window)  # in their discs: the references on theirs too
+    pieces = judge(measured, piece_references(town, window, rng=np.random.default_rng(0),
+                                              growth_options=GrowthFidelityOptions(references_on_streets_land=False)))
     one_disc = judge(measured, town_reference(town, window.area, rng=np.random.default_rng(0)))
     for measure in (Measure.DENSITY, Measure.ORIENTATION_ENTROPY):
         assert pieces.verdict(measure).ok and not one_disc.verdict(measure).ok, measure
     assert pieces.off <= 2  # measured: 0 (one disc: 4)
 
+
+def _strip(x0: float, x1: float, y0: float, rows: int, step: float = 100.0) -> list[np.ndarray]:
+    """A grid ``rows`` streets deep (``step`` apart) from ``x0`` to ``x1``: a town along a valley floor."""
+    ys = y0 + np.arange(rows) * step
+    xs = np.arange(x0, x1 + 1e-9, step)
+    return ([np.column_stack([xs, np.full(len(xs), y)]) for y in ys]
+            + [np.column_stack([np.full(rows, x), ys]) for x in xs])
+
+
+def test_a_copy_of_a_valley_towns_own_fabric_reads_as_dense_as_its_neighbourhoods():
+    """A town along a valley floor, four streets deep between empty slopes, and a growth that is a copy of its own
+    fabric: measured on its streets' land (:func:`growth_window`), as the engine's growth is, it is as dense as the
+    town's neighbourhoods measured on theirs (:func:`streets_land`). Against the discs, which reach up the empty
+    slopes, it read too dense (Andorra's engine districts in its valley: 15.8 km/km² against
+    7.7–12.5)."""
+    town = _strip(0.0, 5000.0, 0.0, 4)
+    growth = _strip(0.0, 600.0, 3000.0, 4)
+    window = growth_window(growth)
+    measured = measure_network(growth, window=window)
+    on_land = judge(measured, piece_references(town, window, rng=np.random.default_rng(0)))
+    in_discs = judge(measured, piece_references(town, window, rng=np.random.default_rng(0),
+                                                growth_options=GrowthFidelityOptions(references_on_streets_land=False)))
+    land, discs = on_land.verdict(Measure.DENSITY), in_discs.verdict(Measure.DENSITY)
+    # every neighbourhood of a uniform strip is alike, so the range is a point: the growth is within 10 % of it
+    # (its window has a margin all round; a disc cuts the strip at its sides) ...
+    assert land.value == pytest.approx((land.low + land.high) / 2, rel=0.1)
+    assert not discs.ok and discs.value > 1.2 * discs.high  # ... against the discs it was too dense (16.2 > 13.2)
+
+def test_the_land_of_a_discs_streets_is_the_disc_where_they_fill_it_and_less_where_they_do_not():
+    g = grid(12, 50.0)  # a 550 m grid
+    town = LineSet.from_lines(g)
+    core = shapely.Point(275.0, 275.0).buffer(200.0)
+    assert streets_land(town, core).area == pytest.approx(core.area, rel=1e-6)
+    half = shapely.Point(550.0, 275.0).buffer(400.0)  # half over the grid, half over empty land
+    land = streets_land(town, half)
+    assert land.within(half.buffer(1e-6)) and land.area < 0.75 * half.area
+    empty = shapely.Point(5000.0, 5000.0).buffer(100.0)
+    assert streets_land(town, empty).equals(empty)
 
 def test_no_engine_street_no_growth_verdict():
     net, _ = _network_with_eras()
@@ -191,7 +232,7 @@ def test_no_engine_street_no_growth_verdict():
     assert city_growth_fidelity(City(network=source_only), rng=0) is None
 
 
-@functools.lru_cache(maxsize=None)
+@functools.cache
 def krems_years():
     return expanded_and_matured(load(FIXTURES / "krems.osm.gz"), seed=0, fidelity=True)
 
