@@ -11,12 +11,14 @@ reference seed and its mean, the dead-end and 2-core shares with the
 neighbourhoods' range (reference seed 0), the pieces the engine's streets
 make on the map, the Landscape Expansion Index shares of new street length
 (infill / edge expansion / outlying), and the times (wall and CPU) of the
-run and of the judging. ``--eras`` adds a line per era.
+run and of the judging. ``--eras`` adds a line per era. ``--discs`` judges against the reference
+neighbourhoods measured in their discs (the yardstick before they were measured on their streets' land,
+:func:`osm_expand.growth_fidelity.streets_land`).
 
 Issue 20's targets: off on at most 4 of 14, dead-end and 2-core shares in
 range, infill + edge expansion at least 80 % of the new street length.
 
-Usage: ``python benchmarks/engine_growth.py [--history european] [--eras] [TOWN ...]``
+Usage: ``python benchmarks/engine_growth.py [--history european] [--eras] [--discs] [TOWN ...]``
 (default: Krems, Andorra, north-bayreuth, Monaco, Krems with ``european``, then Campo Grande;
 Campo Grande takes about 5 minutes and 8 GB).
 """
@@ -39,9 +41,9 @@ def _share(report: dict, name: str) -> str:
     return f"{v['value']} [{v['low']}–{v['high']}]{mark}"
 
 
-def run(name: str, history: str, years: int | None, refs: int) -> dict:
+def run(name: str, history: str, years: int | None, refs: int, discs: bool = False) -> dict:
     from osm_expand.engine.history import load_history
-    from osm_expand.growth_fidelity import before_the_years, built_up, growth_fidelity
+    from osm_expand.growth_fidelity import GrowthFidelityOptions, before_the_years, built_up, growth_fidelity
     from osm_expand.ingest import load
     from osm_expand.maturation import MatureOptions, mature_result
     from osm_expand.model import Origin
@@ -55,7 +57,8 @@ def run(name: str, history: str, years: int | None, refs: int) -> dict:
     net = result.city.network
     town = [net.street_xy(s) for s in net.streets if s.origin == Origin.SOURCE]
     built = built_up(before_the_years(result.city))
-    judged = [growth_fidelity(net, town, built=built, rng=seed) for seed in range(refs)]
+    options = GrowthFidelityOptions(references_on_streets_land=not discs)
+    judged = [growth_fidelity(net, town, built=built, rng=seed, options=options) for seed in range(refs)]
     judge_s, judge_cpu = (time.perf_counter() - t0) / refs, (time.process_time() - c0) / refs
     return {"name": name, "history": history, "judged": judged, "run_s": run_s, "run_cpu": run_cpu,
             "judge_s": judge_s, "judge_cpu": judge_cpu}
@@ -68,6 +71,7 @@ def main() -> None:
     ap.add_argument("--years", type=int, default=None, help="years (default: the history's own, 30)")
     ap.add_argument("--refs", type=int, default=3, help="reference seeds for the verdict (default 3)")
     ap.add_argument("--eras", action="store_true", help="a line per era too")
+    ap.add_argument("--discs", action="store_true", help="references measured in their discs (the yardstick before)")
     args = ap.parse_args()
     runs = [(t, args.history) for t in args.towns] if args.towns else RUNS
     print("| town | history | off of 14 per reference | mean off | dead-end share [range] | 2-core share [range] "
@@ -75,7 +79,7 @@ def main() -> None:
     print("|---|---|---|---|---|---|---|---|---|---|---|---|")
     eras = []
     for name, history in runs:
-        row = run(name, history, args.years, args.refs)
+        row = run(name, history, args.years, args.refs, args.discs)
         first = row["judged"][0]
         if first is None or first.overall is None:
             print(f"| {name} | {history} | no engine street | | | | | | | | "
