@@ -45,6 +45,14 @@ leave out the blocks between the streets and make it look dense. With the
 margin at half a town block (50 m), a window around a district-like patch
 holds what a real neighbourhood disc of its area holds.
 
+Each reference part is measured on its streets' land too
+(:func:`streets_land`: the discs within the window of their own streets,
+their rim kept): a disc keeps the slopes, fields or sea across it that the
+growth's window leaves out (Andorra's 1.3 km² neighbourhoods: 7.9 km/km² in
+their discs, 11.9 on their streets' land; the engine's districts in its
+valley read 15.8 against 7.7–12.5). Only the density changes: the same
+streets are inside, cut at the same rim.
+
 The Landscape Expansion Index
 -----------------------------
 Liu et al. (2010), "A new landscape index for quantifying urban expansion
