@@ -60,12 +60,12 @@ importable from here, as it was when they were one module.
 from synth.patches.edges import EDGE_INSET
 from synth.patches.options import NOT_COPIED, PatchOptions
 from synth.patches.pattern import ATTEMPTS, DEAD_END_DISCS, MAX_FILLS, ExamplePatches
-from synth.patches.seams import BEND_STEP, CONNECTOR_STEP
+from synth.patches.seams import CONNECTOR_STEP
 from synth.patches.source import TYPICAL
 from synth.patches.topology import JOIN_REACH, ON_EDGE, STUB_LENGTH, corner_turns, sharp_corners
 
 __all__ = [
-    "ATTEMPTS", "BEND_STEP", "CONNECTOR_STEP", "DEAD_END_DISCS", "EDGE_INSET", "ExamplePatches", "JOIN_REACH",
+    "ATTEMPTS", "CONNECTOR_STEP", "DEAD_END_DISCS", "EDGE_INSET", "ExamplePatches", "JOIN_REACH",
     "MAX_FILLS", "NOT_COPIED", "ON_EDGE", "PatchOptions", "STUB_LENGTH", "TYPICAL", "corner_turns",
     "sharp_corners",
 ]

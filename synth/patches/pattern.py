@@ -66,7 +66,6 @@ class ExamplePatches:
         around = _neighbourhood_points(everything, opts.density_discs, radius, rng)
         target = float(np.median(_density(everything, around, radius))) * float(free.area)
         aim = self._aim(everything, around, radius, city.network)
-        bend = self._bend_limit(everything)
         key = round(float(np.log(size)) / 0.05)  # sizes within 5 % share a ranking
         if key not in self.cache:
             self.cache[key] = _candidate_patches(source, size, opts, rng, self.measure)
@@ -74,8 +73,7 @@ class ExamplePatches:
         best = None
         for attempt in range(ATTEMPTS):  # other patches when even every cell filled left too little
             quilt = _Quilt(grid=np.roll(patches, -attempt * len(centres), axis=0))
-            result = _quilt(source, quilt, centres, cells, region, old_geom, target, spacing, opts, occupied, aim,
-                            bend)
+            result = _quilt(source, quilt, centres, cells, region, old_geom, target, spacing, opts, occupied, aim)
             if best is None or _misfit(result[0].total_length(), target) < _misfit(best[0].total_length(), target):
                 best = result
             if result[0].total_length() >= 0.9 * target:
@@ -100,21 +98,6 @@ class ExamplePatches:
         made = _source(city, self.example, everything=everything)
         self.cache[key] = (city.network, made)
         return made
-
-    def _bend_limit(self, source: _Source) -> float:
-        """The sharpest bend (degrees per :data:`BEND_STEP` chord) a seam link may make: the town's own
-        ``seam_bend_quantile`` (``seam_bend`` without a ``measure``; inf, no limit, when it is None)."""
-        opts = self.options
-        if opts.seam_bend_quantile is None:
-            return float("inf")
-        if self.measure is None or not len(source.lines):
-            return opts.seam_bend
-        if "bend" not in self.cache:
-            lines = [np.asarray(ln.coords) for ln in source.lines]
-            hull = shapely.MultiLineString(lines).convex_hull.buffer(1.0)
-            bends = np.asarray(self.measure(lines)(hull).value("curvature"))
-            self.cache["bend"] = float(np.quantile(bends, opts.seam_bend_quantile)) if len(bends) else opts.seam_bend
-        return self.cache["bend"]
 
     def _aim(self, source: _Source, centres: np.ndarray, radius: float, town: StreetNetwork) -> _Aim | None:
         """The median dead-end and 2-core shares of the town's neighbourhoods around ``centres`` (None
@@ -151,23 +134,20 @@ def _misfit(length: float, target: float) -> float:
 
 def _quilt(source: _Source, quilt: _Quilt, centres: np.ndarray, cells: list, region: shapely.Geometry,
            old: shapely.Geometry, target: float, spacing: float, opts: PatchOptions,
-           occupied: shapely.Geometry, aim: _Aim | None = None, bend: float = float("inf")
-           ) -> tuple[StreetNetwork, int, int, int]:
+           occupied: shapely.Geometry, aim: _Aim | None = None) -> tuple[StreetNetwork, int, int, int]:
     """Fill cells, stitch and trim; fill more while trimming left too little. The network and counts."""
     placed, keep = 0, 1.0
     for _ in range(MAX_FILLS):
         placed = _place(source, quilt.grid, centres, cells, quilt, placed, target / keep, spacing, old, opts)
         stitched = copy.deepcopy(quilt)
-        links = _walk_seams(stitched, spacing, opts, occupied, old, bend)
+        links = _walk_seams(stitched, spacing, opts, occupied, old)
         tees = _tees(stitched, old, spacing, opts, occupied)
         tees += _edge_streets(stitched, region, spacing, opts, occupied, old)
         stitched_net = _network(stitched)
         edge = _outer_edge(region)
         stubs, room = _stub_budget(stitched_net, stitched, aim, old, opts.tee_reach * spacing, edge)
         net = _trim(stitched_net, stitched, edge, opts.keep_out * spacing, keep=stubs, stub=STUB_LENGTH * spacing,
-                    room=room, like=aim.cul_de_sac if aim is not None else 0.0,
-                    corner_bend=float("inf") if opts.corner_bend is None else opts.corner_bend,
-                    tees=opts.keep_tees)
+                    room=room, like=aim.cul_de_sac if aim is not None else 0.0)
         net = _keep_joinable(net, old, spacing, opts)
         net = _connect_pieces(net, old, occupied, opts.link_reach * spacing)
         net = _without_scraps(net, opts.min_land * spacing)
