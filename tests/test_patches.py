@@ -12,10 +12,11 @@ from osm_expand.model import network_from_lines
 from osm_expand.model.topology import dangling_chains, without_segments
 from osm_expand.pipeline import ExpandOptions, expand
 from synth.patches import PatchOptions
+from synth.patches.corners import corner_turns, sharp_corners
 from synth.patches.placing import _free_land
 from synth.patches.quilt import _Quilt
 from synth.patches.seams import _connector
-from synth.patches.topology import _Aim, _more_dead_ends, _trim, corner_turns, sharp_corners
+from synth.patches.topology import _Aim, _more_dead_ends, _trim
 from tests.conftest import FIXTURES
 
 

@@ -32,6 +32,11 @@ class PatchOptions:
     seam_turn: float = 75.0
     #: Spread of the seam's transition probability: gap (in spacings) and bend (degrees).
     seam_sigma: tuple[float, float] = (0.4, 30.0)
+    #: Metres a node of degree two may move to straighten a corner the town would not have
+    #: (:func:`~synth.patches.corners._straighten`, beyond the town's own corners per km); None: left as
+    #: made. About half a residential street's width between fences (RASt 06's local streets: 10-12 m):
+    #: a jog or spike of the seams within it is no shape of the street's, a bend beyond it is.
+    corner_reach: float | None = 6.0
     #: A cut end left over runs on this many spacings to meet a street in a tee ...
     tee_reach: float = 0.6
     #: ... meeting it at this angle or more (degrees).

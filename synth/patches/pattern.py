@@ -13,6 +13,7 @@ import shapely.ops
 from osm_expand.model import City, StreetNetwork
 from simplify.example import Example
 from synth.growth import Growth, NewStreet, streets_near
+from synth.patches.corners import _straighten, sharp_corners
 from synth.patches.edges import _edge_streets
 from synth.patches.options import PatchOptions
 from synth.patches.placing import _cells, _centres, _free_land, _place
@@ -80,6 +81,9 @@ class ExamplePatches:
                 break
         assert best is not None  # the loop runs at least once
         net, placed, links, tees = best
+        if opts.corner_reach is not None:
+            budget = int(self._corner_rate() * net.total_length() / 1000.0)
+            net = _straighten(net, budget, opts.corner_reach, old_geom, occupied)
         streets = tuple(NewStreet(xy=net.street_xy(s), hierarchy=max(s.hierarchy, 0), highway=s.highway)
                         for s in net.streets)
         return Growth(streets=streets, footprint=free,
@@ -98,6 +102,14 @@ class ExamplePatches:
         made = _source(city, self.example, everything=everything)
         self.cache[key] = (city.network, made)
         return made
+
+    def _corner_rate(self) -> float:
+        """The town's corners sharper than :data:`~synth.patches.corners.SHARP` at nodes of degree two per km
+        of its simplified streets (:func:`~synth.patches.corners.sharp_corners`): how many a district may keep."""
+        if "corner_rate" not in self.cache:
+            corners, km = sharp_corners(self.example.network, new=False)
+            self.cache["corner_rate"] = corners / km if km > 0 else 0.0
+        return self.cache["corner_rate"]
 
     def _aim(self, source: _Source, centres: np.ndarray, radius: float, town: StreetNetwork) -> _Aim | None:
         """The median dead-end and 2-core shares of the town's neighbourhoods around ``centres`` (None

@@ -9,7 +9,7 @@ import shapely
 import shapely.ops
 from scipy.spatial import cKDTree
 
-from osm_expand.model import Origin, StreetNetwork, network_from_lines, polyline_length, turn_angles
+from osm_expand.model import Origin, StreetNetwork, network_from_lines
 from osm_expand.model.topology import dangling_chains, segment_degree, without_segments
 from synth.patches.options import PatchOptions
 from synth.patches.quilt import _Board, _meet, _network, _Quilt
@@ -431,42 +431,3 @@ def _chain_length(net: StreetNetwork, chain: set[tuple[int, int]]) -> float:
 
 #: An end this close to the district's edge (m) lies on it: a road out, as :func:`_trim` keeps them.
 ON_EDGE = 1.0
-
-
-def corner_turns(net: StreetNetwork, among: np.ndarray | None = None) -> np.ndarray:
-    """The turn (degrees, 0-180) at every node where exactly two segments meet, of ``among`` nodes only
-    when given (e.g. the district's): how sharply a street bends where no junction explains it.
-
-    The fidelity yardstick reads streets as chains between junctions (:mod:`osm_expand.measures`), so
-    a bend at a node of degree 2 is part of one street's curvature however it arose: an L left where a
-    seam cut a tee's arm, a seam link zig-zagging between two cut streets, a perimeter street on the
-    jagged edge of the free land (issue 20: Krems seed 0 had 28 turns over 45°, 16 of them such Ls).
-    A district is judged by how many of these exceed 45° per km beside its town's own rate.
-    """
-    seg = np.array([(a, b) for s in net.streets for a, b in zip(s.nodes[:-1], s.nodes[1:]) if a != b],
-                   dtype=np.int64).reshape(-1, 2)
-    degree = np.bincount(seg.ravel(), minlength=len(net.xy))
-    node, other = np.concatenate([seg[:, 0], seg[:, 1]]), np.concatenate([seg[:, 1], seg[:, 0]])
-    two = degree[node] == 2
-    if among is not None:
-        two &= np.isin(node, among)
-    order = np.argsort(node[two], kind="stable")
-    node, other = node[two][order], other[two][order]
-    at, before, after = node[0::2], other[0::2], other[1::2]
-    return turn_angles(net.xy[at] - net.xy[before], net.xy[after] - net.xy[at])
-
-
-#: degrees: a turn sharper than this at a node of degree 2 is a corner (issue 20's count).
-SHARP = 45.0
-
-
-def sharp_corners(net: StreetNetwork, new: bool = True) -> tuple[int, float]:
-    """The corners sharper than :data:`SHARP` at degree-2 nodes of ``net``'s new streets (``new``) or of
-    its streets as mapped, and those streets' length in km: the count and the length it is read over,
-    so that a district's rate per km can stand beside its town's."""
-    mine = [s for s in net.streets if s.is_new == new]
-    if not mine:
-        return 0, 0.0
-    nodes = np.unique(np.concatenate([np.asarray(s.nodes) for s in mine]))
-    km = sum(polyline_length(net.street_xy(s)) for s in mine) / 1000.0
-    return int((corner_turns(net, nodes) > SHARP).sum()), float(km)
