@@ -50,9 +50,10 @@ def sharp_corners(net: StreetNetwork, new: bool = True) -> tuple[int, float]:
 def _straighten(net: StreetNetwork, budget: int, reach: float, old: shapely.Geometry,
                 occupied: shapely.Geometry) -> StreetNetwork:
     """The district with its corners beyond ``budget`` straightened: runs of one to three nodes of degree
-    two around a corner moved onto the straight line between the nodes either side, as long as none
-    moves more than ``reach`` metres and the new pieces cross nothing (the district's other streets,
-    the town's ``old`` ones, ``occupied`` land) that the old ones did not.
+    two around a corner moved towards the straight line between the nodes either side, no farther than
+    it takes (:data:`SHARES`), as long as that line lies within ``reach`` metres and the new pieces
+    cross nothing (the district's other streets, the town's ``old`` ones, ``occupied`` land) that the
+    old ones did not.
 
     The seams leave corners that no street of the town has: a seam link a few metres off the cut
     street it continues (a jog: two turns of 50-140° a few metres apart), a perimeter street meeting a
@@ -74,73 +75,80 @@ def _straighten(net: StreetNetwork, budget: int, reach: float, old: shapely.Geom
     node, other = node[order], other[order]
     start = np.searchsorted(node, np.arange(len(net.xy)))
     xy = net.xy.copy()
+    two = degree == 2
+    first, second = other[np.minimum(start, len(other) - 1)], other[np.minimum(start + 1, len(other) - 1)]
 
-    def turn(n: int) -> float:
-        if degree[n] != 2:
-            return 0.0
-        u, w = other[start[n]], other[start[n] + 1]
-        return float(turn_angles(xy[n] - xy[u], xy[w] - xy[n]))
+    def turns(n: np.ndarray) -> np.ndarray:
+        """The turn (degrees) at nodes ``n``: 0 where the degree is not two."""
+        n = np.asarray(n, dtype=np.int64)
+        t = turn_angles(xy[n] - xy[first[n]], xy[second[n]] - xy[n])
+        return np.where(two[n], t, 0.0)
 
     def beyond(n: int, came: int) -> int:
         """The neighbour of degree-2 node ``n`` that is not ``came``."""
-        u, w = other[start[n]], other[start[n] + 1]
-        return int(w if u == came else u)
+        return int(second[n] if first[n] == came else first[n])
 
     def runs(v: int) -> list[tuple[int, list[int], int]]:
         """Runs of degree-2 nodes through ``v`` (one to three nodes) with the anchors either side."""
-        u, w = int(other[start[v]]), int(other[start[v] + 1])
+        u, w = int(first[v]), int(second[v])
         out = [(u, [v], w)]
-        if degree[u] == 2:
+        if two[u]:
             out.append((beyond(u, v), [u, v], w))
-        if degree[w] == 2:
+        if two[w]:
             out.append((u, [v, w], beyond(w, v)))
-        if degree[u] == 2 and degree[w] == 2:
+        if two[u] and two[w]:
             out.append((beyond(u, v), [u, v, w], beyond(w, v)))
         return [(a, run, b) for a, run, b in out if a != b and a not in run and b not in run]
 
-    def sharp_count(nodes: list[int]) -> int:
-        return sum(turn(n) > SHARP for n in set(nodes))
-
-    blocked: set[tuple[int, ...]] = set()
-    for _ in range(4 * len(net.xy)):  # each accepted move takes at least one corner away
-        corners = [n for n in np.flatnonzero(degree == 2).tolist() if turn(n) > SHARP]
+    turn = turns(np.arange(len(xy)))
+    for _ in range(PASSES):
+        corners = np.flatnonzero(turn > SHARP)
         if len(corners) <= budget:
             break
-        moves = []
-        for v in corners:
+        count, moved_any = len(corners), False
+        for v in corners[np.argsort(-turn[corners], kind="stable")].tolist():
+            if count <= budget:
+                break
+            if turn[v] <= SHARP:  # straightened with a neighbour's run
+                continue
+            moves = []
             for a, run, b in runs(v):
-                key = (a, *run, b)
-                if key in blocked:
-                    continue
                 path = xy[[a, *run, b]]
                 arc = np.concatenate([[0.0], np.cumsum(np.hypot(*np.diff(path, axis=0).T))])
-                if arc[-1] <= 0.0 or (np.diff(arc) <= 0.0).any():
+                if (np.diff(arc) <= 0.0).any():
                     continue
-                new = xy[a] + (arc[1:-1] / arc[-1])[:, None] * (xy[b] - xy[a])
-                moved = float(np.hypot(*(new - path[1:-1]).T).max())
-                if moved > reach:
+                line = xy[a] + (arc[1:-1] / arc[-1])[:, None] * (xy[b] - xy[a])
+                if float(np.hypot(*(line - path[1:-1]).T).max()) > reach:
                     continue
-                around = [a, *run, b]
-                around += [beyond(a, run[0])] if degree[a] == 2 else []
-                around += [beyond(b, run[-1])] if degree[b] == 2 else []
-                before = sharp_count(around)
+                around = np.unique([a, *run, b])
                 keep = xy[run].copy()
-                xy[run] = new
-                gain = before - sharp_count(around)
+                best = None
+                for share in SHARES:  # no farther than it takes: the street keeps what it can of its shape
+                    new = keep + share * (line - keep)
+                    xy[run] = new
+                    gain = int((turn[around] > SHARP).sum() - (turns(around) > SHARP).sum())
+                    if gain > 0 and (best is None or gain > -best[0]):
+                        best = (-gain, float(np.hypot(*(new - keep).T).max()), (a, *run, b), new, around)
                 xy[run] = keep
-                if gain > 0:
-                    moves.append((-gain, moved, key, new))
-        if not moves:
-            break
-        moves.sort(key=lambda m: (m[0], m[1], m[2]))
-        for _, _, key, new in moves:
-            if _clear(xy, seg, key, new, old, occupied):
-                xy[list(key[1:-1])] = new
-                break
-            blocked.add(key)
-        else:
+                if best is not None:
+                    moves.append(best)
+            for gain, _, key, new, around in sorted(moves, key=lambda m: (m[0], m[1], m[2])):
+                if _clear(xy, seg, key, new, old, occupied):
+                    xy[list(key[1:-1])] = new
+                    turn[around] = turns(around)
+                    count += gain
+                    moved_any = True
+                    break
+        if not moved_any:
             break
     return net.replace(xy=xy) if not np.array_equal(xy, net.xy) else net
+
+
+#: How far towards the straight line a run is tried, in turn: the first share that takes the most corners
+#: away is taken, so that a jog is eased only until it turns no more than :data:`SHARP`.
+SHARES = (0.25, 0.5, 0.75, 1.0)
+#: Passes over the district's corners, sharpest first, while any was straightened and too many are left.
+PASSES = 3
 
 
 def _clear(xy: np.ndarray, seg: np.ndarray, key: tuple[int, ...], new: np.ndarray, old: shapely.Geometry,
