@@ -133,7 +133,7 @@ def test_krems_district_bends_at_its_degree_2_nodes_within_a_bound_read_from_its
     """Issue 20's curvature defect, counted: corners sharper than 45° at nodes of degree 2, where no
     junction explains a bend (Ls left by trimmed tees, seam links' joints, perimeter streets). Krems'
     own simplified streets have 1.0 a km, its seed-0 district had 8.1 (41 over 5.1 km) before h28d
-    straightened the seams' jogs and spikes (:func:`~synth.patches.corners._straighten`), 5.5 after
+XX
     (28): a guard that it gets no worse than six times its town's rate, not yet the town's own rate."""
     result = district("krems.osm.gz", 0)
     corners, km = sharp_corners(result.city.network)

@@ -34,8 +34,9 @@ class PatchOptions:
     seam_sigma: tuple[float, float] = (0.4, 30.0)
     #: Metres a node of degree two may move to straighten a corner the town would not have
     #: (:func:`~synth.patches.corners._straighten`, beyond the town's own corners per km); None: left as
-    #: made. About half a residential street's width between fences (RASt 06's local streets: 10-12 m):
-    #: a jog or spike of the seams within it is no shape of the street's, a bend beyond it is.
+    #: made. About half a local street's width between property lines (roughly 10-15 m: the common US
+    #: 50 ft right-of-way, German residential streets with their footways): a jog or spike of the seams
+    #: within it is no shape of the street's, a bend beyond it is.
     corner_reach: float | None = 6.0
     #: A cut end left over runs on this many spacings to meet a street in a tee ...
     tee_reach: float = 0.6
