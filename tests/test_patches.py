@@ -6,10 +6,12 @@ import functools
 import numpy as np
 import pytest
 import shapely
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from osm_expand.ingest import load
 from osm_expand.model import network_from_lines
-from osm_expand.model.topology import dangling_chains, without_segments
+from osm_expand.model.topology import dangling_chains, segment_degree, without_segments
 from osm_expand.pipeline import ExpandOptions, expand
 from synth.patches import PatchOptions
 from synth.patches.corners import _straighten, corner_turns, sharp_corners
@@ -32,7 +34,8 @@ def test_a_dangling_chain_runs_back_to_the_nearest_junction():
 def test_a_street_cut_by_a_seam_is_trimmed_back_and_so_is_a_junction_left_dangling():
     # a T whose two arms were both cut by seams: the stem is left hanging at the T and goes too
     lines = [[(0.0, 0.0), (50.0, 0.0)], [(50.0, 0.0), (100.0, 0.0)], [(50.0, 0.0), (50.0, -40.0)],
-             [(50.0, -40.0), (0.0, -40.0), (0.0, -100.0)], [(50.0, -40.0), (90.0, -40.0)], [(90.0, -40.0), (90.0, -100.0)]]
+             [(50.0, -40.0), (0.0, -40.0), (0.0, -100.0)], [(50.0, -40.0), (90.0, -40.0)],
+             [(90.0, -40.0), (90.0, -100.0)]]
     net = network_from_lines(lines)
     quilt = _Quilt(cut_xy=[np.array([0.0, 0.0]), np.array([100.0, 0.0])])
     trimmed = _trim(net, quilt, edge=shapely.LineString([(500, 500), (600, 500)]), keep_out=1e9)
@@ -107,6 +110,24 @@ def test_a_corner_is_not_straightened_across_another_street():
     lines = [shapely.LineString(straight.street_xy(s)) for s in straight.streets]
     assert not shapely.MultiLineString(lines[:3]).intersects(lines[3])  # the jog went round it, if at all
     assert not np.array_equal(straight.xy, net.xy)  # ... by moving one node only, off the street's side
+
+
+@settings(max_examples=60, deadline=None)
+@given(st.lists(st.tuples(st.floats(-8.0, 8.0), st.floats(-8.0, 8.0)), min_size=6, max_size=6),
+       st.integers(0, 3))
+def test_straightening_moves_only_nodes_of_degree_two_within_reach_and_takes_corners_away(wiggle, budget):
+    """Whatever the wiggles: the same streets on the same nodes, nodes of degree other than two where they
+    were, none moved farther than the reach, and no more corners than before."""
+    base = [(0.0, 0.0), (30.0, 0.0), (60.0, 0.0), (90.0, 0.0), (90.0, 30.0), (90.0, 60.0), (60.0, 60.0)]
+    path = [base[0]] + [(x + dx, y + dy) for (x, y), (dx, dy) in zip(base[1:], wiggle)]
+    net = network_from_lines([path[:4], path[3:], [path[3], (120.0, 0.0)]])
+    straight = _straighten(net, budget, 6.0, shapely.MultiLineString(), shapely.Polygon())
+    assert [s.nodes for s in straight.streets] == [s.nodes for s in net.streets]
+    degree = segment_degree(net.streets, len(net.xy))
+    moved = np.hypot(*(straight.xy - net.xy).T)
+    assert (moved[degree != 2] == 0.0).all() and (moved <= 6.0 + 1e-9).all()
+    before, after = (corner_turns(net) > 45.0).sum(), (corner_turns(straight) > 45.0).sum()
+    assert after <= before and (after <= budget or after < before or straight is net)
 
 
 @functools.cache
