@@ -32,12 +32,18 @@ class PatchOptions:
     seam_turn: float = 75.0
     #: Spread of the seam's transition probability: gap (in spacings) and bend (degrees).
     seam_sigma: tuple[float, float] = (0.4, 30.0)
-    #: Metres a node of degree two may move to straighten a corner the town would not have
-    #: (:func:`~synth.patches.corners._straighten`, beyond the town's own corners per km); None: left as
-    #: made. About half a local street's width between property lines (roughly 10-15 m: the common US
-    #: 50 ft right-of-way, German residential streets with their footways): a jog or spike of the seams
-    #: within it is no shape of the street's, a bend beyond it is.
-    corner_reach: float | None = 6.0
+    #: When set, metres a node of degree two may move to straighten a corner the town would not have
+    #: (:func:`~synth.patches.corners._straighten`, beyond the town's own corners per km). 6 is about
+    #: half a local street's width between property lines (roughly 10-15 m: the common US 50 ft
+    #: right-of-way, German residential streets with their footways): a jog or spike of the seams within
+    #: it is no shape of the street's, a bend beyond it is. Off by default: at 6, seeds 0-4, the
+    #: district's corners over 45° per km fall (Krems 7.3 -> 5.1, Andorra 5.6 -> 4.1, north-bayreuth
+    #: 8.0 -> 5.7, Campo Grande 4.9 -> 3.1, Monaco 7.5 -> 3.9) and the district bullet holds (mean off
+    #: 2.0, 3.0, 2.6, 2.6 unchanged, Monaco 2.2 -> 2.4, its density in range on 4 of 5 seeds), but
+    #: the changed district moves the engine's 30 years: Monaco seed 0's engine streets' dead-end share
+    #: falls to 0.045 under its neighbourhoods' 0.052 (tests/test_engine_districts.py), also with the
+    #: rule in the district only (README, issue 20, h28d).
+    corner_reach: float | None = None
     #: A cut end left over runs on this many spacings to meet a street in a tee ...
     tee_reach: float = 0.6
     #: ... meeting it at this angle or more (degrees).
