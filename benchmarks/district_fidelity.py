@@ -10,7 +10,8 @@ district makes on the map per seed (issue 20: at most 2), how often each
 measure is off, and with ``--table`` the full table (value, range) for the
 first seed; and the time of a whole run; and the corners sharper than 45° at degree-2 nodes of the
 district per seed, their mean rate per km beside the town's own (its simplified streets): how wiggly the
-district reads where no junction explains a bend (issue 20's curvature defect).
+district reads where no junction explains a bend (issue 20's curvature defect; ``--option corner_reach=6``
+straightens the seams' jogs and spikes beyond the town's rate, :mod:`synth.patches.corners`).
 
 Usage: ``python benchmarks/district_fidelity.py [--seeds 0 1 2 3 4] [--pattern example] [--table]
 [--option KEY=VALUE [--same-site]] [TOWN ...]``

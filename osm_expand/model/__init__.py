@@ -24,7 +24,7 @@ from osm_expand.model.city import (
                                    demolished_ways,
                                    held_ways,
 )
-from osm_expand.model.geometry import chord_bends, closest_on_segments, match_points, polyline_length
+from osm_expand.model.geometry import chord_bends, closest_on_segments, match_points, polyline_length, turn_angles
 from osm_expand.model.land import Land
 from osm_expand.model.network import (
                                    Context,
@@ -38,4 +38,5 @@ from osm_expand.model.projection import LocalProjection
 
 __all__ = ["Block", "Building", "City", "Context", "Land", "LocalProjection", "Lot", "MappedArea", "Origin",
            "SourceFile", "Status", "Street", "StreetNetwork", "UnplacedWay", "chord_bends", "closest_on_segments",
-           "demolished_ways", "held_ways", "match_points", "network_from_lines", "polyline_length"]
+           "demolished_ways", "held_ways", "match_points", "network_from_lines", "polyline_length",
+           "turn_angles"]

@@ -29,6 +29,34 @@ def polyline_length(xy: np.ndarray) -> float:
     return float(np.hypot(*np.diff(xy, axis=0).T).sum())
 
 
+def turn_angles(before: np.ndarray, after: np.ndarray) -> np.ndarray:
+    """How sharply a path turns from direction ``before`` to direction ``after``: the heading change in
+    degrees, 0 (straight on) to 180 (back), whichever side.
+
+    The one turn formula of the project: a street's bend at a node of degree 2 (``synth.patches``'
+    corner count), a chord's bend (:func:`chord_bends`) all read it, so that what one stage counts as
+    a corner is what another avoids.
+
+    Parameters
+    ----------
+    before, after : (n, 2) or (2,) float array
+        Direction vectors (any length but zero), e.g. the segment into a node and the one out of it.
+
+    Returns
+    -------
+    (n,) float array or float
+        Degrees in [0, 180].
+
+    >>> turn_angles(np.array([[1.0, 0.0], [1.0, 0.0]]), np.array([[0.0, 2.0], [1.0, -1.0]])).round().tolist()
+    [90.0, 45.0]
+    >>> float(turn_angles(np.array([1.0, 0.0]), np.array([-1.0, 0.0])))
+    180.0
+    """
+    before, after = np.asarray(before, dtype=np.float64), np.asarray(after, dtype=np.float64)
+    turn = np.arctan2(after[..., 1], after[..., 0]) - np.arctan2(before[..., 1], before[..., 0])
+    return np.degrees(np.abs((turn + np.pi) % (2 * np.pi) - np.pi))
+
+
 def chord_bends(xy: np.ndarray, at: np.ndarray, step: float) -> np.ndarray:
     """How sharply a polyline bends at arc positions ``at`` as chords of ``step`` metres see it: the
     heading change (degrees, 0–180) from the chord ending at each position to the chord starting there.
@@ -54,8 +82,7 @@ def chord_bends(xy: np.ndarray, at: np.ndarray, step: float) -> np.ndarray:
     at = np.asarray(at, dtype=np.float64)
     here = point(at)
     back, ahead = here - point(at - step), point(at + step) - here
-    turn = np.arctan2(ahead[:, 1], ahead[:, 0]) - np.arctan2(back[:, 1], back[:, 0])
-    bend = np.degrees(np.abs((turn + np.pi) % (2 * np.pi) - np.pi))
+    bend = turn_angles(back, ahead)
     flat = (np.hypot(*back.T) < 1e-9) | (np.hypot(*ahead.T) < 1e-9)  # at an end: no chord on one side
     return np.where(flat, 0.0, bend)
 

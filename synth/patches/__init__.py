@@ -48,24 +48,32 @@ walk loses (shapes, dead ends, the town's density); patches keep all three.
    own streets, and too little length on loops closes or prunes the longest
    cul-de-sacs. Dead ends are counted as the fidelity yardstick counts
    them: a road out on the site's outer edge runs on and is none.
+7. **Corners.** The seams leave corners at nodes of degree two that no
+   street of the town has (jogs of a seam link a few metres off the street
+   it continues, spikes, Ls of trimmed tees); beyond the town's own rate of
+   corners over 45° per km, runs of one to three such nodes move onto the
+   straight line between their neighbours, by at most ``corner_reach``
+   metres and crossing nothing: positions change, the network does not.
 
-Eight modules, one idea each: :mod:`~synth.patches.options` (the tunables),
+Nine modules, one idea each: :mod:`~synth.patches.options` (the tunables),
 :mod:`~synth.patches.source` (the town's copyable streets and typical patches),
 :mod:`~synth.patches.quilt` (the district being quilted), :mod:`~synth.patches.placing` (cells and the
 patch each takes), :mod:`~synth.patches.seams`, :mod:`~synth.patches.edges` (perimeter streets),
-:mod:`~synth.patches.topology` (trimming, pieces, dead ends and loops) and
+:mod:`~synth.patches.topology` (trimming, pieces, dead ends and loops), :mod:`~synth.patches.corners`
+(the corner count and the straightening) and
 :mod:`~synth.patches.pattern` (:class:`ExamplePatches`, which runs the steps above). Every public name is
 importable from here, as it was when they were one module.
 """
+from synth.patches.corners import SHARP, corner_turns, sharp_corners
 from synth.patches.edges import EDGE_INSET
 from synth.patches.options import NOT_COPIED, PatchOptions
 from synth.patches.pattern import ATTEMPTS, DEAD_END_DISCS, MAX_FILLS, ExamplePatches
-from synth.patches.seams import BEND_STEP, CONNECTOR_STEP
+from synth.patches.seams import CONNECTOR_STEP
 from synth.patches.source import TYPICAL
-from synth.patches.topology import JOIN_REACH, ON_EDGE, STUB_LENGTH, corner_turns, sharp_corners
+from synth.patches.topology import JOIN_REACH, ON_EDGE, STUB_LENGTH
 
 __all__ = [
-    "ATTEMPTS", "BEND_STEP", "CONNECTOR_STEP", "DEAD_END_DISCS", "EDGE_INSET", "ExamplePatches", "JOIN_REACH",
-    "MAX_FILLS", "NOT_COPIED", "ON_EDGE", "PatchOptions", "STUB_LENGTH", "TYPICAL", "corner_turns",
+    "ATTEMPTS", "CONNECTOR_STEP", "DEAD_END_DISCS", "EDGE_INSET", "ExamplePatches", "JOIN_REACH",
+    "MAX_FILLS", "NOT_COPIED", "ON_EDGE", "PatchOptions", "SHARP", "STUB_LENGTH", "TYPICAL", "corner_turns",
     "sharp_corners",
 ]

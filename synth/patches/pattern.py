@@ -13,6 +13,7 @@ import shapely.ops
 from osm_expand.model import City, StreetNetwork
 from simplify.example import Example
 from synth.growth import Growth, NewStreet, streets_near
+from synth.patches.corners import _straighten, sharp_corners
 from synth.patches.edges import _edge_streets
 from synth.patches.options import PatchOptions
 from synth.patches.placing import _cells, _centres, _free_land, _place
@@ -66,7 +67,6 @@ class ExamplePatches:
         around = _neighbourhood_points(everything, opts.density_discs, radius, rng)
         target = float(np.median(_density(everything, around, radius))) * float(free.area)
         aim = self._aim(everything, around, radius, city.network)
-        bend = self._bend_limit(everything)
         key = round(float(np.log(size)) / 0.05)  # sizes within 5 % share a ranking
         if key not in self.cache:
             self.cache[key] = _candidate_patches(source, size, opts, rng, self.measure)
@@ -74,14 +74,16 @@ class ExamplePatches:
         best = None
         for attempt in range(ATTEMPTS):  # other patches when even every cell filled left too little
             quilt = _Quilt(grid=np.roll(patches, -attempt * len(centres), axis=0))
-            result = _quilt(source, quilt, centres, cells, region, old_geom, target, spacing, opts, occupied, aim,
-                            bend)
+            result = _quilt(source, quilt, centres, cells, region, old_geom, target, spacing, opts, occupied, aim)
             if best is None or _misfit(result[0].total_length(), target) < _misfit(best[0].total_length(), target):
                 best = result
             if result[0].total_length() >= 0.9 * target:
                 break
         assert best is not None  # the loop runs at least once
         net, placed, links, tees = best
+        if opts.corner_reach is not None:
+            budget = int(self._corner_rate() * net.total_length() / 1000.0)
+            net = _straighten(net, budget, opts.corner_reach, old_geom, occupied)
         streets = tuple(NewStreet(xy=net.street_xy(s), hierarchy=max(s.hierarchy, 0), highway=s.highway)
                         for s in net.streets)
         return Growth(streets=streets, footprint=free,
@@ -101,20 +103,13 @@ class ExamplePatches:
         self.cache[key] = (city.network, made)
         return made
 
-    def _bend_limit(self, source: _Source) -> float:
-        """The sharpest bend (degrees per :data:`BEND_STEP` chord) a seam link may make: the town's own
-        ``seam_bend_quantile`` (``seam_bend`` without a ``measure``; inf, no limit, when it is None)."""
-        opts = self.options
-        if opts.seam_bend_quantile is None:
-            return float("inf")
-        if self.measure is None or not len(source.lines):
-            return opts.seam_bend
-        if "bend" not in self.cache:
-            lines = [np.asarray(ln.coords) for ln in source.lines]
-            hull = shapely.MultiLineString(lines).convex_hull.buffer(1.0)
-            bends = np.asarray(self.measure(lines)(hull).value("curvature"))
-            self.cache["bend"] = float(np.quantile(bends, opts.seam_bend_quantile)) if len(bends) else opts.seam_bend
-        return self.cache["bend"]
+    def _corner_rate(self) -> float:
+        """The town's corners sharper than :data:`~synth.patches.corners.SHARP` at nodes of degree two per km
+        of its simplified streets (:func:`~synth.patches.corners.sharp_corners`): how many a district may keep."""
+        if "corner_rate" not in self.cache:
+            corners, km = sharp_corners(self.example.network, new=False)
+            self.cache["corner_rate"] = corners / km if km > 0 else 0.0
+        return self.cache["corner_rate"]
 
     def _aim(self, source: _Source, centres: np.ndarray, radius: float, town: StreetNetwork) -> _Aim | None:
         """The median dead-end and 2-core shares of the town's neighbourhoods around ``centres`` (None
@@ -151,23 +146,20 @@ def _misfit(length: float, target: float) -> float:
 
 def _quilt(source: _Source, quilt: _Quilt, centres: np.ndarray, cells: list, region: shapely.Geometry,
            old: shapely.Geometry, target: float, spacing: float, opts: PatchOptions,
-           occupied: shapely.Geometry, aim: _Aim | None = None, bend: float = float("inf")
-           ) -> tuple[StreetNetwork, int, int, int]:
+           occupied: shapely.Geometry, aim: _Aim | None = None) -> tuple[StreetNetwork, int, int, int]:
     """Fill cells, stitch and trim; fill more while trimming left too little. The network and counts."""
     placed, keep = 0, 1.0
     for _ in range(MAX_FILLS):
         placed = _place(source, quilt.grid, centres, cells, quilt, placed, target / keep, spacing, old, opts)
         stitched = copy.deepcopy(quilt)
-        links = _walk_seams(stitched, spacing, opts, occupied, old, bend)
+        links = _walk_seams(stitched, spacing, opts, occupied, old)
         tees = _tees(stitched, old, spacing, opts, occupied)
         tees += _edge_streets(stitched, region, spacing, opts, occupied, old)
         stitched_net = _network(stitched)
         edge = _outer_edge(region)
         stubs, room = _stub_budget(stitched_net, stitched, aim, old, opts.tee_reach * spacing, edge)
         net = _trim(stitched_net, stitched, edge, opts.keep_out * spacing, keep=stubs, stub=STUB_LENGTH * spacing,
-                    room=room, like=aim.cul_de_sac if aim is not None else 0.0,
-                    corner_bend=float("inf") if opts.corner_bend is None else opts.corner_bend,
-                    tees=opts.keep_tees)
+                    room=room, like=aim.cul_de_sac if aim is not None else 0.0)
         net = _keep_joinable(net, old, spacing, opts)
         net = _connect_pieces(net, old, occupied, opts.link_reach * spacing)
         net = _without_scraps(net, opts.min_land * spacing)

@@ -9,7 +9,7 @@ import shapely
 import shapely.ops
 from scipy.spatial import cKDTree
 
-from osm_expand.model import Origin, StreetNetwork, network_from_lines, polyline_length
+from osm_expand.model import Origin, StreetNetwork, network_from_lines
 from osm_expand.model.topology import dangling_chains, segment_degree, without_segments
 from synth.patches.options import PatchOptions
 from synth.patches.quilt import _Board, _meet, _network, _Quilt
@@ -110,8 +110,7 @@ def _core_length(net: StreetNetwork, anchored: np.ndarray) -> float:
 
 
 def _trim(net: StreetNetwork, quilt: _Quilt, edge: shapely.Geometry, keep_out: float, *, keep: int = 0,
-          stub: float = 0.0, room: float = float("inf"), like: float = 0.0,
-          corner_bend: float = float("inf"), tees: bool = False) -> StreetNetwork:
+          stub: float = 0.0, room: float = float("inf"), like: float = 0.0) -> StreetNetwork:
     """Cut ends still open are trimmed back to their last junction, except a street of ``keep_out``
     metres or more that leaves the district at the site's ``edge`` (a road out into the country), and
     up to ``keep`` cut streets of ``stub`` metres or more ending inside the district, which stay as
@@ -119,10 +118,7 @@ def _trim(net: StreetNetwork, quilt: _Quilt, edge: shapely.Geometry, keep_out: f
     town's neighbourhoods; a stub left where the edge cut it would stop at the field's margin),
     those nearest ``like`` metres long first (the town's own cul-de-sacs; a district of 30 m nubs has
     the town's dead-end share but not its edge lengths), and ``room`` metres of them at most (the
-    length its 2-core may lose). Those whose trimming would leave their junction a corner sharper
-    than ``corner_bend`` degrees (a T cut in its arm is an L) stay first: the seams cut the town's
-    tees wherever they fall, and the L-bends left were the district's sharpest (Krems seed 0: 16 of
-    its 28 bends over 45°), where a T with a short arm is what the town has.
+    length its 2-core may lose).
 
     A junction whose other streets were all trimmed becomes an end itself and is trimmed in turn:
     only the town's own dead ends stay dead ends.
@@ -138,13 +134,9 @@ def _trim(net: StreetNetwork, quilt: _Quilt, edge: shapely.Geometry, keep_out: f
         drop: set[tuple[int, int]] = set()
         chains = dangling_chains(streets, leaves)
         length = {leaf: _chain_length(net, chain) for leaf, chain in chains.items()}
-        corner = {leaf: np.isfinite(corner_bend) and _leaves_corner(net, streets, chain) > corner_bend
-                  for leaf, chain in chains.items()}
-        for leaf, chain in sorted(chains.items(), key=lambda c: (not corner[c[0]], abs(length[c[0]] - like), c[0])):
+        for leaf, chain in sorted(chains.items(), key=lambda c: (abs(length[c[0]] - like), c[0])):
             out_of_town = shapely.distance(edge, shapely.Point(leaves[leaf])) < ON_EDGE
             if out_of_town and length[leaf] >= keep_out:
-                continue
-            if corner[leaf] and tees:  # the tee stays a junction: no L where the town had a T
                 continue
             if keep > 0 and stub <= length[leaf] <= room and not out_of_town:
                 keep -= 1
@@ -158,27 +150,6 @@ def _trim(net: StreetNetwork, quilt: _Quilt, edge: shapely.Geometry, keep_out: f
         after = segment_degree(streets, len(net.xy))
         leaves = {int(n): net.xy[n] for n in np.flatnonzero((after == 1) & (before > 1))}
     return net.replace(streets=streets)
-
-
-def _leaves_corner(net: StreetNetwork, streets: tuple, chain: set[tuple[int, int]]) -> float:
-    """How sharply the streets left at the junction of a dangling ``chain`` turn (degrees) once it is
-    trimmed, when that leaves the junction with two segments; 0 otherwise (a junction still, or none)."""
-    ends = {n for seg in chain for n in seg}
-    around: dict[int, list[int]] = {}
-    for st in streets:
-        for a, b in zip(st.nodes[:-1], st.nodes[1:]):
-            if (min(a, b), max(a, b)) in chain:
-                continue
-            if a in ends:
-                around.setdefault(a, []).append(b)
-            if b in ends:
-                around.setdefault(b, []).append(a)
-    for node, other in around.items():
-        if len(other) == 2:
-            d1, d2 = net.xy[node] - net.xy[other[0]], net.xy[other[1]] - net.xy[node]
-            turn = np.arctan2(d2[1], d2[0]) - np.arctan2(d1[1], d1[0])
-            return float(np.degrees(abs((turn + np.pi) % (2 * np.pi) - np.pi)))
-    return 0.0
 
 
 def _keep_joinable(net: StreetNetwork, old: shapely.Geometry, spacing: float, opts: PatchOptions) -> StreetNetwork:
@@ -293,7 +264,6 @@ def _fewer_dead_ends(net: StreetNetwork, old: shapely.Geometry, occupied: shapel
     """
     share = aim.dead_end_share
     reach = opts.tee_reach * spacing
-    corner = opts.corner_bend if opts.keep_tees and opts.corner_bend is not None else float("inf")
     ends, junctions = _dead_ends(net, old, reach, edge)
     leaves = np.flatnonzero(segment_degree(net.streets, len(net.xy)) == 1)
     anchored = np.zeros(len(net.xy), dtype=bool)
@@ -343,16 +313,14 @@ def _fewer_dead_ends(net: StreetNetwork, old: shapely.Geometry, occupied: shapel
         for e in sorted(chains, key=lambda e: (_chain_length(net, chains[e]), e)):
             if excess <= 0 or _chain_length(net, chains[e]) >= spacing:
                 break
-            if np.isfinite(corner) and _leaves_corner(net, net.streets, chains[e]) > corner:  # a kept tee
-                continue
             drop |= chains[e]
             excess -= 1
         net = net.replace(streets=without_segments(net.streets, drop)) if drop else net
-    return _shorter_trees(net, old, reach, edge, aim, opts.dead_end_floor, corner)
+    return _shorter_trees(net, old, reach, edge, aim, opts.dead_end_floor)
 
 
 def _shorter_trees(net: StreetNetwork, old: shapely.Geometry, reach: float, edge: shapely.Geometry | None,
-                   aim: _Aim, floor: float, corner: float = float("inf")) -> StreetNetwork:
+                   aim: _Aim, floor: float) -> StreetNetwork:
     """Prune cul-de-sacs that met nothing while the district's 2-core share is short of ``aim``'s and
     its dead ends stay at ``floor`` of those the aimed share allows: each time the shortest that
     makes up the shortfall, else the longest (the least street length lost for the 2-core gained)."""
@@ -368,10 +336,6 @@ def _shorter_trees(net: StreetNetwork, old: shapely.Geometry, reach: float, edge
         if room >= 0:
             break
         chains = dangling_chains(net.streets, {int(e): net.xy[e] for e in ends})
-        if np.isfinite(corner):  # kept tees stay
-            chains = {e: c for e, c in chains.items() if _leaves_corner(net, net.streets, c) <= corner}
-            if not chains:
-                break
         length = {e: _chain_length(net, c) for e, c in chains.items()}
         enough = [e for e in sorted(chains) if length[e] >= -room]
         e = min(enough, key=lambda e: length[e]) if enough else max(sorted(chains), key=lambda e: length[e])
@@ -467,44 +431,3 @@ def _chain_length(net: StreetNetwork, chain: set[tuple[int, int]]) -> float:
 
 #: An end this close to the district's edge (m) lies on it: a road out, as :func:`_trim` keeps them.
 ON_EDGE = 1.0
-
-
-def corner_turns(net: StreetNetwork, among: np.ndarray | None = None) -> np.ndarray:
-    """The turn (degrees, 0-180) at every node where exactly two segments meet, of ``among`` nodes only
-    when given (e.g. the district's): how sharply a street bends where no junction explains it.
-
-    The fidelity yardstick reads streets as chains between junctions (:mod:`osm_expand.measures`), so
-    a bend at a node of degree 2 is part of one street's curvature however it arose: an L left where a
-    seam cut a tee's arm, a seam link zig-zagging between two cut streets, a perimeter street on the
-    jagged edge of the free land (issue 20: Krems seed 0 had 28 turns over 45°, 16 of them such Ls).
-    A district is judged by how many of these exceed 45° per km beside its town's own rate.
-    """
-    seg = np.array([(a, b) for s in net.streets for a, b in zip(s.nodes[:-1], s.nodes[1:]) if a != b],
-                   dtype=np.int64).reshape(-1, 2)
-    degree = np.bincount(seg.ravel(), minlength=len(net.xy))
-    node, other = np.concatenate([seg[:, 0], seg[:, 1]]), np.concatenate([seg[:, 1], seg[:, 0]])
-    two = degree[node] == 2
-    if among is not None:
-        two &= np.isin(node, among)
-    order = np.argsort(node[two], kind="stable")
-    node, other = node[two][order], other[two][order]
-    at, before, after = node[0::2], other[0::2], other[1::2]
-    d1, d2 = net.xy[at] - net.xy[before], net.xy[after] - net.xy[at]
-    turn = np.arctan2(d2[:, 1], d2[:, 0]) - np.arctan2(d1[:, 1], d1[:, 0])
-    return np.degrees(np.abs((turn + np.pi) % (2 * np.pi) - np.pi))
-
-
-#: degrees: a turn sharper than this at a node of degree 2 is a corner (issue 20's count).
-SHARP = 45.0
-
-
-def sharp_corners(net: StreetNetwork, new: bool = True) -> tuple[int, float]:
-    """The corners sharper than :data:`SHARP` at degree-2 nodes of ``net``'s new streets (``new``) or of
-    its streets as mapped, and those streets' length in km: the count and the length it is read over,
-    so that a district's rate per km can stand beside its town's."""
-    mine = [s for s in net.streets if s.is_new == new]
-    if not mine:
-        return 0, 0.0
-    nodes = np.unique(np.concatenate([np.asarray(s.nodes) for s in mine]))
-    km = sum(polyline_length(net.street_xy(s)) for s in mine) / 1000.0
-    return int((corner_turns(net, nodes) > SHARP).sum()), float(km)
