@@ -627,8 +627,8 @@ def test_on_krems_the_implicit_search_finds_routes_of_the_same_cost_in_a_part_of
     g, segs, exits, _, implicit = krems
     seen: list[int] = []
     window = ImplicitGraph.window
-    monkeypatch.setattr(ImplicitGraph, "window", lambda self, bounds, corridor=None: seen.append(
-        (w := window(self, bounds, corridor)).graph.lattice.n_vertices) or w)
+    monkeypatch.setattr(ImplicitGraph, "window", lambda self, bounds: seen.append(
+        (w := window(self, bounds)).graph.lattice.n_vertices) or w)
     rng = np.random.default_rng(3)
     nodes = np.concatenate([exits[:3], rng.choice(len(segs.xy), 2, replace=False)])
     for k, (a, b) in enumerate(zip(nodes[:-1], nodes[1:])):

@@ -22,21 +22,20 @@ graph at about ``K · (2m + 3)`` turn edges per vertex instead of K², and
 scipy's C Dijkstra runs on it.
 
 The expanded graph is built only over the vertices that can lie on an
-optimal route: with ``d_s``, ``d_t`` the plain (turn-free, hence lower-bound)
-distances from source and target and ``U`` the penalised cost of the plain
-shortest path (a feasible route), a vertex v can be on the best route only
-if ``d_s(v) + d_t(v) ≤ U``. This pruning is exact. U is first lowered by a
-search in a corridor ``corridor_width`` wide along the plain route, so that
-the exact search covers only a narrow ellipse around the best route.
+optimal route and that the search reaches: with ``d_s``, ``d_t`` the plain
+(turn-free, hence lower-bound) distances from source and target and ``C``
+the penalised cost of the best route found so far (at first the plain
+shortest path's), a vertex v can be on a better route only if
+``d_s(v) + d_t(v) ≤ C``; of those, the search is an A* with the consistent
+bound ``d_t`` (turn costs are ≥ 0) over tiles of the lattice, made when the
+states it settles below C reach a tile's border (:func:`_tiled_search`).
+Both prunings are exact.
 """
 from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import dataclass, replace
 from enum import StrEnum
-
-import os
-import sys
 
 import numpy as np
 from scipy.sparse import csr_matrix
@@ -52,7 +51,6 @@ __all__ = ["RoutingOptions", "Route", "turn_penalty", "find_route", "route_over_
 
 #: cost of the free transitions of the expanded graph (kept positive for scipy)
 _EPS = 1e-9
-_DEBUG = bool(os.environ.get('H28A_DEBUG'))
 
 
 @dataclass(frozen=True)
@@ -632,8 +630,6 @@ def _tiled_search(graph: PathGraph, lat: np.ndarray, extra: np.ndarray, source: 
                 best = (vertices[keep].tolist(), float(dist[end]))
                 cost = best[1]
         del pred
-        if _DEBUG:
-            print("tiled", target is not None, len(verts), int(region.sum()), int(active.sum()), cost, file=sys.stderr)
         threshold = cost - 1e-9 * cost
         departs = dist.reshape(-1, per)[:, k:2 * k]
         outside = region & ~inside
