@@ -357,6 +357,61 @@ def test_pruned_search_finds_the_same_cost_as_searching_everything(seed):
 
 @settings(max_examples=12, deadline=None)
 @given(st.integers(0, 2**32 - 1))
+def test_the_tiled_a_star_finds_the_cost_of_searching_the_whole_expanded_graph(seed):
+    """Issue 22: the exact search made tile by tile as it reaches them (``routing._tiled_search``,
+    tiny tiles and no region searched whole, so the tiles must grow) costs each route what
+    Dijkstra over the whole heading-expanded graph gives, on a street grid among forbidden blobs
+    under turn penalties from light to heavy (the next test: the tiles grew on most maps)."""
+    from osm_expand.engine.roads import routing
+    rng = np.random.default_rng(seed)
+    extent = (0, 0, 800, 800)
+    centres, radii = rng.uniform(50, 750, (5, 2)), rng.uniform(20, 70, 5)
+    blobs = raster(lambda x, y: (np.hypot(x[..., None] - centres[:, 0], y[..., None] - centres[:, 1])
+                                 < radii).any(axis=-1), extent, cell=10.0)
+    n = int(rng.integers(2, 5))
+    lines = grid_lines(250, 250, n, 300 / n)
+    segs = SegmentTable.from_lines(lines, major=[bool(b) for b in rng.integers(0, 2, len(lines))],
+                                   width=[6.0] * len(lines))
+    built = built_up_area(blocks_of(segs), segs)
+    lat = build_lattice(extent, forbidden=blobs,
+                        options=LatticeOptions(radius=int(rng.integers(1, 4)))).with_built_up(built.area)
+    g = pathfinding_graph(lat, segs, built)
+    live = g.live_vertices()
+    opts = RoutingOptions(turn_height=float(rng.uniform(20, 900)), tile_cells=int(rng.integers(1, 5)),
+                          whole_region=0)
+    lat_ok, extra_ok = g.masks()
+    made = []  # expanded graphs made per route: more than one when the tiles grew
+    expanded_graph = routing._expanded_graph
+
+    def counted(*args, **kwargs):
+        made[-1] += 1
+        return expanded_graph(*args, **kwargs)
+
+    routing._expanded_graph = counted
+    try:
+        for _ in range(3):
+            s, t = (int(v) for v in rng.choice(live, 2, replace=False))
+            made.append(0)
+            route = find_route(g, s, t, options=opts)
+            full = routing._expanded_search(g, lat_ok, extra_ok, np.arange(g.n_vertices), s, t,
+                                            routing._bin_penalties(opts), opts.heading_bins, np.inf)
+            assert (route is None) == (full is None)
+            if route is not None:
+                assert route.cost == pytest.approx(full[1], rel=1e-9, abs=1e-5)
+    finally:
+        routing._expanded_graph = expanded_graph
+    GROWN.append(max(made) > 2)  # the reference search is one of them
+
+
+GROWN: list[bool] = []
+
+
+def test_the_tiled_a_star_grew_its_tiles_in_most_of_the_maps_above():
+    assert sum(GROWN) >= len(GROWN) // 2
+
+
+@settings(max_examples=12, deadline=None)
+@given(st.integers(0, 2**32 - 1))
 @example(4194305)  # a bound from the target's side (binned headings reversed) overstated this map's route
 def test_the_implicit_search_in_growing_windows_finds_the_cost_of_the_whole_map(seed):
     """A town, a river and forbidden blobs; small first windows force the windows to grow."""
