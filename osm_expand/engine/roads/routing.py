@@ -508,7 +508,8 @@ def _expanded_graph(graph: PathGraph, lat: np.ndarray, extra: np.ndarray, region
 
 def _expanded_search(graph: PathGraph, lat: np.ndarray, extra: np.ndarray, region: np.ndarray, source: int,
                      target: int, penalties: np.ndarray, k: int, limit: float) -> tuple[list[int], float] | None:
-    """Dijkstra on the heading-expanded graph over ``region``; the vertex path and its cost."""
+    """Dijkstra on the heading-expanded graph over ``region``; the vertex path and its cost (over every
+    vertex: the reference the tests hold :func:`_tiled_search` to)."""
     n = len(region)
     per = 2 * k + 1
     expanded, local = _expanded_graph(graph, lat, extra, region, penalties, k)
