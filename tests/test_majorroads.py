@@ -357,6 +357,61 @@ def test_pruned_search_finds_the_same_cost_as_searching_everything(seed):
 
 @settings(max_examples=12, deadline=None)
 @given(st.integers(0, 2**32 - 1))
+def test_the_tiled_a_star_finds_the_cost_of_searching_the_whole_expanded_graph(seed):
+    """Issue 22: the exact search made tile by tile as it reaches them (``routing._tiled_search``,
+    tiny tiles and no region searched whole, so the tiles must grow) costs each route what
+    Dijkstra over the whole heading-expanded graph gives, on a street grid among forbidden blobs
+    under turn penalties from light to heavy (the next test: the tiles grew on most maps)."""
+    from osm_expand.engine.roads import routing
+    rng = np.random.default_rng(seed)
+    extent = (0, 0, 800, 800)
+    centres, radii = rng.uniform(50, 750, (5, 2)), rng.uniform(20, 70, 5)
+    blobs = raster(lambda x, y: (np.hypot(x[..., None] - centres[:, 0], y[..., None] - centres[:, 1])
+                                 < radii).any(axis=-1), extent, cell=10.0)
+    n = int(rng.integers(2, 5))
+    lines = grid_lines(250, 250, n, 300 / n)
+    segs = SegmentTable.from_lines(lines, major=[bool(b) for b in rng.integers(0, 2, len(lines))],
+                                   width=[6.0] * len(lines))
+    built = built_up_area(blocks_of(segs), segs)
+    lat = build_lattice(extent, forbidden=blobs,
+                        options=LatticeOptions(radius=int(rng.integers(1, 4)))).with_built_up(built.area)
+    g = pathfinding_graph(lat, segs, built)
+    live = g.live_vertices()
+    opts = RoutingOptions(turn_height=float(rng.uniform(20, 900)), tile_cells=int(rng.integers(1, 5)),
+                          whole_region=0)
+    lat_ok, extra_ok = g.masks()
+    made = []  # expanded graphs made per route: more than one when the tiles grew
+    expanded_graph = routing._expanded_graph
+
+    def counted(*args, **kwargs):
+        made[-1] += 1
+        return expanded_graph(*args, **kwargs)
+
+    routing._expanded_graph = counted
+    try:
+        for _ in range(3):
+            s, t = (int(v) for v in rng.choice(live, 2, replace=False))
+            made.append(0)
+            route = find_route(g, s, t, options=opts)
+            full = routing._expanded_search(g, lat_ok, extra_ok, np.arange(g.n_vertices), s, t,
+                                            routing._bin_penalties(opts), opts.heading_bins, np.inf)
+            assert (route is None) == (full is None)
+            if route is not None:
+                assert route.cost == pytest.approx(full[1], rel=1e-9, abs=1e-5)
+    finally:
+        routing._expanded_graph = expanded_graph
+    GROWN.append(max(made) > 2)  # the reference search is one of them
+
+
+GROWN: list[bool] = []
+
+
+def test_the_tiled_a_star_grew_its_tiles_in_most_of_the_maps_above():
+    assert sum(GROWN) >= len(GROWN) // 2
+
+
+@settings(max_examples=12, deadline=None)
+@given(st.integers(0, 2**32 - 1))
 @example(4194305)  # a bound from the target's side (binned headings reversed) overstated this map's route
 def test_the_implicit_search_in_growing_windows_finds_the_cost_of_the_whole_map(seed):
     """A town, a river and forbidden blobs; small first windows force the windows to grow."""
@@ -627,8 +682,8 @@ def test_on_krems_the_implicit_search_finds_routes_of_the_same_cost_in_a_part_of
     g, segs, exits, _, implicit = krems
     seen: list[int] = []
     window = ImplicitGraph.window
-    monkeypatch.setattr(ImplicitGraph, "window", lambda self, bounds, corridor=None: seen.append(
-        (w := window(self, bounds, corridor)).graph.lattice.n_vertices) or w)
+    monkeypatch.setattr(ImplicitGraph, "window", lambda self, bounds: seen.append(
+        (w := window(self, bounds)).graph.lattice.n_vertices) or w)
     rng = np.random.default_rng(3)
     nodes = np.concatenate([exits[:3], rng.choice(len(segs.xy), 2, replace=False)])
     for k, (a, b) in enumerate(zip(nodes[:-1], nodes[1:])):
@@ -816,8 +871,8 @@ def test_monacos_new_roads_do_not_run_round_the_sea_beyond_the_map():
 @settings(max_examples=8, deadline=None)
 @given(st.integers(0, 2**32 - 1))
 def test_counting_turns_at_the_exits_keeps_the_search_exact(seed):
-    """Issue 22: a window is proved with the turn-penalised costs of arriving at its exits from
-    both ends (``routing._arrival_costs``, ``_via_exits``) and grows a quarter a side at a time. On
+    """Issue 22: a window is proved with the turn-penalised costs of arriving at its exits (an A*
+    towards the target, ``routing._tiled_search`` without a target) and grows a quarter a side at a time. On
     a street grid under heavy turn penalties, with tiny first windows, every route costs what the
     whole map's G′ (the old search) gives, and the turn test is what ends the search at least once."""
     from osm_expand.engine.roads import routing
@@ -834,13 +889,13 @@ def test_counting_turns_at_the_exits_keeps_the_search_exact(seed):
     opts = RoutingOptions(turn_height=float(rng.uniform(150, 600)), window_margin=float(rng.uniform(20, 120)),
                           window_share=0.0)
     calls = []
-    arrival = routing._arrival_costs
+    tiled = routing._tiled_search
 
     def counted(*args, **kwargs):
-        calls.append(1)
-        return arrival(*args, **kwargs)
+        calls.append(args[4] is None)
+        return tiled(*args, **kwargs)
 
-    routing._arrival_costs = counted
+    routing._tiled_search = counted
     try:
         for _ in range(3):
             a, b = (int(v) for v in rng.choice(len(segs.xy), 2, replace=False))
@@ -851,61 +906,8 @@ def test_counting_turns_at_the_exits_keeps_the_search_exact(seed):
             if old is not None:
                 assert new.cost == pytest.approx(old.cost, rel=1e-9, abs=1e-6)
     finally:
-        routing._arrival_costs = arrival
-    assert calls
-
-
-@settings(max_examples=10, deadline=None)
-@given(st.integers(0, 2**32 - 1))
-def test_a_corridor_along_far_ends_finds_the_cost_of_the_whole_map(seed):
-    """Issue 22: with ``corridor_share`` set (off by default), two ends whose rectangle is most of the
-    map are searched first in a corridor along their straight line (its vertices only, its side's band
-    and the street points near it exits), so memory follows the corridor. On a street grid with a
-    river and forbidden blobs, a corridor is tried and every route costs what the whole map's G′
-    gives (of 18 far searches over six seeds, 2 ended in their corridor)."""
-    from osm_expand.engine.roads.path_graph import ImplicitGraph
-    rng = np.random.default_rng(seed)
-    extent = (0, 0, 1600, 1600)
-    centres, radii = rng.uniform(50, 1550, (5, 2)), rng.uniform(20, 80, 5)
-    blobs = raster(lambda x, y: (np.hypot(x[..., None] - centres[:, 0], y[..., None] - centres[:, 1])
-                                 < radii).any(axis=-1), extent, cell=10.0)
-    y_lo = float(rng.uniform(100, 1400))
-    n = int(rng.integers(3, 7))
-    lines = grid_lines(500, 500, n, 600 / n)
-    segs = SegmentTable.from_lines(lines, major=[bool(b) for b in rng.integers(0, 2, len(lines))],
-                               width=[6.0] * len(lines))
-    built = built_up_area(blocks_of(segs), segs)
-    lat = build_lattice(extent, water=river(extent, y_lo, y_lo + 40), forbidden=blobs,
-                        options=LatticeOptions(radius=int(rng.integers(2, 4)))).with_built_up(built.area)
-    implicit = implicit_graph(lat, segs, built)
-    whole = implicit.whole()
-    live = whole.live_vertices()
-    xy = whole.xy[live]
-    opts = RoutingOptions(turn_height=float(rng.uniform(20, 400)), window_margin=float(rng.uniform(20, 80)),
-                          window_share=0.0, corridor_share=float(rng.uniform(0.0, 0.15)),
-                          whole_share=float(rng.uniform(0.05, 0.3)))
-    windows = []
-    real = ImplicitGraph.window
-
-    def counted(self, bounds, corridor=None):
-        windows.append(corridor is not None)
-        return real(self, bounds, corridor)
-
-    ImplicitGraph.window = counted
-    try:
-        for _ in range(3):
-            s = int(live[rng.integers(len(live))])
-            far = np.hypot(*(xy - whole.xy[s]).T)
-            t = int(live[np.argmax(far - rng.uniform(0, 300, len(far)))])  # a far end
-            old = find_route(whole, s, t, options=opts)
-            new = find_route(implicit, s, t, options=opts)
-            assert (old is None) == (new is None)
-            if old is not None:
-                assert new.cost == pytest.approx(old.cost, rel=1e-9, abs=1e-6)
-                assert np.array_equal(whole.xy[new.vertices], new.xy)
-    finally:
-        ImplicitGraph.window = real
-    assert any(windows)
+        routing._tiled_search = tiled
+    assert any(calls)
 
 
 @settings(max_examples=10, deadline=None)

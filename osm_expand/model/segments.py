@@ -19,7 +19,7 @@ these arrays (:meth:`~synth.street_graph.StreetGraph.from_segments`).
 from __future__ import annotations
 
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 import shapely
@@ -72,8 +72,11 @@ class SegmentTable:
     first: np.ndarray  #: (S + 1,) the first segment of each street (segments of street k: first[k]..first[k+1])
     #: (E,) remaining trade capacity ``O2 · width − T(s)`` (003 §3.4.2, traffic units); None: not read
     available: np.ndarray | None = None
-    #: (E,) bool, built harbour segments (003's C4); None: none
+    #: (E,) bool, built harbour segments (003's C4); None: none. Nothing sets it yet (no harbour
+    #: street is read from a map), so G′'s C4 branch waits for one
     harbour: np.ndarray | None = None
+    #: the segments' lines and their STRtree, made once per table (a road year asks several times)
+    _cache: dict = field(default_factory=dict, init=False, repr=False, compare=False)
 
     def __post_init__(self) -> None:
         n = len(self.uv)
@@ -138,8 +141,16 @@ class SegmentTable:
         return self.xy[self.uv[:, 1]]
 
     def lines(self) -> np.ndarray:
-        """One shapely LineString per segment."""
-        return shapely.linestrings(np.stack([self.a, self.b], axis=1))
+        """One shapely LineString per segment (made once per table; do not edit the array)."""
+        if "lines" not in self._cache:
+            self._cache["lines"] = shapely.linestrings(np.stack([self.a, self.b], axis=1))
+        return self._cache["lines"]
+
+    def tree(self) -> shapely.STRtree:
+        """An STRtree over :meth:`lines`, made once per table."""
+        if "tree" not in self._cache:
+            self._cache["tree"] = shapely.STRtree(self.lines())
+        return self._cache["tree"]
 
     @classmethod
     def from_city(cls, city: City) -> SegmentTable:

@@ -46,7 +46,6 @@ from osm_expand.engine.roads.stitches import (
     stitch_ok,
 )
 from osm_expand.errors import InputError
-from osm_expand.model.geometry import closest_on_segments
 from osm_expand.model.options import require_positive
 from osm_expand.model.segments import SegmentTable
 
@@ -320,7 +319,7 @@ def street_part(lattice: Lattice, segments: SegmentTable, built: BuiltUpArea | N
     edges = _segment_part(lattice, segments, xy, pieces, extendible, 0, costs)
     ext_pieces = pieces[extendible[pieces[:, 0]]]
     points = _code_vertex(np.unique(ext_pieces[:, 1:].ravel()), 0, n_nodes)
-    tree = shapely.STRtree(segments.lines())
+    tree = segments.tree()
     inner = None
     if blocks is not None and not blocks.is_empty:
         inner = shapely.buffer(blocks, -0.5)
@@ -361,8 +360,7 @@ def pathfinding_graph(lattice: Lattice, segments: SegmentTable, built: BuiltUpAr
                       costs: EdgeCosts | None = None, options: GraphOptions | None = None,
                       streets: StreetPart | None = None,
                       stitch_within: tuple[float, float, float, float] | None = None,
-                      stitch_cache: dict | None = None, keep: np.ndarray | None = None,
-                      stitch_points: np.ndarray | None = None) -> PathGraph:
+                      stitch_cache: dict | None = None) -> PathGraph:
     """Assemble G′ from the lattice (B already removed), the segments and stitches (003 §3.4.2).
 
     Parameters
@@ -385,12 +383,6 @@ def pathfinding_graph(lattice: Lattice, segments: SegmentTable, built: BuiltUpAr
         lattice (a window's edge: a point nearer to it may miss its nearest vertices).
     stitch_cache
         Stitches already checked this year (see :class:`ImplicitGraph`).
-    keep
-        ``(V,)`` bool over the lattice's vertices, or None (all): only the lattice edges
-        between kept vertices are in G′ (a corridor window, :meth:`ImplicitGraph.window`).
-    stitch_points
-        ``(N + P,)`` bool over the street points, or None (all): only these get stitches
-        to the lattice (with ``stitch_within``, those inside it too).
 
     Returns
     -------
@@ -407,8 +399,6 @@ def pathfinding_graph(lattice: Lattice, segments: SegmentTable, built: BuiltUpAr
     n_lat = lattice.n_vertices
     xy = np.concatenate([lattice.vertex_xy(), streets.xy])
     lat_kind, lat_weight, bridges = _lattice_part(lattice, segments, costs, streets.tree)
-    if keep is not None:
-        bridges = _kept(lat_kind, bridges, lattice, keep)
     parts = [bridges, _shifted(streets.edges, n_lat)]
     land_or_bridge = np.zeros(256, dtype=bool)
     land_or_bridge[[EdgeKind.LAND, EdgeKind.BRIDGE]] = True
@@ -419,8 +409,6 @@ def pathfinding_graph(lattice: Lattice, segments: SegmentTable, built: BuiltUpAr
         px, py = streets.xy[points].T
         points = points[(px >= stitch_within[0]) & (px <= stitch_within[2])
                         & (py >= stitch_within[1]) & (py <= stitch_within[3])]
-    if stitch_points is not None and len(points):
-        points = points[stitch_points[points]]
     pairs = _lattice_stitches(lattice, segments, streets, xy, targets, points, opts, stitch_cache)
     parts.append(_stitch_edges(lattice, pairs, xy))
     parts.append(_shifted(streets.shell, n_lat))
@@ -438,27 +426,6 @@ def pathfinding_graph(lattice: Lattice, segments: SegmentTable, built: BuiltUpAr
                      lat_kind=lat_kind, lat_weight=lat_weight, src=src[order], dst=dst[order], kind=kind[order],
                      segment=seg[order], length=length[order], weight=weight[order], heading=heading[order],
                      extendible=streets.extendible)
-
-
-def _kept(kind: np.ndarray, bridges: tuple[np.ndarray, ...], lattice: Lattice,
-          keep: np.ndarray) -> tuple[np.ndarray, ...]:
-    """Only the lattice edges between kept vertices: the others of ``kind`` (edited in place) become
-    :data:`NO_EDGE`; the long bridges with both ends kept. Rows are done in blocks (a few MB each)."""
-    n, n_dir = kind.shape
-    offset = lattice.direction_offset
-    kind[~keep] = NO_EDGE
-    rows = np.flatnonzero(keep)
-    block = max(1, (1 << 20) // max(n_dir, 1))
-    for a in range(0, len(rows), block):
-        part = rows[a:a + block]
-        head = part[:, None] + offset
-        gone = ~keep[np.clip(head, 0, n - 1)] | (head < 0) | (head >= n)
-        sub = kind[part]
-        sub[gone] = NO_EDGE
-        kind[part] = sub
-    src, dst, *rest = bridges
-    both = keep[src] & keep[dst]
-    return (src[both], dst[both], *(r[both] for r in rest))
 
 
 def _lattice_stitches(lattice: Lattice, segments: SegmentTable, streets: StreetPart, xy: np.ndarray,
@@ -518,7 +485,7 @@ def _lattice_part(lattice: Lattice, segments: SegmentTable, costs: EdgeCosts,
     crossing = np.zeros(len(ends), dtype=bool)
     if len(ends) and len(segments.uv):
         xy = lattice.vertex_xy(ends.ravel()).reshape(-1, 2, 2)
-        tree = tree if tree is not None else shapely.STRtree(segments.lines())
+        tree = tree if tree is not None else segments.tree()
         hit, _ = tree.query(shapely.linestrings(xy), predicate="intersects")
         crossing[hit] = True
     np.put(kind, special[crossing[:len(special)]], NO_EDGE)
@@ -619,24 +586,13 @@ class ImplicitGraph:
         return pathfinding_graph(self.lattice, self.segments, costs=self.costs, options=self.options,
                                  streets=self.streets)
 
-    def window(self, bounds: tuple[float, float, float, float],
-               corridor: tuple[np.ndarray, np.ndarray, float] | None = None) -> GraphWindow:
+    def window(self, bounds: tuple[float, float, float, float]) -> GraphWindow:
         """G′ over the lattice vertices inside ``(xmin, ymin, xmax, ymax)`` m (clipped to the map).
 
         Lattice vertices within the neighbourhood radius of a side of the
         window that is not the map's, street points whose stitches could
         reach past it (stitch radius + radius), and the ends of long bridges
         that cross it are the window's ``exits``.
-
-        With ``corridor = (a, b, half)`` only the lattice vertices of the
-        rectangle within ``half`` m of the straight segment a–b are in the
-        window: for two far ends the rectangle round them is most of the
-        map, the corridor a strip along their line. Its exits are likewise
-        the kept vertices within √2 · radius · ℓ of its side (a lattice
-        edge is at most that long, and the distance to a segment changes
-        by no more than a point moves), the street points within the
-        stitch radius of that band, and the kept ends of long bridges
-        whose other end is not kept.
         """
         lat = self.lattice
         ny, nx = lat.shape
@@ -646,7 +602,7 @@ class ImplicitGraph:
         c1 = int(np.ceil((bounds[2] - lat.origin[0]) / ell)) + 1
         r1 = int(np.ceil((bounds[3] - lat.origin[1]) / ell)) + 1
         sub = lat.window(r0, c0, r1 - r0, c1 - c0)
-        whole = sub is lat and corridor is None
+        whole = sub is lat
         r0, c0 = sub.offset
         h, w = sub.shape
         open_side = (c0 > 0, r0 > 0, c0 + w < nx, r0 + h < ny)  # left, bottom, right, top
@@ -668,24 +624,9 @@ class ImplicitGraph:
             px, py = self.streets.xy[pts].T
             outside = (px < within[0]) | (px > within[2]) | (py < within[1]) | (py > within[3])
             exits.append(sub.n_vertices + pts[outside])
-            if corridor is None:
-                exits.append(np.where(a >= 0, a, b)[(a >= 0) != (b >= 0)])
-        keep = stitch_points = None
-        if corridor is not None:
-            start, end, half = corridor
-            edge = np.sqrt(2.0) * band * ell  # the longest lattice edge
-            off = closest_on_segments(sub.vertex_xy(), start, end)[2]
-            keep = off <= half
-            exits.append(np.flatnonzero(keep & (off > half - edge)))
-            point_off = closest_on_segments(self.streets.xy, start, end)[2]
-            stitch_points = point_off <= half - edge - self.options.stitch_radius
-            pts = self.streets.points
-            exits.append(sub.n_vertices + pts[~stitch_points[pts]])
-            ka, kb = np.where(a >= 0, keep[np.maximum(a, 0)], False), np.where(b >= 0, keep[np.maximum(b, 0)], False)
-            exits.append(np.where(ka, a, b)[ka != kb])
+            exits.append(np.where(a >= 0, a, b)[(a >= 0) != (b >= 0)])
         graph = pathfinding_graph(sub, self.segments, costs=self.costs, options=self.options, streets=self.streets,
-                                  stitch_within=within, stitch_cache=self.stitches, keep=keep,
-                                  stitch_points=stitch_points)
+                                  stitch_within=within, stitch_cache=self.stitches)
         sub._cache.clear()  # the edge tables live on in the graph's; a window is searched once
         return GraphWindow(graph=graph, whole=whole, exits=np.unique(np.concatenate(exits)) if exits
                            else np.zeros(0, dtype=np.int64), n_map_lattice=lat.n_vertices)

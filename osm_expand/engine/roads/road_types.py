@@ -481,7 +481,7 @@ def _acceptable(graph: PathGraph | ImplicitGraph, xy: np.ndarray, pinned_xy: np.
     if not len(segs.uv):
         return True
     line = shapely.LineString(xy)
-    hits = shapely.STRtree(segs.lines()).query(line, predicate="intersects")
+    hits = segs.tree().query(line, predicate="intersects")
     if rebuild:
         hits = hits[segs.major[hits] | segs.bridge[hits]]
     if not len(hits):
@@ -512,7 +512,7 @@ def _along(segs, roads: list[NewRoad], tolerance: float = 1.0) -> np.ndarray:
     """Minor, non-bridge segments the road runs along end to end (both ends within ``tolerance`` m of
     it): short ones lie wholly in the discs the corridor leaves out, yet the road replaces them."""
     line = shapely.union_all([shapely.LineString(r.xy) for r in roads])
-    near = shapely.STRtree(segs.lines()).query(line, predicate="dwithin", distance=tolerance)
+    near = segs.tree().query(line, predicate="dwithin", distance=tolerance)
     near = near[~segs.major[near] & ~segs.bridge[near]]
     a, b = shapely.points(segs.xy[segs.uv[near, 0]]), shapely.points(segs.xy[segs.uv[near, 1]])
     on = (shapely.distance(a, line) <= tolerance) & (shapely.distance(b, line) <= tolerance)
@@ -537,7 +537,7 @@ def _demolition(graph: PathGraph | ImplicitGraph, roads: list[NewRoad], width: f
     segs = graph.segments
     gone = np.zeros(0, dtype=np.int64)
     if len(segs.uv) and not corridor.is_empty:
-        hit = shapely.STRtree(segs.lines()).query(corridor, predicate="intersects")
+        hit = segs.tree().query(corridor, predicate="intersects")
         hit = hit[~segs.major[hit] & ~segs.bridge[hit]]
         inside = shapely.length(shapely.intersection(segs.lines()[hit], corridor))
         gone = np.sort(hit[inside > 1.0]).astype(np.int64)  # more than grazing its edge

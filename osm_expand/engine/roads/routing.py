@@ -22,12 +22,14 @@ graph at about ``K · (2m + 3)`` turn edges per vertex instead of K², and
 scipy's C Dijkstra runs on it.
 
 The expanded graph is built only over the vertices that can lie on an
-optimal route: with ``d_s``, ``d_t`` the plain (turn-free, hence lower-bound)
-distances from source and target and ``U`` the penalised cost of the plain
-shortest path (a feasible route), a vertex v can be on the best route only
-if ``d_s(v) + d_t(v) ≤ U``. This pruning is exact. U is first lowered by a
-search in a corridor ``corridor_width`` wide along the plain route, so that
-the exact search covers only a narrow ellipse around the best route.
+optimal route and that the search reaches: with ``d_s``, ``d_t`` the plain
+(turn-free, hence lower-bound) distances from source and target and ``C``
+the penalised cost of the best route found so far (at first the plain
+shortest path's), a vertex v can be on a better route only if
+``d_s(v) + d_t(v) ≤ C``; of those, the search is an A* with the consistent
+bound ``d_t`` (turn costs are ≥ 0) over tiles of the lattice, made when the
+states it settles below C reach a tile's border (:func:`_tiled_search`).
+Both prunings are exact.
 """
 from __future__ import annotations
 
@@ -38,7 +40,6 @@ from enum import StrEnum
 import numpy as np
 from scipy.sparse import csr_matrix
 from scipy.sparse.csgraph import dijkstra
-from scipy.spatial import cKDTree
 
 from osm_expand.engine.roads.lattice import ROAD_KINDS, EdgeKind
 from osm_expand.engine.roads.path_graph import EdgeCosts, GraphWindow, ImplicitGraph, PathGraph
@@ -68,9 +69,14 @@ class RoutingOptions:
     #: heading bins K of the expanded graph: 16 → 22.5° (turns are measured to ±11°); the
     #: 120 lattice directions of r = 8 fall into them
     heading_bins: int = 16
-    #: m, the first (cheap, inexact) search keeps within this of the plain shortest route;
-    #: its cost bounds the exact second search (5ℓ)
-    corridor_width: float = 100.0
+    #: lattice vertices a side of the tiles in which the exact search's heading-expanded graph is made
+    #: as the search reaches them (:func:`_tiled_search`): 16 → 320 m at ℓ = 20 m, twice the longest
+    #: lattice edge (r = 8), so a tile's ring of neighbours holds every edge out of it
+    tile_cells: int = 16
+    #: vertices of the exact search's region up to which it is searched whole at once, without
+    #: tiles (its expanded graph holds about 400 entries, 5 kB, a vertex: 100,000 → 0.5 GB); Campo
+    #: Grande's regions hold 20,000–70,000, where growing tiles took 3–5 searches to reach all of it
+    whole_region: int = 100_000
     #: m, the first window of an implicit G′ reaches this far beyond the two ends' bounding box
     #: (a few hundred metres: a route that bends round a block or a river bank stays inside);
     #: it doubles until the window provably holds the best route
@@ -85,22 +91,13 @@ class RoutingOptions:
     #: (at least twice its exits' reach) before it is searched again; 0.25 took Campo Grande's first
     #: two road searches from 8.7 + 6.8 s and 1.6 GB to 2.0 + 5.2 s and 1.0 GB (0.5: 3.2 + 6.3 s, 1.2 GB)
     growth_share: float = 0.25
-    #: share of the two ends' distance added to ``window_margin`` for the half-width of a first
-    #: window that is a corridor along their straight line, used when the rectangle round the ends
-    #: would be more than ``whole_share`` of the map; it doubles until the proof holds or it would
-    #: be as large as that rectangle, then the search goes on from the rectangle. None (default):
-    #: no corridor. Off because it did not help where it was meant to: on the synthetic
-    #: 10,000-street town the first search still died in the exact search's region (the vertices
-    #: with d_s + d_t ≤ the best cost: 385 million expanded entries), whatever the window, since the
-    #: turn-free bounds are loose where turns are most of a route's cost; and the straight-line
-    #: bound at C1·C6 = 0.4 a metre rarely proves a corridor (2 of 18 far searches in the test)
-    corridor_share: float | None = None
 
     def __post_init__(self) -> None:
         require_positive(self, ("window_margin", "growth_share", "turn_width"))
-        if not (self.window_share >= 0 and self.turn_height >= 0
-                and (self.corridor_share is None or self.corridor_share >= 0)):
-            raise InputError("RoutingOptions: window_share, corridor_share and turn_height must not be negative")
+        if not (self.window_share >= 0 and self.turn_height >= 0):
+            raise InputError("RoutingOptions: window_share and turn_height must not be negative")
+        if self.tile_cells < 1:
+            raise InputError(f"RoutingOptions.tile_cells must be at least 1, got {self.tile_cells}")
         if self.heading_bins < 4:
             raise InputError(f"RoutingOptions.heading_bins must be at least 4, got {self.heading_bins}")
 
@@ -269,20 +266,10 @@ def _implicit_route(graph: ImplicitGraph, source: int, target: int, kinds: Seque
     reach = graph.options.stitch_radius + graph.lattice.radius * graph.lattice.spacing
     penalties = _bin_penalties(opts)
     map_area = float(np.prod(whole[2:] - whole[:2]))
-    distance = float(np.hypot(*(ends[1] - ends[0])))
-    half = opts.window_margin + (opts.corridor_share or 0.0) * distance
-    # far ends: the rectangle round them is most of the map, so the first windows are corridors
-    corridor = opts.corridor_share is not None and _seen(bounds, whole) > opts.whole_share * map_area
     while True:
-        if corridor and (distance + 2.0 * half) * 2.0 * half >= _seen(bounds, whole):
-            corridor = False  # a corridor this wide is no smaller than the rectangle: on as before
-        if corridor:
-            box = (lo[0] - half, lo[1] - half, hi[0] + half, hi[1] + half)
-            window = graph.window(box, corridor=(ends[0], ends[1], half))
-        else:
-            if _seen(bounds, whole) > opts.whole_share * map_area:  # nearly the map's size: take the map
-                bounds = whole
-            window = graph.window(tuple(bounds))
+        if _seen(bounds, whole) > opts.whole_share * map_area:  # nearly the map's size: take the map
+            bounds = whole
+        window = graph.window(tuple(bounds))
         s, t = window.from_map(np.array([source, target])).tolist()
         route, from_source = _search(window.graph, s, t, kinds, street_ok, opts)
         if window.whole or from_source is None:
@@ -294,21 +281,22 @@ def _implicit_route(graph: ImplicitGraph, source: int, target: int, kinds: Seque
         rest = c * np.hypot(*(exit_xy - ends[1]).T)  # what is left from an exit, at least
         reached = from_source[exits]
         short = reached + rest < limit
-        if short.any() and np.isfinite(cost) and opts.turn_height > 0:
+        if short.any() and route is not None and opts.turn_height > 0:
             # A route that leaves the window first reaches an exit x, and its part before x lies in the
             # window: it costs at least A(x), the least turn-penalised cost of arriving at x from the
             # source. In a street grid turns are most of a route's cost (Campo Grande: 5,270 of 8,867
-            # cost units), so A is far above the plain distance.
+            # cost units), so A is far above the plain distance. A is searched as A* with the
+            # straight-line bound c·|v − t| (consistent: no edge costs less a metre), only where
+            # A(v) + c·|v − t| may be below the route's cost; an exit not reached there is not short.
             lat_ok, extra_ok = window.graph.masks(kinds, street_ok)
-            arrive = _arrival_costs(window.graph, lat_ok, extra_ok, s, np.flatnonzero(from_source < limit), exits,
-                                    penalties, opts.heading_bins, limit)
+            straight = c * np.hypot(*(window.graph.xy - ends[1]).T)
+            _, arrive = _tiled_search(window.graph, lat_ok, extra_ok, s, None, from_source + straight, straight,
+                                      (route.vertices.tolist(), cost), route.vertices, penalties, opts, exits=exits)
+            assert arrive is not None
             reached = np.maximum(reached, arrive)
             short = reached + rest < limit
         if not short.any():
             return _on_map(window, route, from_source)
-        if corridor:
-            half *= 2.0
-            continue
         grown = _grown(bounds, np.array(window.graph.lattice.bounds), exit_xy[short], reached[short], ends[1],
                        cost, c, reach)
         if np.isfinite(cost):
@@ -381,36 +369,13 @@ def _best_route(graph: PathGraph, matrix: csr_matrix, lat: np.ndarray, extra: np
     bound = lower + plain_turns
     tolerance = 1e-9 * bound + 1e-6
     from_target = dijkstra(matrix, indices=target, limit=bound + tolerance)  # G′ is symmetric
-    through = from_source + from_target
-    best: tuple[list[int], float] = (plain, bound)
-    # a cheap first search in a corridor along the plain route gives a good feasible cost,
-    # which shrinks the exact region (d_s + d_t ≤ that cost) of the second search
-    candidates = np.flatnonzero(through <= bound + tolerance)
-    near = cKDTree(_densified(graph.xy[plain], opts.corridor_width)).query(
-        graph.xy[candidates], distance_upper_bound=opts.corridor_width)[0]
-    corridor = candidates[np.isfinite(near)]
-    found = _expanded_search(graph, lat, extra, corridor, source, target, penalties, opts.heading_bins,
-                             bound + tolerance)
-    if found is not None and found[1] < best[1]:
-        best = found
-    region = np.flatnonzero(through <= best[1] + tolerance)
-    if not np.isin(region, corridor).all():  # else the corridor search was already exact
-        found = _expanded_search(graph, lat, extra, region, source, target, penalties, opts.heading_bins,
-                                 best[1] + tolerance)
-        if found is not None and found[1] < best[1]:
-            best = found
+    # A*: the turn-free distance to the target is a consistent bound (turns cost ≥ 0), the first
+    # tiles those of the plain route
+    best, _ = _tiled_search(graph, lat, extra, source, target, from_source + from_target, from_target,
+                            (plain, bound), np.asarray(plain), penalties, opts)
     vertices, total = best
     route = _route(graph, vertices, lat, extra, 0.0)
     return _with_turn_cost(route, max(total - float(route.edge_weight.sum()), 0.0))
-
-
-def _densified(xy: np.ndarray, step: float) -> np.ndarray:
-    """Points along a polyline at most ``step`` apart (its vertices included)."""
-    seg = np.diff(xy, axis=0)
-    count = np.maximum(np.ceil(np.hypot(*seg.T) / step).astype(np.int64), 1)
-    start = np.repeat(np.arange(len(seg)), count)
-    t = np.arange(int(count.sum())) - np.repeat(np.cumsum(count) - count, count)
-    return np.concatenate([xy[start] + (t / count[start])[:, None] * seg[start], xy[-1:]])
 
 
 def _headings(route: Route) -> np.ndarray:
@@ -543,7 +508,8 @@ def _expanded_graph(graph: PathGraph, lat: np.ndarray, extra: np.ndarray, region
 
 def _expanded_search(graph: PathGraph, lat: np.ndarray, extra: np.ndarray, region: np.ndarray, source: int,
                      target: int, penalties: np.ndarray, k: int, limit: float) -> tuple[list[int], float] | None:
-    """Dijkstra on the heading-expanded graph over ``region``; the vertex path and its cost."""
+    """Dijkstra on the heading-expanded graph over ``region``; the vertex path and its cost (over every
+    vertex: the reference the tests hold :func:`_tiled_search` to)."""
     n = len(region)
     per = 2 * k + 1
     expanded, local = _expanded_graph(graph, lat, extra, region, penalties, k)
@@ -561,20 +527,145 @@ def _expanded_search(graph: PathGraph, lat: np.ndarray, extra: np.ndarray, regio
     return vertices[keep].tolist(), float(dist[best])
 
 
-def _arrival_costs(graph: PathGraph, lat: np.ndarray, extra: np.ndarray, source: int, region: np.ndarray,
-                   vertices: np.ndarray, penalties: np.ndarray, k: int, limit: float) -> np.ndarray:
-    """The least turn-penalised cost of arriving at each of ``vertices`` from ``source`` over ``region``
-    (∞ at or above ``limit``, and outside the region: take in every vertex whose plain distance from
-    the source is below ``limit``, so that no arrival below it is missed)."""
+def _tile_of(graph: PathGraph, size: int) -> tuple[np.ndarray, tuple[int, int]]:
+    """The tile of each G′ vertex, tiles being ``size`` × ``size`` lattice vertices (street points
+    by the lattice vertex nearest them), and the tiles' grid shape (rows, columns)."""
+    lat = graph.lattice
+    ny, nx = lat.shape
+    shape = (-(-ny // size), -(-nx // size))
+    n_lat = graph.n_lattice
+    row, col = np.divmod(np.arange(n_lat), nx)
+    street = graph.xy[n_lat:]
+    s_col = np.clip(np.rint((street[:, 0] - lat.origin[0]) / lat.spacing), 0, nx - 1).astype(np.int64)
+    s_row = np.clip(np.rint((street[:, 1] - lat.origin[1]) / lat.spacing), 0, ny - 1).astype(np.int64)
+    tile = np.concatenate([row // size * shape[1] + col // size, s_row // size * shape[1] + s_col // size])
+    return tile, shape
+
+
+def _dilated(tiles: np.ndarray, shape: tuple[int, int]) -> np.ndarray:
+    """Tiles (flat bool) and their eight neighbours."""
+    grid = tiles.reshape(shape)
+    out = grid.copy()
+    out[1:] |= grid[:-1]
+    out[:-1] |= grid[1:]
+    wide = out.copy()
+    wide[:, 1:] |= out[:, :-1]
+    wide[:, :-1] |= out[:, 1:]
+    return wide.ravel()
+
+
+def _tiled_search(graph: PathGraph, lat: np.ndarray, extra: np.ndarray, source: int, target: int | None,
+                  lower: np.ndarray, h: np.ndarray, best: tuple[list[int], float], seed: np.ndarray,
+                  penalties: np.ndarray, opts: RoutingOptions,
+                  exits: np.ndarray | None = None) -> tuple[tuple[list[int], float], np.ndarray | None]:
+    """The turn-penalised search (A*'s region, the heading-expanded graph made tile by tile as reached).
+
+    The expanded graph (see :func:`_expanded_graph`) is made over the
+    *active* vertices only: those of the active tiles (``tile_cells``
+    lattice vertices a side) whose ``lower`` bound of a route through them
+    (``d_s + h``) is within the best cost ``C`` found so far. After each
+    search every allowed edge from an active vertex u to an inactive one w
+    inside that bound is tested: a route leaving the active set by it costs
+    at least ``g(dep(u, b)) + c(u, w) + h(w)`` (its part up to u lies in
+    the active set, where the search's g is the least cost of departing u
+    on that heading; ``h`` is a consistent lower bound of what is left).
+    Where that is below C, the tile of w and its neighbours become active
+    and the search runs again; when no edge is, no route outside the
+    active set can beat C, and the best route found is the best of the
+    graph (A* with a consistent heuristic settles no more than the states
+    with ``g + h ≤ C``, and the tiles follow them, not the ellipse
+    ``d_s + d_t ≤ C`` of the turn-free bounds, which is loose where turns
+    are most of a route's cost).
+
+    Parameters
+    ----------
+    lower
+        (V′,) a lower bound of the cost of any route through each vertex (∞: none can be).
+    h
+        (V′,) a consistent lower bound of the cost from each vertex to the goal.
+    best
+        A feasible route (its vertices) and its cost C (an upper bound).
+    seed
+        Vertices whose tiles are active at first (a route's: its corridor).
+    target
+        The route's end (None: no route is sought, only the arrivals at ``exits`` below C).
+    exits
+        Vertices whose least arrival cost below C is returned (∞ when not below C).
+
+    Returns
+    -------
+    best, arrivals
+        The best route and its cost (``best`` when none is cheaper), and the exits' arrival costs.
+    """
+    k = opts.heading_bins
     per = 2 * k + 1
-    expanded, local = _expanded_graph(graph, lat, extra, region, penalties, k)
-    dist = dijkstra(expanded, indices=int(local[source]) * per + 2 * k, limit=limit + 2 * len(region) * per * _EPS)
-    at = local[np.asarray(vertices)].astype(np.int64)
-    arrivals = dist[(np.maximum(at, 0) * per)[:, None] + np.arange(k)].min(axis=1)
-    arrivals[at < 0] = np.inf
-    arrivals[np.asarray(vertices) == source] = 0.0
-    # the free transitions weigh _EPS each: take them off so that the cost is never overstated
-    return np.maximum(arrivals - 2 * len(region) * per * _EPS, 0.0)
+    tile, shape = _tile_of(graph, opts.tile_cells)
+    active = np.zeros(shape[0] * shape[1], dtype=bool)
+    active[tile[np.asarray(seed, dtype=np.int64)]] = True
+    active = _dilated(active, shape)
+    if np.count_nonzero(lower <= best[1] + 1e-9 * best[1] + 1e-6) <= opts.whole_region:
+        active[:] = True  # a small region at once: one search, no growing
+    n_lat, n_dir = lat.shape
+    dir_bin = _bins(graph.direction_heading, k)
+    offset = graph.lattice.direction_offset
+    extra_bin = _bins(graph.heading, k)
+    arrivals = None
+    while True:
+        cost = best[1]
+        region = lower <= cost + 1e-9 * cost + 1e-6
+        inside = region & active[tile]
+        verts = np.flatnonzero(inside)
+        expanded, local = _expanded_graph(graph, lat, extra, verts, penalties, k)
+        slack = 2 * len(verts) * per * _EPS
+        start = int(local[source]) * per + 2 * k
+        dist, pred = dijkstra(expanded, indices=start, return_predecessors=True, limit=cost + slack)
+        del expanded
+        if target is not None and local[target] >= 0:
+            ends = int(local[target]) * per + np.arange(k)
+            end = int(ends[np.argmin(dist[ends])])
+            if dist[end] < cost:
+                states = _walk_back(pred, start, end)
+                vertices = verts[np.asarray(states) // per]
+                keep = np.ones(len(vertices), dtype=bool)
+                keep[1:] = vertices[1:] != vertices[:-1]
+                best = (vertices[keep].tolist(), float(dist[end]))
+                cost = best[1]
+        del pred
+        threshold = cost - 1e-9 * cost
+        departs = dist.reshape(-1, per)[:, k:2 * k]
+        outside = region & ~inside
+        # lattice edges out of the vertices that may still lead somewhere below C
+        open_ = verts[(verts < n_lat) & (departs.min(axis=1) + h[verts] < threshold)]
+        reached: list[np.ndarray] = []
+        for a in range(0, len(open_), _BLOCK):
+            u = open_[a:a + _BLOCK]
+            live = lat[u]
+            r, d = np.nonzero(live)
+            w = u[r] + offset[d]
+            out = outside[w]
+            r, d, w = r[out], d[out], w[out]
+            lb = departs[local[u[r]], dir_bin[d]] + graph.lat_weight[u[r], d] + h[w]
+            reached.append(w[lb < threshold])
+        e = np.flatnonzero(extra & inside[graph.src] & outside[graph.dst])
+        lb = departs[local[graph.src[e]], extra_bin[e]] + graph.weight[e] + h[graph.dst[e]]
+        reached.append(graph.dst[e][lb < threshold])
+        if exits is not None:
+            at = local[exits].astype(np.int64)
+            arrivals = np.where(at >= 0, dist.reshape(-1, per)[np.maximum(at, 0), :k].min(axis=1), np.inf)
+            arrivals[exits == source] = 0.0
+            arrivals = np.maximum(arrivals - slack, 0.0)
+        w = np.concatenate(reached)
+        if not len(w):
+            return best, arrivals
+        grow = np.zeros_like(active)
+        grow[tile[w]] = True
+        grow = _dilated(grow, shape)
+        # grow at least twice as large (each search makes the expanded graph anew, so the searches
+        # together cost at most about twice the last one): ring after ring round the new tiles
+        per_tile = np.bincount(tile[region], minlength=len(active))
+        while per_tile[grow & ~active].sum() < len(verts) and (per_tile[~active & ~grow] > 0).any():
+            grow = _dilated(grow, shape)
+        active |= grow
 
 
 def route_over_major_roads(graph: PathGraph, source: int, target: int, *, demand: float = 0.0,

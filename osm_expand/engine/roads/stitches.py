@@ -116,7 +116,7 @@ def stitch_ok(lattice: Lattice, segments: SegmentTable, xy: np.ndarray, pairs: n
     if len(segments.uv):
         # only the stitches still standing are made into lines and checked, each test on
         # fewer of them (most stitches of a window fail one test or another)
-        tree = tree if tree is not None else shapely.STRtree(segments.lines())
+        tree = tree if tree is not None else segments.tree()
         live = np.flatnonzero(ok)
         ok[live] = _street_clear(segments, xy, pairs[live], split_parent, n_lat, opts, tree)
         if inner is not None:
