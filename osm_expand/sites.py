@@ -616,12 +616,6 @@ def district_region(city: City, site: Site, *, clearance: float = 1.0,
     (:data:`REGION_STEPS`) until that piece holds :data:`REGION_SHARE` of
     the site's area. Falls back to the site's disc when no free land is near.
 
-    The free land is cut once for the first disc and, when that is not
-    enough, once for the widest, each larger disc then taking its part of
-    that (the same land as cutting each disc, at two unions of the occupied
-    land and the streets' clearance instead of up to five: the union was
-    most of an engine district's cost on Campo Grande).
-
     Parameters
     ----------
     city : City
@@ -633,30 +627,18 @@ def district_region(city: City, site: Site, *, clearance: float = 1.0,
     """
     radius = float(np.sqrt(site.area / np.pi))
     centre = shapely.Point(site.centre)
-    lines = city.network.street_lines()
-
-    def disc_of(step: float) -> shapely.Geometry:
-        disc = centre.buffer(step * radius, 32)
-        return shapely.intersection(disc, bounds) if bounds is not None else disc
-
-    def free_in(disc: shapely.Geometry) -> shapely.Geometry:
-        near = lines[shapely.intersects(lines, disc)] if len(lines) else lines
-        # the streets' clearance as one buffer of them all: GEOS nodes the lines once, where a union of
-        # one buffer per street merged thousands of polygons
-        cut = shapely.union(city.occupied_within(disc), shapely.buffer(shapely.multilinestrings(near), clearance))
-        return shapely.difference(disc, cut)
-
     best = None
-    widest = None
-    for k, step in enumerate(REGION_STEPS):
-        disc = disc_of(step)
-        if k == 0:
-            free = free_in(disc)
-        else:
-            if widest is None:
-                widest = shapely.make_valid(free_in(disc_of(REGION_STEPS[-1])))
-            free = widest if k == len(REGION_STEPS) - 1 else shapely.intersection(widest, disc)
-        free = shapely.make_valid(free)
+    lines = city.network.street_lines()
+    for step in REGION_STEPS:
+        disc = centre.buffer(step * radius, 32)
+        if bounds is not None:
+            disc = shapely.intersection(disc, bounds)
+        occupied = city.occupied_within(disc)
+        near = lines[shapely.intersects(lines, disc)] if len(lines) else lines
+        # the streets' clearance as one buffer of them all: GEOS nodes the lines once, where the union of a
+        # buffer per street merged thousands of polygons (the largest part of an engine district's region)
+        cut = shapely.union(occupied, shapely.buffer(shapely.multilinestrings(near), clearance))
+        free = shapely.make_valid(shapely.difference(disc, cut))
         parts = [p for p in shapely.get_parts(free) if p.geom_type == "Polygon" and not p.is_empty]
         if not parts:
             continue
