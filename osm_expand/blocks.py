@@ -63,10 +63,9 @@ class _Pieces:
 
 def _pieces(net: StreetNetwork) -> _Pieces:
     streets = [p for s in net.streets for p in split_self_touching(s)]
-    junction = junction_mask(streets, len(net.xy))
-    table = piece_table(streets, junction)
+    nodes, owner = flat = flat_nodes(streets)  # once for the junctions, the pieces and their points
+    table = piece_table(streets, junction_mask(streets, len(net.xy), flat=flat), flat=flat)
     keep = two_core(table["u"], table["v"], len(net.xy))  # pieces on a cycle or between cycles
-    nodes, owner = flat_nodes(streets)
     street_start = np.concatenate([[0], np.cumsum(np.bincount(owner, minlength=len(streets)))])
     k, a, b = table["street"][keep], table["a"][keep], table["b"][keep]
     sizes = b - a + 1
@@ -296,11 +295,8 @@ def blocks(net: StreetNetwork, options: BlockOptions | None = None, *, origin: O
     holes = shapely.get_num_interior_rings(np.array([p for _, p in kept], dtype=object)).tolist() if kept else []
     for i, ((k, p), holed) in enumerate(zip(kept, holes)):  # holes counted at once: p.interiors is slow
         ids = tuple((street_ids[k] if not holed else _edge_streets(p, bounded[k], street_ids[k])).tolist())
-        if stamp is None:
-            out.append(Block(polygon=p, street_ids=ids, id=i, origin=origin, year=year))
-        else:
-            how, when = stamp(ids)
-            out.append(Block(polygon=p, street_ids=ids, id=i, origin=how, year=when))
+        how, when = (origin, year) if stamp is None else stamp(ids)
+        out.append(Block(polygon=p, street_ids=ids, id=i, origin=how, year=when))
     return out
 
 

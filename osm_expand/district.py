@@ -30,7 +30,7 @@ from dataclasses import dataclass
 import numpy as np
 import shapely
 
-from osm_expand.joins import JoinReport, join_growth
+from osm_expand.joins import JoinReport, join_growth, join_places
 from osm_expand.model import City, Origin
 from osm_expand.sites import Site, district_region
 from synth.growth import Growth, GrowthPattern
@@ -42,7 +42,10 @@ class Tried:
 
     rank: int  #: position of the site in ``sites`` (the caller's ranking)
     growth: Growth  #: what the pattern grew there
-    joins: int  #: places the grown streets met the town
+    joins: int  #: places the grown streets met the town (0 when not joined)
+    #: False: not joined, since even every place it could join at (:func:`osm_expand.joins.join_places`)
+    #: is not accepted
+    joinable: bool = True
 
 
 @dataclass(frozen=True)
@@ -66,7 +69,8 @@ class Placement:
 
     def describe_tried(self) -> str:
         """The sites tried, for an error message: ``site 1: 40 streets, 1 joins; ...``."""
-        return "; ".join(f"site {t.rank + 1}: {len(t.growth.streets)} streets, {t.joins} joins" for t in self.tried)
+        return "; ".join(f"site {t.rank + 1}: {len(t.growth.streets)} streets, "
+                         + (f"{t.joins} joins" if t.joinable else "too few places to join") for t in self.tried)
 
 
 def at_least(joins: int) -> Callable[[JoinReport], bool]:
@@ -93,7 +97,11 @@ def place_district(city: City, sites: Sequence[Site], pattern: GrowthPattern, *,
     spacing : float
         The town's junction spacing (m), for the joining step.
     accept : callable
-        ``JoinReport -> bool``: whether the district is joined well enough.
+        ``JoinReport -> bool``: whether the district is joined well enough. It must hold for a report
+        with more places whenever it holds for one with fewer (it reads the count and ``at``): a
+        district whose every possible place to join (:func:`osm_expand.joins.join_places`) is not
+        accepted is then not joined at all (the join was a third of a failed site's cost on Campo
+        Grande), the same as joining and rejecting it.
     rng : callable
         ``attempt -> Generator``: the random stream of the n-th site tried (0-based, in ``order``).
     bounds : Geometry or None
@@ -119,18 +127,28 @@ def place_district(city: City, sites: Sequence[Site], pattern: GrowthPattern, *,
         region = district_region(city, sites[rank], bounds=bounds)
         growth = pattern.grow(city, region, rng(attempt))
         joined = 0
-        if growth.streets:  # an empty growth joins nowhere
+        joinable = _joinable(city, growth, spacing, accept)
+        if joinable:
             grown, joins = join_growth(city, growth.streets, spacing=spacing, origin=origin, year=year, era=era)
             if accept(joins):
                 return Placement(Placed(rank, sites[rank], growth, grown, joins, crossed=False), tuple(tried))
             joined = joins.joins
-        tried.append(Tried(rank, growth, joined))
+        tried.append(Tried(rank, growth, joined, joinable))
     if cross_taken_last:  # the town's frontage wraps every site: join between its presumed houses
         for t in tried:
-            if not t.growth.streets:
+            if not t.joinable:  # the places to join do not depend on the frontage: none would do
                 continue
             grown, joins = join_growth(city, t.growth.streets, spacing=spacing, origin=origin, year=year, era=era,
                                        cross_taken=True)
             if accept(joins):
                 return Placement(Placed(t.rank, sites[t.rank], t.growth, grown, joins, crossed=True), tuple(tried))
     return Placement(None, tuple(tried))
+
+
+def _joinable(city: City, growth: Growth, spacing: float, accept: Callable[[JoinReport], bool]) -> bool:
+    """Whether ``accept`` holds for every place the grown streets could join the town at: when it does
+    not, no join of them is accepted (``accept`` holds for more places whenever for fewer)."""
+    if not growth.streets:  # an empty growth joins nowhere
+        return False
+    places = join_places(city, growth.streets, spacing=spacing)
+    return accept(JoinReport(joins=len(places), links=0, tees=0, at=places))

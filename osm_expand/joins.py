@@ -297,34 +297,109 @@ def _candidates(net: StreetNetwork, new: list[int], old: list[int], border: np.n
                 reach: float, spread: float) -> list[_Link]:
     """Links from border nodes and from points along old streets to the nearest new street."""
     every = net.street_lines()
-    new_lines, old_lines = every[new].tolist(), every[old].tolist()
-    district = shapely.STRtree(new_lines)
-    old_tree = shapely.STRtree(old_lines)
-    hull = shapely.MultiLineString(new_lines).convex_hull.buffer(reach)
-    starts: list[tuple[bool, int, shapely.Point]] = []
-    near_border = border[shapely.contains_xy(hull, border[:, 0], border[:, 1])] if len(border) else border
-    for x, y in near_border:
-        p = shapely.Point(x, y)
-        starts.append((True, int(old_tree.query_nearest(p)[0]), p))
-    near = np.unique(old_tree.query(new_lines, predicate="dwithin", distance=reach)[1])
-    for j in near.tolist():
-        line = old_lines[j]
-        for d in np.arange(0.0, line.length + 1e-9, spread / 2):
-            starts.append((False, j, line.interpolate(d)))
-    links = []
-    for border_start, j, p in starts:
-        k = int(district.query_nearest(p)[0])
-        g = _foot(new_lines[k], p)
-        o = p if border_start else _foot(old_lines[j], g)
-        length = float(g.distance(o))
-        if length <= reach:
-            links.append(_Link(length, border_start, new[k], (g.x, g.y), old[j], (o.x, o.y)))
+    links = [_Link(length, border_start, new[k], g, old[j], o)
+             for length, border_start, k, g, j, o in _candidate_links(every[new].tolist(), every[old].tolist(),
+                                                                      border, reach, spread)]
     return sorted(links, key=lambda c: (not c.border, c.length, c.new_at, c.old_at))
 
 
-def _foot(line: shapely.LineString, p: shapely.Point) -> shapely.Point:
-    """The point of ``line`` nearest to ``p``."""
-    return line.interpolate(line.project(p))
+def _candidate_links(new_lines: list, old_lines: list, border: np.ndarray, reach: float, spread: float,
+                     *, longer: float = 0.0) -> list[tuple[float, bool, int, tuple[float, float], int,
+                                                           tuple[float, float]]]:
+    """:func:`_candidates` on lines: ``(length, from a border node, new line, its end, old line, its end)``
+    per link, indices into ``new_lines`` and ``old_lines``, in the order the starts are taken (the border
+    nodes, then points every ``spread / 2`` along each old street near the new ones). Every start at once
+    (the nearest line and the feet by array calls of shapely, the same GEOS operations as one by one).
+    ``longer``: sample the old streets this much beyond their length (:func:`join_places`)."""
+    new_arr, old_arr = np.array(new_lines, dtype=object), np.array(old_lines, dtype=object)
+    district = shapely.STRtree(new_arr)
+    old_tree = shapely.STRtree(old_arr)
+    hull = shapely.MultiLineString(new_lines).convex_hull.buffer(reach)
+    near_border = border[shapely.contains_xy(hull, border[:, 0], border[:, 1])] if len(border) else border
+    near = np.unique(old_tree.query(new_arr, predicate="dwithin", distance=reach)[1])
+    steps = [np.arange(0.0, length + longer + 1e-9, spread / 2) for length in shapely.length(old_arr[near]).tolist()]
+    along = np.repeat(near, [len(d) for d in steps]).astype(np.int64)
+    points = np.concatenate([shapely.points(near_border.reshape(-1, 2)),
+                             shapely.line_interpolate_point(old_arr[along], np.concatenate([[], *steps]))])
+    if not len(points):
+        return []
+    from_border = np.arange(len(points)) < len(near_border)
+    old_j = np.concatenate([_first_nearest(old_tree, points[from_border]), along])
+    k = _first_nearest(district, points)
+    g = _feet(new_arr[k], points)
+    o = points.copy()
+    o[~from_border] = _feet(old_arr[old_j[~from_border]], g[~from_border])
+    length = shapely.distance(g, o)
+    keep = np.flatnonzero(length <= reach)
+    gxy, oxy = shapely.get_coordinates(g[keep]).tolist(), shapely.get_coordinates(o[keep]).tolist()
+    return [(float(length[i]), bool(from_border[i]), int(k[i]), tuple(gi), int(old_j[i]), tuple(oi))
+            for i, gi, oi in zip(keep.tolist(), gxy, oxy)]
+
+
+def _first_nearest(tree: shapely.STRtree, points: np.ndarray) -> np.ndarray:
+    """Per point, the first of the tree's nearest geometries (``tree.query_nearest(p)[0]`` for each)."""
+    if not len(points):
+        return np.zeros(0, dtype=np.int64)
+    source, hit = tree.query_nearest(points)
+    first = np.unique(source, return_index=True)[1]
+    return hit[first].astype(np.int64)
+
+
+def _feet(lines: np.ndarray, points: np.ndarray) -> np.ndarray:
+    """Per line, the point nearest the point beside it (``line.interpolate(line.project(p))`` of each pair)."""
+    return shapely.line_interpolate_point(lines, shapely.line_locate_point(lines, points))
+
+
+def join_places(city: City, streets: Sequence, *, spacing: float) -> np.ndarray:
+    """Every place where :func:`join_growth` could join ``streets`` to the town, before joining them.
+
+    The joins it reports (``JoinReport.at``) are nodes of the town's streets
+    as mapped: where a new street ends on or passes through one, and the
+    town's end of each joining street it adds. These are among the places
+    given here: the new streets' points on a town street, and the town's end
+    of every link :func:`join_to_town` would try (before it tests any for
+    room, crossings or spread), with the town node it would snap to. So an
+    acceptance rule that holds for more places whenever it holds for fewer,
+    and rejects these, rejects whatever the joining would give: the district
+    is known not to join without adding its streets to the network (the
+    slow part of a join). Up to the millimetre the town's ways move by when
+    the new streets' tees are inserted into them.
+
+    Parameters
+    ----------
+    city : City
+        The town, without ``streets``.
+    streets : sequence of :class:`synth.growth.NewStreet`-like objects
+    spacing : float
+        The town's junction spacing (m), as given to :func:`join_growth`.
+
+    Returns
+    -------
+    (P, 2) float array, metres; empty when the streets meet no town street.
+    """
+    net = city.network
+    old = [k for k, s in enumerate(net.streets) if s.origin == Origin.SOURCE]
+    if not streets or not old:
+        return np.zeros((0, 2))
+    old_lines = net.street_lines()[old]
+    new_xy = [np.asarray(s.xy, dtype=float) for s in streets]
+    new_lines = shapely.linestrings(np.concatenate(new_xy), indices=np.repeat(np.arange(len(new_xy)),
+                                                                             [len(xy) for xy in new_xy]))
+    vertices = np.concatenate(new_xy)
+    on_town = shapely.STRtree(old_lines).query(shapely.points(vertices), predicate="dwithin",
+                                               distance=10 * ON_STREET)[0]
+    places = [vertices[np.unique(on_town)]]
+    links = _candidate_links(new_lines.tolist(), old_lines.tolist(), _border(net, old), 2 * spacing, 2 * spacing,
+                             longer=0.01)
+    if links:
+        ends = np.array([o for *_, o in links])
+        places.append(ends)
+        for (*_, j, _o), end in zip(links, ends):  # the town node a link's end snaps to (``_Board.snapped``)
+            pts = shapely.get_coordinates(old_lines[j])
+            d = np.hypot(*(pts - end).T)
+            if d.min() <= SNAP + 0.01:
+                places.append(pts[d <= SNAP + 0.01])
+    return np.concatenate(places).reshape(-1, 2)
 
 
 def _shared_nodes(net: StreetNetwork, new: Sequence[int]) -> set[int]:

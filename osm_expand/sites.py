@@ -42,7 +42,6 @@ to the town.
 """
 from __future__ import annotations
 
-import weakref
 from collections.abc import Callable, Hashable, Iterator
 from dataclasses import dataclass
 
@@ -53,6 +52,7 @@ from scipy.ndimage import distance_transform_edt, label
 from osm_expand.errors import InputError
 from osm_expand.land import read_land
 from osm_expand.model import City, Land, highways
+from osm_expand.model.memo import IdentityMemo
 
 DIRECTIONS = {"E": 0, "NE": 45, "N": 90, "NW": 135, "W": 180, "SW": 225, "S": 270, "SE": 315}
 #: The raster never has more cells than this (the cell grows instead).
@@ -178,10 +178,11 @@ def _built_up(city: City, land: Land, xs: np.ndarray, ys: np.ndarray) -> np.ndar
     """The built-up land (:class:`~osm_expand.model.land.Land`: the frontage of the town's streets, its
     settlement land use and buildings) and the blocks that are town (:meth:`City.town_block_polygons`:
     none that only corridors bound, the land inside an interchange's ramps)."""
-    built = _raster_each(land.town, xs, ys) if len(land.town) else np.zeros(xs.shape, dtype=bool)
+    built = (_drawn(_remembered(land, "town", lambda: _outlines_each(land.town)), xs, ys) if len(land.town)
+             else np.zeros(xs.shape, dtype=bool))
     corridor = {s.id for s in city.network.streets if s.highway in CORRIDORS}
-    fronted = city.replace(blocks=tuple(b for b in city.blocks if not corridor.issuperset(b.street_ids)))
-    blocks = fronted.town_block_polygons()
+    blocks = city.town_block_polygons(among=np.array([not corridor.issuperset(b.street_ids) for b in city.blocks],
+                                                     dtype=bool))
     return built | _raster_each(blocks, xs, ys) if len(blocks) else built
 
 
@@ -190,7 +191,10 @@ def _cost_raster(land: Land, xs: np.ndarray, ys: np.ndarray) -> np.ndarray:
     cost = np.zeros(xs.shape)
     for value in np.unique(land.cover_cost).tolist():
         if value > 0:
-            cost = np.where(_raster_each(land.cover[land.cover_cost == value], xs, ys), np.maximum(cost, value), cost)
+            def outlines(value: float = value) -> tuple[_Outline, ...]:
+                return _outlines_each(land.cover[land.cover_cost == value])
+            drawn = _drawn(_remembered(land, ("cover", value), outlines), xs, ys)
+            cost = np.where(drawn, np.maximum(cost, value), cost)
     return cost
 
 
@@ -286,9 +290,9 @@ def _drawn(outlines: tuple[_Outline, ...], xs: np.ndarray, ys: np.ndarray) -> np
     return filled
 
 
-#: The outlines of the last few shapes of the model rasterised (:func:`_remembered`).
-_OUTLINES: dict[tuple[int, Hashable], tuple[weakref.ref, tuple[_Outline, ...]]] = {}
-_OUTLINES_KEPT = 8
+#: The outlines of the model's shapes rasterised, by the shape's identity (:func:`_remembered`); a year
+#: draws the water, the unbuildable land, the town and the land cover of each development cost.
+_OUTLINES = IdentityMemo(kept=16)
 
 
 def _remembered(source: object, tag: Hashable, make: Callable[[], tuple[_Outline, ...]]) -> tuple[_Outline, ...]:
@@ -298,19 +302,9 @@ def _remembered(source: object, tag: Hashable, make: Callable[[], tuple[_Outline
     (the :class:`~osm_expand.model.land.Land`, the water's union): the engine
     rasterises the same land every year, on a raster whose cell follows the
     district's size, and the rings do not change with the raster (reading
-    them was half of :func:`distance_maps` on Campo Grande). ``source`` is held
-    by weak reference: a new object at a dead one's address is not taken for it.
+    them was half of :func:`distance_maps` on Campo Grande).
     """
-    key = (id(source), tag)
-    hit = _OUTLINES.get(key)
-    if hit is not None and hit[0]() is source:
-        _OUTLINES[key] = _OUTLINES.pop(key)  # the most recently used last
-        return hit[1]
-    made = make()
-    if len(_OUTLINES) >= _OUTLINES_KEPT:
-        _OUTLINES.pop(next(iter(_OUTLINES)))
-    _OUTLINES[key] = (weakref.ref(source), made)
-    return made
+    return _OUTLINES.get((source,), tag, make)
 
 
 def _distance(mask: np.ndarray, cell: float) -> np.ndarray:
@@ -641,7 +635,9 @@ def district_region(city: City, site: Site, *, clearance: float = 1.0,
             disc = shapely.intersection(disc, bounds)
         occupied = city.occupied_within(disc)
         near = lines[shapely.intersects(lines, disc)] if len(lines) else lines
-        cut = shapely.union_all([occupied, *shapely.buffer(near, clearance).tolist()])
+        # the streets' clearance as one buffer of them all: GEOS nodes the lines once, where the union of a
+        # buffer per street merged thousands of polygons (the largest part of an engine district's region)
+        cut = shapely.union(occupied, shapely.buffer(shapely.multilinestrings(near), clearance))
         free = shapely.make_valid(shapely.difference(disc, cut))
         parts = [p for p in shapely.get_parts(free) if p.geom_type == "Polygon" and not p.is_empty]
         if not parts:

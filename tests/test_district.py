@@ -82,3 +82,50 @@ def test_the_first_accepted_district_is_kept_with_the_origin_year_and_era_asked_
     assert {s.origin for s in new} == {Origin.ENGINE, Origin.JOIN}  # the district and its joining streets
     assert all(s.year == 2031 and s.era == "later" for s in new)
 
+
+
+def test_every_join_is_among_the_places_known_before_joining(krems):
+    """:func:`osm_expand.joins.join_places` (from the grown streets alone) holds every place the joining step
+    then joins the district at, on Krems' three sites, so a rule that rejects those rejects the join."""
+    from osm_expand.joins import join_growth, join_places
+
+    city, learned, sites = krems
+    pattern = make_pattern("example", learned.example)
+    spacing = learned.example.spacing
+    checked = 0
+    for attempt, site in enumerate(sites):
+        growth = pattern.grow(city, district_region(city, site, bounds=city.bounds_polygon),
+                              np.random.default_rng([3, attempt]))
+        if not growth.streets:
+            continue
+        places = join_places(city, growth.streets, spacing=spacing)
+        _, joins = join_growth(city, growth.streets, spacing=spacing)
+        for at in joins.at:
+            assert np.hypot(*(places - at).T).min() <= 0.01
+        checked += len(joins.at)
+    assert checked >= 3
+
+
+def test_a_district_that_cannot_be_accepted_is_not_joined(krems, monkeypatch):
+    """Sites whose every possible join place is rejected are reported without joining them (the join was a
+    third of a failed engine site's cost on Campo Grande): the joining step is never called."""
+    import osm_expand.district as district
+
+    city, learned, sites = krems
+    calls = []
+
+    def counted(*args, **kwargs):
+        calls.append(1)
+        return district.join_growth.__wrapped__(*args, **kwargs)
+
+    counted.__wrapped__ = district.join_growth
+    monkeypatch.setattr(district, "join_growth", counted)
+    far = 1e9  # no place of the town is this far out: the rule rejects them all
+    placement = place_district(city, sites, make_pattern("example", learned.example), spacing=learned.example.spacing,
+                               accept=lambda joins: bool((joins.at[:, 0] > far).sum() >= 1),
+                               rng=lambda attempt: np.random.default_rng([0, attempt]), bounds=city.bounds_polygon,
+                               cross_taken_last=True)
+    assert placement.placed is None and len(placement.tried) == 3
+    assert not calls
+    assert not any(t.joinable for t in placement.tried)
+    assert "too few places to join" in placement.describe_tried()

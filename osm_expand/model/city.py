@@ -10,7 +10,6 @@ pipeline; they are never handed back as the town.
 """
 from __future__ import annotations
 
-from collections.abc import Callable
 from dataclasses import dataclass, field, replace
 from functools import cached_property
 from typing import Any
@@ -20,6 +19,7 @@ import shapely
 
 from osm_expand.model.geometry import ring_area, ring_edge_lengths
 from osm_expand.model.land import OPEN_BLOCK, Land, town_blocks
+from osm_expand.model.memo import IdentityMemo
 from osm_expand.model.network import Context, Origin, StreetNetwork, Tags
 from osm_expand.model.projection import LocalProjection
 
@@ -155,38 +155,30 @@ class SourceFile:
     ways: frozenset[int] = frozenset()
 
 
-#: Unions of water, sea and unbuildable land by the identity of those objects (the year loop makes a
-#: new City every year, and these parts, shared between them, are the slow part of :attr:`City.occupied`).
-_STATIC_UNIONS: dict[tuple[int, int, int], tuple[Any, shapely.Geometry]] = {}
+#: Derived from the model's objects by their identity (:class:`~osm_expand.model.memo.IdentityMemo`): the year
+#: loop makes a new City every year, sharing the water, land, buildings and (until the streets change) the
+#: blocks with last year's, and these are asked for many times a year.
+_UNIONS = IdentityMemo()  #: the union of water, sea and unbuildable land, and its parts with a tree
+_FOOTPRINTS = IdentityMemo()  #: the buildings' polygons
+_BLOCKS = IdentityMemo()  #: the blocks' polygons and a tree over them
 
 
 def _land_nobody_takes(water: tuple, sea: tuple, unbuildable: shapely.Geometry | None) -> shapely.Geometry:
-    key = (id(water), id(sea), id(unbuildable))
-    hit = _STATIC_UNIONS.get(key)
-    if hit is not None and all(a is b for a, b in zip(hit[0], (water, sea, unbuildable))):
-        return hit[1]
-    parts = [*water, *sea] + ([unbuildable] if unbuildable is not None else [])
-    geom = shapely.union_all(parts)
-    if len(_STATIC_UNIONS) > 8:
-        _STATIC_UNIONS.clear()
-    _STATIC_UNIONS[key] = ((water, sea, unbuildable), geom)  # keeps the parts alive, so ids are not reused
-    return geom
+    """The union of water, sea and unbuildable land (the slow part of :attr:`City.occupied`), made once for
+    the very same three objects."""
+    def make() -> shapely.Geometry:
+        return shapely.union_all([*water, *sea] + ([unbuildable] if unbuildable is not None else []))
+    return _UNIONS.get((water, sea, unbuildable), "union", make)
 
 
 def _land_parts(water: tuple, sea: tuple, unbuildable: shapely.Geometry | None
                 ) -> tuple[np.ndarray, shapely.STRtree]:
-    """The parts of :func:`_land_nobody_takes` and a tree over them (cached beside the union)."""
-    union = _land_nobody_takes(water, sea, unbuildable)
-    hit = _PART_TREES.get(id(union))
-    if hit is None or hit[0] is not union:
+    """The parts of :func:`_land_nobody_takes` and a tree over them (made once beside the union)."""
+    def make() -> tuple[np.ndarray, shapely.STRtree]:
+        union = _land_nobody_takes(water, sea, unbuildable)
         parts = shapely.get_parts(union) if not union.is_empty else np.empty(0, dtype=object)
-        if len(_PART_TREES) > 8:
-            _PART_TREES.clear()
-        hit = _PART_TREES[id(union)] = (union, parts, shapely.STRtree(parts))
-    return hit[1], hit[2]
-
-
-_PART_TREES: dict[int, tuple[shapely.Geometry, np.ndarray, shapely.STRtree]] = {}
+        return parts, shapely.STRtree(parts)
+    return _UNIONS.get((water, sea, unbuildable), "parts", make)
 
 
 def _footprints(buildings: tuple[Building, ...]) -> np.ndarray:
@@ -197,7 +189,8 @@ def _footprints(buildings: tuple[Building, ...]) -> np.ndarray:
     with last year's until the build-out adds some: making Campo Grande's
     polygons each time took 7.6 s of a 30-year run (293,000 polygons).
     """
-    return _by_identity(_FOOTPRINTS, buildings, lambda: _frozen(np.array([b.polygon for b in buildings], dtype=object)))
+    return _FOOTPRINTS.get((buildings,), None,
+                           lambda: _frozen(np.array([b.polygon for b in buildings], dtype=object)))
 
 
 def _block_index(blocks: tuple[Block, ...]) -> tuple[np.ndarray, shapely.STRtree]:
@@ -206,28 +199,12 @@ def _block_index(blocks: tuple[Block, ...]) -> tuple[np.ndarray, shapely.STRtree
     def make() -> tuple[np.ndarray, shapely.STRtree]:
         polygons = _frozen(np.array([b.polygon for b in blocks], dtype=object))
         return polygons, shapely.STRtree(polygons)
-    return _by_identity(_BLOCKS, blocks, make)
-
-
-def _by_identity(store: dict, key: tuple, make: Callable[[], Any]) -> Any:
-    """``make()`` once for the very same ``key`` object (a City's tuple, shared between the years' Cities)."""
-    hit = store.get(id(key))
-    if hit is not None and hit[0] is key:
-        return hit[1]
-    value = make()
-    if len(store) > 8:
-        store.clear()
-    store[id(key)] = (key, value)  # keeps the key alive, so its id is not reused
-    return value
+    return _BLOCKS.get((blocks,), None, make)
 
 
 def _frozen(array: np.ndarray) -> np.ndarray:
     array.flags.writeable = False  # shared between callers: nobody may change it in place
     return array
-
-
-_FOOTPRINTS: dict[int, tuple[tuple, np.ndarray]] = {}
-_BLOCKS: dict[int, tuple[tuple, tuple[np.ndarray, shapely.STRtree]]] = {}
 
 
 @dataclass(frozen=True, eq=False)
@@ -298,10 +275,12 @@ class City:
         """
         return _land_nobody_takes(self.water, self.sea, None)
 
-    def town_block_polygons(self) -> np.ndarray:
+    def town_block_polygons(self, among: np.ndarray | None = None) -> np.ndarray:
         """The blocks that are town (:func:`osm_expand.model.land.town_blocks`): a large face of fields
-        between roads is not, so streets may grow into it."""
-        return self._town_of(_block_index(self.blocks)[0])
+        between roads is not, so streets may grow into it. ``among``: (B,) bool, only those blocks
+        (the polygons and tree of all blocks are made once a year, not for every selection)."""
+        polygons = _block_index(self.blocks)[0]
+        return self._town_of(polygons if among is None else polygons[among])
 
     def _town_of(self, polygons: np.ndarray) -> np.ndarray:
         """Those of the block ``polygons`` that are town (buildings read only when one is large)."""

@@ -25,11 +25,13 @@ def flat_nodes(streets: Sequence[Street | None]) -> tuple[np.ndarray, np.ndarray
     return nodes, np.repeat(np.arange(len(streets), dtype=np.int64), sizes)
 
 
-def street_counts(streets: Sequence[Street], n_nodes: int) -> np.ndarray:
-    """How many distinct streets reference each node."""
+def street_counts(streets: Sequence[Street], n_nodes: int, *, flat: tuple[np.ndarray, np.ndarray] | None = None
+                  ) -> np.ndarray:
+    """How many distinct streets reference each node (``flat``: :func:`flat_nodes` of ``streets`` if the
+    caller has it)."""
     if not streets:
         return np.zeros(n_nodes, dtype=np.int32)
-    nodes, owner = flat_nodes(streets)
+    nodes, owner = flat if flat is not None else flat_nodes(streets)
     pairs = np.sort(owner * n_nodes + nodes)
     first = np.ones(len(pairs), dtype=bool)  # each (street, node) once
     first[1:] = pairs[1:] != pairs[:-1]
@@ -47,8 +49,9 @@ def segment_degree(streets: Sequence[Street], n_nodes: int) -> np.ndarray:
     return np.bincount(np.asarray(ends, dtype=np.int64), minlength=n_nodes)
 
 
-def junction_mask(streets: Sequence[Street], n_nodes: int) -> np.ndarray:
-    return street_counts(streets, n_nodes) >= 2
+def junction_mask(streets: Sequence[Street], n_nodes: int, *, flat: tuple[np.ndarray, np.ndarray] | None = None
+                  ) -> np.ndarray:
+    return street_counts(streets, n_nodes, flat=flat) >= 2
 
 
 def clean_nodes(nodes: Iterable[int]) -> tuple[int, ...] | None:
@@ -117,15 +120,17 @@ def junction_stops(street: Street, junction: np.ndarray) -> list[int]:
     return [i for i, n in enumerate(street.nodes) if junction[n]]
 
 
-def piece_table(streets: Sequence[Street], junction: np.ndarray) -> dict[str, np.ndarray]:
+def piece_table(streets: Sequence[Street], junction: np.ndarray, *,
+                flat: tuple[np.ndarray, np.ndarray] | None = None) -> dict[str, np.ndarray]:
     """Every junction-to-junction piece of every street, vectorised.
 
-    Columns: ``street``, positions ``a`` and ``b`` along it, end nodes ``u``, ``v``.
+    Columns: ``street``, positions ``a`` and ``b`` along it, end nodes ``u``, ``v``. ``flat``:
+    :func:`flat_nodes` of ``streets``, when the caller has it (the blocks read the nodes too).
     """
     if not streets:
         empty = np.zeros(0, dtype=np.int64)
         return {"street": empty, "a": empty, "b": empty, "u": empty, "v": empty}
-    nodes, owner = flat_nodes(streets)
+    nodes, owner = flat if flat is not None else flat_nodes(streets)
     offsets = np.concatenate([[0], np.cumsum(np.bincount(owner, minlength=len(streets)))])
     bound = junction[nodes].copy()
     bound[offsets[:-1]] = True
