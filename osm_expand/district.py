@@ -44,7 +44,7 @@ class Tried:
     growth: Growth  #: what the pattern grew there
     joins: int  #: places the grown streets met the town (0 when not joined)
     #: False: not joined, since even every place it could join at (:func:`osm_expand.joins.join_places`)
-    #: is not accepted
+    #: is not accepted, or nothing grew
     joinable: bool = True
 
 
@@ -98,7 +98,8 @@ def place_district(city: City, sites: Sequence[Site], pattern: GrowthPattern, *,
         The town's junction spacing (m), for the joining step.
     accept : callable
         ``JoinReport -> bool``: whether the district is joined well enough. It must hold for a report
-        with more places whenever it holds for one with fewer (it reads the count and ``at``): a
+        with more places whenever it holds for one with fewer; it reads the count and ``at`` only
+        (the report of every possible place has ``links`` and ``tees`` 0): a
         district whose every possible place to join (:func:`osm_expand.joins.join_places`) is not
         accepted is then not joined at all (the join was a third of a failed site's cost on Campo
         Grande), the same as joining and rejecting it.

@@ -323,7 +323,12 @@ def streets_land(lines: LineSet | Sequence[np.ndarray], disc: shapely.Geometry,
     if land is None:
         land = growth_window(lines, options)
     within = shapely.intersection(disc, land)
-    return within if within.area > 0 else disc
+    if within.area <= 0:
+        return disc
+    if within.geom_type != "GeometryCollection":
+        return within
+    parts = shapely.get_parts(within)  # where the two only touch, points and lines too: the polygons only
+    return shapely.union_all(parts[shapely.area(parts) > 0])
 
 
 @dataclass(frozen=True, eq=False)

@@ -362,6 +362,11 @@ def test_the_tiled_a_star_finds_the_cost_of_searching_the_whole_expanded_graph(s
     tiny tiles and no region searched whole, so the tiles must grow) costs each route what
     Dijkstra over the whole heading-expanded graph gives, on a street grid among forbidden blobs
     under turn penalties from light to heavy (the next test: the tiles grew on most maps)."""
+    _tiled_against_whole(seed)
+
+
+def _tiled_against_whole(seed: int) -> bool:
+    """Three routes on one random map, each of the whole graph's cost; whether the tiles grew."""
     from osm_expand.engine.roads import routing
     rng = np.random.default_rng(seed)
     extent = (0, 0, 800, 800)
@@ -400,14 +405,13 @@ def test_the_tiled_a_star_finds_the_cost_of_searching_the_whole_expanded_graph(s
                 assert route.cost == pytest.approx(full[1], rel=1e-9, abs=1e-5)
     finally:
         routing._expanded_graph = expanded_graph
-    GROWN.append(max(made) > 2)  # the reference search is one of them
+    return max(made) > 2  # the reference search is one of them
 
 
-GROWN: list[bool] = []
-
-
-def test_the_tiled_a_star_grew_its_tiles_in_most_of_the_maps_above():
-    assert sum(GROWN) >= len(GROWN) // 2
+def test_the_tiled_a_star_grows_its_tiles_on_most_maps():
+    """The equal costs above are not vacuous: on most of twelve fixed maps the tiles grew."""
+    grew = [_tiled_against_whole(seed) for seed in range(12)]
+    assert sum(grew) >= 6
 
 
 @settings(max_examples=12, deadline=None)
@@ -873,8 +877,9 @@ def test_monacos_new_roads_do_not_run_round_the_sea_beyond_the_map():
 def test_counting_turns_at_the_exits_keeps_the_search_exact(seed):
     """Issue 22: a window is proved with the turn-penalised costs of arriving at its exits (an A*
     towards the target, ``routing._tiled_search`` without a target) and grows a quarter a side at a time. On
-    a street grid under heavy turn penalties, with tiny first windows, every route costs what the
-    whole map's G′ (the old search) gives, and the turn test is what ends the search at least once."""
+    a street grid under heavy turn penalties, with tiny first windows and tiny tiles that must grow
+    (no region searched whole), every route costs what one search of the whole map's G′ gives, and the
+    exits' search (no target) runs at least once."""
     from osm_expand.engine.roads import routing
     rng = np.random.default_rng(seed)
     extent = (0, 0, 1600, 1600)
@@ -888,12 +893,13 @@ def test_counting_turns_at_the_exits_keeps_the_search_exact(seed):
     whole = implicit.whole()
     opts = RoutingOptions(turn_height=float(rng.uniform(150, 600)), window_margin=float(rng.uniform(20, 120)),
                           window_share=0.0)
+    tiny = replace(opts, whole_region=0, tile_cells=int(rng.integers(1, 5)))
     calls = []
     tiled = routing._tiled_search
 
-    def counted(*args, **kwargs):
-        calls.append(args[4] is None)
-        return tiled(*args, **kwargs)
+    def counted(graph, lat, extra, source, target, *args, **kwargs):
+        calls.append(target is None)
+        return tiled(graph, lat, extra, source, target, *args, **kwargs)
 
     routing._tiled_search = counted
     try:
@@ -901,10 +907,11 @@ def test_counting_turns_at_the_exits_keeps_the_search_exact(seed):
             a, b = (int(v) for v in rng.choice(len(segs.xy), 2, replace=False))
             s, t = whole.node_vertex(a), whole.node_vertex(b)
             old = find_route(whole, s, t, options=opts)
-            new = find_route(implicit, s, t, options=opts)
-            assert (old is None) == (new is None)
-            if old is not None:
-                assert new.cost == pytest.approx(old.cost, rel=1e-9, abs=1e-6)
+            for o in (opts, tiny):
+                new = find_route(implicit, s, t, options=o)
+                assert (old is None) == (new is None)
+                if old is not None:
+                    assert new.cost == pytest.approx(old.cost, rel=1e-9, abs=1e-6)
     finally:
         routing._tiled_search = tiled
     assert any(calls)

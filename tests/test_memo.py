@@ -1,4 +1,4 @@
-"""The one identity cache of the model (:class:`osm_expand.model.memo.IdentityMemo`): a value is made once for
+"""The model's identity cache (:class:`osm_expand.model.memo.IdentityMemo`): a value is made once for
 the very same objects, never for equal ones, and only the most recently used few are kept."""
 from __future__ import annotations
 
@@ -18,8 +18,12 @@ def test_made_once_for_the_same_objects_and_again_for_equal_ones():
         memo.get((source,), "tag", lambda s=source: made.append(s) or len(made))
     assert len(made) == 2  # a once, b once
     assert memo.get((a,), "other", lambda: "x") == "x"  # another tag is another value
-    memo.get((tuple([3]),), None, lambda: 0)
-    assert len(memo) == 2  # the least recently used went
+    three = tuple([3])
+    memo.get((three,), None, lambda: 0)
+    assert len(memo) == 2  # the least recently used went: (a, "tag") and (b, "tag"), not the last two
+    assert memo.get((a,), "other", lambda: "made again") == "x"
+    assert memo.get((three,), None, lambda: "made again") == 0
+    assert memo.get((a,), "tag", lambda: "made again") == "made again"
 
 
 def test_the_city_caches_give_the_same_object_for_the_same_tuples():

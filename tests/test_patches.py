@@ -109,7 +109,7 @@ def test_a_corner_is_not_straightened_across_another_street():
     straight = _straighten(net, 0, 6.0, shapely.MultiLineString(), shapely.Polygon())
     lines = [shapely.LineString(straight.street_xy(s)) for s in straight.streets]
     assert not shapely.MultiLineString(lines[:3]).intersects(lines[3])  # the jog went round it, if at all
-    assert not np.array_equal(straight.xy, net.xy)  # ... by moving one node only, off the street's side
+    assert not np.array_equal(straight.xy, net.xy)  # ... by moving nodes of the jog, off the street's side
 
 
 @settings(max_examples=60, deadline=None)

@@ -33,9 +33,10 @@ def turn_angles(before: np.ndarray, after: np.ndarray) -> np.ndarray:
     """How sharply a path turns from direction ``before`` to direction ``after``: the heading change in
     degrees, 0 (straight on) to 180 (back), whichever side.
 
-    The one turn formula of the project: a street's bend at a node of degree 2 (``synth.patches``'
-    corner count), a chord's bend (:func:`chord_bends`) all read it, so that what one stage counts as
-    a corner is what another avoids.
+    A street's bend at a node of degree 2 (``synth.patches``' corner count) and a chord's bend
+    (:func:`chord_bends`) read it, so that what one stage counts as a corner is what another avoids.
+    Two copies remain, left because their outputs would move by the last bit: the yardstick's
+    curvature (``measures.shape``) and the major roads' turns (``engine.roads.road_types``, radians).
 
     Parameters
     ----------

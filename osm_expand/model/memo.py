@@ -1,4 +1,4 @@
-"""Values made once for the very same objects of the model: the one identity cache (issue 22).
+"""Values made once for the very same objects of the model: the model's identity cache (issue 22).
 
 The year loop makes a new City every year, but most of what it holds is
 shared with last year's, object for object: the water, the land, the

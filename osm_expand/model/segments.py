@@ -141,10 +141,16 @@ class SegmentTable:
         return self.xy[self.uv[:, 1]]
 
     def lines(self) -> np.ndarray:
-        """One shapely LineString per segment (made once per table; do not edit the array)."""
+        """One shapely LineString per segment (made once per table, read-only: it is shared)."""
         if "lines" not in self._cache:
-            self._cache["lines"] = shapely.linestrings(np.stack([self.a, self.b], axis=1))
+            lines = shapely.linestrings(np.stack([self.a, self.b], axis=1))
+            lines.flags.writeable = False
+            self._cache["lines"] = lines
         return self._cache["lines"]
+
+    def __getstate__(self) -> dict:
+        """Pickled without the made lines and tree (made again when asked for)."""
+        return {**self.__dict__, "_cache": {}}
 
     def tree(self) -> shapely.STRtree:
         """An STRtree over :meth:`lines`, made once per table."""

@@ -26,10 +26,13 @@ optimal route and that the search reaches: with ``d_s``, ``d_t`` the plain
 (turn-free, hence lower-bound) distances from source and target and ``C``
 the penalised cost of the best route found so far (at first the plain
 shortest path's), a vertex v can be on a better route only if
-``d_s(v) + d_t(v) ≤ C``; of those, the search is an A* with the consistent
-bound ``d_t`` (turn costs are ≥ 0) over tiles of the lattice, made when the
-states it settles below C reach a tile's border (:func:`_tiled_search`).
-Both prunings are exact.
+``d_s(v) + d_t(v) ≤ C``. Of those, the expanded graph is made only over
+tiles of the lattice that the search reaches: scipy's Dijkstra settles the
+states with ``g ≤ C`` inside the active tiles, and a tile becomes active
+when a state there may still lead to the target below C by A*'s test
+``g + d_t < C`` (``d_t`` is a consistent bound: turn costs are ≥ 0)
+(:func:`_tiled_search`). Both prunings are exact; neither yet settles
+fewer states than the ellipse where turns are most of a route's cost.
 """
 from __future__ import annotations
 
@@ -38,6 +41,7 @@ from dataclasses import dataclass, replace
 from enum import StrEnum
 
 import numpy as np
+from scipy.ndimage import binary_dilation
 from scipy.sparse import csr_matrix
 from scipy.sparse.csgraph import dijkstra
 
@@ -292,7 +296,8 @@ def _implicit_route(graph: ImplicitGraph, source: int, target: int, kinds: Seque
             straight = c * np.hypot(*(window.graph.xy - ends[1]).T)
             _, arrive = _tiled_search(window.graph, lat_ok, extra_ok, s, None, from_source + straight, straight,
                                       (route.vertices.tolist(), cost), route.vertices, penalties, opts, exits=exits)
-            assert arrive is not None
+            if arrive is None:  # exits were given: the search always returns their arrivals
+                raise RuntimeError("the exits' search returned no arrivals")
             reached = np.maximum(reached, arrive)
             short = reached + rest < limit
         if not short.any():
@@ -520,11 +525,7 @@ def _expanded_search(graph: PathGraph, lat: np.ndarray, extra: np.ndarray, regio
     best = int(arrivals[np.argmin(dist[arrivals])])
     if not np.isfinite(dist[best]):
         return None
-    states = _walk_back(pred, start, best)
-    vertices = region[np.asarray(states) // per]
-    keep = np.ones(len(vertices), dtype=bool)
-    keep[1:] = vertices[1:] != vertices[:-1]
-    return vertices[keep].tolist(), float(dist[best])
+    return _vertex_path(pred, start, best, region, per), float(dist[best])
 
 
 def _tile_of(graph: PathGraph, size: int) -> tuple[np.ndarray, tuple[int, int]]:
@@ -544,21 +545,23 @@ def _tile_of(graph: PathGraph, size: int) -> tuple[np.ndarray, tuple[int, int]]:
 
 def _dilated(tiles: np.ndarray, shape: tuple[int, int]) -> np.ndarray:
     """Tiles (flat bool) and their eight neighbours."""
-    grid = tiles.reshape(shape)
-    out = grid.copy()
-    out[1:] |= grid[:-1]
-    out[:-1] |= grid[1:]
-    wide = out.copy()
-    wide[:, 1:] |= out[:, :-1]
-    wide[:, :-1] |= out[:, 1:]
-    return wide.ravel()
+    return binary_dilation(tiles.reshape(shape), structure=np.ones((3, 3), dtype=bool)).ravel()
+
+
+def _vertex_path(pred: np.ndarray, start: int, end: int, verts: np.ndarray, per: int) -> list[int]:
+    """The G′ vertices of the expanded states' path from ``start`` to ``end`` (``verts``: the expanded
+    graph's vertices; ``per`` states each), a vertex once where its arrival and departure follow."""
+    vertices = verts[np.asarray(_walk_back(pred, start, end)) // per]
+    keep = np.ones(len(vertices), dtype=bool)
+    keep[1:] = vertices[1:] != vertices[:-1]
+    return vertices[keep].tolist()
 
 
 def _tiled_search(graph: PathGraph, lat: np.ndarray, extra: np.ndarray, source: int, target: int | None,
                   lower: np.ndarray, h: np.ndarray, best: tuple[list[int], float], seed: np.ndarray,
                   penalties: np.ndarray, opts: RoutingOptions,
                   exits: np.ndarray | None = None) -> tuple[tuple[list[int], float], np.ndarray | None]:
-    """The turn-penalised search (A*'s region, the heading-expanded graph made tile by tile as reached).
+    """The turn-penalised search, the heading-expanded graph made tile by tile as A*'s test reaches them.
 
     The expanded graph (see :func:`_expanded_graph`) is made over the
     *active* vertices only: those of the active tiles (``tile_cells``
@@ -572,10 +575,9 @@ def _tiled_search(graph: PathGraph, lat: np.ndarray, extra: np.ndarray, source: 
     Where that is below C, the tile of w and its neighbours become active
     and the search runs again; when no edge is, no route outside the
     active set can beat C, and the best route found is the best of the
-    graph (A* with a consistent heuristic settles no more than the states
-    with ``g + h ≤ C``, and the tiles follow them, not the ellipse
-    ``d_s + d_t ≤ C`` of the turn-free bounds, which is loose where turns
-    are most of a route's cost).
+    graph. The tiles follow A*'s states with ``g + h ≤ C``; inside the
+    active tiles Dijkstra settles every state with ``g ≤ C`` (a Dijkstra
+    on reduced costs ``c + h(v) − h(u)`` would settle only A*'s: not done).
 
     Parameters
     ----------
@@ -624,11 +626,7 @@ def _tiled_search(graph: PathGraph, lat: np.ndarray, extra: np.ndarray, source: 
             ends = int(local[target]) * per + np.arange(k)
             end = int(ends[np.argmin(dist[ends])])
             if dist[end] < cost:
-                states = _walk_back(pred, start, end)
-                vertices = verts[np.asarray(states) // per]
-                keep = np.ones(len(vertices), dtype=bool)
-                keep[1:] = vertices[1:] != vertices[:-1]
-                best = (vertices[keep].tolist(), float(dist[end]))
+                best = (_vertex_path(pred, start, end, verts, per), float(dist[end]))
                 cost = best[1]
         del pred
         threshold = cost - 1e-9 * cost
