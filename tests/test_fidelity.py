@@ -397,11 +397,9 @@ def test_real_neighbourhoods_are_off_on_a_median_of_at_most_three(name):
     assert max(medians) <= 3, medians
 
 
-@pytest.mark.parametrize("name", list(DISTRICT_AREAS))
-def test_a_scatter_of_fragments_is_no_neighbourhood(name):
-    """Eight fragments of the town's own streets (discs of 120 m), spread over a district beside it."""
-    town, area = town_lines(name), DISTRICT_AREAS[name]
-    ref = town_reference(town, area, rng=np.random.default_rng(0))
+def scatter_of_fragments(town: LineSet, area: float) -> tuple[list[np.ndarray], shapely.Geometry]:
+    """Eight fragments of the town's own streets (discs of 120 m), spread over a district of ``area``
+    beside it, and that district's disc."""
     centre, radius = _beside(town), math.sqrt(area / math.pi)
     window = shapely.Point(centre).buffer(radius, quad_segs=16)
     rng = np.random.default_rng(0)
@@ -413,6 +411,15 @@ def test_a_scatter_of_fragments_is_no_neighbourhood(name):
         at = junctions[rng.integers(len(junctions))]
         cut = shapely.get_parts(shapely.intersection(town.geoms, shapely.Point(at).buffer(120.0)))
         fragments += [shapely.get_coordinates(g) - at + spot for g in cut if g.geom_type == "LineString"]
+    return fragments, window
+
+
+@pytest.mark.parametrize("name", list(DISTRICT_AREAS))
+def test_a_scatter_of_fragments_is_no_neighbourhood(name):
+    """Eight fragments of the town's own streets (discs of 120 m), spread over a district beside it."""
+    town, area = town_lines(name), DISTRICT_AREAS[name]
+    ref = town_reference(town, area, rng=np.random.default_rng(0))
+    fragments, window = scatter_of_fragments(town, area)
     report = judge(measure_network(fragments, window=window), ref)
     assert report.pieces >= 2 and report.to_dict()["pieces"] == report.pieces
     assert report.off >= 6 and not report.believable  # measured: Krems 9 off, north-bayreuth 10

@@ -24,10 +24,10 @@ from osm_expand.growth_fidelity import (
     streets_land,
 )
 from osm_expand.ingest import load
-from osm_expand.measures import LineSet, Measure, junction_points, measure_network
+from osm_expand.measures import LineSet, Measure, measure_network
 from osm_expand.model import City, Origin, network_from_lines
 from tests.conftest import FIXTURES, expanded_and_matured
-from tests.test_fidelity import DISTRICT_AREAS, _beside, grid, town_lines
+from tests.test_fidelity import DISTRICT_AREAS, grid, scatter_of_fragments, town_lines
 
 
 def town_square(side: float = 1000.0, cell: float = 10.0) -> BuiltUp:
@@ -221,17 +221,8 @@ def test_a_scatter_of_fragments_is_no_neighbourhood_on_the_streets_land_either(n
     """The default growth yardstick (references on their streets' land, the growth on its window) still
     fails eight fragments of the town's own streets spread over a district beside it, as the disc
     yardstick does (``tests/test_fidelity.py``): measured 9 off on Krems, 8 on north-bayreuth."""
-    town, area = town_lines(name), DISTRICT_AREAS[name]
-    centre, radius = _beside(town), math.sqrt(area / math.pi)
-    rng = np.random.default_rng(0)
-    junctions = junction_points(town)
-    turns = np.linspace(0, 2 * math.pi, 7)[:-1]
-    spots = [centre + 0.6 * radius * np.array([math.cos(a), math.sin(a)]) for a in turns] + [centre]
-    fragments = []
-    for spot in spots:
-        at = junctions[rng.integers(len(junctions))]
-        cut = shapely.get_parts(shapely.intersection(town.geoms, shapely.Point(at).buffer(120.0)))
-        fragments += [shapely.get_coordinates(g) - at + spot for g in cut if g.geom_type == "LineString"]
+    town = town_lines(name)
+    fragments, _ = scatter_of_fragments(town, DISTRICT_AREAS[name])
     window = growth_window(fragments)
     report = judge(measure_network(fragments, window=window), piece_references(town, window,
                                                                                 rng=np.random.default_rng(0)))
