@@ -75,7 +75,7 @@ class RoutingOptions:
     heading_bins: int = 16
     #: lattice vertices a side of the tiles in which the exact search's heading-expanded graph is made
     #: as the search reaches them (:func:`_tiled_search`): 16 → 320 m at ℓ = 20 m, twice the longest
-    #: lattice edge (r = 8), so a tile's ring of neighbours holds every edge out of it
+    #: lattice edge (r = 8); any size is exact (an edge leaving the active tiles activates its far end's)
     tile_cells: int = 16
     #: vertices of the exact search's region up to which it is searched whole at once, without
     #: tiles (its expanded graph holds about 400 entries, 5 kB, a vertex: 100,000 → 0.5 GB); Campo
