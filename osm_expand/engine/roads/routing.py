@@ -413,102 +413,113 @@ def _route(graph: PathGraph, vertices: Sequence[int], lat: np.ndarray, extra: np
 _BLOCK = 8192
 
 
-def _sorted_csr(n_rows: int, groups: list) -> csr_matrix:
-    """A CSR matrix from groups of entries whose rows are each already non-decreasing.
-
-    Each group is a function giving its entries as chunks ``(rows, cols,
-    values)``: rows non-decreasing, chunks in row order, a row never split
-    between chunks. Rows are merged group by group (a row holds the first
-    group's entries, then the second's, …) with counts and offsets only: no
-    sort, and no array as long as a group (a town's region has 10⁷–10⁸
-    entries: whole-group temporaries were the peak of a road year).
-    """
-    indptr = np.zeros(n_rows + 1, dtype=np.int64)
-    for make in groups:
-        for rows, _, _ in make():
-            if len(rows):
-                count = np.bincount(rows - rows[0])
-                indptr[1 + rows[0]:1 + rows[0] + len(count)] += count
-    np.cumsum(indptr, out=indptr)
-    # scipy's Dijkstra runs on 32-bit indices: made so at once, not copied later
-    indices = np.empty(indptr[-1], dtype=np.int32 if max(n_rows, int(indptr[-1])) < 2**31 else np.int64)
-    data = np.empty(indptr[-1])
-    before = np.zeros(n_rows, dtype=np.int32)  # entries of earlier groups in each row
-    for make in groups:
-        for rows, cols, values in make():
-            if not len(rows):
-                continue
-            rel = rows - rows[0]
-            count = np.bincount(rel)
-            rank = np.arange(len(rows)) - (np.cumsum(count) - count)[rel]
-            pos = indptr[rows] + before[rows] + rank
-            indices[pos] = cols
-            data[pos] = values
-            before[rows[0]:rows[0] + len(count)] += count.astype(np.int32)
-    return csr_matrix((data, indices, indptr), shape=(n_rows, n_rows))
-
-
 def _expanded_graph(graph: PathGraph, lat: np.ndarray, extra: np.ndarray, region: np.ndarray, penalties: np.ndarray,
                     k: int) -> tuple[csr_matrix, np.ndarray]:
     """The heading-expanded graph over ``region`` (sorted; state ``local · (2k + 1) + j``: arrivals
-    j < k, departures k ≤ j < 2k, the hub 2k) and each G′ vertex's local number (−1 outside)."""
+    j < k, departures k ≤ j < 2k, the hub 2k) and each G′ vertex's local number (−1 outside).
+
+    A vertex's ``2k + 1`` rows are consecutive, so its entries are one slice of the CSR arrays:
+    each arrival row holds its cheap turns ``arr(v, i) → dep(v, i + q)`` (P < S_p, q ascending)
+    and then ``arr(v, i) → hub(v)`` at S_p; each departure row ``dep(u, b)`` its lattice moves
+    ``→ arr(w, b)`` (directions ascending) and then its other edges (streets, stitches, long
+    bridges; edges ascending); the hub row ``hub(v) → dep(v, j)`` for every j, free. The
+    entries are written block by block of vertices straight to their places (offsets from
+    counts, no sort and no array as long as the graph but the CSR's own: a town's region has
+    10⁷–10⁸ entries, and whole-graph temporaries were the peak of a road year); the lattice
+    moves of a block are generated once (an upper bound of their number sizes the arrays, which
+    are cut to length at the end).
+    """
     n = len(region)
     per = 2 * k + 1  # arr 0…k−1, dep k…2k−1, hub 2k
     # state numbers in 32 bits when they fit (the CSR's are anyway)
     it = np.dtype(np.int32 if n * per < 2**31 else np.int64)
     local = np.full(graph.n_vertices, -1, dtype=it)
     local[region] = np.arange(n, dtype=it)
-    i = np.arange(k, dtype=it)
     height = float(penalties.max())
     cheap = np.flatnonzero(penalties < height - 1e-9).astype(it)
     cheap_cost = np.maximum(penalties[cheap], _EPS)
-    blocks = [(a, min(a + _BLOCK, n)) for a in range(0, n, _BLOCK)]
-
-    def bases(a: int, b: int) -> np.ndarray:
-        return np.arange(a * per, b * per, per, dtype=it)
-
-    def turns():  # arr(v, i) → dep(v, i + q) where P < S_p
-        for a, b in blocks:
-            base = bases(a, b)
-            yield (np.repeat((base[:, None] + i).ravel(), len(cheap)),
-                   (base[:, None, None] + k + (i[:, None] + cheap) % k).ravel(), np.tile(cheap_cost, (b - a) * k))
-
-    def to_hub():  # arr(v, i) → hub(v) at S_p
-        for a, b in blocks:
-            base = bases(a, b)
-            yield (base[:, None] + i).ravel(), np.repeat(base + 2 * k, k), np.full((b - a) * k, max(height, _EPS))
-
+    n_turn = len(cheap) + 1  # entries of an arrival row: the cheap turns and the hub
+    n_arr = k * n_turn  # a vertex's entries before its departures
+    i = np.arange(k, dtype=it)
+    turn_cols = (k + (i[:, None] + cheap) % k)  # (k, n_turn − 1) departure slot of each cheap turn
     n_lat, n_dir = lat.shape
     dir_bin = _bins(graph.direction_heading, k).astype(it)
     by_bin = np.argsort(dir_bin, kind="stable")
-    lat_region = region[region < n_lat]
-
-    def moves():  # lattice moves dep(u, b) → arr(v, b), columns taken in bin order so rows stay sorted
-        for a in range(0, len(lat_region), _BLOCK):
-            part = lat_region[a:a + _BLOCK]
+    offset = graph.lattice.direction_offset
+    n_lat_region = int(np.searchsorted(region, n_lat))  # region's lattice vertices come first
+    # other edges (streets, stitches, long bridges), by departure row dep(u, b) = u · k + b, stable
+    e = np.flatnonzero(extra & (local[graph.src] >= 0) & (local[graph.dst] >= 0))
+    e_bin = _bins(graph.heading[e], k).astype(it)
+    e_row = local[graph.src[e]].astype(np.int64) * k + e_bin
+    order = np.argsort(e_row, kind="stable")
+    e_row, e = e_row[order], e[order]
+    e_col = local[graph.dst[e]] * per + e_bin[order]
+    e_val = graph.weight[e]
+    bound = n * (n_arr + k) + len(e) + sum(int(np.count_nonzero(lat[region[a:min(a + _BLOCK, n_lat_region)]]))
+                                           for a in range(0, n_lat_region, _BLOCK))
+    indices = np.empty(bound, dtype=np.int32 if max(n * per, bound) < 2**31 else np.int64)
+    data = np.empty(bound)
+    dep_count = np.zeros(n * k, dtype=np.int64)  # entries of each departure row
+    at = 0  # entries written so far
+    for a in range(0, n, _BLOCK):
+        b = min(a + _BLOCK, n)
+        part = region[a:min(b, n_lat_region)]  # the block's lattice vertices
+        if len(part):
             flat = np.flatnonzero(lat[part][:, by_bin])
             r = flat // n_dir
             d = by_bin[flat - r * n_dir]
             u = part[r]
-            v = u + graph.lattice.direction_offset[d]
+            v = u + offset[d]
             keep = local[v] >= 0
             u, v, d = u[keep], v[keep], d[keep]
-            weight = graph.lat_weight[u, d].astype(np.float64)
-            yield local[u] * per + k + dir_bin[d], local[v] * per + dir_bin[d], weight
-
-    def others():  # streets, stitches, long bridges
-        e = np.flatnonzero(extra & (local[graph.src] >= 0) & (local[graph.dst] >= 0))
-        b = _bins(graph.heading[e], k).astype(it)
-        rows = local[graph.src[e]] * per + k + b
-        order = np.argsort(rows, kind="stable")
-        yield rows[order], (local[graph.dst[e]] * per + b)[order], graph.weight[e][order]
-
-    def from_hub():  # hub(v) → dep(v, j), free
-        for a, b in blocks:
-            base = bases(a, b)
-            yield np.repeat(base + 2 * k, k), (base[:, None] + k + i).ravel(), np.full((b - a) * k, _EPS)
-
-    return _sorted_csr(n * per, [turns, to_hub, moves, others, from_hub]), local
+            m_row = local[u].astype(np.int64) * k + dir_bin[d]  # non-decreasing
+            m_col = local[v] * per + dir_bin[d]
+            m_val = graph.lat_weight[u, d]
+        else:
+            m_row = np.zeros(0, dtype=np.int64)
+            m_col, m_val = np.zeros(0, dtype=it), np.zeros(0)
+        lo, hi = np.searchsorted(e_row, [a * k, b * k])
+        o_row = e_row[lo:hi]
+        # a row's moves first, then its other edges: each entry's place in the block's departures
+        m_pos = np.arange(len(m_row)) + np.searchsorted(o_row, m_row, side="left")
+        o_pos = np.arange(len(o_row)) + np.searchsorted(m_row, o_row, side="right")
+        count = (np.bincount(m_row - a * k, minlength=(b - a) * k)
+                 + np.bincount(o_row - a * k, minlength=(b - a) * k))
+        dep_count[a * k:b * k] = count
+        per_vertex = count.reshape(-1, k).sum(axis=1)
+        before = np.cumsum(per_vertex) - per_vertex  # the block's departures before each vertex
+        start = at + np.arange(b - a) * (n_arr + k) + before  # each vertex's first entry
+        # departures: vertex start + its arrivals + its place among the block's departures
+        vert_m, vert_o = m_row // k - a, o_row // k - a
+        pos = start[vert_m] + n_arr + (m_pos - before[vert_m])
+        indices[pos], data[pos] = m_col, m_val
+        pos = start[vert_o] + n_arr + (o_pos - before[vert_o])
+        indices[pos], data[pos] = e_col[lo:hi], e_val[lo:hi]
+        base = (np.arange(a, b, dtype=np.int64) * per).astype(it)
+        # arrivals: each row its cheap turns, then the hub
+        arr_pos = start[:, None] + np.arange(n_arr)
+        cols = np.empty((b - a, k, n_turn), dtype=it)
+        cols[:, :, :-1] = base[:, None, None] + turn_cols
+        cols[:, :, -1] = (base + 2 * k)[:, None]
+        vals = np.empty((k, n_turn))
+        vals[:, :-1] = cheap_cost
+        vals[:, -1] = max(height, _EPS)
+        indices[arr_pos] = cols.reshape(b - a, n_arr)
+        data[arr_pos] = np.broadcast_to(vals.ravel(), (b - a, n_arr))
+        # the hub: every departure, free
+        hub_pos = (start + n_arr + per_vertex)[:, None] + i
+        indices[hub_pos] = base[:, None] + k + i
+        data[hub_pos] = _EPS
+        at += (b - a) * (n_arr + k) + int(per_vertex.sum())
+    indices.resize(at, refcheck=False)
+    data.resize(at, refcheck=False)
+    lengths = np.empty((n, per), dtype=np.int64)
+    lengths[:, :k] = n_turn
+    lengths[:, k:2 * k] = dep_count.reshape(n, k)
+    lengths[:, 2 * k] = k
+    indptr = np.zeros(n * per + 1, dtype=np.int64)
+    np.cumsum(lengths.ravel(), out=indptr[1:])
+    return csr_matrix((data, indices, indptr), shape=(n * per, n * per)), local
 
 
 def _expanded_search(graph: PathGraph, lat: np.ndarray, extra: np.ndarray, region: np.ndarray, source: int,
@@ -555,6 +566,31 @@ def _vertex_path(pred: np.ndarray, start: int, end: int, verts: np.ndarray, per:
     keep = np.ones(len(vertices), dtype=bool)
     keep[1:] = vertices[1:] != vertices[:-1]
     return vertices[keep].tolist()
+
+
+#: share by which A*'s bound is lowered in the exits' search: the lattice's weights are float32, so a
+#: straight-line bound exceeds an edge's weight by up to ~1e-7 of it, and lowered it is consistent again
+_SHRINK = 1e-6
+
+
+def _reduced(expanded: csr_matrix, h: np.ndarray, per: int) -> csr_matrix:
+    """The expanded graph with A*'s reduced costs ``c(a, b) + h(b) − h(a)`` (``h`` per vertex, ``per``
+    states each), in place.
+
+    With ``h`` consistent (``h(u) ≤ c(u, w) + h(w)`` for every edge; turns cost ≥ 0 and share
+    their vertex's h) the reduced costs are not negative, and Dijkstra on them settles the states
+    in the order of ``g + h``: with the limit ``C − h(source)`` only those A* settles below C
+    (``g`` is the distance found plus ``h(state) − h(source)``). A cost that rounding made
+    slightly negative is taken as the least positive one (``_EPS``, like the free edges).
+    """
+    starts = expanded.indptr[::per]  # each vertex's first entry (its rows are consecutive)
+    for a in range(0, len(h), _BLOCK):
+        b = min(a + _BLOCK, len(h))
+        lo, hi = int(starts[a]), int(starts[b])
+        part = expanded.data[lo:hi]
+        part += h[expanded.indices[lo:hi] // per] - np.repeat(h[a:b], np.diff(starts[a:b + 1]))
+        np.maximum(part, _EPS, out=part)
+    return expanded
 
 
 def _tiled_search(graph: PathGraph, lat: np.ndarray, extra: np.ndarray, source: int, target: int | None,
@@ -620,7 +656,14 @@ def _tiled_search(graph: PathGraph, lat: np.ndarray, extra: np.ndarray, source: 
         expanded, local = _expanded_graph(graph, lat, extra, verts, penalties, k)
         slack = 2 * len(verts) * per * _EPS
         start = int(local[source]) * per + 2 * k
-        dist, pred = dijkstra(expanded, indices=start, return_predecessors=True, limit=cost + slack)
+        if target is None:  # only costs are sought, no route: A* (see _reduced)
+            ha = h[verts] * (1.0 - _SHRINK)
+            hs = float(ha[local[source]])
+            dist = dijkstra(_reduced(expanded, ha, per), indices=start, limit=cost - hs + slack)
+            dist += hs - np.repeat(ha, per)
+            pred = None
+        else:
+            dist, pred = dijkstra(expanded, indices=start, return_predecessors=True, limit=cost + slack)
         del expanded
         if target is not None and local[target] >= 0:
             ends = int(local[target]) * per + np.arange(k)

@@ -1,0 +1,133 @@
+"""The turn-penalised search's machinery (issue 22): the heading-expanded graph, A* on it, its bounds."""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+from scipy.sparse import csr_matrix
+from scipy.sparse.csgraph import dijkstra
+
+from osm_expand.engine.roads import routing
+from osm_expand.engine.roads.built_up import built_up_area
+from osm_expand.engine.roads.lattice import LatticeOptions, build_lattice
+from osm_expand.engine.roads.path_graph import EdgeCosts, pathfinding_graph
+from osm_expand.engine.roads.routing import RoutingOptions
+from osm_expand.model.segments import SegmentTable
+from tests.test_majorroads import blocks_of, grid_lines, raster
+
+
+def random_map(seed: int):
+    """A street grid (major and minor) among forbidden blobs on an 800 m field, and its G′."""
+    rng = np.random.default_rng(seed)
+    extent = (0, 0, 800, 800)
+    centres, radii = rng.uniform(50, 750, (5, 2)), rng.uniform(20, 70, 5)
+    blobs = raster(lambda x, y: (np.hypot(x[..., None] - centres[:, 0], y[..., None] - centres[:, 1])
+                                 < radii).any(axis=-1), extent, cell=10.0)
+    n = int(rng.integers(2, 5))
+    lines = grid_lines(float(rng.uniform(100, 300)), float(rng.uniform(100, 300)), n, 300 / n)
+    segs = SegmentTable.from_lines(lines, major=[bool(b) for b in rng.integers(0, 2, len(lines))],
+                                   width=[6.0] * len(lines))
+    built = built_up_area(blocks_of(segs), segs)
+    lat = build_lattice(extent, forbidden=blobs,
+                        options=LatticeOptions(radius=int(rng.integers(1, 4)))).with_built_up(built.area)
+    return pathfinding_graph(lat, segs, built), rng
+
+
+def reference_expanded(g, lat, extra, region, penalties, k) -> csr_matrix:
+    """The expanded graph written plainly: every entry with its row, a stable sort by row in the
+    order arrivals' cheap turns (q ascending), arrivals → hub, lattice moves (directions
+    ascending), other edges (edges ascending), hub → departures."""
+    per = 2 * k + 1
+    local = np.full(g.n_vertices, -1)
+    local[region] = np.arange(len(region))
+    height = penalties.max()
+    cheap = np.flatnonzero(penalties < height - 1e-9)
+    rows, cols, vals = [], [], []
+    base = np.arange(len(region)) * per
+    for q in cheap:  # arr(v, i) → dep(v, i + q)
+        rows.append((base[:, None] + np.arange(k)).ravel())
+        cols.append((base[:, None] + k + (np.arange(k) + q) % k).ravel())
+        vals.append(np.full(len(region) * k, max(penalties[q], routing._EPS)))
+    rows.append((base[:, None] + np.arange(k)).ravel())
+    cols.append(np.repeat(base + 2 * k, k))
+    vals.append(np.full(len(region) * k, height))
+    # the cheap turns of a row in q order and then the hub: a stable sort on (row, order within row)
+    turn_rows, turn_cols, turn_vals = (np.stack(x, axis=1).ravel() for x in (rows, cols, vals))
+    rows, cols, vals = [turn_rows], [turn_cols], [turn_vals]
+    dir_bin = routing._bins(g.direction_heading, k)
+    u, d = np.nonzero(lat)
+    w = u + g.lattice.direction_offset[d]
+    keep = (local[u] >= 0) & (local[w] >= 0)
+    u, d, w = u[keep], d[keep], w[keep]
+    order = np.lexsort((d, dir_bin[d], local[u]))  # by row dep(u, bin), directions ascending
+    u, d, w = u[order], d[order], w[order]
+    rows.append(local[u] * per + k + dir_bin[d])
+    cols.append(local[w] * per + dir_bin[d])
+    vals.append(g.lat_weight[u, d].astype(float))
+    e = np.flatnonzero(extra & (local[g.src] >= 0) & (local[g.dst] >= 0))
+    b = routing._bins(g.heading[e], k)
+    rows.append(local[g.src[e]] * per + k + b)
+    cols.append(local[g.dst[e]] * per + b)
+    vals.append(g.weight[e])
+    rows.append(np.repeat(base + 2 * k, k))
+    cols.append((base[:, None] + k + np.arange(k)).ravel())
+    vals.append(np.full(len(region) * k, routing._EPS))
+    rows, cols, vals = (np.concatenate(x) for x in (rows, cols, vals))
+    order = np.argsort(rows, kind="stable")
+    n = len(region) * per
+    indptr = np.concatenate([[0], np.cumsum(np.bincount(rows, minlength=n))])
+    return csr_matrix((vals[order], cols[order], indptr), shape=(n, n))
+
+
+@settings(max_examples=8, deadline=None)
+@given(st.integers(0, 2**32 - 1))
+def test_the_expanded_graph_is_the_plainly_written_one_entry_for_entry(seed):
+    """The block-wise writer (no sort) puts every entry where a plain sort by row would: the same
+    CSR arrays, so scipy's Dijkstra breaks ties as before and routes keep their bytes."""
+    g, rng = random_map(seed)
+    opts = RoutingOptions(turn_height=float(rng.uniform(20, 900)), turn_centre=float(rng.uniform(1.8, 2.7)))
+    lat, extra = g.masks()
+    region = np.flatnonzero(rng.random(g.n_vertices) < rng.uniform(0.3, 1.0))
+    penalties = routing._bin_penalties(opts)
+    made, local = routing._expanded_graph(g, lat, extra, region, penalties, opts.heading_bins)
+    want = reference_expanded(g, lat, extra, region, penalties, opts.heading_bins)
+    assert np.array_equal(made.indptr, want.indptr)
+    assert np.array_equal(made.indices, want.indices)
+    assert np.array_equal(made.data, want.data)
+    assert np.array_equal(local[region], np.arange(len(region)))
+
+
+@settings(max_examples=8, deadline=None)
+@given(st.integers(0, 2**32 - 1))
+def test_the_exits_search_by_a_star_finds_dijkstras_arrival_costs(seed):
+    """``_tiled_search`` without a target runs A* (reduced costs) and gives every exit the least
+    turn-penalised arrival cost Dijkstra over the whole expanded graph gives, where that is below C."""
+    g, rng = random_map(seed)
+    opts = RoutingOptions(turn_height=float(rng.uniform(20, 900)), tile_cells=int(rng.integers(1, 5)),
+                          whole_region=int(rng.choice([0, 10**6])))
+    lat, extra = g.masks()
+    live = g.live_vertices()
+    s, t = (int(v) for v in rng.choice(live, 2, replace=False))
+    c = routing.cheapest_unit_cost(EdgeCosts(), routing.ROAD_KINDS)
+    straight = c * np.hypot(*(g.xy - g.xy[t]).T)
+    from_source = dijkstra(g.matrix(), indices=s)
+    if not np.isfinite(from_source[t]):
+        return
+    penalties = routing._bin_penalties(opts)
+    k = opts.heading_bins
+    whole, local = routing._expanded_graph(g, lat, extra, np.arange(g.n_vertices), penalties, k)
+    dist = dijkstra(whole, indices=s * (2 * k + 1) + 2 * k)
+    arrive = dist.reshape(-1, 2 * k + 1)[:, :k].min(axis=1)
+    arrive[s] = 0.0
+    cost = float(np.quantile(arrive[np.isfinite(arrive)], 0.6))  # a C that leaves some exits out
+    exits = rng.choice(live, min(200, len(live)), replace=False)
+    _, got = routing._tiled_search(g, lat, extra, s, None, from_source + straight, straight, ([s], cost),
+                                   np.array([s]), penalties, opts, exits=exits)
+    # what the window's test needs: an exact arrival wherever it and the straight line may be below C
+    short = arrive[exits] + straight[exits] < cost * (1 - 1e-6)
+    assert short.any()
+    # less the slack the free edges' ε may add (2 ε a state), never more
+    assert got[short] == pytest.approx(arrive[exits][short], rel=1e-9, abs=1e-3)
+    found = np.isfinite(got)  # ∞: no arrival that with the straight line stays below C
+    assert (got[found] <= arrive[exits][found] + 1e-6).all()  # never above the true arrival
