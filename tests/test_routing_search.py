@@ -123,7 +123,7 @@ def test_the_exits_search_by_a_star_finds_dijkstras_arrival_costs(seed):
     cost = float(np.quantile(arrive[np.isfinite(arrive)], 0.6))  # a C that leaves some exits out
     exits = rng.choice(live, min(200, len(live)), replace=False)
     _, got = routing._tiled_search(g, lat, extra, s, None, from_source + straight, straight, ([s], cost),
-                                   np.array([s]), penalties, opts, exits=exits)
+                                   np.array([s]), penalties, opts, g.xy[t], exits=exits)
     # what the window's test needs: an exact arrival wherever it and the straight line may be below C
     short = arrive[exits] + straight[exits] < cost * (1 - 1e-6)
     assert short.any()
@@ -131,3 +131,31 @@ def test_the_exits_search_by_a_star_finds_dijkstras_arrival_costs(seed):
     assert got[short] == pytest.approx(arrive[exits][short], rel=1e-9, abs=1e-3)
     found = np.isfinite(got)  # ∞: no arrival that with the straight line stays below C
     assert (got[found] <= arrive[exits][found] + 1e-6).all()  # never above the true arrival
+
+
+@settings(max_examples=10, deadline=None)
+@given(st.integers(0, 2**32 - 1), st.floats(1.9, 2.9), st.floats(0.2, 1.2))
+def test_the_turns_still_needed_never_exceed_what_the_rest_of_any_route_costs(seed, centre, width):
+    """The tiled search's turn floor (``routing._turns_needed``) is admissible: from every state of
+    the heading-expanded graph (arriving on bin b, or departing on it), the turn-free distance to
+    the target plus the turns the floor says are still needed is never above the true least cost
+    of the rest (Dijkstra from the target over the reversed expanded graph), under penalties from
+    ones that let 22.5° turns pass free to ones that charge them."""
+    g, rng = random_map(seed)
+    opts = RoutingOptions(turn_height=float(rng.uniform(20, 900)), turn_centre=centre, turn_width=width)
+    k, per = opts.heading_bins, 2 * opts.heading_bins + 1
+    lat, extra = g.masks()
+    live = g.live_vertices()
+    t = int(rng.choice(live))
+    penalties = routing._bin_penalties(opts)
+    whole, _ = routing._expanded_graph(g, lat, extra, np.arange(g.n_vertices), penalties, k)
+    rest = dijkstra(whole.T.tocsr(), indices=t * per + np.arange(k), min_only=True).reshape(-1, per)
+    plain = dijkstra(g.matrix(), indices=t)
+    need = routing._turn_floor(penalties)
+    bins = np.arange(k)
+    floor = routing._turns_needed(need, bins[None, :], g.xy[:, None, :], g.xy[t])  # (V, K)
+    for states in (rest[:, :k], rest[:, k:2 * k]):  # arrivals (may turn at once), departures
+        ok = np.isfinite(states)
+        assert ((plain[:, None] + floor)[ok] <= states[ok] * (1 + 1e-9) + 1e-6).all()
+    if need.any():
+        assert (floor[np.isfinite(rest[:, :k])] > 0).any()  # the floor is not vacuous here

@@ -154,6 +154,11 @@ class PathGraph:
         """
         return self._base(kinds)[0]
 
+    def forget_matrices(self) -> None:
+        """Drop the cached CSR matrices (a window's G′ once its plain searches are done: the whole
+        map's holds ~2·10⁸ entries, 2.3 GB, that the heading-expanded search does not use)."""
+        self._cache.clear()
+
     @contextmanager
     def restricted(self, kinds: Sequence[EdgeKind] = ROAD_KINDS,
                    street_ok: np.ndarray | None = None) -> Iterator[csr_matrix]:

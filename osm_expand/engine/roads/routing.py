@@ -31,11 +31,16 @@ tiles of the lattice that the search reaches: scipy's Dijkstra settles the
 states with ``g ≤ C`` inside the active tiles, and a tile becomes active
 when a state there may still lead to the target below C by A*'s test
 ``g + d_t < C`` (``d_t`` is a consistent bound: turn costs are ≥ 0)
-(:func:`_tiled_search`). Both prunings are exact; neither yet settles
-fewer states than the ellipse where turns are most of a route's cost.
+(:func:`_tiled_search`). A route leaving the active tiles is also charged
+the turns it must still make to head for the target (:func:`_turn_floor`:
+a route whose edges' heading bins stay within an arc narrower than π ends
+inside that arc's sector), which counts only in years whose P charges
+turns of one bin. All these prunings are exact. The exits' search of a
+window (costs only, no route) runs A* on reduced costs (:func:`_reduced`).
 """
 from __future__ import annotations
 
+import heapq
 from collections.abc import Sequence
 from dataclasses import dataclass, replace
 from enum import StrEnum
@@ -95,6 +100,10 @@ class RoutingOptions:
     #: (at least twice its exits' reach) before it is searched again; 0.25 took Campo Grande's first
     #: two road searches from 8.7 + 6.8 s and 1.6 GB to 2.0 + 5.2 s and 1.0 GB (0.5: 3.2 + 6.3 s, 1.2 GB)
     growth_share: float = 0.25
+    #: whether the tiled search charges a route leaving its active tiles the turns it must still
+    #: make to head for the target (:func:`_turn_floor`: from P of this year's turns; none while
+    #: turns up to 22.5° are free, as in the default P) — fewer tiles, the same cost
+    turn_floor: bool = True
 
     def __post_init__(self) -> None:
         require_positive(self, ("window_margin", "growth_share", "turn_width"))
@@ -191,8 +200,13 @@ def find_route(graph: PathGraph | ImplicitGraph, source: int, target: int, *, ki
 
 
 def _search(graph: PathGraph, source: int, target: int, kinds: Sequence[EdgeKind], street_ok: np.ndarray | None,
-            opts: RoutingOptions) -> tuple[Route | None, np.ndarray | None]:
-    """:func:`find_route` on a G′, and the plain (turn-free) distances from the source."""
+            opts: RoutingOptions, release: bool = False) -> tuple[Route | None, np.ndarray | None]:
+    """:func:`find_route` on a G′, and the plain (turn-free) distances from the source.
+
+    With ``release`` the graph's cached CSR matrices are dropped once the plain searches are
+    done (a window's G′, searched once): the heading-expanded search reads the edge tables, and
+    on the whole map of a large town the matrix alone is 2.3 GB.
+    """
     if source == target:
         return _route(graph, [source], *graph.masks(kinds, street_ok), 0.0), None
     lat, extra = graph.masks(kinds, street_ok)
@@ -200,7 +214,20 @@ def _search(graph: PathGraph, source: int, target: int, kinds: Sequence[EdgeKind
         from_source, pred = dijkstra(matrix, indices=source, return_predecessors=True)
         if not np.isfinite(from_source[target]):
             return None, from_source
-        return _best_route(graph, matrix, lat, extra, source, target, from_source, pred, opts), from_source
+        plain = _walk_back(pred, source, target)
+        del pred
+        plain_route = _route(graph, plain, lat, extra, 0.0)
+        penalties = _bin_penalties(opts)
+        bins = _bins(_headings(plain_route), opts.heading_bins)
+        plain_turns = float(penalties[(bins[1:] - bins[:-1]) % opts.heading_bins].sum())
+        if opts.turn_height == 0 or plain_turns == 0:
+            return _with_turn_cost(plain_route, plain_turns), from_source
+        bound = float(from_source[target]) + plain_turns
+        from_target = dijkstra(matrix, indices=target, limit=bound + 1e-9 * bound + 1e-6)  # G′ is symmetric
+    del matrix
+    if release:
+        graph.forget_matrices()
+    return _best_route(graph, lat, extra, source, target, from_source, from_target, plain, bound, opts), from_source
 
 
 #: Edge kinds whose edges touch the lattice (a search over none of them needs no lattice).
@@ -275,7 +302,7 @@ def _implicit_route(graph: ImplicitGraph, source: int, target: int, kinds: Seque
             bounds = whole
         window = graph.window(tuple(bounds))
         s, t = window.from_map(np.array([source, target])).tolist()
-        route, from_source = _search(window.graph, s, t, kinds, street_ok, opts)
+        route, from_source = _search(window.graph, s, t, kinds, street_ok, opts, release=True)
         if window.whole or from_source is None:
             return _on_map(window, route, from_source)
         cost = route.cost if route is not None else np.inf
@@ -292,13 +319,8 @@ def _implicit_route(graph: ImplicitGraph, source: int, target: int, kinds: Seque
             # cost units), so A is far above the plain distance. A is searched as A* with the
             # straight-line bound c·|v − t| (consistent: no edge costs less a metre), only where
             # A(v) + c·|v − t| may be below the route's cost; an exit not reached there is not short.
-            lat_ok, extra_ok = window.graph.masks(kinds, street_ok)
-            straight = c * np.hypot(*(window.graph.xy - ends[1]).T)
-            _, arrive = _tiled_search(window.graph, lat_ok, extra_ok, s, None, from_source + straight, straight,
-                                      (route.vertices.tolist(), cost), route.vertices, penalties, opts, exits=exits)
-            if arrive is None:  # exits were given: the search always returns their arrivals
-                raise RuntimeError("the exits' search returned no arrivals")
-            reached = np.maximum(reached, arrive)
+            reached = np.maximum(reached, _exit_arrivals(window, kinds, street_ok, s, ends[1], c, from_source,
+                                                         route, penalties, opts))
             short = reached + rest < limit
         if not short.any():
             return _on_map(window, route, from_source)
@@ -312,6 +334,23 @@ def _implicit_route(graph: ImplicitGraph, source: int, target: int, kinds: Seque
             step = np.maximum(opts.growth_share * size, 2.0 * reach) * np.array([-1, -1, 1, 1])
             grown = np.where(step < 0, np.maximum(grown, bounds + step), np.minimum(grown, bounds + step))
         bounds = grown
+        del window, route, from_source  # the last window's tables go before the next is made
+
+
+def _exit_arrivals(window: GraphWindow, kinds: Sequence[EdgeKind], street_ok: np.ndarray | None, s: int,
+                   target_xy: np.ndarray, c: float, from_source: np.ndarray, route: Route, penalties: np.ndarray,
+                   opts: RoutingOptions) -> np.ndarray:
+    """A(x) of :func:`_implicit_route` for the window's exits: the least turn-penalised arrival
+    cost from the source inside the window, where it and ``c·|x − t|`` may be below the route's
+    cost (∞ elsewhere), searched by A* towards the target (:func:`_tiled_search` without one)."""
+    lat_ok, extra_ok = window.graph.masks(kinds, street_ok)
+    straight = c * np.hypot(*(window.graph.xy - target_xy).T)
+    _, arrive = _tiled_search(window.graph, lat_ok, extra_ok, s, None, from_source + straight, straight,
+                              (route.vertices.tolist(), route.cost), route.vertices, penalties, opts, target_xy,
+                              exits=window.exits)
+    if arrive is None:  # exits were given: the search always returns their arrivals
+        raise RuntimeError("the exits' search returned no arrivals")
+    return arrive
 
 
 def _seen(bounds: np.ndarray, whole: np.ndarray) -> float:
@@ -360,24 +399,15 @@ def _on_map(window: GraphWindow, route: Route | None, *_) -> Route | None:
     return replace(route, vertices=window.to_map(route.vertices))
 
 
-def _best_route(graph: PathGraph, matrix: csr_matrix, lat: np.ndarray, extra: np.ndarray, source: int, target: int,
-                from_source: np.ndarray, pred: np.ndarray, opts: RoutingOptions) -> Route:
-    """The turn-penalised optimum, given the plain shortest-path tree from the source."""
-    plain = _walk_back(pred, source, target)
-    plain_route = _route(graph, plain, lat, extra, 0.0)
-    penalties = _bin_penalties(opts)
-    bins = _bins(_headings(plain_route), opts.heading_bins)
-    plain_turns = float(penalties[(bins[1:] - bins[:-1]) % opts.heading_bins].sum())
-    if opts.turn_height == 0 or plain_turns == 0:
-        return _route(graph, plain, lat, extra, plain_turns)
-    lower = float(from_source[target])
-    bound = lower + plain_turns
-    tolerance = 1e-9 * bound + 1e-6
-    from_target = dijkstra(matrix, indices=target, limit=bound + tolerance)  # G′ is symmetric
+def _best_route(graph: PathGraph, lat: np.ndarray, extra: np.ndarray, source: int, target: int,
+                from_source: np.ndarray, from_target: np.ndarray, plain: list[int], bound: float,
+                opts: RoutingOptions) -> Route:
+    """The turn-penalised optimum, given the plain distances from both ends (``from_target`` up to
+    ``bound``) and the plain shortest path with its turns, which cost ``bound`` (an upper bound)."""
     # A*: the turn-free distance to the target is a consistent bound (turns cost ≥ 0), the first
     # tiles those of the plain route
     best, _ = _tiled_search(graph, lat, extra, source, target, from_source + from_target, from_target,
-                            (plain, bound), np.asarray(plain), penalties, opts)
+                            (plain, bound), np.asarray(plain), _bin_penalties(opts), opts, graph.xy[target])
     vertices, total = best
     route = _route(graph, vertices, lat, extra, 0.0)
     return _with_turn_cost(route, max(total - float(route.edge_weight.sum()), 0.0))
@@ -539,6 +569,70 @@ def _expanded_search(graph: PathGraph, lat: np.ndarray, extra: np.ndarray, regio
     return _vertex_path(pred, start, best, region, per), float(dist[best])
 
 
+def _turn_floor(penalties: np.ndarray) -> np.ndarray:
+    """``need[m]``, m = 0 … K/2: the least turn cost of any route whose first edge's heading bin is
+    b, or that arrives on b and may turn at once, when its end lies m bins away from b (:func:`_turns_needed`).
+
+    Why it holds: an edge of bin b heads within ±Δ/2 of ``b·Δ`` (Δ = 2π/K; streets' pieces by
+    their chords, the lattice's by their directions), so a route whose edges' bins all lie in an
+    arc of bins narrower than π ends inside that arc's sector. A route from bin b to an end m bins
+    off therefore visits a bin at least m away on that side, or spreads its bins over half the
+    circle. Its turns cost at least those of the cheapest walk over the bins (a turn of q bins
+    costs ``P(q)``, the hub ``S_p ≥ P(q)``) that does either: a Dijkstra over the walks' states
+    (bin, the arc of bins visited so far) — a few hundred of them.
+    """
+    k = len(penalties)
+    narrow = k // 2 - 2  # the widest arc (hi − lo bins) whose sector is narrower than π
+    reach = np.full(narrow + 1, np.inf)  # least cost to visit a bin m ≥ 1 away on one side (mirror)
+    reach[0] = 0.0
+    span = np.inf  # least cost to visit bins spread over half the circle or more
+    settled: set[tuple[int, int, int]] = set()
+    heap = [(0.0, 0, 0, 0)]  # (cost, bin, lo, hi), offsets from the first bin
+    while heap:
+        cost, c, lo, hi = heapq.heappop(heap)
+        if (c, lo, hi) in settled:
+            continue
+        settled.add((c, lo, hi))
+        for m in (hi, -lo):
+            reach[m] = min(reach[m], cost)
+        for q in range(1, k):
+            step = cost + float(penalties[q])
+            b = c + q
+            inside = [r for r in range(b - 2 * k, b + k, k) if lo <= r <= hi]
+            if inside:
+                heapq.heappush(heap, (step, inside[0], lo, hi))
+                continue
+            above = b + k * -(-(hi + 1 - b) // k)  # the bin's first offset above the arc
+            below = above - k
+            arcs = ((above, lo, above), (below, below, hi))
+            width = min(new_hi - new_lo for _, new_lo, new_hi in arcs)  # the least arc holding them
+            if width > narrow:
+                span = min(span, step)
+                continue
+            for r, new_lo, new_hi in arcs:
+                if new_hi - new_lo == width:
+                    heapq.heappush(heap, (step, r, new_lo, new_hi))
+    need = np.full(k // 2 + 1, span)
+    need[:narrow + 1] = np.minimum(np.minimum.accumulate(reach[::-1])[::-1], span)
+    return need
+
+
+def _turns_needed(need: np.ndarray, heading_bin: np.ndarray, xy: np.ndarray, goal: np.ndarray) -> np.ndarray:
+    """The least turn cost of the rest of a route at ``xy`` on ``heading_bin`` (departing on it, or
+    arriving and free to turn at once) to ``goal``: ``need`` (:func:`_turn_floor`) of the bins
+    between the heading and the goal's direction (0 at the goal itself).
+
+    The goal m bins away means its direction lies beyond ``(m − ½)·Δ`` from the bin's centre
+    (less 10⁻⁹ rad for rounding), so that no arc of bins short of m holds it.
+    """
+    k = 2 * (len(need) - 1)
+    delta = 2.0 * np.pi / k
+    d = goal - xy
+    off = np.abs(np.angle(np.exp(1j * (np.arctan2(d[..., 1], d[..., 0]) - heading_bin * delta))))
+    m = np.clip(np.ceil((off - 0.5 * delta - 1e-9) / delta), 0, k // 2).astype(np.int64)
+    return np.where((d[..., 0] == 0) & (d[..., 1] == 0), 0.0, need[m])
+
+
 def _tile_of(graph: PathGraph, size: int) -> tuple[np.ndarray, tuple[int, int]]:
     """The tile of each G′ vertex, tiles being ``size`` × ``size`` lattice vertices (street points
     by the lattice vertex nearest them), and the tiles' grid shape (rows, columns)."""
@@ -595,7 +689,7 @@ def _reduced(expanded: csr_matrix, h: np.ndarray, per: int) -> csr_matrix:
 
 def _tiled_search(graph: PathGraph, lat: np.ndarray, extra: np.ndarray, source: int, target: int | None,
                   lower: np.ndarray, h: np.ndarray, best: tuple[list[int], float], seed: np.ndarray,
-                  penalties: np.ndarray, opts: RoutingOptions,
+                  penalties: np.ndarray, opts: RoutingOptions, goal: np.ndarray,
                   exits: np.ndarray | None = None) -> tuple[tuple[list[int], float], np.ndarray | None]:
     """The turn-penalised search, the heading-expanded graph made tile by tile as A*'s test reaches them.
 
@@ -625,6 +719,10 @@ def _tiled_search(graph: PathGraph, lat: np.ndarray, extra: np.ndarray, source: 
         A feasible route (its vertices) and its cost C (an upper bound).
     seed
         Vertices whose tiles are active at first (a route's: its corridor).
+    goal
+        (2,) m, where the routes end (the target's place): with ``turn_floor`` a route leaving
+        the active set on heading bin b at w is also charged the turns it needs to reach the goal
+        from there (:func:`_turns_needed`; a lower bound, so the test stays exact).
     target
         The route's end (None: no route is sought, only the arrivals at ``exits`` below C).
     exits
@@ -641,12 +739,19 @@ def _tiled_search(graph: PathGraph, lat: np.ndarray, extra: np.ndarray, source: 
     active = np.zeros(shape[0] * shape[1], dtype=bool)
     active[tile[np.asarray(seed, dtype=np.int64)]] = True
     active = _dilated(active, shape)
-    if np.count_nonzero(lower <= best[1] + 1e-9 * best[1] + 1e-6) <= opts.whole_region:
+    at_once = np.count_nonzero(lower <= best[1] + 1e-9 * best[1] + 1e-6) <= opts.whole_region
+    if at_once:
         active[:] = True  # a small region at once: one search, no growing
+    # A* (Dijkstra on reduced costs, :func:`_reduced`) settles only the states with g + h ≤ C. A route
+    # search over a small region stays plain Dijkstra: of several routes of equal cost it keeps the one
+    # it always took (the same bytes); in tiles A* may take another of the same cost.
+    astar = target is None or not at_once
     n_lat, n_dir = lat.shape
     dir_bin = _bins(graph.direction_heading, k)
     offset = graph.lattice.direction_offset
     extra_bin = _bins(graph.heading, k)
+    need = _turn_floor(penalties)
+    turns = bool(opts.turn_floor and need.any())
     arrivals = None
     while True:
         cost = best[1]
@@ -656,22 +761,29 @@ def _tiled_search(graph: PathGraph, lat: np.ndarray, extra: np.ndarray, source: 
         expanded, local = _expanded_graph(graph, lat, extra, verts, penalties, k)
         slack = 2 * len(verts) * per * _EPS
         start = int(local[source]) * per + 2 * k
-        if target is None:  # only costs are sought, no route: A* (see _reduced)
+        pred = None
+        if astar:
             ha = h[verts] * (1.0 - _SHRINK)
             hs = float(ha[local[source]])
-            dist = dijkstra(_reduced(expanded, ha, per), indices=start, limit=cost - hs + slack)
-            dist += hs - np.repeat(ha, per)
-            pred = None
+            reduced = _reduced(expanded, ha, per)
+            del expanded
+            if target is None:  # only costs are sought, no route
+                dist = dijkstra(reduced, indices=start, limit=cost - hs + slack)
+            else:
+                dist, pred = dijkstra(reduced, indices=start, return_predecessors=True, limit=cost - hs + slack)
+            del reduced
+            dist.reshape(-1, per)[:] += (hs - ha)[:, None]  # g = distance + h(state) − h(source)
         else:
             dist, pred = dijkstra(expanded, indices=start, return_predecessors=True, limit=cost + slack)
-        del expanded
-        if target is not None and local[target] >= 0:
-            ends = int(local[target]) * per + np.arange(k)
-            end = int(ends[np.argmin(dist[ends])])
-            if dist[end] < cost:
-                best = (_vertex_path(pred, start, end, verts, per), float(dist[end]))
-                cost = best[1]
-        del pred
+            del expanded
+        if target is not None and pred is not None:
+            if local[target] >= 0:
+                ends = int(local[target]) * per + np.arange(k)
+                end = int(ends[np.argmin(dist[ends])])
+                if dist[end] < cost:
+                    best = (_vertex_path(pred, start, end, verts, per), float(dist[end]))
+                    cost = best[1]
+            del pred
         threshold = cost - 1e-9 * cost
         departs = dist.reshape(-1, per)[:, k:2 * k]
         outside = region & ~inside
@@ -686,9 +798,13 @@ def _tiled_search(graph: PathGraph, lat: np.ndarray, extra: np.ndarray, source: 
             out = outside[w]
             r, d, w = r[out], d[out], w[out]
             lb = departs[local[u[r]], dir_bin[d]] + graph.lat_weight[u[r], d] + h[w]
+            if turns:
+                lb += _turns_needed(need, dir_bin[d], graph.xy[w], goal)
             reached.append(w[lb < threshold])
         e = np.flatnonzero(extra & inside[graph.src] & outside[graph.dst])
         lb = departs[local[graph.src[e]], extra_bin[e]] + graph.weight[e] + h[graph.dst[e]]
+        if turns:
+            lb += _turns_needed(need, extra_bin[e], graph.xy[graph.dst[e]], goal)
         reached.append(graph.dst[e][lb < threshold])
         if exits is not None:
             at = local[exits].astype(np.int64)
@@ -696,6 +812,7 @@ def _tiled_search(graph: PathGraph, lat: np.ndarray, extra: np.ndarray, source: 
             arrivals[exits == source] = 0.0
             arrivals = np.maximum(arrivals - slack, 0.0)
         w = np.concatenate(reached)
+        del dist, departs  # this search's states go before the next graph is made
         if not len(w):
             return best, arrivals
         grow = np.zeros_like(active)
