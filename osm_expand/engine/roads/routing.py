@@ -742,16 +742,17 @@ def _tiled_search(graph: PathGraph, lat: np.ndarray, extra: np.ndarray, source: 
     at_once = np.count_nonzero(lower <= best[1] + 1e-9 * best[1] + 1e-6) <= opts.whole_region
     if at_once:
         active[:] = True  # a small region at once: one search, no growing
-    # A* (Dijkstra on reduced costs, :func:`_reduced`) settles only the states with g + h ≤ C. A route
-    # search over a small region stays plain Dijkstra: of several routes of equal cost it keeps the one
-    # it always took (the same bytes); in tiles A* may take another of the same cost.
-    astar = target is None or not at_once
+    # The exits' search (costs only) runs A* (Dijkstra on reduced costs, :func:`_reduced`): it settles
+    # only the states with g + h ≤ C. A route search stays plain Dijkstra: of several routes of equal
+    # cost A* takes another (Campo Grande's second and third roads), and in tiles it settles about
+    # the same states (the tiles are grown where g + h < C: the synthetic town's search was no faster)
+    astar = target is None
     n_lat, n_dir = lat.shape
     dir_bin = _bins(graph.direction_heading, k)
     offset = graph.lattice.direction_offset
     extra_bin = _bins(graph.heading, k)
-    need = _turn_floor(penalties)
-    turns = bool(opts.turn_floor and need.any())
+    need = _turn_floor(penalties) if opts.turn_floor and not at_once else np.zeros(1)  # at once: nothing grows
+    turns = bool(need.any())
     arrivals = None
     while True:
         cost = best[1]
@@ -761,23 +762,16 @@ def _tiled_search(graph: PathGraph, lat: np.ndarray, extra: np.ndarray, source: 
         expanded, local = _expanded_graph(graph, lat, extra, verts, penalties, k)
         slack = 2 * len(verts) * per * _EPS
         start = int(local[source]) * per + 2 * k
-        pred = None
-        if astar:
+        if astar:  # only costs are sought, no route
             ha = h[verts] * (1.0 - _SHRINK)
             hs = float(ha[local[source]])
-            reduced = _reduced(expanded, ha, per)
+            dist = dijkstra(_reduced(expanded, ha, per), indices=start, limit=cost - hs + slack)
             del expanded
-            if target is None:  # only costs are sought, no route
-                dist = dijkstra(reduced, indices=start, limit=cost - hs + slack)
-            else:
-                dist, pred = dijkstra(reduced, indices=start, return_predecessors=True, limit=cost - hs + slack)
-            del reduced
             dist.reshape(-1, per)[:] += (hs - ha)[:, None]  # g = distance + h(state) − h(source)
         else:
             dist, pred = dijkstra(expanded, indices=start, return_predecessors=True, limit=cost + slack)
             del expanded
-        if target is not None and pred is not None:
-            if local[target] >= 0:
+            if target is not None and local[target] >= 0:
                 ends = int(local[target]) * per + np.arange(k)
                 end = int(ends[np.argmin(dist[ends])])
                 if dist[end] < cost:
