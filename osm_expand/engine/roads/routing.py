@@ -701,13 +701,16 @@ def _tiled_search(graph: PathGraph, lat: np.ndarray, extra: np.ndarray, source: 
     inside that bound is tested: a route leaving the active set by it costs
     at least ``g(dep(u, b)) + c(u, w) + h(w)`` (its part up to u lies in
     the active set, where the search's g is the least cost of departing u
-    on that heading; ``h`` is a consistent lower bound of what is left).
-    Where that is below C, the tile of w and its neighbours become active
-    and the search runs again; when no edge is, no route outside the
-    active set can beat C, and the best route found is the best of the
-    graph. The tiles follow A*'s states with ``g + h ≤ C``; inside the
-    active tiles Dijkstra settles every state with ``g ≤ C`` (a Dijkstra
-    on reduced costs ``c + h(v) − h(u)`` would settle only A*'s: not done).
+    on that heading; ``h`` is a consistent lower bound of what is left),
+    plus the turns it must still make from heading b at w to reach the
+    goal (:func:`_turns_needed`, with ``turn_floor``). Where that is below
+    C, the tile of w and its neighbours become active and the search runs
+    again; when no edge is, no route outside the active set can beat C, and
+    the best route found is the best of the graph. The tiles follow A*'s
+    states with ``g + h ≤ C``; inside them a route search's Dijkstra settles
+    every state with ``g ≤ C`` (about the same states there; plain Dijkstra
+    keeps which of several equal routes is taken), the exits' search (no
+    target) only A*'s, on reduced costs (:func:`_reduced`).
 
     Parameters
     ----------
