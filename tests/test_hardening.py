@@ -357,8 +357,6 @@ def test_point9_a_billion_attempts_per_start_are_refused(tmp_path, capsys, oakla
     path = tmp_path / "h.toml"
     era = 'pattern = "example"'
     assert era in text
-    # the first era's own options table goes: the inline table below would declare pattern_options twice
-    text = re.sub(r"(?m)^\[eras\.pattern_options\]\n(?:#.*\n)*density_band = .*\n", "", text, count=1)
     path.write_text(text.replace(era, 'pattern = "organic"\npattern_options = { attempts_per_start = 1000000000 }', 1))
     code, _, err = run([oakland, *GROW, "--history", path, "-o", tmp_path / "o.xml"], capsys)
     assert code == 2 and "attempts_per_start" in one_line(err)

@@ -151,27 +151,27 @@ def test_the_district_is_as_alike_to_its_town_as_the_towns_own_districts(name):
 
 
 @pytest.mark.parametrize("name", ["krems.osm.gz", "andorra.osm.pbf"])
-def test_the_engines_patches_are_of_the_neighbourhoods_typical_density_not_their_denser_half(name):
+def test_a_band_around_the_median_takes_patches_below_it_the_default_only_above(name):
     """Issue 20 (h29e): the candidate patches are drawn as the yardstick draws the town's neighbourhoods (the
-    denser half of junction discs); a band of 1-2.5 times their median density then keeps only the denser
-    half of those, the town's densest quarter, which every engine district copied (Andorra's straight valley
-    floor: its engine streets' median curvature 1.5° against its neighbourhoods' 3.3°). The default
-    history's eras take candidates below the median as much as above it."""
-    from osm_expand.engine.history import load_history
+    denser half of junction discs); the default band, 1-2.5 times their median density, keeps only the
+    denser half of those, the town's densest quarter (Andorra: its straight valley floor, which every
+    engine district copied). A band of a factor of two either way takes candidates below the median as
+    much as above it."""
     from synth.patches.source import _candidate_patches, _density, _neighbourhood_points, _source
 
     grown = district(name, 0)
     source = _source(grown.city, grown.learned.example)
-    history = load_history("example")
-    for era in ("contemporary", "consolidation"):
-        opts = history.pattern_options(era)
-        assert isinstance(opts, PatchOptions)
+    for band, below in (((1.0, 2.5), False), ((0.5, 2.0), True)):
+        opts = PatchOptions(density_band=band)
         size = opts.cell_size * grown.learned.example.spacing
         drawn = _neighbourhood_points(source, opts.candidates, size / 2, np.random.default_rng(0))
         median = float(np.median(_density(source, drawn, size / 2)))
         patches = _candidate_patches(source, size, opts, np.random.default_rng(0))
         local = _density(source, patches, size / 2)
-        assert (local < median).sum() >= len(patches) / 3, (era, np.round(local / median, 2), median)
+        if below:
+            assert (local < median).sum() >= len(patches) / 3, (band, np.round(local / median, 2))
+        else:
+            assert (local >= median * (1 - 1e-9)).all(), (band, np.round(local / median, 2))
 
 
 def test_krems_district_bends_at_its_degree_2_nodes_within_a_bound_read_from_its_town():

@@ -99,7 +99,7 @@ def _candidate_patches(source: _Source, size: float, opts: PatchOptions, rng: np
     Candidates are discs around the town's neighbourhoods' junctions
     (:func:`_neighbourhood_points`) whose street density is within
     ``density_band`` of the median candidate's (the default keeps the denser
-    side, the engine's ``example`` history both: :class:`PatchOptions`). Each is
+    side only: :class:`PatchOptions`). Each is
     measured (:data:`TYPICAL`: the median of a distribution, or a scalar) and
     ranked by its distance to the median candidate, each measure scaled by
     the candidates' spread, so the district is made of the town's ordinary
