@@ -150,6 +150,30 @@ def test_the_district_is_as_alike_to_its_town_as_the_towns_own_districts(name):
     assert max(r.pieces for r in reports) <= 2
 
 
+@pytest.mark.parametrize("name", ["krems.osm.gz", "andorra.osm.pbf"])
+def test_a_band_around_the_median_takes_patches_below_it_the_default_only_above(name):
+    """Issue 20 (h29e): the candidate patches are drawn as the yardstick draws the town's neighbourhoods (the
+    denser half of junction discs); the default band, 1-2.5 times their median density, keeps only the
+    denser half of those, the town's densest quarter (Andorra: its straight valley floor, which every
+    engine district copied). A band of a factor of two either way takes candidates below the median as
+    much as above it."""
+    from synth.patches.source import _candidate_patches, _density, _neighbourhood_points, _source
+
+    grown = district(name, 0)
+    source = _source(grown.city, grown.learned.example)
+    for band, below in (((1.0, 2.5), False), ((0.5, 2.0), True)):
+        opts = PatchOptions(density_band=band)
+        size = opts.cell_size * grown.learned.example.spacing
+        drawn = _neighbourhood_points(source, opts.candidates, size / 2, np.random.default_rng(0))
+        median = float(np.median(_density(source, drawn, size / 2)))
+        patches = _candidate_patches(source, size, opts, np.random.default_rng(0))
+        local = _density(source, patches, size / 2)
+        if below:
+            assert (local < median).sum() >= len(patches) / 3, (band, np.round(local / median, 2))
+        else:
+            assert (local >= median * (1 - 1e-9)).all(), (band, np.round(local / median, 2))
+
+
 def test_krems_district_bends_at_its_degree_2_nodes_within_a_bound_read_from_its_town():
     """Issue 20's curvature defect, counted: corners sharper than 45° at nodes of degree 2, where no
     junction explains a bend (Ls left by trimmed tees, seam links' joints, perimeter streets). Krems'

@@ -17,8 +17,9 @@ walk loses (shapes, dead ends, the town's density); patches keep all three.
    the town outward until the district reaches the median of those densities;
    the rest stays open, as the town's own edges do.
 3. **Patches.** Each filled cell takes the streets of a patch of the town
-   around a point of its streets (drawn by length, patches of the town's
-   typical local density only, so neither the dense core nor the fields),
+   around one of its neighbourhoods' junctions (drawn as the fidelity
+   yardstick draws them; patches within ``density_band`` of their median
+   density only),
    translated — never rotated, so the district keeps the town's orientations
    — by an offset of up to half a spacing chosen so that its streets continue
    those of the cells already filled, and clipped to the cell. Motorways,

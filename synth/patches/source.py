@@ -96,8 +96,10 @@ def _candidate_patches(source: _Source, size: float, opts: PatchOptions, rng: np
                        measure: Callable | None = None) -> np.ndarray:
     """Patch centres on the town's streets, most typical of the town first.
 
-    Candidates are discs on the town's streets (drawn by length) whose street
-    density is within ``density_band`` of the median candidate's. Each is
+    Candidates are discs around the town's neighbourhoods' junctions
+    (:func:`_neighbourhood_points`) whose street density is within
+    ``density_band`` of the median candidate's (the default keeps the denser
+    side only: :class:`PatchOptions`). Each is
     measured (:data:`TYPICAL`: the median of a distribution, or a scalar) and
     ranked by its distance to the median candidate, each measure scaled by
     the candidates' spread, so the district is made of the town's ordinary
