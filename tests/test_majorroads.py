@@ -219,6 +219,40 @@ def test_b_never_shrinks(discs):
     assert (again.unit_removed >= lat.unit_removed).all()
 
 
+@settings(max_examples=10, deadline=None)
+@given(st.floats(150, 350), st.floats(150, 350), st.integers(1, 3), st.integers(1, 3), st.floats(40, 90))
+def test_b_grown_from_last_year_measures_and_tests_only_the_new_ground(x0, y0, n, more, size):
+    """Next year's B tests only the blocks that are new (an unchanged block keeps its verdict:
+    measuring every block's water share again was a quarter of B's year on Campo Grande) and
+    rasterises only the fine points near what it added; it is the B made from scratch."""
+    import osm_expand.engine.roads.built_up as built_up_module
+
+    extent = (0, 0, 1000, 1000)
+    water = shapely.box(0, 0, 1000, 60)
+    lat = build_lattice(extent, options=LatticeOptions(radius=3))
+    segs = SegmentTable.from_lines(grid_lines(x0, y0, n, size), major=[False] * (2 * n + 2),
+                                   width=[6.0] * (2 * n + 2))
+    first = built_up_area(blocks_of(segs), segs, water=water)
+    lat = lat.with_built_up(first.area, first.added)
+    across, up = x0 + np.arange(n + more + 1) * size, y0 + np.arange(n + 1) * size  # more columns east
+    lines = [np.stack([across, np.full(len(across), y)], axis=1) for y in up]
+    lines += [np.stack([np.full(len(up), x), up], axis=1) for x in across]
+    segs2 = SegmentTable.from_lines(lines, major=[False] * len(lines), width=[6.0] * len(lines))
+    measured = []
+    intersection = shapely.intersection
+    with pytest.MonkeyPatch.context() as monkey:
+        monkey.setattr(built_up_module.shapely, "intersection",
+                       lambda a, b: measured.append(len(np.atleast_1d(a))) or intersection(a, b))
+        second = built_up_area(blocks_of(segs2), segs2, water=water, previous=first)
+    assert sum(measured) == n * more  # the new column's blocks, not the n² unchanged ones
+    assert second.added is not None and len(second.added) >= n * more
+    fresh = built_up_area(blocks_of(segs2), segs2, water=water, previous=first.__class__(first.area, first.blocks))
+    assert shapely.equals(second.area, fresh.area) and shapely.equals(second.blocks, fresh.blocks)
+    assert np.array_equal(lat.with_built_up(second.area, second.added).built_up,
+                          lat.with_built_up(second.area).built_up)
+    assert lat.with_built_up(second.area).built_up.sum() > lat.built_up.sum()
+
+
 def test_a_raster_from_geometry_keeps_a_stream_thinner_than_a_cell():
     stream = shapely.LineString([(0, 52), (200, 57)]).buffer(1.5)  # 3 m wide, between cell centres
     r = Raster.from_geometry(stream, (0, 0, 200, 100), cell=10.0)
@@ -869,6 +903,9 @@ def test_a_windows_directed_tables_are_cropped_from_the_maps_made_once_per_b(see
                 sampled = replace(window, map_units=None, _cache={})
                 exp_kind, exp_weight = sampled.directed_tables()
                 live = exp_kind != NO_EDGE
+                special = np.isin(exp_kind, [EdgeKind.BRIDGE, EdgeKind.HARBOUR])
+                assert np.array_equal(window.special_entries(), np.flatnonzero(special))
+                assert np.array_equal(sampled.special_entries(), np.flatnonzero(special))
                 assert np.array_equal(kind, exp_kind)
                 assert np.array_equal(weight[live], exp_weight[live])
                 assert live.any()

@@ -52,8 +52,8 @@ from osm_expand.errors import InputError
 from osm_expand.model.options import require_positive
 
 __all__ = [
-    "VertexClass", "EdgeKind", "ROAD_KINDS", "Raster", "LatticeOptions", "Lattice", "build_lattice",
-    "lattice_directions",
+    "VertexClass", "EdgeKind", "ROAD_KINDS", "Raster", "LatticeOptions", "Lattice", "LatticeWeights",
+    "build_lattice", "lattice_directions",
 ]
 
 
@@ -217,6 +217,46 @@ def lattice_directions(radius: int) -> np.ndarray:
 NO_EDGE = 255
 
 
+class LatticeWeights:
+    """A ``(V, D)`` float32 table of lattice edge costs, worked out from the kinds when read.
+
+    On flat land an entry's cost is its direction's length times a factor of its kind (1;
+    C5 for a bridge, C3 for a harbour in G′): the table a window of G′ held was 4 bytes an
+    entry, 285 MB and 0.6 s to fill for Campo Grande's whole map, where a search reads only
+    the entries it reaches. Indexing (slices, index arrays, boolean masks) gives what the
+    dense table would: ``float32(length · factor)``, the dense table's own arithmetic.
+    """
+
+    def __init__(self, kind: np.ndarray, length: np.ndarray, factor: np.ndarray | None = None) -> None:
+        self.kind = kind  #: (V, D) uint8 kinds (shared, not copied)
+        self.length = np.asarray(length, dtype=np.float32).astype(np.float64)  #: (D,) m
+        #: (256,) float64 factor by kind (None: 1)
+        self.factor = np.ones(256) if factor is None else np.asarray(factor, dtype=np.float64)
+        self._cols = np.broadcast_to(np.arange(kind.shape[1], dtype=np.intp), kind.shape)
+
+    shape = property(lambda self: self.kind.shape)
+    ndim = 2
+    dtype = np.dtype(np.float32)
+
+    def __getitem__(self, key) -> np.ndarray:
+        return (self.length[self._cols[key]] * self.factor[self.kind[key]]).astype(np.float32)
+
+    def masked(self, rows: slice, mask: np.ndarray) -> np.ndarray:
+        """``self[rows][mask]`` without the rows' whole table: only the entries ``mask`` picks."""
+        return (self.length[self._cols[rows][mask]] * self.factor[self.kind[rows][mask]]).astype(np.float32)
+
+    def __array__(self, dtype=None, copy=None) -> np.ndarray:
+        out = self[:]
+        return out if dtype is None else out.astype(dtype)
+
+    def times(self, factors: dict[int, float]) -> LatticeWeights:
+        """The same table with the entries of some kinds multiplied (C3, C5 in G′)."""
+        factor = self.factor.copy()
+        for k, f in factors.items():
+            factor[int(k)] *= f
+        return LatticeWeights(self.kind, self.length.astype(np.float32), factor)
+
+
 @dataclass(frozen=True)
 class Lattice:
     """The pathfinding graph G over a rectangle of vertices, its edges made when asked for.
@@ -376,8 +416,8 @@ class Lattice:
         return self.directed_tables()[0]
 
     @property
-    def directed_weight(self) -> np.ndarray:
-        """(V, D) float32, weights of :attr:`directed_kind`."""
+    def directed_weight(self) -> np.ndarray | LatticeWeights:
+        """(V, D) float32, weights of :attr:`directed_kind` (on flat land read from the kinds)."""
         return self.directed_tables()[1]
 
     @property
@@ -452,7 +492,7 @@ class Lattice:
         rows, cols = self.height.shape
         return self.height[np.clip(ij[..., 1], 0, rows - 1), np.clip(ij[..., 0], 0, cols - 1)]
 
-    def with_built_up(self, area: shapely.Geometry | None) -> Lattice:
+    def with_built_up(self, area: shapely.Geometry | None, added: np.ndarray | None = None) -> Lattice:
         """This lattice with B grown by ``area``: every land edge that traverses it is removed.
 
         003 §3.4.2: B can only expand, so removal is permanent: the result's
@@ -465,6 +505,11 @@ class Lattice:
         area
             B (e.g. :attr:`BuiltUpArea.area`), shapely geometry in metres; it
             is joined to the B already removed. None or empty: no change.
+        added
+            Geometries outside which ``area`` holds no ground the B already removed did not
+            (:attr:`BuiltUpArea.added`): only the fine points within their bounding boxes are
+            tested. None: every point in ``area``'s bounding box B does not hold yet (on
+            Campo Grande most of the town's box, a quarter of a second a road year).
 
         Returns
         -------
@@ -473,16 +518,20 @@ class Lattice:
         """
         if area is None or area.is_empty:
             return self
-        fine = _rasterise(area, self.fine_origin, self.fine_step, self.built_up.shape, known=self.built_up)
+        within = None if added is None else shapely.bounds(np.asarray(added, dtype=object).reshape(-1))
+        fine = _rasterise(area, self.fine_origin, self.fine_step, self.built_up.shape, known=self.built_up,
+                          within=within)
         if np.array_equal(fine, self.built_up):
             return self
         shared = {}
         table = self._shared.pop("directed", None)  # handed on, not copied: this lattice makes it again if asked
         if table is not None:
             shared["directed"] = _without_touched(table, self, fine & ~self.built_up)
+        if "special" in self._shared:  # B removes land edges only
+            shared["special"] = self._shared["special"]
         return replace(self, built_up=fine, _cache={}, _shared=shared)
 
-    def directed_tables(self) -> tuple[np.ndarray, np.ndarray]:
+    def directed_tables(self) -> tuple[np.ndarray, np.ndarray | LatticeWeights]:
         """Live unit edges in both directions: ``(V, D)`` kind (uint8, NO_EDGE) and weight (float32).
 
         Row = tail vertex. Column ``k + D/2`` of vertex w holds the edge that
@@ -499,7 +548,35 @@ class Lattice:
                 self._cache["directed"] = (out_kind, out_weight)
         return self._cache["directed"]
 
-    def _cropped_directed(self) -> tuple[np.ndarray, np.ndarray]:
+    def special_entries(self) -> np.ndarray:
+        """Sorted flat indices into :meth:`directed_tables` (``v · D + column``) of the bridge and
+        harbour entries: cropped from the map's, found once per run (B removes land edges only)
+        where a search of every window looked through its whole table for them."""
+        if self.map_units is None or self.map_units[1] is not None:
+            is_special = np.zeros(256, dtype=bool)
+            is_special[[EdgeKind.BRIDGE, EdgeKind.HARBOUR]] = True
+            return np.flatnonzero(is_special[self.directed_tables()[0]])
+        if "special" not in self._shared:
+            is_special = np.zeros(256, dtype=bool)
+            is_special[[EdgeKind.BRIDGE, EdgeKind.HARBOUR]] = True
+            self._shared["special"] = np.flatnonzero(is_special[self._map_table()])
+        n_dir = len(self.directions)
+        v, col = np.divmod(self._shared["special"], n_dir)
+        (ny, nx), (r0, c0) = self.shape, self.offset
+        r, c = np.divmod(v, self.full_shape[1])
+        r, c = r - r0, c - c0
+        tr, tc = r + self.directions[col, 1], c + self.directions[col, 0]
+        inside = ((r >= 0) & (r < ny) & (c >= 0) & (c < nx) & (tr >= 0) & (tr < ny) & (tc >= 0) & (tc < nx))
+        return (r[inside] * nx + c[inside]) * n_dir + col[inside]
+
+    def _map_table(self) -> np.ndarray:
+        """The whole map's live directed kinds of this B (:func:`_map_directed`), made on first use."""
+        table = self._shared.get("directed")
+        if table is None:
+            table = self._shared["directed"] = _map_directed(self)
+        return table
+
+    def _cropped_directed(self) -> tuple[np.ndarray, LatticeWeights]:
         """:meth:`directed_tables` cropped from the whole map's (made once per B, shared by every
         window): the window's rows of it, without the edges whose other end lies outside.
 
@@ -507,11 +584,9 @@ class Lattice:
         ends in the window has the map's kind and B's removal (its samples lie between its ends).
         Every search window of a road year made its unit tables, B's removals and both directions
         again (Campo Grande: 10.3 s of 48 windows, 18 road years), though B changes once a year.
-        On flat land an edge's weight is its length.
+        On flat land an edge's weight is its length (:class:`LatticeWeights`, no table).
         """
-        table = self._shared.get("directed")
-        if table is None:
-            table = self._shared["directed"] = _map_directed(self)
+        table = self._map_table()
         (map_ny, map_nx), (ny, nx), (r0, c0) = self.full_shape, self.shape, self.offset
         n_dir = len(self.directions)
         kind = table.reshape(map_ny, map_nx, n_dir)[r0:r0 + ny, c0:c0 + nx].copy()
@@ -520,9 +595,8 @@ class Lattice:
                 (kind[:, max(nx - dx, 0):, c] if dx > 0 else kind[:, :min(-dx, nx), c])[...] = NO_EDGE
             if dy:
                 (kind[max(ny - dy, 0):, :, c] if dy > 0 else kind[:min(-dy, ny), :, c])[...] = NO_EDGE
-        weight = np.empty((ny * nx, n_dir), dtype=np.float32)
-        weight[...] = self.direction_length.astype(np.float32)
-        return kind.reshape(ny * nx, n_dir), weight
+        kind = kind.reshape(ny * nx, n_dir)
+        return kind, LatticeWeights(kind, self.direction_length)
 
 
 def _crop(a: np.ndarray, row: int, col: int, shape: tuple[int, int], value) -> np.ndarray:
@@ -911,17 +985,31 @@ def _resample_linear(raster: Raster | None, origin: np.ndarray, step: float,
 
 
 def _rasterise(geom: shapely.Geometry, origin: np.ndarray, step: float, shape: tuple[int, int],
-               known: np.ndarray | None = None) -> np.ndarray:
+               known: np.ndarray | None = None, within: np.ndarray | None = None) -> np.ndarray:
     """Fine points covered by ``geom`` (only the points inside its bounding box are tested),
     or-ed with ``known``, whose true points are not tested again (B only grows: each year
-    tests only the ground it did not cover yet)."""
+    tests only the ground it did not cover yet); with ``within`` (``(n, 4)`` bounds), only
+    the points inside one of those boxes are."""
     out = np.zeros(shape, dtype=bool) if known is None else known.copy()
     gx0, gy0, gx1, gy1 = geom.bounds
     j0, j1 = max(int(np.floor((gx0 - origin[0]) / step)), 0), min(int(np.ceil((gx1 - origin[0]) / step)) + 1, shape[1])
     i0, i1 = max(int(np.floor((gy0 - origin[1]) / step)), 0), min(int(np.ceil((gy1 - origin[1]) / step)) + 1, shape[0])
     if j1 <= j0 or i1 <= i0:
         return out
-    ii, jj = np.nonzero(~out[i0:i1, j0:j1])
+    todo = ~out[i0:i1, j0:j1]
+    if within is not None:
+        boxes = np.asarray(within, dtype=float).reshape(-1, 4)
+        boxes = boxes[np.isfinite(boxes).all(axis=1)]
+        near = np.zeros_like(todo)
+        lo_j = np.floor((boxes[:, 0] - origin[0]) / step).astype(np.int64) - j0
+        hi_j = np.ceil((boxes[:, 2] - origin[0]) / step).astype(np.int64) + 1 - j0
+        lo_i = np.floor((boxes[:, 1] - origin[1]) / step).astype(np.int64) - i0
+        hi_i = np.ceil((boxes[:, 3] - origin[1]) / step).astype(np.int64) + 1 - i0
+        for a, b, c, d in zip(np.maximum(lo_i, 0).tolist(), np.maximum(hi_i, 0).tolist(),
+                              np.maximum(lo_j, 0).tolist(), np.maximum(hi_j, 0).tolist()):
+            near[a:b, c:d] = True
+        todo &= near
+    ii, jj = np.nonzero(todo)
     shapely.prepare(geom)
     out[i0 + ii, j0 + jj] = shapely.intersects_xy(geom, origin[0] + (j0 + jj) * step, origin[1] + (i0 + ii) * step)
     return out
