@@ -109,6 +109,8 @@ class PathGraph:
     heading: np.ndarray  #: (E,) radians, direction of travel src → dst
     extendible: np.ndarray  #: (S,) bool per segment: at most one built-up side (C6)
     _cache: dict = field(default_factory=dict, repr=False, compare=False)
+    #: the lattice part of :meth:`masks` by kinds (read-only): a window's search asked for it three times
+    _lat_masks: dict = field(default_factory=dict, repr=False, compare=False)
 
     @property
     def n_vertices(self) -> int:
@@ -138,11 +140,16 @@ class PathGraph:
         Returns
         -------
         (lattice, other)
-            ``(V, D)`` bool over ``lat_kind`` and ``(E,)`` bool over the other edges.
+            ``(V, D)`` bool over ``lat_kind`` (cached by kinds, read-only) and ``(E,)`` bool over the other
+            edges.
         """
         table = np.zeros(256, dtype=bool)
         table[[int(k) for k in kinds]] = True
-        lat = table[self.lat_kind]
+        key = tuple(sorted(int(k) for k in kinds))
+        lat = self._lat_masks.get(key)
+        if lat is None:
+            lat = self._lat_masks[key] = table[self.lat_kind]
+            lat.flags.writeable = False
         extra = table[self.kind]
         if street_ok is not None and len(street_ok):
             extra &= (self.segment < 0) | np.asarray(street_ok, dtype=bool)[np.maximum(self.segment, 0)]
