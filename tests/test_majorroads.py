@@ -872,6 +872,34 @@ def test_a_window_crops_the_maps_edges_and_they_equal_the_rasters_own(seed):
     assert live.any()
 
 
+@settings(max_examples=20, deadline=None)
+@given(st.integers(0, 2**32 - 1))
+def test_lattice_weights_read_from_the_kinds_equal_the_dense_table(seed):
+    """G′'s lattice costs on flat land are read from the kinds (no (V, D) float32 table: 285 MB
+    for Campo Grande's whole map): every way of reading them gives the dense table's values,
+    C3 and C5 applied in its own float32 arithmetic."""
+    from osm_expand.engine.roads.lattice import LatticeWeights
+
+    rng = np.random.default_rng(seed)
+    n, d = int(rng.integers(1, 40)), int(rng.integers(1, 12))
+    kind = rng.choice(np.array([0, 1, 2, 3, NO_EDGE], dtype=np.uint8), size=(n, d))
+    length = rng.uniform(5, 200, d)
+    dense = np.empty((n, d), dtype=np.float32)
+    dense[...] = length.astype(np.float32)
+    special = np.flatnonzero(np.isin(kind, [EdgeKind.BRIDGE, EdgeKind.HARBOUR]))
+    dense.reshape(-1)[special] *= np.where(kind.reshape(-1)[special] == EdgeKind.BRIDGE, 15.0, 10.0)
+    lazy = LatticeWeights(kind, length).times({EdgeKind.BRIDGE: 15.0, EdgeKind.HARBOUR: 10.0})
+    u, k = rng.integers(0, n, 50), rng.integers(0, d, 50)
+    mask = rng.random((n, d)) < 0.5
+    a, b = sorted(rng.integers(0, n + 1, 2).tolist())
+    assert np.array_equal(lazy[u, k], dense[u, k]) and lazy[u, k].dtype == np.float32
+    assert np.array_equal(lazy[mask], dense[mask])
+    assert np.array_equal(lazy[a:b], dense[a:b])
+    assert np.array_equal(lazy.masked(slice(a, b), mask[a:b]), dense[a:b][mask[a:b]])
+    assert float(lazy[int(u[0]), int(k[0])]) == float(dense[u[0], k[0]])
+    assert np.array_equal(np.asarray(lazy), dense)
+
+
 @settings(max_examples=8, deadline=None)
 @given(st.integers(0, 2**32 - 1))
 def test_a_windows_directed_tables_are_cropped_from_the_maps_made_once_per_b(seed):
