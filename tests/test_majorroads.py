@@ -219,6 +219,40 @@ def test_b_never_shrinks(discs):
     assert (again.unit_removed >= lat.unit_removed).all()
 
 
+@settings(max_examples=10, deadline=None)
+@given(st.floats(150, 350), st.floats(150, 350), st.integers(1, 3), st.integers(1, 3), st.floats(40, 90))
+def test_b_grown_from_last_year_measures_and_tests_only_the_new_ground(x0, y0, n, more, size):
+    """Next year's B tests only the blocks that are new (an unchanged block keeps its verdict:
+    measuring every block's water share again was a quarter of B's year on Campo Grande) and
+    rasterises only the fine points near what it added; it is the B made from scratch."""
+    import osm_expand.engine.roads.built_up as built_up_module
+
+    extent = (0, 0, 1000, 1000)
+    water = shapely.box(0, 0, 1000, 60)
+    lat = build_lattice(extent, options=LatticeOptions(radius=3))
+    segs = SegmentTable.from_lines(grid_lines(x0, y0, n, size), major=[False] * (2 * n + 2),
+                                   width=[6.0] * (2 * n + 2))
+    first = built_up_area(blocks_of(segs), segs, water=water)
+    lat = lat.with_built_up(first.area, first.added)
+    across, up = x0 + np.arange(n + more + 1) * size, y0 + np.arange(n + 1) * size  # more columns east
+    lines = [np.stack([across, np.full(len(across), y)], axis=1) for y in up]
+    lines += [np.stack([np.full(len(up), x), up], axis=1) for x in across]
+    segs2 = SegmentTable.from_lines(lines, major=[False] * len(lines), width=[6.0] * len(lines))
+    measured = []
+    intersection = shapely.intersection
+    with pytest.MonkeyPatch.context() as monkey:
+        monkey.setattr(built_up_module.shapely, "intersection",
+                       lambda a, b: measured.append(len(np.atleast_1d(a))) or intersection(a, b))
+        second = built_up_area(blocks_of(segs2), segs2, water=water, previous=first)
+    assert sum(measured) == n * more  # the new column's blocks, not the n² unchanged ones
+    assert second.added is not None and len(second.added) >= n * more
+    fresh = built_up_area(blocks_of(segs2), segs2, water=water, previous=first.__class__(first.area, first.blocks))
+    assert shapely.equals(second.area, fresh.area) and shapely.equals(second.blocks, fresh.blocks)
+    assert np.array_equal(lat.with_built_up(second.area, second.added).built_up,
+                          lat.with_built_up(second.area).built_up)
+    assert lat.with_built_up(second.area).built_up.sum() > lat.built_up.sum()
+
+
 def test_a_raster_from_geometry_keeps_a_stream_thinner_than_a_cell():
     stream = shapely.LineString([(0, 52), (200, 57)]).buffer(1.5)  # 3 m wide, between cell centres
     r = Raster.from_geometry(stream, (0, 0, 200, 100), cell=10.0)
@@ -836,6 +870,74 @@ def test_a_window_crops_the_maps_edges_and_they_equal_the_rasters_own(seed):
     assert np.array_equal(cropped[1][live], expected[1][live])
     assert np.array_equal(cropped[2], expected[2])
     assert live.any()
+
+
+@settings(max_examples=20, deadline=None)
+@given(st.integers(0, 2**32 - 1))
+def test_lattice_weights_read_from_the_kinds_equal_the_dense_table(seed):
+    """G′'s lattice costs on flat land are read from the kinds (no (V, D) float32 table: 285 MB
+    for Campo Grande's whole map): every way of reading them gives the dense table's values,
+    C3 and C5 applied in its own float32 arithmetic."""
+    from osm_expand.engine.roads.lattice import LatticeWeights
+
+    rng = np.random.default_rng(seed)
+    n, d = int(rng.integers(1, 40)), int(rng.integers(1, 12))
+    kind = rng.choice(np.array([0, 1, 2, 3, NO_EDGE], dtype=np.uint8), size=(n, d))
+    length = rng.uniform(5, 200, d)
+    dense = np.empty((n, d), dtype=np.float32)
+    dense[...] = length.astype(np.float32)
+    special = np.flatnonzero(np.isin(kind, [EdgeKind.BRIDGE, EdgeKind.HARBOUR]))
+    dense.reshape(-1)[special] *= np.where(kind.reshape(-1)[special] == EdgeKind.BRIDGE, 15.0, 10.0)
+    lazy = LatticeWeights(kind, length).times({EdgeKind.BRIDGE: 15.0, EdgeKind.HARBOUR: 10.0})
+    u, k = rng.integers(0, n, 50), rng.integers(0, d, 50)
+    mask = rng.random((n, d)) < 0.5
+    a, b = sorted(rng.integers(0, n + 1, 2).tolist())
+    assert np.array_equal(lazy[u, k], dense[u, k]) and lazy[u, k].dtype == np.float32
+    assert np.array_equal(lazy[mask], dense[mask])
+    assert np.array_equal(lazy[a:b], dense[a:b])
+    assert np.array_equal(lazy.masked(slice(a, b), mask[a:b]), dense[a:b][mask[a:b]])
+    assert float(lazy[int(u[0]), int(k[0])]) == float(dense[u[0], k[0]])
+    assert np.array_equal(np.asarray(lazy), dense)
+
+
+@settings(max_examples=8, deadline=None)
+@given(st.integers(0, 2**32 - 1))
+def test_a_windows_directed_tables_are_cropped_from_the_maps_made_once_per_b(seed):
+    """A window's directed tables are cut from the whole map's, made once per B and carried
+    to the next B by removing only the edges the new ground touches (every window of a road
+    year made its own: 10.3 s of 48 windows on Campo Grande), and they equal what the
+    window's own unit tables and B's removals give, year after year."""
+    from dataclasses import replace
+
+    rng = np.random.default_rng(seed)
+    extent = (0, 0, 800, 600)
+    centres, radii = rng.uniform(50, 750, (4, 2)), rng.uniform(20, 70, 4)
+    blobs = raster(lambda x, y: (np.hypot(x[..., None] - centres[:, 0], y[..., None] - centres[:, 1])
+                                 < radii).any(axis=-1), extent, cell=10.0)
+    y_lo = float(rng.uniform(100, 450))
+    lat = build_lattice(extent, water=river(extent, y_lo, y_lo + 50), forbidden=blobs,
+                        options=LatticeOptions(radius=int(rng.integers(1, 5))))
+    import osm_expand.engine.roads.lattice as lattice_module
+    calls = []
+    made = lattice_module._map_directed
+    with pytest.MonkeyPatch.context() as monkey:
+        monkey.setattr(lattice_module, "_map_directed", lambda lat: calls.append(1) or made(lat))
+        for _ in range(3):  # B grows: the map's table is carried over, not made again
+            lat = lat.with_built_up(shapely.Point(rng.uniform(100, 700), rng.uniform(100, 500)).buffer(60.0))
+            ny, nx = lat.shape
+            r0, c0 = int(rng.integers(0, ny // 2)), int(rng.integers(0, nx // 2))
+            for window in (lat, lat.window(r0, c0, int(rng.integers(5, ny)), int(rng.integers(5, nx)))):
+                kind, weight = window.directed_tables()
+                sampled = replace(window, map_units=None, _cache={})
+                exp_kind, exp_weight = sampled.directed_tables()
+                live = exp_kind != NO_EDGE
+                special = np.isin(exp_kind, [EdgeKind.BRIDGE, EdgeKind.HARBOUR])
+                assert np.array_equal(window.special_entries(), np.flatnonzero(special))
+                assert np.array_equal(sampled.special_entries(), np.flatnonzero(special))
+                assert np.array_equal(kind, exp_kind)
+                assert np.array_equal(weight[live], exp_weight[live])
+                assert live.any()
+    assert len(calls) == 1
 
 
 def test_water_that_meets_the_edge_of_the_map_goes_on_beyond_it():

@@ -25,10 +25,12 @@ raster masks). Marching along each edge (``samples_per_spacing`` samples per
 Forbidden samples end an edge; forbidden vertices have no edges. Edges are
 made with array slicing: for a direction and a sample offset the samples of
 *every* vertex are one strided slice of a fine raster, so there is no Python
-loop over vertices. :func:`build_lattice` keeps only the fine rasters and
-the bridges (their filter needs the whole map); the land, water and harbour
-edges of a rectangle of vertices (:meth:`Lattice.window`) are generated from
-the rasters when that window is first searched.
+loop over vertices. :func:`build_lattice` keeps the fine rasters, the
+bridges (their filter needs the whole map) and the map's unit edges; the
+live edges in both directions (B removed) are one table over the map, made
+when first searched and carried from one B to the next (only the edges the
+new ground touches go), and a rectangle of vertices (:meth:`Lattice.window`)
+crops it.
 
 The water and forbidden rasters should be drawn generously
 (:meth:`Raster.from_geometry`: a cell is water when water comes within half
@@ -52,8 +54,8 @@ from osm_expand.errors import InputError
 from osm_expand.model.options import require_positive
 
 __all__ = [
-    "VertexClass", "EdgeKind", "ROAD_KINDS", "Raster", "LatticeOptions", "Lattice", "build_lattice",
-    "lattice_directions",
+    "VertexClass", "EdgeKind", "ROAD_KINDS", "Raster", "LatticeOptions", "Lattice", "LatticeWeights",
+    "build_lattice", "lattice_directions",
 ]
 
 
@@ -217,6 +219,51 @@ def lattice_directions(radius: int) -> np.ndarray:
 NO_EDGE = 255
 
 
+class LatticeWeights:
+    """A ``(V, D)`` float32 table of lattice edge costs, worked out from the kinds when read.
+
+    On flat land an entry's cost is its direction's length times a factor of its kind (1;
+    C5 for a bridge, C3 for a harbour in G′): the table a window of G′ held was 4 bytes an
+    entry, 285 MB and 0.6 s to fill for Campo Grande's whole map, where a search reads only
+    the entries it reaches. Indexing (slices, index arrays, boolean masks) gives what the
+    dense table would: ``float32(length · factor)``, the dense table's own arithmetic.
+    """
+
+    def __init__(self, kind: np.ndarray, length: np.ndarray, factor: np.ndarray | None = None) -> None:
+        self.kind = kind  #: (V, D) uint8 kinds (shared, not copied)
+        self.length = np.asarray(length, dtype=np.float32).astype(np.float64)  #: (D,) m
+        #: (256,) float64 factor by kind (None: 1)
+        self.factor = np.ones(256) if factor is None else np.asarray(factor, dtype=np.float64)
+        self._cols = np.broadcast_to(np.arange(kind.shape[1], dtype=np.intp), kind.shape)
+        #: (256 · D,) float32, the cost of kind k along direction d at ``k · D + d``
+        self._table = (self.length[None, :] * self.factor[:, None]).astype(np.float32).reshape(-1)
+
+    shape = property(lambda self: self.kind.shape)
+    ndim = 2
+    dtype = np.dtype(np.float32)
+
+    def __getitem__(self, key) -> np.ndarray:
+        return (self.length[self._cols[key]] * self.factor[self.kind[key]]).astype(np.float32)
+
+    def masked(self, rows: slice, mask: np.ndarray) -> np.ndarray:
+        """``self[rows][mask]`` without the rows' whole table: only the entries ``mask`` picks
+        (one lookup of kind · D + direction: twice as fast as gathering kinds and directions)."""
+        n_dir = self.kind.shape[1]
+        code = self.kind[rows].astype(np.int32) * n_dir + np.arange(n_dir, dtype=np.int32)
+        return self._table[code[mask]]
+
+    def __array__(self, dtype=None, copy=None) -> np.ndarray:
+        out = self[:]
+        return out if dtype is None else out.astype(dtype)
+
+    def times(self, factors: dict[int, float]) -> LatticeWeights:
+        """The same table with the entries of some kinds multiplied (C3, C5 in G′)."""
+        factor = self.factor.copy()
+        for k, f in factors.items():
+            factor[int(k)] *= f
+        return LatticeWeights(self.kind, self.length.astype(np.float32), factor)
+
+
 @dataclass(frozen=True)
 class Lattice:
     """The pathfinding graph G over a rectangle of vertices, its edges made when asked for.
@@ -270,6 +317,10 @@ class Lattice:
     #: None: a window samples the rasters
     map_units: tuple[np.ndarray, np.ndarray | None] | None = field(default=None, repr=False, compare=False)
     _cache: dict = field(default_factory=dict, repr=False, compare=False)
+    #: what the map and all its windows of one B share: ``"directed"``, the whole map's live directed
+    #: kinds ``(V_map, D)`` (:meth:`directed_tables`), made once per B and cropped by every window;
+    #: :meth:`with_built_up` carries it to the next B, removing only the edges the new ground touches
+    _shared: dict = field(default_factory=dict, repr=False, compare=False)
 
     @property
     def n_vertices(self) -> int:
@@ -372,8 +423,8 @@ class Lattice:
         return self.directed_tables()[0]
 
     @property
-    def directed_weight(self) -> np.ndarray:
-        """(V, D) float32, weights of :attr:`directed_kind`."""
+    def directed_weight(self) -> np.ndarray | LatticeWeights:
+        """(V, D) float32, weights of :attr:`directed_kind` (on flat land read from the kinds)."""
         return self.directed_tables()[1]
 
     @property
@@ -448,7 +499,7 @@ class Lattice:
         rows, cols = self.height.shape
         return self.height[np.clip(ij[..., 1], 0, rows - 1), np.clip(ij[..., 0], 0, cols - 1)]
 
-    def with_built_up(self, area: shapely.Geometry | None) -> Lattice:
+    def with_built_up(self, area: shapely.Geometry | None, added: np.ndarray | None = None) -> Lattice:
         """This lattice with B grown by ``area``: every land edge that traverses it is removed.
 
         003 §3.4.2: B can only expand, so removal is permanent: the result's
@@ -461,6 +512,11 @@ class Lattice:
         area
             B (e.g. :attr:`BuiltUpArea.area`), shapely geometry in metres; it
             is joined to the B already removed. None or empty: no change.
+        added
+            Geometries outside which ``area`` holds no ground the B already removed did not
+            (:attr:`BuiltUpArea.added`): only the fine points within their bounding boxes are
+            tested. None: every point in ``area``'s bounding box B does not hold yet (on
+            Campo Grande most of the town's box, a quarter of a second a road year).
 
         Returns
         -------
@@ -469,22 +525,85 @@ class Lattice:
         """
         if area is None or area.is_empty:
             return self
-        fine = _rasterise(area, self.fine_origin, self.fine_step, self.built_up.shape, known=self.built_up)
+        within = None if added is None else shapely.bounds(np.asarray(added, dtype=object).reshape(-1))
+        fine = _rasterise(area, self.fine_origin, self.fine_step, self.built_up.shape, known=self.built_up,
+                          within=within)
         if np.array_equal(fine, self.built_up):
             return self
-        return replace(self, built_up=fine, _cache={})
+        shared = {}
+        table = self._shared.pop("directed", None)  # handed on, not copied: this lattice makes it again if asked
+        if table is not None:
+            shared["directed"] = _without_touched(table, self, fine & ~self.built_up)
+        if "special" in self._shared:  # B removes land edges only
+            shared["special"] = self._shared["special"]
+        return replace(self, built_up=fine, _cache={}, _shared=shared)
 
-    def directed_tables(self) -> tuple[np.ndarray, np.ndarray]:
+    def directed_tables(self) -> tuple[np.ndarray, np.ndarray | LatticeWeights]:
         """Live unit edges in both directions: ``(V, D)`` kind (uint8, NO_EDGE) and weight (float32).
 
         Row = tail vertex. Column ``k + D/2`` of vertex w holds the edge that
         arrives at w along direction k, i.e. the unit edge of vertex ``w − d_k``.
         """
         if "directed" not in self._cache:
-            kind, weight, removed = self._units()
-            live = np.where(removed, np.uint8(NO_EDGE), kind)
-            self._cache["directed"] = _directed(live, weight, self.directions, self.shape)
+            if self.map_units is not None and self.map_units[1] is None:  # flat: crop the map's table
+                self._cache["directed"] = self._cropped_directed()
+            else:
+                kind, unit_weight, removed = self._units()
+                live = np.where(removed, np.uint8(NO_EDGE), kind)
+                out_kind, out_weight = _directed(live, unit_weight, self.directions, self.shape)
+                assert out_weight is not None  # weights given
+                self._cache["directed"] = (out_kind, out_weight)
         return self._cache["directed"]
+
+    def special_entries(self) -> np.ndarray:
+        """Sorted flat indices into :meth:`directed_tables` (``v · D + column``) of the bridge and
+        harbour entries: cropped from the map's, found once per run (B removes land edges only)
+        where a search of every window looked through its whole table for them."""
+        if self.map_units is None or self.map_units[1] is not None:
+            is_special = np.zeros(256, dtype=bool)
+            is_special[[EdgeKind.BRIDGE, EdgeKind.HARBOUR]] = True
+            return np.flatnonzero(is_special[self.directed_tables()[0]])
+        if "special" not in self._shared:
+            is_special = np.zeros(256, dtype=bool)
+            is_special[[EdgeKind.BRIDGE, EdgeKind.HARBOUR]] = True
+            self._shared["special"] = np.flatnonzero(is_special[self._map_table()])
+        n_dir = len(self.directions)
+        v, col = np.divmod(self._shared["special"], n_dir)
+        (ny, nx), (r0, c0) = self.shape, self.offset
+        r, c = np.divmod(v, self.full_shape[1])
+        r, c = r - r0, c - c0
+        tr, tc = r + self.directions[col, 1], c + self.directions[col, 0]
+        inside = ((r >= 0) & (r < ny) & (c >= 0) & (c < nx) & (tr >= 0) & (tr < ny) & (tc >= 0) & (tc < nx))
+        return (r[inside] * nx + c[inside]) * n_dir + col[inside]
+
+    def _map_table(self) -> np.ndarray:
+        """The whole map's live directed kinds of this B (:func:`_map_directed`), made on first use."""
+        table = self._shared.get("directed")
+        if table is None:
+            table = self._shared["directed"] = _map_directed(self)
+        return table
+
+    def _cropped_directed(self) -> tuple[np.ndarray, LatticeWeights]:
+        """:meth:`directed_tables` cropped from the whole map's (made once per B, shared by every
+        window): the window's rows of it, without the edges whose other end lies outside.
+
+        The same tables as :func:`_directed` of the window's own unit tables: an edge with both
+        ends in the window has the map's kind and B's removal (its samples lie between its ends).
+        Every search window of a road year made its unit tables, B's removals and both directions
+        again (Campo Grande: 10.3 s of 48 windows, 18 road years), though B changes once a year.
+        On flat land an edge's weight is its length (:class:`LatticeWeights`, no table).
+        """
+        table = self._map_table()
+        (map_ny, map_nx), (ny, nx), (r0, c0) = self.full_shape, self.shape, self.offset
+        n_dir = len(self.directions)
+        kind = table.reshape(map_ny, map_nx, n_dir)[r0:r0 + ny, c0:c0 + nx].copy()
+        for c, (dx, dy) in enumerate(self.directions.tolist()):  # the other end outside the window
+            if dx:
+                (kind[:, max(nx - dx, 0):, c] if dx > 0 else kind[:, :min(-dx, nx), c])[...] = NO_EDGE
+            if dy:
+                (kind[max(ny - dy, 0):, :, c] if dy > 0 else kind[:min(-dy, ny), :, c])[...] = NO_EDGE
+        kind = kind.reshape(ny * nx, n_dir)
+        return kind, LatticeWeights(kind, self.direction_length)
 
 
 def _crop(a: np.ndarray, row: int, col: int, shape: tuple[int, int], value) -> np.ndarray:
@@ -550,33 +669,91 @@ def _unit_tables(lat: Lattice) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
                 unit_kind[k, bridge[~kept]] = NO_EDGE
         land = unit_kind[k] == EdgeKind.LAND
         if land.any():
-            touched = np.zeros((ny, nx), dtype=bool)
-            for oy, ox in _offsets(lat.directions[k], f):
-                touched |= _slice(pb, pad, oy, ox, (ny, nx), f)
-            removed[k] = land & touched.ravel()
+            removed[k] = land & _touched(pb, pad, lat.directions[k], (ny, nx), f).ravel()
     return unit_kind, unit_weight, removed
 
 
-def _directed(unit_kind: np.ndarray, unit_weight: np.ndarray, directions: np.ndarray,
-              shape: tuple[int, int]) -> tuple[np.ndarray, np.ndarray]:
-    """The (V, D) tables of :meth:`Lattice.directed_tables` from the (D/2, V) unit tables."""
+def _touched(padded: np.ndarray, pad: int, d: np.ndarray, shape: tuple[int, int], f: int) -> np.ndarray:
+    """``(ny, nx)`` bool: whether the unit edge along ``d`` from each vertex samples a true point of
+    a fine raster (padded by ``pad`` fine points round the vertices' own)."""
+    touched = np.zeros(shape, dtype=bool)
+    for oy, ox in _offsets(d, f):
+        touched |= _slice(padded, pad, oy, ox, shape, f)
+    return touched
+
+
+def _map_directed(lat: Lattice) -> np.ndarray:
+    """The whole map's live directed kinds ``(V_map, D)`` (:meth:`Lattice.directed_tables`' layout):
+    its unit edges (:attr:`Lattice.map_units`), the land ones that traverse B removed."""
+    assert lat.map_units is not None  # only a lattice made by build_lattice has the map's edges
+    map_kind = lat.map_units[0]
+    f, shape, pad = lat.samples, lat.full_shape, lat.radius * lat.samples
+    pb, _ = _pad(lat.built_up, pad, False)
+    live = map_kind.copy()
+    for k in range(len(lat.directions) // 2):
+        land = live[k] == EdgeKind.LAND
+        if land.any():
+            live[k, land & _touched(pb, pad, lat.directions[k], shape, f).ravel()] = NO_EDGE
+    return _directed(live, None, lat.directions, shape)[0]
+
+
+def _without_touched(table: np.ndarray, lat: Lattice, grown: np.ndarray) -> np.ndarray:
+    """The map's live directed kinds (:func:`_map_directed`) without the land edges that sample
+    ``grown`` (the fine points B just took in), changed in place and returned.
+
+    B only grows, so the edges it removes from one year to the next are those that sample
+    the new ground: only the vertices within ``radius`` of its bounding box are looked at,
+    where :func:`_map_directed` would sample B over the whole map again.
+    """
+    fi, fj = np.nonzero(grown)
+    if not len(fi):
+        return table
+    f, radius, (map_ny, map_nx) = lat.samples, lat.radius, lat.full_shape
+    r0, r1 = max(int(fi.min()) // f - radius, 0), min(-(-int(fi.max()) // f) + radius + 1, map_ny)
+    c0, c1 = max(int(fj.min()) // f - radius, 0), min(-(-int(fj.max()) // f) + radius + 1, map_nx)
+    shape = (r1 - r0, c1 - c0)
+    pad = radius * f
+    fine_shape = ((shape[0] - 1) * f + 1 + 2 * pad, (shape[1] - 1) * f + 1 + 2 * pad)
+    pg = _crop(grown, r0 * f - pad, c0 * f - pad, fine_shape, False)
+    assert lat.map_units is not None  # the table was made from them
+    map_kind = lat.map_units[0]
+    half = len(lat.directions) // 2
+    iy, ix = np.mgrid[r0:r1, c0:c1]
+    tails = (iy * map_nx + ix).ravel()
+    offset = lat.directions[:, 1] * map_nx + lat.directions[:, 0]
+    for k in range(half):
+        hit = tails[(map_kind[k, tails] == EdgeKind.LAND)
+                    & _touched(pg, pad, lat.directions[k], shape, f).ravel()]
+        table[hit, k] = NO_EDGE
+        table[hit + offset[k], half + k] = NO_EDGE  # the same edge seen from its head
+    return table
+
+
+def _directed(unit_kind: np.ndarray, unit_weight: np.ndarray | None, directions: np.ndarray,
+              shape: tuple[int, int]) -> tuple[np.ndarray, np.ndarray | None]:
+    """The (V, D) tables of :meth:`Lattice.directed_tables` from the (D/2, V) unit tables
+    (the weights None when ``unit_weight`` is)."""
     ny, nx = shape
     half = len(directions) // 2
-    kind, weight = unit_kind.reshape(half, ny, nx), unit_weight.reshape(half, ny, nx)
+    kind = unit_kind.reshape(half, ny, nx)
+    weight = None if unit_weight is None else unit_weight.reshape(half, ny, nx)
     # written in the (V, D) layout at once: no (D, V) table and no transposed copy of it
     out_kind = np.full((ny, nx, 2 * half), NO_EDGE, dtype=np.uint8)
-    out_weight = np.zeros((ny, nx, 2 * half), dtype=np.float32)
     out_kind[:, :, :half] = kind.transpose(1, 2, 0)
-    out_weight[:, :, :half] = weight.transpose(1, 2, 0)
+    out_weight = None
+    if weight is not None:
+        out_weight = np.zeros((ny, nx, 2 * half), dtype=np.float32)
+        out_weight[:, :, :half] = weight.transpose(1, 2, 0)
     for k, (dx, dy) in enumerate(directions[:half].tolist()):
         # the edge of (iy − dy, ix − dx), seen from its head (iy, ix)
         ys, yt = slice(0, max(ny - dy, 0)), slice(min(dy, ny), ny)
         xs, xt = (slice(0, max(nx - dx, 0)), slice(min(dx, nx), nx)) if dx >= 0 else \
             (slice(min(-dx, nx), nx), slice(0, max(nx + dx, 0)))
         out_kind[yt, xt, half + k] = kind[k, ys, xs]
-        out_weight[yt, xt, half + k] = weight[k, ys, xs]
+        if out_weight is not None and weight is not None:
+            out_weight[yt, xt, half + k] = weight[k, ys, xs]
     n = ny * nx
-    return out_kind.reshape(n, 2 * half), out_weight.reshape(n, 2 * half)
+    return out_kind.reshape(n, 2 * half), None if out_weight is None else out_weight.reshape(n, 2 * half)
 
 
 def build_lattice(extent: tuple[float, float, float, float], *, water: Raster | None = None,
@@ -815,17 +992,31 @@ def _resample_linear(raster: Raster | None, origin: np.ndarray, step: float,
 
 
 def _rasterise(geom: shapely.Geometry, origin: np.ndarray, step: float, shape: tuple[int, int],
-               known: np.ndarray | None = None) -> np.ndarray:
+               known: np.ndarray | None = None, within: np.ndarray | None = None) -> np.ndarray:
     """Fine points covered by ``geom`` (only the points inside its bounding box are tested),
     or-ed with ``known``, whose true points are not tested again (B only grows: each year
-    tests only the ground it did not cover yet)."""
+    tests only the ground it did not cover yet); with ``within`` (``(n, 4)`` bounds), only
+    the points inside one of those boxes are."""
     out = np.zeros(shape, dtype=bool) if known is None else known.copy()
     gx0, gy0, gx1, gy1 = geom.bounds
     j0, j1 = max(int(np.floor((gx0 - origin[0]) / step)), 0), min(int(np.ceil((gx1 - origin[0]) / step)) + 1, shape[1])
     i0, i1 = max(int(np.floor((gy0 - origin[1]) / step)), 0), min(int(np.ceil((gy1 - origin[1]) / step)) + 1, shape[0])
     if j1 <= j0 or i1 <= i0:
         return out
-    ii, jj = np.nonzero(~out[i0:i1, j0:j1])
+    todo = ~out[i0:i1, j0:j1]
+    if within is not None:
+        boxes = np.asarray(within, dtype=float).reshape(-1, 4)
+        boxes = boxes[np.isfinite(boxes).all(axis=1)]
+        near = np.zeros_like(todo)
+        lo_j = np.floor((boxes[:, 0] - origin[0]) / step).astype(np.int64) - j0
+        hi_j = np.ceil((boxes[:, 2] - origin[0]) / step).astype(np.int64) + 1 - j0
+        lo_i = np.floor((boxes[:, 1] - origin[1]) / step).astype(np.int64) - i0
+        hi_i = np.ceil((boxes[:, 3] - origin[1]) / step).astype(np.int64) + 1 - i0
+        for a, b, c, d in zip(np.maximum(lo_i, 0).tolist(), np.maximum(hi_i, 0).tolist(),
+                              np.maximum(lo_j, 0).tolist(), np.maximum(hi_j, 0).tolist()):
+            near[a:b, c:d] = True
+        todo &= near
+    ii, jj = np.nonzero(todo)
     shapely.prepare(geom)
     out[i0 + ii, j0 + jj] = shapely.intersects_xy(geom, origin[0] + (j0 + jj) * step, origin[1] + (i0 + ii) * step)
     return out

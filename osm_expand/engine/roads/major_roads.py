@@ -203,7 +203,7 @@ def _graph(city: City, traffic: TrafficMemory, memory: RoadMemory, now: YearValu
     built = built_up_area([b.polygon for b in city.blocks], segments, water=city.water_geometry(),
                           previous=memory.built, options=history.options.built_up)
     assert memory.lattice is not None  # built above on the first year
-    lattice = memory.lattice.with_built_up(built.area)
+    lattice = memory.lattice.with_built_up(built.area, built.added)
     graph = implicit_graph(lattice, segments, built, costs=now.costs, options=history.options.graph,
                            previous=memory.verdicts,
                            previous_lattice=None if memory.stitches is None else lattice_verdicts(memory.stitches))

@@ -36,7 +36,7 @@ import shapely
 from scipy.sparse import csr_matrix
 
 from osm_expand.engine.roads.built_up import BuiltUpArea, segment_sides
-from osm_expand.engine.roads.lattice import NO_EDGE, ROAD_KINDS, EdgeKind, Lattice, VertexClass
+from osm_expand.engine.roads.lattice import NO_EDGE, ROAD_KINDS, EdgeKind, Lattice, LatticeWeights, VertexClass
 from osm_expand.engine.roads.stitches import (
     GraphOptions,
     ShellVerdicts,
@@ -98,7 +98,8 @@ class PathGraph:
     n_lattice: int
     split_segment: np.ndarray  #: (P,) parent segment of each split point
     lat_kind: np.ndarray  #: (V, D) uint8 EdgeKind or NO_EDGE
-    lat_weight: np.ndarray  #: (V, D) float32 cost, × C3 / C5 for harbours / bridges
+    #: (V, D) float32 cost, × C3 / C5 for harbours / bridges (on flat land worked out when read)
+    lat_weight: np.ndarray | LatticeWeights
     src: np.ndarray  #: (E,) int64, sorted
     dst: np.ndarray  #: (E,) int64
     kind: np.ndarray  #: (E,) uint8 EdgeKind
@@ -108,6 +109,8 @@ class PathGraph:
     heading: np.ndarray  #: (E,) radians, direction of travel src → dst
     extendible: np.ndarray  #: (S,) bool per segment: at most one built-up side (C6)
     _cache: dict = field(default_factory=dict, repr=False, compare=False)
+    #: the lattice part of :meth:`masks` by kinds (read-only): a window's search asked for it three times
+    _lat_masks: dict = field(default_factory=dict, repr=False, compare=False)
 
     @property
     def n_vertices(self) -> int:
@@ -137,11 +140,16 @@ class PathGraph:
         Returns
         -------
         (lattice, other)
-            ``(V, D)`` bool over ``lat_kind`` and ``(E,)`` bool over the other edges.
+            ``(V, D)`` bool over ``lat_kind`` (cached by kinds, read-only) and ``(E,)`` bool over the other
+            edges.
         """
         table = np.zeros(256, dtype=bool)
         table[[int(k) for k in kinds]] = True
-        lat = table[self.lat_kind]
+        key = tuple(sorted(int(k) for k in kinds))
+        lat = self._lat_masks.get(key)
+        if lat is None:
+            lat = self._lat_masks[key] = table[self.lat_kind]
+            lat.flags.writeable = False
         extra = table[self.kind]
         if street_ok is not None and len(street_ok):
             extra &= (self.segment < 0) | np.asarray(street_ok, dtype=bool)[np.maximum(self.segment, 0)]
@@ -224,7 +232,8 @@ class PathGraph:
                 continue
             pos = np.arange(done, done + k) + np.repeat(ex_before[a:b], lat_counts[a:b])
             indices[pos] = (np.arange(a, b, dtype=index_type)[:, None] + offset)[live]
-            data[pos] = self.lat_weight[a:b][live]
+            weight = self.lat_weight
+            data[pos] = weight.masked(slice(a, b), live) if isinstance(weight, LatticeWeights) else weight[a:b][live]
             done += k
         pos = np.arange(len(ex)) + lat_through[ex_src]
         indices[pos] = self.dst[ex]
@@ -337,7 +346,11 @@ def street_part(lattice: Lattice, segments: SegmentTable, built: BuiltUpArea | N
     if len(points):
         shell = nearest_pairs(xy[points], xy[points], points, points, opts.max_shell_stitches + 1,
                                opts.shell_stitch_radius)
-        shell = np.unique(np.sort(shell[shell[:, 0] != shell[:, 1]], axis=1), axis=0)
+        shell = np.sort(shell[shell[:, 0] != shell[:, 1]], axis=1)
+        # each pair once, in (a, b) order: one int64 key a row (np.unique's axis=0 sorted rows as
+        # records, 0.1 s a year on Campo Grande's shell)
+        key = np.unique(shell[:, 0] * np.int64(len(xy)) + shell[:, 1])
+        shell = np.stack([key // len(xy), key % len(xy)], axis=1)
         shell = shell[~_duplicates_piece(shell, pieces, 0, n_nodes, len(xy))]
         ok, verdicts = carried_ok(lattice, segments, xy, shell, split_parent, 0, opts, tree, inner, previous)
         shell = shell[ok]
@@ -472,17 +485,19 @@ def _lattice_stitches(lattice: Lattice, segments: SegmentTable, streets: StreetP
 
 
 def _lattice_part(lattice: Lattice, segments: SegmentTable, costs: EdgeCosts,
-                  tree: shapely.STRtree | None = None) -> tuple[np.ndarray, np.ndarray, tuple[np.ndarray, ...]]:
+                  tree: shapely.STRtree | None = None) -> tuple[np.ndarray, np.ndarray | LatticeWeights,
+                                                                 tuple[np.ndarray, ...]]:
     """Directed live lattice tables with C3 (harbour) and C5 (bridge), and the long bridges
     as edges; bridges and harbours that cross a street are left out (a new bridge does
     not pass over a road)."""
     kind, weight = lattice.directed_tables()
+    special = lattice.special_entries()
     lattice._cache.pop("directed", None)  # the tables become G′'s: edited in place, made again if asked for
-    is_special = np.zeros(256, dtype=bool)
-    is_special[[EdgeKind.BRIDGE, EdgeKind.HARBOUR]] = True
-    special = np.flatnonzero(is_special[kind])
-    flat_kind, flat_weight = kind.reshape(-1), weight.reshape(-1)
-    flat_weight[special] *= np.where(flat_kind[special] == EdgeKind.BRIDGE, costs.bridge, costs.harbour)
+    if isinstance(weight, LatticeWeights):
+        weight = weight.times({EdgeKind.BRIDGE: costs.bridge, EdgeKind.HARBOUR: costs.harbour})
+    else:
+        flat_kind, flat_weight = kind.reshape(-1), weight.reshape(-1)
+        flat_weight[special] *= np.where(flat_kind[special] == EdgeKind.BRIDGE, costs.bridge, costs.harbour)
     n_dir = kind.shape[1]
     rows = special // n_dir
     ends = np.stack([rows, rows + lattice.direction_offset[special - rows * n_dir]], axis=1)
