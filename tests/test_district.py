@@ -129,3 +129,34 @@ def test_a_district_that_cannot_be_accepted_is_not_joined(krems, monkeypatch):
     assert not calls
     assert not any(t.joinable for t in placement.tried)
     assert "too few places to join" in placement.describe_tried()
+
+
+
+def test_a_region_is_one_piece_of_free_land_clear_of_the_streets_by_the_clearance(krems):
+    """:func:`district_region` on Krems' sites: one valid polygon, off the occupied land, at least the 1 m
+    clearance from every town street less what GEOS's round corners (8 segments a quarter circle) take,
+    and the piece of the disc less occupied land and clearance that it was cut as (the yardstick a faster
+    cut must meet: a cut by two differences instead of a union kept Krems' and Monaco's default and
+    european bytes but moved their colonisation runs', and round corners of 2 segments moved Monaco's
+    engine verdict, so neither is taken)."""
+    import shapely
+
+    from osm_expand.sites import REGION_STEPS
+
+    city, _, sites = krems
+    lines = city.network.street_lines()
+    slack = 1.0 - np.cos(np.pi / 4 / 8)
+    for site in sites:
+        region = district_region(city, site, bounds=city.bounds_polygon)
+        assert region.geom_type == "Polygon" and region.is_valid and region.area > 0.25 * site.area
+        near = lines[shapely.dwithin(lines, region, 200.0)]
+        assert len(near) and shapely.distance(region, near).min() >= 1.0 - slack - 1e-6
+        assert shapely.intersection(region, city.occupied_within(region)).area < 1e-6 * region.area
+        radius = float(np.sqrt(site.area / np.pi))
+        centre = shapely.Point(site.centre)
+        step = min(s for s in REGION_STEPS if region.within(centre.buffer(s * radius + 1e-6, 32)))
+        disc = shapely.intersection(centre.buffer(step * radius, 32), city.bounds_polygon)
+        free = shapely.difference(shapely.difference(disc, city.occupied_within(disc)),
+                                  shapely.buffer(shapely.multilinestrings(lines[shapely.intersects(lines, disc)]), 1.0))
+        piece = [p for p in shapely.get_parts(shapely.make_valid(free)) if p.intersects(region)]
+        assert len(piece) == 1 and shapely.symmetric_difference(piece[0], region).area < 1e-6 * region.area
