@@ -1,5 +1,5 @@
 """The example patches' street density in a disc (:func:`synth.patches.source._density`): clipping only
-the streets that cross the disc's edge gives the sum that clipping every street gave, to the bit."""
+the streets that cross the disc's edge gives the sum that clipping every street gave, to the bit (a street that crosses itself is clipped as before)."""
 from __future__ import annotations
 
 import functools
@@ -9,7 +9,7 @@ import shapely
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from synth.patches.source import _density, _length_in, _source
+from synth.patches.source import _density, _length_in, _Source, _source
 from tests.test_patches import district
 
 
@@ -42,3 +42,17 @@ def test_a_disc_holding_whole_streets_and_cut_ones_counts_both():
     assert inside > 10 and crossing > 3  # both ways of counting are taken
     got = _density(source, centre[None, :], 500.0)[0]
     assert got == _every_street_clipped(source, shapely.buffer(shapely.Point(centre), 500.0)) / (np.pi * 500.0 ** 2)
+
+
+def test_a_street_that_crosses_or_runs_over_itself_is_clipped_as_before():
+    """GEOS splits a non-simple line at its crossings and merges a doubled-back part: the sum of a
+    clipped loop is not its own length, so only simple streets take the shortcut."""
+    loop = shapely.LineString([(0, 0), (100, 100), (100, 0), (0, 100), (37.3, 11.9)])  # crosses itself
+    doubled = shapely.LineString([(-200, -200), (-100, -200), (-150, -200), (-150, -150)])  # runs back over itself
+    straight = shapely.LineString([(300, 0), (300, 480)])  # crosses the disc's edge
+    lines = np.array([loop, doubled, straight], dtype=object)
+    source = _Source(lines=lines, highway=("residential",) * 3, level=np.zeros(3, int),
+                     tree=shapely.STRtree(lines))
+    disc = shapely.buffer(shapely.Point(0, 0), 400.0)
+    assert not shapely.is_simple(doubled) and shapely.length(shapely.intersection(doubled, disc)) < doubled.length
+    assert _length_in(source, disc) == _every_street_clipped(source, disc)
