@@ -10,7 +10,7 @@ import shapely
 from hypothesis import example, given, settings
 from hypothesis import strategies as st
 
-from osm_expand.engine.roads.built_up import built_up_area, segment_sides
+from osm_expand.engine.roads.built_up import BuiltUpOptions, built_up_area, segment_sides
 from osm_expand.engine.roads.lattice import (
     NO_EDGE,
     EdgeKind,
@@ -53,6 +53,15 @@ def raster(mask_fn, extent, cell=CELL) -> Raster:
     xs, ys = np.meshgrid(x0 + (np.arange(int((x1 - x0) / cell) + 1) + 0.5) * cell,
                          y0 + (np.arange(int((y1 - y0) / cell) + 1) + 0.5) * cell)
     return Raster(mask_fn(xs, ys), (x0, y0), cell)
+
+def random_blobs(rng: np.random.Generator, extent, n: int, *, within: tuple[float, float],
+                 radius: tuple[float, float]) -> Raster:
+    """``n`` forbidden discs at random (centres' both coordinates and radii uniform in the ranges, m)
+    on ``extent``, rasterised at 10 m."""
+    centres, radii = rng.uniform(*within, (n, 2)), rng.uniform(*radius, n)
+    return raster(lambda x, y: (np.hypot(x[..., None] - centres[:, 0], y[..., None] - centres[:, 1])
+                                < radii).any(axis=-1), extent, cell=10.0)
+
 
 
 def river(extent, y_lo, y_hi) -> Raster:
@@ -253,6 +262,20 @@ def test_b_grown_from_last_year_measures_and_tests_only_the_new_ground(x0, y0, n
     assert lat.with_built_up(second.area).built_up.sum() > lat.built_up.sum()
 
 
+def test_block_verdicts_are_carried_only_with_the_water_and_options_they_were_measured_with():
+    """A block found built-up last year is terrain this year if the water now covers it: the
+    carried verdicts hold for the water and options they were measured with, not for others."""
+    segs = SegmentTable.from_lines(grid_lines(200, 200, 2, 60), major=[False] * 6, width=[6.0] * 6)
+    dry = built_up_area(blocks_of(segs), segs, water=None)
+    assert shapely.area(dry.blocks) > 0
+    flooded = shapely.box(0, 0, 1000, 1000)
+    wet = built_up_area(blocks_of(segs), segs, water=flooded, previous=dry)
+    assert wet.blocks.is_empty  # measured again under water, not carried as built-up
+    again = built_up_area(blocks_of(segs), segs, water=None, previous=dry,
+                          options=BuiltUpOptions(terrain_block_area=1.0))
+    assert again.blocks.is_empty  # other options: measured again
+
+
 def test_a_raster_from_geometry_keeps_a_stream_thinner_than_a_cell():
     stream = shapely.LineString([(0, 52), (200, 57)]).buffer(1.5)  # 3 m wide, between cell centres
     r = Raster.from_geometry(stream, (0, 0, 200, 100), cell=10.0)
@@ -372,9 +395,7 @@ def test_pruned_search_finds_the_same_cost_as_searching_everything(seed):
     from osm_expand.engine.roads.routing import _bin_penalties, _expanded_search
     rng = np.random.default_rng(seed)
     extent = (0, 0, 600, 600)
-    centres, radii = rng.uniform(50, 550, (6, 2)), rng.uniform(20, 90, 6)
-    blobs = raster(lambda x, y: (np.hypot(x[..., None] - centres[:, 0], y[..., None] - centres[:, 1])
-                                 < radii).any(axis=-1), extent, cell=10.0)
+    blobs = random_blobs(rng, extent, 6, within=(50, 550), radius=(20, 90))
     lat = build_lattice(extent, forbidden=blobs, options=LatticeOptions(radius=int(rng.integers(1, 4))))
     g = pathfinding_graph(lat, SegmentTable.from_lines([], major=[], width=[]))
     live = g.live_vertices()
@@ -404,9 +425,7 @@ def _tiled_against_whole(seed: int) -> bool:
     from osm_expand.engine.roads import routing
     rng = np.random.default_rng(seed)
     extent = (0, 0, 800, 800)
-    centres, radii = rng.uniform(50, 750, (5, 2)), rng.uniform(20, 70, 5)
-    blobs = raster(lambda x, y: (np.hypot(x[..., None] - centres[:, 0], y[..., None] - centres[:, 1])
-                                 < radii).any(axis=-1), extent, cell=10.0)
+    blobs = random_blobs(rng, extent, 5, within=(50, 750), radius=(20, 70))
     n = int(rng.integers(2, 5))
     lines = grid_lines(250, 250, n, 300 / n)
     segs = SegmentTable.from_lines(lines, major=[bool(b) for b in rng.integers(0, 2, len(lines))],
@@ -455,9 +474,7 @@ def test_the_implicit_search_in_growing_windows_finds_the_cost_of_the_whole_map(
     """A town, a river and forbidden blobs; small first windows force the windows to grow."""
     rng = np.random.default_rng(seed)
     extent = (0, 0, 1000, 1000)
-    centres, radii = rng.uniform(50, 950, (5, 2)), rng.uniform(20, 80, 5)
-    blobs = raster(lambda x, y: (np.hypot(x[..., None] - centres[:, 0], y[..., None] - centres[:, 1])
-                                 < radii).any(axis=-1), extent, cell=10.0)
+    blobs = random_blobs(rng, extent, 5, within=(50, 950), radius=(20, 80))
     y_lo = float(rng.uniform(100, 800))
     segs = SegmentTable.from_lines(grid_lines(350, 350, 3, 100), major=[bool(b) for b in rng.integers(0, 2, 8)],
                                width=[6.0] * 8)
@@ -840,9 +857,7 @@ def test_a_window_crops_the_maps_edges_and_they_equal_the_rasters_own(seed):
     import osm_expand.engine.roads.lattice as lattice_module
     rng = np.random.default_rng(seed)
     extent = (0, 0, 800, 600)
-    centres, radii = rng.uniform(50, 750, (4, 2)), rng.uniform(20, 70, 4)
-    blobs = raster(lambda x, y: (np.hypot(x[..., None] - centres[:, 0], y[..., None] - centres[:, 1])
-                                 < radii).any(axis=-1), extent, cell=10.0)
+    blobs = random_blobs(rng, extent, 4, within=(50, 750), radius=(20, 70))
     y_lo = float(rng.uniform(100, 450))
     hill = raster(lambda x, y: np.zeros(x.shape, bool), extent, cell=10.0)
     xs = hill.origin[0] + (np.arange(hill.values.shape[1]) + 0.5) * hill.cell
@@ -911,9 +926,7 @@ def test_a_windows_directed_tables_are_cropped_from_the_maps_made_once_per_b(see
 
     rng = np.random.default_rng(seed)
     extent = (0, 0, 800, 600)
-    centres, radii = rng.uniform(50, 750, (4, 2)), rng.uniform(20, 70, 4)
-    blobs = raster(lambda x, y: (np.hypot(x[..., None] - centres[:, 0], y[..., None] - centres[:, 1])
-                                 < radii).any(axis=-1), extent, cell=10.0)
+    blobs = random_blobs(rng, extent, 4, within=(50, 750), radius=(20, 70))
     y_lo = float(rng.uniform(100, 450))
     lat = build_lattice(extent, water=river(extent, y_lo, y_lo + 50), forbidden=blobs,
                         options=LatticeOptions(radius=int(rng.integers(1, 5))))

@@ -14,16 +14,14 @@ from osm_expand.engine.roads.lattice import LatticeOptions, build_lattice
 from osm_expand.engine.roads.path_graph import EdgeCosts, implicit_graph, pathfinding_graph
 from osm_expand.engine.roads.routing import RoutingOptions
 from osm_expand.model.segments import SegmentTable
-from tests.test_majorroads import blocks_of, grid_lines, raster
+from tests.test_majorroads import blocks_of, grid_lines, random_blobs
 
 
 def random_map(seed: int):
     """A street grid (major and minor) among forbidden blobs on an 800 m field, and its G′."""
     rng = np.random.default_rng(seed)
     extent = (0, 0, 800, 800)
-    centres, radii = rng.uniform(50, 750, (5, 2)), rng.uniform(20, 70, 5)
-    blobs = raster(lambda x, y: (np.hypot(x[..., None] - centres[:, 0], y[..., None] - centres[:, 1])
-                                 < radii).any(axis=-1), extent, cell=10.0)
+    blobs = random_blobs(rng, extent, 5, within=(50, 750), radius=(20, 70))
     n = int(rng.integers(2, 5))
     lines = grid_lines(float(rng.uniform(100, 300)), float(rng.uniform(100, 300)), n, 300 / n)
     segs = SegmentTable.from_lines(lines, major=[bool(b) for b in rng.integers(0, 2, len(lines))],
@@ -161,7 +159,7 @@ def test_the_turns_still_needed_never_exceed_what_the_rest_of_any_route_costs(se
         assert (floor[np.isfinite(rest[:, :k])] > 0).any()  # the floor is not vacuous here
 
 
-def test_a_windows_matrix_is_gone_before_its_heading_expanded_search():
+def test_a_windows_matrix_is_gone_before_its_heading_expanded_search(monkeypatch):
     """Memory: a window's G′ is searched once, so its cached CSR (the whole map's: 2.3 GB on the
     synthetic 10,000-street town) is dropped after the plain searches and before the expanded
     graph is made; a G′ given directly (searched again the same year) keeps its cache."""
@@ -177,16 +175,36 @@ def test_a_windows_matrix_is_gone_before_its_heading_expanded_search():
         seen.append(len(graph._cache))
         return tiled(graph, *args, **kwargs)
 
-    routing._tiled_search = counted
+    monkeypatch.setattr(routing, "_tiled_search", counted)
     opts = RoutingOptions(turn_height=300.0, window_share=0.0, window_margin=50.0)
-    try:
-        for _ in range(6):
-            s, t = (int(v) for v in rng.choice(live, 2, replace=False))
-            routing.find_route(implicit, s, t, options=opts)
-        assert seen and not any(seen)
-        seen.clear()
+    for _ in range(6):
         s, t = (int(v) for v in rng.choice(live, 2, replace=False))
-        if routing.find_route(whole, s, t, options=opts) is not None and seen:
-            assert all(seen)
-    finally:
-        routing._tiled_search = tiled
+        routing.find_route(implicit, s, t, options=opts)
+    assert seen and not any(seen)
+    seen.clear()
+    while not seen:  # a pair whose plain route turns, so that the expanded search runs
+        s, t = (int(v) for v in rng.choice(live, 2, replace=False))
+        routing.find_route(whole, s, t, options=opts)
+    assert all(seen)
+
+
+@settings(max_examples=8, deadline=None)
+@given(st.integers(0, 2**32 - 1), st.floats(2.6, 2.9), st.floats(0.2, 0.6), st.sampled_from([8, 16, 7]))
+def test_routes_with_the_turn_floor_charging_cost_what_the_whole_expanded_graph_gives(seed, centre, width, k):
+    """End to end with the floor on (penalties that charge even the smallest turns; tiny tiles, so
+    that they must grow): every route costs what Dijkstra over the whole expanded graph gives. An
+    odd K searches without the floor (it is reasoned for an even K) and stays exact too."""
+    g, rng = random_map(seed)
+    opts = RoutingOptions(turn_height=float(rng.uniform(20, 900)), turn_centre=centre, turn_width=width,
+                          heading_bins=k, tile_cells=int(rng.integers(1, 4)), whole_region=0)
+    penalties = routing._bin_penalties(opts)
+    assert routing._turn_floor(penalties).any() if k % 2 == 0 else True
+    lat_ok, extra_ok = g.masks()
+    live = g.live_vertices()
+    for _ in range(3):
+        s, t = (int(v) for v in rng.choice(live, 2, replace=False))
+        route = routing.find_route(g, s, t, options=opts)
+        full = routing._expanded_search(g, lat_ok, extra_ok, np.arange(g.n_vertices), s, t, penalties, k, np.inf)
+        assert (route is None) == (full is None)
+        if route is not None:
+            assert route.cost == pytest.approx(full[1], rel=1e-9, abs=1e-5)

@@ -89,6 +89,9 @@ class BuiltUpArea:
     #: each block's normalised WKB → whether it is built-up (not terrain): a block the next
     #: year finds unchanged keeps its verdict (its water share is not measured again)
     verdicts: dict[bytes, bool] = field(default_factory=dict, repr=False, compare=False)
+    #: what the verdicts were measured with (the water, the options): a year with other ones
+    #: measures every block again
+    basis: tuple = field(default=(None, None), repr=False, compare=False)
     #: the parts B took in since ``previous`` (the new built-up blocks and the new streets'
     #: neighbourhoods): B grew only inside them. None: B is new (no ``previous``)
     added: np.ndarray | None = field(default=None, repr=False, compare=False)
@@ -121,7 +124,7 @@ def built_up_area(blocks: Sequence[shapely.Geometry], segments: SegmentTable, *,
     opts = options or BuiltUpOptions()
     polys = np.array([b for b in blocks if b is not None and not b.is_empty], dtype=object)
     keys = shapely.to_wkb(shapely.normalize(polys)) if len(polys) else np.zeros(0, dtype=object)
-    known = previous.verdicts if previous is not None else {}
+    known = previous.verdicts if previous is not None and _same_basis(previous.basis, (water, opts)) else {}
     # a block as it was last year keeps its verdict: measuring every block's water share again
     # was a quarter of B's year on Campo Grande (5,500 blocks, a few dozen new a year)
     seen = np.array([k in known for k in keys.tolist()], dtype=bool)
@@ -157,6 +160,15 @@ def built_up_area(blocks: Sequence[shapely.Geometry], segments: SegmentTable, *,
             added.extend(grown)
     if previous is not None:
         parts.append(previous.area)
-    return BuiltUpArea(area=shapely.union_all(parts), blocks=built_blocks, verdicts=verdicts,
+    return BuiltUpArea(area=shapely.union_all(parts), blocks=built_blocks, verdicts=verdicts, basis=(water, opts),
                        added=None if previous is None else np.array(added, dtype=object).reshape(-1))
 
+
+def _same_basis(a: tuple, b: tuple) -> bool:
+    """Whether block verdicts measured with ``a`` (water, options) hold with ``b``."""
+    (water_a, opts_a), (water_b, opts_b) = a, b
+    if opts_a != opts_b:
+        return False
+    if water_a is water_b:
+        return True
+    return water_a is not None and water_b is not None and bool(shapely.equals_exact(water_a, water_b, 0.0))

@@ -82,6 +82,8 @@ class EdgeKind(IntEnum):
 
 #: Kinds a road can be built on (the others are waterways and harbours).
 ROAD_KINDS = (EdgeKind.LAND, EdgeKind.BRIDGE, EdgeKind.STITCH, EdgeKind.MAJOR, EdgeKind.MINOR)
+#: per uint8 kind: a bridge or harbour edge (:meth:`Lattice.special_entries`; B removes land edges only)
+_IS_SPECIAL = np.isin(np.arange(256), [EdgeKind.BRIDGE, EdgeKind.HARBOUR])
 
 # unit-edge profiles along the marched samples
 _MIXED, _L, _W, _LW, _WL, _LWL = 0, 1, 2, 3, 4, 5
@@ -268,7 +270,7 @@ class LatticeWeights:
 class Lattice:
     """The pathfinding graph G over a rectangle of vertices, its edges made when asked for.
 
-    A lattice stores no edge table: only the fine rasters of the whole map
+    A lattice stores no edge table of its own: only the fine rasters of the whole map
     (water, forbidden, built-up B, height; ``spacing / samples`` apart) and
     the bridges the whole-map filter kept (one-step bridges as keys, longer
     ones as arrays). A *window* (:meth:`window`) is the same map seen
@@ -283,7 +285,12 @@ class Lattice:
     k < D/2) is ``unit_kind[k, v]`` (:data:`NO_EDGE` when there is none)
     with weight ``unit_weight[k, v]``. ``directed_kind`` /
     ``directed_weight`` hold the live edges seen from both ends, for G′.
-    Never mutated: :meth:`with_built_up` returns a new one.
+    Its rasters are never mutated: :meth:`with_built_up` returns a new
+    lattice. What it mutates are its caches: ``_cache`` (its own) and
+    ``_shared`` (the map's live directed kinds, one table for the map and
+    all its windows of one B), which :meth:`with_built_up` hands on to the
+    next B's lattice and edits there: the old lattice makes its table again
+    if asked (one child each; windows copy their crop).
     """
 
     origin: np.ndarray  #: (2,) m, position of vertex 0 (of this window)
@@ -560,13 +567,9 @@ class Lattice:
         harbour entries: cropped from the map's, found once per run (B removes land edges only)
         where a search of every window looked through its whole table for them."""
         if self.map_units is None or self.map_units[1] is not None:
-            is_special = np.zeros(256, dtype=bool)
-            is_special[[EdgeKind.BRIDGE, EdgeKind.HARBOUR]] = True
-            return np.flatnonzero(is_special[self.directed_tables()[0]])
+            return np.flatnonzero(_IS_SPECIAL[self.directed_tables()[0]])
         if "special" not in self._shared:
-            is_special = np.zeros(256, dtype=bool)
-            is_special[[EdgeKind.BRIDGE, EdgeKind.HARBOUR]] = True
-            self._shared["special"] = np.flatnonzero(is_special[self._map_table()])
+            self._shared["special"] = np.flatnonzero(_IS_SPECIAL[self._map_table()])
         n_dir = len(self.directions)
         v, col = np.divmod(self._shared["special"], n_dir)
         (ny, nx), (r0, c0) = self.shape, self.offset

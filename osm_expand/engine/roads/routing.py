@@ -102,7 +102,7 @@ class RoutingOptions:
     growth_share: float = 0.25
     #: whether the tiled search charges a route leaving its active tiles the turns it must still
     #: make to head for the target (:func:`_turn_floor`: from P of this year's turns; none while
-    #: turns up to 22.5° are free, as in the default P) — fewer tiles, the same cost
+    #: turns up to 22.5° are free, as in the default P; an even `heading_bins` only) — fewer tiles, the same cost
     turn_floor: bool = True
 
     def __post_init__(self) -> None:
@@ -570,7 +570,7 @@ def _expanded_search(graph: PathGraph, lat: np.ndarray, extra: np.ndarray, regio
 
 
 def _turn_floor(penalties: np.ndarray) -> np.ndarray:
-    """``need[m]``, m = 0 … K/2: the least turn cost of any route whose first edge's heading bin is
+    """``need[m]``, m = 0 … K/2 (K even): the least turn cost of any route whose first edge's heading bin is
     b, or that arrives on b and may turn at once, when its end lies m bins away from b (:func:`_turns_needed`).
 
     Why it holds: an edge of bin b heads within ±Δ/2 of ``b·Δ`` (Δ = 2π/K; streets' pieces by
@@ -754,7 +754,10 @@ def _tiled_search(graph: PathGraph, lat: np.ndarray, extra: np.ndarray, source: 
     dir_bin = _bins(graph.direction_heading, k)
     offset = graph.lattice.direction_offset
     extra_bin = _bins(graph.heading, k)
-    need = _turn_floor(penalties) if opts.turn_floor and not at_once else np.zeros(1)  # at once: nothing grows
+    # at once: nothing grows; an odd K: the floor's arcs and _turns_needed's bins are reasoned for an even K
+    # (half the circle a whole number of bins), and with K = 5, 7, 9 it was above the true cost
+    floor = opts.turn_floor and not at_once and k % 2 == 0
+    need = _turn_floor(penalties) if floor else np.zeros(1)
     turns = bool(need.any())
     arrivals = None
     while True:
