@@ -28,6 +28,11 @@ class PatchOptions:
     #: 8.7 (its 2-core share below range) and, with Krems' buildings withheld, 5 real houses crossed
     #: (0 before): not the default (README, h29e).
     density_band: tuple[float, float] = (1.0, 2.5)
+    #: Keep only candidate patches whose dead-end share and 2-core share lie within the range the fidelity
+    #: verdict allows over all the candidates (the town's neighbourhoods at the patch's size; the verdict's
+    #: own rule, :func:`osm_expand.fidelity.scalar_range`): a patch is a sample of a neighbourhood. Meant for
+    #: a wider ``density_band``, whose sparser patches are, in a grid town, its cul-de-sac fringe.
+    share_guard: bool = False
     #: A patch turns to match its neighbours' grid only when both have a clear main direction:
     #: the fullest 5° bin of bearings (mod 90°) holds this many times its share.
     orientation_peak: float = 2.0
