@@ -65,8 +65,9 @@ def main() -> None:
         real = np.array([b.polygon for b in city.buildings], dtype=object)
         for label, town in (("withheld", city.replace(buildings=())), ("mapped", city)):
             t0 = time.process_time()
-            grown = mature_result(expand(town, ExpandOptions(seed=args.seed, fidelity=False)), load_history(args.history),
-                                  MatureOptions(years=args.years, fidelity=False), args.seed).city
+            grown = mature_result(expand(town, ExpandOptions(seed=args.seed, fidelity=False)),
+                                  load_history(args.history), MatureOptions(years=args.years, fidelity=False),
+                                  args.seed).city
             c = count(grown, real)
             print(f"| {name} | {label} | {c['generated']} | {c['on_real']} | {100 * c['share']:.1f} % "
                   f"| {c['new_streets']} | {c['real_crossed']} {c['crossed_by'] or ''} | {time.process_time() - t0:.1f} |",
