@@ -12,7 +12,7 @@ and counts against the withheld buildings — the ground truth:
 
 The same run with the buildings in the file is printed beside it.
 
-Usage: ``python benchmarks/withheld_buildings.py [--seed 0] [--years N] [TOWN ...]``
+Usage: ``python benchmarks/withheld_buildings.py [--seed 0] [--years N] [--history H] [TOWN ...]``
 """
 from __future__ import annotations
 
@@ -50,6 +50,7 @@ def main() -> None:
     ap.add_argument("towns", nargs="*", default=TOWNS)
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--years", type=int, default=None, help="default: the history's own (30)")
+    ap.add_argument("--history", default="example", help="a bundled history or a TOML file (default: example)")
     args = ap.parse_args()
     from osm_expand.engine.history import load_history
     from osm_expand.ingest import load
@@ -64,8 +65,9 @@ def main() -> None:
         real = np.array([b.polygon for b in city.buildings], dtype=object)
         for label, town in (("withheld", city.replace(buildings=())), ("mapped", city)):
             t0 = time.process_time()
-            grown = mature_result(expand(town, ExpandOptions(seed=args.seed, fidelity=False)), load_history("example"),
-                                  MatureOptions(years=args.years, fidelity=False), args.seed).city
+            grown = mature_result(expand(town, ExpandOptions(seed=args.seed, fidelity=False)),
+                                  load_history(args.history), MatureOptions(years=args.years, fidelity=False),
+                                  args.seed).city
             c = count(grown, real)
             print(f"| {name} | {label} | {c['generated']} | {c['on_real']} | {100 * c['share']:.1f} % "
                   f"| {c['new_streets']} | {c['real_crossed']} {c['crossed_by'] or ''} | {time.process_time() - t0:.1f} |",

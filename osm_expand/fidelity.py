@@ -60,7 +60,7 @@ from osm_expand.measures import (
 )
 
 __all__ = ["DEFAULT_PARTS", "FidelityOptions", "FidelityReport", "MeasureVerdict", "TownReference", "compare",
-           "fidelity", "judge", "ks_distance", "real_parts", "reference_in", "town_reference"]
+           "fidelity", "judge", "ks_distance", "real_parts", "reference_in", "scalar_range", "town_reference"]
 
 #: Real neighbourhoods kept by default: 32 (the issue asks for at least 16). Sixteen make a 10th–90th
 #: percentile range from two values at each end; with 32 the median neighbourhood's off count moves
@@ -345,6 +345,24 @@ def _limits(part_values: np.ndarray, opts: FidelityOptions) -> tuple[np.ndarray,
     low[_IS_SHARE] = np.maximum(low[_IS_SHARE] - opts.share_margin, 0.0)
     high[_IS_SHARE] = np.minimum(high[_IS_SHARE] + opts.share_margin, 1.0)
     return low, high
+
+
+def scalar_range(measure: Measure | str, part_values: np.ndarray,
+                 options: FidelityOptions | None = None) -> tuple[float, float]:
+    """The range the verdict allows a scalar ``measure`` when the real parts' values of it are ``part_values``.
+
+    The verdict's own rule (:func:`_limits`: the 10th–90th percentile, shares widened by ``share_margin``),
+    for a caller that samples the town's neighbourhoods itself (the example patches keep only candidate
+    patches within their town's range: a patch is a sample of a neighbourhood). NaN where every value is.
+    """
+    m = measure_named(measure)
+    k = _ORDER.index(m)
+    if m in DISTRIBUTIONS:
+        raise InputError(f"{m.value} is a distribution; its verdict is a KS distance, not a range")
+    values = np.full((len(part_values), len(_ORDER)), np.nan)
+    values[:, k] = np.asarray(part_values, dtype=np.float64)
+    low, high = _limits(values, options or FidelityOptions())
+    return float(low[k]), float(high[k])
 
 
 def _verdicts(values: np.ndarray, part_values: np.ndarray, measured: NetworkMeasures, town: NetworkMeasures,

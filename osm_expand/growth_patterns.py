@@ -46,11 +46,12 @@ def measure_in_windows(lines: list) -> Callable[[shapely.Geometry], NetworkMeasu
 
 
 def _example(example: Example, options: Any) -> GrowthPattern:
+    from osm_expand.fidelity import scalar_range
     from synth.patches import ExamplePatches
 
     if options is None:
-        return ExamplePatches(example, measure=measure_in_windows)
-    return ExamplePatches(example, options=options, measure=measure_in_windows)
+        return ExamplePatches(example, measure=measure_in_windows, limits=scalar_range)
+    return ExamplePatches(example, options=options, measure=measure_in_windows, limits=scalar_range)
 
 
 def _walk(example: Example, options: Any) -> GrowthPattern:

@@ -507,3 +507,16 @@ def test_an_unknown_measure_name_lists_the_valid_ones():
     assert m.value("density") == m.density
     with pytest.raises(InputError, match="valid: edge_length, circuity"):
         m.value("sinuosity")
+
+
+def test_scalar_range_is_the_verdicts_rule_for_one_measure():
+    """h29f: a caller sampling neighbourhoods itself gets the range the verdict would give (10th–90th
+    percentile; the dead-end share widened by 0.02 each side, the 2-core share not); a distribution has none."""
+    from osm_expand.fidelity import scalar_range
+
+    values = np.linspace(0.0, 0.5, 11)
+    lo, hi = np.percentile(values, [10, 90])
+    assert scalar_range("two_core_share", values) == pytest.approx((lo, hi))
+    assert scalar_range("dead_end_share", values) == pytest.approx((lo - 0.02, hi + 0.02))
+    with pytest.raises(InputError):
+        scalar_range("edge_length", values)

@@ -289,3 +289,35 @@ def test_the_towns_streets_kept_between_districts_are_those_read_afresh():
     assert len(again.streets) == len(fresh_grow.streets) > 0
     for a, b in zip(again.streets, fresh_grow.streets):
         assert np.array_equal(a.xy, b.xy)
+
+
+@pytest.mark.parametrize("name", ["krems.osm.gz", "andorra.osm.pbf"])
+def test_the_share_guard_keeps_only_patches_with_their_towns_shares(name):
+    """Issue 20 (h29f): with a band of a factor of two either way, some candidate patches have a dead-end or
+    2-core share outside the range the verdict allows over the town's neighbourhoods at the patch's size
+    (Krems 11 of 39, Andorra 8 of 44); with ``share_guard`` none has, by the verdict's own rule
+    (:func:`osm_expand.fidelity.scalar_range`), and most candidates stay."""
+    from osm_expand.fidelity import scalar_range
+    from osm_expand.growth_patterns import measure_in_windows
+    from synth.patches.source import GUARDED, _candidate_patches, _level, _neighbourhood_points, _source
+
+    grown = district(name, 0)
+    source = _source(grown.city, grown.learned.example)
+    in_window = measure_in_windows([np.asarray(ln.coords) for ln in source.lines])
+    outside = {}
+    for guard in (False, True):
+        opts = PatchOptions(density_band=(0.5, 2.0), share_guard=guard)
+        size = opts.cell_size * grown.learned.example.spacing
+        drawn = _neighbourhood_points(source, opts.candidates, size / 2, np.random.default_rng(0))
+        patches = _candidate_patches(source, size, opts, np.random.default_rng(0), measure_in_windows, scalar_range)
+
+        def shares(centres, size=size):
+            return np.array([[_level(in_window(shapely.Point(c).buffer(size / 2)), n) for n in GUARDED]
+                             for c in centres])
+
+        every, got = shares(drawn), shares(patches)
+        bounds = [scalar_range(n, every[:, k]) for k, n in enumerate(GUARDED)]
+        outside[guard] = sum(int(((got[:, k] < lo) | (got[:, k] > hi)).sum()) for k, (lo, hi) in enumerate(bounds))
+        if guard:
+            assert len(patches) >= len(drawn) / 2
+    assert outside[False] > 0 and outside[True] == 0, outside

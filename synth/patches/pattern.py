@@ -45,6 +45,10 @@ class ExamplePatches:
     #: :func:`osm_expand.measures.measure_network`, as ``synth`` knows only the model); without it patches
     #: are not ranked by how typical of the town they are.
     measure: Callable | None = None
+    #: ``limits(name, values)`` gives the range the fidelity verdict allows a scalar measure whose values
+    #: over the town's neighbourhoods are ``values`` (:func:`osm_expand.fidelity.scalar_range`, handed in as
+    #: ``measure`` is): with ``share_guard`` on, candidate patches outside it are not used.
+    limits: Callable | None = None
     name: str = "example"
     #: Ranked patch centres by patch size, kept between districts grown by this object (the year loop
     #: grows many from one town: ranking the town's patches is the slow part, and the town is the same).
@@ -69,7 +73,7 @@ class ExamplePatches:
         aim = self._aim(everything, around, radius, city.network)
         key = round(float(np.log(size)) / 0.05)  # sizes within 5 % share a ranking
         if key not in self.cache:
-            self.cache[key] = _candidate_patches(source, size, opts, rng, self.measure)
+            self.cache[key] = _candidate_patches(source, size, opts, rng, self.measure, self.limits)
         patches = self.cache[key]
         best = None
         for attempt in range(ATTEMPTS):  # other patches when even every cell filled left too little

@@ -110,8 +110,12 @@ def _neighbourhood_points(source: _Source, n: int, radius: float, rng: np.random
 TYPICAL = ("curvature", "circuity", "edge_length", "dead_end_share", "three_way_share")
 
 
+#: The shares a candidate patch must have within its town's neighbourhoods' range (``share_guard``).
+GUARDED = ("dead_end_share", "two_core_share")
+
+
 def _candidate_patches(source: _Source, size: float, opts: PatchOptions, rng: np.random.Generator,
-                       measure: Callable | None = None) -> np.ndarray:
+                       measure: Callable | None = None, limits: Callable | None = None) -> np.ndarray:
     """Patch centres on the town's streets, most typical of the town first.
 
     Candidates are discs around the town's neighbourhoods' junctions
@@ -123,6 +127,13 @@ def _candidate_patches(source: _Source, size: float, opts: PatchOptions, rng: np
     the candidates' spread, so the district is made of the town's ordinary
     fabric rather than its oddities. A candidate within one patch of a better
     one goes to the back, so neighbouring cells differ.
+
+    With ``share_guard`` (and ``measure`` and ``limits``), a candidate in the
+    band whose dead-end or 2-core share lies outside the range the verdict
+    allows over all the candidates (the town's neighbourhoods at the patch's
+    size; ``limits``: the verdict's own rule) is not used, unless none is left:
+    a patch is a sample of a neighbourhood, and a sparser band must not bring
+    a grid town's cul-de-sac fringe into its districts.
     """
     centres = _neighbourhood_points(source, opts.candidates, size / 2, rng)
     local = _density(source, centres, size / 2)
@@ -131,8 +142,17 @@ def _candidate_patches(source: _Source, size: float, opts: PatchOptions, rng: np
     good = np.flatnonzero((local >= lo * median) & (local <= hi * median))
     if not len(good):
         good = np.argsort(np.abs(local - median))[:1]
-    if measure is not None and len(good) > 1:
-        in_window = measure([np.asarray(ln.coords) for ln in source.lines])
+    in_window = None if measure is None else measure([np.asarray(ln.coords) for ln in source.lines])
+    if opts.share_guard and in_window is not None and limits is not None and len(good) > 1:
+        everyone = [in_window(shapely.Point(c).buffer(size / 2)) for c in centres]
+        shares = np.array([[_level(m, name) for name in GUARDED] for m in everyone])
+        inside = np.ones(len(centres), dtype=bool)
+        for k, name in enumerate(GUARDED):
+            lo, hi = limits(name, shares[:, k])
+            inside &= (shares[:, k] >= lo) & (shares[:, k] <= hi)
+        if inside[good].any():
+            good = good[inside[good]]
+    if in_window is not None and len(good) > 1:
         values = np.array([[_level(in_window(shapely.Point(centres[i]).buffer(size / 2)), m) for m in TYPICAL]
                            for i in good])
         centre = np.nanmedian(values, axis=0)
