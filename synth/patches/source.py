@@ -142,23 +142,35 @@ def _candidate_patches(source: _Source, size: float, opts: PatchOptions, rng: np
     good = np.flatnonzero((local >= lo * median) & (local <= hi * median))
     if not len(good):
         good = np.argsort(np.abs(local - median))[:1]
-    in_window = None if measure is None else measure([np.asarray(ln.coords) for ln in source.lines])
-    if opts.share_guard and in_window is not None and limits is not None and len(good) > 1:
-        everyone = [in_window(shapely.Point(c).buffer(size / 2)) for c in centres]
-        shares = np.array([[_level(m, name) for name in GUARDED] for m in everyone])
+    if measure is None or len(good) <= 1:
+        return _spread(centres, good, size)
+    in_window = measure([np.asarray(ln.coords) for ln in source.lines])
+    measured: dict[int, object] = {}  # each disc measured once: the guard and the ranking read the same
+
+    def at(i: int):
+        if i not in measured:
+            measured[i] = in_window(shapely.Point(centres[i]).buffer(size / 2))
+        return measured[i]
+
+    if opts.share_guard and limits is not None:
+        shares = np.array([[_level(at(i), name) for name in GUARDED] for i in range(len(centres))])
         inside = np.ones(len(centres), dtype=bool)
         for k, name in enumerate(GUARDED):
             lo, hi = limits(name, shares[:, k])
             inside &= (shares[:, k] >= lo) & (shares[:, k] <= hi)
         if inside[good].any():
             good = good[inside[good]]
-    if in_window is not None and len(good) > 1:
-        values = np.array([[_level(in_window(shapely.Point(centres[i]).buffer(size / 2)), m) for m in TYPICAL]
-                           for i in good])
+    if len(good) > 1:
+        values = np.array([[_level(at(i), m) for m in TYPICAL] for i in good])
         centre = np.nanmedian(values, axis=0)
         spread = np.nanpercentile(values, 75, axis=0) - np.nanpercentile(values, 25, axis=0)
         z = np.nan_to_num(np.abs(values - centre) / np.where(spread > 0, spread, 1.0), nan=3.0)
         good = good[np.argsort(np.sqrt((z ** 2).sum(axis=1)), kind="stable")]
+    return _spread(centres, good, size)
+
+
+def _spread(centres: np.ndarray, good: np.ndarray, size: float) -> np.ndarray:
+    """``centres[good]`` in ``good``'s order, each within one patch of an earlier one sent to the back."""
     first: list[int] = []
     later: list[int] = []
     for i in good.tolist():
