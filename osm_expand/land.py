@@ -14,7 +14,9 @@ the engine's growth and the build-out share:
   town streets by their class; other roads only where they pass the town
   (within a frontage depth of buildings, settlement land use or a
   residential street's frontage), so a country road between villages has
-  none. And mapped *settlement* land use (:data:`SETTLEMENT`). Where the
+  none. ``highway=service`` ways that the network leaves out (the default
+  ingest) are read as town streets here and nowhere else. And mapped
+  *settlement* land use (:data:`SETTLEMENT`), works' enclosures included. Where the
   town's buildings are mapped (within :attr:`LandOptions.survey_radius` of
   one), land without a building is shown to be empty and is not taken: a
   town whose houses are not mapped still reads as occupied along its
@@ -51,8 +53,14 @@ UNBUILDABLE = ("landuse=cemetery", "amenity=grave_yard", "landuse=railway", "lan
                "aeroway=*", "leisure=park", "leisure=nature_reserve", "landuse=landfill", "landuse=quarry",
                "natural=wetland")
 #: Mapped land use that is the town itself: homes, work, farmyards, gardens, sports grounds. Land
-#: under it is taken unless the town's mapped buildings show it empty.
-SETTLEMENT = ("landuse=residential", "landuse=commercial", "landuse=retail", "landuse=industrial",
+#: under it is taken unless the town's mapped buildings show it empty. Works' enclosures count too:
+#: the OSM wiki maps a sewage plant (``man_made=wastewater_plant``), a waterworks
+#: (``man_made=water_works``), a factory site (``man_made=works``), a power station (``power=plant``)
+#: and a substation (``power=substation``) as the fenced site itself, often without a
+#: ``landuse=industrial`` around it (Krems' sewage plant, way 29735498, holds four houses and has none).
+SETTLEMENT = ("man_made=wastewater_plant", "man_made=water_works", "man_made=works",
+              "power=plant", "power=substation",
+              "landuse=residential", "landuse=commercial", "landuse=retail", "landuse=industrial",
               "landuse=farmyard", "landuse=farm", "landuse=garages", "landuse=allotments", "landuse=construction",
               "landuse=religious", "landuse=education", "landuse=institutional", "landuse=depot", "landuse=port",
               "leisure=garden", "leisure=pitch", "leisure=sports_centre", "leisure=stadium",
@@ -265,7 +273,9 @@ def _frontage(city: City, depth: dict[str, float], footprints: np.ndarray,
     A strip is the street buffered with flat ends, plus a disc at each end
     that meets another street: a dead end's frontage stops at its tip, so
     a street may continue it into the fields (how towns grow past their
-    cul-de-sacs).
+    cul-de-sacs). Service ways the network leaves out (:attr:`City.service_lines`)
+    have frontage like town streets (the minor depth), and a street end one
+    of them continues counts as a junction (:func:`_continued`).
     """
     index, lines = _fronted(city)
     if not len(lines):
@@ -274,9 +284,11 @@ def _frontage(city: City, depth: dict[str, float], footprints: np.ndarray,
     streets = [net.streets[k] for k in index.tolist()]
     width = np.array([depth["major"] if s.highway in MAIN_ROADS else depth["minor"] for s in streets])
     by_class = np.array([s.highway in TOWN_STREETS for s in streets], dtype=bool)
-    drawn, drawn_width = [lines[by_class]], [width[by_class]]
+    service = np.array(city.service_lines, dtype=object)
+    drawn = [lines[by_class], service]
+    drawn_width = [width[by_class], np.full(len(service), depth["minor"])]
     evidence = [*footprints.tolist(), *settlement,
-                *shapely.buffer(lines[by_class], width[by_class], cap_style="flat").tolist()]
+                *shapely.buffer(np.concatenate(drawn), np.concatenate(drawn_width), cap_style="flat").tolist()]
     others = np.flatnonzero(~by_class)
     if len(others) and evidence:
         pieces, owner = _pieces(lines[others])
@@ -294,7 +306,8 @@ def _frontage(city: City, depth: dict[str, float], footprints: np.ndarray,
     strips = shapely.buffer(drawn_lines, drawn_w, cap_style="flat").tolist()
     degree = segment_degree(net.streets, len(net.xy))
     ends = [(s.nodes[0], w) for s, w in zip(streets, width)] + [(s.nodes[-1], w) for s, w in zip(streets, width)]
-    joints = [(n, w) for n, w in ends if degree[n] > 1]
+    continued = _continued(net.xy, np.array([n for n, _ in ends], dtype=np.int64), service)
+    joints = [(n, w) for (n, w), c in zip(ends, continued.tolist()) if degree[n] > 1 or c]
     discs: list = []
     if joints and strips:
         discs = shapely.buffer(shapely.points(net.xy[[n for n, _ in joints]]), [w for _, w in joints]).tolist()
@@ -303,6 +316,22 @@ def _frontage(city: City, depth: dict[str, float], footprints: np.ndarray,
                                                                       predicate="intersects")
         discs = [discs[k] for k in np.unique(hit).tolist()]
     return [p for p in [*strips, *discs] if not p.is_empty], drawn_lines, drawn_w
+
+
+#: Metres within which a street's end meets a service way: they share the OSM node, so the two
+#: points are the same but for rounding.
+JOIN = 0.01
+
+
+def _continued(xy: np.ndarray, nodes: np.ndarray, service: np.ndarray) -> np.ndarray:
+    """Which of the street ends ``nodes`` a service way (:attr:`City.service_lines`) meets: such an end
+    is a junction of the town as mapped, though the network left the service way out, so its frontage
+    gets the end disc a junction gets (a residential street that runs on as a driveway is no dead end)."""
+    out = np.zeros(len(nodes), dtype=bool)
+    if len(service) and len(nodes):
+        hit, _ = shapely.STRtree(service).query(shapely.points(xy[nodes]), predicate="dwithin", distance=JOIN)
+        out[hit] = True
+    return out
 
 
 #: Metres of a road tested at a time for passing the town.
