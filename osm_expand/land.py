@@ -285,13 +285,19 @@ def _frontage(city: City, depth: dict[str, float], footprints: np.ndarray,
     width = np.array([depth["major"] if s.highway in MAIN_ROADS else depth["minor"] for s in streets])
     by_class = np.array([s.highway in TOWN_STREETS for s in streets], dtype=bool)
     service = np.array(city.service_lines, dtype=object)
-    drawn = [lines[by_class], service]
-    drawn_width = [width[by_class], np.full(len(service), depth["minor"])]
+    drawn, drawn_width = [lines[by_class]], [width[by_class]]
     evidence = [*footprints.tolist(), *settlement,
-                *shapely.buffer(np.concatenate(drawn), np.concatenate(drawn_width), cap_style="flat").tolist()]
-    others = np.flatnonzero(~by_class)
-    if len(others) and evidence:
-        pieces, owner = _pieces(lines[others])
+                *shapely.buffer(lines[by_class], width[by_class], cap_style="flat").tolist()]
+    if SERVICE_BY_CLASS:
+        drawn.append(service)
+        drawn_width.append(np.full(len(service), depth["minor"]))
+        evidence.extend(shapely.buffer(service, depth["minor"], cap_style="flat").tolist())
+        other_lines, other_width = lines[~by_class], width[~by_class]
+    else:
+        other_lines = np.concatenate([lines[~by_class], service])
+        other_width = np.concatenate([width[~by_class], np.full(len(service), depth["minor"])])
+    if len(other_lines) and evidence:
+        pieces, owner = _pieces(other_lines)
         tree = shapely.STRtree(np.array(evidence, dtype=object))
         near, _ = tree.query(shapely.centroid(pieces), predicate="dwithin", distance=float(width.max()))
         kept = np.unique(near)
@@ -300,7 +306,7 @@ def _frontage(city: City, depth: dict[str, float], footprints: np.ndarray,
             merged = [shapely.line_merge(shapely.multilinestrings(pieces[kept][owner[kept] == j]))
                       for j in roads.tolist()]
             drawn.append(np.array([g for m in merged for g in shapely.get_parts(m)], dtype=object))
-            drawn_width.append(np.array([width[others][j] for j, m in zip(roads.tolist(), merged)
+            drawn_width.append(np.array([other_width[j] for j, m in zip(roads.tolist(), merged)
                                          for _ in shapely.get_parts(m)]))
     drawn_lines, drawn_w = np.concatenate(drawn), np.concatenate(drawn_width)
     strips = shapely.buffer(drawn_lines, drawn_w, cap_style="flat").tolist()
@@ -317,6 +323,13 @@ def _frontage(city: City, depth: dict[str, float], footprints: np.ndarray,
         discs = [discs[k] for k in np.unique(hit).tolist()]
     return [p for p in [*strips, *discs] if not p.is_empty], drawn_lines, drawn_w
 
+
+#: Service ways' frontage (:attr:`City.service_lines`) drawn wherever they run, like a town street's
+#: (True), or only where they pass the town, like a country road's (False). Measured with the
+#: buildings withheld (``benchmarks/withheld_buildings.py``, default history and issue 20's
+#: investigation's ``density_band = [0.5, 2.0]``): True crosses no real house on Krems or
+#: north-bayreuth; False crosses one on north-bayreuth (the default history) and stands 4 new houses on real ones.
+SERVICE_BY_CLASS = True
 
 #: Metres within which a street's end meets a service way: they share the OSM node, so the two
 #: points are the same but for rounding.
