@@ -62,7 +62,7 @@ AREA_KEYS: dict[str, frozenset[str] | None] = {
     "landuse": None, "leisure": None, "aeroway": None, "military": None,
     "amenity": frozenset({"grave_yard"}),
     "natural": frozenset({"wood", "scrub", "heath", "grassland", "wetland", "beach", "bare_rock"}),
-    # works' enclosures, often mapped without landuse=industrial: the town's land (land.SETTLEMENT)
+    # works' enclosures, often mapped without landuse=industrial: the town's land (land.WORKS)
     "man_made": frozenset({"wastewater_plant", "water_works", "works"}),
     "power": frozenset({"plant", "substation"}),
 }

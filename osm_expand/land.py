@@ -15,8 +15,10 @@ the engine's growth and the build-out share:
   (within a frontage depth of buildings, settlement land use or a
   residential street's frontage), so a country road between villages has
   none. ``highway=service`` ways that the network leaves out (the default
-  ingest) are read as town streets here and nowhere else. And mapped
-  *settlement* land use (:data:`SETTLEMENT`), works' enclosures included. Where the
+  ingest) are read as town streets here and nowhere else, when
+  :attr:`LandOptions.service_ways` is on (off by default). And mapped
+  *settlement* land use (:data:`SETTLEMENT`; works' enclosures, :data:`WORKS`,
+  on request). Where the
   town's buildings are mapped (within :attr:`LandOptions.survey_radius` of
   one), land without a building is shown to be empty and is not taken: a
   town whose houses are not mapped still reads as occupied along its
@@ -52,15 +54,16 @@ from osm_expand.model.topology import segment_degree
 UNBUILDABLE = ("landuse=cemetery", "amenity=grave_yard", "landuse=railway", "landuse=military", "military=*",
                "aeroway=*", "leisure=park", "leisure=nature_reserve", "landuse=landfill", "landuse=quarry",
                "natural=wetland")
-#: Mapped land use that is the town itself: homes, work, farmyards, gardens, sports grounds. Land
-#: under it is taken unless the town's mapped buildings show it empty. Works' enclosures count too:
-#: the OSM wiki maps a sewage plant (``man_made=wastewater_plant``), a waterworks
+#: Works' enclosures: the OSM wiki maps a sewage plant (``man_made=wastewater_plant``), a waterworks
 #: (``man_made=water_works``), a factory site (``man_made=works``), a power station (``power=plant``)
 #: and a substation (``power=substation``) as the fenced site itself, often without a
 #: ``landuse=industrial`` around it (Krems' sewage plant, way 29735498, holds four houses and has none).
-SETTLEMENT = ("man_made=wastewater_plant", "man_made=water_works", "man_made=works",
-              "power=plant", "power=substation",
-              "landuse=residential", "landuse=commercial", "landuse=retail", "landuse=industrial",
+#: The town's land; not yet in :data:`SETTLEMENT` by default (``LandOptions(settlement=SETTLEMENT +
+#: WORKS)``): with them and :attr:`LandOptions.service_ways` on, five growth tests fail (issue 20 notes).
+WORKS = ("man_made=wastewater_plant", "man_made=water_works", "man_made=works", "power=plant", "power=substation")
+#: Mapped land use that is the town itself: homes, work, farmyards, gardens, sports grounds. Land
+#: under it is taken unless the town's mapped buildings show it empty.
+SETTLEMENT = ("landuse=residential", "landuse=commercial", "landuse=retail", "landuse=industrial",
               "landuse=farmyard", "landuse=farm", "landuse=garages", "landuse=allotments", "landuse=construction",
               "landuse=religious", "landuse=education", "landuse=institutional", "landuse=depot", "landuse=port",
               "leisure=garden", "leisure=pitch", "leisure=sports_centre", "leisure=stadium",
@@ -119,6 +122,10 @@ class LandOptions:
     cover: Mapping[str, float] = field(default_factory=lambda: LAND_COVER)
     #: Taken land in pieces smaller than this (m²) is dropped (slivers between buffers).
     min_piece: float = 50.0
+    #: Read the service ways the network leaves out (:attr:`City.service_lines`) as town streets'
+    #: frontage, and a street end one continues as a junction. Off by default until the growth it
+    #: changes is measured (with it on, Krems' european years fail their growth tests).
+    service_ways: bool = False
 
     def __post_init__(self) -> None:
         for rule in (*self.unbuildable, *self.settlement, *self.cover):
@@ -237,7 +244,8 @@ def read_land(city: City, options: LandOptions | None = None) -> Land:
     depth, source = frontage_depth(city, opts)
     footprints = _footprints(city)
     settlement = [a.polygon for a in city.areas if matches(a.key, a.value, opts.settlement)]
-    frontage, lines, widths = _frontage(city, depth, footprints, settlement)
+    service = np.array(city.service_lines if opts.service_ways else (), dtype=object)
+    frontage, lines, widths = _frontage(city, depth, footprints, settlement, service)
     frontage_arr = np.array(frontage, dtype=object)
     settled = np.array(settlement, dtype=object)
     if len(footprints) and opts.survey_radius > 0:
@@ -266,14 +274,14 @@ def _cost(kind: str, table: Mapping[str, float]) -> float:
 
 
 def _frontage(city: City, depth: dict[str, float], footprints: np.ndarray,
-              settlement: list) -> tuple[list, np.ndarray, np.ndarray]:
+              settlement: list, service: np.ndarray) -> tuple[list, np.ndarray, np.ndarray]:
     """The frontage strips of the town's streets (module docstring), as polygons, and the lines and
     depths they were drawn from.
 
     A strip is the street buffered with flat ends, plus a disc at each end
     that meets another street: a dead end's frontage stops at its tip, so
     a street may continue it into the fields (how towns grow past their
-    cul-de-sacs). Service ways the network leaves out (:attr:`City.service_lines`)
+    cul-de-sacs). Service ways the network leaves out (``service``, from :attr:`City.service_lines`)
     have frontage like town streets (the minor depth), and a street end one
     of them continues counts as a junction (:func:`_continued`).
     """
@@ -284,7 +292,6 @@ def _frontage(city: City, depth: dict[str, float], footprints: np.ndarray,
     streets = [net.streets[k] for k in index.tolist()]
     width = np.array([depth["major"] if s.highway in MAIN_ROADS else depth["minor"] for s in streets])
     by_class = np.array([s.highway in TOWN_STREETS for s in streets], dtype=bool)
-    service = np.array(city.service_lines, dtype=object)
     drawn, drawn_width = [lines[by_class]], [width[by_class]]
     evidence = [*footprints.tolist(), *settlement,
                 *shapely.buffer(lines[by_class], width[by_class], cap_style="flat").tolist()]

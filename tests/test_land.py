@@ -9,7 +9,7 @@ import shapely
 
 from osm_expand.blocks import blocks
 from osm_expand.ingest import load
-from osm_expand.land import LAND_COVER, LandOptions, frontage_depth, land_cover_taken, read_land
+from osm_expand.land import LAND_COVER, SETTLEMENT, WORKS, LandOptions, frontage_depth, land_cover_taken, read_land
 from osm_expand.model import Building, City, MappedArea, network_from_lines
 from osm_expand.sites import SiteOptions, choose_site, distance_maps
 from tests.conftest import FIXTURES
@@ -123,7 +123,8 @@ def test_a_works_enclosure_is_taken_land_though_no_building_is_mapped():
     city = town("krems.osm.gz")
     plant = [a for a in city.areas if a.osm_id == 29735498]
     assert [(a.key, a.value) for a in plant] == [("man_made", "wastewater_plant")]
-    taken = shapely.union_all(read_land(city.replace(buildings=())).taken)
+    bare = city.replace(buildings=())
+    taken = shapely.union_all(read_land(bare, LandOptions(settlement=SETTLEMENT + WORKS)).taken)
     assert taken.intersection(plant[0].polygon).area >= 0.95 * plant[0].polygon.area
 
 
@@ -134,7 +135,8 @@ def test_a_street_end_a_service_way_continues_gets_land_past_its_tip():
     plain, continued = street_city(), street_city().replace(service_lines=(drive,))
     corner = shapely.Point(1020.0, -20.0)  # past the tip, south of the service way's flat end
     assert not shapely.union_all(read_land(plain).taken).intersects(corner)
-    taken = shapely.union_all(read_land(continued).taken)
+    assert not shapely.union_all(read_land(continued).taken).intersects(corner)  # off by default
+    taken = shapely.union_all(read_land(continued, LandOptions(service_ways=True)).taken)
     assert taken.covers(corner) and taken.covers(shapely.Point(1050.0, 150.0))  # and the way's own frontage
 
 
