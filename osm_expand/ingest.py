@@ -13,8 +13,10 @@ What is kept, as mapped (ids, tags and shapes):
   with every ring's node ids, so they can be written back as mapped;
 - water: water areas and multipolygons, waterway lines buffered by their
   width, coastline closed against the bounds into sea;
-- mapped areas (:data:`AREA_KEYS`): land use, leisure, aeroway, military and
-  natural vegetation polygons, for the unbuildable land and land use;
+- mapped areas (:data:`AREA_KEYS`): land use, leisure, aeroway, military,
+  natural vegetation and works' enclosures (``man_made=works`` and kin,
+  ``power=plant|substation``), for the unbuildable land, the taken land and
+  land use;
 - the map's year: that of its newest way or relation.
 
 Node coordinates that are not numbers (``lat="nan"``) or lie outside the
@@ -60,6 +62,9 @@ AREA_KEYS: dict[str, frozenset[str] | None] = {
     "landuse": None, "leisure": None, "aeroway": None, "military": None,
     "amenity": frozenset({"grave_yard"}),
     "natural": frozenset({"wood", "scrub", "heath", "grassland", "wetland", "beach", "bare_rock"}),
+    # works' enclosures, often mapped without landuse=industrial: the town's land (land.WORKS)
+    "man_made": frozenset({"wastewater_plant", "water_works", "works"}),
+    "power": frozenset({"plant", "substation"}),
 }
 _UNDEFINED = 2147483647  # libosmium's undefined coordinate
 
@@ -84,6 +89,8 @@ class _Raw:
     newest: int = 0  # the newest object's timestamp (seconds since 1970)
     #: street nodes the file gave no location (absent from a clipped extract, or without lat/lon)
     missing: set[int] = field(default_factory=set)
+    #: ``highway=service`` ways outside the kept classes: land evidence (lon/lat runs), not streets
+    service: list[list[tuple[float, float]]] = field(default_factory=list)
 
 
 def check_readable(path: str | os.PathLike, suffixes: tuple[str, ...] = SUFFIXES) -> Path:
@@ -198,7 +205,7 @@ def _read(path: str, kept: frozenset[str], context: bool, relations: bool) -> tu
     for obj in fp:
         if isinstance(obj, osmium.osm.Way):  # obj.is_way(), in a form type checkers narrow on
             raw.newest = max(raw.newest, _seconds(obj))
-            _take_way(obj, kept, raw)
+            _take_way(obj, kept, raw, evidence=context)
             if context and obj.is_closed():
                 _take_closed_way(obj, raw)
             elif context and obj.tags.get("building", "no") != "no" and "highway" not in obj.tags:
@@ -311,11 +318,23 @@ def _way_runs(way) -> tuple[list[tuple[list[int], list[tuple[float, float]]]], b
     return runs, clipped
 
 
-def _take_way(way, kept: frozenset[str], raw: _Raw) -> None:
+#: Highway classes read, when the network leaves them out, as evidence of the town's land only
+#: (:attr:`City.service_lines`, :func:`osm_expand.land._frontage`). Service ways are driveways, yards
+#: and access lanes: the OSM wiki's ``highway=service`` is "access to a building, service station,
+#: beach, campsite, industrial estate, business park, etc.", where the town is. Tracks are not here:
+#: ``highway=track`` is "for agricultural use, forest tracks etc." and runs through the fields.
+EVIDENCE_HIGHWAYS = frozenset({"service"})
+
+
+def _take_way(way, kept: frozenset[str], raw: _Raw, evidence: bool = False) -> None:
     tags = way.tags
     hw = tags.get("highway")
     if hw is not None:
-        if hw not in kept or tags.get("area") == "yes":
+        if tags.get("area") == "yes":
+            return
+        if hw not in kept:
+            if evidence and hw in EVIDENCE_HIGHWAYS:
+                raw.service.extend(coords for _, coords in _way_runs(way)[0])
             return
         raw.input_ways += 1
         runs, clipped = _way_runs(way)
@@ -448,6 +467,7 @@ def _build(raw: _Raw, header_box: tuple | None) -> City:
         water=_water_polygons(raw, proj),
         sea=assemble_sea(_project_lines(raw.coastline, proj), _bounds_box(bounds, proj)),
         areas=_areas(raw.areas, proj),
+        service_lines=tuple(shapely.linestrings(c) for c in _project_lines(raw.service, proj)),
         unplaced=tuple(UnplacedWay(osm_id=i, refs=tuple(refs), located=tuple(r for r, _ in known),
                                    xy=_project([ll for _, ll in known], proj), tags=tuple(tags.items()))
                        for i, refs, known, tags in raw.unplaced),

@@ -14,7 +14,11 @@ the engine's growth and the build-out share:
   town streets by their class; other roads only where they pass the town
   (within a frontage depth of buildings, settlement land use or a
   residential street's frontage), so a country road between villages has
-  none. And mapped *settlement* land use (:data:`SETTLEMENT`). Where the
+  none. ``highway=service`` ways that the network leaves out (the default
+  ingest) are read as town streets here and nowhere else, when
+  :attr:`LandOptions.service_ways` is on (off by default). And mapped
+  *settlement* land use (:data:`SETTLEMENT`; works' enclosures, :data:`WORKS`,
+  on request). Where the
   town's buildings are mapped (within :attr:`LandOptions.survey_radius` of
   one), land without a building is shown to be empty and is not taken: a
   town whose houses are not mapped still reads as occupied along its
@@ -50,6 +54,13 @@ from osm_expand.model.topology import segment_degree
 UNBUILDABLE = ("landuse=cemetery", "amenity=grave_yard", "landuse=railway", "landuse=military", "military=*",
                "aeroway=*", "leisure=park", "leisure=nature_reserve", "landuse=landfill", "landuse=quarry",
                "natural=wetland")
+#: Works' enclosures: the OSM wiki maps a sewage plant (``man_made=wastewater_plant``), a waterworks
+#: (``man_made=water_works``), a factory site (``man_made=works``), a power station (``power=plant``)
+#: and a substation (``power=substation``) as the fenced site itself, often without a
+#: ``landuse=industrial`` around it (Krems' sewage plant, way 29735498, holds four houses and has none).
+#: The town's land; not yet in :data:`SETTLEMENT` by default (``LandOptions(settlement=SETTLEMENT +
+#: WORKS)``): with them and :attr:`LandOptions.service_ways` on, five growth tests fail (issue 20 notes).
+WORKS = ("man_made=wastewater_plant", "man_made=water_works", "man_made=works", "power=plant", "power=substation")
 #: Mapped land use that is the town itself: homes, work, farmyards, gardens, sports grounds. Land
 #: under it is taken unless the town's mapped buildings show it empty.
 SETTLEMENT = ("landuse=residential", "landuse=commercial", "landuse=retail", "landuse=industrial",
@@ -111,6 +122,10 @@ class LandOptions:
     cover: Mapping[str, float] = field(default_factory=lambda: LAND_COVER)
     #: Taken land in pieces smaller than this (m²) is dropped (slivers between buffers).
     min_piece: float = 50.0
+    #: Read the service ways the network leaves out (:attr:`City.service_lines`) as town streets'
+    #: frontage, and a street end one continues as a junction. Off by default until the growth it
+    #: changes is measured (with it on, Krems' european years fail their growth tests).
+    service_ways: bool = False
 
     def __post_init__(self) -> None:
         for rule in (*self.unbuildable, *self.settlement, *self.cover):
@@ -229,7 +244,8 @@ def read_land(city: City, options: LandOptions | None = None) -> Land:
     depth, source = frontage_depth(city, opts)
     footprints = _footprints(city)
     settlement = [a.polygon for a in city.areas if matches(a.key, a.value, opts.settlement)]
-    frontage, lines, widths = _frontage(city, depth, footprints, settlement)
+    service = np.array(city.service_lines if opts.service_ways else (), dtype=object)
+    frontage, lines, widths = _frontage(city, depth, footprints, settlement, service)
     frontage_arr = np.array(frontage, dtype=object)
     settled = np.array(settlement, dtype=object)
     if len(footprints) and opts.survey_radius > 0:
@@ -258,14 +274,16 @@ def _cost(kind: str, table: Mapping[str, float]) -> float:
 
 
 def _frontage(city: City, depth: dict[str, float], footprints: np.ndarray,
-              settlement: list) -> tuple[list, np.ndarray, np.ndarray]:
+              settlement: list, service: np.ndarray) -> tuple[list, np.ndarray, np.ndarray]:
     """The frontage strips of the town's streets (module docstring), as polygons, and the lines and
     depths they were drawn from.
 
     A strip is the street buffered with flat ends, plus a disc at each end
     that meets another street: a dead end's frontage stops at its tip, so
     a street may continue it into the fields (how towns grow past their
-    cul-de-sacs).
+    cul-de-sacs). Service ways the network leaves out (``service``, from :attr:`City.service_lines`)
+    have frontage like town streets (the minor depth), and a street end one
+    of them continues counts as a junction (:func:`_continued`).
     """
     index, lines = _fronted(city)
     if not len(lines):
@@ -277,9 +295,16 @@ def _frontage(city: City, depth: dict[str, float], footprints: np.ndarray,
     drawn, drawn_width = [lines[by_class]], [width[by_class]]
     evidence = [*footprints.tolist(), *settlement,
                 *shapely.buffer(lines[by_class], width[by_class], cap_style="flat").tolist()]
-    others = np.flatnonzero(~by_class)
-    if len(others) and evidence:
-        pieces, owner = _pieces(lines[others])
+    if SERVICE_BY_CLASS:
+        drawn.append(service)
+        drawn_width.append(np.full(len(service), depth["minor"]))
+        evidence.extend(shapely.buffer(service, depth["minor"], cap_style="flat").tolist())
+        other_lines, other_width = lines[~by_class], width[~by_class]
+    else:
+        other_lines = np.concatenate([lines[~by_class], service])
+        other_width = np.concatenate([width[~by_class], np.full(len(service), depth["minor"])])
+    if len(other_lines) and evidence:
+        pieces, owner = _pieces(other_lines)
         tree = shapely.STRtree(np.array(evidence, dtype=object))
         near, _ = tree.query(shapely.centroid(pieces), predicate="dwithin", distance=float(width.max()))
         kept = np.unique(near)
@@ -288,13 +313,14 @@ def _frontage(city: City, depth: dict[str, float], footprints: np.ndarray,
             merged = [shapely.line_merge(shapely.multilinestrings(pieces[kept][owner[kept] == j]))
                       for j in roads.tolist()]
             drawn.append(np.array([g for m in merged for g in shapely.get_parts(m)], dtype=object))
-            drawn_width.append(np.array([width[others][j] for j, m in zip(roads.tolist(), merged)
+            drawn_width.append(np.array([other_width[j] for j, m in zip(roads.tolist(), merged)
                                          for _ in shapely.get_parts(m)]))
     drawn_lines, drawn_w = np.concatenate(drawn), np.concatenate(drawn_width)
     strips = shapely.buffer(drawn_lines, drawn_w, cap_style="flat").tolist()
     degree = segment_degree(net.streets, len(net.xy))
     ends = [(s.nodes[0], w) for s, w in zip(streets, width)] + [(s.nodes[-1], w) for s, w in zip(streets, width)]
-    joints = [(n, w) for n, w in ends if degree[n] > 1]
+    continued = _continued(net.xy, np.array([n for n, _ in ends], dtype=np.int64), service)
+    joints = [(n, w) for (n, w), c in zip(ends, continued.tolist()) if degree[n] > 1 or c]
     discs: list = []
     if joints and strips:
         discs = shapely.buffer(shapely.points(net.xy[[n for n, _ in joints]]), [w for _, w in joints]).tolist()
@@ -303,6 +329,29 @@ def _frontage(city: City, depth: dict[str, float], footprints: np.ndarray,
                                                                       predicate="intersects")
         discs = [discs[k] for k in np.unique(hit).tolist()]
     return [p for p in [*strips, *discs] if not p.is_empty], drawn_lines, drawn_w
+
+
+#: Service ways' frontage (:attr:`City.service_lines`) drawn wherever they run, like a town street's
+#: (True), or only where they pass the town, like a country road's (False). Measured with the
+#: buildings withheld (``benchmarks/withheld_buildings.py``, default history and issue 20's
+#: investigation's ``density_band = [0.5, 2.0]``): True crosses no real house on Krems or
+#: north-bayreuth; False crosses one on north-bayreuth (the default history) and stands 4 new houses on real ones.
+SERVICE_BY_CLASS = True
+
+#: Metres within which a street's end meets a service way: they share the OSM node, so the two
+#: points are the same but for rounding.
+JOIN = 0.01
+
+
+def _continued(xy: np.ndarray, nodes: np.ndarray, service: np.ndarray) -> np.ndarray:
+    """Which of the street ends ``nodes`` a service way (:attr:`City.service_lines`) meets: such an end
+    is a junction of the town as mapped, though the network left the service way out, so its frontage
+    gets the end disc a junction gets (a residential street that runs on as a driveway is no dead end)."""
+    out = np.zeros(len(nodes), dtype=bool)
+    if len(service) and len(nodes):
+        hit, _ = shapely.STRtree(service).query(shapely.points(xy[nodes]), predicate="dwithin", distance=JOIN)
+        out[hit] = True
+    return out
 
 
 #: Metres of a road tested at a time for passing the town.

@@ -9,7 +9,7 @@ import shapely
 
 from osm_expand.blocks import blocks
 from osm_expand.ingest import load
-from osm_expand.land import LAND_COVER, LandOptions, frontage_depth, land_cover_taken, read_land
+from osm_expand.land import LAND_COVER, SETTLEMENT, WORKS, LandOptions, frontage_depth, land_cover_taken, read_land
 from osm_expand.model import Building, City, MappedArea, network_from_lines
 from osm_expand.sites import SiteOptions, choose_site, distance_maps
 from tests.conftest import FIXTURES
@@ -115,3 +115,40 @@ def test_a_site_takes_the_fields_before_the_forest():
     grown = city.replace(network=city.network.with_new_streets([grown_line], [{"highway": "residential"}]))
     took = land_cover_taken(city, grown)
     assert max(took, key=took.get) == "landuse=farmland"
+
+
+def test_a_works_enclosure_is_taken_land_though_no_building_is_mapped():
+    """Krems' sewage plant (``man_made=wastewater_plant``, way 29735498, no landuse around it) holds
+    four houses: with the buildings withheld it must still read as the town's land."""
+    city = town("krems.osm.gz")
+    plant = [a for a in city.areas if a.osm_id == 29735498]
+    assert [(a.key, a.value) for a in plant] == [("man_made", "wastewater_plant")]
+    bare = city.replace(buildings=())
+    taken = shapely.union_all(read_land(bare, LandOptions(settlement=SETTLEMENT + WORKS)).taken)
+    assert taken.intersection(plant[0].polygon).area >= 0.95 * plant[0].polygon.area
+
+
+def test_a_street_end_a_service_way_continues_gets_land_past_its_tip():
+    """The service way (not a street of the network) turns north at the residential street's end:
+    that end is a junction, so the corner past the tip is taken."""
+    drive = shapely.LineString([(1000.0, 0.0), (1000.0, 300.0)])
+    plain, continued = street_city(), street_city().replace(service_lines=(drive,))
+    corner = shapely.Point(1020.0, -20.0)  # past the tip, south of the service way's flat end
+    assert not shapely.union_all(read_land(plain).taken).intersects(corner)
+    assert not shapely.union_all(read_land(continued).taken).intersects(corner)  # off by default
+    taken = shapely.union_all(read_land(continued, LandOptions(service_ways=True)).taken)
+    assert taken.covers(corner) and taken.covers(shapely.Point(1050.0, 150.0))  # and the way's own frontage
+
+
+@pytest.mark.parametrize("name", ["krems.osm.gz", "north-bayreuth.osm.gz"])
+def test_service_ways_are_land_evidence_and_leave_the_network_as_it_was(name):
+    """Read by default as evidence only: the streets are those of a read without context (which keeps
+    no evidence), and with ``--service`` they are streets and no longer evidence."""
+    city = town(name)
+    assert len(city.service_lines) > 0
+    assert not any(s.highway == "service" for s in city.network.streets)
+    bare = load(FIXTURES / name, context=False)
+    assert bare.service_lines == ()
+    assert [s.nodes for s in city.network.streets] == [s.nodes for s in bare.network.streets]
+    assert np.array_equal(city.network.xy, bare.network.xy)
+    assert load(FIXTURES / name, service=True).service_lines == ()

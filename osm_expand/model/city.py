@@ -235,6 +235,9 @@ class City:
     blocks: tuple[Block, ...] = ()
     lots: tuple[Lot, ...] = ()
     unplaced: tuple[UnplacedWay, ...] = ()  #: mapped ways without a drawable shape, given back as mapped
+    #: ``highway=service`` ways the network leaves out (ingest without ``--service``), as LineStrings
+    #: in metres: evidence of the town's land only (their frontage), never streets, never output
+    service_lines: tuple[shapely.Geometry, ...] = ()
     year: int | None = None  #: the current year (the map's, from its newest object, at ingest)
     unbuildable: shapely.Geometry | None = None  #: land nothing new may take (see :mod:`osm_expand.land`)
     #: the land as the town uses it: frontage, settlement, land cover (see :mod:`osm_expand.land`)
