@@ -23,6 +23,7 @@ from dataclasses import dataclass
 import numpy as np
 import shapely
 import shapely.ops
+from scipy.spatial import cKDTree
 
 from osm_expand.model.components import component_labels
 from osm_expand.model.geometry import closest_on_segments, match_points, polyline_length, ray_meet
@@ -95,9 +96,15 @@ def close_stubs(lines: list[np.ndarray], bridges: list[bool], town: np.ndarray, 
     flags = np.array([bool(b) for b in bridges] + [False] * len(links), dtype=bool)
     at = np.arange(len(out))  # each line's place in ``lines + links``
     for _ in range(MAX_ROUNDS):  # a stub dropped can leave the street it hung from a stub in turn
-        keep = _drop_stubs([out[i] for i in at.tolist()], flags[at].tolist(), town, town_nodes, reach)
+        now = [out[i] for i in at.tolist()]
+        keep = _drop_stubs(now, flags[at].tolist(), town, town_nodes, reach)
         if len(keep) == len(at):
-            break
+            trimmed = _trim_tails(now, flags[at].tolist(), town, town_nodes, reach)
+            if all(t is xy for t, xy in zip(trimmed, now)):
+                break
+            for i, xy in zip(at.tolist(), trimmed):
+                out[i] = xy
+            continue
         at = at[keep]
     if loops and len(at):
         at = at[_in_loops([out[i] for i in at.tolist()], flags[at], town, town_nodes)]
@@ -175,21 +182,51 @@ def _in_loops(lines: list[np.ndarray], bridges: np.ndarray, town: np.ndarray, to
 def _stub_ends(lines: list[np.ndarray], town: np.ndarray, town_nodes: np.ndarray) -> list[tuple[int, int]]:
     """(line, 0 or 1) of every end that meets nothing: no other new line's vertex, no town node, no
     town street."""
-    ends = np.array([xy[i] for xy in lines for i in (0, -1)])
-    owner = np.repeat(np.arange(len(lines)), 2)
-    vertices = np.concatenate(lines)
-    vowner = np.concatenate([np.full(len(xy), k) for k, xy in enumerate(lines)])
-    from scipy.spatial import cKDTree
+    meets = _meets(lines, town, town_nodes)
+    return [(k, side) for k, at in enumerate(meets) for side, i in ((0, 0), (1, -1)) if not at[i]]
 
-    on_new = [set(vowner[i].tolist()) - {owner[e]} for e, i in
-              enumerate(cKDTree(vertices).query_ball_point(ends, SAME))]
-    on_town = np.zeros(len(ends), dtype=bool)
+
+def _meets(lines: list[np.ndarray], town: np.ndarray, town_nodes: np.ndarray) -> list[np.ndarray]:
+    """Per line, per vertex, whether something meets it there: another new line's vertex, a town node or a
+    town street (within :data:`SAME`)."""
+    if not lines:
+        return []
+    vertices = np.concatenate(lines)
+    owner = np.concatenate([np.full(len(xy), k) for k, xy in enumerate(lines)])
+    tree = cKDTree(vertices)
+    pairs = tree.query_pairs(SAME, output_type="ndarray")
+    other = pairs[owner[pairs[:, 0]] != owner[pairs[:, 1]]]
+    meets = np.zeros(len(vertices), dtype=bool)
+    meets[other.ravel()] = True
     if len(town_nodes):
-        on_town |= cKDTree(town_nodes).query(ends, distance_upper_bound=SAME)[0] < SAME
+        meets |= cKDTree(town_nodes).query(vertices, distance_upper_bound=SAME)[0] < SAME
     if len(town):
-        near = shapely.STRtree(town).query(shapely.points(ends), predicate="dwithin", distance=SAME)[0]
-        on_town[near] = True
-    return [(int(owner[e]), e % 2) for e in range(len(ends)) if not on_new[e] and not on_town[e]]
+        meets[shapely.STRtree(town).query(shapely.points(vertices), predicate="dwithin", distance=SAME)[0]] = True
+    return np.split(meets, np.cumsum([len(xy) for xy in lines])[:-1])
+
+
+def _trim_tails(lines: list[np.ndarray], bridges: list[bool], town: np.ndarray, town_nodes: np.ndarray,
+                reach: float) -> list[np.ndarray]:
+    """The lines with each stub end's tail past the line's last junction cut there, when shorter than
+    ``reach`` (bridges aside); a line returned unchanged is the same object.
+
+    A tail is a stub like a short street: a link that tees into a new
+    street just short of its free end (Krems: 0.14 m) would otherwise leave
+    the remnant hanging past the tee, a dead end no neighbourhood has.
+    """
+    out = list(lines)
+    for k, (xy, at) in enumerate(zip(lines, _meets(lines, town, town_nodes))):
+        if bridges[k] or at[0] and at[-1]:
+            continue
+        inner = np.flatnonzero(at[1:-1]) + 1
+        if not len(inner):
+            continue
+        step = np.r_[0.0, np.cumsum(np.hypot(*np.diff(xy, axis=0).T))]
+        lo = int(inner[0]) if not at[0] and step[inner[0]] < reach else 0
+        hi = int(inner[-1]) if not at[-1] and step[-1] - step[inner[-1]] < reach else len(xy) - 1
+        if lo > 0 or hi < len(xy) - 1:
+            out[k] = xy[lo:hi + 1]
+    return out
 
 
 def _first_ahead(p: np.ndarray, d: np.ndarray, reach: float, lines: list[np.ndarray], own: int, town: np.ndarray,
