@@ -463,7 +463,7 @@ def _lattice_stitches(lattice: Lattice, segments: SegmentTable, streets: StreetP
             return pairs[stitch_ok(lattice, segments, xy, pairs, streets.split_parent, n_lat, opts, streets.tree,
                                     streets.inner)]
         ok, verdicts = carried_ok(lattice, segments, xy, pairs, streets.split_parent, n_lat, opts, streets.tree,
-                                   streets.inner, cache.get("previous"))
+                                   streets.inner, cache.get("previous"), memo=cache)
         cache.setdefault("verdicts", []).append(verdicts)
         return pairs[ok]
 
