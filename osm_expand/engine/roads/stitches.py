@@ -192,7 +192,7 @@ def carried_ok(lattice: Lattice, segments: SegmentTable, xy: np.ndarray, pairs: 
     pair_keys = _keys(np.concatenate([xy[pairs[live, 0]], xy[pairs[live, 1]], end_kind.astype(np.float64)], axis=1))
     clear = np.zeros(len(pairs), dtype=bool)
     todo = live
-    if carry.keys is not None and len(carry.keys) and len(live):
+    if carry.keys is not None and carry.clear is not None and len(carry.keys) and len(live):
         at = np.minimum(np.searchsorted(carry.keys, pair_keys), len(carry.keys) - 1)
         known = np.flatnonzero(carry.keys[at] == pair_keys)
         near = np.zeros(len(known), dtype=bool)
