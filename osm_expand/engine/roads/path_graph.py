@@ -87,11 +87,15 @@ def _of_kinds(lat_kind: np.ndarray, kinds: Sequence[EdgeKind]) -> np.ndarray:
     """Whether each entry of a lattice table is of one of ``kinds``.
 
     One comparison per lattice kind asked for: a lookup table indexed by the whole
-    ``(V, D)`` table was three times slower (0.095 s against 0.03 s on Campo Grande's
-    map of 594,776 vertices × 120 directions), and G′'s windows ask it twice each.
+    ``(V, D)`` table was four times slower (0.076 s against 0.018 s for two kinds on a
+    table the size of Campo Grande's map, 594,776 vertices × 120 directions), and G′'s
+    windows ask it twice each.
     """
-    out = np.zeros(lat_kind.shape, dtype=bool)
-    for k in sorted({int(k) for k in kinds} & {int(k) for k in LATTICE_KINDS}):
+    wanted = sorted({int(k) for k in kinds} & {int(k) for k in LATTICE_KINDS})
+    if not wanted:
+        return np.zeros(lat_kind.shape, dtype=bool)
+    out = lat_kind == wanted[0]  # the first comparison is the result's memory: no zeroed table first
+    for k in wanted[1:]:
         out |= lat_kind == k
     return out
 
