@@ -1127,3 +1127,37 @@ def test_which_lattice_entries_are_of_some_kinds_is_the_lookup_table_answer(seed
     lookup = np.zeros(256, dtype=bool)
     lookup[[int(k) for k in kinds]] = True
     assert np.array_equal(_of_kinds(table, kinds), lookup[table])
+
+
+def test_a_years_windows_share_one_reading_of_the_last_verdicts():
+    """Issue 22: every window of a year checks its new stitches against the same last G′ and the
+    same streets: the segments added or removed since are found (and put in a tree) once a year,
+    not once a window, and the stitches are those of a G′ checked afresh."""
+    import osm_expand.engine.roads.stitches as stitches_module
+
+    extent = (0, 0, 1200, 1200)
+    lines = grid_lines(300, 300, 4, 120.0)
+    lat = build_lattice(extent, water=river(extent, 1000, 1060), options=LatticeOptions(radius=2))
+
+    def graph(lines, previous=None):
+        segs = SegmentTable.from_lines(lines, major=[False] * len(lines), width=[6.0] * len(lines))
+        built = built_up_area(blocks_of(segs), segs)
+        return implicit_graph(lat.with_built_up(built.area), segs, built, previous_lattice=previous)
+
+    last = graph(lines)
+    last.window((0.0, 0.0, 1200.0, 1200.0))
+    later = lines[1:] + [np.array([[310.0, 250.0], [700.0, 180.0]])]
+    boxes = [(250.0, 250.0, 500.0, 500.0), (150.0, 150.0, 800.0, 800.0), (0.0, 0.0, 1200.0, 1200.0)]
+    trees = []
+    tree = shapely.STRtree
+    carried = graph(later, last.lattice_verdicts())
+    with pytest.MonkeyPatch.context() as monkey:
+        monkey.setattr(stitches_module.shapely, "STRtree", lambda g, **kw: trees.append(len(g)) or tree(g, **kw))
+        windows = [carried.window(b).graph for b in boxes]
+    assert len(carried.stitches["verdicts"]) >= 2  # several windows checked stitches
+    assert len(trees) == 1  # the changed segments' tree, made once
+    fresh = graph(later)
+    for b, old in zip(boxes, windows):
+        new = fresh.window(b).graph
+        for name in ("src", "dst", "kind", "weight"):
+            assert np.array_equal(getattr(new, name), getattr(old, name))
