@@ -64,6 +64,7 @@ class ShellVerdicts:
     segments: np.ndarray  #: (S,) void keys of the segments (both ends' coordinates, ordered)
     #: (M,) void keys of the candidates that touch no water or forbidden ground (both ends' coordinates,
     #: each end's kind): the others never need a street verdict, the ground does not change
+    pairs: np.ndarray
     clear: np.ndarray  #: (M,) bool, the candidate crossed and grazed no street
 
 def lattice_verdicts(stitches: dict) -> ShellVerdicts | None:
