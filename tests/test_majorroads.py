@@ -262,6 +262,47 @@ def test_b_grown_from_last_year_measures_and_tests_only_the_new_ground(x0, y0, n
     assert lat.with_built_up(second.area).built_up.sum() > lat.built_up.sum()
 
 
+@settings(max_examples=10, deadline=None)
+@given(st.integers(3, 5), st.floats(40, 90), st.integers(0, 2**32 - 1))
+def test_b_and_its_blocks_are_carried_from_last_year_not_unioned_again(n, size, seed):
+    """Issue 22: a year's B and union of built-up blocks are last year's with what changed taken
+    out and joined (a street gone merges two blocks, a new column adds some, water makes one
+    terrain): never the union of every block again, and the same ground as made from scratch."""
+    import osm_expand.engine.roads.built_up as built_up_module
+
+    rng = np.random.default_rng(seed)
+    lines = grid_lines(100, 100, n, size)
+    segs = SegmentTable.from_lines(lines, major=[False] * len(lines), width=[6.0] * len(lines))
+    first = built_up_area(blocks_of(segs), segs, water=shapely.box(0, 0, 2000, 20))
+    # a street inside the grid goes (two blocks become one), a column of blocks comes east
+    inner = [k for k, line in enumerate(lines) if 0 < k // 2 < n]
+    gone = int(rng.choice(inner))
+    ticks = 100 + np.arange(n + 2) * size
+    later = [line for k, line in enumerate(lines) if k != gone]
+    later += [np.array([[ticks[-2], y], [ticks[-1], y]]) for y in ticks[:-1]]
+    later.append(np.stack([np.full(n + 1, ticks[-1]), ticks[:-1]], axis=1))
+    segs2 = SegmentTable.from_lines(later, major=[False] * len(later), width=[6.0] * len(later))
+    blocks2 = blocks_of(segs2)
+    # water over one old block's middle: it is terrain now (a built-up block no longer)
+    c = shapely.get_coordinates(shapely.centroid(blocks2[int(rng.integers(len(blocks2)))]))[0]
+    water = shapely.union(shapely.box(0, 0, 2000, 20), shapely.box(*(c - 0.45 * size), *(c + 0.45 * size)))
+    first = built_up_area(blocks_of(segs), segs, water=water)
+    unioned: set[int] = set()
+    union_all = shapely.union_all
+    with pytest.MonkeyPatch.context() as monkey:
+        monkey.setattr(built_up_module.shapely, "union_all",
+                       lambda g, **kw: unioned.update(map(id, np.atleast_1d(np.asarray(g, dtype=object))))
+                       or union_all(g, **kw))
+        second = built_up_area(blocks2, segs2, water=water, previous=first)
+    old = {shapely.normalize(b).wkb for b in blocks_of(segs)}
+    kept = [b for b in blocks2 if shapely.normalize(b).wkb in old]
+    assert kept and not unioned & set(map(id, kept))  # only what changed is unioned, not the blocks kept
+    fresh = built_up_area(blocks2, segs2, water=water, previous=first.__class__(first.area, first.blocks))
+    for a, b in ((second.blocks, fresh.blocks), (second.area, fresh.area)):
+        assert shapely.area(shapely.symmetric_difference(a, b)) < 1e-6
+    assert shapely.area(second.blocks) < shapely.area(shapely.union_all(blocks2))  # the wet block is out
+
+
 def test_block_verdicts_are_carried_only_with_the_water_and_options_they_were_measured_with():
     """A block found built-up last year is terrain this year if the water now covers it: the
     carried verdicts hold for the water and options they were measured with, not for others."""
@@ -1072,3 +1113,51 @@ def test_shell_stitches_carried_over_from_last_year_equal_those_checked_afresh(s
     new, old = graph(later).window(box).graph, graph(later, last.lattice_verdicts()).window(box).graph
     for name in ("src", "dst", "kind", "weight"):
         assert np.array_equal(getattr(new, name), getattr(old, name))
+
+
+@settings(max_examples=20, deadline=None)
+@given(st.integers(0, 2**32 - 1), st.sets(st.sampled_from(list(EdgeKind)), max_size=8))
+def test_which_lattice_entries_are_of_some_kinds_is_the_lookup_table_answer(seed, kinds):
+    """Issue 22: G′'s lattice masks are made by one comparison per lattice kind asked for (three
+    times faster than a 256-entry table indexed by the whole ``(V, D)`` table); the same answer."""
+    from osm_expand.engine.roads.path_graph import LATTICE_KINDS, _of_kinds
+
+    rng = np.random.default_rng(seed)
+    table = rng.choice(np.array([*map(int, LATTICE_KINDS), NO_EDGE], dtype=np.uint8), size=(50, 120))
+    lookup = np.zeros(256, dtype=bool)
+    lookup[[int(k) for k in kinds]] = True
+    assert np.array_equal(_of_kinds(table, kinds), lookup[table])
+
+
+def test_a_years_windows_share_one_reading_of_the_last_verdicts():
+    """Issue 22: every window of a year checks its new stitches against the same last G′ and the
+    same streets: the segments added or removed since are found (and put in a tree) once a year,
+    not once a window, and the stitches are those of a G′ checked afresh."""
+    import osm_expand.engine.roads.stitches as stitches_module
+
+    extent = (0, 0, 1200, 1200)
+    lines = grid_lines(300, 300, 4, 120.0)
+    lat = build_lattice(extent, water=river(extent, 1000, 1060), options=LatticeOptions(radius=2))
+
+    def graph(lines, previous=None):
+        segs = SegmentTable.from_lines(lines, major=[False] * len(lines), width=[6.0] * len(lines))
+        built = built_up_area(blocks_of(segs), segs)
+        return implicit_graph(lat.with_built_up(built.area), segs, built, previous_lattice=previous)
+
+    last = graph(lines)
+    last.window((0.0, 0.0, 1200.0, 1200.0))
+    later = lines[1:] + [np.array([[310.0, 250.0], [700.0, 180.0]])]
+    boxes = [(250.0, 250.0, 500.0, 500.0), (150.0, 150.0, 800.0, 800.0), (0.0, 0.0, 1200.0, 1200.0)]
+    trees = []
+    tree = shapely.STRtree
+    carried = graph(later, last.lattice_verdicts())
+    with pytest.MonkeyPatch.context() as monkey:
+        monkey.setattr(stitches_module.shapely, "STRtree", lambda g, **kw: trees.append(len(g)) or tree(g, **kw))
+        windows = [carried.window(b).graph for b in boxes]
+    assert len(carried.stitches["verdicts"]) >= 2  # several windows checked stitches
+    assert len(trees) == 1  # the changed segments' tree, made once
+    fresh = graph(later)
+    for b, old in zip(boxes, windows):
+        new = fresh.window(b).graph
+        for name in ("src", "dst", "kind", "weight"):
+            assert np.array_equal(getattr(new, name), getattr(old, name))

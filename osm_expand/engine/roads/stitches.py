@@ -62,7 +62,9 @@ class ShellVerdicts:
     """
 
     segments: np.ndarray  #: (S,) void keys of the segments (both ends' coordinates, ordered)
-    pairs: np.ndarray  #: (M,) void keys of the candidates (both ends' coordinates, each end's kind)
+    #: (M,) void keys of the candidates that touch no water or forbidden ground (both ends' coordinates,
+    #: each end's kind): the others never need a street verdict, the ground does not change
+    pairs: np.ndarray
     clear: np.ndarray  #: (M,) bool, the candidate crossed and grazed no street
 
 def lattice_verdicts(stitches: dict) -> ShellVerdicts | None:
@@ -173,23 +175,70 @@ def _keys(values: np.ndarray) -> np.ndarray:
 
 def carried_ok(lattice: Lattice, segments: SegmentTable, xy: np.ndarray, pairs: np.ndarray, split_parent: np.ndarray,
                 n_lat: int, opts: GraphOptions, tree: shapely.STRtree, inner: shapely.Geometry | None,
-                previous: ShellVerdicts | None) -> tuple[np.ndarray, ShellVerdicts]:
+                previous: ShellVerdicts | None, memo: dict | None = None) -> tuple[np.ndarray, ShellVerdicts]:
     """:func:`stitch_ok`, the street tests carried over from ``previous`` where nothing near a
-    stitch changed (see :class:`ShellVerdicts`), and this call's street verdicts."""
+    stitch changed (see :class:`ShellVerdicts`), and this call's street verdicts.
+
+    Only the stitches that touch no water or forbidden ground are looked up, tested and
+    remembered: the ground does not change from year to year, so a stitch that is not dry
+    now never needs a street verdict (on Campo Grande most candidates of a window are not).
+    ``memo`` (a dict kept for all the calls of a year with the same ``segments`` and
+    ``previous``, e.g. :attr:`ImplicitGraph.stitches`) keeps what every call would work out
+    again: the segments' keys, the last verdicts sorted, the segments added or removed.
+    """
+    carry = _carry(segments, previous, opts, {} if memo is None else memo)
+    dry = _dry(lattice, xy, pairs, opts)
+    live = np.flatnonzero(dry)
     n_nodes = len(segments.xy)
+    end_kind = np.where(pairs[live] < n_lat, 2, np.where(pairs[live] - n_lat >= n_nodes, 1, 0))  # lattice, split, node
+    pair_keys = _keys(np.concatenate([xy[pairs[live, 0]], xy[pairs[live, 1]], end_kind.astype(np.float64)], axis=1))
+    clear = np.zeros(len(pairs), dtype=bool)
+    todo = live
+    if carry.keys is not None and carry.clear is not None and len(carry.keys) and len(live):
+        at = np.minimum(np.searchsorted(carry.keys, pair_keys), len(carry.keys) - 1)
+        known = np.flatnonzero(carry.keys[at] == pair_keys)
+        near = np.zeros(len(known), dtype=bool)
+        if carry.changed is not None and len(known):
+            # a stitch a segment was added or removed near (as many times as it was) is checked again
+            k = live[known]
+            hit, _ = carry.changed.query(shapely.linestrings(np.stack([xy[pairs[k, 0]], xy[pairs[k, 1]]], axis=1)),
+                                         predicate="dwithin", distance=opts.clearance + 1.0)
+            near[hit] = True
+        reuse = known[~near]
+        clear[live[reuse]] = carry.clear[at[reuse]]
+        again = np.ones(len(live), dtype=bool)
+        again[reuse] = False
+        todo = live[again]
+    clear[todo] = _street_clear(segments, xy, pairs[todo], split_parent, n_lat, opts, tree)
+    ok = dry & clear
+    if inner is not None:
+        live = np.flatnonzero(ok)
+        ok[live] = ~shapely.intersects(inner, _core(xy, pairs[live], opts))
+    return ok, ShellVerdicts(segments=carry.segments, pairs=pair_keys, clear=clear[dry])
+
+
+@dataclass(frozen=True)
+class _Carry:
+    """What :func:`carried_ok` reads from the last verdicts, worked out once for a year's calls."""
+
+    segments: np.ndarray  #: (S,) this year's segment keys
+    keys: np.ndarray | None  #: the last verdicts' pair keys, sorted (None: no last verdicts)
+    clear: np.ndarray | None  #: their verdicts in that order
+    changed: shapely.STRtree | None  #: the segments added or removed since (None: none)
+
+
+def _carry(segments: SegmentTable, previous: ShellVerdicts | None, opts: GraphOptions, memo: dict) -> _Carry:
+    """The :class:`_Carry` of ``segments`` and ``previous``, from ``memo`` when it was made for them."""
+    made = memo.get("carry")
+    if made is not None and made[0] is previous and made[1] is segments:
+        return made[2]
     a, b = segments.a, segments.b
     first = (a[:, 0] < b[:, 0]) | ((a[:, 0] == b[:, 0]) & (a[:, 1] <= b[:, 1]))
     seg_keys = _keys(np.concatenate([np.where(first[:, None], a, b), np.where(first[:, None], b, a)], axis=1))
-    end_kind = np.where(pairs < n_lat, 2, np.where(pairs - n_lat >= n_nodes, 1, 0))  # lattice, split, node
-    pair_keys = _keys(np.concatenate([xy[pairs[:, 0]], xy[pairs[:, 1]], end_kind.astype(np.float64)], axis=1))
-    dry = _dry(lattice, xy, pairs, opts)
-    clear = np.zeros(len(pairs), dtype=bool)
-    todo = np.ones(len(pairs), dtype=bool)
-    if previous is not None and len(previous.pairs) and len(pairs):
+    carry = _Carry(segments=seg_keys, keys=None, clear=None, changed=None)
+    if previous is not None and len(previous.pairs):
         order = np.argsort(previous.pairs)
-        at = np.minimum(np.searchsorted(previous.pairs[order], pair_keys), len(order) - 1)
-        known = previous.pairs[order][at] == pair_keys
-        # segments added or removed (as many times as they were): a stitch near one is checked again
+        # segments added or removed (as many times as they were)
         old_u, old_n = np.unique(previous.segments, return_counts=True)
         new_u, new_n = np.unique(seg_keys, return_counts=True)
         both = np.intersect1d(old_u, new_u)
@@ -197,22 +246,10 @@ def carried_ok(lattice: Lattice, segments: SegmentTable, xy: np.ndarray, pairs: 
         changed = np.concatenate([np.flatnonzero(~np.isin(seg_keys, same)),
                                   len(seg_keys) + np.flatnonzero(~np.isin(previous.segments, same))])
         ends = np.concatenate([np.stack([a, b], axis=1), _segment_ends(previous.segments)])[changed]
-        near = np.zeros(len(pairs), dtype=bool)
-        if len(ends):
-            hit, _ = shapely.STRtree(shapely.linestrings(ends)).query(
-                shapely.linestrings(np.stack([xy[pairs[:, 0]], xy[pairs[:, 1]]], axis=1)),
-                predicate="dwithin", distance=opts.clearance + 1.0)
-            near[hit] = True
-        reuse = known & ~near
-        clear[reuse] = previous.clear[order][at][reuse]
-        todo = ~reuse
-    check = np.flatnonzero(todo & dry)
-    clear[check] = _street_clear(segments, xy, pairs[check], split_parent, n_lat, opts, tree)
-    ok = dry & clear
-    if inner is not None:
-        live = np.flatnonzero(ok)
-        ok[live] = ~shapely.intersects(inner, _core(xy, pairs[live], opts))
-    return ok, ShellVerdicts(segments=seg_keys, pairs=pair_keys, clear=clear)
+        carry = _Carry(segments=seg_keys, keys=previous.pairs[order], clear=previous.clear[order],
+                       changed=shapely.STRtree(shapely.linestrings(ends)) if len(ends) else None)
+    memo["carry"] = (previous, segments, carry)
+    return carry
 
 
 def _segment_ends(keys: np.ndarray) -> np.ndarray:
