@@ -1,8 +1,6 @@
 """The turn-penalised search's machinery (issue 22): the heading-expanded graph, A* on it, its bounds."""
 from __future__ import annotations
 
-from dataclasses import replace
-
 import numpy as np
 import pytest
 from hypothesis import given, settings
@@ -210,88 +208,3 @@ def test_routes_with_the_turn_floor_charging_cost_what_the_whole_expanded_graph_
         assert (route is None) == (full is None)
         if route is not None:
             assert route.cost == pytest.approx(full[1], rel=1e-9, abs=1e-5)
-
-
-
-def _grid_town(seed: int):
-    """A street grid (major and minor) on a 1600 m field, its implicit G′ and its whole G′."""
-    from tests.test_majorroads import blocks_of, grid_lines
-    rng = np.random.default_rng(seed)
-    n = int(rng.integers(4, 8))
-    lines = grid_lines(400, 400, n, 800 / n)
-    segs = SegmentTable.from_lines(lines, major=[bool(b) for b in rng.integers(0, 2, len(lines))],
-                                   width=[6.0] * len(lines))
-    built = built_up_area(blocks_of(segs), segs)
-    lat = build_lattice((0, 0, 1600, 1600), options=LatticeOptions(radius=int(rng.integers(2, 4)))
-                        ).with_built_up(built.area)
-    implicit = implicit_graph(lat, segs, built)
-    return implicit, implicit.whole(), len(segs.xy), rng
-
-
-def _counted_routes(monkeypatch, implicit, s, t, opts):
-    """find_route on the implicit G′, with the windows it made and the route searches it ran."""
-    from osm_expand.engine.roads.path_graph import ImplicitGraph
-    counts = {"windows": 0, "searches": 0}
-    window, search = ImplicitGraph.window, routing._search
-
-    def counted_window(self, bounds):
-        counts["windows"] += 1
-        return window(self, bounds)
-
-    def counted_search(*args, **kwargs):
-        counts["searches"] += 1
-        return search(*args, **kwargs)
-
-    with monkeypatch.context() as m:
-        m.setattr(ImplicitGraph, "window", counted_window)
-        m.setattr(routing, "_search", counted_search)
-        route = routing.find_route(implicit, s, t, options=opts)
-    return route, counts["windows"], counts["searches"]
-
-
-@settings(max_examples=6, deadline=None)
-@given(st.integers(0, 2**32 - 1))
-def test_a_grown_window_keeps_the_last_windows_route_at_the_same_cost(seed):
-    """Issue 22: a grown window asks its exits' A* for the target's arrival too and searches its
-    route again only when that is below the last window's route (``RoutingOptions.keep_route``).
-    On a street grid under heavy turn penalties with tiny first windows (so that they grow), every
-    route costs what the whole map's G′ gives and what searching each window afresh gives. Of
-    several routes of equal cost the kept one may be another than a fresh search's: the cost is
-    what is asserted, not the vertices."""
-    implicit, whole, n_nodes, rng = _grid_town(seed)
-    opts = RoutingOptions(turn_height=float(rng.uniform(150, 600)), window_margin=float(rng.uniform(20, 120)),
-                          window_share=0.0)
-    for _ in range(3):
-        a, b = (int(v) for v in rng.choice(n_nodes, 2, replace=False))
-        s, t = whole.node_vertex(a), whole.node_vertex(b)
-        old = routing.find_route(whole, s, t, options=opts)
-        fresh = routing.find_route(implicit, s, t, options=replace(opts, keep_route=False))
-        kept = routing.find_route(implicit, s, t, options=opts)
-        assert (old is None) == (kept is None) == (fresh is None)
-        if old is not None:
-            assert kept.cost == pytest.approx(old.cost, rel=1e-9, abs=1e-6)
-            assert kept.cost == pytest.approx(fresh.cost, rel=1e-12, abs=1e-9)
-
-
-def test_grown_windows_skip_the_route_search_that_would_find_the_same_route(monkeypatch):
-    """Issue 22 (Campo Grande's first road: four windows, the same route in each): a window grown
-    round a route that stays the best runs no route search of its own, only the exits' A* (a
-    window that holds a cheaper route searches it); with ``keep_route=False`` every window
-    searches its route (as before)."""
-    grown = 0
-    for seed in range(40):
-        implicit, whole, n_nodes, rng = _grid_town(seed)
-        opts = RoutingOptions(turn_height=400.0, window_margin=30.0, window_share=0.0)
-        a, b = (int(v) for v in rng.choice(n_nodes, 2, replace=False))
-        s, t = whole.node_vertex(a), whole.node_vertex(b)
-        fresh, windows, searches = _counted_routes(monkeypatch, implicit, s, t, replace(opts, keep_route=False))
-        if fresh is None or windows < 2:
-            continue
-        assert searches == windows
-        kept, windows, searches = _counted_routes(monkeypatch, implicit, s, t, opts)
-        assert kept.cost == pytest.approx(fresh.cost, rel=1e-12, abs=1e-9)
-        assert searches <= windows  # a window that holds a cheaper route searches it, once
-        grown += searches < windows
-        if grown == 2:
-            break
-    assert grown

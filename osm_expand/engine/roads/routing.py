@@ -104,10 +104,6 @@ class RoutingOptions:
     #: make to head for the target (:func:`_turn_floor`: from P of this year's turns; none while
     #: turns up to 22.5° are free, as in the default P; an even `heading_bins` only) — fewer tiles, the same cost
     turn_floor: bool = True
-    #: whether a grown window first asks its exits' A* whether it holds a route cheaper than the last
-    #: window's, and keeps that route when not (:func:`_kept_or_searched`), instead of searching its
-    #: route again: Campo Grande's grown windows found the same route each time; the same cost
-    keep_route: bool = True
 
     def __post_init__(self) -> None:
         require_positive(self, ("window_margin", "growth_share", "turn_width"))
@@ -301,18 +297,12 @@ def _implicit_route(graph: ImplicitGraph, source: int, target: int, kinds: Seque
     reach = graph.options.stitch_radius + graph.lattice.radius * graph.lattice.spacing
     penalties = _bin_penalties(opts)
     map_area = float(np.prod(whole[2:] - whole[:2]))
-    kept: Route | None = None  # the last window's route (the map's vertices)
     while True:
         if _seen(bounds, whole) > opts.whole_share * map_area:  # nearly the map's size: take the map
             bounds = whole
         window = graph.window(tuple(bounds))
         s, t = window.from_map(np.array([source, target])).tolist()
-        arrive = None
-        if kept is None or opts.turn_height == 0 or not opts.keep_route:
-            route, from_source = _search(window.graph, s, t, kinds, street_ok, opts, release=True)
-        else:
-            route, from_source, arrive = _kept_or_searched(window, kept, kinds, street_ok, s, t, ends[1], c,
-                                                           penalties, opts)
+        route, from_source = _search(window.graph, s, t, kinds, street_ok, opts, release=True)
         if window.whole or from_source is None:
             return _on_map(window, route, from_source)
         cost = route.cost if route is not None else np.inf
@@ -322,10 +312,7 @@ def _implicit_route(graph: ImplicitGraph, source: int, target: int, kinds: Seque
         rest = c * np.hypot(*(exit_xy - ends[1]).T)  # what is left from an exit, at least
         reached = from_source[exits]
         short = reached + rest < limit
-        if arrive is not None:  # the exits' arrivals came with the kept route's test
-            reached = np.maximum(reached, arrive)
-            short = reached + rest < limit
-        elif short.any() and route is not None and opts.turn_height > 0:
+        if short.any() and route is not None and opts.turn_height > 0:
             # A route that leaves the window first reaches an exit x, and its part before x lies in the
             # window: it costs at least A(x), the least turn-penalised cost of arriving at x from the
             # source. In a street grid turns are most of a route's cost (Campo Grande: 5,270 of 8,867
@@ -347,69 +334,23 @@ def _implicit_route(graph: ImplicitGraph, source: int, target: int, kinds: Seque
             step = np.maximum(opts.growth_share * size, 2.0 * reach) * np.array([-1, -1, 1, 1])
             grown = np.where(step < 0, np.maximum(grown, bounds + step), np.minimum(grown, bounds + step))
         bounds = grown
-        kept = _on_map(window, route)
         del window, route, from_source  # the last window's tables go before the next is made
 
 
 def _exit_arrivals(window: GraphWindow, kinds: Sequence[EdgeKind], street_ok: np.ndarray | None, s: int,
                    target_xy: np.ndarray, c: float, from_source: np.ndarray, route: Route, penalties: np.ndarray,
-                   opts: RoutingOptions, exits: np.ndarray | None = None, raw: np.ndarray | None = None
-                   ) -> np.ndarray:
-    """A(x) of :func:`_implicit_route` for the window's exits (or the ``exits`` given): the least
-    turn-penalised arrival cost from the source inside the window, where it and ``c·|x − t|`` may
-    be below the route's cost (∞ elsewhere), searched by A* towards the target (:func:`_tiled_search`
-    without one); those marked ``raw`` as found, the others lowered by the free edges' slack."""
+                   opts: RoutingOptions) -> np.ndarray:
+    """A(x) of :func:`_implicit_route` for the window's exits: the least turn-penalised arrival
+    cost from the source inside the window, where it and ``c·|x − t|`` may be below the route's
+    cost (∞ elsewhere), searched by A* towards the target (:func:`_tiled_search` without one)."""
     lat_ok, extra_ok = window.graph.masks(kinds, street_ok)
     straight = c * np.hypot(*(window.graph.xy - target_xy).T)
     _, arrive = _tiled_search(window.graph, lat_ok, extra_ok, s, None, from_source + straight, straight,
                               (route.vertices.tolist(), route.cost), route.vertices, penalties, opts, target_xy,
-                              exits=window.exits if exits is None else exits, raw=raw)
+                              exits=window.exits)
     if arrive is None:  # exits were given: the search always returns their arrivals
         raise RuntimeError("the exits' search returned no arrivals")
     return arrive
-
-
-def _kept_or_searched(window: GraphWindow, kept: Route, kinds: Sequence[EdgeKind], street_ok: np.ndarray | None,
-                      s: int, t: int, target_xy: np.ndarray, c: float, penalties: np.ndarray, opts: RoutingOptions
-                      ) -> tuple[Route | None, np.ndarray | None, np.ndarray | None]:
-    """A grown window's route, the plain distances from the source, and its exits' arrivals (None:
-    not searched), given the last window's route ``kept`` (the map's vertices).
-
-    The grown window holds the last one, so ``kept`` is a route in it and its cost C an upper
-    bound. The exits' A* (:func:`_exit_arrivals`) settles every state with ``g + c·|v − t| < C``,
-    the target's arrivals among them (``h = 0`` there): asked for the target's least arrival
-    too, it says whether the window holds a cheaper route at all. Where it does not, the window's
-    own route search (plain Dijkstra over the states with ``g ≤ C``, mostly the larger of the two
-    searches) is skipped and ``kept`` stays: on Campo Grande a grown window searched its route
-    again to find the same one (the first road's four windows: one route search, not four).
-    Where it does, the window is searched as the first (:func:`_search`) and its exits' arrivals
-    are left to the caller (a second A*, with that route's cost).
-    Of several routes of equal cost the window's search might have taken another than ``kept``:
-    the same cost (``tests/test_routing_search.py``).
-    """
-    graph = window.graph
-    with graph.restricted(kinds, street_ok) as matrix:
-        from_source = dijkstra(matrix, indices=s)
-    del matrix
-    graph.forget_matrices()
-    exits = window.exits
-    rest = c * np.hypot(*(graph.xy[exits] - target_xy).T)
-    cost = kept.cost
-    if not np.isfinite(from_source[t]):  # not so (the kept route is in the window): searched as the first
-        route, from_source = _search(graph, s, t, kinds, street_ok, opts, release=True)
-        return route, from_source, None
-    # the exits only where the plain distances leave one short (else the caller needs none)
-    short = (from_source[exits] + rest < cost - 1e-9 * cost).any()
-    ask = np.append(exits if short else exits[:0], t)
-    raw = np.zeros(len(ask), dtype=bool)
-    raw[-1] = True  # the target's arrival as found: compared with C as the route search would
-    route = replace(kept, vertices=window.from_map(kept.vertices))
-    arrive = _exit_arrivals(window, kinds, street_ok, s, target_xy, c, from_source, route, penalties, opts,
-                            exits=ask, raw=raw)
-    if arrive[-1] < cost:  # a cheaper route in the grown window: search it as the first window
-        route, from_source = _search(graph, s, t, kinds, street_ok, opts, release=True)
-        return route, from_source, None
-    return route, from_source, arrive[:-1] if short else None
 
 
 def _seen(bounds: np.ndarray, whole: np.ndarray) -> float:
@@ -749,8 +690,7 @@ def _reduced(expanded: csr_matrix, h: np.ndarray, per: int) -> csr_matrix:
 def _tiled_search(graph: PathGraph, lat: np.ndarray, extra: np.ndarray, source: int, target: int | None,
                   lower: np.ndarray, h: np.ndarray, best: tuple[list[int], float], seed: np.ndarray,
                   penalties: np.ndarray, opts: RoutingOptions, goal: np.ndarray,
-                  exits: np.ndarray | None = None, raw: np.ndarray | None = None
-                  ) -> tuple[tuple[list[int], float], np.ndarray | None]:
+                  exits: np.ndarray | None = None) -> tuple[tuple[list[int], float], np.ndarray | None]:
     """The turn-penalised search, the heading-expanded graph made tile by tile as A*'s test reaches them.
 
     The expanded graph (see :func:`_expanded_graph`) is made over the
@@ -789,11 +729,7 @@ def _tiled_search(graph: PathGraph, lat: np.ndarray, extra: np.ndarray, source: 
     target
         The route's end (None: no route is sought, only the arrivals at ``exits`` below C).
     exits
-        Vertices whose least arrival cost below C is returned (∞ when not below C), lowered by
-        the slack the free edges' ε may have added (a lower bound).
-    raw
-        (len(exits),) bool: the exits whose arrival is returned as found, not lowered (the
-        target's, compared with the cost of a route found before: :func:`_kept_or_searched`).
+        Vertices whose least arrival cost below C is returned (∞ when not below C).
 
     Returns
     -------
@@ -874,7 +810,7 @@ def _tiled_search(graph: PathGraph, lat: np.ndarray, extra: np.ndarray, source: 
             at = local[exits].astype(np.int64)
             arrivals = np.where(at >= 0, dist.reshape(-1, per)[np.maximum(at, 0), :k].min(axis=1), np.inf)
             arrivals[exits == source] = 0.0
-            arrivals = np.where(raw if raw is not None else False, arrivals, np.maximum(arrivals - slack, 0.0))
+            arrivals = np.maximum(arrivals - slack, 0.0)
         w = np.concatenate(reached)
         del dist, departs  # this search's states go before the next graph is made
         if not len(w):
