@@ -156,7 +156,7 @@ class StreetNetwork:
 
     def __getstate__(self) -> dict:
         """Pickled without the memos of :meth:`street_lines` and :meth:`_segment_keys` (remade on demand)."""
-        return {k: v for k, v in self.__dict__.items() if k not in ("_street_lines", "_segment_keys")}
+        return {k: v for k, v in self.__dict__.items() if k not in ("_street_lines", "_segment_key_memo")}
 
     def used_nodes(self) -> np.ndarray:
         """Sorted indices of the nodes that some street references."""
@@ -178,14 +178,14 @@ class StreetNetwork:
         (this one's keys and the new streets'): a year of Campo Grande adds streets some 200 times,
         and gathering the keys of its 10,000 streets each time cost 1.2 s of 30 years.
         """
-        keys = self.__dict__.get("_segment_keys")
+        keys = self.__dict__.get("_segment_key_memo")
         if keys is None:
             runs = [np.asarray(s.nodes, dtype=np.int64) for s in self.streets if len(s.nodes) >= 2]
             u = np.concatenate([r[:-1] for r in runs]) if runs else np.zeros(0, np.int64)
             v = np.concatenate([r[1:] for r in runs]) if runs else np.zeros(0, np.int64)
             keys = np.unique(_pair_keys(u, v))
             keys.flags.writeable = False
-            self.__dict__["_segment_keys"] = keys  # frozen: the memo bypasses __setattr__, as street_lines' does
+            self.__dict__["_segment_key_memo"] = keys  # frozen: the memo bypasses __setattr__, as street_lines' does
         return keys
 
     def with_new_streets(self, lines: Sequence[np.ndarray], attrs: Sequence[Mapping[str, Any]], *,
@@ -214,7 +214,7 @@ class StreetNetwork:
         xy = np.vstack([self.xy, pts[fresh[first_of]].reshape(-1, 2)])
         ids = np.concatenate([self.node_ids, np.zeros(len(first_of), dtype=np.int64)])
         first, streets = self.next_street_id(), list(self.streets)
-        inherited = one_street_per_segment or "_segment_keys" in self.__dict__
+        inherited = one_street_per_segment or "_segment_key_memo" in self.__dict__
         taken = _SegmentKeys(self._segment_keys() if inherited else np.zeros(0, np.int64),
                              active=one_street_per_segment)
         extra = first + len(lines)  # ids of the second and later pieces of a line cut by a duplicate
@@ -233,7 +233,7 @@ class StreetNetwork:
         if inherited:
             keys = np.union1d(self._segment_keys(), np.fromiter(taken.added, dtype=np.int64, count=len(taken.added)))
             keys.flags.writeable = False
-            out.__dict__["_segment_keys"] = keys
+            out.__dict__["_segment_key_memo"] = keys
         return out
 
 
