@@ -271,16 +271,19 @@ def blocks(net: StreetNetwork, options: BlockOptions | None = None, *, origin: O
     # rings that passed this test, and a ring is its key, so a remembered ring passes it again)
     may = np.flatnonzero((np.diff(found.ring_at) >= 4) & (found.signed_areas() > 0))
     ring_at, id_at = found.ring_at.tolist(), found.id_at.tolist()
+    remembered, closed, face_edges = known.polygons, found.closed, found.edges
     for f in may.tolist():
-        ring = found.closed[ring_at[f]:ring_at[f + 1]]
+        ring = closed[ring_at[f]:ring_at[f + 1]]
         key = ring.tobytes()
-        poly = known.polygons[key] if key in known.polygons else _valid_polygon(ring)
+        poly = remembered.get(key, _UNKNOWN)
+        if poly is _UNKNOWN:
+            poly = _valid_polygon(ring)
         seen[key] = poly
         if poly is not None:  # a face walking a street twice or crossing a bridge is left out
             bounded.append(poly)
             keys.append(key)
-            edge_count.append(found.edges[f])
-            street_ids.append(found.ids[id_at[f]:id_at[f + 1]])
+            edge_count.append(face_edges[f])
+            street_ids.append((id_at[f], id_at[f + 1]))  # the ids' slice, cut only for the blocks kept
     unique = len(set(keys)) == len(keys)  # two faces on one ring (duplicated ways): ask about every face
     pairs = _settled_pairs(bounded, keys, known if unique else FaceMemo())
     if memo is not None:
@@ -293,11 +296,17 @@ def blocks(net: StreetNetwork, options: BlockOptions | None = None, *, origin: O
             if edge_count[k] <= opts.max_edges and opts.min_area <= a <= opts.max_area]
     out = []
     holes = shapely.get_num_interior_rings(np.array([p for _, p in kept], dtype=object)).tolist() if kept else []
+    all_ids = found.ids.tolist()
     for i, ((k, p), holed) in enumerate(zip(kept, holes)):  # holes counted at once: p.interiors is slow
-        ids = tuple((street_ids[k] if not holed else _edge_streets(p, bounded[k], street_ids[k])).tolist())
+        a, b = street_ids[k]
+        ids = tuple(all_ids[a:b]) if not holed else tuple(_edge_streets(p, bounded[k], found.ids[a:b]).tolist())
         how, when = (origin, year) if stamp is None else stamp(ids)
         out.append(Block(polygon=p, street_ids=ids, id=i, origin=how, year=when))
     return out
+
+
+#: A face the memo has not seen (its remembered value may be None: an invalid face).
+_UNKNOWN = object()
 
 
 def _valid_polygon(ring: np.ndarray) -> shapely.Polygon | None:

@@ -248,16 +248,18 @@ def read_land(city: City, options: LandOptions | None = None) -> Land:
     frontage, lines, widths = _frontage(city, depth, footprints, settlement, service)
     frontage_arr = np.array(frontage, dtype=object)
     settled = np.array(settlement, dtype=object)
-    if len(footprints) and opts.survey_radius > 0:
+    surveyed = shapely.buffer(footprints, opts.survey_radius, quad_segs=4) \
+        if len(footprints) and opts.survey_radius > 0 else None  # made once: settled and presumed ask
+    if surveyed is not None:
         frontage_arr = _less(frontage_arr, _empty_cells(lines, widths, footprints, opts.survey_radius))
-        settled = _less(settled, shapely.buffer(footprints, opts.survey_radius, quad_segs=4))
+        settled = _less(settled, surveyed)
     taken = np.concatenate([shapely.get_parts(frontage_arr), shapely.get_parts(settled)]) \
         if len(frontage_arr) + len(settled) else np.empty(0, dtype=object)
     taken = taken[(shapely.get_type_id(taken) == 3) & (shapely.area(taken) >= opts.min_piece)] if len(taken) else taken
     claimed = np.array([*frontage, *settlement], dtype=object)
     presumed = taken
-    if len(footprints) and opts.survey_radius > 0 and len(claimed):
-        presumed = shapely.get_parts(_less(claimed, shapely.buffer(footprints, opts.survey_radius, quad_segs=4)))
+    if surveyed is not None and len(claimed):
+        presumed = shapely.get_parts(_less(claimed, surveyed))
         presumed = presumed[(shapely.get_type_id(presumed) == 3) & (shapely.area(presumed) >= opts.min_piece)]
     town = np.array([*claimed.tolist(), *footprints.tolist()], dtype=object)
     cover = [(a.polygon, f"{a.key}={a.value}") for a in city.areas if matches(a.key, a.value, opts.cover)]
@@ -381,9 +383,14 @@ def _empty_cells(lines: np.ndarray, widths: np.ndarray, footprints: np.ndarray, 
         return np.empty(0, dtype=object)
     pieces, owner = _pieces(lines)
     w = widths[owner]
+    tree = shapely.STRtree(footprints)
+    # a cell lies within its depth of its piece, so only pieces with a building within the radius and
+    # that depth (and a metre) can have a surveyed cell: only theirs are drawn (Campo Grande maps 102
+    # buildings along 35,000 pieces; drawing every cell took 0.7 s), the same cells in the same order
+    near = np.unique(tree.query(pieces, predicate="dwithin", distance=radius + float(w.max()) + 1.0)[0])
+    pieces, w = pieces[near], w[near]
     cells = np.concatenate([shapely.buffer(pieces, w, cap_style="flat", single_sided=True),
                             shapely.buffer(pieces, -w, cap_style="flat", single_sided=True)])
-    tree = shapely.STRtree(footprints)
     has_building = np.zeros(len(cells), dtype=bool)
     has_building[tree.query(cells, predicate="intersects")[0]] = True
     surveyed = np.zeros(len(cells), dtype=bool)

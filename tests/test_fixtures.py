@@ -196,3 +196,33 @@ def test_street_lines_are_made_once_per_network_and_read_only():
     assert "_street_lines" not in again.__dict__ and shapely.equals(again.street_lines(), lines).all()
     moved = net.replace(xy=net.xy + 1.0)  # a new network makes its own lines
     assert np.allclose(shapely.get_coordinates(moved.street_lines()), shapely.get_coordinates(lines) + 1.0)
+
+
+def test_new_streets_are_cut_alike_whether_the_segment_keys_were_handed_on_or_made_again():
+    """with_new_streets hands its segment keys on to the network it makes (issue 22): a chain of
+    additions cuts the new lines where they double a segment exactly as networks made afresh do."""
+    net = loaded("krems.osm.gz")
+    rng = np.random.default_rng(3)
+    chained = fresh = net
+    for _ in range(4):
+        # lines along existing segments (doubled: cut there), through new points, and back on themselves
+        street = net.streets[int(rng.integers(len(net.streets)))]
+        along = net.street_xy(street)
+        line = np.vstack([along, along[-1] + rng.normal(0, 40, (3, 2)), along[::-1][:2]])
+        chained = chained.with_new_streets([line, along], [{}, {}], one_street_per_segment=True)
+        fresh = pickle.loads(pickle.dumps(fresh)).with_new_streets([line, along], [{}, {}],
+                                                                  one_street_per_segment=True)
+        assert "_segment_key_memo" in chained.__dict__
+        assert [s.nodes for s in chained.streets] == [s.nodes for s in fresh.streets]
+        assert [s.id for s in chained.streets] == [s.id for s in fresh.streets]
+    assert len(chained.streets) > len(net.streets)
+    assert np.array_equal(chained._segment_keys(), pickle.loads(pickle.dumps(chained))._segment_keys())
+
+
+def test_match_points_takes_the_nearest_and_the_first_of_equal_ones():
+    from osm_expand.model.geometry import match_points
+
+    known = np.array([[0.0, 0.0], [5.0, 5.0], [5.0, 5.0], [5.0005, 5.0], [1e6, 1e6]])
+    points = np.array([[5.0004, 5.0], [5.0, 5.0], [0.0, 0.0009], [3.0, 3.0], [5.0001, 5.0]])
+    assert match_points(points, known, 1e-3).tolist() == [3, 1, 0, -1, 1]
+    assert match_points(points, known[:0], 1e-3).tolist() == [-1] * 5

@@ -354,8 +354,11 @@ def _town_bearing(table: SegmentTable) -> float:
 def _with_blocks(city: City, year: int | None, faces: FaceMemo) -> City:
     """The city with its blocks recomputed; a block's origin and year from the streets around it."""
     new_by_id = {s.id: s for s in city.network.streets if s.origin != Origin.SOURCE}  # most blocks have none
+    new_ids = new_by_id.keys()
 
     def stamp(street_ids: tuple[int, ...]) -> tuple[Origin, int | None]:
+        if new_ids.isdisjoint(street_ids):  # in C: most of a grown town's 20,000 blocks are the town's own
+            return Origin.SOURCE, None
         new = [new_by_id[i] for i in street_ids if i in new_by_id]
         if not new:
             return Origin.SOURCE, None

@@ -196,9 +196,23 @@ def match_points(points: np.ndarray, known: np.ndarray, tolerance: float = 0.0) 
                            count=len(points))
     import shapely  # STRtree, not SciPy's cKDTree: the simplify path must not pay SciPy's import
 
-    src, hit = shapely.STRtree(shapely.points(known)).query_nearest(shapely.points(points), max_distance=tolerance,
-                                                                    all_matches=False)
-    out[src] = hit
+    # only the known points in reach of the box around ``points``: a year adds a few hundred points
+    # to a town of 100,000 nodes, and the tree over all of them cost 3.9 s of Campo Grande's 30 years
+    lo, hi = points.min(axis=0) - tolerance, points.max(axis=0) + tolerance
+    near = np.flatnonzero(((known >= lo) & (known <= hi)).all(axis=1))
+    if not len(near):
+        return out
+    src, hit = shapely.STRtree(shapely.points(known[near])).query_nearest(
+        shapely.points(points), max_distance=tolerance, all_matches=True)
+    if not len(src):
+        return out
+    # the nearest, the first (lowest index) of equally near ones
+    d = points[src] - known[near[hit]]
+    gap = np.sqrt(d[:, 0] * d[:, 0] + d[:, 1] * d[:, 1])  # as GEOS measures it
+    order = np.lexsort((near[hit], gap, src))
+    src, hit = src[order], hit[order]
+    first = np.r_[True, src[1:] != src[:-1]]
+    out[src[first]] = near[hit[first]]
     return out
 
 
