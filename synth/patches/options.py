@@ -28,6 +28,12 @@ class PatchOptions:
     #: 8.7 (its 2-core share below range) and, with Krems' buildings withheld, 5 real houses crossed
     #: (0 before): not the default (README, h29e).
     density_band: tuple[float, float] = (1.0, 2.5)
+    #: Keep candidate patches whose street density lies within the range the fidelity verdict allows over
+    #: all the candidates (the town's neighbourhoods at the patch's size, by the verdict's own rule:
+    #: :func:`osm_expand.fidelity.scalar_range`, their 10th-90th percentile) instead of ``density_band``
+    #: around their median: the band then holds for a reason (a patch is a sample of the neighbourhoods
+    #: the growth is judged against), not by a multiplier. Needs ``limits``; off by default (README, h30e).
+    density_from_verdict: bool = False
     #: Keep only candidate patches whose dead-end share and 2-core share lie within the range the fidelity
     #: verdict allows over all the candidates (the town's neighbourhoods at the patch's size; the verdict's
     #: own rule, :func:`osm_expand.fidelity.scalar_range`): a patch is a sample of a neighbourhood. Meant for

@@ -121,7 +121,8 @@ def _candidate_patches(source: _Source, size: float, opts: PatchOptions, rng: np
     Candidates are discs around the town's neighbourhoods' junctions
     (:func:`_neighbourhood_points`) whose street density is within
     ``density_band`` of the median candidate's (the default keeps the denser
-    side only: :class:`PatchOptions`). Each is
+    side only: :class:`PatchOptions`), or, with ``density_from_verdict`` (and
+    ``limits``), within the range the verdict allows over all the candidates. Each is
     measured (:data:`TYPICAL`: the median of a distribution, or a scalar) and
     ranked by its distance to the median candidate, each measure scaled by
     the candidates' spread, so the district is made of the town's ordinary
@@ -138,8 +139,11 @@ def _candidate_patches(source: _Source, size: float, opts: PatchOptions, rng: np
     centres = _neighbourhood_points(source, opts.candidates, size / 2, rng)
     local = _density(source, centres, size / 2)
     median = float(np.median(local))
-    lo, hi = opts.density_band
-    good = np.flatnonzero((local >= lo * median) & (local <= hi * median))
+    if opts.density_from_verdict and limits is not None:
+        lo, hi = limits("density", local)
+    else:
+        lo, hi = opts.density_band[0] * median, opts.density_band[1] * median
+    good = np.flatnonzero((local >= lo) & (local <= hi))
     if not len(good):
         good = np.argsort(np.abs(local - median))[:1]
     if measure is None or len(good) <= 1:
