@@ -73,6 +73,25 @@ def _density(source: _Source, centres: np.ndarray, radius: float) -> np.ndarray:
     return np.array([_length_in(source, d) for d in discs]) / (np.pi * radius ** 2)
 
 
+def _streets_land(source: _Source, close: float, margin: float) -> shapely.Geometry:
+    """The land of the source's streets: buffered ``close`` m, shrunk back to ``margin`` m (a closing: the
+    blocks between the streets inside, no more than ``margin`` of field, slope or sea beyond them)."""
+    if not len(source.lines):
+        return shapely.Polygon()
+    grown = shapely.union_all(shapely.buffer(source.lines, close, quad_segs=4))
+    return shapely.buffer(grown, margin - close, quad_segs=4)
+
+
+def _density_on_land(source: _Source, centres: np.ndarray, radius: float, land: shapely.Geometry) -> np.ndarray:
+    """Street length per m² of the streets' ``land`` in discs around ``centres`` (per m² of the disc where
+    no street's land is in it)."""
+    discs = shapely.buffer(shapely.points(centres), radius)
+    shapely.prepare(land)
+    areas = shapely.area(shapely.intersection(discs, land))
+    areas = np.where(areas > 0, areas, np.pi * radius ** 2)
+    return np.array([_length_in(source, d) for d in discs]) / areas
+
+
 def _length_in(source: _Source, disc: shapely.Geometry) -> float:
     """The length of the source's streets inside ``disc`` (m), summed in the tree's order.
 
