@@ -46,6 +46,10 @@ class PatchOptions:
     #: (main 0); with the band 0.75-2.5 Campo Grande 8 8 8, Monaco 6 6 6 and Andorra 4 2 4 with their
     #: 2-core shares out of range, Krems' 5 houses the same (README, h29f).
     share_guard: bool = False
+    #: The scalar measures ``share_guard`` holds within the verdict's range: by default the dead-end and
+    #: 2-core shares; the verdict judges six scalars (``density``, ``orientation_entropy``,
+    #: ``three_way_share``, ``four_way_share`` too), all measured on every candidate anyway.
+    guarded: tuple[str, ...] = ("dead_end_share", "two_core_share")
     #: A patch turns to match its neighbours' grid only when both have a clear main direction:
     #: the fullest 5° bin of bearings (mod 90°) holds this many times its share.
     orientation_peak: float = 2.0

@@ -129,8 +129,9 @@ def _neighbourhood_points(source: _Source, n: int, radius: float, rng: np.random
 TYPICAL = ("curvature", "circuity", "edge_length", "dead_end_share", "three_way_share")
 
 
-#: The shares a candidate patch must have within its town's neighbourhoods' range (``share_guard``).
-GUARDED = ("dead_end_share", "two_core_share")
+#: The shares a candidate patch must have within its town's neighbourhoods' range (``share_guard``; the
+#: default of :attr:`PatchOptions.guarded`).
+GUARDED = PatchOptions.guarded
 
 
 def _candidate_patches(source: _Source, size: float, opts: PatchOptions, rng: np.random.Generator,
@@ -176,9 +177,9 @@ def _candidate_patches(source: _Source, size: float, opts: PatchOptions, rng: np
         return measured[i]
 
     if opts.share_guard and limits is not None:
-        shares = np.array([[_level(at(i), name) for name in GUARDED] for i in range(len(centres))])
+        shares = np.array([[_level(at(i), name) for name in opts.guarded] for i in range(len(centres))])
         inside = np.ones(len(centres), dtype=bool)
-        for k, name in enumerate(GUARDED):
+        for k, name in enumerate(opts.guarded):
             lo, hi = limits(name, shares[:, k])
             inside &= (shares[:, k] >= lo) & (shares[:, k] <= hi)
         if inside[good].any():
