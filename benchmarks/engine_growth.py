@@ -128,6 +128,8 @@ def main() -> None:
             eras.append(f"| {name} | {history} | {era} | {r['off']} | {_share(r, 'dead_end_share')} "
                         f"| {_share(r, 'two_core_share')} | {r['pieces']} "
                         f"| {e['infill']} / {e['edge']} / {e['outlying']} | {e['new_length_km']} |")
+            if args.measures:
+                eras.append(f"|   {name} {era} off: {_off_measures(r) or 'none'} |")
     if args.eras and eras:
         print("\n| town | history | era | off of 14 | dead-end share [range] | 2-core share [range] | pieces "
               "| infill / edge / outlying | km |\n|---|---|---|---|---|---|---|---|---|")

@@ -32,7 +32,13 @@ class PatchOptions:
     #: all the candidates (the town's neighbourhoods at the patch's size, by the verdict's own rule:
     #: :func:`osm_expand.fidelity.scalar_range`, their 10th-90th percentile) instead of ``density_band``
     #: around their median: the band then holds for a reason (a patch is a sample of the neighbourhoods
-    #: the growth is judged against), not by a multiplier. Needs ``limits``; off by default (README, h30e).
+    #: the growth is judged against), not by a multiplier. Needs ``limits``. Off: in the default history's
+    #: first two eras, seed 0, engine streets off of 14 per reference seed 0 1 2 (main -> this): Andorra
+    #: 6 8 7 -> 1 1 1, Monaco 7 8 6 -> 4 4 5 (its 2-core share 0.839 below 0.874-0.967), Krems 1 2 1 ->
+    #: 2 1 1, but north-bayreuth 2 1 2 -> 4 4 4 and Campo Grande 6 6 6 -> 9 8 9 (its sparser patches, a
+    #: grid town's irregular fringe, add three-way junctions and take four-way ones away); with
+    #: ``share_guard`` on all six scalars (``guarded``) Campo Grande 8 8 8, Andorra 3 2 4, Krems 3 1 2,
+    #: north-bayreuth 3 4 3, Monaco 5 5 7 (README, h30e).
     density_from_verdict: bool = False
     #: Keep only candidate patches whose dead-end share and 2-core share lie within the range the fidelity
     #: verdict allows over all the candidates (the town's neighbourhoods at the patch's size; the verdict's
@@ -48,7 +54,8 @@ class PatchOptions:
     share_guard: bool = False
     #: The scalar measures ``share_guard`` holds within the verdict's range: by default the dead-end and
     #: 2-core shares; the verdict judges six scalars (``density``, ``orientation_entropy``,
-    #: ``three_way_share``, ``four_way_share`` too), all measured on every candidate anyway.
+    #: ``three_way_share``, ``four_way_share`` too), all measured on every candidate anyway. All six with
+    #: ``density_from_verdict``: numbers there.
     guarded: tuple[str, ...] = ("dead_end_share", "two_core_share")
     #: A patch turns to match its neighbours' grid only when both have a clear main direction:
     #: the fullest 5° bin of bearings (mod 90°) holds this many times its share.
@@ -61,7 +68,8 @@ class PatchOptions:
     #: (:func:`osm_expand.growth_fidelity.streets_land`), rather than on the whole disc: a disc keeps the
     #: sea, the slopes or the fields across it, and a district filled to that density over its free land
     #: came out sparser than the neighbourhoods it is judged against (Monaco's engine streets: 18.9 km/km²
-    #: against 20.3-31.1). Off by default (README, h30e).
+    #: against 20.3-31.1). Off: it does not raise that density (the target is not what stops the filling):
+    #: Monaco 7 8 6 -> 9 9 10 alone, 3 3 5 with ``density_from_verdict`` (density 17.75) (README, h30e).
     target_on_streets_land: bool = False
     #: m, m: the streets' land's closing: the growth verdict's ``window_close`` and ``window_margin``
     #: (:class:`osm_expand.growth_fidelity.GrowthFidelityOptions`; ``synth`` imports only the model).
