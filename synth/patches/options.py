@@ -57,6 +57,10 @@ class PatchOptions:
     #: ``three_way_share``, ``four_way_share`` too), all measured on every candidate anyway. All six with
     #: ``density_from_verdict``: numbers there.
     guarded: tuple[str, ...] = ("dead_end_share", "two_core_share")
+    #: Rank the candidate patches by these scalars too, besides :data:`synth.patches.TYPICAL`
+    #: (e.g. ``four_way_share``, ``orientation_entropy``: a grid town's typical patch is a grid). Empty by
+    #: default (README, h30e).
+    also_typical: tuple[str, ...] = ()
     #: A patch turns to match its neighbours' grid only when both have a clear main direction:
     #: the fullest 5° bin of bearings (mod 90°) holds this many times its share.
     orientation_peak: float = 2.0

@@ -185,7 +185,8 @@ def _candidate_patches(source: _Source, size: float, opts: PatchOptions, rng: np
         if inside[good].any():
             good = good[inside[good]]
     if len(good) > 1:
-        values = np.array([[_level(at(i), m) for m in TYPICAL] for i in good.tolist()])
+        typical = (*TYPICAL, *opts.also_typical)
+        values = np.array([[_level(at(i), m) for m in typical] for i in good.tolist()])
         centre = np.nanmedian(values, axis=0)
         spread = np.nanpercentile(values, 75, axis=0) - np.nanpercentile(values, 25, axis=0)
         z = np.nan_to_num(np.abs(values - centre) / np.where(spread > 0, spread, 1.0), nan=3.0)
