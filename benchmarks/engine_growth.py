@@ -11,14 +11,15 @@ reference seed and its mean, the dead-end and 2-core shares with the
 neighbourhoods' range (reference seed 0), the pieces the engine's streets
 make on the map, the Landscape Expansion Index shares of new street length
 (infill / edge expansion / outlying), and the times (wall and CPU) of the
-run and of the judging. ``--eras`` adds a line per era. ``--discs`` judges against the reference
+run and of the judging. ``--eras`` adds a line per era; ``--measures`` a line per town (and era) naming each measure
+off, its value against its range and by how much. ``--discs`` judges against the reference
 neighbourhoods measured in their discs (the yardstick before they were measured on their streets' land,
 :func:`osm_expand.growth_fidelity.streets_land`).
 
 Issue 20's targets: off on at most 4 of 14, dead-end and 2-core shares in
 range, infill + edge expansion at least 80 % of the new street length.
 
-Usage: ``python benchmarks/engine_growth.py [--history european] [--eras] [--discs] [TOWN ...]``
+Usage: ``python benchmarks/engine_growth.py [--history european] [--eras] [--measures] [--discs] [TOWN ...]``
 (default: Krems, Andorra, north-bayreuth, Monaco, Krems with ``european``, then Campo Grande;
 Campo Grande takes about 5 minutes and 8 GB).
 """
