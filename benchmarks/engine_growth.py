@@ -11,14 +11,15 @@ reference seed and its mean, the dead-end and 2-core shares with the
 neighbourhoods' range (reference seed 0), the pieces the engine's streets
 make on the map, the Landscape Expansion Index shares of new street length
 (infill / edge expansion / outlying), and the times (wall and CPU) of the
-run and of the judging. ``--eras`` adds a line per era. ``--discs`` judges against the reference
+run and of the judging. ``--eras`` adds a line per era; ``--measures`` a line per town (and era) naming each measure
+off, its value against its range and by how much. ``--discs`` judges against the reference
 neighbourhoods measured in their discs (the yardstick before they were measured on their streets' land,
 :func:`osm_expand.growth_fidelity.streets_land`).
 
 Issue 20's targets: off on at most 4 of 14, dead-end and 2-core shares in
 range, infill + edge expansion at least 80 % of the new street length.
 
-Usage: ``python benchmarks/engine_growth.py [--history european] [--eras] [--discs] [TOWN ...]``
+Usage: ``python benchmarks/engine_growth.py [--history european] [--eras] [--measures] [--discs] [TOWN ...]``
 (default: Krems, Andorra, north-bayreuth, Monaco, Krems with ``european``, then Campo Grande;
 Campo Grande takes about 5 minutes and 8 GB).
 """
@@ -39,6 +40,24 @@ def _share(report: dict, name: str) -> str:
     v = report["measures"][name]
     mark = "" if v["ok"] else " ✗"
     return f"{v['value']} [{v['low']}–{v['high']}]{mark}"
+
+
+def _off_measures(report: dict) -> str:
+    """The measures off in ``report``: value [range] and how far outside it, in widths of the range (for a
+    distribution the KS distance against its bound, with the growth's and the town's medians)."""
+    out = []
+    for m, v in report["measures"].items():
+        if v["ok"]:
+            continue
+        value, high = v["value"], v["high"]
+        if v["kind"] == "distribution":
+            out.append(f"{m} KS {value} > {high} (median {v['district']} vs town {v['town']})")
+            continue
+        low = v["low"]
+        width = high - low if high > low else 1.0
+        beyond = low - value if value < low else value - high
+        out.append(f"{m} {value} [{low}–{high}] ({beyond / width:+.2f} widths)")
+    return "; ".join(out)
 
 
 def run(name: str, history: str, years: int | None, refs: int, discs: bool = False) -> dict:
@@ -72,6 +91,8 @@ def main() -> None:
     ap.add_argument("--refs", type=int, default=3, help="reference seeds for the verdict (default 3)")
     ap.add_argument("--eras", action="store_true", help="a line per era too")
     ap.add_argument("--discs", action="store_true", help="references measured in their discs (the yardstick before)")
+    ap.add_argument("--measures", action="store_true",
+                    help="per town, the measures off (reference seed 0): value against range, and by how much")
     args = ap.parse_args()
     runs = [(t, args.history) for t in args.towns] if args.towns else RUNS
     print("| town | history | off of 14 per reference | mean off | dead-end share [range] | 2-core share [range] "
@@ -94,6 +115,10 @@ def main() -> None:
               f"| {first.major_roads_m / 1000:.1f} "
               f"| {row['run_s']:.0f} ({row['run_cpu']:.0f}) | {row['judge_s']:.1f} ({row['judge_cpu']:.1f}) |",
               flush=True)
+        if args.measures:
+            offs_by = [_off_measures(g.overall.to_dict()) for g in row["judged"]]
+            for seed, line in enumerate(offs_by):
+                print(f"|   {name} off (reference {seed}): {line or 'none'} |", flush=True)
         for era, report in first.per_era.items():
             e = first.lei_per_era[era].to_dict()
             if report is None:
@@ -104,6 +129,8 @@ def main() -> None:
             eras.append(f"| {name} | {history} | {era} | {r['off']} | {_share(r, 'dead_end_share')} "
                         f"| {_share(r, 'two_core_share')} | {r['pieces']} "
                         f"| {e['infill']} / {e['edge']} / {e['outlying']} | {e['new_length_km']} |")
+            if args.measures:
+                eras.append(f"|   {name} {era} off: {_off_measures(r) or 'none'} |")
     if args.eras and eras:
         print("\n| town | history | era | off of 14 | dead-end share [range] | 2-core share [range] | pieces "
               "| infill / edge / outlying | km |\n|---|---|---|---|---|---|---|---|---|")

@@ -321,3 +321,75 @@ def test_the_share_guard_keeps_only_patches_with_their_towns_shares(name):
         if guard:
             assert len(patches) >= len(drawn) / 2
     assert outside[False] > 0 and outside[True] == 0, outside
+
+
+@pytest.mark.parametrize("name", ["krems.osm.gz", "monaco.osm.gz"])
+def test_the_verdicts_density_band_keeps_the_patches_within_the_towns_neighbourhoods_range(name):
+    """Issue 20 (h30e): with ``density_from_verdict`` the candidate patches kept are those whose street density
+    lies within the range the verdict allows over all the candidates (:func:`osm_expand.fidelity.scalar_range`,
+    their 10th-90th percentile), not within a multiple of their median: candidates below the median are taken
+    as much as above it, and none outside the range (the default band keeps the denser side only)."""
+    from osm_expand.fidelity import scalar_range
+    from osm_expand.growth_patterns import measure_in_windows
+    from synth.patches.source import _candidate_patches, _density, _neighbourhood_points, _source
+
+    grown = district(name, 0)
+    source = _source(grown.city, grown.learned.example)
+    opts = PatchOptions(density_from_verdict=True)
+    size = opts.cell_size * grown.learned.example.spacing
+    drawn = _neighbourhood_points(source, opts.candidates, size / 2, np.random.default_rng(0))
+    every = _density(source, drawn, size / 2)
+    lo, hi = scalar_range("density", every)
+    patches = _candidate_patches(source, size, opts, np.random.default_rng(0), measure_in_windows, scalar_range)
+    local = _density(source, patches, size / 2)
+    assert ((local >= lo * (1 - 1e-9)) & (local <= hi * (1 + 1e-9))).all(), (lo, hi, local)
+    assert (local < np.median(every)).sum() >= len(patches) / 3
+    assert len(patches) >= 0.7 * len(drawn)
+
+
+def test_the_target_density_on_the_streets_land_leaves_the_sea_out():
+    """Issue 20 (h30e): Monaco's neighbourhood discs hold the sea and the slopes; on its streets' land (the
+    closing the engine's verdict measures its references on) they are denser, and a whole-disc density is
+    the same on both only where the streets fill the disc."""
+    from synth.patches.source import _density, _density_on_land, _neighbourhood_points, _source, _streets_land
+
+    grown = district("monaco.osm.gz", 0)
+    source = _source(grown.city, grown.learned.example, everything=True)
+    opts = PatchOptions()
+    land = _streets_land(source, opts.land_close, opts.land_margin)
+    radius = 400.0
+    centres = _neighbourhood_points(source, 32, radius, np.random.default_rng(0))
+    disc, on_land = _density(source, centres, radius), _density_on_land(source, centres, radius, land)
+    assert (on_land >= disc * (1 - 1e-9)).all()
+    assert np.median(on_land) > 1.15 * np.median(disc), (np.median(on_land), np.median(disc))
+
+
+def test_the_guard_holds_every_scalar_it_is_given_within_the_towns_range():
+    """Issue 20 (h30e): ``guarded`` names the scalars ``share_guard`` holds within the range the verdict allows
+    over the candidates; with all six of the verdict's scalars, no kept patch lies outside any of them (Krems),
+    and ranking by more scalars (``also_typical``) reorders the same patches."""
+    from osm_expand.fidelity import scalar_range
+    from osm_expand.growth_patterns import measure_in_windows
+    from synth.patches.source import _candidate_patches, _level, _neighbourhood_points, _source
+
+    six = ("density", "orientation_entropy", "three_way_share", "four_way_share", "dead_end_share", "two_core_share")
+    grown = district("krems.osm.gz", 0)
+    source = _source(grown.city, grown.learned.example)
+    in_window = measure_in_windows([np.asarray(ln.coords) for ln in source.lines])
+    opts = PatchOptions(density_band=(0.5, 2.0), share_guard=True, guarded=six)
+    size = opts.cell_size * grown.learned.example.spacing
+
+    def scalars(centres):
+        return np.array([[_level(in_window(shapely.Point(c).buffer(size / 2)), n) for n in six] for c in centres])
+
+    drawn = _neighbourhood_points(source, opts.candidates, size / 2, np.random.default_rng(0))
+    every = scalars(drawn)
+    patches = _candidate_patches(source, size, opts, np.random.default_rng(0), measure_in_windows, scalar_range)
+    got = scalars(patches)
+    for k, name in enumerate(six):
+        lo, hi = scalar_range(name, every[:, k])
+        assert ((got[:, k] >= lo) & (got[:, k] <= hi)).all(), (name, lo, hi, got[:, k])
+    ranked = _candidate_patches(source, size, PatchOptions(density_band=(0.5, 2.0), share_guard=True, guarded=six,
+                                                           also_typical=("four_way_share", "orientation_entropy")),
+                                np.random.default_rng(0), measure_in_windows, scalar_range)
+    assert sorted(map(tuple, ranked)) == sorted(map(tuple, patches))

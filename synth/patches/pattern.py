@@ -19,7 +19,17 @@ from synth.patches.options import PatchOptions
 from synth.patches.placing import _cells, _centres, _free_land, _place
 from synth.patches.quilt import _network, _planar, _Quilt
 from synth.patches.seams import _tees, _walk_seams
-from synth.patches.source import _candidate_patches, _density, _lengths, _level, _neighbourhood_points, _Source, _source
+from synth.patches.source import (
+    _candidate_patches,
+    _density,
+    _density_on_land,
+    _lengths,
+    _level,
+    _neighbourhood_points,
+    _Source,
+    _source,
+    _streets_land,
+)
 from synth.patches.topology import (
     STUB_LENGTH,
     _Aim,
@@ -69,7 +79,11 @@ class ExamplePatches:
         everything = self._source(city, everything=True)
         radius = float(np.sqrt(free.area / np.pi))
         around = _neighbourhood_points(everything, opts.density_discs, radius, rng)
-        target = float(np.median(_density(everything, around, radius))) * float(free.area)
+        if opts.target_on_streets_land:
+            density = _density_on_land(everything, around, radius, self._land(everything))
+        else:
+            density = _density(everything, around, radius)
+        target = float(np.median(density)) * float(free.area)
         aim = self._aim(everything, around, radius, city.network)
         key = round(float(np.log(size)) / 0.05)  # sizes within 5 % share a ranking
         if key not in self.cache:
@@ -106,6 +120,13 @@ class ExamplePatches:
         made = _source(city, self.example, everything=everything)
         self.cache[key] = (city.network, made)
         return made
+
+    def _land(self, source: _Source) -> shapely.Geometry:
+        """:func:`_streets_land` of ``source``, kept: the engine's years add no source street."""
+        key = ("land", len(source.lines), self.options.land_close, self.options.land_margin)
+        if key not in self.cache:
+            self.cache[key] = _streets_land(source, self.options.land_close, self.options.land_margin)
+        return self.cache[key]
 
     def _corner_rate(self) -> float:
         """The town's corners sharper than :data:`~synth.patches.corners.SHARP` at nodes of degree two per km

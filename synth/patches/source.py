@@ -73,6 +73,25 @@ def _density(source: _Source, centres: np.ndarray, radius: float) -> np.ndarray:
     return np.array([_length_in(source, d) for d in discs]) / (np.pi * radius ** 2)
 
 
+def _streets_land(source: _Source, close: float, margin: float) -> shapely.Geometry:
+    """The land of the source's streets: buffered ``close`` m, shrunk back to ``margin`` m (a closing: the
+    blocks between the streets inside, no more than ``margin`` of field, slope or sea beyond them)."""
+    if not len(source.lines):
+        return shapely.Polygon()
+    grown = shapely.union_all(shapely.buffer(source.lines, close, quad_segs=4))
+    return shapely.buffer(grown, margin - close, quad_segs=4)
+
+
+def _density_on_land(source: _Source, centres: np.ndarray, radius: float, land: shapely.Geometry) -> np.ndarray:
+    """Street length per m² of the streets' ``land`` in discs around ``centres`` (per m² of the disc where
+    no street's land is in it)."""
+    discs = shapely.buffer(shapely.points(centres), radius)
+    shapely.prepare(land)
+    areas = shapely.area(shapely.intersection(discs, land))
+    areas = np.where(areas > 0, areas, np.pi * radius ** 2)
+    return np.array([_length_in(source, d) for d in discs]) / areas
+
+
 def _length_in(source: _Source, disc: shapely.Geometry) -> float:
     """The length of the source's streets inside ``disc`` (m), summed in the tree's order.
 
@@ -110,8 +129,9 @@ def _neighbourhood_points(source: _Source, n: int, radius: float, rng: np.random
 TYPICAL = ("curvature", "circuity", "edge_length", "dead_end_share", "three_way_share")
 
 
-#: The shares a candidate patch must have within its town's neighbourhoods' range (``share_guard``).
-GUARDED = ("dead_end_share", "two_core_share")
+#: The shares a candidate patch must have within its town's neighbourhoods' range (``share_guard``; the
+#: default of :attr:`PatchOptions.guarded`).
+GUARDED = PatchOptions.guarded
 
 
 def _candidate_patches(source: _Source, size: float, opts: PatchOptions, rng: np.random.Generator,
@@ -121,7 +141,8 @@ def _candidate_patches(source: _Source, size: float, opts: PatchOptions, rng: np
     Candidates are discs around the town's neighbourhoods' junctions
     (:func:`_neighbourhood_points`) whose street density is within
     ``density_band`` of the median candidate's (the default keeps the denser
-    side only: :class:`PatchOptions`). Each is
+    side only: :class:`PatchOptions`), or, with ``density_from_verdict`` (and
+    ``limits``), within the range the verdict allows over all the candidates. Each is
     measured (:data:`TYPICAL`: the median of a distribution, or a scalar) and
     ranked by its distance to the median candidate, each measure scaled by
     the candidates' spread, so the district is made of the town's ordinary
@@ -138,8 +159,11 @@ def _candidate_patches(source: _Source, size: float, opts: PatchOptions, rng: np
     centres = _neighbourhood_points(source, opts.candidates, size / 2, rng)
     local = _density(source, centres, size / 2)
     median = float(np.median(local))
-    lo, hi = opts.density_band
-    good = np.flatnonzero((local >= lo * median) & (local <= hi * median))
+    if opts.density_from_verdict and limits is not None:
+        lo, hi = limits("density", local)
+    else:
+        lo, hi = opts.density_band[0] * median, opts.density_band[1] * median
+    good = np.flatnonzero((local >= lo) & (local <= hi))
     if not len(good):
         good = np.argsort(np.abs(local - median))[:1]
     if measure is None or len(good) <= 1:
@@ -153,15 +177,16 @@ def _candidate_patches(source: _Source, size: float, opts: PatchOptions, rng: np
         return measured[i]
 
     if opts.share_guard and limits is not None:
-        shares = np.array([[_level(at(i), name) for name in GUARDED] for i in range(len(centres))])
+        shares = np.array([[_level(at(i), name) for name in opts.guarded] for i in range(len(centres))])
         inside = np.ones(len(centres), dtype=bool)
-        for k, name in enumerate(GUARDED):
+        for k, name in enumerate(opts.guarded):
             lo, hi = limits(name, shares[:, k])
             inside &= (shares[:, k] >= lo) & (shares[:, k] <= hi)
         if inside[good].any():
             good = good[inside[good]]
     if len(good) > 1:
-        values = np.array([[_level(at(i), m) for m in TYPICAL] for i in good.tolist()])
+        typical = (*TYPICAL, *opts.also_typical)
+        values = np.array([[_level(at(i), m) for m in typical] for i in good.tolist()])
         centre = np.nanmedian(values, axis=0)
         spread = np.nanpercentile(values, 75, axis=0) - np.nanpercentile(values, 25, axis=0)
         z = np.nan_to_num(np.abs(values - centre) / np.where(spread > 0, spread, 1.0), nan=3.0)
