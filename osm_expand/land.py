@@ -382,6 +382,8 @@ def _empty_cells(lines: np.ndarray, widths: np.ndarray, footprints: np.ndarray, 
     if not len(lines):
         return np.empty(0, dtype=object)
     pieces, owner = _pieces(lines)
+    if not len(pieces):
+        return np.empty(0, dtype=object)
     w = widths[owner]
     tree = shapely.STRtree(footprints)
     # a cell lies within its depth of its piece, so only pieces with a building within the radius and

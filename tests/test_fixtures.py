@@ -226,3 +226,8 @@ def test_match_points_takes_the_nearest_and_the_first_of_equal_ones():
     points = np.array([[5.0004, 5.0], [5.0, 5.0], [0.0, 0.0009], [3.0, 3.0], [5.0001, 5.0]])
     assert match_points(points, known, 1e-3).tolist() == [3, 1, 0, -1, 1]
     assert match_points(points, known[:0], 1e-3).tolist() == [-1] * 5
+    # duplicate nodes at one spot far apart in the index: the first, whatever order a tree meets them in
+    many = np.random.default_rng(0).uniform(0, 1e4, (20000, 2))
+    many[15000] = many[100]
+    assert match_points(many[[100, 15000]], many, 1e-3).tolist() == [100, 100]
+    assert match_points(many, many, 1e-3)[15000] == 100

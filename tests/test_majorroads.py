@@ -273,7 +273,6 @@ def test_b_and_its_blocks_are_carried_from_last_year_not_unioned_again(n, size, 
     rng = np.random.default_rng(seed)
     lines = grid_lines(100, 100, n, size)
     segs = SegmentTable.from_lines(lines, major=[False] * len(lines), width=[6.0] * len(lines))
-    first = built_up_area(blocks_of(segs), segs, water=shapely.box(0, 0, 2000, 20))
     # a street inside the grid goes (two blocks become one), a column of blocks comes east
     inner = [k for k, line in enumerate(lines) if 0 < k // 2 < n]
     gone = int(rng.choice(inner))
@@ -1118,7 +1117,7 @@ def test_shell_stitches_carried_over_from_last_year_equal_those_checked_afresh(s
 @settings(max_examples=20, deadline=None)
 @given(st.integers(0, 2**32 - 1), st.sets(st.sampled_from(list(EdgeKind)), max_size=8))
 def test_which_lattice_entries_are_of_some_kinds_is_the_lookup_table_answer(seed, kinds):
-    """Issue 22: G′'s lattice masks are made by one comparison per lattice kind asked for (three
+    """Issue 22: G′'s lattice masks are made by one comparison per lattice kind asked for (four
     times faster than a 256-entry table indexed by the whole ``(V, D)`` table); the same answer."""
     from osm_expand.engine.roads.path_graph import LATTICE_KINDS, _of_kinds
 

@@ -206,10 +206,9 @@ def match_points(points: np.ndarray, known: np.ndarray, tolerance: float = 0.0) 
         shapely.points(points), max_distance=tolerance, all_matches=True)
     if not len(src):
         return out
-    # the nearest, the first (lowest index) of equally near ones
-    d = points[src] - known[near[hit]]
-    gap = np.sqrt(d[:, 0] * d[:, 0] + d[:, 1] * d[:, 1])  # as GEOS measures it
-    order = np.lexsort((near[hit], gap, src))
+    # ``all_matches`` gives each point its equally nearest known points only: the first (lowest index) of
+    # them (duplicate nodes at one spot; the whole-town tree returned whichever it reached first)
+    order = np.lexsort((near[hit], src))
     src, hit = src[order], hit[order]
     first = np.r_[True, src[1:] != src[:-1]]
     out[src[first]] = near[hit[first]]

@@ -227,7 +227,7 @@ class PathGraph:
         the empty ones cost a second and 12 bytes a slot per window, and per-edge
         int64 indices 3 GB); a block without other edges is one slice, the others
         are filled through a mask of their slots (a position per lattice edge
-        was a fifth of the time: 0.75 s against 0.6 s on Campo Grande's map).
+        took a fifth more time: 0.75 s against 0.6 s on Campo Grande's map).
         """
         n_lat, n_dir = lat.shape
         n = self.n_vertices

@@ -186,7 +186,7 @@ def carried_ok(lattice: Lattice, segments: SegmentTable, xy: np.ndarray, pairs: 
     ``previous``, e.g. :attr:`ImplicitGraph.stitches`) keeps what every call would work out
     again: the segments' keys, the last verdicts sorted, the segments added or removed.
     """
-    carry = _carry(segments, previous, opts, {} if memo is None else memo)
+    carry = _carry(segments, previous, {} if memo is None else memo)
     dry = _dry(lattice, xy, pairs, opts)
     live = np.flatnonzero(dry)
     n_nodes = len(segments.xy)
@@ -227,7 +227,7 @@ class _Carry:
     changed: shapely.STRtree | None  #: the segments added or removed since (None: none)
 
 
-def _carry(segments: SegmentTable, previous: ShellVerdicts | None, opts: GraphOptions, memo: dict) -> _Carry:
+def _carry(segments: SegmentTable, previous: ShellVerdicts | None, memo: dict) -> _Carry:
     """The :class:`_Carry` of ``segments`` and ``previous``, from ``memo`` when it was made for them."""
     made = memo.get("carry")
     if made is not None and made[0] is previous and made[1] is segments:
