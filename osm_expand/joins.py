@@ -162,7 +162,8 @@ def occupied_near(city: City, lines: Sequence[np.ndarray], *, reach: float, spre
     made for the very same box and ``taken``, is given back as it is (its union was a tenth of a join's
     cost on Campo Grande, and :func:`osm_expand.district.place_district` needs it before joining too)."""
     near = shapely.MultiLineString(list(lines)).envelope.buffer(reach + spread + 1.0)
-    bounds = tuple(float(v) for v in near.bounds)
+    x0, y0, x1, y1 = (float(v) for v in near.bounds)
+    bounds = (x0, y0, x1, y1)
     if made is not None and made.bounds == bounds and made.taken == taken:
         return made
     return Occupied(bounds=bounds, taken=taken, geometry=city.occupied_within(near, taken=taken))
