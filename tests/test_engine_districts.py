@@ -15,9 +15,9 @@ from osm_expand.engine.growth.nuclei import Nucleus, NucleusKind
 from osm_expand.growth_fidelity import city_growth_fidelity
 from osm_expand.growth_patterns import make_pattern
 from osm_expand.ingest import load
-from osm_expand.pipeline import _margin, learn, prepare
 from osm_expand.joins import add_streets
 from osm_expand.model import Origin, Status
+from osm_expand.pipeline import _margin, learn, prepare
 from osm_expand.sites import SiteOptions, choose_sites, distance_maps
 from tests.conftest import FIXTURES, expanded_and_matured
 

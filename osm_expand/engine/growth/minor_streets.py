@@ -298,7 +298,8 @@ def grow_district(city: City, pattern: GrowthPattern, length: float, density: fl
     avoid = None
     if options.refused_near > 0:
         memory.refused = _still_refused(city, memory.refused, reach=2.0 * spacing)
-        avoid = np.column_stack([memory.refused[:, :2], np.full(len(memory.refused), options.refused_near * district_radius)])
+        near = np.full(len(memory.refused), options.refused_near * district_radius)
+        avoid = np.column_stack([memory.refused[:, :2], near])
     sites = choose_sites(maps, area, site_options, most=options.sites_tried, avoid=avoid)
     if not sites:
         return city, GrowthYear()
@@ -310,8 +311,8 @@ def grow_district(city: City, pattern: GrowthPattern, length: float, density: fl
         accept=lambda joins: (_built_up_distance(maps, joins.at) <= reach).sum() >= options.min_joins,
         bounds=city.bounds_polygon, origin=Origin.ENGINE, year=year, era=era)
     if options.refused_near > 0 and placement.tried:
-        new = np.array([[*sites[t.rank].centre, district_radius, year] for t in placement.tried], dtype=float)
-        memory.refused = np.vstack([memory.refused, new])
+        refused = np.array([[*sites[t.rank].centre, district_radius, year] for t in placement.tried], dtype=float)
+        memory.refused = np.vstack([memory.refused, refused])
     placed = placement.placed
     if placed is None:
         return city, GrowthYear()
