@@ -30,7 +30,7 @@ from dataclasses import dataclass
 import numpy as np
 import shapely
 
-from osm_expand.joins import JoinReport, join_growth, join_places
+from osm_expand.joins import JoinReport, Occupied, join_growth, join_places, occupied_near
 from osm_expand.model import City, Origin
 from osm_expand.sites import Site, district_region
 from synth.growth import Growth, GrowthPattern
@@ -46,6 +46,9 @@ class Tried:
     #: False: not joined, since even every place it could join at (:func:`osm_expand.joins.join_places`)
     #: is not accepted, or nothing grew
     joinable: bool = True
+    #: True: joinable, but not joined, since the places its joining streets could reach past the occupied
+    #: land (the town's presumed frontage among it) are not accepted
+    blocked: bool = False
 
 
 @dataclass(frozen=True)
@@ -70,7 +73,9 @@ class Placement:
     def describe_tried(self) -> str:
         """The sites tried, for an error message: ``site 1: 40 streets, 1 joins; ...``."""
         return "; ".join(f"site {t.rank + 1}: {len(t.growth.streets)} streets, "
-                         + (f"{t.joins} joins" if t.joinable else "too few places to join") for t in self.tried)
+                         + (f"{t.joins} joins" if t.joinable and not t.blocked
+                            else "too few places to join clear of the town's land" if t.joinable
+                            else "too few places to join") for t in self.tried)
 
 
 def at_least(joins: int) -> Callable[[JoinReport], bool]:
@@ -102,7 +107,8 @@ def place_district(city: City, sites: Sequence[Site], pattern: GrowthPattern, *,
         (the report of every possible place has ``links`` and ``tees`` 0): a
         district whose every possible place to join (:func:`osm_expand.joins.join_places`) is not
         accepted is then not joined at all (the join was a third of a failed site's cost on Campo
-        Grande), the same as joining and rejecting it.
+        Grande), the same as joining and rejecting it; so is one whose every place a joining street can
+        reach past the occupied land is not accepted (``blocked``).
     rng : callable
         ``attempt -> Generator``: the random stream of the n-th site tried (0-based, in ``order``).
     bounds : Geometry or None
@@ -128,13 +134,14 @@ def place_district(city: City, sites: Sequence[Site], pattern: GrowthPattern, *,
         region = district_region(city, sites[rank], bounds=bounds)
         growth = pattern.grow(city, region, rng(attempt))
         joined = 0
-        joinable = _joinable(city, growth, spacing, accept)
-        if joinable:
-            grown, joins = join_growth(city, growth.streets, spacing=spacing, origin=origin, year=year, era=era)
+        joinable, clear, occupied = _joinable(city, growth, spacing, accept)
+        if clear:
+            grown, joins = join_growth(city, growth.streets, spacing=spacing, origin=origin, year=year, era=era,
+                                       occupied=occupied)
             if accept(joins):
                 return Placement(Placed(rank, sites[rank], growth, grown, joins, crossed=False), tuple(tried))
             joined = joins.joins
-        tried.append(Tried(rank, growth, joined, joinable))
+        tried.append(Tried(rank, growth, joined, joinable, blocked=joinable and not clear))
     if cross_taken_last:  # the town's frontage wraps every site: join between its presumed houses
         for t in tried:
             if not t.joinable:  # the places to join do not depend on the frontage: none would do
@@ -146,10 +153,19 @@ def place_district(city: City, sites: Sequence[Site], pattern: GrowthPattern, *,
     return Placement(None, tuple(tried))
 
 
-def _joinable(city: City, growth: Growth, spacing: float, accept: Callable[[JoinReport], bool]) -> bool:
-    """Whether ``accept`` holds for every place the grown streets could join the town at: when it does
-    not, no join of them is accepted (``accept`` holds for more places whenever for fewer)."""
+def _joinable(city: City, growth: Growth, spacing: float, accept: Callable[[JoinReport], bool]
+              ) -> tuple[bool, bool, Occupied | None]:
+    """Whether ``accept`` holds for every place the grown streets could join the town at (when it does not,
+    no join of them is accepted: ``accept`` holds for more places whenever for fewer); whether it holds for
+    those whose joining streets no occupied land blocks (:func:`osm_expand.joins.join_places` with
+    ``occupied``: when not, no join is accepted either, unless joining streets may cross the town's presumed
+    frontage); and the occupied land read, for the join."""
     if not growth.streets:  # an empty growth joins nowhere
-        return False
+        return False, False, None
+    lines = [s.xy for s in growth.streets]
     places = join_places(city, growth.streets, spacing=spacing)
-    return accept(JoinReport(joins=len(places), links=0, tees=0, at=places))
+    if not accept(JoinReport(joins=len(places), links=0, tees=0, at=places)):
+        return False, False, None
+    occupied = occupied_near(city, lines, reach=2 * spacing, spread=2 * spacing)
+    clear = join_places(city, growth.streets, spacing=spacing, occupied=occupied)
+    return True, accept(JoinReport(joins=len(clear), links=0, tees=0, at=clear)), occupied

@@ -318,7 +318,8 @@ RADIUS_STEPS = (1.0, 1.25, 1.5, 2.0)
 
 
 def choose_sites(maps: DistanceMaps, area: float, opts: SiteOptions | None = None, *,
-                 direction: str | None = None, at: tuple[float, float] | None = None, most: int = 5) -> list[Site]:
+                 direction: str | None = None, at: tuple[float, float] | None = None, most: int = 5,
+                 avoid: np.ndarray | None = None) -> list[Site]:
     """The best places for a district of ``area`` m² of free land, best first; empty when nothing has room.
 
     A site is a disc around a cell holding ``area`` m² of free land (not
@@ -338,6 +339,10 @@ def choose_sites(maps: DistanceMaps, area: float, opts: SiteOptions | None = Non
         Use this centre (metres) and skip the search.
     most : int
         How many sites to return; each is at least a district's radius from the better ones.
+    avoid : (K, 3) array, optional
+        ``x, y, distance`` (m): a site whose centre lies within ``distance`` of ``(x, y)`` is not
+        returned (the engine's sites refused before: :class:`osm_expand.engine.growth.minor_streets.GrowthMemory`),
+        but still keeps the worse sites a radius away, so the others are the sites chosen without it.
     """
     opts = opts or SiteOptions()
     radius = float(np.sqrt(area / np.pi))
@@ -352,10 +357,15 @@ def choose_sites(maps: DistanceMaps, area: float, opts: SiteOptions | None = Non
     if direction:
         score = np.where(_in_sector(maps, xs, ys, DIRECTIONS[direction.upper()]), score, -np.inf)
     flat = score.ravel()
+    avoided = np.zeros((0, 3)) if avoid is None else np.asarray(avoid, dtype=float).reshape(-1, 3)
     sites: list[Site] = []
+    taken: list[np.ndarray] = []  # every site's centre, the avoided ones too
     for i in _best_first(flat):
         centre = np.array([xs.flat[i], ys.flat[i]])
-        if all(np.hypot(*(centre - s.centre)) >= radius for s in sites):
+        if all(np.hypot(*(centre - c)) >= radius for c in taken):
+            taken.append(centre)
+            if len(avoided) and (np.hypot(*(avoided[:, :2] - centre).T) < avoided[:, 2]).any():
+                continue
             sites.append(_disc(centre, float(disc_radius.flat[i]), area, float(flat[i])))
             if len(sites) >= most:
                 break

@@ -87,7 +87,7 @@ def test_the_first_accepted_district_is_kept_with_the_origin_year_and_era_asked_
 def test_every_join_is_among_the_places_known_before_joining(krems):
     """:func:`osm_expand.joins.join_places` (from the grown streets alone) holds every place the joining step
     then joins the district at, on Krems' three sites, so a rule that rejects those rejects the join."""
-    from osm_expand.joins import join_growth, join_places
+    from osm_expand.joins import join_growth, join_places, occupied_near
 
     city, learned, sites = krems
     pattern = make_pattern("example", learned.example)
@@ -99,9 +99,13 @@ def test_every_join_is_among_the_places_known_before_joining(krems):
         if not growth.streets:
             continue
         places = join_places(city, growth.streets, spacing=spacing)
+        occupied = occupied_near(city, [s.xy for s in growth.streets], reach=2 * spacing, spread=2 * spacing)
+        clear = join_places(city, growth.streets, spacing=spacing, occupied=occupied)
         _, joins = join_growth(city, growth.streets, spacing=spacing)
-        for at in joins.at:
+        for at in joins.at:  # among the places, and among those no occupied land blocks the way to
             assert np.hypot(*(places - at).T).min() <= 0.01
+            assert np.hypot(*(clear - at).T).min() <= 0.01
+        assert len(clear) <= len(places)
         checked += len(joins.at)
     assert checked >= 3
 
@@ -130,6 +134,69 @@ def test_a_district_that_cannot_be_accepted_is_not_joined(krems, monkeypatch):
     assert not any(t.joinable for t in placement.tried)
     assert "too few places to join" in placement.describe_tried()
 
+
+
+@dataclass
+class Fixed:
+    """A pattern that grows the same streets wherever it is asked to."""
+
+    streets: tuple
+    name: str = "fixed"
+
+    def grow(self, city, region, rng):
+        from synth.growth import Growth
+        return Growth(streets=self.streets)
+
+
+def test_a_district_whose_every_joining_street_occupied_land_blocks_is_not_joined(krems, monkeypatch):
+    """A street 30 m off the town, on land that is all occupied (a map-wide piece of unbuildable land): it has
+    places to join at (:func:`osm_expand.joins.join_places`), but every joining street to them would cross
+    the occupied land deep inside, whatever its ends snap to, so it is reported as blocked without joining
+    (Campo Grande's frontage stood between 34 of 60 engine districts and the town); on the map as it is,
+    the same street is joined."""
+    import shapely
+
+    import osm_expand.district as district
+    from osm_expand.model import Origin
+    from synth.growth import NewStreet
+
+    city, learned, _ = krems
+    spacing = learned.example.spacing
+    net = city.network
+    town = net.street_lines()[[s.origin == Origin.SOURCE for s in net.streets]]
+    longest = town[int(np.argmax(shapely.length(town)))]
+    street = None
+    for at in np.linspace(0.1, 0.9, 17):  # 40 m beside the town's longest street, 30 m off it and any other
+        a, b = (np.asarray(shapely.line_interpolate_point(longest, d).coords)[0]
+                for d in (at * longest.length - 20.0, at * longest.length + 20.0))
+        normal = np.array([-(b - a)[1], (b - a)[0]]) / np.hypot(*(b - a))
+        for side in (1.0, -1.0):
+            xy = np.array([a, b]) + side * 30.0 * normal
+            if shapely.distance(shapely.LineString(xy), town).min() >= 25.0:
+                street = NewStreet(xy=xy, hierarchy=1, highway="residential")
+                break
+        if street is not None:
+            break
+    assert street is not None
+    calls = []
+
+    def counted(*args, **kwargs):
+        calls.append(1)
+        return district.join_growth.__wrapped__(*args, **kwargs)
+
+    counted.__wrapped__ = district.join_growth
+    monkeypatch.setattr(district, "join_growth", counted)
+    site = choose_sites(distance_maps(city, SiteOptions(), margin=_margin(city)), 650_000.0, SiteOptions(), most=1)
+    x0, y0, x1, y1 = net.xy.min(axis=0).tolist() + net.xy.max(axis=0).tolist()
+    walled = city.replace(unbuildable=shapely.box(x0 - 1e3, y0 - 1e3, x1 + 1e3, y1 + 1e3))
+    placement = place_district(walled, site, Fixed((street,)), spacing=spacing, accept=at_least(1),
+                               rng=lambda attempt: np.random.default_rng(0), bounds=None)
+    assert placement.placed is None and not calls
+    assert placement.tried[0].joinable and placement.tried[0].blocked
+    assert "clear of the town's land" in placement.describe_tried()
+    placed = place_district(city, site, Fixed((street,)), spacing=spacing, accept=at_least(1),
+                            rng=lambda attempt: np.random.default_rng(0), bounds=None).placed
+    assert placed is not None and calls
 
 
 def test_a_region_is_one_piece_of_free_land_clear_of_the_streets_by_the_clearance(krems):

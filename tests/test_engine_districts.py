@@ -8,15 +8,17 @@ import functools
 import numpy as np
 import pytest
 
-from osm_expand.district import Placement
+from osm_expand.district import Placement, Tried
 from osm_expand.engine.growth import minor_streets
-from osm_expand.engine.growth.minor_streets import GrowthMemory, built_up_density, grow_district
+from osm_expand.engine.growth.minor_streets import GrowthMemory, GrowthOptions, built_up_density, grow_district
 from osm_expand.engine.growth.nuclei import Nucleus, NucleusKind
 from osm_expand.growth_fidelity import city_growth_fidelity
 from osm_expand.growth_patterns import make_pattern
 from osm_expand.ingest import load
+from osm_expand.joins import add_streets
+from osm_expand.model import Origin, Status
 from osm_expand.pipeline import _margin, learn, prepare
-from osm_expand.sites import SiteOptions, distance_maps
+from osm_expand.sites import SiteOptions, choose_sites, distance_maps
 from tests.conftest import FIXTURES, expanded_and_matured
 
 
@@ -66,3 +68,72 @@ def test_monacos_engine_streets_form_no_more_blocks_than_its_neighbourhoods():
     assert g is not None and g.overall is not None
     measures = g.overall.to_dict()["measures"]
     assert measures["two_core_share"]["ok"] and measures["dead_end_share"]["ok"]
+
+
+def test_choose_sites_avoiding_a_site_returns_the_others_as_chosen_without_it():
+    """An avoided site is left out and the rest are the sites chosen without the avoidance (it still keeps
+    the worse ones a radius away), the next one taking its place."""
+    city, learned = town("krems.osm.gz")
+    maps = distance_maps(city, SiteOptions(), margin=_margin(city))
+    area = 30.0 * learned.example.spacing ** 2 * 20
+    every = choose_sites(maps, area, SiteOptions(), most=6)
+    avoid = np.array([[*every[0].centre, 1.0], [*every[2].centre, 1.0]])
+    kept = choose_sites(maps, area, SiteOptions(), most=4, avoid=avoid)
+    assert [tuple(s.centre) for s in kept] == [tuple(s.centre) for s in (every[1], every[3], every[4], every[5])]
+
+
+def test_a_refused_site_is_not_tried_next_year_until_streets_are_built_near_it(monkeypatch):
+    """With :attr:`GrowthOptions.refused_near`, a site whose district was refused is skipped the next year (the
+    next-best site tried instead), and tried again once a street was built near it."""
+    city, learned = town("krems.osm.gz")
+    spacing = learned.example.spacing
+    asked = []
+
+    def refuse_all(city, sites, pattern, **kwargs):
+        asked.append([np.array(s.centre) for s in sites])
+        return Placement(None, tuple(Tried(k, None, 0, False) for k in range(len(sites))))
+
+    monkeypatch.setattr(minor_streets, "place_district", refuse_all)
+    owed = 30.0 * spacing
+    nuclei = [Nucleus(xy=tuple(city.network.xy[0]), strength=0.5, kind=NucleusKind.CENTRE)]
+    memory, options = GrowthMemory(), GrowthOptions(refused_near=0.5, sites_tried=2)
+
+    def year(c, y):
+        grow_district(c, make_pattern("example", learned.example), owed, 2.0 / spacing, nuclei, memory,
+                      np.random.default_rng(0), spacing=spacing, year=y, era="now", options=options)
+        return asked[-1]
+
+    first = year(city, 2000)
+    assert len(first) == 2 and len(memory.refused) == 2
+    radius = memory.refused[0, 2]
+    second = year(city, 2001)  # the same town: neither refused site again
+    assert all(np.hypot(*(c - f)) >= 0.5 * radius for c in second for f in first)
+    assert len(memory.refused) == 4
+    # without the memory the same sites come back
+    assert [tuple(c) for c in choose_again(city, learned, owed)] == [tuple(c) for c in first]
+    # a street built in 2002 through the first refused site: that site is tried again
+    x, y = first[0]
+    line = np.array([[x - spacing, y], [x + spacing, y]])
+    changed = add_streets(city, [line], [{"highway": "residential", "hierarchy": 9, "origin": Origin.ENGINE,
+                                          "status": Status.PLANNED, "year": 2002, "era": "now", "bridge": False,
+                                          "layer": 0}])
+    third = year(changed, 2003)
+    assert any(np.hypot(*(c - first[0])) < 0.5 * radius for c in third)
+    assert not any(np.hypot(*(c - first[1])) < 0.5 * radius for c in third)  # nothing built near the other
+
+
+def choose_again(city, learned, owed):
+    spacing = learned.example.spacing
+    asked = []
+
+    def record(city, sites, pattern, **kwargs):
+        asked.append([np.array(s.centre) for s in sites])
+        return Placement(None, ())
+
+    with pytest.MonkeyPatch.context() as mp:
+        mp.setattr(minor_streets, "place_district", record)
+        nuclei = [Nucleus(xy=tuple(city.network.xy[0]), strength=0.5, kind=NucleusKind.CENTRE)]
+        grow_district(city, make_pattern("example", learned.example), owed, 2.0 / spacing, nuclei, GrowthMemory(),
+                      np.random.default_rng(0), spacing=spacing, year=2001, era="now",
+                      options=GrowthOptions(sites_tried=2))
+    return asked[-1]

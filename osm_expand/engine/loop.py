@@ -303,7 +303,8 @@ def _grow_streets(state: EngineState, era: Era, now: YearValues, year: int, rng:
             state.patterns[era.name] = district_pattern(era.pattern, era.options)
         pattern = state.patterns[era.name]
         state.city, grown = grow_district(state.city, pattern, state.growth.owed, 2.0 / spacing, state.nuclei,
-                                          state.growth, rng, spacing=spacing, year=year, era=era.name)
+                                          state.growth, rng, spacing=spacing, year=year, era=era.name,
+                                          options=options.growth)
         if grown.districts:
             state.growth.owed = max(state.growth.owed - grown.length_m, 0.0)
         else:  # no site took a district: wait until a bigger one is owed (its disc reaches further)

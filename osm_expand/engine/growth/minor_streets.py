@@ -68,6 +68,23 @@ class GrowthOptions:
     #: average hundreds of cells either way, and on Campo Grande the whole town's rasters cost 4 s a
     #: district at 10 m against 0.9 s at 20 m, for sites within a cell or two of each other.
     site_cells_per_radius: float = 10.0
+    #: A site whose district was refused is not tried again while the town near it stays as it was: a
+    #: later year's site whose centre lies within ``refused_near`` × its district radius (m / m) of a
+    #: refused site's centre is skipped (the next-best site is tried in its place), until a street built
+    #: in or after the refusal's year comes within that site's radius plus two junction spacings (the
+    #: joining streets' reach, :func:`osm_expand.joins.occupied_near`). Why: on Campo Grande's default run
+    #: 35 of the 75 districts tried lay within half a radius of a site refused in an earlier year and 1 of
+    #: those 35 was placed, while a refused try costs its region and street pattern (27 s CPU of the run).
+    #: 0 turns the memory off. Off by default: measured at 0.5 (seed 0, default history,
+    #: ``benchmarks/engine_growth.py``, off of 14 per reference seed, off → on) it skipped refused sites
+    #: but the next-best sites tried in their place took districts the town would not have grown there:
+    #: Campo Grande 74 → 65 tries, 21 → 27 placed, 356 → 367 km of street growth, 6 6 6 → 8 9 9, the
+    #: default command's CPU 123.5 → 137.9 s (in-process 128 → 130: more districts built); north-bayreuth
+    #: 2 1 2 → 4 5 7, Monaco 7 8 6 → 8 8 8, Andorra 6 8 7 → 7 7 8, Krems 1 2 1 → 1 2 1. Skipping them without
+    #: a replacement (fewer sites tried a year) cut Campo Grande's run 128 → 112 s CPU only by growing less
+    #: (291 km, 19 placed; 8 9 9) and left north-bayreuth 5 2 2. (Each try draws from the year's random
+    #: stream: a behaviour change either way.)
+    refused_near: float = 0.0
 
 
 @dataclass
@@ -78,6 +95,9 @@ class GrowthMemory:
     #: (F, 2) points where growth failed (003: finished)
     failed: np.ndarray = field(default_factory=lambda: np.zeros((0, 2)))
     owed: float = 0.0  #: street length a district pattern owes (m)
+    #: (R, 4) sites whose districts were refused: ``x, y, radius`` (m) and the year
+    #: (:attr:`GrowthOptions.refused_near`)
+    refused: np.ndarray = field(default_factory=lambda: np.zeros((0, 4)))
 
 
 @dataclass(frozen=True)
@@ -282,21 +302,53 @@ def grow_district(city: City, pattern: GrowthPattern, length: float, density: fl
     maps = distance_maps(city, site_options, margin=margin)
     town = built_up_density(city, maps)
     area = max(length / (town if town > 0 else max(density, 1e-9)), 9.0 * spacing ** 2)
-    sites = choose_sites(maps, area, site_options, most=options.sites_tried)
+    district_radius = math.sqrt(area / math.pi)
+    avoid = None
+    if options.refused_near > 0:
+        memory.refused = _still_refused(city, memory.refused, reach=2.0 * spacing)
+        near = np.full(len(memory.refused), options.refused_near * district_radius)
+        avoid = np.column_stack([memory.refused[:, :2], near])
+    sites = choose_sites(maps, area, site_options, most=options.sites_tried, avoid=avoid)
     if not sites:
         return city, GrowthYear()
     order = rank_candidates(np.array([s.centre for s in sites]), nuclei, take=len(sites))
     before = len(city.network.streets)
     reach = STUB_REACH * spacing
-    placed = place_district(
+    placement = place_district(
         city, sites, pattern, spacing=spacing, order=order.tolist(), rng=lambda attempt: rng,
         accept=lambda joins: (_built_up_distance(maps, joins.at) <= reach).sum() >= options.min_joins,
-        bounds=city.bounds_polygon, origin=Origin.ENGINE, year=year, era=era).placed
+        bounds=city.bounds_polygon, origin=Origin.ENGINE, year=year, era=era)
+    if options.refused_near > 0 and placement.tried:
+        refused = np.array([[*sites[t.rank].centre, district_radius, year] for t in placement.tried], dtype=float)
+        memory.refused = np.vstack([memory.refused, refused])
+    placed = placement.placed
     if placed is None:
         return city, GrowthYear()
     new = placed.city.network.streets[before:]
     made = sum(polyline_length(placed.city.network.street_xy(s)) for s in new)
     return placed.city, GrowthYear(streets=len(new), length_m=made, bridges=sum(s.bridge for s in new), districts=1)
+
+
+def _still_refused(city: City, refused: np.ndarray, *, reach: float) -> np.ndarray:
+    """The refused sites (:attr:`GrowthMemory.refused`) near which the town has not changed since: no
+    street built in or after the refusal's year comes within the site's radius plus ``reach`` (m) of its
+    centre. A street nearer may give the district a place to join (or take its land): it is tried again.
+    Distances from each centre to each new segment, vectorised (a few dozen sites, the engine's segments)."""
+    if not len(refused):
+        return refused
+    table = SegmentTable.from_city(city)
+    new = table.year >= refused[:, 3].min()
+    if not new.any():
+        return refused
+    a, b, built = table.a[new], table.b[new], table.year[new]
+    ab = b - a
+    keep = np.ones(len(refused), dtype=bool)
+    for k, (x, y, r, when) in enumerate(refused.tolist()):  # one vectorised distance per refused site
+        ap = np.array([x, y]) - a
+        t = np.clip((ap * ab).sum(axis=1) / np.maximum((ab * ab).sum(axis=1), 1e-12), 0.0, 1.0)
+        d = np.hypot(*(ap - t[:, None] * ab).T)
+        keep[k] = not ((d <= r + reach) & (built >= when)).any()
+    return refused[keep]
 
 
 def built_up_density(city: City, maps: DistanceMaps) -> float:
