@@ -45,13 +45,27 @@ def measure_in_windows(lines: list) -> Callable[[shapely.Geometry], NetworkMeasu
     return lambda window: measure_network(indexed, window=window, pieces=False, wanted=wanted)
 
 
+def land_in_discs(lines: list) -> Callable[[shapely.Geometry], shapely.Geometry]:
+    """The land of ``lines`` in any disc, the lines closed once: what the example patches measure their
+    target density on with ``target_on_streets_land`` (:func:`osm_expand.growth_fidelity.streets_land`
+    over :func:`~osm_expand.growth_fidelity.growth_window`, the growth verdict's own rule and tunables;
+    ``synth`` knows only the model, so the caller hands it in)."""
+    from osm_expand.growth_fidelity import growth_window, streets_land
+    from osm_expand.measures import LineSet
+
+    indexed = LineSet.from_lines(lines)
+    land = growth_window(indexed)
+    return lambda disc: streets_land(indexed, disc, land=land)
+
+
 def _example(example: Example, options: Any) -> GrowthPattern:
     from osm_expand.fidelity import scalar_range
     from synth.patches import ExamplePatches
 
     if options is None:
-        return ExamplePatches(example, measure=measure_in_windows, limits=scalar_range)
-    return ExamplePatches(example, options=options, measure=measure_in_windows, limits=scalar_range)
+        return ExamplePatches(example, measure=measure_in_windows, limits=scalar_range, land=land_in_discs)
+    return ExamplePatches(example, options=options, measure=measure_in_windows, limits=scalar_range,
+                          land=land_in_discs)
 
 
 def _walk(example: Example, options: Any) -> GrowthPattern:
