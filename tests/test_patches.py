@@ -372,6 +372,52 @@ def test_the_target_density_on_the_streets_land_leaves_the_sea_out():
     assert target[True] > 1.1 * target[False], target
 
 
+def test_patch_options_refuse_a_measure_they_cannot_guard_or_rank_by():
+    """A ``guarded`` distribution (no range) or an ``also_typical`` measure the candidates' windows leave out
+    (alignment: :func:`osm_expand.growth_patterns.measure_in_windows`) is refused when the options are made,
+    not minutes into a run; the allowed names, spelled out in ``synth`` (it imports only the model), are the
+    verdict's scalars and what the windows measure."""
+    from osm_expand.errors import InputError
+    from osm_expand.growth_patterns import measure_in_windows
+    from osm_expand.measures import SCALARS, Measure
+    from synth.patches.options import GUARDABLE, RANKABLE
+
+    with pytest.raises(InputError, match=r"PatchOptions\.guarded: 'curvature' not one of"):
+        PatchOptions(guarded=("curvature",))
+    with pytest.raises(InputError, match=r"PatchOptions\.also_typical: 'alignment' not one of"):
+        PatchOptions(also_typical=("alignment",))
+    PatchOptions(guarded=GUARDABLE, also_typical=RANKABLE)
+    assert set(GUARDABLE) == {m.value for m in SCALARS}
+    lines = [np.array([[0.0, 0.0], [100.0, 0.0], [200.0, 10.0]]), np.array([[100.0, 0.0], [100.0, 100.0]]),
+             np.array([[0.0, 50.0], [200.0, 50.0]])]
+    measured = measure_in_windows(lines)(shapely.box(-10.0, -10.0, 210.0, 110.0))
+    computed = set()
+    for m in Measure:
+        try:
+            measured.value(m)
+            computed.add(m.value)
+        except ValueError:
+            pass
+    assert set(RANKABLE) == computed
+
+
+def test_a_history_with_a_patch_option_naming_an_unmeasured_measure_fails_in_one_line(tmp_path, capsys):
+    """The history's ``pattern_options`` reach :class:`PatchOptions`: a bad ``also_typical`` is one line on
+    stderr and exit code 2 before the town is grown, and no output is written."""
+    from osm_expand.cli import main
+
+    text = (FIXTURES.parent / "osm_expand" / "histories" / "example.toml").read_text()
+    era = 'pattern = "example"'
+    assert era in text
+    path = tmp_path / "h.toml"
+    path.write_text(text.replace(era, era + '\npattern_options = { also_typical = ["alignment"] }', 1))
+    out = tmp_path / "o.xml"
+    code = main([str(FIXTURES / "monaco.osm.gz"), "--history", str(path), "-o", str(out)])
+    err = capsys.readouterr().err.strip()
+    assert code == 2 and "\n" not in err and "also_typical" in err and "alignment" in err, err
+    assert not out.exists()
+
+
 def test_the_guard_holds_every_scalar_it_is_given_within_the_towns_range():
     """Issue 20 (h30e): ``guarded`` names the scalars ``share_guard`` holds within the range the verdict allows
     over the candidates; with all six of the verdict's scalars, no kept patch lies outside any of them (Krems),
