@@ -447,3 +447,4 @@ def test_the_guard_holds_every_scalar_it_is_given_within_the_towns_range():
                                                            also_typical=("four_way_share", "orientation_entropy")),
                                 np.random.default_rng(0), measure_in_windows, scalar_range)
     assert sorted(map(tuple, ranked)) == sorted(map(tuple, patches))
+    assert not np.array_equal(ranked, patches)
