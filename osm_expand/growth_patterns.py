@@ -47,15 +47,13 @@ def measure_in_windows(lines: list) -> Callable[[shapely.Geometry], NetworkMeasu
 
 def land_in_discs(lines: list) -> Callable[[shapely.Geometry], shapely.Geometry]:
     """The land of ``lines`` in any disc, the lines closed once: what the example patches measure their
-    target density on with ``target_on_streets_land`` (:func:`osm_expand.growth_fidelity.streets_land`
-    over :func:`~osm_expand.growth_fidelity.growth_window`, the growth verdict's own rule and tunables;
-    ``synth`` knows only the model, so the caller hands it in)."""
-    from osm_expand.growth_fidelity import growth_window, streets_land
-    from osm_expand.measures import LineSet
+    target density on with ``target_on_streets_land`` (:mod:`osm_expand.streets_closing`, the rule and
+    default tunables of the growth verdict's :func:`~osm_expand.growth_fidelity.streets_land`; ``synth``
+    knows only the model, so the caller hands it in)."""
+    from osm_expand.streets_closing import closed_land, land_in_disc
 
-    indexed = LineSet.from_lines(lines)
-    land = growth_window(indexed)
-    return lambda disc: streets_land(indexed, disc, land=land)
+    land = closed_land(lines)
+    return lambda disc: land_in_disc(disc, land)
 
 
 def _example(example: Example, options: Any) -> GrowthPattern:
