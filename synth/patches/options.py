@@ -81,9 +81,9 @@ class PatchOptions:
     orientation_peak: float = 2.0
     #: Discs of the district's area measured on the town for the target density.
     density_discs: int = 64
-    #: Measure the target density on the town's streets' land in those discs (the caller's ``land``:
-    #: :func:`osm_expand.growth_fidelity.streets_land`, the closing the engine's growth verdict measures its
-    #: reference neighbourhoods on), rather than on the whole disc: a disc keeps the
+    #: Measure the target density on the town's streets' land in those discs (``ExamplePatches.land``: the
+    #: closing the engine's growth verdict measures its reference neighbourhoods on,
+    #: :mod:`osm_expand.streets_closing`), rather than on the whole disc: a disc keeps the
     #: sea, the slopes or the fields across it, and a district filled to that density over its free land
     #: came out sparser than the neighbourhoods it is judged against (Monaco's engine streets: 18.9 km/km²
     #: against 20.3-31.1). Off: it does not raise that density (the target is not what stops the filling):

@@ -59,7 +59,7 @@ class ExamplePatches:
     #: ``measure`` is): with ``share_guard`` on, candidate patches outside it are not used.
     limits: Callable | None = None
     #: ``land(lines)`` returns a function giving the streets' land of those lines in a disc (the caller's
-    #: :func:`osm_expand.growth_fidelity.streets_land` over their :func:`~osm_expand.growth_fidelity.growth_window`,
+    #: :func:`osm_expand.growth_patterns.land_in_discs`: the growth verdict's rule, :mod:`osm_expand.streets_closing`,
     #: handed in as ``measure`` is): what ``target_on_streets_land`` measures the target density on.
     land: Callable | None = None
     name: str = "example"
@@ -125,8 +125,8 @@ class ExamplePatches:
         return made
 
     def _land(self, source: _Source) -> Callable[[shapely.Geometry], shapely.Geometry]:
-        """``land(lines)`` of ``source``'s streets (the town's land, closed once), kept for the same source
-        (the one :meth:`_source` keeps for the same network: the engine's years add no source street)."""
+        """``land(lines)`` of ``source``'s streets (the town's land, closed once), kept while the source is
+        the same object (:meth:`_source` keeps one per network: the sites tried in one year share it)."""
         if self.land is None:
             raise ValueError("target_on_streets_land needs the streets' land: ExamplePatches(land=...)")
         hit = self.cache.get("land")
