@@ -11,8 +11,9 @@ reference seed and its mean, the dead-end and 2-core shares with the
 neighbourhoods' range (reference seed 0), the pieces the engine's streets
 make on the map, the Landscape Expansion Index shares of new street length
 (infill / edge expansion / outlying), and the times (wall and CPU) of the
-run and of the judging. ``--eras`` adds a line per era; ``--measures`` a line per town (and era) naming each measure
-off, its value against its range and by how much. ``--discs`` judges against the reference
+run and of the judging. ``--eras`` adds a line per era; ``--measures`` a line per town and reference seed
+(and per era, reference seed 0), after the tables, naming each measure off, its value against its range
+and by how much. ``--discs`` judges against the reference
 neighbourhoods measured in their discs (the yardstick before they were measured on their streets' land,
 :func:`osm_expand.growth_fidelity.streets_land`).
 
@@ -44,7 +45,11 @@ def _share(report: dict, name: str) -> str:
 
 def _off_measures(report: dict) -> str:
     """The measures off in ``report``: value [range] and how far outside it, in widths of the range (for a
-    distribution the KS distance against its bound, with the growth's and the town's medians)."""
+    distribution the KS distance against its bound, with the growth's and the town's medians).
+
+    Where the range has no width (``high == low``) the distance is in the measure's own units, and says so.
+    A value or bound that is NaN (``to_dict`` writes it as None) prints as ``n/a``: no distance is computed.
+    """
     out = []
     for m, v in report["measures"].items():
         if v["ok"]:
@@ -54,9 +59,14 @@ def _off_measures(report: dict) -> str:
             out.append(f"{m} KS {value} > {high} (median {v['district']} vs town {v['town']})")
             continue
         low = v["low"]
-        width = high - low if high > low else 1.0
+        if value is None or low is None or high is None:
+            out.append(f"{m} n/a [{low}–{high}]")
+            continue
         beyond = low - value if value < low else value - high
-        out.append(f"{m} {value} [{low}–{high}] ({beyond / width:+.2f} widths)")
+        if high > low:
+            out.append(f"{m} {value} [{low}–{high}] ({beyond / (high - low):+.2f} widths)")
+        else:
+            out.append(f"{m} {value} [{low}–{high}] ({beyond:+.3g} in the measure's units: the range has no width)")
     return "; ".join(out)
 
 
@@ -92,13 +102,16 @@ def main() -> None:
     ap.add_argument("--eras", action="store_true", help="a line per era too")
     ap.add_argument("--discs", action="store_true", help="references measured in their discs (the yardstick before)")
     ap.add_argument("--measures", action="store_true",
-                    help="per town, the measures off (reference seed 0): value against range, and by how much")
+                    help="per town and reference seed (and era, with --eras), the measures off: value against "
+                         "range, and by how much (lines outside the tables)")
     args = ap.parse_args()
     runs = [(t, args.history) for t in args.towns] if args.towns else RUNS
     print("| town | history | off of 14 per reference | mean off | dead-end share [range] | 2-core share [range] "
           "| pieces | infill / edge / outlying | street growth km | major roads km | run s (CPU) | judging s (CPU) |")
     print("|---|---|---|---|---|---|---|---|---|---|---|---|")
-    eras = []
+    eras: list[str] = []
+    off_lines: list[str] = []  # outside the tables: a one-cell row breaks a 12-column markdown table
+    era_off_lines: list[str] = []
     for name, history in runs:
         row = run(name, history, args.years, args.refs, args.discs)
         first = row["judged"][0]
@@ -117,8 +130,8 @@ def main() -> None:
               flush=True)
         if args.measures:
             offs_by = [_off_measures(g.overall.to_dict()) for g in row["judged"]]
-            for seed, line in enumerate(offs_by):
-                print(f"|   {name} off (reference {seed}): {line or 'none'} |", flush=True)
+            off_lines += [f"- {name} {history} off (reference {seed}): {line or 'none'}"
+                          for seed, line in enumerate(offs_by)]
         for era, report in first.per_era.items():
             e = first.lei_per_era[era].to_dict()
             if report is None:
@@ -130,11 +143,15 @@ def main() -> None:
                         f"| {_share(r, 'two_core_share')} | {r['pieces']} "
                         f"| {e['infill']} / {e['edge']} / {e['outlying']} | {e['new_length_km']} |")
             if args.measures:
-                eras.append(f"|   {name} {era} off: {_off_measures(r) or 'none'} |")
+                era_off_lines.append(f"- {name} {history} {era} off (reference 0): {_off_measures(r) or 'none'}")
+    if off_lines:
+        print("\n" + "\n".join(off_lines))
     if args.eras and eras:
         print("\n| town | history | era | off of 14 | dead-end share [range] | 2-core share [range] | pieces "
               "| infill / edge / outlying | km |\n|---|---|---|---|---|---|---|---|---|")
         print("\n".join(eras))
+        if era_off_lines:
+            print("\n" + "\n".join(era_off_lines))
 
 
 if __name__ == "__main__":

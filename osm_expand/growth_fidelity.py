@@ -115,6 +115,7 @@ from osm_expand.measures import (
 from osm_expand.model import City, Origin, Street, StreetNetwork, polyline_length
 from osm_expand.model.options import require_positive
 from osm_expand.sites import SiteOptions, distance_maps
+from osm_expand.streets_closing import WINDOW_CLOSE, WINDOW_MARGIN, closed_land, land_in_disc
 
 __all__ = ["BuiltUp", "GrowthFidelity", "GrowthFidelityOptions", "LandscapeExpansion", "before_the_years",
            "built_up", "city_growth_fidelity", "growth_fidelity", "growth_window", "is_major_road",
@@ -125,10 +126,10 @@ __all__ = ["BuiltUp", "GrowthFidelity", "GrowthFidelityOptions", "LandscapeExpan
 class GrowthFidelityOptions:
     #: m: the new streets are buffered this much, then shrunk back to ``window_margin``: the blocks between
     #: them (up to 2 × 150 m across, a large town block) fall inside the window (module docstring).
-    window_close: float = 150.0
+    window_close: float = WINDOW_CLOSE
     #: m: the window reaches this far beyond the outermost new streets: half a 100 m town block, as a
     #: real neighbourhood disc cuts the blocks on its rim in half on average.
-    window_margin: float = 50.0
+    window_margin: float = WINDOW_MARGIN
     #: m each side: a new street's patch (Liu et al.'s new urban patch): about a building lot's depth.
     patch_buffer: float = 30.0
     #: m each side: an earlier era's streets are old land this far (the same lot depth as a patch).
@@ -217,11 +218,7 @@ def growth_window(lines: Sequence[np.ndarray] | LineSet,
                   options: GrowthFidelityOptions | None = None) -> shapely.Geometry:
     """The land of ``lines``: buffered ``window_close`` m, shrunk back to ``window_margin`` (module docstring)."""
     opts = options or GrowthFidelityOptions()
-    geoms = LineSet.from_lines(lines).geoms
-    if len(geoms) == 0:
-        return shapely.Polygon()
-    grown = shapely.union_all(shapely.buffer(geoms, opts.window_close, quad_segs=4))
-    return shapely.buffer(grown, opts.window_margin - opts.window_close, quad_segs=4)
+    return closed_land(lines, opts.window_close, opts.window_margin)
 
 
 def is_major_road(street: Street) -> bool:
@@ -322,13 +319,7 @@ def streets_land(lines: LineSet | Sequence[np.ndarray], disc: shapely.Geometry,
     """
     if land is None:
         land = growth_window(lines, options)
-    within = shapely.intersection(disc, land)
-    if within.area <= 0:
-        return disc
-    if within.geom_type != "GeometryCollection":
-        return within
-    parts = shapely.get_parts(within)  # where the two only touch, points and lines too: the polygons only
-    return shapely.union_all(parts[shapely.area(parts) > 0])
+    return land_in_disc(disc, land)
 
 
 @dataclass(frozen=True, eq=False)

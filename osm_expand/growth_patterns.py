@@ -45,13 +45,25 @@ def measure_in_windows(lines: list) -> Callable[[shapely.Geometry], NetworkMeasu
     return lambda window: measure_network(indexed, window=window, pieces=False, wanted=wanted)
 
 
+def land_in_discs(lines: list) -> Callable[[shapely.Geometry], shapely.Geometry]:
+    """The land of ``lines`` in any disc, the lines closed once: what the example patches measure their
+    target density on with ``target_on_streets_land`` (:mod:`osm_expand.streets_closing`, the rule and
+    default tunables of the growth verdict's :func:`~osm_expand.growth_fidelity.streets_land`; ``synth``
+    knows only the model, so the caller hands it in)."""
+    from osm_expand.streets_closing import closed_land, land_in_disc
+
+    land = closed_land(lines)
+    return lambda disc: land_in_disc(disc, land)
+
+
 def _example(example: Example, options: Any) -> GrowthPattern:
     from osm_expand.fidelity import scalar_range
     from synth.patches import ExamplePatches
 
     if options is None:
-        return ExamplePatches(example, measure=measure_in_windows, limits=scalar_range)
-    return ExamplePatches(example, options=options, measure=measure_in_windows, limits=scalar_range)
+        return ExamplePatches(example, measure=measure_in_windows, limits=scalar_range, land=land_in_discs)
+    return ExamplePatches(example, options=options, measure=measure_in_windows, limits=scalar_range,
+                          land=land_in_discs)
 
 
 def _walk(example: Example, options: Any) -> GrowthPattern:

@@ -3,10 +3,20 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+from osm_expand.errors import InputError
 from osm_expand.model import highways
 
 #: Highway classes never copied into a district: a piece of motorway in a housing estate is no street.
 NOT_COPIED = highways.CORRIDORS
+#: The scalars ``guarded`` may name: the verdict's six (:data:`osm_expand.measures.SCALARS`; a distribution has
+#: no range, :func:`osm_expand.fidelity.scalar_range` refuses it). Spelled out: ``synth`` imports only the model
+#: (tests/test_patches.py checks it against the measures).
+GUARDABLE = ("density", "orientation_entropy", "three_way_share", "four_way_share", "dead_end_share",
+             "two_core_share")
+#: The measures ``also_typical`` may name: those :func:`osm_expand.growth_patterns.measure_in_windows` computes
+#: in a candidate's window (it leaves out strokes, blocks and alignment, the costly ones; tests/test_patches.py
+#: checks it).
+RANKABLE = ("edge_length", "circuity", "junction_angle", "curvature", *GUARDABLE)
 
 
 @dataclass(frozen=True)
@@ -31,8 +41,10 @@ class PatchOptions:
     #: Keep candidate patches whose street density lies within the range the fidelity verdict allows over
     #: all the candidates (the town's neighbourhoods at the patch's size, by the verdict's own rule:
     #: :func:`osm_expand.fidelity.scalar_range`, their 10th-90th percentile) instead of ``density_band``
-    #: around their median: the band then holds for a reason (a patch is a sample of the neighbourhoods
-    #: the growth is judged against), not by a multiplier. Needs ``limits``. Off: in the default history's
+    #: around their median: the band is then read from the town's neighbourhoods, not set by a multiplier.
+    #: Not quite the verdict's own yardstick: the candidates' densities are measured on their whole discs,
+    #: the engine's verdict measures its reference neighbourhoods on their streets' land
+    #: (:func:`osm_expand.growth_fidelity.streets_land`). Needs ``limits``. Off: in the default history's
     #: first two eras, seed 0, engine streets off of 14 per reference seed 0 1 2 (main -> this): Andorra
     #: 6 8 7 -> 1 1 1, Monaco 7 8 6 -> 4 4 5 (its 2-core share 0.839 below 0.874-0.967), Krems 1 2 1 ->
     #: 2 1 1, but north-bayreuth 2 1 2 -> 4 4 4 and Campo Grande 6 6 6 -> 9 8 9 (its sparser patches, a
@@ -53,11 +65,12 @@ class PatchOptions:
     #: 2-core shares out of range, Krems' 5 houses the same (README, h29f).
     share_guard: bool = False
     #: The scalar measures ``share_guard`` holds within the verdict's range: by default the dead-end and
-    #: 2-core shares; the verdict judges six scalars (``density``, ``orientation_entropy``,
+    #: 2-core shares; the verdict judges six scalars (:data:`GUARDABLE`: ``density``, ``orientation_entropy``,
     #: ``three_way_share``, ``four_way_share`` too), all measured on every candidate anyway. All six with
     #: ``density_from_verdict``: numbers there.
     guarded: tuple[str, ...] = ("dead_end_share", "two_core_share")
-    #: Rank the candidate patches by these scalars too, besides :data:`synth.patches.TYPICAL`
+    #: Rank the candidate patches by these measures too (of :data:`RANKABLE`), besides
+    #: :data:`synth.patches.TYPICAL`
     #: (e.g. ``four_way_share``, ``orientation_entropy``: a grid town's typical patch is a grid). Empty by
     #: default: with ``density_from_verdict`` and these two, seed 0, engine streets off of 14 per reference
     #: seed: Monaco 2 2 3, but Campo Grande 9 8 9, Krems 6 2 7 and north-bayreuth 4 3 2 with their 2-core
@@ -68,19 +81,14 @@ class PatchOptions:
     orientation_peak: float = 2.0
     #: Discs of the district's area measured on the town for the target density.
     density_discs: int = 64
-    #: Measure the target density on the town's streets' land in those discs (the disc within the town's
-    #: streets buffered ``land_close`` m and shrunk back to ``land_margin`` m), as the engine's growth
-    #: verdict measures its reference neighbourhoods
-    #: (:func:`osm_expand.growth_fidelity.streets_land`), rather than on the whole disc: a disc keeps the
+    #: Measure the target density on the town's streets' land in those discs (``ExamplePatches.land``: the
+    #: closing the engine's growth verdict measures its reference neighbourhoods on,
+    #: :mod:`osm_expand.streets_closing`), rather than on the whole disc: a disc keeps the
     #: sea, the slopes or the fields across it, and a district filled to that density over its free land
     #: came out sparser than the neighbourhoods it is judged against (Monaco's engine streets: 18.9 km/km²
     #: against 20.3-31.1). Off: it does not raise that density (the target is not what stops the filling):
     #: Monaco 7 8 6 -> 9 9 10 alone, 3 3 5 with ``density_from_verdict`` (density 17.75) (README, h30e).
     target_on_streets_land: bool = False
-    #: m, m: the streets' land's closing: the growth verdict's ``window_close`` and ``window_margin``
-    #: (:class:`osm_expand.growth_fidelity.GrowthFidelityOptions`; ``synth`` imports only the model).
-    land_close: float = 150.0
-    land_margin: float = 50.0
     #: Copied streets keep this many spacings from the town's streets (they meet them only in tees).
     clearance: float = 0.15
     #: A seam's cut ends this many spacings apart may continue into each other (in a smooth curve) ...
@@ -121,3 +129,12 @@ class PatchOptions:
     #: dead-end share allows: the town's neighbourhoods' 10th percentile is about 0.3-0.5 of their
     #: median (Krems 0.03-0.05 of 0.10, Monaco 0.05-0.10 of 0.13; district_fidelity.py --table).
     dead_end_floor: float = 0.5
+
+    def __post_init__(self) -> None:
+        # a misspelt or unmeasured name fails here, at the history's reading (one line, exit 2), not minutes
+        # into a run when the first candidate is measured or ranged
+        for name, allowed in (("guarded", GUARDABLE), ("also_typical", RANKABLE)):
+            unknown = [m for m in getattr(self, name) if m not in allowed]
+            if unknown:
+                raise InputError(f"PatchOptions.{name}: {', '.join(map(repr, unknown))} not one of "
+                                 f"{', '.join(allowed)}")

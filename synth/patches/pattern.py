@@ -28,7 +28,6 @@ from synth.patches.source import (
     _neighbourhood_points,
     _Source,
     _source,
-    _streets_land,
 )
 from synth.patches.topology import (
     STUB_LENGTH,
@@ -59,6 +58,10 @@ class ExamplePatches:
     #: over the town's neighbourhoods are ``values`` (:func:`osm_expand.fidelity.scalar_range`, handed in as
     #: ``measure`` is): with ``share_guard`` on, candidate patches outside it are not used.
     limits: Callable | None = None
+    #: ``land(lines)`` returns a function giving the streets' land of those lines in a disc (the caller's
+    #: :func:`osm_expand.growth_patterns.land_in_discs`: the growth verdict's rule, :mod:`osm_expand.streets_closing`,
+    #: handed in as ``measure`` is): what ``target_on_streets_land`` measures the target density on.
+    land: Callable | None = None
     name: str = "example"
     #: Ranked patch centres by patch size, kept between districts grown by this object (the year loop
     #: grows many from one town: ranking the town's patches is the slow part, and the town is the same).
@@ -121,12 +124,17 @@ class ExamplePatches:
         self.cache[key] = (city.network, made)
         return made
 
-    def _land(self, source: _Source) -> shapely.Geometry:
-        """:func:`_streets_land` of ``source``, kept: the engine's years add no source street."""
-        key = ("land", len(source.lines), self.options.land_close, self.options.land_margin)
-        if key not in self.cache:
-            self.cache[key] = _streets_land(source, self.options.land_close, self.options.land_margin)
-        return self.cache[key]
+    def _land(self, source: _Source) -> Callable[[shapely.Geometry], shapely.Geometry]:
+        """``land(lines)`` of ``source``'s streets (the town's land, closed once), kept while the source is
+        the same object (:meth:`_source` keeps one per network: the sites tried in one year share it)."""
+        if self.land is None:
+            raise ValueError("target_on_streets_land needs the streets' land: ExamplePatches(land=...)")
+        hit = self.cache.get("land")
+        if hit is not None and hit[0] is source:
+            return hit[1]
+        made = self.land([np.asarray(ln.coords) for ln in source.lines])
+        self.cache["land"] = (source, made)
+        return made
 
     def _corner_rate(self) -> float:
         """The town's corners sharper than :data:`~synth.patches.corners.SHARP` at nodes of degree two per km

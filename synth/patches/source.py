@@ -73,22 +73,13 @@ def _density(source: _Source, centres: np.ndarray, radius: float) -> np.ndarray:
     return np.array([_length_in(source, d) for d in discs]) / (np.pi * radius ** 2)
 
 
-def _streets_land(source: _Source, close: float, margin: float) -> shapely.Geometry:
-    """The land of the source's streets: buffered ``close`` m, shrunk back to ``margin`` m (a closing: the
-    blocks between the streets inside, no more than ``margin`` of field, slope or sea beyond them)."""
-    if not len(source.lines):
-        return shapely.Polygon()
-    grown = shapely.union_all(shapely.buffer(source.lines, close, quad_segs=4))
-    return shapely.buffer(grown, margin - close, quad_segs=4)
-
-
-def _density_on_land(source: _Source, centres: np.ndarray, radius: float, land: shapely.Geometry) -> np.ndarray:
-    """Street length per m² of the streets' ``land`` in discs around ``centres`` (per m² of the disc where
-    no street's land is in it)."""
+def _density_on_land(source: _Source, centres: np.ndarray, radius: float,
+                     land_in: Callable[[shapely.Geometry], shapely.Geometry]) -> np.ndarray:
+    """Street length per m² of the streets' land in discs around ``centres``: ``land_in(disc)`` is that land
+    (the caller's :func:`osm_expand.streets_closing.land_in_disc`, the disc itself where no street's land
+    is in it; ``synth`` imports only the model, so the rule is handed in, as ``measure`` is)."""
     discs = shapely.buffer(shapely.points(centres), radius)
-    shapely.prepare(land)
-    areas = shapely.area(shapely.intersection(discs, land))
-    areas = np.where(areas > 0, areas, np.pi * radius ** 2)
+    areas = np.array([shapely.area(land_in(d)) for d in discs])
     return np.array([_length_in(source, d) for d in discs]) / areas
 
 
@@ -129,11 +120,6 @@ def _neighbourhood_points(source: _Source, n: int, radius: float, rng: np.random
 TYPICAL = ("curvature", "circuity", "edge_length", "dead_end_share", "three_way_share")
 
 
-#: The shares a candidate patch must have within its town's neighbourhoods' range (``share_guard``; the
-#: default of :attr:`PatchOptions.guarded`).
-GUARDED = PatchOptions.guarded
-
-
 def _candidate_patches(source: _Source, size: float, opts: PatchOptions, rng: np.random.Generator,
                        measure: Callable | None = None, limits: Callable | None = None) -> np.ndarray:
     """Patch centres on the town's streets, most typical of the town first.
@@ -150,9 +136,10 @@ def _candidate_patches(source: _Source, size: float, opts: PatchOptions, rng: np
     one goes to the back, so neighbouring cells differ.
 
     With ``share_guard`` (and ``measure`` and ``limits``), a candidate in the
-    band whose dead-end or 2-core share lies outside the range the verdict
-    allows over all the candidates (the town's neighbourhoods at the patch's
-    size; ``limits``: the verdict's own rule) is not used, unless none is left:
+    band whose ``guarded`` scalars (default the dead-end and 2-core shares)
+    lie outside the range the verdict allows over all the candidates (the
+    town's neighbourhoods at the patch's size; ``limits``: the verdict's own
+    rule) is not used, unless none is left:
     a patch is a sample of a neighbourhood, and a sparser band must not bring
     a grid town's cul-de-sac fringe into its districts.
     """

@@ -1,0 +1,47 @@
+"""The land of a set of streets: the streets closed (buffered, shrunk back), and a disc's part of it.
+
+One rule in one place for its two readers: the engine's growth verdict
+(:func:`osm_expand.growth_fidelity.growth_window`, :func:`osm_expand.growth_fidelity.streets_land`, whose
+module docstring says why the window is a closing) and the example patches' target density
+(``PatchOptions.target_on_streets_land``, handed this rule by :mod:`osm_expand.growth_patterns`). It
+imports only the measures' line set, so the pattern registry can hand it in without importing the growth
+verdict (which reaches the engine, whose histories read the registry: an import circle).
+"""
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+import numpy as np
+import shapely
+
+from osm_expand.measures import LineSet
+
+#: m: the streets are buffered this much, then shrunk back to :data:`WINDOW_MARGIN`: the blocks between
+#: them (up to 2 × 150 m across, a large town block) fall inside (the default of
+#: ``GrowthFidelityOptions.window_close``).
+WINDOW_CLOSE = 150.0
+#: m: the land reaches this far beyond the outermost streets: half a 100 m town block, as a real
+#: neighbourhood disc cuts the blocks on its rim in half on average (``GrowthFidelityOptions.window_margin``).
+WINDOW_MARGIN = 50.0
+
+
+def closed_land(lines: Sequence[np.ndarray] | LineSet, close: float = WINDOW_CLOSE,
+                margin: float = WINDOW_MARGIN) -> shapely.Geometry:
+    """The land of ``lines``: buffered ``close`` m, shrunk back to ``margin`` (empty for no line)."""
+    geoms = LineSet.from_lines(lines).geoms
+    if len(geoms) == 0:
+        return shapely.Polygon()
+    grown = shapely.union_all(shapely.buffer(geoms, close, quad_segs=4))
+    return shapely.buffer(grown, margin - close, quad_segs=4)
+
+
+def land_in_disc(disc: shapely.Geometry, land: shapely.Geometry) -> shapely.Geometry:
+    """``disc`` within ``land`` (its polygons only), or ``disc`` itself where no land is in it: its rim
+    stays the disc's, so streets cut there stay open."""
+    within = shapely.intersection(disc, land)
+    if within.area <= 0:
+        return disc
+    if within.geom_type != "GeometryCollection":
+        return within
+    parts = shapely.get_parts(within)  # where the two only touch, points and lines too: the polygons only
+    return shapely.union_all(parts[shapely.area(parts) > 0])

@@ -1,0 +1,31 @@
+"""benchmarks/engine_growth.py's ``--measures`` line: a NaN value or range (None in ``to_dict``) is printed,
+not a TypeError minutes into a run."""
+from __future__ import annotations
+
+import importlib.util
+from pathlib import Path
+
+_PATH = Path(__file__).resolve().parent.parent / "benchmarks" / "engine_growth.py"
+
+
+def _module():
+    spec = importlib.util.spec_from_file_location("engine_growth", _PATH)
+    assert spec is not None and spec.loader is not None
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+def test_off_measures_prints_nan_values_and_ranges_as_na():
+    off = _module()._off_measures({"measures": {
+        "dead_end_share": {"ok": False, "kind": "scalar", "value": None, "low": 0.1, "high": 0.2},
+        "density": {"ok": False, "kind": "scalar", "value": 3.0, "low": None, "high": None},
+        "two_core_share": {"ok": False, "kind": "scalar", "value": 0.5, "low": 0.8, "high": 0.9},
+        "four_way_share": {"ok": False, "kind": "scalar", "value": 0.3, "low": 0.2, "high": 0.2},
+        "three_way_share": {"ok": True, "kind": "scalar", "value": None, "low": None, "high": None}}})
+    parts = off.split("; ")
+    assert parts[0] == "dead_end_share n/a [0.1–0.2]"
+    assert parts[1] == "density n/a [None–None]"
+    assert parts[2] == "two_core_share 0.5 [0.8–0.9] (+3.00 widths)"
+    assert "in the measure's units" in parts[3]
+    assert len(parts) == 4
