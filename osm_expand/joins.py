@@ -159,7 +159,8 @@ def occupied_near(city: City, lines: Sequence[np.ndarray], *, reach: float, spre
                   made: Occupied | None = None) -> Occupied:
     """The occupied land around the new streets ``lines`` that a join with ``reach`` and ``spread`` reads: in
     their bounding box grown by ``reach + spread + 1`` metres (no joining street leaves it). ``made``, when
-    made for the very same box and ``taken``, is given back as it is (its union was a tenth of a join's
+    made on this same city's land for the very same box and ``taken`` (the caller's promise: only the box
+    and the flag are compared), is given back as it is (its union was a tenth of a join's
     cost on Campo Grande, and :func:`osm_expand.district.place_district` needs it before joining too)."""
     near = shapely.MultiLineString(list(lines)).envelope.buffer(reach + spread + 1.0)
     x0, y0, x1, y1 = (float(v) for v in near.bounds)

@@ -32,7 +32,7 @@ from osm_expand.district import place_district
 from osm_expand.engine.growth.nuclei import Nucleus, candidate_points, rank_candidates
 from osm_expand.engine.growth.stubs import close_stubs
 from osm_expand.joins import add_streets
-from osm_expand.model import City, Origin, Status, match_points, polyline_length
+from osm_expand.model import City, Origin, Status, closest_on_segments, match_points, polyline_length
 from osm_expand.model.segments import SegmentTable
 from osm_expand.sites import DistanceMaps, SiteOptions, choose_sites, distance_maps
 from synth.growth import GrowthPattern
@@ -68,22 +68,20 @@ class GrowthOptions:
     #: average hundreds of cells either way, and on Campo Grande the whole town's rasters cost 4 s a
     #: district at 10 m against 0.9 s at 20 m, for sites within a cell or two of each other.
     site_cells_per_radius: float = 10.0
-    #: A site whose district was refused is not tried again while the town near it stays as it was: a
-    #: later year's site whose centre lies within ``refused_near`` × its district radius (m / m) of a
-    #: refused site's centre is skipped (the next-best site is tried in its place), until a street built
-    #: in or after the refusal's year comes within that site's radius plus two junction spacings (the
-    #: joining streets' reach, :func:`osm_expand.joins.occupied_near`). Why: on Campo Grande's default run
-    #: 35 of the 75 districts tried lay within half a radius of a site refused in an earlier year and 1 of
-    #: those 35 was placed, while a refused try costs its region and street pattern (27 s CPU of the run).
-    #: 0 turns the memory off. Off by default: measured at 0.5 (seed 0, default history,
-    #: ``benchmarks/engine_growth.py``, off of 14 per reference seed, off → on) it skipped refused sites
-    #: but the next-best sites tried in their place took districts the town would not have grown there:
-    #: Campo Grande 74 → 65 tries, 21 → 27 placed, 356 → 367 km of street growth, 6 6 6 → 8 9 9, the
-    #: default command's CPU 123.5 → 137.9 s (in-process 128 → 130: more districts built); north-bayreuth
-    #: 2 1 2 → 4 5 7, Monaco 7 8 6 → 8 8 8, Andorra 6 8 7 → 7 7 8, Krems 1 2 1 → 1 2 1. Skipping them without
-    #: a replacement (fewer sites tried a year) cut Campo Grande's run 128 → 112 s CPU only by growing less
-    #: (291 km, 19 placed; 8 9 9) and left north-bayreuth 5 2 2. (Each try draws from the year's random
-    #: stream: a behaviour change either way.)
+    #: A site whose district was refused is not tried again while the town near it stays as it was: a later year's site
+    #: whose centre lies within ``refused_near`` × that year's district radius (m / m) of a refused site's centre is
+    #: skipped (the next-best site is tried in its place), until a street built in or after the refusal's year comes
+    #: within that site's radius plus two junction spacings (the joining streets' reach,
+    #: :func:`osm_expand.joins.occupied_near`). Why: on Campo Grande's default run (main 33c03f1) 35 of the 75 districts
+    #: tried lay within half a radius of a site refused in an earlier year and 1 of those 35 was placed, while a refused
+    #: try costs its region and street pattern (27 s CPU of the run). 0 turns the memory off. Off by default: measured
+    #: at 0.5 (seed 0, default history, ``benchmarks/engine_growth.py``, off of 14 per reference seed, off → on) it
+    #: skipped refused sites but the next-best sites tried in their place took districts the town would not have grown
+    #: there: Campo Grande 74 → 65 tries, 21 → 27 placed, 356 → 367 km of street growth, 6 6 6 → 8 9 9, the default
+    #: command's CPU 123.5 → 137.9 s (in-process 128 → 130: more districts built); north-bayreuth 2 1 2 → 4 5 7, Monaco
+    #: 7 8 6 → 8 8 8, Andorra 6 8 7 → 7 7 8, Krems 1 2 1 → 1 2 1. Skipping them without a replacement (fewer sites tried
+    #: a year) cut Campo Grande's run 128 → 112 s CPU only by growing less (291 km, 19 placed; 8 9 9) and left
+    #: north-bayreuth 5 2 2. (Each try draws from the year's random stream: a behaviour change either way.)
     refused_near: float = 0.0
 
 
@@ -341,12 +339,9 @@ def _still_refused(city: City, refused: np.ndarray, *, reach: float) -> np.ndarr
     if not new.any():
         return refused
     a, b, built = table.a[new], table.b[new], table.year[new]
-    ab = b - a
     keep = np.ones(len(refused), dtype=bool)
     for k, (x, y, r, when) in enumerate(refused.tolist()):  # one vectorised distance per refused site
-        ap = np.array([x, y]) - a
-        t = np.clip((ap * ab).sum(axis=1) / np.maximum((ab * ab).sum(axis=1), 1e-12), 0.0, 1.0)
-        d = np.hypot(*(ap - t[:, None] * ab).T)
+        d = closest_on_segments(np.array([x, y]), a, b)[2]
         keep[k] = not ((d <= r + reach) & (built >= when)).any()
     return refused[keep]
 
