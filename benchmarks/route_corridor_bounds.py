@@ -3,6 +3,7 @@
     python benchmarks/route_corridor_bounds.py capture fixtures/campo-grande.osm.gz 3 /tmp/cg   # /tmp/cg-0.pkl …
     python benchmarks/route_corridor_bounds.py measure /tmp/cg-0.pkl                      # runs find_route for C
     python benchmarks/route_corridor_bounds.py measure /tmp/syn-0.pkl --cost 28130.284484811113
+    python benchmarks/route_corridor_bounds.py floor /tmp/cg-0.pkl --cost 8866.6061 --corridor /tmp/cg0.npy  # twice
 
 ``capture`` runs the engine (:func:`benchmarks.engine_speed.measure`, 30 years) on a town and pickles
 the inputs of its first N ``find_route`` calls (graph, source, target, keywords), then stops.
@@ -19,6 +20,13 @@ exact search would have to touch — for each candidate bound:
 - a coarse lattice: the quotient graph over f × f tiles (:func:`routing._tile_of`), each pair of
   tiles joined by its cheapest G′ edge — a route's tile walk costs no more than the route;
 - landmarks (ALT, farthest-first): ``d_s + h_t`` and ``h_s + h_t`` (known before any search).
+
+``floor`` gives what no admissible bound can beat: the vertices whose best *turn-penalised*
+route from s to t through them costs at most C (forward Dijkstras from both ends on the
+heading-expanded graph over the ``d_s + d_t`` corridor, which holds every route ≤ C; routes
+reverse at the same cost, so the best through v is ``min_ij f_s[arr(v,i)] + P(j−i) + f_t[arr(v,j+K/2)]``).
+Its first run saves the corridor and stops, so that the whole-map matrix and the expanded graph
+never share a process; run it again for the floor.
 
 For each it prints the corridor's vertices, the CPU of computing the bound, and the estimated
 memory of a heading-expanded search over just that corridor (its CSR entries at 12 bytes, its
@@ -177,6 +185,50 @@ def measure(path: str, cost: float | None, route_file: str | None, landmarks: in
     print(f"peak {_peak_mb()} MB")
 
 
+def floor(path: str, cost: float, corridor: str) -> None:
+    with open(path, "rb") as f:
+        graph, s, t, kw = pickle.load(f)
+    if not hasattr(graph.lattice, "_shared"):
+        object.__setattr__(graph.lattice, "_shared", {})
+    opts = kw.get("options") or ro.RoutingOptions()
+    window = graph.window(tuple(graph.lattice.bounds))
+    g = window.graph
+    ws, wt = window.from_map(np.array([s, t])).tolist()
+    tol = cost * (1 + 1e-9) + 1e-3
+    if not os.path.exists(corridor):
+        with g.restricted(kw["kinds"], kw.get("street_ok")) as m:
+            ds, dt = dijkstra(m, indices=ws), dijkstra(m, indices=wt)
+        np.save(corridor, np.flatnonzero(ds + dt <= tol))
+        print(f"saved the d_s + d_t corridor to {corridor} (peak {_peak_mb()} MB); run again for the floor")
+        return
+    region = np.load(corridor)
+    k = opts.heading_bins
+    per = 2 * k + 1
+    penalties = ro._bin_penalties(opts)
+    lat, extra = g.masks(kw["kinds"], kw.get("street_ok"))
+    c0 = time.process_time()
+    expanded, local = ro._expanded_graph(g, lat, extra, region, penalties, k)
+    n = len(region)
+    print(f"{path}: corridor {n:,}, expanded {expanded.shape[0]:,} states {expanded.nnz:,} entries, "
+          f"{time.process_time() - c0:.1f} s CPU, peak {_peak_mb()} MB", flush=True)
+    c0 = time.process_time()
+    arrive = []
+    for end in (ws, wt):
+        d = dijkstra(expanded, indices=int(local[end]) * per + 2 * k, limit=tol)
+        arrive.append(d.reshape(n, per)[:, :k].astype(np.float32))
+    f_s, f_t = arrive
+    print(f"  2 Dijkstras {time.process_time() - c0:.1f} s CPU; s→t {f_s[local[wt]].min():.3f} (C {cost:.3f})")
+    del expanded
+    towards_t = np.roll(f_t, -(k // 2), axis=1)  # [:, j]: leaving v on bin j, the rest of the way to t
+    best = np.full(n, np.inf, dtype=np.float32)
+    for q in range(k):  # a turn of q bins at v
+        best = np.minimum(best, (f_s + np.float32(penalties[q]) + np.roll(towards_t, -q, axis=1)).min(axis=1))
+    best[local[[ws, wt]]] = 0.0
+    for share in (1.0, 1.01, 1.05):
+        print(f"  best route through v ≤ {share:.2f} C: {int(np.count_nonzero(best <= share * tol)):,}")
+    print(f"peak {_peak_mb()} MB")
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     sub = parser.add_subparsers(dest="mode", required=True)
@@ -189,10 +241,16 @@ def main() -> None:
     mea.add_argument("--cost", type=float, help="the found route's cost (else find_route runs first)")
     mea.add_argument("--route", help="the found route's map vertices (.npy), to check every bound keeps it")
     mea.add_argument("--landmarks", type=int, default=16)
+    flo = sub.add_parser("floor")
+    flo.add_argument("pickle")
+    flo.add_argument("--cost", type=float, required=True)
+    flo.add_argument("--corridor", required=True, help=".npy of the d_s + d_t corridor (made on the first run)")
     args = parser.parse_args()
     os.environ.setdefault("PYTHONHASHSEED", "0")
     if args.mode == "capture":
         capture(args.town, args.n, args.out)
+    elif args.mode == "floor":
+        floor(args.pickle, args.cost, args.corridor)
     else:
         measure(args.pickle, args.cost, args.route, args.landmarks)
 
