@@ -113,17 +113,8 @@ def test_every_join_is_among_the_places_known_before_joining(krems):
 def test_a_district_that_cannot_be_accepted_is_not_joined(krems, monkeypatch):
     """Sites whose every possible join place is rejected are reported without joining them (the join was a
     third of a failed engine site's cost on Campo Grande): the joining step is never called."""
-    import osm_expand.district as district
-
     city, learned, sites = krems
-    calls = []
-
-    def counted(*args, **kwargs):
-        calls.append(1)
-        return district.join_growth.__wrapped__(*args, **kwargs)
-
-    counted.__wrapped__ = district.join_growth
-    monkeypatch.setattr(district, "join_growth", counted)
+    calls = _count_joins(monkeypatch)
     far = 1e9  # no place of the town is this far out: the rule rejects them all
     placement = place_district(city, sites, make_pattern("example", learned.example), spacing=learned.example.spacing,
                                accept=lambda joins: bool((joins.at[:, 0] > far).sum() >= 1),
@@ -156,7 +147,6 @@ def test_a_district_whose_every_joining_street_occupied_land_blocks_is_not_joine
     the same street is joined."""
     import shapely
 
-    import osm_expand.district as district
     from osm_expand.model import Origin
     from synth.growth import NewStreet
 
@@ -178,14 +168,7 @@ def test_a_district_whose_every_joining_street_occupied_land_blocks_is_not_joine
         if street is not None:
             break
     assert street is not None
-    calls = []
-
-    def counted(*args, **kwargs):
-        calls.append(1)
-        return district.join_growth.__wrapped__(*args, **kwargs)
-
-    counted.__wrapped__ = district.join_growth
-    monkeypatch.setattr(district, "join_growth", counted)
+    calls = _count_joins(monkeypatch)
     site = choose_sites(distance_maps(city, SiteOptions(), margin=_margin(city)), 650_000.0, SiteOptions(), most=1)
     x0, y0, x1, y1 = net.xy.min(axis=0).tolist() + net.xy.max(axis=0).tolist()
     walled = city.replace(unbuildable=shapely.box(x0 - 1e3, y0 - 1e3, x1 + 1e3, y1 + 1e3))
@@ -227,3 +210,18 @@ def test_a_region_is_one_piece_of_free_land_clear_of_the_streets_by_the_clearanc
                                   shapely.buffer(shapely.multilinestrings(lines[shapely.intersects(lines, disc)]), 1.0))
         piece = [p for p in shapely.get_parts(shapely.make_valid(free)) if p.intersects(region)]
         assert len(piece) == 1 and shapely.symmetric_difference(piece[0], region).area < 1e-6 * region.area
+
+
+def _count_joins(monkeypatch) -> list:
+    """A list that gets an entry each time :func:`osm_expand.district.place_district` joins a district."""
+    import osm_expand.district as district
+
+    calls: list = []
+    join_growth = district.join_growth
+
+    def counted(*args, **kwargs):
+        calls.append(1)
+        return join_growth(*args, **kwargs)
+
+    monkeypatch.setattr(district, "join_growth", counted)
+    return calls

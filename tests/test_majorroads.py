@@ -1085,9 +1085,7 @@ def test_shell_stitches_carried_over_from_last_year_equal_those_checked_afresh(s
     lat = build_lattice(extent, water=river(extent, 1000, 1060), options=LatticeOptions(radius=2))
 
     def part(lines, previous=None):
-        segs = SegmentTable.from_lines(lines, major=[False] * len(lines), width=[6.0] * len(lines))
-        built = built_up_area(blocks_of(segs), segs)
-        return street_part(lat.with_built_up(built.area), segs, built, previous=previous)
+        return street_part(*_grid_year(lat, lines), previous=previous)
 
     first = part(lines)
     later = [lines[k] for k in range(len(lines)) if k != int(rng.integers(len(lines)))]  # one street goes
@@ -1101,9 +1099,7 @@ def test_shell_stitches_carried_over_from_last_year_equal_those_checked_afresh(s
     assert np.array_equal(fresh.verdicts.clear, carried.verdicts.clear)
     # the stitches to the lattice likewise, carried from the last G′'s searched windows
     def graph(lines, previous=None):
-        segs = SegmentTable.from_lines(lines, major=[False] * len(lines), width=[6.0] * len(lines))
-        built = built_up_area(blocks_of(segs), segs)
-        return implicit_graph(lat.with_built_up(built.area), segs, built, previous_lattice=previous)
+        return implicit_graph(*_grid_year(lat, lines), previous_lattice=previous)
 
     box = tuple(float(v) for v in (*rng.uniform(0, 250, 2), *rng.uniform(950, 1200, 2)))
     last = graph(lines)
@@ -1139,9 +1135,7 @@ def test_a_years_windows_share_one_reading_of_the_last_verdicts():
     lat = build_lattice(extent, water=river(extent, 1000, 1060), options=LatticeOptions(radius=2))
 
     def graph(lines, previous=None):
-        segs = SegmentTable.from_lines(lines, major=[False] * len(lines), width=[6.0] * len(lines))
-        built = built_up_area(blocks_of(segs), segs)
-        return implicit_graph(lat.with_built_up(built.area), segs, built, previous_lattice=previous)
+        return implicit_graph(*_grid_year(lat, lines), previous_lattice=previous)
 
     last = graph(lines)
     last.window((0.0, 0.0, 1200.0, 1200.0))
@@ -1160,3 +1154,11 @@ def test_a_years_windows_share_one_reading_of_the_last_verdicts():
         new = fresh.window(b).graph
         for name in ("src", "dst", "kind", "weight"):
             assert np.array_equal(getattr(new, name), getattr(old, name))
+
+
+def _grid_year(lat, lines):
+    """A year of a made-up town: its lattice with B, its segments and B (the arguments of ``street_part`` and
+    ``implicit_graph``)."""
+    segs = SegmentTable.from_lines(lines, major=[False] * len(lines), width=[6.0] * len(lines))
+    built = built_up_area(blocks_of(segs), segs)
+    return lat.with_built_up(built.area), segs, built
