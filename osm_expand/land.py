@@ -252,14 +252,15 @@ def read_land(city: City, options: LandOptions | None = None) -> Land:
         if len(footprints) and opts.survey_radius > 0 else None  # made once: settled and presumed ask
     if surveyed is not None:
         frontage_arr = _less(frontage_arr, _empty_cells(lines, widths, footprints, opts.survey_radius))
-        settled = _less(settled, surveyed)
+        discs: dict[bytes, shapely.Geometry] = {}  # the unions of survey discs, for both calls below
+        settled = _less(settled, surveyed, discs)
     taken = np.concatenate([shapely.get_parts(frontage_arr), shapely.get_parts(settled)]) \
         if len(frontage_arr) + len(settled) else np.empty(0, dtype=object)
     taken = taken[(shapely.get_type_id(taken) == 3) & (shapely.area(taken) >= opts.min_piece)] if len(taken) else taken
     claimed = np.array([*frontage, *settlement], dtype=object)
     presumed = taken
     if surveyed is not None and len(claimed):
-        presumed = shapely.get_parts(_less(claimed, surveyed))
+        presumed = shapely.get_parts(_less(claimed, surveyed, discs))
         presumed = presumed[(shapely.get_type_id(presumed) == 3) & (shapely.area(presumed) >= opts.min_piece)]
     town = np.array([*claimed.tolist(), *footprints.tolist()], dtype=object)
     cover = [(a.polygon, f"{a.key}={a.value}") for a in city.areas if matches(a.key, a.value, opts.cover)]
@@ -401,8 +402,18 @@ def _empty_cells(lines: np.ndarray, widths: np.ndarray, footprints: np.ndarray, 
     return shapely.buffer(empty, 0.5, join_style="mitre") if len(empty) else empty
 
 
-def _less(claimed: np.ndarray, holes: np.ndarray) -> np.ndarray:
-    """Each of ``claimed`` less the union of the ``holes`` that meet it (in the same order)."""
+def _less(claimed: np.ndarray, holes: np.ndarray, unions: dict[bytes, shapely.Geometry] | None = None
+          ) -> np.ndarray:
+    """Each of ``claimed`` less the union of the ``holes`` that meet it (in the same order).
+
+    Neighbouring pieces of frontage often meet the very same holes (a
+    strip and the discs at its ends; on Krems 40 % of the pieces repeat
+    another's list), so each union is made once per list of holes, in the
+    order the tree gives them: the same inputs in the same order, hence the
+    same geometry, where a union of all the holes would not be (its
+    vertices differ in the last bits and the town grows differently).
+    ``unions`` keeps them across calls with the same ``holes``.
+    """
     if not len(claimed) or not len(holes):
         return claimed
     which, near = shapely.STRtree(holes).query(claimed, predicate="intersects")
@@ -411,10 +422,15 @@ def _less(claimed: np.ndarray, holes: np.ndarray) -> np.ndarray:
     out = claimed.copy()
     if not len(which):
         return out
+    unions = {} if unions is None else unions
     cut = np.flatnonzero(np.r_[True, which[1:] != which[:-1]])
     for start, stop in zip(cut.tolist(), [*cut[1:].tolist(), len(which)]):
-        k = int(which[start])
-        out[k] = shapely.difference(claimed[k], shapely.union_all(holes[near[start:stop]]))
+        k, these = int(which[start]), near[start:stop]
+        key = these.tobytes()
+        union = unions.get(key)
+        if union is None:
+            union = unions[key] = shapely.union_all(holes[these])
+        out[k] = shapely.difference(claimed[k], union)
     return out
 
 
