@@ -256,6 +256,32 @@ def test_local_change_with_externalities_equals_the_change_of_the_system_value()
     np.testing.assert_allclose(state.values, lv.lot_values(lay, lut2, types=types))
 
 
+def test_the_externalities_value_every_term_in_one_call_to_the_same_bits(monkeypatch):
+    """A chunk's externalities value all their terms in one call of ``valuate`` per kind (influence,
+    cluster), not two per layer and side, and the sum is the same to the bit as valued layer by layer."""
+    rng = np.random.default_rng(5)
+    xy, area = grid_lots(300, rng)
+    lay = layout_of(xy, area, traffic=rng.gamma(1, 100, 300))
+    ct = lt.compile_types(lt.DEFAULT_TYPES, lay.available)
+    lut = rng.integers(0, len(lt.DEFAULT_TYPES), 300)
+    state = lu._State(lay, lut, ct)
+    lots = rng.choice(300, 40, replace=False)
+    new = (lut[lots] + rng.integers(1, ct.n, 40)) % ct.n
+    tab = ct.table
+    calls: list[int] = []
+    valuate = type(tab).valuate
+    monkeypatch.setattr(type(tab), "valuate", lambda self, x, j: calls.append(len(x)) or valuate(self, x, j))
+    got = state.externalities(lots, lut[lots], new)
+    assert len(calls) <= 2
+    terms = [(np.arange(5), np.array([0, 1, 0, 2, 1]), rng.random(5), rng.random(5)),
+             (np.array([1, 3]), np.array([2, 2]), rng.random(2), rng.random(2))]
+    one_by_one = np.zeros(5)
+    for m, jm, after, before in terms:
+        one_by_one[m] += tab.term_weight[jm] * (valuate(tab, after, jm) - valuate(tab, before, jm))
+    assert lu._term_deltas(tab, terms, 5).tobytes() == one_by_one.tobytes()
+    assert np.isfinite(got).all()
+
+
 # --------------------------------------------------------------------------- the update
 
 def test_update_moves_shares_to_within_0_05_of_the_goals():

@@ -51,6 +51,7 @@ from osm_expand.engine.buildout.landuse_types import (
     CompiledTypes,
     LandUseOptions,
     LandUseType,
+    _TermTable,
     compile_types,
 )
 from osm_expand.engine.buildout.lot_values import (
@@ -122,17 +123,15 @@ class _State:
             ws = lay.weight_sums[v]
             ws = np.where(ws > 0, ws, 1.0)
             dw = w / ws
-            delta = np.zeros(len(v))
+            terms = []
             for src, sign in ((a, -1.0), (b, 1.0)):  # v's share of src falls (the old type) or rises (the new)
                 x0 = self.sums[v, np.maximum(src, 0)] / ws
                 for layer in tab.influence:
                     j = np.where(src >= 0, layer[tv, np.maximum(src, 0)], -1)  # an unassigned lot held no share
                     m = np.flatnonzero(j >= 0)
                     if len(m):
-                        jm = j[m]
-                        delta[m] += tab.term_weight[jm] * (tab.valuate(x0[m] + sign * dw[m], jm)
-                                                           - tab.valuate(x0[m], jm))
-            total += np.bincount(owner, weights=lay.area[v] * delta, minlength=len(lots))
+                        terms.append((m, j[m], x0[m] + sign * dw[m], x0[m]))
+            total += np.bincount(owner, weights=lay.area[v] * _term_deltas(tab, terms, len(v)), minlength=len(lots))
         # cluster: v's count of its own type moves by ±1 when i is among its k nearest
         if self.k:
             owner, pos = ragged(lay.reverse_knn_indptr, lots)
@@ -143,14 +142,14 @@ class _State:
             owner, v, tv, step = owner[keep], v[keep], tv[keep], step[keep]
             if len(v):
                 c0 = self.counts[v, tv] / self.k
-                delta = np.zeros(len(v))
+                terms = []
                 for layer in tab.cluster:
                     j = layer[tv]
                     m = np.flatnonzero(j >= 0)
                     if len(m):
-                        jm = j[m]
-                        delta[m] += tab.term_weight[jm] * (tab.valuate(c0[m] + step[m], jm) - tab.valuate(c0[m], jm))
-                total += np.bincount(owner, weights=lay.area[v] * delta, minlength=len(lots))
+                        terms.append((m, j[m], c0[m] + step[m], c0[m]))
+                total += np.bincount(owner, weights=lay.area[v] * _term_deltas(tab, terms, len(v)),
+                                     minlength=len(lots))
         return total
 
     def apply(self, lots: NDArray[np.int64], new: NDArray[np.int64]) -> None:
@@ -175,6 +174,30 @@ class _State:
         self.lut[lots] = new
         rows = np.unique(np.concatenate(touched))
         self.refresh(rows if len(rows) < lay.n // 2 else None)
+
+
+def _term_deltas(tab: _TermTable, terms: list[tuple[NDArray[np.int64], NDArray[np.int64], NDArray[np.float64],
+                                                     NDArray[np.float64]]], n: int) -> NDArray[np.float64]:
+    """Σ over ``terms`` of ``term_weight · (valuate(after) − valuate(before))`` per neighbour (n,).
+
+    ``terms`` holds (neighbours, term, after, before) per layer. Every value
+    is valued in one call (:meth:`_TermTable.valuate` works element by
+    element, so each is the same number as valued alone) and the layers are
+    added in their order, as one call per layer and side did: a land-use
+    update asks this of every chunk of lots, and the calls on arrays of a
+    few dozen values were most of its time (Krems: 6,000 calls).
+    """
+    delta = np.zeros(n)
+    if not terms:
+        return delta
+    values = tab.valuate(np.concatenate([x for _, _, after, before in terms for x in (after, before)]),
+                         np.concatenate([jm for _, jm, _, _ in terms for _ in (0, 1)]))
+    start = 0
+    for m, jm, _, _ in terms:
+        k = len(m)
+        delta[m] += tab.term_weight[jm] * (values[start:start + k] - values[start + k:start + 2 * k])
+        start += 2 * k
+    return delta
 
 
 def _chunks(order: NDArray[np.int64], size: int) -> Iterable[NDArray[np.int64]]:
