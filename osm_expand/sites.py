@@ -52,7 +52,7 @@ from scipy.ndimage import distance_transform_edt, label
 from osm_expand.errors import InputError
 from osm_expand.land import read_land
 from osm_expand.model import City, Land, highways
-from osm_expand.model.memo import IdentityMemo
+from osm_expand.model.memo import ContentMemo, IdentityMemo
 
 DIRECTIONS = {"E": 0, "NE": 45, "N": 90, "NW": 135, "W": 180, "SW": 225, "S": 270, "SE": 315}
 #: The raster never has more cells than this (the cell grows instead).
@@ -609,6 +609,19 @@ def _in_sector(maps: DistanceMaps, xs: np.ndarray, ys: np.ndarray, bearing_deg: 
     return np.abs((angle - bearing_deg + 180.0) % 360.0 - 180.0) <= 45.0
 
 
+def _free_land(disc: shapely.Geometry, occupied: shapely.Geometry, near: np.ndarray, clearance: float
+               ) -> shapely.Geometry:
+    """``disc`` less ``occupied`` and the streets ``near`` with their ``clearance`` (:func:`district_region`)."""
+    # the streets' clearance as one buffer of them all: GEOS nodes the lines once, where the union of a
+    # buffer per street merged thousands of polygons (the largest part of an engine district's region)
+    cut = shapely.union(occupied, shapely.buffer(shapely.multilinestrings(near), clearance))
+    return shapely.make_valid(shapely.difference(disc, cut))
+
+
+#: The free land of :func:`district_region`'s discs by the content of what it is cut from: a year whose
+#: district failed tries the same sites again, in a town new but the same around them
+_FREE = ContentMemo(kept=32)
+
 #: A district's region grows to these multiples of its site's radius until its piece of free land holds
 #: :data:`REGION_SHARE` of the district's area.
 REGION_STEPS = (1.0, 1.25, 1.5, 2.0, 2.5)
@@ -645,10 +658,8 @@ def district_region(city: City, site: Site, *, clearance: float = 1.0,
             disc = shapely.intersection(disc, bounds)
         occupied = city.occupied_within(disc)
         near = lines[shapely.intersects(lines, disc)] if len(lines) else lines
-        # the streets' clearance as one buffer of them all: GEOS nodes the lines once, where the union of a
-        # buffer per street merged thousands of polygons (the largest part of an engine district's region)
-        cut = shapely.union(occupied, shapely.buffer(shapely.multilinestrings(near), clearance))
-        free = shapely.make_valid(shapely.difference(disc, cut))
+        free = _FREE.get(ContentMemo.key(disc, occupied, near, clearance),
+                         _free_land, disc, occupied, near, clearance)
         parts = [p for p in shapely.get_parts(free) if p.geom_type == "Polygon" and not p.is_empty]
         if not parts:
             continue

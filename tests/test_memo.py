@@ -3,6 +3,7 @@ the very same objects, never for equal ones, and only the most recently used few
 from __future__ import annotations
 
 import numpy as np
+import pytest
 import shapely
 
 from osm_expand.model.city import _block_index, _land_parts
@@ -42,3 +43,51 @@ def test_the_city_caches_give_the_same_object_for_the_same_tuples():
     first = _block_index(blocks)
     assert _block_index(blocks) is first
     assert not first[0].flags.writeable
+
+
+def test_the_content_memo_makes_once_for_inputs_of_the_very_same_coordinates():
+    """:class:`ContentMemo`: new objects of the same coordinates (a town rebuilt the same around a site) find
+    the value; a coordinate moved by the last bit, another order, or another plain value do not."""
+    from osm_expand.model.memo import ContentMemo
+
+    memo = ContentMemo(kept=3)
+    made: list[int] = []
+
+    def union(geoms):
+        made.append(len(geoms))
+        return shapely.union_all(geoms)
+
+    a = [shapely.box(0, 0, 2, 2), shapely.box(1, 1, 3, 3)]
+    same = [shapely.from_wkb(shapely.to_wkb(g)) for g in a]  # other objects, the same coordinates
+    first = memo.get(ContentMemo.key(a, 1.0), union, a)
+    assert memo.get(ContentMemo.key(same, 1.0), union, same) is first and len(made) == 1
+    nudged = [shapely.box(0, 0, 2, np.nextafter(2.0, 3.0)), a[1]]
+    for key in (ContentMemo.key(nudged, 1.0), ContentMemo.key(a[::-1], 1.0), ContentMemo.key(a, 2.0),
+                ContentMemo.key(a, np.array([1.0])), ContentMemo.key(a[:1], a[1:])):
+        assert key != ContentMemo.key(a, 1.0)
+    memo.get(ContentMemo.key(nudged), union, nudged)
+    assert len(made) == 2
+    with pytest.raises(TypeError):
+        ContentMemo.key({"a": 1})
+
+
+def test_a_town_rebuilt_the_same_around_a_site_finds_its_occupied_land_and_region_made(monkeypatch):
+    """The year loop makes new blocks and buildings every year; where they are the same around a site that
+    is tried again, :meth:`City.occupied_within` and the region's free land are not made again, and are the
+    very geometry (the same bytes) they were."""
+    from osm_expand.ingest import load
+    from osm_expand.pipeline import prepare
+    from osm_expand.sites import Site, district_region
+    from tests.conftest import FIXTURES
+
+    city = prepare(load(FIXTURES / "krems.osm.gz"))
+    site = Site(centre=np.array([2344.1, 109.7]), area=650_000.0,
+                region=shapely.Point(2344.1, 109.7).buffer(455.0), score=1.0)
+    region = district_region(city, site)
+    again = city.replace(blocks=tuple(list(city.blocks)), buildings=tuple(list(city.buildings)))  # new tuples
+    made: list[int] = []
+    for name in ("union_all", "union"):
+        op = getattr(shapely, name)
+        monkeypatch.setattr(shapely, name, lambda *a, op=op, **k: made.append(1) or op(*a, **k))
+    assert district_region(again, site).wkb == region.wkb
+    assert made == []

@@ -19,7 +19,7 @@ import shapely
 
 from osm_expand.model.geometry import ring_area, ring_edge_lengths
 from osm_expand.model.land import OPEN_BLOCK, Land, town_blocks
-from osm_expand.model.memo import IdentityMemo
+from osm_expand.model.memo import ContentMemo, IdentityMemo
 from osm_expand.model.network import Context, Origin, StreetNetwork, Tags
 from osm_expand.model.projection import LocalProjection
 
@@ -161,6 +161,9 @@ class SourceFile:
 _UNIONS = IdentityMemo()  #: the union of water, sea and unbuildable land, and its parts with a tree
 _FOOTPRINTS = IdentityMemo()  #: the buildings' polygons
 _BLOCKS = IdentityMemo()  #: the blocks' polygons and a tree over them
+#: :meth:`City.occupied_within` by the content of what it unions: a year whose district failed asks for the
+#: land around the same sites again, in a town whose blocks and buildings are new objects but the same there
+_OCCUPIED = ContentMemo(kept=32)
 
 
 def _land_nobody_takes(water: tuple, sea: tuple, unbuildable: shapely.Geometry | None) -> shapely.Geometry:
@@ -200,6 +203,12 @@ def _block_index(blocks: tuple[Block, ...]) -> tuple[np.ndarray, shapely.STRtree
         polygons = _frozen(np.array([b.polygon for b in blocks], dtype=object))
         return polygons, shapely.STRtree(polygons)
     return _BLOCKS.get((blocks,), None, make)
+
+
+def _union_prepared(geoms: list) -> shapely.Geometry:
+    geom = shapely.union_all(geoms)
+    shapely.prepare(geom)
+    return geom
 
 
 def _frozen(array: np.ndarray) -> np.ndarray:
@@ -318,9 +327,8 @@ class City:
         if len(blocks):  # those meeting the box, in the blocks' order
             blocks = shapely.buffer(self._town_of(blocks[np.sort(block_tree.query(box, predicate="intersects"))]), -1.0)
         held = self.land.taken_near(box) if self.land is not None and taken else []
-        geom = shapely.union_all([*near.tolist(), *held, *blocks.tolist()])
-        shapely.prepare(geom)
-        return geom
+        inputs = [*near.tolist(), *held, *blocks.tolist()]
+        return _OCCUPIED.get(ContentMemo.key(inputs), _union_prepared, inputs)
 
     def new_streets(self) -> list[int]:
         """Indices (into ``network.streets``) of the streets the tool made."""

@@ -1,4 +1,5 @@
-"""Values made once for the very same objects of the model: the model's identity cache (issue 22).
+"""Values made once for the very same objects of the model: the model's identity cache (issue 22), and
+once for inputs of the very same content (:class:`ContentMemo`).
 
 The year loop makes a new City every year, but most of what it holds is
 shared with last year's, object for object: the water, the land, the
@@ -14,8 +15,12 @@ only its last few entries, so what the years left behind is let go.
 """
 from __future__ import annotations
 
+import hashlib
 from collections.abc import Callable, Hashable
 from typing import Any
+
+import numpy as np
+import shapely
 
 
 class IdentityMemo:
@@ -43,6 +48,72 @@ class IdentityMemo:
         while len(self._store) >= self.kept:
             self._store.pop(next(iter(self._store)))
         self._store[key] = (sources, value)  # keeps the sources alive, so their ids are not reused
+        return value
+
+    def clear(self) -> None:
+        self._store.clear()
+
+    def __len__(self) -> int:
+        return len(self._store)
+
+
+class ContentMemo:
+    """``make()`` once for inputs of the very same content: geometries compared by their WKB (every
+    coordinate to the bit, in order) and plain values by ``repr``.
+
+    For a value made afresh from objects that are new each year but may hold
+    what last year's held: a year whose district failed tries the same sites
+    again on a town whose streets a major road or the build-out changed
+    elsewhere, and the region around a site (a union of the land near it, the
+    free land cut from a disc) is then the same. A GEOS operation is a pure
+    function of its inputs' coordinates and their order, so the value kept is
+    the very value ``make()`` would give, to the bit; only the hashing of the
+    inputs is paid again (a few ms where a union took tens).
+
+    Parameters
+    ----------
+    kept : int
+        Entries kept, the most recently used; the oldest goes first.
+    """
+
+    def __init__(self, kept: int = 32):
+        self.kept = kept
+        self._store: dict[bytes, Any] = {}
+
+    @staticmethod
+    def key(*parts: Any) -> bytes:
+        """A digest of ``parts``: each a geometry, a sequence or array of geometries, a numeric array, or a
+        plain value (bool, int, float, str, bytes, None); anything else is refused (its ``repr`` need not
+        show all of it)."""
+        h = hashlib.blake2b(digest_size=32)
+        for part in parts:
+            if isinstance(part, shapely.Geometry):
+                part = [part]
+            if isinstance(part, (list, tuple, np.ndarray)) and all(isinstance(g, shapely.Geometry) for g in part):
+                wkb = shapely.to_wkb(np.asarray(part, dtype=object)).tolist() if len(part) else []
+                h.update(b"G%d;" % len(wkb))
+                for w in wkb:
+                    h.update(b"%d;" % len(w))
+                    h.update(w)
+            elif isinstance(part, np.ndarray) and part.dtype != object:
+                h.update(b"A" + repr((part.dtype.str, part.shape)).encode() + b";")
+                h.update(np.ascontiguousarray(part).tobytes())
+            elif isinstance(part, (bool, int, float, str, bytes, type(None))):
+                h.update(b"V" + repr(part).encode() + b";")
+            else:
+                raise TypeError(f"ContentMemo.key: cannot hash a {type(part).__name__} by its content")
+        return h.digest()
+
+    def get(self, key: bytes, make: Callable[..., Any], *args: Any) -> Any:
+        """The value of ``make(*args)`` for ``key`` (:meth:`key` of whatever the value depends on), made on
+        the first call only."""
+        if key in self._store:
+            value = self._store[key] = self._store.pop(key)  # the most recently used last
+            return value
+        value = make(*args)
+        while len(self._store) >= self.kept:
+            self._store.pop(next(iter(self._store)))
+        self._store[key] = value
         return value
 
     def clear(self) -> None:
