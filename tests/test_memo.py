@@ -85,9 +85,11 @@ def test_a_town_rebuilt_the_same_around_a_site_finds_its_occupied_land_and_regio
                 region=shapely.Point(2344.1, 109.7).buffer(455.0), score=1.0)
     region = district_region(city, site)
     again = city.replace(blocks=tuple(list(city.blocks)), buildings=tuple(list(city.buildings)))  # new tuples
-    made: list[int] = []
-    for name in ("union_all", "union"):
-        op = getattr(shapely, name)
-        monkeypatch.setattr(shapely, name, lambda *a, op=op, **k: made.append(1) or op(*a, **k))
+    import osm_expand.model.city as city_module
+    import osm_expand.sites as sites_module
+    made: list[str] = []
+    for module, name in ((city_module, "_union_prepared"), (sites_module, "_cleared")):
+        op = getattr(module, name)
+        monkeypatch.setattr(module, name, lambda *a, op=op, name=name: made.append(name) or op(*a))
     assert district_region(again, site).wkb == region.wkb
     assert made == []
