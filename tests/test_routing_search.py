@@ -245,7 +245,7 @@ def _backward_options(rng: np.random.Generator, light: bool, k: int = 16) -> Rou
     default's shape, and backward tiles of 1–3 lattice vertices."""
     centre, width = (2.7, 0.4) if light else (2.0 * np.pi / 3.0, np.pi / 3.0)
     return RoutingOptions(turn_height=float(rng.uniform(20, 900)), turn_centre=centre, turn_width=width,
-                          heading_bins=k, backward_tile_cells=int(rng.integers(1, 4)))
+                          heading_bins=k, backward=True, backward_tile_cells=int(rng.integers(1, 4)))
 
 
 def test_the_backward_search_takes_the_forward_searchs_routes_and_its_tiles_grow():

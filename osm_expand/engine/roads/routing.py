@@ -37,6 +37,8 @@ a route whose edges' heading bins stay within an arc narrower than π ends
 inside that arc's sector), which counts only in years whose P charges
 turns of one bin. All these prunings are exact. The exits' search of a
 window (costs only, no route) runs A* on reduced costs (:func:`_reduced`).
+With ``RoutingOptions.backward`` the route's search runs from the target
+instead (:func:`_backward_route`, off: faster on some searches, slower on others).
 """
 from __future__ import annotations
 
@@ -106,11 +108,12 @@ class RoutingOptions:
     turn_floor: bool = True
     #: whether a route's turn-penalised search runs from the target backwards (:func:`_backward_route`:
     #: A* towards the source on the reversed expanded graph, bound by the plain distance from the
-    #: source, then plain Dijkstra over the states of the optimal routes only); False: plain Dijkstra
-    #: from the source over the whole active region. Campo Grande's first three road searches
-    #: settled 1.4 M, 0.45 M and 1.1 M states forwards, 0.03 M, 0.08 M and 0.07–0.12 M backwards
-    #: (``benchmarks/route_corridor_bounds.py``)
-    backward: bool = True
+    #: source, then plain Dijkstra over the states of the best routes only); exact, the same routes.
+    #: Off: which end's A* settles fewer states depends on the search. Campo Grande's captured first
+    #: three (``benchmarks/route_corridor_bounds.py directions``): 7.8 → 5.6, 7.2 → 7.5, 5.7 → 4.7 s
+    #: CPU; the synthetic town's first 84 → 91 s (the backward A* settled 51 M states: d_s is as weak a
+    #: bound from that end); Campo Grande's default run 134 → 141 s CPU and 1.16 → 1.80 GB, same bytes
+    backward: bool = False
     #: lattice vertices a side of the backward search's tiles (:func:`_backward_route`): 8 → 160 m.
     #: It touches a narrow corridor (Campo Grande's first road: 2,000 vertices), so its region is
     #: never searched whole (``whole_region``) and small tiles keep it small: built over 16-vertex
@@ -857,7 +860,10 @@ def _backward_route(graph: PathGraph, lat: np.ndarray, extra: np.ndarray, source
     plain distance from the source ``d_s`` as bound (consistent: turns cost
     ≥ 0) — the same test settles far fewer states where the target lies
     outside the dense grid (Campo Grande's first road: 31,000 states against
-    the forward search's 1.4 million). The search gives ``b``, the least cost
+    the forward search's 1.4 million), and as many where the source's plain
+    distance is as weak a bound (the synthetic town's first: 51 million), so
+    it is off by default (``RoutingOptions.backward``; a search from both
+    ends that meets in the middle is what would win both). The search gives ``b``, the least cost
     from each state to the target, exact where the rest of the route stays
     in the active tiles.
 
