@@ -299,6 +299,16 @@ def _splits(m: csr_matrix, f: dict, per: int, k: int, real) -> None:  # type: ig
         shares.append(f"{a:.1f}: {n_f:,} + {n_b:,}")
     print(f"    graph {m.shape[0]:,} states, C {cost:.1f}, settled g <= C {int(np.isfinite(fwd).sum()):,}; "
           "both ends a: fwd + bwd  " + ", ".join(shares), flush=True)
+    # bidirectional A* with the average potential p = (d_t − d_s)/2 (consistent both ways): each side
+    # settles its reduced distance up to its share of C' = C + p(t) − p(s), which reaches g up to 2C − d
+    fwd = real(m, indices=f["start"], limit=2 * cost)
+    bwd = real(m.T.tocsr(), indices=ends, min_only=True, limit=2 * cost)
+    p = (d_t - d_s) / 2
+    p_s, p_t = float(p[f["start"]]), float(p[ends[0]])
+    red_f, red_b, full = fwd + p - p_s, bwd + p_t - p, cost + p_t - p_s
+    shares = [f"{a:.1f}: {np.count_nonzero(red_f <= a * full):,} + {np.count_nonzero(red_b <= (1 - a) * full):,}"
+              for a in (1.0, 0.8, 0.5, 0.3, 0.1, 0.0)]
+    print("      average potentials a: fwd + bwd  " + ", ".join(shares), flush=True)
 
 
 def main() -> None:
