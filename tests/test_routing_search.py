@@ -5,7 +5,7 @@ from dataclasses import replace
 
 import numpy as np
 import pytest
-from hypothesis import given, settings
+from hypothesis import assume, given, settings
 from hypothesis import strategies as st
 from scipy.sparse import csr_matrix
 from scipy.sparse.csgraph import dijkstra
@@ -203,7 +203,9 @@ def test_routes_with_the_turn_floor_charging_cost_what_the_whole_expanded_graph_
     opts = RoutingOptions(turn_height=float(rng.uniform(20, 900)), turn_centre=centre, turn_width=width,
                           heading_bins=k, tile_cells=int(rng.integers(1, 4)), whole_region=0)
     penalties = routing._bin_penalties(opts)
-    assert routing._turn_floor(penalties).any() if k % 2 == 0 else True
+    # the strategies mostly give penalties that charge one bin's turn; where they do not (e.g. K = 16,
+    # centre 2.61, width 0.25: 22.5° is free) the floor has nothing to add, which is not this test's case
+    assume(routing._turn_floor(penalties).any() or k % 2 == 1)
     lat_ok, extra_ok = g.masks()
     live = g.live_vertices()
     for _ in range(3):

@@ -109,10 +109,11 @@ class RoutingOptions:
     #: whether a route's turn-penalised search runs from the target backwards (:func:`_backward_route`:
     #: A* towards the source on the reversed expanded graph, bound by the plain distance from the
     #: source, then plain Dijkstra over the states of the best routes only); exact, the same routes.
-    #: Off: which end's A* settles fewer states depends on the search. Campo Grande's captured first
-    #: three (``benchmarks/route_corridor_bounds.py directions``): 7.8 → 5.6, 7.2 → 7.5, 5.7 → 4.7 s
-    #: CPU; the synthetic town's first 84 → 91 s (the backward A* settled 51 M states: d_s is as weak a
-    #: bound from that end); Campo Grande's default run 134 → 141 s CPU and 1.16 → 1.80 GB, same bytes
+    #: Off: which end's A* settles fewer states depends on the search, and the reversed graph is a
+    #: copy. Campo Grande's captured first three (``benchmarks/route_corridor_bounds.py directions``):
+    #: 7.8 → 5.5, 7.2 → 7.3, 5.7 → 4.5 s CPU; the synthetic town's first 72.5 → 70.1 s (37 M states
+    #: settled backwards, 53 M forwards); Campo Grande's default run 133.9 → 134.5 s CPU and
+    #: 1.16 → 1.65 GB peak, the same bytes
     backward: bool = False
     #: lattice vertices a side of the backward search's tiles (:func:`_backward_route`): 8 → 160 m.
     #: It touches a narrow corridor (Campo Grande's first road: 2,000 vertices), so its region is
@@ -860,9 +861,9 @@ def _backward_route(graph: PathGraph, lat: np.ndarray, extra: np.ndarray, source
     plain distance from the source ``d_s`` as bound (consistent: turns cost
     ≥ 0) — the same test settles far fewer states where the target lies
     outside the dense grid (Campo Grande's first road: 31,000 states against
-    the forward search's 1.4 million), and as many where the source's plain
-    distance is as weak a bound (the synthetic town's first: 51 million), so
-    it is off by default (``RoutingOptions.backward``; a search from both
+    the forward search's 1.4 million), and about as many where the source's
+    plain distance is as weak a bound (the synthetic town's first: 37 million
+    against 53), so it is off by default (``RoutingOptions.backward``; a search from both
     ends that meets in the middle is what would win both). The search gives ``b``, the least cost
     from each state to the target, exact where the rest of the route stays
     in the active tiles.
@@ -913,8 +914,9 @@ def _backward_route(graph: PathGraph, lat: np.ndarray, extra: np.ndarray, source
     turns = bool(need.any())
     goal = graph.xy[source]
     arange_k = np.arange(k)
+    upper = best[1]  # the least cost found so far (its route is searched at the end)
     while True:
-        cost = best[1]
+        cost = upper
         region = lower <= cost + 1e-9 * cost + 1e-6
         inside = region & active[tile]
         verts = np.flatnonzero(inside)
@@ -932,7 +934,7 @@ def _backward_route(graph: PathGraph, lat: np.ndarray, extra: np.ndarray, source
         start = int(local[source]) * per + 2 * k
         found = float(to_target.ravel()[start])
         if found < cost - slack:
-            cost = found
+            cost = upper = found
         threshold = cost - 1e-9 * cost
         arrive = np.maximum(to_target[:, :k] - slack, 0.0)  # b(arr(w, q)), never above the exact cost
         outside = region & ~inside
