@@ -4,6 +4,7 @@
     python benchmarks/route_corridor_bounds.py measure /tmp/cg-0.pkl                      # runs find_route for C
     python benchmarks/route_corridor_bounds.py measure /tmp/syn-0.pkl --cost 28130.284484811113
     python benchmarks/route_corridor_bounds.py floor /tmp/cg-0.pkl --cost 8866.6061 --corridor /tmp/cg0.npy  # twice
+    python benchmarks/route_corridor_bounds.py directions /tmp/cg-0.pkl [--backward] [--splits]
 
 ``capture`` runs the engine (:func:`benchmarks.engine_speed.measure`, 30 years) on a town and pickles
 the inputs of its first N ``find_route`` calls (graph, source, target, keywords), then stops.
@@ -28,7 +29,15 @@ reverse at the same cost, so the best through v is ``min_ij f_s[arr(v,i)] + P(j�
 Its first run saves the corridor and stops, so that the whole-map matrix and the expanded graph
 never share a process; run it again for the floor.
 
-For each it prints the corridor's vertices, the CPU of computing the bound, and the estimated
+``directions`` replays the captured ``find_route`` forwards (``RoutingOptions.backward`` off, the
+default) or with ``--backward`` (:func:`routing._backward_route`) and prints its cost, CPU, peak
+memory and, per search function, the states of the heading-expanded graphs it made and settled;
+``--route V.npy`` saves the route's vertices (to compare the two). With ``--splits`` each forward
+route search's last graph is also searched from both ends: the states a search that meets in the
+middle would settle, forward ``g_f ≤ a·C, g_f + d_t ≤ C`` plus backward ``g_b ≤ (1 − a)·C,
+g_b + d_s ≤ C``, for a few shares a (a = 1: forward A*, a = 0: backward A*).
+
+For each bound ``measure`` prints the corridor's vertices, the CPU of computing the bound, and the estimated
 memory of a heading-expanded search over just that corridor (its CSR entries at 12 bytes, its
 states' indptr, distance and predecessor at 20 bytes). With ``--route VERTICES.npy`` (the found
 route's map vertices) it also checks that every bound keeps the route (admissibility).
@@ -229,6 +238,79 @@ def floor(path: str, cost: float, corridor: str) -> None:
     print(f"peak {_peak_mb()} MB")
 
 
+def directions(path: str, backward: bool, splits: bool, route_file: str | None) -> None:
+    """Replay a captured search forwards or backwards: cost, CPU, and the states made and settled."""
+    from dataclasses import replace
+
+    with open(path, "rb") as f:
+        graph, s, t, kw = pickle.load(f)
+    if not hasattr(graph.lattice, "_shared"):
+        object.__setattr__(graph.lattice, "_shared", {})
+    kw = dict(kw)
+    kw["options"] = replace(kw.get("options") or ro.RoutingOptions(), backward=backward)
+    k = kw["options"].heading_bins
+    per = 2 * k + 1
+    made: dict[str, list[int]] = {}  # caller: [graphs, states made, states settled]
+    real = ro.dijkstra
+
+    def counted(m, *args, **kwargs):  # type: ignore[no-untyped-def]
+        out = real(m, *args, **kwargs)
+        frame = sys._getframe(1)
+        caller = frame.f_code.co_name
+        if caller in ("_tiled_search", "_backward_route"):
+            d = out[0] if isinstance(out, tuple) else out
+            row = made.setdefault(caller, [0, 0, 0])
+            row[0] += 1
+            row[1] += m.shape[0]
+            row[2] += int(np.count_nonzero(np.isfinite(d)))
+            f = frame.f_locals
+            if splits and caller == "_tiled_search" and f.get("target") is not None and \
+                    kwargs.get("return_predecessors") and f["local"][f["target"]] >= 0:
+                _splits(m, f, per, k, real)
+        return out
+
+    ro.dijkstra = counted
+    c0 = time.process_time()
+    try:
+        route = ro.find_route(graph, s, t, **kw)
+    finally:
+        ro.dijkstra = real
+    cpu = time.process_time() - c0
+    print(f"{path} {'backward' if backward else 'forward'}: cost {None if route is None else repr(route.cost)}, "
+          f"{cpu:.1f} s CPU, peak {_peak_mb()} MB")
+    for caller, (n, states, settled) in made.items():
+        print(f"  {caller:16s} {n:3d} expanded graphs, {states:>12,} states made, {settled:>12,} settled")
+    if route_file and route is not None:
+        np.save(route_file, route.vertices)
+
+
+def _splits(m: csr_matrix, f: dict, per: int, k: int, real) -> None:  # type: ignore[no-untyped-def,type-arg]
+    """The states a search from both ends would settle on a forward route search's graph (see ``directions``)."""
+    verts, lower, h = f["verts"], f["lower"], f["h"]
+    ends = int(f["local"][f["target"]]) * per + np.arange(k)
+    fwd = real(m, indices=f["start"], limit=f["cost"] * (1 + 1e-9) + 1e-6)
+    cost = float(fwd[ends].min())
+    d_s, d_t = np.repeat(lower[verts] - h[verts], per), np.repeat(h[verts], per)
+    bwd = real(m.T.tocsr(), indices=ends, min_only=True, limit=cost)
+    shares = []
+    for a in (1.0, 0.8, 0.5, 0.3, 0.1, 0.0):
+        n_f = np.count_nonzero((fwd <= a * cost) & (fwd + d_t <= cost))
+        n_b = np.count_nonzero((bwd <= (1 - a) * cost) & (bwd + d_s <= cost))
+        shares.append(f"{a:.1f}: {n_f:,} + {n_b:,}")
+    print(f"    graph {m.shape[0]:,} states, C {cost:.1f}, settled g <= C {int(np.isfinite(fwd).sum()):,}; "
+          "both ends a: fwd + bwd  " + ", ".join(shares), flush=True)
+    # bidirectional A* with the average potential p = (d_t − d_s)/2 (consistent both ways): each side
+    # settles its reduced distance up to its share of C' = C + p(t) − p(s), which reaches g up to 2C − d
+    fwd = real(m, indices=f["start"], limit=2 * cost)
+    bwd = real(m.T.tocsr(), indices=ends, min_only=True, limit=2 * cost)
+    p = (d_t - d_s) / 2
+    p_s, p_t = float(p[f["start"]]), float(p[ends[0]])
+    red_f, red_b, full = fwd + p - p_s, bwd + p_t - p, cost + p_t - p_s
+    shares = [f"{a:.1f}: {np.count_nonzero(red_f <= a * full):,} + {np.count_nonzero(red_b <= (1 - a) * full):,}"
+              for a in (1.0, 0.8, 0.5, 0.3, 0.1, 0.0)]
+    print("      average potentials a: fwd + bwd  " + ", ".join(shares), flush=True)
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     sub = parser.add_subparsers(dest="mode", required=True)
@@ -245,10 +327,17 @@ def main() -> None:
     flo.add_argument("pickle")
     flo.add_argument("--cost", type=float, required=True)
     flo.add_argument("--corridor", required=True, help=".npy of the d_s + d_t corridor (made on the first run)")
+    dire = sub.add_parser("directions")
+    dire.add_argument("pickle")
+    dire.add_argument("--backward", action="store_true", help="search from the target (RoutingOptions.backward)")
+    dire.add_argument("--splits", action="store_true", help="count what a search from both ends would settle")
+    dire.add_argument("--route", help="save the route's vertices (.npy)")
     args = parser.parse_args()
     os.environ.setdefault("PYTHONHASHSEED", "0")
     if args.mode == "capture":
         capture(args.town, args.n, args.out)
+    elif args.mode == "directions":
+        directions(args.pickle, args.backward, args.splits, args.route)
     elif args.mode == "floor":
         floor(args.pickle, args.cost, args.corridor)
     else:
