@@ -43,6 +43,7 @@ from osm_expand.engine.growth.minor_streets import (
     GrowthYear,
     grow_district,
     grow_street_pattern,
+    neighbourhood_length,
 )
 from osm_expand.engine.growth.nuclei import Nucleus, candidate_points, find_nuclei, new_junction_nuclei
 from osm_expand.engine.history import GROWTH_PATTERNS, Clock, Era, History, YearValues
@@ -299,6 +300,11 @@ def _grow_streets(state: EngineState, era: Era, now: YearValues, year: int, rng:
         state.growth.owed += count * spacing
         if state.growth.owed < options.growth.min_district * spacing:
             return GrowthYear()
+        if options.growth.district_neighbourhoods > 0 and not (era.end is not None and now.year + 1 >= era.end):
+            if state.growth.neighbourhood is None:  # once a run: the town's neighbourhood as mapped
+                state.growth.neighbourhood = neighbourhood_length(state.city, spacing)
+            if state.growth.owed < options.growth.district_neighbourhoods * state.growth.neighbourhood:
+                return GrowthYear()  # not yet a neighbourhood, and the era goes on: wait
         if era.name not in state.patterns:  # one object per era: it keeps what it learned between districts
             state.patterns[era.name] = district_pattern(era.pattern, era.options)
         pattern = state.patterns[era.name]
