@@ -20,7 +20,8 @@ neighbourhoods measured in their discs (the yardstick before they were measured 
 Issue 20's targets: off on at most 4 of 14, dead-end and 2-core shares in
 range, infill + edge expansion at least 80 % of the new street length.
 
-Usage: ``python benchmarks/engine_growth.py [--history european] [--eras] [--measures] [--discs] [TOWN ...]``
+Usage: ``python benchmarks/engine_growth.py [--history european] [--eras] [--measures] [--discs] [--seed N]
+[--neighbourhoods K] [TOWN ...]`` (``--neighbourhoods``: :attr:`GrowthOptions.district_neighbourhoods` for the run)
 (default: Krems, Andorra, north-bayreuth, Monaco, Krems with ``european``, then Campo Grande;
 Campo Grande takes about 5 minutes and 8 GB).
 """
@@ -71,7 +72,7 @@ def _off_measures(report: dict) -> str:
 
 
 def run(name: str, history: str, years: int | None, refs: int, discs: bool = False,
-        neighbourhoods: float | None = None) -> dict:
+        neighbourhoods: float | None = None, seed: int = 0) -> dict:
     from osm_expand.engine.growth.minor_streets import GrowthOptions
     from osm_expand.engine.history import load_history
     from osm_expand.engine.loop import EngineOptions
@@ -85,8 +86,8 @@ def run(name: str, history: str, years: int | None, refs: int, discs: bool = Fal
     if neighbourhoods is not None:
         engine = EngineOptions(growth=GrowthOptions(district_neighbourhoods=neighbourhoods))
     t0, c0 = time.perf_counter(), time.process_time()
-    result = mature_result(expand(load(REPO / "fixtures" / name), ExpandOptions(seed=0, fidelity=False)),
-                           load_history(history), MatureOptions(years=years, fidelity=False, engine=engine), 0)
+    result = mature_result(expand(load(REPO / "fixtures" / name), ExpandOptions(seed=seed, fidelity=False)),
+                           load_history(history), MatureOptions(years=years, fidelity=False, engine=engine), seed)
     run_s, run_cpu = time.perf_counter() - t0, time.process_time() - c0
     t0, c0 = time.perf_counter(), time.process_time()
     net = result.city.network
@@ -114,6 +115,8 @@ def main() -> None:
     ap.add_argument("--neighbourhoods", type=float, default=None,
                     help="GrowthOptions.district_neighbourhoods, the district floor in neighbourhoods (default: "
                          "the options' own)")
+    ap.add_argument("--seed", type=int, default=0, help="the run's seed (default 0; one seed moves the off count "
+                                                         "by up to 6)")
     args = ap.parse_args()
     runs = [(t, args.history) for t in args.towns] if args.towns else RUNS
     print("| town | history | off of 14 per reference | mean off | dead-end share [range] | 2-core share [range] "
@@ -123,7 +126,7 @@ def main() -> None:
     off_lines: list[str] = []  # outside the tables: a one-cell row breaks a 12-column markdown table
     era_off_lines: list[str] = []
     for name, history in runs:
-        row = run(name, history, args.years, args.refs, args.discs, args.neighbourhoods)
+        row = run(name, history, args.years, args.refs, args.discs, args.neighbourhoods, args.seed)
         first = row["judged"][0]
         if first is None or first.overall is None:
             print(f"| {name} | {history} | no engine street | | | | | | | | "
