@@ -173,7 +173,7 @@ def test_a_towns_neighbourhood_is_a_district_discs_streets():
     """One neighbourhood's street length: the pipeline's district area (Perry's 0.65 km² on Krems, whose quarter
     of the built-up land is larger) at the town's built-up density (about 0.010–0.012 m/m²): 6–8 km."""
     city, learned = town("krems.osm.gz")
-    assert 5_500 < minor_streets.neighbourhood_length(city, learned.example.spacing) < 9_000
+    assert 5_500 < minor_streets.neighbourhood_length(city) < 9_000
 
 
 def test_a_large_towns_yearly_growth_waits_for_districts_of_several_neighbourhoods(monkeypatch):
@@ -182,7 +182,7 @@ def test_a_large_towns_yearly_growth_waits_for_districts_of_several_neighbourhoo
     yearly count is whole streets), of 5 or more, and the era's last year grows what is left."""
     city, learned = town("krems.osm.gz")
     spacing = learned.example.spacing
-    one = minor_streets.neighbourhood_length(city, spacing)
+    one = minor_streets.neighbourhood_length(city)
     off = _districts_owed(city, spacing, one, 20, era_end=2020, neighbourhoods=0.0, monkeypatch=monkeypatch)
     on = _districts_owed(city, spacing, one, 20, era_end=2020, neighbourhoods=5.0, monkeypatch=monkeypatch)
     assert len(off) == 20 and max(off) < 1.1 * one
@@ -195,7 +195,7 @@ def test_a_small_towns_growth_still_grows_a_district_when_its_era_ends(monkeypat
     owes one, and the era's owed length is grown in its last year instead of being lost."""
     city, learned = town("krems.osm.gz")
     spacing = learned.example.spacing
-    one = minor_streets.neighbourhood_length(city, spacing)
+    one = minor_streets.neighbourhood_length(city)
     yearly = 0.1 * one
     on = _districts_owed(city, spacing, yearly, 8, era_end=2008, neighbourhoods=5.0, monkeypatch=monkeypatch)
     assert len(on) == 1 and on[0] == pytest.approx(8 * round(yearly / spacing) * spacing)

@@ -300,11 +300,13 @@ def _grow_streets(state: EngineState, era: Era, now: YearValues, year: int, rng:
         state.growth.owed += count * spacing
         if state.growth.owed < options.growth.min_district * spacing:
             return GrowthYear()
-        if options.growth.district_neighbourhoods > 0 and not (era.end is not None and now.year + 1 >= era.end):
+        if options.growth.district_neighbourhoods > 0 and not state.growth.due:
             if state.growth.neighbourhood is None:  # once a run: the town's neighbourhood as mapped
-                state.growth.neighbourhood = neighbourhood_length(state.city, spacing)
-            if state.growth.owed < options.growth.district_neighbourhoods * state.growth.neighbourhood:
-                return GrowthYear()  # not yet a neighbourhood, and the era goes on: wait
+                state.growth.neighbourhood = neighbourhood_length(state.city)
+            era_ends = era.end is not None and now.year + 1 >= era.end
+            if state.growth.owed < options.growth.district_neighbourhoods * state.growth.neighbourhood and not era_ends:
+                return GrowthYear()  # not yet the floor, and the era goes on: wait
+            state.growth.due = True  # owed: tried each year from now on until a district is placed
         if era.name not in state.patterns:  # one object per era: it keeps what it learned between districts
             state.patterns[era.name] = district_pattern(era.pattern, era.options)
         pattern = state.patterns[era.name]
@@ -313,6 +315,7 @@ def _grow_streets(state: EngineState, era: Era, now: YearValues, year: int, rng:
                                           options=options.growth)
         if grown.districts:
             state.growth.owed = max(state.growth.owed - grown.length_m, 0.0)
+            state.growth.due = False
         else:  # no site took a district: wait until a bigger one is owed (its disc reaches further)
             state.growth.owed -= options.growth.min_district * spacing
         return grown

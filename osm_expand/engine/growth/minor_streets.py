@@ -88,8 +88,10 @@ class GrowthOptions:
     #: the pipeline's district area (:attr:`SiteOptions.area_share` of the town's built-up land, at most
     #: :attr:`SiteOptions.neighbourhood_area`: the area of the discs the district verdict judges against) at the
     #: town's built-up street density (:func:`built_up_density`; :func:`neighbourhood_length`). An era that ends
-    #: with length owed grows it in its last year (from :attr:`min_district` spacings on), so a town whose whole
-    #: growth is smaller than the floor (Krems: 0.6 km a year against a 6.5 km neighbourhood) still grows. Why:
+    #: with length owed grows it in its last year (from :attr:`min_district` spacings on), and a district due but
+    #: refused is tried again every year (at :attr:`min_district`, as without the floor) until one is placed, so a
+    #: town whose whole growth is smaller than the floor (Krems: 0.6 km a year against a 6.4 km neighbourhood)
+    #: still grows (with one try at each era's end Krems' seed 1 grew no engine street: that try was refused). Why:
     #: one year of a large town's growth exceeds :attr:`min_district` (Campo Grande: 12 km a year at a 99 m
     #: spacing, one neighbourhood 10 km), so its ``contemporary`` era grew 16 small districts (median 15 km,
     #: 0.8 km²) with more rim and seams per km² than the town's neighbourhoods (note30: off 6 6 6; 600 spacings,
@@ -111,6 +113,9 @@ class GrowthMemory:
     #: street length of one of the town's neighbourhoods (m; :func:`neighbourhood_length`), measured once, on
     #: the town as it was when the first district was owed; None: not yet
     neighbourhood: float | None = None
+    #: a district is due (:attr:`GrowthOptions.district_neighbourhoods`: the floor was reached or an era ended
+    #: with length owed): tried every year, at what is owed, until one is placed
+    due: bool = False
 
 
 @dataclass(frozen=True)
@@ -361,15 +366,16 @@ def _still_refused(city: City, refused: np.ndarray, *, reach: float) -> np.ndarr
     return refused[keep]
 
 
-def neighbourhood_length(city: City, spacing: float, site: SiteOptions | None = None) -> float:
+def neighbourhood_length(city: City, site: SiteOptions | None = None) -> float:
     """The street length (m) of one of the town's neighbourhoods: the pipeline's district area (``area_share`` of
     the town's built-up land, at most ``neighbourhood_area``: Perry's unit) at the town's built-up street density.
 
     What :attr:`GrowthOptions.district_neighbourhoods` counts in: the district verdict judges a district against
     discs of that area around the town's denser junctions, so a district of about that length is a
-    neighbourhood's worth of streets. The rasters at a cell of a tenth of the unit's radius (45 m; at 200 m Krems read 0.0079 m/m² against 0.0101 at 20 m) (as a district's,
-    :attr:`GrowthOptions.site_cells_per_radius`): measured once a run. Krems 6.5 km (0.65 km² × 0.0101 m/m²),
-    Campo Grande 10.1 km (× 0.0156), at their 110 and 99 m spacings.
+    neighbourhood's worth of streets. The rasters at a tenth of the unit's radius (45 m, as a district's:
+    :attr:`GrowthOptions.site_cells_per_radius`; the density falls on coarse cells: Krems 0.0101 m/m² at 20 m,
+    0.0099 at 45 m, 0.0079 at 200 m). Measured once a run: Krems 6.4 km (0.65 km² × 0.0099 m/m²), Campo Grande
+    10.1 km (× 0.0156 at 20 m), one year of its growth.
     """
     site = site or SiteOptions()
     cell = max(site.cell, math.sqrt(site.neighbourhood_area / math.pi) / 10.0)
