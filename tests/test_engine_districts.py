@@ -140,7 +140,7 @@ def choose_again(city, learned, owed):
 
 
 def _districts_owed(city, spacing, yearly: float, years: int, *, era_end: int | None, neighbourhoods: float,
-                    monkeypatch) -> list[float]:
+                    monkeypatch, last_year: int | None = None) -> list[float]:
     """The lengths (m) the engine's loop asks districts of, a town owing ``yearly`` metres a year for ``years``
     years of one era (from 2000, ending at ``era_end``), every district placed as owed."""
     from types import SimpleNamespace
@@ -161,7 +161,7 @@ def _districts_owed(city, spacing, yearly: float, years: int, *, era_end: int | 
     state = SimpleNamespace(city=city, nuclei=[Nucleus(xy=tuple(city.network.xy[0]), strength=0.5,
                                                        kind=NucleusKind.CENTRE)],
                             growth=GrowthMemory(), patterns={})
-    options = EngineOptions(growth=GrowthOptions(district_neighbourhoods=neighbourhoods))
+    options = EngineOptions(growth=GrowthOptions(district_neighbourhoods=neighbourhoods), last_year=last_year)
     for year in range(2000, 2000 + years):
         _grow_streets(state, era, SimpleNamespace(year=year), year, np.random.default_rng(0),
                       round(yearly / spacing), spacing=spacing, district_pattern=lambda *a: None, bearing=0.0,
@@ -202,3 +202,8 @@ def test_a_small_towns_growth_still_grows_a_district_when_its_era_ends(monkeypat
     # an era too short to owe min_district spacings grows nothing, as without the floor
     short = _districts_owed(city, spacing, yearly, 2, era_end=2002, neighbourhoods=5.0, monkeypatch=monkeypatch)
     assert short == []
+    # an era the run ends in: its owed length is grown in the run's last year
+    open_era = _districts_owed(city, spacing, yearly, 8, era_end=None, neighbourhoods=5.0, monkeypatch=monkeypatch,
+                               last_year=2007)
+    assert open_era == on
+    assert _districts_owed(city, spacing, yearly, 8, era_end=None, neighbourhoods=5.0, monkeypatch=monkeypatch) == []

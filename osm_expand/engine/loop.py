@@ -73,6 +73,9 @@ class EngineOptions:
     #: lets the next year's traffic see the new road first.
     roads_per_year: int = 1
     growth: GrowthOptions = field(default_factory=GrowthOptions)
+    #: The history year of the run's last step (None: not known): with :attr:`GrowthOptions.district_neighbourhoods`
+    #: the length owed then is grown as an era's end's is, not lost (:func:`osm_expand.maturation.mature` sets it).
+    last_year: int | None = None
 
 
 @dataclass(frozen=True)
@@ -303,7 +306,8 @@ def _grow_streets(state: EngineState, era: Era, now: YearValues, year: int, rng:
         if options.growth.district_neighbourhoods > 0 and not state.growth.due:
             if state.growth.neighbourhood is None:  # once a run: the town's neighbourhood as mapped
                 state.growth.neighbourhood = neighbourhood_length(state.city)
-            era_ends = era.end is not None and now.year + 1 >= era.end
+            era_ends = ((era.end is not None and now.year + 1 >= era.end)
+                        or (options.last_year is not None and now.year >= options.last_year))
             if state.growth.owed < options.growth.district_neighbourhoods * state.growth.neighbourhood and not era_ends:
                 return GrowthYear()  # not yet the floor, and the era goes on: wait
             state.growth.due = True  # owed: tried each year from now on until a district is placed
