@@ -97,7 +97,12 @@ class GrowthOptions:
     #: one year of a large town's growth exceeds :attr:`min_district` (Campo Grande: 12 km a year at a 99 m
     #: spacing, one neighbourhood 10 km), so its ``contemporary`` era grew 16 small districts (median 15 km,
     #: 0.8 km²) with more rim and seams per km² than the town's neighbourhoods (note30: off 6 6 6; 600 spacings,
-    #: 59 km, gave 3 2 3 but grew nothing on Krems). Measured: see the class's note below.
+    #: 59 km, gave 3 2 3 but grew nothing on Krems). Off by default: measured at 5 (``benchmarks/engine_growth.py
+    #: --neighbourhoods 5 [--seed 1]``, off of 14 per reference seed 0 1 2, main → 5), seed 0: Campo Grande
+    #: 6 6 6 → 3 5 5 (21 → 7 districts, 356 → 334 km, its run 148 → 107 s CPU), Andorra 6 8 7 → 0 1 1, Monaco
+    #: 7 8 6 → 4 4 5, north-bayreuth 2 1 2 → 5 4 5, Krems 1 2 1 → 2 2 3; seed 1: Andorra 6 5 6 → 1 0 0, Monaco
+    #: 6 7 8 → 6 5 6, north-bayreuth 6 6 6 → 3 3 2, Krems 1 2 3 → 3 3 5. Better overall, not on every town, and
+    #: beyond 4 on three (README, "The engine's district floor").
     district_neighbourhoods: float = 0.0
 
 
