@@ -101,9 +101,9 @@ class GrowthOptions:
     #: --neighbourhoods 5 [--seed 1]``, off of 14 per reference seed 0 1 2, main → 5), seed 0: Campo Grande
     #: 6 6 6 → 3 5 5 (21 → 7 districts, 356 → 334 km, its run 148 → 107 s CPU), Andorra 6 8 7 → 0 1 1, Monaco
     #: 7 8 6 → 4 4 5, north-bayreuth 2 1 2 → 5 4 5, Krems 1 2 1 → 2 2 3; seed 1: Andorra 6 5 6 → 1 0 0, Monaco
-    #: 6 7 8 → 6 5 6, north-bayreuth 6 6 6 → 3 3 2, Krems 1 2 3 → 3 3 5. Better overall, not on every town, and
-    #: beyond 4 on three. At 3 Campo Grande stays 6 5 6 (11 districts); with the verdict band (PatchOptions
-    #: ``density_from_verdict``) at 5 it is 8 7 7 (README, "The engine's district floor").
+    #: 6 7 8 → 6 5 6, north-bayreuth 6 6 6 → 3 3 2, Krems 1 2 3 → 3 3 5, Campo Grande 8 8 8 → 4 4 4. Better
+    #: overall, not on every town, and beyond 4 on three. At 3 Campo Grande stays 6 5 6 (11 districts); with the
+    #: verdict band (PatchOptions ``density_from_verdict``) at 5 it is 8 7 7 (README, "The engine's district floor").
     district_neighbourhoods: float = 0.0
 
 
