@@ -20,7 +20,8 @@ neighbourhoods measured in their discs (the yardstick before they were measured 
 Issue 20's targets: off on at most 4 of 14, dead-end and 2-core shares in
 range, infill + edge expansion at least 80 % of the new street length.
 
-Usage: ``python benchmarks/engine_growth.py [--history european] [--eras] [--measures] [--discs] [TOWN ...]``
+Usage: ``python benchmarks/engine_growth.py [--history european] [--eras] [--measures] [--discs] [--seed N]
+[--neighbourhoods K] [TOWN ...]`` (``--neighbourhoods``: :attr:`GrowthOptions.district_neighbourhoods` for the run)
 (default: Krems, Andorra, north-bayreuth, Monaco, Krems with ``european``, then Campo Grande;
 Campo Grande takes about 5 minutes and 8 GB).
 """
@@ -70,17 +71,23 @@ def _off_measures(report: dict) -> str:
     return "; ".join(out)
 
 
-def run(name: str, history: str, years: int | None, refs: int, discs: bool = False) -> dict:
+def run(name: str, history: str, years: int | None, refs: int, discs: bool = False,
+        neighbourhoods: float | None = None, seed: int = 0) -> dict:
+    from osm_expand.engine.growth.minor_streets import GrowthOptions
     from osm_expand.engine.history import load_history
+    from osm_expand.engine.loop import EngineOptions
     from osm_expand.growth_fidelity import GrowthFidelityOptions, before_the_years, built_up, growth_fidelity
     from osm_expand.ingest import load
     from osm_expand.maturation import MatureOptions, mature_result
     from osm_expand.model import Origin
     from osm_expand.pipeline import ExpandOptions, expand
 
+    engine = EngineOptions()
+    if neighbourhoods is not None:
+        engine = EngineOptions(growth=GrowthOptions(district_neighbourhoods=neighbourhoods))
     t0, c0 = time.perf_counter(), time.process_time()
-    result = mature_result(expand(load(REPO / "fixtures" / name), ExpandOptions(seed=0, fidelity=False)),
-                           load_history(history), MatureOptions(years=years, fidelity=False), 0)
+    result = mature_result(expand(load(REPO / "fixtures" / name), ExpandOptions(seed=seed, fidelity=False)),
+                           load_history(history), MatureOptions(years=years, fidelity=False, engine=engine), seed)
     run_s, run_cpu = time.perf_counter() - t0, time.process_time() - c0
     t0, c0 = time.perf_counter(), time.process_time()
     net = result.city.network
@@ -89,7 +96,8 @@ def run(name: str, history: str, years: int | None, refs: int, discs: bool = Fal
     options = GrowthFidelityOptions(references_on_streets_land=not discs)
     judged = [growth_fidelity(net, town, built=built, rng=seed, options=options) for seed in range(refs)]
     judge_s, judge_cpu = (time.perf_counter() - t0) / refs, (time.process_time() - c0) / refs
-    return {"name": name, "history": history, "judged": judged, "run_s": run_s, "run_cpu": run_cpu,
+    eras = [(e["era"], e["districts"], e["street_length_km"]) for e in result.report["engine"]["eras"]]
+    return {"name": name, "history": history, "judged": judged, "eras_grown": eras, "run_s": run_s, "run_cpu": run_cpu,
             "judge_s": judge_s, "judge_cpu": judge_cpu}
 
 
@@ -104,6 +112,11 @@ def main() -> None:
     ap.add_argument("--measures", action="store_true",
                     help="per town and reference seed (and era, with --eras), the measures off: value against "
                          "range, and by how much (lines outside the tables)")
+    ap.add_argument("--neighbourhoods", type=float, default=None,
+                    help="GrowthOptions.district_neighbourhoods, the district floor in neighbourhoods (default: "
+                         "the options' own)")
+    ap.add_argument("--seed", type=int, default=0, help="the run's seed (default 0; one seed moves the off count "
+                                                         "by up to 6)")
     args = ap.parse_args()
     runs = [(t, args.history) for t in args.towns] if args.towns else RUNS
     print("| town | history | off of 14 per reference | mean off | dead-end share [range] | 2-core share [range] "
@@ -113,7 +126,7 @@ def main() -> None:
     off_lines: list[str] = []  # outside the tables: a one-cell row breaks a 12-column markdown table
     era_off_lines: list[str] = []
     for name, history in runs:
-        row = run(name, history, args.years, args.refs, args.discs)
+        row = run(name, history, args.years, args.refs, args.discs, args.neighbourhoods, args.seed)
         first = row["judged"][0]
         if first is None or first.overall is None:
             print(f"| {name} | {history} | no engine street | | | | | | | | "
@@ -128,6 +141,8 @@ def main() -> None:
               f"| {first.major_roads_m / 1000:.1f} "
               f"| {row['run_s']:.0f} ({row['run_cpu']:.0f}) | {row['judge_s']:.1f} ({row['judge_cpu']:.1f}) |",
               flush=True)
+        off_lines.append(f"- {name} {history} districts per era (count, km): "
+                         + ", ".join(f"{e} {n} ({km:.1f})" for e, n, km in row["eras_grown"]))
         if args.measures:
             offs_by = [_off_measures(g.overall.to_dict()) for g in row["judged"]]
             off_lines += [f"- {name} {history} off (reference {seed}): {line or 'none'}"

@@ -137,3 +137,73 @@ def choose_again(city, learned, owed):
                       np.random.default_rng(0), spacing=spacing, year=2001, era="now",
                       options=GrowthOptions(sites_tried=2))
     return asked[-1]
+
+
+def _districts_owed(city, spacing, yearly: float, years: int, *, era_end: int | None, neighbourhoods: float,
+                    monkeypatch, last_year: int | None = None) -> list[float]:
+    """The lengths (m) the engine's loop asks districts of, a town owing ``yearly`` metres a year for ``years``
+    years of one era (from 2000, ending at ``era_end``), every district placed as owed."""
+    from types import SimpleNamespace
+
+    from osm_expand.engine import loop
+    from osm_expand.engine.history import Era
+    from osm_expand.engine.loop import EngineOptions, _grow_streets
+    from synth.patches import PatchOptions
+
+    asked: list[float] = []
+
+    def placed(city, pattern, length, *args, **kwargs):
+        asked.append(length)
+        return city, minor_streets.GrowthYear(streets=1, length_m=length, districts=1)
+
+    monkeypatch.setattr(loop, "grow_district", placed)
+    era = Era(name="now", start=2000, end=era_end, pattern="example", options=PatchOptions(), road_types=())
+    state = SimpleNamespace(city=city, nuclei=[Nucleus(xy=tuple(city.network.xy[0]), strength=0.5,
+                                                       kind=NucleusKind.CENTRE)],
+                            growth=GrowthMemory(), patterns={})
+    options = EngineOptions(growth=GrowthOptions(district_neighbourhoods=neighbourhoods), last_year=last_year)
+    for year in range(2000, 2000 + years):
+        _grow_streets(state, era, SimpleNamespace(year=year), year, np.random.default_rng(0),
+                      round(yearly / spacing), spacing=spacing, district_pattern=lambda *a: None, bearing=0.0,
+                      options=options)
+    return asked
+
+
+def test_a_towns_neighbourhood_is_a_district_discs_streets():
+    """One neighbourhood's street length: the pipeline's district area (Perry's 0.65 km² on Krems, whose quarter
+    of the built-up land is larger) at the town's built-up density (about 0.010–0.012 m/m²): 6–8 km."""
+    city, learned = town("krems.osm.gz")
+    assert 5_500 < minor_streets.neighbourhood_length(city) < 9_000
+
+
+def test_a_large_towns_yearly_growth_waits_for_districts_of_several_neighbourhoods(monkeypatch):
+    """Campo Grande owes about one neighbourhood a year: with the floor off (``min_district`` alone) every year
+    is a district of one neighbourhood; with a floor of 5 neighbourhoods a district comes every 5–6 years (the
+    yearly count is whole streets), of 5 or more, and the era's last year grows what is left."""
+    city, learned = town("krems.osm.gz")
+    spacing = learned.example.spacing
+    one = minor_streets.neighbourhood_length(city)
+    off = _districts_owed(city, spacing, one, 20, era_end=2020, neighbourhoods=0.0, monkeypatch=monkeypatch)
+    on = _districts_owed(city, spacing, one, 20, era_end=2020, neighbourhoods=5.0, monkeypatch=monkeypatch)
+    assert len(off) == 20 and max(off) < 1.1 * one
+    assert len(on) == 4 and min(on[:-1]) >= 5 * one and on[-1] < 5 * one
+    assert sum(on) == pytest.approx(sum(off), rel=0.01)  # the same length, in fewer districts
+
+
+def test_a_small_towns_growth_still_grows_a_district_when_its_era_ends(monkeypatch):
+    """Krems owes about 0.6 km a year, a tenth of a neighbourhood: with a floor of 5 neighbourhoods it never
+    owes one, and the era's owed length is grown in its last year instead of being lost."""
+    city, learned = town("krems.osm.gz")
+    spacing = learned.example.spacing
+    one = minor_streets.neighbourhood_length(city)
+    yearly = 0.1 * one
+    on = _districts_owed(city, spacing, yearly, 8, era_end=2008, neighbourhoods=5.0, monkeypatch=monkeypatch)
+    assert len(on) == 1 and on[0] == pytest.approx(8 * round(yearly / spacing) * spacing)
+    # an era too short to owe min_district spacings grows nothing, as without the floor
+    short = _districts_owed(city, spacing, yearly, 2, era_end=2002, neighbourhoods=5.0, monkeypatch=monkeypatch)
+    assert short == []
+    # an era the run ends in: its owed length is grown in the run's last year
+    open_era = _districts_owed(city, spacing, yearly, 8, era_end=None, neighbourhoods=5.0, monkeypatch=monkeypatch,
+                               last_year=2007)
+    assert open_era == on
+    assert _districts_owed(city, spacing, yearly, 8, era_end=None, neighbourhoods=5.0, monkeypatch=monkeypatch) == []

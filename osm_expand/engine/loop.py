@@ -43,6 +43,7 @@ from osm_expand.engine.growth.minor_streets import (
     GrowthYear,
     grow_district,
     grow_street_pattern,
+    neighbourhood_length,
 )
 from osm_expand.engine.growth.nuclei import Nucleus, candidate_points, find_nuclei, new_junction_nuclei
 from osm_expand.engine.history import GROWTH_PATTERNS, Clock, Era, History, YearValues
@@ -72,6 +73,9 @@ class EngineOptions:
     #: lets the next year's traffic see the new road first.
     roads_per_year: int = 1
     growth: GrowthOptions = field(default_factory=GrowthOptions)
+    #: The history year of the run's last step (None: not known): with :attr:`GrowthOptions.district_neighbourhoods`
+    #: the length owed then is grown as an era's end's is, not lost (:func:`osm_expand.maturation.mature` sets it).
+    last_year: int | None = None
 
 
 @dataclass(frozen=True)
@@ -299,6 +303,14 @@ def _grow_streets(state: EngineState, era: Era, now: YearValues, year: int, rng:
         state.growth.owed += count * spacing
         if state.growth.owed < options.growth.min_district * spacing:
             return GrowthYear()
+        if options.growth.district_neighbourhoods > 0 and not state.growth.due:
+            if state.growth.neighbourhood is None:  # once a run: the town's neighbourhood as mapped
+                state.growth.neighbourhood = neighbourhood_length(state.city)
+            era_ends = ((era.end is not None and now.year + 1 >= era.end)
+                        or (options.last_year is not None and now.year >= options.last_year))
+            if state.growth.owed < options.growth.district_neighbourhoods * state.growth.neighbourhood and not era_ends:
+                return GrowthYear()  # not yet the floor, and the era goes on: wait
+            state.growth.due = True  # owed: tried each year from now on until a district is placed
         if era.name not in state.patterns:  # one object per era: it keeps what it learned between districts
             state.patterns[era.name] = district_pattern(era.pattern, era.options)
         pattern = state.patterns[era.name]
@@ -307,6 +319,7 @@ def _grow_streets(state: EngineState, era: Era, now: YearValues, year: int, rng:
                                           options=options.growth)
         if grown.districts:
             state.growth.owed = max(state.growth.owed - grown.length_m, 0.0)
+            state.growth.due = False
         else:  # no site took a district: wait until a bigger one is owed (its disc reaches further)
             state.growth.owed -= options.growth.min_district * spacing
         return grown

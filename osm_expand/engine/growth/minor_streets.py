@@ -23,7 +23,7 @@ them), with the year and era they were built in and origin ``engine``.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 import shapely
@@ -83,6 +83,28 @@ class GrowthOptions:
     #: a year) cut Campo Grande's run 128 → 112 s CPU only by growing less (291 km, 19 placed; 8 9 9) and left
     #: north-bayreuth 5 2 2. (Each try draws from the year's random stream: a behaviour change either way.)
     refused_near: float = 0.0
+    #: The district floor, in neighbourhoods (0: off, :attr:`min_district` alone): a district pattern waits until
+    #: the owed length reaches this many times the street length of one of the town's neighbourhoods — a disc of
+    #: the pipeline's district area (:attr:`SiteOptions.area_share` of the town's built-up land, at most
+    #: :attr:`SiteOptions.neighbourhood_area`: the area of the discs the district verdict judges against) at the
+    #: town's built-up street density (:func:`built_up_density`; :func:`neighbourhood_length`). An era (or the run:
+    #: :attr:`EngineOptions.last_year`) that ends with length owed grows it in its last year (from
+    #: :attr:`min_district` spacings on; without the run's end Andorra's seed 1 grew 17 km instead of main's 47, its
+    #: ``consolidation`` era's owed length lost when the run ended), and a district due but
+    #: refused is tried again every year (at :attr:`min_district`, as without the floor) until one is placed, so a
+    #: town whose whole growth is smaller than the floor (Krems: 0.6 km a year against a 6.4 km neighbourhood)
+    #: still grows (with one try at each era's end Krems' seed 1 grew no engine street: that try was refused). Why:
+    #: one year of a large town's growth exceeds :attr:`min_district` (Campo Grande: 12 km a year at a 99 m
+    #: spacing, one neighbourhood 10 km), so its ``contemporary`` era grew 16 small districts (median 15 km,
+    #: 0.8 km²) with more rim and seams per km² than the town's neighbourhoods (note30: off 6 6 6; 600 spacings,
+    #: 59 km, gave 3 2 3 but grew nothing on Krems). Off by default: measured at 5 (``benchmarks/engine_growth.py
+    #: --neighbourhoods 5 [--seed 1]``, off of 14 per reference seed 0 1 2, main → 5), seed 0: Campo Grande
+    #: 6 6 6 → 3 5 5 (21 → 7 districts, 356 → 334 km, its run 148 → 107 s CPU), Andorra 6 8 7 → 0 1 1, Monaco
+    #: 7 8 6 → 4 4 5, north-bayreuth 2 1 2 → 5 4 5, Krems 1 2 1 → 2 2 3; seed 1: Andorra 6 5 6 → 1 0 0, Monaco
+    #: 6 7 8 → 6 5 6, north-bayreuth 6 6 6 → 3 3 2, Krems 1 2 3 → 3 3 5, Campo Grande 8 8 8 → 4 4 4. Better
+    #: overall, not on every town, and beyond 4 on three. At 3 Campo Grande stays 6 5 6 (11 districts); with the
+    #: verdict band (PatchOptions ``density_from_verdict``) at 5 it is 8 7 7 (README, "The engine's district floor").
+    district_neighbourhoods: float = 0.0
 
 
 @dataclass
@@ -96,6 +118,12 @@ class GrowthMemory:
     #: (R, 4) sites whose districts were refused: ``x, y, radius`` (m) and the year
     #: (:attr:`GrowthOptions.refused_near`)
     refused: np.ndarray = field(default_factory=lambda: np.zeros((0, 4)))
+    #: street length of one of the town's neighbourhoods (m; :func:`neighbourhood_length`), measured once, on
+    #: the town as it was when the first district was owed; None: not yet
+    neighbourhood: float | None = None
+    #: a district is due (:attr:`GrowthOptions.district_neighbourhoods`: the floor was reached or an era ended
+    #: with length owed): tried every year, at what is owed, until one is placed
+    due: bool = False
 
 
 @dataclass(frozen=True)
@@ -344,6 +372,24 @@ def _still_refused(city: City, refused: np.ndarray, *, reach: float) -> np.ndarr
         d = closest_on_segments(np.array([x, y]), a, b)[2]
         keep[k] = not ((d <= r + reach) & (built >= when)).any()
     return refused[keep]
+
+
+def neighbourhood_length(city: City, site: SiteOptions | None = None) -> float:
+    """The street length (m) of one of the town's neighbourhoods: the pipeline's district area (``area_share`` of
+    the town's built-up land, at most ``neighbourhood_area``: Perry's unit) at the town's built-up street density.
+
+    What :attr:`GrowthOptions.district_neighbourhoods` counts in: the district verdict judges a district against
+    discs of that area around the town's denser junctions, so a district of about that length is a
+    neighbourhood's worth of streets. The rasters at a tenth of the unit's radius (45 m, as a district's:
+    :attr:`GrowthOptions.site_cells_per_radius`; the density falls on coarse cells: Krems 0.0101 m/m² at 20 m,
+    0.0099 at 45 m, 0.0079 at 200 m). Measured once a run: Krems 6.4 km (0.65 km² × 0.0099 m/m²), Campo Grande
+    10.1 km (× 0.0156 at 20 m), one year of its growth.
+    """
+    site = site or SiteOptions()
+    cell = max(site.cell, math.sqrt(site.neighbourhood_area / math.pi) / 10.0)
+    maps = distance_maps(city, replace(site, cell=cell))
+    area = min(site.area_share * maps.built_area, site.neighbourhood_area)
+    return area * built_up_density(city, maps)
 
 
 def built_up_density(city: City, maps: DistanceMaps) -> float:
