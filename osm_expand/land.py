@@ -17,8 +17,8 @@ the engine's growth and the build-out share:
   none. ``highway=service`` ways that the network leaves out (the default
   ingest) are read as town streets here and nowhere else, when
   :attr:`LandOptions.service_ways` is on (off by default). And mapped
-  *settlement* land use (:data:`SETTLEMENT`) and works' enclosures
-  (:data:`WORKS`). Where the
+  *settlement* land use (:data:`SETTLEMENT`; works' enclosures, :data:`WORKS`,
+  on request). Where the
   town's buildings are mapped (within :attr:`LandOptions.survey_radius` of
   one), land without a building is shown to be empty and is not taken: a
   town whose houses are not mapped still reads as occupied along its
@@ -58,12 +58,8 @@ UNBUILDABLE = ("landuse=cemetery", "amenity=grave_yard", "landuse=railway", "lan
 #: (``man_made=water_works``), a factory site (``man_made=works``), a power station (``power=plant``)
 #: and a substation (``power=substation``) as the fenced site itself, often without a
 #: ``landuse=industrial`` around it (Krems' sewage plant, way 29735498, holds four houses and has none).
-#: The town's land, read as settlement by default (:attr:`LandOptions.settlement`): a works is fenced and
-#: built on, never a field a street may cross. With Krems' buildings withheld and the verdict band on
-#: (``density_from_verdict``), four of the five real houses new streets crossed stood in its sewage plant,
-#: two of them in a new primary road's way (``benchmarks/withheld_buildings.py``). (With
-#: :attr:`LandOptions.service_ways` on as well, issue 20's earlier notes saw five growth tests fail: the
-#: service ways' frontage, not the works.)
+#: The town's land; not yet in :data:`SETTLEMENT` by default (``LandOptions(settlement=SETTLEMENT +
+#: WORKS)``): with them and :attr:`LandOptions.service_ways` on, five growth tests fail (issue 20 notes).
 WORKS = ("man_made=wastewater_plant", "man_made=water_works", "man_made=works", "power=plant", "power=substation")
 #: Mapped land use that is the town itself: homes, work, farmyards, gardens, sports grounds. Land
 #: under it is taken unless the town's mapped buildings show it empty.
@@ -101,9 +97,8 @@ class LandOptions:
     unbuildable: tuple[str, ...] = UNBUILDABLE
     #: Metres kept clear around existing buildings (their minimum rectangles, as the XML draws them).
     building_margin: float = 2.0
-    #: Mapped land use that is the town (taken unless shown empty), as ``key=value`` or ``key=*``: the
-    #: settlement land use and the works' enclosures (:data:`WORKS`).
-    settlement: tuple[str, ...] = SETTLEMENT + WORKS
+    #: Mapped land use that is the town (taken unless shown empty), as ``key=value`` or ``key=*``.
+    settlement: tuple[str, ...] = SETTLEMENT
     #: Percentile of how far a building's rear stands from its nearest street (the issue's example).
     depth_percentile: float = 90.0
     #: m behind the rear of the houses: a back garden. 10 m is the common minimum rear yard of
