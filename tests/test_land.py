@@ -80,25 +80,28 @@ def test_a_dead_ends_frontage_stops_at_its_tip():
 def test_the_houses_round_a_dead_ends_tip_are_taken_and_the_way_straight_on_is_free():
     """Past a cul-de-sac's tip its last houses stand beside the way on (a disc of the frontage depth round
     the tip is taken), while a street continuing it runs straight on (45° each side stays free)."""
-    taken = shapely.union_all(read_land(street_city()).taken)
+    taken = shapely.union_all(read_land(street_city(), LandOptions(dead_end_open_deg=45.0)).taken)
     assert taken.covers(shapely.Point(1030.0, 40.0)) and taken.covers(shapely.Point(1030.0, -40.0))  # 53° off
     assert not taken.intersects(shapely.Point(1050.0, 10.0)) and not taken.intersects(shapely.Point(1200.0, 0.0))
-    flat = shapely.union_all(read_land(street_city(), LandOptions(dead_end_open_deg=None)).taken)
-    assert not flat.intersects(shapely.Point(1030.0, 40.0))  # the frontage that stopped square at the tip
+    flat = shapely.union_all(read_land(street_city()).taken)  # the default (off): the frontage stops at the tip
+    assert not flat.intersects(shapely.Point(1030.0, 40.0))
+    country = read_land(street_city(highway="unclassified"), LandOptions(dead_end_open_deg=45.0))
+    assert not len(country.taken)  # a road with no frontage has no cap either
 
 
 def test_withheld_from_krems_the_last_houses_of_two_cul_de_sacs_are_taken():
     """With Krems' buildings withheld and the verdict band, a join leaving Wichmanngasse's tip at 60° to the
     street and an engine street passing another cul-de-sac's tip crossed the last house of each
     (``benchmarks/withheld_buildings.py``): the frontage stopped square at the tips, and 16 % and 6 % of the
-    two houses stood past it. They are wholly taken now."""
+    two houses stood past it. With ``dead_end_open_deg=45`` (off by default: :class:`LandOptions`) they are
+    wholly taken."""
     city = town("krems.osm.gz")
     houses = [b.polygon for b in city.buildings if b.osm_id in (58817545, 140588568)]
     assert len(houses) == 2
     bare = city.replace(buildings=())
-    now = shapely.union_all(read_land(bare).taken)
+    now = shapely.union_all(read_land(bare, LandOptions(dead_end_open_deg=45.0)).taken)
     assert all(shapely.area(shapely.intersection(h, now)) >= h.area - 1e-6 for h in houses)
-    flat = shapely.union_all(read_land(bare, LandOptions(dead_end_open_deg=None)).taken)
+    flat = shapely.union_all(read_land(bare).taken)
     assert all(shapely.area(shapely.intersection(h, flat)) < 0.95 * h.area for h in houses)
 
 
@@ -158,7 +161,7 @@ def test_a_street_end_a_service_way_continues_gets_land_past_its_tip():
     that end is a junction, so the corner past the tip is taken."""
     drive = shapely.LineString([(1000.0, 0.0), (1000.0, 300.0)])
     plain, continued = street_city(), street_city().replace(service_lines=(drive,))
-    corner = shapely.Point(1030.0, -10.0)  # past the tip, straight on (a dead end's way on), south of the way
+    corner = shapely.Point(1020.0, -20.0)  # past the tip, south of the service way's flat end
     assert not shapely.union_all(read_land(plain).taken).intersects(corner)
     assert not shapely.union_all(read_land(continued).taken).intersects(corner)  # off by default
     taken = shapely.union_all(read_land(continued, LandOptions(service_ways=True)).taken)
