@@ -8,6 +8,7 @@ import pytest
 import shapely
 
 from osm_expand.blocks import blocks
+from osm_expand.errors import OptionError
 from osm_expand.ingest import load
 from osm_expand.land import LAND_COVER, SETTLEMENT, WORKS, LandOptions, frontage_depth, land_cover_taken, read_land
 from osm_expand.model import Building, City, MappedArea, network_from_lines
@@ -87,6 +88,12 @@ def test_the_houses_round_a_dead_ends_tip_are_taken_and_the_way_straight_on_is_f
     assert not flat.intersects(shapely.Point(1030.0, 40.0))
     country = read_land(street_city(highway="unclassified"), LandOptions(dead_end_open_deg=45.0))
     assert not len(country.taken)  # a road with no frontage has no cap either
+
+
+@pytest.mark.parametrize("bad", [0.0, 90.0, -10.0, float("nan")])
+def test_an_open_angle_past_a_tip_outside_0_to_90_degrees_is_refused(bad):
+    with pytest.raises(OptionError, match="dead_end_open_deg"):
+        LandOptions(dead_end_open_deg=bad)
 
 
 def test_withheld_from_krems_the_last_houses_of_two_cul_de_sacs_are_taken():
