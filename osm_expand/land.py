@@ -137,7 +137,7 @@ class LandOptions:
     #: with 45 and Krems' buildings withheld (verdict band), the last houses of two cul-de-sacs a join and an
     #: engine street crossed are taken (5 houses crossed -> 3, all in the sewage plant, :data:`WORKS`), but
     #: north-bayreuth's run went elsewhere (2 -> 5: farmsteads 130-290 m from any street, and a join
-    #: continuing a cul-de-sac straight on through its end house), and the districts moved (Krems mean off
+    #: off a cul-de-sac's tip through its end house, 44.5° off straight on), and the districts moved (Krems mean off
     #: 2.0 -> 3.4 over seeds 0-4, density in range 3 of 5; Andorra's 2-core share in range 3 of 5).
     dead_end_open_deg: float | None = None
 
