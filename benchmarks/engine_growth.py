@@ -15,13 +15,16 @@ run and of the judging. ``--eras`` adds a line per era; ``--measures`` a line pe
 (and per era, reference seed 0), after the tables, naming each measure off, its value against its range
 and by how much. ``--discs`` judges against the reference
 neighbourhoods measured in their discs (the yardstick before they were measured on their streets' land,
-:func:`osm_expand.growth_fidelity.streets_land`).
+:func:`osm_expand.growth_fidelity.streets_land`). ``--fixed-margin`` judges with the window's margin a fixed
+50 m (the yardstick before it was half the side of the town's median block,
+:func:`osm_expand.growth_fidelity.town_margin`).
 
 Issue 20's targets: off on at most 4 of 14, dead-end and 2-core shares in
 range, infill + edge expansion at least 80 % of the new street length.
 
-Usage: ``python benchmarks/engine_growth.py [--history european] [--eras] [--measures] [--discs] [--seed N]
-[--neighbourhoods K] [TOWN ...]`` (``--neighbourhoods``: :attr:`GrowthOptions.district_neighbourhoods` for the run)
+Usage: ``python benchmarks/engine_growth.py [--history european] [--eras] [--measures] [--discs] [--fixed-margin]
+[--seed N] [--neighbourhoods K] [TOWN ...]`` (``--neighbourhoods``: :attr:`GrowthOptions.district_neighbourhoods`
+for the run)
 (default: Krems, Andorra, north-bayreuth, Monaco, Krems with ``european``, then Campo Grande;
 Campo Grande takes about 5 minutes and 8 GB).
 """
@@ -72,7 +75,7 @@ def _off_measures(report: dict) -> str:
 
 
 def run(name: str, history: str, years: int | None, refs: int, discs: bool = False,
-        neighbourhoods: float | None = None, seed: int = 0) -> dict:
+        neighbourhoods: float | None = None, seed: int = 0, fixed_margin: bool = False) -> dict:
     from osm_expand.engine.growth.minor_streets import GrowthOptions
     from osm_expand.engine.history import load_history
     from osm_expand.engine.loop import EngineOptions
@@ -93,8 +96,8 @@ def run(name: str, history: str, years: int | None, refs: int, discs: bool = Fal
     net = result.city.network
     town = [net.street_xy(s) for s in net.streets if s.origin == Origin.SOURCE]
     built = built_up(before_the_years(result.city))
-    options = GrowthFidelityOptions(references_on_streets_land=not discs)
-    judged = [growth_fidelity(net, town, built=built, rng=seed, options=options) for seed in range(refs)]
+    options = GrowthFidelityOptions(references_on_streets_land=not discs, window_margin_from_town=not fixed_margin)
+    judged = [growth_fidelity(net, town, built=built, rng=ref, options=options) for ref in range(refs)]
     judge_s, judge_cpu = (time.perf_counter() - t0) / refs, (time.process_time() - c0) / refs
     eras = [(e["era"], e["districts"], e["street_length_km"]) for e in result.report["engine"]["eras"]]
     return {"name": name, "history": history, "judged": judged, "eras_grown": eras, "run_s": run_s, "run_cpu": run_cpu,
@@ -108,6 +111,8 @@ def main() -> None:
     ap.add_argument("--years", type=int, default=None, help="years (default: the history's own, 30)")
     ap.add_argument("--refs", type=int, default=3, help="reference seeds for the verdict (default 3)")
     ap.add_argument("--eras", action="store_true", help="a line per era too")
+    ap.add_argument("--fixed-margin", action="store_true",
+                    help="the window's margin a fixed 50 m (the yardstick before the town's half block)")
     ap.add_argument("--discs", action="store_true", help="references measured in their discs (the yardstick before)")
     ap.add_argument("--measures", action="store_true",
                     help="per town and reference seed (and era, with --eras), the measures off: value against "
@@ -126,7 +131,8 @@ def main() -> None:
     off_lines: list[str] = []  # outside the tables: a one-cell row breaks a 12-column markdown table
     era_off_lines: list[str] = []
     for name, history in runs:
-        row = run(name, history, args.years, args.refs, args.discs, args.neighbourhoods, args.seed)
+        row = run(name, history, args.years, args.refs, args.discs, args.neighbourhoods, args.seed,
+                  args.fixed_margin)
         first = row["judged"][0]
         if first is None or first.overall is None:
             print(f"| {name} | {history} | no engine street | | | | | | | | "

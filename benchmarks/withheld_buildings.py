@@ -12,7 +12,12 @@ and counts against the withheld buildings — the ground truth:
 
 The same run with the buildings in the file is printed beside it.
 
-Usage: ``python benchmarks/withheld_buildings.py [--seed 0] [--years N] [--history H] [TOWN ...]``
+``--works`` reads works' enclosures as settlement (``osm_expand.land.WORKS``) and ``--dead-end-open DEG``
+takes the land past dead ends' tips but for DEG either side of straight on (``LandOptions.dead_end_open_deg``):
+the two land readings measured for issue 20, off by default.
+
+Usage: ``python benchmarks/withheld_buildings.py [--seed 0] [--years N] [--history H] [--works]
+[--dead-end-open DEG] [TOWN ...]``
 """
 from __future__ import annotations
 
@@ -51,12 +56,17 @@ def main() -> None:
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--years", type=int, default=None, help="default: the history's own (30)")
     ap.add_argument("--history", default="example", help="a bundled history or a TOML file (default: example)")
+    ap.add_argument("--works", action="store_true", help="works' enclosures are settlement (land.WORKS)")
+    ap.add_argument("--dead-end-open", type=float, default=None, metavar="DEG",
+                    help="land past dead ends' tips taken but for DEG either side of straight on")
     args = ap.parse_args()
     from osm_expand.engine.history import load_history
     from osm_expand.ingest import load
+    from osm_expand.land import SETTLEMENT, WORKS, LandOptions
     from osm_expand.maturation import MatureOptions, mature_result
     from osm_expand.pipeline import ExpandOptions, expand
 
+    land = LandOptions(settlement=SETTLEMENT + (WORKS if args.works else ()), dead_end_open_deg=args.dead_end_open)
     print("| town | buildings in the file | generated | on a real building | share | new streets "
           "| real buildings crossed | CPU s |")
     print("|---|---|---|---|---|---|---|---|")
@@ -65,7 +75,7 @@ def main() -> None:
         real = np.array([b.polygon for b in city.buildings], dtype=object)
         for label, town in (("withheld", city.replace(buildings=())), ("mapped", city)):
             t0 = time.process_time()
-            grown = mature_result(expand(town, ExpandOptions(seed=args.seed, fidelity=False)),
+            grown = mature_result(expand(town, ExpandOptions(seed=args.seed, fidelity=False, land=land)),
                                   load_history(args.history), MatureOptions(years=args.years, fidelity=False),
                                   args.seed).city
             c = count(grown, real)

@@ -41,9 +41,17 @@ and shrunk back to ``window_margin`` metres around them (a morphological
 closing: the blocks between new streets are inside, no more than a margin of
 field around them is). A disc around scattered streets would count the
 fields between them and make every density look rural; the bare buffer would
-leave out the blocks between the streets and make it look dense. With the
-margin at half a town block (50 m), a window around a district-like patch
-holds what a real neighbourhood disc of its area holds.
+leave out the blocks between the streets and make it look dense. The
+margin is half the side of the town's median block (``window_margin_from_town``;
+``window_margin``, 50 m, half a 100 m block, where the town has no blocks):
+a real neighbourhood disc cuts the blocks on its rim at a random place, so
+the field between its rim and the first street inside is on average half a
+block of *that town* deep, and a window around a district-like patch then
+holds what a disc of its area holds. A fixed 50 m read a small-block town's
+growth too sparse (Monaco: median block 1,666 m², half its side 20 m; Andorra
+32 m, Krems 46 m, north-bayreuth 53 m).
+The references' streets' land (below) is closed with the same margin, so
+the growth and its references are measured the same way.
 
 Each reference part is measured on its streets' land too
 (:func:`streets_land`: the discs within the window of the town's streets,
@@ -89,7 +97,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 import shapely
@@ -115,11 +123,11 @@ from osm_expand.measures import (
 from osm_expand.model import City, Origin, Street, StreetNetwork, polyline_length
 from osm_expand.model.options import require_positive
 from osm_expand.sites import SiteOptions, distance_maps
-from osm_expand.streets_closing import WINDOW_CLOSE, WINDOW_MARGIN, closed_land, land_in_disc
+from osm_expand.streets_closing import WINDOW_CLOSE, WINDOW_MARGIN, block_margin, closed_land, land_in_disc
 
 __all__ = ["BuiltUp", "GrowthFidelity", "GrowthFidelityOptions", "LandscapeExpansion", "before_the_years",
            "built_up", "city_growth_fidelity", "growth_fidelity", "growth_window", "is_major_road",
-           "landscape_expansion", "piece_areas", "piece_references", "streets_land"]
+           "landscape_expansion", "piece_areas", "piece_references", "streets_land", "town_margin"]
 
 
 @dataclass(frozen=True)
@@ -128,8 +136,13 @@ class GrowthFidelityOptions:
     #: them (up to 2 × 150 m across, a large town block) fall inside the window (module docstring).
     window_close: float = WINDOW_CLOSE
     #: m: the window reaches this far beyond the outermost new streets: half a 100 m town block, as a
-    #: real neighbourhood disc cuts the blocks on its rim in half on average.
+    #: real neighbourhood disc cuts the blocks on its rim in half on average; used as it is when
+    #: ``window_margin_from_town`` is off or the town has no block.
     window_margin: float = WINDOW_MARGIN
+    #: Take the margin from the town judged against (:func:`town_margin`): half the side of its median
+    #: block (the square root of the median block area over two), at most ``window_close``. Why: the
+    #: disc's rim is on average half a block of the town from the first street inside (module docstring).
+    window_margin_from_town: bool = True
     #: m each side: a new street's patch (Liu et al.'s new urban patch): about a building lot's depth.
     patch_buffer: float = 30.0
     #: m each side: an earlier era's streets are old land this far (the same lot depth as a patch).
@@ -219,6 +232,17 @@ def growth_window(lines: Sequence[np.ndarray] | LineSet,
     """The land of ``lines``: buffered ``window_close`` m, shrunk back to ``window_margin`` (module docstring)."""
     opts = options or GrowthFidelityOptions()
     return closed_land(lines, opts.window_close, opts.window_margin)
+
+
+def town_margin(town: NetworkMeasures, options: GrowthFidelityOptions | None = None) -> float:
+    """The window margin (m) for growth judged against ``town`` (measured whole): half the side of its median
+    block, ``sqrt(median block area) / 2``, at most ``window_close``; ``window_margin`` when
+    ``window_margin_from_town`` is off or the town has no block (module docstring: a disc's rim lies on
+    average half a block of the town beyond the first street inside it)."""
+    opts = options or GrowthFidelityOptions()
+    if not opts.window_margin_from_town:
+        return opts.window_margin
+    return block_margin(town.block_area, opts.window_close, opts.window_margin)
 
 
 def is_major_road(street: Street) -> bool:
@@ -443,6 +467,8 @@ def growth_fidelity(network: StreetNetwork, town_lines: Sequence[np.ndarray] | L
     town_set = LineSet.from_lines(town_lines)
     if town is None:
         town = measure_network(town_set, options=mopts, pieces=False)
+    # the growth's window and its references' streets' land with one margin, the town's (module docstring)
+    opts = replace(opts, window_margin=town_margin(town, opts), window_margin_from_town=False)
     lines = [network.street_xy(s) for s in streets]
     flat = np.fromiter((n for s in streets for n in s.nodes), dtype=np.int64)
     owner = np.repeat(np.arange(len(streets)), [len(s.nodes) for s in streets])

@@ -49,10 +49,13 @@ def land_in_discs(lines: list) -> Callable[[shapely.Geometry], shapely.Geometry]
     """The land of ``lines`` in any disc, the lines closed once: what the example patches measure their
     target density on with ``target_on_streets_land`` (:mod:`osm_expand.streets_closing`, the rule and
     default tunables of the growth verdict's :func:`~osm_expand.growth_fidelity.streets_land`; ``synth``
-    knows only the model, so the caller hands it in)."""
-    from osm_expand.streets_closing import closed_land, land_in_disc
+    knows only the model, so the caller hands it in), with the verdict's margin: the town's
+    (:func:`~osm_expand.streets_closing.block_margin` of its blocks)."""
+    from osm_expand.measures import measure_network
+    from osm_expand.streets_closing import block_margin, closed_land, land_in_disc
 
-    land = closed_land(lines)
+    blocks = measure_network(lines, pieces=False, wanted=("block_area",)).block_area
+    land = closed_land(lines, margin=block_margin(blocks))
     return lambda disc: land_in_disc(disc, land)
 
 

@@ -8,6 +8,7 @@ import pytest
 import shapely
 
 from osm_expand.blocks import blocks
+from osm_expand.errors import OptionError
 from osm_expand.ingest import load
 from osm_expand.land import LAND_COVER, SETTLEMENT, WORKS, LandOptions, frontage_depth, land_cover_taken, read_land
 from osm_expand.model import Building, City, MappedArea, network_from_lines
@@ -75,6 +76,40 @@ def test_a_dead_ends_frontage_stops_at_its_tip():
     taken = shapely.union_all(land.taken)
     assert taken.covers(shapely.Point(500.0, 50.0))
     assert not taken.intersects(shapely.Point(1010.0, 0.0))  # beyond the dead end the fields are free
+
+
+def test_the_houses_round_a_dead_ends_tip_are_taken_and_the_way_straight_on_is_free():
+    """Past a cul-de-sac's tip its last houses stand beside the way on (a disc of the frontage depth round
+    the tip is taken), while a street continuing it runs straight on (45° each side stays free)."""
+    taken = shapely.union_all(read_land(street_city(), LandOptions(dead_end_open_deg=45.0)).taken)
+    assert taken.covers(shapely.Point(1030.0, 40.0)) and taken.covers(shapely.Point(1030.0, -40.0))  # 53° off
+    assert not taken.intersects(shapely.Point(1050.0, 10.0)) and not taken.intersects(shapely.Point(1200.0, 0.0))
+    flat = shapely.union_all(read_land(street_city()).taken)  # the default (off): the frontage stops at the tip
+    assert not flat.intersects(shapely.Point(1030.0, 40.0))
+    country = read_land(street_city(highway="unclassified"), LandOptions(dead_end_open_deg=45.0))
+    assert not len(country.taken)  # a road with no frontage has no cap either
+
+
+@pytest.mark.parametrize("bad", [0.0, 90.0, -10.0, float("nan")])
+def test_an_open_angle_past_a_tip_outside_0_to_90_degrees_is_refused(bad):
+    with pytest.raises(OptionError, match="dead_end_open_deg"):
+        LandOptions(dead_end_open_deg=bad)
+
+
+def test_withheld_from_krems_the_last_houses_of_two_cul_de_sacs_are_taken():
+    """With Krems' buildings withheld and the verdict band, a join leaving Wichmanngasse's tip at 60° to the
+    street and an engine street passing another cul-de-sac's tip crossed the last house of each
+    (``benchmarks/withheld_buildings.py``): the frontage stopped square at the tips, and 16 % and 6 % of the
+    two houses stood past it. With ``dead_end_open_deg=45`` (off by default: :class:`LandOptions`) they are
+    wholly taken."""
+    city = town("krems.osm.gz")
+    houses = [b.polygon for b in city.buildings if b.osm_id in (58817545, 140588568)]
+    assert len(houses) == 2
+    bare = city.replace(buildings=())
+    now = shapely.union_all(read_land(bare, LandOptions(dead_end_open_deg=45.0)).taken)
+    assert all(shapely.area(shapely.intersection(h, now)) >= h.area - 1e-6 for h in houses)
+    flat = shapely.union_all(read_land(bare).taken)
+    assert all(shapely.area(shapely.intersection(h, flat)) < 0.95 * h.area for h in houses)
 
 
 def test_a_country_road_has_no_frontage_in_the_fields():
