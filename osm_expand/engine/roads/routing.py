@@ -108,7 +108,9 @@ class RoutingOptions:
     turn_floor: bool = True
     #: whether a route's turn-penalised search runs from the target backwards (:func:`_backward_route`:
     #: A* towards the source on the reversed expanded graph, bound by the plain distance from the
-    #: source, then plain Dijkstra over the states of the best routes only); exact, the same routes.
+    #: source, then plain Dijkstra over the states of the best routes only); exact: the same cost
+    #: (of several routes of exactly equal cost, possibly another; the forward search's if the last
+    #: Dijkstra does not confirm the cost).
     #: Off: which end's A* settles fewer states depends on the search, and the reversed graph is a
     #: copy. Campo Grande's captured first three (``benchmarks/route_corridor_bounds.py directions``):
     #: 7.8 → 5.5, 7.2 → 7.3, 5.7 → 4.5 s CPU; the synthetic town's first 72.5 → 70.1 s (37 M states
@@ -420,16 +422,21 @@ def _best_route(graph: PathGraph, lat: np.ndarray, extra: np.ndarray, source: in
                 from_source: np.ndarray, from_target: np.ndarray, plain: list[int], bound: float,
                 opts: RoutingOptions) -> Route:
     """The turn-penalised optimum, given the plain distances from both ends (``from_target`` up to
-    ``bound``) and the plain shortest path with its turns, which cost ``bound`` (an upper bound)."""
+    ``bound``) and the plain shortest path with its turns, which cost ``bound`` (an upper bound).
+
+    Searched forwards (:func:`_tiled_search`) or, with ``opts.backward``, from the target backwards
+    (:func:`_backward_route`), which falls back to the forward search when its last Dijkstra does
+    not confirm the cost it found."""
+    penalties = _bin_penalties(opts)
+    best = None
     if opts.backward:
         best = _backward_route(graph, lat, extra, source, target, from_source, from_target, (plain, bound),
-                               np.asarray(plain), _bin_penalties(opts), opts)
-        route = _route(graph, best[0], lat, extra, 0.0)
-        return _with_turn_cost(route, max(best[1] - float(route.edge_weight.sum()), 0.0))
-    # A*: the turn-free distance to the target is a consistent bound (turns cost ≥ 0), the first
-    # tiles those of the plain route
-    best, _ = _tiled_search(graph, lat, extra, source, target, from_source + from_target, from_target,
-                            (plain, bound), np.asarray(plain), _bin_penalties(opts), opts, graph.xy[target])
+                               np.asarray(plain), penalties, opts)
+    if best is None:
+        # A*: the turn-free distance to the target is a consistent bound (turns cost ≥ 0), the first
+        # tiles those of the plain route
+        best, _ = _tiled_search(graph, lat, extra, source, target, from_source + from_target, from_target,
+                                (plain, bound), np.asarray(plain), penalties, opts, graph.xy[target])
     vertices, total = best
     route = _route(graph, vertices, lat, extra, 0.0)
     return _with_turn_cost(route, max(total - float(route.edge_weight.sum()), 0.0))
@@ -850,7 +857,8 @@ def _tiled_search(graph: PathGraph, lat: np.ndarray, extra: np.ndarray, source: 
 
 def _backward_route(graph: PathGraph, lat: np.ndarray, extra: np.ndarray, source: int, target: int,
                     from_source: np.ndarray, from_target: np.ndarray, best: tuple[list[int], float],
-                    seed: np.ndarray, penalties: np.ndarray, opts: RoutingOptions) -> tuple[list[int], float]:
+                    seed: np.ndarray, penalties: np.ndarray,
+                    opts: RoutingOptions) -> tuple[list[int], float] | None:
     """The turn-penalised best route searched from the target backwards, tile by tile, then its vertices.
 
     The forward search from the source settles every state with ``g ≤ C``
@@ -883,7 +891,10 @@ def _backward_route(graph: PathGraph, lat: np.ndarray, extra: np.ndarray, source
     their states): a state on a best route is reached from states on best
     routes only, so its distance and its predecessor are those of a plain
     search over the whole region (of several exactly equal ones, the heap's
-    order may pick another: the same cost).
+    order may pick another: the same cost). Should that search not reach the
+    target within the cost found (plus the rounding slack), the two searches
+    disagree: None, and the caller searches forwards instead of silently
+    keeping ``best``.
 
     Parameters
     ----------
@@ -896,8 +907,9 @@ def _backward_route(graph: PathGraph, lat: np.ndarray, extra: np.ndarray, source
 
     Returns
     -------
-    vertices, cost
-        The best route (``best`` when none is cheaper).
+    vertices, cost or None
+        The best route (``best`` when none is cheaper); None when the last
+        Dijkstra does not confirm the cost found.
     """
     k = opts.heading_bins
     per = 2 * k + 1
@@ -977,10 +989,12 @@ def _backward_route(graph: PathGraph, lat: np.ndarray, extra: np.ndarray, source
     del dist, to_target, arrive
     expanded, local = _expanded_graph(graph, lat, extra, on, penalties, k)
     start = int(local[source]) * per + 2 * k
-    forward, pred = dijkstra(expanded, indices=start, return_predecessors=True,
-                             limit=cost + 2 * len(on) * per * _EPS + 1e-9 * cost + 1e-6)
+    tolerance = 2 * len(on) * per * _EPS + 1e-9 * cost + 1e-6
+    forward, pred = dijkstra(expanded, indices=start, return_predecessors=True, limit=cost + tolerance)
     ends = int(local[target]) * per + arange_k
     end = int(ends[np.argmin(forward[ends])])
+    if not forward[end] <= cost + tolerance:
+        return None  # the backward search's cost is not confirmed: the caller searches forwards
     if not forward[end] < best[1]:
         return best
     return _vertex_path(pred, start, end, on, per), float(forward[end])
