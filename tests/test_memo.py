@@ -71,25 +71,64 @@ def test_the_content_memo_makes_once_for_inputs_of_the_very_same_coordinates():
         ContentMemo.key({"a": 1})
 
 
+def test_the_content_key_tells_empty_and_numeric_arrays_from_geometries():
+    """Finding 6 of session 31: a numeric array is hashed with its dtype and shape before its elements
+    are tested, so an empty one is not an empty sequence of geometries; a 0-d object array is refused."""
+    from osm_expand.model.memo import ContentMemo
+
+    empty = ContentMemo.key([])
+    assert ContentMemo.key(np.empty((0, 3))) != empty
+    assert ContentMemo.key(np.empty((0, 3))) != ContentMemo.key(np.empty((0, 2)))
+    assert ContentMemo.key(np.empty(0, dtype=object)) == empty == ContentMemo.key(())  # no geometries
+    assert ContentMemo.key(np.array(1.0)) != ContentMemo.key(np.array([1.0]))  # 0-d numeric: its shape counts
+    with pytest.raises(TypeError):
+        ContentMemo.key(np.array(shapely.Point(0, 0), dtype=object))  # 0-d object array
+    with pytest.raises(TypeError):
+        ContentMemo.key(np.empty((2, 2), dtype=object))
+
+
 def test_a_town_rebuilt_the_same_around_a_site_finds_its_occupied_land_and_region_made(monkeypatch):
     """The year loop makes new blocks and buildings every year; where they are the same around a site that
     is tried again, :meth:`City.occupied_within` and the region's free land are not made again, and are the
-    very geometry (the same bytes) they were."""
+    very geometry (the same bytes) they were. The town is rebuilt from its geometries' WKB (blocks,
+    buildings, street lines): new objects, found by their coordinates only."""
+    from dataclasses import replace
+
+    import osm_expand.model.city as city_module
+    import osm_expand.sites as sites_module
     from osm_expand.ingest import load
     from osm_expand.pipeline import prepare
     from osm_expand.sites import Site, district_region
     from tests.conftest import FIXTURES
 
-    city = prepare(load(FIXTURES / "krems.osm.gz"))
-    site = Site(centre=np.array([2344.1, 109.7]), area=650_000.0,
-                region=shapely.Point(2344.1, 109.7).buffer(455.0), score=1.0)
-    region = district_region(city, site)
-    again = city.replace(blocks=tuple(list(city.blocks)), buildings=tuple(list(city.buildings)))  # new tuples
-    import osm_expand.model.city as city_module
-    import osm_expand.sites as sites_module
+    def again_(g):
+        return shapely.from_wkb(shapely.to_wkb(g))
+
+    city_module._OCCUPIED.clear()  # module-global: other tests may have filled them
+    sites_module._CLEARED.clear()
     made: list[str] = []
     for module, name in ((city_module, "_union_prepared"), (sites_module, "_cleared")):
         op = getattr(module, name)
         monkeypatch.setattr(module, name, lambda *a, op=op, name=name: made.append(name) or op(*a))
+    city = prepare(load(FIXTURES / "krems.osm.gz"))
+    site = Site(centre=np.array([2344.1, 109.7]), area=650_000.0,
+                region=shapely.Point(2344.1, 109.7).buffer(455.0), score=1.0)
+    region = district_region(city, site)
+    assert {"_union_prepared", "_cleared"} <= set(made)  # made the first time
+    made.clear()
+    blocks = tuple(replace(b, polygon=again_(b.polygon)) for b in city.blocks)
+    buildings = []
+    for b in city.buildings:
+        p = again_(b.polygon)
+        buildings.append(replace(b, rings=(shapely.get_coordinates(p.exterior),
+                                           *(shapely.get_coordinates(r) for r in p.interiors))))
+    network = replace(city.network)
+    lines = np.array([again_(g) for g in city.network.street_lines()], dtype=object)
+    lines.flags.writeable = False
+    network.__dict__["_street_lines"] = lines  # where StreetNetwork.street_lines keeps them
+    again = city.replace(blocks=blocks, buildings=tuple(buildings), network=network)
+    assert again.blocks[0].polygon is not city.blocks[0].polygon
+    assert again.buildings[0].polygon is not city.buildings[0].polygon
+    assert again.network.street_lines()[0] is not city.network.street_lines()[0]
     assert district_region(again, site).wkb == region.wkb
     assert made == []

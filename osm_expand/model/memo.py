@@ -7,10 +7,13 @@ buildings until the build-out adds some, the blocks until the streets
 change. What is derived from those objects (their union, their polygons
 and tree, the rings a raster is drawn from) is made once per object and
 asked for again many times a year. Objects of the model never change once
-made, so the object's identity is the key; no hashing of the content.
+made, so :class:`IdentityMemo` keys by the objects' identity, with no
+hashing of the content; it holds its sources (strong references), so a
+dead object's address can never be taken for it while the value is kept.
 
-The sources are held by the memo (strong references), so a dead object's
-address can never be taken for it while the value is kept; each memo keeps
+:class:`ContentMemo` is for values made from objects that are new but may
+hold the same coordinates: it keys by a digest of the content (the WKB of
+geometries, the bytes, dtype and shape of numeric arrays). Each memo keeps
 only its last few entries, so what the years left behind is let go.
 """
 from __future__ import annotations
@@ -82,11 +85,22 @@ class ContentMemo:
 
     @staticmethod
     def key(*parts: Any) -> bytes:
-        """A digest of ``parts``: each a geometry, a sequence or array of geometries, a numeric array, or a
+        """A digest of ``parts``: each a geometry, a sequence or 1-d array of geometries, a numeric array, or a
         plain value (bool, int, float, str, bytes, None); anything else is refused (its ``repr`` need not
-        show all of it)."""
+        show all of it).
+
+        A numeric array is told by its dtype before its elements are looked at, and hashed with its dtype
+        and shape: an empty one (``np.empty((0, 3))``) is not an empty sequence of geometries (``[]``),
+        which an element test alone would take it for. An object array must be 1-d (a 0-d one has no
+        elements to test)."""
         h = hashlib.blake2b(digest_size=32)
         for part in parts:
+            if isinstance(part, np.ndarray) and part.dtype != object:
+                h.update(b"A" + repr((part.dtype.str, part.shape)).encode() + b";")
+                h.update(np.ascontiguousarray(part).tobytes())
+                continue
+            if isinstance(part, np.ndarray) and part.ndim != 1:
+                raise TypeError(f"ContentMemo.key: an object array must be 1-d, got shape {part.shape}")
             if isinstance(part, shapely.Geometry):
                 part = [part]
             if isinstance(part, (list, tuple, np.ndarray)) and all(isinstance(g, shapely.Geometry) for g in part):
@@ -95,9 +109,6 @@ class ContentMemo:
                 for w in wkb:
                     h.update(b"%d;" % len(w))
                     h.update(w)
-            elif isinstance(part, np.ndarray) and part.dtype != object:
-                h.update(b"A" + repr((part.dtype.str, part.shape)).encode() + b";")
-                h.update(np.ascontiguousarray(part).tobytes())
             elif isinstance(part, (bool, int, float, str, bytes, type(None))):
                 h.update(b"V" + repr(part).encode() + b";")
             else:
