@@ -1,7 +1,7 @@
 """The land model: frontage learned from the town, taken land, land cover (issue 20)."""
 from __future__ import annotations
 
-from functools import lru_cache
+from functools import cache
 
 import numpy as np
 import pytest
@@ -16,7 +16,7 @@ from osm_expand.sites import SiteOptions, choose_site, distance_maps
 from tests.conftest import FIXTURES
 
 
-@lru_cache(maxsize=None)
+@cache
 def town(name: str) -> City:
     return load(FIXTURES / name)
 
@@ -218,3 +218,59 @@ def test_each_union_of_survey_discs_is_made_once_with_the_same_land(monkeypatch)
     monkeypatch.setattr(land_module.shapely, "union_all", union_all)
     assert len(made) == len(lists) < 0.8 * len(np.unique(which))  # was one per piece: 795 on Krems
     assert shapely.to_wkb(cut).tolist() == shapely.to_wkb(_less_piece_by_piece(claimed, discs)).tolist()
+
+
+def test_the_default_finds_no_dead_ends_and_caps_on_do(monkeypatch):
+    """Finding 14 of session 31: with ``dead_end_open_deg`` None (the default) no tree over the strips
+    is built to find the dead ends (they would have no caps); with it set, it is."""
+    import osm_expand.land as land_module
+
+    trees: list[int] = []
+    tree = shapely.STRtree
+
+    def counted(geoms, *a, **k):
+        trees.append(len(geoms))
+        return tree(geoms, *a, **k)
+
+    city = street_city()
+    monkeypatch.setattr(land_module.shapely, "STRtree", counted)
+    read_land(city)
+    default = len(trees)
+    trees.clear()
+    read_land(city, LandOptions(dead_end_open_deg=45.0))
+    assert len(trees) == default + 1
+
+
+def test_a_dead_end_whose_tip_vertex_is_doubled_keeps_its_cap():
+    """Finding 15 of session 31: straight on is taken from a frontage depth back along the street, so a
+    tip mapped twice (a last segment of no length) still gets its cap, the same as the plain street's."""
+    from osm_expand.land import _dead_end_caps
+
+    plain = shapely.LineString([(0.0, 0.0), (500.0, 0.0), (1000.0, 0.0)])
+    doubled = shapely.LineString([(0.0, 0.0), (500.0, 0.0), (1000.0, 0.0), (1000.0, 0.0)])
+    width, dead = np.array([50.0, 50.0]), np.array([False, True])  # the last end is the dead end
+    caps = _dead_end_caps(np.array([doubled], dtype=object), width, dead, 45.0)
+    assert len(caps) == 1
+    assert caps[0].covers(shapely.Point(1020.0, 30.0)) and not caps[0].intersects(shapely.Point(1040.0, 5.0))
+    same = _dead_end_caps(np.array([plain], dtype=object), width, dead, 45.0)
+    assert shapely.equals(caps[0], same[0])
+    first = _dead_end_caps(np.array([doubled.reverse()], dtype=object), width, np.array([True, False]), 45.0)
+    assert shapely.equals(first[0], same[0])  # the first end, the street drawn the other way
+
+
+def test_holes_keep_their_own_unions_across_calls():
+    """Finding 8 of session 31: the unions ``_less`` makes are kept with the very holes they index
+    (:class:`_Holes`), and a second call with them cuts the same bytes without making them again."""
+    import osm_expand.land as land_module
+
+    holes = land_module._Holes(shapely.buffer(shapely.points([(0.0, 0.0), (10.0, 0.0), (50.0, 0.0)]), 8.0))
+    claimed = np.array([shapely.box(-5, -5, 15, 5), shapely.box(0, 3, 12, 20), shapely.box(45, -2, 60, 2)],
+                       dtype=object)
+    fresh = land_module._less(claimed, holes.geoms)
+    once = land_module._less(claimed, holes)
+    made = len(holes._unions)
+    again = land_module._less(claimed[::-1].copy(), holes)
+    assert len(holes._unions) == made == 2  # {0, 1} for the first two, {2} for the last
+    assert shapely.to_wkb(once).tolist() == shapely.to_wkb(fresh).tolist() == shapely.to_wkb(again[::-1]).tolist()
+    other = land_module._Holes(holes.geoms[:1])  # other holes: their own unions, not the first's
+    assert not land_module._less(claimed[:1], other)[0].equals(once[0])
