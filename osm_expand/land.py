@@ -141,6 +141,8 @@ class LandOptions:
     #: north-bayreuth's run went elsewhere (2 -> 5: farmsteads 130-290 m from any street, and a join
     #: off a cul-de-sac's tip through its end house, 44.5° off straight on), and the districts moved (Krems mean off
     #: 2.0 -> 3.4 over seeds 0-4, density in range 3 of 5; Andorra's 2-core share in range 3 of 5).
+    #: Measured with straight on from the street's last segment; since session 31 it is from a frontage
+    #: depth back (:func:`_dead_end_caps`), not measured again.
     dead_end_open_deg: float | None = None
 
     def __post_init__(self) -> None:
