@@ -21,7 +21,7 @@ def grid_lots(n: int, rng: np.random.Generator, spacing: float = 30.0):
     return g + rng.normal(0, spacing / 8, g.shape), rng.uniform(400, 1200, n)
 
 
-def layout_of(xy, area=None, *, traffic=None, options=LandUseOptions(), **kw):
+def layout_of(xy, area=None, *, traffic=None, options=lt.DEFAULT_OPTIONS, **kw):
     xy = np.asarray(xy, float)
     area = np.full(len(xy), 500.0) if area is None else np.asarray(area, float)
     attrs = lv.lot_attributes(xy, centres=xy.mean(0, keepdims=True), traffic=traffic, **kw)
@@ -256,9 +256,60 @@ def test_local_change_with_externalities_equals_the_change_of_the_system_value()
     np.testing.assert_allclose(state.values, lv.lot_values(lay, lut2, types=types))
 
 
+def _externalities_layer_by_layer(state, lots, old, new):
+    """``_State.externalities`` as it was: two ``valuate`` calls per layer and side (influence) and per
+    layer (cluster), each added to the neighbours' deltas as it came."""
+    lay, ct, lut = state.layout, state.ct, state.lut
+    tab = ct.table
+    total = np.zeros(len(lots))
+    wt = lay.weights_by_source
+    owner, pos = lv.ragged(wt.indptr, lots)
+    v = wt.indices[pos]
+    tv = lut[v]
+    a, b = old[owner], new[owner]
+    tvc = np.maximum(tv, 0)
+    keep = (tv >= 0) & (state.listens[tvc, a] | state.listens[tvc, b])
+    owner, v, a, b, w = owner[keep], v[keep], a[keep], b[keep], wt.data[pos][keep]
+    if len(v):
+        tv = tv[keep]
+        ws = lay.weight_sums[v]
+        ws = np.where(ws > 0, ws, 1.0)
+        dw = w / ws
+        delta = np.zeros(len(v))
+        for src, sign in ((a, -1.0), (b, 1.0)):
+            x0 = state.sums[v, np.maximum(src, 0)] / ws
+            for layer in tab.influence:
+                j = np.where(src >= 0, layer[tv, np.maximum(src, 0)], -1)
+                m = np.flatnonzero(j >= 0)
+                if len(m):
+                    jm = j[m]
+                    delta[m] += tab.term_weight[jm] * (tab.valuate(x0[m] + sign * dw[m], jm)
+                                                       - tab.valuate(x0[m], jm))
+        total += np.bincount(owner, weights=lay.area[v] * delta, minlength=len(lots))
+    if state.k:
+        owner, pos = lv.ragged(lay.reverse_knn_indptr, lots)
+        v = lay.reverse_knn_indices[pos]
+        tv = lut[v]
+        step = ((tv == new[owner]).astype(float) - (tv == old[owner])) / state.k
+        keep = (tv >= 0) & (step != 0)
+        owner, v, tv, step = owner[keep], v[keep], tv[keep], step[keep]
+        if len(v):
+            c0 = state.counts[v, tv] / state.k
+            delta = np.zeros(len(v))
+            for layer in tab.cluster:
+                j = layer[tv]
+                m = np.flatnonzero(j >= 0)
+                if len(m):
+                    jm = j[m]
+                    delta[m] += tab.term_weight[jm] * (tab.valuate(c0[m] + step[m], jm) - tab.valuate(c0[m], jm))
+            total += np.bincount(owner, weights=lay.area[v] * delta, minlength=len(lots))
+    return total
+
+
 def test_the_externalities_value_every_term_in_one_call_to_the_same_bits(monkeypatch):
     """A chunk's externalities value all their terms in one call of ``valuate`` per kind (influence,
-    cluster), not two per layer and side, and the sum is the same to the bit as valued layer by layer."""
+    cluster), not two per layer and side, and the sum is the same to the bit as valued layer by layer
+    (the old loop, :func:`_externalities_layer_by_layer`, on the same state, lots and new types)."""
     rng = np.random.default_rng(5)
     xy, area = grid_lots(300, rng)
     lay = layout_of(xy, area, traffic=rng.gamma(1, 100, 300))
@@ -272,14 +323,17 @@ def test_the_externalities_value_every_term_in_one_call_to_the_same_bits(monkeyp
     valuate = type(tab).valuate
     monkeypatch.setattr(type(tab), "valuate", lambda self, x, j: calls.append(len(x)) or valuate(self, x, j))
     got = state.externalities(lots, lut[lots], new)
-    assert len(calls) <= 2
+    assert len(calls) == 2  # one for the influence terms, one for the cluster terms
+    old_calls = len(calls)
+    assert got.tobytes() == _externalities_layer_by_layer(state, lots, lut[lots], new).tobytes()
+    assert len(calls) - old_calls > 2  # the old loop called it per layer and side
     terms = [(np.arange(5), np.array([0, 1, 0, 2, 1]), rng.random(5), rng.random(5)),
              (np.array([1, 3]), np.array([2, 2]), rng.random(2), rng.random(2))]
     one_by_one = np.zeros(5)
     for m, jm, after, before in terms:
         one_by_one[m] += tab.term_weight[jm] * (valuate(tab, after, jm) - valuate(tab, before, jm))
     assert lu._term_deltas(tab, terms, 5).tobytes() == one_by_one.tobytes()
-    assert np.isfinite(got).all()
+    assert np.isfinite(got).all() and np.count_nonzero(got)
 
 
 # --------------------------------------------------------------------------- the update

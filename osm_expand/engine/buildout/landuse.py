@@ -51,7 +51,7 @@ from osm_expand.engine.buildout.landuse_types import (
     CompiledTypes,
     LandUseOptions,
     LandUseType,
-    _TermTable,
+    TermTable,
     compile_types,
 )
 from osm_expand.engine.buildout.lot_values import (
@@ -176,12 +176,12 @@ class _State:
         self.refresh(rows if len(rows) < lay.n // 2 else None)
 
 
-def _term_deltas(tab: _TermTable, terms: list[tuple[NDArray[np.int64], NDArray[np.int64], NDArray[np.float64],
+def _term_deltas(tab: TermTable, terms: list[tuple[NDArray[np.int64], NDArray[np.int64], NDArray[np.float64],
                                                      NDArray[np.float64]]], n: int) -> NDArray[np.float64]:
     """Σ over ``terms`` of ``term_weight · (valuate(after) − valuate(before))`` per neighbour (n,).
 
     ``terms`` holds (neighbours, term, after, before) per layer. Every value
-    is valued in one call (:meth:`_TermTable.valuate` works element by
+    is valued in one call (:meth:`TermTable.valuate` works element by
     element, so each is the same number as valued alone) and the layers are
     added in their order, as one call per layer and side did: a land-use
     update asks this of every chunk of lots, and the calls on arrays of a

@@ -384,7 +384,7 @@ class CompiledTypes:
         return len(self.names)
 
     @cached_property
-    def table(self) -> _TermTable:
+    def table(self) -> TermTable:
         """All terms as arrays, for :func:`~osm_expand.engine.buildout.lot_values.term_values`."""
         flat = [(t, term) for t, terms in enumerate(self.terms) for term in terms]
         kinds = np.array([term.kind for _, term in flat], dtype=object)
@@ -416,7 +416,7 @@ class CompiledTypes:
         cluster = np.full((max([len(v) for v in by_type.values()], default=0), self.n), -1, np.int64)
         for t, fs in by_type.items():
             cluster[:len(fs), t] = fs
-        return _TermTable(
+        return TermTable(
             column=column, low=np.array([term.low for _, term in flat], dtype=np.float64),
             high=np.array([term.high for _, term in flat], dtype=np.float64), exponent=exponent,
             step=kinds == Valuation.STEP.value,
@@ -426,7 +426,7 @@ class CompiledTypes:
 
 
 @dataclass(frozen=True, eq=False)
-class _TermTable:
+class TermTable:
     """Every term of every type as arrays (J,): its attribute column, bounds, gain exponent, kind flags;
     ``weight`` (J, T) puts each term's weight on its type's column."""
 
