@@ -20,6 +20,7 @@ import shapely
 
 from osm_expand.model import Street, StreetNetwork
 from osm_expand.model.highways import rank
+from osm_expand.model.network import pair_keys
 from osm_expand.model.topology import clean_nodes, junction_mask, lengths, piece_table
 from simplify.options import SimplifyOptions
 
@@ -95,7 +96,7 @@ def _parallel_groups(table: dict[str, np.ndarray]) -> dict[PieceKey, list[tuple[
     u, v = table["u"], table["v"]
     lo, hi = np.minimum(u, v), np.maximum(u, v)
     ok = lo != hi
-    keys = lo * (int(max(hi.max(initial=0), 0)) + 1) + hi
+    keys = pair_keys(u, v)
     _, inverse, counts = np.unique(keys, return_inverse=True, return_counts=True)
     sel = np.flatnonzero(ok & (counts[inverse] > 1))
     groups: defaultdict[PieceKey, list[tuple[int, int, int]]] = defaultdict(list)

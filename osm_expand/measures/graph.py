@@ -13,6 +13,7 @@ from scipy.spatial import cKDTree
 
 from osm_expand.measures.kinds import MeasureOptions
 from osm_expand.measures.lines import LineSet
+from osm_expand.model.network import pair_keys
 
 __all__ = ["junction_points", "two_core"]
 
@@ -69,9 +70,7 @@ def _segments(node: np.ndarray, label: np.ndarray) -> tuple[np.ndarray, np.ndarr
     u, v = node[:-1][same], node[1:][same]
     real = u != v
     u, v = u[real], v[real]
-    lo, hi = np.minimum(u, v), np.maximum(u, v)
-    n = int(max(node.max(initial=0) + 1, 1))
-    _, keep = np.unique(lo * n + hi, return_index=True)
+    _, keep = np.unique(pair_keys(u, v), return_index=True)
     keep.sort()
     return u[keep], v[keep]
 

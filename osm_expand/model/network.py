@@ -172,7 +172,7 @@ class StreetNetwork:
         return max((s.id for s in self.streets), default=-1) + 1
 
     def _segment_keys(self) -> np.ndarray:
-        """The undirected segments of every street as sorted unique keys (:func:`_pair_keys`), read-only.
+        """The undirected segments of every street as sorted unique keys (:func:`pair_keys`), read-only.
 
         Made once per network, and handed on by :meth:`with_new_streets` to the network it makes
         (this one's keys and the new streets'): a year of Campo Grande adds streets some 200 times,
@@ -183,7 +183,7 @@ class StreetNetwork:
             runs = [np.asarray(s.nodes, dtype=np.int64) for s in self.streets if len(s.nodes) >= 2]
             u = np.concatenate([r[:-1] for r in runs]) if runs else np.zeros(0, np.int64)
             v = np.concatenate([r[1:] for r in runs]) if runs else np.zeros(0, np.int64)
-            keys = np.unique(_pair_keys(u, v))
+            keys = np.unique(pair_keys(u, v))
             keys.flags.writeable = False
             self.__dict__["_segment_key_memo"] = keys  # frozen: the memo bypasses __setattr__, as street_lines' does
         return keys
@@ -237,8 +237,13 @@ class StreetNetwork:
         return out
 
 
-def _pair_keys(u: np.ndarray, v: np.ndarray) -> np.ndarray:
-    """One int64 key per undirected node pair (``u[i]``, ``v[i]``): the same for either direction."""
+def pair_keys(u: np.ndarray, v: np.ndarray) -> np.ndarray:
+    """One int64 key per undirected node pair (``u[i]``, ``v[i]``): the same for either direction.
+
+    Keys sort as the pairs ``(min, max)`` do (node indices below 2³¹), so sorting, ``np.unique`` and
+    ``searchsorted`` over them see the pairs in lexicographic order. The one place the project makes
+    undirected segment keys from node indices.
+    """
     return np.minimum(u, v) * np.int64(1 << 32) + np.maximum(u, v)
 
 
@@ -252,11 +257,11 @@ class _SegmentKeys:
 
     def __init__(self, known: np.ndarray, active: bool = True):
         self.active = active
-        self.known = known  #: sorted keys (:func:`_pair_keys`) of the network's segments
+        self.known = known  #: sorted keys (:func:`pair_keys`) of the network's segments
         self.added: set[int] = set()  #: keys of the new lines' segments
 
     def _key(self, u: np.ndarray, v: np.ndarray) -> np.ndarray:
-        return _pair_keys(u, v)
+        return pair_keys(u, v)
 
     def new_pieces(self, run: np.ndarray) -> list[np.ndarray]:
         """``run`` split where it follows a known segment (pieces of ≥ 2 nodes); its segments become known."""

@@ -56,6 +56,7 @@ from osm_expand.engine.traffic.trips import (
 )
 from osm_expand.model import City, Status, match_points
 from osm_expand.model.highways import TRADE
+from osm_expand.model.network import pair_keys
 from osm_expand.model.segments import SegmentTable, segment_pieces
 
 #: Highway classes a trade route may use (the model's named set).
@@ -162,11 +163,10 @@ def residents(city: City, table: SegmentTable, options: TripOptions) -> np.ndarr
 
 def _segment_lookup(table: SegmentTable, a: np.ndarray, b: np.ndarray) -> np.ndarray:
     """The segment joining nodes a[i] and b[i] (either direction), or -1."""
-    n = max(len(table.xy), 1)
-    keys = np.minimum(table.uv[:, 0], table.uv[:, 1]) * n + np.maximum(table.uv[:, 0], table.uv[:, 1])
+    keys = pair_keys(table.uv[:, 0], table.uv[:, 1])
     order = np.argsort(keys, kind="stable")
     sorted_keys = keys[order]
-    want = np.minimum(a, b) * n + np.maximum(a, b)
+    want = pair_keys(a, b)
     at = np.clip(np.searchsorted(sorted_keys, want), 0, max(len(keys) - 1, 0))
     found = sorted_keys[at] == want if len(keys) else np.zeros(len(want), dtype=bool)
     return np.where(found, order[at], -1)
