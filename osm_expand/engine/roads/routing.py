@@ -677,6 +677,22 @@ def _tile_of(graph: PathGraph, size: int) -> tuple[np.ndarray, tuple[int, int]]:
     return tile, shape
 
 
+def _grown_tiles(active: np.ndarray, reached: np.ndarray, region_tiles: np.ndarray, shape: tuple[int, int],
+                 searched: int) -> np.ndarray:
+    """The tiles to add to ``active`` (flat bool): those of the ``reached`` vertices' tiles and their
+    neighbours, grown ring after ring until they hold at least ``searched`` vertices of the region
+    (``region_tiles``: the tile of each region vertex) or no tile is left. At least twice as large each
+    round: each search makes the expanded graph anew, so the searches together cost at most about
+    twice the last one."""
+    grow = np.zeros_like(active)
+    grow[reached] = True
+    grow = _dilated(grow, shape)
+    per_tile = np.bincount(region_tiles, minlength=len(active))
+    while per_tile[grow & ~active].sum() < searched and (per_tile[~active & ~grow] > 0).any():
+        grow = _dilated(grow, shape)
+    return grow
+
+
 def _dilated(tiles: np.ndarray, shape: tuple[int, int]) -> np.ndarray:
     """Tiles (flat bool) and their eight neighbours."""
     return binary_dilation(tiles.reshape(shape), structure=np.ones((3, 3), dtype=bool)).ravel()
@@ -844,15 +860,7 @@ def _tiled_search(graph: PathGraph, lat: np.ndarray, extra: np.ndarray, source: 
         del dist, departs  # this search's states go before the next graph is made
         if not len(w):
             return best, arrivals
-        grow = np.zeros_like(active)
-        grow[tile[w]] = True
-        grow = _dilated(grow, shape)
-        # grow at least twice as large (each search makes the expanded graph anew, so the searches
-        # together cost at most about twice the last one): ring after ring round the new tiles
-        per_tile = np.bincount(tile[region], minlength=len(active))
-        while per_tile[grow & ~active].sum() < len(verts) and (per_tile[~active & ~grow] > 0).any():
-            grow = _dilated(grow, shape)
-        active |= grow
+        active |= _grown_tiles(active, tile[w], tile[region], shape, len(verts))
 
 
 def _backward_route(graph: PathGraph, lat: np.ndarray, extra: np.ndarray, source: int, target: int,
@@ -974,13 +982,7 @@ def _backward_route(graph: PathGraph, lat: np.ndarray, extra: np.ndarray, source
         if not len(u):
             break
         del dist, to_target, arrive
-        grow = np.zeros_like(active)
-        grow[tile[u]] = True
-        grow = _dilated(grow, shape)
-        per_tile = np.bincount(tile[region], minlength=len(active))
-        while per_tile[grow & ~active].sum() < len(verts) and (per_tile[~active & ~grow] > 0).any():
-            grow = _dilated(grow, shape)
-        active |= grow
+        active |= _grown_tiles(active, tile[u], tile[region], shape, len(verts))
     if not cost < best[1]:
         return best
     # the vertices with a state that may lie on a best route: d_s(v) + b(state) ≤ C
