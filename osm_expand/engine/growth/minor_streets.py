@@ -31,6 +31,7 @@ import shapely
 from osm_expand.district import place_district
 from osm_expand.engine.growth.nuclei import Nucleus, candidate_points, rank_candidates
 from osm_expand.engine.growth.stubs import close_stubs
+from osm_expand.errors import OptionError
 from osm_expand.joins import add_streets
 from osm_expand.model import City, Origin, Status, closest_on_segments, match_points, polyline_length
 from osm_expand.model.segments import SegmentTable
@@ -88,7 +89,7 @@ class GrowthOptions:
     #: the pipeline's district area (:attr:`SiteOptions.area_share` of the town's built-up land, at most
     #: :attr:`SiteOptions.neighbourhood_area`: the area of the discs the district verdict judges against) at the
     #: town's built-up street density (:func:`built_up_density`; :func:`neighbourhood_length`). An era (or the run:
-    #: :attr:`EngineOptions.last_year`) that ends with length owed grows it in its last year (from
+    #: ``EngineContext.last_year``) that ends with length owed grows it in its last year (from
     #: :attr:`min_district` spacings on; without the run's end Andorra's seed 1 grew 17 km instead of main's 47, its
     #: ``consolidation`` era's owed length lost when the run ended), and a district due but
     #: refused is tried again every year (at :attr:`min_district`, as without the floor) until one is placed, so a
@@ -105,6 +106,12 @@ class GrowthOptions:
     #: overall, not on every town, and beyond 4 on three. At 3 Campo Grande stays 6 5 6 (11 districts); with the
     #: verdict band (PatchOptions ``density_from_verdict``) at 5 it is 8 7 7 (README, "The engine's district floor").
     district_neighbourhoods: float = 0.0
+
+    def __post_init__(self) -> None:
+        # a negative or NaN floor would silently turn the floor off (or never let a district grow)
+        if not (np.isfinite(self.district_neighbourhoods) and self.district_neighbourhoods >= 0):
+            raise OptionError(f"growth option district_neighbourhoods must be a finite number of neighbourhoods "
+                              f">= 0, got {self.district_neighbourhoods!r}")
 
 
 @dataclass
