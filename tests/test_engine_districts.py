@@ -250,3 +250,23 @@ def test_the_district_floor_refuses_a_negative_or_not_finite_count(value):
 @pytest.mark.parametrize("value", [0.0, 0.5, 5.0])
 def test_the_district_floor_takes_zero_and_positive_counts(value):
     assert GrowthOptions(district_neighbourhoods=value).district_neighbourhoods == value
+
+
+def test_the_runs_last_year_is_a_history_year_derived_once_by_start():
+    """The district floor's run end (:attr:`EngineContext.last_year`) is the last step's history year, derived by
+    ``start`` from the run's length beside the clock: with ``anchor = "start"`` and a map dated otherwise, it is
+    the history's start plus the years less one, not a calendar year; without the run's length it is unknown."""
+    from dataclasses import replace
+
+    from osm_expand.engine.history import Anchor, load_history
+    from osm_expand.engine.loop import start
+    from osm_expand.pipeline import district_pattern
+
+    city, learned = town("krems.osm.gz")
+    history = replace(load_history("example"), anchor=Anchor.START)
+    dated = replace(city, year=history.start + 40)
+    kwargs = {"seed": 0, "spacing": learned.example.spacing, "patterns": district_pattern(learned)}
+    _, context = start(dated, history, years=7, **kwargs)
+    assert context.clock.offset == 40
+    assert context.last_year == history.start + 6 == context.clock.calendar_year(6) - 40
+    assert start(dated, history, **kwargs)[1].last_year is None
