@@ -314,7 +314,7 @@ def _grow_streets(state: EngineState, era: Era, now: YearValues, year: int, rng:
             if state.growth.neighbourhood is None:
                 # once a run, on the city of the first year a district pattern owes min_district spacings: the
                 # town as mapped plus whatever earlier years grew (a street-pattern era's streets among them)
-                state.growth.neighbourhood = neighbourhood_length(state.city)
+                state.growth.neighbourhood = neighbourhood_length(state.city, growth=options.growth)
             era_ends = ((era.end is not None and now.year + 1 >= era.end)
                         or (last_year is not None and now.year >= last_year))
             if state.growth.owed < options.growth.district_neighbourhoods * state.growth.neighbourhood and not era_ends:

@@ -35,7 +35,7 @@ from osm_expand.errors import OptionError
 from osm_expand.joins import add_streets
 from osm_expand.model import City, Origin, Status, closest_on_segments, match_points, polyline_length
 from osm_expand.model.segments import SegmentTable
-from osm_expand.sites import DistanceMaps, SiteOptions, choose_sites, distance_maps
+from osm_expand.sites import DistanceMaps, SiteOptions, choose_sites, default_district_area, distance_maps
 from synth.growth import GrowthPattern
 from synth.patterns import PatternOptions, grow_streets
 from synth.street_graph import StreetGraph
@@ -381,22 +381,23 @@ def _still_refused(city: City, refused: np.ndarray, *, reach: float) -> np.ndarr
     return refused[keep]
 
 
-def neighbourhood_length(city: City, site: SiteOptions | None = None) -> float:
+def neighbourhood_length(city: City, site: SiteOptions | None = None, growth: GrowthOptions | None = None) -> float:
     """The street length (m) of one of the town's neighbourhoods: the pipeline's district area (``area_share`` of
     the town's built-up land, at most ``neighbourhood_area``: Perry's unit) at the town's built-up street density.
 
     What :attr:`GrowthOptions.district_neighbourhoods` counts in: the district verdict judges a district against
     discs of that area around the town's denser junctions, so a district of about that length is a
-    neighbourhood's worth of streets. The rasters at a tenth of the unit's radius (45 m, as a district's:
-    :attr:`GrowthOptions.site_cells_per_radius`; the density falls on coarse cells: Krems 0.0101 m/m² at 20 m,
-    0.0099 at 45 m, 0.0079 at 200 m). Measured once a run: Krems 6.4 km (0.65 km² × 0.0099 m/m²), Campo Grande
-    10.1 km (× 0.0156 at 20 m), one year of its growth.
+    neighbourhood's worth of streets. The rasters cut the unit's radius into ``growth``'s
+    :attr:`GrowthOptions.site_cells_per_radius` cells, as a district's site does (45 m by default; the density
+    falls on coarse cells: Krems 0.0101 m/m² at 20 m, 0.0099 at 45 m, 0.0079 at 200 m). Measured once a run, at
+    45 m: Krems 6.4 km (0.65 km² × 0.0099 m/m²), Campo Grande 10.1 km (0.65 km² × 0.0156 m/m²), one year of its
+    growth.
     """
     site = site or SiteOptions()
-    cell = max(site.cell, math.sqrt(site.neighbourhood_area / math.pi) / 10.0)
+    growth = growth or GrowthOptions()
+    cell = max(site.cell, math.sqrt(site.neighbourhood_area / math.pi) / growth.site_cells_per_radius)
     maps = distance_maps(city, replace(site, cell=cell))
-    area = min(site.area_share * maps.built_area, site.neighbourhood_area)
-    return area * built_up_density(city, maps)
+    return default_district_area(site, maps.built_area) * built_up_density(city, maps)
 
 
 def built_up_density(city: City, maps: DistanceMaps) -> float:
