@@ -31,6 +31,7 @@ Campo Grande takes about 5 minutes and 8 GB).
 from __future__ import annotations
 
 import argparse
+import math
 import time
 from pathlib import Path
 
@@ -104,6 +105,17 @@ def run(name: str, history: str, years: int | None, refs: int, discs: bool = Fal
             "judge_s": judge_s, "judge_cpu": judge_cpu}
 
 
+def _neighbourhoods(text: str) -> float:
+    """--neighbourhoods as a finite number >= 0 (argparse's error otherwise, as GrowthOptions would refuse it)."""
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"not a number: {text!r}") from None
+    if not (math.isfinite(value) and value >= 0):
+        raise argparse.ArgumentTypeError(f"must be a finite number of neighbourhoods >= 0, got {text!r}")
+    return value
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("towns", nargs="*", help="fixture names (default: the five towns and Krems european)")
@@ -117,7 +129,7 @@ def main() -> None:
     ap.add_argument("--measures", action="store_true",
                     help="per town and reference seed (and era, with --eras), the measures off: value against "
                          "range, and by how much (lines outside the tables)")
-    ap.add_argument("--neighbourhoods", type=float, default=None,
+    ap.add_argument("--neighbourhoods", type=_neighbourhoods, default=None,
                     help="GrowthOptions.district_neighbourhoods, the district floor in neighbourhoods (default: "
                          "the options' own)")
     ap.add_argument("--seed", type=int, default=0, help="the run's seed (default 0; one seed moves the off count "

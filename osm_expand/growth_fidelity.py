@@ -154,7 +154,10 @@ class GrowthFidelityOptions:
     infill_above: float = 50.0
     #: m²: a piece of the window smaller than this gets no reference disc of its own (:func:`piece_areas`):
     #: nine blocks of 67 m, the pipeline's smallest district (``MIN_BLOCKS``) at a typical European junction
-    #: spacing (Krems 67 m); a lone street with its 50 m margin is about 0.01–0.03 km².
+    #: spacing (Krems 67 m). A lone street's piece is about ``2·m·length + π·m²`` for the window's margin ``m``
+    #: (the town's, :func:`town_margin`: half its median block's side, at most ``window_close``; 50 m without
+    #: blocks; the towns' 20–53 m, Monaco to north-bayreuth): a 100–300 m street is 0.005–0.013 km² at Monaco's
+    #: 20 m, 0.018–0.038 at 50 m, so below this but for a 300 m one at north-bayreuth's 53 m (0.041).
     min_piece_area: float = 40_000.0
     #: Measure each reference part on its streets' land (:func:`streets_land`), as the growth is measured on its
     #: window; False: on the discs (the yardstick before; Andorra's valley neighbourhoods of 1.3 km² read
@@ -229,7 +232,12 @@ def _num(x: float) -> float | None:
 
 def growth_window(lines: Sequence[np.ndarray] | LineSet,
                   options: GrowthFidelityOptions | None = None) -> shapely.Geometry:
-    """The land of ``lines``: buffered ``window_close`` m, shrunk back to ``window_margin`` (module docstring)."""
+    """The land of ``lines``: buffered ``window_close`` m, shrunk back to ``window_margin`` (module docstring).
+
+    The margin is ``options.window_margin`` as given: with the default options that is the fixed
+    :data:`~osm_expand.streets_closing.WINDOW_MARGIN` (50 m), not the town's; only :func:`growth_fidelity`
+    resolves the town's margin (:func:`town_margin`) and passes it down in its options.
+    """
     opts = options or GrowthFidelityOptions()
     return closed_land(lines, opts.window_close, opts.window_margin)
 
@@ -297,6 +305,10 @@ def piece_references(town_lines: Sequence[np.ndarray] | LineSet, window: shapely
     densest disc, or, where it overlaps the discs already chosen for that part, the next densest that does not
     (the pieces of a window lie apart; the ``j``-th is kept when none does); each part measured on its
     streets' land within those discs (:func:`streets_land`, unless ``references_on_streets_land`` is off).
+
+    The streets' land is closed with ``growth_options.window_margin`` as given (the fixed 50 m with the default
+    options): only :func:`growth_fidelity` resolves the town's margin (:func:`town_margin`); a caller judging
+    as it does passes the margin it resolved.
     """
     fopts = options or FidelityOptions()
     if parts < fopts.min_parts:
@@ -340,6 +352,8 @@ def streets_land(lines: LineSet | Sequence[np.ndarray], disc: shapely.Geometry,
     the disc (a town's core) this is the disc; its rim stays the disc's, so streets cut there stay open.
     The town's land is one closing of all its streets (not of each disc's streets): the same within the disc
     but where a street just outside closes a gap at the rim, and a thirtieth of the cost on Campo Grande.
+    Its margin is ``options.window_margin`` as given (the fixed 50 m with the default options; only
+    :func:`growth_fidelity` resolves the town's, :func:`town_margin`).
     """
     if land is None:
         land = growth_window(lines, options)

@@ -100,9 +100,9 @@ def mature(city: City, history: History, options: MatureOptions | None = None, s
     if years <= 0:
         return Maturation(city, {})
     town = learned if learned is not None else learn(city)
-    engine = replace(opts.engine, last_year=history.clock(city.year).history_year(years - 1))  # the run's end
     state, context = start(city, history, seed=seed, spacing=town.example.spacing,
-                           patterns=district_pattern(town), join_points=join_points, options=engine)
+                           patterns=district_pattern(town), join_points=join_points, options=opts.engine,
+                           years=years)
     eras: list[EraReport] = []
     every = opts.snapshot_every
     for k in range(years):

@@ -31,7 +31,7 @@ from osm_expand.heights import with_heights
 from osm_expand.joins import JoinReport
 from osm_expand.land import LandOptions, land_cover_taken, read_land, unbuildable
 from osm_expand.model import City, Origin, StreetNetwork, polyline_length
-from osm_expand.sites import DistanceMaps, Site, SiteOptions, choose_sites, distance_maps
+from osm_expand.sites import DistanceMaps, Site, SiteOptions, choose_sites, default_district_area, distance_maps
 from simplify import simplify
 from simplify.example import Example, build_example
 from simplify.hierarchy import with_levels
@@ -205,7 +205,7 @@ def _district_area(opts: ExpandOptions, built: float, spacing: float) -> float:
     """The district's area (m²), checked against the town's size before any work."""
     smallest, largest = MIN_BLOCKS * spacing ** 2, MAX_AREA_SHARE * built
     # by default a quarter of the town, at least the smallest district and at most a neighbourhood unit
-    area = opts.area or max(min(opts.site.area_share * built, opts.site.neighbourhood_area), smallest)
+    area = opts.area or max(default_district_area(opts.site, built), smallest)
     if smallest > largest:
         raise InputError(f"too little town to grow from: {built:.0f} m² built up, and a district of {MIN_BLOCKS} "
                          f"blocks at its {spacing:.0f} m junction spacing ({np.ceil(smallest):.0f} m²) may be at "

@@ -84,6 +84,17 @@ class SiteOptions:
     cut_off_weight: float = 1.0
 
 
+def default_district_area(opts: SiteOptions, built: float) -> float:
+    """A town's default district area (m²): ``area_share`` of its ``built`` built-up land (m²), at most one
+    ``neighbourhood_area``.
+
+    One place for the pipeline's first district (which floors it at its smallest district) and the engine's
+    neighbourhood (:func:`osm_expand.engine.growth.minor_streets.neighbourhood_length`, its district floor's
+    unit): both stand for a neighbourhood of the town, the discs the district verdict judges against.
+    """
+    return min(opts.area_share * built, opts.neighbourhood_area)
+
+
 #: Roads that cut the land: a district's streets cross none of the town's streets, and these have
 #: no junctions to meet them at, so a district's land must lie on one side of them.
 CORRIDORS = highways.CORRIDORS
@@ -617,7 +628,11 @@ def _cleared(near: np.ndarray, clearance: float) -> shapely.Geometry:
 
 #: :func:`district_region`'s streets with their clearance by the streets' content: the buffer was a fifth of
 #: Campo Grande's run, and the streets around a site, or in one of its discs and the next, are often the
-#: same when the land the town takes there is not (Krems: 28 of 64 found; the region 1.48 -> 1.02 s CPU)
+#: same when the land the town takes there is not (Krems: 28 of 64 found; the region 1.48 -> 1.02 s CPU).
+#: Why 32 entries: a year's engine districts try at most ``GrowthOptions.sites_tried`` (5) sites, each growing its
+#: region through :data:`REGION_STEPS` (5 discs): 25 buffers; the hits are the next year's tries of the same sites
+#: (and the pipeline's first district's few), so one year's tries and a few more suffice. (A buffer is a few
+#: hundred kB at most: 32 of them cost little.)
 _CLEARED = ContentMemo(kept=32)
 
 

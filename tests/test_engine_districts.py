@@ -140,9 +140,11 @@ def choose_again(city, learned, owed):
 
 
 def _districts_owed(city, spacing, yearly: float, years: int, *, era_end: int | None, neighbourhoods: float,
-                    monkeypatch, last_year: int | None = None) -> list[float]:
+                    monkeypatch, last_year: int | None = None, grow=None, memory: GrowthMemory | None = None,
+                    trace: list | None = None) -> list[float]:
     """The lengths (m) the engine's loop asks districts of, a town owing ``yearly`` metres a year for ``years``
-    years of one era (from 2000, ending at ``era_end``), every district placed as owed."""
+    years of one era (from 2000, ending at ``era_end``), every district placed as owed (or as ``grow(call, length)``
+    says: the length placed, 0 for refused). ``trace`` gets ``(year, owed, due)`` after each year."""
     from types import SimpleNamespace
 
     from osm_expand.engine import loop
@@ -154,18 +156,21 @@ def _districts_owed(city, spacing, yearly: float, years: int, *, era_end: int | 
 
     def placed(city, pattern, length, *args, **kwargs):
         asked.append(length)
-        return city, minor_streets.GrowthYear(streets=1, length_m=length, districts=1)
+        got = length if grow is None else grow(len(asked), length)
+        return city, minor_streets.GrowthYear(streets=int(got > 0), length_m=got, districts=int(got > 0))
 
     monkeypatch.setattr(loop, "grow_district", placed)
     era = Era(name="now", start=2000, end=era_end, pattern="example", options=PatchOptions(), road_types=())
     state = SimpleNamespace(city=city, nuclei=[Nucleus(xy=tuple(city.network.xy[0]), strength=0.5,
                                                        kind=NucleusKind.CENTRE)],
-                            growth=GrowthMemory(), patterns={})
-    options = EngineOptions(growth=GrowthOptions(district_neighbourhoods=neighbourhoods), last_year=last_year)
+                            growth=memory or GrowthMemory(), patterns={})
+    options = EngineOptions(growth=GrowthOptions(district_neighbourhoods=neighbourhoods))
     for year in range(2000, 2000 + years):
         _grow_streets(state, era, SimpleNamespace(year=year), year, np.random.default_rng(0),
                       round(yearly / spacing), spacing=spacing, district_pattern=lambda *a: None, bearing=0.0,
-                      options=options)
+                      options=options, last_year=last_year)
+        if trace is not None:
+            trace.append((year, state.growth.owed, state.growth.due))
     return asked
 
 
@@ -177,7 +182,8 @@ def test_a_towns_neighbourhood_is_a_district_discs_streets():
 
 
 def test_a_large_towns_yearly_growth_waits_for_districts_of_several_neighbourhoods(monkeypatch):
-    """Campo Grande owes about one neighbourhood a year: with the floor off (``min_district`` alone) every year
+    """A town owing about one neighbourhood a year (as Campo Grande does; run here on Krems with Krems' own
+    neighbourhood as the yearly length): with the floor off (``min_district`` alone) every year
     is a district of one neighbourhood; with a floor of 5 neighbourhoods a district comes every 5–6 years (the
     yearly count is whole streets), of 5 or more, and the era's last year grows what is left."""
     city, learned = town("krems.osm.gz")
@@ -207,3 +213,81 @@ def test_a_small_towns_growth_still_grows_a_district_when_its_era_ends(monkeypat
                                last_year=2007)
     assert open_era == on
     assert _districts_owed(city, spacing, yearly, 8, era_end=None, neighbourhoods=5.0, monkeypatch=monkeypatch) == []
+
+
+def test_a_due_district_refused_is_tried_every_year_at_min_district_until_one_is_placed(monkeypatch):
+    """The floor reached, a refused district stays due: it is tried again every following year as soon as
+    ``min_district`` spacings are owed (below the floor too), each refusal giving back ``min_district`` spacings;
+    once one is placed (half its length here) the floor holds again until it is owed anew."""
+    city, learned = town("krems.osm.gz")
+    spacing = learned.example.spacing
+    m = GrowthOptions().min_district  # 30 spacings
+    yearly, floor = 0.5 * m, 100.0  # spacings a year; the floor in spacings (one neighbourhood of 100)
+    trace: list = []
+    asked = _districts_owed(city, spacing, yearly * spacing, 16, era_end=None, neighbourhoods=1.0,
+                            monkeypatch=monkeypatch, memory=GrowthMemory(neighbourhood=floor * spacing),
+                            grow=lambda call, length: 0.0 if call <= 2 else 0.5 * length, trace=trace)
+    # 7 years to owe 105 ≥ 100: refused (105 → 75); 90 < 100 but due: refused (→ 60); 75: half placed (→ 37.5);
+    # then the floor again: 52.5 … 97.5 wait, 112.5 in year 13: half placed (→ 56.25)
+    assert [a / spacing for a in asked] == pytest.approx([105.0, 90.0, 75.0, 112.5])
+    owed = [o / spacing for _, o, _ in trace]
+    due = [d for _, _, d in trace]
+    assert owed == pytest.approx([15, 30, 45, 60, 75, 90, 75, 60, 37.5, 52.5, 67.5, 82.5, 97.5, 56.25, 71.25,
+                                  86.25])
+    assert due == [False] * 6 + [True, True] + [False] * 8
+
+
+@pytest.mark.parametrize("value", [-1.0, -0.001, float("nan"), float("inf"), float("-inf")])
+def test_the_district_floor_refuses_a_negative_or_not_finite_count(value):
+    """A negative or NaN floor would silently turn it off, an infinite one would stop districts but at an era's
+    end: the options refuse them with the project's one-line option error."""
+    from osm_expand.errors import OptionError
+
+    with pytest.raises(OptionError, match="district_neighbourhoods"):
+        GrowthOptions(district_neighbourhoods=value)
+
+
+@pytest.mark.parametrize("value", [0.0, 0.5, 5.0])
+def test_the_district_floor_takes_zero_and_positive_counts(value):
+    assert GrowthOptions(district_neighbourhoods=value).district_neighbourhoods == value
+
+
+def test_the_runs_last_year_is_a_history_year_derived_once_by_start():
+    """The district floor's run end (:attr:`EngineContext.last_year`) is the last step's history year, derived by
+    ``start`` from the run's length beside the clock: with ``anchor = "start"`` and a map dated otherwise, it is
+    the history's start plus the years less one, not a calendar year; without the run's length it is unknown."""
+    from dataclasses import replace
+
+    from osm_expand.engine.history import Anchor, load_history
+    from osm_expand.engine.loop import start
+    from osm_expand.pipeline import district_pattern
+
+    city, learned = town("krems.osm.gz")
+    history = replace(load_history("example"), anchor=Anchor.START)
+    dated = replace(city, year=history.start + 40)
+    kwargs = {"seed": 0, "spacing": learned.example.spacing, "patterns": district_pattern(learned)}
+    _, context = start(dated, history, years=7, **kwargs)
+    assert context.clock.offset == 40
+    assert context.last_year == history.start + 6 == context.clock.calendar_year(6) - 40
+    assert start(dated, history, **kwargs)[1].last_year is None
+
+
+def test_the_patches_streets_land_measures_the_towns_margin_once_per_pattern(monkeypatch):
+    """``target_on_streets_land``'s land: the town's blocks are measured for its margin once per pattern object
+    (its ``memo``), not at each year's rebuilt network; the land is the one measured afresh."""
+    import shapely
+
+    from osm_expand import growth_patterns, measures
+
+    city, _ = town("krems.osm.gz")
+    lines = [np.asarray(line.coords) for line in city.network.street_lines()]
+    disc = shapely.Point(np.median(city.network.xy, axis=0)).buffer(400.0)
+    fresh = growth_patterns.land_in_discs(lines)(disc)
+    calls: list[int] = []
+    real = measures.measure_network
+    monkeypatch.setattr(measures, "measure_network", lambda *a, **k: calls.append(1) or real(*a, **k))
+    memo: dict = {}
+    first = growth_patterns.land_in_discs(lines, memo)(disc)
+    second = growth_patterns.land_in_discs(lines, memo)(disc)
+    assert len(calls) == 1 and 10.0 < memo["margin"] <= 150.0
+    assert first.equals(fresh) and second.equals(fresh)

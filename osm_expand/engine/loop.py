@@ -73,9 +73,6 @@ class EngineOptions:
     #: lets the next year's traffic see the new road first.
     roads_per_year: int = 1
     growth: GrowthOptions = field(default_factory=GrowthOptions)
-    #: The history year of the run's last step (None: not known): with :attr:`GrowthOptions.district_neighbourhoods`
-    #: the length owed then is grown as an era's end's is, not lost (:func:`osm_expand.maturation.mature` sets it).
-    last_year: int | None = None
 
 
 @dataclass(frozen=True)
@@ -95,6 +92,10 @@ class EngineContext:
     patterns: PatternFactory  #: the registry of district patterns over the town's example
     streams: Mapping[str, np.random.Generator]
     options: EngineOptions = EngineOptions()
+    #: The history year of the run's last step (None: the run's length not known): with
+    #: :attr:`GrowthOptions.district_neighbourhoods` the length owed then is grown as an era's end's is, not lost.
+    #: Derived once, by :func:`start` beside the clock, from the run's ``years``.
+    last_year: int | None = None
 
     def values(self, year: int) -> YearValues:
         """The history's numbers for calendar year ``year`` (its era among them)."""
@@ -180,8 +181,8 @@ class EraReport:
 
 
 def start(city: City, history: History, *, seed: int, spacing: float, patterns: PatternFactory,
-          join_points: np.ndarray | None = None, options: EngineOptions = EngineOptions()
-          ) -> tuple[EngineState, EngineContext]:
+          join_points: np.ndarray | None = None, options: EngineOptions = EngineOptions(),
+          years: int | None = None) -> tuple[EngineState, EngineContext]:
     """The state and context of a run of ``history`` on ``city``, before its first year.
 
     Parameters
@@ -198,6 +199,9 @@ def start(city: City, history: History, *, seed: int, spacing: float, patterns: 
     join_points : ndarray, shape (J, 2), optional
         Where a grown district joins the town: nuclei of growth (003 §3.3.2).
     options : EngineOptions
+    years : int, optional
+        The run's length in steps, when known: its last step's history year
+        (:attr:`EngineContext.last_year`) ends an open era's district floor.
 
     Returns
     -------
@@ -217,7 +221,8 @@ def start(city: City, history: History, *, seed: int, spacing: float, patterns: 
     state.seconds["start"] += time.perf_counter() - started
     context = EngineContext(history=history, clock=clock, traffic_factor=b, spacing=spacing,
                             bearing=_town_bearing(SegmentTable.from_city(city)), patterns=patterns,
-                            streams=MappingProxyType(streams), options=options)
+                            streams=MappingProxyType(streams), options=options,
+                            last_year=None if years is None else clock.history_year(years - 1))
     return state, context
 
 
@@ -235,7 +240,8 @@ def step(state: EngineState, context: EngineContext, year: int) -> tuple[EngineS
     t = time.perf_counter()
     before = len(state.city.network.streets)
     grown = _grow(state, era, now, year, streams["growth"], spacing=context.spacing,
-                  district_pattern=context.patterns, bearing=context.bearing, options=context.options)
+                  district_pattern=context.patterns, bearing=context.bearing, options=context.options,
+                  last_year=context.last_year)
     state.seconds["growth"] += time.perf_counter() - t
     if len(state.city.network.streets) != before:
         t = time.perf_counter()
@@ -283,12 +289,13 @@ def summary(state: EngineState, context: EngineContext, eras: list[EraReport]) -
             "buildout": buildout_report(state.city, state.buildout, context.history)}
 
 def _grow(state: EngineState, era: Era, now: YearValues, year: int, rng: np.random.Generator, *, spacing: float,
-          district_pattern: PatternFactory, bearing: float, options: EngineOptions) -> GrowthYear:
+          district_pattern: PatternFactory, bearing: float, options: EngineOptions,
+          last_year: int | None = None) -> GrowthYear:
     """This year's minor streets: a street pattern from its starts, or a district once enough is owed."""
     count, state.carry = now.new_streets(_junction_edges(state.city), state.carry)
     known = {s.id for s in state.city.network.streets}
     grown = _grow_streets(state, era, now, year, rng, count, spacing=spacing, district_pattern=district_pattern,
-                          bearing=bearing, options=options)
+                          bearing=bearing, options=options, last_year=last_year)
     state.city, dropped = without_touching(state.city, known)
     if dropped:
         grown = replace(grown, streets=max(grown.streets - dropped, 0))
@@ -297,20 +304,25 @@ def _grow(state: EngineState, era: Era, now: YearValues, year: int, rng: np.rand
 
 def _grow_streets(state: EngineState, era: Era, now: YearValues, year: int, rng: np.random.Generator, count: int, *,
                   spacing: float, district_pattern: PatternFactory, bearing: float,
-                  options: EngineOptions) -> GrowthYear:
+                  options: EngineOptions, last_year: int | None = None) -> GrowthYear:
     centre = np.asarray(state.nuclei[0].xy)
     if era.pattern in GROWTH_PATTERNS:
         state.growth.owed += count * spacing
         if state.growth.owed < options.growth.min_district * spacing:
             return GrowthYear()
         if options.growth.district_neighbourhoods > 0 and not state.growth.due:
-            if state.growth.neighbourhood is None:  # once a run: the town's neighbourhood as mapped
-                state.growth.neighbourhood = neighbourhood_length(state.city)
+            if state.growth.neighbourhood is None:
+                # once a run, on the city of the first year a district pattern owes min_district spacings: the
+                # town as mapped plus whatever earlier years grew (a street-pattern era's streets among them)
+                state.growth.neighbourhood = neighbourhood_length(state.city, growth=options.growth)
             era_ends = ((era.end is not None and now.year + 1 >= era.end)
-                        or (options.last_year is not None and now.year >= options.last_year))
+                        or (last_year is not None and now.year >= last_year))
             if state.growth.owed < options.growth.district_neighbourhoods * state.growth.neighbourhood and not era_ends:
                 return GrowthYear()  # not yet the floor, and the era goes on: wait
-            state.growth.due = True  # owed: tried each year from now on until a district is placed
+            # owed: tried each year from now on until a district is placed. Like the owed length it belongs to,
+            # ``due`` outlives its era: a street-pattern era between leaves both as they were, and the next district
+            # era tries its first district at min_district without waiting for the floor again.
+            state.growth.due = True
         if era.name not in state.patterns:  # one object per era: it keeps what it learned between districts
             state.patterns[era.name] = district_pattern(era.pattern, era.options)
         pattern = state.patterns[era.name]

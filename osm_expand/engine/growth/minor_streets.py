@@ -31,10 +31,11 @@ import shapely
 from osm_expand.district import place_district
 from osm_expand.engine.growth.nuclei import Nucleus, candidate_points, rank_candidates
 from osm_expand.engine.growth.stubs import close_stubs
+from osm_expand.errors import OptionError
 from osm_expand.joins import add_streets
 from osm_expand.model import City, Origin, Status, closest_on_segments, match_points, polyline_length
 from osm_expand.model.segments import SegmentTable
-from osm_expand.sites import DistanceMaps, SiteOptions, choose_sites, distance_maps
+from osm_expand.sites import DistanceMaps, SiteOptions, choose_sites, default_district_area, distance_maps
 from synth.growth import GrowthPattern
 from synth.patterns import PatternOptions, grow_streets
 from synth.street_graph import StreetGraph
@@ -88,7 +89,7 @@ class GrowthOptions:
     #: the pipeline's district area (:attr:`SiteOptions.area_share` of the town's built-up land, at most
     #: :attr:`SiteOptions.neighbourhood_area`: the area of the discs the district verdict judges against) at the
     #: town's built-up street density (:func:`built_up_density`; :func:`neighbourhood_length`). An era (or the run:
-    #: :attr:`EngineOptions.last_year`) that ends with length owed grows it in its last year (from
+    #: ``EngineContext.last_year``) that ends with length owed grows it in its last year (from
     #: :attr:`min_district` spacings on; without the run's end Andorra's seed 1 grew 17 km instead of main's 47, its
     #: ``consolidation`` era's owed length lost when the run ended), and a district due but
     #: refused is tried again every year (at :attr:`min_district`, as without the floor) until one is placed, so a
@@ -105,6 +106,12 @@ class GrowthOptions:
     #: overall, not on every town, and beyond 4 on three. At 3 Campo Grande stays 6 5 6 (11 districts); with the
     #: verdict band (PatchOptions ``density_from_verdict``) at 5 it is 8 7 7 (README, "The engine's district floor").
     district_neighbourhoods: float = 0.0
+
+    def __post_init__(self) -> None:
+        # a negative or NaN floor would silently turn the floor off (or never let a district grow)
+        if not (np.isfinite(self.district_neighbourhoods) and self.district_neighbourhoods >= 0):
+            raise OptionError(f"growth option district_neighbourhoods must be a finite number of neighbourhoods "
+                              f">= 0, got {self.district_neighbourhoods!r}")
 
 
 @dataclass
@@ -374,22 +381,23 @@ def _still_refused(city: City, refused: np.ndarray, *, reach: float) -> np.ndarr
     return refused[keep]
 
 
-def neighbourhood_length(city: City, site: SiteOptions | None = None) -> float:
+def neighbourhood_length(city: City, site: SiteOptions | None = None, growth: GrowthOptions | None = None) -> float:
     """The street length (m) of one of the town's neighbourhoods: the pipeline's district area (``area_share`` of
     the town's built-up land, at most ``neighbourhood_area``: Perry's unit) at the town's built-up street density.
 
     What :attr:`GrowthOptions.district_neighbourhoods` counts in: the district verdict judges a district against
     discs of that area around the town's denser junctions, so a district of about that length is a
-    neighbourhood's worth of streets. The rasters at a tenth of the unit's radius (45 m, as a district's:
-    :attr:`GrowthOptions.site_cells_per_radius`; the density falls on coarse cells: Krems 0.0101 m/m² at 20 m,
-    0.0099 at 45 m, 0.0079 at 200 m). Measured once a run: Krems 6.4 km (0.65 km² × 0.0099 m/m²), Campo Grande
-    10.1 km (× 0.0156 at 20 m), one year of its growth.
+    neighbourhood's worth of streets. The rasters cut the unit's radius into ``growth``'s
+    :attr:`GrowthOptions.site_cells_per_radius` cells, as a district's site does (45 m by default; the density
+    falls on coarse cells: Krems 0.0101 m/m² at 20 m, 0.0099 at 45 m, 0.0079 at 200 m). Measured once a run, at
+    45 m: Krems 6.4 km (0.65 km² × 0.0099 m/m²), Campo Grande 10.1 km (0.65 km² × 0.0156 m/m²), one year of its
+    growth.
     """
     site = site or SiteOptions()
-    cell = max(site.cell, math.sqrt(site.neighbourhood_area / math.pi) / 10.0)
+    growth = growth or GrowthOptions()
+    cell = max(site.cell, math.sqrt(site.neighbourhood_area / math.pi) / growth.site_cells_per_radius)
     maps = distance_maps(city, replace(site, cell=cell))
-    area = min(site.area_share * maps.built_area, site.neighbourhood_area)
-    return area * built_up_density(city, maps)
+    return default_district_area(site, maps.built_area) * built_up_density(city, maps)
 
 
 def built_up_density(city: City, maps: DistanceMaps) -> float:
