@@ -23,7 +23,10 @@ table, synth's, clip's, batch's, measures', the build-out year's, trips'
 and trade's modules split), which left every output as it was, and after
 issue 20's engine districts sized at the town's street density, which
 changed the runs whose history grows districts: Krems, Monaco and Campo
-Grande's three runs and every fixture's ``simplify``. (Earlier baselines:
+Grande's three runs and every fixture's ``simplify``, and after session 31's district floor on by
+default (``GrowthOptions.district_neighbourhoods`` = 5), which changed the
+runs that grow districts in the engine's years: Krems' and Monaco's default
+and colonisation runs and Campo Grande's three. (Earlier baselines:
 main at 25738d5 for the second refactor, c903331 for the first.)
 """
 
