@@ -677,6 +677,16 @@ def _tile_of(graph: PathGraph, size: int) -> tuple[np.ndarray, tuple[int, int]]:
     return tile, shape
 
 
+def _first_tiles(graph: PathGraph, cells: int, seed: np.ndarray
+                 ) -> tuple[np.ndarray, tuple[int, int], np.ndarray]:
+    """The window's tiles of ``cells`` lattice cells (each vertex's tile and the tiles' shape) and the
+    first active tiles: those of the ``seed`` vertices and their neighbours."""
+    tile, shape = _tile_of(graph, cells)
+    active = np.zeros(shape[0] * shape[1], dtype=bool)
+    active[tile[np.asarray(seed, dtype=np.int64)]] = True
+    return tile, shape, _dilated(active, shape)
+
+
 def _grown_tiles(active: np.ndarray, reached: np.ndarray, region_tiles: np.ndarray, shape: tuple[int, int],
                  searched: int) -> np.ndarray:
     """The tiles to add to ``active`` (flat bool): those of the ``reached`` vertices' tiles and their
@@ -783,10 +793,7 @@ def _tiled_search(graph: PathGraph, lat: np.ndarray, extra: np.ndarray, source: 
     """
     k = opts.heading_bins
     per = 2 * k + 1
-    tile, shape = _tile_of(graph, opts.tile_cells)
-    active = np.zeros(shape[0] * shape[1], dtype=bool)
-    active[tile[np.asarray(seed, dtype=np.int64)]] = True
-    active = _dilated(active, shape)
+    tile, shape, active = _first_tiles(graph, opts.tile_cells, seed)
     at_once = np.count_nonzero(lower <= best[1] + 1e-9 * best[1] + 1e-6) <= opts.whole_region
     if at_once:
         active[:] = True  # a small region at once: one search, no growing
@@ -921,10 +928,7 @@ def _backward_route(graph: PathGraph, lat: np.ndarray, extra: np.ndarray, source
     """
     k = opts.heading_bins
     per = 2 * k + 1
-    tile, shape = _tile_of(graph, opts.backward_tile_cells)
-    active = np.zeros(shape[0] * shape[1], dtype=bool)
-    active[tile[np.asarray(seed, dtype=np.int64)]] = True
-    active = _dilated(active, shape)
+    tile, shape, active = _first_tiles(graph, opts.backward_tile_cells, seed)
     lower = from_source + from_target
     n_lat = lat.shape[0]
     dir_bin = _bins(graph.direction_heading, k)
