@@ -260,14 +260,11 @@ class _SegmentKeys:
         self.known = known  #: sorted keys (:func:`pair_keys`) of the network's segments
         self.added: set[int] = set()  #: keys of the new lines' segments
 
-    def _key(self, u: np.ndarray, v: np.ndarray) -> np.ndarray:
-        return pair_keys(u, v)
-
     def new_pieces(self, run: np.ndarray) -> list[np.ndarray]:
         """``run`` split where it follows a known segment (pieces of ≥ 2 nodes); its segments become known."""
         if len(run) < 2:
             return []
-        keys = self._key(run[:-1], run[1:])
+        keys = pair_keys(run[:-1], run[1:])
         if not self.active:
             self.added.update(keys.tolist())
             return [run]
