@@ -24,6 +24,7 @@ def _edge_streets(quilt: _Quilt, region: shapely.Geometry, spacing: float, opts:
     """
     if len(quilt.cut_xy) < 2:
         return 0
+    tolerance = EDGE_INSET if opts.edge_tolerance is None else max(opts.edge_tolerance * spacing, EDGE_INSET)
     inner = shapely.buffer(region, -EDGE_INSET)
     rings = [r for poly in shapely.get_parts(inner) if poly.geom_type == "Polygon" for r in [poly.exterior]]
     if not rings:
@@ -51,8 +52,8 @@ def _edge_streets(quilt: _Quilt, region: shapely.Geometry, spacing: float, opts:
                 continue
             run = _ring_run(ring, float(where[i]), along)
             raw = np.vstack([xy[a], run, xy[b]])
-            # the edge is a union of buffers, jagged at a few metres: a street follows it smoothly
-            smooth = shapely.get_coordinates(shapely.simplify(shapely.LineString(raw), EDGE_INSET))
+            # the edge is a union of buffers, jagged at a few metres: a street follows it in straight legs
+            smooth = shapely.get_coordinates(shapely.simplify(shapely.LineString(raw), tolerance))
             path = smooth if len(smooth) >= 2 and board.clear(smooth) else raw
             if len(path) < 2 or not board.clear(path):
                 continue

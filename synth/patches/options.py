@@ -79,6 +79,12 @@ class PatchOptions:
     #: A patch turns to match its neighbours' grid only when both have a clear main direction:
     #: the fullest 5° bin of bearings (mod 90°) holds this many times its share.
     orientation_peak: float = 2.0
+    #: ... and the two grids are read as the length-weighted mean bearing (mod 90°) of the streets in the
+    #: fullest bin and its two neighbours, the bins the peak was smoothed over, rather than as that bin's
+    #: centre. With the centres a patch turned by a multiple of 5° and met its neighbours' grid up to 5° askew
+    #: (Campo Grande seed 0, the engine's districts: alignment median 1.7° between neighbouring edges
+    #: against the town's 0.9°). False: the bins' centres, as before (README, issue 20, h32n).
+    grain_from_bearings: bool = True
     #: Discs of the district's area measured on the town for the target density.
     density_discs: int = 64
     #: Measure the target density on the town's streets' land in those discs (``ExamplePatches.land``: the
@@ -109,6 +115,16 @@ class PatchOptions:
     #: falls to 0.045 under its neighbourhoods' 0.052 (tests/test_engine_districts.py), also with the
     #: rule in the district only (README, issue 20, h28d).
     corner_reach: float | None = None
+    #: Spacings a perimeter street (:mod:`~synth.patches.edges`) may stray from the district's edge: it is
+    #: laid as the edge's Douglas-Peucker simplification at this tolerance, straight legs between the edge's
+    #: bends (None: 4 m, :data:`~synth.patches.edges.EDGE_INSET`, as before). The edge is the free land's,
+    #: a union of buffers round occupied land and the ``clearance`` strip along the town's streets, so its
+    #: wiggles are of the clearance's size; followed to 4 m they made the district's curviest streets
+    #: (north-bayreuth seed 0, the engine's districts: perimeter streets 15 % of the length, curvature median
+    #: 5.4° per 20 m against 2.0° on the copied streets and the town's 1.0°). The clearance is the same
+    #: strip the copied streets keep from the town's streets, so a leg within it strays no further than the
+    #: copies do. Measured in the README (issue 20, h32n).
+    edge_tolerance: float | None = 0.15
     #: A cut end left over runs on this many spacings to meet a street in a tee ...
     tee_reach: float = 0.6
     #: ... meeting it at this angle or more (degrees).
