@@ -80,7 +80,7 @@ class _Transform:
         return (xy - self.target_centre) @ self.rotation + self.source_centre
 
 
-def _main_direction(lines: np.ndarray, peak: float, refine: bool = True) -> float | None:
+def _main_direction(lines: np.ndarray, peak: float, refine: bool = False) -> float | None:
     """The lines' dominant bearing mod 90° (radians), or None when no 5° bin stands out by ``peak``.
 
     ``refine``: the length-weighted mean bearing of the lines near the fullest bin
@@ -111,7 +111,7 @@ def _main_direction(lines: np.ndarray, peak: float, refine: bool = True) -> floa
 
 
 def _turn(source: _Source, src: np.ndarray, cell: shapely.Geometry, neighbours: np.ndarray,
-          size: float, peak: float, refine: bool = True) -> float:
+          size: float, peak: float, refine: bool = False) -> float:
     """Turn a patch (radians, within ±45°) so its grid runs with its neighbours' grid, when both have one.
 
     ``neighbours``: the streets (LineStrings) of the town and the district near the cell.
