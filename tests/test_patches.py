@@ -474,19 +474,26 @@ def test_a_grids_main_direction_is_its_own_bearing_not_its_bins_centre(bearing):
     assert binned % 5.0 == pytest.approx(2.5)
 
 
-def test_perimeter_streets_are_straight_legs_within_the_clearance_of_the_districts_edge():
+def test_perimeter_streets_bend_as_the_towns_streets_do_within_the_clearance_of_the_districts_edge():
     """Issue 20 (h32n): a perimeter street follows the district's edge, a union of buffers whose wiggles
     are of the clearance's size; followed to 4 m they were the district's curviest streets
     (north-bayreuth's engine districts, seed 0: curvature median 5.4° per 20 m against the town's 1.0°).
-    Along a wiggly edge the street is straight legs within ``edge_tolerance`` spacings of it."""
-    from synth.patches.edges import EDGE_INSET, _edge_streets
+    With ``edge_tolerance``, along a wiggly edge, the street of a town whose streets run straight is
+    straight legs within ``edge_tolerance`` spacings of the edge; a curvy town's (or, without the town's
+    bend, the default) follows the edge's wiggles."""
+    from osm_expand.measures import MeasureOptions
+    from synth.patches.edges import CURVATURE_STEP, EDGE_INSET, _edge_streets, _median_bend
+
+    assert CURVATURE_STEP == MeasureOptions().curvature_step
 
     spacing = 100.0
     t = np.linspace(0.0, 600.0, 121)
     wiggle = 8.0 * np.sin(t / 9.0)  # an 8 m wiggle every 57 m along a 600 m straight edge
     region = shapely.Polygon(np.vstack([np.column_stack([t, wiggle]), [[600.0, 400.0], [0.0, 400.0]]]))
     ends = [np.array([250.0, 80.0]), np.array([350.0, 80.0])]
-    for opts, straight in ((PatchOptions(edge_tolerance=0.15), True), (PatchOptions(), False)):
+    cases = ((PatchOptions(edge_tolerance=0.15), 0.0, True), (PatchOptions(edge_tolerance=0.15), 30.0, False),
+             (PatchOptions(edge_tolerance=0.15), float("nan"), False), (PatchOptions(), 0.0, False))
+    for opts, bend, straight in cases:
         quilt = _Quilt()
         for k, end in enumerate(ends):  # two streets running down to the edge, cut there
             foot = np.array([end[0], float(np.interp(end[0], t, wiggle)) + 0.5])
@@ -495,9 +502,11 @@ def test_perimeter_streets_are_straight_legs_within_the_clearance_of_the_distric
             quilt.cut_heading.append(np.array([0.0, -1.0]))
             quilt.cut_cell.append(k)
             quilt.cut_piece.append(k)
-        assert _edge_streets(quilt, region, spacing, opts, shapely.Polygon(), shapely.MultiLineString()) == 1
+        assert _edge_streets(quilt, region, spacing, opts, shapely.Polygon(), shapely.MultiLineString(),
+                             bend=bend) == 1
         path = quilt.xy[-1]
         line = shapely.LineString(path)
         assert shapely.hausdorff_distance(line, shapely.LineString(
             np.column_stack([t[50:71], wiggle[50:71] + EDGE_INSET]))) < 0.15 * spacing
-        assert (len(path) <= 4) == straight, len(path)
+        assert (len(path) <= 4) == straight, (bend, len(path))
+        assert (_median_bend(path) < 1.0) == straight, (bend, _median_bend(path))

@@ -161,9 +161,12 @@ class ExamplePatches:
         if not finite.any():
             return None
         dead, core = np.median(shares[finite], axis=0)
+        bends = np.array([_level(m, "curvature") for m in measured])
+        bend = float(np.median(bends[np.isfinite(bends)])) if np.isfinite(bends).any() else float("nan")
         if "cul_de_sac" not in self.cache:
             self.cache["cul_de_sac"] = _cul_de_sac_length(town)
-        return _Aim(dead_end_share=float(dead), two_core_share=float(core), cul_de_sac=self.cache["cul_de_sac"])
+        return _Aim(dead_end_share=float(dead), two_core_share=float(core), cul_de_sac=self.cache["cul_de_sac"],
+                    curvature=bend)
 
 
 #: Neighbourhoods measured for the district's target dead-end share (spread evenly over the ranked ones).
@@ -187,7 +190,8 @@ def _quilt(source: _Source, quilt: _Quilt, centres: np.ndarray, cells: list, reg
         stitched = copy.deepcopy(quilt)
         links = _walk_seams(stitched, spacing, opts, occupied, old)
         tees = _tees(stitched, old, spacing, opts, occupied)
-        tees += _edge_streets(stitched, region, spacing, opts, occupied, old)
+        tees += _edge_streets(stitched, region, spacing, opts, occupied, old,
+                              bend=aim.curvature if aim is not None else float("nan"))
         stitched_net = _network(stitched)
         edge = _outer_edge(region)
         stubs, room = _stub_budget(stitched_net, stitched, aim, old, opts.tee_reach * spacing, edge)

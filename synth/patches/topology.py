@@ -25,6 +25,9 @@ class _Aim:
     #: the town's median cul-de-sac (m, from its dead end back to its junction): the length kept stubs
     #: come nearest first (0: shortest first)
     cul_de_sac: float = 0.0
+    #: the neighbourhoods' median curvature (degrees between consecutive 20 m chords, the yardstick's
+    #: ``curvature``): how much a perimeter street may bend (:func:`~synth.patches.edges._edge_streets`)
+    curvature: float = float("nan")
 
     def off_core_room(self, net: StreetNetwork, anchored: np.ndarray) -> float:
         """Metres of ``net`` that may still lie off its 2-core (on dead-end trees) for its 2-core share
