@@ -41,9 +41,7 @@ def _edge_streets(quilt: _Quilt, region: shapely.Geometry, spacing: float, opts:
         return 0
     xy = np.array(quilt.cut_xy)
     at_edge = shapely.distance(shapely.boundary(region), shapely.points(xy)) < EDGE_INSET + 1.0
-    board = _Board(quilt, occupied, old)
-    used = np.zeros(len(xy), dtype=bool)
-    made = 0
+    runs = []  # (cut end, cut end, the edge between them), in the order they are laid
     for ring in rings:
         near = np.flatnonzero(at_edge & (shapely.distance(ring, shapely.points(xy)) < EDGE_INSET + 1.0))
         if len(near) < 2:
@@ -55,21 +53,27 @@ def _edge_streets(quilt: _Quilt, region: shapely.Geometry, spacing: float, opts:
         pairs = [(k, k + 1) for k in range(len(order) - 1)] + ([(len(order) - 1, 0)] if len(order) > 2 else [])
         for i, j in pairs:
             a, b = int(order[i]), int(order[j])
-            if used[a] or used[b] or quilt.cut_piece[a] == quilt.cut_piece[b]:
+            if quilt.cut_piece[a] == quilt.cut_piece[b]:
                 continue
             along = (where[j] - where[i]) % total
             if along > opts.seam_gap * spacing:
                 continue
-            run = _ring_run(ring, float(where[i]), along)
-            raw = np.vstack([xy[a], run, xy[b]])
-            # the edge is a union of buffers, jagged at a few metres: a street follows it smoothly, bending
-            # as the town's streets bend
-            path = _bending_like(raw, tolerances, bend, board)
-            if len(path) < 2 or not board.clear(path):
-                continue
-            _lay(board, quilt, path, a)
-            used[a] = used[b] = True
-            made += 1
+            runs.append((a, b, np.vstack([xy[a], _ring_run(ring, float(where[i]), along), xy[b]])))
+    # the edge is a union of buffers, jagged at a few metres: a street follows it smoothly, bending as the
+    # town's streets bend
+    tolerances = _bending_like([raw for _, _, raw in runs], tolerances, bend)
+    board = _Board(quilt, occupied, old)
+    used = np.zeros(len(xy), dtype=bool)
+    made = 0
+    for a, b, raw in runs:
+        if used[a] or used[b]:
+            continue
+        path = next((p for p in _simplified(raw, tolerances) if board.clear(p)), raw)
+        if len(path) < 2 or not board.clear(path):
+            continue
+        _lay(board, quilt, path, a)
+        used[a] = used[b] = True
+        made += 1
     _close(quilt, used)
     return made
 
@@ -89,32 +93,44 @@ TOLERANCES = 5
 CURVATURE_STEP = 20.0
 
 
-def _bending_like(raw: np.ndarray, tolerances: np.ndarray, bend: float, board: _Board) -> np.ndarray:
-    """``raw`` simplified at the tolerance (of ``tolerances``, ascending) whose median bend between
-    :data:`CURVATURE_STEP` chords is nearest ``bend`` (the smallest tolerance on a tie, or when ``bend`` is
-    NaN), of those that ``board`` finds clear; ``raw`` itself when none is.
+def _bending_like(runs: list[np.ndarray], tolerances: np.ndarray, bend: float) -> np.ndarray:
+    """``tolerances`` (ascending) reordered, the one at which the perimeter streets ``runs`` simplified bend
+    most like ``bend`` first, then the smaller ones, nearest first: their median heading change between
+    :data:`CURVATURE_STEP` chords, pooled over the streets, nearest ``bend`` (the smallest tolerance on a
+    tie, and ``tolerances`` as they are when ``bend`` is NaN). A street not clear at the first is laid at the
+    next, closer to the edge.
 
     The edge's wiggles are the buffers' (the clearance strip, occupied land), not a shape of the town's:
     followed to :data:`EDGE_INSET` the perimeter streets bent 5.4° per 20 m on north-bayreuth (its
     neighbourhoods 1.0-1.4°); laid straight, 1.3° on Andorra against its town's 4.1°. A street that bends as
     the town's streets do reads as one of them either way.
     """
+    if not np.isfinite(bend) or len(tolerances) <= 1 or not runs:
+        return tolerances
+    misfit = []
+    for t in tolerances:
+        bends = [_bends(p) for raw in runs for p in _simplified(raw, np.array([t]))]
+        pooled = np.concatenate(bends) if bends else np.zeros(0)
+        misfit.append(abs(float(np.median(pooled)) - bend) if len(pooled) else np.inf)
+    k = int(np.argmin(np.round(misfit, 6)))
+    return np.concatenate([tolerances[k::-1], tolerances[k + 1:]])
+
+
+def _simplified(raw: np.ndarray, tolerances: np.ndarray) -> list[np.ndarray]:
+    """``raw`` simplified at each tolerance in turn (those that keep two points at least)."""
     paths = [shapely.get_coordinates(shapely.simplify(shapely.LineString(raw), float(t))) for t in tolerances]
-    paths = [p for p in paths if len(p) >= 2]
-    if not np.isfinite(bend) or len(paths) <= 1:
-        order = range(len(paths))
-    else:
-        misfit = [abs(_median_bend(p) - bend) for p in paths]
-        order = np.argsort(np.round(misfit, 6), kind="stable").tolist()
-    for k in order:
-        if board.clear(paths[k]):
-            return paths[k]
-    return raw
+    return [p for p in paths if len(p) >= 2]
+
+
+def _bends(xy: np.ndarray) -> np.ndarray:
+    """The heading changes between consecutive :data:`CURVATURE_STEP` chords along ``xy``, as the yardstick
+    reads a street's curvature (none when it is too short for two chords)."""
+    length = float(np.hypot(*np.diff(xy, axis=0).T).sum())
+    at = np.arange(CURVATURE_STEP, length - CURVATURE_STEP + 1e-9, CURVATURE_STEP)
+    return chord_bends(xy, at, CURVATURE_STEP) if len(at) else np.zeros(0)
 
 
 def _median_bend(xy: np.ndarray) -> float:
-    """The median heading change between consecutive :data:`CURVATURE_STEP` chords along ``xy`` (0 when it
-    is too short for two chords)."""
-    length = float(np.hypot(*np.diff(xy, axis=0).T).sum())
-    at = np.arange(CURVATURE_STEP, length - CURVATURE_STEP + 1e-9, CURVATURE_STEP)
-    return float(np.median(chord_bends(xy, at, CURVATURE_STEP))) if len(at) else 0.0
+    """The median of :func:`_bends` (0 for a street too short for two chords)."""
+    bends = _bends(xy)
+    return float(np.median(bends)) if len(bends) else 0.0
