@@ -111,7 +111,7 @@ def _bending_like(runs: list[np.ndarray], tolerances: np.ndarray, bend: float) -
     for t in tolerances:
         bends = [_bends(p) for raw in runs for p in _simplified(raw, np.array([t]))]
         pooled = np.concatenate(bends) if bends else np.zeros(0)
-        misfit.append(abs(float(np.median(pooled)) - bend) if len(pooled) else np.inf)
+        misfit.append(abs(float(np.mean(pooled)) - bend) if len(pooled) else np.inf)
     k = int(np.argmin(np.round(misfit, 6)))
     return np.concatenate([tolerances[k::-1], tolerances[k + 1:]])
 

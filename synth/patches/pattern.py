@@ -161,7 +161,8 @@ class ExamplePatches:
         if not finite.any():
             return None
         dead, core = np.median(shares[finite], axis=0)
-        bends = np.array([_level(m, "curvature") for m in measured])
+        bends = np.array([float(np.mean(m.value("curvature"))) if len(m.value("curvature")) else np.nan
+                          for m in measured])
         bend = float(np.median(bends[np.isfinite(bends)])) if np.isfinite(bends).any() else float("nan")
         if "cul_de_sac" not in self.cache:
             self.cache["cul_de_sac"] = _cul_de_sac_length(town)
