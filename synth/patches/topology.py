@@ -25,8 +25,8 @@ class _Aim:
     #: the town's median cul-de-sac (m, from its dead end back to its junction): the length kept stubs
     #: come nearest first (0: shortest first)
     cul_de_sac: float = 0.0
-    #: the neighbourhoods' median curvature (degrees between consecutive 20 m chords, the yardstick's
-    #: ``curvature``): how much a perimeter street may bend (:func:`~synth.patches.edges._edge_streets`)
+    #: the median over the neighbourhoods of their mean curvature (degrees between consecutive 20 m chords,
+    #: the yardstick's ``curvature``): how much a perimeter street bends (:func:`~synth.patches.edges._edge_streets`)
     curvature: float = float("nan")
 
     def off_core_room(self, net: StreetNetwork, anchored: np.ndarray) -> float:
