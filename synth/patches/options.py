@@ -83,8 +83,8 @@ class PatchOptions:
     #: fullest bin and its two neighbours, the bins the peak was smoothed over, rather than as that bin's
     #: centre. With the centres a patch turned by a multiple of 5° and met its neighbours' grid up to 5° askew
     #: (Campo Grande seed 0, the engine's districts: alignment median 1.7° between neighbouring edges
-    #: against the town's 0.9°). Off (the bins' centres): with ``edge_tolerance`` 0.15 too, seed 0, Krems'
-    #: engine streets 2 3 3 -> 5 5 5 off of 14 (README, issue 20, h32n).
+    #: against the town's 0.9°). Off (the bins' centres): not yet measured alone on every town (README,
+    #: issue 20, h32n).
     grain_from_bearings: bool = False
     #: Discs of the district's area measured on the town for the target density.
     density_discs: int = 64
@@ -116,19 +116,19 @@ class PatchOptions:
     #: falls to 0.045 under its neighbourhoods' 0.052 (tests/test_engine_districts.py), also with the
     #: rule in the district only (README, issue 20, h28d).
     corner_reach: float | None = None
-    #: Spacings a perimeter street (:mod:`~synth.patches.edges`) may stray from the district's edge: it is
-    #: laid as the edge's Douglas-Peucker simplification at this tolerance, straight legs between the edge's
-    #: bends (None: 4 m, :data:`~synth.patches.edges.EDGE_INSET`, as before). The edge is the free land's,
-    #: a union of buffers round occupied land and the ``clearance`` strip along the town's streets, so its
-    #: wiggles are of the clearance's size; followed to 4 m they made the district's curviest streets
-    #: (north-bayreuth seed 0, the engine's districts: perimeter streets 15 % of the length, curvature median
-    #: 5.4° per 20 m against 2.0° on the copied streets and the town's 1.0°). The clearance is the same
-    #: strip the copied streets keep from the town's streets, so a leg within it strays no further than the
-    #: copies do. Off: at 0.15, the default history's 30 years, seed 0, engine streets off of 14 per
-    #: reference seed (main -> this): north-bayreuth 5 5 5 -> 1 2 1 (curvature, edge and stroke length,
-    #: density and orientation entropy all back in range), Krems 2 2 4 -> 2 3 3, but Andorra 0 0 0 -> 4 3 3
-    #: and Monaco 2 3 3 -> 6 5 6 (its 2-core share 0.833 below 0.843); north-bayreuth's own district, seeds
-    #: 0-2, off 3 3 1 -> 4 3 3 (its curvature median 4.4 4.0 1.9 -> 2.3 0.95 2.4) (README, issue 20, h32n).
+    #: When set, spacings a perimeter street (:mod:`~synth.patches.edges`) may stray from the district's
+    #: edge: of the edge's Douglas-Peucker simplifications from 4 m (:data:`~synth.patches.edges.EDGE_INSET`,
+    #: the default's) up to this, the district's perimeter streets take the one whose mean bend between 20 m
+    #: chords is nearest its town's neighbourhoods' (``_Aim.curvature``). The edge is the free land's, a union
+    #: of buffers round occupied land and the ``clearance`` strip (0.15 spacings, hence this bound) along
+    #: the town's streets: its wiggles are the buffers', no shape of the town's. Followed to 4 m they bent
+    #: 15-17° (median) per 20 m on north-bayreuth, whose neighbourhoods bend 1.0-1.4°. Off: in the example
+    #: history's eras, engine streets off of 14 per reference seed, main -> this, seed 0: north-bayreuth
+    #: 5 5 5 -> 4 3 3, Andorra 0 0 0 -> 3 2 2, Krems 2 2 4 -> 2 3 3, Monaco 2 3 3 (the same), Campo Grande
+    #: 4 4 5 -> 4 4 4 (its 2-core share still below range); seed 1: north-bayreuth 3 3 3 -> 3 3 2, Andorra
+    #: 0 0 1 and Krems 4 3 4 the same, Monaco 3 3 2 -> 3 4 6. Straight legs at 0.15 spacings everywhere
+    #: (no town's bend): north-bayreuth 1 2 1 but Andorra 7 7 5, its curvature 1.3° against 4.1°
+    #: (README, issue 20, h32n).
     edge_tolerance: float | None = None
     #: A cut end left over runs on this many spacings to meet a street in a tee ...
     tee_reach: float = 0.6
