@@ -105,8 +105,8 @@ def _bending_like(runs: list[np.ndarray], tolerances: np.ndarray, bend: float) -
     mean falls step by step (18.6°, 17.3, 13.6, 7.7, 4.3 from 4 to 23 m; its neighbourhoods' 5.5°).
 
     The edge's wiggles are the buffers' (the clearance strip, occupied land), not a shape of the town's:
-    followed to :data:`EDGE_INSET` the district's perimeter streets bend 15-17° (median) per 20 m on
-    north-bayreuth, whose neighbourhoods' median is 1.0-1.4°; laid as straight legs everywhere, Andorra's
+    followed to :data:`EDGE_INSET` the pipeline district's perimeter streets bend 15-17° (median, pooled)
+    per 20 m on north-bayreuth, whose neighbourhoods' median is 1.0-1.4°; laid as straight legs everywhere, Andorra's
     engine streets read 1.3° against its town's 4.1°. A street that bends as the town's streets do reads
     as one of them in either town.
     """

@@ -122,7 +122,7 @@ class PatchOptions:
     #: chords is nearest its town's neighbourhoods' (``_Aim.curvature``). The edge is the free land's, a union
     #: of buffers round occupied land and the ``clearance`` strip (0.15 spacings, hence this bound) along
     #: the town's streets: its wiggles are the buffers', no shape of the town's. Followed to 4 m they bent
-    #: 15-17° (median) per 20 m on north-bayreuth, whose neighbourhoods bend 1.0-1.4°. Off: in the example
+    #: 15-17° (median, pooled) per 20 m in north-bayreuth's districts, whose neighbourhoods bend 1.0-1.4°. Off: in the example
     #: history's eras, engine streets off of 14 per reference seed, main -> this, seed 0: north-bayreuth
     #: 5 5 5 -> 4 3 3, Andorra 0 0 0 -> 3 2 2, Krems 2 2 4 -> 2 3 3, Monaco 2 3 3 (the same), Campo Grande
     #: 4 4 5 -> 4 4 4 (its 2-core share still below range); seed 1: north-bayreuth 3 3 3 -> 3 3 2, Andorra
