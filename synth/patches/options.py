@@ -116,19 +116,18 @@ class PatchOptions:
     #: falls to 0.045 under its neighbourhoods' 0.052 (tests/test_engine_districts.py), also with the
     #: rule in the district only (README, issue 20, h28d).
     corner_reach: float | None = None
-    #: When set, spacings a perimeter street (:mod:`~synth.patches.edges`) may stray from the district's
-    #: edge: of the edge's Douglas-Peucker simplifications from 4 m (:data:`~synth.patches.edges.EDGE_INSET`,
-    #: the default's) up to this, the district's perimeter streets take the one whose mean bend between 20 m
-    #: chords is nearest its town's neighbourhoods' (``_Aim.curvature``). The edge is the free land's, a union
-    #: of buffers round occupied land and the ``clearance`` strip (0.15 spacings, hence this bound) along
-    #: the town's streets: its wiggles are the buffers', no shape of the town's. Followed to 4 m they bent
-    #: 15-17° (median, pooled) per 20 m in north-bayreuth's districts, whose neighbourhoods bend 1.0-1.4°. Off: in the example
-    #: history's eras, engine streets off of 14 per reference seed, main -> this, seed 0: north-bayreuth
-    #: 5 5 5 -> 4 3 3, Andorra 0 0 0 -> 3 2 2, Krems 2 2 4 -> 2 3 3, Monaco 2 3 3 (the same), Campo Grande
-    #: 4 4 5 -> 4 4 4 (its 2-core share still below range); seed 1: north-bayreuth 3 3 3 -> 3 3 2, Andorra
-    #: 0 0 1 and Krems 4 3 4 the same, Monaco 3 3 2 -> 3 4 6. Straight legs at 0.15 spacings everywhere
-    #: (no town's bend): north-bayreuth 1 2 1 but Andorra 7 7 5, its curvature 1.3° against 4.1°
-    #: (README, issue 20, h32n).
+    #: When set, spacings a perimeter street (:mod:`~synth.patches.edges`) may stray from the district's edge: of the
+    #: edge's Douglas-Peucker simplifications from 4 m (:data:`~synth.patches.edges.EDGE_INSET`, the default's) up to
+    #: this, the district's perimeter streets take the one whose mean bend between 20 m chords is nearest its town's
+    #: neighbourhoods' (``_Aim.curvature``). The edge is the free land's, a union of buffers round occupied land and
+    #: the ``clearance`` strip (0.15 spacings, hence this bound) along the town's streets: its wiggles are the
+    #: buffers', no shape of the town's. Followed to 4 m they bent 15-17° (median, pooled) per 20 m in north-bayreuth's
+    #: districts, whose neighbourhoods bend 1.0-1.4°. Off: in the example history's eras, engine streets off of 14 per
+    #: reference seed, main -> this, seed 0: north-bayreuth 5 5 5 -> 4 3 3, Andorra 0 0 0 -> 3 2 2, Krems 2 2 4 -> 2 3
+    #: 3, Monaco 2 3 3 (the same), Campo Grande 4 4 5 -> 4 4 4 (its 2-core share still below range); seed 1:
+    #: north-bayreuth 3 3 3 -> 3 3 2, Andorra 0 0 1 and Krems 4 3 4 the same, Monaco 3 3 2 -> 3 4 6. Straight legs at
+    #: 0.15 spacings everywhere (no town's bend): north-bayreuth 1 2 1 but Andorra 7 7 5, its curvature 1.3° against
+    #: 4.1° (README, issue 20, h32n).
     edge_tolerance: float | None = None
     #: A cut end left over runs on this many spacings to meet a street in a tee ...
     tee_reach: float = 0.6
