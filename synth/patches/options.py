@@ -126,7 +126,7 @@ class PatchOptions:
     #: reference seed, main -> this, seed 0: north-bayreuth 5 5 5 -> 4 3 3, Andorra 0 0 0 -> 3 2 2, Krems 2 2 4 -> 2 3
     #: 3, Monaco 2 3 3 (the same), Campo Grande 4 4 5 -> 4 4 4 (its 2-core share still below range); seed 1:
     #: north-bayreuth 3 3 3 -> 3 3 2, Andorra 0 0 1 and Krems 4 3 4 the same, Monaco 3 3 2 -> 3 4 6. Straight legs at
-    #: 0.15 spacings everywhere (no town's bend): north-bayreuth 1 2 1 but Andorra 7 7 5, its curvature 1.3° against
+    #: 0.15 spacings everywhere (no town's bend): north-bayreuth 2 2 4 but Andorra 7 7 5, its curvature 1.3° against
     #: 4.1° (README, issue 20, h32n).
     edge_tolerance: float | None = None
     #: A cut end left over runs on this many spacings to meet a street in a tee ...
