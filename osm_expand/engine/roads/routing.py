@@ -122,11 +122,18 @@ class RoutingOptions:
     #: never searched whole (``whole_region``) and small tiles keep it small: built over 16-vertex
     #: tiles, or whole, its expanded graph held 0.8–1.8 M states, over 8-vertex tiles 0.2 M
     backward_tile_cells: int = 8
+    #: lattice vertices a side of the tiles of the narrow band (those of a known feasible route and
+    #: their neighbours: ±1–2 tiles) searched first for a tight bound of the best cost
+    #: (:func:`_band_bound`); 0: no band, the first bound is the plain shortest path's penalised cost
+    #: (up to 3.7× the best on Campo Grande's searches) or the previous window's route's
+    bound_cells: int = 4
 
     def __post_init__(self) -> None:
         require_positive(self, ("window_margin", "growth_share", "turn_width"))
         if not (self.window_share >= 0 and self.turn_height >= 0):
             raise InputError("RoutingOptions: window_share and turn_height must not be negative")
+        if self.bound_cells < 0:
+            raise InputError(f"RoutingOptions.bound_cells must not be negative, got {self.bound_cells}")
         if min(self.tile_cells, self.backward_tile_cells) < 1:
             raise InputError("RoutingOptions.tile_cells and backward_tile_cells must be at least 1, got "
                              f"{self.tile_cells}, {self.backward_tile_cells}")
@@ -219,12 +226,15 @@ def find_route(graph: PathGraph | ImplicitGraph, source: int, target: int, *, ki
 
 
 def _search(graph: PathGraph, source: int, target: int, kinds: Sequence[EdgeKind], street_ok: np.ndarray | None,
-            opts: RoutingOptions, release: bool = False) -> tuple[Route | None, np.ndarray | None]:
+            opts: RoutingOptions, release: bool = False,
+            known: np.ndarray | None = None) -> tuple[Route | None, np.ndarray | None]:
     """:func:`find_route` on a G′, and the plain (turn-free) distances from the source.
 
     With ``release`` the graph's cached CSR matrices are dropped once the plain searches are
     done (a window's G′, searched once): the heading-expanded search reads the edge tables, and
-    on the whole map of a large town the matrix alone is 2.3 GB.
+    on the whole map of a large town the matrix alone is 2.3 GB. ``known`` is a route from the
+    source to the target (its vertices; a smaller window's best): where it is allowed in this
+    graph and cheaper than the plain shortest path with its turns, its cost is the first bound.
     """
     if source == target:
         return _route(graph, [source], *graph.masks(kinds, street_ok), 0.0), None
@@ -242,11 +252,32 @@ def _search(graph: PathGraph, source: int, target: int, kinds: Sequence[EdgeKind
         if opts.turn_height == 0 or plain_turns == 0:
             return _with_turn_cost(plain_route, plain_turns), from_source
         bound = float(from_source[target]) + plain_turns
-        from_target = dijkstra(matrix, indices=target, limit=bound + 1e-9 * bound + 1e-6)  # G′ is symmetric
+        first = (plain, bound)
+        if known is not None:
+            again = _route_cost(graph, known, lat, extra, opts)
+            if again is not None and again < bound:
+                first = (known.tolist(), again)
+        from_target = dijkstra(matrix, indices=target, limit=first[1] + 1e-9 * first[1] + 1e-6)  # G′ is symmetric
     del matrix
     if release:
         graph.forget_matrices()
-    return _best_route(graph, lat, extra, source, target, from_source, from_target, plain, bound, opts), from_source
+    return _best_route(graph, lat, extra, source, target, from_source, from_target, first, opts), from_source
+
+
+def _route_cost(graph: PathGraph, vertices: np.ndarray, lat: np.ndarray, extra: np.ndarray,
+                opts: RoutingOptions) -> float | None:
+    """An upper bound of the expanded graph's distance of the route over ``vertices`` (its cheapest
+    edges, their binned turns and the free transitions' ε each); None when it is not allowed here."""
+    if len(vertices) < 2 or (np.asarray(vertices) < 0).any():
+        return None
+    try:
+        route = _route(graph, vertices.tolist(), lat, extra, 0.0)
+    except InputError:  # an edge of the smaller window is not allowed in this one
+        return None
+    bins = _bins(_headings(route), opts.heading_bins)
+    turns = float(_bin_penalties(opts)[(bins[1:] - bins[:-1]) % opts.heading_bins].sum())
+    total = float(route.edge_weight.sum()) + turns
+    return total + 1e-9 * total + 1e-6 + 4 * len(vertices) * (2 * opts.heading_bins + 1) * _EPS
 
 
 #: Edge kinds whose edges touch the lattice (a search over none of them needs no lattice).
@@ -316,12 +347,14 @@ def _implicit_route(graph: ImplicitGraph, source: int, target: int, kinds: Seque
     reach = graph.options.stitch_radius + graph.lattice.radius * graph.lattice.spacing
     penalties = _bin_penalties(opts)
     map_area = float(np.prod(whole[2:] - whole[:2]))
+    previous = None  # the last window's best route (map vertices): feasible in the next, a bound there
     while True:
         if _seen(bounds, whole) > opts.whole_share * map_area:  # nearly the map's size: take the map
             bounds = whole
         window = graph.window(tuple(bounds))
         s, t = window.from_map(np.array([source, target])).tolist()
-        route, from_source = _search(window.graph, s, t, kinds, street_ok, opts, release=True)
+        known = None if previous is None else window.from_map(previous)
+        route, from_source = _search(window.graph, s, t, kinds, street_ok, opts, release=True, known=known)
         if window.whole or from_source is None:
             return _on_map(window, route, from_source)
         cost = route.cost if route is not None else np.inf
@@ -353,6 +386,7 @@ def _implicit_route(graph: ImplicitGraph, source: int, target: int, kinds: Seque
             step = np.maximum(opts.growth_share * size, 2.0 * reach) * np.array([-1, -1, 1, 1])
             grown = np.where(step < 0, np.maximum(grown, bounds + step), np.minimum(grown, bounds + step))
         bounds = grown
+        previous = None if route is None else window.to_map(route.vertices)
         del window, route, from_source  # the last window's tables go before the next is made
 
 
@@ -419,27 +453,74 @@ def _on_map(window: GraphWindow, route: Route | None, *_) -> Route | None:
 
 
 def _best_route(graph: PathGraph, lat: np.ndarray, extra: np.ndarray, source: int, target: int,
-                from_source: np.ndarray, from_target: np.ndarray, plain: list[int], bound: float,
+                from_source: np.ndarray, from_target: np.ndarray, first: tuple[list[int], float],
                 opts: RoutingOptions) -> Route:
     """The turn-penalised optimum, given the plain distances from both ends (``from_target`` up to
-    ``bound``) and the plain shortest path with its turns, which cost ``bound`` (an upper bound).
+    the bound) and a feasible route with an upper bound of its cost (the plain shortest path with
+    its turns, or a smaller window's best route).
 
     Searched forwards (:func:`_tiled_search`) or, with ``opts.backward``, from the target backwards
     (:func:`_backward_route`), which falls back to the forward search when its last Dijkstra does
-    not confirm the cost it found."""
+    not confirm the cost it found. The forward search's first bound is made tight first
+    (:func:`_band_bound`); it is only a bound: the search still finds its own route (of several of
+    exactly equal cost, the one its Dijkstra takes)."""
     penalties = _bin_penalties(opts)
     best = None
+    lower = from_source + from_target
     if opts.backward:
-        best = _backward_route(graph, lat, extra, source, target, from_source, from_target, (plain, bound),
-                               np.asarray(plain), penalties, opts)
+        best = _backward_route(graph, lat, extra, source, target, from_source, from_target, first,
+                               np.asarray(first[0]), penalties, opts)
     if best is None:
+        bound = _band_bound(graph, lat, extra, source, target, lower, from_target, first, penalties, opts)
         # A*: the turn-free distance to the target is a consistent bound (turns cost ≥ 0), the first
-        # tiles those of the plain route
-        best, _ = _tiled_search(graph, lat, extra, source, target, from_source + from_target, from_target,
-                                (plain, bound), np.asarray(plain), penalties, opts, graph.xy[target])
+        # tiles those of the feasible route
+        best, _ = _tiled_search(graph, lat, extra, source, target, lower, from_target, bound,
+                                np.asarray(bound[0]), penalties, opts, graph.xy[target])
     vertices, total = best
     route = _route(graph, vertices, lat, extra, 0.0)
     return _with_turn_cost(route, max(total - float(route.edge_weight.sum()), 0.0))
+
+
+def _band_bound(graph: PathGraph, lat: np.ndarray, extra: np.ndarray, source: int, target: int, lower: np.ndarray,
+                from_target: np.ndarray, first: tuple[list[int], float], penalties: np.ndarray,
+                opts: RoutingOptions) -> tuple[list[int], float]:
+    """A feasible route and an upper bound of its expanded-graph cost, tight: the best route in a
+    narrow band round ``first`` (its vertices' tiles of ``bound_cells`` a side and their
+    neighbours), or ``first`` where the band holds none cheaper.
+
+    The search's prunings (the region ``d_s + d_t ≤ C``, Dijkstra's limit, A*'s test that grows its
+    tiles) all work with the best cost C known; the plain shortest path's penalised cost is up to
+    3.7 times the best on Campo Grande's searches (turns are most of a route's cost in a street
+    grid), the band's best a few per cent above it at most. The band is searched by A* (reduced
+    costs, :func:`_reduced`: ties do not matter for a bound) over its own vertices only, so it
+    costs a small share of the search it bounds. The bound returned is the band route's
+    distance plus rounding slack: the search that uses it finds a route strictly below it, its
+    own (:func:`_tiled_search` keeps a route only where its Dijkstra finds one cheaper than C).
+    """
+    if opts.bound_cells < 1:
+        return first
+    k = opts.heading_bins
+    per = 2 * k + 1
+    cost = first[1]
+    tile, _, active = _first_tiles(graph, opts.bound_cells, np.asarray(first[0]))
+    verts = np.flatnonzero((lower <= cost + 1e-9 * cost + 1e-6) & active[tile])
+    expanded, local = _expanded_graph(graph, lat, extra, verts, penalties, k)
+    slack = 2 * len(verts) * per * _EPS
+    if local[source] < 0 or local[target] < 0:
+        return first
+    h = from_target[verts] * (1.0 - _SHRINK)
+    start = int(local[source]) * per + 2 * k
+    hs = float(h[local[source]])
+    dist, pred = dijkstra(_reduced(expanded, h, per), indices=start, return_predecessors=True,
+                          limit=cost - hs + slack)
+    del expanded
+    ends = int(local[target]) * per + np.arange(k)
+    end = int(ends[np.argmin(dist[ends])])
+    found = float(dist[end]) + hs - float(h[local[target]])  # ≥ the path's cost: reduced costs only rounded up
+    found += 1e-9 * found + 1e-6 + slack
+    if not found < cost:
+        return first  # nothing cheaper in the band (e.g. the plain route is the best): the search keeps first
+    return _vertex_path(pred, start, end, verts, per), found
 
 
 def _headings(route: Route) -> np.ndarray:
