@@ -442,3 +442,59 @@ def test_a_larger_windows_search_starts_from_the_smaller_windows_route(monkeypat
             used += len(costed) > 0
             assert all(c >= route.cost - 1e-6 for c in costed)
     assert used >= 3
+
+
+@settings(max_examples=10, deadline=None)
+@given(st.integers(0, 2**32 - 1))
+def test_the_exits_bound_through_the_exits_keeps_every_short_exits_arrival(seed):
+    """Issue 22: the exits' search bound by the plain distance to an exit and the straight line on
+    (``_via_exits``) is a consistent bound at least the straight line's and at most ``c·|x − t|`` at
+    an exit, and every exit whose arrival plus ``c·|x − t|`` is below the route's cost (those the
+    window's growth reads) arrives at exactly the cost the straight line's search gives."""
+    from tests.test_majorroads import river
+
+    rng = np.random.default_rng(seed)
+    extent = (0, 0, 1000, 1000)
+    blobs = random_blobs(rng, extent, 5, within=(50, 950), radius=(20, 80))
+    y_lo = float(rng.uniform(100, 800))
+    segs = SegmentTable.from_lines(grid_lines(350, 350, 3, 100), major=[bool(b) for b in rng.integers(0, 2, 8)],
+                                   width=[6.0] * 8)
+    built = built_up_area(blocks_of(segs), segs)
+    lat = build_lattice(extent, water=river(extent, y_lo, y_lo + 60), forbidden=blobs,
+                        options=LatticeOptions(radius=int(rng.integers(2, 5)))).with_built_up(built.area)
+    implicit = implicit_graph(lat, segs, built)
+    live = implicit.whole().live_vertices()
+    opts = RoutingOptions(turn_height=float(rng.uniform(20, 400)))
+    c = routing.cheapest_unit_cost(implicit.costs, routing.ROAD_KINDS)
+    checked = 0
+    for _ in range(3):
+        s_map, t_map = (int(v) for v in rng.choice(live, 2, replace=False))
+        ends = implicit.vertex_xy(np.array([s_map, t_map]))
+        lo, hi = ends.min(axis=0) - 150, ends.max(axis=0) + 150
+        window = implicit.window((lo[0], lo[1], hi[0], hi[1]))
+        if window.whole or not len(window.exits):
+            continue
+        g = window.graph
+        s, t = window.from_map(np.array([s_map, t_map])).tolist()
+        rest = c * np.hypot(*(g.xy[window.exits] - ends[1]).T)
+        route, from_source, via = routing._search(g, s, t, routing.ROAD_KINDS, None, opts, exits=(window.exits, rest))
+        if route is None or via is None:
+            continue
+        straight = c * np.hypot(*(g.xy - ends[1]).T)
+        assert (via >= straight - 1e-9 * straight - 1e-6).all()
+        assert ((via[window.exits] <= rest + 1e-9) | (rest > route.cost)).all()  # ∞ above the first bound
+        with g.restricted(routing.ROAD_KINDS, None) as m:
+            coo = m.tocoo()
+        finite = np.isfinite(via[coo.row]) & np.isfinite(via[coo.col])
+        assert (via[coo.row] <= coo.data + via[coo.col] + 1e-9 * via[coo.row] + 1e-6)[finite].all()  # consistent
+        penalties = routing._bin_penalties(opts)
+        args = (window, routing.ROAD_KINDS, None, s, ends[1], c, from_source, route, penalties, opts)
+        old = routing._exit_arrivals(*args)
+        new = routing._exit_arrivals(*args, via)
+        short = old + rest < route.cost - 1e-9 * route.cost
+        # each search takes off its rounding slack (2 ε a state of its graph), which the smaller graph's is less of
+        slack = 2 * g.n_vertices * (2 * opts.heading_bins + 1) * routing._EPS
+        np.testing.assert_allclose(new[short], old[short], rtol=0, atol=slack)
+        assert not (new + rest < route.cost - 1e-9 * route.cost - slack)[~short].any()
+        checked += 1
+    assume(checked > 0)

@@ -226,8 +226,9 @@ def find_route(graph: PathGraph | ImplicitGraph, source: int, target: int, *, ki
 
 
 def _search(graph: PathGraph, source: int, target: int, kinds: Sequence[EdgeKind], street_ok: np.ndarray | None,
-            opts: RoutingOptions, release: bool = False,
-            known: np.ndarray | None = None) -> tuple[Route | None, np.ndarray | None]:
+            opts: RoutingOptions, release: bool = False, known: np.ndarray | None = None,
+            exits: tuple[np.ndarray, np.ndarray] | None = None
+            ) -> tuple[Route | None, np.ndarray | None, np.ndarray | None]:
     """:func:`find_route` on a G′, and the plain (turn-free) distances from the source.
 
     With ``release`` the graph's cached CSR matrices are dropped once the plain searches are
@@ -235,14 +236,17 @@ def _search(graph: PathGraph, source: int, target: int, kinds: Sequence[EdgeKind
     on the whole map of a large town the matrix alone is 2.3 GB. ``known`` is a route from the
     source to the target (its vertices; a smaller window's best): where it is allowed in this
     graph and cheaper than the plain shortest path with its turns, its cost is the first bound.
+    ``exits`` (a window's exits and a lower bound of the cost from each to the target) asks also
+    for ``min_x d(v, x) + bound(x)`` over them for every vertex v (∞ above the first bound), the
+    exits' search's A* bound (:func:`_via_exits`), made before the matrix goes.
     """
     if source == target:
-        return _route(graph, [source], *graph.masks(kinds, street_ok), 0.0), None
+        return _route(graph, [source], *graph.masks(kinds, street_ok), 0.0), None, None
     lat, extra = graph.masks(kinds, street_ok)
     with graph.restricted(kinds, street_ok) as matrix:
         from_source, pred = dijkstra(matrix, indices=source, return_predecessors=True)
         if not np.isfinite(from_source[target]):
-            return None, from_source
+            return None, from_source, None
         plain = _walk_back(pred, source, target)
         del pred
         plain_route = _route(graph, plain, lat, extra, 0.0)
@@ -250,7 +254,7 @@ def _search(graph: PathGraph, source: int, target: int, kinds: Sequence[EdgeKind
         bins = _bins(_headings(plain_route), opts.heading_bins)
         plain_turns = float(penalties[(bins[1:] - bins[:-1]) % opts.heading_bins].sum())
         if opts.turn_height == 0 or plain_turns == 0:
-            return _with_turn_cost(plain_route, plain_turns), from_source
+            return _with_turn_cost(plain_route, plain_turns), from_source, None
         bound = float(from_source[target]) + plain_turns
         first = (plain, bound)
         if known is not None:
@@ -258,10 +262,34 @@ def _search(graph: PathGraph, source: int, target: int, kinds: Sequence[EdgeKind
             if again is not None and again < bound:
                 first = (known.tolist(), again)
         from_target = dijkstra(matrix, indices=target, limit=first[1] + 1e-9 * first[1] + 1e-6)  # G′ is symmetric
+        via = None if exits is None else _via_exits(matrix, *exits, first[1] + 1e-9 * first[1] + 1e-6)
     del matrix
     if release:
         graph.forget_matrices()
-    return _best_route(graph, lat, extra, source, target, from_source, from_target, first, opts), from_source
+    return _best_route(graph, lat, extra, source, target, from_source, from_target, first, opts), from_source, via
+
+
+def _via_exits(matrix: csr_matrix, exits: np.ndarray, rest: np.ndarray, limit: float) -> np.ndarray:
+    """``min_x d(v, x) + rest(x)`` over the exits x for every vertex v (d: the plain distance in the
+    window; ∞ above ``limit``), by one Dijkstra from a source joined to each exit at ``rest(x)``.
+
+    A route that leaves the window from v first reaches an exit x inside it, at no less than
+    ``d(v, x)``, and then costs at least ``rest(x)`` (``c·|x − t|``): this bounds what is left of
+    it far better than the straight line ``c·|v − t|`` (the window's land costs at least 1 a metre,
+    ``c`` is the cheapest kind's, e.g. a major road's 0.4, and the exits lie round the window, not
+    towards the target). It is a shortest-path distance on the plain graph, whose edges cost no
+    more than the expanded graph's, and turns cost ≥ 0: a consistent A* bound, ``rest(x)`` at most
+    at an exit x. G′ is symmetric, so the distances from the joined source are those to it.
+    """
+    n = matrix.shape[0]
+    if not len(exits):
+        return np.full(n, np.inf)
+    # the joined source's edges: weight rest + 1 (scipy drops explicit zeros), the 1 taken off after
+    indptr = np.concatenate([matrix.indptr, [matrix.indptr[-1] + len(exits)]])
+    joined = csr_matrix((np.concatenate([matrix.data, rest + 1.0]),
+                         np.concatenate([matrix.indices, exits.astype(matrix.indices.dtype)]), indptr),
+                        shape=(n + 1, n + 1))
+    return dijkstra(joined, indices=n, limit=limit + 1.0)[:n] - 1.0
 
 
 def _route_cost(graph: PathGraph, vertices: np.ndarray, lat: np.ndarray, extra: np.ndarray,
@@ -354,7 +382,9 @@ def _implicit_route(graph: ImplicitGraph, source: int, target: int, kinds: Seque
         window = graph.window(tuple(bounds))
         s, t = window.from_map(np.array([source, target])).tolist()
         known = None if previous is None else window.from_map(previous)
-        route, from_source = _search(window.graph, s, t, kinds, street_ok, opts, release=True, known=known)
+        exit_rest = c * np.hypot(*(window.graph.xy[window.exits] - ends[1]).T)
+        route, from_source, via = _search(window.graph, s, t, kinds, street_ok, opts, release=True, known=known,
+                                          exits=(window.exits, exit_rest))
         if window.whole or from_source is None:
             return _on_map(window, route, from_source)
         cost = route.cost if route is not None else np.inf
@@ -372,7 +402,7 @@ def _implicit_route(graph: ImplicitGraph, source: int, target: int, kinds: Seque
             # straight-line bound c·|v − t| (consistent: no edge costs less a metre), only where
             # A(v) + c·|v − t| may be below the route's cost; an exit not reached there is not short.
             reached = np.maximum(reached, _exit_arrivals(window, kinds, street_ok, s, ends[1], c, from_source,
-                                                         route, penalties, opts))
+                                                         route, penalties, opts, via))
             short = reached + rest < limit
         if not short.any():
             return _on_map(window, route, from_source)
@@ -387,17 +417,27 @@ def _implicit_route(graph: ImplicitGraph, source: int, target: int, kinds: Seque
             grown = np.where(step < 0, np.maximum(grown, bounds + step), np.minimum(grown, bounds + step))
         bounds = grown
         previous = None if route is None else window.to_map(route.vertices)
-        del window, route, from_source  # the last window's tables go before the next is made
+        del window, route, from_source, via  # the last window's tables go before the next is made
 
 
 def _exit_arrivals(window: GraphWindow, kinds: Sequence[EdgeKind], street_ok: np.ndarray | None, s: int,
                    target_xy: np.ndarray, c: float, from_source: np.ndarray, route: Route, penalties: np.ndarray,
-                   opts: RoutingOptions) -> np.ndarray:
+                   opts: RoutingOptions, via: np.ndarray | None = None) -> np.ndarray:
     """A(x) of :func:`_implicit_route` for the window's exits: the least turn-penalised arrival
     cost from the source inside the window, where it and ``c·|x − t|`` may be below the route's
-    cost (∞ elsewhere), searched by A* towards the target (:func:`_tiled_search` without one)."""
+    cost (∞ elsewhere), searched by A* towards the target (:func:`_tiled_search` without one).
+
+    A*'s bound is the straight line ``c·|v − t|`` or, tighter, ``via`` (:func:`_via_exits`: the
+    plain distance to an exit and the straight line on from there), both consistent and at most
+    ``c·|x − t|`` at an exit x: an exit whose ``A(x) + c·|x − t|`` is below the route's cost is
+    reached along states whose ``g + bound`` is too, so its arrival is the same with either, while
+    the tighter bound leaves out the states far from every exit."""
     lat_ok, extra_ok = window.graph.masks(kinds, street_ok)
     straight = c * np.hypot(*(window.graph.xy - target_xy).T)
+    if via is not None:
+        straight = np.maximum(straight, via)
+        if not from_source[s] + straight[s] <= route.cost + 1e-9 * route.cost + 1e-6:
+            return np.full(len(window.exits), np.inf)  # A(x) + c·|x − t| ≥ via(s) > the cost at every exit
     _, arrive = _tiled_search(window.graph, lat_ok, extra_ok, s, None, from_source + straight, straight,
                               (route.vertices.tolist(), route.cost), route.vertices, penalties, opts, target_xy,
                               exits=window.exits)
