@@ -35,8 +35,14 @@ when a state there may still lead to the target below C by A*'s test
 the turns it must still make to head for the target (:func:`_turn_floor`:
 a route whose edges' heading bins stay within an arc narrower than π ends
 inside that arc's sector), which counts only in years whose P charges
-turns of one bin. All these prunings are exact. The exits' search of a
-window (costs only, no route) runs A* on reduced costs (:func:`_reduced`).
+turns of one bin. All these prunings are exact. C starts tight: at the
+cost of a smaller window's best route where there was one, then of the best
+route in a narrow band round that route or the plain one (:func:`_band_bound`,
+A* over a few thousand vertices); the plain route's turns alone made C up
+to 3.7 times the best. C is only a bound: the search still finds its own
+route. The exits' search of a window (costs only, no route) runs A* on
+reduced costs (:func:`_reduced`), bound by the plain distance to an exit
+and the straight line on from there (:func:`_via_exits`).
 With ``RoutingOptions.backward`` the route's search runs from the target
 instead (:func:`_backward_route`, off: faster on some searches, slower on others).
 """
