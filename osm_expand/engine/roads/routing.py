@@ -35,8 +35,14 @@ when a state there may still lead to the target below C by A*'s test
 the turns it must still make to head for the target (:func:`_turn_floor`:
 a route whose edges' heading bins stay within an arc narrower than π ends
 inside that arc's sector), which counts only in years whose P charges
-turns of one bin. All these prunings are exact. The exits' search of a
-window (costs only, no route) runs A* on reduced costs (:func:`_reduced`).
+turns of one bin. All these prunings are exact. C starts tight: at the
+cost of a smaller window's best route where there was one, then of the best
+route in a narrow band round that route or the plain one (:func:`_band_bound`,
+A* over a few thousand vertices); the plain route's turns alone made C up
+to 3.7 times the best. C is only a bound: the search still finds its own
+route. The exits' search of a window (costs only, no route) runs A* on
+reduced costs (:func:`_reduced`), bound by the plain distance to an exit
+and the straight line on from there (:func:`_via_exits`).
 With ``RoutingOptions.backward`` the route's search runs from the target
 instead (:func:`_backward_route`, off: faster on some searches, slower on others).
 """
@@ -122,11 +128,18 @@ class RoutingOptions:
     #: never searched whole (``whole_region``) and small tiles keep it small: built over 16-vertex
     #: tiles, or whole, its expanded graph held 0.8–1.8 M states, over 8-vertex tiles 0.2 M
     backward_tile_cells: int = 8
+    #: lattice vertices a side of the tiles of the narrow band (those of a known feasible route and
+    #: their neighbours: ±1–2 tiles) searched first for a tight bound of the best cost
+    #: (:func:`_band_bound`); 0: no band, the first bound is the plain shortest path's penalised cost
+    #: (up to 3.7× the best on Campo Grande's searches) or the previous window's route's
+    bound_cells: int = 4
 
     def __post_init__(self) -> None:
         require_positive(self, ("window_margin", "growth_share", "turn_width"))
         if not (self.window_share >= 0 and self.turn_height >= 0):
             raise InputError("RoutingOptions: window_share and turn_height must not be negative")
+        if self.bound_cells < 0:
+            raise InputError(f"RoutingOptions.bound_cells must not be negative, got {self.bound_cells}")
         if min(self.tile_cells, self.backward_tile_cells) < 1:
             raise InputError("RoutingOptions.tile_cells and backward_tile_cells must be at least 1, got "
                              f"{self.tile_cells}, {self.backward_tile_cells}")
@@ -219,20 +232,27 @@ def find_route(graph: PathGraph | ImplicitGraph, source: int, target: int, *, ki
 
 
 def _search(graph: PathGraph, source: int, target: int, kinds: Sequence[EdgeKind], street_ok: np.ndarray | None,
-            opts: RoutingOptions, release: bool = False) -> tuple[Route | None, np.ndarray | None]:
+            opts: RoutingOptions, release: bool = False, known: np.ndarray | None = None,
+            exits: tuple[np.ndarray, np.ndarray] | None = None
+            ) -> tuple[Route | None, np.ndarray | None, np.ndarray | None]:
     """:func:`find_route` on a G′, and the plain (turn-free) distances from the source.
 
     With ``release`` the graph's cached CSR matrices are dropped once the plain searches are
     done (a window's G′, searched once): the heading-expanded search reads the edge tables, and
-    on the whole map of a large town the matrix alone is 2.3 GB.
+    on the whole map of a large town the matrix alone is 2.3 GB. ``known`` is a route from the
+    source to the target (its vertices; a smaller window's best): where it is allowed in this
+    graph and cheaper than the plain shortest path with its turns, its cost is the first bound.
+    ``exits`` (a window's exits and a lower bound of the cost from each to the target) asks also
+    for ``min_x d(v, x) + bound(x)`` over them for every vertex v (∞ above the first bound), the
+    exits' search's A* bound (:func:`_via_exits`), made before the matrix goes.
     """
     if source == target:
-        return _route(graph, [source], *graph.masks(kinds, street_ok), 0.0), None
+        return _route(graph, [source], *graph.masks(kinds, street_ok), 0.0), None, None
     lat, extra = graph.masks(kinds, street_ok)
     with graph.restricted(kinds, street_ok) as matrix:
         from_source, pred = dijkstra(matrix, indices=source, return_predecessors=True)
         if not np.isfinite(from_source[target]):
-            return None, from_source
+            return None, from_source, None
         plain = _walk_back(pred, source, target)
         del pred
         plain_route = _route(graph, plain, lat, extra, 0.0)
@@ -240,13 +260,58 @@ def _search(graph: PathGraph, source: int, target: int, kinds: Sequence[EdgeKind
         bins = _bins(_headings(plain_route), opts.heading_bins)
         plain_turns = float(penalties[(bins[1:] - bins[:-1]) % opts.heading_bins].sum())
         if opts.turn_height == 0 or plain_turns == 0:
-            return _with_turn_cost(plain_route, plain_turns), from_source
+            return _with_turn_cost(plain_route, plain_turns), from_source, None
         bound = float(from_source[target]) + plain_turns
-        from_target = dijkstra(matrix, indices=target, limit=bound + 1e-9 * bound + 1e-6)  # G′ is symmetric
+        first = (plain, bound)
+        if known is not None:
+            again = _route_cost(graph, known, lat, extra, opts)
+            if again is not None and again < bound:
+                first = (known.tolist(), again)
+        from_target = dijkstra(matrix, indices=target, limit=first[1] + 1e-9 * first[1] + 1e-6)  # G′ is symmetric
+        via = None if exits is None else _via_exits(matrix, *exits, first[1] + 1e-9 * first[1] + 1e-6)
     del matrix
     if release:
         graph.forget_matrices()
-    return _best_route(graph, lat, extra, source, target, from_source, from_target, plain, bound, opts), from_source
+    return _best_route(graph, lat, extra, source, target, from_source, from_target, first, opts), from_source, via
+
+
+def _via_exits(matrix: csr_matrix, exits: np.ndarray, rest: np.ndarray, limit: float) -> np.ndarray:
+    """``min_x d(v, x) + rest(x)`` over the exits x for every vertex v (d: the plain distance in the
+    window; ∞ above ``limit``), by one Dijkstra from a source joined to each exit at ``rest(x)``.
+
+    A route that leaves the window from v first reaches an exit x inside it, at no less than
+    ``d(v, x)``, and then costs at least ``rest(x)`` (``c·|x − t|``): this bounds what is left of
+    it far better than the straight line ``c·|v − t|`` (the window's land costs at least 1 a metre,
+    ``c`` is the cheapest kind's, e.g. a major road's 0.4, and the exits lie round the window, not
+    towards the target). It is a shortest-path distance on the plain graph, whose edges cost no
+    more than the expanded graph's, and turns cost ≥ 0: a consistent A* bound, ``rest(x)`` at most
+    at an exit x. G′ is symmetric, so the distances from the joined source are those to it.
+    """
+    n = matrix.shape[0]
+    if not len(exits):
+        return np.full(n, np.inf)
+    # the joined source's edges: weight rest + 1 (scipy drops explicit zeros), the 1 taken off after
+    indptr = np.concatenate([matrix.indptr, [matrix.indptr[-1] + len(exits)]])
+    joined = csr_matrix((np.concatenate([matrix.data, rest + 1.0]),
+                         np.concatenate([matrix.indices, exits.astype(matrix.indices.dtype)]), indptr),
+                        shape=(n + 1, n + 1))
+    return dijkstra(joined, indices=n, limit=limit + 1.0)[:n] - 1.0
+
+
+def _route_cost(graph: PathGraph, vertices: np.ndarray, lat: np.ndarray, extra: np.ndarray,
+                opts: RoutingOptions) -> float | None:
+    """An upper bound of the expanded graph's distance of the route over ``vertices`` (its cheapest
+    edges, their binned turns and the free transitions' ε each); None when it is not allowed here."""
+    if len(vertices) < 2 or (np.asarray(vertices) < 0).any():
+        return None
+    try:
+        route = _route(graph, vertices.tolist(), lat, extra, 0.0)
+    except InputError:  # an edge of the smaller window is not allowed in this one
+        return None
+    bins = _bins(_headings(route), opts.heading_bins)
+    turns = float(_bin_penalties(opts)[(bins[1:] - bins[:-1]) % opts.heading_bins].sum())
+    total = float(route.edge_weight.sum()) + turns
+    return total + 1e-9 * total + 1e-6 + 4 * len(vertices) * (2 * opts.heading_bins + 1) * _EPS
 
 
 #: Edge kinds whose edges touch the lattice (a search over none of them needs no lattice).
@@ -316,12 +381,16 @@ def _implicit_route(graph: ImplicitGraph, source: int, target: int, kinds: Seque
     reach = graph.options.stitch_radius + graph.lattice.radius * graph.lattice.spacing
     penalties = _bin_penalties(opts)
     map_area = float(np.prod(whole[2:] - whole[:2]))
+    previous = None  # the last window's best route (map vertices): feasible in the next, a bound there
     while True:
         if _seen(bounds, whole) > opts.whole_share * map_area:  # nearly the map's size: take the map
             bounds = whole
         window = graph.window(tuple(bounds))
         s, t = window.from_map(np.array([source, target])).tolist()
-        route, from_source = _search(window.graph, s, t, kinds, street_ok, opts, release=True)
+        known = None if previous is None else window.from_map(previous)
+        exit_rest = c * np.hypot(*(window.graph.xy[window.exits] - ends[1]).T)
+        route, from_source, via = _search(window.graph, s, t, kinds, street_ok, opts, release=True, known=known,
+                                          exits=(window.exits, exit_rest))
         if window.whole or from_source is None:
             return _on_map(window, route, from_source)
         cost = route.cost if route is not None else np.inf
@@ -339,7 +408,7 @@ def _implicit_route(graph: ImplicitGraph, source: int, target: int, kinds: Seque
             # straight-line bound c·|v − t| (consistent: no edge costs less a metre), only where
             # A(v) + c·|v − t| may be below the route's cost; an exit not reached there is not short.
             reached = np.maximum(reached, _exit_arrivals(window, kinds, street_ok, s, ends[1], c, from_source,
-                                                         route, penalties, opts))
+                                                         route, penalties, opts, via))
             short = reached + rest < limit
         if not short.any():
             return _on_map(window, route, from_source)
@@ -353,17 +422,28 @@ def _implicit_route(graph: ImplicitGraph, source: int, target: int, kinds: Seque
             step = np.maximum(opts.growth_share * size, 2.0 * reach) * np.array([-1, -1, 1, 1])
             grown = np.where(step < 0, np.maximum(grown, bounds + step), np.minimum(grown, bounds + step))
         bounds = grown
-        del window, route, from_source  # the last window's tables go before the next is made
+        previous = None if route is None else window.to_map(route.vertices)
+        del window, route, from_source, via  # the last window's tables go before the next is made
 
 
 def _exit_arrivals(window: GraphWindow, kinds: Sequence[EdgeKind], street_ok: np.ndarray | None, s: int,
                    target_xy: np.ndarray, c: float, from_source: np.ndarray, route: Route, penalties: np.ndarray,
-                   opts: RoutingOptions) -> np.ndarray:
+                   opts: RoutingOptions, via: np.ndarray | None = None) -> np.ndarray:
     """A(x) of :func:`_implicit_route` for the window's exits: the least turn-penalised arrival
     cost from the source inside the window, where it and ``c·|x − t|`` may be below the route's
-    cost (∞ elsewhere), searched by A* towards the target (:func:`_tiled_search` without one)."""
+    cost (∞ elsewhere), searched by A* towards the target (:func:`_tiled_search` without one).
+
+    A*'s bound is the straight line ``c·|v − t|`` or, tighter, ``via`` (:func:`_via_exits`: the
+    plain distance to an exit and the straight line on from there), both consistent and at most
+    ``c·|x − t|`` at an exit x: an exit whose ``A(x) + c·|x − t|`` is below the route's cost is
+    reached along states whose ``g + bound`` is too, so its arrival is the same with either, while
+    the tighter bound leaves out the states far from every exit."""
     lat_ok, extra_ok = window.graph.masks(kinds, street_ok)
     straight = c * np.hypot(*(window.graph.xy - target_xy).T)
+    if via is not None:
+        straight = np.maximum(straight, via)
+        if not from_source[s] + straight[s] <= route.cost + 1e-9 * route.cost + 1e-6:
+            return np.full(len(window.exits), np.inf)  # A(x) + c·|x − t| ≥ via(s) > the cost at every exit
     _, arrive = _tiled_search(window.graph, lat_ok, extra_ok, s, None, from_source + straight, straight,
                               (route.vertices.tolist(), route.cost), route.vertices, penalties, opts, target_xy,
                               exits=window.exits)
@@ -419,27 +499,74 @@ def _on_map(window: GraphWindow, route: Route | None, *_) -> Route | None:
 
 
 def _best_route(graph: PathGraph, lat: np.ndarray, extra: np.ndarray, source: int, target: int,
-                from_source: np.ndarray, from_target: np.ndarray, plain: list[int], bound: float,
+                from_source: np.ndarray, from_target: np.ndarray, first: tuple[list[int], float],
                 opts: RoutingOptions) -> Route:
     """The turn-penalised optimum, given the plain distances from both ends (``from_target`` up to
-    ``bound``) and the plain shortest path with its turns, which cost ``bound`` (an upper bound).
+    the bound) and a feasible route with an upper bound of its cost (the plain shortest path with
+    its turns, or a smaller window's best route).
 
     Searched forwards (:func:`_tiled_search`) or, with ``opts.backward``, from the target backwards
     (:func:`_backward_route`), which falls back to the forward search when its last Dijkstra does
-    not confirm the cost it found."""
+    not confirm the cost it found. The forward search's first bound is made tight first
+    (:func:`_band_bound`); it is only a bound: the search still finds its own route (of several of
+    exactly equal cost, the one its Dijkstra takes)."""
     penalties = _bin_penalties(opts)
     best = None
+    lower = from_source + from_target
     if opts.backward:
-        best = _backward_route(graph, lat, extra, source, target, from_source, from_target, (plain, bound),
-                               np.asarray(plain), penalties, opts)
+        best = _backward_route(graph, lat, extra, source, target, from_source, from_target, first,
+                               np.asarray(first[0]), penalties, opts)
     if best is None:
+        bound = _band_bound(graph, lat, extra, source, target, lower, from_target, first, penalties, opts)
         # A*: the turn-free distance to the target is a consistent bound (turns cost ≥ 0), the first
-        # tiles those of the plain route
-        best, _ = _tiled_search(graph, lat, extra, source, target, from_source + from_target, from_target,
-                                (plain, bound), np.asarray(plain), penalties, opts, graph.xy[target])
+        # tiles those of the feasible route
+        best, _ = _tiled_search(graph, lat, extra, source, target, lower, from_target, bound,
+                                np.asarray(bound[0]), penalties, opts, graph.xy[target])
     vertices, total = best
     route = _route(graph, vertices, lat, extra, 0.0)
     return _with_turn_cost(route, max(total - float(route.edge_weight.sum()), 0.0))
+
+
+def _band_bound(graph: PathGraph, lat: np.ndarray, extra: np.ndarray, source: int, target: int, lower: np.ndarray,
+                from_target: np.ndarray, first: tuple[list[int], float], penalties: np.ndarray,
+                opts: RoutingOptions) -> tuple[list[int], float]:
+    """A feasible route and an upper bound of its expanded-graph cost, tight: the best route in a
+    narrow band round ``first`` (its vertices' tiles of ``bound_cells`` a side and their
+    neighbours), or ``first`` where the band holds none cheaper.
+
+    The search's prunings (the region ``d_s + d_t ≤ C``, Dijkstra's limit, A*'s test that grows its
+    tiles) all work with the best cost C known; the plain shortest path's penalised cost is up to
+    3.7 times the best on Campo Grande's searches (turns are most of a route's cost in a street
+    grid), the band's best a few per cent above it at most. The band is searched by A* (reduced
+    costs, :func:`_reduced`: ties do not matter for a bound) over its own vertices only, so it
+    costs a small share of the search it bounds. The bound returned is the band route's
+    distance plus rounding slack: the search that uses it finds a route strictly below it, its
+    own (:func:`_tiled_search` keeps a route only where its Dijkstra finds one cheaper than C).
+    """
+    if opts.bound_cells < 1:
+        return first
+    k = opts.heading_bins
+    per = 2 * k + 1
+    cost = first[1]
+    tile, _, active = _first_tiles(graph, opts.bound_cells, np.asarray(first[0]))
+    verts = np.flatnonzero((lower <= cost + 1e-9 * cost + 1e-6) & active[tile])
+    expanded, local = _expanded_graph(graph, lat, extra, verts, penalties, k)
+    slack = 2 * len(verts) * per * _EPS
+    if local[source] < 0 or local[target] < 0:
+        return first
+    h = from_target[verts] * (1.0 - _SHRINK)
+    start = int(local[source]) * per + 2 * k
+    hs = float(h[local[source]])
+    dist, pred = dijkstra(_reduced(expanded, h, per), indices=start, return_predecessors=True,
+                          limit=cost - hs + slack)
+    del expanded
+    ends = int(local[target]) * per + np.arange(k)
+    end = int(ends[np.argmin(dist[ends])])
+    found = float(dist[end]) + hs - float(h[local[target]])  # ≥ the path's cost: reduced costs only rounded up
+    found += 1e-9 * found + 1e-6 + slack
+    if not found < cost:
+        return first  # nothing cheaper in the band (e.g. the plain route is the best): the search keeps first
+    return _vertex_path(pred, start, end, verts, per), found
 
 
 def _headings(route: Route) -> np.ndarray:
