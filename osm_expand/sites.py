@@ -43,7 +43,7 @@ to the town.
 from __future__ import annotations
 
 from collections.abc import Callable, Hashable, Iterator
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 import shapely
@@ -121,6 +121,10 @@ class DistanceMaps:
     corridor: np.ndarray
     #: development cost of the land cover in each cell, 0 (farmland, unmapped) to < 1
     cost: np.ndarray | None = None
+    #: bool: the built-up land a site's closeness and contact count, when not all of :attr:`city`
+    #: (:func:`settlement_maps`: the town's own settlement, not a hamlet's); ``city_distance`` and
+    #: ``nearest_city`` then measure to it, while all of :attr:`city` stays taken
+    settlement: np.ndarray | None = None
 
     def centres(self) -> tuple[np.ndarray, np.ndarray]:
         return _cell_centres(self.origin, self.cell, self.water.shape)
@@ -183,6 +187,44 @@ def distance_maps(city: City, opts: SiteOptions | None = None, *, margin: float 
         corridor=_raster_each(shapely.buffer(lines[_of_class(net, CORRIDORS)], cell), xs, ys),
         cost=_cost_raster(land, xs, ys),
     )
+
+
+#: Built-up land less than this far apart (m) is one settlement: the European Environment Agency's urban
+#: morphological zones merge built-up patches less than 200 m apart (EEA 2002, *Towards an urban atlas*;
+#: the rule of the UN's "contiguous built-up area" too). Krems and the village of Mautern face each other
+#: across the Danube 300–500 m apart: two settlements; a town's own pieces between its streams and parks
+#: are one (Krems: 5.15 km² of its 5.76 km² of built-up land in one piece at 200 m, 17 pieces at 100 m).
+SETTLEMENT_GAP = 200.0
+
+
+def settlement(maps: DistanceMaps, gap: float = SETTLEMENT_GAP) -> np.ndarray:
+    """The town's own built-up land: the piece of ``maps.city`` with the most area, pieces less than ``gap``
+    metres apart counted as one (:data:`SETTLEMENT_GAP`).
+
+    Why: the engine's districts grow "at the edge of the built-up land ... joined to what is there, as real
+    towns grow" (issue 20), and that is the town's edge, not a village's on the far bank of a river: a site
+    scored by contact with any built-up land put Krems' engine quarter beside Mautern, across the Danube.
+    The town is the piece with the most built-up area (its centre and most of its streets; on an extract of
+    villages, the largest village, where the pipeline's district grows too).
+    """
+    if not maps.city.any():
+        return maps.city
+    near = distance_transform_edt(~maps.city) * maps.cell <= 0.5 * gap  # pieces less than ``gap`` apart touch
+    pieces, _ = label(near, structure=np.ones((3, 3), dtype=bool))
+    area = np.bincount(pieces[maps.city], minlength=pieces.max() + 1)
+    area[0] = 0
+    return maps.city & (pieces == int(np.argmax(area)))
+
+
+def settlement_maps(maps: DistanceMaps, gap: float = SETTLEMENT_GAP) -> DistanceMaps:
+    """``maps`` whose closeness to the town, contact and nearest town cell count the town's own settlement
+    only (:func:`settlement`); the rest of the built-up land stays taken (no site holds it), but a site
+    beside a hamlet is no longer next to the town."""
+    town = settlement(maps, gap)
+    if not town.any() or town.sum() == maps.city.sum():
+        return maps
+    cells, nearest = distance_transform_edt(~town, return_indices=True)
+    return replace(maps, city_distance=cells * maps.cell, nearest_city=nearest.astype(np.int32), settlement=town)
 
 
 def _built_up(city: City, land: Land, xs: np.ndarray, ys: np.ndarray) -> np.ndarray:
@@ -471,7 +513,8 @@ def _score(maps: DistanceMaps, radius: float, opts: SiteOptions, rings: _RingSha
     else:
         near_water = np.zeros_like(near_city)
     room = np.clip((maps.free_radius - radius) / radius, 0.0, 1.0)
-    contact = rings.share(maps.city, radius / maps.cell, (radius + opts.contact_width) / maps.cell)
+    town = maps.city if maps.settlement is None else maps.settlement
+    contact = rings.share(town, radius / maps.cell, (radius + opts.contact_width) / maps.cell)
     taken = rings.share(maps.unbuildable, 0.0, radius / maps.cell)
     cover = rings.share(maps.cost, 0.0, radius / maps.cell) if maps.cost is not None else 0.0
     score = (opts.city_weight * near_city + opts.contact_weight * contact + opts.water_weight * near_water

@@ -37,7 +37,15 @@ from osm_expand.errors import OptionError
 from osm_expand.joins import add_streets
 from osm_expand.model import City, Origin, Status, closest_on_segments, match_points, polyline_length
 from osm_expand.model.segments import SegmentTable
-from osm_expand.sites import DistanceMaps, SiteOptions, choose_sites, default_district_area, distance_maps
+from osm_expand.sites import (
+    SETTLEMENT_GAP,
+    DistanceMaps,
+    SiteOptions,
+    choose_sites,
+    default_district_area,
+    distance_maps,
+    settlement_maps,
+)
 from synth.growth import GrowthPattern
 from synth.patterns import PatternOptions, grow_streets
 from synth.street_graph import StreetGraph
@@ -116,12 +124,24 @@ class GrowthOptions:
     #: verdict band (PatchOptions ``density_from_verdict``) at 5 it is 8 7 7 (README, "The engine's district floor").
     #: 0 turns the floor off (main before session 31).
     district_neighbourhoods: float = 5.0
+    #: Built-up land less than this far apart (m) is one settlement, and a district's site counts only the
+    #: town's own (:func:`osm_expand.sites.settlement`: the piece with the most built-up land) in its closeness
+    #: to the town and its contact, and its joins must land within a junction spacing of it. Why: with every
+    #: piece of built-up land counted alike, Krems' engine quarter grew beside Mautern across the Danube
+    #: (its site ranked first by the nuclei: a bridge end and the major-road junctions there are nuclei as
+    #: strong as Krems' own), and north-bayreuth's (without its buildings) in the fields by a hamlet.
+    #: :data:`~osm_expand.sites.SETTLEMENT_GAP` (200 m, the EEA's urban morphological zones) by default;
+    #: 0 counts all built-up land (main before session 32).
+    settlement_gap: float = SETTLEMENT_GAP
 
     def __post_init__(self) -> None:
         # a negative or NaN floor would silently turn the floor off (or never let a district grow)
         if not (np.isfinite(self.district_neighbourhoods) and self.district_neighbourhoods >= 0):
             raise OptionError(f"growth option district_neighbourhoods must be a finite number of neighbourhoods "
                               f">= 0, got {self.district_neighbourhoods!r}")
+        if not (np.isfinite(self.settlement_gap) and self.settlement_gap >= 0):
+            raise OptionError(f"growth option settlement_gap must be a finite number of metres >= 0, "
+                              f"got {self.settlement_gap!r}")
 
 
 @dataclass
@@ -345,6 +365,8 @@ def grow_district(city: City, pattern: GrowthPattern, length: float, density: fl
     maps = distance_maps(city, site_options, margin=margin)
     town = built_up_density(city, maps)
     area = max(length / (town if town > 0 else max(density, 1e-9)), 9.0 * spacing ** 2)
+    if options.settlement_gap > 0:  # next to the town's own built-up land, joined to it, not to a hamlet's
+        maps = settlement_maps(maps, options.settlement_gap)
     district_radius = math.sqrt(area / math.pi)
     avoid = None
     if options.refused_near > 0:
