@@ -30,7 +30,11 @@ beats a corner, and gives the joining streets somewhere to go) and by room
 to spare, each in [0, 1] and weighted, less its unbuildable share and the
 mean development cost of its land cover (fields before forest); it loses
 its closeness to the city when the way there crosses water (the far bank of
-a river is not next to the town). Motorways and trunk roads
+a river is not next to the town; for the engine's districts, the town is
+its own settlement, :func:`settlement_maps`: built-up land less than
+:data:`SETTLEMENT_GAP` apart is one settlement, the largest is the town, so
+a village on the far bank does not make the far bank the town's).
+Motorways and trunk roads
 (:data:`CORRIDORS`) cut the land: a district's streets cross none of the
 town's streets and these have no junctions to meet, so free land in the
 disc that they cut off from its centre costs its share
@@ -116,7 +120,9 @@ class DistanceMaps:
     water_distance: np.ndarray  #: m
     city_distance: np.ndarray  #: m
     free_radius: np.ndarray  #: m to the nearest water, city or outside cell
-    nearest_city: np.ndarray  #: (2, rows, cols) row and column of each cell's nearest city cell
+    #: (2, rows, cols) row and column of each cell's nearest city cell (of the town's settlement:
+    #: :func:`settlement_maps`): what :func:`_across_water` looks across
+    nearest_city: np.ndarray
     #: bool: motorways, trunk roads and their ramps, which new streets never cross (no junction on them)
     corridor: np.ndarray
     #: development cost of the land cover in each cell, 0 (farmland, unmapped) to < 1
@@ -216,14 +222,22 @@ def settlement(maps: DistanceMaps, gap: float = SETTLEMENT_GAP) -> np.ndarray:
     return maps.city & (pieces == int(np.argmax(area)))
 
 
-def settlement_maps(maps: DistanceMaps, gap: float = SETTLEMENT_GAP) -> DistanceMaps:
-    """``maps`` whose closeness to the town, contact and nearest town cell count the town's own settlement
-    only (:func:`settlement`); the rest of the built-up land stays taken (no site holds it), but a site
-    beside a hamlet is no longer next to the town."""
+def settlement_maps(maps: DistanceMaps, gap: float = SETTLEMENT_GAP, *, only: bool = False) -> DistanceMaps:
+    """``maps`` that measure the far bank from the town's own settlement (:func:`settlement`): a site whose
+    straight way to the *town* crosses water loses its closeness (:func:`_across_water`), however near a
+    village on its own bank lies. Krems' engine quarter grew beside Mautern, across the Danube: the way to
+    Mautern, its nearest built-up land, crosses no water.
+
+    With ``only``, the site's closeness to the town and its contact count the town's settlement alone too
+    (and so do the engine's joins, which read ``city_distance``); the rest of the built-up land stays taken
+    (no site holds it), but a site beside a hamlet is no longer next to the town.
+    """
     town = settlement(maps, gap)
     if not town.any() or town.sum() == maps.city.sum():
         return maps
     cells, nearest = distance_transform_edt(~town, return_indices=True)
+    if not only:
+        return replace(maps, nearest_city=nearest.astype(np.int32))
     return replace(maps, city_distance=cells * maps.cell, nearest_city=nearest.astype(np.int32), settlement=town)
 
 

@@ -1,6 +1,6 @@
-"""The engine's districts grow at the town's own edge (issue 20): a site's closeness to the town, its contact
-and its joins count the town's settlement (built-up land less than 200 m apart merged, the piece with the most
-area: :func:`osm_expand.sites.settlement`), not a village's across a river."""
+"""The engine's districts grow at the town's own edge (issue 20): the far bank of a river is seen from the town's
+own settlement (built-up land less than 200 m apart merged, the piece with the most area:
+:func:`osm_expand.sites.settlement`, :func:`osm_expand.sites.settlement_maps`), not from a village on it."""
 from __future__ import annotations
 
 import functools
@@ -59,16 +59,21 @@ def test_built_up_land_less_than_the_gap_apart_is_one_settlement(gap, one):
                         corridor=np.zeros_like(city))
     town = settlement(maps)
     assert town[30, 30] and town[30, left + 5] == one
-    near = settlement_maps(maps)
+    far_bank = settlement_maps(maps)
+    only = settlement_maps(maps, only=True)
     if one:
-        assert near is maps
-    else:
-        assert near.settlement is not None and near.city is maps.city  # the hamlet is still taken land
-        assert near.city_distance[30, left + 5] == pytest.approx(cell * (left + 5 - 59), abs=cell)
+        assert far_bank is maps and only is maps
+        return
+    # by default only the far bank is seen from the town: the nearest town cell of a cell by the hamlet
+    row, col = far_bank.nearest_city[:, 30, left + 25]
+    assert town[row, col] and far_bank.city_distance is maps.city_distance and far_bank.settlement is None
+    # with ``only`` the closeness and contact count the town alone; the hamlet is still taken land
+    assert only.settlement is not None and only.city is maps.city
+    assert only.city_distance[30, left + 5] == pytest.approx(cell * (left + 5 - 59), abs=cell)
 
 
 def test_krems_engine_districts_touch_krems_own_settlement():
-    """Krems, default history, seed 0: every piece of the engine's street growth (its streets buffered 30 m,
+    """Krems, default history, seed 0 (default options): every piece of the engine's street growth (its streets buffered 30 m,
     merged) reaches the town's settlement; on main 88bd933 the run's second quarter grew beside Mautern,
     across the Danube, a piece 300 m and more from Krems' built-up land."""
     run = _krems_run().city
@@ -92,3 +97,7 @@ def test_the_settlement_gap_refuses_a_negative_or_not_finite_distance(value):
 
 def test_the_settlement_gap_is_the_eeas_200_m_by_default():
     assert GrowthOptions().settlement_gap == SETTLEMENT_GAP == 200.0
+
+
+def test_settlement_only_is_off_by_default():
+    assert GrowthOptions().settlement_only is False
