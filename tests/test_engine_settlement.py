@@ -73,8 +73,8 @@ def test_built_up_land_less_than_the_gap_apart_is_one_settlement(gap, one):
 
 
 def test_krems_engine_districts_touch_krems_own_settlement():
-    """Krems, default history, seed 0 (default options): every piece of the engine's street growth (its streets buffered 30 m,
-    merged) reaches the town's settlement; on main 88bd933 the run's second quarter grew beside Mautern,
+    """Krems, default history, seed 0 (default options): every piece of the engine's street growth (its streets
+    buffered 30 m, merged) reaches the town's settlement; on main 88bd933 the run's second quarter grew beside Mautern,
     across the Danube, a piece 300 m and more from Krems' built-up land."""
     run = _krems_run().city
     maps = distance_maps(before_the_years(run), SiteOptions(cell=20.0), margin=1500.0)
@@ -82,7 +82,8 @@ def test_krems_engine_districts_touch_krems_own_settlement():
     net = run.network
     grown = [net.street_xy(s) for s in net.streets if s.origin == Origin.ENGINE and not is_major_road(s)]
     assert grown
-    pieces = shapely.get_parts(shapely.union_all(shapely.buffer(np.array([shapely.LineString(x) for x in grown], dtype=object), 30.0)))
+    lines = np.array([shapely.LineString(x) for x in grown], dtype=object)
+    pieces = shapely.get_parts(shapely.union_all(shapely.buffer(lines, 30.0)))
     rows, cols = np.nonzero(town)
     cells = shapely.points(maps.origin + (np.column_stack([cols, rows]) + 0.5) * maps.cell)
     gaps = [float(shapely.distance(piece, shapely.multipoints(cells))) for piece in pieces]
