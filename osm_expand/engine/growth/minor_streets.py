@@ -131,7 +131,12 @@ class GrowthOptions:
     #: the way from Krems' engine quarter of 2029 (seed 0) to Mautern, the village on the far bank of the
     #: Danube, crosses no water: it grew there, a separate piece beside the village, not at Krems' edge.
     #: :data:`~osm_expand.sites.SETTLEMENT_GAP` (200 m, the EEA's urban morphological zones) by default;
-    #: 0 reads every piece of built-up land as the town (main before session 32).
+    #: 0 reads every piece of built-up land as the town (main before session 32). Measured
+    #: (``benchmarks/engine_growth.py --seed S``, off of 14 per reference seed, main → 200 m): seed 0 Krems
+    #: 2 2 4 → 1 1 1 (15.7 → 10.4 km, both quarters at Krems' eastern edge), north-bayreuth 5 5 5 → 2 3 2 (its
+    #: quarter in the fields 4 km east of the town now at the town's southern edge; 1 → 2 pieces, 27.4 → 19.5 km),
+    #: Andorra and Monaco the same bytes; seed 1 Krems 4 3 4 → 0 0 1 but 12.6 → 4.3 km (the run's last district,
+    #: due, refused at all five sites at Krems' filled eastern edge), north-bayreuth 3 3 3 → 2 3 2.
     settlement_gap: float = SETTLEMENT_GAP
     #: A site's closeness to the town, its contact, and the district's joins count the town's settlement only
     #: (:attr:`settlement_gap`; ``settlement_maps(only=True)``), not every piece of built-up land. Off by
