@@ -30,7 +30,11 @@ beats a corner, and gives the joining streets somewhere to go) and by room
 to spare, each in [0, 1] and weighted, less its unbuildable share and the
 mean development cost of its land cover (fields before forest); it loses
 its closeness to the city when the way there crosses water (the far bank of
-a river is not next to the town). Motorways and trunk roads
+a river is not next to the town; for the engine's districts, the town is
+its own settlement, :func:`settlement_maps`: built-up land less than
+:data:`SETTLEMENT_GAP` apart is one settlement, the largest is the town, so
+a village on the far bank does not make the far bank the town's).
+Motorways and trunk roads
 (:data:`CORRIDORS`) cut the land: a district's streets cross none of the
 town's streets and these have no junctions to meet, so free land in the
 disc that they cut off from its centre costs its share
@@ -43,7 +47,7 @@ to the town.
 from __future__ import annotations
 
 from collections.abc import Callable, Hashable, Iterator
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 import shapely
@@ -116,11 +120,17 @@ class DistanceMaps:
     water_distance: np.ndarray  #: m
     city_distance: np.ndarray  #: m
     free_radius: np.ndarray  #: m to the nearest water, city or outside cell
-    nearest_city: np.ndarray  #: (2, rows, cols) row and column of each cell's nearest city cell
+    #: (2, rows, cols) row and column of each cell's nearest city cell (of the town's settlement:
+    #: :func:`settlement_maps`): what :func:`_across_water` looks across
+    nearest_city: np.ndarray
     #: bool: motorways, trunk roads and their ramps, which new streets never cross (no junction on them)
     corridor: np.ndarray
     #: development cost of the land cover in each cell, 0 (farmland, unmapped) to < 1
     cost: np.ndarray | None = None
+    #: bool: the built-up land a site's closeness and contact count, when not all of :attr:`city`
+    #: (:func:`settlement_maps`: the town's own settlement, not a hamlet's); ``city_distance`` and
+    #: ``nearest_city`` then measure to it, while all of :attr:`city` stays taken
+    settlement: np.ndarray | None = None
 
     def centres(self) -> tuple[np.ndarray, np.ndarray]:
         return _cell_centres(self.origin, self.cell, self.water.shape)
@@ -183,6 +193,52 @@ def distance_maps(city: City, opts: SiteOptions | None = None, *, margin: float 
         corridor=_raster_each(shapely.buffer(lines[_of_class(net, CORRIDORS)], cell), xs, ys),
         cost=_cost_raster(land, xs, ys),
     )
+
+
+#: Built-up land less than this far apart (m) is one settlement: the European Environment Agency's urban
+#: morphological zones merge built-up patches less than 200 m apart (EEA 2002, *Towards an urban atlas*;
+#: the rule of the UN's "contiguous built-up area" too). Krems and the village of Mautern face each other
+#: across the Danube 300–500 m apart: two settlements; a town's own pieces between its streams and parks
+#: are one (Krems: 5.15 km² of its 5.76 km² of built-up land in one piece at 200 m, 17 pieces at 100 m).
+SETTLEMENT_GAP = 200.0
+
+
+def settlement(maps: DistanceMaps, gap: float = SETTLEMENT_GAP) -> np.ndarray:
+    """The town's own built-up land: the piece of ``maps.city`` with the most area, pieces less than ``gap``
+    metres apart counted as one (:data:`SETTLEMENT_GAP`).
+
+    Why: the engine's districts grow "at the edge of the built-up land ... joined to what is there, as real
+    towns grow" (issue 20), and that is the town's edge, not a village's on the far bank of a river: a site
+    scored by contact with any built-up land put Krems' engine quarter beside Mautern, across the Danube.
+    The town is the piece with the most built-up area (its centre and most of its streets; on an extract of
+    villages, the largest village, where the pipeline's district grows too).
+    """
+    if not maps.city.any():
+        return maps.city
+    near = distance_transform_edt(~maps.city) * maps.cell <= 0.5 * gap  # pieces less than ``gap`` apart touch
+    pieces, _ = label(near, structure=np.ones((3, 3), dtype=bool))
+    area = np.bincount(pieces[maps.city], minlength=pieces.max() + 1)
+    area[0] = 0
+    return maps.city & (pieces == int(np.argmax(area)))
+
+
+def settlement_maps(maps: DistanceMaps, gap: float = SETTLEMENT_GAP, *, only: bool = False) -> DistanceMaps:
+    """``maps`` that measure the far bank from the town's own settlement (:func:`settlement`): a site whose
+    straight way to the *town* crosses water loses its closeness (:func:`_across_water`), however near a
+    village on its own bank lies. Krems' engine quarter grew beside Mautern, across the Danube: the way to
+    Mautern, its nearest built-up land, crosses no water.
+
+    With ``only``, the site's closeness to the town and its contact count the town's settlement alone too
+    (and so do the engine's joins, which read ``city_distance``); the rest of the built-up land stays taken
+    (no site holds it), but a site beside a hamlet is no longer next to the town.
+    """
+    town = settlement(maps, gap)
+    if not town.any() or town.sum() == maps.city.sum():
+        return maps
+    cells, nearest = distance_transform_edt(~town, return_indices=True)
+    if not only:
+        return replace(maps, nearest_city=nearest.astype(np.int32))
+    return replace(maps, city_distance=cells * maps.cell, nearest_city=nearest.astype(np.int32), settlement=town)
 
 
 def _built_up(city: City, land: Land, xs: np.ndarray, ys: np.ndarray) -> np.ndarray:
@@ -471,7 +527,8 @@ def _score(maps: DistanceMaps, radius: float, opts: SiteOptions, rings: _RingSha
     else:
         near_water = np.zeros_like(near_city)
     room = np.clip((maps.free_radius - radius) / radius, 0.0, 1.0)
-    contact = rings.share(maps.city, radius / maps.cell, (radius + opts.contact_width) / maps.cell)
+    town = maps.city if maps.settlement is None else maps.settlement
+    contact = rings.share(town, radius / maps.cell, (radius + opts.contact_width) / maps.cell)
     taken = rings.share(maps.unbuildable, 0.0, radius / maps.cell)
     cover = rings.share(maps.cost, 0.0, radius / maps.cell) if maps.cost is not None else 0.0
     score = (opts.city_weight * near_city + opts.contact_weight * contact + opts.water_weight * near_water

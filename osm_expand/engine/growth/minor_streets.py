@@ -37,7 +37,15 @@ from osm_expand.errors import OptionError
 from osm_expand.joins import add_streets
 from osm_expand.model import City, Origin, Status, closest_on_segments, match_points, polyline_length
 from osm_expand.model.segments import SegmentTable
-from osm_expand.sites import DistanceMaps, SiteOptions, choose_sites, default_district_area, distance_maps
+from osm_expand.sites import (
+    SETTLEMENT_GAP,
+    DistanceMaps,
+    SiteOptions,
+    choose_sites,
+    default_district_area,
+    distance_maps,
+    settlement_maps,
+)
 from synth.growth import GrowthPattern
 from synth.patterns import PatternOptions, grow_streets
 from synth.street_graph import StreetGraph
@@ -116,12 +124,38 @@ class GrowthOptions:
     #: verdict band (PatchOptions ``density_from_verdict``) at 5 it is 8 7 7 (README, "The engine's district floor").
     #: 0 turns the floor off (main before session 31).
     district_neighbourhoods: float = 5.0
+    #: Built-up land less than this far apart (m) is one settlement (:func:`osm_expand.sites.settlement`; the
+    #: town is the piece with the most built-up land), and a site whose straight way to the *town's* settlement
+    #: crosses water loses its closeness to the town, as the pipeline's site does for the far bank
+    #: (:func:`osm_expand.sites.settlement_maps`). Why: a site's nearest built-up land was any piece of it, and
+    #: the way from Krems' engine quarter of 2029 (seed 0) to Mautern, the village on the far bank of the
+    #: Danube, crosses no water: it grew there, a separate piece beside the village, not at Krems' edge.
+    #: :data:`~osm_expand.sites.SETTLEMENT_GAP` (200 m, the EEA's urban morphological zones) by default;
+    #: 0 reads every piece of built-up land as the town (main before session 32). Measured
+    #: (``benchmarks/engine_growth.py --seed S``, off of 14 per reference seed, main → 200 m): seed 0 Krems
+    #: 2 2 4 → 1 1 1 (15.7 → 10.4 km, both quarters at Krems' eastern edge), north-bayreuth 5 5 5 → 2 3 2 (its
+    #: quarter in the fields 4 km east of the town now at the town's southern edge; 1 → 2 pieces, 27.4 → 19.5 km),
+    #: Andorra and Monaco the same bytes; seed 1 Krems 4 3 4 → 0 0 1 but 12.6 → 4.3 km (the run's last district,
+    #: due, refused at all five sites at Krems' filled eastern edge), north-bayreuth 3 3 3 → 2 3 2.
+    settlement_gap: float = SETTLEMENT_GAP
+    #: A site's closeness to the town, its contact, and the district's joins count the town's settlement only
+    #: (:attr:`settlement_gap`; ``settlement_maps(only=True)``), not every piece of built-up land. Off by
+    #: default: it keeps north-bayreuth's engine growth (without its buildings) at the town's edge instead of
+    #: a piece in the fields by a hamlet, and Krems' too, but on seed 0 (``benchmarks/engine_growth.py``, off
+    #: of 14 per reference seed, main → on) Andorra 0 0 0 → 4 6 5 (its growth moved to the steep slopes of
+    #: its largest town) and north-bayreuth 5 5 5 → 7 7 6 (a district two thirds of the town's size wrapped
+    #: round it, 16 % outlying); seed 1: Krems 4 3 4 → 0 0 1 but 12.6 → 4.3 km grown (its last district
+    #: refused at all five sites), Andorra 0 0 1 → 2 2 2, north-bayreuth 3 3 3 → 3 3 1 (session 32).
+    settlement_only: bool = False
 
     def __post_init__(self) -> None:
         # a negative or NaN floor would silently turn the floor off (or never let a district grow)
         if not (np.isfinite(self.district_neighbourhoods) and self.district_neighbourhoods >= 0):
             raise OptionError(f"growth option district_neighbourhoods must be a finite number of neighbourhoods "
                               f">= 0, got {self.district_neighbourhoods!r}")
+        if not (np.isfinite(self.settlement_gap) and self.settlement_gap >= 0):
+            raise OptionError(f"growth option settlement_gap must be a finite number of metres >= 0, "
+                              f"got {self.settlement_gap!r}")
 
 
 @dataclass
@@ -333,6 +367,9 @@ def grow_district(city: City, pattern: GrowthPattern, length: float, density: fl
     places within a junction spacing of its built-up land (the sites'
     raster, which the LEI reads too: joined to a country road in the
     fields, Monaco's second district grew as outlying growth) is built.
+    The far bank of a river is seen from the town's own settlement
+    (:attr:`GrowthOptions.settlement_gap`), not from a village on it
+    (Krems' quarter beside Mautern).
     Its stubs are the pattern's: closing them as a street pattern's are
     (:mod:`osm_expand.engine.growth.stubs`) left north-bayreuth's engine streets
     with 7 % dead ends against its neighbourhoods' 17–41 %.
@@ -345,6 +382,8 @@ def grow_district(city: City, pattern: GrowthPattern, length: float, density: fl
     maps = distance_maps(city, site_options, margin=margin)
     town = built_up_density(city, maps)
     area = max(length / (town if town > 0 else max(density, 1e-9)), 9.0 * spacing ** 2)
+    if options.settlement_gap > 0:  # the far bank seen from the town, not from a village on the far bank
+        maps = settlement_maps(maps, options.settlement_gap, only=options.settlement_only)
     district_radius = math.sqrt(area / math.pi)
     avoid = None
     if options.refused_near > 0:
