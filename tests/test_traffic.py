@@ -644,3 +644,14 @@ def test_searches_on_the_part_a_batch_reaches_equal_the_whole_graphs(name):
             assert np.array_equal(np.where(pred >= 0, vertex[np.maximum(pred, 0)], -9999), whole_pred[:, vertex])
             if np.isfinite(limit) and limit < 2000 and len(starts) < e:
                 assert len(vertex) < 3 * e  # the point: a batch searches less than the town
+    # and the trips sampled from them: the same draws, destinations, paths and people either way
+    from osm_expand.engine.traffic.trips import _sample_batch
+
+    residents = rng.random(e) * 40 * (rng.random(e) < 0.7)
+    for starts in batches[:3]:
+        n_trips = rng.integers(0, 20, len(starts))
+        local, whole = (_sample_batch(g, starts, n_trips, residents, 2.5, np.random.default_rng(3), TripOptions(),
+                                      local=flag) for flag in (True, False))
+        assert local[3:] == whole[3:] and local[3] > 0
+        for a, b in zip(local[:3], whole[:3]):
+            assert np.array_equal(np.concatenate(a), np.concatenate(b))

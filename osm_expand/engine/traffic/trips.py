@@ -259,6 +259,8 @@ def _due(state: TripState, residents: NDArray[np.float64], rng: np.random.Genera
 def _by_segment(dist: NDArray[np.float64], of: NDArray[np.int64], segment: NDArray[np.int64]) -> NDArray[np.float64]:
     """Columns ``dist[:, k]`` of segments ``of[k]`` (ascending) laid out over ``segment`` (ascending, a
     superset), ``inf`` where a segment has none: one gather (a scatter into columns costs 3× more)."""
+    if len(of) == len(segment):  # the same segments: ``dist`` as it is
+        return dist
     column = np.full(len(segment), len(of))
     column[np.searchsorted(segment, of)] = np.arange(len(of))
     return np.concatenate([dist, np.full((len(dist), 1), np.inf)], axis=1)[:, column]
@@ -266,20 +268,23 @@ def _by_segment(dist: NDArray[np.float64], of: NDArray[np.int64], segment: NDArr
 
 def _sample_batch(graph: TripGraph, sources: NDArray[np.int64], n_trips: NDArray[np.int64],
                   residents: NDArray[np.float64], volume: float, rng: np.random.Generator,
-                  options: TripOptions) -> tuple[list[NDArray], list[NDArray], list[NDArray], int, int]:
+                  options: TripOptions, *, local: bool = False,
+                  ) -> tuple[list[NDArray], list[NDArray], list[NDArray], int, int]:
     """Destinations and paths for one batch of sources: (source, segment, people) triples.
 
     Destinations are drawn by inverse transform over each row's attraction
     (one cumulative sum over the reachable entries of the whole batch), the
     draws of one source to one destination become one path of their summed
     volume, and all paths are walked back along the predecessor arrays at once.
-    The searches run on what the batch reaches within the limit
-    (:func:`~osm_expand.engine.traffic.trip_graph.limited_search`): the
-    columns below are the segments with a direction reached, ascending, so
-    entries come in the same order as over the whole table.
+    With ``local`` (sources near each other) the searches run on what the
+    batch reaches within the limit
+    (:func:`~osm_expand.engine.traffic.trip_graph.limited_search`), with the
+    same results: the columns below are the segments with a direction
+    reached, ascending, so entries come in the same order as over the whole
+    table.
     """
     e = graph.n_segments
-    vertex, dist, pred = limited_search(graph, 2 * e + sources, options.limit)
+    vertex, dist, pred = limited_search(graph, 2 * e + sources, options.limit, subgraph=local)
     ahead = int(np.searchsorted(vertex, e))  # vertices are ascending: forward directions, backward, starts
     behind = int(np.searchsorted(vertex, 2 * e))
     reached = np.zeros(e, bool)
@@ -368,9 +373,13 @@ def step_trips(state: TripState, graph: TripGraph, residents: NDArray[np.floatin
     active_trips = n_trips[n_trips > 0]
     src_parts, seg_parts, vol_parts = [], [], []
     trips = stranded = 0
+    # a batch of segments never sampled (the first fill, the year's new streets at the table's end) lies
+    # together, and is searched on the part it reaches; a batch with the random share is spread over the town
+    fresh = ~state.sampled[active]
     for lo in range(0, len(active), options.batch_sources):
         hi = lo + options.batch_sources
-        s, g, v, t, st = _sample_batch(graph, active[lo:hi], active_trips[lo:hi], res, volume, rng, options)
+        s, g, v, t, st = _sample_batch(graph, active[lo:hi], active_trips[lo:hi], res, volume, rng, options,
+                                       local=bool(fresh[lo:hi].all()))
         src_parts += s
         seg_parts += g
         vol_parts += v
