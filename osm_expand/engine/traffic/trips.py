@@ -39,6 +39,11 @@ the volume of one simulated trip grows with the town so the total stays near
 ``limit = cutoff · decay_length`` (destinations further away would draw
 fewer than ``f(limit)`` of the trips: 5 % of the nearest's weight at the
 defaults); 002 itself switched to per-trip Dijkstra above 10,000 streets.
+A batch of never-sampled segments (the first year fills every one) is
+searched on the part of the graph it reaches within the limit, with the
+same results (:func:`~osm_expand.engine.traffic.trip_graph.limited_search`):
+the first fill then costs what the searches reach, not the batches times
+the whole graph.
 
 Streets (002 §2, §3.2): new streets are *planned*, take part in the traffic
 at once, and are *built* when their traffic reaches ``build_threshold``
