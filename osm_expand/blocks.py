@@ -272,12 +272,13 @@ def blocks(net: StreetNetwork, options: BlockOptions | None = None, *, origin: O
     may = np.flatnonzero((np.diff(found.ring_at) >= 4) & (found.signed_areas() > 0))
     ring_at, id_at = found.ring_at.tolist(), found.id_at.tolist()
     remembered, closed, face_edges = known.polygons, found.closed, found.edges
-    for f in may.tolist():
-        ring = closed[ring_at[f]:ring_at[f + 1]]
-        key = ring.tobytes()
-        poly = remembered.get(key, _UNKNOWN)
-        if poly is _UNKNOWN:
-            poly = _valid_polygon(ring)
+    faces_may = may.tolist()
+    face_keys = [closed[ring_at[f]:ring_at[f + 1]].tobytes() for f in faces_may]
+    made = [remembered.get(key, _UNKNOWN) for key in face_keys]
+    todo = [i for i, poly in enumerate(made) if poly is _UNKNOWN]
+    for i, poly in zip(todo, _valid_polygons(found, may[todo])):  # the faces the memo has not seen, at once
+        made[i] = poly
+    for f, key, poly in zip(faces_may, face_keys, made):
         seen[key] = poly
         if poly is not None:  # a face walking a street twice or crossing a bridge is left out
             bounded.append(poly)
@@ -309,9 +310,16 @@ def blocks(net: StreetNetwork, options: BlockOptions | None = None, *, origin: O
 _UNKNOWN = object()
 
 
-def _valid_polygon(ring: np.ndarray) -> shapely.Polygon | None:
-    poly = shapely.Polygon(ring)
-    return poly if poly.is_valid else None
+def _valid_polygons(found: _Faces, faces: np.ndarray) -> list[shapely.Polygon | None]:
+    """The polygons of faces ``faces`` (indices into ``found``), None where one is not valid: made and tested
+    in one call each (one by one, 0.8 s of a 10,000-street town's first blocks), the same polygons."""
+    if not len(faces):
+        return []
+    start = found.ring_at[faces]
+    size = found.ring_at[faces + 1] - start
+    index = np.repeat(start - (np.cumsum(size) - size), size) + np.arange(int(size.sum()))
+    polys = shapely.polygons(shapely.linearrings(found.closed[index], indices=np.repeat(np.arange(len(faces)), size)))
+    return [p if ok else None for p, ok in zip(polys.tolist(), shapely.is_valid(polys).tolist())]
 
 
 def _edge_streets(poly: shapely.Polygon, face: shapely.Polygon, ids: np.ndarray) -> np.ndarray:
@@ -352,7 +360,9 @@ def _settled_pairs(polys: list[shapely.Polygon], keys: list[bytes], memo: FaceMe
     if new.any():
         tree = shapely.STRtree(polys)
         asked = np.flatnonzero(new)
-        for predicate in ("overlaps", "contains", "within"):
+        # every face new (the first call): the ``within`` pairs are the ``contains`` pairs turned round, and
+        # the pairs are sorted below, so that third query (a quarter of the first blocks of a large town) is left out
+        for predicate in ("overlaps", "contains") if new.all() else ("overlaps", "contains", "within"):
             q, j = tree.query(np.asarray(polys, dtype=object)[asked], predicate=predicate)
             found.append(np.stack([asked[q], j], axis=1))
     pairs = np.sort(np.concatenate(found), axis=1)

@@ -160,3 +160,25 @@ def test_blocks_stamped_as_they_are_made_are_the_blocks_stamped_afterwards():
     _same_blocks(stamped, plain)
     assert [(b.id, b.origin, b.year) for b in stamped] == [(b.id, *stamp(b.street_ids)) for b in plain]
     assert {b.origin for b in stamped} == {Origin.ENGINE, Origin.SOURCE}
+
+
+@pytest.mark.parametrize("name", ["monaco.osm.gz", "krems.osm.gz", "andorra.osm.pbf"])
+def test_overlapping_and_nested_faces_found_at_once_are_those_of_all_three_queries(name):
+    """With every face new, :func:`_settled_pairs` leaves out the ``within`` query (its pairs are the
+    ``contains`` pairs turned round); the pairs are those of asking all three predicates, on real towns whose
+    bridges and separate pieces of network make faces overlap and nest."""
+    import numpy as np
+
+    from osm_expand.blocks import FaceMemo, _face_arrays, _settled_pairs, _valid_polygons
+    from tests.conftest import loaded
+
+    found = _face_arrays(loaded(name))
+    may = np.flatnonzero((np.diff(found.ring_at) >= 4) & (found.signed_areas() > 0))
+    polys = [p for p in _valid_polygons(found, may) if p is not None]
+    keys = [p.wkb for p in polys]
+    pairs = _settled_pairs(polys, keys, FaceMemo())
+    tree = shapely.STRtree(polys)
+    asked = [np.stack(tree.query(polys, predicate=p), axis=1) for p in ("overlaps", "contains", "within")]
+    every = np.sort(np.concatenate(asked), axis=1)
+    every = np.unique(every[every[:, 0] != every[:, 1]], axis=0)
+    assert len(asked[1]) > 0 and np.array_equal(pairs, every)  # some faces nest: the shortcut is exercised

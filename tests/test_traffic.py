@@ -36,6 +36,7 @@ from osm_expand.engine.traffic.trade_routes import initial_trade_state, route_be
 from osm_expand.engine.traffic.trips import (
     TripOptions,
     extend_trip_state,
+    limited_search,
     new_trip_state,
     remap_trip_state,
     residents_from_blocks,
@@ -49,6 +50,8 @@ from osm_expand.engine.traffic.trips import (
     width_for_traffic,
 )
 from osm_expand.errors import InputError
+from osm_expand.model.highways import MAJOR
+from tests.conftest import loaded
 
 BOX = (-1000.0, -1000.0, 1000.0, 1000.0)
 SETTINGS = settings(deadline=None, suppress_health_check=[HealthCheck.too_slow])
@@ -612,3 +615,43 @@ def test_the_lots_people_summed_at_once_are_the_sum_lot_by_lot():
         assert np.array_equal(_lot_people(city, table), want)
 
     check()
+
+
+@pytest.mark.parametrize("name", ["krems.osm.gz", "monaco.osm.gz"])
+def test_searches_on_the_part_a_batch_reaches_equal_the_whole_graphs(name):
+    """``limited_search`` runs Dijkstra on the subgraph the starts reach within the limit: its distances
+    and predecessors, renumbered, are the whole graph's bit for bit (ties broken the same way), for
+    neighbouring starts, starts spread over the town, tight and open limits."""
+    from scipy.sparse.csgraph import dijkstra
+
+    net = loaded(name)
+    uv = np.concatenate([np.c_[s.nodes[:-1], s.nodes[1:]] for s in net.streets])
+    major = np.concatenate([np.full(len(s.nodes) - 1, s.highway in MAJOR) for s in net.streets])
+    g = trip_graph(net.xy, uv, major=major)
+    e = g.n_segments
+    rng = np.random.default_rng(7)
+    batches = [np.arange(40, 104), np.sort(rng.choice(e, 64, replace=False)), np.array([e - 1]), np.arange(e)]
+    for starts in batches:
+        for limit in (250.0, 1500.0, TripOptions().limit, np.inf):
+            whole, whole_pred = dijkstra(g.matrix, directed=True, indices=2 * e + starts, return_predecessors=True,
+                                         limit=limit)
+            vertex, dist, pred = limited_search(g, 2 * e + starts, limit)
+            assert np.all(np.diff(vertex) > 0)
+            outside = np.ones(3 * e, bool)
+            outside[vertex] = False
+            assert np.isinf(whole[:, outside]).all() and (whole_pred[:, outside] == -9999).all()
+            assert np.array_equal(dist, whole[:, vertex])
+            assert np.array_equal(np.where(pred >= 0, vertex[np.maximum(pred, 0)], -9999), whole_pred[:, vertex])
+            if np.isfinite(limit) and limit < 2000 and len(starts) < e:
+                assert len(vertex) < 3 * e  # the point: a batch searches less than the town
+    # and the trips sampled from them: the same draws, destinations, paths and people either way
+    from osm_expand.engine.traffic.trips import _sample_batch
+
+    residents = rng.random(e) * 40 * (rng.random(e) < 0.7)
+    for starts in batches[:3]:
+        n_trips = rng.integers(0, 20, len(starts))
+        local, whole = (_sample_batch(g, starts, n_trips, residents, 2.5, np.random.default_rng(3), TripOptions(),
+                                      local=flag) for flag in (True, False))
+        assert local[3:] == whole[3:] and local[3] > 0
+        for a, b in zip(local[:3], whole[:3]):
+            assert np.array_equal(np.concatenate(a), np.concatenate(b))

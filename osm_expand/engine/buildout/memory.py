@@ -210,9 +210,10 @@ def start_buildout(city: City, history: History, rng: np.random.Generator, *,
         layout = lot_layout(town.unit_xy, town.unit_area, attrs, options=lu_opts)
         lut = assign_types(layout, lut, types=town.types, rng=rng, options=lu_opts)
     taken = city.land.taken.tolist() if city.land is not None else []  # frontage not shown empty
-    parts = [g for geom in (*town.water, town.unbuildable, *taken) if geom is not None
-             for g in shapely.get_parts(geom).tolist() if not g.is_empty and g.area > 0]
-    no_build = np.array(parts, dtype=object)
+    # every part at once (one by one in Python: 2 s of a 10,000-street town's start), in the same order
+    parts = shapely.get_parts(np.array([g for g in (*town.water, town.unbuildable, *taken) if g is not None],
+                                       dtype=object))
+    no_build = parts[~shapely.is_empty(parts) & (shapely.area(parts) > 0)]
     return BuildoutMemory(town=town, options=opts, calibration=calibration, town_types=lut, lots={}, done=frozenset(),
                           no_build=no_build, no_build_tree=shapely.STRtree(no_build),
                           outline_tree=shapely.STRtree(town.outlines), layout=layout, layout_lut=lut.copy())
