@@ -39,11 +39,7 @@ def footprint_dimensions(footprints: Sequence[shapely.Geometry | np.ndarray], *,
     area = shapely.area(polys)
     keep = area >= 1.0
     polys, area = polys[keep], area[keep]
-    env = shapely.oriented_envelope(polys)
-    ok = shapely.get_type_id(env) == 3  # polygons only (degenerate footprints give lines)
-    polys, area, env = polys[ok], area[ok], env[ok]
-    corners = shapely.get_coordinates(shapely.get_exterior_ring(env)).reshape(-1, 5, 2)
-    s1, s2 = corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 1]
+    s1, s2 = _rectangle_sides(polys)
     l1, l2 = np.hypot(s1[:, 0], s1[:, 1]), np.hypot(s2[:, 0], s2[:, 1])
     first_is_front = l1 <= l2
     if len(street_lines):
@@ -63,6 +59,31 @@ def footprint_dimensions(footprints: Sequence[shapely.Geometry | np.ndarray], *,
     frontage = np.where(first_is_front, l1, l2)
     depth = np.where(first_is_front, l2, l1)
     return np.column_stack([area, frontage, depth])
+
+
+def _rectangle_sides(polys: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Two adjacent sides (vectors) of each polygon's minimum rotated rectangle, ``(K, 2)`` each.
+
+    Where GEOS's rotated rectangle comes out degenerate for a polygon of real
+    area (a line, or a side of zero or NaN length: seen on a ring with a
+    subnormal coordinate, 1e-214), the axis-aligned bounding box stands in:
+    it encloses the polygon too, so every footprint of at least 1 m² is still
+    measured and its frontage × depth still covers its area.
+    """
+    with np.errstate(invalid="ignore"):  # the degenerate ones are replaced below
+        env = shapely.oriented_envelope(polys)
+    corners = np.full((len(polys), 5, 2), np.nan)
+    rect = shapely.get_type_id(env) == 3
+    rect[rect] = shapely.get_num_coordinates(env[rect]) == 5
+    corners[rect] = shapely.get_coordinates(shapely.get_exterior_ring(env[rect])).reshape(-1, 5, 2)
+    s1, s2 = corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 1]
+    good = (np.hypot(s1[:, 0], s1[:, 1]) > 0) & (np.hypot(s2[:, 0], s2[:, 1]) > 0)  # NaN compares False
+    if not good.all():
+        box = shapely.bounds(polys[~good])
+        width, height = box[:, 2] - box[:, 0], box[:, 3] - box[:, 1]
+        s1[~good] = np.column_stack([width, np.zeros_like(width)])
+        s2[~good] = np.column_stack([np.zeros_like(height), height])
+    return s1, s2
 
 
 def _polygon_parts(footprints: Sequence[shapely.Geometry | np.ndarray]) -> np.ndarray:
