@@ -19,13 +19,15 @@ from dataclasses import dataclass
 
 import numpy as np
 import shapely
+from scipy.ndimage import maximum_filter1d
 from scipy.spatial import cKDTree
 
 from osm_expand.engine.roads.lattice import Lattice
 from osm_expand.model.options import require_positive
 from osm_expand.model.segments import SegmentTable
 
-__all__ = ["GraphOptions", "ShellVerdicts", "carried_ok", "lattice_verdicts", "nearest_pairs", "stitch_ok"]
+__all__ = ["GraphOptions", "ShellVerdicts", "carried_ok", "lattice_verdicts", "nearest_pairs", "stitch_ok",
+           "within_reach"]
 
 
 @dataclass(frozen=True)
@@ -107,6 +109,34 @@ def nearest_pairs(from_xy: np.ndarray, to_xy: np.ndarray, from_id: np.ndarray, t
     start = np.searchsorted(row, row, side="left")
     first = np.arange(len(row)) - start < k
     return np.stack([from_id[row[first]], to_id[cand[first]]], axis=1)
+
+def within_reach(lattice: Lattice, points: np.ndarray, vertices: np.ndarray, radius: float) -> np.ndarray:
+    """Whether each of ``lattice``'s ``vertices`` may lie within ``radius`` of one of ``points``
+    (``(n, 2)`` m): a superset of those that do, from the vertex grid alone.
+
+    Every vertex within ``radius`` of a point lies in the square of ``⌈radius / ℓ⌉ + 1``
+    vertices around the point's nearest grid position; those squares are marked on the
+    grid (one mark a point, then a running maximum along each axis), so the cost is the
+    grid's size and the points', never their product. :func:`nearest_pairs` over the
+    marked vertices gives the pairs it gives over them all.
+    """
+    ny, nx = lattice.shape
+    if not len(points) or not len(vertices):
+        return np.zeros(len(vertices), dtype=bool)
+    reach = int(np.ceil(radius / lattice.spacing)) + 1
+    col = np.rint((points[:, 0] - lattice.origin[0]) / lattice.spacing)
+    row = np.rint((points[:, 1] - lattice.origin[1]) / lattice.spacing)
+    # a point further off the grid than the square reaches no vertex: clipped, it marks a square
+    # that may touch the grid's edge (a superset, as promised)
+    col = np.clip(col, -reach - 1, nx + reach).astype(np.int64) + reach + 1
+    row = np.clip(row, -reach - 1, ny + reach).astype(np.int64) + reach + 1
+    grid = np.zeros((ny + 2 * reach + 2, nx + 2 * reach + 2), dtype=np.uint8)
+    grid[row, col] = 1
+    size = 2 * reach + 1
+    grid = maximum_filter1d(maximum_filter1d(grid, size, axis=0, mode="constant"), size, axis=1, mode="constant")
+    v = np.asarray(vertices, dtype=np.int64)
+    return grid[v // nx + reach + 1, v % nx + reach + 1].astype(bool)
+
 
 def stitch_ok(lattice: Lattice, segments: SegmentTable, xy: np.ndarray, pairs: np.ndarray, split_parent: np.ndarray,
                n_lat: int, opts: GraphOptions, tree: shapely.STRtree | None = None,
