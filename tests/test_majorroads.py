@@ -1162,3 +1162,82 @@ def _grid_year(lat, lines):
     segs = SegmentTable.from_lines(lines, major=[False] * len(lines), width=[6.0] * len(lines))
     built = built_up_area(blocks_of(segs), segs)
     return lat.with_built_up(built.area), segs, built
+
+
+@settings(max_examples=30, deadline=None)
+@given(st.integers(0, 2**32 - 1))
+def test_the_stitch_targets_a_point_can_reach_hold_every_vertex_within_the_radius(seed):
+    """Issue 22: a window's stitches search a tree of only the live land vertices near the points
+    being stitched (``within_reach``), not of every one of the window's (~5·10⁵ on Campo Grande's
+    map). Every vertex within the radius of a point is kept, points off the window too, so the
+    pairs are those of the search over them all."""
+    from osm_expand.engine.roads.stitches import nearest_pairs, within_reach
+
+    rng = np.random.default_rng(seed)
+    extent = (0, 0, 1000, 800)
+    lat = build_lattice(extent, options=LatticeOptions(radius=2))
+    rows, cols = (int(v) for v in rng.integers(0, 20, 2))
+    sub = lat.window(rows, cols, int(rng.integers(5, 40)), int(rng.integers(5, 50)))
+    x0, y0, x1, y1 = sub.bounds
+    points = rng.uniform([x0 - 150, y0 - 150], [x1 + 150, y1 + 150], (int(rng.integers(1, 30)), 2))
+    vertices = np.flatnonzero(rng.random(sub.n_vertices) < 0.8)
+    radius = float(rng.uniform(10, 120))
+    kept = within_reach(sub, points, vertices, radius)
+    d = np.hypot(*(sub.vertex_xy(vertices)[:, None, :] - points[None, :, :]).transpose(2, 0, 1))
+    assert kept[(d <= radius).any(axis=1)].all()
+    ids = np.arange(len(points)) + sub.n_vertices
+    xy = np.concatenate([sub.vertex_xy(), points])
+    for k in (1, 4, 16):
+        every = nearest_pairs(points, xy[vertices], ids, vertices, k, radius, keys=sub.map_vertex(vertices))
+        near = vertices[kept]
+        assert np.array_equal(every, nearest_pairs(points, xy[near], ids, near, k, radius,
+                                                   keys=sub.map_vertex(near)))
+
+
+def test_a_second_pair_of_the_year_on_the_same_krems_gets_the_g_prime_made_afresh(monkeypatch):
+    """Issue 22: a year's second short pair on the very same city (the first was re-routed) is
+    handed the last G′ again, with its own capacities, instead of making the street part anew.
+    On Krems' default run, at every road year (the town grown by then), that G′ equals the one
+    made afresh from the same memory: street part, capacities, and a window searched on each."""
+    from conftest import FIXTURES, expanded_and_matured
+
+    import osm_expand.engine.roads.major_roads as mr
+    import osm_expand.engine.roads.path_graph as pg
+    from osm_expand.ingest import load
+
+    made = []
+    graph_of = mr._graph
+    streets_of = pg.street_part
+    calls = [0]
+
+    def counted(*args, **kwargs):
+        calls[0] += 1
+        return streets_of(*args, **kwargs)
+
+    def checked(city, traffic, memory, now, history):
+        graph, memory = graph_of(city, traffic, memory, now, history)
+        before = calls[0]
+        # a re-route then leaves another capacity on the segments: the street part does not read it
+        other = replace(traffic, trade=replace(traffic.trade, routes=()))
+        again, kept = graph_of(city, other, memory, now, history)
+        assert calls[0] == before and kept is memory  # nothing made again
+        fresh, _ = graph_of(city, other, replace(memory, last=None), now, history)
+        assert calls[0] == before + 1
+        assert again.segments is not graph.segments
+        assert np.array_equal(again.segments.available, fresh.segments.available, equal_nan=True)
+        for name in ("extendible", "split_xy", "split_parent", "pieces", "xy", "points"):
+            assert np.array_equal(getattr(again.streets, name), getattr(fresh.streets, name))
+        for x, y in zip((*again.streets.edges, *again.streets.shell), (*fresh.streets.edges, *fresh.streets.shell)):
+            assert np.array_equal(x, y)
+        x0, y0, x1, y1 = city.bounds_xy
+        box = (x0 + 0.3 * (x1 - x0), y0 + 0.3 * (y1 - y0), x0 + 0.7 * (x1 - x0), y0 + 0.7 * (y1 - y0))
+        a, b = again.window(box).graph, fresh.window(box).graph
+        for name in ("lat_kind", "src", "dst", "kind", "segment", "weight"):
+            assert np.array_equal(getattr(a, name), getattr(b, name))
+        made.append(len(graph.segments))
+        return graph, memory
+
+    monkeypatch.setattr(pg, "street_part", counted)
+    monkeypatch.setattr(mr, "_graph", checked)
+    expanded_and_matured(load(FIXTURES / "krems.osm.gz"), history="example")
+    assert len(made) >= 3 and made[-1] > made[0]  # several road years, the town grown between them
