@@ -1241,3 +1241,26 @@ def test_a_second_pair_of_the_year_on_the_same_krems_gets_the_g_prime_made_afres
     monkeypatch.setattr(mr, "_graph", checked)
     expanded_and_matured(load(FIXTURES / "krems.osm.gz"), history="example")
     assert len(made) >= 3 and made[-1] > made[0]  # several road years, the town grown between them
+
+
+@settings(max_examples=40, deadline=None)
+@given(st.integers(0, 2**32 - 1))
+def test_the_box_test_keeps_every_stitch_near_a_changed_segment(seed):
+    """Issue 22: a carried stitch is measured against the segments added or removed since only if
+    its box comes near one of theirs (``near_boxes``); every stitch within the distance of one
+    of them is among those, so the verdicts carried are those a fresh check gives."""
+    from osm_expand.engine.roads.stitches import near_boxes
+
+    rng = np.random.default_rng(seed)
+    span = float(rng.uniform(50, 5000))
+    changed = rng.uniform(0, span, (int(rng.integers(1, 20)), 2, 2))
+    changed[:, 1] = changed[:, 0] + rng.normal(0, span / 10, (len(changed), 2))
+    a = rng.uniform(-span / 4, 1.25 * span, (400, 2))
+    ends = np.stack([a, a + rng.normal(0, 60, (400, 2))], axis=1)
+    distance = float(rng.uniform(0, 20))
+    boxes = np.concatenate([changed.min(axis=1), changed.max(axis=1)], axis=1)
+    kept = near_boxes(ends, boxes, distance)
+    tree = shapely.STRtree(shapely.linestrings(changed))
+    hit, _ = tree.query(shapely.linestrings(ends), predicate="dwithin", distance=distance)
+    assert kept[hit].all()
+    assert not near_boxes(ends, boxes[:0], distance).any()
