@@ -1264,3 +1264,25 @@ def test_the_box_test_keeps_every_stitch_near_a_changed_segment(seed):
     hit, _ = tree.query(shapely.linestrings(ends), predicate="dwithin", distance=distance)
     assert kept[hit].all()
     assert not near_boxes(ends, boxes[:0], distance).any()
+
+
+def test_dry_verdicts_are_carried_only_on_the_ground_they_were_made_on():
+    """Issue 22: a shell stitch last year's verdicts hold is taken as dry without sampling the
+    rasters again, but only on the very rasters it was found dry on: with a river across the
+    town on this year's lattice, the stitches equal those checked afresh (none crosses it)."""
+    from osm_expand.engine.roads.path_graph import street_part
+
+    extent = (0, 0, 1200, 1200)
+    # dead-end streets facing each other across where the river will run (no block: all on the shell)
+    lines = [np.array([[x, y0], [x, y0 + 160.0]]) for x in range(300, 901, 100) for y0 in (300.0, 540.0)]
+    dry_land = build_lattice(extent, options=LatticeOptions(radius=2))
+    wet = build_lattice(extent, water=river(extent, 470, 530), options=LatticeOptions(radius=2))
+    last = street_part(*_grid_year(dry_land, lines))
+    fresh = street_part(*_grid_year(wet, lines))
+    carried = street_part(*_grid_year(wet, lines), previous=last.verdicts)
+    assert len(fresh.shell[0]) < len(last.shell[0])  # the river took some stitches
+    for x, y in zip(fresh.shell, carried.shell):
+        assert np.array_equal(x, y)
+    again = street_part(*_grid_year(wet, lines), previous=fresh.verdicts)  # the same ground: carried
+    for x, y in zip(fresh.shell, again.shell):
+        assert np.array_equal(x, y)

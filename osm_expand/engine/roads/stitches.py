@@ -59,8 +59,9 @@ class ShellVerdicts:
     thousands: a candidate with the same two ends as last year and no segment added
     or removed within ``clearance`` of it has last year's verdict; only the others are
     checked again (the street tests were 60 % of :func:`street_part` on Campo
-    Grande, 18 road years: 34 s of 58 s profiled). Water, forbidden ground and the
-    built-up blocks are checked every year (cheap, and the blocks change).
+    Grande, 18 road years: 34 s of 58 s profiled). The built-up blocks are checked every
+    year (they change); water and forbidden ground only for candidates the verdicts do not
+    hold, or when they were made on other rasters (``ground``).
     """
 
     segments: np.ndarray  #: (S,) void keys of the segments (both ends' coordinates, ordered)
@@ -68,6 +69,9 @@ class ShellVerdicts:
     #: each end's kind): the others never need a street verdict, the ground does not change
     pairs: np.ndarray
     clear: np.ndarray  #: (M,) bool, the candidate crossed and grazed no street
+    #: the rasters the candidates were found dry on (water, forbidden, stitch-only; the very arrays):
+    #: on the same ones, a candidate held here is dry again without sampling them
+    ground: tuple = ()
 
 def lattice_verdicts(stitches: dict) -> ShellVerdicts | None:
     """The street verdicts of the stitches to the lattice in an :attr:`ImplicitGraph.stitches`
@@ -76,7 +80,7 @@ def lattice_verdicts(stitches: dict) -> ShellVerdicts | None:
     if not done:
         return None
     return ShellVerdicts(segments=done[0].segments, pairs=np.concatenate([v.pairs for v in done]),
-                         clear=np.concatenate([v.clear for v in done]))
+                         clear=np.concatenate([v.clear for v in done]), ground=done[0].ground)
 
 def nearest_pairs(from_xy: np.ndarray, to_xy: np.ndarray, from_id: np.ndarray, to_id: np.ndarray, k: int,
                    radius: float, keys: np.ndarray | None = None) -> np.ndarray:
@@ -217,15 +221,25 @@ def carried_ok(lattice: Lattice, segments: SegmentTable, xy: np.ndarray, pairs: 
     again: the segments' keys, the last verdicts sorted, the segments added or removed.
     """
     carry = _carry(segments, previous, {} if memo is None else memo)
-    dry = _dry(lattice, xy, pairs, opts)
-    live = np.flatnonzero(dry)
     n_nodes = len(segments.xy)
-    end_kind = np.where(pairs[live] < n_lat, 2, np.where(pairs[live] - n_lat >= n_nodes, 1, 0))  # lattice, split, node
-    pair_keys = _keys(np.concatenate([xy[pairs[live, 0]], xy[pairs[live, 1]], end_kind.astype(np.float64)], axis=1))
+    end_kind = np.where(pairs < n_lat, 2, np.where(pairs - n_lat >= n_nodes, 1, 0))  # lattice, split, node
+    every_key = _keys(np.concatenate([xy[pairs[:, 0]], xy[pairs[:, 1]], end_kind.astype(np.float64)], axis=1))
+    carried = carry.keys is not None and carry.clear is not None and len(carry.keys) > 0 and len(pairs) > 0
+    dry = np.zeros(len(pairs), dtype=bool)
+    if carried:
+        assert carry.keys is not None  # for mypy: carried says so
+        every_at = np.minimum(np.searchsorted(carry.keys, every_key), len(carry.keys) - 1)
+        if previous is not None and _same_ground(previous.ground, lattice):
+            # a stitch the last verdicts hold was dry then, on the same ground: it is dry now (its samples
+            # along the fine rasters were a third of a year's shell check on Campo Grande)
+            dry = carry.keys[every_at] == every_key
+    dry[~dry] = _dry(lattice, xy, pairs[~dry], opts)
+    live = np.flatnonzero(dry)
+    pair_keys = every_key[live]
     clear = np.zeros(len(pairs), dtype=bool)
     todo = live
-    if carry.keys is not None and carry.clear is not None and len(carry.keys) and len(live):
-        at = np.minimum(np.searchsorted(carry.keys, pair_keys), len(carry.keys) - 1)
+    if carried and len(live):
+        at = every_at[live]
         known = np.flatnonzero(carry.keys[at] == pair_keys)
         near = np.zeros(len(known), dtype=bool)
         if carry.changed is not None and len(known):
@@ -247,7 +261,17 @@ def carried_ok(lattice: Lattice, segments: SegmentTable, xy: np.ndarray, pairs: 
     if inner is not None:
         live = np.flatnonzero(ok)
         ok[live] = ~shapely.intersects(inner, _core(xy, pairs[live], opts))
-    return ok, ShellVerdicts(segments=carry.segments, pairs=pair_keys, clear=clear[dry])
+    return ok, ShellVerdicts(segments=carry.segments, pairs=pair_keys, clear=clear[dry], ground=_ground(lattice))
+
+
+def _ground(lattice: Lattice) -> tuple[np.ndarray | None, ...]:
+    """The rasters a stitch's dryness is read from (:func:`_dry`): the map's, shared by its windows."""
+    return (lattice.water, lattice.forbidden, lattice.stitch_only)
+
+
+def _same_ground(ground: tuple, lattice: Lattice) -> bool:
+    """Whether verdicts made on ``ground`` (:func:`_ground`) were made on ``lattice``'s very rasters."""
+    return len(ground) == 3 and all(a is b for a, b in zip(ground, _ground(lattice)))
 
 
 def near_boxes(ends: np.ndarray, boxes: np.ndarray, distance: float) -> np.ndarray:
