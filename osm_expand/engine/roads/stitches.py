@@ -224,25 +224,26 @@ def carried_ok(lattice: Lattice, segments: SegmentTable, xy: np.ndarray, pairs: 
     n_nodes = len(segments.xy)
     end_kind = np.where(pairs < n_lat, 2, np.where(pairs - n_lat >= n_nodes, 1, 0))  # lattice, split, node
     every_key = _keys(np.concatenate([xy[pairs[:, 0]], xy[pairs[:, 1]], end_kind.astype(np.float64)], axis=1))
-    carried = carry.keys is not None and carry.clear is not None and len(carry.keys) > 0 and len(pairs) > 0
+    keys = carry.keys if carry.keys is not None and carry.clear is not None and len(pairs) else None
+    last_clear = carry.clear if carry.clear is not None else np.zeros(0, dtype=bool)
     dry = np.zeros(len(pairs), dtype=bool)
-    if carried:
-        assert carry.keys is not None  # for mypy: carried says so
-        every_at = np.minimum(np.searchsorted(carry.keys, every_key), len(carry.keys) - 1)
+    every_at = np.zeros(len(pairs), dtype=np.int64)
+    if keys is not None and len(keys):
+        every_at = np.minimum(np.searchsorted(keys, every_key), len(keys) - 1)
         if previous is not None and _same_ground(previous.ground, lattice):
             # a stitch the last verdicts hold was dry then, on the same ground: it is dry now (its samples
             # along the fine rasters were a third of a year's shell check on Campo Grande)
-            dry = carry.keys[every_at] == every_key
+            dry = keys[every_at] == every_key
     dry[~dry] = _dry(lattice, xy, pairs[~dry], opts)
     live = np.flatnonzero(dry)
     pair_keys = every_key[live]
     clear = np.zeros(len(pairs), dtype=bool)
     todo = live
-    if carried and len(live):
+    if keys is not None and len(keys) and len(live):
         at = every_at[live]
-        known = np.flatnonzero(carry.keys[at] == pair_keys)
+        known = np.flatnonzero(keys[at] == pair_keys)
         near = np.zeros(len(known), dtype=bool)
-        if carry.changed is not None and len(known):
+        if carry.changed is not None and carry.boxes is not None and len(known):
             # a stitch a segment was added or removed near (as many times as it was) is checked again;
             # only those whose box comes near a changed segment's are made into lines and measured
             k = live[known]
@@ -252,7 +253,7 @@ def carried_ok(lattice: Lattice, segments: SegmentTable, xy: np.ndarray, pairs: 
                                          distance=opts.clearance + 1.0)
             near[np.flatnonzero(box)[hit]] = True
         reuse = known[~near]
-        clear[live[reuse]] = carry.clear[at[reuse]]
+        clear[live[reuse]] = last_clear[at[reuse]]
         again = np.ones(len(live), dtype=bool)
         again[reuse] = False
         todo = live[again]
