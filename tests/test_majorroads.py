@@ -1194,11 +1194,12 @@ def test_the_stitch_targets_a_point_can_reach_hold_every_vertex_within_the_radiu
                                                    keys=sub.map_vertex(near)))
 
 
-def test_a_second_pair_of_the_year_on_the_same_krems_gets_the_g_prime_made_afresh(monkeypatch):
+def test_a_second_pair_or_a_later_year_on_the_same_krems_streets_gets_the_g_prime_made_afresh(monkeypatch):
     """Issue 22: a year's second short pair on the very same city (the first was re-routed) is
     handed the last G′ again, with its own capacities, instead of making the street part anew.
     On Krems' default run, at every road year (the town grown by then), that G′ equals the one
-    made afresh from the same memory: street part, capacities, and a window searched on each."""
+    made afresh from the same memory: street part, capacities, and a window searched on each; and
+    so does the G′ of a later year in which nothing was built."""
     from conftest import FIXTURES, expanded_and_matured
 
     import osm_expand.engine.roads.major_roads as mr
@@ -1234,6 +1235,15 @@ def test_a_second_pair_of_the_year_on_the_same_krems_gets_the_g_prime_made_afres
         a, b = again.window(box).graph, fresh.window(box).graph
         for name in ("lat_kind", "src", "dst", "kind", "segment", "weight"):
             assert np.array_equal(getattr(a, name), getattr(b, name))
+        # a later year in which nothing was built: another city and year values, the same streets and B
+        later, _ = graph_of(city.replace(year=(city.year or 0) + 1), other, memory,
+                            replace(now, year=now.year + 1), history)
+        assert calls[0] == before + 1  # the street part was not made again
+        for x, y in zip((*later.streets.edges, *later.streets.shell), (*fresh.streets.edges, *fresh.streets.shell)):
+            assert np.array_equal(x, y)
+        c = later.window(box).graph
+        for name in ("lat_kind", "src", "dst", "kind", "segment", "weight"):
+            assert np.array_equal(getattr(c, name), getattr(b, name))
         made.append(len(graph.segments))
         return graph, memory
 

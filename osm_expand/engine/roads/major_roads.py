@@ -191,8 +191,9 @@ def _graph(city: City, traffic: TrafficMemory, memory: RoadMemory, now: YearValu
     A year's second short pair on the very same city (the first was re-routed: the city, its
     segment table, the year's values are the same objects) has the same G′ but for the trade
     capacity left on each segment: the last G′ is handed back with this call's segments, and its
-    stitches checked so far with it (made again, they were the same; on Campo Grande 7 of 18
-    road-year calls, a fifth of this function's time).
+    stitches checked so far with it (made again, they were the same). So does a later year in
+    which no street was built since and B did not grow (:func:`_same_street_part`; on Campo
+    Grande's default run 7 of 18 calls had the last call's segments).
     """
     if memory.lattice is None:
         x0, y0, x1, y1 = city.bounds_xy
@@ -219,11 +220,32 @@ def _graph(city: City, traffic: TrafficMemory, memory: RoadMemory, now: YearValu
                           previous=memory.built, options=history.options.built_up)
     assert memory.lattice is not None  # built above on the first year
     lattice = memory.lattice.with_built_up(built.area, built.added)
+    if memory.last is not None and _same_street_part(memory.last[4], lattice, built, segments, now, history):
+        # a later year whose streets, blocks and B are as the last G′'s (no street was built since)
+        last = memory.last[4]
+        graph = replace(last, segments=segments, streets=replace(last.streets, segments=segments))
+        return graph, replace(memory, lattice=lattice, built=built, last=(city, traffic.table, now, history, graph))
     graph = implicit_graph(lattice, segments, built, costs=now.costs, options=history.options.graph,
                            previous=memory.verdicts,
                            previous_lattice=None if memory.stitches is None else lattice_verdicts(memory.stitches))
     return graph, replace(memory, lattice=lattice, built=built, verdicts=graph.streets.verdicts,
                           stitches=graph.stitches, last=(city, traffic.table, now, history, graph))
+
+
+def _same_street_part(last, lattice: Lattice, built: BuiltUpArea, segments: SegmentTable, now: YearValues,
+                      history: History) -> bool:
+    """Whether the G′ ``last`` has the street part this year's would: the same lattice with B (the very
+    object: B did not grow), the same built-up blocks (the very object: none came or went), the same
+    costs and options, and segments of the same ends, classes, widths and harbours (their capacity
+    left is not read by the street part)."""
+    old = last.segments
+    if (last.lattice is not lattice or last.streets.blocks is not built.blocks or last.costs != now.costs
+            or last.options != history.options.graph or len(old) != len(segments)):
+        return False
+    same = all(np.array_equal(getattr(old, name), getattr(segments, name)) for name in ("xy", "uv", "major", "width"))
+    harbour = (old.harbour is None and segments.harbour is None) or (
+        old.harbour is not None and segments.harbour is not None and np.array_equal(old.harbour, segments.harbour))
+    return bool(same and harbour)
 
 
 def _apply(city: City, table: SegmentTable, plan, *, year: int, era: str, old_town: bool = False
