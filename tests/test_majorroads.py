@@ -1235,15 +1235,20 @@ def test_a_second_pair_or_a_later_year_on_the_same_krems_streets_gets_the_g_prim
         a, b = again.window(box).graph, fresh.window(box).graph
         for name in ("lat_kind", "src", "dst", "kind", "segment", "weight"):
             assert np.array_equal(getattr(a, name), getattr(b, name))
-        # a later year in which nothing was built: another city and year values, the same streets and B
-        later, _ = graph_of(city.replace(year=(city.year or 0) + 1), other, memory,
-                            replace(now, year=now.year + 1), history)
+        # a later year in which nothing was built: another city, other costs, the same streets and B
+        next_city = city.replace(year=(city.year or 0) + 1)
+        next_now = replace(now, year=now.year + 1, costs=replace(now.costs, major=0.9 * now.costs.major,
+                                                                 bridge=1.1 * now.costs.bridge))
+        later, _ = graph_of(next_city, other, memory, next_now, history)
         assert calls[0] == before + 1  # the street part was not made again
-        for x, y in zip((*later.streets.edges, *later.streets.shell), (*fresh.streets.edges, *fresh.streets.shell)):
+        made_again, _ = graph_of(next_city, other, replace(memory, last=None), next_now, history)
+        assert later.costs == made_again.costs != graph.costs
+        for x, y in zip((*later.streets.edges, *later.streets.shell),
+                        (*made_again.streets.edges, *made_again.streets.shell)):
             assert np.array_equal(x, y)
-        c = later.window(box).graph
+        c, d = later.window(box).graph, made_again.window(box).graph
         for name in ("lat_kind", "src", "dst", "kind", "segment", "weight"):
-            assert np.array_equal(getattr(c, name), getattr(b, name))
+            assert np.array_equal(getattr(c, name), getattr(d, name))
         made.append(len(graph.segments))
         return graph, memory
 

@@ -32,7 +32,13 @@ from osm_expand.engine.history import History, YearValues
 from osm_expand.engine.planarity import without_touching
 from osm_expand.engine.roads.built_up import BuiltUpArea, built_up_area
 from osm_expand.engine.roads.lattice import Lattice, Raster, build_lattice
-from osm_expand.engine.roads.path_graph import ShellVerdicts, implicit_graph, lattice_verdicts
+from osm_expand.engine.roads.path_graph import (
+    EdgeCosts,
+    ShellVerdicts,
+    implicit_graph,
+    lattice_verdicts,
+    street_part_again,
+)
 from osm_expand.engine.roads.road_types import RoadType, plan_major_road, propose_route
 from osm_expand.engine.roads.routing import Choice, choose, route_over_major_roads
 from osm_expand.engine.traffic.simulation import TrafficMemory, follow, trade_major
@@ -220,10 +226,12 @@ def _graph(city: City, traffic: TrafficMemory, memory: RoadMemory, now: YearValu
                           previous=memory.built, options=history.options.built_up)
     assert memory.lattice is not None  # built above on the first year
     lattice = memory.lattice.with_built_up(built.area, built.added)
-    if memory.last is not None and _same_street_part(memory.last[4], lattice, built, segments, now, history):
+    if memory.last is not None and _same_street_part(memory.last[4], lattice, built, segments, history):
         # a later year whose streets, blocks and B are as the last G′'s (no street was built since)
         last = memory.last[4]
-        graph = replace(last, segments=segments, streets=replace(last.streets, segments=segments))
+        costs = now.costs or EdgeCosts()
+        graph = replace(last, segments=segments, costs=costs,
+                        streets=street_part_again(last.streets, lattice, segments, costs))
         return graph, replace(memory, lattice=lattice, built=built, last=(city, traffic.table, now, history, graph))
     graph = implicit_graph(lattice, segments, built, costs=now.costs, options=history.options.graph,
                            previous=memory.verdicts,
@@ -232,14 +240,15 @@ def _graph(city: City, traffic: TrafficMemory, memory: RoadMemory, now: YearValu
                           stitches=graph.stitches, last=(city, traffic.table, now, history, graph))
 
 
-def _same_street_part(last, lattice: Lattice, built: BuiltUpArea, segments: SegmentTable, now: YearValues,
+def _same_street_part(last, lattice: Lattice, built: BuiltUpArea, segments: SegmentTable,
                       history: History) -> bool:
-    """Whether the G′ ``last`` has the street part this year's would: the same lattice with B (the very
-    object: B did not grow), the same built-up blocks (the very object: none came or went), the same
-    costs and options, and segments of the same ends, classes, widths and harbours (their capacity
+    """Whether the G′ ``last`` has the street part this year's would but for the costs C1…C6
+    (:func:`~osm_expand.engine.roads.path_graph.street_part_again`): the same lattice with B (the
+    very object: B did not grow), the same built-up blocks (the very object: none came or went),
+    the same options, and segments of the same ends, classes, widths and harbours (their capacity
     left is not read by the street part)."""
     old = last.segments
-    if (last.lattice is not lattice or last.streets.blocks is not built.blocks or last.costs != now.costs
+    if (last.lattice is not lattice or last.streets.blocks is not built.blocks
             or last.options != history.options.graph or len(old) != len(segments)):
         return False
     same = all(np.array_equal(getattr(old, name), getattr(segments, name)) for name in ("xy", "uv", "major", "width"))

@@ -52,7 +52,7 @@ from osm_expand.model.segments import SegmentTable
 
 __all__ = [
     "EdgeCosts", "GraphOptions", "PathGraph", "pathfinding_graph", "ShellVerdicts", "StreetPart", "street_part",
-    "GraphWindow", "ImplicitGraph", "implicit_graph", "lattice_verdicts",
+    "GraphWindow", "ImplicitGraph", "implicit_graph", "lattice_verdicts", "street_part_again",
 ]
 
 
@@ -391,6 +391,15 @@ def street_part(lattice: Lattice, segments: SegmentTable, built: BuiltUpArea | N
                       split_parent=split_parent, pieces=pieces, xy=xy, points=points, edges=edges,
                       shell=(), tree=tree, inner=inner, verdicts=verdicts)
     return replace(part, shell=_stitch_edges(lattice, shell, xy))
+
+
+def street_part_again(part: StreetPart, lattice: Lattice, segments: SegmentTable, costs: EdgeCosts) -> StreetPart:
+    """``part`` for ``segments`` of the very same ends, classes, widths and harbours, on the same
+    lattice and blocks, with another year's costs and capacities: only the street pieces' weights
+    are worked out again (C1…C6 change from year to year; the points, pieces, stitches and their
+    verdicts do not depend on them)."""
+    edges = _segment_part(lattice, segments, part.xy, part.pieces, part.extendible, 0, costs)
+    return replace(part, segments=segments, edges=edges)
 
 
 def _stitch_edges(lattice: Lattice, pairs: np.ndarray, xy: np.ndarray) -> tuple[np.ndarray, ...]:
