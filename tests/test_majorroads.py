@@ -1162,3 +1162,142 @@ def _grid_year(lat, lines):
     segs = SegmentTable.from_lines(lines, major=[False] * len(lines), width=[6.0] * len(lines))
     built = built_up_area(blocks_of(segs), segs)
     return lat.with_built_up(built.area), segs, built
+
+
+@settings(max_examples=30, deadline=None)
+@given(st.integers(0, 2**32 - 1))
+def test_the_stitch_targets_a_point_can_reach_hold_every_vertex_within_the_radius(seed):
+    """Issue 22: a window's stitches search a tree of only the live land vertices near the points
+    being stitched (``within_reach``), not of every one of the window's (~5·10⁵ on Campo Grande's
+    map). Every vertex within the radius of a point is kept, points off the window too, so the
+    pairs are those of the search over them all."""
+    from osm_expand.engine.roads.stitches import nearest_pairs, within_reach
+
+    rng = np.random.default_rng(seed)
+    extent = (0, 0, 1000, 800)
+    lat = build_lattice(extent, options=LatticeOptions(radius=2))
+    rows, cols = (int(v) for v in rng.integers(0, 20, 2))
+    sub = lat.window(rows, cols, int(rng.integers(5, 40)), int(rng.integers(5, 50)))
+    x0, y0, x1, y1 = sub.bounds
+    points = rng.uniform([x0 - 150, y0 - 150], [x1 + 150, y1 + 150], (int(rng.integers(1, 30)), 2))
+    vertices = np.flatnonzero(rng.random(sub.n_vertices) < 0.8)
+    radius = float(rng.uniform(10, 120))
+    kept = within_reach(sub, points, vertices, radius)
+    d = np.hypot(*(sub.vertex_xy(vertices)[:, None, :] - points[None, :, :]).transpose(2, 0, 1))
+    assert kept[(d <= radius).any(axis=1)].all()
+    ids = np.arange(len(points)) + sub.n_vertices
+    xy = np.concatenate([sub.vertex_xy(), points])
+    for k in (1, 4, 16):
+        every = nearest_pairs(points, xy[vertices], ids, vertices, k, radius, keys=sub.map_vertex(vertices))
+        near = vertices[kept]
+        assert np.array_equal(every, nearest_pairs(points, xy[near], ids, near, k, radius,
+                                                   keys=sub.map_vertex(near)))
+
+
+def test_a_second_pair_or_a_later_year_on_the_same_krems_streets_gets_the_g_prime_made_afresh(monkeypatch):
+    """Issue 22: a year's second short pair on the very same city (the first was re-routed) is
+    handed the last G′ again, with its own capacities, instead of making the street part anew.
+    On Krems' default run, at every road year (the town grown by then), that G′ equals the one
+    made afresh from the same memory: street part, capacities, and a window searched on each; and
+    so does the G′ of a later year in which nothing was built."""
+    from conftest import FIXTURES, expanded_and_matured
+
+    import osm_expand.engine.roads.major_roads as mr
+    import osm_expand.engine.roads.path_graph as pg
+    from osm_expand.ingest import load
+
+    made = []
+    graph_of = mr._graph
+    streets_of = pg.street_part
+    calls = [0]
+
+    def counted(*args, **kwargs):
+        calls[0] += 1
+        return streets_of(*args, **kwargs)
+
+    def checked(city, traffic, memory, now, history):
+        graph, memory = graph_of(city, traffic, memory, now, history)
+        before = calls[0]
+        # a re-route then leaves another capacity on the segments: the street part does not read it
+        other = replace(traffic, trade=replace(traffic.trade, routes=()))
+        again, kept = graph_of(city, other, memory, now, history)
+        assert calls[0] == before and kept is memory  # nothing made again
+        fresh, _ = graph_of(city, other, replace(memory, last=None), now, history)
+        assert calls[0] == before + 1
+        assert again.segments is not graph.segments
+        assert np.array_equal(again.segments.available, fresh.segments.available, equal_nan=True)
+        for name in ("extendible", "split_xy", "split_parent", "pieces", "xy", "points"):
+            assert np.array_equal(getattr(again.streets, name), getattr(fresh.streets, name))
+        for x, y in zip((*again.streets.edges, *again.streets.shell), (*fresh.streets.edges, *fresh.streets.shell)):
+            assert np.array_equal(x, y)
+        x0, y0, x1, y1 = city.bounds_xy
+        box = (x0 + 0.3 * (x1 - x0), y0 + 0.3 * (y1 - y0), x0 + 0.7 * (x1 - x0), y0 + 0.7 * (y1 - y0))
+        a, b = again.window(box).graph, fresh.window(box).graph
+        for name in ("lat_kind", "src", "dst", "kind", "segment", "weight"):
+            assert np.array_equal(getattr(a, name), getattr(b, name))
+        # a later year in which nothing was built: another city, other costs, the same streets and B
+        next_city = city.replace(year=(city.year or 0) + 1)
+        next_now = replace(now, year=now.year + 1, costs=replace(now.costs, major=0.9 * now.costs.major,
+                                                                 bridge=1.1 * now.costs.bridge))
+        later, _ = graph_of(next_city, other, memory, next_now, history)
+        assert calls[0] == before + 1  # the street part was not made again
+        made_again, _ = graph_of(next_city, other, replace(memory, last=None), next_now, history)
+        assert later.costs == made_again.costs != graph.costs
+        for x, y in zip((*later.streets.edges, *later.streets.shell),
+                        (*made_again.streets.edges, *made_again.streets.shell)):
+            assert np.array_equal(x, y)
+        c, d = later.window(box).graph, made_again.window(box).graph
+        for name in ("lat_kind", "src", "dst", "kind", "segment", "weight"):
+            assert np.array_equal(getattr(c, name), getattr(d, name))
+        made.append(len(graph.segments))
+        return graph, memory
+
+    monkeypatch.setattr(pg, "street_part", counted)
+    monkeypatch.setattr(mr, "_graph", checked)
+    expanded_and_matured(load(FIXTURES / "krems.osm.gz"), history="example")
+    assert len(made) >= 3 and made[-1] > made[0]  # several road years, the town grown between them
+
+
+@settings(max_examples=40, deadline=None)
+@given(st.integers(0, 2**32 - 1))
+def test_the_box_test_keeps_every_stitch_near_a_changed_segment(seed):
+    """Issue 22: a carried stitch is measured against the segments added or removed since only if
+    its box comes near one of theirs (``near_boxes``); every stitch within the distance of one
+    of them is among those, so the verdicts carried are those a fresh check gives."""
+    from osm_expand.engine.roads.stitches import near_boxes
+
+    rng = np.random.default_rng(seed)
+    span = float(rng.uniform(50, 5000))
+    changed = rng.uniform(0, span, (int(rng.integers(1, 20)), 2, 2))
+    changed[:, 1] = changed[:, 0] + rng.normal(0, span / 10, (len(changed), 2))
+    a = rng.uniform(-span / 4, 1.25 * span, (400, 2))
+    ends = np.stack([a, a + rng.normal(0, 60, (400, 2))], axis=1)
+    distance = float(rng.uniform(0, 20))
+    boxes = np.concatenate([changed.min(axis=1), changed.max(axis=1)], axis=1)
+    kept = near_boxes(ends, boxes, distance)
+    tree = shapely.STRtree(shapely.linestrings(changed))
+    hit, _ = tree.query(shapely.linestrings(ends), predicate="dwithin", distance=distance)
+    assert kept[hit].all()
+    assert not near_boxes(ends, boxes[:0], distance).any()
+
+
+def test_dry_verdicts_are_carried_only_on_the_ground_they_were_made_on():
+    """Issue 22: a shell stitch last year's verdicts hold is taken as dry without sampling the
+    rasters again, but only on the very rasters it was found dry on: with a river across the
+    town on this year's lattice, the stitches equal those checked afresh (none crosses it)."""
+    from osm_expand.engine.roads.path_graph import street_part
+
+    extent = (0, 0, 1200, 1200)
+    # dead-end streets facing each other across where the river will run (no block: all on the shell)
+    lines = [np.array([[x, y0], [x, y0 + 160.0]]) for x in range(300, 901, 100) for y0 in (300.0, 540.0)]
+    dry_land = build_lattice(extent, options=LatticeOptions(radius=2))
+    wet = build_lattice(extent, water=river(extent, 470, 530), options=LatticeOptions(radius=2))
+    last = street_part(*_grid_year(dry_land, lines))
+    fresh = street_part(*_grid_year(wet, lines))
+    carried = street_part(*_grid_year(wet, lines), previous=last.verdicts)
+    assert len(fresh.shell[0]) < len(last.shell[0])  # the river took some stitches
+    for x, y in zip(fresh.shell, carried.shell):
+        assert np.array_equal(x, y)
+    again = street_part(*_grid_year(wet, lines), previous=fresh.verdicts)  # the same ground: carried
+    for x, y in zip(fresh.shell, again.shell):
+        assert np.array_equal(x, y)

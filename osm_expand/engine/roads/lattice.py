@@ -239,6 +239,9 @@ class LatticeWeights:
         self._cols = np.broadcast_to(np.arange(kind.shape[1], dtype=np.intp), kind.shape)
         #: (256 · D,) float32, the cost of kind k along direction d at ``k · D + d``
         self._table = (self.length[None, :] * self.factor[:, None]).astype(np.float32).reshape(-1)
+        #: the same costs widened to float64 (exactly), what G′'s CSR holds: read from here, a window's
+        #: tens of millions of entries are not converted one by one (:meth:`masked`)
+        self._table64 = self._table.astype(np.float64)
 
     shape = property(lambda self: self.kind.shape)
     ndim = 2
@@ -249,10 +252,11 @@ class LatticeWeights:
 
     def masked(self, rows: slice, mask: np.ndarray) -> np.ndarray:
         """``self[rows][mask]`` without the rows' whole table: only the entries ``mask`` picks
-        (one lookup of kind · D + direction: twice as fast as gathering kinds and directions)."""
+        (one lookup of kind · D + direction: twice as fast as gathering kinds and directions),
+        as float64 (the float32 values, exactly: G′'s CSR holds float64)."""
         n_dir = self.kind.shape[1]
         code = self.kind[rows].astype(np.int32) * n_dir + np.arange(n_dir, dtype=np.int32)
-        return self._table[code[mask]]
+        return self._table64[code[mask]]
 
     def __array__(self, dtype=None, copy=None) -> np.ndarray:
         out = self[:]

@@ -14,7 +14,8 @@ never demolished.
 
 The lattice (its rasters and bridges) is built once per run (it covers
 the map's bounds); B and G′'s street part are rebuilt only in a year that
-needs a road, so most years cost nothing here. G′ is implicit
+needs a road, so most years cost nothing here, and a year's second pair on
+the same city (the first was re-routed) gets the same G′ again. G′ is implicit
 (:class:`~osm_expand.engine.roads.path_graph.ImplicitGraph`): each search makes the
 lattice's edges of the window it needs, and a re-route over major roads
 makes none.
@@ -31,7 +32,13 @@ from osm_expand.engine.history import History, YearValues
 from osm_expand.engine.planarity import without_touching
 from osm_expand.engine.roads.built_up import BuiltUpArea, built_up_area
 from osm_expand.engine.roads.lattice import Lattice, Raster, build_lattice
-from osm_expand.engine.roads.path_graph import ShellVerdicts, implicit_graph, lattice_verdicts
+from osm_expand.engine.roads.path_graph import (
+    EdgeCosts,
+    ShellVerdicts,
+    implicit_graph,
+    lattice_verdicts,
+    street_part_again,
+)
 from osm_expand.engine.roads.road_types import RoadType, plan_major_road, propose_route
 from osm_expand.engine.roads.routing import Choice, choose, route_over_major_roads
 from osm_expand.engine.traffic.simulation import TrafficMemory, follow, trade_major
@@ -67,6 +74,10 @@ class RoadMemory:
     #: the last G′'s stitches to the lattice, filled as its windows were searched (its verdicts
     #: are the next G′'s, :func:`~osm_expand.engine.roads.path_graph.lattice_verdicts`)
     stitches: dict | None = None
+    #: the last G′ and what it was made of, ``(city, traffic table, year values, history, G′)``: a
+    #: second pair of the same year on the same city (the first was re-routed, nothing was built)
+    #: gets that G′ again, with this call's capacities (:func:`_graph`)
+    last: tuple | None = field(default=None, repr=False, compare=False)
 
 
 @dataclass(frozen=True)
@@ -181,7 +192,15 @@ def _segments(city: City, traffic: TrafficMemory, o2: float) -> SegmentTable:
 
 
 def _graph(city: City, traffic: TrafficMemory, memory: RoadMemory, now: YearValues, history: History):
-    """This year's G′ (the lattice built once per run, B grown)."""
+    """This year's G′ (the lattice built once per run, B grown).
+
+    A year's second short pair on the very same city (the first was re-routed: the city, its
+    segment table, the year's values are the same objects) has the same G′ but for the trade
+    capacity left on each segment: the last G′ is handed back with this call's segments, and its
+    stitches checked so far with it (made again, they were the same). So does a later year in
+    which no street was built since and B did not grow (:func:`_same_street_part`; on Campo
+    Grande's default run 7 of 18 calls had the last call's segments).
+    """
     if memory.lattice is None:
         x0, y0, x1, y1 = city.bounds_xy
         extent = (x0 - LATTICE_MARGIN, y0 - LATTICE_MARGIN, x1 + LATTICE_MARGIN, y1 + LATTICE_MARGIN)
@@ -200,15 +219,42 @@ def _graph(city: City, traffic: TrafficMemory, memory: RoadMemory, now: YearValu
             extent, water=water, forbidden=forbidden, options=history.options.lattice,
             stitch_only=Raster.from_polygons(presumed, extent, BUILDING_CELL) if presumed else None))
     segments = _segments(city, traffic, now.o2)
+    if memory.last is not None and all(a is b for a, b in zip(memory.last[:4], (city, traffic.table, now, history))):
+        last = memory.last[4]
+        return replace(last, segments=segments, streets=replace(last.streets, segments=segments)), memory
     built = built_up_area([b.polygon for b in city.blocks], segments, water=city.water_geometry(),
                           previous=memory.built, options=history.options.built_up)
     assert memory.lattice is not None  # built above on the first year
     lattice = memory.lattice.with_built_up(built.area, built.added)
+    if memory.last is not None and _same_street_part(memory.last[4], lattice, built, segments, history):
+        # a later year whose streets, blocks and B are as the last G′'s (no street was built since)
+        last = memory.last[4]
+        costs = now.costs or EdgeCosts()
+        graph = replace(last, segments=segments, costs=costs,
+                        streets=street_part_again(last.streets, lattice, segments, costs))
+        return graph, replace(memory, lattice=lattice, built=built, last=(city, traffic.table, now, history, graph))
     graph = implicit_graph(lattice, segments, built, costs=now.costs, options=history.options.graph,
                            previous=memory.verdicts,
                            previous_lattice=None if memory.stitches is None else lattice_verdicts(memory.stitches))
     return graph, replace(memory, lattice=lattice, built=built, verdicts=graph.streets.verdicts,
-                          stitches=graph.stitches)
+                          stitches=graph.stitches, last=(city, traffic.table, now, history, graph))
+
+
+def _same_street_part(last, lattice: Lattice, built: BuiltUpArea, segments: SegmentTable,
+                      history: History) -> bool:
+    """Whether the G′ ``last`` has the street part this year's would but for the costs C1…C6
+    (:func:`~osm_expand.engine.roads.path_graph.street_part_again`): the same lattice with B (the
+    very object: B did not grow), the same built-up blocks (the very object: none came or went),
+    the same options, and segments of the same ends, classes, widths and harbours (their capacity
+    left is not read by the street part)."""
+    old = last.segments
+    if (last.lattice is not lattice or last.streets.blocks is not built.blocks
+            or last.options != history.options.graph or len(old) != len(segments)):
+        return False
+    same = all(np.array_equal(getattr(old, name), getattr(segments, name)) for name in ("xy", "uv", "major", "width"))
+    harbour = (old.harbour is None and segments.harbour is None) or (
+        old.harbour is not None and segments.harbour is not None and np.array_equal(old.harbour, segments.harbour))
+    return bool(same and harbour)
 
 
 def _apply(city: City, table: SegmentTable, plan, *, year: int, era: str, old_town: bool = False

@@ -44,6 +44,7 @@ from osm_expand.engine.roads.stitches import (
     lattice_verdicts,
     nearest_pairs,
     stitch_ok,
+    within_reach,
 )
 from osm_expand.errors import InputError
 from osm_expand.model.options import require_positive
@@ -51,7 +52,7 @@ from osm_expand.model.segments import SegmentTable
 
 __all__ = [
     "EdgeCosts", "GraphOptions", "PathGraph", "pathfinding_graph", "ShellVerdicts", "StreetPart", "street_part",
-    "GraphWindow", "ImplicitGraph", "implicit_graph", "lattice_verdicts",
+    "GraphWindow", "ImplicitGraph", "implicit_graph", "lattice_verdicts", "street_part_again",
 ]
 
 
@@ -81,6 +82,11 @@ class EdgeCosts:
 
 #: The kinds a lattice table (``lat_kind``) holds besides NO_EDGE: the lattice's own edges.
 LATTICE_KINDS = (EdgeKind.LAND, EdgeKind.WATER, EdgeKind.HARBOUR, EdgeKind.BRIDGE)
+
+
+def _lattice_key(kinds: Sequence[EdgeKind]) -> tuple[int, ...]:
+    """The lattice kinds among ``kinds``, sorted: what :func:`_of_kinds` of them depends on."""
+    return tuple(sorted({int(k) for k in kinds} & {int(k) for k in LATTICE_KINDS}))
 
 
 def _of_kinds(lat_kind: np.ndarray, kinds: Sequence[EdgeKind]) -> np.ndarray:
@@ -166,7 +172,7 @@ class PathGraph:
         """
         table = np.zeros(256, dtype=bool)
         table[[int(k) for k in kinds]] = True
-        key = tuple(sorted(int(k) for k in kinds))
+        key = _lattice_key(kinds)
         lat = self._lat_masks.get(key)
         if lat is None:
             lat = self._lat_masks[key] = _of_kinds(self.lat_kind, kinds)
@@ -387,6 +393,15 @@ def street_part(lattice: Lattice, segments: SegmentTable, built: BuiltUpArea | N
     return replace(part, shell=_stitch_edges(lattice, shell, xy))
 
 
+def street_part_again(part: StreetPart, lattice: Lattice, segments: SegmentTable, costs: EdgeCosts) -> StreetPart:
+    """``part`` for ``segments`` of the very same ends, classes, widths and harbours, on the same
+    lattice and blocks, with another year's costs and capacities: only the street pieces' weights
+    are worked out again (C1…C6 change from year to year; the points, pieces, stitches and their
+    verdicts do not depend on them)."""
+    edges = _segment_part(lattice, segments, part.xy, part.pieces, part.extendible, 0, costs)
+    return replace(part, segments=segments, edges=edges)
+
+
 def _stitch_edges(lattice: Lattice, pairs: np.ndarray, xy: np.ndarray) -> tuple[np.ndarray, ...]:
     """Stitch edges (u, v, kind, segment, length, weight) of checked pairs, none steeper than the cutoff."""
     u, v = pairs[:, 0], pairs[:, 1]
@@ -445,8 +460,11 @@ def pathfinding_graph(lattice: Lattice, segments: SegmentTable, built: BuiltUpAr
     xy = np.concatenate([lattice.vertex_xy(), streets.xy])
     lat_kind, lat_weight, bridges = _lattice_part(lattice, segments, costs, streets.tree)
     parts = [bridges, _shifted(streets.edges, n_lat)]
-    targets = np.flatnonzero(_of_kinds(lat_kind, (EdgeKind.LAND, EdgeKind.BRIDGE)).any(axis=1)
-                             & (lattice.vertex_class == VertexClass.LAND))
+    # the land and bridge edges are also what a road may use of the lattice (ROAD_KINDS): the mask is
+    # handed to the G′ for its searches, one pass over the (V, D) table fewer a window
+    road = _of_kinds(lat_kind, (EdgeKind.LAND, EdgeKind.BRIDGE))
+    road.flags.writeable = False
+    targets = np.flatnonzero(road.any(axis=1) & (lattice.vertex_class == VertexClass.LAND))
     points = streets.points
     if stitch_within is not None and len(points):
         px, py = streets.xy[points].T
@@ -468,7 +486,8 @@ def pathfinding_graph(lattice: Lattice, segments: SegmentTable, built: BuiltUpAr
     return PathGraph(lattice=lattice, segments=segments, xy=xy, n_lattice=n_lat, split_segment=streets.split_parent,
                      lat_kind=lat_kind, lat_weight=lat_weight, src=src[order], dst=dst[order], kind=kind[order],
                      segment=seg[order], length=length[order], weight=weight[order], heading=heading[order],
-                     extendible=streets.extendible)
+                     extendible=streets.extendible,
+                     _lat_masks={_lattice_key((EdgeKind.LAND, EdgeKind.BRIDGE)): road})
 
 
 def _lattice_stitches(lattice: Lattice, segments: SegmentTable, streets: StreetPart, xy: np.ndarray,
@@ -482,8 +501,12 @@ def _lattice_stitches(lattice: Lattice, segments: SegmentTable, streets: StreetP
 
     def checked(chosen: np.ndarray) -> np.ndarray:
         ids = chosen + n_lat
-        pairs = nearest_pairs(xy[ids], xy[targets], ids, targets, opts.max_stitches, opts.stitch_radius,
-                               keys=lattice.map_vertex(targets))
+        # only the targets a chosen point can reach go into the search tree: the same pairs (every
+        # candidate within the radius is among them, and ties go by map vertex), where the tree of
+        # a window's every live land vertex (~5·10⁵ on Campo Grande) was most of the stitches' time
+        near = targets[within_reach(lattice, xy[ids], targets, opts.stitch_radius)]
+        pairs = nearest_pairs(xy[ids], xy[near], ids, near, opts.max_stitches, opts.stitch_radius,
+                               keys=lattice.map_vertex(near))
         if cache is None:
             return pairs[stitch_ok(lattice, segments, xy, pairs, streets.split_parent, n_lat, opts, streets.tree,
                                     streets.inner)]

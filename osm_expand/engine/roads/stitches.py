@@ -19,13 +19,15 @@ from dataclasses import dataclass
 
 import numpy as np
 import shapely
+from scipy.ndimage import maximum_filter1d
 from scipy.spatial import cKDTree
 
 from osm_expand.engine.roads.lattice import Lattice
 from osm_expand.model.options import require_positive
 from osm_expand.model.segments import SegmentTable
 
-__all__ = ["GraphOptions", "ShellVerdicts", "carried_ok", "lattice_verdicts", "nearest_pairs", "stitch_ok"]
+__all__ = ["GraphOptions", "ShellVerdicts", "carried_ok", "lattice_verdicts", "nearest_pairs", "stitch_ok",
+           "near_boxes", "within_reach"]
 
 
 @dataclass(frozen=True)
@@ -57,8 +59,9 @@ class ShellVerdicts:
     thousands: a candidate with the same two ends as last year and no segment added
     or removed within ``clearance`` of it has last year's verdict; only the others are
     checked again (the street tests were 60 % of :func:`street_part` on Campo
-    Grande, 18 road years: 34 s of 58 s profiled). Water, forbidden ground and the
-    built-up blocks are checked every year (cheap, and the blocks change).
+    Grande, 18 road years: 34 s of 58 s profiled). The built-up blocks are checked every
+    year (they change); water and forbidden ground only for candidates the verdicts do not
+    hold, or when they were made on other rasters (``ground``).
     """
 
     segments: np.ndarray  #: (S,) void keys of the segments (both ends' coordinates, ordered)
@@ -66,6 +69,9 @@ class ShellVerdicts:
     #: each end's kind): the others never need a street verdict, the ground does not change
     pairs: np.ndarray
     clear: np.ndarray  #: (M,) bool, the candidate crossed and grazed no street
+    #: the rasters the candidates were found dry on (water, forbidden, stitch-only; the very arrays):
+    #: on the same ones, a candidate held here is dry again without sampling them
+    ground: tuple = ()
 
 def lattice_verdicts(stitches: dict) -> ShellVerdicts | None:
     """The street verdicts of the stitches to the lattice in an :attr:`ImplicitGraph.stitches`
@@ -74,7 +80,7 @@ def lattice_verdicts(stitches: dict) -> ShellVerdicts | None:
     if not done:
         return None
     return ShellVerdicts(segments=done[0].segments, pairs=np.concatenate([v.pairs for v in done]),
-                         clear=np.concatenate([v.clear for v in done]))
+                         clear=np.concatenate([v.clear for v in done]), ground=done[0].ground)
 
 def nearest_pairs(from_xy: np.ndarray, to_xy: np.ndarray, from_id: np.ndarray, to_id: np.ndarray, k: int,
                    radius: float, keys: np.ndarray | None = None) -> np.ndarray:
@@ -107,6 +113,34 @@ def nearest_pairs(from_xy: np.ndarray, to_xy: np.ndarray, from_id: np.ndarray, t
     start = np.searchsorted(row, row, side="left")
     first = np.arange(len(row)) - start < k
     return np.stack([from_id[row[first]], to_id[cand[first]]], axis=1)
+
+def within_reach(lattice: Lattice, points: np.ndarray, vertices: np.ndarray, radius: float) -> np.ndarray:
+    """Whether each of ``lattice``'s ``vertices`` may lie within ``radius`` of one of ``points``
+    (``(n, 2)`` m): a superset of those that do, from the vertex grid alone.
+
+    Every vertex within ``radius`` of a point lies in the square of ``⌈radius / ℓ⌉ + 1``
+    vertices around the point's nearest grid position; those squares are marked on the
+    grid (one mark a point, then a running maximum along each axis), so the cost is the
+    grid's size and the points', never their product. :func:`nearest_pairs` over the
+    marked vertices gives the pairs it gives over them all.
+    """
+    ny, nx = lattice.shape
+    if not len(points) or not len(vertices):
+        return np.zeros(len(vertices), dtype=bool)
+    reach = int(np.ceil(radius / lattice.spacing)) + 1
+    col = np.rint((points[:, 0] - lattice.origin[0]) / lattice.spacing)
+    row = np.rint((points[:, 1] - lattice.origin[1]) / lattice.spacing)
+    # a point further off the grid than the square reaches no vertex: clipped, it marks a square
+    # that may touch the grid's edge (a superset, as promised)
+    col = np.clip(col, -reach - 1, nx + reach).astype(np.int64) + reach + 1
+    row = np.clip(row, -reach - 1, ny + reach).astype(np.int64) + reach + 1
+    grid = np.zeros((ny + 2 * reach + 2, nx + 2 * reach + 2), dtype=np.uint8)
+    grid[row, col] = 1
+    size = 2 * reach + 1
+    grid = maximum_filter1d(maximum_filter1d(grid, size, axis=0, mode="constant"), size, axis=1, mode="constant")
+    v = np.asarray(vertices, dtype=np.int64)
+    return grid[v // nx + reach + 1, v % nx + reach + 1].astype(bool)
+
 
 def stitch_ok(lattice: Lattice, segments: SegmentTable, xy: np.ndarray, pairs: np.ndarray, split_parent: np.ndarray,
                n_lat: int, opts: GraphOptions, tree: shapely.STRtree | None = None,
@@ -187,25 +221,39 @@ def carried_ok(lattice: Lattice, segments: SegmentTable, xy: np.ndarray, pairs: 
     again: the segments' keys, the last verdicts sorted, the segments added or removed.
     """
     carry = _carry(segments, previous, {} if memo is None else memo)
-    dry = _dry(lattice, xy, pairs, opts)
-    live = np.flatnonzero(dry)
     n_nodes = len(segments.xy)
-    end_kind = np.where(pairs[live] < n_lat, 2, np.where(pairs[live] - n_lat >= n_nodes, 1, 0))  # lattice, split, node
-    pair_keys = _keys(np.concatenate([xy[pairs[live, 0]], xy[pairs[live, 1]], end_kind.astype(np.float64)], axis=1))
+    end_kind = np.where(pairs < n_lat, 2, np.where(pairs - n_lat >= n_nodes, 1, 0))  # lattice, split, node
+    every_key = _keys(np.concatenate([xy[pairs[:, 0]], xy[pairs[:, 1]], end_kind.astype(np.float64)], axis=1))
+    keys = carry.keys if carry.keys is not None and carry.clear is not None and len(pairs) else None
+    last_clear = carry.clear if carry.clear is not None else np.zeros(0, dtype=bool)
+    dry = np.zeros(len(pairs), dtype=bool)
+    every_at = np.zeros(len(pairs), dtype=np.int64)
+    if keys is not None and len(keys):
+        every_at = np.minimum(np.searchsorted(keys, every_key), len(keys) - 1)
+        if previous is not None and _same_ground(previous.ground, lattice):
+            # a stitch the last verdicts hold was dry then, on the same ground: it is dry now (its samples
+            # along the fine rasters were a third of a year's shell check on Campo Grande)
+            dry = keys[every_at] == every_key
+    dry[~dry] = _dry(lattice, xy, pairs[~dry], opts)
+    live = np.flatnonzero(dry)
+    pair_keys = every_key[live]
     clear = np.zeros(len(pairs), dtype=bool)
     todo = live
-    if carry.keys is not None and carry.clear is not None and len(carry.keys) and len(live):
-        at = np.minimum(np.searchsorted(carry.keys, pair_keys), len(carry.keys) - 1)
-        known = np.flatnonzero(carry.keys[at] == pair_keys)
+    if keys is not None and len(keys) and len(live):
+        at = every_at[live]
+        known = np.flatnonzero(keys[at] == pair_keys)
         near = np.zeros(len(known), dtype=bool)
-        if carry.changed is not None and len(known):
-            # a stitch a segment was added or removed near (as many times as it was) is checked again
+        if carry.changed is not None and carry.boxes is not None and len(known):
+            # a stitch a segment was added or removed near (as many times as it was) is checked again;
+            # only those whose box comes near a changed segment's are made into lines and measured
             k = live[known]
-            hit, _ = carry.changed.query(shapely.linestrings(np.stack([xy[pairs[k, 0]], xy[pairs[k, 1]]], axis=1)),
-                                         predicate="dwithin", distance=opts.clearance + 1.0)
-            near[hit] = True
+            ends = np.stack([xy[pairs[k, 0]], xy[pairs[k, 1]]], axis=1)
+            box = near_boxes(ends, carry.boxes, opts.clearance + 1.0)
+            hit, _ = carry.changed.query(shapely.linestrings(ends[box]), predicate="dwithin",
+                                         distance=opts.clearance + 1.0)
+            near[np.flatnonzero(box)[hit]] = True
         reuse = known[~near]
-        clear[live[reuse]] = carry.clear[at[reuse]]
+        clear[live[reuse]] = last_clear[at[reuse]]
         again = np.ones(len(live), dtype=bool)
         again[reuse] = False
         todo = live[again]
@@ -214,7 +262,53 @@ def carried_ok(lattice: Lattice, segments: SegmentTable, xy: np.ndarray, pairs: 
     if inner is not None:
         live = np.flatnonzero(ok)
         ok[live] = ~shapely.intersects(inner, _core(xy, pairs[live], opts))
-    return ok, ShellVerdicts(segments=carry.segments, pairs=pair_keys, clear=clear[dry])
+    return ok, ShellVerdicts(segments=carry.segments, pairs=pair_keys, clear=clear[dry], ground=_ground(lattice))
+
+
+def _ground(lattice: Lattice) -> tuple[np.ndarray | None, ...]:
+    """The rasters a stitch's dryness is read from (:func:`_dry`): the map's, shared by its windows."""
+    return (lattice.water, lattice.forbidden, lattice.stitch_only)
+
+
+def _same_ground(ground: tuple, lattice: Lattice) -> bool:
+    """Whether verdicts made on ``ground`` (:func:`_ground`) were made on ``lattice``'s very rasters."""
+    return len(ground) == 3 and all(a is b for a, b in zip(ground, _ground(lattice)))
+
+
+def near_boxes(ends: np.ndarray, boxes: np.ndarray, distance: float) -> np.ndarray:
+    """Whether the box of each segment ``ends`` (``(n, 2, 2)`` m) comes within ``distance`` of
+    one of ``boxes`` (``(C, 4)`` xmin, ymin, xmax, ymax): a superset of the segments within
+    ``distance`` of what the boxes bound (a segment that near has its box that near).
+
+    The boxes, grown by ``distance``, are counted on a grid over their extent (a corner
+    mark each and two running sums), and each segment's box asks for the count over its
+    cells (a summed-area table): the cost is the grid's and the segments', not their
+    product, where making every one of a year's ~10⁵ carried stitches a line to query the
+    changed segments' tree was most of :func:`carried_ok`.
+    """
+    n = len(ends)
+    if not n or not len(boxes):
+        return np.zeros(n, dtype=bool)
+    grown = boxes + np.array([-distance, -distance, distance, distance])
+    lo, hi = grown[:, :2].min(axis=0), grown[:, 2:].max(axis=0)
+    cell = max(float((hi - lo).max()) / 256.0, distance, 1e-6)
+    shape = np.floor((hi - lo) / cell).astype(np.int64) + 1  # (nx, ny)
+
+    def cells(xy: np.ndarray) -> np.ndarray:  # (m, 2) column, row; clipped to one beyond the grid each side
+        return np.clip(np.floor((xy - lo) / cell), -1, shape).astype(np.int64) + 1
+
+    a, b = cells(grown[:, :2]), cells(grown[:, 2:])
+    count = np.zeros((shape[1] + 3, shape[0] + 3), dtype=np.int64)  # a row and column of slack each side
+    np.add.at(count, (a[:, 1], a[:, 0]), 1)
+    np.add.at(count, (a[:, 1], b[:, 0] + 1), -1)
+    np.add.at(count, (b[:, 1] + 1, a[:, 0]), -1)
+    np.add.at(count, (b[:, 1] + 1, b[:, 0] + 1), 1)
+    covered = (count.cumsum(axis=0).cumsum(axis=1) > 0).astype(np.int64)
+    table = np.zeros((covered.shape[0] + 1, covered.shape[1] + 1), dtype=np.int64)
+    table[1:, 1:] = covered.cumsum(axis=0).cumsum(axis=1)
+    p, q = cells(ends.min(axis=1)), cells(ends.max(axis=1)) + 1
+    inside = table[q[:, 1], q[:, 0]] - table[p[:, 1], q[:, 0]] - table[q[:, 1], p[:, 0]] + table[p[:, 1], p[:, 0]]
+    return inside > 0
 
 
 @dataclass(frozen=True)
@@ -225,6 +319,7 @@ class _Carry:
     keys: np.ndarray | None  #: the last verdicts' pair keys, sorted (None: no last verdicts)
     clear: np.ndarray | None  #: their verdicts in that order
     changed: shapely.STRtree | None  #: the segments added or removed since (None: none)
+    boxes: np.ndarray | None = None  #: (C, 4) their bounding boxes (xmin, ymin, xmax, ymax)
 
 
 def _carry(segments: SegmentTable, previous: ShellVerdicts | None, memo: dict) -> _Carry:
@@ -247,7 +342,8 @@ def _carry(segments: SegmentTable, previous: ShellVerdicts | None, memo: dict) -
                                   len(seg_keys) + np.flatnonzero(~np.isin(previous.segments, same))])
         ends = np.concatenate([np.stack([a, b], axis=1), _segment_ends(previous.segments)])[changed]
         carry = _Carry(segments=seg_keys, keys=previous.pairs[order], clear=previous.clear[order],
-                       changed=shapely.STRtree(shapely.linestrings(ends)) if len(ends) else None)
+                       changed=shapely.STRtree(shapely.linestrings(ends)) if len(ends) else None,
+                       boxes=np.concatenate([ends.min(axis=1), ends.max(axis=1)], axis=1))
     memo["carry"] = (previous, segments, carry)
     return carry
 
