@@ -65,8 +65,9 @@ def _rectangle_sides(polys: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Two adjacent sides (vectors) of each polygon's minimum rotated rectangle, ``(K, 2)`` each.
 
     Where GEOS's rotated rectangle comes out degenerate for a polygon of real
-    area (a line, or a side of zero or NaN length: seen on a ring with a
-    subnormal coordinate, 1e-214), the axis-aligned bounding box stands in:
+    area (a line, a side of zero or NaN length, or a rectangle smaller than
+    the polygon; seen on a ring with a subnormal coordinate, 1e-214), the
+    axis-aligned bounding box stands in:
     it encloses the polygon too, so every footprint of at least 1 m² is still
     measured and its frontage × depth still covers its area.
     """
@@ -77,7 +78,8 @@ def _rectangle_sides(polys: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     rect[rect] = shapely.get_num_coordinates(env[rect]) == 5
     corners[rect] = shapely.get_coordinates(shapely.get_exterior_ring(env[rect])).reshape(-1, 5, 2)
     s1, s2 = corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 1]
-    good = (np.hypot(s1[:, 0], s1[:, 1]) > 0) & (np.hypot(s2[:, 0], s2[:, 1]) > 0)  # NaN compares False
+    # NaN compares False; a rectangle that does not hold the polygon's area does not enclose it
+    good = np.hypot(s1[:, 0], s1[:, 1]) * np.hypot(s2[:, 0], s2[:, 1]) >= shapely.area(polys) * (1 - 1e-9)
     if not good.all():
         box = shapely.bounds(polys[~good])
         width, height = box[:, 2] - box[:, 0], box[:, 3] - box[:, 1]

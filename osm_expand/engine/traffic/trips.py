@@ -380,11 +380,11 @@ def step_trips(state: TripState, graph: TripGraph, residents: NDArray[np.floatin
     trips = stranded = 0
     # a batch of segments never sampled (the first fill, the year's new streets at the table's end) lies
     # together, and is searched on the part it reaches; a batch with the random share is spread over the town
-    fresh = ~state.sampled[active]
+    never_sampled = ~state.sampled[active]
     for lo in range(0, len(active), options.batch_sources):
         hi = lo + options.batch_sources
         s, g, v, t, st = _sample_batch(graph, active[lo:hi], active_trips[lo:hi], res, volume, rng, options,
-                                       local=bool(fresh[lo:hi].all()))
+                                       local=bool(never_sampled[lo:hi].all()))
         src_parts += s
         seg_parts += g
         vol_parts += v
