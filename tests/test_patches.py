@@ -510,3 +510,15 @@ def test_perimeter_streets_bend_as_the_towns_streets_do_within_the_clearance_of_
             np.column_stack([t[50:71], wiggle[50:71] + EDGE_INSET]))) < 0.15 * spacing
         assert (len(path) <= 4) == straight, (bend, len(path))
         assert (_median_bend(path) < 1.0) == straight, (bend, _median_bend(path))
+
+
+@pytest.mark.parametrize("bad", [0, -0.1, float("nan"), float("inf"), "0.15"])
+def test_the_edge_tolerance_is_checked_when_read(bad):
+    """A history's bad perimeter tolerance is one line and exit 2 at its reading, not a silent off switch
+    (0, negative, nan) or streets simplified to straight lines (inf)."""
+    from osm_expand.errors import OptionError
+    from synth.patches.options import PatchOptions
+
+    with pytest.raises(OptionError, match="edge_tolerance"):
+        PatchOptions(edge_tolerance=bad)
+    assert PatchOptions(edge_tolerance=0.15).edge_tolerance == 0.15

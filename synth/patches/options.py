@@ -1,9 +1,10 @@
 """Example patches' tunables, and the road classes a patch never copies."""
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
-from osm_expand.errors import InputError
+from osm_expand.errors import InputError, OptionError
 from osm_expand.model import highways
 
 #: Highway classes never copied into a district: a piece of motorway in a housing estate is no street.
@@ -160,3 +161,8 @@ class PatchOptions:
             if unknown:
                 raise InputError(f"PatchOptions.{name}: {', '.join(map(repr, unknown))} not one of "
                                  f"{', '.join(allowed)}")
+        tolerance = self.edge_tolerance
+        if tolerance is not None and not (isinstance(tolerance, (int, float)) and math.isfinite(tolerance)
+                                          and tolerance > 0):
+            raise OptionError(f"PatchOptions.edge_tolerance must be a finite number of spacings > 0 or unset, "
+                             f"got {tolerance!r}")
