@@ -29,11 +29,14 @@ ring ``contact_width`` wide around the disc that is town: a bay of the town
 beats a corner, and gives the joining streets somewhere to go) and by room
 to spare, each in [0, 1] and weighted, less its unbuildable share and the
 mean development cost of its land cover (fields before forest); it loses
-its closeness to the city when the way there crosses water (the far bank of
-a river is not next to the town; for the engine's districts, the town is
-its own settlement, :func:`settlement_maps`: built-up land less than
+its closeness to the city when it lies across water (the far bank of a
+river is not next to the town): for the pipeline's district, when the
+straight way to the nearest city cell crosses water; for the engine's,
+when water cuts its land off from the town's own settlement
+(:func:`settlement_maps`, :func:`far_bank`: built-up land less than
 :data:`SETTLEMENT_GAP` apart is one settlement, the largest is the town, so
-a village on the far bank does not make the far bank the town's).
+a village on the far bank does not make the far bank the town's, and a
+river the town lies on both sides of is no divide).
 Motorways and trunk roads
 (:data:`CORRIDORS`) cut the land: a district's streets cross none of the
 town's streets and these have no junctions to meet, so free land in the
@@ -253,12 +256,15 @@ def far_bank(water: np.ndarray, town: np.ndarray) -> np.ndarray:
     piece of land (water the barrier, pieces joined edge to edge) holds no town cell. Water cells are not.
 
     Why not the straight way to the nearest town cell, as before (:func:`_across_water`): a river that the
-    town lies on both sides of is no divide. Andorra la Vella spans the Gran Valira and north-bayreuth a
-    stream; a site by a valley village whose straight line to the town crosses the river lost its
-    closeness, and Andorra's engine growth went to the steep slopes of the town instead (seed 1: off on
-    0 0 1 of 14 on main, 5 5 4 with the straight line seen from the town's settlement). The Danube between
-    Krems and Mautern is a divide: no land of Krems' settlement lies south of it, so Mautern's bank is
-    the far bank however the straight line runs. One labelling of the raster, no per-cell sampling.
+    town lies on both sides of is no divide, whichever bank the nearest town cell is on. Andorra la Vella
+    spans the Gran Valira: seen from its settlement, a site by a valley village whose straight line to the
+    town crossed the river lost its closeness and the steep slope of the town won (seed 1, off of 14 per
+    reference seed, ``benchmarks/engine_growth.py``: 0 0 1 on main 88bd933, 5 5 4 with the straight line,
+    0 0 1 with this). The Danube between Krems and Mautern is a divide: no land of Krems' settlement lies
+    south of it, so Mautern's bank is the far bank however the straight line runs. Tried and dropped: the
+    way over land (water the barrier) much longer than the straight way, on a coarse raster: Andorra's
+    seed 1 1 2 2, north-bayreuth's seed 0 unchanged (5 5 5). One labelling of the raster, no per-cell
+    sampling.
     """
     land = ~water
     pieces, count = label(land)  # 4-connected: a river drawn corner to corner still divides

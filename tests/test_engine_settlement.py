@@ -14,8 +14,16 @@ from osm_expand.errors import OptionError
 from osm_expand.growth_fidelity import before_the_years, is_major_road
 from osm_expand.ingest import load
 from osm_expand.model import Origin
-from osm_expand.sites import (SETTLEMENT_GAP, DistanceMaps, SiteOptions, _across_water, distance_maps, far_bank,
-                              settlement, settlement_maps)
+from osm_expand.sites import (
+    SETTLEMENT_GAP,
+    DistanceMaps,
+    SiteOptions,
+    _across_water,
+    distance_maps,
+    far_bank,
+    settlement,
+    settlement_maps,
+)
 from tests.conftest import FIXTURES, expanded_and_matured
 
 #: Krems' old town (its centre nucleus) and the village of Mautern across the Danube (m, the fixture's projection)
