@@ -8,6 +8,7 @@ import functools
 import numpy as np
 import pytest
 import shapely
+from scipy.ndimage import distance_transform_edt
 
 from osm_expand.engine.growth.minor_streets import GrowthOptions
 from osm_expand.errors import OptionError
@@ -117,7 +118,6 @@ def test_settlement_only_is_off_by_default():
 
 def _maps(city: np.ndarray, water: np.ndarray, cell: float = 10.0) -> DistanceMaps:
     """Distance maps of a synthetic raster: ``city`` and ``water`` bool, rows = y."""
-    from scipy.ndimage import distance_transform_edt
     cells, nearest = distance_transform_edt(~city, return_indices=True)
     zeros = np.zeros(city.shape)
     return DistanceMaps(origin=np.zeros(2), cell=cell, water=water, city=city, outside=np.zeros_like(city),
@@ -168,3 +168,22 @@ def test_the_far_bank_is_land_water_cuts_off_from_the_town():
     assert not far[:20].any()  # north of the lake: joined round its east end
     assert far[47:53, 7:13].all()  # the island
     assert not far[water].any()
+
+
+@pytest.mark.parametrize("name", ["krems.osm.gz", "andorra.osm.pbf"])
+def test_the_far_bank_on_the_fixtures(name):
+    """Krems: Mautern's bank of the Danube is the far bank, the town's own bank is not; Andorra: the Gran Valira,
+    which Andorra la Vella lies on both sides of, divides nothing (the straight line to the nearest town cell
+    crossed it)."""
+    from osm_expand.pipeline import prepare
+
+    city = prepare(load(FIXTURES / name))
+    maps = settlement_maps(distance_maps(city, SiteOptions(cell=20.0), margin=1500.0))
+    assert maps.far_bank is not None
+    if name.startswith("krems"):
+        assert maps.far_bank[_cell(maps, MAUTERN)] and not maps.far_bank[_cell(maps, KREMS_OLD_TOWN)]
+        assert 0.2 < maps.far_bank[~maps.water].mean() < 0.6
+    else:  # at most a few cells of islands, none within 2 km of the town (31 cells, 6.5 km from it)
+        assert maps.water.any() and maps.far_bank.mean() < 1e-4
+        near = distance_transform_edt(~settlement(maps)) * maps.cell < 2000.0
+        assert not (maps.far_bank & near).any()
