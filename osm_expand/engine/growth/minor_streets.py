@@ -153,7 +153,10 @@ class GrowthOptions:
     #: of 14 per reference seed, main → on) Andorra 0 0 0 → 4 6 5 (its growth moved to the steep slopes of
     #: its largest town) and north-bayreuth 5 5 5 → 7 7 6 (a district two thirds of the town's size wrapped
     #: round it, 16 % outlying); seed 1: Krems 4 3 4 → 0 0 1 but 12.6 → 4.3 km grown (its last district
-    #: refused at all five sites), Andorra 0 0 1 → 2 2 2, north-bayreuth 3 3 3 → 3 3 1 (session 32).
+    #: refused at all five sites), Andorra 0 0 1 → 2 2 2, north-bayreuth 3 3 3 → 3 3 1 (session 32). With the far
+    #: bank by land (:func:`~osm_expand.sites.far_bank`), off → on: seed 0 Andorra 0 0 0 → 4 6 5, north-bayreuth
+    #: 5 5 5 → 2 3 4 (3 pieces, 19 % outlying), Krems 1 1 1 → 1 1 1; seed 1 Andorra 0 0 1 → 2 2 2, north-bayreuth
+    #: 3 3 3 → 3 3 2, Krems 3 3 4 → 3 3 4: still off.
     settlement_only: bool = False
 
     def __post_init__(self) -> None:
