@@ -125,18 +125,26 @@ class GrowthOptions:
     #: 0 turns the floor off (main before session 31).
     district_neighbourhoods: float = 5.0
     #: Built-up land less than this far apart (m) is one settlement (:func:`osm_expand.sites.settlement`; the
-    #: town is the piece with the most built-up land), and a site whose straight way to the *town's* settlement
-    #: crosses water loses its closeness to the town, as the pipeline's site does for the far bank
-    #: (:func:`osm_expand.sites.settlement_maps`). Why: a site's nearest built-up land was any piece of it, and
-    #: the way from Krems' engine quarter of 2029 (seed 0) to Mautern, the village on the far bank of the
-    #: Danube, crosses no water: it grew there, a separate piece beside the village, not at Krems' edge.
+    #: town is the piece with the most built-up land), and a site on land that water cuts off from the *town's*
+    #: settlement loses its closeness to the town (:func:`osm_expand.sites.settlement_maps`,
+    #: :func:`osm_expand.sites.far_bank`: a river the town lies on both sides of is no divide; the pipeline's
+    #: site still reads the straight way to its nearest built-up land). Why: a site's nearest built-up land was
+    #: any piece of it, and the way from Krems' engine quarter of 2029 (seed 0) to Mautern, the village on the
+    #: far bank of the Danube, crosses no water: it grew there, a separate piece beside the village, not at Krems' edge.
     #: :data:`~osm_expand.sites.SETTLEMENT_GAP` (200 m, the EEA's urban morphological zones) by default;
     #: 0 reads every piece of built-up land as the town (main before session 32). Measured
     #: (``benchmarks/engine_growth.py --seed S``, off of 14 per reference seed, main → 200 m): seed 0 Krems
     #: 2 2 4 → 1 1 1 (15.7 → 10.4 km, both quarters at Krems' eastern edge), north-bayreuth 5 5 5 → 2 3 2 (its
     #: quarter in the fields 4 km east of the town now at the town's southern edge; 1 → 2 pieces, 27.4 → 19.5 km),
     #: Andorra and Monaco the same bytes; seed 1 Krems 4 3 4 → 0 0 1 but 12.6 → 4.3 km (the run's last district,
-    #: due, refused at all five sites at Krems' filled eastern edge), north-bayreuth 3 3 3 → 2 3 2.
+    #: due, refused at all five sites at Krems' filled eastern edge), north-bayreuth 3 3 3 → 2 3 2. Those were
+    #: with the straight way to the settlement crossing water as the far bank; with the land water cuts off
+    #: (:func:`~osm_expand.sites.far_bank`, session 32 h32w), straight line → land: seed 0 Krems 1 1 1 → 1 1 1
+    #: (10.2 km, both quarters still at Krems' eastern edge), north-bayreuth 2 3 2 → 5 5 5 (main's: the stream
+    #: its quarter in the fields was across runs through the town), Andorra 0 0 0 and Monaco 2 3 3 unchanged;
+    #: seed 1 Andorra 5 5 4 → 0 0 1 (main's), Krems 0 0 1 → 3 3 4 (4.3 → 9.1 km: its last district grows at the
+    #: eastern edge by the harbour basin, curvier and with smaller blocks than the town), north-bayreuth
+    #: 2 3 2 → 3 3 3, Monaco 3 3 2 unchanged.
     settlement_gap: float = SETTLEMENT_GAP
     #: A site's closeness to the town, its contact, and the district's joins count the town's settlement only
     #: (:attr:`settlement_gap`; ``settlement_maps(only=True)``), not every piece of built-up land. Off by
@@ -145,7 +153,10 @@ class GrowthOptions:
     #: of 14 per reference seed, main → on) Andorra 0 0 0 → 4 6 5 (its growth moved to the steep slopes of
     #: its largest town) and north-bayreuth 5 5 5 → 7 7 6 (a district two thirds of the town's size wrapped
     #: round it, 16 % outlying); seed 1: Krems 4 3 4 → 0 0 1 but 12.6 → 4.3 km grown (its last district
-    #: refused at all five sites), Andorra 0 0 1 → 2 2 2, north-bayreuth 3 3 3 → 3 3 1 (session 32).
+    #: refused at all five sites), Andorra 0 0 1 → 2 2 2, north-bayreuth 3 3 3 → 3 3 1 (session 32). With the far
+    #: bank by land (:func:`~osm_expand.sites.far_bank`), off → on: seed 0 Andorra 0 0 0 → 4 6 5, north-bayreuth
+    #: 5 5 5 → 2 3 4 (3 pieces, 19 % outlying), Krems 1 1 1 → 1 1 1; seed 1 Andorra 0 0 1 → 2 2 2, north-bayreuth
+    #: 3 3 3 → 3 3 2, Krems 3 3 4 → 3 3 4: still off.
     settlement_only: bool = False
 
     def __post_init__(self) -> None:
