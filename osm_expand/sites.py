@@ -123,8 +123,9 @@ class DistanceMaps:
     water_distance: np.ndarray  #: m
     city_distance: np.ndarray  #: m
     free_radius: np.ndarray  #: m to the nearest water, city or outside cell
-    #: (2, rows, cols) row and column of each cell's nearest city cell (of the town's settlement:
-    #: :func:`settlement_maps`): what :func:`_across_water` looks across
+    #: (2, rows, cols) row and column of each cell's nearest city cell: any built-up cell in the pipeline's
+    #: maps, the town's settlement's in the engine's (:func:`settlement_maps`); what :func:`_across_water`'s
+    #: straight-line test looks across when :attr:`far_bank` is unset
     nearest_city: np.ndarray
     #: bool: motorways, trunk roads and their ramps, which new streets never cross (no junction on them)
     corridor: np.ndarray
@@ -212,7 +213,8 @@ SETTLEMENT_GAP = 200.0
 
 def settlement(maps: DistanceMaps, gap: float = SETTLEMENT_GAP) -> np.ndarray:
     """The town's own built-up land: the piece of ``maps.city`` with the most area, pieces less than ``gap``
-    metres apart counted as one (:data:`SETTLEMENT_GAP`).
+    metres apart counted as one (:data:`SETTLEMENT_GAP`), to within about a raster cell (the gap is measured
+    between cells; diagonal gaps join a cell further through 8-connectivity).
 
     Why: the engine's districts grow "at the edge of the built-up land ... joined to what is there, as real
     towns grow" (issue 20), and that is the town's edge, not a village's on the far bank of a river: a site

@@ -187,3 +187,11 @@ def test_the_far_bank_on_the_fixtures(name):
         assert maps.water.any() and maps.far_bank.mean() < 1e-4
         near = distance_transform_edt(~settlement(maps)) * maps.cell < 2000.0
         assert not (maps.far_bank & near).any()
+
+
+def test_counting_the_settlement_alone_needs_a_settlement():
+    """``settlement_only`` with ``settlement_gap = 0`` contradicts itself (0 reads all built-up land as the
+    town's): one line, exit 2, not an option silently ignored."""
+    with pytest.raises(OptionError, match="settlement_only"):
+        GrowthOptions(settlement_only=True, settlement_gap=0.0)
+    assert GrowthOptions(settlement_only=True).settlement_only

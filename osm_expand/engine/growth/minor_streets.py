@@ -167,6 +167,9 @@ class GrowthOptions:
         if not (np.isfinite(self.settlement_gap) and self.settlement_gap >= 0):
             raise OptionError(f"growth option settlement_gap must be a finite number of metres >= 0, "
                               f"got {self.settlement_gap!r}")
+        if self.settlement_only and self.settlement_gap == 0:
+            raise OptionError("growth option settlement_only needs settlement_gap > 0 (0 reads every piece of "
+                              "built-up land as the town's, so there is no settlement to count alone)")
 
 
 @dataclass
