@@ -244,7 +244,8 @@ def _search(graph: PathGraph, source: int, target: int, kinds: Sequence[EdgeKind
     graph and cheaper than the plain shortest path with its turns, its cost is the first bound.
     ``exits`` (a window's exits and a lower bound of the cost from each to the target) asks also
     for ``min_x d(v, x) + bound(x)`` over them for every vertex v (∞ above the first bound), the
-    exits' search's A* bound (:func:`_via_exits`), made before the matrix goes.
+    exits' search's A* bound (:func:`_via_exits`), made before the matrix goes; it is None where no
+    exit's ``d(s, x) + bound(x)`` is below the first bound (then no exit is short and nothing reads it).
     """
     if source == target:
         return _route(graph, [source], *graph.masks(kinds, street_ok), 0.0), None, None
@@ -267,8 +268,13 @@ def _search(graph: PathGraph, source: int, target: int, kinds: Sequence[EdgeKind
             again = _route_cost(graph, known, lat, extra, opts)
             if again is not None and again < bound:
                 first = (known.tolist(), again)
-        from_target = dijkstra(matrix, indices=target, limit=first[1] + 1e-9 * first[1] + 1e-6)  # G′ is symmetric
-        via = None if exits is None else _via_exits(matrix, *exits, first[1] + 1e-9 * first[1] + 1e-6)
+        limit = first[1] + 1e-9 * first[1] + 1e-6
+        from_target = dijkstra(matrix, indices=target, limit=limit)  # G′ is symmetric
+        # read only where an exit may be short (:func:`_implicit_route`: ``reached + rest`` below the
+        # route's cost, which is at most the first bound): where none is, it is never read
+        via = None
+        if exits is not None and (from_source[exits[0]] + exits[1] < limit).any():
+            via = _via_exits(matrix, *exits, limit)
     del matrix
     if release:
         graph.forget_matrices()
@@ -388,16 +394,16 @@ def _implicit_route(graph: ImplicitGraph, source: int, target: int, kinds: Seque
         window = graph.window(tuple(bounds))
         s, t = window.from_map(np.array([source, target])).tolist()
         known = None if previous is None else window.from_map(previous)
-        exit_rest = c * np.hypot(*(window.graph.xy[window.exits] - ends[1]).T)
+        exits = window.exits
+        exit_xy = window.graph.xy[exits]
+        rest = c * np.hypot(*(exit_xy - ends[1]).T)  # what is left from an exit, at least
+        # the whole map's window is the last: nothing reads its exits' bound
         route, from_source, via = _search(window.graph, s, t, kinds, street_ok, opts, release=True, known=known,
-                                          exits=(window.exits, exit_rest))
+                                          exits=None if window.whole else (exits, rest))
         if window.whole or from_source is None:
             return _on_map(window, route, from_source)
         cost = route.cost if route is not None else np.inf
         limit = cost - 1e-9 * cost if np.isfinite(cost) else np.inf
-        exits = window.exits
-        exit_xy = window.graph.xy[exits]
-        rest = c * np.hypot(*(exit_xy - ends[1]).T)  # what is left from an exit, at least
         reached = from_source[exits]
         short = reached + rest < limit
         if short.any() and route is not None and opts.turn_height > 0:
