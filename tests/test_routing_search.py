@@ -16,6 +16,7 @@ from osm_expand.engine.roads.built_up import built_up_area
 from osm_expand.engine.roads.lattice import LatticeOptions, build_lattice
 from osm_expand.engine.roads.path_graph import EdgeCosts, implicit_graph, pathfinding_graph
 from osm_expand.engine.roads.routing import RoutingOptions
+from osm_expand.errors import OptionError
 from osm_expand.model.segments import SegmentTable
 from tests.test_majorroads import blocks_of, grid_lines, random_blobs
 
@@ -498,3 +499,17 @@ def test_the_exits_bound_through_the_exits_keeps_every_short_exits_arrival(seed)
         assert not (new + rest < route.cost - 1e-9 * route.cost - slack)[~short].any()
         checked += 1
     assume(checked > 0)
+
+
+@pytest.mark.parametrize("name", ["bound_cells", "tile_cells", "backward_tile_cells"])
+@pytest.mark.parametrize("value", [float("nan"), 2.5, 4.0, "4", True, -1, None])
+def test_routing_options_refuse_a_cell_count_that_is_not_a_whole_number(name, value):
+    with pytest.raises(OptionError, match=f"RoutingOptions.{name} must be a whole number"):
+        RoutingOptions(**{name: value})
+
+
+def test_routing_options_take_whole_cell_counts():
+    assert RoutingOptions(bound_cells=0).bound_cells == 0  # 0: no band
+    assert RoutingOptions(tile_cells=np.int64(3), backward_tile_cells=1).tile_cells == 3
+    with pytest.raises(OptionError, match="tile_cells must be a whole number of at least 1, got 0"):
+        RoutingOptions(tile_cells=0)

@@ -52,6 +52,7 @@ import heapq
 from collections.abc import Sequence
 from dataclasses import dataclass, replace
 from enum import StrEnum
+from numbers import Integral
 
 import numpy as np
 from scipy.ndimage import binary_dilation
@@ -60,7 +61,7 @@ from scipy.sparse.csgraph import dijkstra
 
 from osm_expand.engine.roads.lattice import ROAD_KINDS, EdgeKind
 from osm_expand.engine.roads.path_graph import EdgeCosts, GraphWindow, ImplicitGraph, PathGraph
-from osm_expand.errors import InputError
+from osm_expand.errors import InputError, OptionError
 from osm_expand.model.options import require_positive
 
 __all__ = ["RoutingOptions", "Route", "turn_penalty", "find_route", "route_over_major_roads", "Choice",
@@ -138,11 +139,12 @@ class RoutingOptions:
         require_positive(self, ("window_margin", "growth_share", "turn_width"))
         if not (self.window_share >= 0 and self.turn_height >= 0):
             raise InputError("RoutingOptions: window_share and turn_height must not be negative")
-        if self.bound_cells < 0:
-            raise InputError(f"RoutingOptions.bound_cells must not be negative, got {self.bound_cells}")
-        if min(self.tile_cells, self.backward_tile_cells) < 1:
-            raise InputError("RoutingOptions.tile_cells and backward_tile_cells must be at least 1, got "
-                             f"{self.tile_cells}, {self.backward_tile_cells}")
+        # counts of lattice vertices: a whole number (not a bool, not nan or 2.5, which failed later
+        # in find_route with a TypeError)
+        for name, least in (("bound_cells", 0), ("tile_cells", 1), ("backward_tile_cells", 1)):
+            value = getattr(self, name)
+            if isinstance(value, bool) or not isinstance(value, Integral) or value < least:
+                raise OptionError(f"RoutingOptions.{name} must be a whole number of at least {least}, got {value!r}")
         if self.heading_bins < 4:
             raise InputError(f"RoutingOptions.heading_bins must be at least 4, got {self.heading_bins}")
 
