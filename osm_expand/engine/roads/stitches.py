@@ -234,7 +234,8 @@ def carried_ok(lattice: Lattice, segments: SegmentTable, xy: np.ndarray, pairs: 
             # a stitch the last verdicts hold was dry then, on the same ground: it is dry now (its samples
             # along the fine rasters were a third of a year's shell check on Campo Grande)
             dry = keys[every_at] == every_key
-    dry[~dry] = _dry(lattice, xy, pairs[~dry], opts)
+    if (~dry).any():  # _dry combines the map's fine rasters whole, even for no stitch
+        dry[~dry] = _dry(lattice, xy, pairs[~dry], opts)
     live = np.flatnonzero(dry)
     pair_keys = every_key[live]
     clear = np.zeros(len(pairs), dtype=bool)
