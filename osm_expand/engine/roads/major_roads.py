@@ -24,6 +24,7 @@ from __future__ import annotations
 
 from collections import Counter
 from dataclasses import dataclass, field, replace
+from typing import NamedTuple
 
 import numpy as np
 import shapely
@@ -34,6 +35,7 @@ from osm_expand.engine.roads.built_up import BuiltUpArea, built_up_area
 from osm_expand.engine.roads.lattice import Lattice, Raster, build_lattice
 from osm_expand.engine.roads.path_graph import (
     EdgeCosts,
+    ImplicitGraph,
     ShellVerdicts,
     implicit_graph,
     lattice_verdicts,
@@ -63,6 +65,16 @@ LATTICE_MARGIN = 100.0
 BUILDING_CELL = 5.0
 
 
+class LastGraph(NamedTuple):
+    """The last G′ and what it was made of (:attr:`RoadMemory.last`)."""
+
+    city: City
+    table: SegmentTable  #: the traffic's segment table
+    now: YearValues
+    history: History
+    graph: ImplicitGraph
+
+
 @dataclass
 class RoadMemory:
     """What major-road building remembers from year to year."""
@@ -74,10 +86,11 @@ class RoadMemory:
     #: the last G′'s stitches to the lattice, filled as its windows were searched (its verdicts
     #: are the next G′'s, :func:`~osm_expand.engine.roads.path_graph.lattice_verdicts`)
     stitches: dict | None = None
-    #: the last G′ and what it was made of, ``(city, traffic table, year values, history, G′)``: a
-    #: second pair of the same year on the same city (the first was re-routed, nothing was built)
-    #: gets that G′ again, with this call's capacities (:func:`_graph`)
-    last: tuple | None = field(default=None, repr=False, compare=False)
+    #: the last G′ and what it was made of: a second pair of the same year on the same city (the
+    #: first was re-routed, nothing was built) gets that G′ again, with this call's capacities; a
+    #: later year with nothing built since (the same street part, :func:`_same_street_part`) gets its
+    #: street part again, with that year's costs (:func:`_graph`)
+    last: LastGraph | None = field(default=None, repr=False, compare=False)
 
 
 @dataclass(frozen=True)
@@ -219,28 +232,31 @@ def _graph(city: City, traffic: TrafficMemory, memory: RoadMemory, now: YearValu
             extent, water=water, forbidden=forbidden, options=history.options.lattice,
             stitch_only=Raster.from_polygons(presumed, extent, BUILDING_CELL) if presumed else None))
     segments = _segments(city, traffic, now.o2)
-    if memory.last is not None and all(a is b for a, b in zip(memory.last[:4], (city, traffic.table, now, history))):
-        last = memory.last[4]
+    made = memory.last
+    if made is not None and all(a is b for a, b in zip((made.city, made.table, made.now, made.history),
+                                                        (city, traffic.table, now, history))):
+        last = made.graph
         return replace(last, segments=segments, streets=replace(last.streets, segments=segments)), memory
     built = built_up_area([b.polygon for b in city.blocks], segments, water=city.water_geometry(),
                           previous=memory.built, options=history.options.built_up)
     assert memory.lattice is not None  # built above on the first year
     lattice = memory.lattice.with_built_up(built.area, built.added)
-    if memory.last is not None and _same_street_part(memory.last[4], lattice, built, segments, history):
+    if made is not None and _same_street_part(made.graph, lattice, built, segments, history):
         # a later year whose streets, blocks and B are as the last G′'s (no street was built since)
-        last = memory.last[4]
+        last = made.graph
         costs = now.costs or EdgeCosts()
         graph = replace(last, segments=segments, costs=costs,
                         streets=street_part_again(last.streets, lattice, segments, costs))
-        return graph, replace(memory, lattice=lattice, built=built, last=(city, traffic.table, now, history, graph))
+        return graph, replace(memory, lattice=lattice, built=built, last=LastGraph(city, traffic.table, now, history,
+                                                                                   graph))
     graph = implicit_graph(lattice, segments, built, costs=now.costs, options=history.options.graph,
                            previous=memory.verdicts,
                            previous_lattice=None if memory.stitches is None else lattice_verdicts(memory.stitches))
     return graph, replace(memory, lattice=lattice, built=built, verdicts=graph.streets.verdicts,
-                          stitches=graph.stitches, last=(city, traffic.table, now, history, graph))
+                          stitches=graph.stitches, last=LastGraph(city, traffic.table, now, history, graph))
 
 
-def _same_street_part(last, lattice: Lattice, built: BuiltUpArea, segments: SegmentTable,
+def _same_street_part(last: ImplicitGraph, lattice: Lattice, built: BuiltUpArea, segments: SegmentTable,
                       history: History) -> bool:
     """Whether the G′ ``last`` has the street part this year's would but for the costs C1…C6
     (:func:`~osm_expand.engine.roads.path_graph.street_part_again`): the same lattice with B (the

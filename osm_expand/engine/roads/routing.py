@@ -557,11 +557,10 @@ def _band_bound(graph: PathGraph, lat: np.ndarray, extra: np.ndarray, source: in
     per = 2 * k + 1
     cost = first[1]
     tile, _, active = _first_tiles(graph, opts.bound_cells, np.asarray(first[0]))
+    # the source and target are in the band: on ``first``, and their ``lower`` is d(s, t) ≤ its cost
     verts = np.flatnonzero((lower <= cost + 1e-9 * cost + 1e-6) & active[tile])
     expanded, local = _expanded_graph(graph, lat, extra, verts, penalties, k)
     slack = 2 * len(verts) * per * _EPS
-    if local[source] < 0 or local[target] < 0:
-        return first
     h = from_target[verts] * (1.0 - _SHRINK)
     start = int(local[source]) * per + 2 * k
     hs = float(h[local[source]])
