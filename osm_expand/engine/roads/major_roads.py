@@ -14,8 +14,10 @@ never demolished.
 
 The lattice (its rasters and bridges) is built once per run (it covers
 the map's bounds); B and G′'s street part are rebuilt only in a year that
-needs a road, so most years cost nothing here, and a year's second pair on
-the same city (the first was re-routed) gets the same G′ again. G′ is implicit
+needs a road, so most years cost nothing here; a year's second pair on
+the same city (the first was re-routed) gets the same G′ again, and a later
+year with nothing built since (the same streets, blocks and B) gets the last
+G′'s street part again with its own costs (:func:`_same_street_part`). G′ is implicit
 (:class:`~osm_expand.engine.roads.path_graph.ImplicitGraph`): each search makes the
 lattice's edges of the window it needs, and a re-route over major roads
 makes none.

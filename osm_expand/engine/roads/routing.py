@@ -358,9 +358,12 @@ def _implicit_route(graph: ImplicitGraph, source: int, target: int, kinds: Seque
     cheaper and the window's route is the map's (equal cost; of several
     equal ones it may be another). Else the window grows, by at most
     ``growth_share`` of its size a side, towards where a cheaper route
-    could go (:func:`_grown`). The lattice edges are generated only for the
-    windows searched, so memory and time follow the corridor a route can
-    use, not the map.
+    could go (:func:`_grown`), and its search starts from the last
+    window's best route: where its edges are allowed in the larger window
+    and it costs less there than the plain route with its turns, its cost
+    is the first bound (:func:`_search`). The lattice edges are generated
+    only for the windows searched, so memory and time follow the corridor
+    a route can use, not the map.
 
     Counting turns is what keeps the windows small: in a street grid they
     are most of a route's cost (Campo Grande's first new road: 5,270 of
@@ -412,9 +415,11 @@ def _implicit_route(graph: ImplicitGraph, source: int, target: int, kinds: Seque
             # A route that leaves the window first reaches an exit x, and its part before x lies in the
             # window: it costs at least A(x), the least turn-penalised cost of arriving at x from the
             # source. In a street grid turns are most of a route's cost (Campo Grande: 5,270 of 8,867
-            # cost units), so A is far above the plain distance. A is searched as A* with the
-            # straight-line bound c·|v − t| (consistent: no edge costs less a metre), only where
-            # A(v) + c·|v − t| may be below the route's cost; an exit not reached there is not short.
+            # cost units), so A is far above the plain distance. A is searched as A* with the bound
+            # max(c·|v − t|, via(v)) (via: the plain distance to an exit and the straight line on from
+            # there, :func:`_via_exits`, made when some exit may be short; both consistent, at most
+            # c·|x − t| at an exit x), only where A(v) plus that bound may be below the route's cost;
+            # an exit not reached there is not short.
             reached = np.maximum(reached, _exit_arrivals(window, kinds, street_ok, s, ends[1], c, from_source,
                                                          route, penalties, opts, via))
             short = reached + rest < limit
@@ -545,7 +550,8 @@ def _band_bound(graph: PathGraph, lat: np.ndarray, extra: np.ndarray, source: in
     The search's prunings (the region ``d_s + d_t ≤ C``, Dijkstra's limit, A*'s test that grows its
     tiles) all work with the best cost C known; the plain shortest path's penalised cost is up to
     3.7 times the best on Campo Grande's searches (turns are most of a route's cost in a street
-    grid), the band's best a few per cent above it at most. The band is searched by A* (reduced
+    grid); the band's best was a few per cent above the best at most on those searches (a
+    measurement, not a guarantee: the bound is only as tight as the band's route). The band is searched by A* (reduced
     costs, :func:`_reduced`: ties do not matter for a bound) over its own vertices only, so it
     costs a small share of the search it bounds. The bound returned is the band route's
     distance plus rounding slack: the search that uses it finds a route strictly below it, its
