@@ -1281,23 +1281,39 @@ def test_the_box_test_keeps_every_stitch_near_a_changed_segment(seed):
     assert not near_boxes(ends, boxes[:0], distance).any()
 
 
-def test_dry_verdicts_are_carried_only_on_the_ground_they_were_made_on():
+def test_dry_verdicts_are_carried_only_on_the_ground_they_were_made_on(monkeypatch):
     """Issue 22: a shell stitch last year's verdicts hold is taken as dry without sampling the
     rasters again, but only on the very rasters it was found dry on: with a river across the
     town on this year's lattice, the stitches equal those checked afresh (none crosses it)."""
+    from osm_expand.engine.roads import stitches
     from osm_expand.engine.roads.path_graph import street_part
 
+    sampled = [0]  # stitches whose dryness was sampled along the rasters (stitches._dry's rows)
+    dry = stitches._dry
+
+    def counted(lattice, xy, pairs, opts):
+        sampled[-1] += len(pairs)
+        return dry(lattice, xy, pairs, opts)
+
+    monkeypatch.setattr(stitches, "_dry", counted)
     extent = (0, 0, 1200, 1200)
     # dead-end streets facing each other across where the river will run (no block: all on the shell)
     lines = [np.array([[x, y0], [x, y0 + 160.0]]) for x in range(300, 901, 100) for y0 in (300.0, 540.0)]
     dry_land = build_lattice(extent, options=LatticeOptions(radius=2))
     wet = build_lattice(extent, water=river(extent, 470, 530), options=LatticeOptions(radius=2))
     last = street_part(*_grid_year(dry_land, lines))
+    sampled.append(0)
     fresh = street_part(*_grid_year(wet, lines))
+    sampled.append(0)
     carried = street_part(*_grid_year(wet, lines), previous=last.verdicts)
     assert len(fresh.shell[0]) < len(last.shell[0])  # the river took some stitches
     for x, y in zip(fresh.shell, carried.shell):
         assert np.array_equal(x, y)
+    sampled.append(0)
     again = street_part(*_grid_year(wet, lines), previous=fresh.verdicts)  # the same ground: carried
     for x, y in zip(fresh.shell, again.shell):
         assert np.array_equal(x, y)
+    _, on_fresh, on_other_ground, on_same_ground = sampled
+    assert on_fresh > 0
+    assert on_other_ground == on_fresh  # last year's ground was dry land: every stitch sampled again
+    assert on_same_ground < on_fresh  # the verdicts made on this ground spared their stitches' samples

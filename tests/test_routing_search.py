@@ -401,8 +401,9 @@ def test_the_band_tightens_the_first_bound_and_keeps_the_routes_vertex_for_verte
 def test_a_larger_windows_search_starts_from_the_smaller_windows_route(monkeypatch):
     """Issue 22: in growing windows (``_implicit_route``) each window after the first is bound by the
     last window's best route, costed again in the new window (``_route_cost``): it is a route
-    there, its cost at least the new window's best, and the routes are those found without the
-    band, vertex for vertex."""
+    there, its cost at least the new window's best, it becomes the first bound (cheaper than the
+    plain route with its turns) at least once, and the routes are those found without the band,
+    vertex for vertex."""
     from tests.test_majorroads import river
 
     costed: list[float] = []
@@ -414,8 +415,16 @@ def test_a_larger_windows_search_starts_from_the_smaller_windows_route(monkeypat
             costed.append(out)
         return out
 
+    first_bounds: list[float] = []  # the first bound of each window's search (_best_route's ``first``)
+    best_route = routing._best_route
+
+    def bound_recorded(*args, **kwargs):
+        first_bounds.append(args[7][1])
+        return best_route(*args, **kwargs)
+
     monkeypatch.setattr(routing, "_route_cost", recorded)
-    used = 0
+    monkeypatch.setattr(routing, "_best_route", bound_recorded)
+    used = became = 0
     for seed in range(6):
         rng = np.random.default_rng(seed)
         extent = (0, 0, 1000, 1000)
@@ -433,6 +442,7 @@ def test_a_larger_windows_search_starts_from_the_smaller_windows_route(monkeypat
         for _ in range(3):
             s, t = (int(v) for v in rng.choice(live, 2, replace=False))
             costed.clear()
+            first_bounds.clear()
             route = routing.find_route(implicit, s, t, options=opts)
             off = routing.find_route(implicit, s, t, options=replace(opts, bound_cells=0))
             assert (route is None) == (off is None)
@@ -441,8 +451,11 @@ def test_a_larger_windows_search_starts_from_the_smaller_windows_route(monkeypat
             assert np.array_equal(route.vertices, off.vertices)
             assert route.cost == pytest.approx(off.cost, rel=1e-12, abs=1e-9)
             used += len(costed) > 0
+            # _search takes the smaller window's route only when it is cheaper than the plain one
+            became += any(c in first_bounds for c in costed)
             assert all(c >= route.cost - 1e-6 for c in costed)
     assert used >= 3
+    assert became >= 1
 
 
 @settings(max_examples=10, deadline=None)
