@@ -294,6 +294,13 @@ def _via_exits(matrix: csr_matrix, exits: np.ndarray, rest: np.ndarray, limit: f
     towards the target). It is a shortest-path distance on the plain graph, whose edges cost no
     more than the expanded graph's, and turns cost ≥ 0: a consistent A* bound, ``rest(x)`` at most
     at an exit x. G′ is symmetric, so the distances from the joined source are those to it.
+
+    The joined graph is a copy of the window's matrix with one more row (scipy's Dijkstra takes no
+    start cost per source: ``min_only`` gives ``min_x d(v, x)`` without ``rest(x)``; a subgraph of
+    the rows within the bound would be a copy too). Measured on Campo Grande's default run
+    (``--seed 0``, session 32): made for 22 of the 26 windows searched before the whole map's (the
+    others had no exit within the first bound), 81 MB at most beside the window's own 80 MB, 0.6 s
+    CPU in all; the run's peak resident size was 1.17 GB.
     """
     n = matrix.shape[0]
     if not len(exits):
