@@ -510,3 +510,51 @@ def test_perimeter_streets_bend_as_the_towns_streets_do_within_the_clearance_of_
             np.column_stack([t[50:71], wiggle[50:71] + EDGE_INSET]))) < 0.15 * spacing
         assert (len(path) <= 4) == straight, (bend, len(path))
         assert (_median_bend(path) < 1.0) == straight, (bend, _median_bend(path))
+
+
+def _old_chain_without(streets, end, seg):
+    """The chain the old ``_more_dead_ends`` measured: the streets made again without ``seg``, walked afresh."""
+    return dangling_chains(without_segments(streets, {seg}), [end]).get(end)
+
+
+def _walk_checks(streets):
+    """Every segment at a node of two segments, taken away and the chain from that node walked both ways."""
+    import networkx as nx
+
+    from osm_expand.model.topology import dangling_chain, segment_neighbours
+    from synth.patches.topology import _bridges
+
+    neighbours = segment_neighbours(streets)
+    graph = nx.Graph([(a, b) for s in streets for a, b in zip(s.nodes[:-1], s.nodes[1:])])
+    assert _bridges(neighbours) == {(min(u, v), max(u, v)) for u, v in nx.bridges(graph) if u != v}
+    checked = 0
+    for node, near in neighbours.items():
+        if len(near) != 2:
+            continue
+        for other in set(near):
+            seg = (min(node, other), max(node, other))
+            assert dangling_chain(neighbours, node, without=seg) == _old_chain_without(streets, node, seg)
+            checked += 1
+    assert dangling_chains(streets, list(neighbours)) == {
+        leaf: c for leaf in neighbours if (c := dangling_chain(neighbours, leaf)) is not None}
+    return checked
+
+
+@pytest.mark.parametrize("name", ["monaco.osm.gz", "krems.osm.gz"])
+def test_a_chain_walked_past_a_taken_segment_is_the_one_walked_on_the_streets_without_it(name):
+    """``_more_dead_ends`` walks each candidate tee's cul-de-sac on one neighbour map per round, skipping
+    the tee, and finds the bridges itself: the same chains and bridges as the streets made again without
+    the tee and ``networkx.bridges`` (what it did before), on every degree-2 node of a real town."""
+    streets = load(FIXTURES / name, context=False).network.streets
+    assert _walk_checks(streets) > 100
+
+
+@settings(max_examples=60, deadline=None)
+@given(st.lists(st.lists(st.integers(0, 14), min_size=2, max_size=6), min_size=1, max_size=14))
+def test_chains_past_a_taken_segment_and_bridges_match_the_networks_made_again(paths):
+    """The same on random small networks: shared and doubled segments, loops, streets through a node twice."""
+    from osm_expand.model.topology import clean_nodes
+    from osm_expand.model.network import Street
+
+    streets = [Street(nodes=nodes, highway="residential") for p in paths if (nodes := clean_nodes(p)) is not None]
+    _walk_checks(streets)
