@@ -553,8 +553,8 @@ def test_a_chain_walked_past_a_taken_segment_is_the_one_walked_on_the_streets_wi
 @given(st.lists(st.lists(st.integers(0, 14), min_size=2, max_size=6), min_size=1, max_size=14))
 def test_chains_past_a_taken_segment_and_bridges_match_the_networks_made_again(paths):
     """The same on random small networks: shared and doubled segments, loops, streets through a node twice."""
-    from osm_expand.model.topology import clean_nodes
     from osm_expand.model.network import Street
+    from osm_expand.model.topology import clean_nodes
 
     streets = [Street(nodes=nodes, highway="residential") for p in paths if (nodes := clean_nodes(p)) is not None]
     _walk_checks(streets)
