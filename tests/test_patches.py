@@ -558,3 +558,43 @@ def test_chains_past_a_taken_segment_and_bridges_match_the_networks_made_again(p
 
     streets = [Street(nodes=nodes, highway="residential") for p in paths if (nodes := clean_nodes(p)) is not None]
     _walk_checks(streets)
+
+
+def _old_pieces(net):
+    """The pieces as ``_keep_joinable`` found them before: a networkx graph with each segment's street."""
+    import networkx as nx
+
+    graph = nx.Graph()
+    for k, s in enumerate(net.streets):
+        graph.add_edges_from((a, b, {"street": k}) for a, b in zip(s.nodes[:-1], s.nodes[1:]))
+    return [sorted({d["street"] for _, _, d in graph.subgraph(comp).edges(data=True)})
+            for comp in nx.connected_components(graph)]
+
+
+@pytest.mark.parametrize("name", ["monaco.osm.gz", "north-bayreuth.osm.gz"])
+def test_the_pieces_of_a_real_network_are_those_networkx_found_in_the_same_order(name):
+    from synth.patches.topology import _pieces
+
+    net = load(FIXTURES / name, context=False).network
+    # every other street only: more pieces than the connected town has
+    half = net.replace(streets=net.streets[::2])
+    for n in (net, half):
+        assert _pieces(n) == _old_pieces(n)
+    assert len(_pieces(half)) > 10
+
+
+@settings(max_examples=80, deadline=None)
+@given(st.lists(st.lists(st.integers(0, 14), min_size=2, max_size=6), min_size=1, max_size=14))
+def test_the_pieces_of_a_random_network_are_those_networkx_found(paths):
+    """Shared and doubled segments (the later street keeps the segment), loops, unused nodes."""
+    from osm_expand.model.network import Street
+    from osm_expand.model.topology import clean_nodes
+    from synth.patches.topology import _pieces
+
+    streets = tuple(Street(nodes=nodes, highway="residential") for p in paths
+                    if (nodes := clean_nodes(p)) is not None)
+    if not streets:
+        return
+    net = network_from_lines([[(0.0, 0.0), (1.0, 0.0)]]).replace(streets=streets)
+    net = net.replace(xy=np.zeros((15, 2)), node_ids=np.zeros(15, dtype=np.int64))
+    assert _pieces(net) == _old_pieces(net)

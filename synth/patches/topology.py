@@ -165,16 +165,8 @@ def _keep_joinable(net: StreetNetwork, old: shapely.Geometry, spacing: float, op
     """Drop fragments too short to be streets, and pieces far from both the rest and the town."""
     if not net.streets:
         return net
-    import networkx as nx
-
-    graph = nx.Graph()
-    for k, s in enumerate(net.streets):
-        graph.add_edges_from((a, b, {"street": k}) for a, b in zip(s.nodes[:-1], s.nodes[1:]))
     length = {k: float(np.hypot(*np.diff(net.street_xy(s), axis=0).T).sum()) for k, s in enumerate(net.streets)}
-    parts = []
-    for comp in nx.connected_components(graph):
-        streets = sorted({d["street"] for _, _, d in graph.subgraph(comp).edges(data=True)})
-        parts.append((sum(length[k] for k in streets), streets))
+    parts = [(sum(length[k] for k in streets), streets) for streets in _pieces(net)]
     parts.sort(key=lambda p: -p[0])
     keep: list[int] = list(parts[0][1])
     kept = [shapely.MultiLineString([net.street_xy(net.streets[k]) for k in keep])]
@@ -188,6 +180,35 @@ def _keep_joinable(net: StreetNetwork, old: shapely.Geometry, spacing: float, op
             keep += streets
             kept.append(geom)
     return net.replace(streets=tuple(net.streets[k] for k in sorted(keep)))
+
+
+def _pieces(net: StreetNetwork) -> list[list[int]]:
+    """The network's connected pieces, each as the sorted indices of its streets, in the order their first
+    nodes come along the streets; a segment two streets share counts for the later street only.
+
+    That is what the ``networkx`` graph this replaced gave (its components in the order of their first
+    node, a doubled edge keeping the later street's attribute), so the pieces and their order, and with
+    them the district, stay the same; done with :func:`~osm_expand.model.components.component_labels`,
+    without a graph object per district (and without importing ``networkx``).
+    """
+    from osm_expand.model.components import component_labels
+
+    pairs = [(a, b, k) for k, s in enumerate(net.streets) for a, b in zip(s.nodes[:-1], s.nodes[1:])]
+    a, b, owner = np.array(pairs, dtype=np.intp).reshape(-1, 3).T
+    label = component_labels(len(net.xy), a, b)
+    first = np.full(int(label.max()) + 1, len(a) * 2, dtype=np.intp)
+    np.minimum.at(first, label[np.column_stack([a, b]).ravel()], np.arange(2 * len(a)))
+    key = np.minimum(a, b) * len(net.xy) + np.maximum(a, b)
+    _, back = np.unique(key[::-1], return_index=True)
+    last = len(key) - 1 - back  # each segment's last street
+    piece, street = first[label[a[last]]], owner[last]
+    order = np.lexsort((street, piece))
+    piece, street = piece[order], street[order]
+    fresh = np.ones(len(piece), dtype=bool)
+    fresh[1:] = (piece[1:] != piece[:-1]) | (street[1:] != street[:-1])
+    piece, street = piece[fresh], street[fresh]
+    cuts = np.flatnonzero(piece[1:] != piece[:-1]) + 1
+    return [part.tolist() for part in np.split(street, cuts)]
 
 
 def _connect_pieces(net: StreetNetwork, old: shapely.Geometry, occupied: shapely.Geometry,
