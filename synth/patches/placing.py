@@ -224,14 +224,13 @@ def _best_offset(source: _Source, quilt: _Quilt, waiting: list[int], move: _Tran
     probe = np.array([quilt.cut_xy[k] + quilt.cut_heading[k] * 0.1 * spacing for k in waiting])
     sigma = 0.1 * spacing
     best, best_score = np.zeros(2), -1.0
-    # every offset's probes in one nearest query (one per offset was most of the placing's time); each
-    # offset's score then summed from its own row, as before
+    # every offset's probes in one nearest query (it was one query per offset, 81 a cell); each offset's
+    # score is still summed from its own row of distances, as before
     at = np.concatenate([move.back(probe - off) for off in offsets])  # each as before: the same rounding
     (which, _), near = source.tree.query_nearest(shapely.points(at), return_distance=True, all_matches=False)
     dists = np.empty(len(at))
     dists[which] = near
-    dists = dists.reshape(len(offsets), len(probe))
-    for off, dist in zip(offsets, dists):
+    for off, dist in zip(offsets, dists.reshape(len(offsets), len(probe))):
         score = float(np.exp(-0.5 * (dist / sigma) ** 2).sum())
         if score > best_score + 1e-9:
             best, best_score = off, score
