@@ -598,3 +598,18 @@ def test_the_pieces_of_a_random_network_are_those_networkx_found(paths):
     net = network_from_lines([[(0.0, 0.0), (1.0, 0.0)]]).replace(streets=streets)
     net = net.replace(xy=np.zeros((15, 2)), node_ids=np.zeros(15, dtype=np.int64))
     assert _pieces(net) == _old_pieces(net)
+
+
+def test_lines_read_and_made_in_one_call_are_those_made_one_by_one():
+    """``source._line_xy`` (the town's streets as arrays for the measures) and ``quilt._lines`` (a seam
+    board's pieces) give what reading or making each line alone gave, on Monaco's streets."""
+    from synth.patches.quilt import _lines
+    from synth.patches.source import _line_xy
+
+    lines = load(FIXTURES / "monaco.osm.gz", context=False).network.street_lines()
+    xy = _line_xy(lines)
+    assert len(xy) == len(lines) and _line_xy(lines[:0]) == []
+    assert all(a.dtype == b.dtype and np.array_equal(a, b) for a, b in zip(xy, (np.asarray(ln.coords) for ln in lines)))
+    made = _lines(xy)
+    assert len(_lines([])) == 0
+    assert shapely.equals_exact(made, lines, tolerance=0.0).all()
