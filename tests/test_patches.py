@@ -522,3 +522,106 @@ def test_the_edge_tolerance_is_checked_when_read(bad):
     with pytest.raises(OptionError, match="edge_tolerance"):
         PatchOptions(edge_tolerance=bad)
     assert PatchOptions(edge_tolerance=0.15).edge_tolerance == 0.15
+
+
+def _old_chain_without(streets, end, seg):
+    """The chain the old ``_more_dead_ends`` measured: the streets made again without ``seg``, walked afresh."""
+    return dangling_chains(without_segments(streets, {seg}), [end]).get(end)
+
+
+def _walk_checks(streets):
+    """Every segment at a node of two segments, taken away and the chain from that node walked both ways."""
+    import networkx as nx
+
+    from osm_expand.model.topology import dangling_chain, segment_neighbours
+    from synth.patches.topology import _bridges
+
+    neighbours = segment_neighbours(streets)
+    graph = nx.Graph([(a, b) for s in streets for a, b in zip(s.nodes[:-1], s.nodes[1:])])
+    assert _bridges(neighbours) == {(min(u, v), max(u, v)) for u, v in nx.bridges(graph) if u != v}
+    checked = 0
+    for node, near in neighbours.items():
+        if len(near) != 2:
+            continue
+        for other in set(near):
+            seg = (min(node, other), max(node, other))
+            assert dangling_chain(neighbours, node, without=seg) == _old_chain_without(streets, node, seg)
+            checked += 1
+    assert dangling_chains(streets, list(neighbours)) == {
+        leaf: c for leaf in neighbours if (c := dangling_chain(neighbours, leaf)) is not None}
+    return checked
+
+
+@pytest.mark.parametrize("name", ["monaco.osm.gz", "krems.osm.gz"])
+def test_a_chain_walked_past_a_taken_segment_is_the_one_walked_on_the_streets_without_it(name):
+    """``_more_dead_ends`` walks each candidate tee's cul-de-sac on one neighbour map per round, skipping
+    the tee, and finds the bridges itself: the same chains and bridges as the streets made again without
+    the tee and ``networkx.bridges`` (what it did before), on every degree-2 node of a real town."""
+    streets = load(FIXTURES / name, context=False).network.streets
+    assert _walk_checks(streets) > 100
+
+
+@settings(max_examples=60, deadline=None)
+@given(st.lists(st.lists(st.integers(0, 14), min_size=2, max_size=6), min_size=1, max_size=14))
+def test_chains_past_a_taken_segment_and_bridges_match_the_networks_made_again(paths):
+    """The same on random small networks: shared and doubled segments, loops, streets through a node twice."""
+    from osm_expand.model.network import Street
+    from osm_expand.model.topology import clean_nodes
+
+    streets = [Street(nodes=nodes, highway="residential") for p in paths if (nodes := clean_nodes(p)) is not None]
+    _walk_checks(streets)
+
+
+def _old_pieces(net):
+    """The pieces as ``_keep_joinable`` found them before: a networkx graph with each segment's street."""
+    import networkx as nx
+
+    graph = nx.Graph()
+    for k, s in enumerate(net.streets):
+        graph.add_edges_from((a, b, {"street": k}) for a, b in zip(s.nodes[:-1], s.nodes[1:]))
+    return [sorted({d["street"] for _, _, d in graph.subgraph(comp).edges(data=True)})
+            for comp in nx.connected_components(graph)]
+
+
+@pytest.mark.parametrize("name", ["monaco.osm.gz", "north-bayreuth.osm.gz"])
+def test_the_pieces_of_a_real_network_are_those_networkx_found_in_the_same_order(name):
+    from synth.patches.topology import _pieces
+
+    net = load(FIXTURES / name, context=False).network
+    # every other street only: more pieces than the connected town has
+    half = net.replace(streets=net.streets[::2])
+    for n in (net, half):
+        assert _pieces(n) == _old_pieces(n)
+    assert len(_pieces(half)) > 10
+
+
+@settings(max_examples=80, deadline=None)
+@given(st.lists(st.lists(st.integers(0, 14), min_size=2, max_size=6), min_size=1, max_size=14))
+def test_the_pieces_of_a_random_network_are_those_networkx_found(paths):
+    """Shared and doubled segments (the later street keeps the segment), loops, unused nodes."""
+    from osm_expand.model.network import Street
+    from osm_expand.model.topology import clean_nodes
+    from synth.patches.topology import _pieces
+
+    streets = tuple(Street(nodes=nodes, highway="residential") for p in paths
+                    if (nodes := clean_nodes(p)) is not None)
+    if not streets:
+        return
+    net = network_from_lines([[(0.0, 0.0), (1.0, 0.0)]]).replace(streets=streets)
+    net = net.replace(xy=np.zeros((15, 2)), node_ids=np.zeros(15, dtype=np.int64))
+    assert _pieces(net) == _old_pieces(net)
+
+
+def test_lines_read_and_made_in_one_call_are_those_made_one_by_one():
+    """``source._line_xy`` (the town's streets as arrays for the measures) and ``quilt._lines`` (a seam
+    board's pieces) give what reading or making each line alone gave, on Monaco's streets."""
+    from synth.patches.quilt import _lines
+    from synth.patches.source import _line_xy
+
+    lines = load(FIXTURES / "monaco.osm.gz", context=False).network.street_lines()
+    xy = _line_xy(lines)
+    assert len(xy) == len(lines) and _line_xy(lines[:0]) == []
+    assert all(a.dtype == b.dtype and np.array_equal(a, b) for a, b in zip(xy, (np.asarray(ln.coords) for ln in lines)))
+    made = _lines(xy)
+    assert len(_lines([])) == 0
+    assert shapely.equals_exact(made, lines, tolerance=0.0).all()

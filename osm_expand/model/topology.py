@@ -273,6 +273,50 @@ def without_segments(streets: Sequence[Street], drop: set[tuple[int, int]]) -> t
     return tuple(out)
 
 
+def segment_neighbours(streets: Sequence[Street]) -> dict[int, list[int]]:
+    """Per node, the nodes one segment away, once per segment and in the streets' order (a segment two
+    streets share counts twice): what :func:`dangling_chains` walks, made once by a caller that walks
+    many chains of one network (:func:`dangling_chain`)."""
+    neighbours: dict[int, list[int]] = {}
+    for s in streets:
+        for a, b in zip(s.nodes[:-1], s.nodes[1:]):
+            neighbours.setdefault(a, []).append(b)
+            neighbours.setdefault(b, []).append(a)
+    return neighbours
+
+
+def dangling_chain(neighbours: dict[int, list[int]], leaf: int,
+                   without: tuple[int, int] | None = None) -> set[tuple[int, int]] | None:
+    """The segments from ``leaf`` back to the nearest junction (see :func:`dangling_chains`), walking
+    ``neighbours`` (:func:`segment_neighbours`) as if the segment ``without`` (node pair, either order)
+    were gone, as :func:`without_segments` would take it away; None when ``leaf`` is then no leaf.
+
+    Taking one segment out of the map while walking, instead of making the streets without it and their
+    map again, makes each of many candidate removals cost only its chain's length.
+    """
+    gone = frozenset(without) if without is not None else frozenset()
+
+    def around(node: int) -> list[int]:
+        near = neighbours.get(node, [])
+        if node in gone:
+            return [n for n in near if frozenset((node, n)) != gone]
+        return near
+
+    if len(around(leaf)) != 1:
+        return None
+    chain: set[tuple[int, int]] = set()
+    prev, cur = None, leaf
+    while True:
+        nxt = [n for n in around(cur) if n != prev]
+        if not nxt:
+            break
+        chain.add((min(cur, nxt[0]), max(cur, nxt[0])))
+        prev, cur = cur, nxt[0]
+        if len(around(cur)) != 2:
+            break
+    return chain
+
+
 def dangling_chains(streets: Sequence[Street], leaves: Iterable[int]) -> dict[int, set[tuple[int, int]]]:
     """Per leaf (a node with one segment), the segments back to the nearest junction.
 
@@ -280,24 +324,10 @@ def dangling_chains(streets: Sequence[Street], leaves: Iterable[int]) -> dict[in
     more (kept) or at another leaf (the whole isolated chain goes). Segments
     are node pairs, smaller node first.
     """
-    neighbours: dict[int, list[int]] = {}
-    for s in streets:
-        for a, b in zip(s.nodes[:-1], s.nodes[1:]):
-            neighbours.setdefault(a, []).append(b)
-            neighbours.setdefault(b, []).append(a)
+    neighbours = segment_neighbours(streets)
     chains: dict[int, set[tuple[int, int]]] = {}
     for leaf in leaves:
-        if len(neighbours.get(leaf, ())) != 1:
-            continue
-        chain: set[tuple[int, int]] = set()
-        prev, cur = None, leaf
-        while True:
-            nxt = [n for n in neighbours[cur] if n != prev]
-            if not nxt:
-                break
-            chain.add((min(cur, nxt[0]), max(cur, nxt[0])))
-            prev, cur = cur, nxt[0]
-            if len(neighbours[cur]) != 2:
-                break
-        chains[leaf] = chain
+        chain = dangling_chain(neighbours, leaf)
+        if chain is not None:
+            chains[leaf] = chain
     return chains

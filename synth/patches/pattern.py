@@ -25,6 +25,7 @@ from synth.patches.source import (
     _density_on_land,
     _lengths,
     _level,
+    _line_xy,
     _neighbourhood_points,
     _Source,
     _source,
@@ -132,7 +133,7 @@ class ExamplePatches:
         hit = self.cache.get("land")
         if hit is not None and hit[0] is source:
             return hit[1]
-        made = self.land([np.asarray(ln.coords) for ln in source.lines])
+        made = self.land(_line_xy(source.lines))
         self.cache["land"] = (source, made)
         return made
 
@@ -150,7 +151,7 @@ class ExamplePatches:
         if self.measure is None or not len(centres):
             return None
         if "in_window" not in self.cache:
-            self.cache["in_window"] = self.measure([np.asarray(ln.coords) for ln in source.lines])
+            self.cache["in_window"] = self.measure(_line_xy(source.lines))
         in_window = self.cache["in_window"]
         # ``centres`` come densest first: an even spread over them is the yardstick's sample (the denser
         # half of random junctions), where the first few would be the town's core, with its fewest dead ends

@@ -138,6 +138,9 @@ def _place(source: _Source, patches: np.ndarray, centres: np.ndarray, cells: lis
     town = np.array(shapely.get_parts(old))
     town_tree = shapely.STRtree(town)
     filled = [c for c in cells[:start] if not c.is_empty]
+    # the quilt's pieces as lines, made once each (pieces are only added here): testing every piece
+    # against every cell made them again per cell, quadratic in a large district's cells
+    pieces = [shapely.LineString(xy) for xy in quilt.xy]
     i = start
     while i < len(centres) and total < length:
         centre, cell = centres[i], cells[i]
@@ -146,11 +149,13 @@ def _place(source: _Source, patches: np.ndarray, centres: np.ndarray, cells: lis
             continue
         src = patches[(i - 1) % len(patches)]
         around = shapely.buffer(cell, size / 2)
-        nearby = np.concatenate([town[town_tree.query(around)],
-                                 [ln for ln in map(shapely.LineString, quilt.xy) if ln.intersects(around)]])
+        pieces += [shapely.LineString(xy) for xy in quilt.xy[len(pieces):]]
+        mine = np.array(pieces, dtype=object)
+        nearby = np.concatenate([town[town_tree.query(around)], mine[shapely.intersects(mine, around)]])
         turn = _turn(source, src, cell, nearby, size, opts.orientation_peak, opts.grain_from_bearings)
         boundary = shapely.boundary(cell)
-        waiting = [k for k, xy in enumerate(quilt.cut_xy) if shapely.distance(boundary, shapely.Point(xy)) < 1.0]
+        waiting = (np.flatnonzero(shapely.distance(boundary, shapely.points(np.reshape(quilt.cut_xy, (-1, 2)))) < 1.0)
+                   .tolist())
         move = _Transform(src, centre, turn)
         move = _Transform(src, centre + _best_offset(source, quilt, waiting, move, offsets, spacing), turn)
         near = source.tree.query(shapely.transform(cell, move.back))
@@ -219,9 +224,13 @@ def _best_offset(source: _Source, quilt: _Quilt, waiting: list[int], move: _Tran
     probe = np.array([quilt.cut_xy[k] + quilt.cut_heading[k] * 0.1 * spacing for k in waiting])
     sigma = 0.1 * spacing
     best, best_score = np.zeros(2), -1.0
-    for off in offsets:
-        at = move.back(probe - off)
-        _, dist = source.tree.query_nearest(shapely.points(at), return_distance=True, all_matches=False)
+    # every offset's probes in one nearest query (it was one query per offset, 81 a cell); each offset's
+    # score is still summed from its own row of distances, as before
+    at = np.concatenate([move.back(probe - off) for off in offsets])  # each as before: the same rounding
+    (which, _), near = source.tree.query_nearest(shapely.points(at), return_distance=True, all_matches=False)
+    dists = np.empty(len(at))
+    dists[which] = near
+    for off, dist in zip(offsets, dists.reshape(len(offsets), len(probe))):
         score = float(np.exp(-0.5 * (dist / sigma) ** 2).sum())
         if score > best_score + 1e-9:
             best, best_score = off, score

@@ -35,6 +35,16 @@ def _lengths(lines: list[np.ndarray]) -> np.ndarray:
     return np.array([float(np.hypot(*np.diff(xy, axis=0).T).sum()) for xy in lines])
 
 
+def _line_xy(lines: np.ndarray) -> list[np.ndarray]:
+    """Each line's vertices ((n, 2), as ``np.asarray(line.coords)`` gives them), read in one GEOS call:
+    the measures take the town's streets as arrays, and reading 15,000 lines one by one took 0.2 s a
+    district on a 10,000-street town."""
+    if not len(lines):
+        return []
+    xy = shapely.get_coordinates(lines)
+    return np.split(xy, np.cumsum(shapely.get_num_coordinates(lines))[:-1])
+
+
 def _source(city: City, example: Example, everything: bool = False) -> _Source:
     """The town's streets that may be copied (``everything``: all its streets, as the fidelity measures
     them), with the Gravelius level of the example street holding each way."""
@@ -155,7 +165,7 @@ def _candidate_patches(source: _Source, size: float, opts: PatchOptions, rng: np
         good = np.argsort(np.abs(local - median))[:1]
     if measure is None or len(good) <= 1:
         return _spread(centres, good, size)
-    in_window = measure([np.asarray(ln.coords) for ln in source.lines])
+    in_window = measure(_line_xy(source.lines))
     measured: dict[int, object] = {}  # each disc measured once: the guard and the ranking read the same
 
     def at(i: int):
