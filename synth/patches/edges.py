@@ -96,7 +96,8 @@ CURVATURE_STEP = 20.0
 def _bending_like(runs: list[np.ndarray], tolerances: np.ndarray, bend: float) -> np.ndarray:
     """``tolerances`` (ascending) reordered: first the one at which the perimeter streets ``runs``,
     simplified, bend most like ``bend``, then the smaller ones, nearest first (a street not clear at the
-    first is laid at the next, closer to the edge); as they are when ``bend`` is NaN.
+    first is laid at the next, closer to the edge), then the larger ones, ascending; as they are when
+    ``bend`` is NaN.
 
     "Bend like": the mean heading change between :data:`CURVATURE_STEP` chords, pooled over the
     district's perimeter streets, nearest ``bend`` (the town's neighbourhoods' mean; the smallest
@@ -133,9 +134,3 @@ def _bends(xy: np.ndarray) -> np.ndarray:
     length = float(np.hypot(*np.diff(xy, axis=0).T).sum())
     at = np.arange(CURVATURE_STEP, length - CURVATURE_STEP + 1e-9, CURVATURE_STEP)
     return chord_bends(xy, at, CURVATURE_STEP) if len(at) else np.zeros(0)
-
-
-def _median_bend(xy: np.ndarray) -> float:
-    """The median of :func:`_bends` (0 for a street too short for two chords)."""
-    bends = _bends(xy)
-    return float(np.median(bends)) if len(bends) else 0.0

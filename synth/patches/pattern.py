@@ -146,8 +146,8 @@ class ExamplePatches:
         return self.cache["corner_rate"]
 
     def _aim(self, source: _Source, centres: np.ndarray, radius: float, town: StreetNetwork) -> _Aim | None:
-        """The median dead-end and 2-core shares of the town's neighbourhoods around ``centres`` (None
-        without a ``measure``): what the district's own should come to."""
+        """The median dead-end and 2-core shares and the mean curvature of the town's neighbourhoods
+        around ``centres`` (None without a ``measure``): what the district's own should come to."""
         if self.measure is None or not len(centres):
             return None
         if "in_window" not in self.cache:
