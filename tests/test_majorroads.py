@@ -340,7 +340,7 @@ def test_built_up_area_follows_equation_1():
 # ---------------------------------------------------------------- G′
 
 
-def town_graph(costs=EdgeCosts(), through_major=False):
+def town_graph(costs: EdgeCosts | None = None, through_major=False):
     """A 3 × 3 block town (100 m blocks) in the middle of 1 km of open land."""
     extent = (0, 0, 1000, 1000)
     lines = grid_lines(350, 350, 3, 100)
@@ -350,7 +350,7 @@ def town_graph(costs=EdgeCosts(), through_major=False):
     segs = SegmentTable.from_lines(lines, major=major, width=[6.0] * len(lines))
     built = built_up_area(blocks_of(segs), segs)
     lat = build_lattice(extent, options=LatticeOptions(radius=4)).with_built_up(built.area)
-    return pathfinding_graph(lat, segs, built, costs=costs), segs
+    return pathfinding_graph(lat, segs, built, costs=costs or EdgeCosts()), segs
 
 
 def test_stitches_join_the_town_to_the_lattice_without_crossing_streets():
@@ -507,21 +507,27 @@ def test_the_tiled_a_star_grows_its_tiles_on_most_maps():
     assert sum(grew) >= 6
 
 
+def random_town(rng: np.random.Generator):
+    """G′ of a random 1 km map: a 3 × 3 street grid of random major streets, a river across at a random
+    height, five forbidden blobs and a lattice radius of 2–4 (the growing-window and bound tests' map)."""
+    extent = (0, 0, 1000, 1000)
+    blobs = random_blobs(rng, extent, 5, within=(50, 950), radius=(20, 80))
+    y_lo = float(rng.uniform(100, 800))
+    segs = SegmentTable.from_lines(grid_lines(350, 350, 3, 100), major=[bool(b) for b in rng.integers(0, 2, 8)],
+                                   width=[6.0] * 8)
+    built = built_up_area(blocks_of(segs), segs)
+    lat = build_lattice(extent, water=river(extent, y_lo, y_lo + 60), forbidden=blobs,
+                        options=LatticeOptions(radius=int(rng.integers(2, 5)))).with_built_up(built.area)
+    return implicit_graph(lat, segs, built)
+
+
 @settings(max_examples=12, deadline=None)
 @given(st.integers(0, 2**32 - 1))
 @example(4194305)  # a bound from the target's side (binned headings reversed) overstated this map's route
 def test_the_implicit_search_in_growing_windows_finds_the_cost_of_the_whole_map(seed):
     """A town, a river and forbidden blobs; small first windows force the windows to grow."""
     rng = np.random.default_rng(seed)
-    extent = (0, 0, 1000, 1000)
-    blobs = random_blobs(rng, extent, 5, within=(50, 950), radius=(20, 80))
-    y_lo = float(rng.uniform(100, 800))
-    segs = SegmentTable.from_lines(grid_lines(350, 350, 3, 100), major=[bool(b) for b in rng.integers(0, 2, 8)],
-                               width=[6.0] * 8)
-    built = built_up_area(blocks_of(segs), segs)
-    lat = build_lattice(extent, water=river(extent, y_lo, y_lo + 60), forbidden=blobs,
-                        options=LatticeOptions(radius=int(rng.integers(2, 5)))).with_built_up(built.area)
-    implicit = implicit_graph(lat, segs, built)
+    implicit = random_town(rng)
     whole = implicit.whole()
     live = whole.live_vertices()
     opts = RoutingOptions(turn_height=float(rng.uniform(20, 400)), window_margin=float(rng.uniform(20, 200)),

@@ -18,7 +18,7 @@ from osm_expand.engine.roads.path_graph import EdgeCosts, implicit_graph, pathfi
 from osm_expand.engine.roads.routing import RoutingOptions
 from osm_expand.errors import OptionError
 from osm_expand.model.segments import SegmentTable
-from tests.test_majorroads import blocks_of, grid_lines, random_blobs
+from tests.test_majorroads import blocks_of, grid_lines, random_blobs, random_town
 
 
 def random_map(seed: int):
@@ -404,7 +404,6 @@ def test_a_larger_windows_search_starts_from_the_smaller_windows_route(monkeypat
     there, its cost at least the new window's best, it becomes the first bound (cheaper than the
     plain route with its turns) at least once, and the routes are those found without the band,
     vertex for vertex."""
-    from tests.test_majorroads import river
 
     costed: list[float] = []
     real = routing._route_cost
@@ -427,15 +426,7 @@ def test_a_larger_windows_search_starts_from_the_smaller_windows_route(monkeypat
     used = became = 0
     for seed in range(6):
         rng = np.random.default_rng(seed)
-        extent = (0, 0, 1000, 1000)
-        blobs = random_blobs(rng, extent, 5, within=(50, 950), radius=(20, 80))
-        y_lo = float(rng.uniform(100, 800))
-        segs = SegmentTable.from_lines(grid_lines(350, 350, 3, 100), major=[bool(b) for b in rng.integers(0, 2, 8)],
-                                       width=[6.0] * 8)
-        built = built_up_area(blocks_of(segs), segs)
-        lat = build_lattice(extent, water=river(extent, y_lo, y_lo + 60), forbidden=blobs,
-                            options=LatticeOptions(radius=int(rng.integers(2, 5)))).with_built_up(built.area)
-        implicit = implicit_graph(lat, segs, built)
+        implicit = random_town(rng)
         live = implicit.whole().live_vertices()
         opts = RoutingOptions(turn_height=float(rng.uniform(20, 400)), window_margin=float(rng.uniform(20, 200)),
                               window_share=0.0)
@@ -465,18 +456,8 @@ def test_the_exits_bound_through_the_exits_keeps_every_short_exits_arrival(seed)
     (``_via_exits``) is a consistent bound at least the straight line's and at most ``c·|x − t|`` at
     an exit, and every exit whose arrival plus ``c·|x − t|`` is below the route's cost (those the
     window's growth reads) arrives at exactly the cost the straight line's search gives."""
-    from tests.test_majorroads import river
-
     rng = np.random.default_rng(seed)
-    extent = (0, 0, 1000, 1000)
-    blobs = random_blobs(rng, extent, 5, within=(50, 950), radius=(20, 80))
-    y_lo = float(rng.uniform(100, 800))
-    segs = SegmentTable.from_lines(grid_lines(350, 350, 3, 100), major=[bool(b) for b in rng.integers(0, 2, 8)],
-                                   width=[6.0] * 8)
-    built = built_up_area(blocks_of(segs), segs)
-    lat = build_lattice(extent, water=river(extent, y_lo, y_lo + 60), forbidden=blobs,
-                        options=LatticeOptions(radius=int(rng.integers(2, 5)))).with_built_up(built.area)
-    implicit = implicit_graph(lat, segs, built)
+    implicit = random_town(rng)
     live = implicit.whole().live_vertices()
     opts = RoutingOptions(turn_height=float(rng.uniform(20, 400)))
     c = routing.cheapest_unit_cost(implicit.costs, routing.ROAD_KINDS)
