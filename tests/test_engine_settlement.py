@@ -24,6 +24,7 @@ from osm_expand.sites import (
     far_bank,
     settlement,
     settlement_maps,
+    settlements,
 )
 from tests.conftest import FIXTURES, expanded_and_matured
 
@@ -195,3 +196,31 @@ def test_counting_the_settlement_alone_needs_a_settlement():
     with pytest.raises(OptionError, match="settlement_only"):
         GrowthOptions(settlement_only=True, settlement_gap=0.0)
     assert GrowthOptions(settlement_only=True).settlement_only
+
+
+def test_settlements_of_a_neighbourhoods_area_count_beside_the_town_hamlets_do_not():
+    """Three pieces of built-up land 1 km apart: the town (0.6 km²), a valley town (0.25 km²) and a hamlet
+    (0.04 km²). With a neighbourhood of 0.2 km², the valley town counts beside the town for closeness and
+    contact, the hamlet stays taken land only; with ``inf`` (session 32's ``settlement_only``) the town alone."""
+    cell = 10.0
+    city = np.zeros((100, 400), dtype=bool)
+    city[10:90, 10:85] = True  # the town, 80 x 75 cells: 0.6 km²
+    city[25:75, 185:235] = True  # a valley town, 50 x 50 cells: 0.25 km²
+    city[40:60, 335:355] = True  # a hamlet, 20 x 20 cells: 0.04 km²
+    maps = _maps(city, np.zeros_like(city), cell)
+    counted = settlements(maps, min_area=0.2e6)
+    assert counted[50, 50] and counted[50, 200] and not counted[50, 345]
+    assert (settlements(maps, min_area=np.inf) == settlement(maps)).all()  # the town alone
+    assert settlements(maps, min_area=0.0).sum() == city.sum()
+    only = settlement_maps(maps, only=True, min_area=0.2e6)
+    assert only.settlement is not None and (only.settlement == counted).all() and only.city is maps.city
+    assert only.city_distance[50, 240] == pytest.approx(5 * cell, abs=cell)  # beside the valley town: next to it
+    assert only.city_distance[50, 360] > 1000.0  # beside the hamlet: 1.25 km from the valley town
+    alone = settlement_maps(maps, only=True)
+    assert alone.city_distance[50, 240] > 1000.0  # the largest alone: the valley town is not counted
+
+
+@pytest.mark.parametrize("value", [-1.0, float("nan")])
+def test_the_settlements_neighbourhoods_refuse_a_negative_or_nan_count(value):
+    with pytest.raises(OptionError, match="settlement_neighbourhoods"):
+        GrowthOptions(settlement_neighbourhoods=value)
