@@ -165,7 +165,15 @@ class GrowthOptions:
     #: a hamlet smaller than one neighbourhood is not where a town grows a quarter (north-bayreuth's engine
     #: quarters grew in the fields by one, 2.5 km north-east), a valley town is (Andorra's Escaldes, Sant Julià,
     #: Encamp: counting the largest settlement alone pushed Andorra's growth onto its steep slopes).
-    #: ``inf`` (the default) counts the largest settlement alone (session 32's ``settlement_only``).
+    #: ``inf`` (the default) counts the largest settlement alone (session 32's ``settlement_only``). Measured
+    #: (``benchmarks/engine_growth.py --seed S``, off of 14 per reference seed, integ32 default → settlement_only
+    #: with 1 neighbourhood): seed 0 Krems 1 1 1 → 1 1 1, Andorra 0 0 0 → 7 7 8, north-bayreuth 5 5 5 → 3 2 3
+    #: (both quarters at its western villages, not in the fields 2.5 km north-east by a 0.49 km² hamlet), Monaco
+    #: 2 3 3 → 2 3 3; seed 1 Krems 3 3 4 → 3 3 4, Andorra 0 0 1 → 3 3 2, north-bayreuth 3 3 3 → 3 3 2, Monaco
+    #: 3 3 2 → 3 3 2: sum 54 → 75, so ``settlement_only`` stays off. The far bank judged from the largest
+    #: settlement alone changes nothing (Andorra seed 0 7 7 8), nor does half a neighbourhood (0.33 km²); a
+    #: quarter (0.16 km²) gives Andorra back 0 0 0 but north-bayreuth too (5 5 5, its hamlet counted): the
+    #: pieces Andorra's growth needs are smaller than north-bayreuth's hamlet, so no area threshold serves both.
     settlement_neighbourhoods: float = math.inf
 
     def __post_init__(self) -> None:
