@@ -173,7 +173,11 @@ class GrowthOptions:
     #: 3 3 2 → 3 3 2: sum 54 → 75, so ``settlement_only`` stays off. The far bank judged from the largest
     #: settlement alone changes nothing (Andorra seed 0 7 7 8), nor does half a neighbourhood (0.33 km²); a
     #: quarter (0.16 km²) gives Andorra back 0 0 0 but north-bayreuth too (5 5 5, its hamlet counted): the
-    #: pieces Andorra's growth needs are smaller than north-bayreuth's hamlet, so no area threshold serves both.
+    #: pieces Andorra's growth needs are smaller than north-bayreuth's hamlet, so no area threshold serves both
+    #: (Andorra's: two of 0.22 km² within 2 km of the pipeline's district; north-bayreuth's hamlet 0.49 km²).
+    #: Tried too, no change on Andorra (7 7 8 / 3 3 2): the pieces that hold the pipeline's district counted
+    #: whatever their area, and the joins measured to all the built-up land (only closeness and contact to the
+    #: settlements) — the sites beside the small pieces lose their closeness and contact.
     settlement_neighbourhoods: float = math.inf
 
     def __post_init__(self) -> None:
