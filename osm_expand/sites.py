@@ -224,14 +224,40 @@ def settlement(maps: DistanceMaps, gap: float = SETTLEMENT_GAP) -> np.ndarray:
     """
     if not maps.city.any():
         return maps.city
-    near = distance_transform_edt(~maps.city) * maps.cell <= 0.5 * gap  # pieces less than ``gap`` apart touch
-    pieces, _ = label(near, structure=np.ones((3, 3), dtype=bool))
-    area = np.bincount(pieces[maps.city], minlength=pieces.max() + 1)
-    area[0] = 0
+    pieces, area = _settlement_pieces(maps, gap)
     return maps.city & (pieces == int(np.argmax(area)))
 
 
-def settlement_maps(maps: DistanceMaps, gap: float = SETTLEMENT_GAP, *, only: bool = False) -> DistanceMaps:
+def settlements(maps: DistanceMaps, gap: float = SETTLEMENT_GAP, min_area: float = 0.0) -> np.ndarray:
+    """The built-up land of every settlement (:func:`settlement`'s pieces, less than ``gap`` metres apart
+    counted as one) with at least ``min_area`` m² of built-up land, and always the town's (the largest).
+
+    Why: a settlement large enough to hold a neighbourhood (``min_area`` one of the yardstick's
+    neighbourhood discs, :func:`default_district_area`) is where a town grows a quarter, as Andorra's valley
+    towns (Escaldes, Sant Julià, Encamp) are beside Andorra la Vella; a hamlet of a few houses in the fields
+    north-east of north-bayreuth is not, though its edge is built-up land too (issue 20).
+    """
+    if not maps.city.any():
+        return maps.city
+    pieces, area = _settlement_pieces(maps, gap)
+    keep = area >= min_area
+    keep[int(np.argmax(area))] = True
+    keep[0] = False
+    return maps.city & keep[pieces]
+
+
+def _settlement_pieces(maps: DistanceMaps, gap: float) -> tuple[np.ndarray, np.ndarray]:
+    """The pieces of the built-up land less than ``gap`` m apart (labels per cell, 0 away from them) and each
+    label's built-up area (m², 0 for label 0)."""
+    near = distance_transform_edt(~maps.city) * maps.cell <= 0.5 * gap  # pieces less than ``gap`` apart touch
+    pieces, _ = label(near, structure=np.ones((3, 3), dtype=bool))
+    area = np.bincount(pieces[maps.city], minlength=pieces.max() + 1).astype(float) * maps.cell ** 2
+    area[0] = 0.0
+    return pieces, area
+
+
+def settlement_maps(maps: DistanceMaps, gap: float = SETTLEMENT_GAP, *, only: bool = False,
+                    min_area: float = np.inf) -> DistanceMaps:
     """``maps`` that measure the far bank from the town's own settlement (:func:`settlement`): a site on land
     that water cuts off from the *town* loses its closeness (:func:`far_bank`, read by :func:`_across_water`),
     however near a village on its own bank lies. Krems' engine quarter grew beside Mautern, across the
@@ -239,11 +265,15 @@ def settlement_maps(maps: DistanceMaps, gap: float = SETTLEMENT_GAP, *, only: bo
 
     With ``only``, the site's closeness to the town and its contact count the town's settlement alone too
     (and so do the engine's joins, which read ``city_distance``); the rest of the built-up land stays taken
-    (no site holds it), but a site beside a hamlet is no longer next to the town.
+    (no site holds it), but a site beside a hamlet is no longer next to the town. With a finite
+    ``min_area`` (m²) as well, every settlement of at least that much built-up land counts beside the town
+    (:func:`settlements`), for closeness, contact and joins and as the land the far bank is cut off from.
     """
     town = settlement(maps, gap)
     if not town.any():
         return maps
+    if only and np.isfinite(min_area):
+        town = settlements(maps, gap, min_area)
     maps = replace(maps, far_bank=far_bank(maps.water, town))
     if town.sum() == maps.city.sum():
         return maps
