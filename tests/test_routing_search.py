@@ -6,7 +6,7 @@ from dataclasses import replace
 
 import numpy as np
 import pytest
-from hypothesis import assume, given, settings
+from hypothesis import assume, example, given, settings
 from hypothesis import strategies as st
 from scipy.sparse import csr_matrix
 from scipy.sparse.csgraph import dijkstra
@@ -331,6 +331,7 @@ def _first_bounds(g, s, t, opts):
 
 @settings(max_examples=10, deadline=None)
 @given(st.integers(0, 2**32 - 1), st.integers(1, 6), st.sampled_from([8, 16]))
+@example(2, 1, 16)  # _route_cost's own slack put the band's route 1.6e-6 above the band's cost
 def test_the_bands_first_bound_is_an_upper_bound_of_the_best_cost_and_never_above_the_plain_routes(seed, cells, k):
     """Issue 22: the band's route (``_band_bound``, searched by A* in tiles of 1–6 vertices round the
     plain shortest path) is feasible: its cost bounds the whole expanded graph's best from above,
@@ -353,7 +354,10 @@ def test_the_bands_first_bound_is_an_upper_bound_of_the_best_cost_and_never_abov
         assert full[1] <= plain_cost and full[1] <= band_cost <= plain_cost
         assert band[0] == s and band[-1] == t
         again = routing._route_cost(g, np.asarray(band), lat_ok, extra_ok, opts)
-        assert again is not None and full[1] <= again <= band_cost + 1e-6  # the band's route is a route of G′
+        # the band's route is a route of G′; ``_route_cost`` adds its own rounding slack (1e-9 relative,
+        # 1e-6 and ε per state), which the band's cost need not hold (seed 2: 1.6e-6 over)
+        slack = 1e-9 * band_cost + 1e-6 + 4 * len(band) * (2 * k + 1) * routing._EPS
+        assert again is not None and full[1] <= again <= band_cost + slack
         route = routing.find_route(g, s, t, options=opts)
         assert route is not None
         assert route.cost == pytest.approx(full[1], rel=1e-9, abs=1e-5)
