@@ -189,11 +189,7 @@ def distance_maps(city: City, opts: SiteOptions | None = None, *, margin: float 
     land = city.land if city.land is not None else read_land(city)
     city_mask = _built_up(city, land, xs, ys) & ~water
     outside = np.zeros_like(water) if beyond_bounds else ~_raster(city.bounds_polygon, xs, ys, remember=False)
-    if city_mask.any():
-        city_cells, nearest = distance_transform_edt(~city_mask, return_indices=True)
-        city_distance, nearest = city_cells * cell, nearest.astype(np.int32)
-    else:
-        city_distance, nearest = np.full(city_mask.shape, np.inf), np.zeros((2, *city_mask.shape), dtype=np.int32)
+    city_distance, nearest = _nearest(city_mask, cell)
     return DistanceMaps(
         origin=np.array([x0, y0]), cell=cell, water=water, city=city_mask, outside=outside,
         unbuildable=_raster(city.unbuildable, xs, ys), water_distance=_distance(water, cell),
@@ -222,10 +218,7 @@ def settlement(maps: DistanceMaps, gap: float = SETTLEMENT_GAP) -> np.ndarray:
     The town is the piece with the most built-up area (its centre and most of its streets; on an extract of
     villages, the largest village, where the pipeline's district grows too).
     """
-    if not maps.city.any():
-        return maps.city
-    pieces, area = _settlement_pieces(maps, gap)
-    return maps.city & (pieces == int(np.argmax(area)))
+    return settlements(maps, gap, np.inf)
 
 
 def settlements(maps: DistanceMaps, gap: float = SETTLEMENT_GAP, min_area: float = 0.0) -> np.ndarray:
@@ -269,18 +262,25 @@ def settlement_maps(maps: DistanceMaps, gap: float = SETTLEMENT_GAP, *, only: bo
     ``min_area`` (m²) as well, every settlement of at least that much built-up land counts beside the town
     (:func:`settlements`), for closeness, contact and joins and as the land the far bank is cut off from.
     """
-    town = settlement(maps, gap)
+    town = settlements(maps, gap, min_area if only else np.inf)
     if not town.any():
         return maps
-    if only and np.isfinite(min_area):
-        town = settlements(maps, gap, min_area)
     maps = replace(maps, far_bank=far_bank(maps.water, town))
     if town.sum() == maps.city.sum():
         return maps
-    cells, nearest = distance_transform_edt(~town, return_indices=True)
+    distance, nearest = _nearest(town, maps.cell)
     if not only:
-        return replace(maps, nearest_city=nearest.astype(np.int32))
-    return replace(maps, city_distance=cells * maps.cell, nearest_city=nearest.astype(np.int32), settlement=town)
+        return replace(maps, nearest_city=nearest)
+    return replace(maps, city_distance=distance, nearest_city=nearest, settlement=town)
+
+
+def _nearest(mask: np.ndarray, cell: float) -> tuple[np.ndarray, np.ndarray]:
+    """Per cell, the distance (m) to the nearest cell of ``mask`` and that cell's row and column
+    (``(2, rows, cols)`` int32); inf and zeros when ``mask`` is empty."""
+    if not mask.any():
+        return np.full(mask.shape, np.inf), np.zeros((2, *mask.shape), dtype=np.int32)
+    cells, nearest = distance_transform_edt(~mask, return_indices=True)
+    return cells * cell, nearest.astype(np.int32)
 
 
 def far_bank(water: np.ndarray, town: np.ndarray) -> np.ndarray:
