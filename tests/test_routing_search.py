@@ -511,3 +511,33 @@ def test_routing_options_take_whole_cell_counts():
     assert RoutingOptions(tile_cells=np.int64(3), backward_tile_cells=1).tile_cells == 3
     with pytest.raises(OptionError, match="tile_cells must be a whole number of at least 1, got 0"):
         RoutingOptions(tile_cells=0)
+
+
+@settings(max_examples=25, deadline=None)
+@given(seed=st.integers(0, 2**20))
+def test_a_routes_edges_at_once_are_the_ones_step_picks_edge_by_edge(seed):
+    """:meth:`PathGraph.steps` (a route's edges in one call) picks, for every pair, the edge
+    :meth:`PathGraph.step` picks: the cheapest allowed, the lattice edge on a tie, else the first
+    other edge of that weight; and it refuses a pair without an allowed edge as step does."""
+    g, rng = random_map(seed)
+    kinds = [routing.EdgeKind.LAND, routing.EdgeKind.BRIDGE, routing.EdgeKind.STITCH, routing.EdgeKind.MAJOR,
+             routing.EdgeKind.MINOR]
+    ok = rng.integers(0, 2, len(g.segments.uv)).astype(bool)
+    lat, extra = g.masks(kinds[:int(rng.integers(1, 6))], ok)
+    # pairs from the allowed edges of both tables (so some pairs have both), and some of no edge
+    rows, dirs = np.nonzero(lat)
+    pick = rng.integers(0, len(rows), min(len(rows), 200)) if len(rows) else np.zeros(0, dtype=np.int64)
+    u = rows[pick]
+    v = u + g.lattice.direction_offset[dirs[pick]]
+    e = np.flatnonzero(extra)
+    e = e[rng.integers(0, len(e), min(len(e), 200))] if len(e) else e
+    u, v = np.concatenate([u, g.src[e], g.dst[e]]), np.concatenate([v, g.dst[e], g.src[e]])
+    at_once = g.steps(u, v, lat, extra)
+    one = [g.step(int(a), int(b), lat, extra) for a, b in zip(u, v)]
+    for name in ("kind", "segment", "length", "weight", "heading"):
+        assert at_once[name].tolist() == [s[name] for s in one], name
+    far = int(g.n_vertices - 1)
+    with pytest.raises(routing.InputError):
+        g.step(0, far, lat, extra)
+    with pytest.raises(routing.InputError):
+        g.steps(np.array([0]), np.array([far]), lat, extra)

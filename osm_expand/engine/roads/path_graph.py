@@ -301,6 +301,68 @@ class PathGraph:
             raise InputError(f"G′ has no allowed edge from vertex {u} to {v}")
         return best
 
+    def steps(self, u: np.ndarray, v: np.ndarray, lat: np.ndarray, extra: np.ndarray) -> dict[str, np.ndarray]:
+        """:meth:`step` for each pair ``u[i] → v[i]`` at once (a route's edges: one call per edge was
+        72,000 Python calls and 1 s of Campo Grande's run), the same choice: the cheapest allowed
+        edge, the lattice edge on a tie, else the first other edge of that weight.
+
+        Returns
+        -------
+        dict
+            Arrays ``kind``, ``segment``, ``length``, ``weight``, ``heading``, one entry per pair;
+            :class:`InputError` when a pair has no allowed edge.
+        """
+        u = np.asarray(u, dtype=np.int64).ravel()
+        v = np.asarray(v, dtype=np.int64).ravel()
+        m = len(u)
+        out: dict[str, np.ndarray] = {"kind": np.zeros(m, dtype=np.uint8), "segment": np.full(m, -1, dtype=np.int64),
+                                     "length": np.zeros(m), "weight": np.full(m, np.inf), "heading": np.zeros(m)}
+        found = np.zeros(m, dtype=bool)
+        n_lat = self.n_lattice
+        both = np.flatnonzero((u < n_lat) & (v < n_lat))
+        if len(both):
+            nx = self.lattice.shape[1]
+            dirs = self.lattice.directions
+            r = int(np.abs(dirs).max()) if len(dirs) else 0
+            table = np.full((2 * r + 1, 2 * r + 1), -1, dtype=np.int64)
+            table[dirs[::-1, 0] + r, dirs[::-1, 1] + r] = np.arange(len(dirs))[::-1]  # the first match wins
+            dx = v[both] % nx - u[both] % nx
+            dy = v[both] // nx - u[both] // nx
+            near = (np.abs(dx) <= r) & (np.abs(dy) <= r)
+            k = np.full(len(both), -1, dtype=np.int64)
+            k[near] = table[dx[near] + r, dy[near] + r]
+            ok = k >= 0
+            ok[ok] = lat[u[both[ok]], k[ok]]
+            at, k = both[ok], k[ok]
+            out["kind"][at] = self.lat_kind[u[at], k]
+            out["length"][at] = self.lattice.direction_length[k]
+            out["weight"][at] = np.asarray(self.lat_weight[u[at], k], dtype=np.float64)
+            out["heading"][at] = self.direction_heading[k]
+            found[at] = True
+        lo, hi = np.searchsorted(self.src, u), np.searchsorted(self.src, u + 1)
+        count = hi - lo
+        pair = np.repeat(np.arange(m), count)
+        edge = np.repeat(lo, count) + np.arange(int(count.sum())) - np.repeat(np.cumsum(count) - count, count)
+        keep = (self.dst[edge] == v[pair]) & extra[edge]
+        pair, edge = pair[keep], edge[keep]
+        order = np.lexsort((edge, self.weight[edge], pair))  # by pair, then weight, then edge
+        pair, edge = pair[order], edge[order]
+        first = np.ones(len(pair), dtype=bool)
+        first[1:] = pair[1:] != pair[:-1]
+        pair, edge = pair[first], edge[first]
+        better = ~found[pair] | (self.weight[edge] < out["weight"][pair])
+        pair, edge = pair[better], edge[better]
+        out["kind"][pair] = self.kind[edge]
+        out["segment"][pair] = self.segment[edge]
+        out["length"][pair] = self.length[edge]
+        out["weight"][pair] = self.weight[edge]
+        out["heading"][pair] = self.heading[edge]
+        found[pair] = True
+        if not found.all():
+            i = int(np.flatnonzero(~found)[0])
+            raise InputError(f"G′ has no allowed edge from vertex {u[i]} to {v[i]}")
+        return out
+
     def live_vertices(self) -> np.ndarray:
         """Vertices with at least one edge, sorted."""
         lat = np.flatnonzero((self.lat_kind != NO_EDGE).any(axis=1))

@@ -608,11 +608,10 @@ def _walk_back(pred: np.ndarray, source: int, target: int) -> list[int]:
 
 def _route(graph: PathGraph, vertices: Sequence[int], lat: np.ndarray, extra: np.ndarray,
            turn_cost: float) -> Route:
-    steps = [graph.step(u, v, lat, extra) for u, v in zip(vertices[:-1], vertices[1:])]
-    column = lambda name, dtype: np.array([s[name] for s in steps], dtype=dtype)  # noqa: E731
     v = np.asarray(vertices, dtype=np.int64)
-    return Route(vertices=v, xy=graph.xy[v], kind=column("kind", np.uint8), segment=column("segment", np.int64),
-                 edge_length=column("length", float), edge_weight=column("weight", float), turn_cost=turn_cost)
+    steps = graph.steps(v[:-1], v[1:], lat, extra)
+    return Route(vertices=v, xy=graph.xy[v], kind=steps["kind"], segment=steps["segment"],
+                 edge_length=steps["length"], edge_weight=steps["weight"], turn_cost=turn_cost)
 
 
 #: vertices per block when the expanded graph's entries are written (about a million entries a block)
@@ -983,6 +982,13 @@ def _tiled_search(graph: PathGraph, lat: np.ndarray, extra: np.ndarray, source: 
                     best = (_vertex_path(pred, start, end, verts, per), float(dist[end]))
                     cost = best[1]
             del pred
+        if exits is not None:
+            at = local[exits].astype(np.int64)
+            arrivals = np.where(at >= 0, dist.reshape(-1, per)[np.maximum(at, 0), :k].min(axis=1), np.inf)
+            arrivals[exits == source] = 0.0
+            arrivals = np.maximum(arrivals - slack, 0.0)
+        if at_once:  # the whole region was searched: no edge leaves the active set, nothing can grow
+            return best, arrivals
         threshold = cost - 1e-9 * cost
         departs = dist.reshape(-1, per)[:, k:2 * k]
         outside = region & ~inside
@@ -1005,11 +1011,6 @@ def _tiled_search(graph: PathGraph, lat: np.ndarray, extra: np.ndarray, source: 
         if turns:
             lb += _turns_needed(need, extra_bin[e], graph.xy[graph.dst[e]], goal)
         reached.append(graph.dst[e][lb < threshold])
-        if exits is not None:
-            at = local[exits].astype(np.int64)
-            arrivals = np.where(at >= 0, dist.reshape(-1, per)[np.maximum(at, 0), :k].min(axis=1), np.inf)
-            arrivals[exits == source] = 0.0
-            arrivals = np.maximum(arrivals - slack, 0.0)
         w = np.concatenate(reached)
         del dist, departs  # this search's states go before the next graph is made
         if not len(w):
