@@ -541,3 +541,26 @@ def test_a_routes_edges_at_once_are_the_ones_step_picks_edge_by_edge(seed):
         g.step(0, far, lat, extra)
     with pytest.raises(routing.InputError):
         g.steps(np.array([0]), np.array([far]), lat, extra)
+
+
+@settings(max_examples=8, deadline=None)
+@given(st.integers(0, 2**32 - 1), st.booleans(), st.sampled_from([8, 16]))
+def test_a_routes_a_star_search_costs_what_plain_dijkstra_and_the_whole_expanded_graph_give(seed, tiles, k):
+    """``route_astar`` (A* on reduced costs for the route, off by default): of several routes of equal
+    cost it may take another than plain Dijkstra (Campo Grande's second road did), never a dearer
+    one: its cost is the plain search's and the whole expanded graph's, over growing tiles or not."""
+    g, rng = random_map(seed)
+    opts = RoutingOptions(turn_height=float(rng.uniform(20, 900)), heading_bins=k,
+                          tile_cells=int(rng.integers(1, 4)), whole_region=0 if tiles else 100_000)
+    fast = replace(opts, route_astar=True)
+    penalties = routing._bin_penalties(opts)
+    lat_ok, extra_ok = g.masks()
+    live = g.live_vertices()
+    for _ in range(3):
+        s, t = (int(v) for v in rng.choice(live, 2, replace=False))
+        plain, route = routing.find_route(g, s, t, options=opts), routing.find_route(g, s, t, options=fast)
+        full = routing._expanded_search(g, lat_ok, extra_ok, np.arange(g.n_vertices), s, t, penalties, k, np.inf)
+        assert (route is None) == (full is None) == (plain is None)
+        if route is not None:
+            assert route.cost == pytest.approx(full[1], rel=1e-9, abs=1e-5)
+            assert route.cost == pytest.approx(plain.cost, rel=1e-9, abs=1e-5)

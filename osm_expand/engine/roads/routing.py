@@ -134,6 +134,11 @@ class RoutingOptions:
     #: (:func:`_band_bound`); 0: no band, the first bound is the plain shortest path's penalised cost
     #: (up to 3.7× the best on Campo Grande's searches) or the previous window's route's
     bound_cells: int = 4
+    #: whether a route's turn-penalised search runs A* (Dijkstra on reduced costs with the plain
+    #: distance to the target as bound) instead of plain Dijkstra within the cost bound: exact (the
+    #: same cost), it settles only the states with g + d_t ≤ C; of several routes of equal cost it
+    #: may take another than plain Dijkstra, so the outputs' bytes change (off)
+    route_astar: bool = False
 
     def __post_init__(self) -> None:
         require_positive(self, ("window_margin", "growth_share", "turn_width"))
@@ -888,6 +893,17 @@ def _reduced(expanded: csr_matrix, h: np.ndarray, per: int) -> csr_matrix:
     return expanded
 
 
+def _path_cost(expanded: csr_matrix, raw: np.ndarray, states: list[int]) -> float:
+    """The cost of a path of states summed from the expanded graph's own weights (``raw``: its data
+    before :func:`_reduced`; the cheapest entry where two join the same states), in path order as a
+    Dijkstra adds them."""
+    total = 0.0
+    for a, b in zip(states[:-1], states[1:]):
+        lo, hi = expanded.indptr[a], expanded.indptr[a + 1]
+        total += float(raw[lo:hi][expanded.indices[lo:hi] == b].min())
+    return total
+
+
 def _tiled_search(graph: PathGraph, lat: np.ndarray, extra: np.ndarray, source: int, target: int | None,
                   lower: np.ndarray, h: np.ndarray, best: tuple[list[int], float], seed: np.ndarray,
                   penalties: np.ndarray, opts: RoutingOptions, goal: np.ndarray,
@@ -947,7 +963,7 @@ def _tiled_search(graph: PathGraph, lat: np.ndarray, extra: np.ndarray, source: 
     # only the states with g + h ≤ C. A route search stays plain Dijkstra: of several routes of equal
     # cost A* takes another (Campo Grande's second and third roads), and in tiles it settles about
     # the same states (the tiles are grown where g + h < C: the synthetic town's search was no faster)
-    astar = target is None
+    astar = target is None or opts.route_astar
     n_lat, n_dir = lat.shape
     dir_bin = _bins(graph.direction_heading, k)
     offset = graph.lattice.direction_offset
@@ -966,12 +982,24 @@ def _tiled_search(graph: PathGraph, lat: np.ndarray, extra: np.ndarray, source: 
         expanded, local = _expanded_graph(graph, lat, extra, verts, penalties, k)
         slack = 2 * len(verts) * per * _EPS
         start = int(local[source]) * per + 2 * k
-        if astar:  # only costs are sought, no route
+        if astar:  # A* (reduced costs): the exits' search, or a route's with ``route_astar``
             ha = h[verts] * (1.0 - _SHRINK)
             hs = float(ha[local[source]])
-            dist = dijkstra(_reduced(expanded, ha, per), indices=start, limit=cost - hs + slack)
-            del expanded
+            seek = target is not None and local[target] >= 0
+            raw = expanded.data.copy() if seek else None  # the route's exact cost is summed from these
+            found = dijkstra(_reduced(expanded, ha, per), indices=start, limit=cost - hs + slack,
+                             return_predecessors=seek)
+            dist, pred = found if seek else (found, None)
             dist.reshape(-1, per)[:] += (hs - ha)[:, None]  # g = distance + h(state) − h(source)
+            if seek and pred is not None and raw is not None:
+                ends = int(local[target]) * per + np.arange(k)
+                end = int(ends[np.argmin(dist[ends])])
+                if dist[end] < cost:
+                    total = _path_cost(expanded, raw, _walk_back(pred, start, end))
+                    if total < cost:
+                        best = (_vertex_path(pred, start, end, verts, per), total)
+                        cost = best[1]
+            del expanded, raw
         else:
             dist, pred = dijkstra(expanded, indices=start, return_predecessors=True, limit=cost + slack)
             del expanded
