@@ -85,3 +85,94 @@ def test_the_cycles_of_a_permutation_are_the_walks_from_each_least_element(keys,
                 h = walk[h]
     got = _cycles(np.asarray(nxt))
     assert got[0].tolist() == sequence and got[1].tolist() == starts
+
+
+def _resample_any_by_points(raster, origin, step, shape):
+    """The lattice's fine raster as it was made point by point (the reference for :func:`_resample_any`)."""
+    out = np.zeros(shape, dtype=bool)
+    xs, ys = np.meshgrid(origin[0] + np.arange(shape[1]) * step, origin[1] + np.arange(shape[0]) * step)
+    row, col, inside = raster.cell_index(xs, ys)
+    out |= np.asarray(raster.values, dtype=bool)[row, col] & inside
+    r, c = np.nonzero(np.asarray(raster.values, dtype=bool))
+    fj = np.rint((raster.origin[0] + (c + 0.5) * raster.cell - origin[0]) / step).astype(np.int64)
+    fi = np.rint((raster.origin[1] + (r + 0.5) * raster.cell - origin[1]) / step).astype(np.int64)
+    ok = (fi >= 0) & (fi < shape[0]) & (fj >= 0) & (fj < shape[1])
+    out[fi[ok], fj[ok]] = True
+    return out
+
+
+@settings(max_examples=150, deadline=None)
+@given(st.integers(0, 2**32 - 1))
+def test_the_lattices_fine_raster_made_by_rows_and_columns_is_the_one_made_point_by_point(seed):
+    """:func:`~osm_expand.engine.roads.lattice._resample_any` reads the cell under each fine point and the
+    fine point nearest each true cell's centre by rows and columns (the synthetic 10,000-street town's
+    presumed frontage: 9.5 million true cells, 0.6 GB of indices point by point): the same bools, for
+    any cell size against the fine step, either raster partly off the other."""
+    from osm_expand.engine.roads.lattice import Raster, _resample_any
+
+    rng = np.random.default_rng(seed)
+    values = rng.random((int(rng.integers(1, 40)), int(rng.integers(1, 40)))) < rng.random()
+    raster = Raster(values, (float(rng.uniform(-50, 50)), float(rng.uniform(-50, 50))),
+                    float(rng.choice([2.5, 3.0, 5.0, 7.3, 10.0, 20.0, 31.0])))
+    origin = rng.uniform(-60, 60, 2)
+    step = float(rng.choice([2.5, 5.0, 7.0, 10.0]))
+    shape = (int(rng.integers(1, 60)), int(rng.integers(1, 60)))
+    assert np.array_equal(_resample_any(raster, origin, step, shape),
+                          _resample_any_by_points(raster, origin, step, shape))
+
+
+def _profiles_sample_by_sample(d, pw, pf, pad, shape, f):
+    """The unit edges' profile codes counted at every vertex (the reference for :func:`_profiles`)."""
+    from osm_expand.engine.roads import lattice as L
+
+    offsets = L._offsets(d, f)
+    m = len(offsets) - 1
+    any_forbidden = np.zeros(shape, dtype=bool)
+    n_water = np.zeros(shape, dtype=np.int16)
+    changes = np.zeros(shape, dtype=np.int16)
+    prev_w = first_w = None
+    for oy, ox in offsets:
+        w = L._slice(pw, pad, oy, ox, shape, f)
+        any_forbidden |= L._slice(pf, pad, oy, ox, shape, f)
+        n_water += w
+        if prev_w is None:
+            first_w = w
+        else:
+            changes += w != prev_w
+        prev_w = w
+    profile = np.full(shape, L._MIXED, dtype=np.uint8)
+    ok = ~any_forbidden
+    profile[ok & (n_water == 0)] = L._L
+    profile[ok & (n_water == m + 1)] = L._W
+    profile[ok & (changes == 1) & ~first_w] = L._LW
+    profile[ok & (changes == 1) & first_w] = L._WL
+    profile[ok & (changes == 2) & ~first_w & ~prev_w] = L._LWL
+    ny, nx = shape
+    iy, ix = np.mgrid[0:ny, 0:nx]
+    profile[(ix + d[0] < 0) | (ix + d[0] >= nx) | (iy + d[1] < 0) | (iy + d[1] >= ny)] = L._MIXED
+    return profile
+
+
+@settings(max_examples=40, deadline=None)
+@given(st.integers(0, 2**32 - 1))
+def test_the_edges_marched_only_where_there_is_water_have_the_profiles_counted_everywhere(seed):
+    """:func:`~osm_expand.engine.roads.lattice._profiles` reads only whether an edge samples water or
+    forbidden ground at every vertex and marches the wet edges alone (two thirds of the synthetic
+    town's 11 s lattice went to counting at every vertex): every direction's profile codes are the
+    ones counted sample by sample, on rivers, ponds and forbidden blobs with the map's edge near."""
+    from osm_expand.engine.roads import lattice as L
+
+    rng = np.random.default_rng(seed)
+    f, radius = int(rng.integers(1, 4)), int(rng.integers(1, 6))
+    ny, nx = int(rng.integers(2, 25)), int(rng.integers(2, 25))
+    fine = ((ny - 1) * f + 1, (nx - 1) * f + 1)
+    water = rng.random(fine) < rng.uniform(0, 0.3)
+    water[:, int(rng.integers(0, fine[1])):][:, :int(rng.integers(0, 6))] = True  # a river
+    forbidden = rng.random(fine) < rng.uniform(0, 0.1)
+    pad = radius * f
+    pw, pf = np.pad(water, pad, constant_values=False), np.pad(forbidden, pad, constant_values=True)
+    pc = np.pad(L._codes(water, forbidden), pad, constant_values=2)
+    for d in L.lattice_directions(radius):
+        profile, slope = L._profiles(d, pc, None, pad, (ny, nx), f, 20.0)
+        assert slope is None
+        assert np.array_equal(profile, _profiles_sample_by_sample(d, pw, pf, pad, (ny, nx), f))

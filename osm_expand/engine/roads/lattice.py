@@ -641,10 +641,9 @@ def _unit_tables(lat: Lattice) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     fine_shape = ((ny - 1) * f + 1 + 2 * pad, (nx - 1) * f + 1 + 2 * pad)
     row, col = lat.offset[0] * f - pad, lat.offset[1] * f - pad
     pb = _crop(lat.built_up, row, col, fine_shape, False)
-    pw = pf = ph = None
+    pc = ph = None
     if lat.map_units is None:
-        pw = _crop(lat.water, row, col, fine_shape, False)
-        pf = _crop(lat.forbidden, row, col, fine_shape, True)
+        pc = _crop(_codes(lat.water, lat.forbidden), row, col, fine_shape, 2)
         ph = None if lat.height is None else _crop(lat.height, row, col, fine_shape, 0.0)
     half = len(lat.directions) // 2
     n = ny * nx
@@ -666,9 +665,10 @@ def _unit_tables(lat: Lattice) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
             unit_weight[k] = lat.direction_length[k] if map_weight is None else \
                 map_weight[k].reshape(lat.full_shape)[r0:r0 + ny, c0:c0 + nx].ravel()
         else:
-            assert pw is not None and pf is not None  # cropped above when there are no map units
-            profile, slope = _profiles(lat.directions[k], pw, pf, ph, pad, (ny, nx), f, lat.spacing)
-            unit_kind[k], unit_weight[k] = _unit_edges(lat.directions[k], profile, slope, lat.spacing, opts)
+            assert pc is not None  # cropped above when there are no map units
+            profile, slope = _profiles(lat.directions[k], pc, ph, pad, (ny, nx), f, lat.spacing)
+            unit_kind[k], weight_k = _unit_edges(lat.directions[k], profile, slope, lat.spacing, opts)
+            unit_weight[k] = lat.direction_length[k] if weight_k is None else weight_k
             bridge = np.flatnonzero(unit_kind[k] == EdgeKind.BRIDGE)
             if len(bridge):
                 kept = np.zeros(len(bridge), dtype=bool) if map_v is None else \
@@ -813,17 +813,16 @@ def build_lattice(extent: tuple[float, float, float, float], *, water: Raster | 
     directions = lattice_directions(opts.radius)
     half = len(directions) // 2
     pad = opts.radius * f
-    pw, _ = _pad(water_f, pad, False)
-    pf, _ = _pad(forbidden_f, pad, True)
+    pc, _ = _pad(_codes(water_f, forbidden_f), pad, 2)  # beyond the map: dry, forbidden, flat
     ph = None if height_f is None else _pad(height_f, pad, 0.0)[0]
     unit_src, unit_k, bridges = [], [], []
     map_kind = np.empty((half, ny * nx), dtype=np.uint8)
     map_weight = None if ph is None else np.empty((half, ny * nx), dtype=np.float32)
     for k in range(half):
-        profile, slope = _profiles(directions[k], pw, pf, None if ph is None else ph, pad, (ny, nx), f, ell)
+        profile, slope = _profiles(directions[k], pc, ph, pad, (ny, nx), f, ell)
         kind_k, weight_k = _unit_edges(directions[k], profile, slope, ell, opts)
         map_kind[k] = kind_k
-        if map_weight is not None:
+        if map_weight is not None and weight_k is not None:
             map_weight[k] = weight_k
         src = np.flatnonzero(profile.ravel() == _LWL)  # one-step bridges (_unit_edges)
         unit_src.append(src)
@@ -872,58 +871,92 @@ def _slice(padded: np.ndarray, pad: int, oy: int, ox: int, shape: tuple[int, int
     return padded[r0:r0 + (ny - 1) * f + 1:f, c0:c0 + (nx - 1) * f + 1:f]
 
 
-def _profiles(d: np.ndarray, pw: np.ndarray, pf: np.ndarray, ph: np.ndarray | None, pad: int,
-              shape: tuple[int, int], f: int, ell: float) -> tuple[np.ndarray, np.ndarray]:
-    """Per vertex, the profile code of its unit edge along ``d`` and the edge's largest slope."""
+def _codes(water: np.ndarray, forbidden: np.ndarray) -> np.ndarray:
+    """The fine points as one uint8 raster: bit 0 water, bit 1 forbidden (what :func:`_profiles` reads)."""
+    return water.astype(np.uint8) | (forbidden.astype(np.uint8) << 1)
+
+
+def _profiles(d: np.ndarray, pc: np.ndarray, ph: np.ndarray | None, pad: int,
+              shape: tuple[int, int], f: int, ell: float) -> tuple[np.ndarray, np.ndarray | None]:
+    """Per vertex, the profile code of its unit edge along ``d`` and the edge's largest slope
+    (None without heights).
+
+    ``pc`` is :func:`_codes` of the fine rasters padded by ``pad`` points. Over every vertex
+    only whether some sample is forbidden and whether some is water is read (one or-ed slice
+    a sample); the edges with water and nothing forbidden, a few in a hundred, are then
+    marched one sample at a time to tell water, harbour and bridge apart. Counting water
+    samples and changes of medium at every vertex took two thirds of the synthetic
+    10,000-street town's 11 s :func:`build_lattice`; the profiles are the same.
+    """
     offsets = _offsets(d, f)
     m = len(offsets) - 1
-    any_forbidden = np.zeros(shape, dtype=bool)
-    n_water = np.zeros(shape, dtype=np.int16)
-    changes = np.zeros(shape, dtype=np.int16)
+    seen = np.zeros(shape, dtype=np.uint8)  # bit 0: a water sample, bit 1: a forbidden one
+    for oy, ox in offsets:
+        seen |= _slice(pc, pad, oy, ox, shape, f)
+    profile = np.full(shape, _MIXED, dtype=np.uint8)
+    profile[seen == 0] = _L
+    ny, nx = shape
+    wet = np.flatnonzero(seen.ravel() == 1)  # water and nothing forbidden
+    if len(wet):
+        iy, ix = np.divmod(wet, nx)
+        r0, c0 = pad + iy * f, pad + ix * f
+        n_water = np.zeros(len(wet), dtype=np.int16)
+        changes = np.zeros(len(wet), dtype=np.int16)
+        first_w = prev_w = pc[r0 + offsets[0][0], c0 + offsets[0][1]] == 1
+        n_water += first_w
+        for oy, ox in offsets[1:]:
+            w = pc[r0 + oy, c0 + ox] == 1
+            n_water += w
+            changes += w != prev_w
+            prev_w = w
+        code = np.full(len(wet), _MIXED, dtype=np.uint8)
+        code[n_water == m + 1] = _W
+        code[(changes == 1) & ~first_w] = _LW
+        code[(changes == 1) & first_w] = _WL
+        code[(changes == 2) & ~first_w & ~prev_w] = _LWL
+        profile.ravel()[wet] = code
+    # an edge whose far end lies outside the lattice
+    dx, dy = int(d[0]), int(d[1])
+    if dx > 0:
+        profile[:, max(nx - dx, 0):] = _MIXED
+    elif dx < 0:
+        profile[:, :min(-dx, nx)] = _MIXED
+    if dy > 0:
+        profile[max(ny - dy, 0):, :] = _MIXED
+    elif dy < 0:
+        profile[:min(-dy, ny), :] = _MIXED
+    if ph is None:
+        return profile, None
     slope = np.zeros(shape)
     step = float(np.hypot(*d)) * ell / m
-    prev_w = prev_h = first_w = None
+    prev_h = None
     for oy, ox in offsets:
-        w = _slice(pw, pad, oy, ox, shape, f)
-        any_forbidden |= _slice(pf, pad, oy, ox, shape, f)
-        n_water += w
-        if ph is not None:
-            h = _slice(ph, pad, oy, ox, shape, f)
-            if prev_h is not None:
-                np.maximum(slope, np.abs(h - prev_h) / step, out=slope)
-            prev_h = h
-        if prev_w is None:
-            first_w = w
-        else:
-            changes += w != prev_w
-        prev_w = w
-    assert first_w is not None and prev_w is not None  # offsets has at least two points
-    profile = np.full(shape, _MIXED, dtype=np.uint8)
-    ok = ~any_forbidden
-    profile[ok & (n_water == 0)] = _L
-    profile[ok & (n_water == m + 1)] = _W
-    profile[ok & (changes == 1) & ~first_w] = _LW
-    profile[ok & (changes == 1) & first_w] = _WL
-    profile[ok & (changes == 2) & ~first_w & ~prev_w] = _LWL
-    ny, nx = shape
-    iy, ix = np.mgrid[0:ny, 0:nx]
-    profile[(ix + d[0] < 0) | (ix + d[0] >= nx) | (iy + d[1] < 0) | (iy + d[1] >= ny)] = _MIXED
+        h = _slice(ph, pad, oy, ox, shape, f)
+        if prev_h is not None:
+            np.maximum(slope, np.abs(h - prev_h) / step, out=slope)
+        prev_h = h
     return profile, slope
 
 
-def _unit_edges(d: np.ndarray, profile: np.ndarray, slope: np.ndarray, ell: float,
-                opts: LatticeOptions) -> tuple[np.ndarray, np.ndarray]:
+def _unit_edges(d: np.ndarray, profile: np.ndarray, slope: np.ndarray | None, ell: float,
+                opts: LatticeOptions) -> tuple[np.ndarray, np.ndarray | None]:
     """Kind (or NO_EDGE) and weight of every vertex's unit edge along ``d``: land, water,
-    harbour (adjacent vertices only) or a one-step bridge."""
+    harbour (adjacent vertices only) or a one-step bridge. Without slopes (flat land) the
+    weight is None: every edge's is its length."""
     length = float(np.hypot(*d)) * ell
-    flat_profile, flat_slope = profile.ravel(), slope.ravel()
+    flat_profile = profile.ravel()
     kind = np.full(flat_profile.shape, NO_EDGE, dtype=np.uint8)
-    kind[(flat_profile == _L) & (flat_slope <= opts.slope_cutoff)] = EdgeKind.LAND
+    land = flat_profile == _L
+    if slope is not None:
+        land &= slope.ravel() <= opts.slope_cutoff
+    kind[land] = EdgeKind.LAND
     kind[flat_profile == _W] = EdgeKind.WATER
     if d[0] * d[0] + d[1] * d[1] <= 2:
         kind[(flat_profile == _LW) | (flat_profile == _WL)] = EdgeKind.HARBOUR
     kind[flat_profile == _LWL] = EdgeKind.BRIDGE
-    weight = np.where(kind == EdgeKind.LAND, length * np.maximum(1.0, opts.slope_weight * flat_slope), length)
+    if slope is None:
+        return kind, None
+    weight = np.where(kind == EdgeKind.LAND, length * np.maximum(1.0, opts.slope_weight * slope.ravel()), length)
     return kind, weight.astype(np.float32)
 
 
@@ -969,20 +1002,43 @@ def _fine_points(origin: np.ndarray, step: float, shape: tuple[int, int]) -> tup
 
 def _resample_any(raster: Raster | None, origin: np.ndarray, step: float, shape: tuple[int, int]) -> np.ndarray:
     """A boolean raster on the fine points: the cell under each point, or-ed with every
-    true input cell whose centre is nearest to that point (no thin river is lost)."""
+    true input cell whose centre is nearest to that point (no thin river is lost).
+
+    Both are separable: a fine point's cell row depends on its y alone and its column on its
+    x alone, and so does the fine point nearest to a cell's centre. So the first is one
+    ``values[rows][:, cols]`` and the second the input's rows or-ed together by the fine row
+    their centres fall on, then its columns by fine column: no array of points or of true
+    cells (the synthetic 10,000-street town's 5 m raster of presumed frontage has 9.5 million
+    true cells: their indices and centres took 0.6 GB and 1.8 s; the same points, the same bools).
+    """
     out = np.zeros(shape, dtype=bool)
     if raster is None:
         return out
-    xs, ys = _fine_points(origin, step, shape)
-    row, col, inside = raster.cell_index(xs, ys)
-    out |= np.asarray(raster.values, dtype=bool)[row, col] & inside
-    r, c = np.nonzero(np.asarray(raster.values, dtype=bool))
-    cx = raster.origin[0] + (c + 0.5) * raster.cell
-    cy = raster.origin[1] + (r + 0.5) * raster.cell
-    fj = np.rint((cx - origin[0]) / step).astype(np.int64)
-    fi = np.rint((cy - origin[1]) / step).astype(np.int64)
-    ok = (fi >= 0) & (fi < shape[0]) & (fj >= 0) & (fj < shape[1])
-    out[fi[ok], fj[ok]] = True
+    values = np.asarray(raster.values, dtype=bool)
+    n_rows, n_cols = values.shape
+    # the cell under each fine point: Raster.cell_index's arithmetic on the points' own x and y
+    xs = origin[0] + np.arange(shape[1]) * step
+    ys = origin[1] + np.arange(shape[0]) * step
+    col = np.floor((xs - raster.origin[0]) / raster.cell).astype(np.int64)
+    row = np.floor((ys - raster.origin[1]) / raster.cell).astype(np.int64)
+    col_in, row_in = (col >= 0) & (col < n_cols), (row >= 0) & (row < n_rows)
+    if col_in.any() and row_in.any():
+        out[np.ix_(row_in, col_in)] = values[np.ix_(row[row_in], col[col_in])]
+    if not values.any():
+        return out
+    # the fine point nearest to each cell's centre
+    fj = np.rint((raster.origin[0] + (np.arange(n_cols) + 0.5) * raster.cell - origin[0]) / step).astype(np.int64)
+    fi = np.rint((raster.origin[1] + (np.arange(n_rows) + 0.5) * raster.cell - origin[1]) / step).astype(np.int64)
+    r_ok = np.flatnonzero((fi >= 0) & (fi < shape[0]))
+    c_ok = np.flatnonzero((fj >= 0) & (fj < shape[1]))
+    if not len(r_ok) or not len(c_ok):
+        return out
+    r_first = r_ok[np.flatnonzero(np.diff(fi[r_ok], prepend=-1))]  # fi is non-decreasing: runs of one fine row
+    c_first = c_ok[np.flatnonzero(np.diff(fj[c_ok], prepend=-1))]
+    block = values[r_ok[0]:r_ok[-1] + 1, c_ok[0]:c_ok[-1] + 1]
+    block = np.logical_or.reduceat(block, r_first - r_ok[0], axis=0)
+    block = np.logical_or.reduceat(block, c_first - c_ok[0], axis=1)
+    out[np.ix_(fi[r_first], fj[c_first])] |= block
     return out
 
 
