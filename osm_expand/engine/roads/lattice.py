@@ -1132,8 +1132,11 @@ def _rasterise(geom: shapely.Geometry, origin: np.ndarray, step: float, shape: t
     solid = (b_i > a_i) & (b_j > a_j)  # a box of one row or column is no polygon
     boxes = shapely.box(origin[0] + (j0 + a_j[solid]) * step, origin[1] + (i0 + a_i[solid]) * step,
                         origin[0] + (j0 + b_j[solid]) * step, origin[1] + (i0 + b_i[solid]) * step)
-    state[ti[solid], tj[solid]] = np.where(shapely.contains(geom, boxes), 1,
-                                           np.where(shapely.intersects(geom, boxes), 2, 0))
+    try:
+        inside, meets = shapely.contains(geom, boxes), shapely.intersects(geom, boxes)
+    except shapely.errors.GEOSException:  # an invalid B a box test refuses: every point tested, as before
+        inside, meets = np.zeros(len(boxes), dtype=bool), np.ones(len(boxes), dtype=bool)
+    state[ti[solid], tj[solid]] = np.where(inside, 1, np.where(meets, 2, 0))
     state = np.repeat(np.repeat(state, t, axis=0), t, axis=1)[:h, :w]
     part = out[i0:i1, j0:j1]  # a view
     part[todo & (state == 1)] = True
