@@ -25,12 +25,13 @@ raster masks). Marching along each edge (``samples_per_spacing`` samples per
 Forbidden samples end an edge; forbidden vertices have no edges. Edges are
 made with array slicing: for a direction and a sample offset the samples of
 *every* vertex are one strided slice of a fine raster, so there is no Python
-loop over vertices. :func:`build_lattice` keeps the fine rasters, the
-bridges (their filter needs the whole map) and the map's unit edges; the
-live edges in both directions (B removed) are one table over the map, made
-when first searched and carried from one B to the next (only the edges the
-new ground touches go), and a rectangle of vertices (:meth:`Lattice.window`)
-crops it.
+loop over vertices (only the few edges with water are marched sample by
+sample). :func:`build_lattice` keeps the fine rasters, the bridges (their
+filter needs the whole map) and the map's unit edges; the live unit edges
+(B removed) are one ``(D/2, V)`` table over the map, made when first
+searched and carried from one B to the next (only the edges the new ground
+touches go), and a rectangle of vertices (:meth:`Lattice.window`) makes its
+edges in both directions from it.
 
 The water and forbidden rasters should be drawn generously
 (:meth:`Raster.from_geometry`: a cell is water when water comes within half
