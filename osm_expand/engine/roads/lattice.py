@@ -25,12 +25,13 @@ raster masks). Marching along each edge (``samples_per_spacing`` samples per
 Forbidden samples end an edge; forbidden vertices have no edges. Edges are
 made with array slicing: for a direction and a sample offset the samples of
 *every* vertex are one strided slice of a fine raster, so there is no Python
-loop over vertices. :func:`build_lattice` keeps the fine rasters, the
-bridges (their filter needs the whole map) and the map's unit edges; the
-live edges in both directions (B removed) are one table over the map, made
-when first searched and carried from one B to the next (only the edges the
-new ground touches go), and a rectangle of vertices (:meth:`Lattice.window`)
-crops it.
+loop over vertices (only the few edges with water are marched sample by
+sample). :func:`build_lattice` keeps the fine rasters, the bridges (their
+filter needs the whole map) and the map's unit edges; the live unit edges
+(B removed) are one ``(D/2, V)`` table over the map, made when first
+searched and carried from one B to the next (only the edges the new ground
+touches go), and a rectangle of vertices (:meth:`Lattice.window`) makes its
+edges in both directions from it.
 
 The water and forbidden rasters should be drawn generously
 (:meth:`Raster.from_geometry`: a cell is water when water comes within half
@@ -291,10 +292,10 @@ class Lattice:
     ``directed_weight`` hold the live edges seen from both ends, for G′.
     Its rasters are never mutated: :meth:`with_built_up` returns a new
     lattice. What it mutates are its caches: ``_cache`` (its own) and
-    ``_shared`` (the map's live directed kinds, one table for the map and
+    ``_shared`` (the map's live unit edges, one table for the map and
     all its windows of one B), which :meth:`with_built_up` hands on to the
     next B's lattice and edits there: the old lattice makes its table again
-    if asked (one child each; windows copy their crop).
+    if asked (one child each; windows make their directed tables from it).
     """
 
     origin: np.ndarray  #: (2,) m, position of vertex 0 (of this window)
@@ -328,9 +329,10 @@ class Lattice:
     #: None: a window samples the rasters
     map_units: tuple[np.ndarray, np.ndarray | None] | None = field(default=None, repr=False, compare=False)
     _cache: dict = field(default_factory=dict, repr=False, compare=False)
-    #: what the map and all its windows of one B share: ``"directed"``, the whole map's live directed
-    #: kinds ``(V_map, D)`` (:meth:`directed_tables`), made once per B and cropped by every window;
-    #: :meth:`with_built_up` carries it to the next B, removing only the edges the new ground touches
+    #: what the map and all its windows of one B share: ``"live"``, the whole map's live unit edges
+    #: ``(D/2, V_map)`` (:func:`_map_directed`), made once per run and cut by every window
+    #: (:func:`_window_directed`); :meth:`with_built_up` carries it to the next B, removing only the
+    #: edges the new ground touches; ``"special"``, the map's bridge and harbour entries
     _shared: dict = field(default_factory=dict, repr=False, compare=False)
 
     @property
@@ -542,9 +544,9 @@ class Lattice:
         if np.array_equal(fine, self.built_up):
             return self
         shared = {}
-        table = self._shared.pop("directed", None)  # handed on, not copied: this lattice makes it again if asked
+        table = self._shared.pop("live", None)  # handed on, not copied: this lattice makes it again if asked
         if table is not None:
-            shared["directed"] = _without_touched(table, self, fine & ~self.built_up)
+            shared["live"] = _without_touched(table, self, fine & ~self.built_up)
         if "special" in self._shared:  # B removes land edges only
             shared["special"] = self._shared["special"]
         return replace(self, built_up=fine, _cache={}, _shared=shared)
@@ -573,7 +575,7 @@ class Lattice:
         if self.map_units is None or self.map_units[1] is not None:
             return np.flatnonzero(_IS_SPECIAL[self.directed_tables()[0]])
         if "special" not in self._shared:
-            self._shared["special"] = np.flatnonzero(_IS_SPECIAL[self._map_table()])
+            self._shared["special"] = _map_special(self)
         n_dir = len(self.directions)
         v, col = np.divmod(self._shared["special"], n_dir)
         (ny, nx), (r0, c0) = self.shape, self.offset
@@ -584,15 +586,15 @@ class Lattice:
         return (r[inside] * nx + c[inside]) * n_dir + col[inside]
 
     def _map_table(self) -> np.ndarray:
-        """The whole map's live directed kinds of this B (:func:`_map_directed`), made on first use."""
-        table = self._shared.get("directed")
+        """The whole map's live unit edges of this B (:func:`_map_directed`), made on first use."""
+        table = self._shared.get("live")
         if table is None:
-            table = self._shared["directed"] = _map_directed(self)
+            table = self._shared["live"] = _map_directed(self)
         return table
 
     def _cropped_directed(self) -> tuple[np.ndarray, LatticeWeights]:
-        """:meth:`directed_tables` cropped from the whole map's (made once per B, shared by every
-        window): the window's rows of it, without the edges whose other end lies outside.
+        """:meth:`directed_tables` cut from the whole map's live unit edges (made once per run and
+        carried from B to B, shared by every window; :func:`_window_directed`).
 
         The same tables as :func:`_directed` of the window's own unit tables: an edge with both
         ends in the window has the map's kind and B's removal (its samples lie between its ends).
@@ -600,16 +602,7 @@ class Lattice:
         again (Campo Grande: 10.3 s of 48 windows, 18 road years), though B changes once a year.
         On flat land an edge's weight is its length (:class:`LatticeWeights`, no table).
         """
-        table = self._map_table()
-        (map_ny, map_nx), (ny, nx), (r0, c0) = self.full_shape, self.shape, self.offset
-        n_dir = len(self.directions)
-        kind = table.reshape(map_ny, map_nx, n_dir)[r0:r0 + ny, c0:c0 + nx].copy()
-        for c, (dx, dy) in enumerate(self.directions.tolist()):  # the other end outside the window
-            if dx:
-                (kind[:, max(nx - dx, 0):, c] if dx > 0 else kind[:, :min(-dx, nx), c])[...] = NO_EDGE
-            if dy:
-                (kind[max(ny - dy, 0):, :, c] if dy > 0 else kind[:min(-dy, ny), :, c])[...] = NO_EDGE
-        kind = kind.reshape(ny * nx, n_dir)
+        kind = _window_directed(self._map_table(), self.full_shape, self.offset, self.shape, self.directions)
         return kind, LatticeWeights(kind, self.direction_length)
 
 
@@ -641,10 +634,9 @@ def _unit_tables(lat: Lattice) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     fine_shape = ((ny - 1) * f + 1 + 2 * pad, (nx - 1) * f + 1 + 2 * pad)
     row, col = lat.offset[0] * f - pad, lat.offset[1] * f - pad
     pb = _crop(lat.built_up, row, col, fine_shape, False)
-    pw = pf = ph = None
+    pc = ph = None
     if lat.map_units is None:
-        pw = _crop(lat.water, row, col, fine_shape, False)
-        pf = _crop(lat.forbidden, row, col, fine_shape, True)
+        pc = _crop(_codes(lat.water, lat.forbidden), row, col, fine_shape, 2)
         ph = None if lat.height is None else _crop(lat.height, row, col, fine_shape, 0.0)
     half = len(lat.directions) // 2
     n = ny * nx
@@ -666,9 +658,10 @@ def _unit_tables(lat: Lattice) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
             unit_weight[k] = lat.direction_length[k] if map_weight is None else \
                 map_weight[k].reshape(lat.full_shape)[r0:r0 + ny, c0:c0 + nx].ravel()
         else:
-            assert pw is not None and pf is not None  # cropped above when there are no map units
-            profile, slope = _profiles(lat.directions[k], pw, pf, ph, pad, (ny, nx), f, lat.spacing)
-            unit_kind[k], unit_weight[k] = _unit_edges(lat.directions[k], profile, slope, lat.spacing, opts)
+            assert pc is not None  # cropped above when there are no map units
+            profile, slope = _profiles(lat.directions[k], pc, ph, pad, (ny, nx), f, lat.spacing)
+            unit_kind[k], weight_k = _unit_edges(lat.directions[k], profile, slope, lat.spacing, opts)
+            unit_weight[k] = lat.direction_length[k] if weight_k is None else weight_k
             bridge = np.flatnonzero(unit_kind[k] == EdgeKind.BRIDGE)
             if len(bridge):
                 kept = np.zeros(len(bridge), dtype=bool) if map_v is None else \
@@ -690,49 +683,85 @@ def _touched(padded: np.ndarray, pad: int, d: np.ndarray, shape: tuple[int, int]
 
 
 def _map_directed(lat: Lattice) -> np.ndarray:
-    """The whole map's live directed kinds ``(V_map, D)`` (:meth:`Lattice.directed_tables`' layout):
-    its unit edges (:attr:`Lattice.map_units`), the land ones that traverse B removed."""
+    """The whole map's live unit edges ``(D/2, V_map)``: its unit edges (:attr:`Lattice.map_units`),
+    the land ones that traverse B removed (NO_EDGE). Every window's directed tables are cut from it
+    (:func:`_window_directed`).
+
+    Half the size of the map's directed table ``(V_map, D)`` that it replaces (each edge once, not
+    from both ends: 143 MB against 285 MB on the synthetic 10,000-street town), with no transposed
+    copy to make.
+    """
     assert lat.map_units is not None  # only a lattice made by build_lattice has the map's edges
+    return _without_touched(lat.map_units[0].copy(), lat, lat.built_up)
+
+
+def _map_special(lat: Lattice) -> np.ndarray:
+    """Sorted flat indices ``v · D + column`` into the whole map's directed tables of its bridge
+    and harbour entries, from both ends: read direction by direction from :attr:`Lattice.map_units`
+    (B removes land edges only), where a mask of the whole ``(V_map, D)`` table took 285 MB."""
+    assert lat.map_units is not None
     map_kind = lat.map_units[0]
-    f, shape, pad = lat.samples, lat.full_shape, lat.radius * lat.samples
-    pb, _ = _pad(lat.built_up, pad, False)
-    live = map_kind.copy()
-    for k in range(len(lat.directions) // 2):
-        land = live[k] == EdgeKind.LAND
-        if land.any():
-            live[k, land & _touched(pb, pad, lat.directions[k], shape, f).ravel()] = NO_EDGE
-    return _directed(live, None, lat.directions, shape)[0]
+    n_dir = len(lat.directions)
+    half = n_dir // 2
+    offset = lat.directions[:, 1] * lat.full_shape[1] + lat.directions[:, 0]
+    found = [np.zeros(0, dtype=np.int64)]
+    for k in range(half):
+        v = np.flatnonzero(_IS_SPECIAL[map_kind[k]])
+        found += [v * n_dir + k, (v + offset[k]) * n_dir + half + k]
+    return np.sort(np.concatenate(found))
+
+
+def _window_directed(live: np.ndarray, map_shape: tuple[int, int], offset: tuple[int, int],
+                     shape: tuple[int, int], directions: np.ndarray) -> np.ndarray:
+    """A window's live directed kinds ``(V, D)`` (:meth:`Lattice.directed_tables`' layout) from the
+    map's live unit edges ``(D/2, V_map)``: the edges with both ends in the window, each seen from
+    its tail (column k) and from its head (column ``k + D/2``).
+
+    Written a block of rows at a time (about 2 MB of the result), so that the 120 columns' strided
+    writes stay in the cache."""
+    (map_ny, map_nx), (r0, c0), (ny, nx) = map_shape, offset, shape
+    n_dir = len(directions)
+    half = n_dir // 2
+    units = live.reshape(half, map_ny, map_nx)
+    out = np.full((ny, nx, n_dir), NO_EDGE, dtype=np.uint8)
+    block = max(1, (1 << 21) // max(nx * n_dir, 1))
+    steps = directions[:half].tolist()  # dy ≥ 0 in the first half
+    for a in range(0, ny, block):
+        b = min(a + block, ny)
+        for k, (dx, dy) in enumerate(steps):
+            j0, j1 = max(0, -dx), min(nx, nx - dx)  # the head's column inside
+            if j1 <= j0:
+                continue
+            i1 = min(b, ny - dy)  # from the tail (i, j) to (i + dy, j + dx)
+            if i1 > a:
+                out[a:i1, j0:j1, k] = units[k, r0 + a:r0 + i1, c0 + j0:c0 + j1]
+            i0 = max(a, dy)  # at the head (i, j), from (i − dy, j − dx)
+            if b > i0:
+                out[i0:b, j0 + dx:j1 + dx, half + k] = units[k, r0 + i0 - dy:r0 + b - dy, c0 + j0:c0 + j1]
+    return out.reshape(ny * nx, n_dir)
 
 
 def _without_touched(table: np.ndarray, lat: Lattice, grown: np.ndarray) -> np.ndarray:
-    """The map's live directed kinds (:func:`_map_directed`) without the land edges that sample
-    ``grown`` (the fine points B just took in), changed in place and returned.
+    """The map's live unit edges (:func:`_map_directed`) without the land edges that sample
+    ``grown`` (fine points B took in), changed in place and returned.
 
     B only grows, so the edges it removes from one year to the next are those that sample
-    the new ground: only the vertices within ``radius`` of its bounding box are looked at,
-    where :func:`_map_directed` would sample B over the whole map again.
+    the new ground: only the vertices within ``radius`` of its bounding box are looked at.
     """
-    fi, fj = np.nonzero(grown)
+    fi, fj = np.flatnonzero(grown.any(axis=1)), np.flatnonzero(grown.any(axis=0))  # its rows and columns
     if not len(fi):
         return table
     f, radius, (map_ny, map_nx) = lat.samples, lat.radius, lat.full_shape
-    r0, r1 = max(int(fi.min()) // f - radius, 0), min(-(-int(fi.max()) // f) + radius + 1, map_ny)
-    c0, c1 = max(int(fj.min()) // f - radius, 0), min(-(-int(fj.max()) // f) + radius + 1, map_nx)
+    r0, r1 = max(int(fi[0]) // f - radius, 0), min(-(-int(fi[-1]) // f) + radius + 1, map_ny)
+    c0, c1 = max(int(fj[0]) // f - radius, 0), min(-(-int(fj[-1]) // f) + radius + 1, map_nx)
     shape = (r1 - r0, c1 - c0)
     pad = radius * f
     fine_shape = ((shape[0] - 1) * f + 1 + 2 * pad, (shape[1] - 1) * f + 1 + 2 * pad)
     pg = _crop(grown, r0 * f - pad, c0 * f - pad, fine_shape, False)
-    assert lat.map_units is not None  # the table was made from them
-    map_kind = lat.map_units[0]
-    half = len(lat.directions) // 2
-    iy, ix = np.mgrid[r0:r1, c0:c1]
-    tails = (iy * map_nx + ix).ravel()
-    offset = lat.directions[:, 1] * map_nx + lat.directions[:, 0]
-    for k in range(half):
-        hit = tails[(map_kind[k, tails] == EdgeKind.LAND)
-                    & _touched(pg, pad, lat.directions[k], shape, f).ravel()]
-        table[hit, k] = NO_EDGE
-        table[hit + offset[k], half + k] = NO_EDGE  # the same edge seen from its head
+    units = table.reshape(-1, map_ny, map_nx)
+    for k in range(len(lat.directions) // 2):
+        part = units[k, r0:r1, c0:c1]  # a view: the edges from the vertices near the new ground
+        part[(part == EdgeKind.LAND) & _touched(pg, pad, lat.directions[k], shape, f)] = NO_EDGE
     return table
 
 
@@ -813,17 +842,16 @@ def build_lattice(extent: tuple[float, float, float, float], *, water: Raster | 
     directions = lattice_directions(opts.radius)
     half = len(directions) // 2
     pad = opts.radius * f
-    pw, _ = _pad(water_f, pad, False)
-    pf, _ = _pad(forbidden_f, pad, True)
+    pc, _ = _pad(_codes(water_f, forbidden_f), pad, 2)  # beyond the map: dry, forbidden, flat
     ph = None if height_f is None else _pad(height_f, pad, 0.0)[0]
     unit_src, unit_k, bridges = [], [], []
     map_kind = np.empty((half, ny * nx), dtype=np.uint8)
     map_weight = None if ph is None else np.empty((half, ny * nx), dtype=np.float32)
     for k in range(half):
-        profile, slope = _profiles(directions[k], pw, pf, None if ph is None else ph, pad, (ny, nx), f, ell)
+        profile, slope = _profiles(directions[k], pc, ph, pad, (ny, nx), f, ell)
         kind_k, weight_k = _unit_edges(directions[k], profile, slope, ell, opts)
         map_kind[k] = kind_k
-        if map_weight is not None:
+        if map_weight is not None and weight_k is not None:
             map_weight[k] = weight_k
         src = np.flatnonzero(profile.ravel() == _LWL)  # one-step bridges (_unit_edges)
         unit_src.append(src)
@@ -872,58 +900,92 @@ def _slice(padded: np.ndarray, pad: int, oy: int, ox: int, shape: tuple[int, int
     return padded[r0:r0 + (ny - 1) * f + 1:f, c0:c0 + (nx - 1) * f + 1:f]
 
 
-def _profiles(d: np.ndarray, pw: np.ndarray, pf: np.ndarray, ph: np.ndarray | None, pad: int,
-              shape: tuple[int, int], f: int, ell: float) -> tuple[np.ndarray, np.ndarray]:
-    """Per vertex, the profile code of its unit edge along ``d`` and the edge's largest slope."""
+def _codes(water: np.ndarray, forbidden: np.ndarray) -> np.ndarray:
+    """The fine points as one uint8 raster: bit 0 water, bit 1 forbidden (what :func:`_profiles` reads)."""
+    return water.astype(np.uint8) | (forbidden.astype(np.uint8) << 1)
+
+
+def _profiles(d: np.ndarray, pc: np.ndarray, ph: np.ndarray | None, pad: int,
+              shape: tuple[int, int], f: int, ell: float) -> tuple[np.ndarray, np.ndarray | None]:
+    """Per vertex, the profile code of its unit edge along ``d`` and the edge's largest slope
+    (None without heights).
+
+    ``pc`` is :func:`_codes` of the fine rasters padded by ``pad`` points. Over every vertex
+    only whether some sample is forbidden and whether some is water is read (one or-ed slice
+    a sample); the edges with water and nothing forbidden, a few in a hundred, are then
+    marched one sample at a time to tell water, harbour and bridge apart. Counting water
+    samples and changes of medium at every vertex took two thirds of the synthetic
+    10,000-street town's 11 s :func:`build_lattice`; the profiles are the same.
+    """
     offsets = _offsets(d, f)
     m = len(offsets) - 1
-    any_forbidden = np.zeros(shape, dtype=bool)
-    n_water = np.zeros(shape, dtype=np.int16)
-    changes = np.zeros(shape, dtype=np.int16)
+    seen = np.zeros(shape, dtype=np.uint8)  # bit 0: a water sample, bit 1: a forbidden one
+    for oy, ox in offsets:
+        seen |= _slice(pc, pad, oy, ox, shape, f)
+    profile = np.full(shape, _MIXED, dtype=np.uint8)
+    profile[seen == 0] = _L
+    ny, nx = shape
+    wet = np.flatnonzero(seen.ravel() == 1)  # water and nothing forbidden
+    if len(wet):
+        iy, ix = np.divmod(wet, nx)
+        r0, c0 = pad + iy * f, pad + ix * f
+        n_water = np.zeros(len(wet), dtype=np.int16)
+        changes = np.zeros(len(wet), dtype=np.int16)
+        first_w = prev_w = pc[r0 + offsets[0][0], c0 + offsets[0][1]] == 1
+        n_water += first_w
+        for oy, ox in offsets[1:]:
+            w = pc[r0 + oy, c0 + ox] == 1
+            n_water += w
+            changes += w != prev_w
+            prev_w = w
+        code = np.full(len(wet), _MIXED, dtype=np.uint8)
+        code[n_water == m + 1] = _W
+        code[(changes == 1) & ~first_w] = _LW
+        code[(changes == 1) & first_w] = _WL
+        code[(changes == 2) & ~first_w & ~prev_w] = _LWL
+        profile.ravel()[wet] = code
+    # an edge whose far end lies outside the lattice
+    dx, dy = int(d[0]), int(d[1])
+    if dx > 0:
+        profile[:, max(nx - dx, 0):] = _MIXED
+    elif dx < 0:
+        profile[:, :min(-dx, nx)] = _MIXED
+    if dy > 0:
+        profile[max(ny - dy, 0):, :] = _MIXED
+    elif dy < 0:
+        profile[:min(-dy, ny), :] = _MIXED
+    if ph is None:
+        return profile, None
     slope = np.zeros(shape)
     step = float(np.hypot(*d)) * ell / m
-    prev_w = prev_h = first_w = None
+    prev_h = None
     for oy, ox in offsets:
-        w = _slice(pw, pad, oy, ox, shape, f)
-        any_forbidden |= _slice(pf, pad, oy, ox, shape, f)
-        n_water += w
-        if ph is not None:
-            h = _slice(ph, pad, oy, ox, shape, f)
-            if prev_h is not None:
-                np.maximum(slope, np.abs(h - prev_h) / step, out=slope)
-            prev_h = h
-        if prev_w is None:
-            first_w = w
-        else:
-            changes += w != prev_w
-        prev_w = w
-    assert first_w is not None and prev_w is not None  # offsets has at least two points
-    profile = np.full(shape, _MIXED, dtype=np.uint8)
-    ok = ~any_forbidden
-    profile[ok & (n_water == 0)] = _L
-    profile[ok & (n_water == m + 1)] = _W
-    profile[ok & (changes == 1) & ~first_w] = _LW
-    profile[ok & (changes == 1) & first_w] = _WL
-    profile[ok & (changes == 2) & ~first_w & ~prev_w] = _LWL
-    ny, nx = shape
-    iy, ix = np.mgrid[0:ny, 0:nx]
-    profile[(ix + d[0] < 0) | (ix + d[0] >= nx) | (iy + d[1] < 0) | (iy + d[1] >= ny)] = _MIXED
+        h = _slice(ph, pad, oy, ox, shape, f)
+        if prev_h is not None:
+            np.maximum(slope, np.abs(h - prev_h) / step, out=slope)
+        prev_h = h
     return profile, slope
 
 
-def _unit_edges(d: np.ndarray, profile: np.ndarray, slope: np.ndarray, ell: float,
-                opts: LatticeOptions) -> tuple[np.ndarray, np.ndarray]:
+def _unit_edges(d: np.ndarray, profile: np.ndarray, slope: np.ndarray | None, ell: float,
+                opts: LatticeOptions) -> tuple[np.ndarray, np.ndarray | None]:
     """Kind (or NO_EDGE) and weight of every vertex's unit edge along ``d``: land, water,
-    harbour (adjacent vertices only) or a one-step bridge."""
+    harbour (adjacent vertices only) or a one-step bridge. Without slopes (flat land) the
+    weight is None: every edge's is its length."""
     length = float(np.hypot(*d)) * ell
-    flat_profile, flat_slope = profile.ravel(), slope.ravel()
+    flat_profile = profile.ravel()
     kind = np.full(flat_profile.shape, NO_EDGE, dtype=np.uint8)
-    kind[(flat_profile == _L) & (flat_slope <= opts.slope_cutoff)] = EdgeKind.LAND
+    land = flat_profile == _L
+    if slope is not None:
+        land &= slope.ravel() <= opts.slope_cutoff
+    kind[land] = EdgeKind.LAND
     kind[flat_profile == _W] = EdgeKind.WATER
     if d[0] * d[0] + d[1] * d[1] <= 2:
         kind[(flat_profile == _LW) | (flat_profile == _WL)] = EdgeKind.HARBOUR
     kind[flat_profile == _LWL] = EdgeKind.BRIDGE
-    weight = np.where(kind == EdgeKind.LAND, length * np.maximum(1.0, opts.slope_weight * flat_slope), length)
+    if slope is None:
+        return kind, None
+    weight = np.where(kind == EdgeKind.LAND, length * np.maximum(1.0, opts.slope_weight * slope.ravel()), length)
     return kind, weight.astype(np.float32)
 
 
@@ -969,20 +1031,43 @@ def _fine_points(origin: np.ndarray, step: float, shape: tuple[int, int]) -> tup
 
 def _resample_any(raster: Raster | None, origin: np.ndarray, step: float, shape: tuple[int, int]) -> np.ndarray:
     """A boolean raster on the fine points: the cell under each point, or-ed with every
-    true input cell whose centre is nearest to that point (no thin river is lost)."""
+    true input cell whose centre is nearest to that point (no thin river is lost).
+
+    Both are separable: a fine point's cell row depends on its y alone and its column on its
+    x alone, and so does the fine point nearest to a cell's centre. So the first is one
+    ``values[rows][:, cols]`` and the second the input's rows or-ed together by the fine row
+    their centres fall on, then its columns by fine column: no array of points or of true
+    cells (the synthetic 10,000-street town's 5 m raster of presumed frontage has 9.5 million
+    true cells: their indices and centres took 0.6 GB and 1.8 s; the same points, the same bools).
+    """
     out = np.zeros(shape, dtype=bool)
     if raster is None:
         return out
-    xs, ys = _fine_points(origin, step, shape)
-    row, col, inside = raster.cell_index(xs, ys)
-    out |= np.asarray(raster.values, dtype=bool)[row, col] & inside
-    r, c = np.nonzero(np.asarray(raster.values, dtype=bool))
-    cx = raster.origin[0] + (c + 0.5) * raster.cell
-    cy = raster.origin[1] + (r + 0.5) * raster.cell
-    fj = np.rint((cx - origin[0]) / step).astype(np.int64)
-    fi = np.rint((cy - origin[1]) / step).astype(np.int64)
-    ok = (fi >= 0) & (fi < shape[0]) & (fj >= 0) & (fj < shape[1])
-    out[fi[ok], fj[ok]] = True
+    values = np.asarray(raster.values, dtype=bool)
+    n_rows, n_cols = values.shape
+    # the cell under each fine point: Raster.cell_index's arithmetic on the points' own x and y
+    xs = origin[0] + np.arange(shape[1]) * step
+    ys = origin[1] + np.arange(shape[0]) * step
+    col = np.floor((xs - raster.origin[0]) / raster.cell).astype(np.int64)
+    row = np.floor((ys - raster.origin[1]) / raster.cell).astype(np.int64)
+    col_in, row_in = (col >= 0) & (col < n_cols), (row >= 0) & (row < n_rows)
+    if col_in.any() and row_in.any():
+        out[np.ix_(row_in, col_in)] = values[np.ix_(row[row_in], col[col_in])]
+    if not values.any():
+        return out
+    # the fine point nearest to each cell's centre
+    fj = np.rint((raster.origin[0] + (np.arange(n_cols) + 0.5) * raster.cell - origin[0]) / step).astype(np.int64)
+    fi = np.rint((raster.origin[1] + (np.arange(n_rows) + 0.5) * raster.cell - origin[1]) / step).astype(np.int64)
+    r_ok = np.flatnonzero((fi >= 0) & (fi < shape[0]))
+    c_ok = np.flatnonzero((fj >= 0) & (fj < shape[1]))
+    if not len(r_ok) or not len(c_ok):
+        return out
+    r_first = r_ok[np.flatnonzero(np.diff(fi[r_ok], prepend=-1))]  # fi is non-decreasing: runs of one fine row
+    c_first = c_ok[np.flatnonzero(np.diff(fj[c_ok], prepend=-1))]
+    block = values[r_ok[0]:r_ok[-1] + 1, c_ok[0]:c_ok[-1] + 1]
+    block = np.logical_or.reduceat(block, r_first - r_ok[0], axis=0)
+    block = np.logical_or.reduceat(block, c_first - c_ok[0], axis=1)
+    out[np.ix_(fi[r_first], fj[c_first])] |= block
     return out
 
 
@@ -998,12 +1083,23 @@ def _resample_linear(raster: Raster | None, origin: np.ndarray, step: float,
     return map_coordinates(np.asarray(raster.values, dtype=float), [rows, cols], order=1, mode="nearest")
 
 
+#: fine points a side of the tiles :func:`_rasterise` classifies at once (a tile inside B or outside it
+#: is not tested point by point): the synthetic 10,000-street town's first B tested 9 million points
+_RASTER_TILE = 16
+
+
 def _rasterise(geom: shapely.Geometry, origin: np.ndarray, step: float, shape: tuple[int, int],
                known: np.ndarray | None = None, within: np.ndarray | None = None) -> np.ndarray:
     """Fine points covered by ``geom`` (only the points inside its bounding box are tested),
     or-ed with ``known``, whose true points are not tested again (B only grows: each year
     tests only the ground it did not cover yet); with ``within`` (``(n, 4)`` bounds), only
-    the points inside one of those boxes are."""
+    the points inside one of those boxes are.
+
+    The points are taken in tiles (:data:`_RASTER_TILE`): a tile whose closed box ``geom``
+    contains is covered, one whose box it does not meet is not, and only the points of the
+    tiles across its boundary are tested one by one. The synthetic 10,000-street town's first
+    B: 3.3 → 1.2 s CPU, peak +344 → +103 MB (its 9 million points and their coordinates); the
+    same points."""
     out = np.zeros(shape, dtype=bool) if known is None else known.copy()
     gx0, gy0, gx1, gy1 = geom.bounds
     j0, j1 = max(int(np.floor((gx0 - origin[0]) / step)), 0), min(int(np.ceil((gx1 - origin[0]) / step)) + 1, shape[1])
@@ -1023,8 +1119,29 @@ def _rasterise(geom: shapely.Geometry, origin: np.ndarray, step: float, shape: t
                               np.maximum(lo_j, 0).tolist(), np.maximum(hi_j, 0).tolist()):
             near[a:b, c:d] = True
         todo &= near
-    ii, jj = np.nonzero(todo)
     shapely.prepare(geom)
-    out[i0 + ii, j0 + jj] = shapely.intersects_xy(geom, origin[0] + (j0 + jj) * step, origin[1] + (i0 + ii) * step)
+    # tiles of points: one wholly inside geom (its closed box is) takes every point, one wholly outside
+    # none; only the points of tiles across geom's boundary are tested one by one
+    h, w = todo.shape
+    t = _RASTER_TILE
+    th, tw = -(-h // t), -(-w // t)
+    busy = np.pad(todo, ((0, th * t - h), (0, tw * t - w))).reshape(th, t, tw, t).any(axis=(1, 3))
+    ti, tj = np.nonzero(busy)
+    a_i, a_j = ti * t, tj * t
+    b_i, b_j = np.minimum(a_i + t, h) - 1, np.minimum(a_j + t, w) - 1  # the tiles' last points
+    state = np.full((th, tw), 2, dtype=np.uint8)  # 0 outside, 1 inside, 2 tested point by point
+    solid = (b_i > a_i) & (b_j > a_j)  # a box of one row or column is no polygon
+    boxes = shapely.box(origin[0] + (j0 + a_j[solid]) * step, origin[1] + (i0 + a_i[solid]) * step,
+                        origin[0] + (j0 + b_j[solid]) * step, origin[1] + (i0 + b_i[solid]) * step)
+    try:
+        inside, meets = shapely.contains(geom, boxes), shapely.intersects(geom, boxes)
+    except shapely.errors.GEOSException:  # an invalid B a box test refuses: every point tested, as before
+        inside, meets = np.zeros(len(boxes), dtype=bool), np.ones(len(boxes), dtype=bool)
+    state[ti[solid], tj[solid]] = np.where(inside, 1, np.where(meets, 2, 0))
+    state = np.repeat(np.repeat(state, t, axis=0), t, axis=1)[:h, :w]
+    part = out[i0:i1, j0:j1]  # a view
+    part[todo & (state == 1)] = True
+    ii, jj = np.nonzero(todo & (state == 2))
+    part[ii, jj] = shapely.intersects_xy(geom, origin[0] + (j0 + jj) * step, origin[1] + (i0 + ii) * step)
     return out
 
