@@ -95,6 +95,9 @@ class BuiltUpArea:
     #: the parts B took in since ``previous`` (the new built-up blocks and the new streets'
     #: neighbourhoods): B grew only inside them. None: B is new (no ``previous``)
     added: np.ndarray | None = field(default=None, repr=False, compare=False)
+    #: the segments B was made with, one key a segment (:func:`_segment_keys`): B holds each of them
+    #: (its neighbourhood was joined, or it lay in B already), so next year's need not be tested
+    segments: frozenset[bytes] = field(default_factory=frozenset, repr=False, compare=False)
 
 
 def built_up_area(blocks: Sequence[shapely.Geometry], segments: SegmentTable, *,
@@ -144,13 +147,20 @@ def built_up_area(blocks: Sequence[shapely.Geometry], segments: SegmentTable, *,
     added = list(polys[built & ~was_built])
     built_blocks = _built_blocks(polys, built, was_built, keys, known, previous)
     grown: list[shapely.Geometry] = []
+    seg_keys = _segment_keys(segments)
     if len(segments.uv):
         lines = segments.lines()
         if previous is not None:  # B never shrinks: only segments it does not hold yet are buffered
-            shapely.prepare(previous.area)
-            a, b = segments.a, segments.b
-            held = (shapely.contains_xy(previous.area, *a.T) & shapely.contains_xy(previous.area, *b.T)
-                    & shapely.contains_xy(previous.area, *(0.5 * (a + b)).T))
+            # a segment last year's B was made with lies in it (its neighbourhood was joined, or it was
+            # held then, and B only grew): only the others are tested (three points a segment in a
+            # polygon of the whole town was a fifth of B's year on Campo Grande)
+            held = np.array([k in previous.segments for k in seg_keys], dtype=bool)
+            test = np.flatnonzero(~held)
+            if len(test):
+                shapely.prepare(previous.area)
+                a, b = segments.a[test], segments.b[test]
+                held[test] = (shapely.contains_xy(previous.area, *a.T) & shapely.contains_xy(previous.area, *b.T)
+                              & shapely.contains_xy(previous.area, *(0.5 * (a + b)).T))
             lines = lines[~held]
         if len(lines):
             # each segment buffered, then one cascaded union: 5× faster than buffering the
@@ -165,7 +175,15 @@ def built_up_area(blocks: Sequence[shapely.Geometry], segments: SegmentTable, *,
         # neighbourhood again was 0.2 s a road year on Campo Grande; the same ground)
         area = shapely.union(previous.area, shapely.union_all(added)) if added else previous.area
     return BuiltUpArea(area=area, blocks=built_blocks, verdicts=verdicts, basis=(water, opts),
-                       added=None if previous is None else np.array(added, dtype=object).reshape(-1))
+                       added=None if previous is None else np.array(added, dtype=object).reshape(-1),
+                       segments=frozenset(seg_keys))
+
+
+def _segment_keys(segments: SegmentTable) -> list[bytes]:
+    """One key per segment: the bytes of its two ends' coordinates, in the table's order (a segment
+    split or moved is another segment)."""
+    ends = np.ascontiguousarray(np.concatenate([segments.a, segments.b], axis=1))
+    return [bytes(k) for k in ends.view(np.dtype((np.void, ends.dtype.itemsize * 4))).ravel().tolist()]
 
 
 def _built_blocks(polys: np.ndarray, built: np.ndarray, was_built: np.ndarray, keys: np.ndarray,

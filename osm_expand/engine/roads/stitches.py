@@ -99,12 +99,20 @@ def nearest_pairs(from_xy: np.ndarray, to_xy: np.ndarray, from_id: np.ndarray, t
     keys = to_id if keys is None else np.asarray(keys)
     tree = cKDTree(to_xy)
     kk = min(2 * k, n)
-    while True:
-        dist, hit = tree.query(from_xy, k=kk, distance_upper_bound=radius)
-        dist, hit = np.asarray(dist).reshape(len(from_xy), kk), np.asarray(hit).reshape(len(from_xy), kk)
-        if kk == n or not (np.isfinite(dist[:, k - 1]) & (dist[:, kk - 1] == dist[:, k - 1])).any():
-            break
-        kk = min(2 * kk, n)  # a tie at the k-th nearest may go on past the candidates asked for
+    dist, hit = tree.query(from_xy, k=kk, distance_upper_bound=radius)
+    dist, hit = np.asarray(dist).reshape(len(from_xy), kk), np.asarray(hit).reshape(len(from_xy), kk)
+    tied = np.flatnonzero(np.isfinite(dist[:, k - 1]) & (dist[:, kk - 1] == dist[:, k - 1]))
+    while kk < n and len(tied):
+        # a tie at the k-th nearest may go on past the candidates asked for: only those points are
+        # asked again for more (a point without one has every candidate as near as its k-th already)
+        more = min(2 * kk, n)
+        d, i = tree.query(from_xy[tied], k=more, distance_upper_bound=radius)
+        d, i = np.asarray(d).reshape(len(tied), more), np.asarray(i).reshape(len(tied), more)
+        dist = np.concatenate([dist, np.full((len(dist), more - kk), np.inf)], axis=1)
+        hit = np.concatenate([hit, np.full((len(hit), more - kk), n, dtype=hit.dtype)], axis=1)
+        dist[tied], hit[tied] = d, i
+        kk = more
+        tied = tied[np.isfinite(d[:, k - 1]) & (d[:, kk - 1] == d[:, k - 1])]
     found = hit < n
     row = np.broadcast_to(np.arange(len(from_xy))[:, None], hit.shape)[found]
     cand = hit[found]
