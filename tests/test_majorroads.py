@@ -1388,3 +1388,50 @@ def test_b_tests_only_the_segments_last_years_b_was_not_made_with():
     assert 0 < new < len(segs2.uv) and tested == [new] * 3
     fresh = built_up_area(blocks_of(segs2), segs2, previous=first.__class__(first.area, first.blocks))
     assert shapely.equals_exact(second.area, fresh.area, 0.0)
+
+
+@settings(max_examples=10, deadline=None)
+@given(st.integers(0, 2**32 - 1))
+def test_stitch_tests_against_the_built_up_blocks_are_carried_where_no_block_changed(seed):
+    """Issue 22: a stitch clear of the streets last year and now, away from every block that became
+    or stopped being built-up since (``BuiltUpArea.changed``), keeps its verdict on the built-up
+    blocks: only the others are made lines and tested again (every clear stitch was, a quarter of
+    a year's stitches on Campo Grande). With a street gone (two blocks become one) and new ones,
+    the shell and the windows' stitches equal those checked afresh."""
+    import osm_expand.engine.roads.stitches as stitches_module
+    from osm_expand.engine.roads.path_graph import street_part
+
+    rng = np.random.default_rng(seed)
+    extent = (0, 0, 1200, 1200)
+    n = int(rng.integers(3, 6))
+    lines = grid_lines(300, 300, n, 120.0)
+    lat = build_lattice(extent, water=river(extent, 1000, 1060), options=LatticeOptions(radius=2))
+    segs = SegmentTable.from_lines(lines, major=[False] * len(lines), width=[6.0] * len(lines))
+    built = built_up_area(blocks_of(segs), segs)
+    gone = int(rng.choice([k for k in range(len(lines)) if 0 < k // 2 < n]))  # two blocks become one
+    later = [line for k, line in enumerate(lines) if k != gone]
+    for _ in range(int(rng.integers(1, 4))):
+        a = rng.uniform(150, 1000, 2)
+        later.append(np.stack([a, a + rng.uniform(-250, 250, 2)]))
+    segs2 = SegmentTable.from_lines(later, major=[False] * len(later), width=[6.0] * len(later))
+    built2 = built_up_area(blocks_of(segs2), segs2, previous=built)
+    assert built2.changed is not None and built2.changed[0] is built.blocks and len(built2.changed[1])
+    lat1, lat2 = lat.with_built_up(built.area), lat.with_built_up(built.area).with_built_up(built2.area, built2.added)
+    first = street_part(lat1, segs, built)
+    tested: list[int] = []
+    intersects = shapely.intersects
+    with pytest.MonkeyPatch.context() as monkey:
+        monkey.setattr(stitches_module.shapely, "intersects",
+                       lambda a, b: tested.append(len(np.atleast_1d(b))) or intersects(a, b))
+        carried = street_part(lat2, segs2, built2, previous=first.verdicts)
+        fresh = street_part(lat2, segs2, built2)
+    assert sum(tested[:len(tested) // 2]) < sum(tested[len(tested) // 2:])  # fewer tested than afresh
+    for x, y in zip(fresh.shell, carried.shell):
+        assert np.array_equal(x, y)
+    box = tuple(float(v) for v in (*rng.uniform(0, 250, 2), *rng.uniform(950, 1200, 2)))
+    last = implicit_graph(lat1, segs, built)
+    last.window(box)
+    new = implicit_graph(lat2, segs2, built2).window(box).graph
+    old = implicit_graph(lat2, segs2, built2, previous_lattice=last.lattice_verdicts()).window(box).graph
+    for name in ("src", "dst", "kind", "weight"):
+        assert np.array_equal(getattr(new, name), getattr(old, name))

@@ -98,6 +98,10 @@ class BuiltUpArea:
     #: the segments B was made with, one key a segment (:func:`_segment_keys`): B holds each of them
     #: (its neighbourhood was joined, or it lay in B already), so next year's need not be tested
     segments: frozenset[bytes] = field(default_factory=frozenset, repr=False, compare=False)
+    #: ``(since, boxes)``: ``blocks`` is the built-up blocks ``since`` (``previous.blocks``, the very
+    #: object) but inside ``boxes`` ``(C, 4)`` (xmin, ymin, xmax, ymax) of the blocks that became or
+    #: stopped being built-up; None: made afresh (what a stitch's test against them may carry)
+    changed: tuple | None = field(default=None, repr=False, compare=False)
 
 
 def built_up_area(blocks: Sequence[shapely.Geometry], segments: SegmentTable, *,
@@ -145,7 +149,7 @@ def built_up_area(blocks: Sequence[shapely.Geometry], segments: SegmentTable, *,
     # B grows by the built-up blocks it did not hold as such last year, and the new neighbourhoods
     was_built = np.array([known.get(k, False) for k in keys.tolist()], dtype=bool)
     added = list(polys[built & ~was_built])
-    built_blocks = _built_blocks(polys, built, was_built, keys, known, previous)
+    built_blocks, changed = _built_blocks(polys, built, was_built, keys, known, previous)
     grown: list[shapely.Geometry] = []
     seg_keys = _segment_keys(segments)
     if len(segments.uv):
@@ -176,7 +180,7 @@ def built_up_area(blocks: Sequence[shapely.Geometry], segments: SegmentTable, *,
         area = shapely.union(previous.area, shapely.union_all(added)) if added else previous.area
     return BuiltUpArea(area=area, blocks=built_blocks, verdicts=verdicts, basis=(water, opts),
                        added=None if previous is None else np.array(added, dtype=object).reshape(-1),
-                       segments=frozenset(seg_keys))
+                       segments=frozenset(seg_keys), changed=changed)
 
 
 def _segment_keys(segments: SegmentTable) -> list[bytes]:
@@ -187,10 +191,10 @@ def _segment_keys(segments: SegmentTable) -> list[bytes]:
 
 
 def _built_blocks(polys: np.ndarray, built: np.ndarray, was_built: np.ndarray, keys: np.ndarray,
-                  known: dict[bytes, bool], previous: BuiltUpArea | None) -> shapely.Geometry:
+                  known: dict[bytes, bool], previous: BuiltUpArea | None) -> tuple[shapely.Geometry, tuple | None]:
     """The union of the built-up blocks ``polys[built]``: last year's union with the blocks that are
     no longer built-up taken out and the new ones joined, when last year's verdicts hold
-    (``known`` not empty); else made afresh.
+    (``known`` not empty); else made afresh. With it :attr:`BuiltUpArea.changed` (None: afresh).
 
     A year changes a few hundred of Campo Grande's 5,500 blocks: the union of them all
     again was 0.18 s a road year, the two overlays with last year's are a tenth of that.
@@ -198,16 +202,16 @@ def _built_blocks(polys: np.ndarray, built: np.ndarray, was_built: np.ndarray, k
     standing; the result covers the same ground as the union made afresh.
     """
     if previous is None or not known:
-        return shapely.union_all(polys[built]) if built.any() else shapely.Polygon()
+        return (shapely.union_all(polys[built]) if built.any() else shapely.Polygon()), None
     now = set(keys[built].tolist())
-    gone = [k for k, v in known.items() if v and k not in now]
+    gone = shapely.from_wkb([k for k, v in known.items() if v and k not in now])
     blocks = previous.blocks
-    if gone:  # the keys are the blocks' normalised WKB: the same ground as the polygons were
-        blocks = shapely.difference(blocks, shapely.union_all(shapely.from_wkb(gone)))
+    if len(gone):  # the keys are the blocks' normalised WKB: the same ground as the polygons were
+        blocks = shapely.difference(blocks, shapely.union_all(gone))
     new = polys[built & ~was_built]
     if len(new):
         blocks = shapely.union(blocks, shapely.union_all(new))
-    return blocks
+    return blocks, (previous.blocks, shapely.bounds(np.concatenate([gone, new])).reshape(-1, 4))
 
 
 def _same_basis(a: tuple, b: tuple) -> bool:

@@ -335,6 +335,9 @@ class StreetPart:
     inner: shapely.Geometry | None  #: the built-up blocks shrunk by 0.5 m (None: none)
     #: this year's street verdicts on the shell stitches, for next year's (:func:`street_part`)
     verdicts: ShellVerdicts | None = None
+    #: the blocks that changed since the last B (:attr:`BuiltUpArea.changed`): a stitch away from
+    #: them keeps its verdict on the built-up blocks
+    changed: tuple | None = None
 
 
 def street_part(lattice: Lattice, segments: SegmentTable, built: BuiltUpArea | None = None, *,
@@ -359,6 +362,7 @@ def street_part(lattice: Lattice, segments: SegmentTable, built: BuiltUpArea | N
     costs = costs or EdgeCosts()
     opts = options or GraphOptions()
     blocks = built.blocks if built is not None else None
+    changed = built.changed if built is not None else None
     extendible = segment_sides(segments, blocks) <= 1
     split_xy, split_parent, pieces = _split_segments(segments, extendible, opts.split_spacing)
     xy = np.concatenate([segments.xy, split_xy])
@@ -385,11 +389,12 @@ def street_part(lattice: Lattice, segments: SegmentTable, built: BuiltUpArea | N
         key = np.unique(shell[:, 0] * np.int64(len(xy)) + shell[:, 1])
         shell = np.stack([key // len(xy), key % len(xy)], axis=1)
         shell = shell[~_duplicates_piece(shell, pieces, 0, n_nodes, len(xy))]
-        ok, verdicts = carried_ok(lattice, segments, xy, shell, split_parent, 0, opts, tree, inner, previous)
+        ok, verdicts = carried_ok(lattice, segments, xy, shell, split_parent, 0, opts, tree, inner, previous,
+                                  blocks=blocks, changed=changed)
         shell = shell[ok]
     part = StreetPart(segments=segments, blocks=blocks, extendible=extendible, split_xy=split_xy,
                       split_parent=split_parent, pieces=pieces, xy=xy, points=points, edges=edges,
-                      shell=(), tree=tree, inner=inner, verdicts=verdicts)
+                      shell=(), tree=tree, inner=inner, verdicts=verdicts, changed=changed)
     return replace(part, shell=_stitch_edges(lattice, shell, xy))
 
 
@@ -511,7 +516,8 @@ def _lattice_stitches(lattice: Lattice, segments: SegmentTable, streets: StreetP
             return pairs[stitch_ok(lattice, segments, xy, pairs, streets.split_parent, n_lat, opts, streets.tree,
                                     streets.inner)]
         ok, verdicts = carried_ok(lattice, segments, xy, pairs, streets.split_parent, n_lat, opts, streets.tree,
-                                   streets.inner, cache.get("previous"), memo=cache)
+                                   streets.inner, cache.get("previous"), memo=cache, blocks=streets.blocks,
+                                   changed=streets.changed)
         cache.setdefault("verdicts", []).append(verdicts)
         return pairs[ok]
 

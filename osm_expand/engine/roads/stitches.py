@@ -72,6 +72,10 @@ class ShellVerdicts:
     #: the rasters the candidates were found dry on (water, forbidden, stitch-only; the very arrays):
     #: on the same ones, a candidate held here is dry again without sampling them
     ground: tuple = ()
+    #: (M,) bool, the candidate enters no built-up block (read only where ``clear``); None: not kept
+    outside: np.ndarray | None = None
+    #: the built-up blocks ``outside`` was tested against (:attr:`BuiltUpArea.blocks`, the very object)
+    blocks: object = None
 
 def lattice_verdicts(stitches: dict) -> ShellVerdicts | None:
     """The street verdicts of the stitches to the lattice in an :attr:`ImplicitGraph.stitches`
@@ -79,8 +83,10 @@ def lattice_verdicts(stitches: dict) -> ShellVerdicts | None:
     done = stitches.get("verdicts", [])
     if not done:
         return None
+    outside = None if any(v.outside is None for v in done) else np.concatenate([v.outside for v in done])
     return ShellVerdicts(segments=done[0].segments, pairs=np.concatenate([v.pairs for v in done]),
-                         clear=np.concatenate([v.clear for v in done]), ground=done[0].ground)
+                         clear=np.concatenate([v.clear for v in done]), ground=done[0].ground,
+                         outside=outside, blocks=done[0].blocks)
 
 def nearest_pairs(from_xy: np.ndarray, to_xy: np.ndarray, from_id: np.ndarray, to_id: np.ndarray, k: int,
                    radius: float, keys: np.ndarray | None = None) -> np.ndarray:
@@ -217,7 +223,8 @@ def _keys(values: np.ndarray) -> np.ndarray:
 
 def carried_ok(lattice: Lattice, segments: SegmentTable, xy: np.ndarray, pairs: np.ndarray, split_parent: np.ndarray,
                 n_lat: int, opts: GraphOptions, tree: shapely.STRtree, inner: shapely.Geometry | None,
-                previous: ShellVerdicts | None, memo: dict | None = None) -> tuple[np.ndarray, ShellVerdicts]:
+                previous: ShellVerdicts | None, memo: dict | None = None, *, blocks: object = None,
+                changed: tuple | None = None) -> tuple[np.ndarray, ShellVerdicts]:
     """:func:`stitch_ok`, the street tests carried over from ``previous`` where nothing near a
     stitch changed (see :class:`ShellVerdicts`), and this call's street verdicts.
 
@@ -227,6 +234,13 @@ def carried_ok(lattice: Lattice, segments: SegmentTable, xy: np.ndarray, pairs: 
     ``memo`` (a dict kept for all the calls of a year with the same ``segments`` and
     ``previous``, e.g. :attr:`ImplicitGraph.stitches`) keeps what every call would work out
     again: the segments' keys, the last verdicts sorted, the segments added or removed.
+
+    The test against the built-up blocks (``inner``, made from ``blocks``) is carried too: a
+    stitch clear of the streets then and now, whose box comes near none of the blocks that
+    became or stopped being built-up since (``changed``, :attr:`BuiltUpArea.changed`: the blocks
+    the last verdicts were tested against and the boxes of those blocks), keeps its verdict
+    (making every clear stitch a line to test it again was a quarter of a year's stitches on
+    Campo Grande).
     """
     carry = _carry(segments, previous, {} if memo is None else memo)
     n_nodes = len(segments.xy)
@@ -268,10 +282,37 @@ def carried_ok(lattice: Lattice, segments: SegmentTable, xy: np.ndarray, pairs: 
         todo = live[again]
     clear[todo] = _street_clear(segments, xy, pairs[todo], split_parent, n_lat, opts, tree)
     ok = dry & clear
+    outside = np.ones(len(pairs), dtype=bool)
     if inner is not None:
         live = np.flatnonzero(ok)
-        ok[live] = ~shapely.intersects(inner, _core(xy, pairs[live], opts))
-    return ok, ShellVerdicts(segments=carry.segments, pairs=pair_keys, clear=clear[dry], ground=_ground(lattice))
+        test = live
+        boxes = _changed_boxes(previous, blocks, changed)
+        if boxes is not None and keys is not None and len(keys) and carry.outside is not None and len(live):
+            at = every_at[live]
+            known = (keys[at] == every_key[live]) & last_clear[at]  # tested then (clear then), clear now
+            k = live[known]
+            near = near_boxes(np.stack([xy[pairs[k, 0]], xy[pairs[k, 1]]], axis=1), boxes, 1.0)
+            reuse = np.flatnonzero(known)[~near]
+            outside[live[reuse]] = carry.outside[at[reuse]]
+            again = np.ones(len(live), dtype=bool)
+            again[reuse] = False
+            test = live[again]
+        outside[test] = ~shapely.intersects(inner, _core(xy, pairs[test], opts))
+        ok &= outside
+    return ok, ShellVerdicts(segments=carry.segments, pairs=pair_keys, clear=clear[dry], ground=_ground(lattice),
+                             outside=outside[dry], blocks=blocks if inner is not None else None)
+
+
+def _changed_boxes(previous: ShellVerdicts | None, blocks: object, changed: tuple | None) -> np.ndarray | None:
+    """Boxes ``(C, 4)`` outside which the built-up blocks are as ``previous`` tested its stitches
+    against (none: the very same blocks); None when that is not known."""
+    if previous is None or previous.blocks is None or blocks is None:
+        return None
+    if previous.blocks is blocks:
+        return np.zeros((0, 4))
+    if changed is not None and changed[0] is previous.blocks:
+        return np.asarray(changed[1], dtype=float).reshape(-1, 4)
+    return None
 
 
 def _ground(lattice: Lattice) -> tuple[np.ndarray | None, ...]:
@@ -329,6 +370,7 @@ class _Carry:
     clear: np.ndarray | None  #: their verdicts in that order
     changed: shapely.STRtree | None  #: the segments added or removed since (None: none)
     boxes: np.ndarray | None = None  #: (C, 4) their bounding boxes (xmin, ymin, xmax, ymax)
+    outside: np.ndarray | None = None  #: the last verdicts' ``outside`` in ``keys``' order
 
 
 def _carry(segments: SegmentTable, previous: ShellVerdicts | None, memo: dict) -> _Carry:
@@ -352,7 +394,8 @@ def _carry(segments: SegmentTable, previous: ShellVerdicts | None, memo: dict) -
         ends = np.concatenate([np.stack([a, b], axis=1), _segment_ends(previous.segments)])[changed]
         carry = _Carry(segments=seg_keys, keys=previous.pairs[order], clear=previous.clear[order],
                        changed=shapely.STRtree(shapely.linestrings(ends)) if len(ends) else None,
-                       boxes=np.concatenate([ends.min(axis=1), ends.max(axis=1)], axis=1))
+                       boxes=np.concatenate([ends.min(axis=1), ends.max(axis=1)], axis=1),
+                       outside=None if previous.outside is None else previous.outside[order])
     memo["carry"] = (previous, segments, carry)
     return carry
 
