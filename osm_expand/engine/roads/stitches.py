@@ -15,6 +15,7 @@ result is the one a fresh check gives.
 """
 from __future__ import annotations
 
+from collections import Counter
 from dataclasses import dataclass
 
 import numpy as np
@@ -251,7 +252,10 @@ def carried_ok(lattice: Lattice, segments: SegmentTable, xy: np.ndarray, pairs: 
     dry = np.zeros(len(pairs), dtype=bool)
     every_at = np.zeros(len(pairs), dtype=np.int64)
     if keys is not None and len(keys):
-        every_at = np.minimum(np.searchsorted(keys, every_key), len(keys) - 1)
+        # found by hash (a void key's sort and search compare bytes one call at a time), then
+        # compared whole: a hash shared by two keys at worst sends a stitch to be checked again
+        assert carry.hashes is not None  # made with the keys
+        every_at = np.minimum(np.searchsorted(carry.hashes, _hash(every_key)), len(keys) - 1)
         if previous is not None and _same_ground(previous.ground, lattice):
             # a stitch the last verdicts hold was dry then, on the same ground: it is dry now (its samples
             # along the fine rasters were a third of a year's shell check on Campo Grande)
@@ -366,11 +370,12 @@ class _Carry:
     """What :func:`carried_ok` reads from the last verdicts, worked out once for a year's calls."""
 
     segments: np.ndarray  #: (S,) this year's segment keys
-    keys: np.ndarray | None  #: the last verdicts' pair keys, sorted (None: no last verdicts)
+    keys: np.ndarray | None  #: the last verdicts' pair keys, in the order of their hashes (None: no last verdicts)
     clear: np.ndarray | None  #: their verdicts in that order
     changed: shapely.STRtree | None  #: the segments added or removed since (None: none)
     boxes: np.ndarray | None = None  #: (C, 4) their bounding boxes (xmin, ymin, xmax, ymax)
     outside: np.ndarray | None = None  #: the last verdicts' ``outside`` in ``keys``' order
+    hashes: np.ndarray | None = None  #: the keys' :func:`_hash`, sorted
 
 
 def _carry(segments: SegmentTable, previous: ShellVerdicts | None, memo: dict) -> _Carry:
@@ -383,21 +388,33 @@ def _carry(segments: SegmentTable, previous: ShellVerdicts | None, memo: dict) -
     seg_keys = _keys(np.concatenate([np.where(first[:, None], a, b), np.where(first[:, None], b, a)], axis=1))
     carry = _Carry(segments=seg_keys, keys=None, clear=None, changed=None)
     if previous is not None and len(previous.pairs):
-        order = np.argsort(previous.pairs)
-        # segments added or removed (as many times as they were)
-        old_u, old_n = np.unique(previous.segments, return_counts=True)
-        new_u, new_n = np.unique(seg_keys, return_counts=True)
-        both = np.intersect1d(old_u, new_u)
-        same = both[old_n[np.searchsorted(old_u, both)] == new_n[np.searchsorted(new_u, both)]]
-        changed = np.concatenate([np.flatnonzero(~np.isin(seg_keys, same)),
-                                  len(seg_keys) + np.flatnonzero(~np.isin(previous.segments, same))])
+        hashes = _hash(previous.pairs)
+        order = np.argsort(hashes, kind="stable")
+        # segments added or removed (as many times as they were); counted in sets of bytes, where
+        # np.unique and np.isin of void keys were a tenth of a year's stitches on Campo Grande
+        old_list, new_list = previous.segments.tolist(), seg_keys.tolist()
+        old_n, new_n = Counter(old_list), Counter(new_list)
+        same = {k for k, n in new_n.items() if old_n.get(k) == n}
+        changed = np.concatenate([np.flatnonzero([k not in same for k in new_list]).astype(np.int64),
+                                  len(seg_keys) + np.flatnonzero([k not in same for k in old_list]).astype(np.int64)])
         ends = np.concatenate([np.stack([a, b], axis=1), _segment_ends(previous.segments)])[changed]
         carry = _Carry(segments=seg_keys, keys=previous.pairs[order], clear=previous.clear[order],
                        changed=shapely.STRtree(shapely.linestrings(ends)) if len(ends) else None,
                        boxes=np.concatenate([ends.min(axis=1), ends.max(axis=1)], axis=1),
-                       outside=None if previous.outside is None else previous.outside[order])
+                       outside=None if previous.outside is None else previous.outside[order],
+                       hashes=hashes[order])
     memo["carry"] = (previous, segments, carry)
     return carry
+
+
+def _hash(keys: np.ndarray) -> np.ndarray:
+    """A uint64 hash of each void key (whole 8-byte words of it, mixed one after another)."""
+    words = np.frombuffer(np.ascontiguousarray(keys).tobytes(), dtype=np.uint64).reshape(len(keys), -1)
+    out = np.zeros(len(keys), dtype=np.uint64)
+    for column in words.T:
+        out = (out ^ column) * np.uint64(0x9E3779B97F4A7C15)  # wraps modulo 2⁶⁴
+        out ^= out >> np.uint64(29)
+    return out
 
 
 def _segment_ends(keys: np.ndarray) -> np.ndarray:
