@@ -122,11 +122,20 @@ def nearest_pairs(from_xy: np.ndarray, to_xy: np.ndarray, from_id: np.ndarray, t
         tied = tied[np.isfinite(d[:, k - 1]) & (d[:, kk - 1] == d[:, k - 1])]
     found = hit < n
     row = np.broadcast_to(np.arange(len(from_xy))[:, None], hit.shape)[found]
-    cand = hit[found]
-    order = np.lexsort((keys[cand], dist[found], row))
-    row, cand = row[order], cand[order]
-    start = np.searchsorted(row, row, side="left")
-    first = np.arange(len(row)) - start < k
+    cand, near = hit[found], dist[found]
+    # each row comes nearest first: only the runs of equally near candidates are put in key order
+    # (a sort of every candidate by row, distance and key was most of a year's shell stitches)
+    same = np.zeros(len(row), dtype=bool)
+    same[1:] = (row[1:] == row[:-1]) & (near[1:] == near[:-1])
+    if same.any():
+        run = np.cumsum(~same)
+        tie = same.copy()
+        tie[:-1] |= same[1:]
+        at = np.flatnonzero(tie)
+        cand = cand.copy()
+        cand[at] = cand[at[np.lexsort((keys[cand[at]], run[at]))]]
+    starts = np.flatnonzero(np.concatenate([[True], row[1:] != row[:-1]]))
+    first = np.arange(len(row)) - np.repeat(starts, np.diff(np.append(starts, len(row)))) < k
     return np.stack([from_id[row[first]], to_id[cand[first]]], axis=1)
 
 def within_reach(lattice: Lattice, points: np.ndarray, vertices: np.ndarray, radius: float) -> np.ndarray:
