@@ -209,9 +209,10 @@ def _core(xy: np.ndarray, pairs: np.ndarray, opts: GraphOptions) -> np.ndarray:
 
 
 def _street_clear(segments: SegmentTable, xy: np.ndarray, pairs: np.ndarray, split_parent: np.ndarray, n_lat: int,
-                  opts: GraphOptions, tree: shapely.STRtree) -> np.ndarray:
+                  opts: GraphOptions, tree: shapely.STRtree, cores: np.ndarray | None = None) -> np.ndarray:
     """Stitches (of positive length) that cross no street not incident to either end and keep
-    ``clearance`` from every street away from their ends."""
+    ``clearance`` from every street away from their ends; with ``cores`` (``(len(pairs),)``
+    objects), the :func:`_core` lines made are put there, for the test against the blocks."""
     ok = np.ones(len(pairs), dtype=bool)
     if not len(pairs) or not len(segments.uv):
         return ok
@@ -220,7 +221,10 @@ def _street_clear(segments: SegmentTable, xy: np.ndarray, pairs: np.ndarray, spl
     incident = _incident(pairs[stitch], seg, segments, split_parent, n_lat, len(segments.xy))
     ok[stitch[~incident]] = False
     live = np.flatnonzero(ok)
-    stitch, _ = tree.query(_core(xy, pairs[live], opts), predicate="dwithin", distance=opts.clearance)
+    core = _core(xy, pairs[live], opts)
+    if cores is not None:
+        cores[live] = core
+    stitch, _ = tree.query(core, predicate="dwithin", distance=opts.clearance)
     ok[live[stitch]] = False
     return ok
 
@@ -293,7 +297,10 @@ def carried_ok(lattice: Lattice, segments: SegmentTable, xy: np.ndarray, pairs: 
         again = np.ones(len(live), dtype=bool)
         again[reuse] = False
         todo = live[again]
-    clear[todo] = _street_clear(segments, xy, pairs[todo], split_parent, n_lat, opts, tree)
+    made = np.full(len(todo), None, dtype=object)  # the stitches' cores the street test makes, for the blocks'
+    clear[todo] = _street_clear(segments, xy, pairs[todo], split_parent, n_lat, opts, tree, made)
+    cores = np.full(len(pairs), None, dtype=object)
+    cores[todo] = made
     ok = dry & clear
     outside = np.ones(len(pairs), dtype=bool)
     if inner is not None:
@@ -310,7 +317,9 @@ def carried_ok(lattice: Lattice, segments: SegmentTable, xy: np.ndarray, pairs: 
             again = np.ones(len(live), dtype=bool)
             again[reuse] = False
             test = live[again]
-        outside[test] = ~shapely.intersects(inner, _core(xy, pairs[test], opts))
+        missing = test[shapely.is_missing(cores[test])]
+        cores[missing] = _core(xy, pairs[missing], opts)
+        outside[test] = ~shapely.intersects(inner, cores[test])
         ok &= outside
     return ok, ShellVerdicts(segments=carry.segments, pairs=pair_keys, clear=clear[dry], ground=_ground(lattice),
                              outside=outside[dry], blocks=blocks if inner is not None else None)
