@@ -1323,3 +1323,115 @@ def test_dry_verdicts_are_carried_only_on_the_ground_they_were_made_on(monkeypat
     assert on_fresh > 0
     assert on_other_ground == on_fresh  # last year's ground was dry land: every stitch sampled again
     assert on_same_ground < on_fresh  # the verdicts made on this ground spared their stitches' samples
+
+
+@settings(max_examples=40, deadline=None)
+@given(st.integers(0, 2**32 - 1))
+def test_nearest_pairs_asks_again_only_the_points_tied_at_their_kth_candidate(seed):
+    """Issue 22: a point whose k-th nearest candidate ties with the last one asked for is asked
+    again for more, and only it (asking every point again made the shell's stitches a third of
+    a year's street part on Campo Grande's grid); the pairs are the brute-force ones: each point's
+    ``k`` nearest within the radius, equally near ones by key."""
+    import osm_expand.engine.roads.stitches as stitches_module
+    from osm_expand.engine.roads.stitches import nearest_pairs
+
+    rng = np.random.default_rng(seed)
+    # integer candidates on a grid and a ring of them round the origin: many exact ties
+    grid = np.stack(np.meshgrid(np.arange(-6, 7), np.arange(-6, 7)), axis=-1).reshape(-1, 2) * 10.0
+    ring = np.array([[30.0, 40.0], [40.0, 30.0], [-30.0, 40.0], [-40.0, 30.0], [30.0, -40.0], [40.0, -30.0],
+                     [-30.0, -40.0], [-40.0, -30.0], [50.0, 0.0], [0.0, 50.0], [-50.0, 0.0], [0.0, -50.0]])
+    to_xy = np.unique(np.concatenate([grid, ring]), axis=0)
+    to_xy = to_xy[rng.permutation(len(to_xy))]
+    far = rng.uniform(-65, 65, (int(rng.integers(5, 40)), 2))  # off the grid: rarely a tie
+    from_xy = np.concatenate([[[0.0, 0.0]], [[5.0, 5.0]], far])
+    k, radius = int(rng.integers(1, 10)), float(rng.uniform(20, 90))
+    keys = rng.permutation(len(to_xy))
+    asked: list[int] = []
+
+    class Counted(stitches_module.cKDTree):
+        def query(self, x, *args, **kwargs):
+            asked.append(len(x))
+            return super().query(x, *args, **kwargs)
+
+    with pytest.MonkeyPatch.context() as monkey:
+        monkey.setattr(stitches_module, "cKDTree", Counted)
+        pairs = nearest_pairs(from_xy, to_xy, np.arange(len(from_xy)), np.arange(len(to_xy)), k, radius, keys=keys)
+    expected = []
+    for i, p in enumerate(from_xy):
+        d = np.sqrt(((to_xy - p) ** 2).sum(axis=1))
+        near = np.flatnonzero(d <= radius)
+        near = near[np.lexsort((keys[near], d[near]))][:k]
+        expected += [[i, j] for j in near.tolist()]
+    assert pairs.tolist() == expected
+    assert asked[0] == len(from_xy) and all(n < len(from_xy) for n in asked[1:])
+
+
+def test_b_tests_only_the_segments_last_years_b_was_not_made_with():
+    """Issue 22: next year's B buffers only the segments it does not hold yet; a segment last
+    year's B was made with lies in it and is not tested again (three points a segment in a
+    polygon of the whole town was a fifth of B's year on Campo Grande): only the new ones are,
+    and B is the one made testing them all."""
+    import osm_expand.engine.roads.built_up as built_up_module
+
+    segs = SegmentTable.from_lines(grid_lines(100, 100, 4, 60), major=[False] * 10, width=[6.0] * 10)
+    first = built_up_area(blocks_of(segs), segs)
+    lines = grid_lines(100, 100, 4, 60) + [np.array([[340.0, 160.0], [420.0, 160.0], [420.0, 400.0]])]
+    segs2 = SegmentTable.from_lines(lines, major=[False] * 11, width=[6.0] * 11)
+    tested: list[int] = []
+    contains_xy = shapely.contains_xy
+    with pytest.MonkeyPatch.context() as monkey:
+        monkey.setattr(built_up_module.shapely, "contains_xy",
+                       lambda g, x, y: tested.append(len(np.atleast_1d(x))) or contains_xy(g, x, y))
+        second = built_up_area(blocks_of(segs2), segs2, previous=first)
+    old = {(tuple(a), tuple(b)) for a, b in zip(segs.a.tolist(), segs.b.tolist())}
+    new = sum((tuple(a), tuple(b)) not in old for a, b in zip(segs2.a.tolist(), segs2.b.tolist()))
+    assert 0 < new < len(segs2.uv) and tested == [new] * 3
+    fresh = built_up_area(blocks_of(segs2), segs2, previous=first.__class__(first.area, first.blocks))
+    assert shapely.equals_exact(second.area, fresh.area, 0.0)
+
+
+@settings(max_examples=10, deadline=None)
+@given(st.integers(0, 2**32 - 1))
+def test_stitch_tests_against_the_built_up_blocks_are_carried_where_no_block_changed(seed):
+    """Issue 22: a stitch clear of the streets last year and now, away from every block that became
+    or stopped being built-up since (``BuiltUpArea.changed``), keeps its verdict on the built-up
+    blocks: only the others are made lines and tested again (every clear stitch was, a quarter of
+    a year's stitches on Campo Grande). With a street gone (two blocks become one) and new ones,
+    the shell and the windows' stitches equal those checked afresh."""
+    import osm_expand.engine.roads.stitches as stitches_module
+    from osm_expand.engine.roads.path_graph import street_part
+
+    rng = np.random.default_rng(seed)
+    extent = (0, 0, 1200, 1200)
+    n = int(rng.integers(3, 6))
+    lines = grid_lines(300, 300, n, 120.0)
+    lat = build_lattice(extent, water=river(extent, 1000, 1060), options=LatticeOptions(radius=2))
+    segs = SegmentTable.from_lines(lines, major=[False] * len(lines), width=[6.0] * len(lines))
+    built = built_up_area(blocks_of(segs), segs)
+    gone = int(rng.choice([k for k in range(len(lines)) if 0 < k // 2 < n]))  # two blocks become one
+    later = [line for k, line in enumerate(lines) if k != gone]
+    for _ in range(int(rng.integers(1, 4))):
+        a = rng.uniform(150, 1000, 2)
+        later.append(np.stack([a, a + rng.uniform(-250, 250, 2)]))
+    segs2 = SegmentTable.from_lines(later, major=[False] * len(later), width=[6.0] * len(later))
+    built2 = built_up_area(blocks_of(segs2), segs2, previous=built)
+    assert built2.changed is not None and built2.changed[0] is built.blocks and len(built2.changed[1])
+    lat1, lat2 = lat.with_built_up(built.area), lat.with_built_up(built.area).with_built_up(built2.area, built2.added)
+    first = street_part(lat1, segs, built)
+    tested: list[int] = []
+    intersects = shapely.intersects
+    with pytest.MonkeyPatch.context() as monkey:
+        monkey.setattr(stitches_module.shapely, "intersects",
+                       lambda a, b: tested.append(len(np.atleast_1d(b))) or intersects(a, b))
+        carried = street_part(lat2, segs2, built2, previous=first.verdicts)
+        fresh = street_part(lat2, segs2, built2)
+    assert sum(tested[:len(tested) // 2]) < sum(tested[len(tested) // 2:])  # fewer tested than afresh
+    for x, y in zip(fresh.shell, carried.shell):
+        assert np.array_equal(x, y)
+    box = tuple(float(v) for v in (*rng.uniform(0, 250, 2), *rng.uniform(950, 1200, 2)))
+    last = implicit_graph(lat1, segs, built)
+    last.window(box)
+    new = implicit_graph(lat2, segs2, built2).window(box).graph
+    old = implicit_graph(lat2, segs2, built2, previous_lattice=last.lattice_verdicts()).window(box).graph
+    for name in ("src", "dst", "kind", "weight"):
+        assert np.array_equal(getattr(new, name), getattr(old, name))

@@ -95,6 +95,13 @@ class BuiltUpArea:
     #: the parts B took in since ``previous`` (the new built-up blocks and the new streets'
     #: neighbourhoods): B grew only inside them. None: B is new (no ``previous``)
     added: np.ndarray | None = field(default=None, repr=False, compare=False)
+    #: the segments B was made with, one key a segment (:func:`_segment_keys`): B holds each of them
+    #: (its neighbourhood was joined, or it lay in B already), so next year's need not be tested
+    segments: frozenset[bytes] = field(default_factory=frozenset, repr=False, compare=False)
+    #: ``(since, boxes)``: ``blocks`` is the built-up blocks ``since`` (``previous.blocks``, the very
+    #: object) but inside ``boxes`` ``(C, 4)`` (xmin, ymin, xmax, ymax) of the blocks that became or
+    #: stopped being built-up; None: made afresh (what a stitch's test against them may carry)
+    changed: tuple | None = field(default=None, repr=False, compare=False)
 
 
 def built_up_area(blocks: Sequence[shapely.Geometry], segments: SegmentTable, *,
@@ -142,15 +149,22 @@ def built_up_area(blocks: Sequence[shapely.Geometry], segments: SegmentTable, *,
     # B grows by the built-up blocks it did not hold as such last year, and the new neighbourhoods
     was_built = np.array([known.get(k, False) for k in keys.tolist()], dtype=bool)
     added = list(polys[built & ~was_built])
-    built_blocks = _built_blocks(polys, built, was_built, keys, known, previous)
+    built_blocks, changed = _built_blocks(polys, built, was_built, keys, known, previous)
     grown: list[shapely.Geometry] = []
+    seg_keys = _segment_keys(segments)
     if len(segments.uv):
         lines = segments.lines()
         if previous is not None:  # B never shrinks: only segments it does not hold yet are buffered
-            shapely.prepare(previous.area)
-            a, b = segments.a, segments.b
-            held = (shapely.contains_xy(previous.area, *a.T) & shapely.contains_xy(previous.area, *b.T)
-                    & shapely.contains_xy(previous.area, *(0.5 * (a + b)).T))
+            # a segment last year's B was made with lies in it (its neighbourhood was joined, or it was
+            # held then, and B only grew): only the others are tested (three points a segment in a
+            # polygon of the whole town was a fifth of B's year on Campo Grande)
+            held = np.array([k in previous.segments for k in seg_keys], dtype=bool)
+            test = np.flatnonzero(~held)
+            if len(test):
+                shapely.prepare(previous.area)
+                a, b = segments.a[test], segments.b[test]
+                held[test] = (shapely.contains_xy(previous.area, *a.T) & shapely.contains_xy(previous.area, *b.T)
+                              & shapely.contains_xy(previous.area, *(0.5 * (a + b)).T))
             lines = lines[~held]
         if len(lines):
             # each segment buffered, then one cascaded union: 5× faster than buffering the
@@ -165,14 +179,22 @@ def built_up_area(blocks: Sequence[shapely.Geometry], segments: SegmentTable, *,
         # neighbourhood again was 0.2 s a road year on Campo Grande; the same ground)
         area = shapely.union(previous.area, shapely.union_all(added)) if added else previous.area
     return BuiltUpArea(area=area, blocks=built_blocks, verdicts=verdicts, basis=(water, opts),
-                       added=None if previous is None else np.array(added, dtype=object).reshape(-1))
+                       added=None if previous is None else np.array(added, dtype=object).reshape(-1),
+                       segments=frozenset(seg_keys), changed=changed)
+
+
+def _segment_keys(segments: SegmentTable) -> list[bytes]:
+    """One key per segment: the bytes of its two ends' coordinates, in the table's order (a segment
+    split or moved is another segment)."""
+    ends = np.ascontiguousarray(np.concatenate([segments.a, segments.b], axis=1))
+    return [bytes(k) for k in ends.view(np.dtype((np.void, ends.dtype.itemsize * 4))).ravel().tolist()]
 
 
 def _built_blocks(polys: np.ndarray, built: np.ndarray, was_built: np.ndarray, keys: np.ndarray,
-                  known: dict[bytes, bool], previous: BuiltUpArea | None) -> shapely.Geometry:
+                  known: dict[bytes, bool], previous: BuiltUpArea | None) -> tuple[shapely.Geometry, tuple | None]:
     """The union of the built-up blocks ``polys[built]``: last year's union with the blocks that are
     no longer built-up taken out and the new ones joined, when last year's verdicts hold
-    (``known`` not empty); else made afresh.
+    (``known`` not empty); else made afresh. With it :attr:`BuiltUpArea.changed` (None: afresh).
 
     A year changes a few hundred of Campo Grande's 5,500 blocks: the union of them all
     again was 0.18 s a road year, the two overlays with last year's are a tenth of that.
@@ -180,16 +202,16 @@ def _built_blocks(polys: np.ndarray, built: np.ndarray, was_built: np.ndarray, k
     standing; the result covers the same ground as the union made afresh.
     """
     if previous is None or not known:
-        return shapely.union_all(polys[built]) if built.any() else shapely.Polygon()
+        return (shapely.union_all(polys[built]) if built.any() else shapely.Polygon()), None
     now = set(keys[built].tolist())
-    gone = [k for k, v in known.items() if v and k not in now]
+    gone = shapely.from_wkb([k for k, v in known.items() if v and k not in now])
     blocks = previous.blocks
-    if gone:  # the keys are the blocks' normalised WKB: the same ground as the polygons were
-        blocks = shapely.difference(blocks, shapely.union_all(shapely.from_wkb(gone)))
+    if len(gone):  # the keys are the blocks' normalised WKB: the same ground as the polygons were
+        blocks = shapely.difference(blocks, shapely.union_all(gone))
     new = polys[built & ~was_built]
     if len(new):
         blocks = shapely.union(blocks, shapely.union_all(new))
-    return blocks
+    return blocks, (previous.blocks, shapely.bounds(np.concatenate([gone, new])).reshape(-1, 4))
 
 
 def _same_basis(a: tuple, b: tuple) -> bool:

@@ -15,6 +15,7 @@ result is the one a fresh check gives.
 """
 from __future__ import annotations
 
+from collections import Counter
 from dataclasses import dataclass
 
 import numpy as np
@@ -72,6 +73,10 @@ class ShellVerdicts:
     #: the rasters the candidates were found dry on (water, forbidden, stitch-only; the very arrays):
     #: on the same ones, a candidate held here is dry again without sampling them
     ground: tuple = ()
+    #: (M,) bool, the candidate enters no built-up block (read only where ``clear``); None: not kept
+    outside: np.ndarray | None = None
+    #: the built-up blocks ``outside`` was tested against (:attr:`BuiltUpArea.blocks`, the very object)
+    blocks: object = None
 
 def lattice_verdicts(stitches: dict) -> ShellVerdicts | None:
     """The street verdicts of the stitches to the lattice in an :attr:`ImplicitGraph.stitches`
@@ -79,8 +84,10 @@ def lattice_verdicts(stitches: dict) -> ShellVerdicts | None:
     done = stitches.get("verdicts", [])
     if not done:
         return None
+    outside = None if any(v.outside is None for v in done) else np.concatenate([v.outside for v in done])
     return ShellVerdicts(segments=done[0].segments, pairs=np.concatenate([v.pairs for v in done]),
-                         clear=np.concatenate([v.clear for v in done]), ground=done[0].ground)
+                         clear=np.concatenate([v.clear for v in done]), ground=done[0].ground,
+                         outside=outside, blocks=done[0].blocks)
 
 def nearest_pairs(from_xy: np.ndarray, to_xy: np.ndarray, from_id: np.ndarray, to_id: np.ndarray, k: int,
                    radius: float, keys: np.ndarray | None = None) -> np.ndarray:
@@ -99,19 +106,36 @@ def nearest_pairs(from_xy: np.ndarray, to_xy: np.ndarray, from_id: np.ndarray, t
     keys = to_id if keys is None else np.asarray(keys)
     tree = cKDTree(to_xy)
     kk = min(2 * k, n)
-    while True:
-        dist, hit = tree.query(from_xy, k=kk, distance_upper_bound=radius)
-        dist, hit = np.asarray(dist).reshape(len(from_xy), kk), np.asarray(hit).reshape(len(from_xy), kk)
-        if kk == n or not (np.isfinite(dist[:, k - 1]) & (dist[:, kk - 1] == dist[:, k - 1])).any():
-            break
-        kk = min(2 * kk, n)  # a tie at the k-th nearest may go on past the candidates asked for
+    dist, hit = tree.query(from_xy, k=kk, distance_upper_bound=radius)
+    dist, hit = np.asarray(dist).reshape(len(from_xy), kk), np.asarray(hit).reshape(len(from_xy), kk)
+    tied = np.flatnonzero(np.isfinite(dist[:, k - 1]) & (dist[:, kk - 1] == dist[:, k - 1]))
+    while kk < n and len(tied):
+        # a tie at the k-th nearest may go on past the candidates asked for: only those points are
+        # asked again for more (a point without one has every candidate as near as its k-th already)
+        more = min(2 * kk, n)
+        d, i = tree.query(from_xy[tied], k=more, distance_upper_bound=radius)
+        d, i = np.asarray(d).reshape(len(tied), more), np.asarray(i).reshape(len(tied), more)
+        dist = np.concatenate([dist, np.full((len(dist), more - kk), np.inf)], axis=1)
+        hit = np.concatenate([hit, np.full((len(hit), more - kk), n, dtype=hit.dtype)], axis=1)
+        dist[tied], hit[tied] = d, i
+        kk = more
+        tied = tied[np.isfinite(d[:, k - 1]) & (d[:, kk - 1] == d[:, k - 1])]
     found = hit < n
     row = np.broadcast_to(np.arange(len(from_xy))[:, None], hit.shape)[found]
-    cand = hit[found]
-    order = np.lexsort((keys[cand], dist[found], row))
-    row, cand = row[order], cand[order]
-    start = np.searchsorted(row, row, side="left")
-    first = np.arange(len(row)) - start < k
+    cand, near = hit[found], dist[found]
+    # each row comes nearest first: only the runs of equally near candidates are put in key order
+    # (a sort of every candidate by row, distance and key was most of a year's shell stitches)
+    same = np.zeros(len(row), dtype=bool)
+    same[1:] = (row[1:] == row[:-1]) & (near[1:] == near[:-1])
+    if same.any():
+        run = np.cumsum(~same)
+        tie = same.copy()
+        tie[:-1] |= same[1:]
+        at = np.flatnonzero(tie)
+        cand = cand.copy()
+        cand[at] = cand[at[np.lexsort((keys[cand[at]], run[at]))]]
+    starts = np.flatnonzero(np.concatenate([[True], row[1:] != row[:-1]]))
+    first = np.arange(len(row)) - np.repeat(starts, np.diff(np.append(starts, len(row)))) < k
     return np.stack([from_id[row[first]], to_id[cand[first]]], axis=1)
 
 def within_reach(lattice: Lattice, points: np.ndarray, vertices: np.ndarray, radius: float) -> np.ndarray:
@@ -185,9 +209,10 @@ def _core(xy: np.ndarray, pairs: np.ndarray, opts: GraphOptions) -> np.ndarray:
 
 
 def _street_clear(segments: SegmentTable, xy: np.ndarray, pairs: np.ndarray, split_parent: np.ndarray, n_lat: int,
-                  opts: GraphOptions, tree: shapely.STRtree) -> np.ndarray:
+                  opts: GraphOptions, tree: shapely.STRtree, cores: np.ndarray | None = None) -> np.ndarray:
     """Stitches (of positive length) that cross no street not incident to either end and keep
-    ``clearance`` from every street away from their ends."""
+    ``clearance`` from every street away from their ends; with ``cores`` (``(len(pairs),)``
+    objects), the :func:`_core` lines made are put there, for the test against the blocks."""
     ok = np.ones(len(pairs), dtype=bool)
     if not len(pairs) or not len(segments.uv):
         return ok
@@ -196,7 +221,10 @@ def _street_clear(segments: SegmentTable, xy: np.ndarray, pairs: np.ndarray, spl
     incident = _incident(pairs[stitch], seg, segments, split_parent, n_lat, len(segments.xy))
     ok[stitch[~incident]] = False
     live = np.flatnonzero(ok)
-    stitch, _ = tree.query(_core(xy, pairs[live], opts), predicate="dwithin", distance=opts.clearance)
+    core = _core(xy, pairs[live], opts)
+    if cores is not None:
+        cores[live] = core
+    stitch, _ = tree.query(core, predicate="dwithin", distance=opts.clearance)
     ok[live[stitch]] = False
     return ok
 
@@ -209,7 +237,8 @@ def _keys(values: np.ndarray) -> np.ndarray:
 
 def carried_ok(lattice: Lattice, segments: SegmentTable, xy: np.ndarray, pairs: np.ndarray, split_parent: np.ndarray,
                 n_lat: int, opts: GraphOptions, tree: shapely.STRtree, inner: shapely.Geometry | None,
-                previous: ShellVerdicts | None, memo: dict | None = None) -> tuple[np.ndarray, ShellVerdicts]:
+                previous: ShellVerdicts | None, memo: dict | None = None, *, blocks: object = None,
+                changed: tuple | None = None) -> tuple[np.ndarray, ShellVerdicts]:
     """:func:`stitch_ok`, the street tests carried over from ``previous`` where nothing near a
     stitch changed (see :class:`ShellVerdicts`), and this call's street verdicts.
 
@@ -219,6 +248,13 @@ def carried_ok(lattice: Lattice, segments: SegmentTable, xy: np.ndarray, pairs: 
     ``memo`` (a dict kept for all the calls of a year with the same ``segments`` and
     ``previous``, e.g. :attr:`ImplicitGraph.stitches`) keeps what every call would work out
     again: the segments' keys, the last verdicts sorted, the segments added or removed.
+
+    The test against the built-up blocks (``inner``, made from ``blocks``) is carried too: a
+    stitch clear of the streets then and now, whose box comes near none of the blocks that
+    became or stopped being built-up since (``changed``, :attr:`BuiltUpArea.changed`: the blocks
+    the last verdicts were tested against and the boxes of those blocks), keeps its verdict
+    (making every clear stitch a line to test it again was a quarter of a year's stitches on
+    Campo Grande).
     """
     carry = _carry(segments, previous, {} if memo is None else memo)
     n_nodes = len(segments.xy)
@@ -229,7 +265,10 @@ def carried_ok(lattice: Lattice, segments: SegmentTable, xy: np.ndarray, pairs: 
     dry = np.zeros(len(pairs), dtype=bool)
     every_at = np.zeros(len(pairs), dtype=np.int64)
     if keys is not None and len(keys):
-        every_at = np.minimum(np.searchsorted(keys, every_key), len(keys) - 1)
+        # found by hash (a void key's sort and search compare bytes one call at a time), then
+        # compared whole: a hash shared by two keys at worst sends a stitch to be checked again
+        assert carry.hashes is not None  # made with the keys
+        every_at = np.minimum(np.searchsorted(carry.hashes, _hash(every_key)), len(keys) - 1)
         if previous is not None and _same_ground(previous.ground, lattice):
             # a stitch the last verdicts hold was dry then, on the same ground: it is dry now (its samples
             # along the fine rasters were a third of a year's shell check on Campo Grande)
@@ -258,12 +297,44 @@ def carried_ok(lattice: Lattice, segments: SegmentTable, xy: np.ndarray, pairs: 
         again = np.ones(len(live), dtype=bool)
         again[reuse] = False
         todo = live[again]
-    clear[todo] = _street_clear(segments, xy, pairs[todo], split_parent, n_lat, opts, tree)
+    made = np.full(len(todo), None, dtype=object)  # the stitches' cores the street test makes, for the blocks'
+    clear[todo] = _street_clear(segments, xy, pairs[todo], split_parent, n_lat, opts, tree, made)
+    cores = np.full(len(pairs), None, dtype=object)
+    cores[todo] = made
     ok = dry & clear
+    outside = np.ones(len(pairs), dtype=bool)
     if inner is not None:
         live = np.flatnonzero(ok)
-        ok[live] = ~shapely.intersects(inner, _core(xy, pairs[live], opts))
-    return ok, ShellVerdicts(segments=carry.segments, pairs=pair_keys, clear=clear[dry], ground=_ground(lattice))
+        test = live
+        boxes = _changed_boxes(previous, blocks, changed)
+        if boxes is not None and keys is not None and len(keys) and carry.outside is not None and len(live):
+            at = every_at[live]
+            known = (keys[at] == every_key[live]) & last_clear[at]  # tested then (clear then), clear now
+            k = live[known]
+            near = near_boxes(np.stack([xy[pairs[k, 0]], xy[pairs[k, 1]]], axis=1), boxes, 1.0)
+            reuse = np.flatnonzero(known)[~near]
+            outside[live[reuse]] = carry.outside[at[reuse]]
+            again = np.ones(len(live), dtype=bool)
+            again[reuse] = False
+            test = live[again]
+        missing = test[shapely.is_missing(cores[test])]
+        cores[missing] = _core(xy, pairs[missing], opts)
+        outside[test] = ~shapely.intersects(inner, cores[test])
+        ok &= outside
+    return ok, ShellVerdicts(segments=carry.segments, pairs=pair_keys, clear=clear[dry], ground=_ground(lattice),
+                             outside=outside[dry], blocks=blocks if inner is not None else None)
+
+
+def _changed_boxes(previous: ShellVerdicts | None, blocks: object, changed: tuple | None) -> np.ndarray | None:
+    """Boxes ``(C, 4)`` outside which the built-up blocks are as ``previous`` tested its stitches
+    against (none: the very same blocks); None when that is not known."""
+    if previous is None or previous.blocks is None or blocks is None:
+        return None
+    if previous.blocks is blocks:
+        return np.zeros((0, 4))
+    if changed is not None and changed[0] is previous.blocks:
+        return np.asarray(changed[1], dtype=float).reshape(-1, 4)
+    return None
 
 
 def _ground(lattice: Lattice) -> tuple[np.ndarray | None, ...]:
@@ -317,10 +388,12 @@ class _Carry:
     """What :func:`carried_ok` reads from the last verdicts, worked out once for a year's calls."""
 
     segments: np.ndarray  #: (S,) this year's segment keys
-    keys: np.ndarray | None  #: the last verdicts' pair keys, sorted (None: no last verdicts)
+    keys: np.ndarray | None  #: the last verdicts' pair keys, in the order of their hashes (None: no last verdicts)
     clear: np.ndarray | None  #: their verdicts in that order
     changed: shapely.STRtree | None  #: the segments added or removed since (None: none)
     boxes: np.ndarray | None = None  #: (C, 4) their bounding boxes (xmin, ymin, xmax, ymax)
+    outside: np.ndarray | None = None  #: the last verdicts' ``outside`` in ``keys``' order
+    hashes: np.ndarray | None = None  #: the keys' :func:`_hash`, sorted
 
 
 def _carry(segments: SegmentTable, previous: ShellVerdicts | None, memo: dict) -> _Carry:
@@ -333,20 +406,33 @@ def _carry(segments: SegmentTable, previous: ShellVerdicts | None, memo: dict) -
     seg_keys = _keys(np.concatenate([np.where(first[:, None], a, b), np.where(first[:, None], b, a)], axis=1))
     carry = _Carry(segments=seg_keys, keys=None, clear=None, changed=None)
     if previous is not None and len(previous.pairs):
-        order = np.argsort(previous.pairs)
-        # segments added or removed (as many times as they were)
-        old_u, old_n = np.unique(previous.segments, return_counts=True)
-        new_u, new_n = np.unique(seg_keys, return_counts=True)
-        both = np.intersect1d(old_u, new_u)
-        same = both[old_n[np.searchsorted(old_u, both)] == new_n[np.searchsorted(new_u, both)]]
-        changed = np.concatenate([np.flatnonzero(~np.isin(seg_keys, same)),
-                                  len(seg_keys) + np.flatnonzero(~np.isin(previous.segments, same))])
+        hashes = _hash(previous.pairs)
+        order = np.argsort(hashes, kind="stable")
+        # segments added or removed (as many times as they were); counted in sets of bytes, where
+        # np.unique and np.isin of void keys were a tenth of a year's stitches on Campo Grande
+        old_list, new_list = previous.segments.tolist(), seg_keys.tolist()
+        old_n, new_n = Counter(old_list), Counter(new_list)
+        same = {k for k, n in new_n.items() if old_n.get(k) == n}
+        changed = np.concatenate([np.flatnonzero([k not in same for k in new_list]).astype(np.int64),
+                                  len(seg_keys) + np.flatnonzero([k not in same for k in old_list]).astype(np.int64)])
         ends = np.concatenate([np.stack([a, b], axis=1), _segment_ends(previous.segments)])[changed]
         carry = _Carry(segments=seg_keys, keys=previous.pairs[order], clear=previous.clear[order],
                        changed=shapely.STRtree(shapely.linestrings(ends)) if len(ends) else None,
-                       boxes=np.concatenate([ends.min(axis=1), ends.max(axis=1)], axis=1))
+                       boxes=np.concatenate([ends.min(axis=1), ends.max(axis=1)], axis=1),
+                       outside=None if previous.outside is None else previous.outside[order],
+                       hashes=hashes[order])
     memo["carry"] = (previous, segments, carry)
     return carry
+
+
+def _hash(keys: np.ndarray) -> np.ndarray:
+    """A uint64 hash of each void key (whole 8-byte words of it, mixed one after another)."""
+    words = np.frombuffer(np.ascontiguousarray(keys).tobytes(), dtype=np.uint64).reshape(len(keys), -1)
+    out = np.zeros(len(keys), dtype=np.uint64)
+    for column in words.T:
+        out = (out ^ column) * np.uint64(0x9E3779B97F4A7C15)  # wraps modulo 2⁶⁴
+        out ^= out >> np.uint64(29)
+    return out
 
 
 def _segment_ends(keys: np.ndarray) -> np.ndarray:
