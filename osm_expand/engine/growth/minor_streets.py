@@ -31,7 +31,7 @@ import numpy as np
 import shapely
 
 from osm_expand.district import place_district
-from osm_expand.engine.growth.nuclei import Nucleus, candidate_points, rank_candidates
+from osm_expand.engine.growth.nuclei import Nucleus, candidate_points, rank_candidates, town_nuclei
 from osm_expand.engine.growth.stubs import close_stubs
 from osm_expand.errors import OptionError
 from osm_expand.joins import add_streets
@@ -44,6 +44,7 @@ from osm_expand.sites import (
     choose_sites,
     default_district_area,
     distance_maps,
+    settlement_distance,
     settlement_maps,
 )
 from synth.growth import GrowthPattern
@@ -179,6 +180,9 @@ class GrowthOptions:
     #: whatever their area, and the joins measured to all the built-up land (only closeness and contact to the
     #: settlements) — the sites beside the small pieces lose their closeness and contact.
     settlement_neighbourhoods: float = math.inf
+    #: The engine's district sites are ranked by the nuclei within a junction spacing of the town's settlement only
+    #: (:func:`osm_expand.engine.growth.nuclei.town_nuclei`), not by a bridge or junction in the fields by a hamlet.
+    town_nuclei: bool = False
 
     def __post_init__(self) -> None:
         # a negative or NaN floor would silently turn the floor off (or never let a district grow)
@@ -433,7 +437,11 @@ def grow_district(city: City, pattern: GrowthPattern, length: float, density: fl
     sites = choose_sites(maps, area, site_options, most=options.sites_tried, avoid=avoid)
     if not sites:
         return city, GrowthYear()
-    order = rank_candidates(np.array([s.centre for s in sites]), nuclei, take=len(sites))
+    ranked = nuclei
+    if options.town_nuclei:
+        ranked = town_nuclei(nuclei, settlement_distance(maps, np.array([n.xy for n in nuclei]),
+                                                         options.settlement_gap or SETTLEMENT_GAP) <= spacing)
+    order = rank_candidates(np.array([s.centre for s in sites]), ranked, take=len(sites))
     before = len(city.network.streets)
     reach = STUB_REACH * spacing
     placement = place_district(
