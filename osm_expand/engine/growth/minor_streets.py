@@ -180,8 +180,26 @@ class GrowthOptions:
     #: whatever their area, and the joins measured to all the built-up land (only closeness and contact to the
     #: settlements) — the sites beside the small pieces lose their closeness and contact.
     settlement_neighbourhoods: float = math.inf
-    #: The engine's district sites are ranked by the nuclei within a junction spacing of the town's settlement only
-    #: (:func:`osm_expand.engine.growth.nuclei.town_nuclei`), not by a bridge or junction in the fields by a hamlet.
+    #: The engine's district sites (:func:`grow_district`: the best :attr:`sites_tried` by score, then tried in the
+    #: order of 003's rank, distance to the nearest nucleus × (1 − its strength)) are ranked by the nuclei within a
+    #: junction spacing of the town's settlement only (:func:`osm_expand.sites.settlement_distance`,
+    #: :func:`osm_expand.engine.growth.nuclei.town_nuclei`; all of them when none is). Why: a bridge or a junction of
+    #: country roads among the villages in the fields is a nucleus of their growth, not the town's; north-bayreuth's
+    #: first engine quarter (seed 0) grew 1.3 km from the town, among villages, because a nucleus in the fields (a
+    #: bridge 1 km from it) ranked its site first of five, before the two by the town's edge. The
+    #: settlements themselves tell no valley town from villages in the fields: north-bayreuth's villages chain to
+    #: each other with gaps under 500 m, Andorra's valley pieces only at 700 m; Andorra's Sant Julià (1.2-3 km² at the
+    #: engine's cells) is 550 m from the town, north-bayreuth's villages by the quarter 0.6-2.4 km (h33e). Measured
+    #: (``benchmarks/engine_growth.py --seed S``, off of 14 per reference seed, off → on): seed 0 north-bayreuth
+    #: 5 5 5 → 2 5 4 (a quarter at the town's eastern edge across the river, one by the village north of the town at
+    #: the motorway, in place of both among the villages 2.5 km north-east), Andorra 0 0 0 → 2 0 2, Krems 1 1 1 and
+    #: Monaco 2 3 3 unchanged; seed 1 every town unchanged (Krems 3 3 4, Andorra 0 0 1, north-bayreuth 3 3 3,
+    #: Monaco 3 3 2); seed 2 north-bayreuth 4 4 2 → 3 3 2 (4 → 2 pieces, outlying 8 % → 0; 2-core below range either
+    #: way), Andorra 2 4 3 → 4 4 3. North-bayreuth's gain is Andorra's loss (summed 15 → 15 and 19 → 19), every
+    #: town within 4 but north-bayreuth's seed 0 reference 1 (5) either way: off by default. Tried and dropped
+    #: (seed 0): settlement_only with the settlements within 1 (or 0.5) district radius of the town's counted beside
+    #: it: Andorra 7 7 8 (4 6 5), Krems 1 1 1; counting fewer of Andorra's pieces lets a site on the slope south-east
+    #: of the town (score 1.655, 0.013 below the fifth site's) into the five, and the nuclei rank it first.
     town_nuclei: bool = False
 
     def __post_init__(self) -> None:
