@@ -195,8 +195,10 @@ class GrowthOptions:
     #: the motorway, in place of both among the villages 2.5 km north-east), Andorra 0 0 0 → 2 0 2, Krems 1 1 1 and
     #: Monaco 2 3 3 unchanged; seed 1 every town unchanged (Krems 3 3 4, Andorra 0 0 1, north-bayreuth 3 3 3,
     #: Monaco 3 3 2); seed 2 north-bayreuth 4 4 2 → 3 3 2 (4 → 2 pieces, outlying 8 % → 0; 2-core below range either
-    #: way), Andorra 2 4 3 → 4 4 3. North-bayreuth's gain is Andorra's loss (summed 15 → 15 and 19 → 19), every
-    #: town within 4 but north-bayreuth's seed 0 reference 1 (5) either way: off by default. Tried and dropped
+    #: way), Andorra 2 4 3 → 4 4 3, Krems 1 2 3 and Monaco 4 5 5 unchanged. North-bayreuth's gain is Andorra's loss
+    #: (the two summed 15 → 15 on seed 0, 19 → 19 on seed 2; Andorra stays within 4 of 14): off by default, one
+    #: town's gain at another's cost. Campo Grande seed 0 on: 5 5 6 (its off-by-default run measured beside it in
+    #: h33e's report). Tried and dropped
     #: (seed 0): settlement_only with the settlements within 1 (or 0.5) district radius of the town's counted beside
     #: it: Andorra 7 7 8 (4 6 5), Krems 1 1 1; counting fewer of Andorra's pieces lets a site on the slope south-east
     #: of the town (score 1.655, 0.013 below the fifth site's) into the five, and the nuclei rank it first.
