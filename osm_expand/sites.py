@@ -239,6 +239,21 @@ def settlements(maps: DistanceMaps, gap: float = SETTLEMENT_GAP, min_area: float
     return maps.city & keep[pieces]
 
 
+def settlement_distance(maps: DistanceMaps, xy: np.ndarray, gap: float = SETTLEMENT_GAP) -> np.ndarray:
+    """Per point (``(K, 2)`` m), the distance (m) from its raster cell to the town's settlement
+    (:func:`settlement`); infinite off the raster or without built-up land."""
+    xy = np.asarray(xy, dtype=float).reshape(-1, 2)
+    out = np.full(len(xy), np.inf)
+    town = settlement(maps, gap)
+    if not town.any() or not len(xy):
+        return out
+    distance = _nearest(town, maps.cell)[0]
+    col, row = np.floor((xy - maps.origin) / maps.cell).astype(np.int64).T
+    inside = (row >= 0) & (row < town.shape[0]) & (col >= 0) & (col < town.shape[1])
+    out[inside] = distance[row[inside], col[inside]]
+    return out
+
+
 def _settlement_pieces(maps: DistanceMaps, gap: float) -> tuple[np.ndarray, np.ndarray]:
     """The pieces of the built-up land less than ``gap`` m apart (labels per cell, 0 away from them) and each
     label's built-up area (m², 0 for label 0)."""

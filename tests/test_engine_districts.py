@@ -11,7 +11,8 @@ import pytest
 from osm_expand.district import Placement, Tried
 from osm_expand.engine.growth import minor_streets
 from osm_expand.engine.growth.minor_streets import GrowthMemory, GrowthOptions, built_up_density, grow_district
-from osm_expand.engine.growth.nuclei import Nucleus, NucleusKind
+from osm_expand.engine.growth.nuclei import Nucleus, NucleusKind, town_nuclei
+from osm_expand.errors import InputError
 from osm_expand.growth_fidelity import city_growth_fidelity
 from osm_expand.growth_patterns import make_pattern
 from osm_expand.ingest import load
@@ -291,3 +292,49 @@ def test_the_patches_streets_land_measures_the_towns_margin_once_per_pattern(mon
     second = growth_patterns.land_in_discs(lines, memo)(disc)
     assert len(calls) == 1 and 10.0 < memo["margin"] <= 150.0
     assert first.equals(fresh) and second.equals(fresh)
+
+
+def _orders(city, learned, nuclei, options, monkeypatch):
+    """The sites :func:`grow_district` asks :func:`place_district` to try, and the order it tries them in."""
+    spacing = learned.example.spacing
+    asked = []
+
+    def record(city, sites, pattern, **kwargs):
+        asked.append(([np.array(s.centre) for s in sites], list(kwargs["order"])))
+        return Placement(None, ())
+
+    monkeypatch.setattr(minor_streets, "place_district", record)
+    grow_district(city, make_pattern("example", learned.example), 30.0 * spacing, 2.0 / spacing, nuclei,
+                  GrowthMemory(), np.random.default_rng(0), spacing=spacing, year=2000, era="now", options=options)
+    return asked[-1]
+
+
+def test_with_town_nuclei_a_nucleus_in_the_fields_does_not_rank_the_engines_sites(monkeypatch):
+    """north-bayreuth: a strong nucleus (a bridge, 0.9) on the site farthest from the town's settlement puts that site
+    first by default (003's rank: distance × (1 − strength)); with :attr:`GrowthOptions.town_nuclei` the nucleus,
+    more than a junction spacing from the town's built-up land, is not the town's, and the sites keep the order
+    the town's own nuclei give them."""
+    from osm_expand.sites import settlement_distance
+
+    city, learned = town("north-bayreuth.osm.gz")
+    spacing = learned.example.spacing
+    centre = Nucleus(xy=(-3209.75, -886.68), strength=1.0, kind=NucleusKind.CENTRE)  # the engine's, in the town
+    sites, alone = _orders(city, learned, [centre], GrowthOptions(), monkeypatch)
+    maps = distance_maps(city, SiteOptions(cell=40.0), margin=_margin(city))
+    away = settlement_distance(maps, np.array(sites))
+    far = int(np.argmax(away))
+    assert away[far] > 3 * spacing and alone[0] != far
+    bridge = Nucleus(xy=tuple(sites[far]), strength=0.9, kind=NucleusKind.BRIDGE)
+    _, default = _orders(city, learned, [centre, bridge], GrowthOptions(), monkeypatch)
+    assert default[0] == far  # the nucleus in the fields ranks its site first
+    _, town_only = _orders(city, learned, [centre, bridge], GrowthOptions(town_nuclei=True), monkeypatch)
+    assert town_only == alone
+
+
+def test_town_nuclei_keeps_those_in_the_town_or_all_when_none_is():
+    a = Nucleus(xy=(0.0, 0.0), strength=1.0, kind=NucleusKind.CENTRE)
+    b = Nucleus(xy=(900.0, 0.0), strength=0.6, kind=NucleusKind.BRIDGE)
+    assert town_nuclei([a, b], [True, False]) == [a]
+    assert town_nuclei([a, b], [False, False]) == [a, b]
+    with pytest.raises(InputError):
+        town_nuclei([a, b], [True])

@@ -31,7 +31,7 @@ import numpy as np
 import shapely
 
 from osm_expand.district import place_district
-from osm_expand.engine.growth.nuclei import Nucleus, candidate_points, rank_candidates
+from osm_expand.engine.growth.nuclei import Nucleus, candidate_points, rank_candidates, town_nuclei
 from osm_expand.engine.growth.stubs import close_stubs
 from osm_expand.errors import OptionError
 from osm_expand.joins import add_streets
@@ -44,6 +44,7 @@ from osm_expand.sites import (
     choose_sites,
     default_district_area,
     distance_maps,
+    settlement_distance,
     settlement_maps,
 )
 from synth.growth import GrowthPattern
@@ -179,6 +180,29 @@ class GrowthOptions:
     #: whatever their area, and the joins measured to all the built-up land (only closeness and contact to the
     #: settlements) — the sites beside the small pieces lose their closeness and contact.
     settlement_neighbourhoods: float = math.inf
+    #: The engine's district sites (:func:`grow_district`: the best :attr:`sites_tried` by score, then tried in the
+    #: order of 003's rank, distance to the nearest nucleus × (1 − its strength)) are ranked by the nuclei within a
+    #: junction spacing of the town's settlement only (:func:`osm_expand.sites.settlement_distance`,
+    #: :func:`osm_expand.engine.growth.nuclei.town_nuclei`; all of them when none is). Why: a bridge or a junction of
+    #: country roads among the villages in the fields is a nucleus of their growth, not the town's; north-bayreuth's
+    #: first engine quarter (seed 0) grew 1.3 km from the town, among villages, because a nucleus in the fields (a
+    #: bridge 1 km from it) ranked its site first of five, before the two by the town's edge. The
+    #: settlements themselves tell no valley town from villages in the fields: north-bayreuth's villages chain to
+    #: each other with gaps under 500 m, Andorra's valley pieces only at 700 m; Andorra's Sant Julià (1.2-3 km² at the
+    #: engine's cells) is 550 m from the town, north-bayreuth's villages by the quarter 0.6-2.4 km (h33e). Measured
+    #: (``benchmarks/engine_growth.py --seed S``, off of 14 per reference seed, off → on): seed 0 north-bayreuth
+    #: 5 5 5 → 2 5 4 (a quarter at the town's eastern edge across the river, one by the village north of the town at
+    #: the motorway, in place of both among the villages 2.5 km north-east), Andorra 0 0 0 → 2 0 2, Krems 1 1 1 and
+    #: Monaco 2 3 3 unchanged; seed 1 every town unchanged (Krems 3 3 4, Andorra 0 0 1, north-bayreuth 3 3 3,
+    #: Monaco 3 3 2); seed 2 north-bayreuth 4 4 2 → 3 3 2 (4 → 2 pieces, outlying 8 % → 0; 2-core below range either
+    #: way), Andorra 2 4 3 → 4 4 3, Krems 1 2 3 and Monaco 4 5 5 unchanged. North-bayreuth's gain is Andorra's loss
+    #: (the two summed 15 → 15 on seed 0, 19 → 19 on seed 2; Andorra stays within 4 of 14): off by default, one
+    #: town's gain at another's cost; Campo Grande seed 0 4 4 5 → 5 5 6 (5 → 3 pieces, 334 → 327 km; its 2-core
+    #: share 0.9644 → 0.9648, out of its references' range before, in it after). Tried and dropped
+    #: (seed 0): settlement_only with the settlements within 1 (or 0.5) district radius of the town's counted beside
+    #: it: Andorra 7 7 8 (4 6 5), Krems 1 1 1; counting fewer of Andorra's pieces lets a site on the slope south-east
+    #: of the town (score 1.655, 0.013 below the fifth site's) into the five, and the nuclei rank it first.
+    town_nuclei: bool = False
 
     def __post_init__(self) -> None:
         # a negative or NaN floor would silently turn the floor off (or never let a district grow)
@@ -433,7 +457,11 @@ def grow_district(city: City, pattern: GrowthPattern, length: float, density: fl
     sites = choose_sites(maps, area, site_options, most=options.sites_tried, avoid=avoid)
     if not sites:
         return city, GrowthYear()
-    order = rank_candidates(np.array([s.centre for s in sites]), nuclei, take=len(sites))
+    ranked = nuclei
+    if options.town_nuclei:
+        ranked = town_nuclei(nuclei, settlement_distance(maps, np.array([n.xy for n in nuclei]),
+                                                         options.settlement_gap or SETTLEMENT_GAP) <= spacing)
+    order = rank_candidates(np.array([s.centre for s in sites]), ranked, take=len(sites))
     before = len(city.network.streets)
     reach = STUB_REACH * spacing
     placement = place_district(

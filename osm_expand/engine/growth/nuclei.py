@@ -41,7 +41,7 @@ from osm_expand.errors import InputError
 
 __all__ = [
     "Candidates", "Nucleus", "NucleiOptions", "NucleusKind", "candidate_points", "candidate_rank",
-    "edge_attenuation", "find_nuclei", "new_junction_nuclei", "rank_candidates",
+    "edge_attenuation", "find_nuclei", "new_junction_nuclei", "rank_candidates", "town_nuclei",
 ]
 
 
@@ -444,3 +444,18 @@ def new_junction_nuclei(new_junctions: ArrayLike, *, bounds: tuple[float, float,
         far = cKDTree(old_xy).query(pts, k=1)[0] > options.merge_distance_m
         pts, strength, kind = pts[far], strength[far], [k for k, f in zip(kind, far) if f]
     return _merge(pts, strength, kind, options.merge_distance_m)
+
+
+def town_nuclei(nuclei: Sequence[Nucleus], in_town: ArrayLike) -> list[Nucleus]:
+    """The nuclei of the town's own growth: those ``in_town`` (bool per nucleus), or all when none is.
+
+    Why: 003's nuclei are the junctions of the major roads of a map that starts empty, where every one
+    grows a settlement. On a real extract a bridge or a junction of country roads in the fields by a
+    hamlet is a nucleus of the hamlet's growth, not of the town's; ranking the engine's district sites by
+    it put north-bayreuth's quarters among the villages 1.3 km from the town (issue 20).
+    """
+    keep = np.asarray(in_town, dtype=bool).reshape(-1)
+    if len(keep) != len(nuclei):
+        raise InputError(f"town_nuclei: {len(keep)} flags for {len(nuclei)} nuclei")
+    kept = [n for n, k in zip(nuclei, keep.tolist()) if k]
+    return kept if kept else list(nuclei)
