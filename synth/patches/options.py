@@ -132,6 +132,21 @@ class PatchOptions:
     #: 0.15 spacings everywhere (no town's bend): north-bayreuth 2 2 4 but Andorra 7 7 5, its curvature 1.3° against
     #: 4.1° (README, issue 20, h32n).
     edge_tolerance: float | None = None
+    #: Lay a seam link as the straight line between its two cut ends, not the smooth curve of
+    #: :func:`~synth.patches.seams._connector` (tangent to both cut streets): the turn between two cut streets
+    #: is then taken at the two ends, not spread over the link as an S or a hook. Why: the curve bends every
+    #: 20 m chord of the link, 6.8° median on north-bayreuth's engine districts against the town's 1.0° (session 32).
+    straight_seams: bool = False
+    #: When set, degrees: a dead end :func:`~synth.patches.topology._fewer_dead_ends` would run on to a tee but
+    #: that meets nothing straight ahead within ``tee_reach`` joins the nearest street within that reach instead,
+    #: square to it, if the link turns at most this much from the dead end's heading (crossing nothing).
+    near_join: float | None = None
+    #: When set, metres: a perimeter street (:mod:`~synth.patches.edges`) follows the district's edge smoothed
+    #: along its length by a Gaussian of this spread (:func:`~synth.patches.edges._smoothed`; where the curve is
+    #: not clear, the edge as it is), instead of ``edge_tolerance``'s simplification. The edge's wiggles at a
+    #: few metres are the buffers' (5.4° per 20 m median on 15 % of north-bayreuth's engine streets, session 32);
+    #: the simplification that removed them left straight legs with corners, which cost Andorra its curves.
+    edge_smoothing: float | None = None
     #: A cut end left over runs on this many spacings to meet a street in a tee ...
     tee_reach: float = 0.6
     #: ... meeting it at this angle or more (degrees).
