@@ -144,9 +144,9 @@ class PatchOptions:
     #: that meets nothing straight ahead within ``tee_reach`` joins the nearest street within that reach instead,
     #: square to it, if the link turns at most this much from the dead end's heading (crossing nothing).
     #: Off: meant for Campo Grande's engine 2-core share (0.964 below 0.968-0.979), but at 45 it leaves Campo
-    #: Grande's and north-bayreuth's growth the same (the same verdict and km: no dead end there that
-    #: :func:`~synth.patches.topology._fewer_dead_ends` tried missed its street ahead, so their engine 2-core share
-    #: is not lost to such ends) and changes the others: ``engine_growth.py --seed 0``,
+    #: Grande's and north-bayreuth's growth the same (the same verdict and km: it made no join there, so their
+    #: engine 2-core share is not lost to dead ends :func:`~synth.patches.topology._fewer_dead_ends` could join
+    #: this way) and changes the others: ``engine_growth.py --seed 0``,
     #: main -> 45: Krems 1 1 1 -> 1 1 1, Andorra 0 0 0 -> 4 4 4, Monaco 2 3 3 -> 4 4 3 (session 33, h33n).
     near_join: float | None = None
     #: When set, metres: a perimeter street (:mod:`~synth.patches.edges`) follows the district's edge smoothed
