@@ -138,7 +138,10 @@ class PatchOptions:
     #: 20 m chord of the link, 6.8° median on north-bayreuth's engine districts against the town's 1.0° (session 32).
     #: Off: ``benchmarks/engine_growth.py --seed 0``, engine streets off of 14 per reference seed, main -> on
     #: (session 33, h33n): Krems 1 1 1 -> 3 2 3 (dead-end share 0.197 above 0.026-0.197), Andorra 0 0 0 -> 3 4 3,
-    #: north-bayreuth 5 5 5 -> 4 5 5, Monaco 2 3 3 -> 2 2 3 (Campo Grande not run).
+    #: north-bayreuth 5 5 5 -> 4 5 5, Monaco 2 3 3 -> 2 2 3 (Campo Grande not run). Nor does it straighten the
+    #: district: at its default site (``district_fidelity.py --same-site --seeds 0 1``) north-bayreuth's curvature
+    #: KS 0.282 -> 0.288 (bound 0.120; the turn taken at the link's ends is read as bends too), corners over 45°
+    #: 8.9 -> 9.3 per km, off of 14 3 3 -> 2 3; Andorra 4 7 -> 5 7.
     straight_seams: bool = False
     #: When set, degrees: a dead end :func:`~synth.patches.topology._fewer_dead_ends` would run on to a tee but
     #: that meets nothing straight ahead within ``tee_reach`` joins the nearest street within that reach instead,
