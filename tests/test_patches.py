@@ -1,6 +1,7 @@
 """Example patches: districts quilted from the town as mapped, and judged like real parts of it."""
 from __future__ import annotations
 
+import copy
 import functools
 
 import numpy as np
@@ -17,8 +18,8 @@ from synth.patches import PatchOptions
 from synth.patches.corners import _straighten, corner_turns, sharp_corners
 from synth.patches.placing import _free_land
 from synth.patches.quilt import _Quilt
-from synth.patches.seams import _connector
-from synth.patches.topology import _Aim, _more_dead_ends, _trim
+from synth.patches.seams import _connector, _walk_seams
+from synth.patches.topology import _Aim, _fewer_dead_ends, _more_dead_ends, _trim
 from tests.conftest import FIXTURES
 
 
@@ -74,6 +75,56 @@ def _cut_quilt(pieces, ends, cells):
         quilt.cut_cell.append(cell)
         quilt.cut_piece.append(k)
     return quilt
+
+
+def test_a_straight_seam_link_is_the_line_between_the_two_cut_ends():
+    """``straight_seams``: two offset cut streets facing each other are linked by one straight segment (the
+    turn taken at the two ends), where the default curve bends along the whole link."""
+    quilt = _cut_quilt([[(-100.0, 0.0), (0.0, 0.0)], [(60.0, 20.0), (160.0, 20.0)]], [(0, -1), (1, 0)], [0, 1])
+    far = shapely.LineString([(5000, 5000), (5100, 5000)])
+    straight, curved = copy.deepcopy(quilt), copy.deepcopy(quilt)
+    assert _walk_seams(straight, 100.0, PatchOptions(straight_seams=True), shapely.Polygon(), far) == 1
+    assert _walk_seams(curved, 100.0, PatchOptions(), shapely.Polygon(), far) == 1
+    assert np.array_equal(straight.xy[-1], [[0.0, 0.0], [60.0, 20.0]])
+    assert len(curved.xy[-1]) > 2 and not straight.cut_xy and not curved.cut_xy
+
+
+def test_a_dead_end_stopped_beside_a_street_joins_it_with_near_join():
+    """``near_join``: a dead end whose street ahead is missed joins the nearest street within ``tee_reach``,
+    square to it, when the link turns little from its heading; without the option, or beyond the turn, it stays."""
+    # a ladder of two rails and two rungs (loops), and a cul-de-sac from the lower rail heading up and to the
+    # right: its end is 30 m below the upper rail and 40 m short of where its heading would meet the right rung
+    rails = [[(0.0, 0.0), (100.0, 0.0), (300.0, 0.0)], [(0.0, 200.0), (300.0, 200.0)]]
+    rungs = [[(0.0, 0.0), (0.0, 200.0)], [(300.0, 0.0), (300.0, 200.0)]]
+    cul = [(100.0, 0.0), (100.0, 150.0), (130.0, 170.0)]
+    net = network_from_lines([*rails, *rungs, cul])
+    far = shapely.LineString([(5000, 5000), (5100, 5000)])
+    aim = _Aim(0.0, 1.0)  # no dead end wanted
+    spacing = 100.0  # tee_reach 60 m: straight ahead (up and right) the upper rail is 45 m off at 34 degrees
+    link = np.array([[130.0, 170.0], [130.0, 200.0]])  # square to the upper rail, 56 degrees off the heading
+
+    def linked(opts: PatchOptions) -> bool:
+        made = _fewer_dead_ends(net, far, shapely.Polygon(), spacing, opts, aim)
+        return any(len(xy) == 2 and (np.allclose(xy, link) or np.allclose(xy, link[::-1]))
+                   for xy in map(made.street_xy, made.streets))
+
+    assert linked(PatchOptions(near_join=60.0))
+    assert not linked(PatchOptions()) and not linked(PatchOptions(near_join=30.0))
+
+
+def test_a_smoothed_perimeter_street_keeps_its_ends_and_the_lands_bend_and_loses_the_buffers_wiggles():
+    """``edge_smoothing``: a perimeter street along a jagged edge (3 m zigzags, a union of buffers) round a
+    quarter circle of 200 m radius bends about as the circle does (5.7 degrees per 20 m), not as the zigzags."""
+    from synth.patches.edges import _bends, _smoothed
+    angle = np.linspace(0.0, np.pi / 2, 61)
+    r = 200.0 + 3.0 * (-1.0) ** np.arange(len(angle))
+    raw = np.column_stack([r * np.cos(angle), r * np.sin(angle)])
+    smooth = _smoothed(raw, 20.0)
+    assert np.array_equal(smooth[0], raw[0]) and np.array_equal(smooth[-1], raw[-1])
+    circle = np.degrees(20.0 / 200.0)
+    assert np.mean(_bends(raw)) > 2 * circle
+    assert abs(np.median(_bends(smooth)) - circle) < 1.0
+    assert np.abs(np.hypot(*smooth.T) - 200.0).max() < 5.0
 
 
 def test_corners_are_counted_at_nodes_of_degree_two_only():

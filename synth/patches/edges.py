@@ -4,6 +4,7 @@ from __future__ import annotations
 import numpy as np
 import shapely
 import shapely.ops
+from scipy.ndimage import gaussian_filter1d
 
 from osm_expand.model.geometry import chord_bends
 from synth.patches.options import PatchOptions
@@ -68,7 +69,11 @@ def _edge_streets(quilt: _Quilt, region: shapely.Geometry, spacing: float, opts:
     for a, b, raw in runs:
         if used[a] or used[b]:
             continue
-        path = next((p for p in _simplified(raw, tolerances) if board.clear(p)), raw)
+        if opts.edge_smoothing is not None:  # a gentle curve where it is clear, else the edge as it is
+            smooth = _smoothed(raw, opts.edge_smoothing)
+            path = smooth if board.clear(smooth) else raw
+        else:
+            path = next((p for p in _simplified(raw, tolerances) if board.clear(p)), raw)
         if len(path) < 2 or not board.clear(path):
             continue
         _lay(board, quilt, path, a)
@@ -76,6 +81,24 @@ def _edge_streets(quilt: _Quilt, region: shapely.Geometry, spacing: float, opts:
         made += 1
     _close(quilt, used)
     return made
+
+
+def _smoothed(raw: np.ndarray, sigma: float) -> np.ndarray:
+    """``raw`` resampled every :data:`CONNECTOR_STEP` metres and smoothed along its length by a Gaussian of
+    ``sigma`` metres, its two ends where they were.
+
+    The edge is a union of buffers: its wiggles at a few metres are the buffers' arcs and corners, its
+    bends over a block's length the land's. A smoothing of about a house plot's width keeps the second and
+    drops the first, a curve where Douglas-Peucker gives straight legs with corners.
+    """
+    line = shapely.LineString(raw)
+    n = max(int(np.ceil(line.length / CONNECTOR_STEP)), 1)
+    pts = shapely.get_coordinates(shapely.line_interpolate_point(line, np.linspace(0.0, line.length, n + 1)))
+    if len(pts) < 3:
+        return np.array([raw[0], raw[-1]])
+    out = gaussian_filter1d(pts, sigma / (line.length / n), axis=0, mode="nearest")
+    out[0], out[-1] = raw[0], raw[-1]
+    return out
 
 
 def _ring_run(ring: shapely.LinearRing, start: float, along: float) -> np.ndarray:

@@ -132,6 +132,40 @@ class PatchOptions:
     #: 0.15 spacings everywhere (no town's bend): north-bayreuth 2 2 4 but Andorra 7 7 5, its curvature 1.3° against
     #: 4.1° (README, issue 20, h32n).
     edge_tolerance: float | None = None
+    #: Lay a seam link as the straight line between its two cut ends, not the smooth curve of
+    #: :func:`~synth.patches.seams._connector` (tangent to both cut streets): the turn between two cut streets
+    #: is then taken at the two ends, not spread over the link as an S or a hook. Why: the curve bends every
+    #: 20 m chord of the link, 6.8° median on north-bayreuth's engine districts against the town's 1.0° (session 32).
+    #: Off: ``benchmarks/engine_growth.py --seed 0``, engine streets off of 14 per reference seed, main -> on
+    #: (session 33, h33n): Krems 1 1 1 -> 3 2 3 (dead-end share 0.197 above 0.026-0.197), Andorra 0 0 0 -> 3 4 3,
+    #: north-bayreuth 5 5 5 -> 4 5 5, Monaco 2 3 3 -> 2 2 3 (Campo Grande not run). Nor does it straighten the
+    #: district: at its default site (``district_fidelity.py --same-site --seeds 0 1``) north-bayreuth's curvature
+    #: KS 0.282 -> 0.288 (bound 0.120; the turn taken at the link's ends is read as bends too), corners over 45°
+    #: 8.9 -> 9.3 per km, off of 14 3 3 -> 2 3; Andorra 4 7 -> 5 7.
+    straight_seams: bool = False
+    #: When set, degrees: a dead end :func:`~synth.patches.topology._fewer_dead_ends` would run on to a tee but
+    #: that meets nothing straight ahead within ``tee_reach`` joins the nearest street within that reach instead,
+    #: square to it, if the link turns at most this much from the dead end's heading (crossing nothing).
+    #: Off: meant for Campo Grande's engine 2-core share (0.964 below 0.968-0.979), but at 45 it leaves Campo
+    #: Grande's and north-bayreuth's growth the same (the same verdict and km: it made no join there, so their
+    #: engine 2-core share is not lost to dead ends :func:`~synth.patches.topology._fewer_dead_ends` could join
+    #: this way) and changes the others: ``engine_growth.py --seed 0``,
+    #: main -> 45: Krems 1 1 1 -> 1 1 1, Andorra 0 0 0 -> 4 4 4, Monaco 2 3 3 -> 4 4 3 (session 33, h33n).
+    near_join: float | None = None
+    #: When set, metres: a perimeter street (:mod:`~synth.patches.edges`) follows the district's edge smoothed
+    #: along its length by a Gaussian of this spread (:func:`~synth.patches.edges._smoothed`; where the curve is
+    #: not clear, the edge as it is), instead of ``edge_tolerance``'s simplification. The edge's wiggles at a
+    #: few metres are the buffers' (5.4° per 20 m median on 15 % of north-bayreuth's engine streets, session 32);
+    #: the simplification that removed them left straight legs with corners, which cost Andorra its curves.
+    #: Off: on the pipeline's district at its default site (``district_fidelity.py --same-site --seeds 0 1``,
+    #: main -> 20 m) north-bayreuth's corners over 45° fall 35 51 -> 31 31 (8.9 -> 7.3 per km; the town's 1.1) and
+    #: its curvature KS 0.282 -> 0.234 (bound 0.120, still off), off of 14 3 3 -> 2 5; Andorra 4 7 -> 7 6. The
+    #: engine's 30 years (``engine_growth.py``, main -> 20 m) move to other sites: seed 0 north-bayreuth 5 5 5 ->
+    #: 2 1 1 (its growth at the town's western edge, not in the fields north-east: where, not how it bends),
+    #: Krems 1 1 1 -> 2 1 1, Andorra 0 0 0 -> 5 5 6 (8 pieces), Monaco 2 3 3 -> 3 3 3 (2-core 0.869 below
+    #: 0.874); seed 1 Krems 3 3 4 -> 5 5 7, Andorra 0 0 1 -> 1 1 1, north-bayreuth 3 3 3 -> 5 6 6, Monaco
+    #: 3 3 2 -> 5 6 6; at 10 m, seed 0, Andorra 8 8 8, north-bayreuth 3 3 2 (session 33, h33n).
+    edge_smoothing: float | None = None
     #: A cut end left over runs on this many spacings to meet a street in a tee ...
     tee_reach: float = 0.6
     #: ... meeting it at this angle or more (degrees).

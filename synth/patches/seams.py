@@ -39,7 +39,7 @@ def _walk_seams(quilt: _Quilt, spacing: float, opts: PatchOptions, occupied: sha
         if used[a] or used[b] or turn[k] > opts.seam_turn:
             continue
         if gap[k] > 1e-6:
-            path = _connector(xy[a], heading[a], xy[b], heading[b])
+            path = np.array([xy[a], xy[b]]) if opts.straight_seams else _connector(xy[a], heading[a], xy[b], heading[b])
             if not board.clear(path):
                 continue
             _lay(board, quilt, path, a)

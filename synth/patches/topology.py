@@ -10,6 +10,7 @@ import shapely.ops
 from scipy.spatial import cKDTree
 
 from osm_expand.model import Origin, StreetNetwork, network_from_lines
+from osm_expand.model.geometry import closest_on_segments
 from osm_expand.model.topology import (
     dangling_chain,
     dangling_chains,
@@ -324,9 +325,13 @@ def _fewer_dead_ends(net: StreetNetwork, old: shapely.Geometry, occupied: shapel
         hits = [(_meet(ray, quilt.xy[j], p, d, opts.tee_angle), j)
                 for j in board.tree.query(ray, predicate="intersects").tolist() if j != where[e]]
         met = [(m, j) for m, j in hits if m is not None]
-        if not met:
+        ahead = min(met, key=lambda h: float(np.hypot(*(h[0][0] - p)))) if met else None
+        if (ahead is None or not ahead[0][1] or not board.clear(np.array([p, ahead[0][0]]))) \
+                and opts.near_join is not None:  # missed ahead (or met too flat, or blocked): the street beside
+            ahead = _nearest_street(p, d, reach, quilt, board, where[e], opts.near_join) or ahead
+        if ahead is None:
             continue
-        (at, fair), j = min(met, key=lambda h: float(np.hypot(*(h[0][0] - p))))
+        (at, fair), j = ahead
         if fair and board.clear(np.array([p, at])):
             board.added.append(shapely.LineString([p, at]))
             quilt.add(np.array([p, at]), st.highway, st.hierarchy)
@@ -347,6 +352,31 @@ def _fewer_dead_ends(net: StreetNetwork, old: shapely.Geometry, occupied: shapel
             excess -= 1
         net = net.replace(streets=without_segments(net.streets, drop)) if drop else net
     return _shorter_trees(net, old, reach, edge, aim, opts.dead_end_floor)
+
+
+def _nearest_street(p: np.ndarray, d: np.ndarray, reach: float, quilt: _Quilt, board: _Board, own: int,
+                    turn: float) -> tuple[tuple[np.ndarray, bool], int] | None:
+    """The foot of the nearest street of the district (not ``own``) within ``reach`` of the dead end ``p``
+    (heading ``d``), as ``((foot, True), street)``, when the link to it turns at most ``turn`` degrees
+    from ``d`` and crosses nothing; else None. Met at the foot of the perpendicular (or a street's end).
+
+    A dead end whose street ahead is missed by a few degrees, or that stops beside a street, is a
+    cul-de-sac no one would leave: the town's own dead ends are ends of long cul-de-sacs, not ends a few
+    metres from a street."""
+    disc = shapely.Point(p).buffer(reach, 8)
+    best: tuple[float, np.ndarray, int] | None = None
+    for j in board.tree.query(disc, predicate="intersects").tolist():
+        if j == own:
+            continue
+        xy = quilt.xy[j]
+        t, foot, dist = closest_on_segments(p[None, :], xy[:-1], xy[1:])
+        i = int(np.argmin(dist))
+        if dist[i] <= 1e-6 or dist[i] > reach or (best is not None and dist[i] >= best[0]):
+            continue
+        v = (foot[i] - p) / dist[i]
+        if float(np.degrees(np.arccos(np.clip(v @ d, -1.0, 1.0)))) <= turn and board.clear(np.array([p, foot[i]])):
+            best = (float(dist[i]), foot[i], j)
+    return None if best is None else ((best[1], True), best[2])
 
 
 def _shorter_trees(net: StreetNetwork, old: shapely.Geometry, reach: float, edge: shapely.Geometry | None,
