@@ -6,9 +6,15 @@ reference cycles (plain reference counting frees them). The cyclic
 collector still walks every live object on each full collection, and their
 number grows with the file, so its cost grows faster than the file: 17 s of
 the 56 s that ``osm-expand simplify`` took on the 3 M-node benchmark file,
-with the same output and the same peak memory without it. Reference
-counting is untouched; anything cyclic is collected once the pause ends.
-It is process state, so only the command line sets it, never a stage.
+with the same output and the same peak memory without it. The main
+command's run pauses it too: the engine's years keep a town of tens of
+thousands of streets, lots and buildings alive and make almost no cyclic
+garbage (Krems' default run: 802 objects collected in all), yet the
+collector walked them 6,700 times on Campo Grande's default run, 4.2 s of
+its 91 s of CPU (Krems: 0.3 s of 11), with the same output and the same peak
+memory without it. Reference counting is untouched; anything cyclic is
+collected once the pause ends. It is process state, so only the command
+line sets it, never a stage.
 """
 from __future__ import annotations
 

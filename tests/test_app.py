@@ -74,3 +74,25 @@ def test_a_batch_names_its_jobs_as_the_main_command_names_its_outputs(tmp_path):
     assert [j.name for j in jobs] == ["town", "krems", "Oakland"]
     assert [output_path(p, None, ".xml", EXPAND_WRITERS)[0].name for p in inputs] == [
         "town.xml", "krems.xml", "Oakland.xml"]
+
+
+def test_the_main_command_runs_with_the_cyclic_collector_paused_and_restores_it(tmp_path, monkeypatch):
+    """The engine's years make almost no cyclic garbage, and the collector's walks over the live town cost
+    seconds on a large one: the main command pauses it for its run (as ``simplify`` does), and gives it back
+    as it was however the run ends."""
+    import gc
+
+    seen: list[bool] = []
+
+    def fake(request, **kwargs):
+        seen.append(gc.isenabled())
+        if request.seed == 1:
+            raise OptionError("refused")
+        return {}
+
+    monkeypatch.setattr(cli, "run_expand", fake)
+    assert gc.isenabled()
+    assert cli.main([str(OAKLAND), "-o", str(tmp_path / "x.xml"), "--seed", "0", "-q"]) == 0
+    assert gc.isenabled()
+    assert cli.main([str(OAKLAND), "-o", str(tmp_path / "x.xml"), "--seed", "1", "-q"]) == 2
+    assert gc.isenabled() and seen == [False, False]
