@@ -45,6 +45,7 @@ from osm_expand.app import (
     writing,
 )
 from osm_expand.errors import InputError, OptionError
+from osm_expand.gcpause import cyclic_gc_paused  # 0.2 ms (gc and contextlib): imported once, here
 
 #: ``simplify``'s output writers by suffix.
 OUTPUT_WRITERS = {".osm": "osm", ".geojson": "geojson", ".json": "geojson"}
@@ -197,7 +198,6 @@ def _simplify_or_fail(city: Path, net, args: argparse.Namespace, options=None):
 
 def cmd_simplify(args: argparse.Namespace, log: Progress) -> dict:
     from osm_expand import export
-    from osm_expand.gcpause import cyclic_gc_paused
     from osm_expand.ingest import load
     from osm_expand.model import City
     from simplify import SimplifyOptions
@@ -326,8 +326,6 @@ def cmd_expand(args: argparse.Namespace, log: Progress) -> dict:
     """The main command: one :func:`osm_expand.app.run_expand` with this command line's options, with the
     cyclic collector paused (:mod:`osm_expand.gcpause`: the engine's years make almost no cyclic garbage, and
     the collector's walks over the live town were 4.2 s of Campo Grande's default run)."""
-    from osm_expand.gcpause import cyclic_gc_paused
-
     with cyclic_gc_paused():
         return run_expand(ExpandRequest.from_namespace(args), progress=log, stages=log.add_stages)
 

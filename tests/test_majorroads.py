@@ -1,6 +1,7 @@
 """The pathfinding lattice G, B, G′, turn-penalised routing and major road plans (003 §3.4; 000 §4.2.3, §4.2.7)."""
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import replace
 from math import gcd
 
@@ -20,7 +21,7 @@ from osm_expand.engine.roads.lattice import (
     build_lattice,
     lattice_directions,
 )
-from osm_expand.engine.roads.path_graph import EdgeCosts, implicit_graph, pathfinding_graph
+from osm_expand.engine.roads.path_graph import EdgeCosts, StreetPart, implicit_graph, pathfinding_graph
 from osm_expand.engine.roads.road_types import (
     MajorRoadOptions,
     RoadType,
@@ -1390,6 +1391,57 @@ def test_b_tests_only_the_segments_last_years_b_was_not_made_with():
     assert shapely.equals_exact(second.area, fresh.area, 0.0)
 
 
+def test_a_segments_end_key_is_the_same_either_way_round_and_another_when_it_moves():
+    """Issue 22 (review 33, 5): B's held segments and the stitches' carried street verdicts key a
+    segment by its ends with one helper, the lesser end first: a street drawn the other way round
+    keeps its segments' keys, a street moved by a micrometre does not."""
+    lines = grid_lines(100, 100, 3, 60)
+    segs = SegmentTable.from_lines(lines, major=[False] * len(lines), width=[6.0] * len(lines))
+    back = SegmentTable.from_lines([line[::-1] for line in lines], major=[False] * len(lines),
+                                   width=[6.0] * len(lines))
+    assert not np.array_equal(segs.a, back.a)  # the table holds them the other way round
+    assert sorted(segs.end_keys().tolist()) == sorted(back.end_keys().tolist())  # each street reversed
+    moved = SegmentTable.from_lines([line + 1e-6 for line in lines], major=[False] * len(lines),
+                                    width=[6.0] * len(lines))
+    assert not set(segs.end_keys().tolist()) & set(moved.end_keys().tolist())
+    ends = np.frombuffer(segs.end_keys().tobytes(), dtype=np.float64).reshape(-1, 2, 2)
+    assert np.array_equal(np.sort(ends.reshape(-1, 4), axis=1),
+                          np.sort(np.concatenate([segs.a, segs.b], axis=1), axis=1))
+
+
+def test_b_does_not_test_again_a_segment_last_years_b_held_the_other_way_round():
+    """Issue 22 (review 33, 5): a segment last year's B was made with is held whichever way round
+    the table now holds it (B's key of it was the ends in the table's order, so a street drawn
+    the other way round was tested again); B is the one made testing them all."""
+    import osm_expand.engine.roads.built_up as built_up_module
+
+    lines = grid_lines(100, 100, 4, 60)
+    segs = SegmentTable.from_lines(lines, major=[False] * 10, width=[6.0] * 10)
+    first = built_up_area(blocks_of(segs), segs)
+    back = SegmentTable.from_lines([line[::-1] for line in lines], major=[False] * 10, width=[6.0] * 10)
+    tested: list[int] = []
+    contains_xy = shapely.contains_xy
+    with pytest.MonkeyPatch.context() as monkey:
+        monkey.setattr(built_up_module.shapely, "contains_xy",
+                       lambda g, x, y: tested.append(len(np.atleast_1d(x))) or contains_xy(g, x, y))
+        second = built_up_area(blocks_of(back), back, previous=first)
+    assert tested == [] and second.area is first.area  # nothing new: B as it was
+    fresh = built_up_area(blocks_of(back), back, previous=first.__class__(first.area, first.blocks))
+    assert shapely.equals_exact(shapely.normalize(second.area), shapely.normalize(fresh.area), 0.0)
+
+
+def test_the_stitch_key_hash_takes_no_keys_and_refuses_keys_of_broken_words():
+    """Review 33, 14: ``_hash`` of no keys is no hashes (it raised: ``reshape(0, -1)``), and a key
+    that is not whole 8-byte words is refused rather than read across rows."""
+    from osm_expand.engine.roads.stitches import _hash
+
+    assert _hash(np.zeros(0, dtype="V40")).shape == (0,)
+    keys = np.ascontiguousarray(np.arange(10.0).reshape(2, 5)).view("V40").ravel()
+    assert _hash(keys).shape == (2,) and _hash(keys)[0] != _hash(keys)[1]
+    with pytest.raises(AssertionError):
+        _hash(np.zeros(3, dtype="V12"))
+
+
 @settings(max_examples=10, deadline=None)
 @given(st.integers(0, 2**32 - 1))
 def test_stitch_tests_against_the_built_up_blocks_are_carried_where_no_block_changed(seed):
@@ -1415,18 +1467,24 @@ def test_stitch_tests_against_the_built_up_blocks_are_carried_where_no_block_cha
         later.append(np.stack([a, a + rng.uniform(-250, 250, 2)]))
     segs2 = SegmentTable.from_lines(later, major=[False] * len(later), width=[6.0] * len(later))
     built2 = built_up_area(blocks_of(segs2), segs2, previous=built)
-    assert built2.changed is not None and built2.changed[0] is built.blocks and len(built2.changed[1])
+    assert built2.changed is not None and built2.changed.since is built.blocks and len(built2.changed.boxes)
     lat1, lat2 = lat.with_built_up(built.area), lat.with_built_up(built.area).with_built_up(built2.area, built2.added)
     first = street_part(lat1, segs, built)
-    tested: list[int] = []
     intersects = shapely.intersects
-    with pytest.MonkeyPatch.context() as monkey:
-        monkey.setattr(stitches_module.shapely, "intersects",
-                       lambda a, b: tested.append(len(np.atleast_1d(b))) or intersects(a, b))
-        carried = street_part(lat2, segs2, built2, previous=first.verdicts)
-        fresh = street_part(lat2, segs2, built2)
-    assert sum(tested[:len(tested) // 2]) < sum(tested[len(tested) // 2:])  # fewer tested than afresh
-    for x, y in zip(fresh.shell, carried.shell):
+
+    def counted(run: Callable[[], StreetPart]) -> tuple[StreetPart, int]:
+        """``run()`` and how many stitches it tested with ``shapely.intersects`` (patched on the
+        shapely module itself, so every caller is counted: each run in a context of its own)."""
+        tested: list[int] = []
+        with pytest.MonkeyPatch.context() as monkey:
+            monkey.setattr(stitches_module.shapely, "intersects",
+                           lambda a, b: tested.append(len(np.atleast_1d(b))) or intersects(a, b))
+            return run(), sum(tested)
+
+    carried, n_carried = counted(lambda: street_part(lat2, segs2, built2, previous=first.verdicts))
+    fresh, n_fresh = counted(lambda: street_part(lat2, segs2, built2))
+    assert n_carried < n_fresh  # fewer tested than afresh
+    for x, y in zip(fresh.shell, carried.shell, strict=True):
         assert np.array_equal(x, y)
     box = tuple(float(v) for v in (*rng.uniform(0, 250, 2), *rng.uniform(950, 1200, 2)))
     last = implicit_graph(lat1, segs, built)

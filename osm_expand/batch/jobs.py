@@ -140,11 +140,15 @@ def run_job(job: Job) -> JobResult:
     error go to ``job.log`` (a timed line each, as the main command prints
     them when stderr is no terminal), its report gives the counts. pyosmium
     gets one thread. An interrupt (Ctrl-C) is not a job's failure: it
-    propagates.
+    propagates. The cyclic collector is paused for the job's run, as the
+    main command pauses it (:mod:`osm_expand.gcpause`): it is process state,
+    and a process runs one job at a time (``_ONE_JOB_AT_A_TIME``), so no
+    other job's pause is undone under it.
     """
     import warnings
 
     from osm_expand.app import run_expand
+    from osm_expand.gcpause import cyclic_gc_paused
 
     with _ONE_JOB_AT_A_TIME:
         t0 = time.perf_counter()
@@ -158,7 +162,8 @@ def run_job(job: Job) -> JobResult:
                 print(f"[{time.perf_counter() - t0:6.2f}s] {message}", file=log, flush=True)
 
             try:
-                report = run_expand(_job_request(job), progress=say)
+                with cyclic_gc_paused():
+                    report = run_expand(_job_request(job), progress=say)
                 say("done")
                 code = 0
             except (KeyboardInterrupt, SystemExit):

@@ -148,8 +148,27 @@ class SegmentTable:
             self._cache["lines"] = lines
         return self._cache["lines"]
 
+    def end_keys(self) -> np.ndarray:
+        """``(E,)`` void keys, one a segment: the bytes of its two ends' float64 coordinates, the
+        lesser end (by x, then y) first (made once per table, read-only: it is shared).
+
+        A segment reversed has the same key; a segment split or moved has another. The road
+        engine's year-to-year memos (B's held segments, the stitches' carried street verdicts)
+        compare them across years; :meth:`numpy.ndarray.tolist` gives them as ``bytes``, and
+        ``keys.tobytes()`` reads back as ``(E, 2, 2)`` float64 ends.
+        """
+        if "end_keys" not in self._cache:
+            a, b = np.asarray(self.a, dtype=np.float64), np.asarray(self.b, dtype=np.float64)
+            first = (a[:, 0] < b[:, 0]) | ((a[:, 0] == b[:, 0]) & (a[:, 1] <= b[:, 1]))
+            ends = np.ascontiguousarray(np.concatenate([np.where(first[:, None], a, b),
+                                                        np.where(first[:, None], b, a)], axis=1))
+            keys = ends.view(np.dtype((np.void, ends.dtype.itemsize * 4))).ravel()
+            keys.flags.writeable = False
+            self._cache["end_keys"] = keys
+        return self._cache["end_keys"]
+
     def __getstate__(self) -> dict:
-        """Pickled without the made lines and tree (made again when asked for)."""
+        """Pickled without the made lines, tree and keys (made again when asked for)."""
         return {**self.__dict__, "_cache": {}}
 
     def tree(self) -> shapely.STRtree:

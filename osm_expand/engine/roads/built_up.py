@@ -18,6 +18,7 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import dataclass, field
+from typing import NamedTuple
 
 import numpy as np
 import shapely
@@ -25,7 +26,7 @@ import shapely
 from osm_expand.model.options import require_positive
 from osm_expand.model.segments import SegmentTable
 
-__all__ = ["segment_sides", "BuiltUpOptions", "BuiltUpArea", "built_up_area"]
+__all__ = ["segment_sides", "BuiltUpOptions", "BlocksChanged", "BuiltUpArea", "built_up_area"]
 
 
 def segment_sides(segments: SegmentTable, built_blocks: shapely.Geometry | None) -> np.ndarray:
@@ -80,6 +81,16 @@ class BuiltUpOptions:
         require_positive(self, ("terrain_block_area", "neighbourhood"))
 
 
+class BlocksChanged(NamedTuple):
+    """Where the built-up blocks of a year differ from those of an earlier one: a test against the
+    blocks ``since`` (e.g. a stitch's) holds now wherever it came near none of ``boxes``."""
+
+    #: the earlier built-up blocks (:attr:`BuiltUpArea.blocks`, the very object: compared with ``is``)
+    since: shapely.Geometry
+    #: (C, 4) xmin, ymin, xmax, ymax of the blocks that became or stopped being built-up since
+    boxes: np.ndarray
+
+
 @dataclass(frozen=True)
 class BuiltUpArea:
     """B and the blocks it came from."""
@@ -95,13 +106,13 @@ class BuiltUpArea:
     #: the parts B took in since ``previous`` (the new built-up blocks and the new streets'
     #: neighbourhoods): B grew only inside them. None: B is new (no ``previous``)
     added: np.ndarray | None = field(default=None, repr=False, compare=False)
-    #: the segments B was made with, one key a segment (:func:`_segment_keys`): B holds each of them
-    #: (its neighbourhood was joined, or it lay in B already), so next year's need not be tested
+    #: the segments B was made with, one key a segment (:meth:`SegmentTable.end_keys`): each had
+    #: its neighbourhood joined, or passed B's three-point test then (both ends and the midpoint
+    #: in B, which only grows), so next year's segments with these keys are not tested again
     segments: frozenset[bytes] = field(default_factory=frozenset, repr=False, compare=False)
-    #: ``(since, boxes)``: ``blocks`` is the built-up blocks ``since`` (``previous.blocks``, the very
-    #: object) but inside ``boxes`` ``(C, 4)`` (xmin, ymin, xmax, ymax) of the blocks that became or
-    #: stopped being built-up; None: made afresh (what a stitch's test against them may carry)
-    changed: tuple | None = field(default=None, repr=False, compare=False)
+    #: ``blocks`` is ``changed.since`` (``previous.blocks``) but inside ``changed.boxes``; None: made
+    #: afresh (what a stitch's test against the blocks may carry)
+    changed: BlocksChanged | None = field(default=None, repr=False, compare=False)
 
 
 def built_up_area(blocks: Sequence[shapely.Geometry], segments: SegmentTable, *,
@@ -151,12 +162,12 @@ def built_up_area(blocks: Sequence[shapely.Geometry], segments: SegmentTable, *,
     added = list(polys[built & ~was_built])
     built_blocks, changed = _built_blocks(polys, built, was_built, keys, known, previous)
     grown: list[shapely.Geometry] = []
-    seg_keys = _segment_keys(segments)
+    seg_keys = segments.end_keys().tolist()
     if len(segments.uv):
         lines = segments.lines()
         if previous is not None:  # B never shrinks: only segments it does not hold yet are buffered
-            # a segment last year's B was made with lies in it (its neighbourhood was joined, or it was
-            # held then, and B only grew): only the others are tested (three points a segment in a
+            # a segment last year's B was made with (either way round) passed this test then, or its
+            # neighbourhood was joined, and B only grew: only the others are tested (three points a segment in a
             # polygon of the whole town was a fifth of B's year on Campo Grande)
             held = np.array([k in previous.segments for k in seg_keys], dtype=bool)
             test = np.flatnonzero(~held)
@@ -183,15 +194,9 @@ def built_up_area(blocks: Sequence[shapely.Geometry], segments: SegmentTable, *,
                        segments=frozenset(seg_keys), changed=changed)
 
 
-def _segment_keys(segments: SegmentTable) -> list[bytes]:
-    """One key per segment: the bytes of its two ends' coordinates, in the table's order (a segment
-    split or moved is another segment)."""
-    ends = np.ascontiguousarray(np.concatenate([segments.a, segments.b], axis=1))
-    return [bytes(k) for k in ends.view(np.dtype((np.void, ends.dtype.itemsize * 4))).ravel().tolist()]
-
-
 def _built_blocks(polys: np.ndarray, built: np.ndarray, was_built: np.ndarray, keys: np.ndarray,
-                  known: dict[bytes, bool], previous: BuiltUpArea | None) -> tuple[shapely.Geometry, tuple | None]:
+                  known: dict[bytes, bool], previous: BuiltUpArea | None
+                  ) -> tuple[shapely.Geometry, BlocksChanged | None]:
     """The union of the built-up blocks ``polys[built]``: last year's union with the blocks that are
     no longer built-up taken out and the new ones joined, when last year's verdicts hold
     (``known`` not empty); else made afresh. With it :attr:`BuiltUpArea.changed` (None: afresh).
@@ -211,7 +216,7 @@ def _built_blocks(polys: np.ndarray, built: np.ndarray, was_built: np.ndarray, k
     new = polys[built & ~was_built]
     if len(new):
         blocks = shapely.union(blocks, shapely.union_all(new))
-    return blocks, (previous.blocks, shapely.bounds(np.concatenate([gone, new])).reshape(-1, 4))
+    return blocks, BlocksChanged(previous.blocks, shapely.bounds(np.concatenate([gone, new])).reshape(-1, 4))
 
 
 def _same_basis(a: tuple, b: tuple) -> bool:

@@ -35,7 +35,7 @@ import numpy as np
 import shapely
 from scipy.sparse import csr_matrix
 
-from osm_expand.engine.roads.built_up import BuiltUpArea, segment_sides
+from osm_expand.engine.roads.built_up import BlocksChanged, BuiltUpArea, segment_sides
 from osm_expand.engine.roads.lattice import NO_EDGE, ROAD_KINDS, EdgeKind, Lattice, LatticeWeights, VertexClass
 from osm_expand.engine.roads.stitches import (
     GraphOptions,
@@ -399,7 +399,7 @@ class StreetPart:
     verdicts: ShellVerdicts | None = None
     #: the blocks that changed since the last B (:attr:`BuiltUpArea.changed`): a stitch away from
     #: them keeps its verdict on the built-up blocks
-    changed: tuple | None = None
+    changed: BlocksChanged | None = None
 
 
 def street_part(lattice: Lattice, segments: SegmentTable, built: BuiltUpArea | None = None, *,

@@ -8,10 +8,13 @@ from every street, enters no built-up block and touches no water or
 forbidden ground (:func:`stitch_ok`). :mod:`osm_expand.engine.roads.path_graph`
 assembles G′ from the lattice, the streets and these stitches.
 
-From year to year the street tests are carried over (:class:`ShellVerdicts`,
-:func:`carried_ok`): a year's G′ tests again only the stitches a segment
-was added or removed near; the others keep the last G′'s verdict, so the
-result is the one a fresh check gives.
+From year to year the verdicts are carried over (:class:`ShellVerdicts`,
+:func:`carried_ok`): a year's G′ tests a stitch against the streets again
+only if a segment was added or removed near it, against the built-up blocks
+only if it comes near a block that became or stopped being built-up
+(:attr:`BuiltUpArea.changed`), and for water and forbidden ground only if
+the last verdicts do not hold it; the others keep the last G′'s verdicts, so
+the result is the one a fresh check gives.
 """
 from __future__ import annotations
 
@@ -23,6 +26,7 @@ import shapely
 from scipy.ndimage import maximum_filter1d
 from scipy.spatial import cKDTree
 
+from osm_expand.engine.roads.built_up import BlocksChanged
 from osm_expand.engine.roads.lattice import Lattice
 from osm_expand.model.options import require_positive
 from osm_expand.model.segments import SegmentTable
@@ -60,12 +64,15 @@ class ShellVerdicts:
     thousands: a candidate with the same two ends as last year and no segment added
     or removed within ``clearance`` of it has last year's verdict; only the others are
     checked again (the street tests were 60 % of :func:`street_part` on Campo
-    Grande, 18 road years: 34 s of 58 s profiled). The built-up blocks are checked every
-    year (they change); water and forbidden ground only for candidates the verdicts do not
-    hold, or when they were made on other rasters (``ground``).
+    Grande, 18 road years: 34 s of 58 s profiled). The test against the built-up blocks
+    is carried too (``outside``, ``blocks``): a candidate clear of the streets then and now
+    keeps its verdict unless it comes near a block that became or stopped being built-up
+    since (:class:`~osm_expand.engine.roads.built_up.BlocksChanged`). Water and forbidden
+    ground are checked only for candidates the verdicts do not hold, or when they were made
+    on other rasters (``ground``).
     """
 
-    segments: np.ndarray  #: (S,) void keys of the segments (both ends' coordinates, ordered)
+    segments: np.ndarray  #: (S,) the segments' :meth:`SegmentTable.end_keys`
     #: (M,) void keys of the candidates that touch no water or forbidden ground (both ends' coordinates,
     #: each end's kind): the others never need a street verdict, the ground does not change
     pairs: np.ndarray
@@ -76,7 +83,7 @@ class ShellVerdicts:
     #: (M,) bool, the candidate enters no built-up block (read only where ``clear``); None: not kept
     outside: np.ndarray | None = None
     #: the built-up blocks ``outside`` was tested against (:attr:`BuiltUpArea.blocks`, the very object)
-    blocks: object = None
+    blocks: shapely.Geometry | None = None
 
 def lattice_verdicts(stitches: dict) -> ShellVerdicts | None:
     """The street verdicts of the stitches to the lattice in an :attr:`ImplicitGraph.stitches`
@@ -237,8 +244,9 @@ def _keys(values: np.ndarray) -> np.ndarray:
 
 def carried_ok(lattice: Lattice, segments: SegmentTable, xy: np.ndarray, pairs: np.ndarray, split_parent: np.ndarray,
                 n_lat: int, opts: GraphOptions, tree: shapely.STRtree, inner: shapely.Geometry | None,
-                previous: ShellVerdicts | None, memo: dict | None = None, *, blocks: object = None,
-                changed: tuple | None = None) -> tuple[np.ndarray, ShellVerdicts]:
+                previous: ShellVerdicts | None, memo: dict | None = None, *,
+                blocks: shapely.Geometry | None = None,
+                changed: BlocksChanged | None = None) -> tuple[np.ndarray, ShellVerdicts]:
     """:func:`stitch_ok`, the street tests carried over from ``previous`` where nothing near a
     stitch changed (see :class:`ShellVerdicts`), and this call's street verdicts.
 
@@ -252,7 +260,7 @@ def carried_ok(lattice: Lattice, segments: SegmentTable, xy: np.ndarray, pairs: 
     The test against the built-up blocks (``inner``, made from ``blocks``) is carried too: a
     stitch clear of the streets then and now, whose box comes near none of the blocks that
     became or stopped being built-up since (``changed``, :attr:`BuiltUpArea.changed`: the blocks
-    the last verdicts were tested against and the boxes of those blocks), keeps its verdict
+    they changed from and the boxes of the blocks that changed), keeps its verdict
     (making every clear stitch a line to test it again was a quarter of a year's stitches on
     Campo Grande).
     """
@@ -325,15 +333,16 @@ def carried_ok(lattice: Lattice, segments: SegmentTable, xy: np.ndarray, pairs: 
                              outside=outside[dry], blocks=blocks if inner is not None else None)
 
 
-def _changed_boxes(previous: ShellVerdicts | None, blocks: object, changed: tuple | None) -> np.ndarray | None:
+def _changed_boxes(previous: ShellVerdicts | None, blocks: shapely.Geometry | None,
+                   changed: BlocksChanged | None) -> np.ndarray | None:
     """Boxes ``(C, 4)`` outside which the built-up blocks are as ``previous`` tested its stitches
     against (none: the very same blocks); None when that is not known."""
     if previous is None or previous.blocks is None or blocks is None:
         return None
     if previous.blocks is blocks:
         return np.zeros((0, 4))
-    if changed is not None and changed[0] is previous.blocks:
-        return np.asarray(changed[1], dtype=float).reshape(-1, 4)
+    if changed is not None and changed.since is previous.blocks:
+        return np.asarray(changed.boxes, dtype=float).reshape(-1, 4)
     return None
 
 
@@ -402,8 +411,7 @@ def _carry(segments: SegmentTable, previous: ShellVerdicts | None, memo: dict) -
     if made is not None and made[0] is previous and made[1] is segments:
         return made[2]
     a, b = segments.a, segments.b
-    first = (a[:, 0] < b[:, 0]) | ((a[:, 0] == b[:, 0]) & (a[:, 1] <= b[:, 1]))
-    seg_keys = _keys(np.concatenate([np.where(first[:, None], a, b), np.where(first[:, None], b, a)], axis=1))
+    seg_keys = segments.end_keys()
     carry = _Carry(segments=seg_keys, keys=None, clear=None, changed=None)
     if previous is not None and len(previous.pairs):
         hashes = _hash(previous.pairs)
@@ -426,8 +434,10 @@ def _carry(segments: SegmentTable, previous: ShellVerdicts | None, memo: dict) -
 
 
 def _hash(keys: np.ndarray) -> np.ndarray:
-    """A uint64 hash of each void key (whole 8-byte words of it, mixed one after another)."""
-    words = np.frombuffer(np.ascontiguousarray(keys).tobytes(), dtype=np.uint64).reshape(len(keys), -1)
+    """A uint64 hash of each void key (its 8-byte words, mixed one after another)."""
+    keys = np.ascontiguousarray(keys)
+    assert keys.dtype.itemsize % 8 == 0, f"a key of {keys.dtype.itemsize} bytes is not whole 8-byte words"
+    words = np.frombuffer(keys.tobytes(), dtype=np.uint64).reshape(len(keys), keys.dtype.itemsize // 8)
     out = np.zeros(len(keys), dtype=np.uint64)
     for column in words.T:
         out = (out ^ column) * np.uint64(0x9E3779B97F4A7C15)  # wraps modulo 2⁶⁴
