@@ -14,7 +14,8 @@ collector walked them 6,700 times on Campo Grande's default run, 4.2 s of
 its 91 s of CPU (Krems: 0.3 s of 11), with the same output and the same peak
 memory without it. Reference counting is untouched; anything cyclic is
 collected once the pause ends. It is process state, so only the command
-line sets it, never a stage.
+line and the batch worker that runs one town at a time (``batch.jobs.run_job``) set it, never a
+stage.
 """
 from __future__ import annotations
 
