@@ -589,3 +589,29 @@ def test_clip_index_picks_the_one_pass_clip(tmp_path, capsys):
     assert {k: one["clip"][k] for k in ("nodes", "ways", "relations")} == \
         {k: two["clip"][k] for k in ("nodes", "ways", "relations")}
     assert (tmp_path / "one.osm").read_bytes() == (tmp_path / "two.osm").read_bytes()
+
+
+def test_a_batch_job_runs_with_the_cyclic_collector_paused_and_gives_it_back(tmp_path, monkeypatch):
+    """A worker runs one town at a time, as the main command does, so it pauses the cyclic collector for the
+    job's run as the main command does (osm_expand.gcpause) and restores it whether the job ran or failed."""
+    import gc
+
+    import osm_expand.app
+    from osm_expand.batch.jobs import run_job
+
+    seen: list[bool] = []
+
+    def fake(request, **kwargs):
+        seen.append(gc.isenabled())
+        if request.seed == 1:
+            raise InputError("refused")
+        return {"streets": 1}
+
+    monkeypatch.setattr(osm_expand.app, "run_expand", fake)
+    source = str(Path(__file__).resolve().parent.parent / "fixtures" / "krems.osm.gz")
+    jobs = [Job(name=f"k{seed}", input=source, output=str(tmp_path / f"k{seed}.xml"),
+                log=str(tmp_path / f"k{seed}.log"), seed=seed) for seed in (0, 1)]
+    assert gc.isenabled()
+    results = [run_job(job) for job in jobs]
+    assert gc.isenabled() and seen == [False, False]
+    assert [r.exit_code for r in results] == [0, 2]
