@@ -217,7 +217,10 @@ class GrowthOptions:
     #: 0.849 below its range); seed 1 north-bayreuth 3 3 3 → 4 3 3, Andorra 0 0 1 → 2 1 2, Krems 3 3 4 → 3 3 3,
     #: Monaco 3 3 2 → 6 4 6 (2-core 0.826 below range): Monaco fails, so off. With :attr:`town_nuclei` as well
     #: (seed 0): north-bayreuth 5 5 6 (dead ends 0.206 below range; first quarter at the town's edge), Andorra,
-    #: Krems, Monaco as with 0.05 alone (their nuclei-ranked heads hold one site). The verdict moves by 2-3
+    #: Krems, Monaco as with 0.05 alone (their nuclei-ranked heads hold one site). 0.1 (a cell) alone, seed 0:
+    #: north-bayreuth and Andorra unchanged (5 5 5, 0 0 0: their nuclei's first sites lie within 0.1 of the
+    #: best), Krems 4 2 4 and Monaco 3 6 6 as with 0.05: there the nuclei's pick among sites 0.04-0.1 below the
+    #: best is the better district (Krems 1 1 1, Monaco 2 3 3). The verdict moves by 2-3
     #: per town when a district moves to another of the five sites or a refused site's attempt spends the
     #: random stream, so no site order measured here helps every town.
     site_score_tolerance: float = math.inf
