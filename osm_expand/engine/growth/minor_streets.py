@@ -31,7 +31,7 @@ import numpy as np
 import shapely
 
 from osm_expand.district import place_district
-from osm_expand.engine.growth.nuclei import Nucleus, candidate_points, rank_candidates, town_nuclei
+from osm_expand.engine.growth.nuclei import Nucleus, candidate_points, rank_candidates, rank_sites, town_nuclei
 from osm_expand.engine.growth.stubs import close_stubs
 from osm_expand.errors import OptionError
 from osm_expand.joins import add_streets
@@ -203,6 +203,27 @@ class GrowthOptions:
     #: it: Andorra 7 7 8 (4 6 5), Krems 1 1 1; counting fewer of Andorra's pieces lets a site on the slope south-east
     #: of the town (score 1.655, 0.013 below the fifth site's) into the five, and the nuclei rank it first.
     town_nuclei: bool = False
+    #: The engine's district sites are tried in the nuclei's order (:attr:`town_nuclei`) only among those whose
+    #: score (:func:`osm_expand.sites.choose_sites`; 1 per unit of closeness or contact) lies within this of the
+    #: best site's; the others follow by score (:func:`osm_expand.engine.growth.nuclei.rank_sites`). Why: 003's
+    #: nuclei choose where among comparably good land a town grows; a site much worse as land should not win
+    #: because a nucleus lies near it. 0.05 is half a raster cell of closeness (1 − e^(−0.05): a gap of 0.05 radius,
+    #: half the cell at :attr:`site_cells_per_radius` 10), the rounding of the rasters' distances: sites nearer
+    #: in score than that are equally good land. ``inf`` (the default): every site of the :attr:`sites_tried`
+    #: by the nuclei (003 literally). Measured (``benchmarks/engine_growth.py --seed S``, off of 14 per reference
+    #: seed, inf → 0.05; session 33): seed 0 north-bayreuth 5 5 5 → 2 3 3 (its second quarter at the town's
+    #: eastern edge, 0.01 below the best, in place of the site 0.054 below it among the villages; its first is
+    #: the best-scored site either way), Andorra 0 0 0 → 3 2 2, Krems 1 1 1 → 4 2 4, Monaco 2 3 3 → 3 6 6 (2-core
+    #: 0.849 below its range); seed 1 north-bayreuth 3 3 3 → 4 3 3, Andorra 0 0 1 → 2 1 2, Krems 3 3 4 → 3 3 3,
+    #: Monaco 3 3 2 → 6 4 6 (2-core 0.826 below range): Monaco fails, so off. With :attr:`town_nuclei` as well
+    #: (seed 0): north-bayreuth 5 5 6 (dead ends 0.206 below range; first quarter at the town's edge), Andorra,
+    #: Krems, Monaco as with 0.05 alone (their nuclei-ranked heads hold one site). 0.1 (a cell) alone, seed 0:
+    #: north-bayreuth and Andorra unchanged (5 5 5, 0 0 0: their nuclei's first sites lie within 0.1 of the
+    #: best), Krems 4 2 4 and Monaco 3 6 6 as with 0.05: there the nuclei's pick among sites 0.04-0.1 below the
+    #: best is the better district (Krems 1 1 1, Monaco 2 3 3). The verdict moves by 2-3
+    #: per town when a district moves to another of the five sites or a refused site's attempt spends the
+    #: random stream, so no site order measured here helps every town.
+    site_score_tolerance: float = math.inf
 
     def __post_init__(self) -> None:
         # a negative or NaN floor would silently turn the floor off (or never let a district grow)
@@ -215,6 +236,9 @@ class GrowthOptions:
         if not (self.settlement_neighbourhoods >= 0):  # NaN or negative; inf is the largest settlement alone
             raise OptionError(f"growth option settlement_neighbourhoods must be a number of neighbourhoods >= 0 "
                               f"(inf: the largest settlement alone), got {self.settlement_neighbourhoods!r}")
+        if not self.site_score_tolerance >= 0:  # NaN or negative
+            raise OptionError(f"growth option site_score_tolerance must be a score difference >= 0 (inf: every "
+                              f"site by the nuclei), got {self.site_score_tolerance!r}")
         if self.settlement_only and self.settlement_gap == 0:
             raise OptionError("growth option settlement_only needs settlement_gap > 0 (0 reads every piece of "
                               "built-up land as the town's, so there is no settlement to count alone)")
@@ -461,7 +485,8 @@ def grow_district(city: City, pattern: GrowthPattern, length: float, density: fl
     if options.town_nuclei:
         ranked = town_nuclei(nuclei, settlement_distance(maps, np.array([n.xy for n in nuclei]),
                                                          options.settlement_gap or SETTLEMENT_GAP) <= spacing)
-    order = rank_candidates(np.array([s.centre for s in sites]), ranked, take=len(sites))
+    order = rank_sites(np.array([s.centre for s in sites]), [s.score for s in sites], ranked,
+                       tolerance=options.site_score_tolerance)
     before = len(city.network.streets)
     reach = STUB_REACH * spacing
     placement = place_district(
