@@ -242,15 +242,20 @@ def settlements(maps: DistanceMaps, gap: float = SETTLEMENT_GAP, min_area: float
 def settlement_distance(maps: DistanceMaps, xy: np.ndarray, gap: float = SETTLEMENT_GAP) -> np.ndarray:
     """Per point (``(K, 2)`` m), the distance (m) from its raster cell to the town's settlement
     (:func:`settlement`); infinite off the raster or without built-up land."""
-    xy = np.asarray(xy, dtype=float).reshape(-1, 2)
-    out = np.full(len(xy), np.inf)
     town = settlement(maps, gap)
-    if not town.any() or not len(xy):
-        return out
-    distance = _nearest(town, maps.cell)[0]
+    if not town.any():
+        return np.full(len(np.asarray(xy).reshape(-1, 2)), np.inf)
+    return raster_at(maps, _nearest(town, maps.cell)[0], xy)
+
+
+def raster_at(maps: DistanceMaps, raster: np.ndarray, xy: np.ndarray) -> np.ndarray:
+    """Per point (``(K, 2)`` m), the value of ``raster`` (shaped as ``maps``' rasters) at its cell;
+    infinite off the rasters."""
+    xy = np.asarray(xy, dtype=float).reshape(-1, 2)
     col, row = np.floor((xy - maps.origin) / maps.cell).astype(np.int64).T
-    inside = (row >= 0) & (row < town.shape[0]) & (col >= 0) & (col < town.shape[1])
-    out[inside] = distance[row[inside], col[inside]]
+    inside = (row >= 0) & (row < raster.shape[0]) & (col >= 0) & (col < raster.shape[1])
+    out = np.full(len(xy), np.inf)
+    out[inside] = raster[row[inside], col[inside]]
     return out
 
 

@@ -11,8 +11,8 @@ import pytest
 from osm_expand.district import Placement, Tried
 from osm_expand.engine.growth import minor_streets
 from osm_expand.engine.growth.minor_streets import GrowthMemory, GrowthOptions, built_up_density, grow_district
-from osm_expand.engine.growth.nuclei import Nucleus, NucleusKind, town_nuclei
-from osm_expand.errors import InputError
+from osm_expand.engine.growth.nuclei import Nucleus, NucleusKind, nuclei_in_town
+from osm_expand.errors import InputError, OptionError
 from osm_expand.growth_fidelity import city_growth_fidelity
 from osm_expand.growth_patterns import make_pattern
 from osm_expand.ingest import load
@@ -334,7 +334,13 @@ def test_with_town_nuclei_a_nucleus_in_the_fields_does_not_rank_the_engines_site
 def test_town_nuclei_keeps_those_in_the_town_or_all_when_none_is():
     a = Nucleus(xy=(0.0, 0.0), strength=1.0, kind=NucleusKind.CENTRE)
     b = Nucleus(xy=(900.0, 0.0), strength=0.6, kind=NucleusKind.BRIDGE)
-    assert town_nuclei([a, b], [True, False]) == [a]
-    assert town_nuclei([a, b], [False, False]) == [a, b]
+    assert nuclei_in_town([a, b], [True, False]) == [a]
+    assert nuclei_in_town([a, b], [False, False]) == [a, b]
     with pytest.raises(InputError):
-        town_nuclei([a, b], [True])
+        nuclei_in_town([a, b], [True])
+
+
+def test_town_nuclei_is_refused_without_a_settlement_gap():
+    """settlement_gap 0 reads every piece of built-up land as the town's: town_nuclei would rank nothing apart."""
+    with pytest.raises(OptionError, match="town_nuclei needs settlement_gap"):
+        GrowthOptions(town_nuclei=True, settlement_gap=0)

@@ -31,7 +31,7 @@ import numpy as np
 import shapely
 
 from osm_expand.district import place_district
-from osm_expand.engine.growth.nuclei import Nucleus, candidate_points, rank_candidates, rank_sites, town_nuclei
+from osm_expand.engine.growth.nuclei import Nucleus, candidate_points, nuclei_in_town, rank_candidates, rank_sites
 from osm_expand.engine.growth.stubs import close_stubs
 from osm_expand.errors import OptionError
 from osm_expand.joins import add_streets
@@ -44,6 +44,7 @@ from osm_expand.sites import (
     choose_sites,
     default_district_area,
     distance_maps,
+    raster_at,
     settlement_distance,
     settlement_maps,
 )
@@ -183,7 +184,7 @@ class GrowthOptions:
     #: The engine's district sites (:func:`grow_district`: the best :attr:`sites_tried` by score, then tried in the
     #: order of 003's rank, distance to the nearest nucleus × (1 − its strength)) are ranked by the nuclei within a
     #: junction spacing of the town's settlement only (:func:`osm_expand.sites.settlement_distance`,
-    #: :func:`osm_expand.engine.growth.nuclei.town_nuclei`; all of them when none is). Why: a bridge or a junction of
+    #: :func:`osm_expand.engine.growth.nuclei.nuclei_in_town`; all of them when none is). Why: a bridge or a junction of
     #: country roads among the villages in the fields is a nucleus of their growth, not the town's; north-bayreuth's
     #: first engine quarter (seed 0) grew 1.3 km from the town, among villages, because a nucleus in the fields (a
     #: bridge 1 km from it) ranked its site first of five, before the two by the town's edge. The
@@ -239,6 +240,9 @@ class GrowthOptions:
         if not self.site_score_tolerance >= 0:  # NaN or negative
             raise OptionError(f"growth option site_score_tolerance must be a score difference >= 0 (inf: every "
                               f"site by the nuclei), got {self.site_score_tolerance!r}")
+        if self.town_nuclei and self.settlement_gap == 0:
+            raise OptionError("growth option town_nuclei needs settlement_gap > 0 (0 reads every piece of "
+                              "built-up land as the town's, so every nucleus is the town's)")
         if self.settlement_only and self.settlement_gap == 0:
             raise OptionError("growth option settlement_only needs settlement_gap > 0 (0 reads every piece of "
                               "built-up land as the town's, so there is no settlement to count alone)")
@@ -455,7 +459,11 @@ def grow_district(city: City, pattern: GrowthPattern, length: float, density: fl
     fields, Monaco's second district grew as outlying growth) is built.
     The far bank of a river is seen from the town's own settlement
     (:attr:`GrowthOptions.settlement_gap`), not from a village on it
-    (Krems' quarter beside Mautern).
+    (Krems' quarter beside Mautern). Off by default, measured: the nuclei
+    of the town's settlement alone ranking the sites
+    (:attr:`GrowthOptions.town_nuclei`), and the nuclei's order only among
+    sites within a score tolerance of the best
+    (:attr:`GrowthOptions.site_score_tolerance`).
     Its stubs are the pattern's: closing them as a street pattern's are
     (:mod:`osm_expand.engine.growth.stubs`) left north-bayreuth's engine streets
     with 7 % dead ends against its neighbourhoods' 17–41 %.
@@ -483,8 +491,8 @@ def grow_district(city: City, pattern: GrowthPattern, length: float, density: fl
         return city, GrowthYear()
     ranked = nuclei
     if options.town_nuclei:
-        ranked = town_nuclei(nuclei, settlement_distance(maps, np.array([n.xy for n in nuclei]),
-                                                         options.settlement_gap or SETTLEMENT_GAP) <= spacing)
+        ranked = nuclei_in_town(nuclei, settlement_distance(maps, np.array([n.xy for n in nuclei]),
+                                                         options.settlement_gap) <= spacing)
     order = rank_sites(np.array([s.centre for s in sites]), [s.score for s in sites], ranked,
                        tolerance=options.site_score_tolerance)
     before = len(city.network.streets)
@@ -561,11 +569,4 @@ def built_up_density(city: City, maps: DistanceMaps) -> float:
 
 def _built_up_distance(maps: DistanceMaps, xy: np.ndarray) -> np.ndarray:
     """Per point, metres to the built-up land of the site rasters (infinite off the rasters)."""
-    xy = np.asarray(xy, dtype=float).reshape(-1, 2)
-    col = np.floor((xy[:, 0] - maps.origin[0]) / maps.cell).astype(np.int64)
-    row = np.floor((xy[:, 1] - maps.origin[1]) / maps.cell).astype(np.int64)
-    rows, cols = maps.city_distance.shape
-    inside = (row >= 0) & (row < rows) & (col >= 0) & (col < cols)
-    out = np.full(len(xy), np.inf)
-    out[inside] = maps.city_distance[row[inside], col[inside]]
-    return out
+    return raster_at(maps, maps.city_distance, xy)

@@ -41,7 +41,7 @@ from osm_expand.errors import InputError
 
 __all__ = [
     "Candidates", "Nucleus", "NucleiOptions", "NucleusKind", "candidate_points", "candidate_rank",
-    "edge_attenuation", "find_nuclei", "new_junction_nuclei", "rank_candidates", "rank_sites", "town_nuclei",
+    "edge_attenuation", "find_nuclei", "new_junction_nuclei", "nuclei_in_town", "rank_candidates", "rank_sites",
 ]
 
 
@@ -483,7 +483,7 @@ def new_junction_nuclei(new_junctions: ArrayLike, *, bounds: tuple[float, float,
     return _merge(pts, strength, kind, options.merge_distance_m)
 
 
-def town_nuclei(nuclei: Sequence[Nucleus], in_town: ArrayLike) -> list[Nucleus]:
+def nuclei_in_town(nuclei: Sequence[Nucleus], in_town: ArrayLike) -> list[Nucleus]:
     """The nuclei of the town's own growth: those ``in_town`` (bool per nucleus), or all when none is.
 
     Why: 003's nuclei are the junctions of the major roads of a map that starts empty, where every one
@@ -493,6 +493,6 @@ def town_nuclei(nuclei: Sequence[Nucleus], in_town: ArrayLike) -> list[Nucleus]:
     """
     keep = np.asarray(in_town, dtype=bool).reshape(-1)
     if len(keep) != len(nuclei):
-        raise InputError(f"town_nuclei: {len(keep)} flags for {len(nuclei)} nuclei")
+        raise InputError(f"nuclei_in_town: {len(keep)} flags for {len(nuclei)} nuclei")
     kept = [n for n, k in zip(nuclei, keep.tolist()) if k]
     return kept if kept else list(nuclei)
