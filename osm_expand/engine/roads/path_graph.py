@@ -30,6 +30,7 @@ from __future__ import annotations
 from collections.abc import Iterator, Sequence
 from contextlib import contextmanager
 from dataclasses import dataclass, field, replace
+from typing import Any
 
 import numpy as np
 import shapely
@@ -89,7 +90,7 @@ def _lattice_key(kinds: Sequence[EdgeKind]) -> tuple[int, ...]:
     return tuple(sorted({int(k) for k in kinds} & {int(k) for k in LATTICE_KINDS}))
 
 
-def _of_kinds(lat_kind: np.ndarray, kinds: Sequence[EdgeKind]) -> np.ndarray:
+def _of_kinds(lat_kind: np.ndarray, kinds: Sequence[int]) -> np.ndarray:
     """Whether each entry of a lattice table is of one of ``kinds``.
 
     One comparison per lattice kind asked for: a lookup table indexed by the whole
@@ -104,6 +105,36 @@ def _of_kinds(lat_kind: np.ndarray, kinds: Sequence[EdgeKind]) -> np.ndarray:
     for k in wanted[1:]:
         out |= lat_kind == k
     return out
+
+
+@dataclass(frozen=True)
+class KindMask:
+    """Which lattice edges a route may use (``lat_kind`` of one of ``kinds``), worked out for the rows
+    read, like a ``(V, D)`` bool table.
+
+    Issue 22: on the synthetic 10,000-street town's whole map the table was 293 MB held through
+    the plain and the heading-expanded searches, beside ``lat_kind`` it is made from; the
+    searches read it block by block of rows, and one comparison per kind a block is cheap
+    (:func:`_of_kinds`: 0.02 s for Campo Grande's whole map).
+    """
+
+    kind: np.ndarray  #: (V, D) uint8 EdgeKind or NO_EDGE
+    kinds: tuple[int, ...]  #: the lattice kinds allowed (:func:`_lattice_key`)
+
+    @property
+    def shape(self) -> tuple[Any, ...]:
+        return self.kind.shape
+
+    def __getitem__(self, index: Any) -> np.ndarray:
+        return _of_kinds(self.kind[index], self.kinds)
+
+    def __array__(self, dtype: object = None, copy: object = None) -> np.ndarray:
+        """The whole table (tests, small maps)."""
+        return _of_kinds(self.kind, self.kinds)
+
+
+#: a lattice mask: a table, or one made as it is read
+LatMask = np.ndarray | KindMask
 
 
 @dataclass(frozen=True)
@@ -136,8 +167,6 @@ class PathGraph:
     heading: np.ndarray  #: (E,) radians, direction of travel src → dst
     extendible: np.ndarray  #: (S,) bool per segment: at most one built-up side (C6)
     _cache: dict = field(default_factory=dict, repr=False, compare=False)
-    #: the lattice part of :meth:`masks` by kinds (read-only): a window's search asked for it three times
-    _lat_masks: dict = field(default_factory=dict, repr=False, compare=False)
 
     @property
     def n_vertices(self) -> int:
@@ -154,7 +183,7 @@ class PathGraph:
         return self.n_lattice + int(node)
 
     def masks(self, kinds: Sequence[EdgeKind] = ROAD_KINDS,
-              street_ok: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+              street_ok: np.ndarray | None = None) -> tuple[KindMask, np.ndarray]:
         """Which edges a route may use.
 
         Parameters
@@ -167,16 +196,12 @@ class PathGraph:
         Returns
         -------
         (lattice, other)
-            ``(V, D)`` bool over ``lat_kind`` (cached by kinds, read-only) and ``(E,)`` bool over the other
-            edges.
+            ``(V, D)`` bool over ``lat_kind``, made as it is read (:class:`KindMask`), and ``(E,)``
+            bool over the other edges.
         """
         table = np.zeros(256, dtype=bool)
         table[[int(k) for k in kinds]] = True
-        key = _lattice_key(kinds)
-        lat = self._lat_masks.get(key)
-        if lat is None:
-            lat = self._lat_masks[key] = _of_kinds(self.lat_kind, kinds)
-            lat.flags.writeable = False
+        lat = KindMask(self.lat_kind, _lattice_key(kinds))
         extra = table[self.kind]
         if street_ok is not None and len(street_ok):
             extra &= (self.segment < 0) | np.asarray(street_ok, dtype=bool)[np.maximum(self.segment, 0)]
@@ -220,7 +245,7 @@ class PathGraph:
             self._cache[key] = self._csr(*self.masks(kinds))
         return self._cache[key]
 
-    def _csr(self, lat: np.ndarray, extra: np.ndarray) -> tuple[csr_matrix, np.ndarray, np.ndarray]:
+    def _csr(self, lat: LatMask, extra: np.ndarray) -> tuple[csr_matrix, np.ndarray, np.ndarray]:
         """One CSR of the allowed edges, without sorting, and where each allowed other edge sits in it.
 
         A row holds its live lattice edges in direction order, then its other
@@ -237,8 +262,10 @@ class PathGraph:
         """
         n_lat, n_dir = lat.shape
         n = self.n_vertices
+        block = max(1, (1 << 22) // max(n_dir, 1))
         lat_counts = np.zeros(n, dtype=np.int64)
-        lat_counts[:n_lat] = np.count_nonzero(lat, axis=1)
+        for r in range(0, n_lat, block):
+            lat_counts[r:min(r + block, n_lat)] = np.count_nonzero(lat[r:r + block], axis=1)
         ex = np.flatnonzero(extra)
         ex_src = self.src[ex]
         ex_counts = np.bincount(ex_src, minlength=n)
@@ -251,7 +278,6 @@ class PathGraph:
         pos = np.arange(len(ex)) + np.cumsum(lat_counts)[ex_src]  # each other edge after its row's lattice edges
         offset = self.lattice.direction_offset.astype(index_type)
         weight = self.lat_weight
-        block = max(1, (1 << 22) // max(n_dir, 1))
         for a in range(0, n_lat, block):
             b = min(a + block, n_lat)
             lo, hi = int(indptr[a]), int(indptr[b])
@@ -273,7 +299,7 @@ class PathGraph:
         data[pos] = self.weight[ex]
         return csr_matrix((data, indices, indptr), shape=(n, n)), ex, pos
 
-    def step(self, u: int, v: int, lat: np.ndarray, extra: np.ndarray) -> dict[str, float]:
+    def step(self, u: int, v: int, lat: LatMask, extra: np.ndarray) -> dict[str, float]:
         """The cheapest allowed edge u → v (``lat``, ``extra`` from :meth:`masks`).
 
         Returns
@@ -301,7 +327,7 @@ class PathGraph:
             raise InputError(f"G′ has no allowed edge from vertex {u} to {v}")
         return best
 
-    def steps(self, u: np.ndarray, v: np.ndarray, lat: np.ndarray, extra: np.ndarray) -> dict[str, np.ndarray]:
+    def steps(self, u: np.ndarray, v: np.ndarray, lat: LatMask, extra: np.ndarray) -> dict[str, np.ndarray]:
         """:meth:`step` for each pair ``u[i] → v[i]`` at once (a route's edges: one call per edge was
         72,000 Python calls and 1 s of Campo Grande's run), the same choice: the cheapest allowed
         edge, the lattice edge on a tie, else the first other edge of that weight.
@@ -527,11 +553,12 @@ def pathfinding_graph(lattice: Lattice, segments: SegmentTable, built: BuiltUpAr
     xy = np.concatenate([lattice.vertex_xy(), streets.xy])
     lat_kind, lat_weight, bridges = _lattice_part(lattice, segments, costs, streets.tree)
     parts = [bridges, _shifted(streets.edges, n_lat)]
-    # the land and bridge edges are also what a road may use of the lattice (ROAD_KINDS): the mask is
-    # handed to the G′ for its searches, one pass over the (V, D) table fewer a window
-    road = _of_kinds(lat_kind, (EdgeKind.LAND, EdgeKind.BRIDGE))
-    road.flags.writeable = False
-    targets = np.flatnonzero(road.any(axis=1) & (lattice.vertex_class == VertexClass.LAND))
+    # the vertices with a land or bridge edge (what a road may use of the lattice), by blocks of rows:
+    # no (V, D) table more than ``lat_kind`` (issue 22)
+    road = KindMask(lat_kind, _lattice_key((EdgeKind.LAND, EdgeKind.BRIDGE)))
+    block = max(1, (1 << 22) // max(lat_kind.shape[1], 1))
+    used = np.concatenate([road[a:a + block].any(axis=1) for a in range(0, n_lat, block)] or [np.zeros(0, bool)])
+    targets = np.flatnonzero(used & (lattice.vertex_class == VertexClass.LAND))
     points = streets.points
     if stitch_within is not None and len(points):
         px, py = streets.xy[points].T
@@ -553,8 +580,7 @@ def pathfinding_graph(lattice: Lattice, segments: SegmentTable, built: BuiltUpAr
     return PathGraph(lattice=lattice, segments=segments, xy=xy, n_lattice=n_lat, split_segment=streets.split_parent,
                      lat_kind=lat_kind, lat_weight=lat_weight, src=src[order], dst=dst[order], kind=kind[order],
                      segment=seg[order], length=length[order], weight=weight[order], heading=heading[order],
-                     extendible=streets.extendible,
-                     _lat_masks={_lattice_key((EdgeKind.LAND, EdgeKind.BRIDGE)): road})
+                     extendible=streets.extendible)
 
 
 def _lattice_stitches(lattice: Lattice, segments: SegmentTable, streets: StreetPart, xy: np.ndarray,
