@@ -166,6 +166,13 @@ class PatchOptions:
     #: 0.874); seed 1 Krems 3 3 4 -> 5 5 7, Andorra 0 0 1 -> 1 1 1, north-bayreuth 3 3 3 -> 5 6 6, Monaco
     #: 3 3 2 -> 5 6 6; at 10 m, seed 0, Andorra 8 8 8, north-bayreuth 3 3 2 (session 33, h33n).
     edge_smoothing: float | None = None
+    #: Whether the district's topology (its stub budget, :func:`~synth.patches.topology._fewer_dead_ends`,
+    #: :func:`~synth.patches.topology._more_dead_ends`) reads a road out on the site's edge as a street running on
+    #: (the pipeline's district, judged in its region: the yardstick opens it) or, False, as the dead end it is
+    #: once the district stands in the fields (the engine's growth verdict judges its streets in their own
+    #: buffer, where a road out ends). The streets are kept either way (:func:`~synth.patches.topology._trim`).
+    #: Measured for the engine's eras (session 33, h33c): see the report.
+    roads_out_open: bool = True
     #: A cut end left over runs on this many spacings to meet a street in a tee ...
     tee_reach: float = 0.6
     #: ... meeting it at this angle or more (degrees).

@@ -196,15 +196,16 @@ def _quilt(source: _Source, quilt: _Quilt, centres: np.ndarray, cells: list, reg
                               bend=aim.curvature if aim is not None else float("nan"))
         stitched_net = _network(stitched)
         edge = _outer_edge(region)
-        stubs, room = _stub_budget(stitched_net, stitched, aim, old, opts.tee_reach * spacing, edge)
+        counted = edge if opts.roads_out_open else None  # where a road out is no dead end (PatchOptions)
+        stubs, room = _stub_budget(stitched_net, stitched, aim, old, opts.tee_reach * spacing, counted)
         net = _trim(stitched_net, stitched, edge, opts.keep_out * spacing, keep=stubs, stub=STUB_LENGTH * spacing,
                     room=room, like=aim.cul_de_sac if aim is not None else 0.0)
         net = _keep_joinable(net, old, spacing, opts)
         net = _connect_pieces(net, old, occupied, opts.link_reach * spacing)
         net = _without_scraps(net, opts.min_land * spacing)
         if aim is not None:
-            net = _fewer_dead_ends(net, old, occupied, spacing, opts, aim, edge)
-            net = _more_dead_ends(net, stitched.tees, old, edge, spacing, opts, aim)
+            net = _fewer_dead_ends(net, old, occupied, spacing, opts, aim, counted)
+            net = _more_dead_ends(net, stitched.tees, old, counted, spacing, opts, aim)
         net = _planar(net)
         length = net.total_length()
         if length >= target or placed >= len(centres):

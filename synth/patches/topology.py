@@ -57,7 +57,7 @@ def _outer_edge(region: shapely.Geometry) -> shapely.Geometry:
 
 
 def _stub_budget(net: StreetNetwork, quilt: _Quilt, aim: _Aim | None, old: shapely.Geometry,
-                 reach: float, edge: shapely.Geometry) -> tuple[int, float]:
+                 reach: float, edge: shapely.Geometry | None) -> tuple[int, float]:
     """How many cut streets may stay as cul-de-sacs, and how many metres they may hold together, so
     that the district's dead-end share comes to its town's neighbourhoods' and its 2-core share stays
     at or above theirs (:class:`_Aim`): the dead ends it has besides its cut ends, those on its ``edge``
@@ -409,7 +409,7 @@ JOIN_REACH = 2.0
 
 
 def _more_dead_ends(net: StreetNetwork, tees: list[tuple[np.ndarray, np.ndarray]], old: shapely.Geometry,
-                    edge: shapely.Geometry, spacing: float, opts: PatchOptions, aim: _Aim) -> StreetNetwork:
+                    edge: shapely.Geometry | None, spacing: float, opts: PatchOptions, aim: _Aim) -> StreetNetwork:
     """Bring the district's dead-end share up towards its town's neighbourhoods' median (``aim``).
 
     The seams close almost every cut street (in a tee onto the street ahead,
@@ -434,7 +434,8 @@ def _more_dead_ends(net: StreetNetwork, tees: list[tuple[np.ndarray, np.ndarray]
     da, a = tree.query(cut_end)
     db, b = tree.query(foot)
     ok = (da < 1e-6) & (db < 1e-6) & (a != b)
-    ok &= shapely.distance(edge, shapely.points(cut_end)) >= ON_EDGE
+    if edge is not None:
+        ok &= shapely.distance(edge, shapely.points(cut_end)) >= ON_EDGE
     if not old.is_empty:
         ok &= shapely.distance(old, shapely.points(cut_end)) > JOIN_REACH * spacing
     # each tee as its segment (smaller node first) -> the cut end it leaves open
