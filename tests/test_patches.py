@@ -10,6 +10,7 @@ import shapely
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from osm_expand.errors import OptionError
 from osm_expand.ingest import load
 from osm_expand.model import network_from_lines
 from osm_expand.model.topology import dangling_chains, segment_degree, without_segments
@@ -678,3 +679,18 @@ def test_lines_read_and_made_in_one_call_are_those_made_one_by_one():
     made = _lines(xy)
     assert len(_lines([])) == 0
     assert shapely.equals_exact(made, lines, tolerance=0.0).all()
+
+
+@pytest.mark.parametrize("kwargs, match", [
+    ({"edge_smoothing": 0}, "edge_smoothing must be"), ({"edge_smoothing": -3.0}, "edge_smoothing must be"),
+    ({"edge_smoothing": float("nan")}, "edge_smoothing must be"), ({"edge_smoothing": True}, "edge_smoothing must be"),
+    ({"near_join": 0}, "near_join must be"), ({"near_join": 181}, "near_join must be"),
+    ({"near_join": float("inf")}, "near_join must be"),
+    ({"edge_smoothing": 20.0, "edge_tolerance": 0.15}, "set one of them"),
+])
+def test_the_session_33_patch_options_refuse_values_that_would_fail_mid_run_or_silently_do_nothing(kwargs, match):
+    """edge_smoothing 0 divided by zero and -3 failed inside gaussian_filter1d minutes into a run; near_join <= 0
+    never joined and > 180 joined at any angle; with edge_tolerance beside edge_smoothing one was ignored."""
+    with pytest.raises(OptionError, match=match):
+        PatchOptions(**kwargs)
+    assert PatchOptions(edge_smoothing=20.0).edge_smoothing == 20.0 and PatchOptions(near_join=45).near_join == 45

@@ -207,3 +207,20 @@ class PatchOptions:
                                           and tolerance > 0):
             raise OptionError(f"PatchOptions.edge_tolerance must be a finite number of spacings > 0 or unset, "
                              f"got {tolerance!r}")
+        smoothing = self.edge_smoothing
+        if smoothing is not None and not (_is_number(smoothing) and math.isfinite(smoothing) and smoothing > 0):
+            raise OptionError(f"PatchOptions.edge_smoothing must be a finite number of metres > 0 or unset, "
+                              f"got {smoothing!r}")
+        if smoothing is not None and tolerance is not None:  # the smoothed edge replaces the simplified one
+            raise OptionError("PatchOptions.edge_smoothing and edge_tolerance are two ways of laying the "
+                              "perimeter streets: set one of them")
+        turn = self.near_join
+        if turn is not None and not (_is_number(turn) and 0 < turn <= 180):
+            raise OptionError(f"PatchOptions.near_join must be a turn in degrees, > 0 and <= 180, or unset, "
+                              f"got {turn!r}")
+
+
+def _is_number(value: object) -> bool:
+    """A real number, not a bool (``True`` is an int to Python, not a number of metres to a user)."""
+    return isinstance(value, (int, float)) and not isinstance(value, bool)
+
