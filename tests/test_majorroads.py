@@ -541,8 +541,8 @@ def test_the_implicit_search_in_growing_windows_finds_the_cost_of_the_whole_map(
         if old is not None:
             assert new.cost == pytest.approx(old.cost, rel=1e-9, abs=1e-6)
             lat_ok, extra_ok = whole.masks()
-            steps = [whole.step(int(u), int(v), lat_ok, extra_ok) for u, v in zip(new.vertices[:-1], new.vertices[1:])]
-            assert sum(s["weight"] for s in steps) == pytest.approx(float(new.edge_weight.sum()))  # edges of G′
+            steps = whole.steps(new.vertices[:-1], new.vertices[1:], lat_ok, extra_ok)
+            assert float(steps.weight.sum()) == pytest.approx(float(new.edge_weight.sum()))  # edges of G′
             assert np.array_equal(whole.xy[new.vertices], new.xy)
 
 
@@ -979,9 +979,9 @@ def test_a_windows_directed_tables_are_cropped_from_the_maps_made_once_per_b(see
                         options=LatticeOptions(radius=int(rng.integers(1, 5))))
     import osm_expand.engine.roads.lattice as lattice_module
     calls = []
-    made = lattice_module._map_directed
+    made = lattice_module._map_live_units
     with pytest.MonkeyPatch.context() as monkey:
-        monkey.setattr(lattice_module, "_map_directed", lambda lat: calls.append(1) or made(lat))
+        monkey.setattr(lattice_module, "_map_live_units", lambda lat: calls.append(1) or made(lat))
         for _ in range(3):  # B grows: the map's table is carried over, not made again
             lat = lat.with_built_up(shapely.Point(rng.uniform(100, 700), rng.uniform(100, 500)).buffer(60.0))
             ny, nx = lat.shape

@@ -168,10 +168,18 @@ class Raster:
             values = binary_dilation(values, structure=np.ones((3, 3), dtype=bool))
         return cls(values, (x0, y0), cell)
 
-    def cell_index(self, x: np.ndarray, y: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """Row, column of the cell holding each point, and whether it is inside the raster."""
+    def rows_cols(self, x: np.ndarray, y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """The cell row of each ``y`` and the cell column of each ``x``, unclipped (may lie outside).
+
+        Each from its own coordinate alone, so ``x`` and ``y`` may differ in shape: a grid of
+        points' rows and columns from its ys and xs (:func:`_resample_any`)."""
         col = np.floor((np.asarray(x) - self.origin[0]) / self.cell).astype(np.int64)
         row = np.floor((np.asarray(y) - self.origin[1]) / self.cell).astype(np.int64)
+        return row, col
+
+    def cell_index(self, x: np.ndarray, y: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Row, column of the cell holding each point, and whether it is inside the raster."""
+        row, col = self.rows_cols(x, y)
         rows, cols = self.values.shape
         inside = (row >= 0) & (row < rows) & (col >= 0) & (col < cols)
         return np.clip(row, 0, rows - 1), np.clip(col, 0, cols - 1), inside
@@ -330,7 +338,7 @@ class Lattice:
     map_units: tuple[np.ndarray, np.ndarray | None] | None = field(default=None, repr=False, compare=False)
     _cache: dict = field(default_factory=dict, repr=False, compare=False)
     #: what the map and all its windows of one B share: ``"live"``, the whole map's live unit edges
-    #: ``(D/2, V_map)`` (:func:`_map_directed`), made once per run and cut by every window
+    #: ``(D/2, V_map)`` (:func:`_map_live_units`), made once per run and cut by every window
     #: (:func:`_window_directed`); :meth:`with_built_up` carries it to the next B, removing only the
     #: edges the new ground touches; ``"special"``, the map's bridge and harbour entries
     _shared: dict = field(default_factory=dict, repr=False, compare=False)
@@ -558,8 +566,8 @@ class Lattice:
         arrives at w along direction k, i.e. the unit edge of vertex ``w − d_k``.
         """
         if "directed" not in self._cache:
-            if self.map_units is not None and self.map_units[1] is None:  # flat: crop the map's table
-                self._cache["directed"] = self._cropped_directed()
+            if self.map_units is not None and self.map_units[1] is None:  # flat: cut from the map's live units
+                self._cache["directed"] = self._window_tables()
             else:
                 kind, unit_weight, removed = self._units()
                 live = np.where(removed, np.uint8(NO_EDGE), kind)
@@ -586,13 +594,13 @@ class Lattice:
         return (r[inside] * nx + c[inside]) * n_dir + col[inside]
 
     def _map_table(self) -> np.ndarray:
-        """The whole map's live unit edges of this B (:func:`_map_directed`), made on first use."""
+        """The whole map's live unit edges of this B (:func:`_map_live_units`), made on first use."""
         table = self._shared.get("live")
         if table is None:
-            table = self._shared["live"] = _map_directed(self)
+            table = self._shared["live"] = _map_live_units(self)
         return table
 
-    def _cropped_directed(self) -> tuple[np.ndarray, LatticeWeights]:
+    def _window_tables(self) -> tuple[np.ndarray, LatticeWeights]:
         """:meth:`directed_tables` cut from the whole map's live unit edges (made once per run and
         carried from B to B, shared by every window; :func:`_window_directed`).
 
@@ -682,14 +690,13 @@ def _touched(padded: np.ndarray, pad: int, d: np.ndarray, shape: tuple[int, int]
     return touched
 
 
-def _map_directed(lat: Lattice) -> np.ndarray:
+def _map_live_units(lat: Lattice) -> np.ndarray:
     """The whole map's live unit edges ``(D/2, V_map)``: its unit edges (:attr:`Lattice.map_units`),
     the land ones that traverse B removed (NO_EDGE). Every window's directed tables are cut from it
     (:func:`_window_directed`).
 
-    Half the size of the map's directed table ``(V_map, D)`` that it replaces (each edge once, not
-    from both ends: 143 MB against 285 MB on the synthetic 10,000-street town), with no transposed
-    copy to make.
+    Each edge once, from its tail only: half the size of a directed ``(V_map, D)`` table of the map
+    (143 MB against 285 MB on the synthetic 10,000-street town), and no transposed copy to make.
     """
     assert lat.map_units is not None  # only a lattice made by build_lattice has the map's edges
     return _without_touched(lat.map_units[0].copy(), lat, lat.built_up)
@@ -742,7 +749,7 @@ def _window_directed(live: np.ndarray, map_shape: tuple[int, int], offset: tuple
 
 
 def _without_touched(table: np.ndarray, lat: Lattice, grown: np.ndarray) -> np.ndarray:
-    """The map's live unit edges (:func:`_map_directed`) without the land edges that sample
+    """The map's live unit edges (:func:`_map_live_units`) without the land edges that sample
     ``grown`` (fine points B took in), changed in place and returned.
 
     B only grows, so the edges it removes from one year to the next are those that sample
@@ -1045,11 +1052,8 @@ def _resample_any(raster: Raster | None, origin: np.ndarray, step: float, shape:
         return out
     values = np.asarray(raster.values, dtype=bool)
     n_rows, n_cols = values.shape
-    # the cell under each fine point: Raster.cell_index's arithmetic on the points' own x and y
-    xs = origin[0] + np.arange(shape[1]) * step
-    ys = origin[1] + np.arange(shape[0]) * step
-    col = np.floor((xs - raster.origin[0]) / raster.cell).astype(np.int64)
-    row = np.floor((ys - raster.origin[1]) / raster.cell).astype(np.int64)
+    # the cell under each fine point: its row from its y, its column from its x
+    row, col = raster.rows_cols(origin[0] + np.arange(shape[1]) * step, origin[1] + np.arange(shape[0]) * step)
     col_in, row_in = (col >= 0) & (col < n_cols), (row >= 0) & (row < n_rows)
     if col_in.any() and row_in.any():
         out[np.ix_(row_in, col_in)] = values[np.ix_(row[row_in], col[col_in])]

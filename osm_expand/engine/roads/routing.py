@@ -585,8 +585,7 @@ def _band_bound(graph: PathGraph, lat: LatMask, extra: np.ndarray, source: int, 
     dist, pred = dijkstra(_reduced(expanded, h, per), indices=start, return_predecessors=True,
                           limit=cost - hs + slack)
     del expanded
-    ends = int(local[target]) * per + np.arange(k)
-    end = int(ends[np.argmin(dist[ends])])
+    end = _target_end(dist, int(local[target]), per, k)
     found = float(dist[end]) + hs - float(h[local[target]])  # ≥ the path's cost: reduced costs only rounded up
     found += 1e-9 * found + 1e-6 + slack
     if not found < cost:
@@ -615,8 +614,8 @@ def _route(graph: PathGraph, vertices: Sequence[int], lat: LatMask, extra: np.nd
            turn_cost: float) -> Route:
     v = np.asarray(vertices, dtype=np.int64)
     steps = graph.steps(v[:-1], v[1:], lat, extra)
-    return Route(vertices=v, xy=graph.xy[v], kind=steps["kind"], segment=steps["segment"],
-                 edge_length=steps["length"], edge_weight=steps["weight"], turn_cost=turn_cost)
+    return Route(vertices=v, xy=graph.xy[v], kind=steps.kind, segment=steps.segment,
+                 edge_length=steps.length, edge_weight=steps.weight, turn_cost=turn_cost)
 
 
 #: vertices per block when the expanded graph's entries are written (about a million entries a block)
@@ -910,6 +909,20 @@ def _path_cost(expanded: csr_matrix, raw: np.ndarray, states: list[int]) -> floa
     return total
 
 
+def _target_end(dist: np.ndarray, target: int, per: int, k: int) -> int:
+    """The target's cheapest arrival state, the first of equal ones (``target``: its local number;
+    its arrivals are the first ``k`` of its ``per`` states): where a route search walks back from."""
+    ends = target * per + np.arange(k)
+    return int(ends[np.argmin(dist[ends])])
+
+
+def _cheaper_end(dist: np.ndarray, target: int, per: int, k: int, cost: float) -> int | None:
+    """:func:`_target_end` when its distance is below ``cost`` (the best so far), else None: one
+    test for both of :func:`_tiled_search`'s route searches."""
+    end = _target_end(dist, target, per, k)
+    return end if dist[end] < cost else None
+
+
 def _tiled_search(graph: PathGraph, lat: LatMask, extra: np.ndarray, source: int, target: int | None,
                   lower: np.ndarray, h: np.ndarray, best: tuple[list[int], float], seed: np.ndarray,
                   penalties: np.ndarray, opts: RoutingOptions, goal: np.ndarray,
@@ -930,10 +943,13 @@ def _tiled_search(graph: PathGraph, lat: LatMask, extra: np.ndarray, source: int
     C, the tile of w and its neighbours become active and the search runs
     again; when no edge is, no route outside the active set can beat C, and
     the best route found is the best of the graph. The tiles follow A*'s
-    states with ``g + h ≤ C``; inside them a route search's Dijkstra settles
-    every state with ``g ≤ C`` (about the same states there; plain Dijkstra
-    keeps which of several equal routes is taken), the exits' search (no
-    target) only A*'s, on reduced costs (:func:`_reduced`).
+    states with ``g + h ≤ C``. Inside them a route search runs plain
+    Dijkstra by default, which settles every state with ``g ≤ C`` (about
+    the same states there) and keeps which of several equal routes is
+    taken; the exits' search (no target), and a route's with
+    ``route_astar``, run A* on reduced costs (:func:`_reduced`), which
+    settles only the states with ``g + h ≤ C``: the route's cost is then
+    summed again from the graph's own weights (:func:`_path_cost`).
 
     Parameters
     ----------
@@ -966,9 +982,10 @@ def _tiled_search(graph: PathGraph, lat: LatMask, extra: np.ndarray, source: int
     if at_once:
         active[:] = True  # a small region at once: one search, no growing
     # The exits' search (costs only) runs A* (Dijkstra on reduced costs, :func:`_reduced`): it settles
-    # only the states with g + h ≤ C. A route search stays plain Dijkstra: of several routes of equal
-    # cost A* takes another (Campo Grande's second and third roads), and in tiles it settles about
-    # the same states (the tiles are grown where g + h < C: the synthetic town's search was no faster)
+    # only the states with g + h ≤ C. A route search runs plain Dijkstra unless ``route_astar`` (off by
+    # default): of several routes of equal cost A* takes another (Campo Grande's second and third
+    # roads), and in tiles it settles about the same states (the tiles are grown where g + h < C: the
+    # synthetic town's search was no faster)
     astar = target is None or opts.route_astar
     n_lat, n_dir = lat.shape
     dir_bin = _bins(graph.direction_heading, k)
@@ -998,9 +1015,8 @@ def _tiled_search(graph: PathGraph, lat: LatMask, extra: np.ndarray, source: int
             dist, pred = found if seek else (found, None)
             dist.reshape(-1, per)[:] += (hs - ha)[:, None]  # g = distance + h(state) − h(source)
             if seek and pred is not None and raw is not None:
-                ends = int(local[target]) * per + np.arange(k)
-                end = int(ends[np.argmin(dist[ends])])
-                if dist[end] < cost:
+                end = _cheaper_end(dist, int(local[target]), per, k, cost)
+                if end is not None:
                     total = _path_cost(expanded, raw, _walk_back(pred, start, end))
                     if total < cost:
                         best = (_vertex_path(pred, start, end, verts, per), total)
@@ -1010,9 +1026,8 @@ def _tiled_search(graph: PathGraph, lat: LatMask, extra: np.ndarray, source: int
             dist, pred = dijkstra(expanded, indices=start, return_predecessors=True, limit=cost + slack)
             del expanded
             if target is not None and local[target] >= 0:
-                ends = int(local[target]) * per + np.arange(k)
-                end = int(ends[np.argmin(dist[ends])])
-                if dist[end] < cost:
+                end = _cheaper_end(dist, int(local[target]), per, k, cost)
+                if end is not None:
                     best = (_vertex_path(pred, start, end, verts, per), float(dist[end]))
                     cost = best[1]
             del pred
