@@ -24,12 +24,14 @@ arc is joined along it.
 """
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
 import shapely
 
+from osm_expand.errors import OptionError
 from osm_expand.model import City, Origin, Status, Street, StreetNetwork, closest_on_segments
 from osm_expand.model.topology import MAX_DEGREE, append_nodes, segment_degree
 
@@ -39,8 +41,9 @@ MAX_BRIDGE = 15.0
 SNAP = 5.0
 #: Links shorter than this are not worth a street (m).
 MIN_LINK = 10.0
-#: Junction spacings: a new street's dead end left this close to a street of the town runs on to it in a
-#: joining street after the ``most`` joins, ``spread`` apart, are made (:func:`_run_on_ends`); 0: never.
+#: Junction spacings (:func:`join_growth`'s ``run_on``): a new street's dead end left this close to a street
+#: of the town runs on to it in a joining street after the ``most`` joins, ``spread`` apart, are made
+#: (:func:`_run_on_ends`; each end tries its nearest town street only); 0: never.
 #: A district's street that the growth's clearance cut ends a few metres short of the town's street it was
 #: heading for (Campo Grande seed 0: 14 of the engine's 122 dead ends lie 14.9 m, its patches' clearance of
 #: 0.15 spacings, from a street of the town; the district counted them as joined, :mod:`synth.patches.topology`),
@@ -73,8 +76,8 @@ ON_STREET = 1e-3
 
 def join_growth(city: City, streets: Sequence, *, spacing: float, origin: Origin = Origin.GROWN,
                 status: Status = Status.PLANNED, year: int | None = None, era: str | None = None,
-                most: int = 8, cross_taken: bool = False, occupied: Occupied | None = None
-                ) -> tuple[City, JoinReport]:
+                most: int = 8, cross_taken: bool = False, occupied: Occupied | None = None,
+                run_on: float = END_RUN_ON) -> tuple[City, JoinReport]:
     """The shared joining step after any growth pattern: its streets into the city, joined to the town.
 
     Parameters
@@ -91,13 +94,16 @@ def join_growth(city: City, streets: Sequence, *, spacing: float, origin: Origin
     occupied : Occupied, optional
         The occupied land near the streets, already made (:func:`occupied_near`): used when it was made for
         the very area this join reads (the same box and ``taken``), else made again.
+    run_on : float
+        Junction spacings: a new street's dead end this close to a town street runs on to it after the
+        joins (:data:`END_RUN_ON`, off).
     """
     attrs = [{"highway": s.highway, "hierarchy": s.hierarchy, "bridge": s.bridge, "layer": s.layer,
               "origin": origin, "status": status, "year": year, "era": era} for s in streets]
     grown = add_streets(city, [s.xy for s in streets], attrs)
     new = list(range(len(city.network.streets), len(grown.network.streets)))
     return join_to_town(grown, new, reach=2 * spacing, spread=2 * spacing, most=most, year=year, era=era,
-                        cross_taken=cross_taken, occupied=occupied)
+                        cross_taken=cross_taken, occupied=occupied, run_on=run_on * spacing)
 
 
 def add_streets(city: City, lines: Sequence[np.ndarray], attrs: Sequence[dict]) -> City:
@@ -285,7 +291,7 @@ def _trim(pts: np.ndarray, by: float) -> np.ndarray:
 
 def join_to_town(city: City, new: Sequence[int], *, reach: float, spread: float, most: int = 8,
                  year: int | None = None, era: str | None = None, cross_taken: bool = False,
-                 occupied: Occupied | None = None) -> tuple[City, JoinReport]:
+                 occupied: Occupied | None = None, run_on: float = 0.0) -> tuple[City, JoinReport]:
     """Add joining streets from the streets ``new`` (indices) to the town until it is joined at ``most`` places.
 
     Parameters
@@ -304,11 +310,16 @@ def join_to_town(city: City, new: Sequence[int], *, reach: float, spread: float,
         Stamped on the joining streets.
     occupied : Occupied, optional
         As :func:`join_growth`'s.
+    run_on : float
+        Metres: then a dead end of the new streets this close to a town street runs on to it
+        (:func:`_run_on_ends`); 0: never.
 
     Returns
     -------
     (City, JoinReport)
     """
+    if not (math.isfinite(run_on) and run_on >= 0):
+        raise OptionError(f"join run_on must be a finite number of metres >= 0, got {run_on!r}")
     net = city.network
     new = list(new)
     old = [k for k, s in enumerate(net.streets) if s.origin == Origin.SOURCE]
@@ -323,8 +334,8 @@ def join_to_town(city: City, new: Sequence[int], *, reach: float, spread: float,
         if len(board.joined_at) >= most:
             break
         board.try_link(link, spread)
-    if END_RUN_ON > 0:
-        _run_on_ends(board, net, new, old, END_RUN_ON * spread / 2)
+    if run_on > 0:
+        _run_on_ends(board, net, new, old, run_on)
     joined = board.network()
     added = list(range(len(net.streets), len(joined.streets)))
     return city.replace(network=joined), _report(joined, new + added, len(added), board.tees)
@@ -336,7 +347,7 @@ def _run_on_ends(board: _Board, net: StreetNetwork, new: list[int], old: list[in
     checks hold (clear of streets and occupied land, a free slot at both ends, little water)."""
     ends = sorted({(n, k) for k in new for n in (net.streets[k].nodes[0], net.streets[k].nodes[-1])
                    if board.degree[n] == 1})
-    if not ends or not old:
+    if not ends:
         return
     lines = net.street_lines()[old]
     tree = shapely.STRtree(lines)

@@ -3,11 +3,13 @@ running on (the pipeline's district) or as the dead end it is in the fields (the
 from __future__ import annotations
 
 import numpy as np
+import pytest
 import shapely
 
+from osm_expand.errors import OptionError
 from osm_expand.model import network_from_lines
 from synth.patches import PatchOptions
-from synth.patches.topology import _Aim, _more_dead_ends
+from synth.patches.topology import _Aim, _more_dead_ends, _roads_out
 
 # a ladder: two rails and three rungs, plus a street whose cut end (100, 120) was teed onto the far rail
 RUNGS = [[(x, 0.0), (x, 200.0)] for x in (0.0, 200.0, 400.0)]
@@ -25,8 +27,14 @@ def test_a_tee_whose_cut_end_is_on_the_edge_stays_while_roads_out_are_open():
     assert len(kept.streets) == len(NET.streets)
 
 
-def test_with_no_edge_counted_the_tee_is_taken_back_for_a_cul_de_sac():
-    # roads_out_open=False hands the topology no edge: the cut end is a cul-de-sac like any other
-    taken = _more_dead_ends(NET, TEES, FAR, None, 100.0, PatchOptions(roads_out_open=False), _Aim(0.25, 0.5))
+def test_with_roads_out_closed_no_edge_is_counted_and_the_tee_is_taken_back_for_a_cul_de_sac():
+    closed = PatchOptions(roads_out_open=False)
+    assert _roads_out(EDGE, closed) is None and _roads_out(EDGE, PatchOptions()) is EDGE
+    taken = _more_dead_ends(NET, TEES, FAR, _roads_out(EDGE, closed), 100.0, closed, _Aim(0.25, 0.5))
     assert len(taken.streets) == len(NET.streets) - 1
     assert PatchOptions().roads_out_open  # the pipeline's district keeps its roads out open by default
+
+
+def test_roads_out_open_is_a_boolean_not_a_string_a_history_gave():
+    with pytest.raises(OptionError, match="roads_out_open"):
+        PatchOptions(roads_out_open="false")  # type: ignore[arg-type]

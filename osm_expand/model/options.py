@@ -1,13 +1,14 @@
 """Helpers for the frozen options dataclasses every stage takes."""
 from __future__ import annotations
 
+import numbers
 from collections.abc import Sequence
 from dataclasses import MISSING
 from typing import Any
 
 from osm_expand.errors import InputError
 
-__all__ = ["field_default", "require_positive"]
+__all__ = ["field_default", "is_real_number", "require_positive"]
 
 
 def field_default(cls: type, name: str) -> Any:
@@ -32,3 +33,10 @@ def require_positive(opts: object, names: Sequence[str]) -> None:
         value = getattr(opts, name)
         if not value > 0:
             raise InputError(f"{type(opts).__name__}.{name} must be positive, got {value}")
+
+
+def is_real_number(value: object) -> bool:
+    """A real number (Python's or numpy's), not a bool: ``True`` is an int to Python, not a number of metres
+    or degrees to a user, and a history file's ``true`` must not read as 1."""
+    return isinstance(value, numbers.Real) and not isinstance(value, bool)
+

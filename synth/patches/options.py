@@ -6,6 +6,7 @@ from dataclasses import dataclass
 
 from osm_expand.errors import InputError, OptionError
 from osm_expand.model import highways
+from osm_expand.model.options import is_real_number
 
 #: Highway classes never copied into a district: a piece of motorway in a housing estate is no street.
 NOT_COPIED = highways.CORRIDORS
@@ -171,7 +172,9 @@ class PatchOptions:
     #: (the pipeline's district, judged in its region: the yardstick opens it) or, False, as the dead end it is
     #: once the district stands in the fields (the engine's growth verdict judges its streets in their own
     #: buffer, where a road out ends). The streets are kept either way (:func:`~synth.patches.topology._trim`).
-    #: Measured for the engine's eras (session 33, h33c): see the report.
+    #: Off (True), measured for the engine's eras (session 33, h33c; ``engine_growth.py --seed 0``, off of 14 per
+    #: reference): north-bayreuth 5 5 5 -> 5 5 5 (2-core share 0.766 -> 0.801), Monaco 2 3 3 -> 4 4 4; seed 2
+    #: north-bayreuth's 2-core 0.7233 -> 0.7382.
     roads_out_open: bool = True
     #: A cut end left over runs on this many spacings to meet a street in a tee ...
     tee_reach: float = 0.6
@@ -203,24 +206,19 @@ class PatchOptions:
                 raise InputError(f"PatchOptions.{name}: {', '.join(map(repr, unknown))} not one of "
                                  f"{', '.join(allowed)}")
         tolerance = self.edge_tolerance
-        if tolerance is not None and not (isinstance(tolerance, (int, float)) and math.isfinite(tolerance)
-                                          and tolerance > 0):
+        if tolerance is not None and not (is_real_number(tolerance) and math.isfinite(tolerance) and tolerance > 0):
             raise OptionError(f"PatchOptions.edge_tolerance must be a finite number of spacings > 0 or unset, "
                              f"got {tolerance!r}")
         smoothing = self.edge_smoothing
-        if smoothing is not None and not (_is_number(smoothing) and math.isfinite(smoothing) and smoothing > 0):
+        if smoothing is not None and not (is_real_number(smoothing) and math.isfinite(smoothing) and smoothing > 0):
             raise OptionError(f"PatchOptions.edge_smoothing must be a finite number of metres > 0 or unset, "
                               f"got {smoothing!r}")
         if smoothing is not None and tolerance is not None:  # the smoothed edge replaces the simplified one
             raise OptionError("PatchOptions.edge_smoothing and edge_tolerance are two ways of laying the "
                               "perimeter streets: set one of them")
         turn = self.near_join
-        if turn is not None and not (_is_number(turn) and 0 < turn <= 180):
+        if turn is not None and not (is_real_number(turn) and 0 < turn <= 180):
             raise OptionError(f"PatchOptions.near_join must be a turn in degrees, > 0 and <= 180, or unset, "
                               f"got {turn!r}")
-
-
-def _is_number(value: object) -> bool:
-    """A real number, not a bool (``True`` is an int to Python, not a number of metres to a user)."""
-    return isinstance(value, (int, float)) and not isinstance(value, bool)
-
+        if not isinstance(self.roads_out_open, bool):  # a history's "false" is a string, which Python reads as true
+            raise OptionError(f"PatchOptions.roads_out_open must be true or false, got {self.roads_out_open!r}")

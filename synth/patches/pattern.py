@@ -39,6 +39,7 @@ from synth.patches.topology import (
     _keep_joinable,
     _more_dead_ends,
     _outer_edge,
+    _roads_out,
     _stub_budget,
     _trim,
     _without_scraps,
@@ -196,7 +197,7 @@ def _quilt(source: _Source, quilt: _Quilt, centres: np.ndarray, cells: list, reg
                               bend=aim.curvature if aim is not None else float("nan"))
         stitched_net = _network(stitched)
         edge = _outer_edge(region)
-        counted = edge if opts.roads_out_open else None  # where a road out is no dead end (PatchOptions)
+        counted = _roads_out(edge, opts)
         stubs, room = _stub_budget(stitched_net, stitched, aim, old, opts.tee_reach * spacing, counted)
         net = _trim(stitched_net, stitched, edge, opts.keep_out * spacing, keep=stubs, stub=STUB_LENGTH * spacing,
                     room=room, like=aim.cul_de_sac if aim is not None else 0.0)

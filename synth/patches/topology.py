@@ -56,6 +56,12 @@ def _outer_edge(region: shapely.Geometry) -> shapely.Geometry:
     return shapely.MultiLineString(rings) if rings else shapely.boundary(region)
 
 
+def _roads_out(edge: shapely.Geometry, opts: PatchOptions) -> shapely.Geometry | None:
+    """Where the district's topology reads a street cut at the site's ``edge`` as a road out, running on
+    (:attr:`PatchOptions.roads_out_open`), or None: nowhere, every cut street a dead end."""
+    return edge if opts.roads_out_open else None
+
+
 def _stub_budget(net: StreetNetwork, quilt: _Quilt, aim: _Aim | None, old: shapely.Geometry,
                  reach: float, edge: shapely.Geometry | None) -> tuple[int, float]:
     """How many cut streets may stay as cul-de-sacs, and how many metres they may hold together, so

@@ -61,7 +61,7 @@ from osm_expand.engine.traffic.trade import TradeOptions
 from osm_expand.engine.traffic.trips import TripOptions
 from osm_expand.errors import HistoryError, InputError
 from osm_expand.model.enums import parse_enum
-from osm_expand.model.options import field_default
+from osm_expand.model.options import field_default, is_real_number
 from synth.patterns import PATTERNS
 
 __all__ = ["MAX_HISTORY_BYTES", "bundled", "history_from_mapping", "load_history"]
@@ -227,7 +227,7 @@ class _Reader:
         return value
 
     def number(self, value: Any, key: str) -> float:
-        if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
+        if not is_real_number(value) or not math.isfinite(value):
             self.fail(key, f"expected a finite number, got {value!r}")
         return float(value)
 

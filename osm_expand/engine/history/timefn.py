@@ -36,6 +36,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from osm_expand.errors import InputError
 from osm_expand.model.enums import parse_enum
+from osm_expand.model.options import is_real_number
 
 __all__ = ["Interpolation", "TimeFunction"]
 
@@ -48,7 +49,7 @@ class Interpolation(StrEnum):
 
 
 def _number(value: Any, key: str) -> float:
-    if isinstance(value, bool) or not isinstance(value, (int, float)):
+    if not is_real_number(value):
         raise InputError(f"{key}: expected a number, got {value!r}")
     if not math.isfinite(value):
         raise InputError(f"{key}: expected a finite number, got {value!r}")
@@ -184,7 +185,7 @@ class TimeFunction:
             return cls._from_points(value["points"], f"{key}.points", kind)
         if isinstance(value, (list, tuple)):
             return cls._from_points(value, key, Interpolation.LINEAR)
-        if isinstance(value, bool) or not isinstance(value, (int, float)):
+        if not is_real_number(value):
             raise InputError(f"{key}: expected a number, a list of [year, value] pairs or a table with "
                              f"points, got {value!r}")
         return cls.constant(_number(value, key))
