@@ -53,8 +53,12 @@ def test_an_infinite_tolerance_is_003s_rank(sites):
             == rank_candidates(xy, [CENTRE, BRIDGE], take=len(sites))).all()
 
 
-def test_a_site_given_by_its_centre_has_no_score_and_counts_as_the_best():
-    assert rank_sites([[900.0, 0.0], [10.0, 0.0]], [float("nan"), 2.0], [CENTRE], tolerance=0.05).tolist() == [0, 1]
+def test_a_site_given_by_its_centre_has_no_score_and_is_ranked_by_the_nuclei_with_the_best():
+    """The NaN site joins the nuclei-ranked head, and the tolerance counts from the best known score: the
+    site 0.5 below it follows, though a NaN read as infinitely good would have sent every scored site there."""
+    xy = [[900.0, 0.0], [10.0, 0.0], [5.0, 0.0]]
+    assert rank_sites(xy, [float("nan"), 2.0, 1.5], [CENTRE], tolerance=0.05).tolist() == [1, 0, 2]
+    assert rank_sites(xy[:1], [float("nan")], [CENTRE], tolerance=0.05).tolist() == [0]
 
 
 @pytest.mark.parametrize("value", [-0.1, float("nan")])

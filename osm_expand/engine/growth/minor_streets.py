@@ -187,7 +187,8 @@ class GrowthOptions:
     #: :func:`osm_expand.engine.growth.nuclei.nuclei_in_town`; all of them when none is). Why: a bridge or a junction of
     #: country roads among the villages in the fields is a nucleus of their growth, not the town's; north-bayreuth's
     #: first engine quarter (seed 0) grew 1.3 km from the town, among villages, because a nucleus in the fields (a
-    #: bridge 1 km from it) ranked its site first of five, before the two by the town's edge. The
+    #: bridge 1 km from it) ranked its site first of five (the best-scored of the five as well), before the two
+    #: by the town's edge. The
     #: settlements themselves tell no valley town from villages in the fields: north-bayreuth's villages chain to
     #: each other with gaps under 500 m, Andorra's valley pieces only at 700 m; Andorra's Sant Julià (1.2-3 km² at the
     #: engine's cells) is 550 m from the town, north-bayreuth's villages by the quarter 0.6-2.4 km (h33e). Measured
@@ -204,7 +205,8 @@ class GrowthOptions:
     #: it: Andorra 7 7 8 (4 6 5), Krems 1 1 1; counting fewer of Andorra's pieces lets a site on the slope south-east
     #: of the town (score 1.655, 0.013 below the fifth site's) into the five, and the nuclei rank it first.
     town_nuclei: bool = False
-    #: The engine's district sites are tried in the nuclei's order (:attr:`town_nuclei`) only among those whose
+    #: The engine's district sites are tried in 003's nuclei rank
+    #: (:func:`~osm_expand.engine.growth.nuclei.rank_candidates`) only among those whose
     #: score (:func:`osm_expand.sites.choose_sites`; 1 per unit of closeness or contact) lies within this of the
     #: best site's; the others follow by score (:func:`osm_expand.engine.growth.nuclei.rank_sites`). Why: 003's
     #: nuclei choose where among comparably good land a town grows; a site much worse as land should not win

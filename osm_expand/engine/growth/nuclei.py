@@ -303,7 +303,8 @@ def rank_sites(centres_xy: ArrayLike, scores: ArrayLike, nuclei: Sequence[Nucleu
     003's nuclei choose *where* among comparably good land a town grows; a site much worse as land
     should not be tried first because a nucleus (a bridge or a junction of country roads in the
     fields) lies near it. ``inf`` ranks every site by the nuclei (003 read literally); 0 the best
-    site's equals only. A NaN score (a site given by its centre) counts as the best.
+    site's equals only. A site with a NaN score (given by its centre) is as good as the best: it is
+    among those the nuclei rank, and the tolerance is measured from the best known score.
 
     Examples
     --------
@@ -322,8 +323,10 @@ def rank_sites(centres_xy: ArrayLike, scores: ArrayLike, nuclei: Sequence[Nucleu
         raise InputError(f"rank_sites: tolerance must be ≥ 0, got {tolerance!r}")
     if not len(xy):
         return np.zeros(0, dtype=np.int64)
-    score = np.where(np.isnan(score), np.inf, score)
-    good = score >= score.max() - tolerance if np.isfinite(tolerance) else np.ones(len(score), dtype=bool)
+    known = ~np.isnan(score)  # a NaN score: a site given by its centre, as good as the best
+    best = score[known].max() if known.any() else 0.0
+    good = ~known | (score >= best - tolerance) if np.isfinite(tolerance) else np.ones(len(score), dtype=bool)
+    score = np.where(known, score, np.inf)
     first = np.flatnonzero(good)
     first = first[rank_candidates(xy[first], nuclei, take=len(first))]
     rest = np.flatnonzero(~good)
