@@ -11,6 +11,7 @@ import shapely
 from hypothesis import example, given, settings
 from hypothesis import strategies as st
 
+from osm_expand.engine.roads import path_graph
 from osm_expand.engine.roads.built_up import BuiltUpOptions, built_up_area, segment_sides
 from osm_expand.engine.roads.lattice import (
     NO_EDGE,
@@ -1404,9 +1405,36 @@ def test_a_segments_end_key_is_the_same_either_way_round_and_another_when_it_mov
     moved = SegmentTable.from_lines([line + 1e-6 for line in lines], major=[False] * len(lines),
                                     width=[6.0] * len(lines))
     assert not set(segs.end_keys().tolist()) & set(moved.end_keys().tolist())
-    ends = np.frombuffer(segs.end_keys().tobytes(), dtype=np.float64).reshape(-1, 2, 2)
+    ends = SegmentTable.ends_of_keys(segs.end_keys())  # the layout's reader, beside its writer (review 33b, 10)
+    assert ends.shape == (len(segs.uv), 2, 2)
     assert np.array_equal(np.sort(ends.reshape(-1, 4), axis=1),
                           np.sort(np.concatenate([segs.a, segs.b], axis=1), axis=1))
+    assert np.array_equal(SegmentTable.ends_of_keys(segs.end_keys()[::2]), ends[::2])  # a strided view too
+
+
+def test_a_kind_mask_reads_by_row_blocks_as_the_whole_table_and_hashes_by_identity(monkeypatch):
+    """Review 33b (6, 7): :class:`KindMask` holds the row-block size once; its per-row counts and
+    ``any`` (over all rows or given ones) are the whole table's, however small the blocks; it can
+    be hashed (a frozen dataclass with an array field could not) and gives the dtype asked for."""
+    lat = build_lattice((0, 0, 400, 400), water=river((0, 0, 400, 400), 150, 220),
+                        options=LatticeOptions(radius=3))
+    kind, _ = lat.directed_tables()
+    mask = path_graph.KindMask(kind, path_graph._lattice_key((EdgeKind.LAND, EdgeKind.BRIDGE)))
+    whole = np.isin(kind, [EdgeKind.LAND, EdgeKind.BRIDGE])
+    assert whole.any() and not whole.all(axis=1).all()
+    rows = np.random.default_rng(0).permutation(len(kind))[: len(kind) // 2]
+    for entries in (1 << 22, kind.shape[1] * 7, 1):  # one block, several with a short last one, one row each
+        monkeypatch.setattr(path_graph, "_BLOCK_ENTRIES", entries)
+        blocks = list(mask.row_blocks())
+        assert blocks[0][0] == 0 and blocks[-1][1] == len(kind)
+        assert all(b0[1] == b1[0] for b0, b1 in zip(blocks, blocks[1:]))
+        assert np.array_equal(mask.count_per_row(), whole.sum(axis=1))
+        assert np.array_equal(mask.count_per_row(rows), whole[rows].sum(axis=1))
+        assert np.array_equal(mask.any_per_row(), whole.any(axis=1))
+    assert {mask: 1}[mask] == 1 and mask != path_graph.KindMask(kind, mask.kinds)  # by identity
+    assert np.array_equal(np.asarray(mask), whole) and np.asarray(mask).dtype == bool
+    as_int = np.asarray(mask, dtype=np.int64)
+    assert as_int.dtype == np.int64 and np.array_equal(as_int, whole)
 
 
 def test_b_does_not_test_again_a_segment_last_years_b_held_the_other_way_round():

@@ -155,7 +155,7 @@ class SegmentTable:
         A segment reversed has the same key; a segment split or moved has another. The road
         engine's year-to-year memos (B's held segments, the stitches' carried street verdicts)
         compare them across years; :meth:`numpy.ndarray.tolist` gives them as ``bytes``, and
-        ``keys.tobytes()`` reads back as ``(E, 2, 2)`` float64 ends.
+        :meth:`ends_of_keys` reads them back as ends.
         """
         if "end_keys" not in self._cache:
             a, b = np.asarray(self.a, dtype=np.float64), np.asarray(self.b, dtype=np.float64)
@@ -166,6 +166,12 @@ class SegmentTable:
             keys.flags.writeable = False
             self._cache["end_keys"] = keys
         return self._cache["end_keys"]
+
+    @staticmethod
+    def ends_of_keys(keys: np.ndarray) -> np.ndarray:
+        """``(K, 2, 2)`` float64 ends of the segments whose :meth:`end_keys` are ``keys`` (lesser end
+        first): the one reader of that layout, beside its writer."""
+        return np.frombuffer(keys.tobytes(), dtype=np.float64).reshape(-1, 2, 2)
 
     def __getstate__(self) -> dict:
         """Pickled without the made lines, tree and keys (made again when asked for)."""

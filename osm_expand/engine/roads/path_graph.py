@@ -85,7 +85,7 @@ class EdgeCosts:
 LATTICE_KINDS = (EdgeKind.LAND, EdgeKind.WATER, EdgeKind.HARBOUR, EdgeKind.BRIDGE)
 
 
-def _lattice_key(kinds: Sequence[EdgeKind]) -> tuple[int, ...]:
+def _lattice_key(kinds: Sequence[int]) -> tuple[int, ...]:
     """The lattice kinds among ``kinds``, sorted: what :func:`_of_kinds` of them depends on."""
     return tuple(sorted({int(k) for k in kinds} & {int(k) for k in LATTICE_KINDS}))
 
@@ -95,10 +95,10 @@ def _of_kinds(lat_kind: np.ndarray, kinds: Sequence[int]) -> np.ndarray:
 
     One comparison per lattice kind asked for: a lookup table indexed by the whole
     ``(V, D)`` table was four times slower (0.076 s against 0.018 s for two kinds on a
-    table the size of Campo Grande's map, 594,776 vertices × 120 directions), and G′'s
-    windows ask it twice each.
+    table the size of Campo Grande's map, 594,776 vertices × 120 directions), and nothing
+    is cached: :class:`KindMask` asks it again for every block of rows it is read by.
     """
-    wanted = sorted({int(k) for k in kinds} & {int(k) for k in LATTICE_KINDS})
+    wanted = _lattice_key(kinds)
     if not wanted:
         return np.zeros(lat_kind.shape, dtype=bool)
     out = lat_kind == wanted[0]  # the first comparison is the result's memory: no zeroed table first
@@ -107,7 +107,12 @@ def _of_kinds(lat_kind: np.ndarray, kinds: Sequence[int]) -> np.ndarray:
     return out
 
 
-@dataclass(frozen=True)
+#: entries of a lattice table read at once by :class:`KindMask`'s row blocks (4 Mi: a block's
+#: temporaries stay a few MB, where the whole map's (V, D) bool table was 293 MB; issue 22)
+_BLOCK_ENTRIES = 1 << 22
+
+
+@dataclass(frozen=True, eq=False)
 class KindMask:
     """Which lattice edges a route may use (``lat_kind`` of one of ``kinds``), worked out for the rows
     read, like a ``(V, D)`` bool table.
@@ -115,7 +120,8 @@ class KindMask:
     Issue 22: on the synthetic 10,000-street town's whole map the table was 293 MB held through
     the plain and the heading-expanded searches, beside ``lat_kind`` it is made from; the
     searches read it block by block of rows, and one comparison per kind a block is cheap
-    (:func:`_of_kinds`: 0.02 s for Campo Grande's whole map).
+    (:func:`_of_kinds`: 0.02 s for Campo Grande's whole map). Compared and hashed by identity
+    (``eq=False``): the generated ``__eq__``/``__hash__`` compared the array and made ``hash(mask)`` raise.
     """
 
     kind: np.ndarray  #: (V, D) uint8 EdgeKind or NO_EDGE
@@ -128,13 +134,34 @@ class KindMask:
     def __getitem__(self, index: Any) -> np.ndarray:
         return _of_kinds(self.kind[index], self.kinds)
 
-    def __array__(self, dtype: object = None, copy: object = None) -> np.ndarray:
-        """The whole table (tests, small maps)."""
-        return _of_kinds(self.kind, self.kinds)
+    def __array__(self, dtype: Any = None, copy: object = None) -> np.ndarray:
+        """The whole table (tests, small maps), as ``dtype`` when one is asked for (always a new array,
+        so ``copy`` is met either way)."""
+        out = _of_kinds(self.kind, self.kinds)
+        return out if dtype is None else out.astype(dtype, copy=False)
 
+    def row_blocks(self, rows: np.ndarray | None = None) -> Iterator[tuple[int, int]]:
+        """``(first, end)`` ranges that read the table (or the given ``rows`` of it) a block at a time:
+        the one place the block size is set (:data:`_BLOCK_ENTRIES`)."""
+        n = self.shape[0] if rows is None else len(rows)
+        block = max(1, _BLOCK_ENTRIES // max(self.shape[1], 1))
+        for a in range(0, n, block):
+            yield a, min(a + block, n)
 
-#: a lattice mask: a table, or one made as it is read
-LatMask = np.ndarray | KindMask
+    def count_per_row(self, rows: np.ndarray | None = None) -> np.ndarray:
+        """``(V,)`` int64 (or one per ``rows``): the allowed edges of each row, read block by block."""
+        n = self.shape[0] if rows is None else len(rows)
+        out = np.zeros(n, dtype=np.int64)
+        for a, b in self.row_blocks(rows):
+            out[a:b] = np.count_nonzero(self[a:b] if rows is None else self[rows[a:b]], axis=1)
+        return out
+
+    def any_per_row(self) -> np.ndarray:
+        """``(V,)`` bool: whether each row has an allowed edge, read block by block."""
+        out = np.zeros(self.shape[0], dtype=bool)
+        for a, b in self.row_blocks():
+            out[a:b] = self[a:b].any(axis=1)
+        return out
 
 
 class Steps(NamedTuple):
@@ -255,7 +282,7 @@ class PathGraph:
             self._cache[key] = self._csr(*self.masks(kinds))
         return self._cache[key]
 
-    def _csr(self, lat: LatMask, extra: np.ndarray) -> tuple[csr_matrix, np.ndarray, np.ndarray]:
+    def _csr(self, lat: KindMask, extra: np.ndarray) -> tuple[csr_matrix, np.ndarray, np.ndarray]:
         """One CSR of the allowed edges, without sorting, and where each allowed other edge sits in it.
 
         A row holds its live lattice edges in direction order, then its other
@@ -270,12 +297,10 @@ class PathGraph:
         are filled through a mask of their slots (a position per lattice edge
         took a fifth more time: 0.75 s against 0.6 s on Campo Grande's map).
         """
-        n_lat, n_dir = lat.shape
+        n_lat = lat.shape[0]
         n = self.n_vertices
-        block = max(1, (1 << 22) // max(n_dir, 1))
         lat_counts = np.zeros(n, dtype=np.int64)
-        for r in range(0, n_lat, block):
-            lat_counts[r:min(r + block, n_lat)] = np.count_nonzero(lat[r:r + block], axis=1)
+        lat_counts[:n_lat] = lat.count_per_row()
         ex = np.flatnonzero(extra)
         ex_src = self.src[ex]
         ex_counts = np.bincount(ex_src, minlength=n)
@@ -288,13 +313,12 @@ class PathGraph:
         pos = np.arange(len(ex)) + np.cumsum(lat_counts)[ex_src]  # each other edge after its row's lattice edges
         offset = self.lattice.direction_offset.astype(index_type)
         weight = self.lat_weight
-        for a in range(0, n_lat, block):
-            b = min(a + block, n_lat)
+        for a, b in lat.row_blocks():
             lo, hi = int(indptr[a]), int(indptr[b])
             if lo == hi:
                 continue
             live = lat[a:b]
-            heads = (np.arange(a, b, dtype=index_type)[:, None] + offset)[live]
+            heads = np.add.outer(np.arange(a, b, dtype=index_type), offset)[live]
             cost = weight.masked(slice(a, b), live) if isinstance(weight, LatticeWeights) else weight[a:b][live]
             if len(heads) == hi - lo:  # no other edge starts in these rows
                 indices[lo:hi] = heads
@@ -309,7 +333,7 @@ class PathGraph:
         data[pos] = self.weight[ex]
         return csr_matrix((data, indices, indptr), shape=(n, n)), ex, pos
 
-    def steps(self, u: np.ndarray, v: np.ndarray, lat: LatMask, extra: np.ndarray) -> Steps:
+    def steps(self, u: np.ndarray, v: np.ndarray, lat: KindMask, extra: np.ndarray) -> Steps:
         """The cheapest allowed edge ``u[i] → v[i]`` of each pair (``lat``, ``extra`` from
         :meth:`masks`), the lattice edge on a tie, else the first other edge of that weight: a
         route's edges in one call (one call per edge was 72,000 Python calls and 1 s of Campo
@@ -537,9 +561,7 @@ def pathfinding_graph(lattice: Lattice, segments: SegmentTable, built: BuiltUpAr
     parts = [bridges, _shifted(streets.edges, n_lat)]
     # the vertices with a land or bridge edge (what a road may use of the lattice), by blocks of rows:
     # no (V, D) table more than ``lat_kind`` (issue 22)
-    road = KindMask(lat_kind, _lattice_key((EdgeKind.LAND, EdgeKind.BRIDGE)))
-    block = max(1, (1 << 22) // max(lat_kind.shape[1], 1))
-    used = np.concatenate([road[a:a + block].any(axis=1) for a in range(0, n_lat, block)] or [np.zeros(0, bool)])
+    used = KindMask(lat_kind, _lattice_key((EdgeKind.LAND, EdgeKind.BRIDGE))).any_per_row()
     targets = np.flatnonzero(used & (lattice.vertex_class == VertexClass.LAND))
     points = streets.points
     if stitch_within is not None and len(points):

@@ -60,7 +60,7 @@ from scipy.sparse import csr_matrix
 from scipy.sparse.csgraph import dijkstra
 
 from osm_expand.engine.roads.lattice import ROAD_KINDS, EdgeKind
-from osm_expand.engine.roads.path_graph import EdgeCosts, GraphWindow, ImplicitGraph, LatMask, PathGraph
+from osm_expand.engine.roads.path_graph import EdgeCosts, GraphWindow, ImplicitGraph, KindMask, PathGraph
 from osm_expand.errors import InputError, OptionError
 from osm_expand.model.options import require_positive
 
@@ -318,7 +318,7 @@ def _via_exits(matrix: csr_matrix, exits: np.ndarray, rest: np.ndarray, limit: f
     return dijkstra(joined, indices=n, limit=limit + 1.0)[:n] - 1.0
 
 
-def _route_cost(graph: PathGraph, vertices: np.ndarray, lat: LatMask, extra: np.ndarray,
+def _route_cost(graph: PathGraph, vertices: np.ndarray, lat: KindMask, extra: np.ndarray,
                 opts: RoutingOptions) -> float | None:
     """An upper bound of the expanded graph's distance of the route over ``vertices`` (its cheapest
     edges, their binned turns and the free transitions' ε each); None when it is not allowed here."""
@@ -523,7 +523,7 @@ def _on_map(window: GraphWindow, route: Route | None, *_) -> Route | None:
     return replace(route, vertices=window.to_map(route.vertices))
 
 
-def _best_route(graph: PathGraph, lat: LatMask, extra: np.ndarray, source: int, target: int,
+def _best_route(graph: PathGraph, lat: KindMask, extra: np.ndarray, source: int, target: int,
                 from_source: np.ndarray, from_target: np.ndarray, first: tuple[list[int], float],
                 opts: RoutingOptions) -> Route:
     """The turn-penalised optimum, given the plain distances from both ends (``from_target`` up to
@@ -552,7 +552,7 @@ def _best_route(graph: PathGraph, lat: LatMask, extra: np.ndarray, source: int, 
     return _with_turn_cost(route, max(total - float(route.edge_weight.sum()), 0.0))
 
 
-def _band_bound(graph: PathGraph, lat: LatMask, extra: np.ndarray, source: int, target: int, lower: np.ndarray,
+def _band_bound(graph: PathGraph, lat: KindMask, extra: np.ndarray, source: int, target: int, lower: np.ndarray,
                 from_target: np.ndarray, first: tuple[list[int], float], penalties: np.ndarray,
                 opts: RoutingOptions) -> tuple[list[int], float]:
     """A feasible route and an upper bound of its expanded-graph cost, tight: the best route in a
@@ -610,7 +610,7 @@ def _walk_back(pred: np.ndarray, source: int, target: int) -> list[int]:
     return path[::-1]
 
 
-def _route(graph: PathGraph, vertices: Sequence[int], lat: LatMask, extra: np.ndarray,
+def _route(graph: PathGraph, vertices: Sequence[int], lat: KindMask, extra: np.ndarray,
            turn_cost: float) -> Route:
     v = np.asarray(vertices, dtype=np.int64)
     steps = graph.steps(v[:-1], v[1:], lat, extra)
@@ -622,7 +622,7 @@ def _route(graph: PathGraph, vertices: Sequence[int], lat: LatMask, extra: np.nd
 _BLOCK = 8192
 
 
-def _expanded_graph(graph: PathGraph, lat: LatMask, extra: np.ndarray, region: np.ndarray, penalties: np.ndarray,
+def _expanded_graph(graph: PathGraph, lat: KindMask, extra: np.ndarray, region: np.ndarray, penalties: np.ndarray,
                     k: int) -> tuple[csr_matrix, np.ndarray]:
     """The heading-expanded graph over ``region`` (sorted; state ``local · (2k + 1) + j``: arrivals
     j < k, departures k ≤ j < 2k, the hub 2k) and each G′ vertex's local number (−1 outside).
@@ -664,8 +664,7 @@ def _expanded_graph(graph: PathGraph, lat: LatMask, extra: np.ndarray, region: n
     e_row, e = e_row[order], e[order]
     e_col = local[graph.dst[e]] * per + e_bin[order]
     e_val = graph.weight[e]
-    bound = n * (n_arr + k) + len(e) + sum(int(np.count_nonzero(lat[region[a:min(a + _BLOCK, n_lat_region)]]))
-                                           for a in range(0, n_lat_region, _BLOCK))
+    bound = n * (n_arr + k) + len(e) + int(lat.count_per_row(region[:n_lat_region]).sum())
     indices = np.empty(bound, dtype=np.int32 if max(n * per, bound) < 2**31 else np.int64)
     data = np.empty(bound)
     dep_count = np.zeros(n * k, dtype=indices.dtype)  # entries of each departure row
@@ -737,7 +736,7 @@ def _expanded_graph(graph: PathGraph, lat: LatMask, extra: np.ndarray, region: n
     return csr_matrix((data, indices, indptr), shape=(n * per, n * per)), local
 
 
-def _expanded_search(graph: PathGraph, lat: LatMask, extra: np.ndarray, region: np.ndarray, source: int,
+def _expanded_search(graph: PathGraph, lat: KindMask, extra: np.ndarray, region: np.ndarray, source: int,
                      target: int, penalties: np.ndarray, k: int, limit: float) -> tuple[list[int], float] | None:
     """Dijkstra on the heading-expanded graph over ``region``; the vertex path and its cost (over every
     vertex: the reference the tests hold :func:`_tiled_search` to)."""
@@ -923,7 +922,7 @@ def _cheaper_end(dist: np.ndarray, target: int, per: int, k: int, cost: float) -
     return end if dist[end] < cost else None
 
 
-def _tiled_search(graph: PathGraph, lat: LatMask, extra: np.ndarray, source: int, target: int | None,
+def _tiled_search(graph: PathGraph, lat: KindMask, extra: np.ndarray, source: int, target: int | None,
                   lower: np.ndarray, h: np.ndarray, best: tuple[list[int], float], seed: np.ndarray,
                   penalties: np.ndarray, opts: RoutingOptions, goal: np.ndarray,
                   exits: np.ndarray | None = None) -> tuple[tuple[list[int], float], np.ndarray | None]:
@@ -1067,7 +1066,7 @@ def _tiled_search(graph: PathGraph, lat: LatMask, extra: np.ndarray, source: int
         active |= _grown_tiles(active, tile[w], tile[region], shape, len(verts))
 
 
-def _backward_route(graph: PathGraph, lat: LatMask, extra: np.ndarray, source: int, target: int,
+def _backward_route(graph: PathGraph, lat: KindMask, extra: np.ndarray, source: int, target: int,
                     from_source: np.ndarray, from_target: np.ndarray, best: tuple[list[int], float],
                     seed: np.ndarray, penalties: np.ndarray,
                     opts: RoutingOptions) -> tuple[list[int], float] | None:

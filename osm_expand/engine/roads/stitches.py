@@ -423,7 +423,7 @@ def _carry(segments: SegmentTable, previous: ShellVerdicts | None, memo: dict) -
         same = {k for k, n in new_n.items() if old_n.get(k) == n}
         changed = np.concatenate([np.flatnonzero([k not in same for k in new_list]).astype(np.int64),
                                   len(seg_keys) + np.flatnonzero([k not in same for k in old_list]).astype(np.int64)])
-        ends = np.concatenate([np.stack([a, b], axis=1), _segment_ends(previous.segments)])[changed]
+        ends = np.concatenate([np.stack([a, b], axis=1), SegmentTable.ends_of_keys(previous.segments)])[changed]
         carry = _Carry(segments=seg_keys, keys=previous.pairs[order], clear=previous.clear[order],
                        changed=shapely.STRtree(shapely.linestrings(ends)) if len(ends) else None,
                        boxes=np.concatenate([ends.min(axis=1), ends.max(axis=1)], axis=1),
@@ -443,11 +443,6 @@ def _hash(keys: np.ndarray) -> np.ndarray:
         out = (out ^ column) * np.uint64(0x9E3779B97F4A7C15)  # wraps modulo 2⁶⁴
         out ^= out >> np.uint64(29)
     return out
-
-
-def _segment_ends(keys: np.ndarray) -> np.ndarray:
-    """``(S, 2, 2)`` ends of the segments from their :class:`ShellVerdicts` keys."""
-    return np.frombuffer(keys.tobytes(), dtype=np.float64).reshape(-1, 2, 2)
 
 
 def _incident(pairs: np.ndarray, seg: np.ndarray, segments: SegmentTable, split_parent: np.ndarray,
