@@ -33,6 +33,7 @@ import shapely
 
 from osm_expand.errors import OptionError
 from osm_expand.model import City, Origin, Status, Street, StreetNetwork, closest_on_segments
+from osm_expand.model.geometry import linestrings_of
 from osm_expand.model.topology import MAX_DEGREE, append_nodes, segment_degree
 
 #: A joining street may bridge this much water (m): streams and ditches.
@@ -471,8 +472,7 @@ def join_places(city: City, streets: Sequence, *, spacing: float, occupied: Occu
         return np.zeros((0, 2))
     old_lines = net.street_lines()[old]
     new_xy = [np.asarray(s.xy, dtype=float) for s in streets]
-    new_lines = shapely.linestrings(np.concatenate(new_xy), indices=np.repeat(np.arange(len(new_xy)),
-                                                                             [len(xy) for xy in new_xy]))
+    new_lines = linestrings_of(new_xy)
     vertices = np.concatenate(new_xy)
     on_town = shapely.STRtree(old_lines).query(shapely.points(vertices), predicate="dwithin",
                                                distance=10 * ON_STREET)[0]

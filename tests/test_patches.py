@@ -667,9 +667,9 @@ def test_the_pieces_of_a_random_network_are_those_networkx_found(paths):
 
 
 def test_lines_read_and_made_in_one_call_are_those_made_one_by_one():
-    """``source._line_xy`` (the town's streets as arrays for the measures) and ``quilt._lines`` (a seam
-    board's pieces) give what reading or making each line alone gave, on Monaco's streets."""
-    from synth.patches.quilt import _lines
+    """``source._line_xy`` (the town's streets as arrays for the measures) and ``model.geometry.linestrings_of``
+    (a seam board's pieces) give what reading or making each line alone gave, on Monaco's streets."""
+    from osm_expand.model.geometry import linestrings_of as _lines
     from synth.patches.source import _line_xy
 
     lines = load(FIXTURES / "monaco.osm.gz", context=False).network.street_lines()

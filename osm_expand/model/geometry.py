@@ -1,7 +1,10 @@
 """Small geometry kernels every stage shares (metres, NumPy arrays)."""
 from __future__ import annotations
 
+from collections.abc import Sequence
+
 import numpy as np
+import shapely
 
 
 def polyline_length(xy: np.ndarray) -> float:
@@ -27,6 +30,17 @@ def polyline_length(xy: np.ndarray) -> float:
     if len(xy) < 2:
         return 0.0
     return float(np.hypot(*np.diff(xy, axis=0).T).sum())
+
+
+def linestrings_of(xy: Sequence[np.ndarray]) -> np.ndarray:
+    """The polylines ``xy`` (each ``(n_i, 2)`` m, ``n_i`` ≥ 2) as shapely LineStrings, an object array made in
+    one GEOS call: one constructor call per line costs thousands of calls where a district or a board makes
+    its lines again and again."""
+    if not len(xy):
+        return np.empty(0, dtype=object)
+    counts = np.fromiter((len(p) for p in xy), dtype=np.intp, count=len(xy))
+    return shapely.linestrings(np.concatenate([np.asarray(p, dtype=float) for p in xy]),
+                               indices=np.repeat(np.arange(len(xy)), counts))
 
 
 def turn_angles(before: np.ndarray, after: np.ndarray) -> np.ndarray:

@@ -8,6 +8,7 @@ import numpy as np
 import shapely
 import shapely.ops
 
+from osm_expand.model.geometry import linestrings_of
 from synth.patches.options import PatchOptions
 from synth.patches.quilt import _Quilt
 from synth.patches.source import _lengths, _Source
@@ -140,7 +141,7 @@ def _place(source: _Source, patches: np.ndarray, centres: np.ndarray, cells: lis
     filled = [c for c in cells[:start] if not c.is_empty]
     # the quilt's pieces as lines, made once each (pieces are only added here): testing every piece
     # against every cell made them again per cell, quadratic in a large district's cells
-    pieces = [shapely.LineString(xy) for xy in quilt.xy]
+    pieces = linestrings_of(quilt.xy)
     i = start
     while i < len(centres) and total < length:
         centre, cell = centres[i], cells[i]
@@ -149,9 +150,8 @@ def _place(source: _Source, patches: np.ndarray, centres: np.ndarray, cells: lis
             continue
         src = patches[(i - 1) % len(patches)]
         around = shapely.buffer(cell, size / 2)
-        pieces += [shapely.LineString(xy) for xy in quilt.xy[len(pieces):]]
-        mine = np.array(pieces, dtype=object)
-        nearby = np.concatenate([town[town_tree.query(around)], mine[shapely.intersects(mine, around)]])
+        pieces = np.concatenate([pieces, linestrings_of(quilt.xy[len(pieces):])])
+        nearby = np.concatenate([town[town_tree.query(around)], pieces[shapely.intersects(pieces, around)]])
         turn = _turn(source, src, cell, nearby, size, opts.orientation_peak, opts.grain_from_bearings)
         boundary = shapely.boundary(cell)
         waiting = (np.flatnonzero(shapely.distance(boundary, shapely.points(np.reshape(quilt.cut_xy, (-1, 2)))) < 1.0)

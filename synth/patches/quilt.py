@@ -9,7 +9,7 @@ import shapely
 import shapely.ops
 
 from osm_expand.model import Origin, StreetNetwork, network_from_lines, polyline_length
-from osm_expand.model.geometry import closest_on_segments, ray_meet
+from osm_expand.model.geometry import closest_on_segments, linestrings_of, ray_meet
 
 
 @dataclass
@@ -42,7 +42,7 @@ class _Board:
     """What a seam link or a tee must not touch: the quilt's pieces, the links added, what is occupied."""
 
     def __init__(self, quilt: _Quilt, occupied: shapely.Geometry, old: shapely.Geometry | None = None):
-        self.tree = shapely.STRtree(_lines(quilt.xy))
+        self.tree = shapely.STRtree(linestrings_of(quilt.xy))  # a board per seam step
         self.added: list[shapely.LineString] = []
         self.occupied, self.old = occupied, old
 
@@ -60,14 +60,6 @@ class _Board:
         touches = shapely.intersection(line, [*hits, *self.added])
         ends = shapely.MultiPoint([a, b]).buffer(1e-6)
         return bool((shapely.is_empty(touches) | shapely.covers(ends, touches)).all())
-
-
-def _lines(xy: list[np.ndarray]) -> np.ndarray:
-    """The polylines ``xy`` as LineStrings, made in one call (a board per seam step made thousands)."""
-    if not xy:
-        return np.empty(0, dtype=object)
-    counts = np.array([len(p) for p in xy])
-    return shapely.linestrings(np.concatenate(xy), indices=np.repeat(np.arange(len(xy)), counts))
 
 
 def _lay(board: _Board, quilt: _Quilt, path: np.ndarray, end: int) -> None:

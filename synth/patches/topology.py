@@ -10,6 +10,7 @@ import shapely.ops
 from scipy.spatial import cKDTree
 
 from osm_expand.model import Origin, StreetNetwork, network_from_lines
+from osm_expand.model.components import component_labels
 from osm_expand.model.geometry import closest_on_segments
 from osm_expand.model.topology import (
     dangling_chain,
@@ -198,8 +199,6 @@ def _pieces(net: StreetNetwork) -> list[list[int]]:
     them the district, stay the same; done with :func:`~osm_expand.model.components.component_labels`,
     without a graph object per district (and without importing ``networkx``).
     """
-    from osm_expand.model.components import component_labels
-
     pairs = [(a, b, k) for k, s in enumerate(net.streets) for a, b in zip(s.nodes[:-1], s.nodes[1:])]
     a, b, owner = np.array(pairs, dtype=np.intp).reshape(-1, 3).T
     label = component_labels(len(net.xy), a, b)
