@@ -566,6 +566,37 @@ def test_perimeter_streets_bend_as_the_towns_streets_do_within_the_clearance_of_
         assert (median_bend < 1.0) == straight, (bend, median_bend)
 
 
+def test_ring_streets_meet_a_cut_street_between_two_perimeter_runs_in_a_tee_not_an_l():
+    """Issue 20 (session 34): a cut street joined to one perimeter street turns into it at a node of degree
+    two, an L the yardstick reads as the street's bend (north-bayreuth's engine districts, seed 0: 46 of their
+    996 curvature chords at such joints, median 20°). With ``ring_streets`` the runs along the edge chain, so a
+    cut end between two of them meets the ring in a tee; by default each cut end takes one run."""
+    from synth.patches.edges import _edge_streets
+    from synth.patches.quilt import _network
+
+    spacing = 100.0
+    region = shapely.box(0.0, 0.0, 600.0, 400.0)
+    for opts, runs, tees, left in ((PatchOptions(), 1, 0, 1), (PatchOptions(ring_streets=True), 2, 1, 0)):
+        quilt = _Quilt()
+        for k, x in enumerate((200.0, 300.0, 400.0)):  # three streets running down to the edge, cut there
+            quilt.add(np.array([[x, 150.0], [x, 0.5]]), "residential", 0)
+            quilt.cut_xy.append(np.array([x, 0.5]))
+            quilt.cut_heading.append(np.array([0.0, -1.0]))
+            quilt.cut_cell.append(k)
+            quilt.cut_piece.append(k)
+        made = _edge_streets(quilt, region, spacing, opts, shapely.Polygon(), shapely.MultiLineString())
+        net = _network(quilt)
+        degree = segment_degree(net.streets, len(net.xy))
+        assert made == runs and int((degree == 3).sum()) == tees
+        assert len(quilt.cut_xy) == left  # a cut end on a run is closed; by default the third is left open
+
+
+@pytest.mark.parametrize("bad", ["false", 1, None])
+def test_ring_streets_is_read_as_true_or_false(bad):
+    with pytest.raises(OptionError, match="ring_streets must be true or false"):
+        PatchOptions(ring_streets=bad)
+
+
 @pytest.mark.parametrize("bad", [0, -0.1, float("nan"), float("inf"), "0.15"])
 def test_the_edge_tolerance_is_checked_when_read(bad):
     """A history's bad perimeter tolerance is one line and exit 2 at its reading, not a silent off switch

@@ -22,7 +22,10 @@ def _edge_streets(quilt: _Quilt, region: shapely.Geometry, spacing: float, opts:
 
     Trimming them back instead leaves combs of cul-de-sacs along the edge
     and loses a third of the district's street length; joined, they close
-    the edge blocks, as a housing estate's ring road does.
+    the edge blocks, as a housing estate's ring road does. Each cut end
+    takes one run, so its street turns into the run at a node of degree
+    two (an L); with ``opts.ring_streets`` a cut end takes the runs on
+    both sides, and meets the ring in a tee.
 
     How closely the street follows the edge: with ``opts.edge_tolerance``
     and ``bend`` (the town's neighbourhoods' mean curvature, degrees
@@ -64,10 +67,11 @@ def _edge_streets(quilt: _Quilt, region: shapely.Geometry, spacing: float, opts:
     # town's streets bend
     tolerances = _bending_like([raw for _, _, raw in runs], tolerances, bend)
     board = _Board(quilt, occupied, old)
-    used = np.zeros(len(xy), dtype=bool)
+    uses = np.zeros(len(xy), dtype=np.int64)
+    most = 2 if opts.ring_streets else 1  # with ring streets a cut end between two runs meets the ring in a tee
     made = 0
     for a, b, raw in runs:
-        if used[a] or used[b]:
+        if uses[a] >= most or uses[b] >= most:
             continue
         if opts.edge_smoothing is not None:  # a gentle curve where it is clear, else the edge as it is
             smooth = _smoothed(raw, opts.edge_smoothing)
@@ -77,9 +81,10 @@ def _edge_streets(quilt: _Quilt, region: shapely.Geometry, spacing: float, opts:
         if len(path) < 2 or not board.clear(path):
             continue
         _lay(board, quilt, path, a)
-        used[a] = used[b] = True
+        uses[a] += 1
+        uses[b] += 1
         made += 1
-    _close(quilt, used)
+    _close(quilt, uses > 0)
     return made
 
 

@@ -176,6 +176,18 @@ class PatchOptions:
     #: reference): north-bayreuth 5 5 5 -> 5 5 5 (2-core share 0.766 -> 0.801), Monaco 2 3 3 -> 4 4 4; seed 2
     #: north-bayreuth's 2-core 0.7233 -> 0.7382.
     roads_out_open: bool = True
+    #: Perimeter streets (:mod:`~synth.patches.edges`) chain into a ring: a cut end between two runs along the
+    #: edge ends both, so its street meets the ring in a tee, instead of each cut end taking one run and its
+    #: street turning into it at a node of degree two (an L, read by the yardstick as the street's bend). Why:
+    #: the copied pieces bend as the town does; the engine's excess curvature is at the joints the stitching
+    #: makes (``benchmarks/stitching_bends.py``, seed 0: north-bayreuth's chords on one copied piece median
+    #: 1.2° against the town's 1.0, at a perimeter street's joint 20°; its curvature KS 0.150, 0.129 without
+    #: those chords, 0.080 without every joint's). Off: it halves the Ls at perimeter streets (north-bayreuth's
+    #: engine district, 25 -> 13 corners over 45°) but lays more of the jagged edge, and moves the districts:
+    #: ``engine_growth.py --seed 0``, off of 14 per reference, off -> on: north-bayreuth 5 5 5 -> 3 4 3, Krems
+    #: 1 1 1 -> 1 0 1, but Andorra 0 0 0 -> 7 7 8 and Monaco 2 3 3 -> 6 5 5 (Campo Grande not run; session 34,
+    #: h34n).
+    ring_streets: bool = False
     #: A cut end left over runs on this many spacings to meet a street in a tee ...
     tee_reach: float = 0.6
     #: ... meeting it at this angle or more (degrees).
@@ -220,5 +232,7 @@ class PatchOptions:
         if turn is not None and not (is_real_number(turn) and 0 < turn <= 180):
             raise OptionError(f"PatchOptions.near_join must be a turn in degrees, > 0 and <= 180, or unset, "
                               f"got {turn!r}")
+        if not isinstance(self.ring_streets, bool):
+            raise OptionError(f"PatchOptions.ring_streets must be true or false, got {self.ring_streets!r}")
         if not isinstance(self.roads_out_open, bool):  # a history's "false" is a string, which Python reads as true
             raise OptionError(f"PatchOptions.roads_out_open must be true or false, got {self.roads_out_open!r}")

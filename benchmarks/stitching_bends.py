@@ -1,0 +1,182 @@
+"""Where do the engine's streets bend? The yardstick's curvature chords of each engine district, by what laid them.
+
+Issue 20: the engine's streets read bendier than the town's neighbourhoods (north-bayreuth seed 0: curvature
+median 2.3° per 20 m chord against the town's 1.0, KS 0.145 above its bound; Krems 5.2° against 0.0). This
+runs the default command in-process (``osm-expand TOWN``, default options, ``--seed``; the history's 30 years)
+and watches each example-patches district being quilted: the patch pieces as copied (:func:`_place`), the
+links each stitching step lays (seam links, tees, perimeter streets) and the district as it leaves
+(:func:`_planar`, the last step). For the districts the engine placed, every curvature chord (heading change
+between consecutive 20 m chords along the yardstick's edges, :mod:`osm_expand.measures`, which run through
+nodes of degree two) is put in one class by where its three points lie:
+
+- ``one piece``: on one copied piece (a stretch of one of the town's streets, translated);
+- ``piece joint``: on two copied pieces (where two of the town's ways meet, or a tee whose third arm was
+  trimmed: an L);
+- ``joint seam`` / ``joint edge`` / ``joint tee``: across the end of a seam link, a perimeter street or a
+  tee and the street it continues;
+- ``in seam`` / ``in edge`` / ``in tee``: along the link itself;
+- ``other``: the rest (links the topology step laid).
+
+Per class: chords, their median bend and the share bent over 20°; then the curvature KS against the whole
+town (as the verdict reads it) with the chords of each class of joints left out, and the corners over 45° at
+nodes of degree two per km beside the town's own rate. Session 34's reading (seed 0): the copied pieces bend
+as the town does (north-bayreuth median 1.0-1.6°, Krems 0.3-3.7°); the joints carry most chords over 20°,
+and without them north-bayreuth's KS falls from 0.15 to 0.08.
+
+Usage: ``python benchmarks/stitching_bends.py [--seed N] [TOWN ...]`` (default: Krems and north-bayreuth;
+about 15 s CPU each).
+"""
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+import numpy as np
+import shapely
+
+REPO = Path(__file__).resolve().parent.parent
+JOINTS = ("joint edge", "joint seam", "piece joint")
+
+
+class Watch:
+    """Wraps the steps :mod:`synth.patches.pattern` calls to note, per quilting, the copied pieces, the
+    links each stitching step adds and the district it returns (of the rounds filling one quilt, the last)."""
+
+    def __init__(self) -> None:
+        import synth.patches.pattern as pattern
+
+        self.rounds: list[dict] = []
+        self.current: dict = {}
+        for name, kind in (("_walk_seams", "seam"), ("_tees", "tee"), ("_edge_streets", "edge")):
+            setattr(pattern, name, self._adding(getattr(pattern, name), kind))
+        place, planar = pattern._place, pattern._planar
+
+        def placed(source, patches, centres, cells, quilt, *args, **kwargs):
+            out = place(source, patches, centres, cells, quilt, *args, **kwargs)
+            self.current = {"raw": [x.copy() for x in quilt.xy], "seam": [], "tee": [], "edge": [], "quilt": quilt}
+            return out
+
+        def last(net):
+            out = planar(net)
+            self.current["final"] = [out.street_xy(s) for s in out.streets]
+            if self.rounds and self.rounds[-1]["quilt"] is self.current["quilt"]:
+                self.rounds[-1] = self.current  # another round of filling the same quilt: the last one counts
+            else:
+                self.rounds.append(self.current)
+            return out
+
+        pattern._place, pattern._planar = placed, last
+
+    def _adding(self, step, kind: str):
+        def wrapped(quilt, *args, **kwargs):
+            before = len(quilt.xy)
+            out = step(quilt, *args, **kwargs)
+            self.current[kind] = self.current.get(kind, []) + [x.copy() for x in quilt.xy[before:]]
+            return out
+        return wrapped
+
+
+def chords(lines: list[np.ndarray]) -> tuple[np.ndarray, np.ndarray]:
+    """The yardstick's curvature chords of ``lines`` (:func:`osm_expand.measures.shape._curvature`, the same
+    edges and rounding): bends (degrees) and the three points of each, ``(K, 3, 2)``."""
+    from osm_expand.measures.graph import _build_graph
+    from osm_expand.measures.kinds import MeasureOptions
+    from osm_expand.measures.lines import LineSet
+
+    opts = MeasureOptions()
+    step = opts.curvature_step
+    ls = LineSet.from_lines(lines)
+    g = _build_graph(ls.coords, ls.line_of, window=None, open_points=None, opts=opts)
+    steps = np.floor(g.length / step + 1e-9).astype(np.int64)
+    edges = np.flatnonzero(steps >= 2)
+    n_pts = steps[edges] + 1
+    edge = np.repeat(edges, n_pts)
+    k = np.arange(len(edge)) - np.repeat(np.cumsum(n_pts) - n_pts, n_pts)
+    pts = g.point_at(edge, k * step)
+    d = np.diff(pts, axis=0)
+    heading = np.arctan2(d[:, 1], d[:, 0])
+    within = edge[1:] == edge[:-1]
+    turn = (heading[1:] - heading[:-1] + np.pi) % (2 * np.pi) - np.pi
+    ok = np.flatnonzero(within[1:] & within[:-1])
+    bends = np.round(np.degrees(np.abs(turn[ok])) / opts.angle_resolution) * opts.angle_resolution
+    return bends, np.stack([pts[ok], pts[ok + 1], pts[ok + 2]], axis=1)
+
+
+def classify(watched: dict, points: np.ndarray) -> np.ndarray:
+    """Each chord's class (module docstring) from its three points."""
+    pieces = [shapely.LineString(x) for x in watched["raw"]]
+    tree = shapely.STRtree(pieces)
+    on = np.full(points.shape[:2], -1)
+    for j in range(3):
+        (which, idx), dist = tree.query_nearest(shapely.points(points[:, j]), return_distance=True,
+                                                all_matches=False)
+        on[which, j] = np.where(dist < 0.5, idx, -1)
+    kind = np.where((on[:, 0] >= 0) & (on[:, 0] == on[:, 1]) & (on[:, 1] == on[:, 2]), "one piece",
+                    np.where((on >= 0).all(axis=1), "piece joint", "other")).astype(object)
+    for name in ("seam", "tee", "edge"):
+        if not watched[name]:
+            continue
+        links = shapely.MultiLineString([shapely.LineString(x) for x in watched[name]])
+        near = np.stack([shapely.distance(links, shapely.points(points[:, j])) < 0.5 for j in range(3)], axis=1)
+        kind[(kind == "other") & near.all(axis=1)] = f"in {name}"
+        kind[(kind == "other") & near.any(axis=1)] = f"joint {name}"
+    return kind
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("towns", nargs="*", default=["krems.osm.gz", "north-bayreuth.osm.gz"])
+    ap.add_argument("--seed", type=int, default=0)
+    args = ap.parse_args()
+    watch = Watch()
+    from osm_expand.engine.history import load_history
+    from osm_expand.fidelity import ks_distance
+    from osm_expand.ingest import load
+    from osm_expand.maturation import MatureOptions, mature_result
+    from osm_expand.measures import measure_network
+    from osm_expand.model import Origin, network_from_lines
+    from osm_expand.pipeline import ExpandOptions, expand
+    from synth.patches import SHARP, corner_turns
+
+    for name in args.towns:
+        city = expand(load(REPO / "fixtures" / name), ExpandOptions(seed=args.seed, fidelity=False))
+        first = len(watch.rounds)
+        result = mature_result(city, load_history("example"), MatureOptions(fidelity=False), args.seed)
+        net = result.city.network
+        engine = [net.street_xy(s) for s in net.streets if s.origin == Origin.ENGINE]
+        town = [net.street_xy(s) for s in net.streets if s.origin == Origin.SOURCE]
+        grown = shapely.MultiLineString([shapely.LineString(x) for x in engine]) if engine else None
+        bends, kinds, corners, km = [], [], 0, 0.0
+        for watched in watch.rounds[first:]:
+            final = watched.get("final", [])
+            if grown is None or not final:
+                continue
+            middle = shapely.points([x[len(x) // 2] if len(x) > 2 else x.mean(axis=0) for x in final])
+            if np.mean(shapely.distance(grown, middle) < 1.0) < 0.5:  # a district refused, not placed
+                continue
+            b, p = chords(final)
+            bends.append(b)
+            kinds.append(classify(watched, p))
+            district = network_from_lines(final, [{"highway": "residential", "origin": Origin.GROWN}] * len(final))
+            corners += int((corner_turns(district) > SHARP).sum())
+            km += district.total_length() / 1000.0
+        if not bends:
+            print(f"{name} seed {args.seed}: no engine district placed")
+            continue
+        b, k = np.concatenate(bends), np.concatenate(kinds)
+        whole = np.sort(measure_network(town, pieces=False).value("curvature"))
+        mapped = network_from_lines(town, [{"highway": "residential", "origin": Origin.SOURCE}] * len(town))
+        town_rate = (corner_turns(mapped) > SHARP).sum() / (mapped.total_length() / 1000.0)
+        print(f"\n{name} seed {args.seed}: {len(b)} chords in the placed districts, median {np.median(b):.1f}°, "
+              f"corners over {SHARP:.0f}° {corners / km:.2f} per km (town {town_rate:.2f})")
+        print("| class | chords | share | median ° | over 20° |\n|---|---|---|---|---|")
+        for kind in sorted(set(k), key=lambda c: -np.sum(k == c)):
+            m = k == kind
+            print(f"| {kind} | {m.sum()} | {m.mean():.2f} | {np.median(b[m]):.1f} | {np.mean(b[m] > 20):.2f} |")
+        without = [f"without {', '.join(JOINTS[:i + 1])} {ks_distance(b[~np.isin(k, JOINTS[:i + 1])], whole):.3f}"
+                   for i in range(len(JOINTS))]
+        print(f"curvature KS against the town: all {ks_distance(b, whole):.3f}; " + "; ".join(without))
+
+
+if __name__ == "__main__":
+    main()
