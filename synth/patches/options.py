@@ -185,8 +185,12 @@ class PatchOptions:
     #: those chords, 0.080 without every joint's). Off: it halves the Ls at perimeter streets (north-bayreuth's
     #: engine district, 25 -> 13 corners over 45°) but lays more of the jagged edge, and moves the districts:
     #: ``engine_growth.py --seed 0``, off of 14 per reference, off -> on: north-bayreuth 5 5 5 -> 3 4 3, Krems
-    #: 1 1 1 -> 1 0 1, but Andorra 0 0 0 -> 7 7 8 and Monaco 2 3 3 -> 6 5 5 (Campo Grande not run; session 34,
-    #: h34n).
+    #: 1 1 1 -> 1 0 1, but Andorra 0 0 0 -> 7 7 8 (its districts took its straight valley-floor patches:
+    #: curvature median 1.1° against the town's 4.1°) and Monaco 2 3 3 -> 6 5 5 (Campo Grande not run). At the
+    #: pipeline's own site (``district_fidelity.py --seeds 0 1 --option ring_streets=true --same-site``), off of
+    #: 14 per seed and corners over 45° per km: Krems 1 0 -> 1 0 (6.8 -> 5.9), north-bayreuth 3 3 -> 3 3 (8.9 ->
+    #: 8.6), Andorra 4 7 -> 4 7 (5.3 -> 4.3), Monaco 1 3 -> 5 7 (8.6 -> 8.3): fewer Ls, the same curvature
+    #: verdict, and Monaco's jagged edge laid as streets (session 34, h34n).
     ring_streets: bool = False
     #: A cut end left over runs on this many spacings to meet a street in a tee ...
     tee_reach: float = 0.6
