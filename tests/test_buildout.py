@@ -580,22 +580,33 @@ def test_the_build_outs_yearly_memos_give_what_a_fresh_computation_gives():
     from osm_expand.engine.buildout.new_lots import _buildable
     from osm_expand.engine.buildout.streets import _block_keys, _streets
     from osm_expand.model import City, network_from_lines
+    from osm_expand.model.segments import street_width
 
     def grid(n, step, x0=0.0):
         span = [i * step for i in range(n)]
         return [[(x0 + x, y) for x in span] for y in span] + [[(x0 + x, y) for y in span] for x in span]
 
-    years = [grid(3, 100.0), grid(3, 100.0) + grid(2, 50.0, 400.0), grid(4, 100.0),
-             grid(4, 100.0)[:-1], grid(3, 100.0)]
+    years = [grid(3, 100.0), grid(3, 100.0) + grid(2, 50.0, 400.0), grid(4, 100.0), grid(4, 100.0),
+             grid(4, 100.0)[:-1], grid(3, 100.0), grid(3, 100.0)]
     memo = _Memo()
+    last = None
+    unchanged = []
     for k, lines in enumerate(years):
         net = network_from_lines(lines)
-        widths = [None if (i + k) % 3 else 4.0 + k for i in range(len(net.streets))]  # widened some years
+        w = [0, 1, 2, 2, 3, 4, 4][k]  # years 3 and 6 are the years before them again
+        widths = [None if (i + w) % 3 else 4.0 + w for i in range(len(net.streets))]  # widened some years
         net = net.replace(streets=tuple(replace(s, width=w, origin=Origin.GROWN if i % 2 else Origin.SOURCE)
                                         for i, (s, w) in enumerate(zip(net.streets, widths))))
         city = City(network=net)
-        carried, _ = _streets(city, memo)
-        fresh, _ = _streets(city, _Memo())
+        carried, signature, same = _streets(city, memo)
+        fresh, fresh_signature, fresh_same = _streets(city, _Memo())
+        # the year's streets are last year's exactly when their ids, nodes and widths are
+        geometry = tuple((s.id, s.nodes, street_width(s)) for s in net.streets if len(s.nodes) >= 2)
+        assert (same and signature == last[0]) == (last is not None and geometry == last[1])
+        if same and signature == last[0]:
+            unchanged.append(k)
+        assert signature == fresh_signature and not fresh_same
+        last = (signature, geometry)
         assert np.array_equal(carried.ids, fresh.ids) and np.array_equal(carried.widths, fresh.widths)
         assert all(a.equals_exact(b, 0.0) for a, b in zip(carried.lines, fresh.lines))
         assert all(a.equals_exact(b, 0.0) for a, b in zip(carried.carriageways, fresh.carriageways))
@@ -606,3 +617,41 @@ def test_the_build_outs_yearly_memos_give_what_a_fresh_computation_gives():
         work = SimpleNamespace(blocks=found, streets=fresh)
         new_ids = set(fresh.ids[fresh.new].tolist())
         assert _buildable(work).tolist() == [any(i in new_ids for i in b.street_ids) for b in found]
+    assert unchanged == [3, 6]
+
+
+def test_lots_carried_to_their_blocks_lie_where_a_fresh_lookup_finds_them():
+    """The block each lot lies within, carried from last year where its block polygon is still there,
+    is the one a lookup over all blocks finds, after a year whose new street splits one block."""
+    from types import SimpleNamespace
+
+    from osm_expand.blocks import FaceMemo
+    from osm_expand.engine.buildout.demolition import _lot_blocks
+    from osm_expand.engine.buildout.memory import _Memo
+    from osm_expand.model import network_from_lines
+
+    span = [0.0, 100.0, 200.0, 300.0]
+    def column(x):  # the two left columns have a node at y = 150 every year
+        return [(x, y) for y in sorted(span + ([150.0] if x < 150 else []))]
+
+    grid = [[(x, y) for x in span] for y in span] + [column(x) for x in span]
+    split = grid + [[(0.0, 150.0), (100.0, 150.0)]]  # cuts the block at (0..100, 100..200) in two
+    points = {k: (10.0 + 35.0 * (k % 8), 12.0 + 37.0 * (k // 8)) for k in range(64)}
+    points[99] = (-50.0, -50.0)  # outside every block
+    states = {k: SimpleNamespace(point=p) for k, p in points.items()}
+    order = sorted(states)
+    memo, faces = _Memo(), FaceMemo()
+    carried_years = []
+    for lines in (grid, split, split):
+        found = blocks(network_from_lines(lines), memo=faces)
+        year = SimpleNamespace(memory=SimpleNamespace(memo=memo), blocks=found, states=states)
+        fresh = SimpleNamespace(memory=SimpleNamespace(memo=_Memo()), blocks=found, states=states)
+        before = dict(memo.lot_blocks)
+        within, _ = _lot_blocks(year, order)
+        assert within.tolist() == _lot_blocks(fresh, order)[0].tolist()
+        carried_years.append(sum(memo.lot_blocks.get(k) is p for k, p in before.items()))
+        polys = [b.polygon for b in found]
+        for lot_id, k in zip(order, within.tolist()):
+            assert (k < 0) == (lot_id == 99)
+            assert k < 0 or polys[k].contains(shapely.Point(points[lot_id]))
+    assert carried_years[0] == 0 and 0 < carried_years[1] < 64 and carried_years[2] == 64

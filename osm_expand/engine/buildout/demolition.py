@@ -4,8 +4,11 @@ surviving lots find their block again (module docstring of
 """
 from __future__ import annotations
 
+from collections.abc import Callable
+
 import numpy as np
 import shapely
+from numpy.typing import NDArray
 
 from osm_expand.engine.buildout.streets import _buildings_hit, _lots_hit, _relabel
 from osm_expand.engine.buildout.work import _Year
@@ -23,13 +26,7 @@ def _demolish(work: _Year, *, check: bool = True) -> set[int]:
     recent = streets.only_recent() if check else streets
     crossed = _lots_hit(polys, recent, work.memory.options.street_overlap) if check \
         else np.zeros(len(order), dtype=bool)
-    block_polys = np.array([b.polygon for b in work.blocks], dtype=object)
-    points = shapely.points(np.array([states[k].point for k in order]).reshape(-1, 2))
-    within = np.full(len(order), -1, dtype=np.int64)
-    block_tree = shapely.STRtree(block_polys) if len(block_polys) else None
-    if len(order) and block_tree is not None:
-        pt, blk = block_tree.query(points, predicate="within")
-        within[pt] = blk
+    within, block_tree = _lot_blocks(work, order)
     healing: set[int] = set()
     gone = 0
     for k, lot_id, hit, blk in zip(range(len(order)), order, crossed.tolist(), within.tolist()):
@@ -41,8 +38,8 @@ def _demolish(work: _Year, *, check: bool = True) -> set[int]:
                 work.count(buildings_demolished=1)
             if blk >= 0:
                 healing.add(blk)
-            elif block_tree is not None:  # outside every block: heal the block its land now lies in, if any
-                healing.update(block_tree.query(polys[k], predicate="intersects").tolist())
+            elif work.blocks:  # outside every block: heal the block its land now lies in, if any
+                healing.update(block_tree().query(polys[k], predicate="intersects").tolist())
             continue
         states[lot_id] = state
         work.lot_block[lot_id] = blk
@@ -57,3 +54,39 @@ def _demolish(work: _Year, *, check: bool = True) -> set[int]:
             work.count(buildings_demolished=1)
     return healing
 
+
+
+def _lot_blocks(work: _Year, order: list[int]) -> tuple[NDArray[np.int64], Callable[[], shapely.STRtree]]:
+    """The block each lot's point lies within (an index into ``work.blocks``, -1: none), lots in ``order``,
+    and the tree over the blocks (made when first asked).
+
+    A lot whose point was found within a block polygon that is still one of this year's blocks (the same
+    object: the loop keeps the polygons of faces that did not change) lies within it alone, since the
+    blocks are pairwise disjoint; only the other lots (in blocks a street changed, and lots made last
+    year) are looked up in the tree (Campo Grande: a few hundred of up to 2,500 lots a year).
+    """
+    memo = work.memory.memo
+    polys = [b.polygon for b in work.blocks]
+    at = {id(p): k for k, p in enumerate(polys)}
+    within = np.full(len(order), -1, dtype=np.int64)
+    todo = []
+    for j, lot_id in enumerate(order):
+        known = memo.lot_blocks.get(lot_id)
+        k = at.get(id(known), -1) if known is not None else -1
+        if k >= 0 and polys[k] is known:
+            within[j] = k
+        else:
+            todo.append(j)
+    tree: list[shapely.STRtree] = []
+
+    def block_tree() -> shapely.STRtree:
+        if not tree:
+            tree.append(shapely.STRtree(np.array(polys, dtype=object)))
+        return tree[0]
+
+    if todo and polys:
+        points = shapely.points(np.array([work.states[order[j]].point for j in todo]).reshape(-1, 2))
+        pt, blk = block_tree().query(points, predicate="within")
+        within[np.array(todo, dtype=np.int64)[pt]] = blk
+    memo.lot_blocks = {lot_id: polys[k] for lot_id, k in zip(order, within.tolist()) if k >= 0}
+    return within, block_tree

@@ -113,13 +113,17 @@ class _Memo:
     (:func:`~osm_expand.engine.buildout.streets._block_keys`) by the polygon
     object's id (checked against the object: the blocks keep the polygons of
     faces that did not change, so a year computes the keys of its new blocks
-    only).
+    only); ``lot_blocks``: the block polygon each lot's point was found
+    within (checked against this year's blocks by object).
     """
 
     def __init__(self) -> None:
         self.footprints: dict[int, tuple[Building, shapely.Polygon, float]] = {}
         self.streets: dict[int, tuple[tuple[int, ...], float, shapely.Geometry, shapely.Geometry]] = {}
         self.block_keys: dict[int, tuple[shapely.Polygon, tuple[int, int, int]]] = {}
+        #: lot id → the block polygon its point was last found within
+        #: (:func:`~osm_expand.engine.buildout.demolition._lot_blocks`)
+        self.lot_blocks: dict[int, shapely.Polygon] = {}
 
     def footprint(self, b: Building) -> tuple[shapely.Polygon, float]:
         hit = self.footprints.get(id(b))
@@ -158,7 +162,7 @@ class BuildoutMemory:
     layout: LotLayout | None = None
     layout_ids: tuple[int, ...] = ()
     layout_lut: NDArray[np.int64] = field(default_factory=lambda: np.zeros(0, dtype=np.int64))
-    signature: int | None = None  #: hash of last year's streets (ids, nodes, widths)
+    signature: int | None = None  #: hash of last year's street ids in order (their geometry: ``_Memo.streets``)
     memo: _Memo = field(default_factory=_Memo, repr=False)  #: geometry cache (no effect on results)
 
 

@@ -6,6 +6,7 @@ from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
 from dataclasses import replace
+from itertools import chain
 
 import numpy as np
 import shapely
@@ -28,7 +29,7 @@ def _buildable(work: _Year) -> NDArray[np.bool_]:
     if not blocks:
         return np.zeros(0, dtype=bool)
     sizes = np.array([len(b.street_ids) for b in blocks], dtype=np.int64)
-    ids = np.fromiter((i for b in blocks for i in b.street_ids), dtype=np.int64, count=int(sizes.sum()))
+    ids = np.fromiter(chain.from_iterable(b.street_ids for b in blocks), dtype=np.int64, count=int(sizes.sum()))
     new = np.isin(ids, work.streets.ids[work.streets.new])  # all blocks' streets at once
     owner = np.repeat(np.arange(len(blocks)), sizes)
     return np.bincount(owner, weights=new.astype(np.float64), minlength=len(blocks)) > 0

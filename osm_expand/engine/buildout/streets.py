@@ -5,7 +5,8 @@ and a lot's edges given again to the streets they face when one of its streets c
 from __future__ import annotations
 
 from collections.abc import Sequence
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, replace
+from functools import cached_property
 from typing import cast
 
 import numpy as np
@@ -34,13 +35,17 @@ class _Streets:
     changed: frozenset[int] = frozenset()
     #: (S,) bool: streets new since last year, or whose nodes or width changed (all on the first year)
     recent: NDArray[np.bool_] | None = None
-    #: the trees over ``lines`` and ``carriageways``, built in ``__post_init__``
-    line_tree: shapely.STRtree = field(init=False, repr=False)
-    carriageway_tree: shapely.STRtree = field(init=False, repr=False)
 
-    def __post_init__(self) -> None:
-        object.__setattr__(self, "line_tree", shapely.STRtree(self.lines))
-        object.__setattr__(self, "carriageway_tree", shapely.STRtree(self.carriageways))
+    @cached_property
+    def line_tree(self) -> shapely.STRtree:
+        """The tree over ``lines``, made when first asked (a year that places no lot and relabels none
+        never asks)."""
+        return shapely.STRtree(self.lines)
+
+    @cached_property
+    def carriageway_tree(self) -> shapely.STRtree:
+        """The tree over ``carriageways``, made when first asked."""
+        return shapely.STRtree(self.carriageways)
 
     def only_recent(self) -> _Streets:
         """The streets that are new or changed since last year: the only ones that can have come to lie
@@ -57,8 +62,13 @@ class _Streets:
         return frozenset(self.ids[self.built].tolist())
 
 
-def _streets(city: City, memo: _Memo) -> tuple[_Streets, int]:
-    """The streets as arrays, and a hash of their geometry (ids, nodes, widths)."""
+def _streets(city: City, memo: _Memo) -> tuple[_Streets, int, bool]:
+    """The streets as arrays, a hash of their ids in order, and whether their geometry is the memo's.
+
+    The geometry is the memo's (last year's) when no street is new, gone or changed (nodes or width): with
+    the same ids in the same order (the hash), the streets are last year's. Comparing nodes against the
+    memo (the same tuple objects, most years) costs less than hashing every street's nodes again.
+    """
     net = city.network
     streets = [s for s in net.streets if len(s.nodes) >= 2]
     widths = np.array([street_width(s) for s in streets], dtype=np.float64)
@@ -69,7 +79,7 @@ def _streets(city: City, memo: _Memo) -> tuple[_Streets, int]:
     first = not memo.streets
     for k, (s, w) in enumerate(zip(streets, widths.tolist())):
         hit = memo.streets.get(s.id)
-        if hit is not None and hit[0] == s.nodes and hit[1] == w:
+        if hit is not None and (hit[0] is s.nodes or hit[0] == s.nodes) and hit[1] == w:
             lines[k], carriageways[k] = hit[2], hit[3]
         else:
             fresh.append(k)
@@ -86,12 +96,13 @@ def _streets(city: City, memo: _Memo) -> tuple[_Streets, int]:
         del memo.streets[sid]
     for k in fresh:  # the others' entries hold as they are
         memo.streets[streets[k].id] = (streets[k].nodes, float(widths[k]), lines[k], carriageways[k])
-    signature = hash(tuple((s.id, s.nodes, w) for s, w in zip(streets, widths.tolist())))
-    table = _Streets(ids=np.array([s.id for s in streets], dtype=np.int64), lines=lines, carriageways=carriageways,
+    ids = [s.id for s in streets]
+    same = not first and not fresh and not changed
+    table = _Streets(ids=np.array(ids, dtype=np.int64), lines=lines, carriageways=carriageways,
                      widths=widths, built=np.array([s.status == Status.BUILT for s in streets], dtype=bool),
                      new=np.array([s.is_new for s in streets], dtype=bool), changed=frozenset(changed),
                      recent=recent)
-    return table, signature
+    return table, hash(tuple(ids)), same
 
 
 # ============================================================================ demolition

@@ -6,6 +6,7 @@ from __future__ import annotations
 
 from collections.abc import Mapping
 from dataclasses import dataclass, field
+from itertools import chain
 
 import numpy as np
 import shapely
@@ -73,15 +74,19 @@ class _Units:
         return self._rows[lot_id]  # type: ignore[attr-defined]
 
 
-def _lot_traffic(work: _Year, state: LotState) -> float:
-    return float(sum(work.traffic.get(s, 0.0) for s in state.streets))
-
-
 def _unit_traffic(work: _Year) -> NDArray[np.float64]:
-    """Traffic of every unit: a town unit's nearest street's, a lot's summed over the streets it fronts (002 §4.3)."""
-    town = np.array([work.traffic.get(int(s), 0.0) for s in work.town.unit_street.tolist()])
-    lots = np.array([_lot_traffic(work, work.states[k]) for k in sorted(work.states)])
-    return np.concatenate([town, lots])
+    """Traffic of every unit: a town unit's nearest street's, a lot's summed over the streets it fronts (002 §4.3).
+
+    The lots' sums in one ``bincount`` over all their streets (it adds each lot's streets in order from 0, as a
+    Python ``sum`` does): a Python sum per lot was most of this on Campo Grande's 36,000 lot-years.
+    """
+    get = work.traffic.get
+    town = np.array([get(s, 0.0) for s in work.town.unit_street.tolist()])
+    streets = [work.states[k].streets for k in sorted(work.states)]
+    sizes = np.fromiter((len(x) for x in streets), dtype=np.int64, count=len(streets))
+    values = np.array([get(s, 0.0) for s in chain.from_iterable(streets)], dtype=np.float64)
+    lots = np.bincount(np.repeat(np.arange(len(streets)), sizes), weights=values, minlength=len(streets))
+    return np.concatenate([town, lots.astype(np.float64)])
 
 
 def _attributes(work: _Year, xy: NDArray[np.float64], water: NDArray[np.float64], green: NDArray[np.float64],

@@ -144,8 +144,8 @@ def buildout_year(city: City, memory: BuildoutMemory, history: History, now: Yea
     report : BuildoutYear
     """
     blocks = city.blocks or tuple(find_blocks(city.network, year=year))
-    streets, signature = _streets(city, memory.memo)
-    unchanged = signature == memory.signature
+    streets, signature, same = _streets(city, memory.memo)
+    unchanged = same and signature == memory.signature
     memory = replace(memory, signature=signature)
     ids = {int(lot.id) for lot in city.lots}
     states = {k: s for k, s in memory.lots.items() if k in ids}
@@ -200,6 +200,10 @@ def _result(work: _Year, units: _Units, new_ids: list[int]) -> tuple[City, Build
 
 
 def _access(work: _Year, state: LotState, built: frozenset[int]) -> int:
-    """The street a lot faces: built first, then the busiest, then the longest frontage, then the lowest id."""
+    """The street a lot faces: built first, then the busiest, then the longest frontage, then the lowest id.
+
+    A lot that fronts one street faces it (most lots: no frontage to measure)."""
+    if len(state.streets) == 1:
+        return state.streets[0]
     frontage = state.frontage
     return int(max(state.streets, key=lambda s: (s in built, work.traffic.get(s, 0.0), frontage[s], -s)))
