@@ -97,7 +97,8 @@ def _lengths_in(source: _Source, discs: np.ndarray) -> np.ndarray:
     """The length of the source's streets inside each of ``discs`` (m), each summed in the tree's order.
 
     Only the streets that cross a disc's edge are clipped; a simple one
-    wholly inside counts its own length, which is what clipping it gives
+    wholly inside counts its own length, which is what clipping it gives, one
+    that misses it 0.0
     (the overlay of every street was most of a disc's time). A street that
     crosses itself is clipped as before: GEOS splits it at the crossing and
     sums the parts in another order (1 ulp apart on Andorra's loops).
@@ -111,7 +112,9 @@ def _lengths_in(source: _Source, discs: np.ndarray) -> np.ndarray:
     shapely.prepare(discs)
     inside = shapely.contains_properly(around, lines) & shapely.is_simple(lines)
     lengths = shapely.length(lines)
-    cross = ~inside
+    # a street whose box meets the disc's but which misses the disc adds the 0.0 its clip gave, unclipped
+    cross = ~inside & shapely.intersects(around, lines)
+    lengths[~inside & ~cross] = 0.0
     lengths[cross] = shapely.length(shapely.intersection(lines[cross], around[cross]))
     bounds = np.searchsorted(which, np.arange(len(discs) + 1))
     return np.array([float(lengths[a:b].sum()) for a, b in zip(bounds[:-1].tolist(), bounds[1:].tolist())])
