@@ -1,5 +1,6 @@
-"""The example patches' street density in a disc (:func:`synth.patches.source._density`): clipping only
-the streets that cross the disc's edge gives the sum that clipping every street gave, to the bit (a street that crosses itself is clipped as before)."""
+"""The example patches' street density in discs (:func:`synth.patches.source._density`): clipping only
+the streets that cross a disc's edge, all discs at once, gives each disc the sum that clipping every street
+to it alone gave, to the bit (a street that crosses itself is clipped as before)."""
 from __future__ import annotations
 
 import functools
@@ -9,7 +10,7 @@ import shapely
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from synth.patches.source import _density, _length_in, _Source, _source
+from synth.patches.source import _density, _lengths_in, _Source, _source
 from tests.test_patches import district
 
 
@@ -30,7 +31,20 @@ def test_the_length_in_a_disc_is_the_length_of_every_street_clipped_to_it(at, ra
     source = _krems_source()
     xy = shapely.get_coordinates(source.lines)
     disc = shapely.buffer(shapely.Point(xy[at % len(xy)]), radius)
-    assert _length_in(source, disc) == _every_street_clipped(source, disc)
+    assert _lengths_in(source, [disc])[0] == _every_street_clipped(source, disc)
+
+
+@settings(max_examples=25, deadline=None)
+@given(st.lists(st.tuples(st.integers(0, 10_000), st.floats(30.0, 900.0)), min_size=0, max_size=12))
+def test_many_discs_at_once_give_each_disc_its_own_sum(discs):
+    """The discs are queried and clipped together: each still gets, to the bit, the sum it got alone
+    (overlapping discs, discs holding nothing, repeated discs)."""
+    source = _krems_source()
+    xy = shapely.get_coordinates(source.lines)
+    made = [shapely.buffer(shapely.Point(xy[at % len(xy)]), radius) for at, radius in discs]
+    made.append(shapely.buffer(shapely.Point(xy.min(axis=0) - 5_000.0), 50.0))  # far from every street
+    got = _lengths_in(source, made)
+    assert got.tolist() == [_every_street_clipped(source, d) for d in made]
 
 
 def test_a_disc_holding_whole_streets_and_cut_ones_counts_both():
@@ -55,4 +69,4 @@ def test_a_street_that_crosses_or_runs_over_itself_is_clipped_as_before():
                      tree=shapely.STRtree(lines))
     disc = shapely.buffer(shapely.Point(0, 0), 400.0)
     assert not shapely.is_simple(doubled) and shapely.length(shapely.intersection(doubled, disc)) < doubled.length
-    assert _length_in(source, disc) == _every_street_clipped(source, disc)
+    assert _lengths_in(source, [disc])[0] == _every_street_clipped(source, disc)

@@ -725,3 +725,42 @@ def test_the_session_33_patch_options_refuse_values_that_would_fail_mid_run_or_s
     with pytest.raises(OptionError, match=match):
         PatchOptions(**kwargs)
     assert PatchOptions(edge_smoothing=20.0).edge_smoothing == 20.0 and PatchOptions(near_join=45).near_join == 45
+
+
+@settings(max_examples=30, deadline=None)
+@given(st.integers(0, 2**31 - 1), st.floats(-0.8, 0.8))
+def test_a_cells_cut_ends_measured_at_once_are_those_measured_end_by_end(seed, turn):
+    """``placing._cut_ends`` (every piece's two ends tested in one distance call and one tree query) marks
+    the ends that testing each end alone marked: on the cell's edge, or on a point where the street met one
+    that is not copied, under a turned and moved patch."""
+    from scipy.spatial import cKDTree
+
+    from synth.patches.placing import _cut_ends, _Transform
+    from synth.patches.source import _Source
+
+    rng = np.random.default_rng(seed)
+    move = _Transform(rng.uniform(-500, 500, 2), rng.uniform(-500, 500, 2), turn)
+    cell = shapely.Point(move.target_centre).buffer(120.0)
+    boundary = shapely.boundary(cell)
+    ring = shapely.get_coordinates(boundary)
+    broken_src = rng.uniform(-600, 600, (5, 2))
+    pieces = []
+    for _ in range(int(rng.integers(0, 12))):
+        ends = [move.target_centre + rng.normal(0, 60, 2) for _ in range(2)]
+        for k in range(2):
+            if rng.random() < 0.3:
+                ends[k] = ring[int(rng.integers(len(ring)))]  # on the cell's edge
+            elif rng.random() < 0.3:
+                ends[k] = move.forward(broken_src[int(rng.integers(5))][None, :])[0]  # met a motorway in the town
+        pieces.append(np.array([ends[0], (ends[0] + ends[1]) / 2, ends[1]]))
+    lines = np.array([shapely.LineString([(0, 0), (1, 1)])], dtype=object)
+    source = _Source(lines=lines, highway=("residential",), level=np.zeros(1, int), tree=shapely.STRtree(lines),
+                     broken=cKDTree(broken_src))
+
+    def one_by_one(end):
+        return bool(shapely.distance(boundary, shapely.Point(end)) < 1e-6
+                    or source.broken.query(move.back(end[None, :]), distance_upper_bound=1e-6)[0][0] < 1e-6)
+
+    got = _cut_ends(source, move, boundary, pieces)
+    assert [xy is p for (xy, _), p in zip(got, pieces)] == [True] * len(pieces)
+    assert [c.tolist() for _, c in got] == [[one_by_one(p[0]), one_by_one(p[-1])] for p in pieces]

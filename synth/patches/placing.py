@@ -167,12 +167,13 @@ def _place(source: _Source, patches: np.ndarray, centres: np.ndarray, cells: lis
             cell = _part_of(cell, moved, shapely.ops.nearest_points(cell, anchor)[0], length - total)
             boundary = shapely.boundary(cell)
         filled.append(cell)
-        for k, part in _cell_pieces(source, near, shapely.intersection(moved, cell)):
-            xy = np.asarray(part.coords)
+        copied = _cell_pieces(source, near, shapely.intersection(moved, cell))
+        cut = _cut_ends(source, move, boundary, [np.asarray(part.coords) for _, part in copied])
+        for (k, part), (xy, cut_at) in zip(copied, cut):
             piece = quilt.add(xy, source.highway[k], int(source.level[k]))
             total += part.length
-            for end, prev in ((xy[0], xy[1]), (xy[-1], xy[-2])):
-                if shapely.distance(boundary, shapely.Point(end)) < 1e-6 or _was_broken(source, move, end):
+            for end, prev, is_cut in ((xy[0], xy[1], cut_at[0]), (xy[-1], xy[-2], cut_at[1])):
+                if is_cut:
                     d = end - prev
                     quilt.cut_xy.append(end)
                     quilt.cut_heading.append(d / max(float(np.hypot(*d)), 1e-12))
@@ -194,10 +195,20 @@ def _cell_pieces(source: _Source, near: np.ndarray, clipped: np.ndarray) -> list
     return [(k, part) for i, (k, part) in enumerate(pieces) if not (source.layered[k] and i in crossing)]
 
 
-def _was_broken(source: _Source, move: _Transform, end: np.ndarray) -> bool:
-    """Did this end meet a street that is not copied (a motorway, a bridge) in the town?"""
-    return (source.broken is not None
-            and source.broken.query(move.back(end[None, :]), distance_upper_bound=1e-6)[0][0] < 1e-6)
+def _cut_ends(source: _Source, move: _Transform, boundary: shapely.Geometry,
+              pieces: list[np.ndarray]) -> list[tuple[np.ndarray, np.ndarray]]:
+    """Each piece's polyline and whether its (first, last) point is a cut end: on the cell's ``boundary``,
+    or where the street met one that is not copied (a motorway, a bridge) in the town.
+
+    All the pieces' ends are measured in one call each (one GEOS distance and one tree query per end
+    were a tenth of placing a cell)."""
+    if not pieces:
+        return []
+    ends = np.array([xy[i] for xy in pieces for i in (0, -1)])
+    cut = shapely.distance(boundary, shapely.points(ends)) < 1e-6
+    if source.broken is not None:
+        cut |= source.broken.query(move.back(ends), distance_upper_bound=1e-6)[0] < 1e-6
+    return list(zip(pieces, cut.reshape(-1, 2)))
 
 
 def _part_of(cell: shapely.Geometry, lines: np.ndarray, anchor: shapely.Point, need: float) -> shapely.Geometry:

@@ -58,8 +58,11 @@ class _Board:
             return False
         hits = self.tree.geometries.take(self.tree.query(line, predicate="intersects"))
         touches = shapely.intersection(line, [*hits, *self.added])
+        touches = touches[~shapely.is_empty(touches)]
+        if not len(touches):  # most paths touch nothing but at their ends' own streets: no disc to build
+            return True
         ends = shapely.MultiPoint([a, b]).buffer(1e-6)
-        return bool((shapely.is_empty(touches) | shapely.covers(ends, touches)).all())
+        return bool(shapely.covers(ends, touches).all())
 
 
 def _lay(board: _Board, quilt: _Quilt, path: np.ndarray, end: int) -> None:

@@ -80,7 +80,7 @@ def _street_points(source: _Source, n: int, rng: np.random.Generator) -> np.ndar
 def _density(source: _Source, centres: np.ndarray, radius: float) -> np.ndarray:
     """Street length per m² in discs around ``centres``."""
     discs = shapely.buffer(shapely.points(centres), radius)
-    return np.array([_length_in(source, d) for d in discs]) / (np.pi * radius ** 2)
+    return _lengths_in(source, discs) / (np.pi * radius ** 2)
 
 
 def _density_on_land(source: _Source, centres: np.ndarray, radius: float,
@@ -90,26 +90,34 @@ def _density_on_land(source: _Source, centres: np.ndarray, radius: float,
     is in it; ``synth`` imports only the model, so the rule is handed in, as ``measure`` is)."""
     discs = shapely.buffer(shapely.points(centres), radius)
     areas = np.array([shapely.area(land_in(d)) for d in discs])
-    return np.array([_length_in(source, d) for d in discs]) / areas
+    return _lengths_in(source, discs) / areas
 
 
-def _length_in(source: _Source, disc: shapely.Geometry) -> float:
-    """The length of the source's streets inside ``disc`` (m), summed in the tree's order.
+def _lengths_in(source: _Source, discs: np.ndarray) -> np.ndarray:
+    """The length of the source's streets inside each of ``discs`` (m), each summed in the tree's order.
 
-    Only the streets that cross the disc's edge are clipped; a simple one
-    wholly inside counts its own length, which is what clipping it gives
+    Only the streets that cross a disc's edge are clipped; a simple one
+    wholly inside counts its own length, which is what clipping it gives, one
+    that misses it 0.0
     (the overlay of every street was most of a disc's time). A street that
     crosses itself is clipped as before: GEOS splits it at the crossing and
     sums the parts in another order (1 ulp apart on Andorra's loops).
+    All the discs are queried, tested and clipped in one GEOS call each
+    (one disc at a time was 16 % of Campo Grande's district growth); each
+    disc's lengths are still summed alone, in the order the tree gives them.
     """
-    hit = source.tree.query(disc)
-    lines = source.lines[hit]
-    shapely.prepare(disc)
-    inside = shapely.contains_properly(disc, lines) & shapely.is_simple(lines)
+    discs = np.asarray(discs, dtype=object)
+    which, hit = source.tree.query(discs)
+    lines, around = source.lines[hit], discs[which]
+    shapely.prepare(discs)
+    inside = shapely.contains_properly(around, lines) & shapely.is_simple(lines)
     lengths = shapely.length(lines)
-    cross = ~inside
-    lengths[cross] = shapely.length(shapely.intersection(lines[cross], disc))
-    return float(lengths.sum())
+    # a street whose box meets the disc's but which misses the disc adds the 0.0 its clip gave, unclipped
+    cross = ~inside & shapely.intersects(around, lines)
+    lengths[~inside & ~cross] = 0.0
+    lengths[cross] = shapely.length(shapely.intersection(lines[cross], around[cross]))
+    bounds = np.searchsorted(which, np.arange(len(discs) + 1))
+    return np.array([float(lengths[a:b].sum()) for a, b in zip(bounds[:-1].tolist(), bounds[1:].tolist())])
 
 
 def _neighbourhood_points(source: _Source, n: int, radius: float, rng: np.random.Generator) -> np.ndarray:
