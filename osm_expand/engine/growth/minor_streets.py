@@ -32,7 +32,7 @@ import shapely
 
 from osm_expand.district import place_district
 from osm_expand.engine.growth.nuclei import Nucleus, candidate_points, nuclei_in_town, rank_candidates, rank_sites
-from osm_expand.engine.growth.stubs import close_stubs
+from osm_expand.engine.growth.stubs import close_stubs, finish_district
 from osm_expand.errors import OptionError
 from osm_expand.joins import add_streets
 from osm_expand.model import City, Origin, Status, closest_on_segments, match_points, polyline_length
@@ -227,6 +227,13 @@ class GrowthOptions:
     #: per town when a district moves to another of the five sites or a refused site's attempt spends the
     #: random stream, so no site order measured here helps every town.
     site_score_tolerance: float = math.inf
+    #: A placed district's dead ends within this many junction spacings of a street that stood before run on
+    #: to it (:func:`~osm_expand.engine.growth.stubs.finish_district`; 0: none). Twice the patches' clearance
+    #: (:attr:`synth.patches.PatchOptions.clearance`, 0.15), where their streets stop short of the town's.
+    district_run_on: float = 0.0
+    #: A placed district's streets that end against occupied land (the edge its topology read as a road out)
+    #: go back to their last junction (:func:`~osm_expand.engine.growth.stubs.finish_district`).
+    district_trim_blocked: bool = False
 
     def __post_init__(self) -> None:
         # a negative or NaN floor would silently turn the floor off (or never let a district grow)
@@ -242,6 +249,9 @@ class GrowthOptions:
         if not self.site_score_tolerance >= 0:  # NaN or negative
             raise OptionError(f"growth option site_score_tolerance must be a score difference >= 0 (inf: every "
                               f"site by the nuclei), got {self.site_score_tolerance!r}")
+        if not (np.isfinite(self.district_run_on) and self.district_run_on >= 0):
+            raise OptionError(f"growth option district_run_on must be a finite number of junction spacings >= 0, "
+                              f"got {self.district_run_on!r}")
         if self.town_nuclei and self.settlement_gap == 0:
             raise OptionError("growth option town_nuclei needs settlement_gap > 0 (0 reads every piece of "
                               "built-up land as the town's, so every nucleus is the town's)")
@@ -509,9 +519,13 @@ def grow_district(city: City, pattern: GrowthPattern, length: float, density: fl
     placed = placement.placed
     if placed is None:
         return city, GrowthYear()
-    new = placed.city.network.streets[before:]
-    made = sum(polyline_length(placed.city.network.street_xy(s)) for s in new)
-    return placed.city, GrowthYear(streets=len(new), length_m=made, bridges=sum(s.bridge for s in new), districts=1)
+    grown = placed.city
+    if options.district_run_on > 0 or options.district_trim_blocked:
+        grown, _ = finish_district(grown, before, spacing=spacing, run_on=options.district_run_on,
+                                   trim_blocked=options.district_trim_blocked, year=year, era=era)
+    new = grown.network.streets[before:]
+    made = sum(polyline_length(grown.network.street_xy(s)) for s in new)
+    return grown, GrowthYear(streets=len(new), length_m=made, bridges=sum(s.bridge for s in new), districts=1)
 
 
 def _still_refused(city: City, refused: np.ndarray, *, reach: float) -> np.ndarray:
