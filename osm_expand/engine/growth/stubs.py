@@ -304,7 +304,9 @@ def finish_district(city: City, first: int, *, spacing: float, run_on: float, tr
     engine streets ending 71 m from a residential street, its frontage depth) no street runs on, and
     the joining step stops at ``most`` places: both stay dead-end trees, which the growth verdict prunes
     (Campo Grande seed 0: 11.9 km of 334 km, its 2-core share 0.9644 below its neighbourhoods' range).
-    Done after the district was accepted and without random numbers, so its site does not move.
+    Done after the district was accepted and without random numbers, so its own site does not move; the
+    later districts do (the next years' traffic, major roads, nuclei and sites read the finished city:
+    :attr:`~osm_expand.engine.growth.minor_streets.GrowthOptions.district_trim_blocked`).
 
     Parameters
     ----------
