@@ -159,6 +159,22 @@ def test_cells_are_ranked_best_first_with_ties_in_index_order(values):
     assert list(_best_first(flat)) == finite[np.argsort(-flat[finite], kind="stable")].tolist()
 
 
+@settings(max_examples=60, deadline=None)
+@given(st.lists(st.sampled_from([-np.inf, np.nan, 0.0, 1.0, 2.5, 3.0]), min_size=1, max_size=400),
+       st.integers(1, 7), st.integers(2, 5))
+def test_cells_are_ranked_best_first_in_every_batch(values, first, growth):
+    """However small the batches, their cells in order are the stable descending sort of all of them."""
+    import osm_expand.sites as sites
+
+    flat = np.array(values)
+    finite = np.flatnonzero(np.isfinite(flat))
+    with pytest.MonkeyPatch.context() as mp:
+        mp.setattr(sites, "FIRST_RANKED", first)
+        mp.setattr(sites, "RANKED_GROWTH", growth)
+        got = list(sites._best_first(flat))
+    assert got == finite[np.argsort(-flat[finite], kind="stable")].tolist()
+
+
 @pytest.mark.parametrize("inner, outer", [(0.0, 6.0), (4.0, 9.5), (0.0, 30.0), (20.0, 50.0)])
 def test_ring_shares_are_the_mean_of_the_mask_over_the_ring(inner, outer):
     from scipy import ndimage
@@ -252,3 +268,51 @@ def test_the_engines_neighbourhood_rasters_at_the_growth_options_cells_per_radiu
     default = neighbourhood_length(city)
     assert neighbourhood_length(city, growth=GrowthOptions(site_cells_per_radius=10.0)) == default
     assert neighbourhood_length(city, growth=GrowthOptions(site_cells_per_radius=2.5)) < default
+
+
+def test_cut_off_shares_copy_the_pieces_no_corridor_crosses():
+    """Issue 22: a piece of free land no motorway crosses is a piece of the parted land too, and its shares
+    are copied from the whole land's (Krems: 3 of its 9 parted pieces), not convolved again: the very
+    shares, to the bit, of convolving every piece."""
+    from scipy.ndimage import label
+
+    import osm_expand.sites as sites
+
+    city = prepare(load(FIXTURES / "krems.osm.gz"))
+    maps = distance_maps(city, SiteOptions())
+    area = default_district_area(SiteOptions(), maps.built_area)
+    radius = float(np.sqrt(area / np.pi))
+    free_land = ~(maps.water | maps.city | maps.outside)
+
+    def every_piece(land):
+        pieces, _ = label(land)
+        sizes = np.bincount(pieces.ravel()) * maps.cell ** 2
+        rings = sites._RingShares(land.shape, (sites.RADIUS_STEPS[-1] * radius + 200.0) / maps.cell)
+        shares = [np.zeros(land.shape) for _ in sites.RADIUS_STEPS]
+        for piece in np.flatnonzero(sizes >= area / 5):
+            if piece == 0:  # not land
+                continue
+            mask = pieces == piece
+            for share, step in zip(shares, sites.RADIUS_STEPS):
+                np.copyto(share, rings.share(mask, 0.0, step * radius / maps.cell), where=mask)
+        return shares, pieces
+
+    whole, pieces = every_piece(free_land)
+    parted, parted_pieces = every_piece(free_land & ~maps.corridor)
+    same = {int(p) for p in np.unique(pieces[free_land & ~maps.corridor])
+            if not (maps.corridor & (pieces == p)).any()}
+    assert same and len(np.unique(parted_pieces)) - 1 > len(same)  # some copied, some convolved
+    convolved: list[int] = []
+    share = sites._RingShares.share
+    rings = sites._RingShares(free_land.shape, (sites.RADIUS_STEPS[-1] * radius + 200.0) / maps.cell)
+    with pytest.MonkeyPatch.context() as mp:
+        mp.setattr(sites._RingShares, "share", lambda self, m, i, o: convolved.append(1) or share(self, m, i, o))
+        got = sites._cut_off_shares(maps, free_land, area, radius, rings)
+    want = [np.clip(w - p, 0.0, 1.0) for w, p in zip(whole, parted)]
+    assert all(np.array_equal(g.view(np.int64), w.view(np.int64)) for g, w in zip(got, want))
+    def big(labels, among):
+        return sum(1 for p in among if (labels == p).sum() * maps.cell ** 2 >= area / 5)
+
+    big_whole, big_parted = big(pieces, np.unique(pieces)[1:]), big(parted_pieces, np.unique(parted_pieces)[1:])
+    copied = big(pieces, same)
+    assert copied and len(convolved) == len(sites.RADIUS_STEPS) * (big_whole + big_parted - copied)
