@@ -12,7 +12,14 @@ from osm_expand.ingest import load
 from osm_expand.land import LandOptions, read_land
 from osm_expand.model import Building, City, network_from_lines
 from osm_expand.pipeline import prepare
-from osm_expand.sites import SiteOptions, choose_site, choose_sites, default_district_area, distance_maps
+from osm_expand.sites import (
+    SiteOptions,
+    choose_site,
+    choose_sites,
+    default_district_area,
+    distance_maps,
+    district_region,
+)
 from tests.conftest import FIXTURES
 
 #: Frontage of the synthetic towns' streets (m): narrow, so distances in the tests are easy to reckon.
@@ -159,6 +166,22 @@ def test_cells_are_ranked_best_first_with_ties_in_index_order(values):
     assert list(_best_first(flat)) == finite[np.argsort(-flat[finite], kind="stable")].tolist()
 
 
+@settings(max_examples=60, deadline=None)
+@given(st.lists(st.sampled_from([-np.inf, np.nan, 0.0, 1.0, 2.5, 3.0]), min_size=1, max_size=400),
+       st.integers(1, 7), st.integers(2, 5))
+def test_cells_are_ranked_best_first_in_every_batch(values, first, growth):
+    """However small the batches, their cells in order are the stable descending sort of all of them."""
+    import osm_expand.sites as sites
+
+    flat = np.array(values)
+    finite = np.flatnonzero(np.isfinite(flat))
+    with pytest.MonkeyPatch.context() as mp:
+        mp.setattr(sites, "FIRST_RANKED", first)
+        mp.setattr(sites, "RANKED_GROWTH", growth)
+        got = list(sites._best_first(flat))
+    assert got == finite[np.argsort(-flat[finite], kind="stable")].tolist()
+
+
 @pytest.mark.parametrize("inner, outer", [(0.0, 6.0), (4.0, 9.5), (0.0, 30.0), (20.0, 50.0)])
 def test_ring_shares_are_the_mean_of_the_mask_over_the_ring(inner, outer):
     from scipy import ndimage
@@ -252,3 +275,105 @@ def test_the_engines_neighbourhood_rasters_at_the_growth_options_cells_per_radiu
     default = neighbourhood_length(city)
     assert neighbourhood_length(city, growth=GrowthOptions(site_cells_per_radius=10.0)) == default
     assert neighbourhood_length(city, growth=GrowthOptions(site_cells_per_radius=2.5)) < default
+
+
+def test_cut_off_shares_copy_the_pieces_no_corridor_crosses():
+    """Issue 22: a piece of free land no motorway crosses is a piece of the parted land too, and its shares
+    are copied from the whole land's (Krems: 3 of its 9 parted pieces), not convolved again: the very
+    shares, to the bit, of convolving every piece."""
+    from scipy.ndimage import label
+
+    import osm_expand.sites as sites
+
+    city = prepare(load(FIXTURES / "krems.osm.gz"))
+    maps = distance_maps(city, SiteOptions())
+    area = default_district_area(SiteOptions(), maps.built_area)
+    radius = float(np.sqrt(area / np.pi))
+    free_land = ~(maps.water | maps.city | maps.outside)
+
+    def every_piece(land):
+        pieces, _ = label(land)
+        sizes = np.bincount(pieces.ravel()) * maps.cell ** 2
+        rings = sites._RingShares(land.shape, (sites.RADIUS_STEPS[-1] * radius + 200.0) / maps.cell)
+        shares = [np.zeros(land.shape) for _ in sites.RADIUS_STEPS]
+        for piece in np.flatnonzero(sizes >= area / 5):
+            if piece == 0:  # not land
+                continue
+            mask = pieces == piece
+            for share, step in zip(shares, sites.RADIUS_STEPS):
+                np.copyto(share, rings.share(mask, 0.0, step * radius / maps.cell), where=mask)
+        return shares, pieces
+
+    whole, pieces = every_piece(free_land)
+    parted, parted_pieces = every_piece(free_land & ~maps.corridor)
+    same = {int(p) for p in np.unique(pieces[free_land & ~maps.corridor])
+            if not (maps.corridor & (pieces == p)).any()}
+    assert same and len(np.unique(parted_pieces)) - 1 > len(same)  # some copied, some convolved
+    convolved: list[int] = []
+    share = sites._RingShares.share
+    rings = sites._RingShares(free_land.shape, (sites.RADIUS_STEPS[-1] * radius + 200.0) / maps.cell)
+    with pytest.MonkeyPatch.context() as mp:
+        mp.setattr(sites._RingShares, "share", lambda self, m, i, o: convolved.append(1) or share(self, m, i, o))
+        got = sites._cut_off_shares(maps, free_land, area, radius, rings)
+    want = [np.clip(w - p, 0.0, 1.0) for w, p in zip(whole, parted)]
+    assert all(np.array_equal(g.view(np.int64), w.view(np.int64)) for g, w in zip(got, want))
+    def big(labels, among):
+        return sum(1 for p in among if (labels == p).sum() * maps.cell ** 2 >= area / 5)
+
+    big_whole, big_parted = big(pieces, np.unique(pieces)[1:]), big(parted_pieces, np.unique(parted_pieces)[1:])
+    copied = big(pieces, same)
+    assert copied and len(convolved) == len(sites.RADIUS_STEPS) * (big_whole + big_parted - copied)
+
+
+def _region_in_order(city, site, *, clearance=1.0, bounds=None):
+    """:func:`district_region` as it was (main def3a8e): every step in order until one holds enough."""
+    from osm_expand.model.memo import ContentMemo
+    from osm_expand.sites import _CLEARED, REGION_SHARE, REGION_STEPS, _cleared
+
+    radius = float(np.sqrt(site.area / np.pi))
+    centre = shapely.Point(site.centre)
+    best = None
+    lines = city.network.street_lines()
+    for step in REGION_STEPS:
+        disc = centre.buffer(step * radius, 32)
+        if bounds is not None:
+            disc = shapely.intersection(disc, bounds)
+        occupied = city.occupied_within(disc)
+        near = lines[shapely.intersects(lines, disc)] if len(lines) else lines
+        cleared = _CLEARED.get(ContentMemo.key(near, clearance), _cleared, near, clearance)
+        free = shapely.make_valid(shapely.difference(disc, shapely.union(occupied, cleared)))
+        parts = [p for p in shapely.get_parts(free) if p.geom_type == "Polygon" and not p.is_empty]
+        if not parts:
+            continue
+        area = np.array([p.area for p in parts])
+        gap = shapely.distance(centre, np.array(parts, dtype=object))
+        big = area >= 0.25 * site.area
+        pool = np.flatnonzero(big) if big.any() else np.arange(len(parts))
+        best = parts[int(pool[np.argmin(gap[pool])])]
+        if best.area >= REGION_SHARE * site.area:
+            break
+    return best if best is not None else site.region
+
+
+@pytest.mark.parametrize("name, scale", [("krems.osm.gz", 1.0), ("krems.osm.gz", 0.3), ("monaco.osm.gz", 2.0)])
+def test_the_region_is_the_one_the_steps_in_order_give(name, scale):
+    """Issue 22: :func:`district_region` makes the step the site's disc points to first and only the smaller
+    steps its free land does not rule out; the region is the steps-in-order one to the bit, for sites whose
+    regions stop at every step (a district of a third and of twice the default area), with and without the
+    map's bounds: on these 30 regions, 36 smaller steps are ruled out and 16 are not, and regions come from
+    steps before, at and after the first one made."""
+    import osm_expand.sites as sites
+
+    city = prepare(load(FIXTURES / name))
+    opts = SiteOptions()
+    maps = distance_maps(city, opts)
+    area = scale * default_district_area(opts, maps.built_area)
+    ruled: list[bool] = []
+    rules_out = sites._rules_out
+    with pytest.MonkeyPatch.context() as mp:
+        mp.setattr(sites, "_rules_out", lambda *a: ruled.append(rules_out(*a)) or ruled[-1])
+        for site in choose_sites(maps, area, opts, most=5):
+            for bounds in (None, city.bounds_polygon):
+                assert district_region(city, site, bounds=bounds).wkb == _region_in_order(city, site,
+                                                                                          bounds=bounds).wkb
+    assert any(ruled)  # the speed-up happened

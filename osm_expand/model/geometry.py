@@ -229,6 +229,18 @@ def match_points(points: np.ndarray, known: np.ndarray, tolerance: float = 0.0) 
     return out
 
 
+def _unique_rows(pts: np.ndarray) -> np.ndarray:
+    """The distinct rows of an ``(n, 2)`` array sorted by x, then y: ``np.unique(pts, axis=0)``, without its
+    structured view and sort (a third of the XML writer's time per footprint on Krems)."""
+    if len(pts) < 2:
+        return pts.copy()
+    pts = pts[np.lexsort((pts[:, 1], pts[:, 0]))]
+    keep = np.empty(len(pts), dtype=bool)
+    keep[0] = True
+    np.any(pts[1:] != pts[:-1], axis=1, out=keep[1:])
+    return pts[keep]
+
+
 def minimum_rectangle(ring: np.ndarray) -> np.ndarray | None:
     """The minimum-area rectangle around a footprint: four corners, counter-clockwise.
 
@@ -246,10 +258,10 @@ def minimum_rectangle(ring: np.ndarray) -> np.ndarray | None:
     """
     import shapely
 
-    pts = np.unique(np.asarray(ring, dtype=float).reshape(-1, 2), axis=0)
+    pts = _unique_rows(np.asarray(ring, dtype=float).reshape(-1, 2))
     if len(pts) < 3:
         return None
-    hull = np.asarray(shapely.MultiPoint(pts).convex_hull.exterior.coords) if len(pts) >= 3 else pts
+    hull = shapely.get_coordinates(shapely.get_exterior_ring(shapely.convex_hull(shapely.multipoints(pts))))
     if len(hull) < 4:
         return None
     edges = np.diff(hull, axis=0)
