@@ -20,6 +20,7 @@ from osm_expand.engine.roads.routing import RoutingOptions
 from osm_expand.errors import OptionError
 from osm_expand.model.segments import SegmentTable
 from tests.test_majorroads import blocks_of, grid_lines, random_blobs, random_town
+from tests.test_majorroads import krems as krems_town  # noqa: F401 (a fixture)
 
 
 def random_map(seed: int):
@@ -607,14 +608,15 @@ def test_a_routes_edges_at_once_are_the_ones_picked_edge_by_edge(seed):
 @settings(max_examples=8, deadline=None)
 @given(st.integers(0, 2**32 - 1), st.booleans(), st.sampled_from([8, 16]))
 def test_a_routes_a_star_search_costs_what_plain_dijkstra_and_the_whole_expanded_graph_give(seed, tiles, k):
-    """``route_astar`` (A* on reduced costs for the route, off by default): of several routes of equal
+    """``route_astar`` (A* on reduced costs for the route, the default since session 34): of several routes of equal
     cost it may take another than plain Dijkstra (Campo Grande's second road did), never a dearer
     one: its cost is the plain search's and the whole expanded graph's, over growing tiles or not.
     No band (``bound_cells=0``): the first bound is the turn-blind route's cost, loose, so the A*
     search itself finds the route (its cost summed by ``_path_cost``), not the band's bound."""
     g, rng = random_map(seed)
     opts = RoutingOptions(turn_height=float(rng.uniform(20, 900)), heading_bins=k, bound_cells=0,
-                          tile_cells=int(rng.integers(1, 4)), whole_region=0 if tiles else 100_000)
+                          tile_cells=int(rng.integers(1, 4)), whole_region=0 if tiles else 100_000,
+                          route_astar=False)
     fast = replace(opts, route_astar=True)
     penalties = routing._bin_penalties(opts)
     lat_ok, extra_ok = g.masks()
@@ -642,3 +644,38 @@ def test_a_routes_a_star_search_costs_what_plain_dijkstra_and_the_whole_expanded
             # the route is the A* search's own: its cost is one that _path_cost summed
             by_astar += any(x == pytest.approx(route.cost, rel=1e-9, abs=1e-6) for x in summed)
     assume(by_astar > 0)  # most examples have one (7 of 8 in a run); none at all: Unsatisfiable
+
+
+def test_on_krems_the_default_search_costs_what_the_exact_search_of_the_whole_expanded_graph_gives(krems_town):  # noqa: F811
+    """Issue 22 (session 34): the route search's defaults — A* for the route (``route_astar``) and
+    larger first windows (``window_share``, ``growth_share``) — may take another of several routes of
+    exactly equal cost, never a dearer one. On Krems' streets and land, between its exits and random
+    street nodes, for new roads (every road kind) and re-routes (major roads only), the route found
+    on the implicit G′ costs what plain Dijkstra over the whole map's heading-expanded graph finds
+    (relative 1e-9), and what session 33's search (plain Dijkstra, windows of a quarter) found; the
+    same pair searched again gives the very same route."""
+    g, segs, exits, _, implicit = krems_town
+    opts = RoutingOptions()
+    assert opts.route_astar  # the defaults under test
+    old = replace(opts, route_astar=False, window_share=0.25, growth_share=0.25)
+    penalties = routing._bin_penalties(opts)
+    rng = np.random.default_rng(34)
+    nodes = np.concatenate([exits[:2], rng.choice(len(segs.xy), 2, replace=False)])
+    checked = 0
+    for a, b in zip(nodes[:-1], nodes[1:]):
+        s, t = g.node_vertex(int(a)), g.node_vertex(int(b))
+        for kinds in (routing.ROAD_KINDS, (EdgeKind.MAJOR,)):
+            lat_ok, extra_ok = g.masks(kinds)
+            exact = routing._expanded_search(g, lat_ok, extra_ok, np.arange(g.n_vertices), s, t, penalties,
+                                             opts.heading_bins, np.inf)
+            new = routing.find_route(implicit, s, t, kinds=kinds, options=opts)
+            before = routing.find_route(implicit, s, t, kinds=kinds, options=old)
+            assert (new is None) == (exact is None) == (before is None)
+            if new is None:
+                continue
+            assert new.cost == pytest.approx(exact[1], rel=1e-9)
+            assert new.cost == pytest.approx(before.cost, rel=1e-9)
+            again = routing.find_route(implicit, s, t, kinds=kinds, options=opts)
+            assert again is not None and np.array_equal(again.vertices, new.vertices)
+            checked += 1
+    assert checked >= 3  # 3 pairs: the new roads all found (re-routes over major roads only where those join them)

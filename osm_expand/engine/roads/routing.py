@@ -100,15 +100,20 @@ class RoutingOptions:
     #: it doubles until the window provably holds the best route
     window_margin: float = 400.0
     #: share of the two ends' distance added to ``window_margin`` for the first window (long
-    #: routes wander further from the straight line)
-    window_share: float = 0.25
+    #: routes wander further from the straight line). 0.5 with ``growth_share`` 0.5 and ``route_astar``
+    #: (session 34): Campo Grande's 14 dearest captured searches 32.3 → 21.4 s CPU (0.25, 0.25, plain
+    #: Dijkstra) — the first window proves the route more often (39 windows for the 36 searches, were 48),
+    #: and A* inside a larger window settles about the same corridor; 0.75: 34.3 s (more of them the whole map)
+    window_share: float = 0.5
     #: a window covering more than this share of the map becomes the whole map (a second,
     #: larger window would cost more than searching the map at once)
     whole_share: float = 0.5
     #: a window that may still miss a cheaper route grows by at most this share of its size a side
-    #: (at least twice its exits' reach) before it is searched again; 0.25 took Campo Grande's first
-    #: two road searches from 8.7 + 6.8 s and 1.6 GB to 2.0 + 5.2 s and 1.0 GB (0.5: 3.2 + 6.3 s, 1.2 GB)
-    growth_share: float = 0.25
+    #: (at least twice its exits' reach) before it is searched again; with plain Dijkstra (session 32)
+    #: 0.25 took Campo Grande's first two road searches from 8.7 + 6.8 s and 1.6 GB to 2.0 + 5.2 s and
+    #: 1.0 GB (0.5: 3.2 + 6.3 s, 1.2 GB); with ``route_astar`` and ``window_share`` 0.5 (session 34), 0.5
+    #: and 1.0 cost the same on the 14 dearest captured searches (23.2 and 22.1 s CPU, one run each)
+    growth_share: float = 0.5
     #: whether the tiled search charges a route leaving its active tiles the turns it must still
     #: make to head for the target (:func:`_turn_floor`: from P of this year's turns; none while
     #: turns up to 22.5° are free, as in the default P; an even `heading_bins` only) — fewer tiles, the same cost
@@ -137,8 +142,10 @@ class RoutingOptions:
     #: whether a route's turn-penalised search runs A* (Dijkstra on reduced costs with the plain
     #: distance to the target as bound) instead of plain Dijkstra within the cost bound: exact (the
     #: same cost), it settles only the states with g + d_t ≤ C; of several routes of equal cost it
-    #: may take another than plain Dijkstra, so the outputs' bytes change (off)
-    route_astar: bool = False
+    #: may take another than plain Dijkstra (3 of Campo Grande's 36 captured searches), so the outputs'
+    #: bytes changed when it was turned on (session 34, issue 22 allows it: equal cost); alone it saved
+    #: 8–12 % of those searches' CPU, with the larger windows it pays for (``window_share``) a third
+    route_astar: bool = True
 
     def __post_init__(self) -> None:
         require_positive(self, ("window_margin", "growth_share", "turn_width"))
@@ -897,6 +904,20 @@ def _reduced(expanded: csr_matrix, h: np.ndarray, per: int) -> csr_matrix:
     return expanded
 
 
+def _summed_cost(graph: PathGraph, lat: KindMask, extra: np.ndarray, verts: np.ndarray, states: list[int],
+                 penalties: np.ndarray, k: int) -> float:
+    """The cost of a path of states of the expanded graph over ``verts`` summed from the graph's own
+    weights (:func:`_path_cost`), after A* has reduced them in place: the expanded graph over the
+    path's vertices alone holds the very same entries between them, so the sum is the same to the
+    last bit. A copy of the searched graph's weights kept for this (session 34's first A* default)
+    was 1.2 GB of the synthetic 10,000-street town's first road year (153 M entries)."""
+    per = 2 * k + 1
+    path = np.asarray(states, dtype=np.int64)
+    vertex = verts[path // per]
+    small, local = _expanded_graph(graph, lat, extra, np.unique(vertex), penalties, k)
+    return _path_cost(small, small.data, (local[vertex].astype(np.int64) * per + path % per).tolist())
+
+
 def _path_cost(expanded: csr_matrix, raw: np.ndarray, states: list[int]) -> float:
     """The cost of a path of states summed from the expanded graph's own weights (``raw``: its data
     before :func:`_reduced`; the cheapest entry where two join the same states), in path order as a
@@ -942,13 +963,12 @@ def _tiled_search(graph: PathGraph, lat: KindMask, extra: np.ndarray, source: in
     C, the tile of w and its neighbours become active and the search runs
     again; when no edge is, no route outside the active set can beat C, and
     the best route found is the best of the graph. The tiles follow A*'s
-    states with ``g + h ≤ C``. Inside them a route search runs plain
-    Dijkstra by default, which settles every state with ``g ≤ C`` (about
-    the same states there) and keeps which of several equal routes is
-    taken; the exits' search (no target), and a route's with
-    ``route_astar``, run A* on reduced costs (:func:`_reduced`), which
-    settles only the states with ``g + h ≤ C``: the route's cost is then
-    summed again from the graph's own weights (:func:`_path_cost`).
+    states with ``g + h ≤ C``. Inside them the exits' search (no target),
+    and a route's with ``route_astar`` (the default), run A* on reduced
+    costs (:func:`_reduced`), which settles only the states with
+    ``g + h ≤ C``: the route's cost is then summed again from the graph's
+    own weights (:func:`_path_cost`). Without ``route_astar`` a route
+    search runs plain Dijkstra, which settles every state with ``g ≤ C``.
 
     Parameters
     ----------
@@ -981,10 +1001,9 @@ def _tiled_search(graph: PathGraph, lat: KindMask, extra: np.ndarray, source: in
     if at_once:
         active[:] = True  # a small region at once: one search, no growing
     # The exits' search (costs only) runs A* (Dijkstra on reduced costs, :func:`_reduced`): it settles
-    # only the states with g + h ≤ C. A route search runs plain Dijkstra unless ``route_astar`` (off by
-    # default): of several routes of equal cost A* takes another (Campo Grande's second and third
-    # roads), and in tiles it settles about the same states (the tiles are grown where g + h < C: the
-    # synthetic town's search was no faster)
+    # only the states with g + h ≤ C. So does a route search with ``route_astar`` (the default; plain
+    # Dijkstra without it, which settles every state with g ≤ C and of several routes of equal cost
+    # may take another: Campo Grande's second and third roads)
     astar = target is None or opts.route_astar
     n_lat, n_dir = lat.shape
     dir_bin = _bins(graph.direction_heading, k)
@@ -1008,19 +1027,18 @@ def _tiled_search(graph: PathGraph, lat: KindMask, extra: np.ndarray, source: in
             ha = h[verts] * (1.0 - _SHRINK)
             hs = float(ha[local[source]])
             seek = target is not None and local[target] >= 0
-            raw = expanded.data.copy() if seek else None  # the route's exact cost is summed from these
             found = dijkstra(_reduced(expanded, ha, per), indices=start, limit=cost - hs + slack,
                              return_predecessors=seek)
             dist, pred = found if seek else (found, None)
             dist.reshape(-1, per)[:] += (hs - ha)[:, None]  # g = distance + h(state) − h(source)
-            if seek and pred is not None and raw is not None:
+            if seek and pred is not None:
                 end = _cheaper_end(dist, int(local[target]), per, k, cost)
                 if end is not None:
-                    total = _path_cost(expanded, raw, _walk_back(pred, start, end))
+                    total = _summed_cost(graph, lat, extra, verts, _walk_back(pred, start, end), penalties, k)
                     if total < cost:
                         best = (_vertex_path(pred, start, end, verts, per), total)
                         cost = best[1]
-            del expanded, raw
+            del expanded
         else:
             dist, pred = dijkstra(expanded, indices=start, return_predecessors=True, limit=cost + slack)
             del expanded
