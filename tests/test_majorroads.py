@@ -1039,7 +1039,7 @@ def test_monacos_new_roads_do_not_run_round_the_sea_beyond_the_map():
 @given(st.integers(0, 2**32 - 1))
 def test_counting_turns_at_the_exits_keeps_the_search_exact(seed):
     """Issue 22: a window is proved with the turn-penalised costs of arriving at its exits (an A*
-    towards the target, ``routing._tiled_search`` without a target) and grows a quarter a side at a time. On
+    towards the target, ``routing._tiled_search`` without a target) and grows by ``RoutingOptions.growth_share`` of its size a side at a time. On
     a street grid under heavy turn penalties, with tiny first windows and tiny tiles that must grow
     (no region searched whole), every route costs what one search of the whole map's G′ gives, and the
     exits' search (no target) runs at least once."""
