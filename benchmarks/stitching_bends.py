@@ -77,29 +77,18 @@ class Watch:
 
 
 def chords(lines: list[np.ndarray]) -> tuple[np.ndarray, np.ndarray]:
-    """The yardstick's curvature chords of ``lines`` (:func:`osm_expand.measures.shape._curvature`, the same
+    """The yardstick's curvature chords of ``lines`` (:func:`osm_expand.measures.shape._chords`, the same
     edges and rounding): bends (degrees) and the three points of each, ``(K, 3, 2)``."""
     from osm_expand.measures.graph import _build_graph
     from osm_expand.measures.kinds import MeasureOptions
     from osm_expand.measures.lines import LineSet
+    from osm_expand.measures.shape import _chords, _rounded
 
     opts = MeasureOptions()
-    step = opts.curvature_step
     ls = LineSet.from_lines(lines)
     g = _build_graph(ls.coords, ls.line_of, window=None, open_points=None, opts=opts)
-    steps = np.floor(g.length / step + 1e-9).astype(np.int64)
-    edges = np.flatnonzero(steps >= 2)
-    n_pts = steps[edges] + 1
-    edge = np.repeat(edges, n_pts)
-    k = np.arange(len(edge)) - np.repeat(np.cumsum(n_pts) - n_pts, n_pts)
-    pts = g.point_at(edge, k * step)
-    d = np.diff(pts, axis=0)
-    heading = np.arctan2(d[:, 1], d[:, 0])
-    within = edge[1:] == edge[:-1]
-    turn = (heading[1:] - heading[:-1] + np.pi) % (2 * np.pi) - np.pi
-    ok = np.flatnonzero(within[1:] & within[:-1])
-    bends = np.round(np.degrees(np.abs(turn[ok])) / opts.angle_resolution) * opts.angle_resolution
-    return bends, np.stack([pts[ok], pts[ok + 1], pts[ok + 2]], axis=1)
+    bends, points = _chords(g, opts.curvature_step)
+    return _rounded(bends, opts.angle_resolution), points
 
 
 def classify(watched: dict, points: np.ndarray) -> np.ndarray:

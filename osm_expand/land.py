@@ -474,8 +474,11 @@ def _empty_cells(lines: np.ndarray, widths: np.ndarray, footprints: np.ndarray, 
     return shapely.buffer(empty, 0.5, join_style="mitre") if len(empty) else empty
 
 
-#: Relative band around a distance within which :func:`_any_within` asks GEOS's ``dwithin`` itself: far
-#: wider than the rounding of two ways of measuring one distance (a few units in the last of 53 bits).
+#: Relative band around a distance within which :func:`_any_within` asks GEOS's ``dwithin`` itself. Two
+#: ways of measuring one distance round apart by a few units in the last of 53 bits of the coordinates,
+#: not of the distance: safe for the town's local projection (coordinates within ~100 km of its origin,
+#: ulp 1.5e-11 m) and the distances asked (tens of metres: a band of ~5e-8 m, three orders wider). Far
+#: larger coordinates would need a band of max(distance, coordinates' size) × 1e-9.
 WITHIN_BAND = 1e-9
 
 

@@ -882,16 +882,18 @@ def district_region(city: City, site: Site, *, clearance: float = 1.0,
 
 @dataclass(frozen=True)
 class _Step:
-    """One step of :func:`district_region`: its disc, the town's streets that meet it, its free land and the
+    """One step of :func:`district_region`: the town's streets that meet its disc, its free land and the
     piece of it the district would take (None when no free land is in the disc)."""
 
-    disc: shapely.Geometry
     near: np.ndarray
     free: shapely.Geometry
     piece: shapely.Geometry | None
 
 
 def _region_disc(centre: shapely.Point, radius: float, bounds: shapely.Geometry | None) -> shapely.Geometry:
+    """The disc of one step of :func:`district_region`, cut to ``bounds``: one function for the step's land
+    (:func:`_region_step`) and the smaller discs :func:`_rules_out` is asked about, so that both are the
+    same polygon (32 segments a quarter)."""
     disc = centre.buffer(radius, 32)
     return shapely.intersection(disc, bounds) if bounds is not None else disc
 
@@ -907,12 +909,12 @@ def _region_step(city: City, centre: shapely.Point, radius: float, area: float, 
     free = shapely.make_valid(shapely.difference(disc, shapely.union(occupied, cleared)))
     parts = [p for p in shapely.get_parts(free) if p.geom_type == "Polygon" and not p.is_empty]
     if not parts:
-        return _Step(disc, near, free, None)
+        return _Step(near, free, None)
     sizes = np.array([p.area for p in parts])
     gap = shapely.distance(centre, np.array(parts, dtype=object))
     big = sizes >= 0.25 * area
     pool = np.flatnonzero(big) if big.any() else np.arange(len(parts))
-    return _Step(disc, near, free, parts[int(pool[np.argmin(gap[pool])])])
+    return _Step(near, free, parts[int(pool[np.argmin(gap[pool])])])
 
 
 def _likely_step(site: Site, radius: float) -> int:
@@ -929,7 +931,7 @@ PINCH, SLACK = 1e-3, 1.0
 
 
 def _rules_out(larger: _Step, disc: shapely.Geometry, need: float, clearance: float) -> bool:
-    """Whether the smaller ``disc`` (inside ``larger.disc``) surely holds no piece of ``need`` m² of free land.
+    """Whether the smaller ``disc`` (in the ``larger`` step's disc) surely holds no piece of ``need`` m² of free land.
 
     Within the smaller disc the land is occupied by the same shapes as within the larger (the occupied land
     near a disc is all that meets its box), and the streets kept clear are those that meet it: all among the

@@ -598,14 +598,15 @@ def test_the_build_outs_yearly_memos_give_what_a_fresh_computation_gives():
         net = net.replace(streets=tuple(replace(s, width=w, origin=Origin.GROWN if i % 2 else Origin.SOURCE)
                                         for i, (s, w) in enumerate(zip(net.streets, widths))))
         city = City(network=net)
-        carried, signature, same = _streets(city, memo)
-        fresh, fresh_signature, fresh_same = _streets(city, _Memo())
+        carried, signature = _streets(city, memo, last and last[0])
+        fresh, fresh_signature = _streets(city, _Memo(), last and last[0])
         # the year's streets are last year's exactly when their ids, nodes and widths are
         geometry = tuple((s.id, s.nodes, street_width(s)) for s in net.streets if len(s.nodes) >= 2)
-        assert (same and signature == last[0]) == (last is not None and geometry == last[1])
-        if same and signature == last[0]:
+        assert (last is not None and signature == last[0]) == (last is not None and geometry == last[1])
+        if last is not None and signature == last[0]:
             unchanged.append(k)
-        assert signature == fresh_signature and not fresh_same
+        assert signature == fresh_signature and carried.changed == fresh.changed
+        assert np.array_equal(carried.recent, fresh.recent)
         last = (signature, geometry)
         assert np.array_equal(carried.ids, fresh.ids) and np.array_equal(carried.widths, fresh.widths)
         assert all(a.equals_exact(b, 0.0) for a, b in zip(carried.lines, fresh.lines))
@@ -649,9 +650,40 @@ def test_lots_carried_to_their_blocks_lie_where_a_fresh_lookup_finds_them():
         before = dict(memo.lot_blocks)
         within, _ = _lot_blocks(year, order)
         assert within.tolist() == _lot_blocks(fresh, order)[0].tolist()
-        carried_years.append(sum(memo.lot_blocks.get(k) is p for k, p in before.items()))
+        carried_years.append(sum(memo.lot_blocks.get(k, (None, None))[1] is p[1] for k, p in before.items()))
         polys = [b.polygon for b in found]
         for lot_id, k in zip(order, within.tolist()):
             assert (k < 0) == (lot_id == 99)
             assert k < 0 or polys[k].contains(shapely.Point(points[lot_id]))
     assert carried_years[0] == 0 and 0 < carried_years[1] < 64 and carried_years[2] == 64
+
+
+def test_a_year_run_again_from_an_older_memory_sees_what_changed_since_that_memorys_year():
+    """Memories made by ``replace`` share one memo. A year run twice from an older memory, after the
+    memo saw a street widened and a lot of the same id elsewhere, still finds that street changed
+    and that lot in its own block (the memo was filled by a later year than the memory's)."""
+    from types import SimpleNamespace
+
+    from osm_expand.engine.buildout.demolition import _lot_blocks
+    from osm_expand.engine.buildout.memory import _Memo
+    from osm_expand.engine.buildout.streets import _streets
+    from osm_expand.model import City, network_from_lines
+
+    net = network_from_lines([[(0.0, 0.0), (100.0, 0.0)], [(100.0, 0.0), (100.0, 100.0)]])
+    s0 = City(network=net)
+    s1 = City(network=net.replace(streets=tuple(replace(s, width=9.0) if i == 0 else s
+                                                for i, s in enumerate(net.streets))))
+    memo = _Memo()
+    _, sig0 = _streets(s0, memo, None)  # the older memory's year
+    for _ in range(2):  # the second run finds the memo filled by the first
+        table, sig1 = _streets(s1, memo, sig0)
+        assert sig1 != sig0 and table.changed == {net.streets[0].id} and table.recent.tolist() == [True, False]
+    assert _streets(s1, memo, sig1)[1] == sig1 and not _streets(s1, memo, sig1)[0].recent.any()
+
+    found = blocks(network_from_lines([[(x, y) for x in (0.0, 100.0, 200.0)] for y in (0.0, 100.0)]
+                                      + [[(x, y) for y in (0.0, 100.0)] for x in (0.0, 100.0, 200.0)]))
+    for point in ((50.0, 50.0), (150.0, 50.0)):  # lot 7 of one branch, then lot 7 of another
+        states = {7: SimpleNamespace(point=point)}
+        year = SimpleNamespace(memory=SimpleNamespace(memo=memo), blocks=found, states=states)
+        (k,), _ = _lot_blocks(year, [7])
+        assert found[k].polygon.contains(shapely.Point(point))

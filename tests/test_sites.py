@@ -360,8 +360,8 @@ def test_the_region_is_the_one_the_steps_in_order_give(name, scale):
     """Issue 22: :func:`district_region` makes the step the site's disc points to first and only the smaller
     steps its free land does not rule out; the region is the steps-in-order one to the bit, for sites whose
     regions stop at every step (a district of a third and of twice the default area), with and without the
-    map's bounds: on these 30 regions, 36 smaller steps are ruled out and 16 are not, and regions come from
-    steps before, at and after the first one made."""
+    map's bounds: on these 30 regions, 28 smaller steps are ruled out and 10 are not (each case some of
+    both), and regions come from steps before and at the first one made, and on Krems after it."""
     import osm_expand.sites as sites
 
     city = prepare(load(FIXTURES / name))
@@ -369,11 +369,29 @@ def test_the_region_is_the_one_the_steps_in_order_give(name, scale):
     maps = distance_maps(city, opts)
     area = scale * default_district_area(opts, maps.built_area)
     ruled: list[bool] = []
-    rules_out = sites._rules_out
+    firsts: list[int] = []
+    pieces: dict[int, int] = {}  # id of each step's piece -> its step
+    rules_out, likely_step, region_step = sites._rules_out, sites._likely_step, sites._region_step
+
+    def step(city, centre, radius, *a):
+        made = region_step(city, centre, radius, *a)
+        pieces[id(made.piece)] = int(np.argmin([abs(s * base - radius) for s in sites.REGION_STEPS]))
+        return made
+
+    returned: list[str] = []  # the step the region came from: before, at or after the first made
     with pytest.MonkeyPatch.context() as mp:
         mp.setattr(sites, "_rules_out", lambda *a: ruled.append(rules_out(*a)) or ruled[-1])
+        mp.setattr(sites, "_likely_step", lambda *a: firsts.append(likely_step(*a)) or firsts[-1])
+        mp.setattr(sites, "_region_step", step)
         for site in choose_sites(maps, area, opts, most=5):
+            base = float(np.sqrt(site.area / np.pi))
             for bounds in (None, city.bounds_polygon):
-                assert district_region(city, site, bounds=bounds).wkb == _region_in_order(city, site,
-                                                                                          bounds=bounds).wkb
-    assert any(ruled)  # the speed-up happened
+                pieces.clear()
+                region = district_region(city, site, bounds=bounds)
+                assert region.wkb == _region_in_order(city, site, bounds=bounds).wkb
+                at = pieces.get(id(region))
+                if at is not None:
+                    returned.append("before" if at < firsts[-1] else "at" if at == firsts[-1] else "after")
+    assert any(ruled) and not all(ruled)  # the speed-up happened, and a smaller step was still made
+    assert len(returned) == 10 and {"before", "at"} <= set(returned)
+    assert name != "krems.osm.gz" or "after" in returned

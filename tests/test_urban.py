@@ -134,6 +134,16 @@ def test_the_rectangles_of_krems_are_those_np_unique_gave():
         assert (got is None and want is None) or got.tobytes() == want.tobytes()
 
 
+def test_a_footprint_with_no_area_has_no_rectangle():
+    """Fewer than three distinct corners, or all on one line (def3a8e raised AttributeError there): None."""
+    from osm_expand.model.geometry import minimum_rectangle
+
+    for ring in ([(0.0, 0.0), (5.0, 0.0), (0.0, 0.0)], [(0.0, 0.0), (2.0, 1.0), (4.0, 2.0), (0.0, 0.0)],
+                 [(1.0, 1.0)] * 4):
+        assert minimum_rectangle(np.array(ring)) is None
+    assert minimum_rectangle(np.array([(0.0, 0.0), (4.0, 0.0), (4.0, 2.0), (0.0, 0.0)])) is not None
+
+
 def test_distinct_rows_are_np_uniques():
     from osm_expand.model.geometry import _unique_rows
 

@@ -196,10 +196,16 @@ def _alignment(g: _Graph, usable: np.ndarray, k: int, radius: float) -> np.ndarr
 
 def _curvature(g: _Graph, step: float) -> np.ndarray:
     """Absolute heading change (degrees) between consecutive ``step``-metre chords along each edge."""
+    return _chords(g, step)[0]
+
+
+def _chords(g: _Graph, step: float) -> tuple[np.ndarray, np.ndarray]:
+    """The bends of :func:`_curvature` (degrees, (K,)) and the three points of each, ``(K, 3, 2)``: the
+    chords p_k → p_k+1 → p_k+2, ``step`` metres apart along one edge (a benchmark places the bends)."""
     steps = np.floor(g.length / step + 1e-9).astype(np.int64)
     edges = np.flatnonzero(steps >= 2)
     if len(edges) == 0:
-        return np.zeros(0)
+        return np.zeros(0), np.zeros((0, 3, 2))
     n_pts = steps[edges] + 1
     edge = np.repeat(edges, n_pts)
     k = np.arange(len(edge)) - np.repeat(np.cumsum(n_pts) - n_pts, n_pts)
@@ -208,7 +214,8 @@ def _curvature(g: _Graph, step: float) -> np.ndarray:
     heading = np.arctan2(d[:, 1], d[:, 0])
     within = edge[1:] == edge[:-1]  # chord p_k → p_k+1 lies on one edge
     turn = (heading[1:] - heading[:-1] + np.pi) % (2 * np.pi) - np.pi
-    return np.degrees(np.abs(turn[within[1:] & within[:-1]]))
+    ok = np.flatnonzero(within[1:] & within[:-1])
+    return np.degrees(np.abs(turn[ok])), np.stack([pts[ok], pts[ok + 1], pts[ok + 2]], axis=1)
 
 
 def _rounded(angles: np.ndarray, resolution: float) -> np.ndarray:

@@ -254,7 +254,9 @@ def minimum_rectangle(ring: np.ndarray) -> np.ndarray | None:
     (4, 2) float array, or None
         Exactly rectangular corners (built from one edge direction and its
         normal, not rounded by a polygon library), or None for a footprint
-        with no area.
+        with no area: fewer than three distinct corners, or all of them on
+        one line (whose hull is a line: main def3a8e raised AttributeError
+        there, reading a line's exterior).
     """
     import shapely
 

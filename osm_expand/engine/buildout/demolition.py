@@ -71,9 +71,9 @@ def _lot_blocks(work: _Year, order: list[int]) -> tuple[NDArray[np.int64], Calla
     within = np.full(len(order), -1, dtype=np.int64)
     todo = []
     for j, lot_id in enumerate(order):
-        known = memo.lot_blocks.get(lot_id)
-        k = at.get(id(known), -1) if known is not None else -1
-        if k >= 0 and polys[k] is known:
+        known = memo.lot_blocks.get(lot_id)  # a lot of that id in another memory's year may lie elsewhere
+        k = at.get(id(known[1]), -1) if known is not None and known[0] == work.states[lot_id].point else -1
+        if k >= 0 and known is not None and polys[k] is known[1]:
             within[j] = k
         else:
             todo.append(j)
@@ -88,5 +88,6 @@ def _lot_blocks(work: _Year, order: list[int]) -> tuple[NDArray[np.int64], Calla
         points = shapely.points(np.array([work.states[order[j]].point for j in todo]).reshape(-1, 2))
         pt, blk = block_tree().query(points, predicate="within")
         within[np.array(todo, dtype=np.int64)[pt]] = blk
-    memo.lot_blocks = {lot_id: polys[k] for lot_id, k in zip(order, within.tolist()) if k >= 0}
+    memo.lot_blocks = {lot_id: (work.states[lot_id].point, polys[k])
+                       for lot_id, k in zip(order, within.tolist()) if k >= 0}
     return within, block_tree

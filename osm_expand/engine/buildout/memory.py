@@ -80,6 +80,10 @@ class BuildoutYear:
         return {f: int(getattr(self, f)) for f in self.__dataclass_fields__}
 
 
+#: One street as the build-out saw it: id, nodes, width (m). A year's streets in order are its signature.
+StreetKey = tuple[int, tuple[int, ...], float]
+
+
 @dataclass(frozen=True, eq=False)
 class LotState:
     """What the build-out remembers about one lot beyond the city's :class:`~osm_expand.model.Lot`."""
@@ -114,16 +118,20 @@ class _Memo:
     object's id (checked against the object: the blocks keep the polygons of
     faces that did not change, so a year computes the keys of its new blocks
     only); ``lot_blocks``: the block polygon each lot's point was found
-    within (checked against this year's blocks by object).
+    within (checked against the lot's point and this year's blocks by object).
+
+    Every memory made from another by ``dataclasses.replace`` shares its memo, so an entry may come
+    from a later year than the memory's: each is checked against what it was made from and none
+    says what changed since last year (that is ``BuildoutMemory.signature``).
     """
 
     def __init__(self) -> None:
         self.footprints: dict[int, tuple[Building, shapely.Polygon, float]] = {}
         self.streets: dict[int, tuple[tuple[int, ...], float, shapely.Geometry, shapely.Geometry]] = {}
         self.block_keys: dict[int, tuple[shapely.Polygon, tuple[int, int, int]]] = {}
-        #: lot id → the block polygon its point was last found within
+        #: lot id → (the lot's point, the block polygon it was last found within)
         #: (:func:`~osm_expand.engine.buildout.demolition._lot_blocks`)
-        self.lot_blocks: dict[int, shapely.Polygon] = {}
+        self.lot_blocks: dict[int, tuple[tuple[float, float], shapely.Polygon]] = {}
 
     def footprint(self, b: Building) -> tuple[shapely.Polygon, float]:
         hit = self.footprints.get(id(b))
@@ -162,8 +170,12 @@ class BuildoutMemory:
     layout: LotLayout | None = None
     layout_ids: tuple[int, ...] = ()
     layout_lut: NDArray[np.int64] = field(default_factory=lambda: np.zeros(0, dtype=np.int64))
-    signature: int | None = None  #: hash of last year's street ids in order (their geometry: ``_Memo.streets``)
-    memo: _Memo = field(default_factory=_Memo, repr=False)  #: geometry cache (no effect on results)
+    #: last year's streets in order: id, nodes, width (m) of each. It decides the year: the same
+    #: streets skip the demolition check, and only new or changed ones are tried against the lots.
+    signature: tuple[StreetKey, ...] | None = None
+    #: geometry cache shared with the memories made from this one; it never decides a result
+    #: (each entry is checked against what it was made from)
+    memo: _Memo = field(default_factory=_Memo, repr=False)
 
 
 # ============================================================================ start

@@ -14,7 +14,7 @@ import shapely
 from numpy.typing import NDArray
 
 from osm_expand.engine.buildout.lots import NO_STREET
-from osm_expand.engine.buildout.memory import LotState, _Memo
+from osm_expand.engine.buildout.memory import LotState, StreetKey, _Memo
 from osm_expand.model import Block, City, Lot, Status
 from osm_expand.model.segments import street_width
 
@@ -62,47 +62,52 @@ class _Streets:
         return frozenset(self.ids[self.built].tolist())
 
 
-def _streets(city: City, memo: _Memo) -> tuple[_Streets, int, bool]:
-    """The streets as arrays, a hash of their ids in order, and whether their geometry is the memo's.
+def _streets(city: City, memo: _Memo, last: tuple[StreetKey, ...] | None
+             ) -> tuple[_Streets, tuple[StreetKey, ...]]:
+    """The streets as arrays, and their signature (each street's id, nodes and width, in order).
 
-    The geometry is the memo's (last year's) when no street is new, gone or changed (nodes or width): with
-    the same ids in the same order (the hash), the streets are last year's. Comparing nodes against the
-    memo (the same tuple objects, most years) costs less than hashing every street's nodes again.
+    What changed is measured against ``last``, the signature of the memory's year, never against the
+    memo: the memo is shared by every memory made from one another (``dataclasses.replace``), so a
+    year run again from an older memory finds it filled by a later year. The memo only lends the
+    geometry of a street whose nodes and width it was made from. Comparing nodes (the same tuple
+    objects, most years) costs less than hashing every street's nodes.
     """
     net = city.network
     streets = [s for s in net.streets if len(s.nodes) >= 2]
     widths = np.array([street_width(s) for s in streets], dtype=np.float64)
+    signature = tuple((s.id, s.nodes, w) for s, w in zip(streets, widths.tolist()))
     lines = np.empty(len(streets), dtype=object)
     carriageways = np.empty(len(streets), dtype=object)
-    fresh = []
-    changed = set(memo.streets) - {s.id for s in streets}
-    first = not memo.streets
-    for k, (s, w) in enumerate(zip(streets, widths.tolist())):
-        hit = memo.streets.get(s.id)
-        if hit is not None and (hit[0] is s.nodes or hit[0] == s.nodes) and hit[1] == w:
+    before = {} if last is None else {k[0]: k for k in last}
+    changed = set(before) - {s.id for s in streets}
+    fresh, made = [], []
+    for k, key in enumerate(signature):
+        old = before.get(key[0])
+        if old is None or old[1] is not key[1] and old[1] != key[1] or old[2] != key[2]:
+            fresh.append(k)
+            if old is not None:
+                changed.add(key[0])
+        hit = memo.streets.get(key[0])
+        if hit is not None and (hit[0] is key[1] or hit[0] == key[1]) and hit[1] == key[2]:
             lines[k], carriageways[k] = hit[2], hit[3]
         else:
-            fresh.append(k)
-            if hit is not None:
-                changed.add(s.id)
-    recent = np.ones(len(streets), dtype=bool) if first else np.isin(np.arange(len(streets)), fresh)
-    if fresh:
-        sizes = np.array([len(streets[k].nodes) for k in fresh], dtype=np.int64)
-        coords = net.xy[np.concatenate([np.asarray(streets[k].nodes, dtype=np.intp) for k in fresh])]
-        made = shapely.linestrings(coords, indices=np.repeat(np.arange(len(fresh)), sizes))
-        lines[fresh] = made
-        carriageways[fresh] = shapely.buffer(made, 0.5 * widths[fresh], quad_segs=4)
-    for sid in changed - {streets[k].id for k in fresh}:  # gone (a street that changed is made again below)
+            made.append(k)
+    recent = np.ones(len(streets), dtype=bool) if last is None else np.isin(np.arange(len(streets)), fresh)
+    if made:
+        sizes = np.array([len(streets[k].nodes) for k in made], dtype=np.int64)
+        coords = net.xy[np.concatenate([np.asarray(streets[k].nodes, dtype=np.intp) for k in made])]
+        geoms = shapely.linestrings(coords, indices=np.repeat(np.arange(len(made)), sizes))
+        lines[made] = geoms
+        carriageways[made] = shapely.buffer(geoms, 0.5 * widths[made], quad_segs=4)
+    for sid in memo.streets.keys() - {key[0] for key in signature}:  # gone from this year's streets
         del memo.streets[sid]
-    for k in fresh:  # the others' entries hold as they are
+    for k in made:  # the others' entries hold as they are
         memo.streets[streets[k].id] = (streets[k].nodes, float(widths[k]), lines[k], carriageways[k])
-    ids = [s.id for s in streets]
-    same = not first and not fresh and not changed
-    table = _Streets(ids=np.array(ids, dtype=np.int64), lines=lines, carriageways=carriageways,
+    table = _Streets(ids=np.array([s.id for s in streets], dtype=np.int64), lines=lines, carriageways=carriageways,
                      widths=widths, built=np.array([s.status == Status.BUILT for s in streets], dtype=bool),
                      new=np.array([s.is_new for s in streets], dtype=bool), changed=frozenset(changed),
                      recent=recent)
-    return table, hash(tuple(ids)), same
+    return table, signature
 
 
 # ============================================================================ demolition

@@ -77,8 +77,10 @@ class _Units:
 def _unit_traffic(work: _Year) -> NDArray[np.float64]:
     """Traffic of every unit: a town unit's nearest street's, a lot's summed over the streets it fronts (002 §4.3).
 
-    The lots' sums in one ``bincount`` over all their streets (it adds each lot's streets in order from 0, as a
-    Python ``sum`` does): a Python sum per lot was most of this on Campo Grande's 36,000 lot-years.
+    The lots' sums in one ``bincount`` over all their streets: a Python sum per lot was most of this on
+    Campo Grande's 36,000 lot-years. ``bincount`` adds each lot's streets naively, left to right from 0, as
+    Python 3.11's ``sum`` did (the outputs' bytes held); 3.12's ``sum`` of floats is compensated and may
+    differ in the last bit.
     """
     get = work.traffic.get
     town = np.array([get(s, 0.0) for s in work.town.unit_street.tolist()])
@@ -86,7 +88,7 @@ def _unit_traffic(work: _Year) -> NDArray[np.float64]:
     sizes = np.fromiter((len(x) for x in streets), dtype=np.int64, count=len(streets))
     values = np.array([get(s, 0.0) for s in chain.from_iterable(streets)], dtype=np.float64)
     lots = np.bincount(np.repeat(np.arange(len(streets)), sizes), weights=values, minlength=len(streets))
-    return np.concatenate([town, lots.astype(np.float64)])
+    return np.concatenate([town, lots])
 
 
 def _attributes(work: _Year, xy: NDArray[np.float64], water: NDArray[np.float64], green: NDArray[np.float64],

@@ -144,8 +144,8 @@ def buildout_year(city: City, memory: BuildoutMemory, history: History, now: Yea
     report : BuildoutYear
     """
     blocks = city.blocks or tuple(find_blocks(city.network, year=year))
-    streets, signature, same = _streets(city, memory.memo)
-    unchanged = same and signature == memory.signature
+    streets, signature = _streets(city, memory.memo, memory.signature)
+    unchanged = signature == memory.signature
     memory = replace(memory, signature=signature)
     ids = {int(lot.id) for lot in city.lots}
     states = {k: s for k, s in memory.lots.items() if k in ids}
