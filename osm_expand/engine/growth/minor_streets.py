@@ -273,7 +273,18 @@ class GrowthOptions:
     #: street) shifts every later district's draws, so their shapes move and the growth verdict moves by 2-6 per
     #: town whichever rule changed (:attr:`district_trim_blocked`, :attr:`site_score_tolerance`). With own streams
     #: a district's shape depends on its site and the city it grows in, not on what earlier attempts drew.
-    #: Measured: see the session 34 report (h34d) and ``benchmarks/engine_growth.py --option district_streams=true``.
+    #: Off: measured (``benchmarks/engine_growth.py --seed S --measures --option district_streams=true``, off of 14
+    #: per reference seed, off -> on; session 34, h34d), seed 0: Krems 1 1 1 -> 4 2 3, Andorra 0 0 0 -> 6 6 5,
+    #: north-bayreuth 5 5 5 -> 3 3 3, Monaco 2 3 3 -> 6 5 5 (all five sites of its first district refused; dead
+    #: ends 0.200 above, 2-core 0.774 below range), Campo Grande 4 4 5 -> 7 7 7 (dead ends 0.087 above, 2-core 0.941
+    #: below range); seed 1: Krems 3 3 4 -> 2 1 2, Andorra 0 0 1 -> 1 2 1, north-bayreuth 3 3 3 -> 2 2 2, Monaco
+    #: 3 3 2 -> 4 4 4, Campo Grande 4 4 4 -> 2 3 2 (2-core 0.9626 below [0.9668-0.9798]): other draws, as
+    #: another seed's. It does not make a rule on one district judgeable alone: with it on,
+    #: :attr:`district_trim_blocked` (seed 0) still moves the later districts, as the city they are sited and
+    #: sized in changed (Andorra's second at the same site, 50 m off, but 2.00 -> 2.17 km² as it owes what the
+    #: trimmed first did not build, 164 -> 185 streets, 6 6 5 -> 5 5 5; Krems' second at another site, the
+    #: town's changed streets re-ranking them, 4 2 3 -> 5 2 2), though no longer through the draws (off, the
+    #: trim moved Andorra's second district 1.1 km to another site, 0 0 0 -> 5 6 8).
     district_streams: bool = False
 
     def __post_init__(self) -> None:
