@@ -284,7 +284,10 @@ class GrowthOptions:
     #: sized in changed (Andorra's second at the same site, 50 m off, but 2.00 -> 2.17 km² as it owes what the
     #: trimmed first did not build, 164 -> 185 streets, 6 6 5 -> 5 5 5; Krems' second at another site, the
     #: town's changed streets re-ranking them, 4 2 3 -> 5 2 2), though no longer through the draws (off, the
-    #: trim moved Andorra's second district 1.1 km to another site, 0 0 0 -> 5 6 8).
+    #: trim moved Andorra's second district 1.1 km to another site, 0 0 0 -> 5 6 8). Both on, seed 0: Krems 5 2 2,
+    #: Andorra 5 5 5, north-bayreuth 5 4 4, Monaco 5 4 4 (2-core 0.827 below range), Campo Grande 4 4 3 (2-core
+    #: 0.9713 in range); seed 1: Krems 2 1 2, Andorra 2 3 2, north-bayreuth 2 2 2, Monaco 4 4 4, Campo Grande 2 3 3
+    #: (2-core 0.9707 in range): every town within 4 of 14 on seed 1, not on seed 0.
     district_streams: bool = False
 
     def __post_init__(self) -> None:
