@@ -23,8 +23,9 @@ Issue 20's targets: off on at most 4 of 14, dead-end and 2-core shares in
 range, infill + edge expansion at least 80 % of the new street length.
 
 Usage: ``python benchmarks/engine_growth.py [--history european] [--eras] [--measures] [--discs] [--fixed-margin]
-[--seed N] [--neighbourhoods K] [TOWN ...]`` (``--neighbourhoods``: :attr:`GrowthOptions.district_neighbourhoods`
-for the run)
+[--seed N] [--neighbourhoods K] [--option NAME=VALUE ...] [TOWN ...]`` (``--neighbourhoods``:
+:attr:`GrowthOptions.district_neighbourhoods` for the run; ``--option``, repeatable: any other
+:class:`GrowthOptions` field, e.g. ``--option district_streams=true --option district_trim_blocked=true``)
 (default: Krems, Andorra, north-bayreuth, Monaco, Krems with ``european``, then Campo Grande;
 Campo Grande takes about 5 minutes and 8 GB).
 """
@@ -75,8 +76,31 @@ def _off_measures(report: dict) -> str:
     return "; ".join(out)
 
 
+def growth_option(text: str) -> tuple[str, object]:
+    """``--option NAME=VALUE``: a :class:`GrowthOptions` field and its value, read by the field's default's type
+    (``true``/``false`` for a bool, ``inf`` for a float); argparse's error for an unknown field or a bad value."""
+    from dataclasses import fields
+
+    from osm_expand.engine.growth.minor_streets import GrowthOptions
+
+    name, sep, raw = text.partition("=")
+    defaults = {f.name: getattr(GrowthOptions(), f.name) for f in fields(GrowthOptions)}
+    if not sep or name not in defaults:
+        raise argparse.ArgumentTypeError(f"not NAME=VALUE with NAME a GrowthOptions field: {text!r}")
+    kind = type(defaults[name])
+    if kind is bool:
+        if raw.lower() not in ("true", "false"):
+            raise argparse.ArgumentTypeError(f"{name} takes true or false, got {raw!r}")
+        return name, raw.lower() == "true"
+    try:
+        return name, kind(raw)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{name} takes a {kind.__name__}, got {raw!r}") from None
+
+
 def run(name: str, history: str, years: int | None, refs: int, discs: bool = False,
-        neighbourhoods: float | None = None, seed: int = 0, fixed_margin: bool = False) -> dict:
+        neighbourhoods: float | None = None, seed: int = 0, fixed_margin: bool = False,
+        growth: dict[str, object] | None = None) -> dict:
     from osm_expand.engine.growth.minor_streets import GrowthOptions
     from osm_expand.engine.history import load_history
     from osm_expand.engine.loop import EngineOptions
@@ -86,9 +110,10 @@ def run(name: str, history: str, years: int | None, refs: int, discs: bool = Fal
     from osm_expand.model import Origin
     from osm_expand.pipeline import ExpandOptions, expand
 
-    engine = EngineOptions()
+    chosen = dict(growth or {})
     if neighbourhoods is not None:
-        engine = EngineOptions(growth=GrowthOptions(district_neighbourhoods=neighbourhoods))
+        chosen["district_neighbourhoods"] = neighbourhoods
+    engine = EngineOptions(growth=GrowthOptions(**chosen))  # type: ignore[arg-type]  # typed by growth_option
     t0, c0 = time.perf_counter(), time.process_time()
     result = mature_result(expand(load(REPO / "fixtures" / name), ExpandOptions(seed=seed, fidelity=False)),
                            load_history(history), MatureOptions(years=years, fidelity=False, engine=engine), seed)
@@ -134,7 +159,11 @@ def main() -> None:
                          "the options' own)")
     ap.add_argument("--seed", type=int, default=0, help="the run's seed (default 0; one seed moves the off count "
                                                          "by up to 6)")
+    ap.add_argument("--option", type=growth_option, action="append", default=[], metavar="NAME=VALUE",
+                    help="a GrowthOptions field for the run, e.g. district_streams=true (repeatable)")
     args = ap.parse_args()
+    if args.option:
+        print("growth options: " + ", ".join(f"{k}={v}" for k, v in args.option))
     runs = [(t, args.history) for t in args.towns] if args.towns else RUNS
     print("| town | history | off of 14 per reference | mean off | dead-end share [range] | 2-core share [range] "
           "| pieces | infill / edge / outlying | street growth km | major roads km | run s (CPU) | judging s (CPU) |")
@@ -144,7 +173,7 @@ def main() -> None:
     era_off_lines: list[str] = []
     for name, history in runs:
         row = run(name, history, args.years, args.refs, args.discs, args.neighbourhoods, args.seed,
-                  args.fixed_margin)
+                  args.fixed_margin, dict(args.option))
         first = row["judged"][0]
         if first is None or first.overall is None:
             print(f"| {name} | {history} | no engine street | | | | | | | | "

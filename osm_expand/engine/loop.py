@@ -62,6 +62,22 @@ PatternFactory = Callable[[str, object], GrowthPattern]
 STREAMS = ("growth", "traffic", "roads", "buildout", "nuclei")
 #: The first entropy word of the engine's streams beside the run's seed (the district's are ``[seed, site]``).
 ENGINE_STREAM = 0xE9E
+#: The third entropy word of the engine's district streams (:func:`district_stream`), apart from :data:`STREAMS`'
+#: indices.
+DISTRICT_STREAM = 0xD15
+
+
+def district_stream(seed: int, year: int, attempt: int) -> np.random.Generator:
+    """The random stream of the engine's district attempt ``attempt`` (0-based, the sites tried in order) of
+    calendar year ``year`` in a run of ``seed`` (:attr:`GrowthOptions.district_streams`).
+
+    Why its own: drawn from the run's one growth stream, a refused attempt or an earlier district grown
+    otherwise shifts every later district's draws. numpy's ``SeedSequence`` keys it by the spawn key
+    ``(year, attempt)`` under the run's entropy, so no two attempts (nor the loop's :data:`STREAMS`) share a
+    stream.
+    """
+    return np.random.default_rng(np.random.SeedSequence([seed, ENGINE_STREAM, DISTRICT_STREAM],
+                                                        spawn_key=(year, attempt)))
 
 
 @dataclass(frozen=True)
@@ -92,6 +108,8 @@ class EngineContext:
     patterns: PatternFactory  #: the registry of district patterns over the town's example
     streams: Mapping[str, np.random.Generator]
     options: EngineOptions = EngineOptions()
+    #: The run's seed: the engine's district streams (:func:`district_stream`) are made from it, year by year.
+    seed: int = 0
     #: The history year of the run's last step (None: the run's length not known): with
     #: :attr:`GrowthOptions.district_neighbourhoods` the length owed then is grown as an era's end's is, not lost.
     #: Derived once, by :func:`start` beside the clock, from the run's ``years``.
@@ -221,7 +239,7 @@ def start(city: City, history: History, *, seed: int, spacing: float, patterns: 
     state.seconds["start"] += time.perf_counter() - started
     context = EngineContext(history=history, clock=clock, traffic_factor=b, spacing=spacing,
                             bearing=_town_bearing(SegmentTable.from_city(city)), patterns=patterns,
-                            streams=MappingProxyType(streams), options=options,
+                            streams=MappingProxyType(streams), options=options, seed=seed,
                             last_year=None if years is None else clock.history_year(years - 1))
     return state, context
 
@@ -241,7 +259,7 @@ def step(state: EngineState, context: EngineContext, year: int) -> tuple[EngineS
     before = len(state.city.network.streets)
     grown = _grow(state, era, now, year, streams["growth"], spacing=context.spacing,
                   district_pattern=context.patterns, bearing=context.bearing, options=context.options,
-                  last_year=context.last_year)
+                  last_year=context.last_year, seed=context.seed)
     state.seconds["growth"] += time.perf_counter() - t
     if len(state.city.network.streets) != before:
         t = time.perf_counter()
@@ -290,12 +308,12 @@ def summary(state: EngineState, context: EngineContext, eras: list[EraReport]) -
 
 def _grow(state: EngineState, era: Era, now: YearValues, year: int, rng: np.random.Generator, *, spacing: float,
           district_pattern: PatternFactory, bearing: float, options: EngineOptions,
-          last_year: int | None = None) -> GrowthYear:
+          last_year: int | None = None, seed: int = 0) -> GrowthYear:
     """This year's minor streets: a street pattern from its starts, or a district once enough is owed."""
     count, state.carry = now.new_streets(_junction_edges(state.city), state.carry)
     known = {s.id for s in state.city.network.streets}
     grown = _grow_streets(state, era, now, year, rng, count, spacing=spacing, district_pattern=district_pattern,
-                          bearing=bearing, options=options, last_year=last_year)
+                          bearing=bearing, options=options, last_year=last_year, seed=seed)
     state.city, dropped = without_touching(state.city, known)
     if dropped:
         grown = replace(grown, streets=max(grown.streets - dropped, 0))
@@ -304,7 +322,7 @@ def _grow(state: EngineState, era: Era, now: YearValues, year: int, rng: np.rand
 
 def _grow_streets(state: EngineState, era: Era, now: YearValues, year: int, rng: np.random.Generator, count: int, *,
                   spacing: float, district_pattern: PatternFactory, bearing: float,
-                  options: EngineOptions, last_year: int | None = None) -> GrowthYear:
+                  options: EngineOptions, last_year: int | None = None, seed: int = 0) -> GrowthYear:
     centre = np.asarray(state.nuclei[0].xy)
     if era.pattern in GROWTH_PATTERNS:
         state.growth.owed += count * spacing
@@ -328,7 +346,9 @@ def _grow_streets(state: EngineState, era: Era, now: YearValues, year: int, rng:
         pattern = state.patterns[era.name]
         state.city, grown = grow_district(state.city, pattern, state.growth.owed, 2.0 / spacing, state.nuclei,
                                           state.growth, rng, spacing=spacing, year=year, era=era.name,
-                                          options=options.growth)
+                                          options=options.growth,
+                                          streams=(lambda attempt: district_stream(seed, year, attempt))
+                                          if options.growth.district_streams else None)
         if grown.districts:
             state.growth.owed = max(state.growth.owed - grown.length_m, 0.0)
             state.growth.due = False

@@ -25,6 +25,7 @@ them), with the year and era they were built in and origin ``engine``.
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass, field, replace
 
 import numpy as np
@@ -264,8 +265,34 @@ class GrowthOptions:
     #: Grande 6 6 6 (2-core 0.922, dead ends 0.093 above range, 370 km); seed 1 Krems 3 4 5, Andorra 1 1 2,
     #: north-bayreuth 4 3 2, Monaco 3 3 2, Campo Grande 6 5 5 (2-core 0.9789 above [0.9689-0.9779]).
     district_trim_blocked: bool = False
+    #: Each engine district attempt (a site tried by :func:`grow_district`) draws from its own random stream,
+    #: made from the run's seed, the calendar year and the attempt's index within the year
+    #: (:func:`osm_expand.engine.loop.district_stream`: numpy's ``SeedSequence`` with those as its spawn key),
+    #: as the pipeline's district draws from ``[seed, attempt]``; off: every attempt draws on in turn from the
+    #: loop's one growth stream. Why: with one stream a refused attempt or a district grown otherwise (a trimmed
+    #: street) shifts every later district's draws, so their shapes move and the growth verdict moves by 2-6 per
+    #: town whichever rule changed (:attr:`district_trim_blocked`, :attr:`site_score_tolerance`). With own streams
+    #: a district's shape depends on its site and the city it grows in, not on what earlier attempts drew.
+    #: Off: measured (``benchmarks/engine_growth.py --seed S --measures --option district_streams=true``, off of 14
+    #: per reference seed, off -> on; session 34, h34d), seed 0: Krems 1 1 1 -> 4 2 3, Andorra 0 0 0 -> 6 6 5,
+    #: north-bayreuth 5 5 5 -> 3 3 3, Monaco 2 3 3 -> 6 5 5 (all five sites of its first district refused; dead
+    #: ends 0.200 above, 2-core 0.774 below range), Campo Grande 4 4 5 -> 7 7 7 (dead ends 0.087 above, 2-core 0.941
+    #: below range); seed 1: Krems 3 3 4 -> 2 1 2, Andorra 0 0 1 -> 1 2 1, north-bayreuth 3 3 3 -> 2 2 2, Monaco
+    #: 3 3 2 -> 4 4 4, Campo Grande 4 4 4 -> 2 3 2 (2-core 0.9626 below [0.9668-0.9798]): other draws, as
+    #: another seed's. It does not make a rule on one district judgeable alone: with it on,
+    #: :attr:`district_trim_blocked` (seed 0) still moves the later districts, as the city they are sited and
+    #: sized in changed (Andorra's second at the same site, 50 m off, but 2.00 -> 2.17 km² as it owes what the
+    #: trimmed first did not build, 164 -> 185 streets, 6 6 5 -> 5 5 5; Krems' second at another site, the
+    #: town's changed streets re-ranking them, 4 2 3 -> 5 2 2), though no longer through the draws (off, the
+    #: trim moved Andorra's second district 1.1 km to another site, 0 0 0 -> 5 6 8). Both on, seed 0: Krems 5 2 2,
+    #: Andorra 5 5 5, north-bayreuth 5 4 4, Monaco 5 4 4 (2-core 0.827 below range), Campo Grande 4 4 3 (2-core
+    #: 0.9713 in range); seed 1: Krems 2 1 2, Andorra 2 3 2, north-bayreuth 2 2 2, Monaco 4 4 4, Campo Grande 2 3 3
+    #: (2-core 0.9707 in range): every town within 4 of 14 on seed 1, not on seed 0.
+    district_streams: bool = False
 
     def __post_init__(self) -> None:
+        if not isinstance(self.district_streams, (bool, np.bool_)):  # a string "false" would read as on
+            raise OptionError(f"growth option district_streams must be a bool, got {self.district_streams!r}")
         # a negative or NaN floor would silently turn the floor off (or never let a district grow)
         if not (np.isfinite(self.district_neighbourhoods) and self.district_neighbourhoods >= 0):
             raise OptionError(f"growth option district_neighbourhoods must be a finite number of neighbourhoods "
@@ -485,8 +512,12 @@ def _new_lines(graph: StreetGraph, splits: list[tuple[np.ndarray, np.ndarray]], 
 
 def grow_district(city: City, pattern: GrowthPattern, length: float, density: float, nuclei: list[Nucleus],
                   memory: GrowthMemory, rng: np.random.Generator, *, spacing: float, year: int, era: str,
-                  options: GrowthOptions = GrowthOptions()) -> tuple[City, GrowthYear]:
+                  options: GrowthOptions = GrowthOptions(),
+                  streams: Callable[[int], np.random.Generator] | None = None) -> tuple[City, GrowthYear]:
     """A district of about ``length`` metres of street on the best free site.
+
+    ``streams`` (``attempt -> Generator``, the n-th site tried this year, 0-based) gives each attempt its own
+    random stream (:attr:`GrowthOptions.district_streams`); None: every attempt draws on ``rng`` in turn.
 
     The site holds ``length`` at the town's own street density on its
     built-up land (:func:`built_up_density`), or at ``density`` (m per m²;
@@ -540,7 +571,7 @@ def grow_district(city: City, pattern: GrowthPattern, length: float, density: fl
     before = len(city.network.streets)
     reach = STUB_REACH * spacing
     placement = place_district(
-        city, sites, pattern, spacing=spacing, order=order.tolist(), rng=lambda attempt: rng,
+        city, sites, pattern, spacing=spacing, order=order.tolist(), rng=streams or (lambda attempt: rng),
         accept=lambda joins: (_built_up_distance(maps, joins.at) <= reach).sum() >= options.min_joins,
         bounds=city.bounds_polygon, origin=Origin.ENGINE, year=year, era=era)
     if options.refused_near > 0 and placement.tried:
