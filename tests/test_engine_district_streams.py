@@ -98,3 +98,17 @@ def test_the_benchmark_sets_a_growth_option_by_its_fields_type():
     for bad in ("district_streams=yes", "no_such_field=1", "sites_tried", "sites_tried=x"):
         with pytest.raises(argparse.ArgumentTypeError):
             module.growth_option(bad)
+
+
+@pytest.mark.parametrize("value", ["false", 1, None])
+def test_district_trim_blocked_refuses_what_is_not_a_bool(value):
+    """Review 34: a history's string "false" was read as on."""
+    with pytest.raises(OptionError, match="district_trim_blocked must be a bool"):
+        GrowthOptions(district_trim_blocked=value)
+
+
+@pytest.mark.parametrize("value", ["0.3", None, float("nan"), -1.0, float("inf")])
+def test_district_run_on_refuses_what_is_not_a_finite_number_of_spacings(value):
+    """Review 34: a string or None raised numpy's bare TypeError, not one clear line."""
+    with pytest.raises(OptionError, match="district_run_on must be a finite number"):
+        GrowthOptions(district_run_on=value)

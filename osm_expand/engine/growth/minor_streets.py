@@ -37,6 +37,7 @@ from osm_expand.engine.growth.stubs import close_stubs, finish_district
 from osm_expand.errors import OptionError
 from osm_expand.joins import add_streets
 from osm_expand.model import City, Origin, Status, closest_on_segments, match_points, polyline_length
+from osm_expand.model.options import is_real_number
 from osm_expand.model.segments import SegmentTable
 from osm_expand.sites import (
     SETTLEMENT_GAP,
@@ -306,9 +307,13 @@ class GrowthOptions:
         if not self.site_score_tolerance >= 0:  # NaN or negative
             raise OptionError(f"growth option site_score_tolerance must be a score difference >= 0 (inf: every "
                               f"site by the nuclei), got {self.site_score_tolerance!r}")
-        if not (np.isfinite(self.district_run_on) and self.district_run_on >= 0):
+        if not (is_real_number(self.district_run_on) and math.isfinite(self.district_run_on)
+                and self.district_run_on >= 0):  # np.isfinite of a history's string raises a bare TypeError
             raise OptionError(f"growth option district_run_on must be a finite number of junction spacings >= 0, "
                               f"got {self.district_run_on!r}")
+        if not isinstance(self.district_trim_blocked, (bool, np.bool_)):  # a string "false" would read as on
+            raise OptionError(f"growth option district_trim_blocked must be a bool, got "
+                              f"{self.district_trim_blocked!r}")
         if self.town_nuclei and self.settlement_gap == 0:
             raise OptionError("growth option town_nuclei needs settlement_gap > 0 (0 reads every piece of "
                               "built-up land as the town's, so every nucleus is the town's)")
