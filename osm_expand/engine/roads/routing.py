@@ -103,8 +103,9 @@ class RoutingOptions:
     #: routes wander further from the straight line). 0.5 with ``growth_share`` 0.5 and ``route_astar``
     #: (session 34): Campo Grande's 14 dearest captured searches 32.3 → 21.4 s CPU (0.25, 0.25, plain
     #: Dijkstra) — the first window proves the route more often (39 windows for the 36 searches, were 48),
-    #: and A* inside a larger window settles about the same corridor; 0.75: 34.3 s (more of them the whole map)
-    window_share: float = 0.5
+    #: and A* inside a larger window settles about the same corridor; 0.75: 34.3 s (more of them the whole map).
+    #: Left at 0.25 with ``route_astar`` off (see there): the three change which of equal routes is taken
+    window_share: float = 0.25
     #: a window covering more than this share of the map becomes the whole map (a second,
     #: larger window would cost more than searching the map at once)
     whole_share: float = 0.5
@@ -112,8 +113,9 @@ class RoutingOptions:
     #: (at least twice its exits' reach) before it is searched again; with plain Dijkstra (session 32)
     #: 0.25 took Campo Grande's first two road searches from 8.7 + 6.8 s and 1.6 GB to 2.0 + 5.2 s and
     #: 1.0 GB (0.5: 3.2 + 6.3 s, 1.2 GB); with ``route_astar`` and ``window_share`` 0.5 (session 34), 0.5
-    #: and 1.0 cost the same on the 14 dearest captured searches (23.2 and 22.1 s CPU, one run each)
-    growth_share: float = 0.5
+    #: and 1.0 cost the same on the 14 dearest captured searches (23.2 and 22.1 s CPU, one run each);
+    #: left at 0.25 with ``route_astar`` off (see there)
+    growth_share: float = 0.25
     #: whether the tiled search charges a route leaving its active tiles the turns it must still
     #: make to head for the target (:func:`_turn_floor`: from P of this year's turns; none while
     #: turns up to 22.5° are free, as in the default P; an even `heading_bins` only) — fewer tiles, the same cost
@@ -142,10 +144,15 @@ class RoutingOptions:
     #: whether a route's turn-penalised search runs A* (Dijkstra on reduced costs with the plain
     #: distance to the target as bound) instead of plain Dijkstra within the cost bound: exact (the
     #: same cost), it settles only the states with g + d_t ≤ C; of several routes of equal cost it
-    #: may take another than plain Dijkstra (3 of Campo Grande's 36 captured searches), so the outputs'
-    #: bytes changed when it was turned on (session 34, issue 22 allows it: equal cost); alone it saved
-    #: 8–12 % of those searches' CPU, with the larger windows it pays for (``window_share``) a third
-    route_astar: bool = True
+    #: may take another than plain Dijkstra (3 of Campo Grande's 36 captured searches); alone it saved
+    #: 8–12 % of those searches' CPU, with ``window_share`` and ``growth_share`` 0.5 a third (Campo Grande's
+    #: default command 73.6 → 59.4 s CPU, session 34). Off: its equal-cost roads move Monaco's and Campo
+    #: Grande's later districts (issue 20's verdict, ``benchmarks/engine_growth.py``, off of 14, seeds 0 / 1 /
+    #: 2: Monaco 2 3 3 / 3 3 2 / 4 5 5 → 5 4 4 (dead-end and 2-core shares out) / 3 3 2 / 4 5 5; Campo
+    #: Grande 4 4 5 (2-core out) / 4 4 4 / 2 3 2 → 4 4 4 (in) / 4 4 4 / 3 3 3), and Monaco's seed-0 engine
+    #: streets then fail ``tests/test_engine_districts.py``'s shares: a reshuffle, not a trend, but it is
+    #: turned on only with the districts decoupled from the roads' ties (issue 20)
+    route_astar: bool = False
 
     def __post_init__(self) -> None:
         require_positive(self, ("window_margin", "growth_share", "turn_width"))
