@@ -68,9 +68,12 @@ def oakland_outputs(tmp_path_factory, oakland) -> dict[str, Path]:
 
 def subprocess_main(script: str, cwd: Path, timeout: float = 120, **kwargs) -> subprocess.CompletedProcess:
     """``script`` (which calls ``osm_expand.cli.main``) in a fresh interpreter on this worktree, with Ctrl-C
-    raising as in a terminal (a background job, a CI runner, inherits SIGINT ignored)."""
+    raising and SIGTERM and SIGHUP at their defaults, as in a terminal (a background job, a CI runner, inherits
+    SIGINT ignored; a suite run under ``nohup`` inherits SIGHUP ignored, which the CLI rightly leaves alone)."""
     env = {**os.environ, "PYTHONPATH": str(ROOT)}
-    script = "import signal; signal.signal(signal.SIGINT, signal.default_int_handler)\n" + textwrap.dedent(script)
+    script = ("import signal; signal.signal(signal.SIGINT, signal.default_int_handler)\n"
+              "signal.signal(signal.SIGTERM, signal.SIG_DFL); signal.signal(signal.SIGHUP, signal.SIG_DFL)\n"
+              + textwrap.dedent(script))
     return subprocess.run([sys.executable, "-c", script], cwd=cwd, env=env, capture_output=True,
                           text=True, timeout=timeout, **kwargs)
 
