@@ -9,6 +9,7 @@ from pyproj import Transformer
 from osm_expand.export.urban import validate, write_urbanenvironment
 from osm_expand.ingest import load
 from osm_expand.model import Building, City, Origin, network_from_lines
+from osm_expand.model.geometry import _rectangle_around
 from simplify.hierarchy import with_levels
 from simplify.invariants import violations
 from tests.conftest import FIXTURES, simplified
@@ -105,21 +106,7 @@ def _rectangle_with_np_unique(ring):
     if len(pts) < 3:
         return None
     hull = np.asarray(shapely.MultiPoint(pts).convex_hull.exterior.coords)
-    if len(hull) < 4:
-        return None
-    edges = np.diff(hull, axis=0)
-    lengths = np.hypot(*edges.T)
-    edges, lengths = edges[lengths > 0], lengths[lengths > 0]
-    u = edges / lengths[:, None]
-    v = np.column_stack([-u[:, 1], u[:, 0]])
-    along, across = hull @ u.T, hull @ v.T
-    lo_u, hi_u, lo_v, hi_v = along.min(0), along.max(0), across.min(0), across.max(0)
-    area = (hi_u - lo_u) * (hi_v - lo_v)
-    k = int(np.argmin(area))
-    if not area[k] > 0:
-        return None
-    corners = np.array([[lo_u[k], lo_v[k]], [hi_u[k], lo_v[k]], [hi_u[k], hi_v[k]], [lo_u[k], hi_v[k]]])
-    return corners[:, :1] * u[k] + corners[:, 1:] * v[k]
+    return _rectangle_around(hull)  # the part that did not change
 
 
 def test_the_rectangles_of_krems_are_those_np_unique_gave():

@@ -264,6 +264,12 @@ def minimum_rectangle(ring: np.ndarray) -> np.ndarray | None:
     if len(pts) < 3:
         return None
     hull = shapely.get_coordinates(shapely.get_exterior_ring(shapely.convex_hull(shapely.multipoints(pts))))
+    return _rectangle_around(hull)
+
+
+def _rectangle_around(hull: np.ndarray) -> np.ndarray | None:
+    """The minimum-area rectangle around a closed convex hull ring (``(h, 2)``, first point repeated last), one
+    of its edges lying on a side (the rotating-calipers fact), or None when the hull has no area."""
     if len(hull) < 4:
         return None
     edges = np.diff(hull, axis=0)
