@@ -1015,6 +1015,26 @@ def test_water_that_meets_the_edge_of_the_map_goes_on_beyond_it():
     assert water_beyond_the_map(shapely.Polygon(), (0, 0, 1000, 1000), 100.0).is_empty
 
 
+def test_the_town_goes_on_beyond_the_edge_where_the_clip_cut_its_streets():
+    """Streets ending near the map's left edge (as a clipped extract cuts them) make the edge the town's
+    there: the lattice's margin beyond them and a strip inside are taken, so no new road runs round
+    the town outside the map (Campo Grande's 6.4 and 8.1 km roads did); the edge beyond a street far
+    from it, and along the edge away from the cut streets, stays free."""
+    from osm_expand.engine.roads.major_roads import town_beyond_the_map
+
+    cut = [shapely.LineString([(x, 500.0), (x, 990.0 + x / 100)]) for x in (100.0, 200.0, 300.0)]  # end near the top
+    inland = shapely.LineString([(500.0, 100.0), (500.0, 700.0)])
+    town = town_beyond_the_map(np.array([*cut, inland], dtype=object), (0, 0, 1000, 1000), 100.0, 30.0)
+    assert town.contains(shapely.Point(200, 1050))  # beyond a cut street's end
+    assert town.intersects(shapely.LineString([(120, 1050), (180, 1050)]))  # no way along the edge between them
+    assert town.contains(shapely.Point(200, 985))  # the strip inside the edge
+    assert not town.intersects(shapely.Point(500, 1050)) and not town.intersects(shapely.Point(500, -50))
+    assert not town.intersects(shapely.Point(800, 1050))
+    assert not town.intersects(shapely.Point(200, 900))  # the town inside the map is the lattice's own business
+    assert town_beyond_the_map(np.array([inland], dtype=object), (0, 0, 1000, 1000), 100.0, 30.0).is_empty
+    assert town_beyond_the_map(np.empty(0, dtype=object), (0, 0, 1000, 1000), 100.0, 30.0).is_empty
+
+
 def test_monacos_new_roads_do_not_run_round_the_sea_beyond_the_map():
     """Monaco, default years, seed 0: a new road of a later year ran along the map's edge round the
     whole bay, through the lattice's margin beyond the sea (the sea was cut at the bounds, the margin

@@ -177,15 +177,49 @@ def water_beyond_the_map(water: shapely.Geometry, bounds: tuple[float, float, fl
     """
     if water.is_empty or margin <= 0:
         return water
+    beyond = beyond_the_map(shapely.buffer(water, 1.0), bounds, margin)  # what reaches the edge within a metre
+    return shapely.union_all([water, *beyond]) if beyond else water
+
+
+def town_beyond_the_map(streets: np.ndarray, bounds: tuple[float, float, float, float], margin: float,
+                        reach: float) -> shapely.Geometry:
+    """The town carried on across the lattice's margin where its streets meet the map's ``bounds``.
+
+    A clipped extract cuts the town's streets at its bounds; the town goes on beyond them. Where a
+    street (a line of ``streets``) comes within ``reach`` of the edge, the edge is the town's for
+    ``reach`` either side, and that stretch goes on outward by ``margin`` and inward by ``reach``.
+    Left as free land, the margin was a corridor round the town: Campo Grande's new primary and
+    trunk roads (3.2, 6.4 and 8.1 km) ran round its western and northern edges outside the map,
+    beside the streets the clip cut; with the margin alone taken, a trunk road ran inside the
+    edge instead, from one cut street's end to the next.
+    """
+    if margin <= 0 or not len(streets):
+        return shapely.Polygon()
+    x0, y0, x1, y1 = map(float, bounds)
+    inner = shapely.box(x0 + reach, y0 + reach, x1 - reach, y1 - reach) if min(x1 - x0, y1 - y0) > 2 * reach \
+        else shapely.Polygon()
+    near = streets[~shapely.within(streets, inner)] if not inner.is_empty else streets
+    if not len(near):
+        return shapely.Polygon()
+    beyond = beyond_the_map(shapely.union_all(shapely.buffer(near, reach, quad_segs=2)), bounds, margin, reach)
+    return shapely.union_all(beyond) if beyond else shapely.Polygon()
+
+
+def beyond_the_map(ground: shapely.Geometry, bounds: tuple[float, float, float, float],
+                   margin: float, inward: float = 0.0) -> list[shapely.Polygon]:
+    """The stretches of the map's edge that ``ground`` covers, each carried outward by ``margin``
+    (and inward by ``inward``).
+
+    Round a corner the stretch runs on, so that no gap opens at the corner.
+    """
     x0, y0, x1, y1 = map(float, bounds)
     corners = np.array([[x0, y0], [x1, y0], [x1, y1], [x0, y1]])
     outward = np.array([[0.0, -1.0], [1.0, 0.0], [0.0, 1.0], [-1.0, 0.0]])  # below, right, above, left
-    wet = shapely.buffer(water, 1.0)  # what reaches the edge within a metre meets it
     beyond = []
     for k in range(4):
         a, b = corners[k], corners[(k + 1) % 4]
         along = (b - a) / max(float(np.hypot(*(b - a))), 1e-9)
-        for part in shapely.get_parts(shapely.intersection(shapely.LineString([a, b]), wet)):
+        for part in shapely.get_parts(shapely.intersection(shapely.LineString([a, b]), ground)):
             coords = shapely.get_coordinates(part)
             if len(coords) < 2:
                 continue
@@ -195,9 +229,9 @@ def water_beyond_the_map(water: shapely.Geometry, bounds: tuple[float, float, fl
             # a stretch reaching a corner runs on round it, so that no gap opens at the corner
             start = start - along * margin if np.hypot(*(start - a)) < 1.0 else start
             end = end + along * margin if np.hypot(*(end - b)) < 1.0 else end
-            out = outward[k] * margin
-            beyond.append(shapely.Polygon([start, end, end + out, start + out]))
-    return shapely.union_all([water, *beyond]) if beyond else water
+            out, back = outward[k] * margin, -outward[k] * inward
+            beyond.append(shapely.Polygon([start + back, end + back, end + out, start + out]))
+    return beyond
 
 
 def _segments(city: City, traffic: TrafficMemory, o2: float) -> SegmentTable:
@@ -226,6 +260,10 @@ def _graph(city: City, traffic: TrafficMemory, memory: RoadMemory, now: YearValu
         # a new road never runs through a building as the outputs draw it (its minimum rectangle: a huge
         # mapped outline's rectangle reaches well past it, and Krems seed 1's new road ran through two)
         houses = building_outlines(city).tolist()
+        # nor round the town outside the map, where the clip cut its streets (the town goes on there)
+        town = town_beyond_the_map(city.network.street_lines(), city.bounds_xy, LATTICE_MARGIN,
+                                   history.options.built_up.neighbourhood)
+        areas += [] if town.is_empty else [town]
         forbidden = Raster.from_polygons(areas + houses, extent, BUILDING_CELL) if areas or houses else None
         # nor through the houses the map does not show (the town's presumed frontage), though it may leave a
         # street across them: withheld from Krems' file, 4 real buildings stood in a new primary road's way
