@@ -41,21 +41,29 @@ def random_map(seed: int):
 def reference_expanded(g, lat, extra, region, penalties, k) -> csr_matrix:
     """The expanded graph written plainly: every entry with its row, a stable sort by row in the
     order arrivals' cheap turns (q ascending), arrivals → hub, lattice moves (directions
-    ascending), other edges (edges ascending), hub → departures."""
-    per = 2 * k + 1
+    ascending), other edges (edges ascending), hub → departures. States: arrivals ``v·k + j``, then
+    departures ``(n + v)·k + j``, then hubs ``2nk + v`` (``routing._States``)."""
+    n = len(region)
     local = np.full(g.n_vertices, -1)
-    local[region] = np.arange(len(region))
+    local[region] = np.arange(n)
     height = penalties.max()
     cheap = np.flatnonzero(penalties < height - 1e-9)
     rows, cols, vals = [], [], []
-    base = np.arange(len(region)) * per
+    v = np.arange(n)
+
+    def arr(v, j):
+        return v * k + j
+
+    def dep(v, j):
+        return (n + v) * k + j
+
     for q in cheap:  # arr(v, i) → dep(v, i + q)
-        rows.append((base[:, None] + np.arange(k)).ravel())
-        cols.append((base[:, None] + k + (np.arange(k) + q) % k).ravel())
-        vals.append(np.full(len(region) * k, max(penalties[q], routing._EPS)))
-    rows.append((base[:, None] + np.arange(k)).ravel())
-    cols.append(np.repeat(base + 2 * k, k))
-    vals.append(np.full(len(region) * k, height))
+        rows.append(arr(v[:, None], np.arange(k)).ravel())
+        cols.append(dep(v[:, None], (np.arange(k) + q) % k).ravel())
+        vals.append(np.full(n * k, max(penalties[q], routing._EPS)))
+    rows.append(arr(v[:, None], np.arange(k)).ravel())
+    cols.append(np.repeat(2 * n * k + v, k))
+    vals.append(np.full(n * k, height))
     # the cheap turns of a row in q order and then the hub: a stable sort on (row, order within row)
     turn_rows, turn_cols, turn_vals = (np.stack(x, axis=1).ravel() for x in (rows, cols, vals))
     rows, cols, vals = [turn_rows], [turn_cols], [turn_vals]
@@ -66,22 +74,22 @@ def reference_expanded(g, lat, extra, region, penalties, k) -> csr_matrix:
     u, d, w = u[keep], d[keep], w[keep]
     order = np.lexsort((d, dir_bin[d], local[u]))  # by row dep(u, bin), directions ascending
     u, d, w = u[order], d[order], w[order]
-    rows.append(local[u] * per + k + dir_bin[d])
-    cols.append(local[w] * per + dir_bin[d])
+    rows.append(dep(local[u], dir_bin[d]))
+    cols.append(arr(local[w], dir_bin[d]))
     vals.append(g.lat_weight[u, d].astype(float))
     e = np.flatnonzero(extra & (local[g.src] >= 0) & (local[g.dst] >= 0))
     b = routing._bins(g.heading[e], k)
-    rows.append(local[g.src[e]] * per + k + b)
-    cols.append(local[g.dst[e]] * per + b)
+    rows.append(dep(local[g.src[e]], b))
+    cols.append(arr(local[g.dst[e]], b))
     vals.append(g.weight[e])
-    rows.append(np.repeat(base + 2 * k, k))
-    cols.append((base[:, None] + k + np.arange(k)).ravel())
-    vals.append(np.full(len(region) * k, routing._EPS))
+    rows.append(np.repeat(2 * n * k + v, k))
+    cols.append(dep(v[:, None], np.arange(k)).ravel())
+    vals.append(np.full(n * k, routing._EPS))
     rows, cols, vals = (np.concatenate(x) for x in (rows, cols, vals))
     order = np.argsort(rows, kind="stable")
-    n = len(region) * per
-    indptr = np.concatenate([[0], np.cumsum(np.bincount(rows, minlength=n))])
-    return csr_matrix((vals[order], cols[order], indptr), shape=(n, n))
+    size = n * (2 * k + 1)
+    indptr = np.concatenate([[0], np.cumsum(np.bincount(rows, minlength=size))])
+    return csr_matrix((vals[order], cols[order], indptr), shape=(size, size))
 
 
 @settings(max_examples=8, deadline=None)
@@ -158,8 +166,9 @@ def test_the_exits_search_by_a_star_finds_dijkstras_arrival_costs(seed):
     penalties = routing._bin_penalties(opts)
     k = opts.heading_bins
     whole, local = routing._expanded_graph(g, lat, extra, np.arange(g.n_vertices), penalties, k)
-    dist = dijkstra(whole, indices=s * (2 * k + 1) + 2 * k)
-    arrive = dist.reshape(-1, 2 * k + 1)[:, :k].min(axis=1)
+    states = routing._States(g.n_vertices, k)
+    dist = dijkstra(whole, indices=states.hub(s))
+    arrive = states.by_vertex(dist)[0].min(axis=1)
     arrive[s] = 0.0
     cost = float(np.quantile(arrive[np.isfinite(arrive)], 0.6))  # a C that leaves some exits out
     exits = rng.choice(live, min(200, len(live)), replace=False)
@@ -184,22 +193,23 @@ def test_the_turns_still_needed_never_exceed_what_the_rest_of_any_route_costs(se
     ones that let 22.5° turns pass free to ones that charge them."""
     g, rng = random_map(seed)
     opts = RoutingOptions(turn_height=float(rng.uniform(20, 900)), turn_centre=centre, turn_width=width)
-    k, per = opts.heading_bins, 2 * opts.heading_bins + 1
+    k = opts.heading_bins
     lat, extra = g.masks()
     live = g.live_vertices()
     t = int(rng.choice(live))
     penalties = routing._bin_penalties(opts)
     whole, _ = routing._expanded_graph(g, lat, extra, np.arange(g.n_vertices), penalties, k)
-    rest = dijkstra(whole.T.tocsr(), indices=t * per + np.arange(k), min_only=True).reshape(-1, per)
+    by_vertex = routing._States(g.n_vertices, k).by_vertex
+    rest = by_vertex(dijkstra(whole.T.tocsr(), indices=t * k + np.arange(k), min_only=True))
     plain = dijkstra(g.matrix(), indices=t)
     need = routing._turn_floor(penalties)
     bins = np.arange(k)
     floor = routing._turns_needed(need, bins[None, :], g.xy[:, None, :], g.xy[t])  # (V, K)
-    for states in (rest[:, :k], rest[:, k:2 * k]):  # arrivals (may turn at once), departures
+    for states in rest[:2]:  # arrivals (may turn at once), departures
         ok = np.isfinite(states)
         assert ((plain[:, None] + floor)[ok] <= states[ok] * (1 + 1e-9) + 1e-6).all()
     if need.any():
-        assert (floor[np.isfinite(rest[:, :k])] > 0).any()  # the floor is not vacuous here
+        assert (floor[np.isfinite(rest[0])] > 0).any()  # the floor is not vacuous here
 
 
 def test_a_windows_matrix_is_gone_before_its_heading_expanded_search(monkeypatch):
