@@ -110,6 +110,65 @@ def test_the_expanded_graph_is_the_plainly_written_one_entry_for_entry(seed):
     assert np.array_equal(local[region], np.arange(len(region)))
 
 
+def renumbered(m: csr_matrix, new: np.ndarray) -> csr_matrix:
+    """``m`` with state x named ``new[x]``: each row's entries kept in their order, their columns renamed."""
+    order = np.argsort(new)  # the old state of each new row
+    lengths = np.diff(m.indptr)[order]
+    indptr = np.concatenate([[0], np.cumsum(lengths)])
+    take = np.repeat(m.indptr[order] - indptr[:-1], lengths) + np.arange(indptr[-1])
+    return csr_matrix((m.data[take], new[m.indices[take]], indptr), shape=m.shape)
+
+
+def predecessor_rule(m: csr_matrix, dist: np.ndarray, source: int) -> tuple[np.ndarray, int]:
+    """Each state's predecessor as scipy 1.17's Dijkstra (a priority queue) picks it: of the
+    in-neighbours u whose ``dist[u] + w`` is the state's distance, the one of least ``dist[u]`` and, of
+    equal ones, the highest numbered; −9999 where none (unreached, and the source). And how many
+    states have more than one such in-neighbour (ties, where the order decides)."""
+    rows = np.repeat(np.arange(m.shape[0]), np.diff(m.indptr))
+    attains = np.isfinite(dist[rows]) & (dist[rows] + m.data == dist[m.indices]) & (m.indices != source)
+    u, x = rows[attains], m.indices[attains]
+    order = np.lexsort((-u, dist[u], x))
+    u, x = u[order], x[order]
+    first = np.ones(len(x), dtype=bool)
+    first[1:] = x[1:] != x[:-1]
+    pred = np.full(m.shape[0], -9999)
+    pred[x[first]] = u[first]
+    return pred, int(np.count_nonzero(np.diff(np.flatnonzero(np.append(first, True))) > 1))
+
+
+@settings(max_examples=8, deadline=None)
+@given(st.integers(0, 2**32 - 1))
+def test_the_states_numbered_by_kind_give_every_state_the_predecessor_the_per_vertex_numbering_gave(seed):
+    """Why numbering the states by kind (``routing._States``, session 35) keeps every route's bytes.
+    scipy's Dijkstra takes a state's predecessor by the distances and the state numbers of its
+    in-neighbours that attain its distance (:func:`predecessor_rule`; a random numbering changes
+    some). Those in-neighbours are all departures (of an arrival), or one vertex's arrivals and hub
+    (of a departure or the hub), whose order both numberings share: every state gets the same
+    distance and the same predecessor as under the per-vertex numbering it replaced, ties included
+    (a street grid has many exactly equal routes)."""
+    g, rng = random_map(seed)
+    opts = RoutingOptions(turn_height=float(rng.uniform(20, 900)))
+    k = opts.heading_bins
+    lat, extra = g.masks()
+    made, _ = routing._expanded_graph(g, lat, extra, np.arange(g.n_vertices), routing._bin_penalties(opts), k)
+    states = routing._States(g.n_vertices, k)
+    every = np.arange(states.size)
+    per_vertex = states.vertex(every) * (2 * k + 1) + states.slot(every)  # the numbering before
+    assert np.array_equal(np.sort(per_vertex), every)
+    assert np.array_equal(states.state(states.vertex(every), states.slot(every)), every)
+    s = states.hub(int(rng.choice(g.live_vertices())))
+    want, want_pred = dijkstra(made, indices=s, return_predecessors=True)
+    rule, tied = predecessor_rule(made, want, s)
+    assert np.array_equal(want_pred, rule)
+    assert tied > 0  # states with two or more predecessors of exactly equal cost
+    before = renumbered(made, per_vertex)
+    got, pred = dijkstra(before, indices=per_vertex[s], return_predecessors=True)
+    assert np.array_equal(got[per_vertex], want)
+    reached = want_pred >= 0
+    assert np.array_equal(pred[per_vertex][reached], per_vertex[want_pred[reached]])
+    assert (pred[per_vertex][~reached] < 0).all()
+
+
 def test_a_graph_holds_no_lattice_mask_table_and_its_masks_read_as_the_kinds_compared():
     """Issue 22: G′ keeps no (V, D) bool table beside ``lat_kind`` (on the synthetic town's whole map
     one was 293 MB through both searches); its lattice mask is made row block by row block as read,
