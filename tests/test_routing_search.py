@@ -185,6 +185,24 @@ def test_a_graph_holds_no_lattice_mask_table_and_its_masks_read_as_the_kinds_com
         assert np.array_equal(lat[10:30], want[10:30])
 
 
+@settings(max_examples=8, deadline=None)
+@given(st.integers(0, 2**32 - 1))
+def test_flat_lattice_weights_read_pairwise_are_the_tables_own_values(seed):
+    """``LatticeWeights.at`` (one lookup of kind · D + direction, what the expanded graph's lattice
+    moves read) gives the very values indexing the table gives, widened to float64, also where C3 and
+    C5 scale the bridge and harbour entries (:meth:`LatticeWeights.times`)."""
+    g, rng = random_map(seed)
+    weight = g.lat_weight
+    assert isinstance(weight, routing.LatticeWeights)
+    scaled = weight.times({int(EdgeKind.BRIDGE): float(rng.uniform(1, 9)), int(EdgeKind.HARBOUR): 2.5})
+    rows = rng.integers(0, g.n_lattice, 5000)
+    cols = rng.integers(0, weight.shape[1], 5000)
+    for table in (weight, scaled):
+        got = table.at(rows, cols)
+        assert got.dtype == np.float64
+        assert np.array_equal(got, table[rows, cols].astype(np.float64))
+
+
 def test_the_expanded_graph_needs_little_more_memory_than_it_keeps():
     """Issue 22: memory follows the states searched. On an open 6 km field (90,000 vertices, 3 M
     states) making the expanded graph allocates at most 12 bytes a state beyond what it returns
