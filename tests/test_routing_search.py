@@ -41,21 +41,29 @@ def random_map(seed: int):
 def reference_expanded(g, lat, extra, region, penalties, k) -> csr_matrix:
     """The expanded graph written plainly: every entry with its row, a stable sort by row in the
     order arrivals' cheap turns (q ascending), arrivals → hub, lattice moves (directions
-    ascending), other edges (edges ascending), hub → departures."""
-    per = 2 * k + 1
+    ascending), other edges (edges ascending), hub → departures. States: arrivals ``v·k + j``, then
+    departures ``(n + v)·k + j``, then hubs ``2nk + v`` (``routing._States``)."""
+    n = len(region)
     local = np.full(g.n_vertices, -1)
-    local[region] = np.arange(len(region))
+    local[region] = np.arange(n)
     height = penalties.max()
     cheap = np.flatnonzero(penalties < height - 1e-9)
     rows, cols, vals = [], [], []
-    base = np.arange(len(region)) * per
+    v = np.arange(n)
+
+    def arr(v, j):
+        return v * k + j
+
+    def dep(v, j):
+        return (n + v) * k + j
+
     for q in cheap:  # arr(v, i) → dep(v, i + q)
-        rows.append((base[:, None] + np.arange(k)).ravel())
-        cols.append((base[:, None] + k + (np.arange(k) + q) % k).ravel())
-        vals.append(np.full(len(region) * k, max(penalties[q], routing._EPS)))
-    rows.append((base[:, None] + np.arange(k)).ravel())
-    cols.append(np.repeat(base + 2 * k, k))
-    vals.append(np.full(len(region) * k, height))
+        rows.append(arr(v[:, None], np.arange(k)).ravel())
+        cols.append(dep(v[:, None], (np.arange(k) + q) % k).ravel())
+        vals.append(np.full(n * k, max(penalties[q], routing._EPS)))
+    rows.append(arr(v[:, None], np.arange(k)).ravel())
+    cols.append(np.repeat(2 * n * k + v, k))
+    vals.append(np.full(n * k, height))
     # the cheap turns of a row in q order and then the hub: a stable sort on (row, order within row)
     turn_rows, turn_cols, turn_vals = (np.stack(x, axis=1).ravel() for x in (rows, cols, vals))
     rows, cols, vals = [turn_rows], [turn_cols], [turn_vals]
@@ -66,22 +74,22 @@ def reference_expanded(g, lat, extra, region, penalties, k) -> csr_matrix:
     u, d, w = u[keep], d[keep], w[keep]
     order = np.lexsort((d, dir_bin[d], local[u]))  # by row dep(u, bin), directions ascending
     u, d, w = u[order], d[order], w[order]
-    rows.append(local[u] * per + k + dir_bin[d])
-    cols.append(local[w] * per + dir_bin[d])
+    rows.append(dep(local[u], dir_bin[d]))
+    cols.append(arr(local[w], dir_bin[d]))
     vals.append(g.lat_weight[u, d].astype(float))
     e = np.flatnonzero(extra & (local[g.src] >= 0) & (local[g.dst] >= 0))
     b = routing._bins(g.heading[e], k)
-    rows.append(local[g.src[e]] * per + k + b)
-    cols.append(local[g.dst[e]] * per + b)
+    rows.append(dep(local[g.src[e]], b))
+    cols.append(arr(local[g.dst[e]], b))
     vals.append(g.weight[e])
-    rows.append(np.repeat(base + 2 * k, k))
-    cols.append((base[:, None] + k + np.arange(k)).ravel())
-    vals.append(np.full(len(region) * k, routing._EPS))
+    rows.append(np.repeat(2 * n * k + v, k))
+    cols.append(dep(v[:, None], np.arange(k)).ravel())
+    vals.append(np.full(n * k, routing._EPS))
     rows, cols, vals = (np.concatenate(x) for x in (rows, cols, vals))
     order = np.argsort(rows, kind="stable")
-    n = len(region) * per
-    indptr = np.concatenate([[0], np.cumsum(np.bincount(rows, minlength=n))])
-    return csr_matrix((vals[order], cols[order], indptr), shape=(n, n))
+    size = n * (2 * k + 1)
+    indptr = np.concatenate([[0], np.cumsum(np.bincount(rows, minlength=size))])
+    return csr_matrix((vals[order], cols[order], indptr), shape=(size, size))
 
 
 @settings(max_examples=8, deadline=None)
@@ -102,6 +110,65 @@ def test_the_expanded_graph_is_the_plainly_written_one_entry_for_entry(seed):
     assert np.array_equal(local[region], np.arange(len(region)))
 
 
+def renumbered(m: csr_matrix, new: np.ndarray) -> csr_matrix:
+    """``m`` with state x named ``new[x]``: each row's entries kept in their order, their columns renamed."""
+    order = np.argsort(new)  # the old state of each new row
+    lengths = np.diff(m.indptr)[order]
+    indptr = np.concatenate([[0], np.cumsum(lengths)])
+    take = np.repeat(m.indptr[order] - indptr[:-1], lengths) + np.arange(indptr[-1])
+    return csr_matrix((m.data[take], new[m.indices[take]], indptr), shape=m.shape)
+
+
+def predecessor_rule(m: csr_matrix, dist: np.ndarray, source: int) -> tuple[np.ndarray, int]:
+    """Each state's predecessor as scipy 1.17's Dijkstra (a priority queue) picks it: of the
+    in-neighbours u whose ``dist[u] + w`` is the state's distance, the one of least ``dist[u]`` and, of
+    equal ones, the highest numbered; −9999 where none (unreached, and the source). And how many
+    states have more than one such in-neighbour (ties, where the order decides)."""
+    rows = np.repeat(np.arange(m.shape[0]), np.diff(m.indptr))
+    attains = np.isfinite(dist[rows]) & (dist[rows] + m.data == dist[m.indices]) & (m.indices != source)
+    u, x = rows[attains], m.indices[attains]
+    order = np.lexsort((-u, dist[u], x))
+    u, x = u[order], x[order]
+    first = np.ones(len(x), dtype=bool)
+    first[1:] = x[1:] != x[:-1]
+    pred = np.full(m.shape[0], -9999)
+    pred[x[first]] = u[first]
+    return pred, int(np.count_nonzero(np.diff(np.flatnonzero(np.append(first, True))) > 1))
+
+
+@settings(max_examples=8, deadline=None)
+@given(st.integers(0, 2**32 - 1))
+def test_the_states_numbered_by_kind_give_every_state_the_predecessor_the_per_vertex_numbering_gave(seed):
+    """Why numbering the states by kind (``routing._States``, session 35) keeps every route's bytes.
+    scipy's Dijkstra takes a state's predecessor by the distances and the state numbers of its
+    in-neighbours that attain its distance (:func:`predecessor_rule`; a random numbering changes
+    some). Those in-neighbours are all departures (of an arrival), or one vertex's arrivals and hub
+    (of a departure or the hub), whose order both numberings share: every state gets the same
+    distance and the same predecessor as under the per-vertex numbering it replaced, ties included
+    (a street grid has many exactly equal routes)."""
+    g, rng = random_map(seed)
+    opts = RoutingOptions(turn_height=float(rng.uniform(20, 900)))
+    k = opts.heading_bins
+    lat, extra = g.masks()
+    made, _ = routing._expanded_graph(g, lat, extra, np.arange(g.n_vertices), routing._bin_penalties(opts), k)
+    states = routing._States(g.n_vertices, k)
+    every = np.arange(states.size)
+    per_vertex = states.vertex(every) * (2 * k + 1) + states.slot(every)  # the numbering before
+    assert np.array_equal(np.sort(per_vertex), every)
+    assert np.array_equal(states.state(states.vertex(every), states.slot(every)), every)
+    s = states.hub(int(rng.choice(g.live_vertices())))
+    want, want_pred = dijkstra(made, indices=s, return_predecessors=True)
+    rule, tied = predecessor_rule(made, want, s)
+    assert np.array_equal(want_pred, rule)
+    assert tied > 0  # states with two or more predecessors of exactly equal cost
+    before = renumbered(made, per_vertex)
+    got, pred = dijkstra(before, indices=per_vertex[s], return_predecessors=True)
+    assert np.array_equal(got[per_vertex], want)
+    reached = want_pred >= 0
+    assert np.array_equal(pred[per_vertex][reached], per_vertex[want_pred[reached]])
+    assert (pred[per_vertex][~reached] < 0).all()
+
+
 def test_a_graph_holds_no_lattice_mask_table_and_its_masks_read_as_the_kinds_compared():
     """Issue 22: G′ keeps no (V, D) bool table beside ``lat_kind`` (on the synthetic town's whole map
     one was 293 MB through both searches); its lattice mask is made row block by row block as read,
@@ -116,6 +183,24 @@ def test_a_graph_holds_no_lattice_mask_table_and_its_masks_read_as_the_kinds_com
         rows = rng.integers(0, g.n_lattice, 50)
         assert np.array_equal(lat[rows], want[rows])
         assert np.array_equal(lat[10:30], want[10:30])
+
+
+@settings(max_examples=8, deadline=None)
+@given(st.integers(0, 2**32 - 1))
+def test_flat_lattice_weights_read_pairwise_are_the_tables_own_values(seed):
+    """``LatticeWeights.at`` (one lookup of kind · D + direction, what the expanded graph's lattice
+    moves read) gives the very values indexing the table gives, widened to float64, also where C3 and
+    C5 scale the bridge and harbour entries (:meth:`LatticeWeights.times`)."""
+    g, rng = random_map(seed)
+    weight = g.lat_weight
+    assert isinstance(weight, routing.LatticeWeights)
+    scaled = weight.times({int(EdgeKind.BRIDGE): float(rng.uniform(1, 9)), int(EdgeKind.HARBOUR): 2.5})
+    rows = rng.integers(0, g.n_lattice, 5000)
+    cols = rng.integers(0, weight.shape[1], 5000)
+    for table in (weight, scaled):
+        got = table.at(rows, cols)
+        assert got.dtype == np.float64
+        assert np.array_equal(got, table[rows, cols].astype(np.float64))
 
 
 def test_the_expanded_graph_needs_little_more_memory_than_it_keeps():
@@ -158,8 +243,9 @@ def test_the_exits_search_by_a_star_finds_dijkstras_arrival_costs(seed):
     penalties = routing._bin_penalties(opts)
     k = opts.heading_bins
     whole, local = routing._expanded_graph(g, lat, extra, np.arange(g.n_vertices), penalties, k)
-    dist = dijkstra(whole, indices=s * (2 * k + 1) + 2 * k)
-    arrive = dist.reshape(-1, 2 * k + 1)[:, :k].min(axis=1)
+    states = routing._States(g.n_vertices, k)
+    dist = dijkstra(whole, indices=states.hub(s))
+    arrive = states.by_vertex(dist)[0].min(axis=1)
     arrive[s] = 0.0
     cost = float(np.quantile(arrive[np.isfinite(arrive)], 0.6))  # a C that leaves some exits out
     exits = rng.choice(live, min(200, len(live)), replace=False)
@@ -184,22 +270,23 @@ def test_the_turns_still_needed_never_exceed_what_the_rest_of_any_route_costs(se
     ones that let 22.5° turns pass free to ones that charge them."""
     g, rng = random_map(seed)
     opts = RoutingOptions(turn_height=float(rng.uniform(20, 900)), turn_centre=centre, turn_width=width)
-    k, per = opts.heading_bins, 2 * opts.heading_bins + 1
+    k = opts.heading_bins
     lat, extra = g.masks()
     live = g.live_vertices()
     t = int(rng.choice(live))
     penalties = routing._bin_penalties(opts)
     whole, _ = routing._expanded_graph(g, lat, extra, np.arange(g.n_vertices), penalties, k)
-    rest = dijkstra(whole.T.tocsr(), indices=t * per + np.arange(k), min_only=True).reshape(-1, per)
+    by_vertex = routing._States(g.n_vertices, k).by_vertex
+    rest = by_vertex(dijkstra(whole.T.tocsr(), indices=t * k + np.arange(k), min_only=True))
     plain = dijkstra(g.matrix(), indices=t)
     need = routing._turn_floor(penalties)
     bins = np.arange(k)
     floor = routing._turns_needed(need, bins[None, :], g.xy[:, None, :], g.xy[t])  # (V, K)
-    for states in (rest[:, :k], rest[:, k:2 * k]):  # arrivals (may turn at once), departures
+    for states in rest[:2]:  # arrivals (may turn at once), departures
         ok = np.isfinite(states)
         assert ((plain[:, None] + floor)[ok] <= states[ok] * (1 + 1e-9) + 1e-6).all()
     if need.any():
-        assert (floor[np.isfinite(rest[:, :k])] > 0).any()  # the floor is not vacuous here
+        assert (floor[np.isfinite(rest[0])] > 0).any()  # the floor is not vacuous here
 
 
 def test_a_windows_matrix_is_gone_before_its_heading_expanded_search(monkeypatch):

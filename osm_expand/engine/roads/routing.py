@@ -59,7 +59,7 @@ from scipy.ndimage import binary_dilation
 from scipy.sparse import csr_matrix
 from scipy.sparse.csgraph import dijkstra
 
-from osm_expand.engine.roads.lattice import ROAD_KINDS, EdgeKind
+from osm_expand.engine.roads.lattice import ROAD_KINDS, EdgeKind, LatticeWeights
 from osm_expand.engine.roads.path_graph import EdgeCosts, GraphWindow, ImplicitGraph, KindMask, PathGraph
 from osm_expand.errors import InputError, OptionError
 from osm_expand.model.options import require_positive
@@ -586,25 +586,25 @@ def _band_bound(graph: PathGraph, lat: KindMask, extra: np.ndarray, source: int,
     if opts.bound_cells < 1:
         return first
     k = opts.heading_bins
-    per = 2 * k + 1
     cost = first[1]
     tile, _, active = _first_tiles(graph, opts.bound_cells, np.asarray(first[0]))
     # the source and target are in the band: on ``first``, and their ``lower`` is d(s, t) ≤ its cost
     verts = np.flatnonzero((lower <= cost + 1e-9 * cost + 1e-6) & active[tile])
     expanded, local = _expanded_graph(graph, lat, extra, verts, penalties, k)
-    slack = 2 * len(verts) * per * _EPS
+    states = _States(len(verts), k)
+    slack = 2 * states.size * _EPS
     h = from_target[verts] * (1.0 - _SHRINK)
-    start = int(local[source]) * per + 2 * k
+    start = states.hub(local[source])
     hs = float(h[local[source]])
-    dist, pred = dijkstra(_reduced(expanded, h, per), indices=start, return_predecessors=True,
+    dist, pred = dijkstra(_reduced(expanded, h, states), indices=start, return_predecessors=True,
                           limit=cost - hs + slack)
     del expanded
-    end = _target_end(dist, int(local[target]), per, k)
+    end = _target_end(dist, states, int(local[target]))
     found = float(dist[end]) + hs - float(h[local[target]])  # ≥ the path's cost: reduced costs only rounded up
     found += 1e-9 * found + 1e-6 + slack
     if not found < cost:
         return first  # nothing cheaper in the band (e.g. the plain route is the best): the search keeps first
-    return _vertex_path(pred, start, end, verts, per), found
+    return _vertex_path(pred, start, end, verts, states), found
 
 
 def _headings(route: Route) -> np.ndarray:
@@ -632,39 +632,111 @@ def _route(graph: PathGraph, vertices: Sequence[int], lat: KindMask, extra: np.n
                  edge_length=steps.length, edge_weight=steps.weight, turn_cost=turn_cost)
 
 
+def _lattice_weight(graph: PathGraph, u: np.ndarray, d: np.ndarray) -> np.ndarray:
+    """The weights of the lattice edges from vertices ``u`` along directions ``d`` (float64 where
+    flat land's weights are worked out from the kinds, :meth:`LatticeWeights.at`; the same values)."""
+    weight = graph.lat_weight
+    return weight.at(u, d) if isinstance(weight, LatticeWeights) else weight[u, d]
+
+
 #: vertices per block when the expanded graph's entries are written (about a million entries a block)
 _BLOCK = 8192
 
 
+@dataclass(frozen=True)
+class _States:
+    """The numbering of the heading-expanded graph's states over ``n`` vertices with ``k`` heading
+    bins: first every arrival ``arr(v, j) = v·k + j``, then every departure ``dep(v, j) = (n + v)·k + j``,
+    then every hub ``hub(v) = 2nk + v`` (v the vertex's local number).
+
+    Grouped by kind, not by vertex, so that the arrivals' rows (each vertex's cheap turns and the
+    hub, the same for every vertex) and the hubs' rows are one regular block each of the CSR arrays,
+    written by broadcasting where a vertex's rows between its departures were scattered writes:
+    the arrivals and hubs are four fifths of the entries (Campo Grande's searches: 144 of about 180 a
+    vertex). Making the expanded graphs of Campo Grande's 36 captured searches (213 M entries) took
+    7.6 → 3.8 s CPU (session 35, one pair back to back on a loaded machine).
+
+    The distances do not depend on the numbering. Of a state's in-neighbours that attain its
+    distance, scipy's Dijkstra (1.17) takes the one of least distance and, of equal ones, the
+    highest numbered as its predecessor: those in-neighbours are all departures (of an arrival), or one
+    vertex's arrivals and its hub (of a departure or the hub), whose order this numbering and the
+    per-vertex one it replaced (``v·(2k + 1) + slot``) share. So every state keeps its predecessor,
+    ties included, and the routes their bytes (``tests/test_routing_search.py``; a random numbering
+    changes some).
+    """
+
+    n: int  #: vertices
+    k: int  #: heading bins
+
+    @property
+    def size(self) -> int:
+        """States in all: ``n · (2k + 1)``."""
+        return self.n * (2 * self.k + 1)
+
+    def hub(self, v: int) -> int:
+        """The hub state of local vertex ``v`` (where a route starts)."""
+        return 2 * self.n * self.k + int(v)
+
+    def arrivals(self, v: int) -> np.ndarray:
+        """The ``k`` arrival states of local vertex ``v``, bins ascending (where a route ends)."""
+        return int(v) * self.k + np.arange(self.k)
+
+    def vertex(self, states: np.ndarray) -> np.ndarray:
+        """The local vertex of each state."""
+        s = np.asarray(states, dtype=np.int64)
+        nk = self.n * self.k
+        return np.where(s < 2 * nk, (s // self.k) % max(self.n, 1), s - 2 * nk)
+
+    def slot(self, states: np.ndarray) -> np.ndarray:
+        """Each state's place among its vertex's ``2k + 1``: arrivals j, departures ``k + j``, the hub 2k."""
+        s = np.asarray(states, dtype=np.int64)
+        nk = self.n * self.k
+        return np.where(s < nk, s % self.k, np.where(s < 2 * nk, self.k + s % self.k, 2 * self.k))
+
+    def state(self, v: np.ndarray, slot: np.ndarray) -> np.ndarray:
+        """The state of local vertex ``v`` at ``slot`` (:meth:`slot`'s places)."""
+        v, slot = np.asarray(v, dtype=np.int64), np.asarray(slot, dtype=np.int64)
+        k, nk = self.k, self.n * self.k
+        return np.where(slot < k, v * k + slot, np.where(slot < 2 * k, nk + v * k + slot - k, 2 * nk + v))
+
+    def by_vertex(self, values: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Views of a per-state array: ``(n, k)`` arrivals, ``(n, k)`` departures, ``(n,)`` hubs."""
+        nk = self.n * self.k
+        return values[:nk].reshape(self.n, self.k), values[nk:2 * nk].reshape(self.n, self.k), values[2 * nk:]
+
+    def per_state(self, h: np.ndarray) -> np.ndarray:
+        """A per-vertex array spread to every state of its vertex."""
+        return np.concatenate([np.repeat(h, self.k), np.repeat(h, self.k), h])
+
+
 def _expanded_graph(graph: PathGraph, lat: KindMask, extra: np.ndarray, region: np.ndarray, penalties: np.ndarray,
                     k: int) -> tuple[csr_matrix, np.ndarray]:
-    """The heading-expanded graph over ``region`` (sorted; state ``local · (2k + 1) + j``: arrivals
-    j < k, departures k ≤ j < 2k, the hub 2k) and each G′ vertex's local number (−1 outside).
+    """The heading-expanded graph over ``region`` (sorted; states numbered as :class:`_States` says)
+    and each G′ vertex's local number (−1 outside).
 
-    A vertex's ``2k + 1`` rows are consecutive, so its entries are one slice of the CSR arrays:
-    each arrival row holds its cheap turns ``arr(v, i) → dep(v, i + q)`` (P < S_p, q ascending)
+    Each arrival row holds its cheap turns ``arr(v, i) → dep(v, i + q)`` (P < S_p, q ascending)
     and then ``arr(v, i) → hub(v)`` at S_p; each departure row ``dep(u, b)`` its lattice moves
     ``→ arr(w, b)`` (directions ascending) and then its other edges (streets, stitches, long
     bridges; edges ascending); the hub row ``hub(v) → dep(v, j)`` for every j, free. The
-    entries are written block by block of vertices straight to their places (offsets from
-    counts, no sort and no array as long as the graph but the CSR's own: a town's region has
-    10⁷–10⁸ entries, and whole-graph temporaries were the peak of a road year); the lattice
-    moves of a block are generated once (an upper bound of their number sizes the arrays, which
-    are cut to length at the end).
+    arrivals' and hubs' rows are one regular block each, written at once; the departures are
+    written block by block of vertices straight to their places (offsets from counts, no sort
+    and no array as long as the graph but the CSR's own: a town's region has 10⁷–10⁸ entries,
+    and whole-graph temporaries were the peak of a road year); the lattice moves of a block are
+    generated once (an upper bound of their number sizes the arrays, which are cut to length at
+    the end).
     """
     n = len(region)
-    per = 2 * k + 1  # arr 0…k−1, dep k…2k−1, hub 2k
+    states = _States(n, k)
+    nk = n * k
     # state numbers in 32 bits when they fit (the CSR's are anyway)
-    it = np.dtype(np.int32 if n * per < 2**31 else np.int64)
+    it = np.dtype(np.int32 if states.size < 2**31 else np.int64)
     local = np.full(graph.n_vertices, -1, dtype=it)
     local[region] = np.arange(n, dtype=it)
     height = float(penalties.max())
     cheap = np.flatnonzero(penalties < height - 1e-9).astype(it)
     cheap_cost = np.maximum(penalties[cheap], _EPS)
     n_turn = len(cheap) + 1  # entries of an arrival row: the cheap turns and the hub
-    n_arr = k * n_turn  # a vertex's entries before its departures
     i = np.arange(k, dtype=it)
-    turn_cols = (k + (i[:, None] + cheap) % k)  # (k, n_turn − 1) departure slot of each cheap turn
     n_lat, n_dir = lat.shape
     dir_bin = _bins(graph.direction_heading, k).astype(it)
     by_bin = np.argsort(dir_bin, kind="stable")
@@ -676,13 +748,23 @@ def _expanded_graph(graph: PathGraph, lat: KindMask, extra: np.ndarray, region: 
     e_row = local[graph.src[e]].astype(np.int64) * k + e_bin
     order = np.argsort(e_row, kind="stable")
     e_row, e = e_row[order], e[order]
-    e_col = local[graph.dst[e]] * per + e_bin[order]
+    e_col = local[graph.dst[e]] * k + e_bin[order]  # arr(w, b)
     e_val = graph.weight[e]
-    bound = n * (n_arr + k) + len(e) + int(lat.count_per_row(region[:n_lat_region]).sum())
-    indices = np.empty(bound, dtype=np.int32 if max(n * per, bound) < 2**31 else np.int64)
+    n_arr = nk * n_turn  # the arrivals' entries, first
+    bound = n_arr + nk + len(e) + int(lat.count_per_row(region[:n_lat_region]).sum())
+    indices = np.empty(bound, dtype=np.int32 if max(states.size, bound) < 2**31 else np.int64)
     data = np.empty(bound)
-    dep_count = np.zeros(n * k, dtype=indices.dtype)  # entries of each departure row
-    at = 0  # entries written so far
+    # the arrivals: each row its cheap turns, then the hub
+    cols = indices[:n_arr].reshape(n, k, n_turn)
+    vert = np.arange(n, dtype=it)
+    cols[:, :, :-1] = (nk + (i[:, None] + cheap) % k)[None] + (vert * k)[:, None, None]
+    cols[:, :, -1] = (2 * nk + vert)[:, None]
+    vals = np.empty(n_turn)
+    vals[:-1] = cheap_cost
+    vals[-1] = max(height, _EPS)
+    data[:n_arr].reshape(-1, n_turn)[:] = vals
+    dep_count = np.zeros(nk, dtype=indices.dtype)  # entries of each departure row
+    at = n_arr  # entries written so far
     for a in range(0, n, _BLOCK):
         b = min(a + _BLOCK, n)
         part = region[a:min(b, n_lat_region)]  # the block's lattice vertices
@@ -695,76 +777,57 @@ def _expanded_graph(graph: PathGraph, lat: KindMask, extra: np.ndarray, region: 
             keep = local[v] >= 0
             u, v, d = u[keep], v[keep], d[keep]
             m_row = local[u].astype(np.int64) * k + dir_bin[d]  # non-decreasing
-            m_col = local[v] * per + dir_bin[d]
-            m_val = graph.lat_weight[u, d]
+            m_col = local[v] * k + dir_bin[d]  # arr(v, b)
+            m_val = _lattice_weight(graph, u, d)
         else:
             m_row = np.zeros(0, dtype=np.int64)
             m_col, m_val = np.zeros(0, dtype=it), np.zeros(0)
         lo, hi = np.searchsorted(e_row, [a * k, b * k])
-        o_row = e_row[lo:hi]
-        # a row's moves first, then its other edges: each entry's place in the block's departures
-        m_pos = np.arange(len(m_row)) + np.searchsorted(o_row, m_row, side="left")
-        o_pos = np.arange(len(o_row)) + np.searchsorted(m_row, o_row, side="right")
-        count = (np.bincount(m_row - a * k, minlength=(b - a) * k)
-                 + np.bincount(o_row - a * k, minlength=(b - a) * k))
-        dep_count[a * k:b * k] = count
-        per_vertex = count.reshape(-1, k).sum(axis=1)
-        before = np.cumsum(per_vertex) - per_vertex  # the block's departures before each vertex
-        start = at + np.arange(b - a) * (n_arr + k) + before  # each vertex's first entry
-        # departures: vertex start + its arrivals + its place among the block's departures
-        vert_m, vert_o = m_row // k - a, o_row // k - a
-        pos = start[vert_m] + n_arr + (m_pos - before[vert_m])
-        indices[pos], data[pos] = m_col, m_val
-        pos = start[vert_o] + n_arr + (o_pos - before[vert_o])
-        indices[pos], data[pos] = e_col[lo:hi], e_val[lo:hi]
-        base = (np.arange(a, b, dtype=np.int64) * per).astype(it)
-        # arrivals: each row its cheap turns, then the hub
-        arr_pos = start[:, None] + np.arange(n_arr)
-        cols = np.empty((b - a, k, n_turn), dtype=it)
-        cols[:, :, :-1] = base[:, None, None] + turn_cols
-        cols[:, :, -1] = (base + 2 * k)[:, None]
-        vals = np.empty((k, n_turn))
-        vals[:, :-1] = cheap_cost
-        vals[:, -1] = max(height, _EPS)
-        indices[arr_pos] = cols.reshape(b - a, n_arr)
-        data[arr_pos] = np.broadcast_to(vals.ravel(), (b - a, n_arr))
-        # the hub: every departure, free
-        hub_pos = (start + n_arr + per_vertex)[:, None] + i
-        indices[hub_pos] = base[:, None] + k + i
-        data[hub_pos] = _EPS
-        at += (b - a) * (n_arr + k) + int(per_vertex.sum())
+        o_row = e_row[lo:hi] - a * k
+        m_row -= a * k
+        m_count = np.bincount(m_row, minlength=(b - a) * k)
+        o_count = np.bincount(o_row, minlength=(b - a) * k)
+        # a row's moves first, then its other edges: each entry's place among the block's departures is
+        # its place among its own kind plus the other kind's entries before it (a gather from the
+        # counts, where two binary searches of every move took as long as writing them)
+        m_pos = at + np.arange(len(m_row)) + (np.cumsum(o_count) - o_count)[m_row]
+        o_pos = at + np.arange(len(o_row)) + np.cumsum(m_count)[o_row]
+        indices[m_pos], data[m_pos] = m_col, m_val
+        indices[o_pos], data[o_pos] = e_col[lo:hi], e_val[lo:hi]
+        dep_count[a * k:b * k] = m_count + o_count
+        at += len(m_row) + len(o_row)
+    # the hubs: every departure, free
+    indices[at:at + nk] = nk + np.arange(nk, dtype=indices.dtype)
+    data[at:at + nk] = _EPS
+    at += nk
     indices.resize(at, refcheck=False)
     data.resize(at, refcheck=False)
     # the row pointers in the indices' type (32 bits while the bound fits: ``at`` ≤ it), which the CSR
     # keeps as they are: made in 64 bits, they and the row lengths were two temporaries of 8 bytes a
     # state next to the CSR, and scipy copied them to 32 bits (the synthetic 10,000-street town's
     # last tiled search, 22.5 M states: 450 MB of the road year's peak)
-    lengths = np.empty((n, per), dtype=indices.dtype)
-    lengths[:, :k] = n_turn
-    lengths[:, k:2 * k] = dep_count.reshape(n, k)
-    lengths[:, 2 * k] = k
+    indptr = np.empty(states.size + 1, dtype=indices.dtype)
+    indptr[0] = 0
+    indptr[1:nk + 1] = n_turn
+    indptr[nk + 1:2 * nk + 1] = dep_count
+    indptr[2 * nk + 1:] = k
     del dep_count
-    indptr = np.zeros(n * per + 1, dtype=indices.dtype)
-    np.cumsum(lengths.ravel(), dtype=indices.dtype, out=indptr[1:])
-    del lengths
-    return csr_matrix((data, indices, indptr), shape=(n * per, n * per)), local
+    np.cumsum(indptr, dtype=indices.dtype, out=indptr)
+    return csr_matrix((data, indices, indptr), shape=(states.size, states.size)), local
 
 
 def _expanded_search(graph: PathGraph, lat: KindMask, extra: np.ndarray, region: np.ndarray, source: int,
                      target: int, penalties: np.ndarray, k: int, limit: float) -> tuple[list[int], float] | None:
     """Dijkstra on the heading-expanded graph over ``region``; the vertex path and its cost (over every
     vertex: the reference the tests hold :func:`_tiled_search` to)."""
-    n = len(region)
-    per = 2 * k + 1
+    states = _States(len(region), k)
     expanded, local = _expanded_graph(graph, lat, extra, region, penalties, k)
-    i = np.arange(k, dtype=local.dtype)
-    start = local[source] * per + 2 * k
-    dist, pred = dijkstra(expanded, indices=start, return_predecessors=True, limit=limit + 2 * n * _EPS)
-    arrivals = local[target] * per + i
-    best = int(arrivals[np.argmin(dist[arrivals])])
+    start = states.hub(local[source])
+    dist, pred = dijkstra(expanded, indices=start, return_predecessors=True, limit=limit + 2 * states.n * _EPS)
+    best = _target_end(dist, states, int(local[target]))
     if not np.isfinite(dist[best]):
         return None
-    return _vertex_path(pred, start, best, region, per), float(dist[best])
+    return _vertex_path(pred, start, best, region, states), float(dist[best])
 
 
 def _turn_floor(penalties: np.ndarray) -> np.ndarray:
@@ -877,10 +940,10 @@ def _dilated(tiles: np.ndarray, shape: tuple[int, int]) -> np.ndarray:
     return binary_dilation(tiles.reshape(shape), structure=np.ones((3, 3), dtype=bool)).ravel()
 
 
-def _vertex_path(pred: np.ndarray, start: int, end: int, verts: np.ndarray, per: int) -> list[int]:
+def _vertex_path(pred: np.ndarray, start: int, end: int, verts: np.ndarray, states: _States) -> list[int]:
     """The G′ vertices of the expanded states' path from ``start`` to ``end`` (``verts``: the expanded
-    graph's vertices; ``per`` states each), a vertex once where its arrival and departure follow."""
-    vertices = verts[np.asarray(_walk_back(pred, start, end)) // per]
+    graph's vertices, numbered by ``states``), a vertex once where its arrival and departure follow."""
+    vertices = verts[states.vertex(np.asarray(_walk_back(pred, start, end)))]
     keep = np.ones(len(vertices), dtype=bool)
     keep[1:] = vertices[1:] != vertices[:-1]
     return vertices[keep].tolist()
@@ -891,9 +954,9 @@ def _vertex_path(pred: np.ndarray, start: int, end: int, verts: np.ndarray, per:
 _SHRINK = 1e-6
 
 
-def _reduced(expanded: csr_matrix, h: np.ndarray, per: int) -> csr_matrix:
-    """The expanded graph with A*'s reduced costs ``c(a, b) + h(b) − h(a)`` (``h`` per vertex, ``per``
-    states each), in place.
+def _reduced(expanded: csr_matrix, h: np.ndarray, states: _States) -> csr_matrix:
+    """The expanded graph (or its transpose) with A*'s reduced costs ``c(a, b) + h(b) − h(a)`` (``h``
+    per vertex, its states numbered by ``states``), in place.
 
     With ``h`` consistent (``h(u) ≤ c(u, w) + h(w)`` for every edge; turns cost ≥ 0 and share
     their vertex's h) the reduced costs are not negative, and Dijkstra on them settles the states
@@ -901,12 +964,14 @@ def _reduced(expanded: csr_matrix, h: np.ndarray, per: int) -> csr_matrix:
     (``g`` is the distance found plus ``h(state) − h(source)``). A cost that rounding made
     slightly negative is taken as the least positive one (``_EPS``, like the free edges).
     """
-    starts = expanded.indptr[::per]  # each vertex's first entry (its rows are consecutive)
-    for a in range(0, len(h), _BLOCK):
-        b = min(a + _BLOCK, len(h))
-        lo, hi = int(starts[a]), int(starts[b])
+    h_state = states.per_state(h)
+    indptr = expanded.indptr
+    rows = _BLOCK * (2 * states.k + 1)  # a block of rows: about as many entries as a block of vertices had
+    for a in range(0, states.size, rows):
+        b = min(a + rows, states.size)
+        lo, hi = int(indptr[a]), int(indptr[b])
         part = expanded.data[lo:hi]
-        part += h[expanded.indices[lo:hi] // per] - np.repeat(h[a:b], np.diff(starts[a:b + 1]))
+        part += h_state[expanded.indices[lo:hi]] - np.repeat(h_state[a:b], np.diff(indptr[a:b + 1]))
         np.maximum(part, _EPS, out=part)
     return expanded
 
@@ -918,11 +983,12 @@ def _summed_cost(graph: PathGraph, lat: KindMask, extra: np.ndarray, verts: np.n
     path's vertices alone holds the very same entries between them, so the sum is the same to the
     last bit. A copy of the searched graph's weights kept for this (session 34's first A* default)
     was 1.2 GB of the synthetic 10,000-street town's first road year (153 M entries)."""
-    per = 2 * k + 1
+    big = _States(len(verts), k)
     path = np.asarray(states, dtype=np.int64)
-    vertex = verts[path // per]
-    small, local = _expanded_graph(graph, lat, extra, np.unique(vertex), penalties, k)
-    return _path_cost(small, small.data, (local[vertex].astype(np.int64) * per + path % per).tolist())
+    vertex = verts[big.vertex(path)]
+    on = np.unique(vertex)
+    small, local = _expanded_graph(graph, lat, extra, on, penalties, k)
+    return _path_cost(small, small.data, _States(len(on), k).state(local[vertex], big.slot(path)).tolist())
 
 
 def _path_cost(expanded: csr_matrix, raw: np.ndarray, states: list[int]) -> float:
@@ -936,17 +1002,17 @@ def _path_cost(expanded: csr_matrix, raw: np.ndarray, states: list[int]) -> floa
     return total
 
 
-def _target_end(dist: np.ndarray, target: int, per: int, k: int) -> int:
+def _target_end(dist: np.ndarray, states: _States, target: int) -> int:
     """The target's cheapest arrival state, the first of equal ones (``target``: its local number;
-    its arrivals are the first ``k`` of its ``per`` states): where a route search walks back from."""
-    ends = target * per + np.arange(k)
+    its arrivals in bin order): where a route search walks back from."""
+    ends = states.arrivals(target)
     return int(ends[np.argmin(dist[ends])])
 
 
-def _cheaper_end(dist: np.ndarray, target: int, per: int, k: int, cost: float) -> int | None:
+def _cheaper_end(dist: np.ndarray, states: _States, target: int, cost: float) -> int | None:
     """:func:`_target_end` when its distance is below ``cost`` (the best so far), else None: one
     test for both of :func:`_tiled_search`'s route searches."""
-    end = _target_end(dist, target, per, k)
+    end = _target_end(dist, states, target)
     return end if dist[end] < cost else None
 
 
@@ -1002,7 +1068,6 @@ def _tiled_search(graph: PathGraph, lat: KindMask, extra: np.ndarray, source: in
         The best route and its cost (``best`` when none is cheaper), and the exits' arrival costs.
     """
     k = opts.heading_bins
-    per = 2 * k + 1
     tile, shape, active = _first_tiles(graph, opts.tile_cells, seed)
     at_once = np.count_nonzero(lower <= best[1] + 1e-9 * best[1] + 1e-6) <= opts.whole_region
     if at_once:
@@ -1028,42 +1093,46 @@ def _tiled_search(graph: PathGraph, lat: KindMask, extra: np.ndarray, source: in
         inside = region & active[tile]
         verts = np.flatnonzero(inside)
         expanded, local = _expanded_graph(graph, lat, extra, verts, penalties, k)
-        slack = 2 * len(verts) * per * _EPS
-        start = int(local[source]) * per + 2 * k
+        states = _States(len(verts), k)
+        slack = 2 * states.size * _EPS
+        start = states.hub(local[source])
         if astar:  # A* (reduced costs): the exits' search, or a route's with ``route_astar``
             ha = h[verts] * (1.0 - _SHRINK)
             hs = float(ha[local[source]])
             seek = target is not None and local[target] >= 0
-            found = dijkstra(_reduced(expanded, ha, per), indices=start, limit=cost - hs + slack,
+            found = dijkstra(_reduced(expanded, ha, states), indices=start, limit=cost - hs + slack,
                              return_predecessors=seek)
             dist, pred = found if seek else (found, None)
-            dist.reshape(-1, per)[:] += (hs - ha)[:, None]  # g = distance + h(state) − h(source)
+            arrive, depart, hub = states.by_vertex(dist)  # g = distance + h(state) − h(source)
+            arrive += (hs - ha)[:, None]
+            depart += (hs - ha)[:, None]
+            hub += hs - ha
             if seek and pred is not None:
-                end = _cheaper_end(dist, int(local[target]), per, k, cost)
+                end = _cheaper_end(dist, states, int(local[target]), cost)
                 if end is not None:
                     total = _summed_cost(graph, lat, extra, verts, _walk_back(pred, start, end), penalties, k)
                     if total < cost:
-                        best = (_vertex_path(pred, start, end, verts, per), total)
+                        best = (_vertex_path(pred, start, end, verts, states), total)
                         cost = best[1]
             del expanded
         else:
             dist, pred = dijkstra(expanded, indices=start, return_predecessors=True, limit=cost + slack)
             del expanded
             if target is not None and local[target] >= 0:
-                end = _cheaper_end(dist, int(local[target]), per, k, cost)
+                end = _cheaper_end(dist, states, int(local[target]), cost)
                 if end is not None:
-                    best = (_vertex_path(pred, start, end, verts, per), float(dist[end]))
+                    best = (_vertex_path(pred, start, end, verts, states), float(dist[end]))
                     cost = best[1]
             del pred
         if exits is not None:
             at = local[exits].astype(np.int64)
-            arrivals = np.where(at >= 0, dist.reshape(-1, per)[np.maximum(at, 0), :k].min(axis=1), np.inf)
+            arrivals = np.where(at >= 0, states.by_vertex(dist)[0][np.maximum(at, 0)].min(axis=1), np.inf)
             arrivals[exits == source] = 0.0
             arrivals = np.maximum(arrivals - slack, 0.0)
         if at_once:  # the whole region was searched: no edge leaves the active set, nothing can grow
             return best, arrivals
         threshold = cost - 1e-9 * cost
-        departs = dist.reshape(-1, per)[:, k:2 * k]
+        departs = states.by_vertex(dist)[1]
         outside = region & ~inside
         # lattice edges out of the vertices that may still lead somewhere below C
         open_ = verts[(verts < n_lat) & (departs.min(axis=1) + h[verts] < threshold)]
@@ -1075,7 +1144,7 @@ def _tiled_search(graph: PathGraph, lat: KindMask, extra: np.ndarray, source: in
             w = u[r] + offset[d]
             out = outside[w]
             r, d, w = r[out], d[out], w[out]
-            lb = departs[local[u[r]], dir_bin[d]] + graph.lat_weight[u[r], d] + h[w]
+            lb = departs[local[u[r]], dir_bin[d]] + _lattice_weight(graph, u[r], d) + h[w]
             if turns:
                 lb += _turns_needed(need, dir_bin[d], graph.xy[w], goal)
             reached.append(w[lb < threshold])
@@ -1148,7 +1217,6 @@ def _backward_route(graph: PathGraph, lat: KindMask, extra: np.ndarray, source: 
         Dijkstra does not confirm the cost found.
     """
     k = opts.heading_bins
-    per = 2 * k + 1
     tile, shape, active = _first_tiles(graph, opts.backward_tile_cells, seed)
     lower = from_source + from_target
     n_lat = lat.shape[0]
@@ -1158,7 +1226,6 @@ def _backward_route(graph: PathGraph, lat: KindMask, extra: np.ndarray, source: 
     need = _turn_floor(penalties) if opts.turn_floor and k % 2 == 0 else np.zeros(1)
     turns = bool(need.any())
     goal = graph.xy[source]
-    arange_k = np.arange(k)
     upper = best[1]  # the least cost found so far (its route is searched at the end)
     while True:
         cost = upper
@@ -1166,22 +1233,23 @@ def _backward_route(graph: PathGraph, lat: KindMask, extra: np.ndarray, source: 
         inside = region & active[tile]
         verts = np.flatnonzero(inside)
         expanded, local = _expanded_graph(graph, lat, extra, verts, penalties, k)
-        slack = 2 * len(verts) * per * _EPS
-        back = expanded.T.tocsr()  # the reversed graph: its rows are still each vertex's states in turn
+        states = _States(len(verts), k)
+        slack = 2 * states.size * _EPS
+        back = expanded.T.tocsr()  # the reversed graph, the same states
         del expanded
         ha = from_source[verts] * (1.0 - _SHRINK)
         ht = float(ha[local[target]])
-        ends = int(local[target]) * per + arange_k
-        dist = dijkstra(_reduced(back, ha, per), indices=ends, min_only=True, limit=cost - ht + slack)
+        ends = states.arrivals(local[target])
+        dist = dijkstra(_reduced(back, ha, states), indices=ends, min_only=True, limit=cost - ht + slack)
         del back
-        to_target = dist.reshape(-1, per)
-        to_target += (ht - ha)[:, None]  # b = distance − h(state) + h(target)
-        start = int(local[source]) * per + 2 * k
-        found = float(to_target.ravel()[start])
+        to_target = states.by_vertex(dist)  # b = distance − h(state) + h(target): arrivals, departures, hubs
+        for part in to_target:
+            part += (ht - ha)[:, None] if part.ndim == 2 else ht - ha
+        found = float(to_target[2][local[source]])
         if found < cost - slack:
             cost = upper = found
         threshold = cost - 1e-9 * cost
-        arrive = np.maximum(to_target[:, :k] - slack, 0.0)  # b(arr(w, q)), never above the exact cost
+        arrive = np.maximum(to_target[0] - slack, 0.0)  # b(arr(w, q)), never above the exact cost
         outside = region & ~inside
         # lattice edges u → w into the vertices that may still be on a route below C, from outside
         open_ = verts[(verts < n_lat) & (arrive.min(axis=1) + from_source[verts] < threshold)]
@@ -1194,7 +1262,7 @@ def _backward_route(graph: PathGraph, lat: KindMask, extra: np.ndarray, source: 
             r, d, u = r[ok], d[ok], u[ok]
             ok = outside[u] & lat[u, d]
             r, d, u = r[ok], d[ok], u[ok]
-            lb = from_source[u] + graph.lat_weight[u, d] + arrive[local[w[r]], dir_bin[d]]
+            lb = from_source[u] + _lattice_weight(graph, u, d) + arrive[local[w[r]], dir_bin[d]]
             if turns:
                 lb += _turns_needed(need, (dir_bin[d] + k // 2) % k, graph.xy[w[r]], goal)
             reached.append(u[lb < threshold])
@@ -1211,20 +1279,22 @@ def _backward_route(graph: PathGraph, lat: KindMask, extra: np.ndarray, source: 
     if not cost < best[1]:
         return best
     # the vertices with a state that may lie on a best route: d_s(v) + b(state) ≤ C
-    near = (to_target + from_source[verts][:, None]).min(axis=1) <= cost + 1e-9 * cost + 1e-6 + slack
-    on = verts[near]
-    del dist, to_target, arrive
+    fs = from_source[verts]
+    least = np.minimum(np.minimum((to_target[0] + fs[:, None]).min(axis=1), (to_target[1] + fs[:, None]).min(axis=1)),
+                       to_target[2] + fs)
+    on = verts[least <= cost + 1e-9 * cost + 1e-6 + slack]
+    del dist, to_target, arrive, least
     expanded, local = _expanded_graph(graph, lat, extra, on, penalties, k)
-    start = int(local[source]) * per + 2 * k
-    tolerance = 2 * len(on) * per * _EPS + 1e-9 * cost + 1e-6
+    states = _States(len(on), k)
+    start = states.hub(local[source])
+    tolerance = 2 * states.size * _EPS + 1e-9 * cost + 1e-6
     forward, pred = dijkstra(expanded, indices=start, return_predecessors=True, limit=cost + tolerance)
-    ends = int(local[target]) * per + arange_k
-    end = int(ends[np.argmin(forward[ends])])
+    end = _target_end(forward, states, int(local[target]))
     if not forward[end] <= cost + tolerance:
         return None  # the backward search's cost is not confirmed: the caller searches forwards
     if not forward[end] < best[1]:
         return best
-    return _vertex_path(pred, start, end, on, per), float(forward[end])
+    return _vertex_path(pred, start, end, on, states), float(forward[end])
 
 
 def route_over_major_roads(graph: PathGraph, source: int, target: int, *, demand: float = 0.0,
