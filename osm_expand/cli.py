@@ -26,7 +26,6 @@ from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import NoReturn
 
-from osm_expand.allocator import keep_freed_memory  # process state, set by the main command only
 from osm_expand.app import (
     CLIP_ARGUMENTS,
     EXPAND_ARGUMENTS,
@@ -326,10 +325,7 @@ def _compare_text(a: Path, b: Path, report: dict) -> str:
 def cmd_expand(args: argparse.Namespace, log: Progress) -> dict:
     """The main command: one :func:`osm_expand.app.run_expand` with this command line's options, with the
     cyclic collector paused (:mod:`osm_expand.gcpause`: the engine's years make almost no cyclic garbage, and
-    the collector's walks over the live town were 4.2 s of Campo Grande's default run), and the memory the
-    engine frees kept for its next arrays (:mod:`osm_expand.allocator`: their page faults were most of the
-    run's system time)."""
-    keep_freed_memory()
+    the collector's walks over the live town were 4.2 s of Campo Grande's default run)."""
     with cyclic_gc_paused():
         return run_expand(ExpandRequest.from_namespace(args), progress=log, stages=log.add_stages)
 
