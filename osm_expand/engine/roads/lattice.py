@@ -273,6 +273,11 @@ class LatticeWeights:
         code = self.kind[rows].astype(np.int32) * n_dir + np.arange(n_dir, dtype=np.int32)
         return self._table64[code[mask]]
 
+    def entries(self, kind: np.ndarray, direction: np.ndarray) -> np.ndarray:
+        """The costs of entries of the given kinds along the given directions, as :meth:`masked`'s
+        (float64, the float32 values exactly): where only the live entries' kinds are read."""
+        return self._table64[kind.astype(np.intp) * self.kind.shape[1] + direction]
+
     def __array__(self, dtype=None, copy=None) -> np.ndarray:
         out = self[:]
         return out if dtype is None else out.astype(dtype)
