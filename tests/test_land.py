@@ -220,6 +220,57 @@ def test_each_union_of_survey_discs_is_made_once_with_the_same_land(monkeypatch)
     assert shapely.to_wkb(cut).tolist() == shapely.to_wkb(_less_piece_by_piece(claimed, discs)).tolist()
 
 
+def _kept(geoms: np.ndarray, keep: float) -> list[list[bytes]]:
+    """Per geometry, its polygons of at least ``keep`` m² as WKB: what :func:`read_land` keeps of a cut."""
+    out = []
+    for g in geoms.tolist():
+        parts = shapely.get_parts(g)
+        parts = parts[(shapely.get_type_id(parts) == 3) & (shapely.area(parts) >= keep)]
+        out.append(shapely.to_wkb(parts).tolist())
+    return out
+
+
+def test_a_piece_the_survey_discs_cover_makes_no_union_and_loses_no_kept_land(monkeypatch):
+    """Half of Krems' frontage lies under the survey discs: with ``keep`` (the pieces the caller keeps,
+    m²) such a piece is an empty polygon without the union of its discs, and every polygon of ``keep`` m²
+    or more is the very one (to the bit) a union per piece cuts."""
+    import osm_expand.land as land_module
+
+    city = town("krems.osm.gz")
+    keep = LandOptions().min_piece
+    footprints = np.array([b.polygon for b in city.buildings], dtype=object)
+    discs = shapely.buffer(footprints, LandOptions().survey_radius, quad_segs=4)
+    claimed = read_land(city).town[:-len(footprints)]  # the frontage and settlement, before the cut
+    made: list[int] = []
+    union_all = shapely.union_all
+    monkeypatch.setattr(land_module.shapely, "union_all", lambda g, **k: made.append(len(g)) or union_all(g, **k))
+    cut = land_module._less(claimed, discs, keep=keep)
+    with_keep = len(made)
+    made.clear()
+    land_module._less(claimed, discs)
+    monkeypatch.setattr(land_module.shapely, "union_all", union_all)
+    assert with_keep < 0.7 * len(made)  # Krems: 222 unions made, where 525 were
+    emptied = shapely.is_empty(cut) & ~shapely.is_empty(claimed)
+    assert emptied.sum() > 0.4 * len(claimed)
+    assert _kept(cut, keep) == _kept(_less_piece_by_piece(claimed, discs), keep)
+
+
+def test_a_piece_is_emptied_only_when_its_holes_cover_it():
+    """Two discs that cover a box between them empty it; one that leaves a corner of it does not, and its
+    cut is the plain difference."""
+    import osm_expand.land as land_module
+
+    discs = shapely.buffer(shapely.points([(0.0, 0.0), (20.0, 0.0)]), 15.0)
+    covered, corner = shapely.box(-5, -5, 25, 5), shapely.box(-5, -5, 40, 5)
+    cut = land_module._less(np.array([covered, corner], dtype=object), discs, keep=10.0)
+    assert cut[0].is_empty
+    assert cut[1].area >= 10.0
+    assert cut[1].equals_exact(shapely.difference(corner, shapely.union_all(discs)), 0.0)
+    plain = land_module._less(np.array([covered], dtype=object), discs)[0]  # keep 0: always the union's cut
+    assert plain.equals_exact(shapely.difference(covered, shapely.union_all(discs)), 0.0)
+    assert land_module._covered(covered, discs, 1.0) and not land_module._covered(corner, discs, 1.0)
+
+
 def test_the_default_finds_no_dead_ends_and_caps_on_do(monkeypatch):
     """Finding 14 of session 31: with ``dead_end_open_deg`` None (the default) no tree over the strips
     is built to find the dead ends (they would have no caps); with it set, it is."""

@@ -19,6 +19,7 @@ land use). The XSD ships with the package (``osm_expand/schemas``).
 from __future__ import annotations
 
 import os
+from collections.abc import Sequence
 from importlib import resources
 
 import numpy as np
@@ -28,7 +29,7 @@ from lxml import etree
 from osm_expand.export.atomic import atomic_write
 from osm_expand.export.features import street_tags, xml_attrs
 from osm_expand.model import Block, Building, City, Lot, Origin, Street
-from osm_expand.model.geometry import minimum_rectangle
+from osm_expand.model.geometry import minimum_rectangles
 from osm_expand.model.segments import is_major, street_width
 
 #: A building with no height gets this one (m); :mod:`osm_expand.heights` fills heights before export.
@@ -104,10 +105,16 @@ def _outline(tag: str, attrs: dict[str, str], polygon: shapely.Polygon) -> etree
 def four_corners(b: Building) -> np.ndarray | None:
     """The four corners the XML gives a building: its footprint when that is a rectangle already
     (generated ones), else the minimum rotated rectangle; None when it has no area."""
-    ring = np.asarray(b.ring, dtype=float)
-    if b.origin != Origin.SOURCE and len(ring) == 5:
-        return ring[:4]
-    return minimum_rectangle(ring)
+    return _corners_of([b])[0]
+
+
+def _corners_of(buildings: Sequence[Building]) -> list[np.ndarray | None]:
+    """:func:`four_corners` of each building, the minimum rectangles made in one batch
+    (:func:`~osm_expand.model.geometry.minimum_rectangles`)."""
+    rings = [np.asarray(b.ring, dtype=float) for b in buildings]
+    own = [b.origin != Origin.SOURCE and len(ring) == 5 for b, ring in zip(buildings, rings)]
+    made = iter(minimum_rectangles([ring for ring, o in zip(rings, own) if not o]))
+    return [ring[:4] if o else next(made) for ring, o in zip(rings, own)]
 
 
 def write_urbanenvironment(city: City, path: str | os.PathLike) -> None:
@@ -126,9 +133,11 @@ def write_urbanenvironment(city: City, path: str | os.PathLike) -> None:
                         etree.SubElement(el, "segment", x1=_fmt(x1), y1=_fmt(y1), x2=_fmt(x2), y2=_fmt(y2))
                     xf.write(el)
             with xf.element("buildings"):
-                for b in city.buildings:
-                    corners = four_corners(b)
-                    if corners is None or shapely.Polygon(corners).area < 1.0:
+                all_corners = _corners_of(city.buildings)
+                shaped = [c for c in all_corners if c is not None]
+                areas = iter(shapely.area(shapely.polygons(np.array(shaped))).tolist() if shaped else [])
+                for b, corners in zip(city.buildings, all_corners):
+                    if corners is None or next(areas) < 1.0:
                         continue  # a footprint without area (a mapping error) has no rectangle
                     el = etree.Element("building", _building_attrs(b))
                     for x, y in corners:

@@ -267,6 +267,48 @@ def minimum_rectangle(ring: np.ndarray) -> np.ndarray | None:
     return _rectangle_around(hull)
 
 
+def minimum_rectangles(rings: Sequence[np.ndarray]) -> list[np.ndarray | None]:
+    """:func:`minimum_rectangle` of each of ``rings``, the same to the bit, with the distinct corners and
+    their hulls made in one GEOS call for all: one call per footprint (four GEOS calls and a sort each) was
+    most of the XML writer's time on Krems' 1,306 buildings.
+
+    Parameters
+    ----------
+    rings : sequence of (n_i, 2) float arrays
+        Footprints' outer rings in metres (closed or not).
+
+    Returns
+    -------
+    list of (4, 2) float arrays or None
+        In the order of ``rings``.
+    """
+    if not len(rings):
+        return []
+    sizes = np.array([len(r) for r in rings], dtype=np.int64)
+    pts = np.concatenate([np.asarray(r, dtype=float).reshape(-1, 2) for r in rings])
+    owner = np.repeat(np.arange(len(rings)), sizes)
+    # each ring's distinct corners sorted by x, then y (:func:`_unique_rows`), all rings in one sort
+    order = np.lexsort((pts[:, 1], pts[:, 0], owner))
+    pts, owner = pts[order], owner[order]
+    keep = np.ones(len(pts), dtype=bool)
+    keep[1:] = (owner[1:] != owner[:-1]) | np.any(pts[1:] != pts[:-1], axis=1)
+    pts, owner = pts[keep], owner[keep]
+    distinct = np.bincount(owner, minlength=len(rings))
+    asked = distinct >= 3
+    out: list[np.ndarray | None] = [None] * len(rings)
+    if not asked.any():
+        return out
+    mask = asked[owner]
+    which = np.flatnonzero(asked)
+    clouds = shapely.multipoints(pts[mask], indices=np.searchsorted(which, owner[mask]))
+    hulls = shapely.get_exterior_ring(shapely.convex_hull(clouds))  # None where a hull is a line or a point
+    coords, index = shapely.get_coordinates(hulls, return_index=True)
+    starts = np.searchsorted(index, np.arange(len(which) + 1))
+    for j, k in enumerate(which.tolist()):
+        out[k] = _rectangle_around(coords[starts[j]:starts[j + 1]])
+    return out
+
+
 def _rectangle_around(hull: np.ndarray) -> np.ndarray | None:
     """The minimum-area rectangle around a closed convex hull ring (``(h, 2)``, first point repeated last), one
     of its edges lying on a side (the rotating-calipers fact), or None when the hull has no area."""
