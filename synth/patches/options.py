@@ -192,6 +192,22 @@ class PatchOptions:
     #: 8.6), Andorra 4 7 -> 4 7 (5.3 -> 4.3), Monaco 1 3 -> 5 7 (8.6 -> 8.3): fewer Ls, the same curvature
     #: verdict, and Monaco's jagged edge laid as streets (session 34, h34n).
     ring_streets: bool = False
+    #: Read a seam transition's turn (its probability and the ``seam_turn`` bound) as the street's turn through
+    #: the link (:func:`~synth.patches.seams._link_turn`: from the first street onto the straight line between
+    #: the cut ends, and from it onto the second), not only as the angle between the two cut streets. Why: two
+    #: streets that run the same way a few metres apart sideways read as a straight continuation by that
+    #: angle, and the link laid between them is a jog the yardstick reads as bends at both joints (the seam
+    #: links' joints: median 29-31° per 20 m chord on Krems' and north-bayreuth's engine districts, seed 0,
+    #: ``benchmarks/stitching_bends.py``). MEASURED: see the README (h35b).
+    seam_link_turn: bool = False
+    #: The cul-de-sacs the district keeps of its cut streets (``_stub_budget``: as many as its town's
+    #: neighbourhoods' dead-end share allows) are first those whose trimming would leave their junction an L
+    #: (:func:`~synth.patches.topology._leaves_bend`: a node of degree two turning more than 45°), then, as
+    #: without it, those nearest the town's median cul-de-sac length. Why: a tee of the town whose arm a seam
+    #: cut, trimmed back, is read by the yardstick as one street bending at a right angle; kept as a
+    #: cul-de-sac it stays the town's tee, and the district keeps the same number of dead ends.
+    #: MEASURED: see the README (h35b).
+    stubs_at_bends: bool = False
     #: A cut end left over runs on this many spacings to meet a street in a tee ...
     tee_reach: float = 0.6
     #: ... meeting it at this angle or more (degrees).
@@ -236,6 +252,10 @@ class PatchOptions:
         if turn is not None and not (is_real_number(turn) and 0 < turn <= 180):
             raise OptionError(f"PatchOptions.near_join must be a turn in degrees, > 0 and <= 180, or unset, "
                               f"got {turn!r}")
+        if not isinstance(self.seam_link_turn, bool):
+            raise OptionError(f"PatchOptions.seam_link_turn must be true or false, got {self.seam_link_turn!r}")
+        if not isinstance(self.stubs_at_bends, bool):
+            raise OptionError(f"PatchOptions.stubs_at_bends must be true or false, got {self.stubs_at_bends!r}")
         if not isinstance(self.ring_streets, bool):
             raise OptionError(f"PatchOptions.ring_streets must be true or false, got {self.ring_streets!r}")
         if not isinstance(self.roads_out_open, bool):  # a history's "false" is a string, which Python reads as true
