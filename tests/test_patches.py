@@ -818,3 +818,22 @@ def test_patch_options_refuse_a_non_boolean_for_the_joint_rules():
     for name in ("seam_link_turn", "stubs_at_bends"):
         with pytest.raises(OptionError, match=name):
             PatchOptions(**{name: "false"})
+
+
+def test_edge_min_run_lays_no_perimeter_street_across_a_sliver():
+    """``edge_min_run``: two cut streets 20 m apart at the site's edge are joined by a perimeter street by
+    default (a sliver of a block with an L at both ends); with a least run of half a spacing they are not, and
+    both cut ends stay open for the trimming. 150 m apart they are joined either way."""
+    from synth.patches.edges import _edge_streets
+
+    region = shapely.box(0.0, 0.0, 400.0, 200.0)
+    far = shapely.LineString([(5000, 5000), (5100, 5000)])
+    for gap, laid in ((20.0, 0), (110.0, 1)):
+        pieces = [[(100.0, 100.0), (100.0, 200.0)], [(100.0 + gap, 100.0), (100.0 + gap, 200.0)]]
+        quilt = _cut_quilt(pieces, [(0, -1), (1, -1)], [0, 1])
+        default, least = copy.deepcopy(quilt), copy.deepcopy(quilt)
+        assert _edge_streets(default, region, 100.0, PatchOptions(), shapely.Polygon(), far) == 1
+        assert _edge_streets(least, region, 100.0, PatchOptions(edge_min_run=0.5), shapely.Polygon(), far) == laid
+        assert len(least.cut_xy) == 2 - 2 * laid
+    with pytest.raises(OptionError, match="edge_min_run"):
+        PatchOptions(edge_min_run=-1.0)

@@ -198,7 +198,16 @@ class PatchOptions:
     #: streets that run the same way a few metres apart sideways read as a straight continuation by that
     #: angle, and the link laid between them is a jog the yardstick reads as bends at both joints (the seam
     #: links' joints: median 29-31° per 20 m chord on Krems' and north-bayreuth's engine districts, seed 0,
-    #: ``benchmarks/stitching_bends.py``). MEASURED: see the README (h35b).
+    #: ``benchmarks/stitching_bends.py``). Off: it makes almost no seam link at all (cut streets seldom face each
+    #: other within 75° so read; the joint-seam chords of the engine districts, seed 0: Krems 21 -> 0,
+    #: north-bayreuth 34 -> 5), the cut ends go to tees, perimeter streets and the trimming instead, and the
+    #: engine's districts move: ``engine_growth.py``, off of 14 per reference, off -> on, seed 0: Krems 1 1 1 -> 1 1
+    #: 2, Andorra 0 0 0 -> 7 9 8, north-bayreuth 5 5 5 -> 2 3 2 (its curvature KS 0.145 -> 0.194, still off),
+    #: Monaco 2 3 3 -> 5 5 5 (2-core 0.862 below range), Campo Grande 4 4 5 -> 7 7 6; seed 1: Krems 3 3 4 -> 0 0 1,
+    #: Andorra 0 0 1 -> 3 2 2, north-bayreuth 3 3 3 -> 5 6 6, Monaco 3 3 2 -> 3 4 4. At the pipeline's own site
+    #: (``district_fidelity.py --seeds 0 1 --same-site``), off of 14 per seed and corners over 45° per km, off ->
+    #: on: Krems 1 0 -> 2 0 (6.8 -> 3.8), north-bayreuth 3 3 -> 4 4 (8.9 -> 9.1), Andorra 4 7 -> 6 2 (5.3 -> 4.3),
+    #: Monaco 1 3 -> 4 3 (8.6 -> 6.4; density out on seed 1) (session 35, h35b).
     seam_link_turn: bool = False
     #: The cul-de-sacs the district keeps of its cut streets (``_stub_budget``: as many as its town's
     #: neighbourhoods' dead-end share allows) are first those whose trimming would leave their junction an L
@@ -208,6 +217,13 @@ class PatchOptions:
     #: cul-de-sac it stays the town's tee, and the district keeps the same number of dead ends.
     #: MEASURED: see the README (h35b).
     stubs_at_bends: bool = False
+    #: When set, spacings: a perimeter street (:mod:`~synth.patches.edges`) shorter along the edge than this is
+    #: not laid, and its two cut ends are left to the trimming. Why: such a run closes a sliver between two cut
+    #: streets, a block narrower than the town's (they are about a junction spacing across), with an L at both
+    #: ends that the yardstick reads as bends (the perimeter streets' joints: median 40° per 20 m chord on Krems'
+    #: engine districts, seed 0, a quarter of its runs under 32 m; ``benchmarks/stitching_bends.py``).
+    #: MEASURED: see below (h35b).
+    edge_min_run: float | None = None
     #: A cut end left over runs on this many spacings to meet a street in a tee ...
     tee_reach: float = 0.6
     #: ... meeting it at this angle or more (degrees).
@@ -248,6 +264,10 @@ class PatchOptions:
         if smoothing is not None and tolerance is not None:  # the smoothed edge replaces the simplified one
             raise OptionError("PatchOptions.edge_smoothing and edge_tolerance are two ways of laying the "
                               "perimeter streets: set one of them")
+        least = self.edge_min_run
+        if least is not None and not (is_real_number(least) and math.isfinite(least) and least > 0):
+            raise OptionError(f"PatchOptions.edge_min_run must be a finite number of spacings > 0 or unset, "
+                              f"got {least!r}")
         turn = self.near_join
         if turn is not None and not (is_real_number(turn) and 0 < turn <= 180):
             raise OptionError(f"PatchOptions.near_join must be a turn in degrees, > 0 and <= 180, or unset, "
