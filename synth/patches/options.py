@@ -220,7 +220,8 @@ class PatchOptions:
     #: 1 2 2 (its curvature KS 0.37 -> 0.30, median 5.2° -> 2.7°, still off), Andorra 0 0 0 -> 1 1 1,
     #: north-bayreuth 5 5 5 -> 5 3 5 (curvature KS 0.145, the same), Monaco 2 3 3 (the same), Campo Grande
     #: 4 4 5 -> 4 4 2 (2-core 0.9644, the same, below range); seed 1: Krems 3 3 4 -> 4 4 4, Andorra 0 0 1 -> 1 1 1,
-    #: north-bayreuth 3 3 3 -> 5 3 3, Monaco 3 3 2 (the same), Campo Grande 4 4 4 -> 1 3 4 (2-core 0.9705 in range, 6 pieces). At the pipeline's own site
+    #: north-bayreuth 3 3 3 -> 5 3 3, Monaco 3 3 2 (the same), Campo Grande 4 4 4 -> 1 3 4 (2-core 0.9705 in
+    #: range, 6 pieces). At the pipeline's own site
     #: (``district_fidelity.py --seeds 0 1 --same-site``), off of 14 per seed and corners over 45° per km, off ->
     #: on: Krems 1 0 -> 1 0 (6.8 -> 5.8), north-bayreuth 3 3 -> 4 3 (8.9 -> 9.4), Andorra 4 7 -> 5 6 (5.3 -> 4.6),
     #: Monaco 1 3 -> 4 1 (8.6 -> 7.0) (session 35, h35b).
@@ -236,7 +237,8 @@ class PatchOptions:
     #: off of 14 per reference, off -> 0.5, seed 0: Krems 1 1 1 -> 2 1 2, Andorra 0 0 0 -> 6 7 6, north-bayreuth
     #: 5 5 5 -> 3 2 2, Monaco 2 3 3 -> 7 7 8 (dead-end share 0.200 above and 2-core 0.770 below range), Campo
     #: Grande 4 4 5 -> 1 2 3 (2-core 0.9705 in range); seed 1: Krems 3 3 4 -> 1 2 3, Andorra 0 0 1 -> 0 1 1,
-    #: north-bayreuth 3 3 3 -> 4 4 4, Monaco 3 3 2 -> 7 8 7 (2-core 0.844 below range), Campo Grande 4 4 4 -> 4 6 6 (2-core 0.9633 below range).
+    #: north-bayreuth 3 3 3 -> 4 4 4, Monaco 3 3 2 -> 7 8 7 (2-core 0.844 below range), Campo Grande 4 4 4 ->
+    #: 4 6 6 (2-core 0.9633 below range).
     #: At the pipeline's own site (``district_fidelity.py --seeds 0 1 --same-site``), off of 14 per seed and
     #: corners over 45° per km, off -> 0.5: Krems 1 0 -> 2 0 (6.8 -> 5.8), north-bayreuth 3 3 -> 2 1 (8.9 -> 5.5),
     #: Andorra 4 7 -> 4 5 (5.3 -> 4.1), Monaco 1 3 -> 4 4 (8.6 -> 6.8) (session 35, h35b).
