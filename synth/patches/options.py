@@ -204,7 +204,8 @@ class PatchOptions:
     #: engine's districts move: ``engine_growth.py``, off of 14 per reference, off -> on, seed 0: Krems 1 1 1 -> 1 1
     #: 2, Andorra 0 0 0 -> 7 9 8, north-bayreuth 5 5 5 -> 2 3 2 (its curvature KS 0.145 -> 0.194, still off),
     #: Monaco 2 3 3 -> 5 5 5 (2-core 0.862 below range), Campo Grande 4 4 5 -> 7 7 6; seed 1: Krems 3 3 4 -> 0 0 1,
-    #: Andorra 0 0 1 -> 3 2 2, north-bayreuth 3 3 3 -> 5 6 6, Monaco 3 3 2 -> 3 4 4. At the pipeline's own site
+    #: Andorra 0 0 1 -> 3 2 2, north-bayreuth 3 3 3 -> 5 6 6, Monaco 3 3 2 -> 3 4 4, Campo Grande 4 4 4 -> 4 4 4.
+    #: At the pipeline's own site
     #: (``district_fidelity.py --seeds 0 1 --same-site``), off of 14 per seed and corners over 45° per km, off ->
     #: on: Krems 1 0 -> 2 0 (6.8 -> 3.8), north-bayreuth 3 3 -> 4 4 (8.9 -> 9.1), Andorra 4 7 -> 6 2 (5.3 -> 4.3),
     #: Monaco 1 3 -> 4 3 (8.6 -> 6.4; density out on seed 1) (session 35, h35b).
