@@ -23,12 +23,21 @@ nodes of degree two per km beside the town's own rate. Session 34's reading (see
 as the town does (north-bayreuth median 1.0-1.6°, Krems 0.3-3.7°); the joints carry most chords over 20°,
 and without them north-bayreuth's KS falls from 0.15 to 0.08.
 
-Usage: ``python benchmarks/stitching_bends.py [--seed N] [TOWN ...]`` (default: Krems and north-bayreuth;
-about 15 s CPU each).
+Session 35 (h35b), seed 0, curvature KS against the town (all chords), off -> on: ``--option
+seam_link_turn=true`` Krems 0.372 -> 0.332, north-bayreuth 0.150 -> 0.194 (almost no seam link is made);
+``--option stubs_at_bends=true`` Krems 0.306, north-bayreuth 0.150; ``--option edge_min_run=0.5`` Krems 0.353,
+north-bayreuth 0.117 (joint-edge chords 46 -> 28). Each moves the engine's districts
+(:class:`synth.patches.PatchOptions`).
+
+Usage: ``python benchmarks/stitching_bends.py [--seed N] [--option NAME=VALUE ...] [TOWN ...]`` (default: Krems and
+north-bayreuth; about 15 s CPU each). ``--option`` (repeatable, a JSON value) sets a :class:`synth.patches.PatchOptions`
+field in every PatchOptions the run makes that does not set it itself (the history's eras take theirs from the
+defaults), e.g. ``--option edge_min_run=0.5``.
 """
 from __future__ import annotations
 
 import argparse
+import json
 from pathlib import Path
 
 import numpy as np
@@ -76,6 +85,20 @@ class Watch:
         return wrapped
 
 
+def _default_patch_options(values: dict) -> None:
+    """Every :class:`~synth.patches.PatchOptions` made from now on takes ``values`` where its caller gives none:
+    the engine's eras read theirs from the defaults, so this is how an option reaches the engine's districts."""
+    from synth.patches import PatchOptions
+
+    made = PatchOptions.__init__
+
+    def init(self, *args, **kwargs) -> None:
+        made(self, *args, **{**values, **kwargs})
+
+    PatchOptions.__init__ = init  # type: ignore[method-assign]
+    print(f"PatchOptions: {values}")
+
+
 def chords(lines: list[np.ndarray]) -> tuple[np.ndarray, np.ndarray]:
     """The yardstick's curvature chords of ``lines`` (:func:`osm_expand.measures.shape._chords`, the same
     edges and rounding): bends (degrees) and the three points of each, ``(K, 3, 2)``."""
@@ -116,7 +139,10 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("towns", nargs="*", default=["krems.osm.gz", "north-bayreuth.osm.gz"])
     ap.add_argument("--seed", type=int, default=0)
+    ap.add_argument("--option", action="append", default=[], metavar="NAME=VALUE")
     args = ap.parse_args()
+    if args.option:
+        _default_patch_options({k: json.loads(v) for k, v in (o.split("=", 1) for o in args.option)})
     watch = Watch()
     from osm_expand.engine.history import load_history
     from osm_expand.fidelity import ks_distance

@@ -764,3 +764,76 @@ def test_a_cells_cut_ends_measured_at_once_are_those_measured_end_by_end(seed, t
     got = _cut_ends(source, move, boundary, pieces)
     assert [xy is p for (xy, _), p in zip(got, pieces)] == [True] * len(pieces)
     assert [c.tolist() for _, c in got] == [[one_by_one(p[0]), one_by_one(p[-1])] for p in pieces]
+
+
+def test_seam_link_turn_reads_a_sideways_jog_as_the_streets_turn_through_the_link():
+    """``seam_link_turn``: two cut streets running the same way, 40 m apart sideways across a 30 m gap, turn 0°
+    against each other, so the default links them (an S, two bends the yardstick reads at the joints); read as
+    the street's turn through the link (53° onto the line between the ends and 53° off it) they are not linked."""
+    quilt = _cut_quilt([[(-100.0, 0.0), (0.0, 0.0)], [(30.0, 40.0), (130.0, 40.0)]], [(0, -1), (1, 0)], [0, 1])
+    far = shapely.LineString([(5000, 5000), (5100, 5000)])
+    default, reading = copy.deepcopy(quilt), copy.deepcopy(quilt)
+    assert _walk_seams(default, 100.0, PatchOptions(), shapely.Polygon(), far) == 1
+    assert _walk_seams(reading, 100.0, PatchOptions(seam_link_turn=True), shapely.Polygon(), far) == 0
+    assert len(reading.cut_xy) == 2  # left open for a tee, the edge or the trimming
+    # in line (a 30 m gap, 5 m sideways): both ways linked
+    quilt = _cut_quilt([[(-100.0, 0.0), (0.0, 0.0)], [(30.0, 5.0), (130.0, 5.0)]], [(0, -1), (1, 0)], [0, 1])
+    assert _walk_seams(quilt, 100.0, PatchOptions(seam_link_turn=True), shapely.Polygon(), far) == 1
+
+
+def test_link_turn_is_the_turn_onto_and_off_the_line_between_the_ends():
+    from synth.patches.seams import _link_turn
+
+    a, b = np.array([[0.0, 0.0], [0.0, 0.0], [0.0, 0.0]]), np.array([[10.0, 10.0], [10.0, 0.0], [0.0, 0.0]])
+    da = np.array([[1.0, 0.0], [1.0, 0.0], [1.0, 0.0]])
+    db = np.array([[-1.0, 0.0], [0.0, 1.0], [0.0, 1.0]])
+    assert _link_turn(a, da, b, db).round(6).tolist() == [90.0, 90.0, 0.0]
+
+
+def _tee_and_cross(**kwargs):
+    """A tee at (0, 0) whose east arm (100 m) is a cut street, its south arm running to a crossing at
+    (0, -100) whose fourth arm south (90 m) is a cut street too; one cul-de-sac may stay (``keep=1``), the
+    town's median cul-de-sac 90 m long. Returns the trimmed network."""
+    lines = [[(-100.0, 0.0), (0.0, 0.0)], [(0.0, 0.0), (100.0, 0.0)], [(0.0, 0.0), (0.0, -100.0)],
+             [(-100.0, -100.0), (0.0, -100.0)], [(0.0, -100.0), (100.0, -100.0)], [(0.0, -100.0), (0.0, -190.0)]]
+    net = network_from_lines(lines)
+    quilt = _Quilt(cut_xy=[np.array([100.0, 0.0]), np.array([0.0, -190.0])])
+    far = shapely.LineString([(5000, 5000), (5100, 5000)])
+    return _trim(net, quilt, edge=far, keep_out=1e9, keep=1, stub=10.0, like=90.0, **kwargs)
+
+
+def test_stubs_at_bends_keeps_the_cul_de_sac_whose_trimming_would_leave_an_l():
+    """``stubs_at_bends``: of two cut streets one may stay. By length alone the crossing's arm stays and the
+    tee's arm goes, leaving the tee an L (a node of degree two turning 90°, read as the street's bend); with
+    the option the tee's arm stays and the crossing's goes (a tee is left): the same dead ends, no L."""
+    default, bends = _tee_and_cross(), _tee_and_cross(bends_first=True)
+    assert corner_turns(default).max() == pytest.approx(90.0)
+    assert corner_turns(bends).size == 0 or corner_turns(bends).max() <= 45.0
+    ends = [int((segment_degree(n.streets, len(n.xy)) == 1).sum()) for n in (default, bends)]
+    assert ends[0] == ends[1]
+    assert default.total_length() == pytest.approx(bends.total_length() - 10.0)
+
+
+def test_patch_options_refuse_a_non_boolean_for_the_joint_rules():
+    for name in ("seam_link_turn", "stubs_at_bends"):
+        with pytest.raises(OptionError, match=name):
+            PatchOptions(**{name: "false"})
+
+
+def test_edge_min_run_lays_no_perimeter_street_across_a_sliver():
+    """``edge_min_run``: two cut streets 20 m apart at the site's edge are joined by a perimeter street by
+    default (a sliver of a block with an L at both ends); with a least run of half a spacing they are not, and
+    both cut ends stay open for the trimming. 150 m apart they are joined either way."""
+    from synth.patches.edges import _edge_streets
+
+    region = shapely.box(0.0, 0.0, 400.0, 200.0)
+    far = shapely.LineString([(5000, 5000), (5100, 5000)])
+    for gap, laid in ((20.0, 0), (110.0, 1)):
+        pieces = [[(100.0, 100.0), (100.0, 200.0)], [(100.0 + gap, 100.0), (100.0 + gap, 200.0)]]
+        quilt = _cut_quilt(pieces, [(0, -1), (1, -1)], [0, 1])
+        default, least = copy.deepcopy(quilt), copy.deepcopy(quilt)
+        assert _edge_streets(default, region, 100.0, PatchOptions(), shapely.Polygon(), far) == 1
+        assert _edge_streets(least, region, 100.0, PatchOptions(edge_min_run=0.5), shapely.Polygon(), far) == laid
+        assert len(least.cut_xy) == 2 - 2 * laid
+    with pytest.raises(OptionError, match="edge_min_run"):
+        PatchOptions(edge_min_run=-1.0)

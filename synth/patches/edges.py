@@ -67,6 +67,8 @@ def _edge_streets(quilt: _Quilt, region: shapely.Geometry, spacing: float, opts:
             along = (where[j] - where[i]) % total
             if along > opts.seam_gap * spacing:
                 continue
+            if opts.edge_min_run is not None and along < opts.edge_min_run * spacing:
+                continue  # a sliver of a block between two Ls, narrower than the town's blocks
             runs.append((a, b, np.vstack([xy[a], _ring_run(ring, float(where[i]), along), xy[b]])))
     # the edge is a union of buffers, jagged at a few metres: a street follows it smoothly, bending as the
     # town's streets bend

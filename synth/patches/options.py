@@ -192,6 +192,58 @@ class PatchOptions:
     #: 8.6), Andorra 4 7 -> 4 7 (5.3 -> 4.3), Monaco 1 3 -> 5 7 (8.6 -> 8.3): fewer Ls, the same curvature
     #: verdict, and Monaco's jagged edge laid as streets (session 34, h34n).
     ring_streets: bool = False
+    #: Read a seam transition's turn (its probability and the ``seam_turn`` bound) as the street's turn through
+    #: the link (:func:`~synth.patches.seams._link_turn`: from the first street onto the straight line between
+    #: the cut ends, and from it onto the second), not only as the angle between the two cut streets. Why: two
+    #: streets that run the same way a few metres apart sideways read as a straight continuation by that
+    #: angle, and the link laid between them is a jog the yardstick reads as bends at both joints (the seam
+    #: links' joints: median 29-31° per 20 m chord on Krems' and north-bayreuth's engine districts, seed 0,
+    #: ``benchmarks/stitching_bends.py``). Off: it makes almost no seam link at all (cut streets seldom face each
+    #: other within 75° so read; the joint-seam chords of the engine districts, seed 0: Krems 21 -> 0,
+    #: north-bayreuth 34 -> 5), the cut ends go to tees, perimeter streets and the trimming instead, and the
+    #: engine's districts move: ``engine_growth.py``, off of 14 per reference, off -> on, seed 0: Krems 1 1 1 -> 1 1
+    #: 2, Andorra 0 0 0 -> 7 9 8, north-bayreuth 5 5 5 -> 2 3 2 (its curvature KS 0.145 -> 0.194, still off),
+    #: Monaco 2 3 3 -> 5 5 5 (2-core 0.862 below range), Campo Grande 4 4 5 -> 7 7 6; seed 1: Krems 3 3 4 -> 0 0 1,
+    #: Andorra 0 0 1 -> 3 2 2, north-bayreuth 3 3 3 -> 5 6 6, Monaco 3 3 2 -> 3 4 4, Campo Grande 4 4 4 -> 4 4 4.
+    #: At the pipeline's own site
+    #: (``district_fidelity.py --seeds 0 1 --same-site``), off of 14 per seed and corners over 45° per km, off ->
+    #: on: Krems 1 0 -> 2 0 (6.8 -> 3.8), north-bayreuth 3 3 -> 4 4 (8.9 -> 9.1), Andorra 4 7 -> 6 2 (5.3 -> 4.3),
+    #: Monaco 1 3 -> 4 3 (8.6 -> 6.4; density out on seed 1) (session 35, h35b).
+    seam_link_turn: bool = False
+    #: The cul-de-sacs the district keeps of its cut streets (``_stub_budget``: as many as its town's
+    #: neighbourhoods' dead-end share allows) are first those whose trimming would leave their junction an L
+    #: (:func:`~synth.patches.topology._leaves_bend`: a node of degree two turning more than 45°), then, as
+    #: without it, those nearest the town's median cul-de-sac length. Why: a tee of the town whose arm a seam
+    #: cut, trimmed back, is read by the yardstick as one street bending at a right angle; kept as a
+    #: cul-de-sac it stays the town's tee, and the district keeps the same number of dead ends. Off: the mildest
+    #: of session 35's joint rules (Monaco's engine streets the same on seed 0), but no town gets within issue
+    #: 20's targets that was not: ``engine_growth.py``, off of 14 per reference, off -> on, seed 0: Krems 1 1 1 ->
+    #: 1 2 2 (its curvature KS 0.37 -> 0.30, median 5.2° -> 2.7°, still off), Andorra 0 0 0 -> 1 1 1,
+    #: north-bayreuth 5 5 5 -> 5 3 5 (curvature KS 0.145, the same), Monaco 2 3 3 (the same), Campo Grande
+    #: 4 4 5 -> 4 4 2 (2-core 0.9644, the same, below range); seed 1: Krems 3 3 4 -> 4 4 4, Andorra 0 0 1 -> 1 1 1,
+    #: north-bayreuth 3 3 3 -> 5 3 3, Monaco 3 3 2 (the same), Campo Grande 4 4 4 -> 1 3 4 (2-core 0.9705 in
+    #: range, 6 pieces). At the pipeline's own site
+    #: (``district_fidelity.py --seeds 0 1 --same-site``), off of 14 per seed and corners over 45° per km, off ->
+    #: on: Krems 1 0 -> 1 0 (6.8 -> 5.8), north-bayreuth 3 3 -> 4 3 (8.9 -> 9.4), Andorra 4 7 -> 5 6 (5.3 -> 4.6),
+    #: Monaco 1 3 -> 4 1 (8.6 -> 7.0) (session 35, h35b).
+    stubs_at_bends: bool = False
+    #: When set, spacings: a perimeter street (:mod:`~synth.patches.edges`) shorter along the edge than this is
+    #: not laid, and its two cut ends are left to the trimming. Why: such a run closes a sliver between two cut
+    #: streets, a block narrower than the town's (they are about a junction spacing across), with an L at both
+    #: ends that the yardstick reads as bends (the perimeter streets' joints: median 40° per 20 m chord on Krems'
+    #: engine districts, seed 0, a quarter of its runs under 32 m; ``benchmarks/stitching_bends.py``).
+    #: Off: at 0.5 it takes a third of the perimeter streets' joints away (``stitching_bends.py``, seed 0, joint-edge
+    #: chords: Krems 45 -> 28, north-bayreuth 46 -> 28; north-bayreuth's curvature KS against its town 0.150 ->
+    #: 0.117) but breaks Monaco on both seeds, whose narrow free land leaves many short runs: ``engine_growth.py``,
+    #: off of 14 per reference, off -> 0.5, seed 0: Krems 1 1 1 -> 2 1 2, Andorra 0 0 0 -> 6 7 6, north-bayreuth
+    #: 5 5 5 -> 3 2 2, Monaco 2 3 3 -> 7 7 8 (dead-end share 0.200 above and 2-core 0.770 below range), Campo
+    #: Grande 4 4 5 -> 1 2 3 (2-core 0.9705 in range); seed 1: Krems 3 3 4 -> 1 2 3, Andorra 0 0 1 -> 0 1 1,
+    #: north-bayreuth 3 3 3 -> 4 4 4, Monaco 3 3 2 -> 7 8 7 (2-core 0.844 below range), Campo Grande 4 4 4 ->
+    #: 4 6 6 (2-core 0.9633 below range).
+    #: At the pipeline's own site (``district_fidelity.py --seeds 0 1 --same-site``), off of 14 per seed and
+    #: corners over 45° per km, off -> 0.5: Krems 1 0 -> 2 0 (6.8 -> 5.8), north-bayreuth 3 3 -> 2 1 (8.9 -> 5.5),
+    #: Andorra 4 7 -> 4 5 (5.3 -> 4.1), Monaco 1 3 -> 4 4 (8.6 -> 6.8) (session 35, h35b).
+    edge_min_run: float | None = None
     #: A cut end left over runs on this many spacings to meet a street in a tee ...
     tee_reach: float = 0.6
     #: ... meeting it at this angle or more (degrees).
@@ -232,10 +284,18 @@ class PatchOptions:
         if smoothing is not None and tolerance is not None:  # the smoothed edge replaces the simplified one
             raise OptionError("PatchOptions.edge_smoothing and edge_tolerance are two ways of laying the "
                               "perimeter streets: set one of them")
+        least = self.edge_min_run
+        if least is not None and not (is_real_number(least) and math.isfinite(least) and least > 0):
+            raise OptionError(f"PatchOptions.edge_min_run must be a finite number of spacings > 0 or unset, "
+                              f"got {least!r}")
         turn = self.near_join
         if turn is not None and not (is_real_number(turn) and 0 < turn <= 180):
             raise OptionError(f"PatchOptions.near_join must be a turn in degrees, > 0 and <= 180, or unset, "
                               f"got {turn!r}")
+        if not isinstance(self.seam_link_turn, bool):
+            raise OptionError(f"PatchOptions.seam_link_turn must be true or false, got {self.seam_link_turn!r}")
+        if not isinstance(self.stubs_at_bends, bool):
+            raise OptionError(f"PatchOptions.stubs_at_bends must be true or false, got {self.stubs_at_bends!r}")
         if not isinstance(self.ring_streets, bool):
             raise OptionError(f"PatchOptions.ring_streets must be true or false, got {self.ring_streets!r}")
         if not isinstance(self.roads_out_open, bool):  # a history's "false" is a string, which Python reads as true

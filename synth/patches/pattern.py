@@ -200,7 +200,7 @@ def _quilt(source: _Source, quilt: _Quilt, centres: np.ndarray, cells: list, reg
         counted = _roads_out(edge, opts)
         stubs, room = _stub_budget(stitched_net, stitched, aim, old, opts.tee_reach * spacing, counted)
         net = _trim(stitched_net, stitched, edge, opts.keep_out * spacing, keep=stubs, stub=STUB_LENGTH * spacing,
-                    room=room, like=aim.cul_de_sac if aim is not None else 0.0)
+                    room=room, like=aim.cul_de_sac if aim is not None else 0.0, bends_first=opts.stubs_at_bends)
         net = _keep_joinable(net, old, spacing, opts)
         net = _connect_pieces(net, old, occupied, opts.link_reach * spacing)
         net = _without_scraps(net, opts.min_land * spacing)

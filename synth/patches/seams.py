@@ -7,6 +7,7 @@ import shapely
 import shapely.ops
 from scipy.spatial import cKDTree
 
+from osm_expand.model import turn_angles
 from synth.patches.options import PatchOptions
 from synth.patches.quilt import _Board, _close, _lay, _meet, _Quilt
 
@@ -29,6 +30,8 @@ def _walk_seams(quilt: _Quilt, spacing: float, opts: PatchOptions, occupied: sha
         return 0
     gap = np.hypot(*(xy[pairs[:, 1]] - xy[pairs[:, 0]]).T)
     turn = np.degrees(np.arccos(np.clip(-(heading[pairs[:, 0]] * heading[pairs[:, 1]]).sum(axis=1), -1.0, 1.0)))
+    if opts.seam_link_turn:
+        turn = _link_turn(xy[pairs[:, 0]], heading[pairs[:, 0]], xy[pairs[:, 1]], heading[pairs[:, 1]])
     sg, st = opts.seam_sigma
     p = np.exp(-0.5 * (gap / (sg * spacing)) ** 2) * np.exp(-0.5 * (turn / st) ** 2)
     board = _Board(quilt, occupied, old)
@@ -47,6 +50,22 @@ def _walk_seams(quilt: _Quilt, spacing: float, opts: PatchOptions, occupied: sha
         links += 1
     _close(quilt, used)
     return links
+
+
+def _link_turn(a: np.ndarray, da: np.ndarray, b: np.ndarray, db: np.ndarray) -> np.ndarray:
+    """How much a street turns (degrees) going from cut end ``a`` (heading ``da`` out of its street) across
+    the seam to cut end ``b`` (heading ``db``) and on into ``b``'s street: the turn from ``da`` onto the
+    straight line ``a``-``b`` plus the turn from that line onto ``-db``; 0 where the ends coincide.
+
+    The turn between the two streets alone (``-da . db``) reads two parallel streets a few metres apart
+    sideways as a straight continuation; the link between them is a jog (an S of the smooth connector, two
+    corners of a straight one) that the yardstick reads as bends at both joints."""
+    chord = b - a
+    gap = np.hypot(*chord.T)
+    u = chord / np.maximum(gap, 1e-12)[:, None]
+    at_a = turn_angles(da, u)
+    at_b = turn_angles(u, -db)
+    return np.where(gap > 1e-6, at_a + at_b, 0.0)
 
 
 #: Metres between the points of a curved seam connector.

@@ -11,7 +11,7 @@ from scipy.spatial import cKDTree
 
 from osm_expand.model import Origin, StreetNetwork, network_from_lines
 from osm_expand.model.components import component_labels
-from osm_expand.model.geometry import closest_on_segments
+from osm_expand.model.geometry import closest_on_segments, turn_angles
 from osm_expand.model.topology import (
     dangling_chain,
     dangling_chains,
@@ -19,6 +19,7 @@ from osm_expand.model.topology import (
     segment_neighbours,
     without_segments,
 )
+from synth.patches.corners import SHARP
 from synth.patches.options import PatchOptions
 from synth.patches.quilt import _Board, _meet, _network, _Quilt
 
@@ -127,7 +128,8 @@ def _core_length(net: StreetNetwork, anchored: np.ndarray) -> float:
 
 
 def _trim(net: StreetNetwork, quilt: _Quilt, edge: shapely.Geometry, keep_out: float, *, keep: int = 0,
-          stub: float = 0.0, room: float = float("inf"), like: float = 0.0) -> StreetNetwork:
+          stub: float = 0.0, room: float = float("inf"), like: float = 0.0, bends_first: bool = False
+          ) -> StreetNetwork:
     """Cut ends still open are trimmed back to their last junction, except a street of ``keep_out``
     metres or more that leaves the district at the site's ``edge`` (a road out into the country), and
     up to ``keep`` cut streets of ``stub`` metres or more ending inside the district, which stay as
@@ -135,7 +137,9 @@ def _trim(net: StreetNetwork, quilt: _Quilt, edge: shapely.Geometry, keep_out: f
     town's neighbourhoods; a stub left where the edge cut it would stop at the field's margin),
     those nearest ``like`` metres long first (the town's own cul-de-sacs; a district of 30 m nubs has
     the town's dead-end share but not its edge lengths), and ``room`` metres of them at most (the
-    length its 2-core may lose).
+    length its 2-core may lose). With ``bends_first`` the cul-de-sacs kept are first those whose
+    trimming would leave their junction a node of degree two that turns more than
+    :data:`~synth.patches.corners.SHARP` (:func:`_leaves_bend`): the same number kept, where they stop an L.
 
     A junction whose other streets were all trimmed becomes an end itself and is trimmed in turn:
     only the town's own dead ends stay dead ends.
@@ -151,7 +155,9 @@ def _trim(net: StreetNetwork, quilt: _Quilt, edge: shapely.Geometry, keep_out: f
         drop: set[tuple[int, int]] = set()
         chains = dangling_chains(streets, leaves)
         length = {leaf: _chain_length(net, chain) for leaf, chain in chains.items()}
-        for leaf, chain in sorted(chains.items(), key=lambda c: (abs(length[c[0]] - like), c[0])):
+        bend = _leaves_bend(net.xy, segment_neighbours(streets), chains) if bends_first and keep > 0 else {}
+        for leaf, chain in sorted(chains.items(), key=lambda c: (not bend.get(c[0], False),
+                                                                 abs(length[c[0]] - like), c[0])):
             out_of_town = shapely.distance(edge, shapely.Point(leaves[leaf])) < ON_EDGE
             if out_of_town and length[leaf] >= keep_out:
                 continue
@@ -167,6 +173,27 @@ def _trim(net: StreetNetwork, quilt: _Quilt, edge: shapely.Geometry, keep_out: f
         after = segment_degree(streets, len(net.xy))
         leaves = {int(n): net.xy[n] for n in np.flatnonzero((after == 1) & (before > 1))}
     return net.replace(streets=streets)
+
+
+def _leaves_bend(xy: np.ndarray, neighbours: dict[int, list[int]], chains: dict[int, set[tuple[int, int]]]
+                 ) -> dict[int, bool]:
+    """Per leaf, whether trimming its chain (:func:`~osm_expand.model.topology.dangling_chains`) back to its
+    junction leaves that junction with two segments that turn more than :data:`~synth.patches.corners.SHARP`.
+
+    A tee of the town whose arm a seam cut and the trimming took back reads as an L: two streets meeting at a
+    node of degree two at a right angle, which the yardstick reads as one street bending there (issue 20: the
+    copied pieces bend as the town's streets do; their joints are where the district's excess curvature is)."""
+    out: dict[int, bool] = {}
+    for leaf, chain in chains.items():
+        ends = [n for n, c in zip(*np.unique(np.array(list(chain)).ravel(), return_counts=True)) if c == 1]
+        junction = next((int(n) for n in ends if n != leaf), None)
+        if junction is None:
+            continue
+        gone = {a if b == junction else b for a, b in chain if junction in (a, b)}
+        rest = list(dict.fromkeys(n for n in neighbours.get(junction, []) if n not in gone))
+        if len(rest) == 2:
+            out[leaf] = bool(turn_angles(xy[junction] - xy[rest[0]], xy[rest[1]] - xy[junction]) > SHARP)
+    return out
 
 
 def _keep_joinable(net: StreetNetwork, old: shapely.Geometry, spacing: float, opts: PatchOptions) -> StreetNetwork:
