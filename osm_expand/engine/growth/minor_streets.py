@@ -34,6 +34,7 @@ import shapely
 from osm_expand.district import place_district
 from osm_expand.engine.growth.nuclei import Nucleus, candidate_points, nuclei_in_town, rank_candidates, rank_sites
 from osm_expand.engine.growth.stubs import close_stubs, finish_district
+from osm_expand.engine.growth.yardstick import DistrictScore, DistrictYardstick, district_lines
 from osm_expand.errors import OptionError
 from osm_expand.joins import add_streets
 from osm_expand.model import City, Origin, Status, closest_on_segments, match_points, polyline_length
@@ -290,8 +291,25 @@ class GrowthOptions:
     #: 0.9713 in range); seed 1: Krems 2 1 2, Andorra 2 3 2, north-bayreuth 2 2 2, Monaco 4 4 4, Campo Grande 2 3 3
     #: (2-core 0.9707 in range): every town within 4 of 14 on seed 1, not on seed 0.
     district_streams: bool = False
+    #: Candidate districts grown per placed district at most (1: the first accepted is kept). With more, a
+    #: placed district is judged against the town's neighbourhoods on the growth verdict's street density,
+    #: dead-end share and 2-core share (:class:`~osm_expand.engine.growth.yardstick.DistrictYardstick`: the
+    #: verdict's ranges over discs of the district's area around the town's denser junctions, measured once a
+    #: run per bin of area); one out of range is followed by another candidate (another draw at the same site,
+    #: then the sites after it in order), up to this many placed, and the best is kept: fewest measures out of
+    #: range, then nearest in range widths. The first in range ends the search, so districts that fit cost
+    #: nothing more. Why: example-based synthesis matches its example's statistics by drawing again until a
+    #: sample fits; a district no neighbourhood of the town resembles is a draw to discard, not to build on (every
+    #: rule on how a district is grown moved the later districts: judged on the district itself, the draw is
+    #: kept or not before anything reads it).
+    district_candidates: int = 1
 
     def __post_init__(self) -> None:
+        whole = isinstance(self.district_candidates, (int, np.integer)) and not isinstance(self.district_candidates,
+                                                                                           bool)
+        if not (whole and self.district_candidates >= 1):  # a history's 2.5 or "3" would silently misread
+            raise OptionError(f"growth option district_candidates must be a whole number of districts >= 1, "
+                              f"got {self.district_candidates!r}")
         if not isinstance(self.district_streams, (bool, np.bool_)):  # a string "false" would read as on
             raise OptionError(f"growth option district_streams must be a bool, got {self.district_streams!r}")
         # a negative or NaN floor would silently turn the floor off (or never let a district grow)
@@ -339,6 +357,9 @@ class GrowthMemory:
     #: a district is due (:attr:`GrowthOptions.district_neighbourhoods`: the floor was reached or an era ended
     #: with length owed): tried every year, at what is owed, until one is placed
     due: bool = False
+    #: the town's neighbourhoods a candidate district is judged against (:attr:`GrowthOptions.district_candidates`;
+    #: measured once a run, the first time a district is judged); None: not yet
+    yardstick: DistrictYardstick | None = None
 
 
 @dataclass(frozen=True)
@@ -542,6 +563,10 @@ def grow_district(city: City, pattern: GrowthPattern, length: float, density: fl
     (:attr:`GrowthOptions.town_nuclei`), and the nuclei's order only among
     sites within a score tolerance of the best
     (:attr:`GrowthOptions.site_score_tolerance`).
+    With :attr:`GrowthOptions.district_candidates` above 1, a placed district out of the town's
+    neighbourhoods' range (street density, dead-end and 2-core share:
+    :mod:`osm_expand.engine.growth.yardstick`) is followed by another candidate (a second draw at its
+    site, then the sites after it) and the best candidate placed is kept.
     Its stubs are the pattern's: closing them as a street pattern's are
     (:mod:`osm_expand.engine.growth.stubs`) left north-bayreuth's engine streets
     with 7 % dead ends against its neighbourhoods' 17–41 %.
@@ -575,23 +600,58 @@ def grow_district(city: City, pattern: GrowthPattern, length: float, density: fl
                        tolerance=options.site_score_tolerance)
     before = len(city.network.streets)
     reach = STUB_REACH * spacing
-    placement = place_district(
-        city, sites, pattern, spacing=spacing, order=order.tolist(), rng=streams or (lambda attempt: rng),
-        accept=lambda joins: (_built_up_distance(maps, joins.at) <= reach).sum() >= options.min_joins,
-        bounds=city.bounds_polygon, origin=Origin.ENGINE, year=year, era=era)
-    if options.refused_near > 0 and placement.tried:
-        refused = np.array([[*sites[t.rank].centre, district_radius, year] for t in placement.tried], dtype=float)
-        memory.refused = np.vstack([memory.refused, refused])
-    placed = placement.placed
-    if placed is None:
+    left, attempts = order.tolist(), 0
+    drawn: set[int] = set()  # sites whose district was a candidate once: the next candidate there is the last
+    best: tuple[DistrictScore, City] | None = None
+    for _ in range(options.district_candidates):
+        placement = place_district(
+            city, sites, pattern, spacing=spacing, order=left, rng=_attempt_streams(rng, streams, attempts),
+            accept=lambda joins: (_built_up_distance(maps, joins.at) <= reach).sum() >= options.min_joins,
+            bounds=city.bounds_polygon, origin=Origin.ENGINE, year=year, era=era)
+        if options.refused_near > 0 and placement.tried:
+            refused = np.array([[*sites[t.rank].centre, district_radius, year] for t in placement.tried],
+                               dtype=float)
+            memory.refused = np.vstack([memory.refused, refused])
+        placed = placement.placed
+        if placed is None:
+            break
+        attempts += len(placement.tried) + 1
+        grown = placed.city
+        if options.district_run_on > 0 or options.district_trim_blocked:
+            grown, _ = finish_district(grown, before, spacing=spacing, run_on=options.district_run_on,
+                                       trim_blocked=options.district_trim_blocked, year=year, era=era)
+        if options.district_candidates == 1:  # no judging: the first accepted, as without candidates
+            best = (DistrictScore(out=0, distance=0.0), grown)
+            break
+        if memory.yardstick is None:  # the loop measures it at its start, from the run's seed; a caller alone here
+            memory.yardstick = DistrictYardstick.of_town(city, seed=0)
+        score = memory.yardstick.score(*district_lines(grown, before))
+        if best is None or score < best[0]:
+            best = (score, grown)
+        if score.within:
+            break
+        # the next candidate: another draw at this site (once), then the sites after it
+        at = left.index(placed.rank)
+        left = ([placed.rank] if placed.rank not in drawn else []) + left[at + 1:]
+        drawn.add(placed.rank)
+        if not left:
+            break
+    if best is None:
         return city, GrowthYear()
-    grown = placed.city
-    if options.district_run_on > 0 or options.district_trim_blocked:
-        grown, _ = finish_district(grown, before, spacing=spacing, run_on=options.district_run_on,
-                                   trim_blocked=options.district_trim_blocked, year=year, era=era)
+    grown = best[1]
     new = grown.network.streets[before:]
     made = sum(polyline_length(grown.network.street_xy(s)) for s in new)
     return grown, GrowthYear(streets=len(new), length_m=made, bridges=sum(s.bridge for s in new), districts=1)
+
+
+def _attempt_streams(rng: np.random.Generator, streams: Callable[[int], np.random.Generator] | None, first: int
+                     ) -> Callable[[int], np.random.Generator]:
+    """The random stream of each attempt of one :func:`place_district` call whose first attempt is the year's
+    ``first`` (``streams``, numbered on across a year's candidates, so no two attempts share one), or ``rng``
+    for every attempt."""
+    if streams is None:
+        return lambda attempt: rng
+    return lambda attempt: streams(first + attempt)
 
 
 def _still_refused(city: City, refused: np.ndarray, *, reach: float) -> np.ndarray:
