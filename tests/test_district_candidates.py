@@ -12,7 +12,7 @@ from osm_expand.district import Placed, Placement
 from osm_expand.engine.growth import minor_streets
 from osm_expand.engine.growth.minor_streets import GrowthMemory, GrowthOptions, grow_district
 from osm_expand.engine.growth.nuclei import Nucleus, NucleusKind
-from osm_expand.engine.growth.yardstick import JUDGED, DistrictScore, DistrictYardstick, district_lines
+from osm_expand.engine.growth.yardstick import JUDGED, DistrictScore, DistrictYardstick, growth_lines
 from osm_expand.errors import OptionError
 from osm_expand.growth_patterns import make_pattern
 from osm_expand.joins import JoinReport, add_streets
@@ -169,13 +169,24 @@ def test_the_towns_own_neighbourhood_is_in_range_and_a_comb_is_not():
     teeth = [np.array([[x0 + k * spacing, y0], [x0 + k * spacing, y0 + spacing]]) for k in range(1, 20)]
     comb = stick.score([spine, *teeth], spine[:1])
     assert comb.out >= 2 and comb > own
-    assert len(stick.ranges) >= 1  # measured once per bin of area, kept for the run
+    assert len(stick.discs) >= 1  # measured once per bin of area, kept for the run
 
 
-def test_a_districts_lines_are_open_where_they_meet_the_streets_before():
+def test_the_growth_is_the_engines_streets_open_where_they_meet_the_others():
     city, _ = town("krems.osm.gz")
     net = city.network
     a = net.xy[net.streets[0].nodes[0]]
     grown = add_streets(city, [np.array([a, a + [0.0, 50.0], a + [50.0, 50.0]])], [ATTRS])
-    lines, open_points = district_lines(grown, len(net.streets))
+    lines, open_points = growth_lines(grown)
     assert len(lines) == 1 and np.allclose(open_points, [a])
+
+
+def test_pooled_discs_narrow_the_range():
+    """Two pieces of a bin pool two discs a part: the 10th-90th percentile range of the pooled dead-end share
+    is no wider than one disc's (the verdict's pooled references, issue 20)."""
+    city, _ = town("krems.osm.gz")
+    stick = DistrictYardstick.of_town(city, seed=0)
+    one, two = stick.limits([0.3e6]), stick.limits([0.3e6, 0.3e6])
+    assert len(stick.discs) == 1
+    width = one[:, 1] - one[:, 0]
+    assert (two[:, 1] - two[:, 0] <= width + 1e-9).sum() >= 2

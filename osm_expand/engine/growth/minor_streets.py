@@ -34,7 +34,7 @@ import shapely
 from osm_expand.district import place_district
 from osm_expand.engine.growth.nuclei import Nucleus, candidate_points, nuclei_in_town, rank_candidates, rank_sites
 from osm_expand.engine.growth.stubs import close_stubs, finish_district
-from osm_expand.engine.growth.yardstick import DistrictScore, DistrictYardstick, district_lines
+from osm_expand.engine.growth.yardstick import DistrictScore, DistrictYardstick, growth_lines
 from osm_expand.errors import OptionError
 from osm_expand.joins import add_streets
 from osm_expand.model import City, Origin, Status, closest_on_segments, match_points, polyline_length
@@ -625,7 +625,7 @@ def grow_district(city: City, pattern: GrowthPattern, length: float, density: fl
             break
         if memory.yardstick is None:  # the loop measures it at its start, from the run's seed; a caller alone here
             memory.yardstick = DistrictYardstick.of_town(city, seed=0)
-        score = memory.yardstick.score(*district_lines(grown, before))
+        score = memory.yardstick.score(*growth_lines(grown))
         if best is None or score < best[0]:
             best = (score, grown)
         if score.within:
