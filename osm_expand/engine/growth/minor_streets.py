@@ -295,8 +295,8 @@ class GrowthOptions:
     #: placed district is judged against the town's neighbourhoods on the growth verdict's street density,
     #: dead-end share and 2-core share (:class:`~osm_expand.engine.growth.yardstick.DistrictYardstick`: the
     #: verdict's ranges over discs of the district's area around the town's denser junctions, measured once a
-    #: run per bin of area); one out of range is followed by another candidate (another draw at the same site,
-    #: then the sites after it in order), up to this many placed, and the best is kept: fewest measures out of
+    #: run per bin of area); one out of range is followed by another candidate (the sites after it in order),
+    #: up to this many placed, and the best is kept: fewest measures out of
     #: range, then nearest in range widths. The first in range ends the search, so districts that fit cost
     #: nothing more. Why: example-based synthesis matches its example's statistics by drawing again until a
     #: sample fits; a district no neighbourhood of the town resembles is a draw to discard, not to build on (every
@@ -565,8 +565,8 @@ def grow_district(city: City, pattern: GrowthPattern, length: float, density: fl
     (:attr:`GrowthOptions.site_score_tolerance`).
     With :attr:`GrowthOptions.district_candidates` above 1, a placed district out of the town's
     neighbourhoods' range (street density, dead-end and 2-core share:
-    :mod:`osm_expand.engine.growth.yardstick`) is followed by another candidate (a second draw at its
-    site, then the sites after it) and the best candidate placed is kept.
+    :mod:`osm_expand.engine.growth.yardstick`) is followed by another candidate (the sites after its own, in
+    order) and the best candidate placed is kept.
     Its stubs are the pattern's: closing them as a street pattern's are
     (:mod:`osm_expand.engine.growth.stubs`) left north-bayreuth's engine streets
     with 7 % dead ends against its neighbourhoods' 17–41 %.
@@ -601,7 +601,6 @@ def grow_district(city: City, pattern: GrowthPattern, length: float, density: fl
     before = len(city.network.streets)
     reach = STUB_REACH * spacing
     left, attempts = order.tolist(), 0
-    drawn: set[int] = set()  # sites whose district was a candidate once: the next candidate there is the last
     best: tuple[DistrictScore, City] | None = None
     for _ in range(options.district_candidates):
         placement = place_district(
@@ -630,10 +629,9 @@ def grow_district(city: City, pattern: GrowthPattern, length: float, density: fl
             best = (score, grown)
         if score.within:
             break
-        # the next candidate: another draw at this site (once), then the sites after it
-        at = left.index(placed.rank)
-        left = ([placed.rank] if placed.rank not in drawn else []) + left[at + 1:]
-        drawn.add(placed.rank)
+        # the next candidate: the sites after this one (another draw at the same site grows the same district:
+        # the example patches' ranking is kept per patch size, only the density target's discs are drawn again)
+        left = left[left.index(placed.rank) + 1:]
         if not left:
             break
     if best is None:
