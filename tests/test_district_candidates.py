@@ -1,6 +1,6 @@
 """The engine's candidate districts (issue 20, ``GrowthOptions.district_candidates``): a placed district judged
 against the town's neighbourhoods on density, dead-end and 2-core share; one out of range followed by another
-candidate (at the sites after its own), the best kept; and a placed district finished
+candidate (a second draw at its site, then the next sites), the best kept; and a placed district finished
 (``stubs.finish_district``) when the run-on or trim options ask for it."""
 from __future__ import annotations
 
@@ -81,12 +81,12 @@ def test_one_candidate_keeps_the_first_placed_district_without_judging_it(monkey
     assert _kept_call(grown, before) == 1
 
 
-def test_a_district_out_of_range_is_followed_by_a_district_at_the_next_sites(monkeypatch):
+def test_a_district_out_of_range_is_followed_by_another_draw_at_its_site_then_the_next_sites(monkeypatch):
     calls: list = []
     memory = GrowthMemory(yardstick=Scripted([OUT2, OUT2, OUT1]))
     grown, year, before = _grow(monkeypatch, GrowthOptions(sites_tried=3, district_candidates=3), memory, calls)
     first = calls[0]
-    assert calls == [first, first[1:], first[2:]]  # each time the sites after the one placed
+    assert calls == [first, first, first[1:]]  # the same site twice, then the sites after it
     assert len(memory.yardstick.judged) == 3
     assert _kept_call(grown, before) == 3  # the best: one measure out, not two
     assert year.districts == 1 and year.streets == 1
