@@ -46,6 +46,7 @@ from osm_expand.engine.growth.minor_streets import (
     neighbourhood_length,
 )
 from osm_expand.engine.growth.nuclei import Nucleus, candidate_points, find_nuclei, new_junction_nuclei
+from osm_expand.engine.growth.yardstick import DistrictYardstick
 from osm_expand.engine.history import GROWTH_PATTERNS, Clock, Era, History, YearValues
 from osm_expand.engine.planarity import without_touching
 from osm_expand.engine.roads.major_roads import RoadMemory, RoadsYear, major_roads_year
@@ -233,7 +234,9 @@ def start(city: City, history: History, *, seed: int, spacing: float, patterns: 
     started = time.perf_counter()
     faces = FaceMemo()
     city = _with_blocks(city, None, faces)
-    state = EngineState(city=city, nuclei=_initial_nuclei(city, join_points), growth=GrowthMemory(),
+    # the town's neighbourhoods a candidate district is judged against: measured once a run, on the town as mapped
+    yardstick = DistrictYardstick.of_town(city, seed=seed) if options.growth.district_candidates > 1 else None
+    state = EngineState(city=city, nuclei=_initial_nuclei(city, join_points), growth=GrowthMemory(yardstick=yardstick),
                         traffic=start_traffic(city, streams["traffic"]), roads=RoadMemory(),
                         buildout=start_buildout(city, history, streams["buildout"]), faces=faces)
     state.seconds["start"] += time.perf_counter() - started
