@@ -321,6 +321,12 @@ class GrowthOptions:
     #: 6 6 5, north-bayreuth 2 2 2, Monaco 6 5 5
     #: (dead-end 0.200 above, 2-core 0.774 below range: its one district, no other site placed), Campo Grande
     #: 4 3 3 (2-core 0.9677 below [0.9686-0.978]); streams alone (session 34): 4 2 3, 6 6 5, 3 3 3, 6 5 5, 7 7 7.
+    #: Measured again on the merge with the town carried on beyond the map's edge (session 35,
+    #: :func:`~osm_expand.engine.roads.major_roads.town_beyond_the_map`; off -> on at 3): seed 0 north-bayreuth
+    #: 5 5 5 -> 3 3 3 (2-core 0.766 in -> 0.757 out), Campo Grande 3 5 4 -> 4 4 4; seed 1 Campo Grande 4 5 5 ->
+    #: 4 4 4; seed 2 north-bayreuth 4 4 2 (2-core out) -> 3 4 4 (in), Monaco 4 5 5 -> 5 5 6 (2-core out both),
+    #: Campo Grande 3 4 4 -> 6 6 6 (dead-end 0.092 and 2-core 0.950 out, 11 pieces); the others the same. Mean
+    #: off over five towns and seeds 0-2 3.07 -> 3.11, shares out of range on 2 town-seeds -> 3: no gain.
     district_candidates: int = 1
 
     def __post_init__(self) -> None:
