@@ -37,18 +37,10 @@ def _one_sort(lattice, segments, streets, stitch_within, cache, costs):
         return (u + n_lat, v + n_lat, *rest)
 
     parts = [bridges, shifted(streets.edges), path_graph._stitch_edges(lattice, pairs, xy), shifted(streets.shell)]
-    src, dst, kind, seg, length, weight = (np.concatenate(c) for c in zip(*parts))
-    heading = np.arctan2(xy[dst, 1] - xy[src, 1], xy[dst, 0] - xy[src, 0])
-    back = np.where(heading > 0, heading - np.pi, heading + np.pi)
-    src, dst = np.concatenate([src, dst]), np.concatenate([dst, src])
-    kind, seg, length, weight = (np.concatenate([a, a]) for a in (kind, seg, length, weight))
-    heading = np.concatenate([heading, back])
-    order = np.lexsort((weight, dst, src))
-    first = np.ones(len(order), dtype=bool)
-    first[1:] = (src[order][1:] != src[order][:-1]) | (dst[order][1:] != dst[order][:-1])
-    order = order[first]
-    return {"src": src[order], "dst": dst[order], "kind": kind[order], "segment": seg[order],
-            "length": length[order], "weight": weight[order], "heading": heading[order]}
+    # every part sorted at once (the merge's reference): the very sort the street part's edges get alone
+    src, dst, kind, seg, length, weight, heading = path_graph._sorted_edges(parts, xy)
+    return {"src": src, "dst": dst, "kind": kind, "segment": seg, "length": length, "weight": weight,
+            "heading": heading}
 
 
 def _assert_one_sort(implicit, boxes):
