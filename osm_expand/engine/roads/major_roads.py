@@ -190,8 +190,9 @@ def town_beyond_the_map(streets: np.ndarray, bounds: tuple[float, float, float, 
     ``reach`` either side, and that stretch goes on outward by ``margin`` and inward by ``reach``.
     Left as free land, the margin was a corridor round the town: Campo Grande's new primary and
     trunk roads (3.2, 6.4 and 8.1 km) ran round its western and northern edges outside the map,
-    beside the streets the clip cut; with the margin alone taken, a trunk road ran inside the
-    edge instead, from one cut street's end to the next.
+    beside the streets the clip cut. The strip inside is taken too: the clip leaves a street's
+    last node up to a few metres short of the edge, and the land between it and the edge is the
+    town's as much as the margin is.
     """
     if margin <= 0 or not len(streets):
         return shapely.Polygon()
