@@ -229,18 +229,6 @@ def match_points(points: np.ndarray, known: np.ndarray, tolerance: float = 0.0) 
     return out
 
 
-def _unique_rows(pts: np.ndarray) -> np.ndarray:
-    """The distinct rows of an ``(n, 2)`` array sorted by x, then y: ``np.unique(pts, axis=0)``, without its
-    structured view and sort (a third of the XML writer's time per footprint on Krems)."""
-    if len(pts) < 2:
-        return pts.copy()
-    pts = pts[np.lexsort((pts[:, 1], pts[:, 0]))]
-    keep = np.empty(len(pts), dtype=bool)
-    keep[0] = True
-    np.any(pts[1:] != pts[:-1], axis=1, out=keep[1:])
-    return pts[keep]
-
-
 def minimum_rectangle(ring: np.ndarray) -> np.ndarray | None:
     """The minimum-area rectangle around a footprint: four corners, counter-clockwise.
 
@@ -258,17 +246,11 @@ def minimum_rectangle(ring: np.ndarray) -> np.ndarray | None:
         one line (whose hull is a line: main def3a8e raised AttributeError
         there, reading a line's exterior).
     """
-    import shapely
-
-    pts = _unique_rows(np.asarray(ring, dtype=float).reshape(-1, 2))
-    if len(pts) < 3:
-        return None
-    hull = shapely.get_coordinates(shapely.get_exterior_ring(shapely.convex_hull(shapely.multipoints(pts))))
-    return _rectangle_around(hull)
+    return minimum_rectangles([ring])[0]
 
 
 def minimum_rectangles(rings: Sequence[np.ndarray]) -> list[np.ndarray | None]:
-    """:func:`minimum_rectangle` of each of ``rings``, the same to the bit, with the distinct corners and
+    """:func:`minimum_rectangle` of each of ``rings`` (which is this of one ring), the distinct corners and
     their hulls made in one GEOS call for all: one call per footprint (four GEOS calls and a sort each) was
     most of the XML writer's time on Krems' 1,306 buildings.
 
@@ -287,7 +269,7 @@ def minimum_rectangles(rings: Sequence[np.ndarray]) -> list[np.ndarray | None]:
     sizes = np.array([len(r) for r in rings], dtype=np.int64)
     pts = np.concatenate([np.asarray(r, dtype=float).reshape(-1, 2) for r in rings])
     owner = np.repeat(np.arange(len(rings)), sizes)
-    # each ring's distinct corners sorted by x, then y (:func:`_unique_rows`), all rings in one sort
+    # each ring's distinct corners sorted by x, then y, all rings in one sort
     order = np.lexsort((pts[:, 1], pts[:, 0], owner))
     pts, owner = pts[order], owner[order]
     keep = np.ones(len(pts), dtype=bool)
