@@ -253,6 +253,15 @@ def town_margin(town: NetworkMeasures, options: GrowthFidelityOptions | None = N
     return block_margin(town.block_area, opts.window_close, opts.window_margin)
 
 
+def meeting_points(network: StreetNetwork, mine: np.ndarray, there: np.ndarray) -> np.ndarray:
+    """``(K, 2)``: the nodes shared by a street of ``mine`` and a street of ``there`` (boolean masks over
+    ``network.streets``), where the growth ``mine`` is open: it goes on into what was there."""
+    streets = network.streets
+    flat = np.fromiter((n for s in streets for n in s.nodes), dtype=np.int64)
+    owner = np.repeat(np.arange(len(streets)), [len(s.nodes) for s in streets])
+    return network.xy[np.intersect1d(flat[mine[owner]], flat[there[owner]])]
+
+
 def is_major_road(street: Street) -> bool:
     """Whether ``street`` is one of the engine's major roads: origin ``engine``, a class of
     :data:`osm_expand.engine.roads.major_roads.ROAD_CLASS` at hierarchy 0 with a width (the era's A(t)):
@@ -484,8 +493,6 @@ def growth_fidelity(network: StreetNetwork, town_lines: Sequence[np.ndarray] | L
     # the growth's window and its references' streets' land with one margin, the town's (module docstring)
     opts = replace(opts, window_margin=town_margin(town, opts), window_margin_from_town=False)
     lines = [network.street_xy(s) for s in streets]
-    flat = np.fromiter((n for s in streets for n in s.nodes), dtype=np.int64)
-    owner = np.repeat(np.arange(len(streets)), [len(s.nodes) for s in streets])
     era = np.array([s.era or "" for s in streets], dtype=object)
     year = np.array([s.year if s.year is not None else -(10 ** 9) for s in streets], dtype=np.int64)
     eras = sorted(set(era[engine]), key=lambda e: (year[engine & (era == e)].min(), e))
@@ -498,8 +505,8 @@ def growth_fidelity(network: StreetNetwork, town_lines: Sequence[np.ndarray] | L
         window = growth_window(picked_lines(mine), opts)
         if window.is_empty or not window.area > 0:
             return None
-        meets = np.intersect1d(flat[mine[owner]], flat[there[owner]])
-        measured = measure_network(picked_lines(mine), window=window, open_points=network.xy[meets], options=mopts)
+        measured = measure_network(picked_lines(mine), window=window, open_points=meeting_points(network, mine, there),
+                                   options=mopts)
         reference = piece_references(town_set, window, parts=parts, rng=gen, town=town, options=fidelity_options,
                                      measure_options=mopts, growth_options=opts)
         return judge(measured, reference, options=fidelity_options)

@@ -50,7 +50,7 @@ import numpy as np
 import shapely
 
 from osm_expand.fidelity import DEFAULT_PARTS, FidelityOptions, real_parts, scalar_range
-from osm_expand.growth_fidelity import GrowthFidelityOptions, is_major_road, piece_areas
+from osm_expand.growth_fidelity import GrowthFidelityOptions, is_major_road, meeting_points, piece_areas
 from osm_expand.measures import LineSet, Measure, NetworkMeasures, measure_network
 from osm_expand.model import City, Origin
 from osm_expand.streets_closing import WINDOW_CLOSE, block_margin, closed_land, land_in_disc
@@ -175,7 +175,4 @@ def growth_lines(city: City) -> tuple[list[np.ndarray], np.ndarray]:
     where it meets the other streets (where it is open)."""
     net = city.network
     mine = np.array([s.origin == Origin.ENGINE and not is_major_road(s) for s in net.streets], dtype=bool)
-    lines = [net.street_xy(s) for s, m in zip(net.streets, mine) if m]
-    ours = np.fromiter((n for s, m in zip(net.streets, mine) if m for n in s.nodes), dtype=np.int64)
-    theirs = np.fromiter((n for s, m in zip(net.streets, mine) if not m for n in s.nodes), dtype=np.int64)
-    return lines, net.xy[np.intersect1d(ours, theirs)]
+    return [net.street_xy(s) for s, m in zip(net.streets, mine) if m], meeting_points(net, mine, ~mine)
