@@ -263,7 +263,7 @@ class LatticeWeights:
         """``self[rows, cols]`` for index arrays, as float64 (the float32 values, exactly): one lookup
         of kind · D + direction, where ``__getitem__`` gathers lengths and factors and multiplies
         (2.5 times as long on the heading-expanded graph's lattice moves, its largest gather)."""
-        return self._table64[self.kind[rows, cols].astype(np.intp) * self.kind.shape[1] + cols]
+        return self.entries(self.kind[rows, cols], cols)
 
     def masked(self, rows: slice, mask: np.ndarray) -> np.ndarray:
         """``self[rows][mask]`` without the rows' whole table: only the entries ``mask`` picks
