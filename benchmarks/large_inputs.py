@@ -237,7 +237,8 @@ _STAMP = re.compile(r"^\[\s*([0-9.]+)s\] (.*)$")
 
 
 def child(code: str, *args: str, json_out: bool = True) -> dict:
-    """Run ``python -c code args`` fresh: its last JSON line (if ``json_out``), wall time, peak memory (MB), stderr.
+    """Run ``python -c code args`` fresh: its last JSON line (if ``json_out``), wall and CPU time (user + system),
+    peak memory (MB), stderr.
 
     The peak is the child's own ``ru_maxrss`` as ``wait4`` returns it, so
     each measurement is its own, whatever ran before it.
@@ -256,7 +257,8 @@ def child(code: str, *args: str, json_out: bool = True) -> dict:
         last = stderr.strip().splitlines()[-1] if stderr.strip() else f"exit {proc.returncode}"
         raise RuntimeError(f"child failed: {last}")
     result = json.loads(stdout.strip().splitlines()[-1]) if json_out else {}
-    result.update(wall_s=wall, peak_mb=usage.ru_maxrss / 1024, stderr=stderr)  # Linux: kilobytes
+    result.update(wall_s=wall, cpu_s=usage.ru_utime + usage.ru_stime, peak_mb=usage.ru_maxrss / 1024,
+                  stderr=stderr)  # Linux: kilobytes
     return result
 
 
