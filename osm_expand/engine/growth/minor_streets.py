@@ -339,7 +339,16 @@ class GrowthOptions:
     #: from its centre, and the patches grew three clusters in the fields, 1-2 km apart. A town grows by its
     #: edge, a quarter at a time: 0.25 is the pipeline's own district share (:attr:`SiteOptions.area_share`).
     #: A district smaller than the floor is due sooner and the next grows beside it (its blocks are built-up
-    #: land then, which a site's closeness and contact count).
+    #: land then, which a site's closeness and contact count). Off: measured at 0.25 (session 36, h36g; off of 14 per
+    #: reference seed, main 78bb88f -> on), seed 0: Andorra 0 0 0 -> 8 8 10, north-bayreuth 5 5 5 -> 4 5 5 (4
+    #: quarters of 6-9 km, a median 120-664 m from its settlement, against 2 of 12-14 km at 1126-1698 m), Krems
+    #: 1 1 1 and Monaco 2 3 3 the same; seed 1 Andorra 0 0 1 -> 5 6 7 (14 % outlying). With
+    #: :attr:`district_town_reach` 1.5 as well: seed 0 Andorra 6 4 5, north-bayreuth 5 6 6, Krems and Monaco and
+    #: Campo Grande (3 5 4: its settlement holds far more than 5 neighbourhoods) the same; seed 1 Andorra 9 9 8,
+    #: north-bayreuth 2 3 3, Krems 3 3 4 and Monaco 6 5 5 the same; seed 2 Andorra 10 9 10, north-bayreuth 2 3 2
+    #: (2-core 0.744 below its range), Krems 1 2 3 and Monaco 4 5 5 the same. Without its buildings (seed 0)
+    #: north-bayreuth's quarters, 2 a median 863 and 180 m from its settlement, became 6 at 108-515 m around it
+    #: (one piece each; off 4 3 2 -> 2 5 3 alone).
     district_town_share: float = math.inf
     #: An engine district's site is tried only when its centre lies within this many district radii of the town's
     #: settlement (:func:`osm_expand.sites.settlement_distance`: the largest piece of built-up land, the engine's
@@ -348,7 +357,20 @@ class GrowthOptions:
     #: and is tried next year). ``inf`` (the default): every site. Why: a site's closeness and contact count any
     #: built-up land, so when the sites by the town were refused (too few joins) the fifth, by a hamlet 7 km away,
     #: took the district (north-bayreuth without its buildings, seed 0, with :attr:`district_town_share` 0.25:
-    #: its 2023 quarter). 1.5: a site's disc (one radius) within half a radius of the town's edge.
+    #: its 2023 quarter). 1.5: a site's disc (one radius) within half a radius of the town's edge. Off: measured at 1.5
+    #: (``benchmarks/engine_growth.py --seed S --measures --where --option district_town_reach=1.5``, off of 14 per
+    #: reference seed, main 78bb88f -> on; session 36, h36g), seed 0: north-bayreuth 5 5 5 -> 2 3 2 (its two quarters
+    #: a median 1698 and 1126 m from the town's settlement, in the fields by the motorway, -> 305 and 132 m, at its
+    #: edge), Andorra 0 0 0 -> 1 1 1 (its second quarter, by a valley town 3.3 km from Andorra la Vella, -> at the
+    #: largest settlement, 254 m), Krems 1 1 1, Monaco 2 3 3 and Campo Grande 3 5 4 the same; seed 1: Andorra
+    #: 0 0 1 -> 2 2 2, Krems 3 3 4, north-bayreuth 3 3 3 and Monaco 6 5 5 the same; seed 2: Andorra 2 4 3 -> 3 3 4,
+    #: north-bayreuth 4 4 2 -> 3 4 2 (2-core 0.723 -> 0.729, below its range either way), Krems 1 2 3 and Monaco
+    #: 4 5 5 the same. Summed over the four small towns and three seeds 101 -> 101: north-bayreuth's gain (mean
+    #: 3.78 -> 2.78, its seed 0 within 4) is Andorra's loss (1.11 -> 2.11, within 4 on every seed); Andorra's valley
+    #: towns (1.1-1.85 km² each beside its 8.4 km² largest settlement) are where the verdict likes its growth, and
+    #: they are as large as north-bayreuth's villages (1.1-1.8 km² beside its 2.1 km² town), so no size tells them
+    #: apart (as :attr:`settlement_neighbourhoods` found). Without its buildings north-bayreuth is unchanged
+    #: (its sites' centres lie near the town; the quarter in the fields is its region's, :attr:`district_town_share`).
     district_town_reach: float = math.inf
 
     def __post_init__(self) -> None:
