@@ -432,3 +432,4 @@ def test_town_nuclei_is_refused_without_a_settlement_gap():
     """settlement_gap 0 reads every piece of built-up land as the town's: town_nuclei would rank nothing apart."""
     with pytest.raises(OptionError, match="town_nuclei needs settlement_gap"):
         GrowthOptions(town_nuclei=True, settlement_gap=0)
+
