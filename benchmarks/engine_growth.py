@@ -22,8 +22,8 @@ neighbourhoods measured in their discs (the yardstick before they were measured 
 Issue 20's targets: off on at most 4 of 14, dead-end and 2-core shares in
 range, infill + edge expansion at least 80 % of the new street length.
 
-Usage: ``python benchmarks/engine_growth.py [--history european] [--eras] [--measures] [--discs] [--fixed-margin]
-[--seed N] [--neighbourhoods K] [--option NAME=VALUE ...] [TOWN ...]`` (``--neighbourhoods``:
+Usage: ``python benchmarks/engine_growth.py [--history european] [--eras] [--measures] [--where]
+[--discs] [--fixed-margin] [--seed N] [--neighbourhoods K] [--option NAME=VALUE ...] [TOWN ...]`` (``--neighbourhoods``:
 :attr:`GrowthOptions.district_neighbourhoods` for the run; ``--option``, repeatable: any other
 :class:`GrowthOptions` field, e.g. ``--option district_streams=true --option district_trim_blocked=true``)
 (default: Krems, Andorra, north-bayreuth, Monaco, Krems with ``european``, then Campo Grande;
@@ -98,9 +98,55 @@ def growth_option(text: str) -> tuple[str, object]:
         raise argparse.ArgumentTypeError(f"{name} takes a {kind.__name__}, got {raw!r}") from None
 
 
+#: m between the points :func:`where_grown` measures along a street (the pathfinding lattice's spacing).
+WHERE_STEP = 20.0
+
+
+def where_grown(city) -> list[dict]:  # type: ignore[no-untyped-def]  # a City; imports stay inside (start-up)
+    """Per year of the engine's street growth (its streets of origin ``engine`` but the major roads): km, pieces
+    (30 m each side, merged, as the verdict counts them), and the median distance (m) of its street length
+    (points every :data:`WHERE_STEP` m) to the town's settlement before the years
+    (:func:`osm_expand.sites.settlement`: the largest piece of built-up land, 200 m gaps bridged) and to the
+    growth before it (the pipeline's district, its joins and earlier years' engine streets and joins; ``inf`` when
+    none).
+
+    Why: the LEI calls growth edge expansion when its 30 m buffer touches any built-up land, so a quarter in
+    the fields beside a hamlet's street counts as edge growth; these distances say whether the engine's
+    years continue the town and the quarters before them (issue 20, "years that extend the town").
+    """
+    import shapely
+
+    from osm_expand.blocks import blocks
+    from osm_expand.growth_fidelity import before_the_years, is_major_road
+    from osm_expand.measures.shape import piece_labels
+    from osm_expand.model import Origin
+    from osm_expand.sites import distance_maps, settlement_distance
+
+    net = city.network
+    before = before_the_years(city)
+    maps = distance_maps(before.replace(blocks=tuple(blocks(before.network, year=None))), beyond_bounds=True)
+    grown = [s for s in net.streets if s.origin == Origin.ENGINE and not is_major_road(s)]
+    # the pipeline's district and its joins; an engine district's joins (origin ``join``, its year) join it after
+    joins = [s for s in net.streets if s.origin == Origin.JOIN and s.year is not None]
+    earlier = [net.street_xy(s) for s in net.streets
+               if s.origin == Origin.GROWN or (s.origin == Origin.JOIN and s.year is None)]
+    out = []
+    for year in sorted({s.year for s in grown if s.year is not None}):
+        lines = np.array([shapely.LineString(net.street_xy(s)) for s in grown if s.year == year], dtype=object)
+        points = shapely.get_coordinates(shapely.segmentize(lines, WHERE_STEP))
+        to_town = float(np.median(settlement_distance(maps, points)))
+        to_earlier = (float(np.median(shapely.distance(shapely.MultiLineString(earlier), shapely.points(points))))
+                      if earlier else math.inf)
+        out.append({"year": year, "km": float(shapely.length(lines).sum()) / 1000,
+                    "pieces": int(piece_labels(lines, 30.0).max()) + 1, "to_town_m": to_town,
+                    "to_earlier_m": to_earlier})
+        earlier += [net.street_xy(s) for s in grown + joins if s.year == year]
+    return out
+
+
 def run(name: str, history: str, years: int | None, refs: int, discs: bool = False,
         neighbourhoods: float | None = None, seed: int = 0, fixed_margin: bool = False,
-        growth: dict[str, object] | None = None) -> dict:
+        growth: dict[str, object] | None = None, want_where: bool = False) -> dict:
     from osm_expand.engine.growth.minor_streets import GrowthOptions
     from osm_expand.engine.history import load_history
     from osm_expand.engine.loop import EngineOptions
@@ -126,7 +172,9 @@ def run(name: str, history: str, years: int | None, refs: int, discs: bool = Fal
     judged = [growth_fidelity(net, town, built=built, rng=ref, options=options) for ref in range(refs)]
     judge_s, judge_cpu = (time.perf_counter() - t0) / refs, (time.process_time() - c0) / refs
     eras = [(e["era"], e["districts"], e["street_length_km"]) for e in result.report["engine"]["eras"]]
-    return {"name": name, "history": history, "judged": judged, "eras_grown": eras, "run_s": run_s, "run_cpu": run_cpu,
+    where = where_grown(result.city) if want_where else []
+    return {"name": name, "history": history, "judged": judged, "eras_grown": eras, "where": where,
+            "run_s": run_s, "run_cpu": run_cpu,
             "judge_s": judge_s, "judge_cpu": judge_cpu}
 
 
@@ -154,6 +202,9 @@ def main() -> None:
     ap.add_argument("--measures", action="store_true",
                     help="per town and reference seed (and era, with --eras), the measures off: value against "
                          "range, and by how much (lines outside the tables)")
+    ap.add_argument("--where", action="store_true",
+                    help="per year of engine street growth: km, pieces, median distance to the town's settlement "
+                         "and to the growth before it (lines outside the tables)")
     ap.add_argument("--neighbourhoods", type=_neighbourhoods, default=None,
                     help="GrowthOptions.district_neighbourhoods, the district floor in neighbourhoods (default: "
                          "the options' own)")
@@ -173,7 +224,7 @@ def main() -> None:
     era_off_lines: list[str] = []
     for name, history in runs:
         row = run(name, history, args.years, args.refs, args.discs, args.neighbourhoods, args.seed,
-                  args.fixed_margin, dict(args.option))
+                  args.fixed_margin, dict(args.option), args.where)
         first = row["judged"][0]
         if first is None or first.overall is None:
             print(f"| {name} | {history} | no engine street | | | | | | | | "
@@ -190,6 +241,11 @@ def main() -> None:
               flush=True)
         off_lines.append(f"- {name} {history} districts per era (count, km): "
                          + ", ".join(f"{e} {n} ({km:.1f})" for e, n, km in row["eras_grown"]))
+        if args.where:
+            off_lines.append(f"- {name} {history} where (year: km, pieces, median m to the town's settlement / to "
+                             "the growth before): " + "; ".join(
+                                 f"{w['year']}: {w['km']:.1f} km, {w['pieces']}, {w['to_town_m']:.0f} / "
+                                 f"{w['to_earlier_m']:.0f}" for w in row["where"]))
         if args.measures:
             offs_by = [_off_measures(g.overall.to_dict()) for g in row["judged"]]
             off_lines += [f"- {name} {history} off (reference {seed}): {line or 'none'}"

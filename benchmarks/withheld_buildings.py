@@ -17,7 +17,8 @@ takes the land past dead ends' tips but for DEG either side of straight on (``La
 the two land readings measured for issue 20, off by default.
 
 Usage: ``python benchmarks/withheld_buildings.py [--seed 0] [--years N] [--history H] [--works]
-[--dead-end-open DEG] [TOWN ...]``
+[--dead-end-open DEG] [--option NAME=VALUE ...] [TOWN ...]`` (``--option``: a ``GrowthOptions`` field, as
+``benchmarks/engine_growth.py`` reads it)
 """
 from __future__ import annotations
 
@@ -59,8 +60,14 @@ def main() -> None:
     ap.add_argument("--works", action="store_true", help="works' enclosures are settlement (land.WORKS)")
     ap.add_argument("--dead-end-open", type=float, default=None, metavar="DEG",
                     help="land past dead ends' tips taken but for DEG either side of straight on")
+    from engine_growth import growth_option  # this directory: the one reader of --option NAME=VALUE
+
+    ap.add_argument("--option", type=growth_option, action="append", default=[], metavar="NAME=VALUE",
+                    help="a GrowthOptions field for the engine's years, e.g. district_town_reach=1.5 (repeatable)")
     args = ap.parse_args()
+    from osm_expand.engine.growth.minor_streets import GrowthOptions
     from osm_expand.engine.history import load_history
+    from osm_expand.engine.loop import EngineOptions
     from osm_expand.ingest import load
     from osm_expand.land import SETTLEMENT, WORKS, LandOptions
     from osm_expand.maturation import MatureOptions, mature_result
@@ -76,7 +83,9 @@ def main() -> None:
         for label, town in (("withheld", city.replace(buildings=())), ("mapped", city)):
             t0 = time.process_time()
             grown = mature_result(expand(town, ExpandOptions(seed=args.seed, fidelity=False, land=land)),
-                                  load_history(args.history), MatureOptions(years=args.years, fidelity=False),
+                                  load_history(args.history),
+                                  MatureOptions(years=args.years, fidelity=False,
+                                                engine=EngineOptions(growth=GrowthOptions(**dict(args.option)))),
                                   args.seed).city
             c = count(grown, real)
             print(f"| {name} | {label} | {c['generated']} | {c['on_real']} | {100 * c['share']:.1f} % "

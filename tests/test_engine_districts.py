@@ -142,7 +142,7 @@ def choose_again(city, learned, owed):
 
 def _districts_owed(city, spacing, yearly: float, years: int, *, era_end: int | None, neighbourhoods: float,
                     monkeypatch, last_year: int | None = None, grow=None, memory: GrowthMemory | None = None,
-                    trace: list | None = None) -> list[float]:
+                    trace: list | None = None, growth: dict | None = None) -> list[float]:
     """The lengths (m) the engine's loop asks districts of, a town owing ``yearly`` metres a year for ``years``
     years of one era (from 2000, ending at ``era_end``), every district placed as owed (or as ``grow(call, length)``
     says: the length placed, 0 for refused). ``trace`` gets ``(year, owed, due)`` after each year."""
@@ -165,7 +165,7 @@ def _districts_owed(city, spacing, yearly: float, years: int, *, era_end: int | 
     state = SimpleNamespace(city=city, nuclei=[Nucleus(xy=tuple(city.network.xy[0]), strength=0.5,
                                                        kind=NucleusKind.CENTRE)],
                             growth=memory or GrowthMemory(), patterns={})
-    options = EngineOptions(growth=GrowthOptions(district_neighbourhoods=neighbourhoods))
+    options = EngineOptions(growth=GrowthOptions(district_neighbourhoods=neighbourhoods, **(growth or {})))
     for year in range(2000, 2000 + years):
         _grow_streets(state, era, SimpleNamespace(year=year), year, np.random.default_rng(0),
                       round(yearly / spacing), spacing=spacing, district_pattern=lambda *a: None, bearing=0.0,
@@ -236,6 +236,94 @@ def test_a_due_district_refused_is_tried_every_year_at_min_district_until_one_is
     assert owed == pytest.approx([15, 30, 45, 60, 75, 90, 75, 60, 37.5, 52.5, 67.5, 82.5, 97.5, 56.25, 71.25,
                                   86.25])
     assert due == [False] * 6 + [True, True] + [False] * 8
+
+
+def test_with_a_town_share_the_floor_is_at_most_that_share_of_the_towns_settlement(monkeypatch):
+    """A town owing a tenth of a neighbourhood a year whose settlement holds 4 neighbourhoods of street: with the
+    floor of 5 neighbourhoods alone its first district waits for 5; with ``district_town_share`` 0.25 it is due at
+    one (a quarter of the town), and the same length is grown in five districts instead of one."""
+    city, learned = town("krems.osm.gz")
+    spacing = learned.example.spacing
+    one = 100.0 * spacing  # a neighbourhood of 100 spacings, the settlement 4 of them
+
+    def asked(share: float) -> list[float]:
+        return _districts_owed(city, spacing, 0.1 * one, 50, era_end=2050, neighbourhoods=5.0,
+                               monkeypatch=monkeypatch, growth={"district_town_share": share},
+                               memory=GrowthMemory(neighbourhood=one, settlement=4 * one))
+
+    alone, capped = asked(float("inf")), asked(0.25)
+    assert [a / one for a in alone] == pytest.approx([5.0])
+    assert len(capped) == 5 and all(a == pytest.approx(one) for a in capped)
+    assert sum(capped) == pytest.approx(sum(alone))
+
+
+@pytest.mark.parametrize("value", [0.0, -0.25, float("nan"), "0.25"])
+def test_the_town_share_refuses_what_is_not_a_positive_share(value):
+    with pytest.raises(OptionError, match="district_town_share"):
+        GrowthOptions(district_town_share=value)
+
+
+def test_north_bayreuths_town_without_its_buildings_holds_fewer_streets_than_the_district_floor():
+    """Why the floor needs the town's share (issue 20): the floor's neighbourhood is the extract's (Perry's unit,
+    the extract holding 15 km² of built-up land with the villages), while the town itself, its buildings taken
+    out, is a settlement of about 2.9 km²: its whole street length is less than 5 neighbourhoods, so one district
+    at the floor was larger than the town it grew from, and its region reached 1.2 km into the fields."""
+    bare, _ = _bare_bayreuth()
+    whole = minor_streets.settlement_length(bare)
+    assert whole < GrowthOptions().district_neighbourhoods * minor_streets.neighbourhood_length(bare)
+
+
+@functools.cache
+def _bare_bayreuth():
+    city = load(FIXTURES / "north-bayreuth.osm.gz", context=False)
+    learned = learn(city)
+    return prepare(city.replace(buildings=())), learned
+
+
+def _sites_offered(monkeypatch, **growth) -> tuple[list, np.ndarray]:
+    """The sites the engine offers a district of 13.6 km (north-bayreuth without its buildings, seed 0's first
+    engine district on main) and, per site, metres from its centre to the town's settlement."""
+    from osm_expand.sites import settlement_distance
+
+    city, learned = _bare_bayreuth()
+    spacing = learned.example.spacing
+    asked: list = []
+    maps_seen: list = []
+    real_maps = minor_streets.settlement_maps
+
+    def keep_maps(*args, **kwargs):
+        maps_seen.append(real_maps(*args, **kwargs))
+        return maps_seen[-1]
+
+    def record(city, sites, pattern, **kwargs):
+        asked.append(list(sites))
+        return Placement(None, ())
+
+    monkeypatch.setattr(minor_streets, "settlement_maps", keep_maps)
+    monkeypatch.setattr(minor_streets, "place_district", record)
+    nuclei = [Nucleus(xy=tuple(city.network.xy[0]), strength=1.0, kind=NucleusKind.CENTRE)]
+    grow_district(city, make_pattern("example", learned.example), 13_600.0, 2.0 / spacing, nuclei, GrowthMemory(),
+                  np.random.default_rng(0), spacing=spacing, year=2029, era="now", options=GrowthOptions(**growth))
+    sites = asked[0] if asked else []
+    far = settlement_distance(maps_seen[0], np.array([s.centre for s in sites]).reshape(-1, 2))
+    return sites, far
+
+
+def test_with_a_town_reach_the_engine_tries_no_site_by_a_hamlet_far_from_the_town(monkeypatch):
+    """Without its buildings north-bayreuth's best sites for an engine district include one by a village 4-5 km
+    east of the town (a site's closeness and contact count any built-up land): with ``district_town_reach`` 1.5
+    every site tried lies within 1.5 district radii of the town's settlement, and there are still five."""
+    sites, far = _sites_offered(monkeypatch)
+    assert len(sites) == 5 and far.max() > 2_000.0
+    near_sites, near = _sites_offered(monkeypatch, district_town_reach=1.5)
+    radius = np.sqrt(near_sites[0].area / np.pi)
+    assert len(near_sites) == 5 and near.max() <= 1.5 * radius
+
+
+@pytest.mark.parametrize("value", [0.0, -1.0, float("nan"), "1.5"])
+def test_the_town_reach_refuses_what_is_not_a_positive_count_of_radii(value):
+    with pytest.raises(OptionError, match="district_town_reach"):
+        GrowthOptions(district_town_reach=value)
 
 
 @pytest.mark.parametrize("value", [-1.0, -0.001, float("nan"), float("inf"), float("-inf")])
@@ -344,3 +432,4 @@ def test_town_nuclei_is_refused_without_a_settlement_gap():
     """settlement_gap 0 reads every piece of built-up land as the town's: town_nuclei would rank nothing apart."""
     with pytest.raises(OptionError, match="town_nuclei needs settlement_gap"):
         GrowthOptions(town_nuclei=True, settlement_gap=0)
+

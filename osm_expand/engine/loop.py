@@ -24,6 +24,7 @@ what the engine built, unless the history sets ``rebuild_old_town``).
 """
 from __future__ import annotations
 
+import math
 import time
 from collections import defaultdict
 from collections.abc import Callable, Mapping
@@ -44,6 +45,7 @@ from osm_expand.engine.growth.minor_streets import (
     grow_district,
     grow_street_pattern,
     neighbourhood_length,
+    settlement_length,
 )
 from osm_expand.engine.growth.nuclei import Nucleus, candidate_points, find_nuclei, new_junction_nuclei
 from osm_expand.engine.growth.yardstick import DistrictYardstick
@@ -336,9 +338,15 @@ def _grow_streets(state: EngineState, era: Era, now: YearValues, year: int, rng:
                 # once a run, on the city of the first year a district pattern owes min_district spacings: the
                 # town as mapped plus whatever earlier years grew (a street-pattern era's streets among them)
                 state.growth.neighbourhood = neighbourhood_length(state.city, growth=options.growth)
+                if math.isfinite(options.growth.district_town_share):  # measured on the same city, once a run
+                    state.growth.settlement = settlement_length(state.city, growth=options.growth)
             era_ends = ((era.end is not None and now.year + 1 >= era.end)
                         or (last_year is not None and now.year >= last_year))
-            if state.growth.owed < options.growth.district_neighbourhoods * state.growth.neighbourhood and not era_ends:
+            floor = options.growth.district_neighbourhoods * state.growth.neighbourhood
+            share = options.growth.district_town_share
+            if math.isfinite(share) and state.growth.settlement is not None:  # a quarter of the town at a time
+                floor = min(floor, share * state.growth.settlement)
+            if state.growth.owed < floor and not era_ends:
                 return GrowthYear()  # not yet the floor, and the era goes on: wait
             # owed: tried each year from now on until a district is placed. Like the owed length it belongs to,
             # ``due`` outlives its era: a street-pattern era between leaves both as they were, and the next district

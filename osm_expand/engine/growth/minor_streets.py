@@ -48,6 +48,7 @@ from osm_expand.sites import (
     default_district_area,
     distance_maps,
     raster_at,
+    settlement,
     settlement_distance,
     settlement_maps,
 )
@@ -328,6 +329,61 @@ class GrowthOptions:
     #: Campo Grande 3 4 4 -> 6 6 6 (dead-end 0.092 and 2-core 0.950 out, 11 pieces); the others the same. Mean
     #: off over five towns and seeds 0-2 3.07 -> 3.11, shares out of range on 2 town-seeds -> 3: no gain.
     district_candidates: int = 1
+    #: The district floor (:attr:`district_neighbourhoods`) is at most this share of the town's own settlement's
+    #: street length (:func:`settlement_length`: the largest piece of built-up land, :attr:`settlement_gap` gaps
+    #: bridged, at the town's built-up street density); ``inf`` (the default): the floor alone. Why: the
+    #: neighbourhood the floor counts in is Perry's unit (0.65 km²) wherever the whole extract holds 2.6 km² of
+    #: built-up land, and an extract of villages holds that though its town is small, so 5 neighbourhoods make
+    #: one district of 3.25 km², larger than north-bayreuth's town without its buildings (2.87 km²): its
+    #: district's region (a disc of free land up to twice its radius, cut by the country roads) reached 1.2 km
+    #: from its centre, and the patches grew three clusters in the fields, 1-2 km apart. A town grows by its
+    #: edge, a quarter at a time: 0.25 is the pipeline's own district share (:attr:`SiteOptions.area_share`).
+    #: A district smaller than the floor is due sooner and the next grows beside it (its blocks are built-up
+    #: land then, which a site's closeness and contact count). Off: measured at 0.25 (session 36, h36g; off of 14 per
+    #: reference seed, main 78bb88f -> on), seed 0: Andorra 0 0 0 -> 8 8 10, north-bayreuth 5 5 5 -> 4 5 5 (4
+    #: quarters of 6-9 km, a median 120-664 m from its settlement, against 2 of 12-14 km at 1126-1698 m), Krems
+    #: 1 1 1 and Monaco 2 3 3 the same; seed 1 Andorra 0 0 1 -> 5 6 7 (14 % outlying). With
+    #: :attr:`district_town_reach` 1.5 as well: seed 0 Andorra 6 4 5, north-bayreuth 5 6 6, Krems and Monaco and
+    #: Campo Grande (3 5 4: its settlement holds far more than 5 neighbourhoods) the same; seed 1 Andorra 9 9 8,
+    #: north-bayreuth 2 3 3, Krems 3 3 4 and Monaco 6 5 5 the same; seed 2 Andorra 10 9 10, north-bayreuth 2 3 2
+    #: (2-core 0.744 below its range), Krems 1 2 3 and Monaco 4 5 5 the same. Without its buildings (seed 0)
+    #: north-bayreuth's quarters, 2 a median 863 and 180 m from its settlement, became 6 at 108-515 m around it
+    #: (one piece each; off 4 3 2 -> 2 5 3 alone). At 0.5 with :attr:`district_town_reach` 1.5 (a district at most
+    #: half the town; the floor binds on north-bayreuth, Krems and Monaco, not Andorra's 42 km against 33): seeds
+    #: 0-2 on Krems, Andorra, north-bayreuth and Monaco off of 14 exactly as with the reach alone (their eras end
+    #: before the lower floor is owed, or its districts grow where the reach's did); without its buildings (seed 0)
+    #: north-bayreuth's 2 quarters (a median 863 and 180 m from its settlement, off 4 3 2) become 4 at 114-305 m
+    #: round the town, north, north-west, west and south (off 2 3 2, 2 pieces; 19.6 -> 32.3 km grown, why not
+    #: looked into).
+    district_town_share: float = math.inf
+    #: An engine district's site is tried only when its centre lies within this many district radii of the town's
+    #: settlement (:func:`osm_expand.sites.settlement_distance`: the largest piece of built-up land, the engine's
+    #: earlier quarters in it once their blocks stand within :attr:`settlement_gap` of it); the best
+    #: :attr:`sites_tried` of twice as many sites so near are tried, and none when none is (the district stays due
+    #: and is tried next year). ``inf`` (the default): every site. Why: a site's closeness and contact count any
+    #: built-up land, so when the sites by the town were refused (too few joins) the fifth, by a hamlet 7 km away,
+    #: took the district (north-bayreuth without its buildings, seed 0, with :attr:`district_town_share` 0.25:
+    #: its 2023 quarter). 1.5: a site's disc (one radius) within half a radius of the town's edge. Off: measured at 1.5
+    #: (``benchmarks/engine_growth.py --seed S --measures --where --option district_town_reach=1.5``, off of 14 per
+    #: reference seed, main 78bb88f -> on; session 36, h36g), seed 0: north-bayreuth 5 5 5 -> 2 3 2 (its two quarters
+    #: a median 1698 and 1126 m from the town's settlement, in the fields by the motorway, -> 305 and 132 m, at its
+    #: edge), Andorra 0 0 0 -> 1 1 1 (its second quarter, by a valley town 3.3 km from Andorra la Vella, -> at the
+    #: largest settlement, 254 m), Krems 1 1 1, Monaco 2 3 3 and Campo Grande 3 5 4 the same; seed 1: Andorra
+    #: 0 0 1 -> 2 2 2, Krems 3 3 4, north-bayreuth 3 3 3, Monaco 6 5 5 and Campo Grande 4 5 5 the same; seed 2:
+    #: Andorra 2 4 3 -> 3 3 4, north-bayreuth 4 4 2 -> 3 4 2 (2-core 0.723 -> 0.729, below its range either way),
+    #: Krems 1 2 3, Monaco 4 5 5 and Campo Grande 3 4 4 the same. Withheld buildings
+    #: (``benchmarks/withheld_buildings.py --option district_town_reach=1.5``): north-bayreuth 0.5 % on a real
+    #: building and 0 crossed, Krems 0 % and 0, as off. It bounds a site's centre, not its district: the region
+    #: (a disc up to twice the radius, :func:`osm_expand.sites.district_region`) and the patches' cells reach
+    #: further (north-bayreuth with its buildings dropped in memory, seed 0, with :attr:`district_town_share` 0.5
+    #: too: its 2037 quarter a median 1153 m from the town's settlement, 900 m from it or the earlier quarters).
+    #: Summed over the four small towns and three seeds 101 -> 101: north-bayreuth's gain (mean
+    #: 3.78 -> 2.78, its seed 0 within 4) is Andorra's loss (1.11 -> 2.11, within 4 on every seed); Andorra's valley
+    #: towns (1.1-1.85 km² each beside its 8.4 km² largest settlement) are where the verdict likes its growth, and
+    #: they are as large as north-bayreuth's villages (1.1-1.8 km² beside its 2.1 km² town), so no size tells them
+    #: apart (as :attr:`settlement_neighbourhoods` found). Without its buildings north-bayreuth is unchanged
+    #: (its sites' centres lie near the town; the quarter in the fields is its region's, :attr:`district_town_share`).
+    district_town_reach: float = math.inf
 
     def __post_init__(self) -> None:
         whole = isinstance(self.district_candidates, (int, np.integer)) and not isinstance(self.district_candidates,
@@ -357,6 +413,12 @@ class GrowthOptions:
         if not isinstance(self.district_trim_blocked, (bool, np.bool_)):  # a string "false" would read as on
             raise OptionError(f"growth option district_trim_blocked must be a bool, got "
                               f"{self.district_trim_blocked!r}")
+        if not (is_real_number(self.district_town_reach) and self.district_town_reach > 0):  # NaN, 0 or negative
+            raise OptionError(f"growth option district_town_reach must be a number of district radii > 0 "
+                              f"(inf: every site), got {self.district_town_reach!r}")
+        if not (is_real_number(self.district_town_share) and self.district_town_share > 0):  # NaN, 0 or negative
+            raise OptionError(f"growth option district_town_share must be a share > 0 of the town's settlement "
+                              f"(inf: the floor alone), got {self.district_town_share!r}")
         if self.town_nuclei and self.settlement_gap == 0:
             raise OptionError("growth option town_nuclei needs settlement_gap > 0 (0 reads every piece of "
                               "built-up land as the town's, so every nucleus is the town's)")
@@ -379,6 +441,9 @@ class GrowthMemory:
     #: street length of one of the town's neighbourhoods (m; :func:`neighbourhood_length`), measured once, on
     #: the town as it was when the first district was owed; None: not yet
     neighbourhood: float | None = None
+    #: street length of the town's settlement (m; :func:`settlement_length`), measured with :attr:`neighbourhood`
+    #: when :attr:`GrowthOptions.district_town_share` is finite; None: not measured
+    settlement: float | None = None
     #: a district is due (:attr:`GrowthOptions.district_neighbourhoods`: the floor was reached or an era ended
     #: with length owed): tried every year, at what is owed, until one is placed
     due: bool = False
@@ -614,7 +679,14 @@ def grow_district(city: City, pattern: GrowthPattern, length: float, density: fl
         memory.refused = _still_refused(city, memory.refused, reach=2.0 * spacing)
         near = np.full(len(memory.refused), options.refused_near * district_radius)
         avoid = np.column_stack([memory.refused[:, :2], near])
-    sites = choose_sites(maps, area, site_options, most=options.sites_tried, avoid=avoid)
+    if math.isfinite(options.district_town_reach):  # the town's edge and its earlier quarters, not a hamlet's
+        sites = choose_sites(maps, area, site_options, most=2 * options.sites_tried, avoid=avoid)
+        gap = options.settlement_gap if options.settlement_gap > 0 else SETTLEMENT_GAP
+        near = settlement_distance(maps, np.array([s.centre for s in sites]).reshape(-1, 2), gap)
+        sites = [s for s, d in zip(sites, near) if d <= options.district_town_reach * district_radius]
+        sites = sites[:options.sites_tried]
+    else:
+        sites = choose_sites(maps, area, site_options, most=options.sites_tried, avoid=avoid)
     if not sites:
         return city, GrowthYear()
     ranked = nuclei
@@ -716,6 +788,24 @@ def neighbourhood_length(city: City, site: SiteOptions | None = None, growth: Gr
     cell = max(site.cell, math.sqrt(site.neighbourhood_area / math.pi) / growth.site_cells_per_radius)
     maps = distance_maps(city, replace(site, cell=cell))
     return default_district_area(site, maps.built_area) * built_up_density(city, maps)
+
+
+def settlement_length(city: City, site: SiteOptions | None = None, growth: GrowthOptions | None = None) -> float:
+    """The street length (m) of the town's own settlement: its built-up area (:func:`osm_expand.sites.settlement`,
+    the largest piece of built-up land with ``growth``'s :attr:`GrowthOptions.settlement_gap` gaps bridged) at the
+    town's built-up street density, on :func:`neighbourhood_length`'s rasters.
+
+    What :attr:`GrowthOptions.district_town_share` caps the district floor with: the floor's neighbourhood is
+    the whole extract's (Perry's unit on any extract of 2.6 km² of built-up land), the town may be far smaller.
+    Measured at 45 m cells: north-bayreuth 5.38 km², without its buildings 2.87 km², Krems 5.08, Monaco 2.84,
+    Andorra 8.36 (the whole extract's built-up land 15.4, 14.9, 5.67, 2.84, 20.4).
+    """
+    site = site or SiteOptions()
+    growth = growth or GrowthOptions()
+    cell = max(site.cell, math.sqrt(site.neighbourhood_area / math.pi) / growth.site_cells_per_radius)
+    maps = distance_maps(city, replace(site, cell=cell))
+    gap = growth.settlement_gap if growth.settlement_gap > 0 else SETTLEMENT_GAP
+    return float(settlement(maps, gap).sum()) * maps.cell ** 2 * built_up_density(city, maps)
 
 
 def built_up_density(city: City, maps: DistanceMaps) -> float:
