@@ -4,6 +4,7 @@ one patch cell, so each district was one piece of dense fabric cut to a disc).""
 from __future__ import annotations
 
 import functools
+import math
 
 import numpy as np
 import pytest
@@ -312,10 +313,11 @@ def _sites_offered(monkeypatch, **growth) -> tuple[list, np.ndarray]:
 def test_with_a_town_reach_the_engine_tries_no_site_by_a_hamlet_far_from_the_town(monkeypatch):
     """Without its buildings north-bayreuth's best sites for an engine district include one by a village 4-5 km
     east of the town (a site's closeness and contact count any built-up land): with ``district_town_reach`` 1.5
-    every site tried lies within 1.5 district radii of the town's settlement, and there are still five."""
-    sites, far = _sites_offered(monkeypatch)
+    every site tried lies within 1.5 district radii of the town's settlement (the default), and there are still
+    five."""
+    sites, far = _sites_offered(monkeypatch, district_town_reach=math.inf)
     assert len(sites) == 5 and far.max() > 2_000.0
-    near_sites, near = _sites_offered(monkeypatch, district_town_reach=1.5)
+    near_sites, near = _sites_offered(monkeypatch)
     radius = np.sqrt(near_sites[0].area / np.pi)
     assert len(near_sites) == 5 and near.max() <= 1.5 * radius
 
@@ -401,21 +403,23 @@ def test_with_town_nuclei_a_nucleus_in_the_fields_does_not_rank_the_engines_site
     """north-bayreuth: a strong nucleus (a bridge, 0.9) on the site farthest from the town's settlement puts that site
     first by default (003's rank: distance × (1 − strength)); with :attr:`GrowthOptions.town_nuclei` the nucleus,
     more than a junction spacing from the town's built-up land, is not the town's, and the sites keep the order
-    the town's own nuclei give them."""
+    the town's own nuclei give them. Every site is offered (``district_town_reach`` inf): with the default reach the
+    site in the fields is not offered at all."""
     from osm_expand.sites import settlement_distance
 
     city, learned = town("north-bayreuth.osm.gz")
     spacing = learned.example.spacing
     centre = Nucleus(xy=(-3209.75, -886.68), strength=1.0, kind=NucleusKind.CENTRE)  # the engine's, in the town
-    sites, alone = _orders(city, learned, [centre], GrowthOptions(), monkeypatch)
+    sites, alone = _orders(city, learned, [centre], GrowthOptions(district_town_reach=math.inf), monkeypatch)
     maps = distance_maps(city, SiteOptions(cell=40.0), margin=_margin(city))
     away = settlement_distance(maps, np.array(sites))
     far = int(np.argmax(away))
     assert away[far] > 3 * spacing and alone[0] != far
     bridge = Nucleus(xy=tuple(sites[far]), strength=0.9, kind=NucleusKind.BRIDGE)
-    _, default = _orders(city, learned, [centre, bridge], GrowthOptions(), monkeypatch)
+    _, default = _orders(city, learned, [centre, bridge], GrowthOptions(district_town_reach=math.inf), monkeypatch)
     assert default[0] == far  # the nucleus in the fields ranks its site first
-    _, town_only = _orders(city, learned, [centre, bridge], GrowthOptions(town_nuclei=True), monkeypatch)
+    everywhere = GrowthOptions(town_nuclei=True, district_town_reach=math.inf)
+    _, town_only = _orders(city, learned, [centre, bridge], everywhere, monkeypatch)
     assert town_only == alone
 
 

@@ -4,6 +4,7 @@ own settlement (built-up land less than 200 m apart merged, the piece with the m
 from __future__ import annotations
 
 import functools
+import math
 
 import numpy as np
 import pytest
@@ -231,13 +232,16 @@ def test_north_bayreuth_grows_at_settlements_of_a_neighbourhood_with_settlement_
     """north-bayreuth, seed 0, ``settlement_only`` with ``settlement_neighbourhoods = 1``: the engine's streets
     grow by the settlements of at least a neighbourhood's area (median distance of their points to that land
     272 m; with the default options 1,065 m: both quarters in the fields 2.5 km north-east, by a hamlet of
-    0.49 km² of built-up land). On the old code the option does not exist."""
+    0.49 km² of built-up land). On the old code the option does not exist. The district's reach to the town and
+    its share of it are off here (``inf``), as when this was measured: both bind a district to the largest
+    settlement alone, which is what ``settlement_only`` sets aside."""
     from osm_expand.engine.history import load_history
     from osm_expand.engine.loop import EngineOptions
     from osm_expand.maturation import MatureOptions, mature_result
     from osm_expand.pipeline import ExpandOptions, expand
 
-    growth = GrowthOptions(settlement_only=True, settlement_neighbourhoods=1.0)
+    growth = GrowthOptions(settlement_only=True, settlement_neighbourhoods=1.0, district_town_reach=math.inf,
+                           district_town_share=math.inf)
     run = mature_result(expand(load(FIXTURES / "north-bayreuth.osm.gz"), ExpandOptions(seed=0, fidelity=False)),
                         load_history("example"), MatureOptions(fidelity=False, engine=EngineOptions(growth=growth)),
                         0).city
