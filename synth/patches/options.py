@@ -79,9 +79,10 @@ class PatchOptions:
     #: shares below range, Andorra 4 4 5 (README, h30e).
     also_typical: tuple[str, ...] = ()
     #: Rank the candidate patches by their curvature as the fidelity verdict reads it: the KS distance between
-    #: a patch's bends per 20 m chord and those of all the candidates drawn (the town's neighbourhoods, pooled),
-    #: 0 best, scaled by the candidates' spread of it, instead of by the distance of its median bend to the
-    #: median of the patches ``density_band`` kept. Why: the band keeps the denser half, which in an old
+    #: a patch's bends per 20 m chord and the mean distribution of all the candidates drawn (the town's
+    #: neighbourhoods, each weighing the same: :func:`~synth.patches.source._bends_apart`), 0 best, scaled by
+    #: the candidates' spread of it, instead of by the distance of its median bend to the median of the
+    #: patches ``density_band`` kept. Why: the band keeps the denser half, which in an old
     #: European town is its medieval core; the most typical of the core is the most typical core, with its
     #: curving lanes (Krems, patches of 714 m, seed 0: the kept half's chords bend 2.8° median, their
     #: curvature KS against the whole town 0.33 median per patch; all the neighbourhoods' 1.9° and 0.25; the

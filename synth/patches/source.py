@@ -209,17 +209,20 @@ def _candidate_patches(source: _Source, size: float, opts: PatchOptions, rng: np
 
 def _bends_apart(measured: list) -> np.ndarray:
     """Each patch's KS distance between its curvature chords (bends per 20 m, the fidelity measure) and the
-    chords of all of ``measured`` pooled: how far its streets' shape is from the neighbourhoods' as a whole
-    (NaN for a patch without a chord). The verdict judges a growth's curvature by such a distance, not by a
-    median; a patch whose median bend is typical can still lack the town's straight runs."""
+    neighbourhoods' as a whole: the mean of all of ``measured``'s distributions, each neighbourhood weighing
+    the same (pooled chord by chord, the densest would weigh most: in Krems its curving old town). NaN for a
+    patch without a chord. The verdict judges a growth's curvature by such a distance, not by a median; a
+    patch whose median bend is typical can still lack the town's straight runs."""
     bends = [np.sort(np.asarray(m.value("curvature"), dtype=np.float64)) for m in measured]
-    pooled = np.sort(np.concatenate(bends)) if bends else np.zeros(0)
+    bends = [b if len(b) else None for b in bends]
+    used = [b for b in bends if b is not None]
     out = np.full(len(bends), np.nan)
-    for i, b in enumerate(bends):
-        if len(b) and len(pooled):
-            grid = np.concatenate([b, pooled])
-            out[i] = float(np.abs(np.searchsorted(b, grid, side="right") / len(b)
-                                  - np.searchsorted(pooled, grid, side="right") / len(pooled)).max())
+    if not used:
+        return out
+    grid = np.unique(np.concatenate(used))
+    cdf = np.array([np.searchsorted(b, grid, side="right") / len(b) for b in used])
+    whole = cdf.mean(axis=0)
+    out[[i for i, b in enumerate(bends) if b is not None]] = np.abs(cdf - whole).max(axis=1)
     return out
 
 
