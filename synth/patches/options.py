@@ -89,6 +89,15 @@ class PatchOptions:
     #: town 0.33 median per patch; all the neighbourhoods' 1.9° and 0.25; the top-ranked patches 3.2-3.4°, KS
     #: 0.32-0.36; the engine's verdict bound 0.18-0.23). Clipping the patches to their cells adds little
     #: (0.00-0.03 of KS); the rest of the engine's excess is at the stitching's joints (``stitching_bends.py``).
+    #: Off: ``"neighbourhoods"`` straightens Krems' copied pieces (``stitching_bends.py``, seed 0, engine districts:
+    #: chords on one piece median 2.3° -> 0.3°, curvature KS against the town 0.372 -> 0.256, without the joints'
+    #: chords 0.245 -> 0.124; north-bayreuth 0.150 -> 0.137), but moves the engine's districts and takes Andorra
+    #: out: ``engine_growth.py``, off of 14 per reference, off -> on, seed 0: Krems 1 1 1 -> 1 0 3 (curvature KS
+    #: 0.372 -> 0.257, median 5.2° -> 2.2°, bound 0.19-0.23), Andorra 0 0 0 -> 7 6 7 (curvature 1.4° against its
+    #: town's 4.1°: its neighbourhoods are its straight valley floor), north-bayreuth 5 5 5 -> 3 4 3, Monaco 2 3 3
+    #: -> 4 4 4 (dead-end 0.188 above, 2-core 0.850 below range), Campo Grande 3 5 4 -> 4 4 4 (2-core 0.955 below
+    #: range); seed 1: Krems 3 3 4 -> 2 3 2, Andorra 0 0 1 -> 2 4 3, north-bayreuth 3 3 3 -> 1 3 2, Monaco 6 5 5
+    #: -> 2 2 3 (2-core 0.849 below range), Campo Grande 4 5 5 -> 4 4 4 (session 36, h36c).
     bends_against: str | None = None
     #: A patch turns to match its neighbours' grid only when both have a clear main direction:
     #: the fullest 5° bin of bearings (mod 90°) holds this many times its share.
