@@ -92,8 +92,7 @@ class ExamplePatches:
         aim = self._aim(everything, around, radius, city.network)
         key = round(float(np.log(size)) / 0.05)  # sizes within 5 % share a ranking
         if key not in self.cache:
-            self.cache[key] = _candidate_patches(source, size, opts, rng, self.measure, self.limits,
-                                                 self._town_bends(everything))
+            self.cache[key] = _candidate_patches(source, size, opts, rng, self.measure, self.limits)
         patches = self.cache[key]
         best = None
         for attempt in range(ATTEMPTS):  # other patches when even every cell filled left too little
@@ -138,16 +137,6 @@ class ExamplePatches:
         made = self.land(_line_xy(source.lines))
         self.cache["land"] = (source, made)
         return made
-
-    def _town_bends(self, everything: _Source) -> np.ndarray | None:
-        """The town's curvature chords (sorted; its mapped streets, which the years do not change, measured
-        once per pattern object) when ``bends_against`` asks for them, else None."""
-        if self.options.bends_against != "town" or self.measure is None:
-            return None
-        if "town_bends" not in self.cache:
-            whole = self.measure(_line_xy(everything.lines))(None)
-            self.cache["town_bends"] = np.sort(np.asarray(whole.value("curvature"), dtype=np.float64))
-        return self.cache["town_bends"]
 
     def _corner_rate(self) -> float:
         """The town's corners sharper than :data:`~synth.patches.corners.SHARP` at nodes of degree two per km

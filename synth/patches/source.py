@@ -139,8 +139,7 @@ TYPICAL = ("curvature", "circuity", "edge_length", "dead_end_share", "three_way_
 
 
 def _candidate_patches(source: _Source, size: float, opts: PatchOptions, rng: np.random.Generator,
-                       measure: Callable | None = None, limits: Callable | None = None,
-                       town_bends: np.ndarray | None = None) -> np.ndarray:
+                       measure: Callable | None = None, limits: Callable | None = None) -> np.ndarray:
     """Patch centres on the town's streets, most typical of the town first.
 
     Candidates are discs around the town's neighbourhoods' junctions
@@ -153,10 +152,9 @@ def _candidate_patches(source: _Source, size: float, opts: PatchOptions, rng: np
     the candidates' spread, so the district is made of the town's ordinary
     fabric rather than its oddities. A candidate within one patch of a better
     one goes to the back, so neighbouring cells differ. With
-    ``bends_against`` the curvature is ranked by the KS distance of a
-    candidate's bends to all the candidates' or to the town's (``town_bends``,
-    sorted: :func:`_bends_apart`), not by its median bend against the kept
-    candidates'.
+    ``bends_of_neighbourhoods`` the curvature is ranked by the KS distance of a
+    candidate's bends to all the candidates' (:func:`_bends_apart`), not by its
+    median bend against the kept candidates'.
 
     With ``share_guard`` (and ``measure`` and ``limits``), a candidate in the
     band whose ``guarded`` scalars (default the dead-end and 2-core shares)
@@ -199,10 +197,9 @@ def _candidate_patches(source: _Source, size: float, opts: PatchOptions, rng: np
         values = np.array([[_level(at(i), m) for m in typical] for i in good.tolist()])
         centre = np.nanmedian(values, axis=0)
         spread = np.nanpercentile(values, 75, axis=0) - np.nanpercentile(values, 25, axis=0)
-        if opts.bends_against is not None:  # the curvature read as the verdict reads it: a KS distance
+        if opts.bends_of_neighbourhoods:  # the curvature read as the verdict reads it: a KS distance
             k = typical.index("curvature")
-            ks = _bends_apart([at(i) for i in range(len(centres))],
-                              town_bends if opts.bends_against == "town" else None)
+            ks = _bends_apart([at(i) for i in range(len(centres))])
             values[:, k], centre[k] = ks[good], 0.0
             spread[k] = np.nanpercentile(ks, 75) - np.nanpercentile(ks, 25)
         z = np.nan_to_num(np.abs(values - centre) / np.where(spread > 0, spread, 1.0), nan=3.0)
@@ -210,22 +207,21 @@ def _candidate_patches(source: _Source, size: float, opts: PatchOptions, rng: np
     return _spread(centres, good, size)
 
 
-def _bends_apart(measured: list, town: np.ndarray | None = None) -> np.ndarray:
-    """Each patch's KS distance between its curvature chords (bends per 20 m, the fidelity measure) and
-    ``town`` (sorted: the town's chords, the verdict's reference, :func:`osm_expand.fidelity.ks_distance`)
-    or, without it, the neighbourhoods' as a whole: the mean of all of ``measured``'s distributions, each
-    neighbourhood weighing the same (pooled chord by chord, the densest would weigh most: in Krems its
-    curving old town). NaN for a patch without a chord. The verdict judges a growth's curvature by such a
-    distance, not by a median; a patch whose median bend is typical can still lack the town's straight runs."""
+def _bends_apart(measured: list) -> np.ndarray:
+    """Each patch's KS distance between its curvature chords (bends per 20 m, the fidelity measure) and the
+    neighbourhoods' as a whole: the mean of all of ``measured``'s distributions, each neighbourhood weighing
+    the same (pooled chord by chord, the densest would weigh most: in Krems its curving old town). NaN for a
+    patch without a chord. The verdict judges a growth's curvature by such a distance
+    (:func:`osm_expand.fidelity.ks_distance`; ``synth`` imports only the model), not by a median: a patch
+    whose median bend is typical can still lack the town's straight runs."""
     bends = [np.sort(np.asarray(m.value("curvature"), dtype=np.float64)) for m in measured]
     have = [i for i, b in enumerate(bends) if len(b)]
     out = np.full(len(bends), np.nan)
-    if not have or (town is not None and not len(town)):
+    if not have:
         return out
-    grid = np.unique(np.concatenate([bends[i] for i in have] + ([] if town is None else [town])))
+    grid = np.unique(np.concatenate([bends[i] for i in have]))
     cdf = np.array([np.searchsorted(bends[i], grid, side="right") / len(bends[i]) for i in have])
-    whole = cdf.mean(axis=0) if town is None else np.searchsorted(town, grid, side="right") / len(town)
-    out[have] = np.abs(cdf - whole).max(axis=1)
+    out[have] = np.abs(cdf - cdf.mean(axis=0)).max(axis=1)
     return out
 
 
