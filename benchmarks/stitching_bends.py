@@ -29,6 +29,12 @@ seam_link_turn=true`` Krems 0.372 -> 0.332, north-bayreuth 0.150 -> 0.194 (almos
 north-bayreuth 0.117 (joint-edge chords 46 -> 28). Each moves the engine's districts
 (:class:`synth.patches.PatchOptions`).
 
+Session 36 (h36c), seed 0: Krems' bends on one piece (median 2.3°) are its patches' own: the density band keeps
+its denser half, the curving old town, and clipping to the cells adds 0.00-0.03 of KS. ``--option
+bends_of_neighbourhoods=true`` (patches ranked by their bends' KS distance to all the neighbourhoods): Krems
+one piece 2.3° -> 0.3°, curvature KS 0.372 -> 0.256, without every joint's chords 0.245 -> 0.124;
+north-bayreuth 0.150 -> 0.137 (0.080 -> 0.073).
+
 Usage: ``python benchmarks/stitching_bends.py [--seed N] [--option NAME=VALUE ...] [TOWN ...]`` (default: Krems and
 north-bayreuth; about 15 s CPU each). ``--option`` (repeatable, a JSON value) sets a :class:`synth.patches.PatchOptions`
 field in every PatchOptions the run makes that does not set it itself (the history's eras take theirs from the

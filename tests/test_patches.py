@@ -837,3 +837,58 @@ def test_edge_min_run_lays_no_perimeter_street_across_a_sliver():
         assert len(least.cut_xy) == 2 - 2 * laid
     with pytest.raises(OptionError, match="edge_min_run"):
         PatchOptions(edge_min_run=-1.0)
+
+
+def test_the_bends_apart_are_the_verdicts_ks_distance():
+    """``_bends_apart`` (``synth`` imports only the model) is :func:`osm_expand.fidelity.ks_distance` of each
+    patch's curvature chords against the neighbourhoods' mean distribution: with as many chords in each,
+    all of them pooled; with more chords in one, it weighs no more."""
+    from types import SimpleNamespace
+
+    from osm_expand.fidelity import ks_distance
+    from synth.patches.source import _bends_apart
+
+    rng = np.random.default_rng(5)
+    bends = [np.round(rng.exponential(s, 40), 1) for s in (1.0, 3.0, 0.5, 2.0)]
+    measured = [SimpleNamespace(value=lambda name, b=b: b) for b in bends] + [SimpleNamespace(value=lambda name: [])]
+    got = _bends_apart(measured)
+    pooled = np.sort(np.concatenate(bends))
+    assert np.allclose(got[:4], [ks_distance(b, pooled) for b in bends], rtol=0, atol=1e-12)
+    assert np.isnan(got[4])
+    # the curviest neighbourhood's chords repeated ten times: the same distribution, the same distances
+    measured[1] = SimpleNamespace(value=lambda name: np.repeat(bends[1], 10))
+    assert np.allclose(_bends_apart(measured), got, rtol=0, atol=1e-12, equal_nan=True)
+
+
+def test_patches_ranked_by_the_neighbourhoods_bends_are_as_straight_as_the_town():
+    """Issue 20 (h36c): Krems' ``density_band`` keeps the denser half of its neighbourhoods, its old town,
+    and the patches most typical of that half bend like its lanes (the top three at 824 m: curvature KS
+    0.31 against the whole town, median 3.0° per 20 m chord; all the neighbourhoods' median KS 0.24). Ranked
+    by their bends' KS distance to all the neighbourhoods (``bends_of_neighbourhoods``), the top patches
+    are straighter, their pooled chords nearer the town's (0.245, median 2.1°)."""
+    from osm_expand.fidelity import ks_distance
+    from osm_expand.growth_patterns import measure_in_windows
+    from osm_expand.measures import measure_network
+    from osm_expand.model import Origin
+    from synth.patches.source import _candidate_patches, _source
+
+    grown = district("krems.osm.gz", 0)
+    net = load(FIXTURES / "krems.osm.gz").network
+    whole = np.sort(measure_network([net.street_xy(s) for s in net.streets if s.origin == Origin.SOURCE],
+                                    pieces=False).value("curvature"))
+    source = _source(grown.city, grown.learned.example)
+    in_window = measure_in_windows([np.asarray(ln.coords) for ln in source.lines])
+    size = 1.5 * PatchOptions().cell_size * grown.learned.example.spacing
+    ks = {}
+    for on in (False, True):
+        opts = PatchOptions(bends_of_neighbourhoods=on)
+        patches = _candidate_patches(source, size, opts, np.random.default_rng(0), measure_in_windows)
+        top = [np.asarray(in_window(shapely.Point(c).buffer(size / 2)).value("curvature")) for c in patches[:3]]
+        ks[on] = ks_distance(np.concatenate(top), whole)
+    assert ks[True] < ks[False] - 0.04, ks
+
+
+def test_bends_of_neighbourhoods_is_true_or_false():
+    """A history's "false" is a string, which Python reads as true: it is refused at the history's reading."""
+    with pytest.raises(OptionError, match="bends_of_neighbourhoods"):
+        PatchOptions(bends_of_neighbourhoods="false")  # type: ignore[arg-type]
