@@ -344,7 +344,7 @@ def _grow_streets(state: EngineState, era: Era, now: YearValues, year: int, rng:
                         or (last_year is not None and now.year >= last_year))
             floor = options.growth.district_neighbourhoods * state.growth.neighbourhood
             share = options.growth.district_town_share
-            if math.isfinite(share) and state.growth.settlement is not None:  # a quarter of the town at a time
+            if math.isfinite(share) and state.growth.settlement is not None:  # at most that share of the town at a time
                 floor = min(floor, share * state.growth.settlement)
             if state.growth.owed < floor and not era_ends:
                 return GrowthYear()  # not yet the floor, and the era goes on: wait
