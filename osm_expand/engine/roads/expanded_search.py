@@ -1,0 +1,214 @@
+"""Dijkstra on the heading-expanded graph, compiled, its turn rows made as the search reaches them.
+
+:mod:`osm_expand.engine.roads.routing` searches a route with turn penalties
+on a *heading-expanded* graph (arrival, departure and hub states per vertex,
+numbered as ``routing._States`` says). Four fifths of that graph's entries
+are the same for every vertex: an arrival ``arr(v, i)`` turns to
+``dep(v, i + q)`` for the cheap turns q and to ``hub(v)`` at S_p, the hub
+departs on every heading for free. Only the departures' rows (the plain
+graph's edges, each from ``dep(u, b)`` to ``arr(w, b)``) differ. So the
+search here is given those rows alone and makes the others when it pops a
+state; no expanded CSR matrix is written (Campo Grande: 213 M entries for
+its 36 searches, session 35).
+
+The routes must keep their bytes, and with them which of several paths of
+exactly equal cost a search takes. scipy's Dijkstra (1.17,
+``scipy.sparse.csgraph.dijkstra``) keeps a priority queue of
+``(−distance, state)`` pairs (a C++ ``std::priority_queue``, entries made
+stale by a later decrease skipped when popped): it scans the states in the
+order of their distance and, of equal ones, the highest numbered first,
+and a relaxation takes a state only when strictly cheaper and not above the
+limit. A state is never pushed twice at one distance, so that order is
+total and any heap that pops by it scans the states as scipy's does. So
+this is the same search step for step: a binary heap keyed by (distance,
+−state), the same rows in the same entry order, the same float sums
+(``dist[u] + w``; A*'s reduced weight ``w + (h[col] − h[row])`` raised to
+``eps``, as ``routing._reduced`` writes it into the matrix): the same
+distances, the same predecessors, ties included.
+``tests/test_routing_search.py`` holds it to scipy entry for entry.
+
+numba compiles it (``cache=True``: a user's first run compiles and stores
+it, later runs load it); nothing else imports numba, so commands that do not
+search routes do not pay its import.
+"""
+from __future__ import annotations
+
+import numpy as np
+from numba import njit
+
+#: scipy's ``NULL_IDX``: the predecessor of a state not reached
+NO_PRED = -9999
+
+
+@njit(cache=True, inline="always")
+def _before(key: float, state: float, other_key: float, other_state: float) -> bool:
+    """An entry pops before another: the lower distance, of equal ones the higher state (scipy's order)."""
+    return key < other_key or (key == other_key and state > other_state)
+
+
+@njit(cache=True, inline="always")
+def _push(heap: np.ndarray, length: int, key: float, state: float) -> np.ndarray:
+    """``heap`` (entries ``(distance, state)``, rows ``0 … length − 1`` a 4-ary heap) with one more
+    entry (grown by doubling when full: the returned array is the heap)."""
+    if length == len(heap):
+        heap = np.concatenate((heap, np.empty_like(heap)))
+    at = length
+    while at > 0:  # the hole moves up past the entries that pop later
+        up = (at - 1) >> 2
+        if not _before(key, state, heap[up, 0], heap[up, 1]):
+            break
+        heap[at, 0] = heap[up, 0]
+        heap[at, 1] = heap[up, 1]
+        at = up
+    heap[at, 0] = key
+    heap[at, 1] = state
+    return heap
+
+
+@njit(cache=True, inline="always")
+def _pop(heap: np.ndarray, length: int) -> None:
+    """Drop the heap's first entry (``length`` entries before): its last one sifts down from the top."""
+    last = length - 1
+    key = heap[last, 0]
+    state = heap[last, 1]
+    at = 0
+    while True:
+        first = 4 * at + 1
+        if first >= last:
+            break
+        best = first
+        for c in range(first + 1, min(first + 4, last)):
+            if _before(heap[c, 0], heap[c, 1], heap[best, 0], heap[best, 1]):
+                best = c
+        if not _before(heap[best, 0], heap[best, 1], key, state):
+            break
+        heap[at, 0] = heap[best, 0]
+        heap[at, 1] = heap[best, 1]
+        at = best
+    heap[at, 0] = key
+    heap[at, 1] = state
+
+
+@njit(cache=True)
+def _search(n: int, k: int, cheap: np.ndarray, cheap_cost: np.ndarray, hub_cost: float, dep_ptr: np.ndarray,
+            dep_col: np.ndarray, dep_val: np.ndarray, h: np.ndarray, astar: bool, eps: float, start: int,
+            limit: float, pred: np.ndarray) -> np.ndarray:
+    nk = n * k
+    size = n * (2 * k + 1)
+    dist = np.full(size, np.inf)
+    want_pred = len(pred) > 0
+    n_cheap = len(cheap)
+    # the heap's entries (distance, state): a state is exact in a float64 (it is below 2⁵³), and an
+    # entry's two halves share a cache line
+    heap = np.empty((4096, 2))
+    dist[start] = 0.0
+    heap[0, 0] = 0.0
+    heap[0, 1] = start
+    length = 1
+    while length > 0:
+        dv = heap[0, 0]
+        v = np.int64(heap[0, 1])
+        _pop(heap, length)
+        length -= 1
+        if dist[v] < dv:  # made stale by a later decrease: scanned then
+            continue
+        if v < nk:  # arrival arr(u, i): its cheap turns, then the hub
+            u = v // k
+            i = v - u * k
+            base = nk + u * k
+            hu = h[u] if astar else 0.0
+            for j in range(n_cheap + 1):
+                if j < n_cheap:
+                    b = i + cheap[j]
+                    if b >= k:
+                        b -= k
+                    col = base + b
+                    w = cheap_cost[j]
+                else:
+                    col = 2 * nk + u
+                    w = hub_cost
+                if astar:  # routing._reduced: w + (h(col) − h(row)), at least eps
+                    w = w + (hu - hu)
+                    if w < eps:
+                        w = eps
+                nv = dv + w
+                if nv <= limit and dist[col] > nv:
+                    dist[col] = nv
+                    if want_pred:
+                        pred[col] = v
+                    heap = _push(heap, length, nv, col)
+                    length += 1
+        elif v < 2 * nk:  # departure dep(u, b): the plain graph's edges of bin b
+            r = v - nk
+            u = r // k
+            hu = h[u] if astar else 0.0
+            for j in range(dep_ptr[r], dep_ptr[r + 1]):
+                col = dep_col[j]
+                w = dep_val[j]
+                if astar:
+                    w = w + (h[col // k] - hu)
+                    if w < eps:
+                        w = eps
+                nv = dv + w
+                if nv <= limit and dist[col] > nv:
+                    dist[col] = nv
+                    if want_pred:
+                        pred[col] = v
+                    heap = _push(heap, length, nv, col)
+                    length += 1
+        else:  # the hub: every departure, free
+            u = v - 2 * nk
+            hu = h[u] if astar else 0.0
+            w = eps
+            if astar:
+                w = w + (hu - hu)
+                if w < eps:
+                    w = eps
+            nv = dv + w
+            if nv <= limit:
+                for col in range(nk + u * k, nk + u * k + k):
+                    if dist[col] > nv:
+                        dist[col] = nv
+                        if want_pred:
+                            pred[col] = v
+                        heap = _push(heap, length, nv, col)
+                        length += 1
+    return dist
+
+
+def expanded_dijkstra(n: int, k: int, cheap: np.ndarray, cheap_cost: np.ndarray, hub_cost: float,
+                      departures: tuple[np.ndarray, np.ndarray, np.ndarray], start: int, limit: float,
+                      eps: float, h: np.ndarray | None = None, return_predecessors: bool = False
+                      ) -> tuple[np.ndarray, np.ndarray]:
+    """scipy's ``dijkstra(expanded, indices=start, limit=limit)`` on the heading-expanded graph over
+    ``n`` vertices with ``k`` bins, given only its departures' rows.
+
+    Parameters
+    ----------
+    cheap, cheap_cost
+        The turns of q bins cheaper than S_p (q ascending) and their weights: an arrival's row.
+    hub_cost
+        The weight of ``arr(v, i) → hub(v)``.
+    departures
+        ``(ptr, col, val)``: the rows ``dep(u, b)`` (row ``u·k + b``; ``ptr`` has ``n·k + 1``
+        entries) as the expanded matrix holds them, entry for entry.
+    eps
+        The weight of the hub's free departures (and A*'s least reduced weight).
+    h
+        Per vertex: A*'s reduced weights ``max(w + h(col) − h(row), eps)`` (``routing._reduced``).
+
+    Returns
+    -------
+    dist, pred
+        Per state, as scipy returns them (∞ and −9999 where not reached; pred empty unless asked).
+    """
+    ptr, col, val = departures
+    pred = np.full(n * (2 * k + 1) if return_predecessors else 0, NO_PRED, dtype=np.int32)
+    astar = h is not None
+    hh = np.ascontiguousarray(h, dtype=np.float64) if h is not None else np.zeros(1)
+    dist = _search(int(n), int(k), np.ascontiguousarray(cheap, dtype=np.int64),
+                   np.ascontiguousarray(cheap_cost, dtype=np.float64), float(hub_cost),
+                   np.ascontiguousarray(ptr, dtype=np.int64), np.ascontiguousarray(col, dtype=np.int64),
+                   np.ascontiguousarray(val, dtype=np.float64), hh, astar, float(eps), int(start), float(limit),
+                   pred)
+    return dist, pred
