@@ -33,6 +33,8 @@ search routes do not pay its import.
 """
 from __future__ import annotations
 
+from typing import NamedTuple
+
 import numpy as np
 from numba import njit
 
@@ -89,14 +91,30 @@ def _pop(heap: np.ndarray, length: int) -> None:
     heap[at, 1] = state
 
 
+@njit(cache=True, inline="always")
+def _relax(dist: np.ndarray, pred: np.ndarray, heap: np.ndarray, length: int, col: int, nv: float, v: int | np.integer,
+           limit: float) -> tuple[np.ndarray, int]:
+    """scipy's relaxation: a state takes ``nv`` only when strictly cheaper and not above the limit."""
+    if nv <= limit and dist[col] > nv:
+        dist[col] = nv
+        if len(pred):
+            pred[col] = v
+        heap = _push(heap, length, nv, col)
+        length += 1
+    return heap, length
+
+
 @njit(cache=True)
-def _search(n: int, k: int, cheap: np.ndarray, cheap_cost: np.ndarray, hub_cost: float, dep_ptr: np.ndarray,
-            dep_col: np.ndarray, dep_val: np.ndarray, h: np.ndarray, astar: bool, eps: float, start: int,
-            limit: float, pred: np.ndarray) -> np.ndarray:
+def _search(n: int, k: int, cheap: np.ndarray, cheap_cost: np.ndarray, hub_cost: float, region: np.ndarray,
+            local: np.ndarray, n_lat: int, lat_kind: np.ndarray, allowed: np.ndarray, offset: np.ndarray,
+            dirs_ptr: np.ndarray, dirs: np.ndarray, table: np.ndarray, plain: np.ndarray, e_ptr: np.ndarray,
+            e_bin: np.ndarray, e_col: np.ndarray, e_val: np.ndarray, h: np.ndarray, astar: bool, eps: float,
+            start: int, limit: float, pred: np.ndarray) -> np.ndarray:
     nk = n * k
     size = n * (2 * k + 1)
+    n_dir = lat_kind.shape[1]
+    use_table = len(table) > 0
     dist = np.full(size, np.inf)
-    want_pred = len(pred) > 0
     n_cheap = len(cheap)
     # the heap's entries (distance, state): a state is exact in a float64 (it is below 2⁵³), and an
     # entry's two halves share a cache line
@@ -131,31 +149,38 @@ def _search(n: int, k: int, cheap: np.ndarray, cheap_cost: np.ndarray, hub_cost:
                     w = w + (hu - hu)
                     if w < eps:
                         w = eps
-                nv = dv + w
-                if nv <= limit and dist[col] > nv:
-                    dist[col] = nv
-                    if want_pred:
-                        pred[col] = v
-                    heap = _push(heap, length, nv, col)
-                    length += 1
-        elif v < 2 * nk:  # departure dep(u, b): the plain graph's edges of bin b
+                heap, length = _relax(dist, pred, heap, length, col, dv + w, v, limit)
+        elif v < 2 * nk:  # departure dep(u, b): its lattice moves of bin b, then its other edges of bin b
             r = v - nk
             u = r // k
+            b = r - u * k
             hu = h[u] if astar else 0.0
-            for j in range(dep_ptr[r], dep_ptr[r + 1]):
-                col = dep_col[j]
-                w = dep_val[j]
+            gu = region[u]
+            if gu < n_lat:
+                for t in range(dirs_ptr[b], dirs_ptr[b + 1]):
+                    d = dirs[t]
+                    kd = lat_kind[gu, d]
+                    if not allowed[kd]:
+                        continue
+                    lw = local[gu + offset[d]]
+                    if lw < 0:
+                        continue
+                    w = table[np.int64(kd) * n_dir + d] if use_table else np.float64(plain[gu, d])
+                    if astar:
+                        w = w + (h[lw] - hu)
+                        if w < eps:
+                            w = eps
+                    heap, length = _relax(dist, pred, heap, length, lw * k + b, dv + w, v, limit)
+            for t in range(e_ptr[u], e_ptr[u + 1]):
+                if e_bin[t] != b:
+                    continue
+                col = e_col[t]
+                w = e_val[t]
                 if astar:
                     w = w + (h[col // k] - hu)
                     if w < eps:
                         w = eps
-                nv = dv + w
-                if nv <= limit and dist[col] > nv:
-                    dist[col] = nv
-                    if want_pred:
-                        pred[col] = v
-                    heap = _push(heap, length, nv, col)
-                    length += 1
+                heap, length = _relax(dist, pred, heap, length, col, dv + w, v, limit)
         else:  # the hub: every departure, free
             u = v - 2 * nk
             hu = h[u] if astar else 0.0
@@ -164,51 +189,54 @@ def _search(n: int, k: int, cheap: np.ndarray, cheap_cost: np.ndarray, hub_cost:
                 w = w + (hu - hu)
                 if w < eps:
                     w = eps
-            nv = dv + w
-            if nv <= limit:
-                for col in range(nk + u * k, nk + u * k + k):
-                    if dist[col] > nv:
-                        dist[col] = nv
-                        if want_pred:
-                            pred[col] = v
-                        heap = _push(heap, length, nv, col)
-                        length += 1
+            for col in range(nk + u * k, nk + u * k + k):
+                heap, length = _relax(dist, pred, heap, length, col, dv + w, v, limit)
     return dist
 
 
-def expanded_dijkstra(n: int, k: int, cheap: np.ndarray, cheap_cost: np.ndarray, hub_cost: float,
-                      departures: tuple[np.ndarray, np.ndarray, np.ndarray], start: int, limit: float,
-                      eps: float, h: np.ndarray | None = None, return_predecessors: bool = False
-                      ) -> tuple[np.ndarray, np.ndarray]:
-    """scipy's ``dijkstra(expanded, indices=start, limit=limit)`` on the heading-expanded graph over
-    ``n`` vertices with ``k`` bins, given only its departures' rows.
+class Expanded(NamedTuple):
+    """What the search reads of a heading-expanded graph over ``n`` vertices with ``k`` bins, beside
+    the rows it makes itself: the turns, the lattice's tables (moves read as the search reaches their
+    vertex) and the other edges (streets, stitches, long bridges) by vertex."""
 
-    Parameters
-    ----------
-    cheap, cheap_cost
-        The turns of q bins cheaper than S_p (q ascending) and their weights: an arrival's row.
-    hub_cost
-        The weight of ``arr(v, i) → hub(v)``.
-    departures
-        ``(ptr, col, val)``: the rows ``dep(u, b)`` (row ``u·k + b``; ``ptr`` has ``n·k + 1``
-        entries) as the expanded matrix holds them, entry for entry.
-    eps
-        The weight of the hub's free departures (and A*'s least reduced weight).
-    h
-        Per vertex: A*'s reduced weights ``max(w + h(col) − h(row), eps)`` (``routing._reduced``).
+    n: int  #: vertices (local numbers 0 … n − 1)
+    k: int  #: heading bins
+    cheap: np.ndarray  #: int64, the turns of q bins cheaper than S_p, q ascending (an arrival's row)
+    cheap_cost: np.ndarray  #: their weights
+    hub_cost: float  #: ``arr(v, i) → hub(v)``
+    eps: float  #: the hub's free departures (and A*'s least reduced weight)
+    region: np.ndarray  #: int64 (n,), each local vertex's G′ number (lattice vertices first)
+    local: np.ndarray  #: (V′,) each G′ vertex's local number, −1 outside
+    n_lat: int  #: lattice vertices of G′ (they come first)
+    lat_kind: np.ndarray  #: (n_lat, D) uint8 the lattice edges' kinds
+    allowed: np.ndarray  #: (256,) bool, the kinds a route may use
+    offset: np.ndarray  #: int64 (D,), a direction's step in G′ numbers
+    dirs_ptr: np.ndarray  #: int64 (k + 1,), where each bin's directions start in ``dirs``
+    dirs: np.ndarray  #: int64 (D,) the directions by bin, ascending within one
+    table: np.ndarray  #: float64 weight by ``kind · D + direction`` (empty: read ``plain``)
+    plain: np.ndarray  #: (n_lat, D) the lattice weights, where there is no table
+    e_ptr: np.ndarray  #: int64 (n + 1,), each vertex's other edges in the arrays below
+    e_bin: np.ndarray  #: int64, their heading bins (a vertex's in row order: bin, then edge)
+    e_col: np.ndarray  #: int64, ``arr(w, b)``
+    e_val: np.ndarray  #: float64 weights
+
+
+def expanded_dijkstra(graph: Expanded, start: int, limit: float, h: np.ndarray | None = None,
+                      return_predecessors: bool = False) -> tuple[np.ndarray, np.ndarray]:
+    """scipy's ``dijkstra(expanded, indices=start, limit=limit)`` on the heading-expanded graph
+    ``graph`` describes, with (given ``h``, per vertex) A*'s reduced weights
+    ``max(w + h(col) − h(row), eps)`` (``routing._reduced``).
 
     Returns
     -------
     dist, pred
         Per state, as scipy returns them (∞ and −9999 where not reached; pred empty unless asked).
     """
-    ptr, col, val = departures
-    pred = np.full(n * (2 * k + 1) if return_predecessors else 0, NO_PRED, dtype=np.int32)
+    g = graph
+    pred = np.full(g.n * (2 * g.k + 1) if return_predecessors else 0, NO_PRED, dtype=np.int32)
     astar = h is not None
     hh = np.ascontiguousarray(h, dtype=np.float64) if h is not None else np.zeros(1)
-    dist = _search(int(n), int(k), np.ascontiguousarray(cheap, dtype=np.int64),
-                   np.ascontiguousarray(cheap_cost, dtype=np.float64), float(hub_cost),
-                   np.ascontiguousarray(ptr, dtype=np.int64), np.ascontiguousarray(col, dtype=np.int64),
-                   np.ascontiguousarray(val, dtype=np.float64), hh, astar, float(eps), int(start), float(limit),
-                   pred)
+    dist = _search(g.n, g.k, g.cheap, g.cheap_cost, g.hub_cost, g.region, g.local, g.n_lat, g.lat_kind, g.allowed,
+                   g.offset, g.dirs_ptr, g.dirs, g.table, g.plain, g.e_ptr, g.e_bin, g.e_col, g.e_val, hh, astar,
+                   g.eps, int(start), float(limit), pred)
     return dist, pred

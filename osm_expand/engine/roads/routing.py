@@ -858,20 +858,49 @@ def _heading_search(graph: PathGraph, lat: KindMask, extra: np.ndarray, region: 
     :func:`_reduced` makes them): the distances and (with ``predecessors``, else empty) the predecessors,
     per state.
 
-    The compiled search (:mod:`~osm_expand.engine.roads.expanded_search`) is given the departures'
-    rows alone and makes the arrivals' and hubs' as it reaches them: no expanded matrix is written
-    (:func:`_expanded_graph`'s four fifths), and it takes each state's predecessor as scipy does,
-    ties included, so the routes keep their bytes. Imported here, so that commands which search no
+    The compiled search (:mod:`~osm_expand.engine.roads.expanded_search`) makes each state's row
+    when it reaches it: the arrivals' and hubs' from the turn penalties, the departures' lattice
+    moves from the lattice's kinds and weights (a direction's step is the same everywhere), and
+    only the few other edges (streets, stitches, long bridges) are gathered first. No expanded
+    matrix is written (:func:`_expanded_graph`, the tests' reference, writes them in the very
+    order the search reads them), and it takes each state's predecessor as scipy does, ties
+    included, so the routes keep their bytes. Imported here, so that commands which search no
     route do not import numba."""
-    from osm_expand.engine.roads.expanded_search import expanded_dijkstra
+    from osm_expand.engine.roads.expanded_search import Expanded, expanded_dijkstra
 
-    count, cols, vals = _departures(graph, lat, extra, region, local, k)
-    ptr = np.zeros(len(count) + 1, dtype=np.int64)
-    np.cumsum(count, out=ptr[1:])
-    del count
+    n = len(region)
+    n_lat, n_dir = lat.shape
+    dir_bin = _bins(graph.direction_heading, k)
+    dirs = np.argsort(dir_bin, kind="stable").astype(np.int64)  # by bin, directions ascending within one
+    dirs_ptr = np.zeros(k + 1, dtype=np.int64)
+    np.cumsum(np.bincount(dir_bin, minlength=k), out=dirs_ptr[1:])
+    allowed = np.zeros(256, dtype=bool)
+    if isinstance(lat, KindMask):
+        lat_kind = lat.kind
+        allowed[list(lat.kinds)] = True  # the lattice kinds among those asked for
+    else:  # a plain (V, D) bool table
+        lat_kind = np.asarray(lat, dtype=bool).view(np.uint8)
+        allowed[1] = True
+    weight = graph.lat_weight
+    if isinstance(weight, LatticeWeights) and weight.kind is lat_kind:
+        table, plain = weight.table64, np.zeros((1, 1))
+    else:
+        table, plain = np.zeros(0), np.asarray(weight)
+    # the other edges by vertex, each vertex's in its departure rows' order (bin, then edge)
+    e = np.flatnonzero(extra & (local[graph.src] >= 0) & (local[graph.dst] >= 0))
+    e_bin = _bins(graph.heading[e], k)
+    e_src = local[graph.src[e]].astype(np.int64)
+    order = np.argsort(e_src * k + e_bin, kind="stable")
+    e, e_bin, e_src = e[order], e_bin[order], e_src[order]
+    e_ptr = np.zeros(n + 1, dtype=np.int64)
+    np.cumsum(np.bincount(e_src, minlength=n), out=e_ptr[1:])
     cheap, cheap_cost, hub_cost = _turn_rows(penalties)
-    return expanded_dijkstra(len(region), k, cheap, cheap_cost, hub_cost, (ptr, cols, vals), start, limit, _EPS,
-                             h=h, return_predecessors=predecessors)
+    rows = Expanded(n=n, k=k, cheap=cheap.astype(np.int64), cheap_cost=cheap_cost, hub_cost=hub_cost, eps=_EPS,
+                    region=region.astype(np.int64, copy=False), local=local, n_lat=int(n_lat), lat_kind=lat_kind,
+                    allowed=allowed, offset=graph.lattice.direction_offset.astype(np.int64), dirs_ptr=dirs_ptr,
+                    dirs=dirs, table=table, plain=plain, e_ptr=e_ptr, e_bin=e_bin,
+                    e_col=local[graph.dst[e]].astype(np.int64) * k + e_bin, e_val=graph.weight[e].astype(np.float64))
+    return expanded_dijkstra(rows, start, limit, h=h, return_predecessors=predecessors)
 
 
 def _expanded_search(graph: PathGraph, lat: KindMask, extra: np.ndarray, region: np.ndarray, source: int,
