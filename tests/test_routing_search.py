@@ -835,3 +835,47 @@ def test_on_krems_the_compiled_search_is_scipys_state_for_state(krems_town):  # 
         assert np.isfinite(want[end])
         assert routing._vertex_path(pred, start, end, region, states) == \
             routing._vertex_path(want_pred, start, end, region, states)
+
+
+@settings(max_examples=12, deadline=None)
+@given(st.integers(0, 2**32 - 1), st.sampled_from([8, 16]))
+def test_a_star_with_scipys_tie_rule_walks_back_plain_dijkstras_routes_state_for_state(seed, k):
+    """Issue 22 (session 36): the route search's A* on the graph's own weights (``ties``: keyed by
+    ``g + h``, h the turn-free distance to the target, limit C on ``g + h``), scipy's predecessor rule
+    applied as states relax, gives every state of a route found below C the distance and the
+    predecessor scipy's Dijkstra with the limit C on ``g`` gives: from each of a few targets the
+    route walked back is the same states with the same distances, on street grids full of exactly
+    equal routes, while it searches fewer states."""
+    g, rng = random_map(seed)
+    opts = RoutingOptions(turn_height=float(rng.uniform(20, 900)), heading_bins=k)
+    lat, extra = g.masks()
+    live = g.live_vertices()
+    s, t = (int(v) for v in rng.choice(live, 2, replace=False))
+    with g.restricted(routing.ROAD_KINDS, None) as matrix:
+        d_s, d_t = dijkstra(matrix, indices=[s, t])
+    assume(np.isfinite(d_s[t]))
+    limit = float(rng.uniform(1.2, 3.0)) * d_s[t] + opts.turn_height
+    region = np.flatnonzero(d_s + d_t <= limit)
+    states = routing._States(len(region), k)
+    local = routing._local(g, region, k)
+    start = states.hub(int(local[s]))
+    penalties = routing._bin_penalties(opts)
+    made, _ = routing._expanded_graph(g, lat, extra, region, penalties, k)
+    want, want_pred = dijkstra(made, indices=start, return_predecessors=True, limit=limit)
+    h = d_t[region] * (1.0 - routing._SHRINK)
+    dist, pred = routing._heading_search(g, lat, extra, region, local, penalties, k, start, limit, h=h,
+                                         predecessors=True, ties=True)
+    assert np.isfinite(dist).sum() <= np.isfinite(want).sum()
+    end = routing._target_end(want, states, int(local[t]))
+    assert routing._target_end(dist, states, int(local[t])) == end
+    if not np.isfinite(want[end]):
+        assert not np.isfinite(dist[end])
+        return
+    path = routing._walk_back(want_pred, start, end)
+    assert routing._walk_back(pred, start, end) == path
+    assert np.array_equal(dist[path], want[path])
+    # every state A* kept within the limit has scipy's distance where g + h is within it, never less
+    kept = np.isfinite(dist)
+    assert (dist[kept] >= want[kept]).all()
+    sure = kept & (want + states.per_state(h) < limit - 1e-6 * limit)
+    assert np.array_equal(dist[sure], want[sure])

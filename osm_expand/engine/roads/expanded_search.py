@@ -93,9 +93,27 @@ def _pop(heap: np.ndarray, length: int) -> None:
 
 @njit(cache=True, inline="always")
 def _relax(dist: np.ndarray, pred: np.ndarray, heap: np.ndarray, length: int, col: int, nv: float, v: int | np.integer,
-           limit: float) -> tuple[np.ndarray, int]:
-    """scipy's relaxation: a state takes ``nv`` only when strictly cheaper and not above the limit."""
-    if nv <= limit and dist[col] > nv:
+           limit: float, ties: bool, h_col: float) -> tuple[np.ndarray, int]:
+    """Offer state ``col`` the distance ``nv`` from ``v``.
+
+    As scipy: taken only when strictly cheaper and not above the limit. With ``ties`` (A* keyed by
+    ``g + h``, ``h_col`` the state's bound): taken when strictly cheaper and ``nv + h_col`` not above
+    the limit; where ``nv`` equals the state's distance, ``v`` becomes its predecessor when it comes
+    first in scipy's order (lower distance, then higher number) — found at relaxation, even after
+    the state was scanned, where scipy's queue found it by popping ``v`` first."""
+    if ties:
+        if dist[col] > nv:
+            key = nv + h_col
+            if key <= limit:
+                dist[col] = nv
+                pred[col] = v
+                heap = _push(heap, length, key, col)
+                length += 1
+        elif dist[col] == nv:
+            p = pred[col]
+            if p >= 0 and (dist[v] < dist[p] or (dist[v] == dist[p] and v > p)):
+                pred[col] = v
+    elif nv <= limit and dist[col] > nv:
         dist[col] = nv
         if len(pred):
             pred[col] = v
@@ -108,33 +126,41 @@ def _relax(dist: np.ndarray, pred: np.ndarray, heap: np.ndarray, length: int, co
 def _search(n: int, k: int, cheap: np.ndarray, cheap_cost: np.ndarray, hub_cost: float, region: np.ndarray,
             local: np.ndarray, n_lat: int, lat_kind: np.ndarray, allowed: np.ndarray, offset: np.ndarray,
             dirs_ptr: np.ndarray, dirs: np.ndarray, table: np.ndarray, plain: np.ndarray, e_ptr: np.ndarray,
-            e_bin: np.ndarray, e_col: np.ndarray, e_val: np.ndarray, h: np.ndarray, astar: bool, eps: float,
-            start: int, limit: float, pred: np.ndarray) -> np.ndarray:
+            e_bin: np.ndarray, e_col: np.ndarray, e_val: np.ndarray, h: np.ndarray, astar: bool, ties: bool,
+            eps: float, start: int, limit: float, pred: np.ndarray) -> np.ndarray:
     nk = n * k
     size = n * (2 * k + 1)
     n_dir = lat_kind.shape[1]
     use_table = len(table) > 0
     dist = np.full(size, np.inf)
     n_cheap = len(cheap)
-    # the heap's entries (distance, state): a state is exact in a float64 (it is below 2⁵³), and an
+    # the heap's entries (key, state): a state is exact in a float64 (it is below 2⁵³), and an
     # entry's two halves share a cache line
     heap = np.empty((4096, 2))
     dist[start] = 0.0
-    heap[0, 0] = 0.0
+    heap[0, 0] = h[start - 2 * nk] if ties else 0.0  # the start is a hub
     heap[0, 1] = start
     length = 1
     while length > 0:
-        dv = heap[0, 0]
+        key = heap[0, 0]
         v = np.int64(heap[0, 1])
         _pop(heap, length)
         length -= 1
-        if dist[v] < dv:  # made stale by a later decrease: scanned then
+        if v < nk:
+            u = v // k
+        elif v < 2 * nk:
+            u = (v - nk) // k
+        else:
+            u = v - 2 * nk
+        hu = h[u] if astar or ties else 0.0
+        dv = dist[v]
+        # made stale by a later decrease: scanned then (with ties, the key is g + h: an entry whose
+        # key equals the state's rescans it with the same distance, which changes nothing)
+        if (dv + hu < key) if ties else (dv < key):
             continue
         if v < nk:  # arrival arr(u, i): its cheap turns, then the hub
-            u = v // k
             i = v - u * k
             base = nk + u * k
-            hu = h[u] if astar else 0.0
             for j in range(n_cheap + 1):
                 if j < n_cheap:
                     b = i + cheap[j]
@@ -149,12 +175,9 @@ def _search(n: int, k: int, cheap: np.ndarray, cheap_cost: np.ndarray, hub_cost:
                     w = w + (hu - hu)
                     if w < eps:
                         w = eps
-                heap, length = _relax(dist, pred, heap, length, col, dv + w, v, limit)
+                heap, length = _relax(dist, pred, heap, length, col, dv + w, v, limit, ties, hu)
         elif v < 2 * nk:  # departure dep(u, b): its lattice moves of bin b, then its other edges of bin b
-            r = v - nk
-            u = r // k
-            b = r - u * k
-            hu = h[u] if astar else 0.0
+            b = v - nk - u * k
             gu = region[u]
             if gu < n_lat:
                 for t in range(dirs_ptr[b], dirs_ptr[b + 1]):
@@ -170,7 +193,8 @@ def _search(n: int, k: int, cheap: np.ndarray, cheap_cost: np.ndarray, hub_cost:
                         w = w + (h[lw] - hu)
                         if w < eps:
                             w = eps
-                    heap, length = _relax(dist, pred, heap, length, lw * k + b, dv + w, v, limit)
+                    heap, length = _relax(dist, pred, heap, length, lw * k + b, dv + w, v, limit, ties,
+                                          h[lw] if ties else 0.0)
             for t in range(e_ptr[u], e_ptr[u + 1]):
                 if e_bin[t] != b:
                     continue
@@ -180,17 +204,16 @@ def _search(n: int, k: int, cheap: np.ndarray, cheap_cost: np.ndarray, hub_cost:
                     w = w + (h[col // k] - hu)
                     if w < eps:
                         w = eps
-                heap, length = _relax(dist, pred, heap, length, col, dv + w, v, limit)
+                heap, length = _relax(dist, pred, heap, length, col, dv + w, v, limit, ties,
+                                      h[col // k] if ties else 0.0)
         else:  # the hub: every departure, free
-            u = v - 2 * nk
-            hu = h[u] if astar else 0.0
             w = eps
             if astar:
                 w = w + (hu - hu)
                 if w < eps:
                     w = eps
             for col in range(nk + u * k, nk + u * k + k):
-                heap, length = _relax(dist, pred, heap, length, col, dv + w, v, limit)
+                heap, length = _relax(dist, pred, heap, length, col, dv + w, v, limit, ties, hu)
     return dist
 
 
@@ -222,10 +245,20 @@ class Expanded(NamedTuple):
 
 
 def expanded_dijkstra(graph: Expanded, start: int, limit: float, h: np.ndarray | None = None,
-                      return_predecessors: bool = False) -> tuple[np.ndarray, np.ndarray]:
+                      return_predecessors: bool = False, ties: bool = False) -> tuple[np.ndarray, np.ndarray]:
     """scipy's ``dijkstra(expanded, indices=start, limit=limit)`` on the heading-expanded graph
     ``graph`` describes, with (given ``h``, per vertex) A*'s reduced weights
     ``max(w + h(col) − h(row), eps)`` (``routing._reduced``).
+
+    With ``ties`` (``h`` given, consistent) it is A* on the graph's own weights instead: states
+    scanned by ``g + h`` up to ``limit``, their distances the very sums scipy's Dijkstra makes
+    (``dist[u] + w``, the least over the in-neighbours scanned), and each state's predecessor taken
+    by scipy's rule among the in-neighbours that attain its distance (the least distance, then the
+    highest number). A state x on a route found below the limit has every such in-neighbour u
+    scanned (``g(u) + h(u) ≤ g(u) + w + h(x) = g(x) + h(x)``), so its distance and predecessor are
+    those scipy's Dijkstra with the limit on ``g`` gives: the same route, with fewer states
+    searched. Elsewhere a distance is an upper bound of scipy's, or ∞ where ``g + h`` exceeds the
+    limit.
 
     Returns
     -------
@@ -233,10 +266,12 @@ def expanded_dijkstra(graph: Expanded, start: int, limit: float, h: np.ndarray |
         Per state, as scipy returns them (∞ and −9999 where not reached; pred empty unless asked).
     """
     g = graph
+    if ties and (h is None or not return_predecessors):
+        raise ValueError("the tie rule needs the bound h and the predecessors")
     pred = np.full(g.n * (2 * g.k + 1) if return_predecessors else 0, NO_PRED, dtype=np.int32)
-    astar = h is not None
+    astar = h is not None and not ties
     hh = np.ascontiguousarray(h, dtype=np.float64) if h is not None else np.zeros(1)
     dist = _search(g.n, g.k, g.cheap, g.cheap_cost, g.hub_cost, g.region, g.local, g.n_lat, g.lat_kind, g.allowed,
                    g.offset, g.dirs_ptr, g.dirs, g.table, g.plain, g.e_ptr, g.e_bin, g.e_col, g.e_val, hh, astar,
-                   g.eps, int(start), float(limit), pred)
+                   ties, g.eps, int(start), float(limit), pred)
     return dist, pred

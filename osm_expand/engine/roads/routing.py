@@ -852,11 +852,14 @@ def _expanded_graph(graph: PathGraph, lat: KindMask, extra: np.ndarray, region: 
 
 def _heading_search(graph: PathGraph, lat: KindMask, extra: np.ndarray, region: np.ndarray, local: np.ndarray,
                     penalties: np.ndarray, k: int, start: int, limit: float, h: np.ndarray | None = None,
-                    predecessors: bool = False) -> tuple[np.ndarray, np.ndarray]:
+                    predecessors: bool = False, ties: bool = False) -> tuple[np.ndarray, np.ndarray]:
     """scipy's Dijkstra from state ``start`` on the heading-expanded graph over ``region`` (``local``:
     :func:`_local`), up to ``limit``, on A*'s reduced costs with ``h`` (per region vertex, as
     :func:`_reduced` makes them): the distances and (with ``predecessors``, else empty) the predecessors,
-    per state.
+    per state. With ``ties``: A* by ``h`` on the graph's own weights up to ``limit`` on ``g + h``,
+    which gives the states of a route found below the limit the distances and predecessors scipy's
+    Dijkstra up to ``limit`` on ``g`` gives, and searches fewer
+    (:func:`~osm_expand.engine.roads.expanded_search.expanded_dijkstra`).
 
     The compiled search (:mod:`~osm_expand.engine.roads.expanded_search`) makes each state's row
     when it reaches it: the arrivals' and hubs' from the turn penalties, the departures' lattice
@@ -900,7 +903,7 @@ def _heading_search(graph: PathGraph, lat: KindMask, extra: np.ndarray, region: 
                     allowed=allowed, offset=graph.lattice.direction_offset.astype(np.int64), dirs_ptr=dirs_ptr,
                     dirs=dirs, table=table, plain=plain, e_ptr=e_ptr, e_bin=e_bin,
                     e_col=local[graph.dst[e]].astype(np.int64) * k + e_bin, e_val=graph.weight[e].astype(np.float64))
-    return expanded_dijkstra(rows, start, limit, h=h, return_predecessors=predecessors)
+    return expanded_dijkstra(rows, start, limit, h=h, return_predecessors=predecessors, ties=ties)
 
 
 def _expanded_search(graph: PathGraph, lat: KindMask, extra: np.ndarray, region: np.ndarray, source: int,
@@ -1201,8 +1204,12 @@ def _tiled_search(graph: PathGraph, lat: KindMask, extra: np.ndarray, source: in
                         best = (_vertex_path(pred, start, end, verts, states), total)
                         cost = best[1]
         else:
+            # A* by h on the graph's own weights, scipy's predecessor rule applied as states relax: the
+            # route (its states' distances and predecessors) is plain Dijkstra's, and the states with
+            # g + h above C are not searched. Where the growth test below reads a departure's g, it is
+            # exact wherever g + w + h(w) < C (consistency: then g + h(u) < C), as the test needs.
             dist, pred = _heading_search(graph, lat, extra, verts, local, penalties, k, start, cost + slack,
-                                         predecessors=True)
+                                         h=h[verts] * (1.0 - _SHRINK), predecessors=True, ties=True)
             if target is not None and local[target] >= 0:
                 end = _cheaper_end(dist, states, int(local[target]), cost)
                 if end is not None:
