@@ -18,8 +18,10 @@ A node graph cannot carry turn costs, so the search runs on a
 ``arr(v, i) → dep(v, j)`` at ``P`` of the binned turn, but only for the few
 bin differences where P is below S_p: any sharper turn goes
 ``arr(v, i) → hub(v) → dep(v, j)`` at exactly S_p. That keeps the expanded
-graph at about ``K · (2m + 3)`` turn edges per vertex instead of K², and
-scipy's C Dijkstra runs on it.
+graph at about ``K · (2m + 3)`` turn edges per vertex instead of K². A
+compiled search (:mod:`~osm_expand.engine.roads.expanded_search`) makes its
+rows as it reaches the states, no matrix written, and takes the routes
+scipy's Dijkstra would (:func:`_heading_search`).
 
 The expanded graph is built only over the vertices that can lie on an
 optimal route and that the search reaches: with ``d_s``, ``d_t`` the plain
