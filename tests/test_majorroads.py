@@ -480,14 +480,14 @@ def _tiled_against_whole(seed: int) -> bool:
     opts = RoutingOptions(turn_height=float(rng.uniform(20, 900)), tile_cells=int(rng.integers(1, 5)),
                           whole_region=0)
     lat_ok, extra_ok = g.masks()
-    made = []  # expanded graphs made per route: more than one when the tiles grew
-    expanded_graph = routing._expanded_graph
+    made = []  # heading-expanded searches per route (the band's and the tiles'): more when the tiles grew
+    heading_search = routing._heading_search
 
     def counted(*args, **kwargs):
         made[-1] += 1
-        return expanded_graph(*args, **kwargs)
+        return heading_search(*args, **kwargs)
 
-    routing._expanded_graph = counted
+    routing._heading_search = counted
     try:
         for _ in range(3):
             s, t = (int(v) for v in rng.choice(live, 2, replace=False))
@@ -499,8 +499,8 @@ def _tiled_against_whole(seed: int) -> bool:
             if route is not None:
                 assert route.cost == pytest.approx(full[1], rel=1e-9, abs=1e-5)
     finally:
-        routing._expanded_graph = expanded_graph
-    return max(made) > 2  # the reference search is one of them
+        routing._heading_search = heading_search
+    return max(made) > 2  # the band's search is one of them
 
 
 def test_the_tiled_a_star_grows_its_tiles_on_most_maps():

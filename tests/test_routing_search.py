@@ -496,15 +496,15 @@ def test_the_band_tightens_the_first_bound_and_keeps_the_routes_vertex_for_verte
     only the cost is promised in general, by the test above)."""
     settled = {"on": 0, "off": 0}
     which = ["on"]
-    real = dijkstra
+    real = routing._heading_search
 
-    def counted(m, *args, **kwargs):
-        out = real(m, *args, **kwargs)
+    def counted(*args, **kwargs):
+        out = real(*args, **kwargs)
         if sys._getframe(1).f_code.co_name == "_tiled_search":
-            settled[which[0]] += int(np.isfinite(out[0] if isinstance(out, tuple) else out).sum())
+            settled[which[0]] += int(np.isfinite(out[0]).sum())
         return out
 
-    monkeypatch.setattr(routing, "dijkstra", counted)
+    monkeypatch.setattr(routing, "_heading_search", counted)
     tighter = routes = 0
     for seed in range(12):
         g, rng = random_map(seed)
@@ -767,3 +767,115 @@ def test_on_krems_the_a_star_search_in_larger_windows_costs_what_the_exact_searc
             assert again is not None and np.array_equal(again.vertices, new.vertices)
             checked += 1
     assert checked >= 3  # 3 pairs: the new roads all found (re-routes over major roads only where those join them)
+
+
+def compiled_and_scipy(g, lat, extra, region, penalties, k, start, limit, h):
+    """The compiled search's and scipy's (on the written expanded graph, reduced by ``h`` as
+    ``routing._reduced`` does) distances and predecessors from state ``start``."""
+    local = routing._local(g, region, k)
+    got = routing._heading_search(g, lat, extra, region, local, penalties, k, start, limit, h=h, predecessors=True)
+    made, _ = routing._expanded_graph(g, lat, extra, region, penalties, k)
+    if h is not None:
+        made = routing._reduced(made, h, routing._States(len(region), k))
+    want = dijkstra(made, indices=start, return_predecessors=True, limit=limit)
+    return got, want
+
+
+@settings(max_examples=12, deadline=None)
+@given(st.integers(0, 2**32 - 1), st.sampled_from([8, 16]), st.booleans(), st.booleans())
+def test_the_compiled_search_gives_every_state_scipys_distance_and_predecessor(seed, k, astar, limited):
+    """Issue 22 (session 36): the compiled search (``expanded_search``), which makes the arrivals' and
+    hubs' rows as it reaches them, is scipy's Dijkstra step for step: on a random street grid among
+    forbidden blobs (many routes of exactly equal cost), over a random region, plain or on A*'s reduced
+    costs, with or without a limit, every state's distance and predecessor are scipy's, ties included
+    (the predecessor rule :func:`predecessor_rule` describes), so the routes keep their bytes."""
+    g, rng = random_map(seed)
+    opts = RoutingOptions(turn_height=float(rng.uniform(20, 900)), heading_bins=k)
+    lat, extra = g.masks()
+    region = np.flatnonzero(rng.random(g.n_vertices) < rng.uniform(0.5, 1.0))
+    assume(len(region) > 0)
+    states = routing._States(len(region), k)
+    start = states.hub(int(rng.integers(len(region))))
+    h = rng.uniform(0.0, 300.0, len(region)) if astar else None  # inconsistent too: reduced costs raised to ε
+    limit = float(rng.uniform(300.0, 3000.0)) if limited else np.inf
+    (dist, pred), (want, want_pred) = compiled_and_scipy(g, lat, extra, region, routing._bin_penalties(opts), k,
+                                                         start, limit, h)
+    assert np.array_equal(dist, want)
+    assert np.array_equal(pred, want_pred)
+    if not astar and not limited:
+        made, _ = routing._expanded_graph(g, lat, extra, region, routing._bin_penalties(opts), k)
+        assert np.array_equal(pred, predecessor_rule(made, want, start)[0])
+
+
+def test_on_krems_the_compiled_search_is_scipys_state_for_state(krems_town):  # noqa: F811
+    """On Krems' streets, land and water (the real lattice, streets, stitches and bridges), between two
+    of its exits over the region a route between them can use (turn-free ``d_s + d_t`` within 1.5 times
+    their distance), plain and by A* with the turn-free distance to the target as bound (as
+    ``_band_bound`` and ``_tiled_search`` run it): every state's distance and predecessor are scipy's,
+    and so the route walked back from the target is the same."""
+    g, segs, exits, _, _ = krems_town
+    opts = RoutingOptions()
+    k = opts.heading_bins
+    penalties = routing._bin_penalties(opts)
+    lat, extra = g.masks()
+    s, t = g.node_vertex(int(exits[0])), g.node_vertex(int(exits[1]))
+    with g.restricted(routing.ROAD_KINDS, None) as matrix:
+        d_s, d_t = dijkstra(matrix, indices=[s, t])
+    region = np.flatnonzero(d_s + d_t <= 1.5 * d_s[t])
+    states = routing._States(len(region), k)
+    local = routing._local(g, region, k)
+    start, end_vertex = states.hub(int(local[s])), int(local[t])
+    for h in (None, d_t[region] * (1.0 - routing._SHRINK)):
+        (dist, pred), (want, want_pred) = compiled_and_scipy(g, lat, extra, region, penalties, k, start,
+                                                             3.0 * d_s[t], h)
+        assert np.isfinite(dist).sum() > 50_000
+        assert np.array_equal(dist, want)
+        assert np.array_equal(pred, want_pred)
+        end = routing._target_end(want, states, end_vertex)
+        assert np.isfinite(want[end])
+        assert routing._vertex_path(pred, start, end, region, states) == \
+            routing._vertex_path(want_pred, start, end, region, states)
+
+
+@settings(max_examples=12, deadline=None)
+@given(st.integers(0, 2**32 - 1), st.sampled_from([8, 16]))
+def test_a_star_with_scipys_tie_rule_walks_back_plain_dijkstras_routes_state_for_state(seed, k):
+    """Issue 22 (session 36): the route search's A* on the graph's own weights (``ties``: keyed by
+    ``g + h``, h the turn-free distance to the target, limit C on ``g + h``), scipy's predecessor rule
+    applied as states relax, gives every state of a route found below C the distance and the
+    predecessor scipy's Dijkstra with the limit C on ``g`` gives: from each of a few targets the
+    route walked back is the same states with the same distances, on street grids full of exactly
+    equal routes, while it searches fewer states."""
+    g, rng = random_map(seed)
+    opts = RoutingOptions(turn_height=float(rng.uniform(20, 900)), heading_bins=k)
+    lat, extra = g.masks()
+    live = g.live_vertices()
+    s, t = (int(v) for v in rng.choice(live, 2, replace=False))
+    with g.restricted(routing.ROAD_KINDS, None) as matrix:
+        d_s, d_t = dijkstra(matrix, indices=[s, t])
+    assume(np.isfinite(d_s[t]))
+    limit = float(rng.uniform(1.2, 3.0)) * d_s[t] + opts.turn_height
+    region = np.flatnonzero(d_s + d_t <= limit)
+    states = routing._States(len(region), k)
+    local = routing._local(g, region, k)
+    start = states.hub(int(local[s]))
+    penalties = routing._bin_penalties(opts)
+    made, _ = routing._expanded_graph(g, lat, extra, region, penalties, k)
+    want, want_pred = dijkstra(made, indices=start, return_predecessors=True, limit=limit)
+    h = d_t[region] * (1.0 - routing._SHRINK)
+    dist, pred = routing._heading_search(g, lat, extra, region, local, penalties, k, start, limit, h=h,
+                                         predecessors=True, ties=True)
+    assert np.isfinite(dist).sum() <= np.isfinite(want).sum()
+    end = routing._target_end(want, states, int(local[t]))
+    assert routing._target_end(dist, states, int(local[t])) == end
+    if not np.isfinite(want[end]):
+        assert not np.isfinite(dist[end])
+        return
+    path = routing._walk_back(want_pred, start, end)
+    assert routing._walk_back(pred, start, end) == path
+    assert np.array_equal(dist[path], want[path])
+    # every state A* kept within the limit has scipy's distance where g + h is within it, never less
+    kept = np.isfinite(dist)
+    assert (dist[kept] >= want[kept]).all()
+    sure = kept & (want + states.per_state(h) < limit - 1e-6 * limit)
+    assert np.array_equal(dist[sure], want[sure])

@@ -18,8 +18,10 @@ A node graph cannot carry turn costs, so the search runs on a
 ``arr(v, i) → dep(v, j)`` at ``P`` of the binned turn, but only for the few
 bin differences where P is below S_p: any sharper turn goes
 ``arr(v, i) → hub(v) → dep(v, j)`` at exactly S_p. That keeps the expanded
-graph at about ``K · (2m + 3)`` turn edges per vertex instead of K², and
-scipy's C Dijkstra runs on it.
+graph at about ``K · (2m + 3)`` turn edges per vertex instead of K². A
+compiled search (:mod:`~osm_expand.engine.roads.expanded_search`) makes its
+rows as it reaches the states, no matrix written, and takes the routes
+scipy's Dijkstra would (:func:`_heading_search`).
 
 The expanded graph is built only over the vertices that can lie on an
 optimal route and that the search reaches: with ``d_s``, ``d_t`` the plain
@@ -590,15 +592,14 @@ def _band_bound(graph: PathGraph, lat: KindMask, extra: np.ndarray, source: int,
     tile, _, active = _first_tiles(graph, opts.bound_cells, np.asarray(first[0]))
     # the source and target are in the band: on ``first``, and their ``lower`` is d(s, t) ≤ its cost
     verts = np.flatnonzero((lower <= cost + 1e-9 * cost + 1e-6) & active[tile])
-    expanded, local = _expanded_graph(graph, lat, extra, verts, penalties, k)
+    local = _local(graph, verts, k)
     states = _States(len(verts), k)
     slack = 2 * states.size * _EPS
     h = from_target[verts] * (1.0 - _SHRINK)
     start = states.hub(local[source])
     hs = float(h[local[source]])
-    dist, pred = dijkstra(_reduced(expanded, h, states), indices=start, return_predecessors=True,
-                          limit=cost - hs + slack)
-    del expanded
+    dist, pred = _heading_search(graph, lat, extra, verts, local, penalties, k, start, cost - hs + slack, h=h,
+                                 predecessors=True)
     end = _target_end(dist, states, int(local[target]))
     found = float(dist[end]) + hs - float(h[local[target]])  # ≥ the path's cost: reduced costs only rounded up
     found += 1e-9 * found + 1e-6 + slack
@@ -709,34 +710,32 @@ class _States:
         return np.concatenate([np.repeat(h, self.k), np.repeat(h, self.k), h])
 
 
-def _expanded_graph(graph: PathGraph, lat: KindMask, extra: np.ndarray, region: np.ndarray, penalties: np.ndarray,
-                    k: int) -> tuple[csr_matrix, np.ndarray]:
-    """The heading-expanded graph over ``region`` (sorted; states numbered as :class:`_States` says)
-    and each G′ vertex's local number (−1 outside).
+def _local(graph: PathGraph, region: np.ndarray, k: int) -> np.ndarray:
+    """Each G′ vertex's local number in ``region`` (sorted), −1 outside; in 32 bits when the states fit."""
+    it = np.dtype(np.int32 if _States(len(region), k).size < 2**31 else np.int64)
+    local = np.full(graph.n_vertices, -1, dtype=it)
+    local[region] = np.arange(len(region), dtype=it)
+    return local
 
-    Each arrival row holds its cheap turns ``arr(v, i) → dep(v, i + q)`` (P < S_p, q ascending)
-    and then ``arr(v, i) → hub(v)`` at S_p; each departure row ``dep(u, b)`` its lattice moves
-    ``→ arr(w, b)`` (directions ascending) and then its other edges (streets, stitches, long
-    bridges; edges ascending); the hub row ``hub(v) → dep(v, j)`` for every j, free. The
-    arrivals' and hubs' rows are one regular block each, written at once; the departures are
-    written block by block of vertices straight to their places (offsets from counts, no sort
-    and no array as long as the graph but the CSR's own: a town's region has 10⁷–10⁸ entries,
-    and whole-graph temporaries were the peak of a road year); the lattice moves of a block are
-    generated once (an upper bound of their number sizes the arrays, which are cut to length at
-    the end).
+
+def _departures(graph: PathGraph, lat: KindMask, extra: np.ndarray, region: np.ndarray, local: np.ndarray,
+                k: int, skip: int = 0, tail: int = 0) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The heading-expanded graph's departure rows over ``region`` (:func:`_expanded_graph`): each row's
+    entry count (``n·k``, row ``dep(u, b)`` at ``u·k + b``), and the entries' columns (``arr(w, b)``)
+    and weights, row after row, written from ``skip`` on in arrays with room for ``skip`` entries
+    before them and ``tail`` after (the expanded matrix's arrivals and hubs; none for the departures
+    alone).
+
+    Each row ``dep(u, b)`` holds its lattice moves ``→ arr(w, b)`` (directions ascending) and then
+    its other edges (streets, stitches, long bridges; edges ascending). Written block by block of
+    vertices straight to their places (offsets from counts, no sort and no array as long as the
+    graph but the result: a town's region has 10⁷–10⁸ entries); the lattice moves of a block are
+    generated once (an upper bound of their number sizes the arrays, which are cut to length at the
+    end).
     """
     n = len(region)
-    states = _States(n, k)
     nk = n * k
-    # state numbers in 32 bits when they fit (the CSR's are anyway)
-    it = np.dtype(np.int32 if states.size < 2**31 else np.int64)
-    local = np.full(graph.n_vertices, -1, dtype=it)
-    local[region] = np.arange(n, dtype=it)
-    height = float(penalties.max())
-    cheap = np.flatnonzero(penalties < height - 1e-9).astype(it)
-    cheap_cost = np.maximum(penalties[cheap], _EPS)
-    n_turn = len(cheap) + 1  # entries of an arrival row: the cheap turns and the hub
-    i = np.arange(k, dtype=it)
+    it = local.dtype
     n_lat, n_dir = lat.shape
     dir_bin = _bins(graph.direction_heading, k).astype(it)
     by_bin = np.argsort(dir_bin, kind="stable")
@@ -750,21 +749,12 @@ def _expanded_graph(graph: PathGraph, lat: KindMask, extra: np.ndarray, region: 
     e_row, e = e_row[order], e[order]
     e_col = local[graph.dst[e]] * k + e_bin[order]  # arr(w, b)
     e_val = graph.weight[e]
-    n_arr = nk * n_turn  # the arrivals' entries, first
-    bound = n_arr + nk + len(e) + int(lat.count_per_row(region[:n_lat_region]).sum())
-    indices = np.empty(bound, dtype=np.int32 if max(states.size, bound) < 2**31 else np.int64)
+    size = _States(n, k).size
+    bound = skip + tail + len(e) + int(lat.count_per_row(region[:n_lat_region]).sum())
+    indices = np.empty(bound, dtype=np.int32 if max(size, bound) < 2**31 else np.int64)
     data = np.empty(bound)
-    # the arrivals: each row its cheap turns, then the hub
-    cols = indices[:n_arr].reshape(n, k, n_turn)
-    vert = np.arange(n, dtype=it)
-    cols[:, :, :-1] = (nk + (i[:, None] + cheap) % k)[None] + (vert * k)[:, None, None]
-    cols[:, :, -1] = (2 * nk + vert)[:, None]
-    vals = np.empty(n_turn)
-    vals[:-1] = cheap_cost
-    vals[-1] = max(height, _EPS)
-    data[:n_arr].reshape(-1, n_turn)[:] = vals
     dep_count = np.zeros(nk, dtype=indices.dtype)  # entries of each departure row
-    at = n_arr  # entries written so far
+    at = skip  # entries written so far
     for a in range(0, n, _BLOCK):
         b = min(a + _BLOCK, n)
         part = region[a:min(b, n_lat_region)]  # the block's lattice vertices
@@ -796,16 +786,62 @@ def _expanded_graph(graph: PathGraph, lat: KindMask, extra: np.ndarray, region: 
         indices[o_pos], data[o_pos] = e_col[lo:hi], e_val[lo:hi]
         dep_count[a * k:b * k] = m_count + o_count
         at += len(m_row) + len(o_row)
+    indices.resize(at + tail, refcheck=False)
+    data.resize(at + tail, refcheck=False)
+    return dep_count, indices, data
+
+
+def _turn_rows(penalties: np.ndarray) -> tuple[np.ndarray, np.ndarray, float]:
+    """An arrival row's turns: the bin differences q cheaper than S_p (ascending), their weights
+    (at least ``_EPS``), and the weight of the row's last entry, to the hub (S_p)."""
+    height = float(penalties.max())
+    cheap = np.flatnonzero(penalties < height - 1e-9)
+    return cheap, np.maximum(penalties[cheap], _EPS), max(height, _EPS)
+
+
+def _expanded_graph(graph: PathGraph, lat: KindMask, extra: np.ndarray, region: np.ndarray, penalties: np.ndarray,
+                    k: int) -> tuple[csr_matrix, np.ndarray]:
+    """The heading-expanded graph over ``region`` (sorted; states numbered as :class:`_States` says)
+    and each G′ vertex's local number (−1 outside).
+
+    Each arrival row holds its cheap turns ``arr(v, i) → dep(v, i + q)`` (P < S_p, q ascending)
+    and then ``arr(v, i) → hub(v)`` at S_p; each departure row ``dep(u, b)`` its lattice moves
+    and other edges (:func:`_departures`); the hub row ``hub(v) → dep(v, j)`` for every j, free.
+    The arrivals' and hubs' rows are one regular block each, written at once. The route searches
+    make the arrivals' and hubs' rows as they go and never write this matrix
+    (:mod:`~osm_expand.engine.roads.expanded_search`): it is the reference the tests hold them to,
+    and :func:`_summed_cost` reads a route's own.
+    """
+    n = len(region)
+    states = _States(n, k)
+    nk = n * k
+    local = _local(graph, region, k)
+    it = local.dtype
+    cheap_q, cheap_cost, hub_cost = _turn_rows(penalties)
+    cheap = cheap_q.astype(it)
+    n_turn = len(cheap) + 1  # entries of an arrival row: the cheap turns and the hub
+    i = np.arange(k, dtype=it)
+    n_arr = nk * n_turn  # the arrivals' entries, first
+    dep_count, indices, data = _departures(graph, lat, extra, region, local, k, skip=n_arr, tail=nk)
+    # the arrivals: each row its cheap turns, then the hub (block by block: no temporary as large as them)
+    cols = indices[:n_arr].reshape(n, k, n_turn)
+    turns = (nk + (i[:, None] + cheap) % k)[None]
+    for a in range(0, n, _BLOCK):
+        vert = np.arange(a, min(a + _BLOCK, n), dtype=it)
+        cols[a:a + len(vert), :, :-1] = turns + (vert * k)[:, None, None]
+        cols[a:a + len(vert), :, -1] = (2 * nk + vert)[:, None]
+    vals = np.empty(n_turn)
+    vals[:-1] = cheap_cost
+    vals[-1] = hub_cost
+    data[:n_arr].reshape(-1, n_turn)[:] = vals
+    at = len(indices) - nk
     # the hubs: every departure, free
-    indices[at:at + nk] = nk + np.arange(nk, dtype=indices.dtype)
-    data[at:at + nk] = _EPS
-    at += nk
-    indices.resize(at, refcheck=False)
-    data.resize(at, refcheck=False)
-    # the row pointers in the indices' type (32 bits while the bound fits: ``at`` ≤ it), which the CSR
-    # keeps as they are: made in 64 bits, they and the row lengths were two temporaries of 8 bytes a
-    # state next to the CSR, and scipy copied them to 32 bits (the synthetic 10,000-street town's
-    # last tiled search, 22.5 M states: 450 MB of the road year's peak)
+    indices[at:] = nk + np.arange(nk, dtype=indices.dtype)
+    data[at:] = _EPS
+    # the row pointers in the indices' type (32 bits while the bound fits), which the CSR keeps as they
+    # are: made in 64 bits, they and the row lengths were two temporaries of 8 bytes a state next to the
+    # CSR, and scipy copied them to 32 bits (the synthetic 10,000-street town's last tiled search,
+    # 22.5 M states: 450 MB of the road year's peak)
     indptr = np.empty(states.size + 1, dtype=indices.dtype)
     indptr[0] = 0
     indptr[1:nk + 1] = n_turn
@@ -814,6 +850,62 @@ def _expanded_graph(graph: PathGraph, lat: KindMask, extra: np.ndarray, region: 
     del dep_count
     np.cumsum(indptr, dtype=indices.dtype, out=indptr)
     return csr_matrix((data, indices, indptr), shape=(states.size, states.size)), local
+
+
+def _heading_search(graph: PathGraph, lat: KindMask, extra: np.ndarray, region: np.ndarray, local: np.ndarray,
+                    penalties: np.ndarray, k: int, start: int, limit: float, h: np.ndarray | None = None,
+                    predecessors: bool = False, ties: bool = False) -> tuple[np.ndarray, np.ndarray]:
+    """scipy's Dijkstra from state ``start`` on the heading-expanded graph over ``region`` (``local``:
+    :func:`_local`), up to ``limit``, on A*'s reduced costs with ``h`` (per region vertex, as
+    :func:`_reduced` makes them): the distances and (with ``predecessors``, else empty) the predecessors,
+    per state. With ``ties``: A* by ``h`` on the graph's own weights up to ``limit`` on ``g + h``,
+    which gives the states of a route found below the limit the distances and predecessors scipy's
+    Dijkstra up to ``limit`` on ``g`` gives, and searches fewer
+    (:func:`~osm_expand.engine.roads.expanded_search.expanded_dijkstra`).
+
+    The compiled search (:mod:`~osm_expand.engine.roads.expanded_search`) makes each state's row
+    when it reaches it: the arrivals' and hubs' from the turn penalties, the departures' lattice
+    moves from the lattice's kinds and weights (a direction's step is the same everywhere), and
+    only the few other edges (streets, stitches, long bridges) are gathered first. No expanded
+    matrix is written (:func:`_expanded_graph`, the tests' reference, writes them in the very
+    order the search reads them), and it takes each state's predecessor as scipy does, ties
+    included, so the routes keep their bytes. Imported here, so that commands which search no
+    route do not import numba."""
+    from osm_expand.engine.roads.expanded_search import Expanded, expanded_dijkstra
+
+    n = len(region)
+    n_lat, n_dir = lat.shape
+    dir_bin = _bins(graph.direction_heading, k)
+    dirs = np.argsort(dir_bin, kind="stable").astype(np.int64)  # by bin, directions ascending within one
+    dirs_ptr = np.zeros(k + 1, dtype=np.int64)
+    np.cumsum(np.bincount(dir_bin, minlength=k), out=dirs_ptr[1:])
+    allowed = np.zeros(256, dtype=bool)
+    if isinstance(lat, KindMask):
+        lat_kind = lat.kind
+        allowed[list(lat.kinds)] = True  # the lattice kinds among those asked for
+    else:  # a plain (V, D) bool table
+        lat_kind = np.asarray(lat, dtype=bool).view(np.uint8)
+        allowed[1] = True
+    weight = graph.lat_weight
+    if isinstance(weight, LatticeWeights) and weight.kind is lat_kind:
+        table, plain = weight.table64, np.zeros((1, 1))
+    else:
+        table, plain = np.zeros(0), np.asarray(weight)
+    # the other edges by vertex, each vertex's in its departure rows' order (bin, then edge)
+    e = np.flatnonzero(extra & (local[graph.src] >= 0) & (local[graph.dst] >= 0))
+    e_bin = _bins(graph.heading[e], k)
+    e_src = local[graph.src[e]].astype(np.int64)
+    order = np.argsort(e_src * k + e_bin, kind="stable")
+    e, e_bin, e_src = e[order], e_bin[order], e_src[order]
+    e_ptr = np.zeros(n + 1, dtype=np.int64)
+    np.cumsum(np.bincount(e_src, minlength=n), out=e_ptr[1:])
+    cheap, cheap_cost, hub_cost = _turn_rows(penalties)
+    rows = Expanded(n=n, k=k, cheap=cheap.astype(np.int64), cheap_cost=cheap_cost, hub_cost=hub_cost, eps=_EPS,
+                    region=region.astype(np.int64, copy=False), local=local, n_lat=int(n_lat), lat_kind=lat_kind,
+                    allowed=allowed, offset=graph.lattice.direction_offset.astype(np.int64), dirs_ptr=dirs_ptr,
+                    dirs=dirs, table=table, plain=plain, e_ptr=e_ptr, e_bin=e_bin,
+                    e_col=local[graph.dst[e]].astype(np.int64) * k + e_bin, e_val=graph.weight[e].astype(np.float64))
+    return expanded_dijkstra(rows, start, limit, h=h, return_predecessors=predecessors, ties=ties)
 
 
 def _expanded_search(graph: PathGraph, lat: KindMask, extra: np.ndarray, region: np.ndarray, source: int,
@@ -1092,7 +1184,7 @@ def _tiled_search(graph: PathGraph, lat: KindMask, extra: np.ndarray, source: in
         region = lower <= cost + 1e-9 * cost + 1e-6
         inside = region & active[tile]
         verts = np.flatnonzero(inside)
-        expanded, local = _expanded_graph(graph, lat, extra, verts, penalties, k)
+        local = _local(graph, verts, k)
         states = _States(len(verts), k)
         slack = 2 * states.size * _EPS
         start = states.hub(local[source])
@@ -1100,24 +1192,26 @@ def _tiled_search(graph: PathGraph, lat: KindMask, extra: np.ndarray, source: in
             ha = h[verts] * (1.0 - _SHRINK)
             hs = float(ha[local[source]])
             seek = target is not None and local[target] >= 0
-            found = dijkstra(_reduced(expanded, ha, states), indices=start, limit=cost - hs + slack,
-                             return_predecessors=seek)
-            dist, pred = found if seek else (found, None)
+            dist, pred = _heading_search(graph, lat, extra, verts, local, penalties, k, start, cost - hs + slack,
+                                         h=ha, predecessors=seek)
             arrive, depart, hub = states.by_vertex(dist)  # g = distance + h(state) − h(source)
             arrive += (hs - ha)[:, None]
             depart += (hs - ha)[:, None]
             hub += hs - ha
-            if seek and pred is not None:
+            if seek:
                 end = _cheaper_end(dist, states, int(local[target]), cost)
                 if end is not None:
                     total = _summed_cost(graph, lat, extra, verts, _walk_back(pred, start, end), penalties, k)
                     if total < cost:
                         best = (_vertex_path(pred, start, end, verts, states), total)
                         cost = best[1]
-            del expanded
         else:
-            dist, pred = dijkstra(expanded, indices=start, return_predecessors=True, limit=cost + slack)
-            del expanded
+            # A* by h on the graph's own weights, scipy's predecessor rule applied as states relax: the
+            # route (its states' distances and predecessors) is plain Dijkstra's, and the states with
+            # g + h above C are not searched. Where the growth test below reads a departure's g, it is
+            # exact wherever g + w + h(w) < C (consistency: then g + h(u) < C), as the test needs.
+            dist, pred = _heading_search(graph, lat, extra, verts, local, penalties, k, start, cost + slack,
+                                         h=h[verts] * (1.0 - _SHRINK), predecessors=True, ties=True)
             if target is not None and local[target] >= 0:
                 end = _cheaper_end(dist, states, int(local[target]), cost)
                 if end is not None:

@@ -1,0 +1,292 @@
+"""Dijkstra on the heading-expanded graph, compiled, its turn rows made as the search reaches them.
+
+:mod:`osm_expand.engine.roads.routing` searches a route with turn penalties
+on a *heading-expanded* graph (arrival, departure and hub states per vertex,
+numbered as ``routing._States`` says). Four fifths of that graph's entries
+are the same for every vertex: an arrival ``arr(v, i)`` turns to
+``dep(v, i + q)`` for the cheap turns q and to ``hub(v)`` at S_p, the hub
+departs on every heading for free. Only the departures' rows (the plain
+graph's edges, each from ``dep(u, b)`` to ``arr(w, b)``) differ, and their
+lattice moves are regular too (a direction's step is the same everywhere,
+its weight a function of the edge's kind). So the search here makes every
+row when it pops its state: the turns from the penalties, the lattice
+moves from the lattice's kind table, and only the few other edges
+(streets, stitches, long bridges) are gathered first, by vertex (:class:`Expanded`).
+No expanded CSR matrix is written (Campo Grande: 213 M entries for its 36
+searches, session 35).
+
+The routes must keep their bytes, and with them which of several paths of
+exactly equal cost a search takes. scipy's Dijkstra (1.17,
+``scipy.sparse.csgraph.dijkstra``) keeps a priority queue of
+``(−distance, state)`` pairs (a C++ ``std::priority_queue``, entries made
+stale by a later decrease skipped when popped): it scans the states in the
+order of their distance and, of equal ones, the highest numbered first,
+and a relaxation takes a state only when strictly cheaper and not above the
+limit. A state is never pushed twice at one distance, so that order is
+total and any heap that pops by it scans the states as scipy's does. So
+this is the same search step for step: a binary heap keyed by (distance,
+−state), the same rows in the same entry order, the same float sums
+(``dist[u] + w``; A*'s reduced weight ``w + (h[col] − h[row])`` raised to
+``eps``, as ``routing._reduced`` writes it into the matrix): the same
+distances, the same predecessors, ties included.
+``tests/test_routing_search.py`` holds it to scipy entry for entry.
+
+A route search (plain Dijkstra up to the best cost C) can keep its route and
+search fewer states (``ties``): A* by a consistent bound h on the graph's
+own weights makes the same float sums, and every in-neighbour that attains
+the distance of a state on a route below C has ``g + h`` within C too, so
+applying scipy's choice among them (the least distance, then the highest
+state) as they relax gives those states scipy's predecessors
+(:func:`expanded_dijkstra`). Campo Grande's 36 captured searches: the same
+36 routes, 26.1 s CPU against 32.7 (session 36).
+
+numba compiles it (``cache=True``: a user's first run compiles and stores
+it, about 4 s CPU; later runs load it, about 0.4 s with numba's import);
+nothing else imports numba (``routing`` imports this module when it first
+searches), so commands that search no route do not pay it. numba's import
+holds about 110 MB (LLVM) for the rest of the run.
+"""
+from __future__ import annotations
+
+from typing import NamedTuple
+
+import numpy as np
+from numba import njit
+
+#: scipy's ``NULL_IDX``: the predecessor of a state not reached
+NO_PRED = -9999
+
+
+@njit(cache=True, inline="always")
+def _before(key: float, state: float, other_key: float, other_state: float) -> bool:
+    """An entry pops before another: the lower distance, of equal ones the higher state (scipy's order)."""
+    return key < other_key or (key == other_key and state > other_state)
+
+
+@njit(cache=True, inline="always")
+def _push(heap: np.ndarray, length: int, key: float, state: float) -> np.ndarray:
+    """``heap`` (entries ``(distance, state)``, rows ``0 … length − 1`` a 4-ary heap) with one more
+    entry (grown by doubling when full: the returned array is the heap)."""
+    if length == len(heap):
+        heap = np.concatenate((heap, np.empty_like(heap)))
+    at = length
+    while at > 0:  # the hole moves up past the entries that pop later
+        up = (at - 1) >> 2
+        if not _before(key, state, heap[up, 0], heap[up, 1]):
+            break
+        heap[at, 0] = heap[up, 0]
+        heap[at, 1] = heap[up, 1]
+        at = up
+    heap[at, 0] = key
+    heap[at, 1] = state
+    return heap
+
+
+@njit(cache=True, inline="always")
+def _pop(heap: np.ndarray, length: int) -> None:
+    """Drop the heap's first entry (``length`` entries before): its last one sifts down from the top."""
+    last = length - 1
+    key = heap[last, 0]
+    state = heap[last, 1]
+    at = 0
+    while True:
+        first = 4 * at + 1
+        if first >= last:
+            break
+        best = first
+        for c in range(first + 1, min(first + 4, last)):
+            if _before(heap[c, 0], heap[c, 1], heap[best, 0], heap[best, 1]):
+                best = c
+        if not _before(heap[best, 0], heap[best, 1], key, state):
+            break
+        heap[at, 0] = heap[best, 0]
+        heap[at, 1] = heap[best, 1]
+        at = best
+    heap[at, 0] = key
+    heap[at, 1] = state
+
+
+@njit(cache=True, inline="always")
+def _relax(dist: np.ndarray, pred: np.ndarray, heap: np.ndarray, length: int, col: int, nv: float, v: int | np.integer,
+           limit: float, ties: bool, h_col: float) -> tuple[np.ndarray, int]:
+    """Offer state ``col`` the distance ``nv`` from ``v``.
+
+    As scipy: taken only when strictly cheaper and not above the limit. With ``ties`` (A* keyed by
+    ``g + h``, ``h_col`` the state's bound): taken when strictly cheaper and ``nv + h_col`` not above
+    the limit; where ``nv`` equals the state's distance, ``v`` becomes its predecessor when it comes
+    first in scipy's order (lower distance, then higher number) — found at relaxation, even after
+    the state was scanned, where scipy's queue found it by popping ``v`` first."""
+    if ties:
+        if dist[col] > nv:
+            key = nv + h_col
+            if key <= limit:
+                dist[col] = nv
+                pred[col] = v
+                heap = _push(heap, length, key, col)
+                length += 1
+        elif dist[col] == nv:
+            p = pred[col]
+            if p >= 0 and (dist[v] < dist[p] or (dist[v] == dist[p] and v > p)):
+                pred[col] = v
+    elif nv <= limit and dist[col] > nv:
+        dist[col] = nv
+        if len(pred):
+            pred[col] = v
+        heap = _push(heap, length, nv, col)
+        length += 1
+    return heap, length
+
+
+@njit(cache=True)
+def _search(n: int, k: int, cheap: np.ndarray, cheap_cost: np.ndarray, hub_cost: float, region: np.ndarray,
+            local: np.ndarray, n_lat: int, lat_kind: np.ndarray, allowed: np.ndarray, offset: np.ndarray,
+            dirs_ptr: np.ndarray, dirs: np.ndarray, table: np.ndarray, plain: np.ndarray, e_ptr: np.ndarray,
+            e_bin: np.ndarray, e_col: np.ndarray, e_val: np.ndarray, h: np.ndarray, astar: bool, ties: bool,
+            eps: float, start: int, limit: float, pred: np.ndarray) -> np.ndarray:
+    nk = n * k
+    size = n * (2 * k + 1)
+    n_dir = lat_kind.shape[1]
+    use_table = len(table) > 0
+    dist = np.full(size, np.inf)
+    n_cheap = len(cheap)
+    # the heap's entries (key, state): a state is exact in a float64 (it is below 2⁵³), and an
+    # entry's two halves share a cache line
+    heap = np.empty((4096, 2))
+    dist[start] = 0.0
+    heap[0, 0] = h[start - 2 * nk] if ties else 0.0  # the start is a hub
+    heap[0, 1] = start
+    length = 1
+    while length > 0:
+        key = heap[0, 0]
+        v = np.int64(heap[0, 1])
+        _pop(heap, length)
+        length -= 1
+        if v < nk:
+            u = v // k
+        elif v < 2 * nk:
+            u = (v - nk) // k
+        else:
+            u = v - 2 * nk
+        hu = h[u] if astar or ties else 0.0
+        dv = dist[v]
+        # made stale by a later decrease: scanned then (with ties, the key is g + h: an entry whose
+        # key equals the state's rescans it with the same distance, which changes nothing)
+        if (dv + hu < key) if ties else (dv < key):
+            continue
+        if v < nk:  # arrival arr(u, i): its cheap turns, then the hub
+            i = v - u * k
+            base = nk + u * k
+            for j in range(n_cheap + 1):
+                if j < n_cheap:
+                    b = i + cheap[j]
+                    if b >= k:
+                        b -= k
+                    col = base + b
+                    w = cheap_cost[j]
+                else:
+                    col = 2 * nk + u
+                    w = hub_cost
+                if astar:  # routing._reduced: w + (h(col) − h(row)), at least eps
+                    w = w + (hu - hu)
+                    if w < eps:
+                        w = eps
+                heap, length = _relax(dist, pred, heap, length, col, dv + w, v, limit, ties, hu)
+        elif v < 2 * nk:  # departure dep(u, b): its lattice moves of bin b, then its other edges of bin b
+            b = v - nk - u * k
+            gu = region[u]
+            if gu < n_lat:
+                for t in range(dirs_ptr[b], dirs_ptr[b + 1]):
+                    d = dirs[t]
+                    kd = lat_kind[gu, d]
+                    if not allowed[kd]:
+                        continue
+                    lw = local[gu + offset[d]]
+                    if lw < 0:
+                        continue
+                    w = table[np.int64(kd) * n_dir + d] if use_table else np.float64(plain[gu, d])
+                    if astar:
+                        w = w + (h[lw] - hu)
+                        if w < eps:
+                            w = eps
+                    heap, length = _relax(dist, pred, heap, length, lw * k + b, dv + w, v, limit, ties,
+                                          h[lw] if ties else 0.0)
+            for t in range(e_ptr[u], e_ptr[u + 1]):
+                if e_bin[t] != b:
+                    continue
+                col = e_col[t]
+                w = e_val[t]
+                if astar:
+                    w = w + (h[col // k] - hu)
+                    if w < eps:
+                        w = eps
+                heap, length = _relax(dist, pred, heap, length, col, dv + w, v, limit, ties,
+                                      h[col // k] if ties else 0.0)
+        else:  # the hub: every departure, free
+            w = eps
+            if astar:
+                w = w + (hu - hu)
+                if w < eps:
+                    w = eps
+            for col in range(nk + u * k, nk + u * k + k):
+                heap, length = _relax(dist, pred, heap, length, col, dv + w, v, limit, ties, hu)
+    return dist
+
+
+class Expanded(NamedTuple):
+    """What the search reads of a heading-expanded graph over ``n`` vertices with ``k`` bins, beside
+    the rows it makes itself: the turns, the lattice's tables (moves read as the search reaches their
+    vertex) and the other edges (streets, stitches, long bridges) by vertex."""
+
+    n: int  #: vertices (local numbers 0 … n − 1)
+    k: int  #: heading bins
+    cheap: np.ndarray  #: int64, the turns of q bins cheaper than S_p, q ascending (an arrival's row)
+    cheap_cost: np.ndarray  #: their weights
+    hub_cost: float  #: ``arr(v, i) → hub(v)``
+    eps: float  #: the hub's free departures (and A*'s least reduced weight)
+    region: np.ndarray  #: int64 (n,), each local vertex's G′ number (lattice vertices first)
+    local: np.ndarray  #: (V′,) each G′ vertex's local number, −1 outside
+    n_lat: int  #: lattice vertices of G′ (they come first)
+    lat_kind: np.ndarray  #: (n_lat, D) uint8 the lattice edges' kinds
+    allowed: np.ndarray  #: (256,) bool, the kinds a route may use
+    offset: np.ndarray  #: int64 (D,), a direction's step in G′ numbers
+    dirs_ptr: np.ndarray  #: int64 (k + 1,), where each bin's directions start in ``dirs``
+    dirs: np.ndarray  #: int64 (D,) the directions by bin, ascending within one
+    table: np.ndarray  #: float64 weight by ``kind · D + direction`` (empty: read ``plain``)
+    plain: np.ndarray  #: (n_lat, D) the lattice weights, where there is no table
+    e_ptr: np.ndarray  #: int64 (n + 1,), each vertex's other edges in the arrays below
+    e_bin: np.ndarray  #: int64, their heading bins (a vertex's in row order: bin, then edge)
+    e_col: np.ndarray  #: int64, ``arr(w, b)``
+    e_val: np.ndarray  #: float64 weights
+
+
+def expanded_dijkstra(graph: Expanded, start: int, limit: float, h: np.ndarray | None = None,
+                      return_predecessors: bool = False, ties: bool = False) -> tuple[np.ndarray, np.ndarray]:
+    """scipy's ``dijkstra(expanded, indices=start, limit=limit)`` on the heading-expanded graph
+    ``graph`` describes, with (given ``h``, per vertex) A*'s reduced weights
+    ``max(w + h(col) − h(row), eps)`` (``routing._reduced``).
+
+    With ``ties`` (``h`` given, consistent) it is A* on the graph's own weights instead: states
+    scanned by ``g + h`` up to ``limit``, their distances the very sums scipy's Dijkstra makes
+    (``dist[u] + w``, the least over the in-neighbours scanned), and each state's predecessor taken
+    by scipy's rule among the in-neighbours that attain its distance (the least distance, then the
+    highest number). A state x on a route found below the limit has every such in-neighbour u
+    scanned (``g(u) + h(u) ≤ g(u) + w + h(x) = g(x) + h(x)``), so its distance and predecessor are
+    those scipy's Dijkstra with the limit on ``g`` gives: the same route, with fewer states
+    searched. Elsewhere a distance is an upper bound of scipy's, or ∞ where ``g + h`` exceeds the
+    limit.
+
+    Returns
+    -------
+    dist, pred
+        Per state, as scipy returns them (∞ and −9999 where not reached; pred empty unless asked).
+    """
+    g = graph
+    if ties and (h is None or not return_predecessors):
+        raise ValueError("the tie rule needs the bound h and the predecessors")
+    pred = np.full(g.n * (2 * g.k + 1) if return_predecessors else 0, NO_PRED, dtype=np.int32)
+    astar = h is not None and not ties
+    hh = np.ascontiguousarray(h, dtype=np.float64) if h is not None else np.zeros(1)
+    dist = _search(g.n, g.k, g.cheap, g.cheap_cost, g.hub_cost, g.region, g.local, g.n_lat, g.lat_kind, g.allowed,
+                   g.offset, g.dirs_ptr, g.dirs, g.table, g.plain, g.e_ptr, g.e_bin, g.e_col, g.e_val, hh, astar,
+                   ties, g.eps, int(start), float(limit), pred)
+    return dist, pred
