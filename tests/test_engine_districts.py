@@ -187,12 +187,16 @@ def test_a_large_towns_yearly_growth_waits_for_districts_of_several_neighbourhoo
     """A town owing about one neighbourhood a year (as Campo Grande does; run here on Krems with Krems' own
     neighbourhood as the yearly length): with the floor off (``min_district`` alone) every year
     is a district of one neighbourhood; with a floor of 5 neighbourhoods a district comes every 5–6 years (the
-    yearly count is whole streets), of 5 or more, and the era's last year grows what is left."""
+    yearly count is whole streets), of 5 or more, and the era's last year grows what is left. The floor alone:
+    ``district_town_share`` off (half of Krems' settlement is about 4 of its neighbourhoods)."""
     city, learned = town("krems.osm.gz")
     spacing = learned.example.spacing
     one = minor_streets.neighbourhood_length(city)
-    off = _districts_owed(city, spacing, one, 20, era_end=2020, neighbourhoods=0.0, monkeypatch=monkeypatch)
-    on = _districts_owed(city, spacing, one, 20, era_end=2020, neighbourhoods=5.0, monkeypatch=monkeypatch)
+    alone = {"district_town_share": math.inf}
+    off = _districts_owed(city, spacing, one, 20, era_end=2020, neighbourhoods=0.0, monkeypatch=monkeypatch,
+                          growth=alone)
+    on = _districts_owed(city, spacing, one, 20, era_end=2020, neighbourhoods=5.0, monkeypatch=monkeypatch,
+                         growth=alone)
     assert len(off) == 20 and max(off) < 1.1 * one
     assert len(on) == 4 and min(on[:-1]) >= 5 * one and on[-1] < 5 * one
     assert sum(on) == pytest.approx(sum(off), rel=0.01)  # the same length, in fewer districts
