@@ -285,9 +285,10 @@ def _bare_bayreuth():
     return prepare(city.replace(buildings=())), learned
 
 
-def _sites_offered(monkeypatch, **growth) -> tuple[list, np.ndarray]:
+def _sites_offered(monkeypatch, edit=None, **growth) -> tuple[list, np.ndarray]:
     """The sites the engine offers a district of 13.6 km (north-bayreuth without its buildings, seed 0's first
-    engine district on main) and, per site, metres from its centre to the town's settlement."""
+    engine district on main) and, per site, metres from its centre to the town's settlement; ``edit`` changes the
+    site rasters the engine reads."""
     from osm_expand.sites import settlement_distance
 
     city, learned = _bare_bayreuth()
@@ -297,7 +298,8 @@ def _sites_offered(monkeypatch, **growth) -> tuple[list, np.ndarray]:
     real_maps = minor_streets.settlement_maps
 
     def keep_maps(*args, **kwargs):
-        maps_seen.append(real_maps(*args, **kwargs))
+        maps = real_maps(*args, **kwargs)
+        maps_seen.append(maps if edit is None else edit(maps))
         return maps_seen[-1]
 
     def record(city, sites, pattern, **kwargs):
@@ -324,6 +326,33 @@ def test_with_a_town_reach_the_engine_tries_no_site_by_a_hamlet_far_from_the_tow
     near_sites, near = _sites_offered(monkeypatch)
     radius = np.sqrt(near_sites[0].area / np.pi)
     assert len(near_sites) == 5 and near.max() <= 1.5 * radius
+
+
+def test_without_built_up_land_the_town_reach_still_offers_sites(monkeypatch):
+    """A town whose rasters hold no built-up land has no settlement to measure from (every distance infinite):
+    the reach offers the sites as without it, not none every year (the review of session 36)."""
+    from dataclasses import replace
+
+    def bare(maps):
+        return replace(maps, city=np.zeros_like(maps.city))
+
+    sites, _ = _sites_offered(monkeypatch, edit=bare)
+    everywhere, _ = _sites_offered(monkeypatch, edit=bare, district_town_reach=math.inf)
+    assert len(sites) == len(everywhere) == 5
+    assert np.array_equal([s.centre for s in sites], [s.centre for s in everywhere])
+
+
+def test_with_no_settlement_gap_the_reach_measures_from_every_piece_of_built_up_land():
+    """``settlement_gap`` 0 reads every piece of built-up land as the town's: a point by north-bayreuth's hamlet
+    4-5 km east of the town is far from the town's settlement by default, and on built-up land with a gap of 0."""
+    city, _ = _bare_bayreuth()
+    maps = distance_maps(city, SiteOptions(cell=45.0), margin=_margin(city))
+    rows, cols = np.nonzero(maps.city)
+    xy = maps.origin + (np.column_stack([cols, rows]) + 0.5) * maps.cell  # every built-up cell's centre
+    town = minor_streets._from_the_town(maps, xy, GrowthOptions())
+    every = minor_streets._from_the_town(maps, xy, GrowthOptions(settlement_gap=0))
+    assert town.max() > 2_000.0  # some built-up land lies far from the town's settlement
+    assert np.all(every == 0.0)  # each is built-up land itself
 
 
 @pytest.mark.parametrize("value", [0.0, -1.0, float("nan"), "1.5"])

@@ -240,8 +240,7 @@ def test_north_bayreuth_grows_at_settlements_of_a_neighbourhood_with_settlement_
     from osm_expand.maturation import MatureOptions, mature_result
     from osm_expand.pipeline import ExpandOptions, expand
 
-    growth = GrowthOptions(settlement_only=True, settlement_neighbourhoods=1.0, district_town_reach=math.inf,
-                           district_town_share=math.inf)
+    growth = GrowthOptions(settlement_only=True, settlement_neighbourhoods=1.0, district_town_share=math.inf)
     run = mature_result(expand(load(FIXTURES / "north-bayreuth.osm.gz"), ExpandOptions(seed=0, fidelity=False)),
                         load_history("example"), MatureOptions(fidelity=False, engine=EngineOptions(growth=growth)),
                         0).city

@@ -338,12 +338,12 @@ def _grow_streets(state: EngineState, era: Era, now: YearValues, year: int, rng:
                 # once a run, on the city of the first year a district pattern owes min_district spacings: the
                 # town as mapped plus whatever earlier years grew (a street-pattern era's streets among them)
                 state.growth.neighbourhood = neighbourhood_length(state.city, growth=options.growth)
-                if math.isfinite(options.growth.district_town_share):  # measured on the same city, once a run
-                    state.growth.settlement = settlement_length(state.city, growth=options.growth)
+            share = options.growth.district_town_share
+            if math.isfinite(share) and state.growth.settlement is None:  # with the neighbourhood, once a run
+                state.growth.settlement = settlement_length(state.city, growth=options.growth)
             era_ends = ((era.end is not None and now.year + 1 >= era.end)
                         or (last_year is not None and now.year >= last_year))
             floor = options.growth.district_neighbourhoods * state.growth.neighbourhood
-            share = options.growth.district_town_share
             if math.isfinite(share) and state.growth.settlement is not None:  # at most that share of the town at a time
                 floor = min(floor, share * state.growth.settlement)
             if state.growth.owed < floor and not era_ends:

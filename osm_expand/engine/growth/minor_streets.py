@@ -338,7 +338,8 @@ class GrowthOptions:
     #: one district of 3.25 km², larger than north-bayreuth's town without its buildings (2.87 km²): its
     #: district's region (a disc of free land up to twice its radius, cut by the country roads) reached 1.2 km
     #: from its centre, and the patches grew three clusters in the fields, 1-2 km apart. A town grows by its
-    #: edge, a quarter at a time: 0.25 is the pipeline's own district share (:attr:`SiteOptions.area_share`).
+    #: edge, a part at a time: 0.25, the pipeline's own district share (:attr:`SiteOptions.area_share`), put
+    #: Andorra out of range (below); 0.5, at most half the town, is the default.
     #: A district smaller than the floor is due sooner and the next grows beside it (its blocks are built-up
     #: land then, which a site's closeness and contact count). Off: measured at 0.25 (session 36, h36g; off of 14 per
     #: reference seed, main 78bb88f -> on), seed 0: Andorra 0 0 0 -> 8 8 10, north-bayreuth 5 5 5 -> 4 5 5 (4
@@ -684,10 +685,9 @@ def grow_district(city: City, pattern: GrowthPattern, length: float, density: fl
         memory.refused = _still_refused(city, memory.refused, reach=2.0 * spacing)
         near = np.full(len(memory.refused), options.refused_near * district_radius)
         avoid = np.column_stack([memory.refused[:, :2], near])
-    if math.isfinite(options.district_town_reach):  # the town's edge and its earlier quarters, not a hamlet's
+    if math.isfinite(options.district_town_reach) and maps.city.any():  # the town's edge, not a hamlet's
         sites = choose_sites(maps, area, site_options, most=2 * options.sites_tried, avoid=avoid)
-        gap = options.settlement_gap if options.settlement_gap > 0 else SETTLEMENT_GAP
-        near = settlement_distance(maps, np.array([s.centre for s in sites]).reshape(-1, 2), gap)
+        near = _from_the_town(maps, np.array([s.centre for s in sites]).reshape(-1, 2), options)
         sites = [s for s, d in zip(sites, near) if d <= options.district_town_reach * district_radius]
         sites = sites[:options.sites_tried]
     else:
@@ -776,6 +776,16 @@ def _still_refused(city: City, refused: np.ndarray, *, reach: float) -> np.ndarr
     return refused[keep]
 
 
+
+def _from_the_town(maps: DistanceMaps, xy: np.ndarray, options: GrowthOptions) -> np.ndarray:
+    """Per point (``(K, 2)`` m), metres to the land :attr:`GrowthOptions.district_town_reach` measures from: the
+    town's settlement (:func:`osm_expand.sites.settlement_distance`); the settlements the maps count
+    (``maps.settlement``, with :attr:`GrowthOptions.settlement_only`); every piece of built-up land with a
+    :attr:`GrowthOptions.settlement_gap` of 0, which reads them all as the town's."""
+    if options.settlement_gap == 0 or maps.settlement is not None:
+        return _built_up_distance(maps, xy)
+    return settlement_distance(maps, xy, options.settlement_gap)
+
 def neighbourhood_length(city: City, site: SiteOptions | None = None, growth: GrowthOptions | None = None) -> float:
     """The street length (m) of one of the town's neighbourhoods: the pipeline's district area (``area_share`` of
     the town's built-up land, at most ``neighbourhood_area``: Perry's unit) at the town's built-up street density.
@@ -789,28 +799,32 @@ def neighbourhood_length(city: City, site: SiteOptions | None = None, growth: Gr
     growth.
     """
     site = site or SiteOptions()
-    growth = growth or GrowthOptions()
-    cell = max(site.cell, math.sqrt(site.neighbourhood_area / math.pi) / growth.site_cells_per_radius)
-    maps = distance_maps(city, replace(site, cell=cell))
+    maps = _town_maps(city, site, growth or GrowthOptions())
     return default_district_area(site, maps.built_area) * built_up_density(city, maps)
 
 
 def settlement_length(city: City, site: SiteOptions | None = None, growth: GrowthOptions | None = None) -> float:
     """The street length (m) of the town's own settlement: its built-up area (:func:`osm_expand.sites.settlement`,
-    the largest piece of built-up land with ``growth``'s :attr:`GrowthOptions.settlement_gap` gaps bridged) at the
-    town's built-up street density, on :func:`neighbourhood_length`'s rasters.
+    the largest piece of built-up land with ``growth``'s :attr:`GrowthOptions.settlement_gap` gaps bridged; all of
+    it with a gap of 0) at the town's built-up street density, on :func:`neighbourhood_length`'s rasters.
 
     What :attr:`GrowthOptions.district_town_share` caps the district floor with: the floor's neighbourhood is
     the whole extract's (Perry's unit on any extract of 2.6 km² of built-up land), the town may be far smaller.
     Measured at 45 m cells: north-bayreuth 5.38 km², without its buildings 2.87 km², Krems 5.08, Monaco 2.84,
     Andorra 8.36 (the whole extract's built-up land 15.4, 14.9, 5.67, 2.84, 20.4).
     """
-    site = site or SiteOptions()
     growth = growth or GrowthOptions()
+    maps = _town_maps(city, site or SiteOptions(), growth)
+    # settlement_gap 0 reads every piece of built-up land as the town's (:attr:`GrowthOptions.settlement_gap`)
+    town = settlement(maps, growth.settlement_gap) if growth.settlement_gap > 0 else maps.city
+    return float(town.sum()) * maps.cell ** 2 * built_up_density(city, maps)
+
+
+def _town_maps(city: City, site: SiteOptions, growth: GrowthOptions) -> DistanceMaps:
+    """The rasters the town's neighbourhood and settlement are measured on: Perry's unit's radius cut into
+    ``growth``'s :attr:`GrowthOptions.site_cells_per_radius` cells, as a district's site is."""
     cell = max(site.cell, math.sqrt(site.neighbourhood_area / math.pi) / growth.site_cells_per_radius)
-    maps = distance_maps(city, replace(site, cell=cell))
-    gap = growth.settlement_gap if growth.settlement_gap > 0 else SETTLEMENT_GAP
-    return float(settlement(maps, gap).sum()) * maps.cell ** 2 * built_up_density(city, maps)
+    return distance_maps(city, replace(site, cell=cell))
 
 
 def built_up_density(city: City, maps: DistanceMaps) -> float:
