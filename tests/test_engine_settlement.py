@@ -232,9 +232,9 @@ def test_north_bayreuth_grows_at_settlements_of_a_neighbourhood_with_settlement_
     """north-bayreuth, seed 0, ``settlement_only`` with ``settlement_neighbourhoods = 1``: the engine's streets
     grow by the settlements of at least a neighbourhood's area (median distance of their points to that land
     272 m; with the default options 1,065 m: both quarters in the fields 2.5 km north-east, by a hamlet of
-    0.49 km² of built-up land). On the old code the option does not exist. The district's reach to the town and
-    its share of it are off here (``inf``), as when this was measured: both bind a district to the largest
-    settlement alone, which is what ``settlement_only`` sets aside."""
+    0.49 km² of built-up land). On the old code the option does not exist. The district's reach measures from the
+    settlements counted (:attr:`GrowthOptions.district_town_reach`, on); its share of the town is off (``inf``), as
+    when this was measured: it caps a district at half the largest settlement (then 860 m)."""
     from osm_expand.engine.history import load_history
     from osm_expand.engine.loop import EngineOptions
     from osm_expand.maturation import MatureOptions, mature_result
