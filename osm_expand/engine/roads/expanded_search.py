@@ -24,7 +24,7 @@ order of their distance and, of equal ones, the highest numbered first,
 and a relaxation takes a state only when strictly cheaper and not above the
 limit. A state is never pushed twice at one distance, so that order is
 total and any heap that pops by it scans the states as scipy's does. So
-this is the same search step for step: a binary heap keyed by (distance,
+this is the same search step for step: a 4-ary heap keyed by (distance,
 −state), the same rows in the same entry order, the same float sums
 (``dist[u] + w``; A*'s reduced weight ``w + (h[col] − h[row])`` raised to
 ``eps``, as ``routing._reduced`` writes it into the matrix): the same
