@@ -38,7 +38,14 @@ the distance of a state on a route below C has ``g + h`` within C too, so
 applying scipy's choice among them (the least distance, then the highest
 state) as they relax gives those states scipy's predecessors
 (:func:`expanded_dijkstra`). Campo Grande's 36 captured searches: the same
-36 routes, 26.1 s CPU against 32.7 (session 36).
+36 routes, 26.1 s CPU against 32.7 (session 36). That rule is scipy's only
+where no two consecutive edges of a path cost 0 in float (a zero edge gives
+a state its predecessor's distance, and scipy's queue then orders the two by
+number, not by when they relax): it holds because every arrival → departure
+or hub and every hub → departure edge costs at least ``eps`` (1e-9), and
+``g + eps > g`` only while g is below 2²⁴ ≈ 1.7e7 (above it half an ulp
+exceeds 1e-9 and the sum rounds back to g). A town's route costs are far
+below that.
 
 numba compiles it (``cache=True``: a user's first run compiles and stores
 it, about 4 s CPU; later runs load it, about 0.4 s with numba's import);
@@ -115,7 +122,9 @@ def _relax(dist: np.ndarray, pred: np.ndarray, heap: np.ndarray, length: int, co
     ``g + h``, ``h_col`` the state's bound): taken when strictly cheaper and ``nv + h_col`` not above
     the limit; where ``nv`` equals the state's distance, ``v`` becomes its predecessor when it comes
     first in scipy's order (lower distance, then higher number) — found at relaxation, even after
-    the state was scanned, where scipy's queue found it by popping ``v`` first."""
+    the state was scanned, where scipy's queue found it by popping ``v`` first. That is scipy's
+    choice only while no two consecutive edges cost 0 in float: the turn and hub edges cost at
+    least ``eps``, which ``nv`` keeps while distances are below about 1.7e7 (module docstring)."""
     if ties:
         if dist[col] > nv:
             key = nv + h_col
