@@ -143,12 +143,15 @@ class RoutingOptions:
     #: (:func:`_band_bound`); 0: no band, the first bound is the plain shortest path's penalised cost
     #: (up to 3.7× the best on Campo Grande's searches) or the previous window's route's
     bound_cells: int = 4
-    #: whether a route's turn-penalised search runs A* (Dijkstra on reduced costs with the plain
-    #: distance to the target as bound) instead of plain Dijkstra within the cost bound: exact (the
-    #: same cost), it settles only the states with g + d_t ≤ C; of several routes of equal cost it
-    #: may take another than plain Dijkstra (3 of Campo Grande's 36 captured searches); alone it saved
-    #: 8–12 % of those searches' CPU, with ``window_share`` and ``growth_share`` 0.5 a third (Campo Grande's
-    #: default command 73.6 → 59.4 s CPU, session 34). Off: its equal-cost roads move Monaco's and Campo
+    #: whether a route's turn-penalised search runs A* on reduced costs (Dijkstra on
+    #: ``w + d_t(col) − d_t(row)``, :func:`_reduced`, the plain distance to the target d_t as bound, the
+    #: route's cost summed again from the own weights) instead of A* by d_t on the graph's own weights
+    #: with scipy's tie rule (the default, :func:`_tiled_search`), which takes plain Dijkstra's route.
+    #: Both are exact (the same cost) and settle only the states with g + d_t ≤ C; the reduced costs'
+    #: other float sums make it take, of several routes of equal cost, another than plain Dijkstra
+    #: (3 of Campo Grande's 36 captured searches). Against plain Dijkstra (session 34, before the tie
+    #: rule) it saved 8–12 % of those searches' CPU alone, with ``window_share`` and ``growth_share`` 0.5
+    #: a third (Campo Grande's default command 73.6 → 59.4 s CPU). Off: its equal-cost roads move Monaco's and Campo
     #: Grande's later districts (issue 20's verdict, ``benchmarks/engine_growth.py``, off of 14, seeds 0 / 1 /
     #: 2: Monaco 2 3 3 / 3 3 2 / 4 5 5 → 5 4 4 (dead-end and 2-core shares out) / 3 3 2 / 4 5 5; Campo
     #: Grande 4 4 5 (2-core out) / 4 4 4 / 2 3 2 → 4 4 4 (in) / 4 4 4 / 3 3 3), and Monaco's seed-0 engine
@@ -1071,10 +1074,12 @@ def _reduced(expanded: csr_matrix, h: np.ndarray, states: _States) -> csr_matrix
 def _summed_cost(graph: PathGraph, lat: KindMask, extra: np.ndarray, verts: np.ndarray, states: list[int],
                  penalties: np.ndarray, k: int) -> float:
     """The cost of a path of states of the expanded graph over ``verts`` summed from the graph's own
-    weights (:func:`_path_cost`), after A* has reduced them in place: the expanded graph over the
-    path's vertices alone holds the very same entries between them, so the sum is the same to the
-    last bit. A copy of the searched graph's weights kept for this (session 34's first A* default)
-    was 1.2 GB of the synthetic 10,000-street town's first road year (153 M entries)."""
+    weights (:func:`_path_cost`), for a path A* found on reduced costs (whose distances are sums of
+    the reduced weights, not of these): the expanded graph over the path's vertices alone holds the
+    very same entries between them, so the sum is the same to the last bit. Only that small graph
+    is written (the search itself writes none, :func:`_heading_search`); a copy of the searched
+    graph's weights kept for this (session 34's first A* default) was 1.2 GB of the synthetic
+    10,000-street town's first road year (153 M entries)."""
     big = _States(len(verts), k)
     path = np.asarray(states, dtype=np.int64)
     vertex = verts[big.vertex(path)]
@@ -1114,7 +1119,8 @@ def _tiled_search(graph: PathGraph, lat: KindMask, extra: np.ndarray, source: in
                   exits: np.ndarray | None = None) -> tuple[tuple[list[int], float], np.ndarray | None]:
     """The turn-penalised search, the heading-expanded graph made tile by tile as A*'s test reaches them.
 
-    The expanded graph (see :func:`_expanded_graph`) is made over the
+    Each search (:func:`_heading_search`: compiled, no expanded matrix is
+    written, each state's row made as the search reaches it) covers the
     *active* vertices only: those of the active tiles (``tile_cells``
     lattice vertices a side) whose ``lower`` bound of a route through them
     (``d_s + h``) is within the best cost ``C`` found so far. After each
@@ -1129,11 +1135,13 @@ def _tiled_search(graph: PathGraph, lat: KindMask, extra: np.ndarray, source: in
     again; when no edge is, no route outside the active set can beat C, and
     the best route found is the best of the graph. The tiles follow A*'s
     states with ``g + h ≤ C``. Inside them the exits' search (no target),
-    and a route's with ``route_astar`` (the default), run A* on reduced
+    and a route's with ``route_astar`` (off by default), run A* on reduced
     costs (:func:`_reduced`), which settles only the states with
     ``g + h ≤ C``: the route's cost is then summed again from the graph's
-    own weights (:func:`_path_cost`). Without ``route_astar`` a route
-    search runs plain Dijkstra, which settles every state with ``g ≤ C``.
+    own weights (:func:`_summed_cost`). Without ``route_astar`` a route
+    search runs A* by ``h`` on the graph's own weights with scipy's tie
+    rule (``ties``): it too searches only the states with ``g + h ≤ C``,
+    and its route, distances and predecessors are plain Dijkstra's.
 
     Parameters
     ----------
@@ -1165,9 +1173,9 @@ def _tiled_search(graph: PathGraph, lat: KindMask, extra: np.ndarray, source: in
     if at_once:
         active[:] = True  # a small region at once: one search, no growing
     # The exits' search (costs only) runs A* (Dijkstra on reduced costs, :func:`_reduced`): it settles
-    # only the states with g + h ≤ C. So does a route search with ``route_astar`` (the default; plain
-    # Dijkstra without it, which settles every state with g ≤ C and of several routes of equal cost
-    # may take another: Campo Grande's second and third roads)
+    # only the states with g + h ≤ C. So does a route search with ``route_astar`` (off by default: of
+    # several routes of equal cost it may take another than plain Dijkstra, Campo Grande's second and
+    # third roads); without it, A* by h on the own weights with scipy's tie rule (plain Dijkstra's route)
     astar = target is None or opts.route_astar
     n_lat, n_dir = lat.shape
     dir_bin = _bins(graph.direction_heading, k)
