@@ -879,3 +879,22 @@ def test_a_star_with_scipys_tie_rule_walks_back_plain_dijkstras_routes_state_for
     assert (dist[kept] >= want[kept]).all()
     sure = kept & (want + states.per_state(h) < limit - 1e-6 * limit)
     assert np.array_equal(dist[sure], want[sure])
+
+
+def _twice(x: float) -> float:
+    return 2.0 * x
+
+
+def test_the_compiled_search_compiles_uncached_where_numba_has_nowhere_to_cache_it(monkeypatch):
+    """Review 6 (session 36): where neither the package's folder nor numba's user cache is writable,
+    numba's ``njit(cache=True)`` raises RuntimeError when it decorates, so importing the search failed;
+    the module's decorator compiles without the cache there instead."""
+    import numba.core.caching
+    from numba import njit
+
+    from osm_expand.engine.roads import expanded_search
+
+    monkeypatch.setattr(numba.core.caching.CacheImpl, "_locator_classes", [])
+    with pytest.raises(RuntimeError, match="cannot cache"):
+        njit(cache=True)(_twice)
+    assert expanded_search._compiled()(_twice)(1.5) == 3.0

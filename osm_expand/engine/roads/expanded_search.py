@@ -55,7 +55,8 @@ holds about 110 MB (LLVM) for the rest of the run.
 """
 from __future__ import annotations
 
-from typing import NamedTuple
+from collections.abc import Callable
+from typing import Any, NamedTuple, TypeVar
 
 import numpy as np
 from numba import njit
@@ -63,14 +64,33 @@ from numba import njit
 #: scipy's ``NULL_IDX``: the predecessor of a state not reached
 NO_PRED = -9999
 
+_F = TypeVar("_F", bound=Callable[..., Any])
 
-@njit(cache=True, inline="always")
+
+def _compiled(**options: Any) -> Callable[[_F], _F]:
+    """``njit(cache=True, **options)``, or without the cache where numba finds nowhere to write it.
+
+    numba raises RuntimeError ("cannot cache function …: no locator available") when it decorates
+    a cached function while neither the package's folder nor its user cache (``NUMBA_CACHE_DIR``)
+    is writable (a read-only install, a sandboxed user): importing this module, so every route
+    search, would fail. Without the cache each run compiles once (about 4 s CPU) instead."""
+    def wrap(func: _F) -> _F:
+        try:
+            return njit(cache=True, **options)(func)
+        except RuntimeError as error:
+            if "cannot cache" not in str(error):
+                raise
+            return njit(cache=False, **options)(func)
+    return wrap
+
+
+@_compiled(inline="always")
 def _before(key: float, state: float, other_key: float, other_state: float) -> bool:
     """An entry pops before another: the lower distance, of equal ones the higher state (scipy's order)."""
     return key < other_key or (key == other_key and state > other_state)
 
 
-@njit(cache=True, inline="always")
+@_compiled(inline="always")
 def _push(heap: np.ndarray, length: int, key: float, state: float) -> np.ndarray:
     """``heap`` (entries ``(distance, state)``, rows ``0 … length − 1`` a 4-ary heap) with one more
     entry (grown by doubling when full: the returned array is the heap)."""
@@ -89,7 +109,7 @@ def _push(heap: np.ndarray, length: int, key: float, state: float) -> np.ndarray
     return heap
 
 
-@njit(cache=True, inline="always")
+@_compiled(inline="always")
 def _pop(heap: np.ndarray, length: int) -> None:
     """Drop the heap's first entry (``length`` entries before): its last one sifts down from the top."""
     last = length - 1
@@ -113,7 +133,7 @@ def _pop(heap: np.ndarray, length: int) -> None:
     heap[at, 1] = state
 
 
-@njit(cache=True, inline="always")
+@_compiled(inline="always")
 def _relax(dist: np.ndarray, pred: np.ndarray, heap: np.ndarray, length: int, col: int, nv: float, v: int | np.integer,
            limit: float, ties: bool, h_col: float) -> tuple[np.ndarray, int]:
     """Offer state ``col`` the distance ``nv`` from ``v``.
@@ -146,7 +166,7 @@ def _relax(dist: np.ndarray, pred: np.ndarray, heap: np.ndarray, length: int, co
     return heap, length
 
 
-@njit(cache=True)
+@_compiled()
 def _search(n: int, k: int, cheap: np.ndarray, cheap_cost: np.ndarray, hub_cost: float, region: np.ndarray,
             local: np.ndarray, n_lat: int, lat_kind: np.ndarray, allowed: np.ndarray, offset: np.ndarray,
             dirs_ptr: np.ndarray, dirs: np.ndarray, table: np.ndarray, plain: np.ndarray, e_ptr: np.ndarray,
