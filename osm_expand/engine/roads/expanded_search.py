@@ -308,11 +308,30 @@ def expanded_dijkstra(graph: Expanded, start: int, limit: float, h: np.ndarray |
     -------
     dist, pred
         Per state, as scipy returns them (∞ and −9999 where not reached; pred empty unless asked).
+
+    Raises
+    ------
+    ValueError
+        Where the compiled search would read or write out of its arrays (numba checks no bounds: a
+        start of −1 would wrap round silently, one past the states write beyond them): a start not
+        among the states, with ``ties`` a start not a hub (its key reads ``h`` of the hub's vertex),
+        an ``h`` not of one value per vertex, or predecessors asked for more states than their
+        32 bits number (2³¹).
     """
     g = graph
     if ties and (h is None or not return_predecessors):
         raise ValueError("the tie rule needs the bound h and the predecessors")
-    pred = np.full(g.n * (2 * g.k + 1) if return_predecessors else 0, NO_PRED, dtype=np.int32)
+    nk = g.n * g.k
+    size = g.n * (2 * g.k + 1)
+    if not 0 <= start < size:
+        raise ValueError(f"the start state {start} is not among the {size} states")
+    if ties and start < 2 * nk:
+        raise ValueError(f"with ties the start must be a hub (states {2 * nk} … {size - 1}), not {start}")
+    if h is not None and len(h) != g.n:
+        raise ValueError(f"h holds {len(h)} values, not one per vertex ({g.n})")
+    if return_predecessors and size >= 2**31:
+        raise ValueError(f"{size} states: more than the predecessors' 32 bits number")
+    pred = np.full(size if return_predecessors else 0, NO_PRED, dtype=np.int32)
     astar = h is not None and not ties
     hh = np.ascontiguousarray(h, dtype=np.float64) if h is not None else np.zeros(1)
     dist = _search(g.n, g.k, g.cheap, g.cheap_cost, g.hub_cost, g.region, g.local, g.n_lat, g.lat_kind, g.allowed,
