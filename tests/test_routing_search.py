@@ -910,7 +910,7 @@ def tiny_expanded(n: int, k: int):
                     region=np.arange(n, dtype=i64), local=np.arange(n, dtype=np.int32), n_lat=0,
                     lat_kind=np.zeros((1, 1), np.uint8), allowed=np.zeros(256, bool), offset=np.zeros(1, i64),
                     dirs_ptr=np.zeros(k + 1, i64), dirs=np.zeros(0, i64), table=np.zeros(0),
-                    plain=np.zeros((1, 1), np.float32),
+                    plain=np.zeros((1, 1), np.float32), w_kind=np.zeros((1, 1), np.uint8),
                     e_ptr=np.zeros(n + 1, i64), e_bin=np.zeros(0, i64), e_col=np.zeros(0, i64), e_val=np.zeros(0))
 
 

@@ -48,7 +48,12 @@ exceeds 1e-9 and the sum rounds back to g). A town's route costs are far
 below that.
 
 numba compiles it (``cache=True``: a user's first run compiles and stores
-it, about 4 s CPU; later runs load it, about 0.4 s with numba's import);
+it; later runs load it, about 0.4 s with numba's import). Compiling the
+search for one set of argument types takes 3–4 s CPU (session 36's review:
+3.9 s with a float64 ``plain`` table, 3.1 s float32, 3.5 s with an int64
+``local``), and numba compiles once per set, so ``routing._heading_search``
+passes one set always (a float32 ``plain``, a (1, 1) one beside a kind
+table; an int32 ``local``): a run compiles the search once;
 nothing else imports numba (``routing`` imports this module when it first
 searches), so commands that search no route do not pay it. numba's import
 holds about 110 MB (LLVM) for the rest of the run.
@@ -169,7 +174,8 @@ def _relax(dist: np.ndarray, pred: np.ndarray, heap: np.ndarray, length: int, co
 @_compiled()
 def _search(n: int, k: int, cheap: np.ndarray, cheap_cost: np.ndarray, hub_cost: float, region: np.ndarray,
             local: np.ndarray, n_lat: int, lat_kind: np.ndarray, allowed: np.ndarray, offset: np.ndarray,
-            dirs_ptr: np.ndarray, dirs: np.ndarray, table: np.ndarray, plain: np.ndarray, e_ptr: np.ndarray,
+            dirs_ptr: np.ndarray, dirs: np.ndarray, table: np.ndarray, plain: np.ndarray, w_kind: np.ndarray,
+            e_ptr: np.ndarray,
             e_bin: np.ndarray, e_col: np.ndarray, e_val: np.ndarray, h: np.ndarray, astar: bool, ties: bool,
             eps: float, start: int, limit: float, pred: np.ndarray) -> np.ndarray:
     nk = n * k
@@ -232,7 +238,7 @@ def _search(n: int, k: int, cheap: np.ndarray, cheap_cost: np.ndarray, hub_cost:
                     lw = local[gu + offset[d]]
                     if lw < 0:
                         continue
-                    w = table[np.int64(kd) * n_dir + d] if use_table else np.float64(plain[gu, d])
+                    w = table[np.int64(w_kind[gu, d]) * n_dir + d] if use_table else np.float64(plain[gu, d])
                     if astar:
                         w = w + (h[lw] - hu)
                         if w < eps:
@@ -273,7 +279,7 @@ class Expanded(NamedTuple):
     hub_cost: float  #: ``arr(v, i) → hub(v)``
     eps: float  #: the hub's free departures (and A*'s least reduced weight)
     region: np.ndarray  #: int64 (n,), each local vertex's G′ number (lattice vertices first)
-    local: np.ndarray  #: (V′,) each G′ vertex's local number, −1 outside
+    local: np.ndarray  #: int32 (V′,) each G′ vertex's local number, −1 outside
     n_lat: int  #: lattice vertices of G′ (they come first)
     lat_kind: np.ndarray  #: (n_lat, D) uint8 the lattice edges' kinds
     allowed: np.ndarray  #: (256,) bool, the kinds a route may use
@@ -281,7 +287,8 @@ class Expanded(NamedTuple):
     dirs_ptr: np.ndarray  #: int64 (k + 1,), where each bin's directions start in ``dirs``
     dirs: np.ndarray  #: int64 (D,) the directions by bin, ascending within one
     table: np.ndarray  #: float64 weight by ``kind · D + direction`` (empty: read ``plain``)
-    plain: np.ndarray  #: (n_lat, D) the lattice weights, where there is no table
+    plain: np.ndarray  #: float32 (n_lat, D) the lattice weights, where there is no table (else (1, 1))
+    w_kind: np.ndarray  #: uint8 (n_lat, D) the kinds ``table`` is read by (the weights' own; else (1, 1))
     e_ptr: np.ndarray  #: int64 (n + 1,), each vertex's other edges in the arrays below
     e_bin: np.ndarray  #: int64, their heading bins (a vertex's in row order: bin, then edge)
     e_col: np.ndarray  #: int64, ``arr(w, b)``
@@ -335,6 +342,6 @@ def expanded_dijkstra(graph: Expanded, start: int, limit: float, h: np.ndarray |
     astar = h is not None and not ties
     hh = np.ascontiguousarray(h, dtype=np.float64) if h is not None else np.zeros(1)
     dist = _search(g.n, g.k, g.cheap, g.cheap_cost, g.hub_cost, g.region, g.local, g.n_lat, g.lat_kind, g.allowed,
-                   g.offset, g.dirs_ptr, g.dirs, g.table, g.plain, g.e_ptr, g.e_bin, g.e_col, g.e_val, hh, astar,
-                   ties, g.eps, int(start), float(limit), pred)
+                   g.offset, g.dirs_ptr, g.dirs, g.table, g.plain, g.w_kind, g.e_ptr, g.e_bin, g.e_col, g.e_val, hh,
+                   astar, ties, g.eps, int(start), float(limit), pred)
     return dist, pred

@@ -889,11 +889,17 @@ def _heading_search(graph: PathGraph, lat: KindMask, extra: np.ndarray, region: 
     else:  # a plain (V, D) bool table
         lat_kind = np.asarray(lat, dtype=bool).view(np.uint8)
         allowed[1] = True
+    # one set of argument types, so a run compiles the search once (expanded_search's docstring): a
+    # float32 plain table (sloped land's, lattice.directed_tables; a (1, 1) one beside a kind table) and
+    # an int32 local; a LatticeWeights is read by its own kinds, which need not be the mask's array, never
+    # by its (V, D) table made whole
     weight = graph.lat_weight
-    if isinstance(weight, LatticeWeights) and weight.kind is lat_kind:
-        table, plain = weight.table64, np.zeros((1, 1))
-    else:
-        table, plain = np.zeros(0), np.asarray(weight)
+    if isinstance(weight, LatticeWeights):
+        table, plain, w_kind = weight.table64, np.zeros((1, 1), np.float32), weight.kind
+    else:  # a float64 table (none of the lattice's) would keep its values and compile a second time
+        table, plain, w_kind = np.zeros(0), np.asarray(weight), np.zeros((1, 1), np.uint8)
+    if local.dtype != np.int32:  # local numbers below n: 32 bits hold them while n < 2³¹
+        local = local.astype(np.int32)
     # the other edges by vertex, each vertex's in its departure rows' order (bin, then edge)
     e = np.flatnonzero(extra & (local[graph.src] >= 0) & (local[graph.dst] >= 0))
     e_bin = _bins(graph.heading[e], k)
@@ -906,7 +912,7 @@ def _heading_search(graph: PathGraph, lat: KindMask, extra: np.ndarray, region: 
     rows = Expanded(n=n, k=k, cheap=cheap.astype(np.int64), cheap_cost=cheap_cost, hub_cost=hub_cost, eps=_EPS,
                     region=region.astype(np.int64, copy=False), local=local, n_lat=int(n_lat), lat_kind=lat_kind,
                     allowed=allowed, offset=graph.lattice.direction_offset.astype(np.int64), dirs_ptr=dirs_ptr,
-                    dirs=dirs, table=table, plain=plain, e_ptr=e_ptr, e_bin=e_bin,
+                    dirs=dirs, table=table, plain=plain, w_kind=w_kind, e_ptr=e_ptr, e_bin=e_bin,
                     e_col=local[graph.dst[e]].astype(np.int64) * k + e_bin, e_val=graph.weight[e].astype(np.float64))
     return expanded_dijkstra(rows, start, limit, h=h, return_predecessors=predecessors, ties=ties)
 
