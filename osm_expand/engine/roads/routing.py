@@ -721,6 +721,21 @@ def _local(graph: PathGraph, region: np.ndarray, k: int) -> np.ndarray:
     return local
 
 
+def _departure_order(graph: PathGraph, extra: np.ndarray, local: np.ndarray,
+                     k: int) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """The order of a departure row's entries, which the written graph (:func:`_departures`) and the
+    compiled search (:func:`_heading_search`) must share for scipy's ties: each direction's heading bin
+    and the directions by bin (ascending within one), then the other edges (streets, stitches, long
+    bridges) with both ends in the region (``local`` ≥ 0) by departure row ``dep(u, b)`` (ascending
+    within one) and their bins, int64."""
+    dir_bin = _bins(graph.direction_heading, k)
+    by_bin = np.argsort(dir_bin, kind="stable")
+    e = np.flatnonzero(extra & (local[graph.src] >= 0) & (local[graph.dst] >= 0))
+    e_bin = _bins(graph.heading[e], k)
+    order = np.argsort(local[graph.src[e]].astype(np.int64) * k + e_bin, kind="stable")
+    return dir_bin, by_bin, e[order], e_bin[order]
+
+
 def _departures(graph: PathGraph, lat: KindMask, extra: np.ndarray, region: np.ndarray, local: np.ndarray,
                 k: int, skip: int = 0, tail: int = 0) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """The heading-expanded graph's departure rows over ``region`` (:func:`_expanded_graph`): each row's
@@ -740,17 +755,13 @@ def _departures(graph: PathGraph, lat: KindMask, extra: np.ndarray, region: np.n
     nk = n * k
     it = local.dtype
     n_lat, n_dir = lat.shape
-    dir_bin = _bins(graph.direction_heading, k).astype(it)
-    by_bin = np.argsort(dir_bin, kind="stable")
+    dir_bin, by_bin, e, e_bin = _departure_order(graph, extra, local, k)
+    dir_bin, e_bin = dir_bin.astype(it), e_bin.astype(it)
     offset = graph.lattice.direction_offset
     n_lat_region = int(np.searchsorted(region, n_lat))  # region's lattice vertices come first
-    # other edges (streets, stitches, long bridges), by departure row dep(u, b) = u · k + b, stable
-    e = np.flatnonzero(extra & (local[graph.src] >= 0) & (local[graph.dst] >= 0))
-    e_bin = _bins(graph.heading[e], k).astype(it)
+    # other edges (streets, stitches, long bridges), by departure row dep(u, b) = u · k + b
     e_row = local[graph.src[e]].astype(np.int64) * k + e_bin
-    order = np.argsort(e_row, kind="stable")
-    e_row, e = e_row[order], e[order]
-    e_col = local[graph.dst[e]] * k + e_bin[order]  # arr(w, b)
+    e_col = local[graph.dst[e]] * k + e_bin  # arr(w, b)
     e_val = graph.weight[e]
     size = _States(n, k).size
     bound = skip + tail + len(e) + int(lat.count_per_row(region[:n_lat_region]).sum())
@@ -878,8 +889,8 @@ def _heading_search(graph: PathGraph, lat: KindMask, extra: np.ndarray, region: 
 
     n = len(region)
     n_lat, n_dir = lat.shape
-    dir_bin = _bins(graph.direction_heading, k)
-    dirs = np.argsort(dir_bin, kind="stable").astype(np.int64)  # by bin, directions ascending within one
+    dir_bin, by_bin, e, e_bin = _departure_order(graph, extra, local, k)
+    dirs = by_bin.astype(np.int64)  # by bin, directions ascending within one
     dirs_ptr = np.zeros(k + 1, dtype=np.int64)
     np.cumsum(np.bincount(dir_bin, minlength=k), out=dirs_ptr[1:])
     allowed = np.zeros(256, dtype=bool)
@@ -901,11 +912,7 @@ def _heading_search(graph: PathGraph, lat: KindMask, extra: np.ndarray, region: 
     if local.dtype != np.int32:  # local numbers below n: 32 bits hold them while n < 2³¹
         local = local.astype(np.int32)
     # the other edges by vertex, each vertex's in its departure rows' order (bin, then edge)
-    e = np.flatnonzero(extra & (local[graph.src] >= 0) & (local[graph.dst] >= 0))
-    e_bin = _bins(graph.heading[e], k)
     e_src = local[graph.src[e]].astype(np.int64)
-    order = np.argsort(e_src * k + e_bin, kind="stable")
-    e, e_bin, e_src = e[order], e_bin[order], e_src[order]
     e_ptr = np.zeros(n + 1, dtype=np.int64)
     np.cumsum(np.bincount(e_src, minlength=n), out=e_ptr[1:])
     cheap, cheap_cost, hub_cost = _turn_rows(penalties)
