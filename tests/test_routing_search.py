@@ -879,3 +879,60 @@ def test_a_star_with_scipys_tie_rule_walks_back_plain_dijkstras_routes_state_for
     assert (dist[kept] >= want[kept]).all()
     sure = kept & (want + states.per_state(h) < limit - 1e-6 * limit)
     assert np.array_equal(dist[sure], want[sure])
+
+
+def _twice(x: float) -> float:
+    return 2.0 * x
+
+
+def test_the_compiled_search_compiles_uncached_where_numba_has_nowhere_to_cache_it(monkeypatch):
+    """Review 6 (session 36): where neither the package's folder nor numba's user cache is writable,
+    numba's ``njit(cache=True)`` raises RuntimeError when it decorates, so importing the search failed;
+    the module's decorator compiles without the cache there instead."""
+    import numba.core.caching
+    from numba import njit
+
+    from osm_expand.engine.roads import expanded_search
+
+    monkeypatch.setattr(numba.core.caching.CacheImpl, "_locator_classes", [])
+    with pytest.raises(RuntimeError, match="cannot cache"):
+        njit(cache=True)(_twice)
+    assert expanded_search._compiled()(_twice)(1.5) == 3.0
+
+
+def tiny_expanded(n: int, k: int):
+    """An expanded graph over ``n`` vertices without lattice vertices or other edges: each vertex's
+    arrivals, departures and hub, joined by its turns alone."""
+    from osm_expand.engine.roads.expanded_search import Expanded
+
+    i64 = np.int64
+    return Expanded(n=n, k=k, cheap=np.zeros(1, i64), cheap_cost=np.ones(1), hub_cost=5.0, eps=routing._EPS,
+                    region=np.arange(n, dtype=i64), local=np.arange(n, dtype=np.int32), n_lat=0,
+                    lat_kind=np.zeros((1, 1), np.uint8), allowed=np.zeros(256, bool), offset=np.zeros(1, i64),
+                    dirs_ptr=np.zeros(k + 1, i64), dirs=np.zeros(0, i64), table=np.zeros(0),
+                    plain=np.zeros((1, 1), np.float32), w_kind=np.zeros((1, 1), np.uint8),
+                    e_ptr=np.zeros(n + 1, i64), e_bin=np.zeros(0, i64), e_col=np.zeros(0, i64), e_val=np.zeros(0))
+
+
+def test_the_compiled_search_refuses_what_would_read_or_write_outside_its_arrays():
+    """Review 4 (session 36): numba checks no bounds, so the wrapper does: a start below 0 (which
+    wrapped round) or past the states (which wrote beyond them), a start that is not a hub with
+    ``ties`` (whose key reads h of the hub's vertex), an h not of one value a vertex, and more
+    states than the int32 predecessors number; a valid start still searches."""
+    from osm_expand.engine.roads.expanded_search import expanded_dijkstra
+
+    g = tiny_expanded(3, 4)
+    size = 3 * 9
+    h = np.zeros(3)
+    for start in (-1, size, size + 5):
+        with pytest.raises(ValueError, match="not among"):
+            expanded_dijkstra(g, start, np.inf)
+    with pytest.raises(ValueError, match="must be a hub"):
+        expanded_dijkstra(g, 2 * 3 * 4 - 1, np.inf, h=h, return_predecessors=True, ties=True)
+    with pytest.raises(ValueError, match="one per vertex"):
+        expanded_dijkstra(g, size - 1, np.inf, h=np.zeros(2))
+    with pytest.raises(ValueError, match="32 bits"):
+        expanded_dijkstra(tiny_expanded(2**31 // 9 + 1, 4), 0, np.inf, return_predecessors=True)
+    hub = 2 * 3 * 4 + 1
+    dist, pred = expanded_dijkstra(g, hub, np.inf, h=h, return_predecessors=True, ties=True)
+    assert dist[hub] == 0.0 and np.isfinite(dist[12 + 4:12 + 8]).all() and (pred[12 + 4:12 + 8] == hub).all()

@@ -24,7 +24,7 @@ order of their distance and, of equal ones, the highest numbered first,
 and a relaxation takes a state only when strictly cheaper and not above the
 limit. A state is never pushed twice at one distance, so that order is
 total and any heap that pops by it scans the states as scipy's does. So
-this is the same search step for step: a binary heap keyed by (distance,
+this is the same search step for step: a 4-ary heap keyed by (distance,
 −state), the same rows in the same entry order, the same float sums
 (``dist[u] + w``; A*'s reduced weight ``w + (h[col] − h[row])`` raised to
 ``eps``, as ``routing._reduced`` writes it into the matrix): the same
@@ -38,17 +38,30 @@ the distance of a state on a route below C has ``g + h`` within C too, so
 applying scipy's choice among them (the least distance, then the highest
 state) as they relax gives those states scipy's predecessors
 (:func:`expanded_dijkstra`). Campo Grande's 36 captured searches: the same
-36 routes, 26.1 s CPU against 32.7 (session 36).
+36 routes, 26.1 s CPU against 32.7 (session 36). That rule is scipy's only
+where no two consecutive edges of a path cost 0 in float (a zero edge gives
+a state its predecessor's distance, and scipy's queue then orders the two by
+number, not by when they relax): it holds because every arrival → departure
+or hub and every hub → departure edge costs at least ``eps`` (1e-9), and
+``g + eps > g`` only while g is below 2²⁴ ≈ 1.7e7 (above it half an ulp
+exceeds 1e-9 and the sum rounds back to g). A town's route costs are far
+below that.
 
 numba compiles it (``cache=True``: a user's first run compiles and stores
-it, about 4 s CPU; later runs load it, about 0.4 s with numba's import);
+it; later runs load it, about 0.4 s with numba's import). Compiling the
+search for one set of argument types takes 3–4 s CPU (session 36's review:
+3.9 s with a float64 ``plain`` table, 3.1 s float32, 3.5 s with an int64
+``local``), and numba compiles once per set, so ``routing._heading_search``
+passes one set always (a float32 ``plain``, a (1, 1) one beside a kind
+table; an int32 ``local``): a run compiles the search once;
 nothing else imports numba (``routing`` imports this module when it first
 searches), so commands that search no route do not pay it. numba's import
 holds about 110 MB (LLVM) for the rest of the run.
 """
 from __future__ import annotations
 
-from typing import NamedTuple
+from collections.abc import Callable
+from typing import Any, NamedTuple, TypeVar
 
 import numpy as np
 from numba import njit
@@ -56,14 +69,33 @@ from numba import njit
 #: scipy's ``NULL_IDX``: the predecessor of a state not reached
 NO_PRED = -9999
 
+_F = TypeVar("_F", bound=Callable[..., Any])
 
-@njit(cache=True, inline="always")
+
+def _compiled(**options: Any) -> Callable[[_F], _F]:
+    """``njit(cache=True, **options)``, or without the cache where numba finds nowhere to write it.
+
+    numba raises RuntimeError ("cannot cache function …: no locator available") when it decorates
+    a cached function while neither the package's folder nor its user cache (``NUMBA_CACHE_DIR``)
+    is writable (a read-only install, a sandboxed user): importing this module, so every route
+    search, would fail. Without the cache each run compiles once (about 4 s CPU) instead."""
+    def wrap(func: _F) -> _F:
+        try:
+            return njit(cache=True, **options)(func)
+        except RuntimeError as error:
+            if "cannot cache" not in str(error):
+                raise
+            return njit(cache=False, **options)(func)
+    return wrap
+
+
+@_compiled(inline="always")
 def _before(key: float, state: float, other_key: float, other_state: float) -> bool:
     """An entry pops before another: the lower distance, of equal ones the higher state (scipy's order)."""
     return key < other_key or (key == other_key and state > other_state)
 
 
-@njit(cache=True, inline="always")
+@_compiled(inline="always")
 def _push(heap: np.ndarray, length: int, key: float, state: float) -> np.ndarray:
     """``heap`` (entries ``(distance, state)``, rows ``0 … length − 1`` a 4-ary heap) with one more
     entry (grown by doubling when full: the returned array is the heap)."""
@@ -82,7 +114,7 @@ def _push(heap: np.ndarray, length: int, key: float, state: float) -> np.ndarray
     return heap
 
 
-@njit(cache=True, inline="always")
+@_compiled(inline="always")
 def _pop(heap: np.ndarray, length: int) -> None:
     """Drop the heap's first entry (``length`` entries before): its last one sifts down from the top."""
     last = length - 1
@@ -106,7 +138,7 @@ def _pop(heap: np.ndarray, length: int) -> None:
     heap[at, 1] = state
 
 
-@njit(cache=True, inline="always")
+@_compiled(inline="always")
 def _relax(dist: np.ndarray, pred: np.ndarray, heap: np.ndarray, length: int, col: int, nv: float, v: int | np.integer,
            limit: float, ties: bool, h_col: float) -> tuple[np.ndarray, int]:
     """Offer state ``col`` the distance ``nv`` from ``v``.
@@ -115,7 +147,9 @@ def _relax(dist: np.ndarray, pred: np.ndarray, heap: np.ndarray, length: int, co
     ``g + h``, ``h_col`` the state's bound): taken when strictly cheaper and ``nv + h_col`` not above
     the limit; where ``nv`` equals the state's distance, ``v`` becomes its predecessor when it comes
     first in scipy's order (lower distance, then higher number) — found at relaxation, even after
-    the state was scanned, where scipy's queue found it by popping ``v`` first."""
+    the state was scanned, where scipy's queue found it by popping ``v`` first. That is scipy's
+    choice only while no two consecutive edges cost 0 in float: the turn and hub edges cost at
+    least ``eps``, which ``nv`` keeps while distances are below about 1.7e7 (module docstring)."""
     if ties:
         if dist[col] > nv:
             key = nv + h_col
@@ -137,10 +171,11 @@ def _relax(dist: np.ndarray, pred: np.ndarray, heap: np.ndarray, length: int, co
     return heap, length
 
 
-@njit(cache=True)
+@_compiled()
 def _search(n: int, k: int, cheap: np.ndarray, cheap_cost: np.ndarray, hub_cost: float, region: np.ndarray,
             local: np.ndarray, n_lat: int, lat_kind: np.ndarray, allowed: np.ndarray, offset: np.ndarray,
-            dirs_ptr: np.ndarray, dirs: np.ndarray, table: np.ndarray, plain: np.ndarray, e_ptr: np.ndarray,
+            dirs_ptr: np.ndarray, dirs: np.ndarray, table: np.ndarray, plain: np.ndarray, w_kind: np.ndarray,
+            e_ptr: np.ndarray,
             e_bin: np.ndarray, e_col: np.ndarray, e_val: np.ndarray, h: np.ndarray, astar: bool, ties: bool,
             eps: float, start: int, limit: float, pred: np.ndarray) -> np.ndarray:
     nk = n * k
@@ -203,7 +238,7 @@ def _search(n: int, k: int, cheap: np.ndarray, cheap_cost: np.ndarray, hub_cost:
                     lw = local[gu + offset[d]]
                     if lw < 0:
                         continue
-                    w = table[np.int64(kd) * n_dir + d] if use_table else np.float64(plain[gu, d])
+                    w = table[np.int64(w_kind[gu, d]) * n_dir + d] if use_table else np.float64(plain[gu, d])
                     if astar:
                         w = w + (h[lw] - hu)
                         if w < eps:
@@ -244,7 +279,7 @@ class Expanded(NamedTuple):
     hub_cost: float  #: ``arr(v, i) → hub(v)``
     eps: float  #: the hub's free departures (and A*'s least reduced weight)
     region: np.ndarray  #: int64 (n,), each local vertex's G′ number (lattice vertices first)
-    local: np.ndarray  #: (V′,) each G′ vertex's local number, −1 outside
+    local: np.ndarray  #: int32 (V′,) each G′ vertex's local number, −1 outside
     n_lat: int  #: lattice vertices of G′ (they come first)
     lat_kind: np.ndarray  #: (n_lat, D) uint8 the lattice edges' kinds
     allowed: np.ndarray  #: (256,) bool, the kinds a route may use
@@ -252,7 +287,8 @@ class Expanded(NamedTuple):
     dirs_ptr: np.ndarray  #: int64 (k + 1,), where each bin's directions start in ``dirs``
     dirs: np.ndarray  #: int64 (D,) the directions by bin, ascending within one
     table: np.ndarray  #: float64 weight by ``kind · D + direction`` (empty: read ``plain``)
-    plain: np.ndarray  #: (n_lat, D) the lattice weights, where there is no table
+    plain: np.ndarray  #: float32 (n_lat, D) the lattice weights, where there is no table (else (1, 1))
+    w_kind: np.ndarray  #: uint8 (n_lat, D) the kinds ``table`` is read by (the weights' own; else (1, 1))
     e_ptr: np.ndarray  #: int64 (n + 1,), each vertex's other edges in the arrays below
     e_bin: np.ndarray  #: int64, their heading bins (a vertex's in row order: bin, then edge)
     e_col: np.ndarray  #: int64, ``arr(w, b)``
@@ -279,14 +315,33 @@ def expanded_dijkstra(graph: Expanded, start: int, limit: float, h: np.ndarray |
     -------
     dist, pred
         Per state, as scipy returns them (∞ and −9999 where not reached; pred empty unless asked).
+
+    Raises
+    ------
+    ValueError
+        Where the compiled search would read or write out of its arrays (numba checks no bounds: a
+        start of −1 would wrap round silently, one past the states write beyond them): a start not
+        among the states, with ``ties`` a start not a hub (its key reads ``h`` of the hub's vertex),
+        an ``h`` not of one value per vertex, or predecessors asked for more states than their
+        32 bits number (2³¹).
     """
     g = graph
     if ties and (h is None or not return_predecessors):
         raise ValueError("the tie rule needs the bound h and the predecessors")
-    pred = np.full(g.n * (2 * g.k + 1) if return_predecessors else 0, NO_PRED, dtype=np.int32)
+    nk = g.n * g.k
+    size = g.n * (2 * g.k + 1)
+    if not 0 <= start < size:
+        raise ValueError(f"the start state {start} is not among the {size} states")
+    if ties and start < 2 * nk:
+        raise ValueError(f"with ties the start must be a hub (states {2 * nk} … {size - 1}), not {start}")
+    if h is not None and len(h) != g.n:
+        raise ValueError(f"h holds {len(h)} values, not one per vertex ({g.n})")
+    if return_predecessors and size >= 2**31:
+        raise ValueError(f"{size} states: more than the predecessors' 32 bits number")
+    pred = np.full(size if return_predecessors else 0, NO_PRED, dtype=np.int32)
     astar = h is not None and not ties
     hh = np.ascontiguousarray(h, dtype=np.float64) if h is not None else np.zeros(1)
     dist = _search(g.n, g.k, g.cheap, g.cheap_cost, g.hub_cost, g.region, g.local, g.n_lat, g.lat_kind, g.allowed,
-                   g.offset, g.dirs_ptr, g.dirs, g.table, g.plain, g.e_ptr, g.e_bin, g.e_col, g.e_val, hh, astar,
-                   ties, g.eps, int(start), float(limit), pred)
+                   g.offset, g.dirs_ptr, g.dirs, g.table, g.plain, g.w_kind, g.e_ptr, g.e_bin, g.e_col, g.e_val, hh,
+                   astar, ties, g.eps, int(start), float(limit), pred)
     return dist, pred

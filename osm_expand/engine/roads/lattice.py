@@ -254,13 +254,13 @@ class LatticeWeights:
 
     shape = property(lambda self: self.kind.shape)
     ndim = 2
+    dtype = np.dtype(np.float32)
 
     @property
     def table64(self) -> np.ndarray:
         """(256 · D,) float64: the cost of kind k along direction d at ``k · D + d`` (what G′'s CSR
         holds; the compiled route search reads its lattice moves' weights from here)."""
         return self._table64
-    dtype = np.dtype(np.float32)
 
     def __getitem__(self, key) -> np.ndarray:
         return (self.length[self._cols[key]] * self.factor[self.kind[key]]).astype(np.float32)

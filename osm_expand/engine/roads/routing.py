@@ -143,12 +143,15 @@ class RoutingOptions:
     #: (:func:`_band_bound`); 0: no band, the first bound is the plain shortest path's penalised cost
     #: (up to 3.7× the best on Campo Grande's searches) or the previous window's route's
     bound_cells: int = 4
-    #: whether a route's turn-penalised search runs A* (Dijkstra on reduced costs with the plain
-    #: distance to the target as bound) instead of plain Dijkstra within the cost bound: exact (the
-    #: same cost), it settles only the states with g + d_t ≤ C; of several routes of equal cost it
-    #: may take another than plain Dijkstra (3 of Campo Grande's 36 captured searches); alone it saved
-    #: 8–12 % of those searches' CPU, with ``window_share`` and ``growth_share`` 0.5 a third (Campo Grande's
-    #: default command 73.6 → 59.4 s CPU, session 34). Off: its equal-cost roads move Monaco's and Campo
+    #: whether a route's turn-penalised search runs A* on reduced costs (Dijkstra on
+    #: ``w + d_t(col) − d_t(row)``, :func:`_reduced`, the plain distance to the target d_t as bound, the
+    #: route's cost summed again from the own weights) instead of A* by d_t on the graph's own weights
+    #: with scipy's tie rule (the default, :func:`_tiled_search`), which takes plain Dijkstra's route.
+    #: Both are exact (the same cost) and settle only the states with g + d_t ≤ C; the reduced costs'
+    #: other float sums make it take, of several routes of equal cost, another than plain Dijkstra
+    #: (3 of Campo Grande's 36 captured searches). Against plain Dijkstra (session 34, before the tie
+    #: rule) it saved 8–12 % of those searches' CPU alone, with ``window_share`` and ``growth_share`` 0.5
+    #: a third (Campo Grande's default command 73.6 → 59.4 s CPU). Off: its equal-cost roads move Monaco's and Campo
     #: Grande's later districts (issue 20's verdict, ``benchmarks/engine_growth.py``, off of 14, seeds 0 / 1 /
     #: 2: Monaco 2 3 3 / 3 3 2 / 4 5 5 → 5 4 4 (dead-end and 2-core shares out) / 3 3 2 / 4 5 5; Campo
     #: Grande 4 4 5 (2-core out) / 4 4 4 / 2 3 2 → 4 4 4 (in) / 4 4 4 / 3 3 3), and Monaco's seed-0 engine
@@ -718,6 +721,21 @@ def _local(graph: PathGraph, region: np.ndarray, k: int) -> np.ndarray:
     return local
 
 
+def _departure_order(graph: PathGraph, extra: np.ndarray, local: np.ndarray,
+                     k: int) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """The order of a departure row's entries, which the written graph (:func:`_departures`) and the
+    compiled search (:func:`_heading_search`) must share for scipy's ties: each direction's heading bin
+    and the directions by bin (ascending within one), then the other edges (streets, stitches, long
+    bridges) with both ends in the region (``local`` ≥ 0) by departure row ``dep(u, b)`` (ascending
+    within one) and their bins, int64."""
+    dir_bin = _bins(graph.direction_heading, k)
+    by_bin = np.argsort(dir_bin, kind="stable")
+    e = np.flatnonzero(extra & (local[graph.src] >= 0) & (local[graph.dst] >= 0))
+    e_bin = _bins(graph.heading[e], k)
+    order = np.argsort(local[graph.src[e]].astype(np.int64) * k + e_bin, kind="stable")
+    return dir_bin, by_bin, e[order], e_bin[order]
+
+
 def _departures(graph: PathGraph, lat: KindMask, extra: np.ndarray, region: np.ndarray, local: np.ndarray,
                 k: int, skip: int = 0, tail: int = 0) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """The heading-expanded graph's departure rows over ``region`` (:func:`_expanded_graph`): each row's
@@ -737,17 +755,13 @@ def _departures(graph: PathGraph, lat: KindMask, extra: np.ndarray, region: np.n
     nk = n * k
     it = local.dtype
     n_lat, n_dir = lat.shape
-    dir_bin = _bins(graph.direction_heading, k).astype(it)
-    by_bin = np.argsort(dir_bin, kind="stable")
+    dir_bin, by_bin, e, e_bin = _departure_order(graph, extra, local, k)
+    dir_bin, e_bin = dir_bin.astype(it), e_bin.astype(it)
     offset = graph.lattice.direction_offset
     n_lat_region = int(np.searchsorted(region, n_lat))  # region's lattice vertices come first
-    # other edges (streets, stitches, long bridges), by departure row dep(u, b) = u · k + b, stable
-    e = np.flatnonzero(extra & (local[graph.src] >= 0) & (local[graph.dst] >= 0))
-    e_bin = _bins(graph.heading[e], k).astype(it)
+    # other edges (streets, stitches, long bridges), by departure row dep(u, b) = u · k + b
     e_row = local[graph.src[e]].astype(np.int64) * k + e_bin
-    order = np.argsort(e_row, kind="stable")
-    e_row, e = e_row[order], e[order]
-    e_col = local[graph.dst[e]] * k + e_bin[order]  # arr(w, b)
+    e_col = local[graph.dst[e]] * k + e_bin  # arr(w, b)
     e_val = graph.weight[e]
     size = _States(n, k).size
     bound = skip + tail + len(e) + int(lat.count_per_row(region[:n_lat_region]).sum())
@@ -875,8 +889,8 @@ def _heading_search(graph: PathGraph, lat: KindMask, extra: np.ndarray, region: 
 
     n = len(region)
     n_lat, n_dir = lat.shape
-    dir_bin = _bins(graph.direction_heading, k)
-    dirs = np.argsort(dir_bin, kind="stable").astype(np.int64)  # by bin, directions ascending within one
+    dir_bin, by_bin, e, e_bin = _departure_order(graph, extra, local, k)
+    dirs = by_bin.astype(np.int64)  # by bin, directions ascending within one
     dirs_ptr = np.zeros(k + 1, dtype=np.int64)
     np.cumsum(np.bincount(dir_bin, minlength=k), out=dirs_ptr[1:])
     allowed = np.zeros(256, dtype=bool)
@@ -886,24 +900,26 @@ def _heading_search(graph: PathGraph, lat: KindMask, extra: np.ndarray, region: 
     else:  # a plain (V, D) bool table
         lat_kind = np.asarray(lat, dtype=bool).view(np.uint8)
         allowed[1] = True
+    # one set of argument types, so a run compiles the search once (expanded_search's docstring): a
+    # float32 plain table (sloped land's, lattice.directed_tables; a (1, 1) one beside a kind table) and
+    # an int32 local; a LatticeWeights is read by its own kinds, which need not be the mask's array, never
+    # by its (V, D) table made whole
     weight = graph.lat_weight
-    if isinstance(weight, LatticeWeights) and weight.kind is lat_kind:
-        table, plain = weight.table64, np.zeros((1, 1))
-    else:
-        table, plain = np.zeros(0), np.asarray(weight)
+    if isinstance(weight, LatticeWeights):
+        table, plain, w_kind = weight.table64, np.zeros((1, 1), np.float32), weight.kind
+    else:  # a float64 table (none of the lattice's) would keep its values and compile a second time
+        table, plain, w_kind = np.zeros(0), np.asarray(weight), np.zeros((1, 1), np.uint8)
+    if local.dtype != np.int32:  # local numbers below n: 32 bits hold them while n < 2³¹
+        local = local.astype(np.int32)
     # the other edges by vertex, each vertex's in its departure rows' order (bin, then edge)
-    e = np.flatnonzero(extra & (local[graph.src] >= 0) & (local[graph.dst] >= 0))
-    e_bin = _bins(graph.heading[e], k)
     e_src = local[graph.src[e]].astype(np.int64)
-    order = np.argsort(e_src * k + e_bin, kind="stable")
-    e, e_bin, e_src = e[order], e_bin[order], e_src[order]
     e_ptr = np.zeros(n + 1, dtype=np.int64)
     np.cumsum(np.bincount(e_src, minlength=n), out=e_ptr[1:])
     cheap, cheap_cost, hub_cost = _turn_rows(penalties)
     rows = Expanded(n=n, k=k, cheap=cheap.astype(np.int64), cheap_cost=cheap_cost, hub_cost=hub_cost, eps=_EPS,
                     region=region.astype(np.int64, copy=False), local=local, n_lat=int(n_lat), lat_kind=lat_kind,
                     allowed=allowed, offset=graph.lattice.direction_offset.astype(np.int64), dirs_ptr=dirs_ptr,
-                    dirs=dirs, table=table, plain=plain, e_ptr=e_ptr, e_bin=e_bin,
+                    dirs=dirs, table=table, plain=plain, w_kind=w_kind, e_ptr=e_ptr, e_bin=e_bin,
                     e_col=local[graph.dst[e]].astype(np.int64) * k + e_bin, e_val=graph.weight[e].astype(np.float64))
     return expanded_dijkstra(rows, start, limit, h=h, return_predecessors=predecessors, ties=ties)
 
@@ -1071,10 +1087,12 @@ def _reduced(expanded: csr_matrix, h: np.ndarray, states: _States) -> csr_matrix
 def _summed_cost(graph: PathGraph, lat: KindMask, extra: np.ndarray, verts: np.ndarray, states: list[int],
                  penalties: np.ndarray, k: int) -> float:
     """The cost of a path of states of the expanded graph over ``verts`` summed from the graph's own
-    weights (:func:`_path_cost`), after A* has reduced them in place: the expanded graph over the
-    path's vertices alone holds the very same entries between them, so the sum is the same to the
-    last bit. A copy of the searched graph's weights kept for this (session 34's first A* default)
-    was 1.2 GB of the synthetic 10,000-street town's first road year (153 M entries)."""
+    weights (:func:`_path_cost`), for a path A* found on reduced costs (whose distances are sums of
+    the reduced weights, not of these): the expanded graph over the path's vertices alone holds the
+    very same entries between them, so the sum is the same to the last bit. Only that small graph
+    is written (the search itself writes none, :func:`_heading_search`); a copy of the searched
+    graph's weights kept for this (session 34's first A* default) was 1.2 GB of the synthetic
+    10,000-street town's first road year (153 M entries)."""
     big = _States(len(verts), k)
     path = np.asarray(states, dtype=np.int64)
     vertex = verts[big.vertex(path)]
@@ -1114,7 +1132,8 @@ def _tiled_search(graph: PathGraph, lat: KindMask, extra: np.ndarray, source: in
                   exits: np.ndarray | None = None) -> tuple[tuple[list[int], float], np.ndarray | None]:
     """The turn-penalised search, the heading-expanded graph made tile by tile as A*'s test reaches them.
 
-    The expanded graph (see :func:`_expanded_graph`) is made over the
+    Each search (:func:`_heading_search`: compiled, no expanded matrix is
+    written, each state's row made as the search reaches it) covers the
     *active* vertices only: those of the active tiles (``tile_cells``
     lattice vertices a side) whose ``lower`` bound of a route through them
     (``d_s + h``) is within the best cost ``C`` found so far. After each
@@ -1129,11 +1148,13 @@ def _tiled_search(graph: PathGraph, lat: KindMask, extra: np.ndarray, source: in
     again; when no edge is, no route outside the active set can beat C, and
     the best route found is the best of the graph. The tiles follow A*'s
     states with ``g + h ≤ C``. Inside them the exits' search (no target),
-    and a route's with ``route_astar`` (the default), run A* on reduced
+    and a route's with ``route_astar`` (off by default), run A* on reduced
     costs (:func:`_reduced`), which settles only the states with
     ``g + h ≤ C``: the route's cost is then summed again from the graph's
-    own weights (:func:`_path_cost`). Without ``route_astar`` a route
-    search runs plain Dijkstra, which settles every state with ``g ≤ C``.
+    own weights (:func:`_summed_cost`). Without ``route_astar`` a route
+    search runs A* by ``h`` on the graph's own weights with scipy's tie
+    rule (``ties``): it too searches only the states with ``g + h ≤ C``,
+    and its route, distances and predecessors are plain Dijkstra's.
 
     Parameters
     ----------
@@ -1165,9 +1186,9 @@ def _tiled_search(graph: PathGraph, lat: KindMask, extra: np.ndarray, source: in
     if at_once:
         active[:] = True  # a small region at once: one search, no growing
     # The exits' search (costs only) runs A* (Dijkstra on reduced costs, :func:`_reduced`): it settles
-    # only the states with g + h ≤ C. So does a route search with ``route_astar`` (the default; plain
-    # Dijkstra without it, which settles every state with g ≤ C and of several routes of equal cost
-    # may take another: Campo Grande's second and third roads)
+    # only the states with g + h ≤ C. So does a route search with ``route_astar`` (off by default: of
+    # several routes of equal cost it may take another than plain Dijkstra, Campo Grande's second and
+    # third roads); without it, A* by h on the own weights with scipy's tie rule (plain Dijkstra's route)
     astar = target is None or opts.route_astar
     n_lat, n_dir = lat.shape
     dir_bin = _bins(graph.direction_heading, k)
