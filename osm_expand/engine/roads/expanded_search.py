@@ -139,6 +139,16 @@ def _pop(heap: np.ndarray, length: int) -> None:
 
 
 @_compiled(inline="always")
+def _reduced_weight(w: float, h_to: float, h_from: float, eps: float) -> float:
+    """A*'s reduced weight as ``routing._reduced`` writes it into the matrix: ``w + (h_to − h_from)``, raised
+    to ``eps`` where below it (a NaN stays NaN, as there)."""
+    w = w + (h_to - h_from)
+    if w < eps:
+        return eps
+    return w
+
+
+@_compiled(inline="always")
 def _relax(dist: np.ndarray, pred: np.ndarray, heap: np.ndarray, length: int, col: int, nv: float, v: int | np.integer,
            limit: float, ties: bool, h_col: float) -> tuple[np.ndarray, int]:
     """Offer state ``col`` the distance ``nv`` from ``v``.
@@ -178,6 +188,8 @@ def _search(n: int, k: int, cheap: np.ndarray, cheap_cost: np.ndarray, hub_cost:
             e_ptr: np.ndarray,
             e_bin: np.ndarray, e_col: np.ndarray, e_val: np.ndarray, h: np.ndarray, astar: bool, ties: bool,
             eps: float, start: int, limit: float, pred: np.ndarray) -> np.ndarray:
+    """The distances from ``start`` (and ``pred`` filled, when it has room), each state's row made as it is
+    popped; the arguments are :class:`Expanded`'s fields and :func:`expanded_dijkstra`'s (its docstring)."""
     nk = n * k
     size = n * (2 * k + 1)
     n_dir = lat_kind.shape[1]
@@ -221,10 +233,8 @@ def _search(n: int, k: int, cheap: np.ndarray, cheap_cost: np.ndarray, hub_cost:
                 else:
                     col = 2 * nk + u
                     w = hub_cost
-                if astar:  # routing._reduced: w + (h(col) − h(row)), at least eps
-                    w = w + (hu - hu)
-                    if w < eps:
-                        w = eps
+                if astar:
+                    w = _reduced_weight(w, hu, hu, eps)
                 heap, length = _relax(dist, pred, heap, length, col, dv + w, v, limit, ties, hu)
         elif v < 2 * nk:  # departure dep(u, b): its lattice moves of bin b, then its other edges of bin b
             b = v - nk - u * k
@@ -240,9 +250,7 @@ def _search(n: int, k: int, cheap: np.ndarray, cheap_cost: np.ndarray, hub_cost:
                         continue
                     w = table[np.int64(w_kind[gu, d]) * n_dir + d] if use_table else np.float64(plain[gu, d])
                     if astar:
-                        w = w + (h[lw] - hu)
-                        if w < eps:
-                            w = eps
+                        w = _reduced_weight(w, h[lw], hu, eps)
                     heap, length = _relax(dist, pred, heap, length, lw * k + b, dv + w, v, limit, ties,
                                           h[lw] if ties else 0.0)
             for t in range(e_ptr[u], e_ptr[u + 1]):
@@ -251,17 +259,11 @@ def _search(n: int, k: int, cheap: np.ndarray, cheap_cost: np.ndarray, hub_cost:
                 col = e_col[t]
                 w = e_val[t]
                 if astar:
-                    w = w + (h[col // k] - hu)
-                    if w < eps:
-                        w = eps
+                    w = _reduced_weight(w, h[col // k], hu, eps)
                 heap, length = _relax(dist, pred, heap, length, col, dv + w, v, limit, ties,
                                       h[col // k] if ties else 0.0)
         else:  # the hub: every departure, free
-            w = eps
-            if astar:
-                w = w + (hu - hu)
-                if w < eps:
-                    w = eps
+            w = _reduced_weight(eps, hu, hu, eps) if astar else eps
             for col in range(nk + u * k, nk + u * k + k):
                 heap, length = _relax(dist, pred, heap, length, col, dv + w, v, limit, ties, hu)
     return dist
