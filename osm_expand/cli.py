@@ -23,6 +23,7 @@ import re
 import sys
 import time
 from collections.abc import Callable, Sequence
+from functools import partial
 from pathlib import Path
 from typing import NoReturn
 
@@ -322,11 +323,12 @@ def _compare_text(a: Path, b: Path, report: dict) -> str:
     return "\n".join(lines)
 
 
-def cmd_expand(args: argparse.Namespace, log: Progress) -> dict:
+def cmd_expand(args: argparse.Namespace, log: Progress, *, last: bool = False) -> dict:
     """The main command: one :func:`osm_expand.app.run_expand` with this command line's options, with the
     cyclic collector paused (:mod:`osm_expand.gcpause`: the engine's years make almost no cyclic garbage, and
-    the collector's walks over the live town were 4.2 s of Campo Grande's default run)."""
-    with cyclic_gc_paused():
+    the collector's walks over the live town were 4.2 s of Campo Grande's default run). ``last``: the process
+    ends with this command, so what the run leaves alive is frozen, never walked again."""
+    with cyclic_gc_paused(freeze=last):
         return run_expand(ExpandRequest.from_namespace(args), progress=log, stages=log.add_stages)
 
 
@@ -373,21 +375,36 @@ def main(argv: Sequence[str] | None = None) -> int:
             return _main(argv)
     except Interrupted as exc:  # landed outside _main's own handler (parsing the arguments, say)
         return _interrupted(exc)
+    finally:
+        if argv is None:  # the command line's own process, which now exits
+            _leave()
+
+
+def _leave() -> None:
+    """Freeze every live object (:func:`gc.freeze`) before the process exits: Python's exit collects the
+    cyclic garbage of all that lives, walking every object several times as it tears the modules down
+    (Krems' default run: 0.4-0.7 s of CPU), and what a command leaves alive is modules, memos and a town
+    that reference counting frees. Only when :func:`main` reads the process's own command line
+    (``argv`` None): a caller in the same process (a test) keeps its collector as it was."""
+    import gc
+
+    gc.freeze()
 
 
 def _main(argv: Sequence[str] | None) -> int:
     from osm_expand.interrupts import Interrupted, received
 
+    last = argv is None  # the process's own command line: the process ends with this command
     argv = _join_negative_values(list(sys.argv[1:] if argv is None else argv))
     if argv and argv[0] in COMMANDS:
         parser, command = build_parser(argv[0]), None
-    else:
-        parser, command = build_expand_parser(), cmd_expand
+    else:  # the main command; the process ends with it when this is the process's own command line
+        parser, command = build_expand_parser(), partial(cmd_expand, last=last)
     try:
         args = parser.parse_args(argv)
     except SystemExit as exc:  # --help, --version, or a usage error already printed in one line
         return int(exc.code or 0)
-    log = Progress(args.quiet, EXPAND_STAGES if command is cmd_expand else 0)
+    log = Progress(args.quiet, EXPAND_STAGES if command is not None else 0)
     try:
         report = (command or COMMANDS[args.command])(args, log)
         if (stopped := received()) is not None:  # a signal whose exception a library swallowed

@@ -25,12 +25,22 @@ from contextlib import contextmanager
 
 
 @contextmanager
-def cyclic_gc_paused() -> Iterator[None]:
-    """Disable the cyclic collector inside the block, and restore it as it was (nesting is fine)."""
+def cyclic_gc_paused(*, freeze: bool = False) -> Iterator[None]:
+    """Disable the cyclic collector inside the block, and restore it as it was (nesting is fine).
+
+    ``freeze``: move every object that outlives the block to the collector's permanent generation
+    (:func:`gc.freeze`) before it resumes, for a block the process ends with (the command line's main
+    command). The first collection after a pause walks every object the block left alive, as young
+    ones (Krems' default run: 204,000, 0.1-0.2 s); they are the process's modules and the model's
+    memos, which live until it exits, so the walk finds nothing. Frozen objects are still freed by
+    reference counting; only a cycle among them would never be collected.
+    """
     was_enabled = gc.isenabled()
     gc.disable()
     try:
         yield
     finally:
+        if freeze:
+            gc.freeze()
         if was_enabled:
             gc.enable()

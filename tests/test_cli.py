@@ -279,3 +279,40 @@ def test_the_python_api_mirrors_the_cli(tmp_path, capsys):
                         "--years", "5", "-o", tmp_path / "cli.osm", "-q"], capsys)
     assert code == 0, err
     assert (tmp_path / "api.osm").read_bytes() == (tmp_path / "cli.osm").read_bytes()
+
+
+def test_the_process_own_command_line_freezes_what_it_leaves_alive_at_its_end():
+    """Python's exit walks every live object with the cyclic collector; the command line's own process
+    freezes them first (:func:`osm_expand.cli._leave`)."""
+    script = ("import gc, sys; from osm_expand.cli import main; sys.argv = ['osm-expand', '--version']; "
+              "rc = main(); print(rc, gc.get_freeze_count())")
+    proc = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, check=True)
+    rc, frozen = proc.stdout.split()[-2:]
+    assert rc == "0" and int(frozen) > 1000
+
+
+def test_a_caller_in_the_same_process_keeps_its_collector_unfrozen(capsys):
+    import gc
+
+    before = gc.get_freeze_count()
+    assert cli.main(["--version"]) == 0
+    capsys.readouterr()
+    assert gc.get_freeze_count() == before and gc.isenabled()
+
+
+def test_a_pause_the_process_ends_with_freezes_what_outlives_it():
+    import gc
+
+    from osm_expand.gcpause import cyclic_gc_paused
+
+    before = gc.get_freeze_count()
+    try:
+        with cyclic_gc_paused(freeze=True):
+            kept = [[] for _ in range(100)]
+            assert not gc.isenabled()
+        assert gc.isenabled() and gc.get_freeze_count() >= before + len(kept)
+    finally:
+        gc.unfreeze()
+    with cyclic_gc_paused():  # without: nothing is frozen
+        kept = [[] for _ in range(100)]
+    assert gc.get_freeze_count() == 0
