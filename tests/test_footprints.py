@@ -417,3 +417,18 @@ def test_a_town_whose_buildings_are_not_all_polygons_grows_through_the_engine():
     assert any(shapely.make_valid(b.polygon).geom_type == "MultiPolygon" for b in buildings)
     result = expanded_and_matured(city.replace(buildings=tuple(buildings)), seed=3, years=2)
     assert result.report["engine"]["years"] == 2
+
+
+def test_a_footprint_with_a_hull_edge_too_short_to_square_is_measured_without_a_warning():
+    """A hull edge of 5.6e-219 m (a subnormal coordinate; hypothesis found it) squares to 0 and GEOS divides by
+    its length: numpy warned "divide by zero encountered in oriented_envelope" (CI). The footprint (1 m²) is
+    measured all the same, its frontage × depth covering its area."""
+    import warnings
+
+    ring = shapely.Polygon([(0.0, 0.0), (0.0, 2.0), (1.0, 5.631e-219), (1.0, 0.0)])
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        dims = footprint_dimensions([ring])
+    assert dims.shape == (1, 3) and np.isfinite(dims).all()
+    area, frontage, depth = dims[0]
+    assert area == pytest.approx(1.0) and frontage * depth >= area * (1 - 1e-9)

@@ -70,8 +70,14 @@ def _rectangle_sides(polys: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     axis-aligned bounding box stands in:
     it encloses the polygon too, so every footprint of at least 1 m² is still
     measured and its frontage × depth still covers its area.
+
+    GEOS divides by each hull edge's length: an edge shorter than ~1e-154 m
+    (a subnormal coordinate beside a normal one, as in
+    ``(0 0, 0 2, 1 5.6e-219, 1 0)``, 1 m²) has a square that underflows to 0,
+    a division by zero (numpy's warning, printed by CI) and a NaN or infinite
+    candidate, which the check below replaces like any degenerate rectangle.
     """
-    with np.errstate(invalid="ignore"):  # the degenerate ones are replaced below
+    with np.errstate(invalid="ignore", divide="ignore"):  # the degenerate ones are replaced below
         env = shapely.oriented_envelope(polys)
     corners = np.full((len(polys), 5, 2), np.nan)
     rect = shapely.get_type_id(env) == 3
