@@ -4,6 +4,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 import shapely
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from osm_expand.engine.buildout import landuse as lu
 from osm_expand.engine.buildout import landuse_osm as lo
@@ -534,3 +536,28 @@ def test_rasterised_polygons_and_lots_agree_where_lots_sit_in_polygons():
     assert (real[:, :10] == names.index("industrial")).all() and (real[:, 10:] == names.index("commercial")).all()
     np.testing.assert_array_equal(real, lots)
     assert ls.similarity(lots, real, 4) == 1.0
+
+
+@settings(max_examples=60, deadline=None)
+@given(st.integers(0, 2**32 - 1), st.integers(4, 14), st.integers(4, 14), st.integers(1, 4), st.integers(1, 5),
+       st.booleans())
+def test_similarity_is_the_best_match_over_every_window_of_the_reference(seed, h, w, n, k, nodata):
+    """The best match of each sampled window, counted over every window of Y (repeats included) by brute
+    force, averaged: the matrix product over Y's distinct windows gives the same number."""
+    rng = np.random.default_rng(seed)
+    n = min(n, h, w)
+    x = np.kron(rng.integers(-1 if nodata else 0, k, (h // 2 + 1, w // 2 + 1)), np.ones((2, 2), dtype=int))[:h, :w]
+    y = np.kron(rng.integers(0, k, (h // 2 + 1, w // 2 + 1)), np.ones((2, 2), dtype=int))[:h, :w]
+    if nodata and (x == -1).all():
+        x[0, 0] = 0
+    xw = np.lib.stride_tricks.sliding_window_view(x, (n, n)).reshape(-1, n * n)
+    yw = np.lib.stride_tricks.sliding_window_view(y, (n, n)).reshape(-1, n * n)
+    centre = np.lib.stride_tricks.sliding_window_view(x, (n, n))[:, :, n // 2, n // 2].ravel()
+    rows = np.flatnonzero(centre != -1) if nodata else np.arange(len(xw))
+    if not len(rows):
+        return
+    counted = xw[rows] != -1 if nodata else np.ones((len(rows), n * n), dtype=bool)
+    same = ((xw[rows][:, None, :] == yw[None, :, :]) & counted[:, None, :]).sum(axis=2)
+    expected = float((same.max(axis=1) / counted.sum(axis=1)).mean())
+    got = ls.similarity(x, y, n, samples=10_000, nodata=-1 if nodata else None)
+    assert got == pytest.approx(expected, rel=1e-12)

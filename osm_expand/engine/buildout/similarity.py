@@ -89,9 +89,10 @@ def similarity(image: NDArray[np.int64], reference: NDArray[np.int64], n: int, *
     with the most identical values, and average ``sim = (identical values) /
     n²`` over the samples. The best match is exact: with one-hot codes per
     value the count of identical values is a dot product, so all of Y's
-    neighbourhoods are scored at once by a matrix product (in blocks). Cost
-    ``samples × (Y's windows) × n² × (distinct values)``: about a second for
-    ``n = 8`` on 200×200 with 1,000 samples; ``samples`` trades accuracy
+    neighbourhoods are scored at once by a matrix product (in blocks), each
+    distinct neighbourhood of Y once. Cost ``samples × (Y's distinct windows)
+    × n² × (distinct values)``: about a second for ``n = 8`` on 200×200 of
+    distinct windows with 1,000 samples; ``samples`` trades accuracy
     (standard error ≤ 0.5/√samples) for time.
 
     Parameters
@@ -126,7 +127,9 @@ def similarity(image: NDArray[np.int64], reference: NDArray[np.int64], n: int, *
     xc = inverse[:x.size].reshape(x.shape)
     yc = inverse[x.size:].reshape(y.shape)
     xw = np.lib.stride_tricks.sliding_window_view(xc, (n, n)).reshape(-1, n * n)
-    yw = np.lib.stride_tricks.sliding_window_view(yc, (n, n)).reshape(-1, n * n)
+    # each distinct neighbourhood of Y once: a repeated one scores the same, so the best match is the same
+    # (a land-use image is patches of one use: Krems' 13,158 windows hold 4,000-5,400 distinct ones)
+    yw, _ = _distinct_rows(np.lib.stride_tricks.sliding_window_view(yc, (n, n)).reshape(-1, n * n), k)
     candidates = np.arange(len(xw))
     if nodata is not None:
         centre = np.lib.stride_tricks.sliding_window_view(x, (n, n))[:, :, n // 2, n // 2].ravel()
@@ -135,18 +138,31 @@ def similarity(image: NDArray[np.int64], reference: NDArray[np.int64], n: int, *
             raise InputError("similarity: every pixel of the image is nodata")
     if len(candidates) > samples:
         candidates = np.sort(rng.choice(candidates, size=samples, replace=False))
-    xs = _one_hot(xw[candidates], k)
+    sampled, of = _distinct_rows(xw[candidates], k)  # likewise each distinct sampled window once
+    xs = _one_hot(sampled, k)
     valid = np.full(len(candidates), float(n * n))
     if nodata is not None and nodata in codes:
         code = int(np.searchsorted(codes, nodata))
         xs[:, code::k] = 0.0  # a nodata pixel of X matches nothing and does not count
         valid = (xw[candidates] != code).sum(axis=1).astype(np.float64)
-    best = np.zeros(len(candidates))
+    best = np.zeros(len(sampled))
     block = max(1, int(2e7 // (n * n * k)))  # ~80 MB of float32 per block of Y's windows
     for start in range(0, len(yw), block):
         yb = _one_hot(yw[start:start + block], k)
         np.maximum(best, (xs @ yb.T).max(axis=1), out=best)
-    return float((best / valid).mean())
+    return float((best[of] / valid).mean())
+
+
+def _distinct_rows(rows: NDArray[np.intp], k: int) -> tuple[NDArray[np.intp], NDArray[np.intp]]:
+    """The distinct rows of ``rows`` (codes below ``k``), each once, and which of them each row is
+    (``distinct[inverse]`` is ``rows``).
+
+    Each row is compared as one block of bytes (its codes in the smallest integer type that holds them):
+    ``np.unique(axis=0)`` compares 64 fields one by one, 25 times slower."""
+    small = np.ascontiguousarray(rows.astype(np.min_scalar_type(max(k - 1, 0))))
+    _, first, inverse = np.unique(small.view(np.dtype((np.void, small.itemsize * small.shape[1]))).ravel(),
+                                  return_index=True, return_inverse=True)
+    return rows[first], inverse.ravel()
 
 
 def _one_hot(windows: NDArray[np.int64], k: int) -> NDArray[np.float32]:
