@@ -15,7 +15,12 @@ Here (:func:`batch_costs`) each search runs on the whole graph's CSR arrays
 and resets only the vertices it reached; the costs come out as the entries
 the dense table's row-major scan gave (by source, then by segment
 ascending, finite and wanted only), and :func:`walk_paths` walks the drawn
-paths back along each search's predecessors.
+paths back along each search's predecessors. Campo Grande's captured first
+fill, three back-to-back pairs on a loaded machine: 6.2 → 5.0 s CPU. The
+searches themselves cost what scipy's did (about 100 ns a vertex reached,
+38.8 M of them: 12,224 sources × 3,172); the saving is the tables and the
+union search. A lazy 4-ary heap (the route search's) was 25 % slower here,
+and numbering the vertices by a Morton order of the segments 5 % slower.
 
 The distances and predecessors must be scipy's, ties included: the trips
 drawn, and so the traffic, the widths and every output byte, follow them.
