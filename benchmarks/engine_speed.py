@@ -32,7 +32,10 @@ loop's stage functions wrapped in the child: on a machine shared with other
 jobs the wall split was three to four times the CPU one, Campo Grande 350
 against 100 s); its ``roads`` holds the lattice's year, and its ``blocks``
 the blocks made at the start and after a new road too (the wall split
-counts the first in ``start``, the second nowhere). CPU seconds of the process are
+counts the first in ``start``, the second nowhere). ``stages_peak_mb``
+gives, per stage, how far the process's peak memory rose while it ran
+(summed over the years, MB; what is left of ``peak_mb`` rose before the
+loop: the read and the district): which stage sets the peak. CPU seconds of the process are
 printed too: they move less than wall time when other jobs share the
 machine's 2 cores. Each town runs in a child process of its own, so its
 peak memory (``peak_mb``: the child's ``ru_maxrss``, imports and the
@@ -85,7 +88,7 @@ def measure(path: Path, history_name: str, years: int, seed: int, roads_per_year
     grown = expand(city, ExpandOptions(seed=seed, fidelity=False))
     history = load_history(history_name)
     stamps: list[tuple[float, float]] = []
-    cpu_stages, restore = _timed_stages()
+    cpu_stages, peak_stages, restore = _timed_stages()
     streets: list[int] = []
     cpu0, t0 = time.process_time(), time.perf_counter()
     def progress(done: int, total: int, era: str) -> None:
@@ -117,6 +120,7 @@ def measure(path: Path, history_name: str, years: int, seed: int, roads_per_year
             "total_wall_s": round(wall, 2), "total_cpu_s": round(cpu, 2),
             "stages_s": {k: round(v, 2) for k, v in sorted(seconds.items())},
             "stages_cpu_s": {k: round(v, 2) for k, v in cpu_stages.items()},
+            "stages_peak_mb": {k: round(v) for k, v in peak_stages.items()},
             "by_streets": _by_streets(kept), "timeline": timeline}
 
 
@@ -125,20 +129,23 @@ CPU_STAGES = {"growth": "_grow", "blocks": "_with_blocks", "traffic": "traffic_y
               "buildout": "buildout_year"}
 
 
-def _timed_stages() -> tuple[dict[str, float], Callable[[], None]]:
-    """The CPU seconds of each of :data:`CPU_STAGES` from now on, and how to put the loop's functions back."""
+def _timed_stages() -> tuple[dict[str, float], dict[str, float], Callable[[], None]]:
+    """The CPU seconds of each of :data:`CPU_STAGES` from now on, the MB the process's peak memory rose
+    while each ran, and how to put the loop's functions back."""
     import osm_expand.engine.loop as loop
 
     spent = dict.fromkeys(CPU_STAGES, 0.0)
+    raised = dict.fromkeys(CPU_STAGES, 0.0)
     kept = {name: getattr(loop, name) for name in CPU_STAGES.values()}
 
     def timed(stage: str, f: Callable) -> Callable:
         def run(*args, **kwargs):
-            t = time.process_time()
+            t, peak = time.process_time(), _peak_mb()
             try:
                 return f(*args, **kwargs)
             finally:
                 spent[stage] += time.process_time() - t
+                raised[stage] += _peak_mb() - peak
         return run
 
     def restore() -> None:
@@ -147,7 +154,12 @@ def _timed_stages() -> tuple[dict[str, float], Callable[[], None]]:
 
     for stage, name in CPU_STAGES.items():
         setattr(loop, name, timed(stage, kept[name]))
-    return spent, restore
+    return spent, raised, restore
+
+
+def _peak_mb() -> float:
+    """The process's peak resident memory so far, MB (``ru_maxrss``)."""
+    return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
 
 
 def _measured(args: tuple) -> dict:
@@ -238,6 +250,7 @@ def main(argv: list[str] | None = None) -> int:
               f"{r['s_per_year_max']:>6} {r['lattice_s']:>8} {r['total_wall_s']:>7} {r['total_cpu_s']:>7} "
               f"{r['peak_mb']:>8}  {stages}")
         print("    stages CPU (s): " + " ".join(f"{k}={v}" for k, v in r["stages_cpu_s"].items()))
+        print("    peak raised by stage (MB): " + " ".join(f"{k}={v}" for k, v in r["stages_peak_mb"].items()))
         for band in r["by_streets"]:
             print(f"    streets {band['streets']:>11}: {band['years']:>4} years, median {band['s_per_year_median']} s "
                   f"(CPU {band['cpu_per_year_median']} s), max {band['s_per_year_max']} s")

@@ -33,10 +33,10 @@ from osm_expand.engine.traffic.trade import (
     trade_year,
 )
 from osm_expand.engine.traffic.trade_routes import initial_trade_state, route_between
+from osm_expand.engine.traffic.trip_graph import limited_search
 from osm_expand.engine.traffic.trips import (
     TripOptions,
     extend_trip_state,
-    limited_search,
     new_trip_state,
     remap_trip_state,
     residents_from_blocks,
@@ -618,11 +618,16 @@ def test_the_lots_people_summed_at_once_are_the_sum_lot_by_lot():
 
 
 @pytest.mark.parametrize("name", ["krems.osm.gz", "monaco.osm.gz"])
-def test_searches_on_the_part_a_batch_reaches_equal_the_whole_graphs(name):
-    """``limited_search`` runs Dijkstra on the subgraph the starts reach within the limit: its distances
-    and predecessors, renumbered, are the whole graph's bit for bit (ties broken the same way), for
-    neighbouring starts, starts spread over the town, tight and open limits."""
+def test_searches_kept_to_what_a_batch_reaches_equal_the_whole_graphs(name):
+    """``limited_search`` (compiled, each search touching only what it reaches) gives scipy's distances
+    and predecessors on the whole graph bit for bit (ties broken the same way), renumbered to the
+    columns some start reaches, for neighbouring starts, starts spread over the town, tight and open
+    limits; and ``_sample_batch`` draws the same trips as the dense table of scipy's rows
+    (:func:`tests.test_trip_search.dense_sample_batch`)."""
     from scipy.sparse.csgraph import dijkstra
+
+    from osm_expand.engine.traffic.trips import _sample_batch
+    from tests.test_trip_search import dense_sample_batch
 
     net = loaded(name)
     uv = np.concatenate([np.c_[s.nodes[:-1], s.nodes[1:]] for s in net.streets])
@@ -644,31 +649,11 @@ def test_searches_on_the_part_a_batch_reaches_equal_the_whole_graphs(name):
             assert np.array_equal(np.where(pred >= 0, vertex[np.maximum(pred, 0)], -9999), whole_pred[:, vertex])
             if np.isfinite(limit) and limit < 2000 and len(starts) < e:
                 assert len(vertex) < 3 * e  # the point: a batch searches less than the town
-    # and the trips sampled from them: the same draws, destinations, paths and people either way
-    from osm_expand.engine.traffic.trips import _sample_batch
-
     residents = rng.random(e) * 40 * (rng.random(e) < 0.7)
     for starts in batches[:3]:
         n_trips = rng.integers(0, 20, len(starts))
-        local, whole = (_sample_batch(g, starts, n_trips, residents, 2.5, np.random.default_rng(3), TripOptions(),
-                                      local=flag) for flag in (True, False))
-        assert local[3:] == whole[3:] and local[3] > 0
-        for a, b in zip(local[:3], whole[:3]):
+        got, want = (f(g, starts, n_trips, residents, 2.5, np.random.default_rng(3), TripOptions())
+                     for f in (_sample_batch, dense_sample_batch))
+        assert got[3:] == want[3:] and got[3] > 0
+        for a, b in zip(got[:3], want[:3]):
             assert np.array_equal(np.concatenate(a), np.concatenate(b))
-
-
-@pytest.mark.parametrize("seed", range(6))
-def test_columns_laid_out_over_segments_are_the_scatter_of_the_definition(seed):
-    """``_by_segment`` (the gather that lays one direction's distance columns over the batch's segments)
-    equals the plain scatter into an ``inf`` table: every direction reached, some, none."""
-    from osm_expand.engine.traffic.trips import _by_segment
-
-    rng = np.random.default_rng(seed)
-    segment = np.flatnonzero(rng.random(60) < 0.6)
-    for share in (1.0, 0.7, 0.0):
-        of = segment[rng.random(len(segment)) < share]
-        dist = np.where(rng.random((5, len(of))) < 0.3, np.inf, rng.random((5, len(of))) * 100)
-        want = np.full((5, len(segment)), np.inf)
-        want[:, np.searchsorted(segment, of)] = dist
-        got = _by_segment(dist, of, segment)
-        assert got.shape == want.shape and np.array_equal(got, want)

@@ -144,27 +144,22 @@ def trip_graph(xy: NDArray[np.floating], edges: NDArray[np.integer], *,
     return _build(edges, ends, length, major, options)
 
 
-def limited_search(graph: TripGraph, starts: NDArray[np.integer], limit: float, *, subgraph: bool = True,
+def limited_search(graph: TripGraph, starts: NDArray[np.integer], limit: float,
                    ) -> tuple[NDArray[np.int64], NDArray[np.float64], NDArray[np.int32]]:
-    """Dijkstra from each of ``starts`` up to cost ``limit``, on only the part of the graph it can reach.
+    """Dijkstra from each of ``starts`` up to cost ``limit``, each search touching only what it reaches.
 
     ``scipy``'s :func:`~scipy.sparse.csgraph.dijkstra` sets up every vertex
     and fills a dense ``(len(starts), 3E)`` distance and predecessor row per
-    start, so a town of E segments pays O(E) per start however little a
+    start, so a town of E segments paid O(E) per start however little a
     search within ``limit`` reaches: the first year's fill of every segment
     was O(E²) (a 54,000-segment town: 1.8 ms a start, 2,750 of 162,000
-    vertices reached). Here one multi-start search (``min_only``) finds the
-    union of what the starts reach within ``limit``, and the searches run on
-    that induced subgraph. Its vertices keep their order and each row its
-    arcs' order, and a vertex outside it is one every search leaves
-    untouched (its cost from any start is above ``limit``), so each search
-    makes the same steps with the same costs and ties: the distances and
-    predecessors are those of the whole graph, only renumbered (a test
-    compares them). Starts close together (the first fill's batches of
-    neighbouring segments) share a small union; starts spread over the town
-    may reach most of it, and then the first search and the subgraph cost
-    more than they save (Campo Grande: 42 → 52 ms a batch of 64 spread
-    starts), so ``subgraph=False`` searches the whole graph as before.
+    vertices reached). Then it ran on the subgraph a multi-start search
+    found the batch reaches (the union search, the subgraph and the searches
+    were 4.0 of Campo Grande's 5.2 s first fill). Now a compiled search
+    (:func:`~osm_expand.engine.traffic.trip_search.limited_dijkstra`) resets
+    only what each search reached, with scipy's order of equal distances: the
+    distances and predecessors are scipy's on the whole graph, kept to the
+    columns some start reaches (a test compares them).
 
     Parameters
     ----------
@@ -173,8 +168,6 @@ def limited_search(graph: TripGraph, starts: NDArray[np.integer], limit: float, 
         Vertices of ``graph.matrix`` to search from.
     limit : float
         Equivalent metres: vertices further than this from a start are not reached.
-    subgraph : bool
-        Search the reached part (True) or the whole graph (False: ``vertices`` is every vertex).
 
     Returns
     -------
@@ -185,25 +178,10 @@ def limited_search(graph: TripGraph, starts: NDArray[np.integer], limit: float, 
     pred : (S, K) int32
         Each vertex's predecessor on its cheapest path, as a column index (``-9999``: none).
     """
+    from osm_expand.engine.traffic.trip_search import limited_dijkstra  # numba's import, only when trips are searched
+
     matrix = graph.matrix
-    starts = np.asarray(starts, dtype=np.int64).reshape(-1)
-    if not subgraph:
-        dist, pred = dijkstra(matrix, directed=True, indices=starts, return_predecessors=True, limit=limit)
-        return np.arange(matrix.shape[0], dtype=np.int64), dist.reshape(len(starts), -1), pred.reshape(len(starts), -1)
-    reach = dijkstra(matrix, directed=True, indices=starts, limit=limit, min_only=True)
-    vertices = np.flatnonzero(np.isfinite(reach))
-    at = np.full(matrix.shape[0], -1, dtype=np.int64)
-    at[vertices] = np.arange(len(vertices))
-    lo = matrix.indptr[vertices]
-    count = matrix.indptr[vertices + 1] - lo
-    arc = np.repeat(lo - (np.cumsum(count) - count), count) + np.arange(int(count.sum()))  # kept rows' arcs, in order
-    head = at[matrix.indices[arc]]
-    inside = head >= 0
-    per_row = np.bincount(np.repeat(np.arange(len(vertices)), count)[inside], minlength=len(vertices))
-    sub = sparse.csr_matrix((matrix.data[arc][inside], head[inside].astype(np.int32),
-                             np.r_[0, np.cumsum(per_row)].astype(np.int32)), shape=(len(vertices), len(vertices)))
-    dist, pred = dijkstra(sub, directed=True, indices=at[starts], return_predecessors=True, limit=limit)
-    return vertices, dist.reshape(len(starts), -1), pred.reshape(len(starts), -1)
+    return limited_dijkstra(matrix.indptr, matrix.indices, matrix.data, starts, limit)
 
 
 def travel_costs(graph: TripGraph, source: int, *, limit: float = np.inf) -> NDArray[np.float64]:

@@ -39,11 +39,10 @@ the volume of one simulated trip grows with the town so the total stays near
 ``limit = cutoff · decay_length`` (destinations further away would draw
 fewer than ``f(limit)`` of the trips: 5 % of the nearest's weight at the
 defaults); 002 itself switched to per-trip Dijkstra above 10,000 streets.
-A batch of never-sampled segments (the first year fills every one) is
-searched on the part of the graph it reaches within the limit, with the
-same results (:func:`~osm_expand.engine.traffic.trip_graph.limited_search`):
-the first fill then costs what the searches reach, not the batches times
-the whole graph.
+The searches are compiled (:mod:`osm_expand.engine.traffic.trip_search`,
+scipy's distances and predecessors, ties included): each touches only what
+it reaches within the limit, so the first fill (every segment) costs what
+the searches reach, not the batches times the whole graph.
 
 Streets (002 §2, §3.2): new streets are *planned*, take part in the traffic
 at once, and are *built* when their traffic reaches ``build_threshold``
@@ -64,7 +63,6 @@ from osm_expand.engine.traffic.residents import residents_from_blocks, residents
 from osm_expand.engine.traffic.street_widths import update_status, update_widths, width_for_traffic  # re-exported
 from osm_expand.engine.traffic.trip_graph import (  # re-exported
     TripGraph,
-    limited_search,
     shortest_route,
     travel_costs,
     trip_graph,
@@ -261,56 +259,29 @@ def _due(state: TripState, residents: NDArray[np.float64], rng: np.random.Genera
     return np.sort(taken).astype(np.int64), int(new[taken].sum()), int(changed[taken].sum()), deferred
 
 
-def _by_segment(dist: NDArray[np.float64], of: NDArray[np.int64], segment: NDArray[np.int64]) -> NDArray[np.float64]:
-    """Columns ``dist[:, k]`` of segments ``of[k]`` (ascending) laid out over ``segment`` (ascending, a
-    superset), ``inf`` where a segment has none: one gather (a scatter into columns costs 3× more), then
-    ``inf`` into the few columns without one (a direction not reached: ~12 % on Campo Grande's first fill).
-    Gathering from ``dist`` itself, not from a copy with an ``inf`` column appended, halves the time
-    (Campo Grande's first fill: 5.3 → 2.3 ms a batch for both directions)."""
-    if len(of) == len(segment):  # the same segments: ``dist`` as it is
-        return dist
-    column = np.full(len(segment), -1)
-    column[np.searchsorted(segment, of)] = np.arange(len(of))
-    missing = column < 0
-    out = dist[:, np.where(missing, 0, column)] if len(of) else np.full((len(dist), len(segment)), np.inf)
-    out[:, missing] = np.inf
-    return out
-
-
 def _sample_batch(graph: TripGraph, sources: NDArray[np.int64], n_trips: NDArray[np.int64],
                   residents: NDArray[np.float64], volume: float, rng: np.random.Generator,
-                  options: TripOptions, *, local: bool = False,
-                  ) -> tuple[list[NDArray], list[NDArray], list[NDArray], int, int]:
+                  options: TripOptions) -> tuple[list[NDArray], list[NDArray], list[NDArray], int, int]:
     """Destinations and paths for one batch of sources: (source, segment, people) triples.
 
     Destinations are drawn by inverse transform over each row's attraction
     (one cumulative sum over the reachable entries of the whole batch), the
     draws of one source to one destination become one path of their summed
-    volume, and all paths are walked back along the predecessor arrays at once.
-    With ``local`` (sources near each other) the searches run on what the
-    batch reaches within the limit
-    (:func:`~osm_expand.engine.traffic.trip_graph.limited_search`), with the
-    same results: the columns below are the segments with a direction
-    reached, ascending, so entries come in the same order as over the whole
-    table.
+    volume, and all paths are walked back along the predecessors at once.
+    The searches, the entries and the walk are compiled
+    (:mod:`osm_expand.engine.traffic.trip_search`): each search touches only
+    what it reaches within the limit, with scipy's distances and
+    predecessors, and the entries come by source, then by segment ascending,
+    as the finite entries of the dense (sources × segments) table did
+    (Campo Grande's first fill: 5.2 s CPU with scipy's searches and that table).
     """
+    from osm_expand.engine.traffic.trip_search import batch_costs, walk_paths  # numba, only when trips are searched
+
     e = graph.n_segments
-    vertex, dist, pred = limited_search(graph, 2 * e + sources, options.limit, subgraph=local)
-    ahead = int(np.searchsorted(vertex, e))  # vertices are ascending: forward directions, backward, starts
-    behind = int(np.searchsorted(vertex, 2 * e))
-    reached = np.zeros(e, bool)
-    reached[vertex[:ahead]] = True
-    reached[vertex[ahead:behind] - e] = True
-    segment = np.flatnonzero(reached)  # the columns: segments with a direction reached, ascending
-    forward = _by_segment(dist[:, :ahead], vertex[:ahead], segment)
-    backward = _by_segment(dist[:, ahead:behind], vertex[ahead:behind] - e, segment)
-    cost = np.minimum(forward, backward)
-    own = np.searchsorted(segment, sources)
-    mine = (own < len(segment)) & (segment[np.minimum(own, len(segment) - 1)] == sources) if len(segment) else own < 0
-    cost[np.flatnonzero(mine), own[mine]] = np.inf  # no trips to one's own street
-    row, at = np.nonzero(np.isfinite(cost) & (residents[segment] > 0)[None, :])
-    col = segment[at]
-    weight = residents[col] * _decay(cost[row, at], options)
+    matrix = graph.matrix
+    row, col, cost, back, paths = batch_costs(matrix.indptr, matrix.indices, matrix.data, sources, e,
+                                              residents > 0, options.limit)  # no trips to one's own street
+    weight = residents[col] * _decay(cost, options)
     total = np.bincount(row, weights=weight, minlength=len(sources))
     reach = total > 0
     stranded = int((~reach).sum())
@@ -325,21 +296,10 @@ def _sample_batch(graph: TripGraph, sources: NDArray[np.int64], n_trips: NDArray
     last = first + np.bincount(row, minlength=len(sources)) - 1
     pick = np.clip(np.searchsorted(cum, u, side="right"), first[drow], last[drow])
     pick, count = np.unique(pick, return_counts=True)
-    row, col, at = row[pick], col[pick], at[pick]
+    row, col = row[pick], col[pick]
     people = count * volume
-    cur = np.searchsorted(vertex, col + e * (backward[row, at] < forward[row, at]))  # a column of dist and pred
-    src_out, seg_out, vol_out = [], [], []
-    for _ in range(2 * e + 1):  # a path visits each direction at most once
-        if len(cur) == 0:
-            break
-        src_out.append(sources[row])
-        seg_out.append(vertex[cur] % e)
-        vol_out.append(people)
-        nxt = pred[row, cur]
-        on = nxt >= 0
-        on[on] = vertex[nxt[on]] < 2 * e
-        row, cur, people = row[on], nxt[on], people[on]
-    return src_out, seg_out, vol_out, int(draws.sum()), stranded
+    segment, path = walk_paths(paths, row, col + e * back[pick])  # each path from its destination back
+    return [sources[row][path]], [segment], [people[path]], int(draws.sum()), stranded
 
 
 def step_trips(state: TripState, graph: TripGraph, residents: NDArray[np.floating], rng: np.random.Generator,
@@ -384,13 +344,9 @@ def step_trips(state: TripState, graph: TripGraph, residents: NDArray[np.floatin
     active_trips = n_trips[n_trips > 0]
     src_parts, seg_parts, vol_parts = [], [], []
     trips = stranded = 0
-    # a batch of segments never sampled (the first fill, the year's new streets at the table's end) lies
-    # together, and is searched on the part it reaches; a batch with the random share is spread over the town
-    never_sampled = ~state.sampled[active]
     for lo in range(0, len(active), options.batch_sources):
         hi = lo + options.batch_sources
-        s, g, v, t, st = _sample_batch(graph, active[lo:hi], active_trips[lo:hi], res, volume, rng, options,
-                                       local=bool(never_sampled[lo:hi].all()))
+        s, g, v, t, st = _sample_batch(graph, active[lo:hi], active_trips[lo:hi], res, volume, rng, options)
         src_parts += s
         seg_parts += g
         vol_parts += v

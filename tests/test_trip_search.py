@@ -1,0 +1,141 @@
+"""The trips' compiled Dijkstra (:mod:`osm_expand.engine.traffic.trip_search`) against scipy's.
+
+The trips drawn, and so the traffic and every output byte, follow the
+distances and predecessors: the compiled searches must give scipy's, ties
+included, and a batch must draw what the dense table of scipy's rows drew.
+"""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+from scipy.sparse import csr_matrix
+from scipy.sparse.csgraph import dijkstra
+
+from osm_expand.engine.traffic.trip_search import batch_costs, limited_dijkstra
+from osm_expand.engine.traffic.trips import TripGraph, TripOptions, _decay, _sample_batch, trip_graph
+
+
+def dense_sample_batch(graph: TripGraph, sources: np.ndarray, n_trips: np.ndarray, residents: np.ndarray,
+                       volume: float, rng: np.random.Generator, options: TripOptions) -> tuple:
+    """``_sample_batch`` by its definition: scipy's rows over the whole graph, the dense (sources ×
+    segments) table of costs, its finite entries in row-major order, the paths walked back step by
+    step over all of them (the code before the compiled search, on the whole graph)."""
+    e = graph.n_segments
+    dist, pred = dijkstra(graph.matrix, directed=True, indices=2 * e + sources, return_predecessors=True,
+                          limit=options.limit)
+    forward, backward = dist[:, :e], dist[:, e:2 * e]
+    cost = np.minimum(forward, backward)
+    cost[np.arange(len(sources)), sources] = np.inf  # no trips to one's own street
+    row, col = np.nonzero(np.isfinite(cost) & (residents > 0)[None, :])
+    weight = residents[col] * _decay(cost[row, col], options)
+    total = np.bincount(row, weights=weight, minlength=len(sources))
+    reach = total > 0
+    stranded = int((~reach).sum())
+    draws = np.where(reach, n_trips, 0)
+    if draws.sum() == 0:
+        return [], [], [], 0, stranded
+    cum = np.cumsum(weight)
+    first = np.searchsorted(row, np.arange(len(sources)))
+    base = np.r_[0.0, cum][first]
+    drow = np.repeat(np.arange(len(sources)), draws)
+    u = base[drow] + rng.random(len(drow)) * total[drow]
+    last = first + np.bincount(row, minlength=len(sources)) - 1
+    pick = np.clip(np.searchsorted(cum, u, side="right"), first[drow], last[drow])
+    pick, count = np.unique(pick, return_counts=True)
+    row, col = row[pick], col[pick]
+    people = count * volume
+    cur = col + e * (backward[row, col] < forward[row, col])
+    src_out, seg_out, vol_out = [], [], []
+    while len(cur):
+        src_out.append(sources[row])
+        seg_out.append(cur % e)
+        vol_out.append(people)
+        nxt = pred[row, cur]
+        on = (nxt >= 0) & (nxt < 2 * e)
+        row, cur, people = row[on], nxt[on], people[on]
+    return src_out, seg_out, vol_out, int(draws.sum()), stranded
+
+
+@st.composite
+def tied_graphs(draw: st.DrawFn) -> tuple[csr_matrix, np.ndarray, float]:
+    """A directed graph of a few dozen vertices whose weights come from a handful of values (a zero
+    among them), so that many paths tie; starts; a limit."""
+    n = draw(st.integers(1, 40))
+    m = draw(st.integers(0, 4 * n))
+    tail = np.array(draw(st.lists(st.integers(0, n - 1), min_size=m, max_size=m)), dtype=np.int64)
+    head = np.array(draw(st.lists(st.integers(0, n - 1), min_size=m, max_size=m)), dtype=np.int64)
+    weight = np.array(draw(st.lists(st.sampled_from([0.0, 0.5, 1.0, 1.0, 2.0, 0.1, 0.2, 0.3]), min_size=m,
+                                    max_size=m)))
+    keep = tail != head
+    graph = csr_matrix((weight[keep], (tail[keep], head[keep])), shape=(n, n))
+    starts = np.array(draw(st.lists(st.integers(0, n - 1), min_size=1, max_size=6)), dtype=np.int64)
+    limit = draw(st.sampled_from([0.0, 0.3, 1.0, 2.5, np.inf]))
+    return graph, starts, limit
+
+
+@settings(max_examples=400, deadline=None)
+@given(tied_graphs())
+def test_the_compiled_searches_give_scipys_distances_and_predecessors_ties_included(case):
+    """Every distance and predecessor scipy's Dijkstra gives on the whole graph, on graphs full of
+    equal paths (weights from a few values, zeros among them), repeated starts and tight limits:
+    the compiled search scans in scipy's order (distance, then the highest vertex) and relaxes as it
+    does (strictly cheaper, not above the limit)."""
+    graph, starts, limit = case
+    want, want_pred = dijkstra(graph, directed=True, indices=starts, return_predecessors=True, limit=limit)
+    vertex, dist, pred = limited_dijkstra(graph.indptr, graph.indices, graph.data, starts, limit)
+    outside = np.ones(graph.shape[0], bool)
+    outside[vertex] = False
+    assert np.all(np.diff(vertex) > 0)
+    assert np.isinf(want[:, outside]).all() and (want_pred[:, outside] == -9999).all()
+    assert np.array_equal(dist, want[:, vertex])
+    assert np.array_equal(np.where(pred >= 0, vertex[np.maximum(pred, 0)], -9999), want_pred[:, vertex])
+
+
+@st.composite
+def grid_towns(draw: st.DrawFn) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """A town on a square grid of 10 m (every block's sides of equal length: ties everywhere): some of
+    the grid's streets, some of them major; the residents of each segment."""
+    side = draw(st.integers(2, 7))
+    xy = np.array([(10.0 * i, 10.0 * j) for j in range(side) for i in range(side)])
+    edges = [(k, k + 1) for k in range(side * side) if (k + 1) % side] + \
+            [(k, k + side) for k in range(side * (side - 1))]
+    chosen = draw(st.lists(st.sampled_from(edges), min_size=1, max_size=len(edges), unique=True))
+    uv = np.array(chosen, dtype=np.int64)
+    flip = np.array(draw(st.lists(st.booleans(), min_size=len(uv), max_size=len(uv))))
+    uv[flip] = uv[flip][:, ::-1]
+    major = np.array(draw(st.lists(st.booleans(), min_size=len(uv), max_size=len(uv))))
+    residents = np.array(draw(st.lists(st.sampled_from([0.0, 1.0, 5.0, 12.5]), min_size=len(uv),
+                                       max_size=len(uv))))
+    return xy, uv, np.c_[major, residents]
+
+
+@settings(max_examples=200, deadline=None)
+@given(grid_towns(), st.integers(0, 2**32 - 1), st.sampled_from([15.0, 40.0, 1500.0]))
+def test_a_batch_draws_the_trips_of_the_dense_table_of_scipys_rows(town, seed, decay_length):
+    """``_sample_batch`` (compiled searches, entries and walk) gives the very (source, segment, people)
+    triples, in the same order, and the same counts as the dense table of scipy's rows, on grid towns
+    full of equal paths and with limits that cut them (``decay_length`` × ``cutoff``)."""
+    xy, uv, extra = town
+    major, residents = extra[:, 0].astype(bool), extra[:, 1]
+    options = TripOptions(decay_length=decay_length, turn_cost=25.0)
+    g = trip_graph(xy, uv, major=major, options=options)
+    rng = np.random.default_rng(seed)
+    sources = np.sort(rng.choice(len(uv), rng.integers(1, len(uv) + 1), replace=False))
+    n_trips = rng.integers(0, 6, len(sources))
+    got = _sample_batch(g, sources, n_trips, residents, 1.5, np.random.default_rng(seed), options)
+    want = dense_sample_batch(g, sources, n_trips, residents, 1.5, np.random.default_rng(seed), options)
+    assert got[3:] == want[3:]
+    for a, b in zip(got[:3], want[:3]):
+        assert np.array_equal(np.concatenate(a) if a else np.zeros(0), np.concatenate(b) if b else np.zeros(0))
+
+
+def test_batch_costs_refuses_a_source_outside_the_graph():
+    """numba checks no bounds: a source past the table would read and write outside the arrays."""
+    g = trip_graph(np.array([[0.0, 0.0], [10.0, 0.0]]), np.array([[0, 1]]))
+    m = g.matrix
+    with pytest.raises(ValueError, match="sources must lie in"):
+        batch_costs(m.indptr, m.indices, m.data, np.array([1]), 1, np.ones(1, bool), 100.0)
+    with pytest.raises(ValueError, match="starts must lie in"):
+        limited_dijkstra(m.indptr, m.indices, m.data, np.array([-1]), 100.0)
