@@ -1026,3 +1026,35 @@ def test_on_krems_the_compiled_plain_search_is_scipys_vertex_for_vertex(krems_to
     rest = c * np.hypot(*(g.xy[window.exits] - ends[1]).T)
     reached = assert_plain_searches_are_scipys(g, routing.ROAD_KINDS, None, s, 3000.0, window.exits, rest)
     assert reached > 30_000
+
+
+@settings(max_examples=10, deadline=None)
+@given(st.integers(0, 2**32 - 1))
+def test_a_windows_source_distances_are_scipys_up_to_past_the_routes_cost(seed):
+    """Issue 22 (session 37): the source's plain search stops at the target, then goes on only up to
+    past the first bound (the plain route with its turns), which every reader compares them with:
+    up to there every distance is scipy's on the whole window, beyond it ∞ — and the route, the
+    one the window's matrix gave (a larger window grows by the exits within the route's cost)."""
+    rng = np.random.default_rng(seed)
+    implicit = random_town(rng)
+    live = implicit.whole().live_vertices()
+    opts = RoutingOptions(turn_height=float(rng.uniform(20, 400)))
+    checked = 0
+    for _ in range(3):
+        s_map, t_map = (int(v) for v in rng.choice(live, 2, replace=False))
+        ends = implicit.vertex_xy(np.array([s_map, t_map]))
+        lo, hi = ends.min(axis=0) - 150, ends.max(axis=0) + 150
+        window = implicit.window((lo[0], lo[1], hi[0], hi[1]))
+        g = window.graph
+        s, t = (int(v) for v in window.from_map(np.array([s_map, t_map])))
+        route, from_source, _ = routing._search(g, s, t, routing.ROAD_KINDS, None, opts)
+        with g.restricted(routing.ROAD_KINDS, None) as m:
+            want = dijkstra(m, indices=s)
+        if route is None:
+            assert np.array_equal(from_source, want)
+            continue
+        kept = np.isfinite(from_source)
+        assert np.array_equal(from_source[kept], want[kept])
+        assert (want[~kept] > route.cost * (1 + 1e-6)).all()
+        checked += 1
+    assume(checked > 0)
