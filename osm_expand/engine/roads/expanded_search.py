@@ -105,11 +105,9 @@ def _before(key: float, state: float, other_key: float, other_state: float) -> b
 
 
 @_compiled(inline="always")
-def _push(heap: np.ndarray, length: int, key: float, state: float) -> np.ndarray:
-    """``heap`` (entries ``(distance, state)``, rows ``0 … length − 1`` a 4-ary heap) with one more
-    entry (grown by doubling when full: the returned array is the heap)."""
-    if length == len(heap):
-        heap = np.concatenate((heap, np.empty_like(heap)))
+def _put(heap: np.ndarray, length: int, key: float, state: float) -> None:
+    """One more entry in ``heap`` (rows ``0 … length − 1`` a 4-ary heap of ``(distance, state)``), which
+    has room for it."""
     at = length
     while at > 0:  # the hole moves up past the entries that pop later
         up = (at - 1) >> 2
@@ -120,6 +118,15 @@ def _push(heap: np.ndarray, length: int, key: float, state: float) -> np.ndarray
         at = up
     heap[at, 0] = key
     heap[at, 1] = state
+
+
+@_compiled(inline="always")
+def _push(heap: np.ndarray, length: int, key: float, state: float) -> np.ndarray:
+    """``heap`` (entries ``(distance, state)``, rows ``0 … length − 1`` a 4-ary heap) with one more
+    entry (grown by doubling when full: the returned array is the heap)."""
+    if length == len(heap):
+        heap = np.concatenate((heap, np.empty_like(heap)))
+    _put(heap, length, key, state)
     return heap
 
 
@@ -305,6 +312,7 @@ def _plain_scan(n_lat: int, lat_kind: np.ndarray, allowed: np.ndarray, offset: n
     step."""
     n_dir = lat_kind.shape[1]
     use_table = len(table) > 0
+    has_pred = len(pred) > 0
     while length > 0:
         key = heap[0, 0]
         if key > limit:
@@ -315,14 +323,31 @@ def _plain_scan(n_lat: int, lat_kind: np.ndarray, allowed: np.ndarray, offset: n
         du = dist[u]
         if du < key:  # made stale by a later decrease
             continue
+        # room for the row's entries first, so that a relaxation passes no array back (:func:`_relax`'s
+        # returned heap cost a reference count each: twice the time of this search on a window)
+        if length + n_dir + e_ptr[u + 1] - e_ptr[u] > len(heap):
+            heap = np.concatenate((heap, np.empty_like(heap)))
         if u < n_lat:
             for d in range(n_dir):
                 if not allowed[lat_kind[u, d]]:
                     continue
-                w = table[np.int64(w_kind[u, d]) * n_dir + d] if use_table else np.float64(plain[u, d])
-                heap, length = _relax(dist, pred, heap, length, u + offset[d], du + w, u, limit, False, 0.0)
+                col = u + offset[d]
+                nv = du + (table[np.int64(w_kind[u, d]) * n_dir + d] if use_table else np.float64(plain[u, d]))
+                if nv <= limit and dist[col] > nv:  # scipy's relaxation (:func:`_relax` without ties)
+                    dist[col] = nv
+                    if has_pred:
+                        pred[col] = u
+                    _put(heap, length, nv, col)
+                    length += 1
         for t in range(e_ptr[u], e_ptr[u + 1]):
-            heap, length = _relax(dist, pred, heap, length, e_col[t], du + e_val[t], u, limit, False, 0.0)
+            col = e_col[t]
+            nv = du + e_val[t]
+            if nv <= limit and dist[col] > nv:
+                dist[col] = nv
+                if has_pred:
+                    pred[col] = u
+                _put(heap, length, nv, col)
+                length += 1
         if u == stop:
             return heap, length, True
     return heap, length, False
