@@ -14,8 +14,9 @@ from scipy.sparse.csgraph import dijkstra
 
 from osm_expand.engine.roads import routing
 from osm_expand.engine.roads.built_up import built_up_area
-from osm_expand.engine.roads.lattice import EdgeKind, LatticeOptions, build_lattice
-from osm_expand.engine.roads.path_graph import EdgeCosts, implicit_graph, pathfinding_graph
+from osm_expand.engine.roads.expanded_search import PlainSearch
+from osm_expand.engine.roads.lattice import EdgeKind, LatticeOptions, Raster, build_lattice
+from osm_expand.engine.roads.path_graph import EdgeCosts, PathGraph, implicit_graph, pathfinding_graph
 from osm_expand.engine.roads.routing import RoutingOptions
 from osm_expand.errors import OptionError
 from osm_expand.model.segments import SegmentTable
@@ -289,36 +290,26 @@ def test_the_turns_still_needed_never_exceed_what_the_rest_of_any_route_costs(se
         assert (floor[np.isfinite(rest[0])] > 0).any()  # the floor is not vacuous here
 
 
-def test_a_windows_matrix_is_gone_before_its_heading_expanded_search(monkeypatch):
-    """Memory: a window's G′ is searched once, so its cached CSR (the whole map's: 2.3 GB on the
-    synthetic 10,000-street town) is dropped after the plain searches and before the expanded
-    graph is made; a G′ given directly (searched again the same year) keeps its cache."""
+def test_no_matrix_of_g_prime_is_written_for_a_route(monkeypatch):
+    """Memory (issue 22, session 37): the plain searches read G′'s tables as they go, as the
+    heading-expanded one does, so no CSR matrix of a window (the whole map's: 2.3 GB on the
+    synthetic 10,000-street town) or of a G′ given directly is ever written for a route."""
     g, rng = random_map(7)
-    lat = g.lattice
-    implicit = implicit_graph(lat, g.segments, None)
+    implicit = implicit_graph(g.lattice, g.segments, None)
     whole = implicit.whole()
     live = whole.live_vertices()
-    seen: list[int] = []
 
-    def counted(search):
-        def wrapped(graph, *args, **kwargs):
-            seen.append(len(graph._cache))
-            return search(graph, *args, **kwargs)
-        return wrapped
+    def refused(*_):
+        raise AssertionError("a matrix of G′ was written")
 
-    # the exits' search and the route's (backward, or forward with ``backward=False``)
-    for name in ("_tiled_search", "_backward_route"):
-        monkeypatch.setattr(routing, name, counted(getattr(routing, name)))
+    monkeypatch.setattr(PathGraph, "_csr", refused)
     opts = RoutingOptions(turn_height=300.0, window_share=0.0, window_margin=50.0)
+    found = 0
     for _ in range(6):
         s, t = (int(v) for v in rng.choice(live, 2, replace=False))
-        routing.find_route(implicit, s, t, options=opts)
-    assert seen and not any(seen)
-    seen.clear()
-    while not seen:  # a pair whose plain route turns, so that the expanded search runs
-        s, t = (int(v) for v in rng.choice(live, 2, replace=False))
-        routing.find_route(whole, s, t, options=opts)
-    assert all(seen)
+        for graph in (implicit, whole):
+            found += routing.find_route(graph, s, t, options=opts) is not None
+    assert found and not whole._cache
 
 
 @settings(max_examples=8, deadline=None)
@@ -936,3 +927,134 @@ def test_the_compiled_search_refuses_what_would_read_or_write_outside_its_arrays
     hub = 2 * 3 * 4 + 1
     dist, pred = expanded_dijkstra(g, hub, np.inf, h=h, return_predecessors=True, ties=True)
     assert dist[hub] == 0.0 and np.isfinite(dist[12 + 4:12 + 8]).all() and (pred[12 + 4:12 + 8] == hub).all()
+
+
+def joined_reference(m: csr_matrix, seeds: np.ndarray, at: np.ndarray, limit: float) -> np.ndarray:
+    """scipy's distances from a source joined to each seed at ``at`` (its row weighs ``at + 1``, the 1
+    taken off after): how ``routing._via_exits`` searched the window's matrix up to session 36."""
+    n = m.shape[0]
+    indptr = np.concatenate([m.indptr, [m.indptr[-1] + len(seeds)]])
+    joined = csr_matrix((np.concatenate([m.data, at + 1.0]), np.concatenate([m.indices, seeds.astype(m.indices.dtype)]),
+                         indptr), shape=(n + 1, n + 1))
+    return dijkstra(joined, indices=n, limit=limit + 1.0)[:n] - 1.0
+
+
+def assert_plain_searches_are_scipys(g, kinds, street_ok, s: int, limit: float, seeds: np.ndarray,
+                                     at: np.ndarray) -> int:
+    """The compiled plain search against scipy's Dijkstra on G′'s own matrix (``restricted``, the
+    reference): from ``s`` with predecessors and no limit, from ``s`` up to ``limit``, and from
+    ``seeds`` joined at ``at`` (``_via_exits``): every distance and predecessor equal; the vertices
+    reached from ``s``."""
+    lat, extra = g.masks(kinds, street_ok)
+    rows = routing._plain_rows(g, lat, extra)
+    with g.restricted(kinds, street_ok) as m:
+        want, want_pred = dijkstra(m, indices=s, return_predecessors=True)
+        want_limited = dijkstra(m, indices=s, limit=limit)
+        want_joined = joined_reference(m, seeds, at, limit)
+    dist, pred = routing._plain_search(rows, [s], predecessors=True)
+    assert np.array_equal(dist, want)
+    assert np.array_equal(pred, want_pred)
+    assert np.array_equal(routing._plain_search(rows, [s], limit=limit)[0], want_limited)
+    assert np.array_equal(routing._via_exits(rows, seeds, at, limit), want_joined)
+    # in two parts, as the route search runs it: up to a vertex t, then on up to a limit at least d(s, t)
+    # chosen from what was found; cut to that limit, it is scipy's search with the limit from the start
+    reached = np.flatnonzero(np.isfinite(want))
+    for t in reached[:: max(1, len(reached) // 3)]:
+        after = float(want[t]) * 1.3 + 10.0
+        with g.restricted(kinds, street_ok) as m:
+            want_after, want_after_pred = dijkstra(m, indices=s, return_predecessors=True, limit=after)
+        search = PlainSearch(rows, np.array([s]), predecessors=True)
+        assert search.run(stop=int(t))
+        assert routing._walk_back(search.pred, s, int(t)) == routing._walk_back(want_pred, s, int(t))
+        search.run(after)
+        search.cut(after)
+        assert np.array_equal(search.dist, want_after)
+        assert np.array_equal(search.pred, want_after_pred)
+    return int(np.isfinite(want).sum())
+
+
+@settings(max_examples=15, deadline=None)
+@given(st.integers(0, 2**32 - 1), st.sampled_from(["roads", "streets", "major", "land", "water"]), st.booleans())
+def test_the_compiled_plain_search_is_scipys_vertex_for_vertex(seed, which, hill):
+    """Issue 22 (session 37): the plain (turn-free) searches of a window (from the source with
+    predecessors, from the target up to the bound, from the exits joined at their bounds) run
+    compiled on G′'s tables, no matrix written; on a window of a random town (a street grid, a river
+    with its bridges and harbours, forbidden blobs, on a hill or flat: float32 weights or weights by
+    kind), with some streets refused and the kinds a route may use varied, every distance and
+    predecessor is scipy's on the window's matrix, ties included (grids are full of exactly equal
+    paths), so the plain route, the bounds and the routes keep their bytes."""
+    from tests.test_majorroads import random_blobs, river
+
+    rng = np.random.default_rng(seed)
+    extent = (0, 0, 1000, 800)
+    segs = SegmentTable.from_lines(grid_lines(300, 250, 3, 100), major=[bool(b) for b in rng.integers(0, 2, 8)],
+                                   width=[6.0] * 8)
+    built = built_up_area(blocks_of(segs), segs)
+    xs = 5.0 + 10.0 * np.arange(100)
+    ramp = np.broadcast_to(float(rng.uniform(0.05, 0.4)) * np.maximum(xs - 500, 0.0), (80, 100)).copy()
+    y_lo = float(rng.uniform(100, 600))
+    lat = build_lattice(extent, water=river(extent, y_lo, y_lo + 60),
+                        forbidden=random_blobs(rng, extent, 4, within=(50, 950), radius=(20, 70)),
+                        height=Raster(ramp, (0.0, 0.0), 10.0) if hill else None,
+                        options=LatticeOptions(radius=int(rng.integers(1, 4)))).with_built_up(built.area)
+    implicit = implicit_graph(lat, segs, built)
+    x0, y0 = rng.uniform(0, 500), rng.uniform(0, 400)
+    window = implicit.window((x0, y0, x0 + rng.uniform(200, 700), y0 + rng.uniform(200, 500)))
+    g = window.graph
+    kinds = {"roads": routing.ROAD_KINDS, "streets": (EdgeKind.MAJOR, EdgeKind.MINOR), "water": (EdgeKind.LAND,
+             EdgeKind.WATER, EdgeKind.HARBOUR, EdgeKind.BUILT_HARBOUR),
+             "major": (EdgeKind.MAJOR,), "land": (EdgeKind.LAND, EdgeKind.STITCH, EdgeKind.MINOR)}[which]
+    street_ok = rng.random(len(segs.uv)) < 0.8 if rng.random() < 0.5 else None
+    live = g.live_vertices()
+    s = int(rng.choice(live))
+    seeds = np.unique(rng.choice(g.n_vertices, int(rng.integers(1, 40))))
+    at = rng.uniform(0.0, 400.0, len(seeds))
+    assert_plain_searches_are_scipys(g, kinds, street_ok, s, float(rng.uniform(50.0, 800.0)), seeds, at)
+
+
+def test_on_krems_the_compiled_plain_search_is_scipys_vertex_for_vertex(krems_town):  # noqa: F811
+    """On a window of Krems' own G′ (its land, the Danube, its bridges, streets and stitches) round
+    two of its exits, as the first road search makes it: the compiled plain searches give scipy's
+    distances and predecessors on the window's matrix, vertex for vertex."""
+    g_whole, segs, exits, _, implicit = krems_town
+    ends = implicit.vertex_xy(np.array([g_whole.node_vertex(int(exits[0])), g_whole.node_vertex(int(exits[1]))]))
+    lo, hi = ends.min(axis=0) - 400, ends.max(axis=0) + 400
+    window = implicit.window((lo[0], lo[1], hi[0], hi[1]))
+    g = window.graph
+    s = int(window.from_map(np.array([g_whole.node_vertex(int(exits[0]))]))[0])
+    c = routing.cheapest_unit_cost(implicit.costs, routing.ROAD_KINDS)
+    rest = c * np.hypot(*(g.xy[window.exits] - ends[1]).T)
+    reached = assert_plain_searches_are_scipys(g, routing.ROAD_KINDS, None, s, 3000.0, window.exits, rest)
+    assert reached > 30_000
+
+
+@settings(max_examples=10, deadline=None)
+@given(st.integers(0, 2**32 - 1))
+def test_a_windows_source_distances_are_scipys_up_to_past_the_routes_cost(seed):
+    """Issue 22 (session 37): the source's plain search stops at the target, then goes on only up to
+    past the first bound (the plain route with its turns), which every reader compares them with:
+    up to there every distance is scipy's on the whole window, beyond it ∞ — and the route, the
+    one the window's matrix gave (a larger window grows by the exits within the route's cost)."""
+    rng = np.random.default_rng(seed)
+    implicit = random_town(rng)
+    live = implicit.whole().live_vertices()
+    opts = RoutingOptions(turn_height=float(rng.uniform(20, 400)))
+    checked = 0
+    for _ in range(3):
+        s_map, t_map = (int(v) for v in rng.choice(live, 2, replace=False))
+        ends = implicit.vertex_xy(np.array([s_map, t_map]))
+        lo, hi = ends.min(axis=0) - 150, ends.max(axis=0) + 150
+        window = implicit.window((lo[0], lo[1], hi[0], hi[1]))
+        g = window.graph
+        s, t = (int(v) for v in window.from_map(np.array([s_map, t_map])))
+        route, from_source, _ = routing._search(g, s, t, routing.ROAD_KINDS, None, opts)
+        with g.restricted(routing.ROAD_KINDS, None) as m:
+            want = dijkstra(m, indices=s)
+        if route is None:
+            assert np.array_equal(from_source, want)
+            continue
+        kept = np.isfinite(from_source)
+        assert np.array_equal(from_source[kept], want[kept])
+        assert (want[~kept] > route.cost * (1 + 1e-6)).all()
+        checked += 1
+    assume(checked > 0)

@@ -47,6 +47,15 @@ or hub and every hub → departure edge costs at least ``eps`` (1e-9), and
 exceeds 1e-9 and the sum rounds back to g). A town's route costs are far
 below that.
 
+The plain (turn-free) searches of a window — from the source with
+predecessors (the plain route), from the target up to the first bound, from
+the exits joined at their bounds (``routing._via_exits``) — are the same
+search on G′ itself (:func:`plain_dijkstra`): a vertex's row is its lattice
+moves, read from the kind table, then its other edges, in the order
+``PathGraph._csr`` writes them, so the distances and predecessors are
+scipy's on that matrix, which is no longer written (Campo Grande's 36
+captured searches: 32.3 → 26.3 s CPU, peak 0.98 → 0.50 GB; session 37).
+
 numba compiles it (``cache=True``: a user's first run compiles and stores
 it; later runs load it, about 0.4 s with numba's import). Compiling the
 search for one set of argument types takes 3–4 s CPU (session 36's review:
@@ -96,11 +105,9 @@ def _before(key: float, state: float, other_key: float, other_state: float) -> b
 
 
 @_compiled(inline="always")
-def _push(heap: np.ndarray, length: int, key: float, state: float) -> np.ndarray:
-    """``heap`` (entries ``(distance, state)``, rows ``0 … length − 1`` a 4-ary heap) with one more
-    entry (grown by doubling when full: the returned array is the heap)."""
-    if length == len(heap):
-        heap = np.concatenate((heap, np.empty_like(heap)))
+def _put(heap: np.ndarray, length: int, key: float, state: float) -> None:
+    """One more entry in ``heap`` (rows ``0 … length − 1`` a 4-ary heap of ``(distance, state)``), which
+    has room for it."""
     at = length
     while at > 0:  # the hole moves up past the entries that pop later
         up = (at - 1) >> 2
@@ -111,6 +118,15 @@ def _push(heap: np.ndarray, length: int, key: float, state: float) -> np.ndarray
         at = up
     heap[at, 0] = key
     heap[at, 1] = state
+
+
+@_compiled(inline="always")
+def _push(heap: np.ndarray, length: int, key: float, state: float) -> np.ndarray:
+    """``heap`` (entries ``(distance, state)``, rows ``0 … length − 1`` a 4-ary heap) with one more
+    entry (grown by doubling when full: the returned array is the heap)."""
+    if length == len(heap):
+        heap = np.concatenate((heap, np.empty_like(heap)))
+    _put(heap, length, key, state)
     return heap
 
 
@@ -267,6 +283,158 @@ def _search(n: int, k: int, cheap: np.ndarray, cheap_cost: np.ndarray, hub_cost:
             for col in range(nk + u * k, nk + u * k + k):
                 heap, length = _relax(dist, pred, heap, length, col, dv + w, v, limit, ties, hu)
     return dist
+
+
+@_compiled()
+def _plain_seeded(dist: np.ndarray, pred: np.ndarray, seeds: np.ndarray, seed_dist: np.ndarray,
+                  limit: float) -> tuple[np.ndarray, int]:
+    """The heap of a plain search's start: each seed at its distance (scipy's joined source's row, or
+    the one start at 0), relaxed in order; a seed's predecessor is none (−9999)."""
+    heap = np.empty((4096, 2))
+    length = 0
+    for i in range(len(seeds)):
+        heap, length = _relax(dist, pred, heap, length, seeds[i], seed_dist[i], -1, limit, False, 0.0)
+    if len(pred):
+        for i in range(len(seeds)):
+            pred[seeds[i]] = -9999
+    return heap, length
+
+
+@_compiled()
+def _plain_scan(n_lat: int, lat_kind: np.ndarray, allowed: np.ndarray, offset: np.ndarray, table: np.ndarray,
+                plain: np.ndarray, w_kind: np.ndarray, e_ptr: np.ndarray, e_col: np.ndarray, e_val: np.ndarray,
+                dist: np.ndarray, pred: np.ndarray, heap: np.ndarray, length: int, limit: float,
+                stop: int) -> tuple[np.ndarray, int, bool]:
+    """Scan the vertices a plain search pops, until the heap is empty, its first key is above ``limit``
+    (pushed before the limit was lowered: none of a search with this limit from the start), or
+    ``stop`` is scanned (then True); a vertex's row is its lattice moves (directions ascending), then
+    its other edges (:class:`Plain`'s fields): scipy's search on ``PathGraph._csr``'s matrix, step for
+    step."""
+    n_dir = lat_kind.shape[1]
+    use_table = len(table) > 0
+    has_pred = len(pred) > 0
+    while length > 0:
+        key = heap[0, 0]
+        if key > limit:
+            break
+        u = np.int64(heap[0, 1])
+        _pop(heap, length)
+        length -= 1
+        du = dist[u]
+        if du < key:  # made stale by a later decrease
+            continue
+        # room for the row's entries first, so that a relaxation passes no array back (:func:`_relax`'s
+        # returned heap cost a reference count each: twice the time of this search on a window)
+        if length + n_dir + e_ptr[u + 1] - e_ptr[u] > len(heap):
+            heap = np.concatenate((heap, np.empty_like(heap)))
+        if u < n_lat:
+            for d in range(n_dir):
+                if not allowed[lat_kind[u, d]]:
+                    continue
+                col = u + offset[d]
+                nv = du + (table[np.int64(w_kind[u, d]) * n_dir + d] if use_table else np.float64(plain[u, d]))
+                if nv <= limit and dist[col] > nv:  # scipy's relaxation (:func:`_relax` without ties)
+                    dist[col] = nv
+                    if has_pred:
+                        pred[col] = u
+                    _put(heap, length, nv, col)
+                    length += 1
+        for t in range(e_ptr[u], e_ptr[u + 1]):
+            col = e_col[t]
+            nv = du + e_val[t]
+            if nv <= limit and dist[col] > nv:
+                dist[col] = nv
+                if has_pred:
+                    pred[col] = u
+                _put(heap, length, nv, col)
+                length += 1
+        if u == stop:
+            return heap, length, True
+    return heap, length, False
+
+
+class Plain(NamedTuple):
+    """What the plain (turn-free) search reads of a G′ over ``n`` vertices: the lattice's tables, each
+    move read as the search reaches its vertex, and the other edges (streets, stitches, long bridges)
+    by tail, in :meth:`~osm_expand.engine.roads.path_graph.PathGraph._csr`'s row order. No matrix of
+    the window is written (Campo Grande: its windows' matrices were 8.2 s of the run's CPU and most
+    of a road year's memory, session 36)."""
+
+    n: int  #: G′ vertices
+    n_lat: int  #: lattice vertices (they come first)
+    lat_kind: np.ndarray  #: (n_lat, D) uint8 the lattice edges' kinds
+    allowed: np.ndarray  #: (256,) bool, the kinds a route may use
+    offset: np.ndarray  #: int64 (D,), a direction's step in vertex numbers
+    table: np.ndarray  #: float64 weight by ``kind · D + direction`` (empty: read ``plain``)
+    plain: np.ndarray  #: float32 (n_lat, D) the lattice weights, where there is no table (else (1, 1))
+    w_kind: np.ndarray  #: uint8 (n_lat, D) the kinds ``table`` is read by (else (1, 1))
+    e_ptr: np.ndarray  #: int64 (n + 1,), each vertex's other edges in the arrays below
+    e_col: np.ndarray  #: int64, their heads
+    e_val: np.ndarray  #: float64 weights
+
+
+class PlainSearch:
+    """scipy's ``dijkstra(matrix, indices=seed, limit=limit)`` on the plain G′ ``graph`` describes (one
+    seed at distance 0), or on that matrix joined to one more source whose row reaches each seed at
+    its ``seed_dist`` (``routing._via_exits``), run in parts: :meth:`run` up to a vertex, then on with
+    a limit chosen from what it found (the route search's: its limit is the first bound, which
+    needs the plain route). Each part scans in scipy's order, so after :meth:`cut` to the last limit
+    the distances and predecessors are those of scipy's search with that limit from the start, ties
+    included (the pop order and the strict relaxation of the module docstring): a vertex within it
+    is reached only from vertices within it, scanned in the same order.
+
+    Raises
+    ------
+    ValueError
+        A seed not among the vertices, seeds and distances of other lengths, or more vertices than
+        the predecessors' 32 bits number (numba checks no bounds).
+    """
+
+    def __init__(self, graph: Plain, seeds: np.ndarray, seed_dist: np.ndarray | None = None, limit: float = np.inf,
+                 predecessors: bool = False) -> None:
+        seeds = np.asarray(seeds, dtype=np.int64).reshape(-1)
+        at = np.zeros(len(seeds)) if seed_dist is None else np.asarray(seed_dist, dtype=np.float64).reshape(-1)
+        if len(at) != len(seeds):
+            raise ValueError(f"{len(seeds)} seeds but {len(at)} distances")
+        if len(seeds) and not (0 <= seeds.min() and seeds.max() < graph.n):
+            raise ValueError(f"a seed is not among the {graph.n} vertices")
+        if predecessors and graph.n >= 2**31:
+            raise ValueError(f"{graph.n} vertices: more than the predecessors' 32 bits number")
+        self.graph = graph
+        self.dist = np.full(graph.n, np.inf)  #: (n,) the distances found (∞: not reached)
+        self.pred = np.full(graph.n if predecessors else 0, NO_PRED, dtype=np.int32)  #: (n,) or empty
+        self._heap, self._length = _plain_seeded(self.dist, self.pred, seeds, at, float(limit))
+
+    def run(self, limit: float = np.inf, stop: int = -1) -> bool:
+        """Scan on, up to ``limit`` (at most the last one), until ``stop`` is scanned (then True; −1:
+        none) or nothing is left."""
+        g = self.graph
+        self._heap, self._length, stopped = _plain_scan(
+            g.n_lat, g.lat_kind, g.allowed, g.offset, g.table, g.plain, g.w_kind, g.e_ptr, g.e_col, g.e_val,
+            self.dist, self.pred, self._heap, self._length, float(limit), int(stop))
+        return bool(stopped)
+
+    def cut(self, limit: float) -> None:
+        """Forget what lies above ``limit`` (∞ and −9999): reached only before the limit was lowered."""
+        above = self.dist > limit
+        self.dist[above] = np.inf
+        if len(self.pred):
+            self.pred[above] = NO_PRED
+
+
+def plain_dijkstra(graph: Plain, seeds: np.ndarray, seed_dist: np.ndarray | None = None, limit: float = np.inf,
+                   return_predecessors: bool = False) -> tuple[np.ndarray, np.ndarray]:
+    """:class:`PlainSearch` in one part: scipy's ``dijkstra`` on the plain G′ from ``seeds`` (joined at
+    ``seed_dist``) up to ``limit``.
+
+    Returns
+    -------
+    dist, pred
+        Per vertex (∞ and −9999 where not reached; pred empty unless asked; a seed's −9999).
+    """
+    search = PlainSearch(graph, seeds, seed_dist, limit, return_predecessors)
+    search.run(limit)
+    return search.dist, search.pred
 
 
 class Expanded(NamedTuple):

@@ -8,8 +8,10 @@ points on the shell and on terrain blocks to nearby live land vertices, and
 between shell points (003 Fig. 9), none crossing or grazing a street,
 entering a built-up block or touching water. Edge costs are multiplied by
 C1…C6 (003 §3.4.2) by kind. The lattice part of G′ stays a table (vertex ×
-direction); the other edges are short arrays. Its CSR matrix holds the
-allowed edges row by row, so it is built without sorting, and cached.
+direction); the other edges are short arrays. The route searches read those
+as they go (compiled, :mod:`~osm_expand.engine.roads.expanded_search`); its CSR
+matrix (the tests' reference) holds the allowed edges row by row, so it is
+built without sorting, and cached.
 
 **The implicit G′** (:func:`implicit_graph`, what the engine uses): a year's
 street part (pieces, split points, shell stitches; :func:`street_part`) and
@@ -253,14 +255,11 @@ class PathGraph:
     def matrix(self, kinds: Sequence[EdgeKind] = ROAD_KINDS) -> csr_matrix:
         """CSR adjacency ``(V′, V′)`` over the edges of the given kinds (cached: the two most recent).
 
-        Only the allowed edges are in it. Use :meth:`restricted` to leave streets out.
+        Only the allowed edges are in it. Use :meth:`restricted` to leave streets out. The route
+        searches write no matrix (they read the tables as they go, ``routing._plain_rows``, session
+        37): this is the reference the tests hold them to, and the benchmarks' plain searches.
         """
         return self._base(kinds)[0]
-
-    def forget_matrices(self) -> None:
-        """Drop the cached CSR matrices (a window's G′ once its plain searches are done: the whole
-        map's holds ~2·10⁸ entries, 2.3 GB, that the heading-expanded search does not use)."""
-        self._cache.clear()
 
     @contextmanager
     def restricted(self, kinds: Sequence[EdgeKind] = ROAD_KINDS,

@@ -55,6 +55,7 @@ from collections.abc import Sequence
 from dataclasses import dataclass, replace
 from enum import StrEnum
 from numbers import Integral
+from typing import TYPE_CHECKING
 
 import numpy as np
 from scipy.ndimage import binary_dilation
@@ -63,6 +64,9 @@ from scipy.sparse.csgraph import dijkstra
 
 from osm_expand.engine.roads.lattice import ROAD_KINDS, EdgeKind, LatticeWeights
 from osm_expand.engine.roads.path_graph import EdgeCosts, GraphWindow, ImplicitGraph, KindMask, PathGraph
+
+if TYPE_CHECKING:
+    from osm_expand.engine.roads.expanded_search import Plain
 from osm_expand.errors import InputError, OptionError
 from osm_expand.model.options import require_positive
 
@@ -258,56 +262,94 @@ def find_route(graph: PathGraph | ImplicitGraph, source: int, target: int, *, ki
 
 
 def _search(graph: PathGraph, source: int, target: int, kinds: Sequence[EdgeKind], street_ok: np.ndarray | None,
-            opts: RoutingOptions, release: bool = False, known: np.ndarray | None = None,
+            opts: RoutingOptions, known: np.ndarray | None = None,
             exits: tuple[np.ndarray, np.ndarray] | None = None
             ) -> tuple[Route | None, np.ndarray | None, np.ndarray | None]:
-    """:func:`find_route` on a G′, and the plain (turn-free) distances from the source.
+    """:func:`find_route` on a G′, and the plain (turn-free) distances from the source up to past the
+    first bound (∞ beyond; all of them where the target is not reached).
 
-    With ``release`` the graph's cached CSR matrices are dropped once the plain searches are
-    done (a window's G′, searched once): the heading-expanded search reads the edge tables, and
-    on the whole map of a large town the matrix alone is 2.3 GB. ``known`` is a route from the
+    The plain searches are compiled (:func:`_plain_search`) and read G′'s tables as they go: no
+    matrix of the graph is written (a window's was 8.2 s of Campo Grande's run and most of a road
+    year's memory, session 36). The source's stops at the target and goes on only up to the first
+    bound, which needs the plain route (Campo Grande's first 8 captured calls: 4.6 → 3.4 s CPU of
+    plain searches, session 37). ``known`` is a route from the
     source to the target (its vertices; a smaller window's best): where it is allowed in this
     graph and cheaper than the plain shortest path with its turns, its cost is the first bound.
     ``exits`` (a window's exits and a lower bound of the cost from each to the target) asks also
     for ``min_x d(v, x) + bound(x)`` over them for every vertex v (∞ above the first bound), the
-    exits' search's A* bound (:func:`_via_exits`), made before the matrix goes; it is None where no
+    exits' search's A* bound (:func:`_via_exits`); it is None where no
     exit's ``d(s, x) + bound(x)`` is below the first bound (then no exit is short and nothing reads it).
     """
-    if source == target:
-        return _route(graph, [source], *graph.masks(kinds, street_ok), 0.0), None, None
     lat, extra = graph.masks(kinds, street_ok)
-    with graph.restricted(kinds, street_ok) as matrix:
-        from_source, pred = dijkstra(matrix, indices=source, return_predecessors=True)
-        if not np.isfinite(from_source[target]):
-            return None, from_source, None
-        plain = _walk_back(pred, source, target)
-        del pred
-        plain_route = _route(graph, plain, lat, extra, 0.0)
-        penalties = _bin_penalties(opts)
-        bins = _bins(_headings(plain_route), opts.heading_bins)
-        plain_turns = float(penalties[(bins[1:] - bins[:-1]) % opts.heading_bins].sum())
-        if opts.turn_height == 0 or plain_turns == 0:
-            return _with_turn_cost(plain_route, plain_turns), from_source, None
-        bound = float(from_source[target]) + plain_turns
-        first = (plain, bound)
-        if known is not None:
-            again = _route_cost(graph, known, lat, extra, opts)
-            if again is not None and again < bound:
-                first = (known.tolist(), again)
-        limit = first[1] + 1e-9 * first[1] + 1e-6
-        from_target = dijkstra(matrix, indices=target, limit=limit)  # G′ is symmetric
-        # read only where an exit may be short (:func:`_implicit_route`: ``reached + rest`` below the
-        # route's cost, which is at most the first bound): where none is, it is never read
-        via = None
-        if exits is not None and (from_source[exits[0]] + exits[1] < limit).any():
-            via = _via_exits(matrix, *exits, limit)
-    del matrix
-    if release:
-        graph.forget_matrices()
+    if source == target:
+        return _route(graph, [source], lat, extra, 0.0), None, None
+    from osm_expand.engine.roads.expanded_search import PlainSearch
+
+    rows = _plain_rows(graph, lat, extra)
+    search = PlainSearch(rows, np.array([source]), predecessors=True)
+    if not search.run(stop=target):  # the target is not reached: every distance (the window grows by them)
+        return None, search.dist, None
+    plain = _walk_back(search.pred, source, target)  # its vertices are scanned: their predecessors are final
+    plain_route = _route(graph, plain, lat, extra, 0.0)
+    penalties = _bin_penalties(opts)
+    bins = _bins(_headings(plain_route), opts.heading_bins)
+    plain_turns = float(penalties[(bins[1:] - bins[:-1]) % opts.heading_bins].sum())
+    # the rest of the source's distances, up to the first bound: every reader compares them with a cost at
+    # most that (the route's, the exits' bound below, _implicit_route's and _exit_arrivals' tests, all within
+    # 1e-9 of it), so one beyond reads as one above it; the margin takes the float sums' last bits
+    reach = max(float(search.dist[target]) + plain_turns, plain_route.cost)
+    reach += 1e-6 * reach + 1e-3
+    search.run(reach)
+    search.cut(reach)
+    from_source = search.dist
+    del search
+    if opts.turn_height == 0 or plain_turns == 0:
+        return _with_turn_cost(plain_route, plain_turns), from_source, None
+    bound = float(from_source[target]) + plain_turns
+    first = (plain, bound)
+    if known is not None:
+        again = _route_cost(graph, known, lat, extra, opts)
+        if again is not None and again < bound:
+            first = (known.tolist(), again)
+    limit = first[1] + 1e-9 * first[1] + 1e-6
+    from_target, _ = _plain_search(rows, [target], limit=limit)  # G′ is symmetric
+    # read only where an exit may be short (:func:`_implicit_route`: ``reached + rest`` below the
+    # route's cost, which is at most the first bound): where none is, it is never read
+    via = None
+    if exits is not None and (from_source[exits[0]] + exits[1] < limit).any():
+        via = _via_exits(rows, *exits, limit)
+    del rows
     return _best_route(graph, lat, extra, source, target, from_source, from_target, first, opts), from_source, via
 
 
-def _via_exits(matrix: csr_matrix, exits: np.ndarray, rest: np.ndarray, limit: float) -> np.ndarray:
+def _plain_rows(graph: PathGraph, lat: KindMask, extra: np.ndarray) -> Plain:
+    """What the compiled plain search reads of G′ (:class:`~osm_expand.engine.roads.expanded_search.Plain`):
+    the lattice's tables as they are, and the allowed other edges (``extra``) by tail, in edge order
+    (``src`` is sorted), as :meth:`PathGraph._csr` writes a row after its lattice moves."""
+    from osm_expand.engine.roads.expanded_search import Plain
+
+    lat_kind, allowed, table, plain, w_kind = _lattice_rows(graph, lat)
+    e = np.flatnonzero(extra)
+    e_ptr = np.zeros(graph.n_vertices + 1, dtype=np.int64)
+    np.cumsum(np.bincount(graph.src[e], minlength=graph.n_vertices), out=e_ptr[1:])
+    return Plain(n=graph.n_vertices, n_lat=int(lat.shape[0]), lat_kind=lat_kind, allowed=allowed,
+                 offset=graph.lattice.direction_offset.astype(np.int64), table=table, plain=plain, w_kind=w_kind,
+                 e_ptr=e_ptr, e_col=graph.dst[e].astype(np.int64), e_val=graph.weight[e].astype(np.float64))
+
+
+def _plain_search(rows: Plain, seeds: Sequence[int] | np.ndarray, seed_dist: np.ndarray | None = None,
+                  limit: float = np.inf, predecessors: bool = False) -> tuple[np.ndarray, np.ndarray]:
+    """scipy's ``dijkstra`` on the plain G′ ``rows`` describes from one seed (at 0), or from a source
+    joined to each seed at ``seed_dist``, up to ``limit``: the same distances and predecessors, ties
+    included, with no matrix written (:func:`~osm_expand.engine.roads.expanded_search.plain_dijkstra`).
+    Imported here, as :func:`_heading_search` does, so that commands which search no route do not
+    import numba."""
+    from osm_expand.engine.roads.expanded_search import plain_dijkstra
+
+    return plain_dijkstra(rows, np.asarray(seeds, dtype=np.int64), seed_dist, limit, predecessors)
+
+
+def _via_exits(rows: Plain, exits: np.ndarray, rest: np.ndarray, limit: float) -> np.ndarray:
     """``min_x d(v, x) + rest(x)`` over the exits x for every vertex v (d: the plain distance in the
     window; ∞ above ``limit``), by one Dijkstra from a source joined to each exit at ``rest(x)``.
 
@@ -319,22 +361,15 @@ def _via_exits(matrix: csr_matrix, exits: np.ndarray, rest: np.ndarray, limit: f
     more than the expanded graph's, and turns cost ≥ 0: a consistent A* bound, ``rest(x)`` at most
     at an exit x. G′ is symmetric, so the distances from the joined source are those to it.
 
-    The joined graph is a copy of the window's matrix with one more row (scipy's Dijkstra takes no
-    start cost per source: ``min_only`` gives ``min_x d(v, x)`` without ``rest(x)``; a subgraph of
-    the rows within the bound would be a copy too). Measured on Campo Grande's default run
+    The joined source's edges weigh ``rest + 1`` and the 1 is taken off after, the sums the joined
+    matrix of scipy's search made (sessions 32–36: a copy of the window's matrix with one more row;
+    the bytes of every later sum depend on them). Measured on Campo Grande's default run
     (``--seed 0``, session 32): made for 22 of the 26 windows searched before the whole map's (the
-    others had no exit within the first bound), 81 MB at most beside the window's own 80 MB, 0.6 s
-    CPU in all; the run's peak resident size was 1.17 GB.
+    others had no exit within the first bound).
     """
-    n = matrix.shape[0]
     if not len(exits):
-        return np.full(n, np.inf)
-    # the joined source's edges: weight rest + 1 (scipy drops explicit zeros), the 1 taken off after
-    indptr = np.concatenate([matrix.indptr, [matrix.indptr[-1] + len(exits)]])
-    joined = csr_matrix((np.concatenate([matrix.data, rest + 1.0]),
-                         np.concatenate([matrix.indices, exits.astype(matrix.indices.dtype)]), indptr),
-                        shape=(n + 1, n + 1))
-    return dijkstra(joined, indices=n, limit=limit + 1.0)[:n] - 1.0
+        return np.full(rows.n, np.inf)
+    return _plain_search(rows, exits, rest + 1.0, limit + 1.0)[0] - 1.0
 
 
 def _route_cost(graph: PathGraph, vertices: np.ndarray, lat: KindMask, extra: np.ndarray,
@@ -434,7 +469,7 @@ def _implicit_route(graph: ImplicitGraph, source: int, target: int, kinds: Seque
         exit_xy = window.graph.xy[exits]
         rest = c * np.hypot(*(exit_xy - ends[1]).T)  # what is left from an exit, at least
         # the whole map's window is the last: nothing reads its exits' bound
-        route, from_source, via = _search(window.graph, s, t, kinds, street_ok, opts, release=True, known=known,
+        route, from_source, via = _search(window.graph, s, t, kinds, street_ok, opts, known=known,
                                           exits=None if window.whole else (exits, rest))
         if window.whole or from_source is None:
             return _on_map(window, route, from_source)
@@ -866,6 +901,30 @@ def _expanded_graph(graph: PathGraph, lat: KindMask, extra: np.ndarray, region: 
     return csr_matrix((data, indices, indptr), shape=(states.size, states.size)), local
 
 
+def _lattice_rows(graph: PathGraph, lat: KindMask) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray,
+                                                             np.ndarray]:
+    """What the compiled searches read of the lattice's moves (:mod:`~osm_expand.engine.roads.expanded_search`):
+    the kind table, the kinds allowed, and the weights as a table by ``kind · D + direction`` (a
+    :class:`LatticeWeights`', read by its own kinds) or a float32 ``(V, D)`` table (sloped land's).
+
+    One set of argument types, so a run compiles each search once (expanded_search's docstring): a
+    float32 plain table (sloped land's, lattice.directed_tables; a (1, 1) one beside a kind table); a
+    LatticeWeights is read by its own kinds, which need not be the mask's array, never by its (V, D)
+    table made whole."""
+    allowed = np.zeros(256, dtype=bool)
+    if isinstance(lat, KindMask):
+        lat_kind = lat.kind
+        allowed[list(lat.kinds)] = True  # the lattice kinds among those asked for
+    else:  # a plain (V, D) bool table
+        lat_kind = np.asarray(lat, dtype=bool).view(np.uint8)
+        allowed[1] = True
+    weight = graph.lat_weight
+    if isinstance(weight, LatticeWeights):
+        return lat_kind, allowed, weight.table64, np.zeros((1, 1), np.float32), weight.kind
+    # a float64 table (none of the lattice's) would keep its values and compile a second time
+    return lat_kind, allowed, np.zeros(0), np.asarray(weight), np.zeros((1, 1), np.uint8)
+
+
 def _heading_search(graph: PathGraph, lat: KindMask, extra: np.ndarray, region: np.ndarray, local: np.ndarray,
                     penalties: np.ndarray, k: int, start: int, limit: float, h: np.ndarray | None = None,
                     predecessors: bool = False, ties: bool = False) -> tuple[np.ndarray, np.ndarray]:
@@ -888,27 +947,11 @@ def _heading_search(graph: PathGraph, lat: KindMask, extra: np.ndarray, region: 
     from osm_expand.engine.roads.expanded_search import Expanded, expanded_dijkstra
 
     n = len(region)
-    n_lat, n_dir = lat.shape
     dir_bin, by_bin, e, e_bin = _departure_order(graph, extra, local, k)
     dirs = by_bin.astype(np.int64)  # by bin, directions ascending within one
     dirs_ptr = np.zeros(k + 1, dtype=np.int64)
     np.cumsum(np.bincount(dir_bin, minlength=k), out=dirs_ptr[1:])
-    allowed = np.zeros(256, dtype=bool)
-    if isinstance(lat, KindMask):
-        lat_kind = lat.kind
-        allowed[list(lat.kinds)] = True  # the lattice kinds among those asked for
-    else:  # a plain (V, D) bool table
-        lat_kind = np.asarray(lat, dtype=bool).view(np.uint8)
-        allowed[1] = True
-    # one set of argument types, so a run compiles the search once (expanded_search's docstring): a
-    # float32 plain table (sloped land's, lattice.directed_tables; a (1, 1) one beside a kind table) and
-    # an int32 local; a LatticeWeights is read by its own kinds, which need not be the mask's array, never
-    # by its (V, D) table made whole
-    weight = graph.lat_weight
-    if isinstance(weight, LatticeWeights):
-        table, plain, w_kind = weight.table64, np.zeros((1, 1), np.float32), weight.kind
-    else:  # a float64 table (none of the lattice's) would keep its values and compile a second time
-        table, plain, w_kind = np.zeros(0), np.asarray(weight), np.zeros((1, 1), np.uint8)
+    lat_kind, allowed, table, plain, w_kind = _lattice_rows(graph, lat)
     if local.dtype != np.int32:  # local numbers below n: 32 bits hold them while n < 2³¹
         local = local.astype(np.int32)
     # the other edges by vertex, each vertex's in its departure rows' order (bin, then edge)
@@ -917,7 +960,7 @@ def _heading_search(graph: PathGraph, lat: KindMask, extra: np.ndarray, region: 
     np.cumsum(np.bincount(e_src, minlength=n), out=e_ptr[1:])
     cheap, cheap_cost, hub_cost = _turn_rows(penalties)
     rows = Expanded(n=n, k=k, cheap=cheap.astype(np.int64), cheap_cost=cheap_cost, hub_cost=hub_cost, eps=_EPS,
-                    region=region.astype(np.int64, copy=False), local=local, n_lat=int(n_lat), lat_kind=lat_kind,
+                    region=region.astype(np.int64, copy=False), local=local, n_lat=int(lat.shape[0]), lat_kind=lat_kind,
                     allowed=allowed, offset=graph.lattice.direction_offset.astype(np.int64), dirs_ptr=dirs_ptr,
                     dirs=dirs, table=table, plain=plain, w_kind=w_kind, e_ptr=e_ptr, e_bin=e_bin,
                     e_col=local[graph.dst[e]].astype(np.int64) * k + e_bin, e_val=graph.weight[e].astype(np.float64))
