@@ -8,10 +8,14 @@ import shapely
 
 from osm_expand.engine.growth.minor_streets import GrowthOptions
 from osm_expand.engine.growth.stubs import close_stubs
+from osm_expand.engine.history import load_history
+from osm_expand.engine.loop import EngineOptions
 from osm_expand.errors import OptionError
 from osm_expand.growth_fidelity import city_growth_fidelity
 from osm_expand.ingest import load
-from tests.conftest import FIXTURES, expanded_and_matured
+from osm_expand.maturation import MatureOptions, mature_result
+from osm_expand.pipeline import ExpandOptions, expand
+from tests.conftest import FIXTURES
 
 TOWN = np.array([shapely.LineString([(0, 0), (1000, 0)])], dtype=object)
 TOWN_NODES = np.array([[0.0, 0.0], [1000.0, 0.0]])
@@ -50,15 +54,19 @@ def test_a_short_stub_kept_stays_and_a_cul_de_sac_dropped_goes():
 
 @pytest.mark.parametrize("value", ["false", 1, None])
 def test_pattern_aim_refuses_what_is_not_a_bool(value):
+    """A history's string "false" would read as on."""
     with pytest.raises(OptionError, match="pattern_aim"):
         GrowthOptions(pattern_aim=value)
 
 
 def test_krems_european_grid_era_is_no_more_connected_than_krems_neighbourhoods():
-    """Krems, ``european``, seed 0: the gründerzeit grid's run-ons and dropped stubs left it 13.1 km with a 2-core
-    share of 0.973 against its neighbourhoods' 0.885-0.959, and the growth's 0.968 above 0.885-0.967; aimed at
-    the neighbourhoods' medians, the grid and the growth have dead-end and 2-core shares in range."""
-    city = expanded_and_matured(load(FIXTURES / "krems.osm.gz"), seed=0, history="european").city
+    """Krems, ``european``, seed 0, with :attr:`GrowthOptions.pattern_aim`: the gründerzeit grid's run-ons and
+    dropped stubs left it 13.1 km with a 2-core share of 0.973 against its neighbourhoods' 0.885-0.959, and the
+    growth's 0.968 above 0.885-0.967; aimed at the neighbourhoods' medians, the grid and the growth have dead-end
+    and 2-core shares in range."""
+    engine = EngineOptions(growth=GrowthOptions(pattern_aim=True))
+    result = expand(load(FIXTURES / "krems.osm.gz"), ExpandOptions(seed=0, fidelity=False))
+    city = mature_result(result, load_history("european"), MatureOptions(fidelity=False, engine=engine), 0).city
     g = city_growth_fidelity(city, rng=0)
     assert g is not None and g.overall is not None
     for report in (g.overall, g.per_era["gruenderzeit"]):

@@ -14,7 +14,11 @@ european history to 5 km of street in 50 years, against 25 km). Except
 where no later year can: a pattern without Snap and Extend (``suburban``)
 never runs a street on to another, so with ``loops`` a tree hung on the
 town at one point, a comb's tooth or a cluster of culs-de-sac, goes too
-(:func:`_in_loops`): no later year will make it a block.
+(:func:`_in_loops`): no later year will make it a block. With
+:attr:`~osm_expand.engine.growth.minor_streets.GrowthOptions.pattern_aim`, the era's
+connectedness decides further: run-ons taken back and short stubs kept while the
+era is more connected than its town's neighbourhoods, culs-de-sac of a pattern
+that never closes them dropped while it is less (``withhold``, ``keep``, ``drop``).
 
 A district pattern's streets are finished once the district is placed
 (:func:`finish_district`): a dead end left short of a street beside it runs
