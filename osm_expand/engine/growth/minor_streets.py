@@ -412,7 +412,9 @@ class GrowthOptions:
     #: other towns, out of range on both shares either way, move on the off count: seed 0 north-bayreuth 11 12 11 ->
     #: 13 13 13, Monaco 14 -> 13 (2-core 0.958 -> 0.972, further above [0.85-0.91]), Andorra 14 -> 14; seed 1
     #: north-bayreuth 10 -> 13, Monaco 13 -> 13 (2-core 0.930 -> 0.942 above), Andorra 14 -> 13 (dead-end 0.071
-    #: below -> 0.136 in). Helps Krems, hurts north-bayreuth: off. The default history is not touched.
+    #: below -> 0.136 in); seed 2 north-bayreuth 11 13 13 -> 13 13 13 (dead-end 0.186 in range -> 0.116 below),
+    #: Monaco 13 13 12 -> 13, Andorra 14 -> 13. Helps Krems, hurts north-bayreuth: off. The default history is not
+    #: touched.
     pattern_aim: bool = False
 
     def __post_init__(self) -> None:
