@@ -369,8 +369,13 @@ def _grow_streets(state: EngineState, era: Era, now: YearValues, year: int, rng:
     opts = cast(PatternOptions, era.options)  # a street pattern's era holds PatternOptions
     if isinstance(opts, PatternOptions) and opts.angle_space == AngleSpace.WORLD and opts.angle_offset_deg == 0.0:
         opts = replace(opts, angle_offset_deg=bearing)  # a world-space grid follows the town's own grid
+    aim = None
+    if options.growth.pattern_aim and count > 0:
+        if state.growth.yardstick is None:  # measured once a run, from the run's seed, as district_candidates' is
+            state.growth.yardstick = DistrictYardstick.of_town(state.city, seed=seed)
+        aim = state.growth.yardstick
     state.city, grown = grow_street_pattern(state.city, count, opts, state.nuclei, state.growth, rng, year=year,
-                                            era=era.name, centre=centre, reach=STUB_REACH * spacing)
+                                            era=era.name, centre=centre, reach=STUB_REACH * spacing, aim=aim)
     return grown
 
 

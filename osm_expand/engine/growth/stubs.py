@@ -14,7 +14,11 @@ european history to 5 km of street in 50 years, against 25 km). Except
 where no later year can: a pattern without Snap and Extend (``suburban``)
 never runs a street on to another, so with ``loops`` a tree hung on the
 town at one point, a comb's tooth or a cluster of culs-de-sac, goes too
-(:func:`_in_loops`): no later year will make it a block.
+(:func:`_in_loops`): no later year will make it a block. With
+:attr:`~osm_expand.engine.growth.minor_streets.GrowthOptions.pattern_aim`, the era's
+connectedness decides further: run-ons taken back and short stubs kept while the
+era is more connected than its town's neighbourhoods, culs-de-sac of a pattern
+that never closes them dropped while it is less (``withhold``, ``keep``, ``drop``).
 
 A district pattern's streets are finished once the district is placed
 (:func:`finish_district`): a dead end left short of a street beside it runs
@@ -48,13 +52,21 @@ class StubReport:
 
     tees: int = 0  #: stubs that ran on to a street
     dropped: int = 0  #: stubs that went
+    #: the stub ends that ran on, as ``(line, 0 or 1)`` of the input lines (the first end or the last)
+    ran: tuple[tuple[int, int], ...] = ()
+    #: the input lines dropped as stubs shorter than the reach in the first round (not those a drop left a stub)
+    short: tuple[int, ...] = ()
+    #: the input lines kept with an end that meets nothing (culs-de-sac at least the reach long)
+    stubs: tuple[int, ...] = ()
     #: per line returned, the input line it is (or, for a link, the stub it runs on): whose attributes it takes
     source: tuple[int, ...] = ()
 
 
 def close_stubs(lines: list[np.ndarray], bridges: list[bool], town: np.ndarray, town_nodes: np.ndarray,
                 blocked: shapely.Geometry, *, reach: float, min_angle: float = 35.0,
-                loops: bool = False) -> tuple[list[np.ndarray], list[bool], StubReport]:
+                loops: bool = False, withhold: frozenset[tuple[int, int]] = frozenset(),
+                keep: frozenset[int] = frozenset(), drop: frozenset[int] = frozenset()
+                ) -> tuple[list[np.ndarray], list[bool], StubReport]:
     """The year's new streets with their stubs run on or dropped (module docstring).
 
     Parameters
@@ -68,6 +80,13 @@ def close_stubs(lines: list[np.ndarray], bridges: list[bool], town: np.ndarray, 
     min_angle : degrees: a stub meets a street at this angle or more.
     loops : whether a tree hung on the town at one point (a piece closing no loop) goes too
         (:func:`_in_loops`).
+    withhold : stub ends ``(line, 0 or 1)`` that do not run on: they stay as culs-de-sac, or go when shorter
+        than ``reach`` (a street pattern's era aiming at its town's dead-end and 2-core shares,
+        :func:`osm_expand.engine.growth.minor_streets.grow_street_pattern`).
+    keep : lines that stay whatever their length (neither dropped as stubs nor their tails trimmed): culs-de-sac
+        the same aim keeps.
+    drop : lines that go when they end in a stub, whatever their length (the same aim, for a pattern that never
+        closes its trees).
 
     Returns
     -------
@@ -84,8 +103,9 @@ def close_stubs(lines: list[np.ndarray], bridges: list[bool], town: np.ndarray, 
     town_tree = shapely.STRtree(town) if len(town) else None
     links: list[np.ndarray] = []
     linked: list[int] = []
+    ran: list[tuple[int, int]] = []
     for k, side in ends:
-        if bridges[k]:
+        if bridges[k] or (k, side) in withhold:
             continue
         xy = lines[k]
         p, prev = (xy[0], xy[1]) if side == 0 else (xy[-1], xy[-2])
@@ -102,25 +122,36 @@ def close_stubs(lines: list[np.ndarray], bridges: list[bool], town: np.ndarray, 
             lines[j] = _with_vertex(lines[j], at)
         links.append(link)
         linked.append(k)
+        ran.append((k, side))
     out = lines + links
     flags = np.array([bool(b) for b in bridges] + [False] * len(links), dtype=bool)
     at = np.arange(len(out))  # each line's place in ``lines + links``
+    stays = np.zeros(len(out), dtype=bool)  # ``keep``'s lines: to the rounds below, as bridges are
+    stays[[k for k in keep if 0 <= k < len(lines)]] = True
+    short: list[int] = []
     for _ in range(MAX_ROUNDS):  # a stub dropped can leave the street it hung from a stub in turn
         now = [out[i] for i in at.tolist()]
-        keep = _drop_stubs(now, flags[at].tolist(), town, town_nodes, reach)
-        if len(keep) == len(at):
-            trimmed = _trim_tails(now, flags[at].tolist(), town, town_nodes, reach)
+        alone = (flags[at] | stays[at]).tolist()
+        kept = _drop_stubs(now, alone, town, town_nodes, reach, frozenset(np.flatnonzero(np.isin(at, list(drop)))
+                                                                          .tolist()) if drop else frozenset())
+        if len(kept) == len(at):
+            trimmed = _trim_tails(now, alone, town, town_nodes, reach)
             if all(t is xy for t, xy in zip(trimmed, now)):
                 break
             for i, xy in zip(at.tolist(), trimmed):
                 out[i] = xy
             continue
-        at = at[keep]
+        if not short:  # the first round that drops: the stubs themselves, not what their drop left
+            short = [i for i in np.setdiff1d(at, at[kept]).tolist() if i < len(lines)]
+        at = at[kept]
     if loops and len(at):
         at = at[_in_loops([out[i] for i in at.tolist()], flags[at], town, town_nodes)]
     source = np.array(list(range(len(lines))) + linked, dtype=np.int64)[at]
+    final = [out[i] for i in at.tolist()]
+    stubs = sorted({int(at[j]) for j, _ in _stub_ends(final, town, town_nodes) if at[j] < len(lines)}) if final else []
     return ([out[i] for i in at.tolist()], flags[at].tolist(),
-            StubReport(tees=len(links), dropped=len(out) - len(at), source=tuple(source.tolist())))
+            StubReport(tees=len(links), dropped=len(out) - len(at), source=tuple(source.tolist()), ran=tuple(ran),
+                                 short=tuple(short), stubs=tuple(stubs)))
 
 
 #: Rounds of dropping stubs (each may leave new ones).
@@ -128,12 +159,13 @@ MAX_ROUNDS = 8
 
 
 def _drop_stubs(lines: list[np.ndarray], bridges: list[bool], town: np.ndarray, town_nodes: np.ndarray,
-                reach: float) -> np.ndarray:
-    """One round: the indices of the lines kept, the stubs shorter than ``reach`` (bridges aside) gone."""
+                reach: float, always: frozenset[int] = frozenset()) -> np.ndarray:
+    """One round: the indices of the lines kept, the stubs shorter than ``reach`` (bridges aside) and those of
+    ``always`` gone."""
     if not lines:
         return np.zeros(0, dtype=np.int64)
     ends = [(k, side) for k, side in _stub_ends(lines, town, town_nodes) if not bridges[k]]
-    drop = {k for k, _ in ends if polyline_length(lines[k]) < reach}
+    drop = {k for k, _ in ends if k in always or polyline_length(lines[k]) < reach}
     return np.array([k for k in range(len(lines)) if k not in drop], dtype=np.int64)
 
 

@@ -121,28 +121,58 @@ class DistrictYardstick:
                                                               pieces=False, wanted=JUDGED)) for d in discs])
         return self.discs[k]
 
-    def limits(self, areas: Sequence[float] | np.ndarray) -> np.ndarray:
-        """``(len(JUDGED), 2)``: the range the verdict allows each judged scalar for a growth whose pieces stand
-        for discs of ``areas`` m² (:func:`osm_expand.growth_fidelity.piece_areas`): the discs' counts pooled
-        per part (the i-th piece of a bin takes the bin's discs from its i-th on), the scalars of the pools."""
+    def pooled(self, areas: Sequence[float] | np.ndarray) -> np.ndarray:
+        """``(parts, len(JUDGED))``: the judged scalars of the town's neighbourhood discs pooled per part for a
+        growth whose pieces stand for discs of ``areas`` m² (the i-th piece of a bin takes the bin's discs from
+        its i-th on), as the verdict pools them."""
         pooled = np.zeros((self.parts, 5))
         seen: dict[int, int] = {}
         for area in areas:
             k = round(math.log(max(float(area), 1.0)) / math.log(AREA_STEP))
             pooled += np.roll(self._counts(k), -seen.get(k, 0), axis=0)
             seen[k] = seen.get(k, 0) + 1
-        values = _scalars(pooled)
+        return _scalars(pooled)
+
+    def limits(self, areas: Sequence[float] | np.ndarray) -> np.ndarray:
+        """``(len(JUDGED), 2)``: the range the verdict allows each judged scalar for a growth whose pieces stand
+        for discs of ``areas`` m² (:func:`osm_expand.growth_fidelity.piece_areas`): the scalars of the discs'
+        counts pooled per part (:meth:`pooled`)."""
+        values = self.pooled(areas)
         return np.array([scalar_range(m, values[:, j]) for j, m in enumerate(JUDGED)])
+
+    def measured(self, lines: Sequence[np.ndarray], open_points: np.ndarray) -> tuple[np.ndarray, list[float]] | None:
+        """A growth's counts ``(5,)`` (street length m, area m², dead ends, junctions and dead ends, 2-core length m)
+        on its streets' land, open at ``open_points``, and the areas (m²) of the pieces that land makes
+        (:func:`osm_expand.growth_fidelity.piece_areas`); None when the streets make no land."""
+        window = closed_land(lines, WINDOW_CLOSE, self.margin)
+        if window.is_empty or not window.area > 0:
+            return None
+        measured = measure_network(lines, window=window, open_points=open_points, pieces=False, wanted=JUDGED)
+        return _counts(measured), list(piece_areas(window, self.min_piece_area))
+
+    def aim(self, lines: Sequence[np.ndarray], open_points: np.ndarray) -> tuple[np.ndarray, np.ndarray] | None:
+        """A growth's counts (:meth:`measured`) and the town's pooled neighbourhoods' median of each judged
+        scalar for it (NaN-skipping): what an era's growth aims at, as the district's topology aims at its
+        town's neighbourhoods' medians (:mod:`synth.patches.topology`); None when the streets make no land."""
+        got = self.measured(lines, open_points)
+        if got is None:
+            return None
+        counts, areas = got
+        pooled = self.pooled(areas)
+        finite = np.isfinite(pooled)
+        medians = np.array([float(np.median(pooled[finite[:, j], j])) if finite[:, j].any() else float("nan")
+                            for j in range(pooled.shape[1])])
+        return counts, medians
 
     def score(self, lines: Sequence[np.ndarray], open_points: np.ndarray) -> DistrictScore:
         """A growth's streets (each ``(n_i, 2)`` m), open at ``open_points`` ``(K, 2)`` (where they meet the
         streets that are not growth), judged on its streets' land against the town's pooled neighbourhoods."""
-        window = closed_land(lines, WINDOW_CLOSE, self.margin)
-        if window.is_empty or not window.area > 0:
+        got = self.measured(lines, open_points)
+        if got is None:
             return DistrictScore(out=len(JUDGED), distance=float(len(JUDGED)))
-        measured = measure_network(lines, window=window, open_points=open_points, pieces=False, wanted=JUDGED)
-        values = _scalars(_counts(measured)[None, :])[0]
-        low, high = self.limits(piece_areas(window, self.min_piece_area)).T
+        counts, areas = got
+        values = _scalars(counts[None, :])[0]
+        low, high = self.limits(areas).T
         beyond = np.where(values < low, low - values, np.where(values > high, values - high, 0.0))
         width = high - low
         far = np.where(width > 0, beyond / np.where(width > 0, width, 1.0), beyond)
@@ -169,10 +199,12 @@ def _scalars(counts: np.ndarray) -> np.ndarray:
     return np.column_stack([density, dead_end, two_core])
 
 
-def growth_lines(city: City) -> tuple[list[np.ndarray], np.ndarray]:
+def growth_lines(city: City, era: str | None = None) -> tuple[list[np.ndarray], np.ndarray]:
     """The engine's street growth in ``city`` (streets of origin ``engine`` but its major roads, as the growth
-    verdict judges it: :func:`osm_expand.growth_fidelity.is_major_road`) as polylines, and the points ``(K, 2)``
-    where it meets the other streets (where it is open)."""
+    verdict judges it: :func:`osm_expand.growth_fidelity.is_major_road`), or with ``era`` that era's alone (as the
+    verdict judges an era), as polylines, and the points ``(K, 2)`` where it meets the other streets (where it is
+    open)."""
     net = city.network
-    mine = np.array([s.origin == Origin.ENGINE and not is_major_road(s) for s in net.streets], dtype=bool)
+    mine = np.array([s.origin == Origin.ENGINE and not is_major_road(s) and (era is None or s.era == era)
+                     for s in net.streets], dtype=bool)
     return [net.street_xy(s) for s, m in zip(net.streets, mine) if m], meeting_points(net, mine, ~mine)
