@@ -35,7 +35,10 @@ bends_of_neighbourhoods=true`` (patches ranked by their bends' KS distance to al
 one piece 2.3° -> 0.3°, curvature KS 0.372 -> 0.256, without every joint's chords 0.245 -> 0.124;
 north-bayreuth 0.150 -> 0.137 (0.080 -> 0.073).
 
-Usage: ``python benchmarks/stitching_bends.py [--seed N] [--option NAME=VALUE ...] [TOWN ...]`` (default: Krems and
+Session 37 (h37c): ``--district`` classifies the pipeline's district instead (the README picture's circle; no
+years run).
+
+Usage: ``python benchmarks/stitching_bends.py [--seed N] [--option NAME=VALUE ...] [--district] [TOWN ...]`` (default: Krems and
 north-bayreuth; about 15 s CPU each). ``--option`` (repeatable, a JSON value) sets a :class:`synth.patches.PatchOptions`
 field in every PatchOptions the run makes that does not set it itself (the history's eras take theirs from the
 defaults), e.g. ``--option edge_min_run=0.5``.
@@ -146,6 +149,9 @@ def main() -> None:
     ap.add_argument("towns", nargs="*", default=["krems.osm.gz", "north-bayreuth.osm.gz"])
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--option", action="append", default=[], metavar="NAME=VALUE")
+    ap.add_argument("--district", action="store_true",
+                    help="the pipeline's district (the circle of the README's picture) instead of the engine's "
+                         "districts; no years are run")
     args = ap.parse_args()
     if args.option:
         _default_patch_options({k: json.loads(v) for k, v in (o.split("=", 1) for o in args.option)})
@@ -160,11 +166,15 @@ def main() -> None:
     from synth.patches import SHARP, corner_turns
 
     for name in args.towns:
-        city = expand(load(REPO / "fixtures" / name), ExpandOptions(seed=args.seed, fidelity=False))
         first = len(watch.rounds)
-        result = mature_result(city, load_history("example"), MatureOptions(fidelity=False), args.seed)
-        net = result.city.network
-        engine = [net.street_xy(s) for s in net.streets if s.origin == Origin.ENGINE]
+        city = expand(load(REPO / "fixtures" / name), ExpandOptions(seed=args.seed, fidelity=False))
+        if args.district:  # the pipeline's district: its quilting rounds, its streets
+            net, grew = city.city.network, Origin.GROWN
+        else:
+            first = len(watch.rounds)
+            net = mature_result(city, load_history("example"), MatureOptions(fidelity=False), args.seed).city.network
+            grew = Origin.ENGINE
+        engine = [net.street_xy(s) for s in net.streets if s.origin == grew]
         town = [net.street_xy(s) for s in net.streets if s.origin == Origin.SOURCE]
         grown = shapely.MultiLineString([shapely.LineString(x) for x in engine]) if engine else None
         bends, kinds, corners, km = [], [], 0, 0.0
@@ -182,7 +192,7 @@ def main() -> None:
             corners += int((corner_turns(district) > SHARP).sum())
             km += district.total_length() / 1000.0
         if not bends:
-            print(f"{name} seed {args.seed}: no engine district placed")
+            print(f"{name} seed {args.seed}: no {'district' if args.district else 'engine district'} placed")
             continue
         b, k = np.concatenate(bends), np.concatenate(kinds)
         whole = np.sort(measure_network(town, pieces=False).value("curvature"))

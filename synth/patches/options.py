@@ -80,7 +80,7 @@ class PatchOptions:
     also_typical: tuple[str, ...] = ()
     #: Rank the candidate patches by their curvature as the fidelity verdict reads it: the KS distance between a
     #: patch's bends per 20 m chord and the mean distribution of all the candidates drawn (the town's
-    #: neighbourhoods, each weighing the same: :func:`~synth.patches.source._bends_apart`), 0 best, scaled by the
+    #: neighbourhoods, each weighing the same: :func:`~synth.patches.source._apart`), 0 best, scaled by the
     #: candidates' spread of it, instead of by the distance of its median bend to the median of the patches
     #: ``density_band`` kept. Why: the band keeps the denser half, which in an old European town is its
     #: medieval core; the most typical of the core is the most typical core, with its curving lanes (Krems,
@@ -108,6 +108,15 @@ class PatchOptions:
     #: 7 6 4 (both shares out), Andorra 1 1 1, north-bayreuth 2 2 2, Monaco 4 4 5, Campo Grande 6 6 7 (both shares
     #: out) (session 36, h36c).
     bends_of_neighbourhoods: bool = False
+    #: Rank the candidate patches on every measure as the fidelity verdict reads a district against the town's
+    #: neighbourhoods, all of them (the ones drawn, not the ``density_band``'s half): a distribution
+    #: (curvature, circuity, edge length) by its KS distance to their mean distribution, a scalar (dead-end,
+    #: three-way and 2-core shares; the 2-core share, the blocks a patch forms, added to :data:`TYPICAL`) by its
+    #: distance to their median, each scaled by its spread over them
+    #: (:func:`~synth.patches.source._as_the_verdict_reads`). Replaces ``bends_of_neighbourhoods``, which read only
+    #: the curvature so and the rest against the band's own median (the old town's). Measured below (session 37,
+    #: h37c).
+    typical_of_neighbourhoods: bool = False
     #: A patch turns to match its neighbours' grid only when both have a clear main direction:
     #: the fullest 5° bin of bearings (mod 90°) holds this many times its share.
     orientation_peak: float = 2.0
@@ -326,6 +335,9 @@ class PatchOptions:
             raise OptionError(f"PatchOptions.seam_link_turn must be true or false, got {self.seam_link_turn!r}")
         if not isinstance(self.stubs_at_bends, bool):
             raise OptionError(f"PatchOptions.stubs_at_bends must be true or false, got {self.stubs_at_bends!r}")
+        if not isinstance(self.typical_of_neighbourhoods, bool):
+            raise OptionError(f"PatchOptions.typical_of_neighbourhoods must be true or false, "
+                              f"got {self.typical_of_neighbourhoods!r}")
         if not isinstance(self.bends_of_neighbourhoods, bool):
             raise OptionError(f"PatchOptions.bends_of_neighbourhoods must be true or false, "
                               f"got {self.bends_of_neighbourhoods!r}")
