@@ -72,10 +72,10 @@ STRAIGHT = 1.0
 
 def eye(result) -> dict:
     """What a viewer sees beside the verdict's KS distances: the share of the district's curvature chords that
-    are straight (``STRAIGHT``), and the blocks its streets and joins close per km of their length (blocks
-    closed with a town street are not counted), each beside the median of the town's neighbourhoods (discs of
-    the district's area on 16 of the yardstick's junctions, the town's mapped streets in them; a block cut by
-    the disc is not counted there either). A district of short curving pieces and few blocks reads as scraps,
+    are straight (``STRAIGHT``; its streets and joins), and the blocks closed per km of street in a disc of the
+    district's area on the site's centre (every street in it, the town's too), each beside the median of the
+    town's neighbourhoods (discs of the district's area on 16 of the yardstick's junctions, the town's mapped
+    streets in them; a block the disc cuts is not counted, in either). A district of short curving pieces and few blocks reads as scraps,
     whatever its off count (issue 20, session 37)."""
     from osm_expand.measures import LineSet, measure_network
     from osm_expand.model import Origin
@@ -90,9 +90,11 @@ def eye(result) -> dict:
                 m.blocks / max(m.length / 1000.0, 1e-9))
 
     grown = [net.street_xy(s) for s in net.streets if s.origin in (Origin.GROWN, Origin.JOIN)]
-    straight, blocks = read(grown) if grown else (float("nan"), float("nan"))
-    town = LineSet.from_lines([net.street_xy(s) for s in net.streets if s.origin == Origin.SOURCE])
+    straight = read(grown)[0] if grown else float("nan")
     radius = float(np.sqrt(max(result.report["district_area_m2"], 1.0) / np.pi))
+    # blocks as the neighbourhoods' are read: every street in a disc of the district's area on the site's centre
+    blocks = read([net.street_xy(s) for s in net.streets], shapely.Point(result.report["site_centre"]).buffer(radius))[1]
+    town = LineSet.from_lines([net.street_xy(s) for s in net.streets if s.origin == Origin.SOURCE])
     around = _neighbourhood_points(_source(result.city, result.learned.example, everything=True), 16, radius,
                                    np.random.default_rng(0))
     town_read = np.array([read(town, shapely.Point(c).buffer(radius)) for c in around])

@@ -114,8 +114,18 @@ class PatchOptions:
     #: three-way and 2-core shares; the 2-core share, the blocks a patch forms, added to :data:`TYPICAL`) by its
     #: distance to their median, each scaled by its spread over them
     #: (:func:`~synth.patches.source._as_the_verdict_reads`). Replaces ``bends_of_neighbourhoods``, which read only
-    #: the curvature so and the rest against the band's own median (the old town's). Measured below (session 37,
-    #: h37c).
+    #: the curvature so and the rest against the band's own median (the old town's). At the patch level it does
+    #: what it says (top three patches at 1.5 cells, seed 0, pooled curvature KS against the whole town, off ->
+    #: on: Krems 0.310 -> 0.206, Monaco 0.046 -> 0.025, Andorra 0.192 -> 0.141, north-bayreuth 0.104 -> 0.098;
+    #: every top patch's 2-core share within the verdict's range), and the engine's Krems districts straighten
+    #: (``stitching_bends.py``, seed 0: one piece median 2.3° -> 1.0°, curvature KS 0.372 -> 0.282). Off: the
+    #: districts move and the verdicts fall. The pipeline's district (``district_fidelity.py --table``, seeds 0-4,
+    #: mean off of 14, off -> on): Krems 2.0 -> 2.6 (its curvature KS 0.368 -> 0.429, straight chords 0.33 ->
+    #: 0.25), Andorra 3.0 -> 1.6, north-bayreuth 2.6 -> 2.4, Campo Grande 2.6 -> 1.8, Monaco 2.2 -> 3.8 (over
+    #: issue 20's 3: block area, curvature, edge and stroke length off); the engine's 30 years
+    #: (``engine_growth.py --seed 0``, off of 14 per reference, main -> on): Krems 1 1 1 -> 5 3 4 (stroke length,
+    #: curvature KS 0.282 against 0.20-0.26), Andorra 1 1 1 -> 6 7 6, north-bayreuth 2 3 2 -> 2 2 3, Monaco 2 3 3
+    #: -> 7 7 9 (dead-end 0.235 above, 2-core 0.822 below range), Campo Grande 3 5 4 -> 6 6 5 (session 37, h37c).
     typical_of_neighbourhoods: bool = False
     #: A patch turns to match its neighbours' grid only when both have a clear main direction:
     #: the fullest 5° bin of bearings (mod 90°) holds this many times its share.
