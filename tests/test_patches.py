@@ -936,3 +936,55 @@ def test_bends_of_neighbourhoods_is_true_or_false():
     """A history's "false" is a string, which Python reads as true: it is refused at the history's reading."""
     with pytest.raises(OptionError, match="bends_of_neighbourhoods"):
         PatchOptions(bends_of_neighbourhoods="false")  # type: ignore[arg-type]
+
+
+def test_edge_turn_lays_no_perimeter_street_that_doubles_back_on_the_streets_it_ends():
+    """``edge_turn`` (issue 20, session 37): each cut end is joined to its neighbour along the edge whatever its
+    street's heading, so two cut streets that splay out to the edge get a run that turns back 135° onto each (a
+    V, Krems' district: 9 of its 14 perimeter joints over 105°). With a bound of 105° that run is not laid and
+    both cut ends stay open; two streets meeting the edge square are joined by default and with the bound."""
+    from synth.patches.edges import _edge_streets, _joint_turns
+
+    region = shapely.box(0.0, 0.0, 400.0, 200.0)
+    far = shapely.LineString([(5000, 5000), (5100, 5000)])
+    for pieces, laid in (([[(200.0, 50.0), (150.5, 0.5)], [(210.0, 50.0), (259.5, 0.5)]], 0),
+                         ([[(150.0, 100.0), (150.0, 0.5)], [(250.0, 100.0), (250.0, 0.5)]], 1)):
+        quilt = _cut_quilt(pieces, [(0, -1), (1, -1)], [0, 1])
+        default, bounded = copy.deepcopy(quilt), copy.deepcopy(quilt)
+        assert _edge_streets(default, region, 100.0, PatchOptions(), shapely.Polygon(), far) == 1
+        path = default.xy[-1]
+        first = int(np.argmin([np.hypot(*(path[0] - p)) for p in quilt.cut_xy]))
+        turns = _joint_turns(path, quilt.cut_heading[first], quilt.cut_heading[1 - first])
+        assert np.allclose(turns, 135.0 if not laid else 90.0, atol=3.0), turns
+        assert _edge_streets(bounded, region, 100.0, PatchOptions(edge_turn=105.0), shapely.Polygon(), far) == laid
+        assert len(bounded.cut_xy) == 2 - 2 * laid
+    for bad in (0, 181, float("nan"), "90"):
+        with pytest.raises(OptionError, match="edge_turn"):
+            PatchOptions(edge_turn=bad)
+
+
+def test_seam_jog_links_no_streets_offset_sideways_but_keeps_a_gentle_link():
+    """``seam_jog`` (issue 20, session 37): two cut streets facing each other 50 m apart sideways and 10 m ahead
+    turn 0° against each other, so the default links them, an S turning 79° off each street (Krems' district,
+    seed 0: its two longest links turn 77-107° off theirs, its seam joints' chords 82° median); with a bound of
+    60° they are left open. A link 30 m ahead and 25 m sideways (40° off each) is made either way, unlike
+    ``seam_link_turn`` whose bound on the sum (75°) would take it too."""
+    from synth.patches.seams import _link_turns
+
+    far = shapely.LineString([(5000, 5000), (5100, 5000)])
+    for end, linked in (((10.0, 50.0), 0), ((30.0, 25.0), 1)):
+        x, y = end
+        quilt = _cut_quilt([[(-100.0, 0.0), (0.0, 0.0)], [(x, y), (x + 100.0, y)]], [(0, -1), (1, 0)], [0, 1])
+        at_a, at_b = _link_turns(np.array([[0.0, 0.0]]), np.array([[1.0, 0.0]]), np.array([end]),
+                                 np.array([[-1.0, 0.0]]))
+        assert at_a[0] == pytest.approx(at_b[0]) and (at_a[0] > 60.0) == (not linked)
+        default, bounded = copy.deepcopy(quilt), copy.deepcopy(quilt)
+        assert _walk_seams(default, 100.0, PatchOptions(), shapely.Polygon(), far) == 1
+        assert _walk_seams(bounded, 100.0, PatchOptions(seam_jog=60.0), shapely.Polygon(), far) == linked
+        assert len(bounded.cut_xy) == 2 - 2 * linked
+        if linked:
+            assert _walk_seams(copy.deepcopy(quilt), 100.0, PatchOptions(seam_link_turn=True), shapely.Polygon(),
+                               far) == 0
+    for bad in (0, 181, float("nan"), "60"):
+        with pytest.raises(OptionError, match="seam_jog"):
+            PatchOptions(seam_jog=bad)

@@ -259,6 +259,15 @@ class PatchOptions:
     #: on: Krems 1 0 -> 2 0 (6.8 -> 3.8), north-bayreuth 3 3 -> 4 4 (8.9 -> 9.1), Andorra 4 7 -> 6 2 (5.3 -> 4.3),
     #: Monaco 1 3 -> 4 3 (8.6 -> 6.4; density out on seed 1) (session 35, h35b).
     seam_link_turn: bool = False
+    #: When set, degrees: a seam link is not made when the street would turn more than this from either cut
+    #: street onto the straight line between the two cut ends (:func:`~synth.patches.seams._link_turns`); those
+    #: cut ends go to tees, perimeter streets and the trimming. Why: the transition reads only the angle between
+    #: the two cut streets, so two streets facing each other 50 m apart sideways and 10 m ahead are a straight
+    #: continuation to it, and the smooth link between them is an S or a hook (Krems' district, seed 0: its two
+    #: longest links turn 86° and 77°, 107° and 103° off their streets; its seam joints' chords median 82°).
+    #: Milder than ``seam_link_turn`` (which bounds the sum of the two by ``seam_turn``, 75°, and leaves almost no
+    #: link): a link that runs on ahead of both streets, turning gently at each, is kept.
+    seam_jog: float | None = None
     #: The cul-de-sacs the district keeps of its cut streets (``_stub_budget``: as many as its town's
     #: neighbourhoods' dead-end share allows) are first those whose trimming would leave their junction an L
     #: (:func:`~synth.patches.topology._leaves_bend`: a node of degree two turning more than 45°), then, as
@@ -293,6 +302,13 @@ class PatchOptions:
     #: corners over 45° per km, off -> 0.5: Krems 1 0 -> 2 0 (6.8 -> 5.8), north-bayreuth 3 3 -> 2 1 (8.9 -> 5.5),
     #: Andorra 4 7 -> 4 5 (5.3 -> 4.1), Monaco 1 3 -> 4 4 (8.6 -> 6.8) (session 35, h35b).
     edge_min_run: float | None = None
+    #: When set, degrees: a perimeter street (:mod:`~synth.patches.edges`) that would turn more than this from a
+    #: cut street it ends (read over its first and last 10 m, :func:`~synth.patches.edges._joint_turns`) is not
+    #: laid; its cut ends go to the other run along the edge, or to the trimming. Why: each cut end is joined to
+    #: its neighbour along the edge whatever its street's heading, and where two cut streets converge on the edge
+    #: the run between them doubles back on both (Krems' district, seed 0: turns at its 14 perimeter joints 28-167°,
+    #: 9 over 105°), a V no street of the town makes; a town's streets meet at about right angles or run on.
+    edge_turn: float | None = None
     #: A cut end left over runs on this many spacings to meet a street in a tee ...
     tee_reach: float = 0.6
     #: ... meeting it at this angle or more (degrees).
@@ -337,6 +353,11 @@ class PatchOptions:
         if least is not None and not (is_real_number(least) and math.isfinite(least) and least > 0):
             raise OptionError(f"PatchOptions.edge_min_run must be a finite number of spacings > 0 or unset, "
                               f"got {least!r}")
+        for name in ("edge_turn", "seam_jog"):
+            bound = getattr(self, name)
+            if bound is not None and not (is_real_number(bound) and 0 < bound <= 180):
+                raise OptionError(f"PatchOptions.{name} must be a turn in degrees, > 0 and <= 180, or unset, "
+                                  f"got {bound!r}")
         turn = self.near_join
         if turn is not None and not (is_real_number(turn) and 0 < turn <= 180):
             raise OptionError(f"PatchOptions.near_join must be a turn in degrees, > 0 and <= 180, or unset, "
