@@ -44,6 +44,14 @@ kinks a viewer sees. Without the piece joints 0.206. north-bayreuth: 149 chords,
 without them 0.181; its 24 piece joints are all the town's way joints (2.4°). ``--option
 typical_of_neighbourhoods=true`` (engine districts, Krems): one piece 2.3° -> 1.0°, KS 0.372 -> 0.282.
 
+Session 37 (h37c, second helper), ``--district``, seed 0: the perimeter joints kink because each cut end is joined
+to its neighbour along the edge whatever its street's heading (Krems' 14 perimeter joints turn 28-167°, 9 over
+105°: Vs between cut streets splaying to the edge); the seam joints because the transition reads only the angle
+between the two cut streets, so streets facing each other far apart sideways get an S or a hook (Krems' two longest
+links turn 77-107° off their streets). ``--option seam_jog=90``: Krems' seam joints 82° -> 17°, KS 0.371 ->
+0.316; ``--option edge_turn=135``: Krems' joint edge 64° -> 21°, north-bayreuth's 57° -> 38° (KS 0.264 -> 0.300,
+its district moved). Both off (:class:`synth.patches.PatchOptions`, their measurements).
+
 Usage: ``python benchmarks/stitching_bends.py [--seed N] [--option NAME=VALUE ...] [--district] [TOWN ...]`` (default: Krems and
 north-bayreuth; about 15 s CPU each). ``--option`` (repeatable, a JSON value) sets a :class:`synth.patches.PatchOptions`
 field in every PatchOptions the run makes that does not set it itself (the history's eras take theirs from the

@@ -267,6 +267,14 @@ class PatchOptions:
     #: longest links turn 86° and 77°, 107° and 103° off their streets; its seam joints' chords median 82°).
     #: Milder than ``seam_link_turn`` (which bounds the sum of the two by ``seam_turn``, 75°, and leaves almost no
     #: link): a link that runs on ahead of both streets, turning gently at each, is kept.
+    #: Off: it takes the kinks away but moves Monaco's district (joins to the town 7 -> 2, density out of range on
+    #: 2 seeds). Session 37 (h37c): ``stitching_bends.py --district`` seed 0, off -> 60 -> 90: Krems' seam joints
+    #: 9 chords at 82° -> 3 at 33° -> 6 at 17°, curvature KS 0.371 -> 0.325 -> 0.316, corners over 45° 8.3 -> 5.2
+    #: per km; north-bayreuth the same (no seam joint). ``district_fidelity.py --table`` (seeds 0-4; against
+    #: ``--option seam_jog=null``, the same path), mean off and corners over 45° per km, off -> 60 -> 90: Krems
+    #: 1.0 -> 1.4 -> 1.4 (7.4 -> 5.1 -> 5.2; density in range 5/5 -> 4/5), Andorra 4.6 -> 5.4 -> 5.4 (4.3 -> 3.3
+    #: -> 3.2), north-bayreuth 3.8 -> 3.6 -> 3.6 (7.6 -> 7.5), Campo Grande 2.0 (4.2 -> 3.3 -> 3.8), Monaco 2.8
+    #: -> 6.6 -> 5.6 (8.2 -> 5.2 -> 6.0; density 4/5 -> 3/5).
     seam_jog: float | None = None
     #: The cul-de-sacs the district keeps of its cut streets (``_stub_budget``: as many as its town's
     #: neighbourhoods' dead-end share allows) are first those whose trimming would leave their junction an L
@@ -308,6 +316,14 @@ class PatchOptions:
     #: its neighbour along the edge whatever its street's heading, and where two cut streets converge on the edge
     #: the run between them doubles back on both (Krems' district, seed 0: turns at its 14 perimeter joints 28-167°,
     #: 9 over 105°), a V no street of the town makes; a town's streets meet at about right angles or run on.
+    #: Off: it straightens the joints but costs Andorra's and Monaco's districts their blocks and verdict. Session
+    #: 37 (h37c), ``stitching_bends.py --district`` seed 0, joint-edge chords' median and curvature KS, off -> 105
+    #: -> 135: Krems 64° -> 24° -> 21°, KS 0.371 -> 0.393 -> 0.363; north-bayreuth 57° -> 34° -> 38°, KS 0.264 ->
+    #: 0.274 -> 0.300. ``district_fidelity.py --table`` (seeds 0-4; against ``--option seam_jog=null``, the
+    #: same path: one grower for the five seeds), mean off, off -> 135: Krems 1.0 -> 2.2, Andorra 4.6 -> 5.8
+    #: (blocks per km 0.3 -> 0.1), north-bayreuth 3.8 -> 3.2 (dead-end and 2-core in range 5/5 -> 4/5, corners
+    #: over 45° 7.6 -> 9.2 per km), Campo Grande 2.0 -> 1.8, Monaco 2.8 -> 6.6; at 105 Krems 2.2, Andorra 6.6
+    #: (blocks per km 0.0 0.0 0.4 0.4 0.3), the rest not run.
     edge_turn: float | None = None
     #: A cut end left over runs on this many spacings to meet a street in a tee ...
     tee_reach: float = 0.6
