@@ -343,6 +343,38 @@ def test_the_towns_streets_kept_between_districts_are_those_read_afresh():
         assert np.array_equal(a.xy, b.xy)
 
 
+def test_a_grower_reused_over_seeds_grows_what_a_fresh_one_grows():
+    """The Python API's promise, same seed, same district: one pattern object grown with seed 0 then seed 1
+    gives seed 1's district of a fresh run (the ranked patches it kept were drawn with seed 0's generator:
+    Krems' seed 1 grew 84 streets at another site instead of 77; ``district_fidelity.py --option`` reused one)."""
+    from osm_expand.growth_patterns import make_pattern
+    from osm_expand.pipeline import learn
+
+    city = load(FIXTURES / "krems.osm.gz")
+    grower = make_pattern("example", learn(city).example)
+    expand(city, ExpandOptions(seed=0), pattern=grower)
+    reused, fresh = expand(city, ExpandOptions(seed=1), pattern=grower), district("krems.osm.gz", 1)
+    assert reused.report["site_centre"] == fresh.report["site_centre"]
+    a, b = reused.city.network, fresh.city.network
+    assert len(a.streets) == len(b.streets)
+    assert all(np.array_equal(a.street_xy(s), b.street_xy(t)) for s, t in zip(a.streets, b.streets))
+
+
+def test_a_fresh_pattern_keeps_its_options_and_nothing_it_computed():
+    """:meth:`ExamplePatches.fresh`: the same options and helpers, an empty cache and an empty memo of the
+    streets' land margin (each measured from the first district's lines)."""
+    from osm_expand.growth_patterns import make_pattern
+    from synth.growth import for_a_run
+
+    pattern = make_pattern("example", district("krems.osm.gz", 0).learned.example, PatchOptions(cells=5))
+    pattern.cache["corner_rate"] = 1.0
+    pattern.land.keywords["memo"]["margin"] = 12.0
+    fresh = for_a_run(pattern)
+    assert fresh.cache == {} and fresh.land.keywords["memo"] == {} and pattern.cache and pattern.land.keywords["memo"]
+    assert fresh.options == pattern.options and fresh.measure is pattern.measure and fresh.limits is pattern.limits
+    assert fresh.land.func is pattern.land.func
+
+
 @pytest.mark.parametrize("name", ["krems.osm.gz", "andorra.osm.pbf"])
 def test_the_share_guard_keeps_only_patches_with_their_towns_shares(name):
     """Issue 20 (h29f): with a band of a factor of two either way, some candidate patches have a dead-end or
