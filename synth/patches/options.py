@@ -270,11 +270,11 @@ class PatchOptions:
     #: Off: it takes the kinks away but moves Monaco's district (joins to the town 7 -> 2, density out of range on
     #: 2 seeds). Session 37 (h37c): ``stitching_bends.py --district`` seed 0, off -> 60 -> 90: Krems' seam joints
     #: 9 chords at 82° -> 3 at 33° -> 6 at 17°, curvature KS 0.371 -> 0.325 -> 0.316, corners over 45° 8.3 -> 5.2
-    #: per km; north-bayreuth the same (no seam joint). ``district_fidelity.py --table`` (seeds 0-4; against
-    #: ``--option seam_jog=null``, the same path), mean off and corners over 45° per km, off -> 60 -> 90: Krems
-    #: 1.0 -> 1.4 -> 1.4 (7.4 -> 5.1 -> 5.2; density in range 5/5 -> 4/5), Andorra 4.6 -> 5.4 -> 5.4 (4.3 -> 3.3
-    #: -> 3.2), north-bayreuth 3.8 -> 3.6 -> 3.6 (7.6 -> 7.5), Campo Grande 2.0 (4.2 -> 3.3 -> 3.8), Monaco 2.8
-    #: -> 6.6 -> 5.6 (8.2 -> 5.2 -> 6.0; density 4/5 -> 3/5).
+    #: per km; north-bayreuth the same (no seam joint). ``district_fidelity.py`` (seeds 0-4, each seed a fresh
+    #: grower: the default table), mean off and corners over 45° per km, off -> 90: Krems 2.0 -> 2.0 (7.3 -> 6.0;
+    #: pieces 1 1 2 1 1 -> all 1), Andorra 3.0 -> 3.2 (5.6 -> 4.4), north-bayreuth 2.6 -> 2.8 (8.0 -> 7.9),
+    #: Campo Grande 2.6 -> 2.2 (4.9 -> 3.7), Monaco 2.2 -> 4.4 (7.5 -> 6.5; density in range 5/5 -> 3/5).
+    #: (Earlier numbers, one grower reused over the seeds, carried seed 0's ranked patches into the others.)
     seam_jog: float | None = None
     #: The cul-de-sacs the district keeps of its cut streets (``_stub_budget``: as many as its town's
     #: neighbourhoods' dead-end share allows) are first those whose trimming would leave their junction an L
@@ -319,11 +319,11 @@ class PatchOptions:
     #: Off: it straightens the joints but costs Andorra's and Monaco's districts their blocks and verdict. Session
     #: 37 (h37c), ``stitching_bends.py --district`` seed 0, joint-edge chords' median and curvature KS, off -> 105
     #: -> 135: Krems 64° -> 24° -> 21°, KS 0.371 -> 0.393 -> 0.363; north-bayreuth 57° -> 34° -> 38°, KS 0.264 ->
-    #: 0.274 -> 0.300. ``district_fidelity.py --table`` (seeds 0-4; against ``--option seam_jog=null``, the
-    #: same path: one grower for the five seeds), mean off, off -> 135: Krems 1.0 -> 2.2, Andorra 4.6 -> 5.8
-    #: (blocks per km 0.3 -> 0.1), north-bayreuth 3.8 -> 3.2 (dead-end and 2-core in range 5/5 -> 4/5, corners
-    #: over 45° 7.6 -> 9.2 per km), Campo Grande 2.0 -> 1.8, Monaco 2.8 -> 6.6; at 105 Krems 2.2, Andorra 6.6
-    #: (blocks per km 0.0 0.0 0.4 0.4 0.3), the rest not run.
+    #: 0.274 -> 0.300. ``district_fidelity.py`` (seeds 0-4, each seed a fresh grower: the default table), mean
+    #: off, off -> 135: Krems 2.0 -> 1.6 (corners over 45° 7.3 -> 6.1 per km), Andorra 3.0 -> 3.6 (blocks per km
+    #: 0.1 -> 0.06), north-bayreuth 2.6 -> 3.4 (dead-end and 2-core share in range 5/5 -> 4/5), Campo Grande 2.6
+    #: -> 2.6, Monaco 2.2 -> 4.0 (density in range 5/5 -> 4/5). (Earlier numbers, at 105 too, reused one grower
+    #: over the seeds, which carried seed 0's ranked patches into the others.)
     edge_turn: float | None = None
     #: A cut end left over runs on this many spacings to meet a street in a tee ...
     tee_reach: float = 0.6
