@@ -35,7 +35,24 @@ bends_of_neighbourhoods=true`` (patches ranked by their bends' KS distance to al
 one piece 2.3° -> 0.3°, curvature KS 0.372 -> 0.256, without every joint's chords 0.245 -> 0.124;
 north-bayreuth 0.150 -> 0.137 (0.080 -> 0.073).
 
-Usage: ``python benchmarks/stitching_bends.py [--seed N] [--option NAME=VALUE ...] [TOWN ...]`` (default: Krems and
+Session 37 (h37c): ``--district`` classifies the pipeline's district instead (the README picture's circle; no
+years run), and the piece joints are split by what the copy had there before the trimming. Seed 0: Krems'
+district, 180 chords, KS 0.371 (bound 0.259): one piece 51 % (median 2.0°), piece joints 27 % (12.2°, 37 % over
+20°), of which 47 of 49 are where two of the town's ways meet (degree two in the copy already: the old town's own
+corners, 7.9°) and 2 are tees whose arm was trimmed (94°); joint edge 17 chords (64°), joint seam 9 (82°): the
+kinks a viewer sees. Without the piece joints 0.206. north-bayreuth: 149 chords, KS 0.264, joint edge 22 (57°),
+without them 0.181; its 24 piece joints are all the town's way joints (2.4°). ``--option
+typical_of_neighbourhoods=true`` (engine districts, Krems): one piece 2.3° -> 1.0°, KS 0.372 -> 0.282.
+
+Session 37 (h37c, second helper), ``--district``, seed 0: the perimeter joints kink because each cut end is joined
+to its neighbour along the edge whatever its street's heading (Krems' 14 perimeter joints turn 28-167°, 9 over
+105°: Vs between cut streets splaying to the edge); the seam joints because the transition reads only the angle
+between the two cut streets, so streets facing each other far apart sideways get an S or a hook (Krems' two longest
+links turn 77-107° off their streets). ``--option seam_jog=90``: Krems' seam joints 82° -> 17°, KS 0.371 ->
+0.316; ``--option edge_turn=135``: Krems' joint edge 64° -> 21°, north-bayreuth's 57° -> 38° (KS 0.264 -> 0.300,
+its district moved). Both off (:class:`synth.patches.PatchOptions`, their measurements).
+
+Usage: ``python benchmarks/stitching_bends.py [--seed N] [--option NAME=VALUE ...] [--district] [TOWN ...]`` (default: Krems and
 north-bayreuth; about 15 s CPU each). ``--option`` (repeatable, a JSON value) sets a :class:`synth.patches.PatchOptions`
 field in every PatchOptions the run makes that does not set it itself (the history's eras take theirs from the
 defaults), e.g. ``--option edge_min_run=0.5``.
@@ -141,11 +158,31 @@ def classify(watched: dict, points: np.ndarray) -> np.ndarray:
     return kind
 
 
+def copied_degree(watched: dict, middle: np.ndarray) -> np.ndarray:
+    """At each of ``middle`` (``(K, 2)``, a chord's middle point), how many arms the copied pieces had there as
+    placed, before the stitching and trimming: a piece through the point gives two, one ending there one. A
+    piece joint of degree 3 or more was a junction of the copy whose other arms the trimming took (an L left of
+    a tee), one of degree 2 is where two of the town's ways meet, a bend the town has too."""
+    pieces = [shapely.LineString(x) for x in watched["raw"]]
+    ends = shapely.points(np.array([x[i] for x in watched["raw"] for i in (0, -1)]))
+    lines = shapely.STRtree(pieces)
+    out = np.zeros(len(middle), dtype=int)
+    for k, xy in enumerate(middle):
+        at = shapely.Point(xy)
+        near = lines.query(at, predicate="dwithin", distance=0.5)
+        at_end = int((shapely.distance(ends, at) < 0.5).sum())
+        out[k] = 2 * len(near) - at_end
+    return out
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("towns", nargs="*", default=["krems.osm.gz", "north-bayreuth.osm.gz"])
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--option", action="append", default=[], metavar="NAME=VALUE")
+    ap.add_argument("--district", action="store_true",
+                    help="the pipeline's district (the circle of the README's picture) instead of the engine's "
+                         "districts; no years are run")
     args = ap.parse_args()
     if args.option:
         _default_patch_options({k: json.loads(v) for k, v in (o.split("=", 1) for o in args.option)})
@@ -160,14 +197,18 @@ def main() -> None:
     from synth.patches import SHARP, corner_turns
 
     for name in args.towns:
-        city = expand(load(REPO / "fixtures" / name), ExpandOptions(seed=args.seed, fidelity=False))
         first = len(watch.rounds)
-        result = mature_result(city, load_history("example"), MatureOptions(fidelity=False), args.seed)
-        net = result.city.network
-        engine = [net.street_xy(s) for s in net.streets if s.origin == Origin.ENGINE]
+        city = expand(load(REPO / "fixtures" / name), ExpandOptions(seed=args.seed, fidelity=False))
+        if args.district:  # the pipeline's district: its quilting rounds, its streets
+            net, grew = city.city.network, Origin.GROWN
+        else:
+            first = len(watch.rounds)
+            net = mature_result(city, load_history("example"), MatureOptions(fidelity=False), args.seed).city.network
+            grew = Origin.ENGINE
+        engine = [net.street_xy(s) for s in net.streets if s.origin == grew]
         town = [net.street_xy(s) for s in net.streets if s.origin == Origin.SOURCE]
         grown = shapely.MultiLineString([shapely.LineString(x) for x in engine]) if engine else None
-        bends, kinds, corners, km = [], [], 0, 0.0
+        bends, kinds, degrees, corners, km = [], [], [], 0, 0.0
         for watched in watch.rounds[first:]:
             final = watched.get("final", [])
             if grown is None or not final:
@@ -178,11 +219,14 @@ def main() -> None:
             b, p = chords(final)
             bends.append(b)
             kinds.append(classify(watched, p))
+            joint = kinds[-1] == "piece joint"
+            degrees.append(np.where(joint, 0, -1))
+            degrees[-1][joint] = copied_degree(watched, p[joint, 1])
             district = network_from_lines(final, [{"highway": "residential", "origin": Origin.GROWN}] * len(final))
             corners += int((corner_turns(district) > SHARP).sum())
             km += district.total_length() / 1000.0
         if not bends:
-            print(f"{name} seed {args.seed}: no engine district placed")
+            print(f"{name} seed {args.seed}: no {'district' if args.district else 'engine district'} placed")
             continue
         b, k = np.concatenate(bends), np.concatenate(kinds)
         whole = np.sort(measure_network(town, pieces=False).value("curvature"))
@@ -197,6 +241,14 @@ def main() -> None:
         without = [f"without {', '.join(JOINTS[:i + 1])} {ks_distance(b[~np.isin(k, JOINTS[:i + 1])], whole):.3f}"
                    for i in range(len(JOINTS))]
         print(f"curvature KS against the town: all {ks_distance(b, whole):.3f}; " + "; ".join(without))
+        d, joint = np.concatenate(degrees), k == "piece joint"
+        trimmed = joint & (d >= 3)
+        if joint.any():
+            print(f"piece joints where the copy had a junction (an arm trimmed away): {trimmed.sum()} of {joint.sum()}, "
+                  f"median {np.median(b[trimmed]) if trimmed.any() else float('nan'):.1f}°, over 20° "
+                  f"{np.mean(b[trimmed] > 20) if trimmed.any() else float('nan'):.2f}; the town's own way joints: "
+                  f"median {np.median(b[joint & (d < 3)]) if (joint & (d < 3)).any() else float('nan'):.1f}°; "
+                  f"KS without the trimmed ones {ks_distance(b[~trimmed], whole):.3f}")
 
 
 if __name__ == "__main__":

@@ -36,7 +36,7 @@ from simplify import simplify
 from simplify.example import Example, build_example
 from simplify.hierarchy import with_levels
 from simplify.options import SimplifyOptions
-from synth.growth import Growth, GrowthPattern
+from synth.growth import Growth, GrowthPattern, for_a_run
 
 #: A district smaller than this many blocks (squares of the town's junction spacing) is refused.
 MIN_BLOCKS = 9
@@ -138,7 +138,9 @@ def expand(city: City, options: ExpandOptions | None = None, *, pattern: GrowthP
     options : ExpandOptions
         Seed, where and how big.
     pattern : GrowthPattern, optional
-        How streets grow; default the random walk over the town's own example.
+        How streets grow; default the registry's ``options.pattern`` over the town's own example. A
+        copy without what the object kept from districts it grew before is used
+        (:func:`synth.growth.for_a_run`), so the same seed grows the same district with a reused object.
     progress : callable
         Told the name of each stage as it starts.
 
@@ -167,6 +169,8 @@ def expand(city: City, options: ExpandOptions | None = None, *, pattern: GrowthP
     notes = [BEYOND_NOTE] if beyond and not opts.beyond_bounds else []
     if pattern is None:
         pattern = make_pattern(opts.pattern, learned.example)  # OptionError for a name not in the registry
+    else:  # none of what the object kept from districts it grew before: the same seed, the same district
+        pattern = for_a_run(pattern)
     spacing = learned.example.spacing
     placement = place_district(
         city, sites, pattern, spacing=spacing, accept=at_least(MIN_JOINS),

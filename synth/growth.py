@@ -59,6 +59,21 @@ class GrowthPattern(Protocol):
         ...
 
 
+def for_a_run(pattern: GrowthPattern) -> GrowthPattern:
+    """``pattern`` with none of what it kept from earlier runs: what a caller grows a run of districts with.
+
+    A pattern may keep what it computed between the districts of one run (the example patches keep the
+    town's ranked patches: the engine's years and the pipeline's sites reuse them), and what it keeps was
+    drawn with the first district's generator, so it shapes the later ones. A run that starts from a
+    pattern object that grew before must start from none of it, or the same seed gives another district
+    than a fresh object does (``district_fidelity.py --option`` reused one object over its seeds: Krems
+    seed 1 grew 84 streets at another site instead of 77). A pattern with a ``fresh()`` method gives its
+    copy with empty caches; one without keeps nothing and is returned as is.
+    """
+    fresh = getattr(pattern, "fresh", None)
+    return fresh() if callable(fresh) else pattern
+
+
 def border_nodes(net: StreetNetwork, near: shapely.Geometry, reach: float) -> tuple[np.ndarray, np.ndarray]:
     """Nodes of the town within ``reach`` metres of ``near`` where a new street may end.
 

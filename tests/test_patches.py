@@ -343,6 +343,38 @@ def test_the_towns_streets_kept_between_districts_are_those_read_afresh():
         assert np.array_equal(a.xy, b.xy)
 
 
+def test_a_grower_reused_over_seeds_grows_what_a_fresh_one_grows():
+    """The Python API's promise, same seed, same district: one pattern object grown with seed 0 then seed 1
+    gives seed 1's district of a fresh run (the ranked patches it kept were drawn with seed 0's generator:
+    Krems' seed 1 grew 84 streets at another site instead of 77; ``district_fidelity.py --option`` reused one)."""
+    from osm_expand.growth_patterns import make_pattern
+    from osm_expand.pipeline import learn
+
+    city = load(FIXTURES / "krems.osm.gz")
+    grower = make_pattern("example", learn(city).example)
+    expand(city, ExpandOptions(seed=0), pattern=grower)
+    reused, fresh = expand(city, ExpandOptions(seed=1), pattern=grower), district("krems.osm.gz", 1)
+    assert reused.report["site_centre"] == fresh.report["site_centre"]
+    a, b = reused.city.network, fresh.city.network
+    assert len(a.streets) == len(b.streets)
+    assert all(np.array_equal(a.street_xy(s), b.street_xy(t)) for s, t in zip(a.streets, b.streets))
+
+
+def test_a_fresh_pattern_keeps_its_options_and_nothing_it_computed():
+    """:meth:`ExamplePatches.fresh`: the same options and helpers, an empty cache and an empty memo of the
+    streets' land margin (each measured from the first district's lines)."""
+    from osm_expand.growth_patterns import make_pattern
+    from synth.growth import for_a_run
+
+    pattern = make_pattern("example", district("krems.osm.gz", 0).learned.example, PatchOptions(cells=5))
+    pattern.cache["corner_rate"] = 1.0
+    pattern.land.keywords["memo"]["margin"] = 12.0
+    fresh = for_a_run(pattern)
+    assert fresh.cache == {} and fresh.land.keywords["memo"] == {} and pattern.cache and pattern.land.keywords["memo"]
+    assert fresh.options == pattern.options and fresh.measure is pattern.measure and fresh.limits is pattern.limits
+    assert fresh.land.func is pattern.land.func
+
+
 @pytest.mark.parametrize("name", ["krems.osm.gz", "andorra.osm.pbf"])
 def test_the_share_guard_keeps_only_patches_with_their_towns_shares(name):
     """Issue 20 (h29f): with a band of a factor of two either way, some candidate patches have a dead-end or
@@ -839,25 +871,25 @@ def test_edge_min_run_lays_no_perimeter_street_across_a_sliver():
         PatchOptions(edge_min_run=-1.0)
 
 
-def test_the_bends_apart_are_the_verdicts_ks_distance():
-    """``_bends_apart`` (``synth`` imports only the model) is :func:`osm_expand.fidelity.ks_distance` of each
+def test_the_apart_are_the_verdicts_ks_distance():
+    """``_apart`` (``synth`` imports only the model) is :func:`osm_expand.fidelity.ks_distance` of each
     patch's curvature chords against the neighbourhoods' mean distribution: with as many chords in each,
     all of them pooled; with more chords in one, it weighs no more."""
     from types import SimpleNamespace
 
     from osm_expand.fidelity import ks_distance
-    from synth.patches.source import _bends_apart
+    from synth.patches.source import _apart
 
     rng = np.random.default_rng(5)
     bends = [np.round(rng.exponential(s, 40), 1) for s in (1.0, 3.0, 0.5, 2.0)]
     measured = [SimpleNamespace(value=lambda name, b=b: b) for b in bends] + [SimpleNamespace(value=lambda name: [])]
-    got = _bends_apart(measured)
+    got = _apart(measured)
     pooled = np.sort(np.concatenate(bends))
     assert np.allclose(got[:4], [ks_distance(b, pooled) for b in bends], rtol=0, atol=1e-12)
     assert np.isnan(got[4])
     # the curviest neighbourhood's chords repeated ten times: the same distribution, the same distances
     measured[1] = SimpleNamespace(value=lambda name: np.repeat(bends[1], 10))
-    assert np.allclose(_bends_apart(measured), got, rtol=0, atol=1e-12, equal_nan=True)
+    assert np.allclose(_apart(measured), got, rtol=0, atol=1e-12, equal_nan=True)
 
 
 def test_patches_ranked_by_the_neighbourhoods_bends_are_as_straight_as_the_town():
@@ -888,7 +920,103 @@ def test_patches_ranked_by_the_neighbourhoods_bends_are_as_straight_as_the_town(
     assert ks[True] < ks[False] - 0.04, ks
 
 
+@pytest.mark.parametrize("name", ["krems.osm.gz", "monaco.osm.gz", "andorra.osm.pbf"])
+def test_patches_typical_of_all_the_neighbourhoods_bend_like_the_town_and_form_its_blocks(name):
+    """Issue 20 (h37c): ranked on every measure as the verdict reads a district against all the town's
+    neighbourhoods (``typical_of_neighbourhoods``: distributions by KS, the shares, the 2-core share too, by
+    their median), the top three patches' pooled chords are nearer the town's than the default ranking's
+    (at 1.5 cells, seed 0: Krems 0.310 -> 0.206, Monaco 0.046 -> 0.025, Andorra 0.192 -> 0.141), and each
+    forms blocks as a neighbourhood does (its 2-core share within the verdict's range over the
+    neighbourhoods): ranking on the curvature alone (``bends_of_neighbourhoods``) took Monaco's patches that
+    form fewer blocks."""
+    from osm_expand.fidelity import ks_distance, scalar_range
+    from osm_expand.growth_patterns import measure_in_windows
+    from osm_expand.measures import measure_network
+    from osm_expand.model import Origin
+    from osm_expand.pipeline import learn
+    from synth.patches.source import _candidate_patches, _neighbourhood_points, _source
+
+    city = load(FIXTURES / name)
+    example = learn(city).example
+    net = city.network
+    whole = np.sort(measure_network([net.street_xy(s) for s in net.streets if s.origin == Origin.SOURCE],
+                                    pieces=False).value("curvature"))
+    source = _source(city, example)
+    in_window = measure_in_windows([np.asarray(ln.coords) for ln in source.lines])
+    size = 1.5 * PatchOptions().cell_size * example.spacing
+    ks, cores = {}, {}
+    for on in (False, True):
+        opts = PatchOptions(typical_of_neighbourhoods=on)
+        patches = _candidate_patches(source, size, opts, np.random.default_rng(0), measure_in_windows)
+        top = [in_window(shapely.Point(c).buffer(size / 2)) for c in patches[:3]]
+        ks[on] = ks_distance(np.concatenate([np.asarray(m.value("curvature")) for m in top]), whole)
+        cores[on] = [float(m.value("two_core_share")) for m in top]
+    assert ks[True] < ks[False] - 0.015, ks
+    around = _neighbourhood_points(source, PatchOptions().candidates, size / 2, np.random.default_rng(0))
+    every = np.array([float(in_window(shapely.Point(c).buffer(size / 2)).value("two_core_share")) for c in around])
+    lo, hi = scalar_range("two_core_share", every)
+    assert all(lo <= c <= hi for c in cores[True]), (cores, lo, hi)
+
+
+def test_typical_of_neighbourhoods_is_true_or_false():
+    """A history's "false" is a string, which Python reads as true: it is refused at the history's reading."""
+    with pytest.raises(OptionError, match="typical_of_neighbourhoods"):
+        PatchOptions(typical_of_neighbourhoods="false")  # type: ignore[arg-type]
+
+
 def test_bends_of_neighbourhoods_is_true_or_false():
     """A history's "false" is a string, which Python reads as true: it is refused at the history's reading."""
     with pytest.raises(OptionError, match="bends_of_neighbourhoods"):
         PatchOptions(bends_of_neighbourhoods="false")  # type: ignore[arg-type]
+
+
+def test_edge_turn_lays_no_perimeter_street_that_doubles_back_on_the_streets_it_ends():
+    """``edge_turn`` (issue 20, session 37): each cut end is joined to its neighbour along the edge whatever its
+    street's heading, so two cut streets that splay out to the edge get a run that turns back 135° onto each (a
+    V, Krems' district: 9 of its 14 perimeter joints over 105°). With a bound of 105° that run is not laid and
+    both cut ends stay open; two streets meeting the edge square are joined by default and with the bound."""
+    from synth.patches.edges import _edge_streets, _joint_turns
+
+    region = shapely.box(0.0, 0.0, 400.0, 200.0)
+    far = shapely.LineString([(5000, 5000), (5100, 5000)])
+    for pieces, laid in (([[(200.0, 50.0), (150.5, 0.5)], [(210.0, 50.0), (259.5, 0.5)]], 0),
+                         ([[(150.0, 100.0), (150.0, 0.5)], [(250.0, 100.0), (250.0, 0.5)]], 1)):
+        quilt = _cut_quilt(pieces, [(0, -1), (1, -1)], [0, 1])
+        default, bounded = copy.deepcopy(quilt), copy.deepcopy(quilt)
+        assert _edge_streets(default, region, 100.0, PatchOptions(), shapely.Polygon(), far) == 1
+        path = default.xy[-1]
+        first = int(np.argmin([np.hypot(*(path[0] - p)) for p in quilt.cut_xy]))
+        turns = _joint_turns(path, quilt.cut_heading[first], quilt.cut_heading[1 - first])
+        assert np.allclose(turns, 135.0 if not laid else 90.0, atol=3.0), turns
+        assert _edge_streets(bounded, region, 100.0, PatchOptions(edge_turn=105.0), shapely.Polygon(), far) == laid
+        assert len(bounded.cut_xy) == 2 - 2 * laid
+    for bad in (0, 181, float("nan"), "90"):
+        with pytest.raises(OptionError, match="edge_turn"):
+            PatchOptions(edge_turn=bad)
+
+
+def test_seam_jog_links_no_streets_offset_sideways_but_keeps_a_gentle_link():
+    """``seam_jog`` (issue 20, session 37): two cut streets facing each other 50 m apart sideways and 10 m ahead
+    turn 0° against each other, so the default links them, an S turning 79° off each street (Krems' district,
+    seed 0: its two longest links turn 77-107° off theirs, its seam joints' chords 82° median); with a bound of
+    60° they are left open. A link 30 m ahead and 25 m sideways (40° off each) is made either way, unlike
+    ``seam_link_turn`` whose bound on the sum (75°) would take it too."""
+    from synth.patches.seams import _link_turns
+
+    far = shapely.LineString([(5000, 5000), (5100, 5000)])
+    for end, linked in (((10.0, 50.0), 0), ((30.0, 25.0), 1)):
+        x, y = end
+        quilt = _cut_quilt([[(-100.0, 0.0), (0.0, 0.0)], [(x, y), (x + 100.0, y)]], [(0, -1), (1, 0)], [0, 1])
+        at_a, at_b = _link_turns(np.array([[0.0, 0.0]]), np.array([[1.0, 0.0]]), np.array([end]),
+                                 np.array([[-1.0, 0.0]]))
+        assert at_a[0] == pytest.approx(at_b[0]) and (at_a[0] > 60.0) == (not linked)
+        default, bounded = copy.deepcopy(quilt), copy.deepcopy(quilt)
+        assert _walk_seams(default, 100.0, PatchOptions(), shapely.Polygon(), far) == 1
+        assert _walk_seams(bounded, 100.0, PatchOptions(seam_jog=60.0), shapely.Polygon(), far) == linked
+        assert len(bounded.cut_xy) == 2 - 2 * linked
+        if linked:
+            assert _walk_seams(copy.deepcopy(quilt), 100.0, PatchOptions(seam_link_turn=True), shapely.Polygon(),
+                               far) == 0
+    for bad in (0, 181, float("nan"), "60"):
+        with pytest.raises(OptionError, match="seam_jog"):
+            PatchOptions(seam_jog=bad)

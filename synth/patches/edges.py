@@ -87,12 +87,40 @@ def _edge_streets(quilt: _Quilt, region: shapely.Geometry, spacing: float, opts:
             path = next((p for p in _simplified(raw, tolerances) if board.clear(p)), raw)
         if len(path) < 2 or not board.clear(path):
             continue
+        if opts.edge_turn is not None and max(_joint_turns(path, quilt.cut_heading[a], quilt.cut_heading[b])) \
+                > opts.edge_turn:
+            continue  # it would double back on a street it ends: a V no street of the town makes
         _lay(board, quilt, path, a)
         uses[a] += 1
         uses[b] += 1
         made += 1
     _close(quilt, uses > 0)
     return made
+
+
+def _joint_turns(path: np.ndarray, first: np.ndarray, last: np.ndarray) -> tuple[float, float]:
+    """Degrees the street turns at each end of the perimeter street ``path``: from the cut street arriving
+    at ``path[0]`` (``first``, its heading out of the district's pieces) onto ``path``, and from ``path``
+    onto the cut street leaving ``path[-1]`` (``last``, its heading out, reversed).
+
+    ``path`` is read over half a curvature chord (:data:`CURVATURE_STEP`; less on a shorter path), the scale at
+    which the yardstick's 20 m chords and a viewer see a joint: 90° is the town's right-angled corner, more a
+    street doubling back on the one it continues.
+    """
+    line = shapely.LineString(path)
+    reach = min(CURVATURE_STEP / 2, line.length / 2)
+    near = shapely.get_coordinates(shapely.line_interpolate_point(line, [reach, line.length - reach]))
+    out = near[0] - path[0]
+    back = path[-1] - near[1]
+    return _angle(first, out), _angle(back, -np.asarray(last))
+
+
+def _angle(u: np.ndarray, v: np.ndarray) -> float:
+    """Degrees between the directions ``u`` and ``v`` (0 when either is zero)."""
+    nu, nv = float(np.hypot(*u)), float(np.hypot(*v))
+    if nu == 0.0 or nv == 0.0:
+        return 0.0
+    return float(np.degrees(np.arccos(np.clip(np.dot(u, v) / (nu * nv), -1.0, 1.0))))
 
 
 def _smoothed(raw: np.ndarray, sigma: float) -> np.ndarray:

@@ -80,7 +80,7 @@ class PatchOptions:
     also_typical: tuple[str, ...] = ()
     #: Rank the candidate patches by their curvature as the fidelity verdict reads it: the KS distance between a
     #: patch's bends per 20 m chord and the mean distribution of all the candidates drawn (the town's
-    #: neighbourhoods, each weighing the same: :func:`~synth.patches.source._bends_apart`), 0 best, scaled by the
+    #: neighbourhoods, each weighing the same: :func:`~synth.patches.source._apart`), 0 best, scaled by the
     #: candidates' spread of it, instead of by the distance of its median bend to the median of the patches
     #: ``density_band`` kept. Why: the band keeps the denser half, which in an old European town is its
     #: medieval core; the most typical of the core is the most typical core, with its curving lanes (Krems,
@@ -108,6 +108,26 @@ class PatchOptions:
     #: 7 6 4 (both shares out), Andorra 1 1 1, north-bayreuth 2 2 2, Monaco 4 4 5, Campo Grande 6 6 7 (both shares
     #: out) (session 36, h36c).
     bends_of_neighbourhoods: bool = False
+    #: Rank the candidate patches on every measure as the fidelity verdict reads a district against the town's
+    #: neighbourhoods, all of them (the ones drawn, not the ``density_band``'s half): a distribution
+    #: (curvature, circuity, edge length) by its KS distance to their mean distribution, a scalar (dead-end,
+    #: three-way and 2-core shares; the 2-core share, the blocks a patch forms, added to :data:`TYPICAL`) by its
+    #: distance to their median, each scaled by its spread over them
+    #: (:func:`~synth.patches.source._as_the_verdict_reads`). Replaces ``bends_of_neighbourhoods``, which read only
+    #: the curvature so and the rest against the band's own median (the old town's). At the patch level it does
+    #: what it says (top three patches at 1.5 cells, seed 0, pooled curvature KS against the whole town, off ->
+    #: on: Krems 0.310 -> 0.206, Monaco 0.046 -> 0.025, Andorra 0.192 -> 0.141, north-bayreuth 0.104 -> 0.098;
+    #: every top patch's 2-core share within the verdict's range), and the engine's Krems districts straighten
+    #: (``stitching_bends.py``, seed 0: one piece median 2.3° -> 1.0°, curvature KS 0.372 -> 0.282). Off: the
+    #: districts move and the verdicts fall. The pipeline's district (``district_fidelity.py``, seeds 0-4, each
+    #: seed a fresh grower, mean off of 14, off -> on): Krems 2.0 -> 1.4, Andorra 3.0 -> 1.8, north-bayreuth 2.6
+    #: -> 2.2 (2-core in range 5/5 -> 4/5), Campo Grande 2.6 -> 2.8, Monaco 2.2 -> 5.6 (over issue 20's 3;
+    #: density in range 5/5 -> 3/5; the earlier 2.6/1.6/2.4/1.8/3.8 reused one grower over the seeds, which
+    #: carried seed 0's ranked patches into the others); the engine's 30 years
+    #: (``engine_growth.py --seed 0``, off of 14 per reference, main -> on): Krems 1 1 1 -> 5 3 4 (stroke length,
+    #: curvature KS 0.282 against 0.20-0.26), Andorra 1 1 1 -> 6 7 6, north-bayreuth 2 3 2 -> 2 2 3, Monaco 2 3 3
+    #: -> 7 7 9 (dead-end 0.235 above, 2-core 0.822 below range), Campo Grande 3 5 4 -> 6 6 5 (session 37, h37c).
+    typical_of_neighbourhoods: bool = False
     #: A patch turns to match its neighbours' grid only when both have a clear main direction:
     #: the fullest 5° bin of bearings (mod 90°) holds this many times its share.
     orientation_peak: float = 2.0
@@ -240,6 +260,23 @@ class PatchOptions:
     #: on: Krems 1 0 -> 2 0 (6.8 -> 3.8), north-bayreuth 3 3 -> 4 4 (8.9 -> 9.1), Andorra 4 7 -> 6 2 (5.3 -> 4.3),
     #: Monaco 1 3 -> 4 3 (8.6 -> 6.4; density out on seed 1) (session 35, h35b).
     seam_link_turn: bool = False
+    #: When set, degrees: a seam link is not made when the street would turn more than this from either cut
+    #: street onto the straight line between the two cut ends (:func:`~synth.patches.seams._link_turns`); those
+    #: cut ends go to tees, perimeter streets and the trimming. Why: the transition reads only the angle between
+    #: the two cut streets, so two streets facing each other 50 m apart sideways and 10 m ahead are a straight
+    #: continuation to it, and the smooth link between them is an S or a hook (Krems' district, seed 0: its two
+    #: longest links turn 86° and 77°, 107° and 103° off their streets; its seam joints' chords median 82°).
+    #: Milder than ``seam_link_turn`` (which bounds the sum of the two by ``seam_turn``, 75°, and leaves almost no
+    #: link): a link that runs on ahead of both streets, turning gently at each, is kept.
+    #: Off: it takes the kinks away but moves Monaco's district (joins to the town 7 -> 2, density out of range on
+    #: 2 seeds). Session 37 (h37c): ``stitching_bends.py --district`` seed 0, off -> 60 -> 90: Krems' seam joints
+    #: 9 chords at 82° -> 3 at 33° -> 6 at 17°, curvature KS 0.371 -> 0.325 -> 0.316, corners over 45° 8.3 -> 5.2
+    #: per km; north-bayreuth the same (no seam joint). ``district_fidelity.py`` (seeds 0-4, each seed a fresh
+    #: grower: the default table), mean off and corners over 45° per km, off -> 90: Krems 2.0 -> 2.0 (7.3 -> 6.0;
+    #: pieces 1 1 2 1 1 -> all 1), Andorra 3.0 -> 3.2 (5.6 -> 4.4), north-bayreuth 2.6 -> 2.8 (8.0 -> 7.9),
+    #: Campo Grande 2.6 -> 2.2 (4.9 -> 3.7), Monaco 2.2 -> 4.4 (7.5 -> 6.5; density in range 5/5 -> 3/5).
+    #: (Earlier numbers, one grower reused over the seeds, carried seed 0's ranked patches into the others.)
+    seam_jog: float | None = None
     #: The cul-de-sacs the district keeps of its cut streets (``_stub_budget``: as many as its town's
     #: neighbourhoods' dead-end share allows) are first those whose trimming would leave their junction an L
     #: (:func:`~synth.patches.topology._leaves_bend`: a node of degree two turning more than 45°), then, as
@@ -274,6 +311,21 @@ class PatchOptions:
     #: corners over 45° per km, off -> 0.5: Krems 1 0 -> 2 0 (6.8 -> 5.8), north-bayreuth 3 3 -> 2 1 (8.9 -> 5.5),
     #: Andorra 4 7 -> 4 5 (5.3 -> 4.1), Monaco 1 3 -> 4 4 (8.6 -> 6.8) (session 35, h35b).
     edge_min_run: float | None = None
+    #: When set, degrees: a perimeter street (:mod:`~synth.patches.edges`) that would turn more than this from a
+    #: cut street it ends (read over its first and last 10 m, :func:`~synth.patches.edges._joint_turns`) is not
+    #: laid; its cut ends go to the other run along the edge, or to the trimming. Why: each cut end is joined to
+    #: its neighbour along the edge whatever its street's heading, and where two cut streets converge on the edge
+    #: the run between them doubles back on both (Krems' district, seed 0: turns at its 14 perimeter joints 28-167°,
+    #: 9 over 105°), a V no street of the town makes; a town's streets meet at about right angles or run on.
+    #: Off: it straightens the joints but costs Andorra's and Monaco's districts their blocks and verdict. Session
+    #: 37 (h37c), ``stitching_bends.py --district`` seed 0, joint-edge chords' median and curvature KS, off -> 105
+    #: -> 135: Krems 64° -> 24° -> 21°, KS 0.371 -> 0.393 -> 0.363; north-bayreuth 57° -> 34° -> 38°, KS 0.264 ->
+    #: 0.274 -> 0.300. ``district_fidelity.py`` (seeds 0-4, each seed a fresh grower: the default table), mean
+    #: off, off -> 135: Krems 2.0 -> 1.6 (corners over 45° 7.3 -> 6.1 per km), Andorra 3.0 -> 3.6 (blocks per km
+    #: 0.1 -> 0.06), north-bayreuth 2.6 -> 3.4 (dead-end and 2-core share in range 5/5 -> 4/5), Campo Grande 2.6
+    #: -> 2.6, Monaco 2.2 -> 4.0 (density in range 5/5 -> 4/5). (Earlier numbers, at 105 too, reused one grower
+    #: over the seeds, which carried seed 0's ranked patches into the others.)
+    edge_turn: float | None = None
     #: A cut end left over runs on this many spacings to meet a street in a tee ...
     tee_reach: float = 0.6
     #: ... meeting it at this angle or more (degrees).
@@ -318,6 +370,11 @@ class PatchOptions:
         if least is not None and not (is_real_number(least) and math.isfinite(least) and least > 0):
             raise OptionError(f"PatchOptions.edge_min_run must be a finite number of spacings > 0 or unset, "
                               f"got {least!r}")
+        for name in ("edge_turn", "seam_jog"):
+            bound = getattr(self, name)
+            if bound is not None and not (is_real_number(bound) and 0 < bound <= 180):
+                raise OptionError(f"PatchOptions.{name} must be a turn in degrees, > 0 and <= 180, or unset, "
+                                  f"got {bound!r}")
         turn = self.near_join
         if turn is not None and not (is_real_number(turn) and 0 < turn <= 180):
             raise OptionError(f"PatchOptions.near_join must be a turn in degrees, > 0 and <= 180, or unset, "
@@ -326,6 +383,9 @@ class PatchOptions:
             raise OptionError(f"PatchOptions.seam_link_turn must be true or false, got {self.seam_link_turn!r}")
         if not isinstance(self.stubs_at_bends, bool):
             raise OptionError(f"PatchOptions.stubs_at_bends must be true or false, got {self.stubs_at_bends!r}")
+        if not isinstance(self.typical_of_neighbourhoods, bool):
+            raise OptionError(f"PatchOptions.typical_of_neighbourhoods must be true or false, "
+                              f"got {self.typical_of_neighbourhoods!r}")
         if not isinstance(self.bends_of_neighbourhoods, bool):
             raise OptionError(f"PatchOptions.bends_of_neighbourhoods must be true or false, "
                               f"got {self.bends_of_neighbourhoods!r}")

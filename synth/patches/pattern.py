@@ -3,6 +3,8 @@ town's neighbourhoods, then seams, pieces and topology (:class:`ExamplePatches`)
 from __future__ import annotations
 
 import copy
+import dataclasses
+import functools
 from collections.abc import Callable
 from dataclasses import dataclass, field
 
@@ -67,6 +69,8 @@ class ExamplePatches:
     name: str = "example"
     #: Ranked patch centres by patch size, kept between districts grown by this object (the year loop
     #: grows many from one town: ranking the town's patches is the slow part, and the town is the same).
+    #: They were drawn with the first district's generator and so shape the later ones: a run starts from
+    #: :meth:`fresh` (:func:`synth.growth.for_a_run`; :func:`osm_expand.pipeline.expand` does).
     cache: dict = field(default_factory=dict, compare=False, repr=False)
 
     def grow(self, city: City, region: shapely.Geometry, rng: np.random.Generator) -> Growth:
@@ -114,6 +118,16 @@ class ExamplePatches:
                              "seam_links": links, "tees": tees,
                              "target_dead_end_share": None if aim is None else round(aim.dead_end_share, 3),
                              "target_two_core_share": None if aim is None else round(aim.two_core_share, 3)})
+
+    def fresh(self) -> ExamplePatches:
+        """This pattern with empty caches (:func:`synth.growth.for_a_run`): the ranked patches in
+        :attr:`cache` were drawn with the generator of the first district that needed them, and the
+        ``land`` helper's memo (:func:`osm_expand.growth_patterns.land_in_discs`) keeps the margin of the
+        first lines it was handed; a new run must draw and measure its own."""
+        land = self.land
+        if isinstance(land, functools.partial) and "memo" in land.keywords:
+            land = functools.partial(land.func, *land.args, **{**land.keywords, "memo": {}})
+        return dataclasses.replace(self, land=land, cache={})
 
     def _source(self, city: City, everything: bool = False) -> _Source:
         """:func:`_source` of ``city``, kept for the next district grown on the same network (the engine

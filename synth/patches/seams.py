@@ -32,6 +32,11 @@ def _walk_seams(quilt: _Quilt, spacing: float, opts: PatchOptions, occupied: sha
     turn = np.degrees(np.arccos(np.clip(-(heading[pairs[:, 0]] * heading[pairs[:, 1]]).sum(axis=1), -1.0, 1.0)))
     if opts.seam_link_turn:
         turn = _link_turn(xy[pairs[:, 0]], heading[pairs[:, 0]], xy[pairs[:, 1]], heading[pairs[:, 1]])
+    if opts.seam_jog is not None:  # a link turning further off either street is a hook or a sideways jog
+        at_a, at_b = _link_turns(xy[pairs[:, 0]], heading[pairs[:, 0]], xy[pairs[:, 1]], heading[pairs[:, 1]])
+        jog = np.maximum(at_a, at_b) > opts.seam_jog
+    else:
+        jog = np.zeros(len(pairs), dtype=bool)
     sg, st = opts.seam_sigma
     p = np.exp(-0.5 * (gap / (sg * spacing)) ** 2) * np.exp(-0.5 * (turn / st) ** 2)
     board = _Board(quilt, occupied, old)
@@ -39,7 +44,7 @@ def _walk_seams(quilt: _Quilt, spacing: float, opts: PatchOptions, occupied: sha
     links = 0
     for k in np.argsort(-p, kind="stable").tolist():
         a, b = pairs[k]
-        if used[a] or used[b] or turn[k] > opts.seam_turn:
+        if used[a] or used[b] or turn[k] > opts.seam_turn or jog[k]:
             continue
         if gap[k] > 1e-6:
             path = np.array([xy[a], xy[b]]) if opts.straight_seams else _connector(xy[a], heading[a], xy[b], heading[b])
@@ -60,12 +65,18 @@ def _link_turn(a: np.ndarray, da: np.ndarray, b: np.ndarray, db: np.ndarray) -> 
     The turn between the two streets alone (``-da . db``) reads two parallel streets a few metres apart
     sideways as a straight continuation; the link between them is a jog (an S of the smooth connector, two
     corners of a straight one) that the yardstick reads as bends at both joints."""
+    at_a, at_b = _link_turns(a, da, b, db)
+    return at_a + at_b
+
+
+def _link_turns(a: np.ndarray, da: np.ndarray, b: np.ndarray, db: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The two terms of :func:`_link_turn`: degrees from ``da`` onto the straight line ``a``-``b``, and from
+    it onto ``-db``; 0 where the ends coincide."""
     chord = b - a
     gap = np.hypot(*chord.T)
     u = chord / np.maximum(gap, 1e-12)[:, None]
-    at_a = turn_angles(da, u)
-    at_b = turn_angles(u, -db)
-    return np.where(gap > 1e-6, at_a + at_b, 0.0)
+    joined = gap > 1e-6
+    return np.where(joined, turn_angles(da, u), 0.0), np.where(joined, turn_angles(u, -db), 0.0)
 
 
 #: Metres between the points of a curved seam connector.

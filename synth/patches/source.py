@@ -153,8 +153,9 @@ def _candidate_patches(source: _Source, size: float, opts: PatchOptions, rng: np
     fabric rather than its oddities. A candidate within one patch of a better
     one goes to the back, so neighbouring cells differ. With
     ``bends_of_neighbourhoods`` the curvature is ranked by the KS distance of a
-    candidate's bends to all the candidates' (:func:`_bends_apart`), not by its
-    median bend against the kept candidates'.
+    candidate's bends to all the candidates' (:func:`_apart`), not by its
+    median bend against the kept candidates'; with ``typical_of_neighbourhoods`` every measure is
+    read so, the 2-core share too (:func:`_as_the_verdict_reads`).
 
     With ``share_guard`` (and ``measure`` and ``limits``), a candidate in the
     band whose ``guarded`` scalars (default the dead-end and 2-core shares)
@@ -197,9 +198,12 @@ def _candidate_patches(source: _Source, size: float, opts: PatchOptions, rng: np
         values = np.array([[_level(at(i), m) for m in typical] for i in good.tolist()])
         centre = np.nanmedian(values, axis=0)
         spread = np.nanpercentile(values, 75, axis=0) - np.nanpercentile(values, 25, axis=0)
-        if opts.bends_of_neighbourhoods:  # the curvature read as the verdict reads it: a KS distance
+        if opts.typical_of_neighbourhoods:  # every measure as the verdict reads it, against every neighbourhood
+            typical = (*typical, *(() if "two_core_share" in typical else ("two_core_share",)))
+            values, centre, spread = _as_the_verdict_reads([at(i) for i in range(len(centres))], good, typical)
+        elif opts.bends_of_neighbourhoods:  # the curvature read as the verdict reads it: a KS distance
             k = typical.index("curvature")
-            ks = _bends_apart([at(i) for i in range(len(centres))])
+            ks = _apart([at(i) for i in range(len(centres))])
             values[:, k], centre[k] = ks[good], 0.0
             spread[k] = np.nanpercentile(ks, 75) - np.nanpercentile(ks, 25)
         z = np.nan_to_num(np.abs(values - centre) / np.where(spread > 0, spread, 1.0), nan=3.0)
@@ -207,14 +211,48 @@ def _candidate_patches(source: _Source, size: float, opts: PatchOptions, rng: np
     return _spread(centres, good, size)
 
 
-def _bends_apart(measured: list) -> np.ndarray:
-    """Each patch's KS distance between its curvature chords (bends per 20 m, the fidelity measure) and the
+#: The measures :data:`TYPICAL` may rank that are distributions (the verdict reads them as a KS distance).
+DISTRIBUTED = ("edge_length", "circuity", "junction_angle", "curvature")
+
+
+def _as_the_verdict_reads(measured: list, good: np.ndarray,
+                          names: tuple[str, ...]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The ranking's values, centres and spreads of the candidates ``good`` on ``names``, each read as the
+    fidelity verdict reads a district against *all* the neighbourhoods (``measured``, every candidate drawn):
+    a distribution by its KS distance to their mean distribution (:func:`_apart`; centre 0), a scalar by
+    its distance to their median; each scaled by its spread over all of them (interquartile range).
+
+    Why: ``density_band`` keeps the denser half of the neighbourhoods (in an old European town, its core),
+    and a patch typical of that half is typical of the core: Krems' top patches bent like its old town's
+    lanes. Reading only the curvature so (``bends_of_neighbourhoods``) straightened them, but ranked them on
+    the other measures against the core still, and took Monaco's patches whose edges, circuity and blocks
+    the verdict then found off; every measure read against the same neighbourhoods keeps a patch that is
+    straight *and* forms the town's blocks (its 2-core share is ranked too)."""
+    values = np.full((len(good), len(names)), np.nan)
+    centre = np.zeros(len(names))
+    spread = np.ones(len(names))
+    for k, name in enumerate(names):
+        if name in DISTRIBUTED:
+            every = _apart(measured, name)
+            centre[k] = 0.0
+        else:
+            every = np.array([_level(m, name) for m in measured])
+            centre[k] = np.nanmedian(every) if np.isfinite(every).any() else np.nan
+        values[:, k] = every[good]
+        if np.isfinite(every).sum() > 1:
+            spread[k] = np.nanpercentile(every, 75) - np.nanpercentile(every, 25)
+    return values, centre, spread
+
+
+def _apart(measured: list, name: str = "curvature") -> np.ndarray:
+    """Each patch's KS distance between its distribution ``name`` (by default its curvature chords, bends per
+    20 m, the fidelity measure) and the
     neighbourhoods' as a whole: the mean of all of ``measured``'s distributions, each neighbourhood weighing
     the same (pooled chord by chord, the densest would weigh most: in Krems its curving old town). NaN for a
     patch without a chord. The verdict judges a growth's curvature by such a distance
     (:func:`osm_expand.fidelity.ks_distance`; ``synth`` imports only the model), not by a median: a patch
     whose median bend is typical can still lack the town's straight runs."""
-    bends = [np.sort(np.asarray(m.value("curvature"), dtype=np.float64)) for m in measured]
+    bends = [np.sort(np.asarray(m.value(name), dtype=np.float64)) for m in measured]
     have = [i for i, b in enumerate(bends) if len(b)]
     out = np.full(len(bends), np.nan)
     if not have:
