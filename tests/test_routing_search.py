@@ -1058,3 +1058,35 @@ def test_a_windows_source_distances_are_scipys_up_to_past_the_routes_cost(seed):
         assert (want[~kept] > route.cost * (1 + 1e-6)).all()
         checked += 1
     assume(checked > 0)
+
+
+def star_plain_graph(n_edges: int, seed: int = 0):
+    """A plain G′ with no lattice: vertex 0 joined to each of ``n_edges`` others by one edge (random
+    weights, some equal), and each of those back to 0."""
+    from osm_expand.engine.roads.expanded_search import Plain
+
+    rng = np.random.default_rng(seed)
+    n = n_edges + 1
+    heads = np.arange(1, n, dtype=np.int64)
+    weights = rng.integers(1, 50, n_edges).astype(np.float64)
+    e_ptr = np.concatenate(([0], n_edges + np.arange(n, dtype=np.int64)))
+    e_col = np.concatenate((heads, np.zeros(n_edges, dtype=np.int64)))
+    e_val = np.concatenate((weights, weights))
+    graph = Plain(n=n, n_lat=0, lat_kind=np.zeros((0, 8), dtype=np.uint8), allowed=np.ones(256, dtype=np.bool_),
+                  offset=np.zeros(8, dtype=np.int64), table=np.empty(0), plain=np.zeros((1, 1), dtype=np.float32),
+                  w_kind=np.zeros((1, 1), dtype=np.uint8), e_ptr=e_ptr, e_col=e_col, e_val=e_val)
+    rows = np.repeat(np.arange(n), np.diff(e_ptr))
+    return graph, csr_matrix((e_val, (rows, e_col)), shape=(n, n))
+
+
+def test_the_plain_search_grows_its_heap_for_a_vertex_with_more_edges_than_it_has_rows():
+    """Review of session 37: the plain scan doubled its heap once before a vertex's row, so a vertex
+    of more edges than twice the heap's 4,096 rows wrote past its end (numba checks no bounds: the
+    process died). Now it grows until the row fits, and the search is scipy's."""
+    from osm_expand.engine.roads.expanded_search import plain_dijkstra
+
+    graph, matrix = star_plain_graph(50_000)
+    dist, pred = plain_dijkstra(graph, np.array([0]), return_predecessors=True)
+    want, want_pred = dijkstra(matrix, indices=0, return_predecessors=True)
+    assert np.array_equal(dist, want)
+    assert np.array_equal(pred, want_pred)

@@ -325,8 +325,13 @@ def _plain_scan(n_lat: int, lat_kind: np.ndarray, allowed: np.ndarray, offset: n
             continue
         # room for the row's entries first, so that a relaxation passes no array back (:func:`_relax`'s
         # returned heap cost a reference count each: twice the time of this search on a window)
-        if length + n_dir + e_ptr[u + 1] - e_ptr[u] > len(heap):
-            heap = np.concatenate((heap, np.empty_like(heap)))
+        # (doubled until the whole row fits: a vertex may have more edges than the heap has rows)
+        need = length + n_dir + e_ptr[u + 1] - e_ptr[u]
+        if need > len(heap):
+            size = len(heap)
+            while size < need:
+                size *= 2
+            heap = np.concatenate((heap, np.empty((size - len(heap), 2))))
         if u < n_lat:
             for d in range(n_dir):
                 if not allowed[lat_kind[u, d]]:
