@@ -1090,3 +1090,19 @@ def test_the_plain_search_grows_its_heap_for_a_vertex_with_more_edges_than_it_ha
     want, want_pred = dijkstra(matrix, indices=0, return_predecessors=True)
     assert np.array_equal(dist, want)
     assert np.array_equal(pred, want_pred)
+
+
+def test_a_plain_search_refuses_a_limit_above_its_last_one():
+    """Review of session 37: what a limit kept out was never pushed, so a later, larger limit would
+    miss it silently; the search keeps its last limit and refuses a larger one (an equal one and no
+    limit at all go on)."""
+    graph, matrix = star_plain_graph(100)
+    search = PlainSearch(graph, np.array([0]), limit=20.0)
+    search.run()
+    search.run(20.0)
+    assert np.array_equal(search.dist, dijkstra(matrix, indices=0, limit=20.0))
+    with pytest.raises(ValueError, match="only fall"):
+        search.run(30.0)
+    search.run(10.0)
+    search.cut(10.0)
+    assert np.array_equal(search.dist, dijkstra(matrix, indices=0, limit=10.0))

@@ -409,10 +409,22 @@ class PlainSearch:
         self.dist = np.full(graph.n, np.inf)  #: (n,) the distances found (∞: not reached)
         self.pred = np.full(graph.n if predecessors else 0, NO_PRED, dtype=np.int32)  #: (n,) or empty
         self._heap, self._length = _plain_seeded(self.dist, self.pred, seeds, at, float(limit))
+        self._limit = float(limit)  #: the lowest limit yet: what lies above it was never pushed
 
-    def run(self, limit: float = np.inf, stop: int = -1) -> bool:
-        """Scan on, up to ``limit`` (at most the last one), until ``stop`` is scanned (then True; −1:
-        none) or nothing is left."""
+    def run(self, limit: float | None = None, stop: int = -1) -> bool:
+        """Scan on, up to ``limit`` (None: the last one), until ``stop`` is scanned (then True; −1:
+        none) or nothing is left.
+
+        Raises
+        ------
+        ValueError
+            ``limit`` above the last one: the entries the last limit kept out were never pushed, so
+            the search would miss them silently.
+        """
+        limit = self._limit if limit is None else float(limit)
+        if limit > self._limit:
+            raise ValueError(f"a plain search's limit may only fall: {limit} after {self._limit}")
+        self._limit = limit
         g = self.graph
         self._heap, self._length, stopped = _plain_scan(
             g.n_lat, g.lat_kind, g.allowed, g.offset, g.table, g.plain, g.w_kind, g.e_ptr, g.e_col, g.e_val,
