@@ -160,3 +160,18 @@ def test_batch_costs_refuses_a_source_outside_the_graph():
         batch_costs(m.indptr, m.indices, m.data, np.array([1]), 1, np.ones(1, bool), 100.0)
     with pytest.raises(ValueError, match="sources must lie in"):
         batch_costs(m.indptr, m.indices, m.data, np.array([-1]), 1, np.ones(1, bool), 100.0)
+
+
+def test_batch_costs_refuses_wanted_flags_of_another_length_and_arcs_past_int32():
+    """Review of session 37: ``_batch`` reads ``wanted`` by segment and the CSR arrays as int32, with
+    no bounds checked: too few flags read past their end, and 2³¹ arcs or more would wrap silently.
+    Both are refused before the kernel runs (the arcs' count is read from ``indptr``'s last entry)."""
+    g = trip_graph(np.array([[0.0, 0.0], [10.0, 0.0], [20.0, 0.0]]), np.array([[0, 1], [1, 2]]))
+    m = g.matrix
+    with pytest.raises(ValueError, match="wanted flags"):
+        batch_costs(m.indptr, m.indices, m.data, np.array([0]), 2, np.ones(1, bool), 100.0)
+    huge = m.indptr.astype(np.int64)
+    huge[-1] = 2**31
+    with pytest.raises(ValueError, match="int32"):
+        batch_costs(huge, m.indices, m.data, np.array([0]), 2, np.ones(2, bool), 100.0)
+    batch_costs(m.indptr, m.indices, m.data, np.array([0]), 2, np.ones(2, bool), 100.0)

@@ -278,12 +278,23 @@ def batch_costs(indptr: NDArray[np.integer], indices: NDArray[np.integer], data:
         Whether that is the backward direction (strictly cheaper than the forward one).
     paths : tuple
         What :func:`walk_paths` reads of the searches.
+
+    Raises
+    ------
+    ValueError
+        A source outside the midpoints, ``wanted`` not one flag per segment, or a graph of 2³¹ arcs
+        or vertices or more (the kernel reads its CSR arrays as int32, which would wrap silently;
+        numba checks no bounds, so each would read or write outside the arrays).
     """
     sources = np.ascontiguousarray(sources, dtype=np.int64).reshape(-1)
     n = len(indptr) - 1
     e = int(n_segments)
     if len(sources) and (sources.min() < 0 or 2 * e + sources.max() >= n):
         raise ValueError(f"batch_costs: sources must lie in 0 … {(n - 2 * e) - 1}")
+    if len(wanted) != e:
+        raise ValueError(f"batch_costs: {len(wanted)} wanted flags for {e} segments")
+    if n >= 2**31 or (len(indptr) > 0 and int(indptr[-1]) >= 2**31):
+        raise ValueError(f"batch_costs: {n} vertices and {int(indptr[-1])} arcs: more than int32 numbers")
     row, segment, cost, back, ptr, vertex, _, before = _batch(
         np.ascontiguousarray(indptr, dtype=np.int32), np.ascontiguousarray(indices, dtype=np.int32),
         np.ascontiguousarray(data, dtype=np.float64), sources, e, np.ascontiguousarray(wanted, dtype=np.bool_),
