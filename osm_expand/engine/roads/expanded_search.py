@@ -62,10 +62,15 @@ search for one set of argument types takes 3–4 s CPU (session 36's review:
 3.9 s with a float64 ``plain`` table, 3.1 s float32, 3.5 s with an int64
 ``local``), and numba compiles once per set, so ``routing._heading_search``
 passes one set always (a float32 ``plain``, a (1, 1) one beside a kind
-table; an int32 ``local``): a run compiles the search once;
-nothing else imports numba (``routing`` imports this module when it first
-searches), so commands that search no route do not pay it. numba's import
-holds about 110 MB (LLVM) for the rest of the run.
+table; an int32 ``local``): a run compiles the search once. The plain
+search's kernels (``_plain_seeded``, ``_plain_scan``) cost 1.8 s CPU more
+to compile with an empty cache (session 37's review). Only this module and
+:mod:`osm_expand.engine.traffic.trip_search` (which takes ``_compiled`` and
+``_before`` from here, and whose kernels cost 4.65 s more to compile) import
+numba, each imported only when its searches first run (``routing`` when it
+first searches a route, ``trips`` when it first searches trips), so commands
+that search neither do not pay it. numba's import holds about 110 MB (LLVM)
+for the rest of the run.
 """
 from __future__ import annotations
 
