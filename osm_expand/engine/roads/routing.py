@@ -64,11 +64,11 @@ from scipy.sparse.csgraph import dijkstra
 
 from osm_expand.engine.roads.lattice import ROAD_KINDS, EdgeKind, LatticeWeights
 from osm_expand.engine.roads.path_graph import EdgeCosts, GraphWindow, ImplicitGraph, KindMask, PathGraph
+from osm_expand.errors import InputError, OptionError
+from osm_expand.model.options import require_positive
 
 if TYPE_CHECKING:
     from osm_expand.engine.roads.expanded_search import Plain
-from osm_expand.errors import InputError, OptionError
-from osm_expand.model.options import require_positive
 
 __all__ = ["RoutingOptions", "Route", "turn_penalty", "find_route", "route_over_major_roads", "Choice",
            "choose", "route_score"]
