@@ -165,7 +165,7 @@ def _peak_mb() -> float:
 def _measured(args: tuple) -> dict:
     """:func:`measure` in this (child) process, with its peak memory."""
     row = measure(*args)
-    row["peak_mb"] = round(resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024)
+    row["peak_mb"] = round(_peak_mb())
     return row
 
 

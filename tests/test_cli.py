@@ -201,10 +201,17 @@ def test_expand_writes_a_valid_district_and_a_preview(tmp_path, capsys):
 
 
 def test_expand_default_output_is_beside_the_input(tmp_path, capsys):
+    """And an expand run in-process (a caller's list of arguments, not the process's own command line)
+    freezes nothing: only the command line's own process, which exits next, freezes what the run
+    leaves alive (``cmd_expand``'s ``last``, :func:`osm_expand.cli._leave`); a caller keeps its collector."""
+    import gc
+
     city = tmp_path / "West-Oakland.osm.bz2"
     shutil.copy(FIXTURES / "West-Oakland.osm.bz2", city)
+    frozen, enabled = gc.get_freeze_count(), gc.isenabled()
     assert run([city, "-q", "--area", "200000", "--beyond-bounds"], capsys)[0] == 0
     assert (tmp_path / "West-Oakland.expanded.xml").exists()
+    assert gc.get_freeze_count() == frozen and gc.isenabled() == enabled
 
 
 def test_expand_same_seed_same_bytes_other_seed_other_district(tmp_path, capsys):

@@ -1049,12 +1049,67 @@ def test_a_windows_source_distances_are_scipys_up_to_past_the_routes_cost(seed):
         s, t = (int(v) for v in window.from_map(np.array([s_map, t_map])))
         route, from_source, _ = routing._search(g, s, t, routing.ROAD_KINDS, None, opts)
         with g.restricted(routing.ROAD_KINDS, None) as m:
-            want = dijkstra(m, indices=s)
+            want, want_pred = dijkstra(m, indices=s, return_predecessors=True)
         if route is None:
             assert np.array_equal(from_source, want)
             continue
         kept = np.isfinite(from_source)
         assert np.array_equal(from_source[kept], want[kept])
-        assert (want[~kept] > route.cost * (1 + 1e-6)).all()
+        # what is cut lies above the first bound, d(s, t) + the plain route's turns, the value the cut is
+        # made from (the route's cost is at most that: a weaker test)
+        lat, extra = g.masks(routing.ROAD_KINDS, None)
+        plain_route = routing._route(g, routing._walk_back(want_pred, s, t), lat, extra, 0.0)
+        bins = routing._bins(routing._headings(plain_route), opts.heading_bins)
+        plain_turns = float(routing._bin_penalties(opts)[(bins[1:] - bins[:-1]) % opts.heading_bins].sum())
+        assert route.cost <= float(want[t]) + plain_turns + 1e-6
+        assert (want[~kept] > float(want[t]) + plain_turns).all()
         checked += 1
     assume(checked > 0)
+
+
+def star_plain_graph(n_edges: int, seed: int = 0):
+    """A plain G′ with no lattice: vertex 0 joined to each of ``n_edges`` others by one edge (random
+    weights, some equal), and each of those back to 0."""
+    from osm_expand.engine.roads.expanded_search import Plain
+
+    rng = np.random.default_rng(seed)
+    n = n_edges + 1
+    heads = np.arange(1, n, dtype=np.int64)
+    weights = rng.integers(1, 50, n_edges).astype(np.float64)
+    e_ptr = np.concatenate(([0], n_edges + np.arange(n, dtype=np.int64)))
+    e_col = np.concatenate((heads, np.zeros(n_edges, dtype=np.int64)))
+    e_val = np.concatenate((weights, weights))
+    graph = Plain(n=n, n_lat=0, lat_kind=np.zeros((0, 8), dtype=np.uint8), allowed=np.ones(256, dtype=np.bool_),
+                  offset=np.zeros(8, dtype=np.int64), table=np.empty(0), plain=np.zeros((1, 1), dtype=np.float32),
+                  w_kind=np.zeros((1, 1), dtype=np.uint8), e_ptr=e_ptr, e_col=e_col, e_val=e_val)
+    rows = np.repeat(np.arange(n), np.diff(e_ptr))
+    return graph, csr_matrix((e_val, (rows, e_col)), shape=(n, n))
+
+
+def test_the_plain_search_grows_its_heap_for_a_vertex_with_more_edges_than_it_has_rows():
+    """Review of session 37: the plain scan doubled its heap once before a vertex's row, so a vertex
+    of more edges than twice the heap's 4,096 rows wrote past its end (numba checks no bounds: the
+    process died). Now it grows until the row fits, and the search is scipy's."""
+    from osm_expand.engine.roads.expanded_search import plain_dijkstra
+
+    graph, matrix = star_plain_graph(50_000)
+    dist, pred = plain_dijkstra(graph, np.array([0]), return_predecessors=True)
+    want, want_pred = dijkstra(matrix, indices=0, return_predecessors=True)
+    assert np.array_equal(dist, want)
+    assert np.array_equal(pred, want_pred)
+
+
+def test_a_plain_search_refuses_a_limit_above_its_last_one():
+    """Review of session 37: what a limit kept out was never pushed, so a later, larger limit would
+    miss it silently; the search keeps its last limit and refuses a larger one (an equal one and no
+    limit at all go on)."""
+    graph, matrix = star_plain_graph(100)
+    search = PlainSearch(graph, np.array([0]), limit=20.0)
+    search.run()
+    search.run(20.0)
+    assert np.array_equal(search.dist, dijkstra(matrix, indices=0, limit=20.0))
+    with pytest.raises(ValueError, match="only fall"):
+        search.run(30.0)
+    search.run(10.0)
+    search.cut(10.0)
+    assert np.array_equal(search.dist, dijkstra(matrix, indices=0, limit=10.0))

@@ -33,7 +33,6 @@ from osm_expand.engine.traffic.trade import (
     trade_year,
 )
 from osm_expand.engine.traffic.trade_routes import initial_trade_state, route_between
-from osm_expand.engine.traffic.trip_graph import limited_search
 from osm_expand.engine.traffic.trips import (
     TripOptions,
     extend_trip_state,
@@ -619,7 +618,7 @@ def test_the_lots_people_summed_at_once_are_the_sum_lot_by_lot():
 
 @pytest.mark.parametrize("name", ["krems.osm.gz", "monaco.osm.gz"])
 def test_searches_kept_to_what_a_batch_reaches_equal_the_whole_graphs(name):
-    """``limited_search`` (compiled, each search touching only what it reaches) gives scipy's distances
+    """The trips' compiled searches (each touching only what it reaches) give scipy's distances
     and predecessors on the whole graph bit for bit (ties broken the same way), renumbered to the
     columns some start reaches, for neighbouring starts, starts spread over the town, tight and open
     limits; and ``_sample_batch`` draws the same trips as the dense table of scipy's rows
@@ -627,7 +626,7 @@ def test_searches_kept_to_what_a_batch_reaches_equal_the_whole_graphs(name):
     from scipy.sparse.csgraph import dijkstra
 
     from osm_expand.engine.traffic.trips import _sample_batch
-    from tests.test_trip_search import dense_sample_batch
+    from tests.test_trip_search import dense_sample_batch, limited_dijkstra
 
     net = loaded(name)
     uv = np.concatenate([np.c_[s.nodes[:-1], s.nodes[1:]] for s in net.streets])
@@ -640,7 +639,8 @@ def test_searches_kept_to_what_a_batch_reaches_equal_the_whole_graphs(name):
         for limit in (250.0, 1500.0, TripOptions().limit, np.inf):
             whole, whole_pred = dijkstra(g.matrix, directed=True, indices=2 * e + starts, return_predecessors=True,
                                          limit=limit)
-            vertex, dist, pred = limited_search(g, 2 * e + starts, limit)
+            vertex, dist, pred = limited_dijkstra(g.matrix.indptr, g.matrix.indices, g.matrix.data, 2 * e + starts,
+                                                  limit)
             assert np.all(np.diff(vertex) > 0)
             outside = np.ones(3 * e, bool)
             outside[vertex] = False

@@ -13,7 +13,7 @@ from hypothesis import strategies as st
 from scipy.sparse import csr_matrix
 from scipy.sparse.csgraph import dijkstra
 
-from osm_expand.engine.traffic.trip_search import batch_costs, limited_dijkstra
+from osm_expand.engine.traffic.trip_search import _batch, batch_costs
 from osm_expand.engine.traffic.trips import TripGraph, TripOptions, _decay, _sample_batch, trip_graph
 
 
@@ -56,6 +56,27 @@ def dense_sample_batch(graph: TripGraph, sources: np.ndarray, n_trips: np.ndarra
         on = (nxt >= 0) & (nxt < 2 * e)
         row, cur, people = row[on], nxt[on], people[on]
     return src_out, seg_out, vol_out, int(draws.sum()), stranded
+
+
+def limited_dijkstra(indptr: np.ndarray, indices: np.ndarray, data: np.ndarray, starts: np.ndarray, limit: float,
+                     ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The trips' compiled searches (``_batch``'s, with no segments: from ``starts`` themselves) as
+    scipy's ``dijkstra(matrix, indices=starts, return_predecessors=True, limit=limit)`` gives them,
+    kept to the vertices some start reaches: those vertices ascending, the (S, K) distances and the
+    predecessors as column indices (−9999: none)."""
+    starts = np.asarray(starts, dtype=np.int64)
+    *_, ptr, vertex, distance, before = _batch(
+        np.asarray(indptr, dtype=np.int32), np.asarray(indices, dtype=np.int32), np.asarray(data, dtype=np.float64),
+        starts, 0, np.zeros(0, dtype=np.bool_), float(limit))
+    row = np.repeat(np.arange(len(starts)), np.diff(ptr))
+    vertices = np.unique(vertex)
+    column = np.searchsorted(vertices, vertex)
+    dist = np.full((len(starts), len(vertices)), np.inf)
+    dist[row, column] = distance
+    pred = np.full((len(starts), len(vertices)), -9999, dtype=np.int32)
+    has = before >= 0
+    pred[row[has], column[has]] = np.searchsorted(vertices, before[has])
+    return vertices, dist, pred
 
 
 @st.composite
@@ -137,5 +158,20 @@ def test_batch_costs_refuses_a_source_outside_the_graph():
     m = g.matrix
     with pytest.raises(ValueError, match="sources must lie in"):
         batch_costs(m.indptr, m.indices, m.data, np.array([1]), 1, np.ones(1, bool), 100.0)
-    with pytest.raises(ValueError, match="starts must lie in"):
-        limited_dijkstra(m.indptr, m.indices, m.data, np.array([-1]), 100.0)
+    with pytest.raises(ValueError, match="sources must lie in"):
+        batch_costs(m.indptr, m.indices, m.data, np.array([-1]), 1, np.ones(1, bool), 100.0)
+
+
+def test_batch_costs_refuses_wanted_flags_of_another_length_and_arcs_past_int32():
+    """Review of session 37: ``_batch`` reads ``wanted`` by segment and the CSR arrays as int32, with
+    no bounds checked: too few flags read past their end, and 2³¹ arcs or more would wrap silently.
+    Both are refused before the kernel runs (the arcs' count is read from ``indptr``'s last entry)."""
+    g = trip_graph(np.array([[0.0, 0.0], [10.0, 0.0], [20.0, 0.0]]), np.array([[0, 1], [1, 2]]))
+    m = g.matrix
+    with pytest.raises(ValueError, match="wanted flags"):
+        batch_costs(m.indptr, m.indices, m.data, np.array([0]), 2, np.ones(1, bool), 100.0)
+    huge = m.indptr.astype(np.int64)
+    huge[-1] = 2**31
+    with pytest.raises(ValueError, match="int32"):
+        batch_costs(huge, m.indices, m.data, np.array([0]), 2, np.ones(2, bool), 100.0)
+    batch_costs(m.indptr, m.indices, m.data, np.array([0]), 2, np.ones(2, bool), 100.0)

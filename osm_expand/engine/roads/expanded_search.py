@@ -62,10 +62,15 @@ search for one set of argument types takes 3–4 s CPU (session 36's review:
 3.9 s with a float64 ``plain`` table, 3.1 s float32, 3.5 s with an int64
 ``local``), and numba compiles once per set, so ``routing._heading_search``
 passes one set always (a float32 ``plain``, a (1, 1) one beside a kind
-table; an int32 ``local``): a run compiles the search once;
-nothing else imports numba (``routing`` imports this module when it first
-searches), so commands that search no route do not pay it. numba's import
-holds about 110 MB (LLVM) for the rest of the run.
+table; an int32 ``local``): a run compiles the search once. The plain
+search's kernels (``_plain_seeded``, ``_plain_scan``) cost 1.8 s CPU more
+to compile with an empty cache (session 37's review). Only this module and
+:mod:`osm_expand.engine.traffic.trip_search` (which takes ``_compiled`` and
+``_before`` from here, and whose kernels cost 4.65 s more to compile) import
+numba, each imported only when its searches first run (``routing`` when it
+first searches a route, ``trips`` when it first searches trips), so commands
+that search neither do not pay it. numba's import holds about 110 MB (LLVM)
+for the rest of the run.
 """
 from __future__ import annotations
 
@@ -325,8 +330,13 @@ def _plain_scan(n_lat: int, lat_kind: np.ndarray, allowed: np.ndarray, offset: n
             continue
         # room for the row's entries first, so that a relaxation passes no array back (:func:`_relax`'s
         # returned heap cost a reference count each: twice the time of this search on a window)
-        if length + n_dir + e_ptr[u + 1] - e_ptr[u] > len(heap):
-            heap = np.concatenate((heap, np.empty_like(heap)))
+        # (doubled until the whole row fits: a vertex may have more edges than the heap has rows)
+        need = length + n_dir + e_ptr[u + 1] - e_ptr[u]
+        if need > len(heap):
+            size = len(heap)
+            while size < need:
+                size *= 2
+            heap = np.concatenate((heap, np.empty((size - len(heap), 2))))
         if u < n_lat:
             for d in range(n_dir):
                 if not allowed[lat_kind[u, d]]:
@@ -404,10 +414,22 @@ class PlainSearch:
         self.dist = np.full(graph.n, np.inf)  #: (n,) the distances found (∞: not reached)
         self.pred = np.full(graph.n if predecessors else 0, NO_PRED, dtype=np.int32)  #: (n,) or empty
         self._heap, self._length = _plain_seeded(self.dist, self.pred, seeds, at, float(limit))
+        self._limit = float(limit)  #: the lowest limit yet: what lies above it was never pushed
 
-    def run(self, limit: float = np.inf, stop: int = -1) -> bool:
-        """Scan on, up to ``limit`` (at most the last one), until ``stop`` is scanned (then True; −1:
-        none) or nothing is left."""
+    def run(self, limit: float | None = None, stop: int = -1) -> bool:
+        """Scan on, up to ``limit`` (None: the last one), until ``stop`` is scanned (then True; −1:
+        none) or nothing is left.
+
+        Raises
+        ------
+        ValueError
+            ``limit`` above the last one: the entries the last limit kept out were never pushed, so
+            the search would miss them silently.
+        """
+        limit = self._limit if limit is None else float(limit)
+        if limit > self._limit:
+            raise ValueError(f"a plain search's limit may only fall: {limit} after {self._limit}")
+        self._limit = limit
         g = self.graph
         self._heap, self._length, stopped = _plain_scan(
             g.n_lat, g.lat_kind, g.allowed, g.offset, g.table, g.plain, g.w_kind, g.e_ptr, g.e_col, g.e_val,

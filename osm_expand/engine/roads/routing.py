@@ -64,11 +64,11 @@ from scipy.sparse.csgraph import dijkstra
 
 from osm_expand.engine.roads.lattice import ROAD_KINDS, EdgeKind, LatticeWeights
 from osm_expand.engine.roads.path_graph import EdgeCosts, GraphWindow, ImplicitGraph, KindMask, PathGraph
+from osm_expand.errors import InputError, OptionError
+from osm_expand.model.options import require_positive
 
 if TYPE_CHECKING:
     from osm_expand.engine.roads.expanded_search import Plain
-from osm_expand.errors import InputError, OptionError
-from osm_expand.model.options import require_positive
 
 __all__ = ["RoutingOptions", "Route", "turn_penalty", "find_route", "route_over_major_roads", "Choice",
            "choose", "route_score"]
@@ -268,7 +268,8 @@ def _search(graph: PathGraph, source: int, target: int, kinds: Sequence[EdgeKind
     """:func:`find_route` on a G′, and the plain (turn-free) distances from the source up to past the
     first bound (∞ beyond; all of them where the target is not reached).
 
-    The plain searches are compiled (:func:`_plain_search`) and read G′'s tables as they go: no
+    The plain searches are compiled (:class:`~osm_expand.engine.roads.expanded_search.PlainSearch`,
+    the source's run in parts; :func:`_plain_search` for the others) and read G′'s tables as they go: no
     matrix of the graph is written (a window's was 8.2 s of Campo Grande's run and most of a road
     year's memory, session 36). The source's stops at the target and goes on only up to the first
     bound, which needs the plain route (Campo Grande's first 8 captured calls: 4.6 → 3.4 s CPU of
@@ -1362,7 +1363,8 @@ def _backward_route(graph: PathGraph, lat: KindMask, extra: np.ndarray, source: 
     Parameters
     ----------
     from_source, from_target
-        (V′,) the plain distances from the source (all) and the target (∞ beyond the bound).
+        (V′,) the plain distances from the source and from the target, each ∞ beyond its cut (the
+        source's past the first bound, :func:`_search`; the target's past the bound).
     best
         A feasible route (its vertices) and its cost C (an upper bound).
     seed

@@ -12,7 +12,7 @@ from scipy.sparse.csgraph import dijkstra
 from osm_expand.engine.traffic.trip_options import TripOptions
 from osm_expand.errors import InputError
 
-__all__ = ["TripGraph", "limited_search", "shortest_route", "travel_costs", "trip_graph"]
+__all__ = ["TripGraph", "shortest_route", "travel_costs", "trip_graph"]
 
 
 #: Arcs weigh at least this (equivalent metres): Dijkstra needs positive weights.
@@ -142,46 +142,6 @@ def trip_graph(xy: NDArray[np.floating], edges: NDArray[np.integer], *,
             and np.array_equal(previous.length, length) and np.array_equal(previous.major, major)):
         return previous
     return _build(edges, ends, length, major, options)
-
-
-def limited_search(graph: TripGraph, starts: NDArray[np.integer], limit: float,
-                   ) -> tuple[NDArray[np.int64], NDArray[np.float64], NDArray[np.int32]]:
-    """Dijkstra from each of ``starts`` up to cost ``limit``, each search touching only what it reaches.
-
-    ``scipy``'s :func:`~scipy.sparse.csgraph.dijkstra` sets up every vertex
-    and fills a dense ``(len(starts), 3E)`` distance and predecessor row per
-    start, so a town of E segments paid O(E) per start however little a
-    search within ``limit`` reaches: the first year's fill of every segment
-    was O(E²) (a 54,000-segment town: 1.8 ms a start, 2,750 of 162,000
-    vertices reached). Then it ran on the subgraph a multi-start search
-    found the batch reaches (the union search, the subgraph and the searches
-    were 4.0 of Campo Grande's 5.2 s first fill). Now a compiled search
-    (:func:`~osm_expand.engine.traffic.trip_search.limited_dijkstra`) resets
-    only what each search reached, with scipy's order of equal distances: the
-    distances and predecessors are scipy's on the whole graph, kept to the
-    columns some start reaches (a test compares them).
-
-    Parameters
-    ----------
-    graph : TripGraph
-    starts : (S,) int
-        Vertices of ``graph.matrix`` to search from.
-    limit : float
-        Equivalent metres: vertices further than this from a start are not reached.
-
-    Returns
-    -------
-    vertices : (K,) int64
-        The vertices some start reaches within ``limit``, ascending: column ``k`` below is vertex ``vertices[k]``.
-    dist : (S, K) float64
-        Cost from each start (``inf`` where that start does not reach within ``limit``).
-    pred : (S, K) int32
-        Each vertex's predecessor on its cheapest path, as a column index (``-9999``: none).
-    """
-    from osm_expand.engine.traffic.trip_search import limited_dijkstra  # numba's import, only when trips are searched
-
-    matrix = graph.matrix
-    return limited_dijkstra(matrix.indptr, matrix.indices, matrix.data, starts, limit)
 
 
 def travel_costs(graph: TripGraph, source: int, *, limit: float = np.inf) -> NDArray[np.float64]:

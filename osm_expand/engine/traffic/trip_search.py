@@ -39,7 +39,9 @@ draws and the paths are those of the scipy code they replace
 among them; grid towns against the dense table of scipy's rows).
 
 The kernels are compiled by numba on first use and cached (``_compiled``,
-:mod:`osm_expand.engine.roads.expanded_search`); this module, and with it
+:mod:`osm_expand.engine.roads.expanded_search`): with an empty cache a
+user's first run spends 4.65 s CPU compiling ``_batch`` and ``_walk``
+(session 37's review), later runs load them. This module, and with it
 numba, is imported only when trips are searched.
 """
 from __future__ import annotations
@@ -49,7 +51,7 @@ from numpy.typing import NDArray
 
 from osm_expand.engine.roads.expanded_search import NO_PRED, _before, _compiled
 
-__all__ = ["batch_costs", "limited_dijkstra", "walk_paths"]
+__all__ = ["batch_costs", "walk_paths"]
 
 #: ``at`` of a vertex not in the heap (not reached yet)
 _OUT = -1
@@ -143,46 +145,12 @@ def _grown(a: np.ndarray, size: int) -> np.ndarray:
 
 
 @_compiled()
-def _searches(indptr: np.ndarray, indices: np.ndarray, data: np.ndarray, starts: np.ndarray, limit: float,
-              ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    """Dijkstra from each of ``starts`` up to ``limit``: for every vertex a search reached, its row
-    ``(start's position, vertex, distance, predecessor)``, the rows of one start together."""
-    n = len(indptr) - 1
-    dist = np.full(n, np.inf)
-    pred = np.full(n, NO_PRED, dtype=np.int32)
-    at = np.full(n, _OUT, dtype=np.int32)
-    touched = np.empty(n, dtype=np.int32)
-    keys = np.empty(n)
-    heap = np.empty(n, dtype=np.int32)
-    out_start = np.empty(1024, dtype=np.int64)
-    out_vertex = np.empty(1024, dtype=np.int64)
-    out_dist = np.empty(1024)
-    out_pred = np.empty(1024, dtype=np.int64)
-    rows = 0
-    for i in range(len(starts)):
-        reached = _search(indptr, indices, data, starts[i], limit, dist, pred, at, touched, keys, heap)
-        out_start = _grown(out_start, rows + reached)
-        out_vertex = _grown(out_vertex, rows + reached)
-        out_dist = _grown(out_dist, rows + reached)
-        out_pred = _grown(out_pred, rows + reached)
-        for t in range(reached):
-            v = touched[t]
-            out_start[rows] = i
-            out_vertex[rows] = v
-            out_dist[rows] = dist[v]
-            out_pred[rows] = pred[v]
-            rows += 1
-            dist[v] = np.inf
-            pred[v] = NO_PRED
-            at[v] = _OUT
-    return out_start[:rows], out_vertex[:rows], out_dist[:rows], out_pred[:rows]
-
-
-@_compiled()
 def _batch(indptr: np.ndarray, indices: np.ndarray, data: np.ndarray, sources: np.ndarray, e: int,
            wanted: np.ndarray, limit: float) -> tuple[np.ndarray, ...]:
     """The trips' searches of one batch (:func:`batch_costs`): the destinations' entries, and each
-    search's vertices and predecessors for :func:`_walk`."""
+    search's vertices, distances and predecessors (``ptr``: where each search's rows start; :func:`_walk`
+    reads the vertices and predecessors, the tests all three: with ``e`` 0 any CSR graph is searched
+    from ``sources`` themselves)."""
     n = len(indptr) - 1
     dist = np.full(n, np.inf)
     pred = np.full(n, NO_PRED, dtype=np.int32)
@@ -258,7 +226,7 @@ def _batch(indptr: np.ndarray, indices: np.ndarray, data: np.ndarray, sources: n
                 forward[v] = np.inf
             elif v < 2 * e:
                 backward[v - e] = np.inf
-    return out_row[:m], out_seg[:m], out_cost[:m], out_back[:m], ptr, r_vertex[:rows], r_pred[:rows]
+    return out_row[:m], out_seg[:m], out_cost[:m], out_back[:m], ptr, r_vertex[:rows], r_dist[:rows], r_pred[:rows]
 
 
 @_compiled()
@@ -294,52 +262,6 @@ def _walk(ptr: np.ndarray, r_vertex: np.ndarray, r_pred: np.ndarray, rows: np.nd
     return out[:m], lengths
 
 
-def limited_dijkstra(indptr: NDArray[np.integer], indices: NDArray[np.integer], data: NDArray[np.floating],
-                     starts: NDArray[np.integer], limit: float,
-                     ) -> tuple[NDArray[np.int64], NDArray[np.float64], NDArray[np.int32]]:
-    """scipy's ``dijkstra(matrix, directed=True, indices=starts, return_predecessors=True, limit=limit)``
-    on the CSR matrix (``indptr``, ``indices``, ``data``), kept to the vertices some start reaches.
-
-    Parameters
-    ----------
-    indptr, indices, data
-        The graph's CSR arrays (weights ≥ 0; N vertices).
-    starts : (S,) int
-        Vertices to search from.
-    limit : float
-        Vertices further than this from a start are not reached (scipy's ``limit``).
-
-    Returns
-    -------
-    vertices : (K,) int64
-        The vertices some start reaches within ``limit``, ascending: column ``k`` below is vertex ``vertices[k]``.
-    dist : (S, K) float64
-        Cost from each start, as scipy's (``inf`` where that start does not reach within ``limit``).
-    pred : (S, K) int32
-        Each vertex's predecessor on its cheapest path, as scipy's but as a column index (``-9999``: none).
-
-    Raises
-    ------
-    ValueError
-        A start outside ``0 … N − 1`` (numba checks no bounds: it would read and write outside the arrays).
-    """
-    starts = np.ascontiguousarray(starts, dtype=np.int64).reshape(-1)
-    n = len(indptr) - 1
-    if len(starts) and (starts.min() < 0 or starts.max() >= n):
-        raise ValueError(f"limited_dijkstra: starts must lie in 0 … {n - 1}")
-    row, vertex, distance, before = _searches(np.ascontiguousarray(indptr, dtype=np.int32),
-                                              np.ascontiguousarray(indices, dtype=np.int32),
-                                              np.ascontiguousarray(data, dtype=np.float64), starts, float(limit))
-    vertices = np.unique(vertex)
-    column = np.searchsorted(vertices, vertex)
-    dist = np.full((len(starts), len(vertices)), np.inf)
-    dist[row, column] = distance
-    pred = np.full((len(starts), len(vertices)), NO_PRED, dtype=np.int32)
-    has = before >= 0
-    pred[row[has], column[has]] = np.searchsorted(vertices, before[has])
-    return vertices, dist, pred
-
-
 def batch_costs(indptr: NDArray[np.integer], indices: NDArray[np.integer], data: NDArray[np.floating],
                 sources: NDArray[np.integer], n_segments: int, wanted: NDArray[np.bool_], limit: float,
                 ) -> tuple[NDArray[np.int64], NDArray[np.int64], NDArray[np.float64], NDArray[np.bool_], tuple]:
@@ -358,13 +280,24 @@ def batch_costs(indptr: NDArray[np.integer], indices: NDArray[np.integer], data:
         Whether that is the backward direction (strictly cheaper than the forward one).
     paths : tuple
         What :func:`walk_paths` reads of the searches.
+
+    Raises
+    ------
+    ValueError
+        A source outside the midpoints, ``wanted`` not one flag per segment, or a graph of 2³¹ arcs
+        or vertices or more (the kernel reads its CSR arrays as int32, which would wrap silently;
+        numba checks no bounds, so each would read or write outside the arrays).
     """
     sources = np.ascontiguousarray(sources, dtype=np.int64).reshape(-1)
     n = len(indptr) - 1
     e = int(n_segments)
     if len(sources) and (sources.min() < 0 or 2 * e + sources.max() >= n):
         raise ValueError(f"batch_costs: sources must lie in 0 … {(n - 2 * e) - 1}")
-    row, segment, cost, back, ptr, vertex, before = _batch(
+    if len(wanted) != e:
+        raise ValueError(f"batch_costs: {len(wanted)} wanted flags for {e} segments")
+    if n >= 2**31 or (len(indptr) > 0 and int(indptr[-1]) >= 2**31):
+        raise ValueError(f"batch_costs: {n} vertices and {int(indptr[-1])} arcs: more than int32 numbers")
+    row, segment, cost, back, ptr, vertex, _, before = _batch(
         np.ascontiguousarray(indptr, dtype=np.int32), np.ascontiguousarray(indices, dtype=np.int32),
         np.ascontiguousarray(data, dtype=np.float64), sources, e, np.ascontiguousarray(wanted, dtype=np.bool_),
         float(limit))
