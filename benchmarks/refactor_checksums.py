@@ -29,7 +29,9 @@ runs that grow districts in the engine's years: Krems' and Monaco's default
 and colonisation runs and Campo Grande's three. Campo Grande's three were taken
 again from main 899e714 on session 33's fresh machine (numpy 2.4.6, scipy
 1.17.1, shapely 2.2.0): the same code gave other bytes there (7c258439 for
-the default run), while Krems', Monaco's and every simplify output stayed. (Earlier baselines:
+the default run), while Krems', Monaco's and every simplify output stayed. The three
+``european`` runs were taken again on session 37's merge (``GrowthOptions.pattern_aim``
+on: a named pattern's era keeps its town's connectedness); every other case stayed. (Earlier baselines:
 main at 25738d5 for the second refactor, c903331 for the first.)
 """
 
