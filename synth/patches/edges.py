@@ -6,7 +6,7 @@ import shapely
 import shapely.ops
 from scipy.ndimage import gaussian_filter1d
 
-from osm_expand.model.geometry import chord_bends
+from osm_expand.model.geometry import chord_bends, turn_angles
 from synth.patches.options import PatchOptions
 from synth.patches.quilt import _Board, _close, _lay, _Quilt
 from synth.patches.seams import CONNECTOR_STEP
@@ -112,15 +112,8 @@ def _joint_turns(path: np.ndarray, first: np.ndarray, last: np.ndarray) -> tuple
     near = shapely.get_coordinates(shapely.line_interpolate_point(line, [reach, line.length - reach]))
     out = near[0] - path[0]
     back = path[-1] - near[1]
-    return _angle(first, out), _angle(back, -np.asarray(last))
-
-
-def _angle(u: np.ndarray, v: np.ndarray) -> float:
-    """Degrees between the directions ``u`` and ``v`` (0 when either is zero)."""
-    nu, nv = float(np.hypot(*u)), float(np.hypot(*v))
-    if nu == 0.0 or nv == 0.0:
-        return 0.0
-    return float(np.degrees(np.arccos(np.clip(np.dot(u, v) / (nu * nv), -1.0, 1.0))))
+    turns = turn_angles(np.array([first, back]), np.array([out, -np.asarray(last)]))
+    return float(turns[0]), float(turns[1])
 
 
 def _smoothed(raw: np.ndarray, sigma: float) -> np.ndarray:
