@@ -14,14 +14,15 @@ from scipy.sparse import csr_matrix
 from scipy.sparse.csgraph import dijkstra
 
 from osm_expand.engine.traffic.trip_search import _batch, batch_costs
-from osm_expand.engine.traffic.trips import TripGraph, TripOptions, _decay, _sample_batch, trip_graph
+from osm_expand.engine.traffic.trips import TripGraph, TripOptions, _decay, _draws, _sample_batch, trip_graph
 
 
 def dense_sample_batch(graph: TripGraph, sources: np.ndarray, n_trips: np.ndarray, residents: np.ndarray,
                        volume: float, rng: np.random.Generator, options: TripOptions) -> tuple:
     """``_sample_batch`` by its definition: scipy's rows over the whole graph, the dense (sources ×
     segments) table of costs, its finite entries in row-major order, the paths walked back step by
-    step over all of them (the code before the compiled search, on the whole graph)."""
+    step over all of them (the code before the compiled search, on the whole graph; the draws over the
+    entries are the trips' own :func:`_draws`)."""
     e = graph.n_segments
     dist, pred = dijkstra(graph.matrix, directed=True, indices=2 * e + sources, return_predecessors=True,
                           limit=options.limit)
@@ -30,20 +31,9 @@ def dense_sample_batch(graph: TripGraph, sources: np.ndarray, n_trips: np.ndarra
     cost[np.arange(len(sources)), sources] = np.inf  # no trips to one's own street
     row, col = np.nonzero(np.isfinite(cost) & (residents > 0)[None, :])
     weight = residents[col] * _decay(cost[row, col], options)
-    total = np.bincount(row, weights=weight, minlength=len(sources))
-    reach = total > 0
-    stranded = int((~reach).sum())
-    draws = np.where(reach, n_trips, 0)
-    if draws.sum() == 0:
+    pick, count, drawn, stranded = _draws(row, weight, n_trips, len(sources), rng)
+    if drawn == 0:
         return [], [], [], 0, stranded
-    cum = np.cumsum(weight)
-    first = np.searchsorted(row, np.arange(len(sources)))
-    base = np.r_[0.0, cum][first]
-    drow = np.repeat(np.arange(len(sources)), draws)
-    u = base[drow] + rng.random(len(drow)) * total[drow]
-    last = first + np.bincount(row, minlength=len(sources)) - 1
-    pick = np.clip(np.searchsorted(cum, u, side="right"), first[drow], last[drow])
-    pick, count = np.unique(pick, return_counts=True)
     row, col = row[pick], col[pick]
     people = count * volume
     cur = col + e * (backward[row, col] < forward[row, col])
@@ -55,7 +45,7 @@ def dense_sample_batch(graph: TripGraph, sources: np.ndarray, n_trips: np.ndarra
         nxt = pred[row, cur]
         on = (nxt >= 0) & (nxt < 2 * e)
         row, cur, people = row[on], nxt[on], people[on]
-    return src_out, seg_out, vol_out, int(draws.sum()), stranded
+    return src_out, seg_out, vol_out, drawn, stranded
 
 
 def limited_dijkstra(indptr: np.ndarray, indices: np.ndarray, data: np.ndarray, starts: np.ndarray, limit: float,

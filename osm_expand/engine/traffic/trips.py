@@ -282,24 +282,36 @@ def _sample_batch(graph: TripGraph, sources: NDArray[np.int64], n_trips: NDArray
     row, col, cost, back, paths = batch_costs(matrix.indptr, matrix.indices, matrix.data, sources, e,
                                               residents > 0, options.limit)  # no trips to one's own street
     weight = residents[col] * _decay(cost, options)
-    total = np.bincount(row, weights=weight, minlength=len(sources))
+    pick, count, drawn, stranded = _draws(row, weight, n_trips, len(sources), rng)
+    if drawn == 0:
+        return [], [], [], 0, stranded
+    row, col = row[pick], col[pick]
+    people = count * volume
+    segment, path = walk_paths(paths, row, col + e * back[pick])  # each path from its destination back
+    return [sources[row][path]], [segment], [people[path]], drawn, stranded
+
+
+def _draws(row: NDArray[np.int64], weight: NDArray[np.float64], n_trips: NDArray[np.int64], n_sources: int,
+           rng: np.random.Generator) -> tuple[NDArray[np.int64], NDArray[np.int64], int, int]:
+    """Which entries the batch's trips go to: ``n_trips`` draws per source by inverse transform over its row's
+    attraction ``weight`` (entries sorted by ``row``; one cumulative sum over the whole batch), the draws of
+    one entry merged. Returns the entries drawn, how many times each, the number of draws and the sources
+    stranded (nothing attracts them, so they draw nothing)."""
+    total = np.bincount(row, weights=weight, minlength=n_sources)
     reach = total > 0
     stranded = int((~reach).sum())
     draws = np.where(reach, n_trips, 0)
     if draws.sum() == 0:
-        return [], [], [], 0, stranded
+        return np.zeros(0, dtype=np.int64), np.zeros(0, dtype=np.int64), 0, stranded
     cum = np.cumsum(weight)
-    first = np.searchsorted(row, np.arange(len(sources)))  # row's first entry (rows are sorted)
+    first = np.searchsorted(row, np.arange(n_sources))  # row's first entry (rows are sorted)
     base = np.r_[0.0, cum][first]
-    drow = np.repeat(np.arange(len(sources)), draws)
+    drow = np.repeat(np.arange(n_sources), draws)
     u = base[drow] + rng.random(len(drow)) * total[drow]
-    last = first + np.bincount(row, minlength=len(sources)) - 1
+    last = first + np.bincount(row, minlength=n_sources) - 1
     pick = np.clip(np.searchsorted(cum, u, side="right"), first[drow], last[drow])
     pick, count = np.unique(pick, return_counts=True)
-    row, col = row[pick], col[pick]
-    people = count * volume
-    segment, path = walk_paths(paths, row, col + e * back[pick])  # each path from its destination back
-    return [sources[row][path]], [segment], [people[path]], int(draws.sum()), stranded
+    return pick, count, int(draws.sum()), stranded
 
 
 def step_trips(state: TripState, graph: TripGraph, residents: NDArray[np.floating], rng: np.random.Generator,
