@@ -70,6 +70,15 @@ def _city(lines: list[np.ndarray], attrs: list[dict], buildings: list[Building],
 #: What a malformed file raises while it is read: each is the file's fault, reported in one line.
 _BAD = (ValueError, KeyError, TypeError, IndexError, AttributeError, RecursionError, OverflowError)
 
+#: Metres from the local projection's centre beyond which a coordinate is not on the Earth (half the equator,
+#: 2.0e7 m): a file holding one is malformed, not a town (a fuzzed ``x1="1e39"`` reached GEOS and failed there).
+EARTH_REACH = 2.0e7
+
+
+def _on_earth(a: np.ndarray) -> bool:
+    """Whether every coordinate of ``a`` is finite and within :data:`EARTH_REACH` of the projection's centre."""
+    return bool(np.isfinite(a).all() and (np.abs(a) <= EARTH_REACH).all())
+
 
 def _points(value, what: str, least: int) -> np.ndarray:
     """An ``(n, 2)`` array of finite coordinates with ``n >= least``, or InputError naming ``what``."""
@@ -77,8 +86,8 @@ def _points(value, what: str, least: int) -> np.ndarray:
     if a.ndim != 2 or a.shape[1] < 2 or len(a) < least:
         raise UnreadableInputError(f"{what}: expected at least {least} points of two coordinates")
     a = a[:, :2]
-    if not np.isfinite(a).all():
-        raise UnreadableInputError(f"{what}: a coordinate is not a finite number")
+    if not _on_earth(a):
+        raise UnreadableInputError(f"{what}: a coordinate is not a finite number of metres on the Earth")
     return a
 
 
@@ -147,8 +156,8 @@ def _from_urbanenvironment(path: Path) -> City:
         lines, attrs = [], []
         for k, st in enumerate(root.iterfind("streets/street")):
             segs = np.array([[float(sg.get(c)) for c in ("x1", "y1", "x2", "y2")] for sg in st.iterfind("segment")])
-            if len(segs) and not np.isfinite(segs).all():
-                raise UnreadableInputError(f"street {k}: a coordinate is not a finite number")
+            if len(segs) and not _on_earth(segs):
+                raise UnreadableInputError(f"street {k}: a coordinate is not a finite number of metres on the Earth")
             props = dict(st.attrib)
             if props.get("osm_id"):
                 props["osm_ids"] = [_osm_id(props["osm_id"])]

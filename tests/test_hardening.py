@@ -491,3 +491,20 @@ def test_point12_library_warnings_never_reach_stderr(monkeypatch, capsys):
             warnings.formatwarning(m, c, f, n, line))  # as a plain interpreter prints them
         code, _, err = run(["stats", "any.osm", "-q"], capsys)
     assert code == 0 and notes_only(err)
+
+
+def test_an_urbanenvironment_coordinate_beyond_the_earth_is_refused_in_one_line(tmp_path, capsys):
+    """A segment at ``x1="1e39"`` (hypothesis found it in test_fuzz) is finite but not on the Earth: it reached
+    GEOS and failed there (exit 1); it is the file's fault (exit 2, one line naming the street)."""
+    from osm_expand import cli
+
+    bad = tmp_path / "far.xml"
+    bad.write_text('<?xml version="1.0" encoding="UTF-8"?>\n<urbanenvironment lon0="-122.3" lat0="37.8"><streets>'
+                   '<street id="0" highway="residential" origin="source">'
+                   '<segment x1="1e39" y1="-29.6" x2="-141.8" y2="5.1"/>'
+                   '<segment x1="-141.8" y1="5.1" x2="-151.6" y2="7.8"/></street></streets><buildings/>'
+                   '</urbanenvironment>')
+    assert cli.main([str(bad), "-o", str(tmp_path / "out.xml"), "-q"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "street 0" in err[0] and "on the Earth" in err[0]
+    assert not (tmp_path / "out.xml").exists()
