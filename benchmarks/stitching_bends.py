@@ -52,8 +52,18 @@ links turn 77-107° off their streets). ``--option seam_jog=90``: Krems' seam jo
 0.316; ``--option edge_turn=135``: Krems' joint edge 64° -> 21°, north-bayreuth's 57° -> 38° (KS 0.264 -> 0.300,
 its district moved). Both off (:class:`synth.patches.PatchOptions`, their measurements).
 
-Usage: ``python benchmarks/stitching_bends.py [--seed N] [--option NAME=VALUE ...] [--district] [TOWN ...]`` (default: Krems and
-north-bayreuth; about 15 s CPU each). ``--option`` (repeatable, a JSON value) sets a :class:`synth.patches.PatchOptions`
+Session 38 (h38c): ``--seeds`` pools several seeds' districts per town (one seed's district is chaotic: an option that
+changes one street's length can change which attempt of patches the quilting keeps). ``--district --seeds 0 1 2 3
+4``, default: Krems 893 chords, KS 0.366, corners over 45° 7.20 per km, joint edge 103 (45.6°), joint seam 38
+(47.1°); north-bayreuth 931, 0.233, 8.01, joint edge 128 (44.8°), joint seam 5. ``--option edge_tee=105`` (a V-joint
+met square further back, a tee): Krems 0.358, joint edge 94 (43.1°); north-bayreuth 0.223, joint edge 90 (33.6°).
+``--option seam_passing=true`` (no link between streets running past each other): Krems 0.357, joint seam 33
+(26.3°). ``--option edge_square=105`` (a V cut back to a right angle): Krems 0.375, north-bayreuth 0.230. All off
+(their measurements in :class:`synth.patches.PatchOptions`).
+
+Usage: ``python benchmarks/stitching_bends.py [--seed N | --seeds N ...] [--option NAME=VALUE ...] [--district] [TOWN ...]``
+(default: Krems and north-bayreuth, seed 0; about 15 s CPU each, 4 s with ``--district``; several seeds pool their
+districts' chords per town). ``--option`` (repeatable, a JSON value) sets a :class:`synth.patches.PatchOptions`
 field in every PatchOptions the run makes that does not set it itself (the history's eras take theirs from the
 defaults), e.g. ``--option edge_min_run=0.5``.
 """
@@ -175,10 +185,47 @@ def copied_degree(watched: dict, middle: np.ndarray) -> np.ndarray:
     return out
 
 
+def _placed(watch: Watch, mapped: object, seed: int, district: bool
+            ) -> tuple[list[np.ndarray], list[tuple[dict, np.ndarray, np.ndarray]]] | None:
+    """Grow ``mapped`` (a loaded city) with ``seed``: the town's streets, and per quilting round that was placed
+    (a round whose streets are those grown; a district refused, or an attempt another replaced, is not) the
+    watched round with its chords' bends and points; None when nothing grew."""
+    from osm_expand.engine.history import load_history
+    from osm_expand.maturation import MatureOptions, mature_result
+    from osm_expand.model import Origin
+    from osm_expand.pipeline import ExpandOptions, expand
+
+    first = len(watch.rounds)
+    city = expand(mapped, ExpandOptions(seed=seed, fidelity=False))  # type: ignore[arg-type]
+    if district:  # the pipeline's district: its quilting rounds, its streets
+        net, grew = city.city.network, Origin.GROWN
+    else:
+        first = len(watch.rounds)
+        net = mature_result(city, load_history("example"), MatureOptions(fidelity=False), seed).city.network
+        grew = Origin.ENGINE
+    engine = [net.street_xy(s) for s in net.streets if s.origin == grew]
+    town = [net.street_xy(s) for s in net.streets if s.origin == Origin.SOURCE]
+    if not engine:
+        return None
+    grown = shapely.MultiLineString([shapely.LineString(x) for x in engine])
+    rounds = []
+    for watched in watch.rounds[first:]:
+        final = watched.get("final", [])
+        if not final:
+            continue
+        middle = shapely.points([x[len(x) // 2] if len(x) > 2 else x.mean(axis=0) for x in final])
+        if np.mean(shapely.distance(grown, middle) < 1.0) < 0.5:  # a district refused, not placed
+            continue
+        b, p = chords(final)
+        rounds.append((watched, b, p))
+    return town, rounds
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("towns", nargs="*", default=["krems.osm.gz", "north-bayreuth.osm.gz"])
     ap.add_argument("--seed", type=int, default=0)
+    ap.add_argument("--seeds", type=int, nargs="+", help="several seeds, their districts' chords pooled per town")
     ap.add_argument("--option", action="append", default=[], metavar="NAME=VALUE")
     ap.add_argument("--district", action="store_true",
                     help="the pipeline's district (the circle of the README's picture) instead of the engine's "
@@ -187,52 +234,39 @@ def main() -> None:
     if args.option:
         _default_patch_options({k: json.loads(v) for k, v in (o.split("=", 1) for o in args.option)})
     watch = Watch()
-    from osm_expand.engine.history import load_history
     from osm_expand.fidelity import ks_distance
     from osm_expand.ingest import load
-    from osm_expand.maturation import MatureOptions, mature_result
     from osm_expand.measures import measure_network
     from osm_expand.model import Origin, network_from_lines
-    from osm_expand.pipeline import ExpandOptions, expand
     from synth.patches import SHARP, corner_turns
 
     for name in args.towns:
-        first = len(watch.rounds)
-        city = expand(load(REPO / "fixtures" / name), ExpandOptions(seed=args.seed, fidelity=False))
-        if args.district:  # the pipeline's district: its quilting rounds, its streets
-            net, grew = city.city.network, Origin.GROWN
-        else:
-            first = len(watch.rounds)
-            net = mature_result(city, load_history("example"), MatureOptions(fidelity=False), args.seed).city.network
-            grew = Origin.ENGINE
-        engine = [net.street_xy(s) for s in net.streets if s.origin == grew]
-        town = [net.street_xy(s) for s in net.streets if s.origin == Origin.SOURCE]
-        grown = shapely.MultiLineString([shapely.LineString(x) for x in engine]) if engine else None
         bends, kinds, degrees, corners, km = [], [], [], 0, 0.0
-        for watched in watch.rounds[first:]:
-            final = watched.get("final", [])
-            if grown is None or not final:
+        mapped_city = load(REPO / "fixtures" / name)
+        for seed in args.seeds or [args.seed]:
+            placed = _placed(watch, mapped_city, seed, args.district)
+            if placed is None:
                 continue
-            middle = shapely.points([x[len(x) // 2] if len(x) > 2 else x.mean(axis=0) for x in final])
-            if np.mean(shapely.distance(grown, middle) < 1.0) < 0.5:  # a district refused, not placed
-                continue
-            b, p = chords(final)
-            bends.append(b)
-            kinds.append(classify(watched, p))
-            joint = kinds[-1] == "piece joint"
-            degrees.append(np.where(joint, 0, -1))
-            degrees[-1][joint] = copied_degree(watched, p[joint, 1])
-            district = network_from_lines(final, [{"highway": "residential", "origin": Origin.GROWN}] * len(final))
-            corners += int((corner_turns(district) > SHARP).sum())
-            km += district.total_length() / 1000.0
+            town, rounds = placed
+            for watched, b, p in rounds:
+                bends.append(b)
+                kinds.append(classify(watched, p))
+                joint = kinds[-1] == "piece joint"
+                degrees.append(np.where(joint, 0, -1))
+                degrees[-1][joint] = copied_degree(watched, p[joint, 1])
+                final = watched["final"]
+                district = network_from_lines(final, [{"highway": "residential", "origin": Origin.GROWN}] * len(final))
+                corners += int((corner_turns(district) > SHARP).sum())
+                km += district.total_length() / 1000.0
+        seeds = " ".join(map(str, args.seeds or [args.seed]))
         if not bends:
-            print(f"{name} seed {args.seed}: no {'district' if args.district else 'engine district'} placed")
+            print(f"{name} seed {seeds}: no {'district' if args.district else 'engine district'} placed")
             continue
         b, k = np.concatenate(bends), np.concatenate(kinds)
         whole = np.sort(measure_network(town, pieces=False).value("curvature"))
         mapped = network_from_lines(town, [{"highway": "residential", "origin": Origin.SOURCE}] * len(town))
         town_rate = (corner_turns(mapped) > SHARP).sum() / (mapped.total_length() / 1000.0)
-        print(f"\n{name} seed {args.seed}: {len(b)} chords in the placed districts, median {np.median(b):.1f}°, "
+        print(f"\n{name} seed {seeds}: {len(b)} chords in the placed districts, median {np.median(b):.1f}°, "
               f"corners over {SHARP:.0f}° {corners / km:.2f} per km (town {town_rate:.2f})")
         print("| class | chords | share | median ° | over 20° |\n|---|---|---|---|---|")
         for kind in sorted(set(k), key=lambda c: -np.sum(k == c)):

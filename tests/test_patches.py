@@ -1020,3 +1020,118 @@ def test_seam_jog_links_no_streets_offset_sideways_but_keeps_a_gentle_link():
     for bad in (0, 181, float("nan"), "60"):
         with pytest.raises(OptionError, match="seam_jog"):
             PatchOptions(seam_jog=bad)
+
+
+def test_edge_tee_meets_a_splayed_cut_street_square_further_back_and_keeps_the_block_closed():
+    """``edge_tee`` (issue 20, session 38): two cut streets splaying 45° out to the edge get by default a run along
+    it that turns back 135° onto each (a V at a node of degree two). With ``edge_tee`` the run is still laid (the
+    block stays closed, both cut ends closed), but it leaves each cut street square to it, at least
+    :data:`~synth.patches.edges.SQUARE_LEG` before the edge, and the cut street runs on past that tee to the edge:
+    no node of degree two turns more than 90°, and two junctions of degree three stand on the cut streets."""
+    from synth.patches.edges import SQUARE_LEG, _edge_streets
+    from synth.patches.quilt import _network
+
+    region = shapely.box(0.0, 0.0, 400.0, 200.0)
+    far = shapely.LineString([(5000, 5000), (5100, 5000)])
+    quilt = _cut_quilt([[(200.0, 50.0), (150.5, 0.5)], [(210.0, 50.0), (259.5, 0.5)]], [(0, -1), (1, -1)], [0, 1])
+    for opts, tees in ((PatchOptions(), 0), (PatchOptions(edge_tee=105.0), 2)):
+        laid = copy.deepcopy(quilt)
+        assert _edge_streets(laid, region, 100.0, opts, shapely.Polygon(), far) == 1
+        assert not laid.cut_xy  # both cut ends closed: the block is closed either way
+        net = _network(laid)
+        degree = segment_degree(net.streets, len(net.xy))
+        assert int((degree == 3).sum()) == tees
+        turns = corner_turns(net)
+        assert (turns.max() > 120.0) == (tees == 0), turns
+        if tees:
+            path = laid.xy[-1]
+            for end, leg in ((path[0], path[1] - path[0]), (path[-1], path[-2] - path[-1])):
+                street = min(quilt.xy, key=lambda xy: shapely.LineString(xy).distance(shapely.Point(end)))
+                assert shapely.LineString(street).distance(shapely.Point(end)) < 1e-6  # it leaves a cut street
+                along = street[-1] - street[0]
+                assert abs(float(along @ leg)) < 1e-6 * np.hypot(*along) * np.hypot(*leg)  # square to the street
+                assert np.hypot(*leg) >= SQUARE_LEG - 1e-6
+    for bad in (0, 181, float("nan"), "90"):
+        with pytest.raises(OptionError, match="edge_tee"):
+            PatchOptions(edge_tee=bad)
+
+
+def test_edge_tee_leaves_a_square_joint_as_it_was():
+    """Two cut streets meeting the edge square to it are joined by the same run with ``edge_tee`` as without."""
+    from synth.patches.edges import _edge_streets
+
+    region = shapely.box(0.0, 0.0, 400.0, 200.0)
+    far = shapely.LineString([(5000, 5000), (5100, 5000)])
+    quilt = _cut_quilt([[(150.0, 100.0), (150.0, 0.5)], [(250.0, 100.0), (250.0, 0.5)]], [(0, -1), (1, -1)], [0, 1])
+    default, teed = copy.deepcopy(quilt), copy.deepcopy(quilt)
+    assert _edge_streets(default, region, 100.0, PatchOptions(), shapely.Polygon(), far) == 1
+    assert _edge_streets(teed, region, 100.0, PatchOptions(edge_tee=90.0), shapely.Polygon(), far) == 1
+    assert np.array_equal(default.xy[-1], teed.xy[-1]) and not teed.splits
+
+
+def test_seam_passing_links_no_streets_that_run_past_each_other():
+    """``seam_passing`` (issue 20, session 38): two cut streets running opposite ways side by side, each ending
+    behind the other, turn 0° against each other, so the default links them, a hairpin turning back more than
+    90° onto both (Krems' district, seed 0: a 53 m link beside one of its streets, 155-157° off both). With
+    ``seam_passing`` they are left open; two streets facing each other across the seam are linked either way."""
+    far = shapely.LineString([(5000, 5000), (5100, 5000)])
+    for end, linked in (((-50.0, 30.0), 0), ((40.0, 20.0), 1)):
+        x, y = end
+        quilt = _cut_quilt([[(-100.0, 0.0), (0.0, 0.0)], [(x, y), (x + 100.0, y)]], [(0, -1), (1, 0)], [0, 1])
+        default, passing = copy.deepcopy(quilt), copy.deepcopy(quilt)
+        assert _walk_seams(default, 100.0, PatchOptions(), shapely.Polygon(), far) == 1
+        assert _walk_seams(passing, 100.0, PatchOptions(seam_passing=True), shapely.Polygon(), far) == linked
+        assert len(passing.cut_xy) == 2 - 2 * linked
+    with pytest.raises(OptionError, match="seam_passing"):
+        PatchOptions(seam_passing="false")  # type: ignore[arg-type]
+
+
+def test_edge_square_cuts_a_splayed_cut_street_back_to_a_right_angle():
+    """``edge_square``: as ``edge_tee``, but the cut street ends where the square perimeter street leaves it (no
+    tee, no stub to the edge): the 135° V at each end becomes a right-angled L and a 45° bend where the square
+    street meets the edge, and the district has as many junctions as without it."""
+    from synth.patches.edges import _edge_streets
+    from synth.patches.quilt import _network
+
+    region = shapely.box(0.0, 0.0, 400.0, 200.0)
+    far = shapely.LineString([(5000, 5000), (5100, 5000)])
+    quilt = _cut_quilt([[(200.0, 50.0), (150.5, 0.5)], [(210.0, 50.0), (259.5, 0.5)]], [(0, -1), (1, -1)], [0, 1])
+    square = copy.deepcopy(quilt)
+    assert _edge_streets(square, region, 100.0, PatchOptions(edge_square=105.0), shapely.Polygon(), far) == 1
+    net = _network(square)
+    degree = segment_degree(net.streets, len(net.xy))
+    assert int((degree >= 3).sum()) == 0 and int((degree == 1).sum()) == 2  # the two streets' far ends
+    assert np.allclose(np.sort(corner_turns(net)), [45.0, 45.0, 90.0, 90.0], atol=1.0)
+    for k in (0, 1):  # each cut street shortened, still starting where it did
+        assert np.array_equal(square.xy[k][0], quilt.xy[k][0]) and square.xy[k][-1][1] > quilt.xy[k][-1][1] + 5.0
+    with pytest.raises(OptionError, match="edge_square"):
+        PatchOptions(edge_square=0)
+
+
+def test_krems_seam_links_pass_no_street_by_with_seam_passing(monkeypatch):
+    """Issue 20's picture (session 38): Krems' district, seed 0, links two pairs of cut streets that run past
+    each other side by side (a 53 m hairpin beside one of its streets, turning 155-157° off both; a 52 m hook,
+    131-138°). With ``seam_passing`` no seam link of its quilting joins two such streets."""
+    import synth.patches.pattern as pattern
+    from osm_expand.growth_patterns import make_pattern
+    from osm_expand.pipeline import learn
+    from synth.patches.seams import _passing
+
+    walk = pattern._walk_seams
+    laid: list[bool] = []
+
+    def watched(quilt, *args, **kwargs):
+        ends, headings, before = np.array(quilt.cut_xy), np.array(quilt.cut_heading), len(quilt.xy)
+        out = walk(quilt, *args, **kwargs)
+        for path in quilt.xy[before:]:
+            i, j = (int(np.argmin(np.hypot(*(ends - p).T))) for p in (path[0], path[-1]))
+            laid.append(bool(_passing(ends[[i]], headings[[i]], ends[[j]], headings[[j]])[0]))
+        return out
+
+    monkeypatch.setattr(pattern, "_walk_seams", watched)
+    city = load(FIXTURES / "krems.osm.gz")
+    example = learn(city).example
+    for opts, passing in ((None, True), (PatchOptions(seam_passing=True), False)):
+        laid.clear()
+        expand(city, ExpandOptions(seed=0, fidelity=False), pattern=make_pattern("example", example, opts))
+        assert laid and any(laid) == passing, laid

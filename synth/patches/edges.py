@@ -6,7 +6,7 @@ import shapely
 import shapely.ops
 from scipy.ndimage import gaussian_filter1d
 
-from osm_expand.model.geometry import chord_bends, turn_angles
+from osm_expand.model.geometry import chord_bends, ray_meet, turn_angles
 from synth.patches.options import PatchOptions
 from synth.patches.quilt import _Board, _close, _lay, _Quilt
 from synth.patches.seams import CONNECTOR_STEP
@@ -87,6 +87,10 @@ def _edge_streets(quilt: _Quilt, region: shapely.Geometry, spacing: float, opts:
             path = next((p for p in _simplified(raw, tolerances) if board.clear(p)), raw)
         if len(path) < 2 or not board.clear(path):
             continue
+        if opts.edge_tee is not None:
+            path = _squared(path, quilt, a, b, opts.edge_tee, spacing, board)
+        elif opts.edge_square is not None:
+            path = _squared(path, quilt, a, b, opts.edge_square, spacing, board, cut_back=True)
         if opts.edge_turn is not None and max(_joint_turns(path, quilt.cut_heading[a], quilt.cut_heading[b])) \
                 > opts.edge_turn:
             continue  # it would double back on a street it ends: a V no street of the town makes
@@ -96,6 +100,74 @@ def _edge_streets(quilt: _Quilt, region: shapely.Geometry, spacing: float, opts:
         made += 1
     _close(quilt, uses > 0)
     return made
+
+
+def _squared(path: np.ndarray, quilt: _Quilt, a: int, b: int, bound: float, spacing: float,
+             board: _Board, cut_back: bool = False) -> np.ndarray:
+    """The perimeter street ``path`` from cut end ``a`` to ``b``, each end that would turn more than ``bound``
+    degrees off its cut street (a V) moved back along that street to where a street square to it meets the
+    path (:func:`_square_start`); as it was where no such street is clear. The point where it now leaves the
+    cut street is put into it (``quilt.splits``): a tee, the cut street running on to the edge beyond it; with
+    ``cut_back`` the cut street ends there instead (its piece shortened), turning into the perimeter street at a
+    right angle (an L, no tee: the district's junctions stay as many)."""
+    turns = _joint_turns(path, quilt.cut_heading[a], quilt.cut_heading[b])
+    for end, turn, at_start in ((a, turns[0], True), (b, turns[1], False)):
+        if turn <= bound:
+            continue
+        piece = quilt.cut_piece[end]
+        square = _square_start(path if at_start else path[::-1], quilt.xy[piece], quilt.cut_xy[end], spacing)
+        if square is None:
+            continue
+        moved = square if at_start else square[::-1]
+        if board.clear(moved):
+            path = moved
+            if cut_back:
+                quilt.xy[piece] = _cut_back(quilt.xy[piece], quilt.cut_xy[end], square[0])
+            else:
+                quilt.splits.setdefault(piece, []).append(square[0])
+    return path
+
+
+def _cut_back(street: np.ndarray, end: np.ndarray, at: np.ndarray) -> np.ndarray:
+    """The polyline ``street`` without its stretch from its end ``end`` back to ``at`` (a point on it)."""
+    line = shapely.LineString(street)
+    where = float(shapely.line_locate_point(line, shapely.Point(at)))
+    first = np.hypot(*(street[0] - end)) < np.hypot(*(street[-1] - end))
+    kept = shapely.ops.substring(line, where, line.length) if first else shapely.ops.substring(line, 0.0, where)
+    out = shapely.get_coordinates(kept)
+    out[0 if first else -1] = at  # the perimeter street starts exactly there
+    return out
+
+
+def _square_start(path: np.ndarray, street: np.ndarray, end: np.ndarray, spacing: float) -> np.ndarray | None:
+    """``path`` begun instead from a point of ``street`` (a cut street ending at ``end`` = ``path[0]``) back
+    from its end, leaving it at a right angle and meeting ``path`` at least :data:`SQUARE_LEG` metres away,
+    the nearest such point within half a ``spacing`` (walked in :data:`CONNECTOR_STEP` / 2 steps); None if none.
+
+    A cut street that runs to the edge obliquely, splayed away from its neighbour, met there by a street along
+    the edge makes a V (the street doubles back at a node of degree two). Where a town's streets meet, they
+    meet at about right angles; a perimeter street square to the cut street, with the cut street running on
+    past it to the edge, is the town's tee, and the block between them stays closed.
+    """
+    back = street if np.hypot(*(street[0] - end)) < np.hypot(*(street[-1] - end)) else street[::-1]
+    along = shapely.LineString(back)
+    run = shapely.LineString(path)
+    ahead = shapely.get_coordinates(shapely.line_interpolate_point(run, min(CURVATURE_STEP / 2, run.length)))[0]
+    step = CONNECTOR_STEP / 2
+    for s in np.arange(step, min(along.length - 1.0, spacing / 2) + 1e-9, step):
+        p, q = shapely.get_coordinates(shapely.line_interpolate_point(along, [s, max(s - 1.0, 0.0)]))
+        tangent = (q - p) / max(float(np.hypot(*(q - p))), 1e-12)  # toward the cut end
+        normal = np.array([-tangent[1], tangent[0]])
+        if float(normal @ (ahead - path[0])) < 0:
+            normal = -normal
+        met = ray_meet(p, normal, path, spacing)
+        if met is None or met[0] < SQUARE_LEG:
+            continue
+        at = float(shapely.line_locate_point(run, shapely.Point(met[1])))
+        rest = shapely.get_coordinates(shapely.ops.substring(run, at, run.length))
+        return np.vstack([p, rest])
+    return None
+
 
 
 def _joint_turns(path: np.ndarray, first: np.ndarray, last: np.ndarray) -> tuple[float, float]:
@@ -147,6 +219,9 @@ TOLERANCES = 5
 #: Metres between the chords a street's bend is read over: the fidelity yardstick's
 #: (``osm_expand.measures.MeasureOptions.curvature_step``; ``synth`` imports only the model, the test checks it).
 CURVATURE_STEP = 20.0
+#: Metres the square street of :func:`_square_start` runs at least before it meets the perimeter street:
+#: half the yardstick's curvature chord, so that a tee is no nub.
+SQUARE_LEG = CURVATURE_STEP / 2
 
 
 def _bending_like(runs: list[np.ndarray], tolerances: np.ndarray, bend: float) -> np.ndarray:

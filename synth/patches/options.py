@@ -326,6 +326,43 @@ class PatchOptions:
     #: -> 2.6, Monaco 2.2 -> 4.0 (density in range 5/5 -> 4/5). (Earlier numbers, at 105 too, reused one grower
     #: over the seeds, which carried seed 0's ranked patches into the others.)
     edge_turn: float | None = None
+    #: When set, degrees: a perimeter street that would turn more than this off a cut street it ends (a V) leaves
+    #: that street instead further back, square to it, at least 10 m before it meets the edge run
+    #: (:func:`~synth.patches.edges._squared`), and the cut street runs on past that tee to the edge (a road out
+    #: where the edge is the site's outer edge); where no square street is clear, the run is laid as it was. Why:
+    #: ``edge_turn`` refused such runs and cost the districts their blocks; this keeps the run and the block, and
+    #: a tee breaks no curvature chord (the yardstick's edges end at junctions). Off: every square joint adds a
+    #: junction of degree three, and the three-way share leaves the neighbourhoods' range. Session 38 (h38c),
+    #: ``stitching_bends.py --district --seeds 0 1 2 3 4`` (chords pooled), off -> 105: Krems curvature KS 0.366 ->
+    #: 0.358, corners over 45° 7.20 -> 7.16 per km, joint-edge chords 103 at 45.6° median -> 94 at 43.1°;
+    #: north-bayreuth 0.233 -> 0.223, 8.01 -> 7.46, 128 at 44.8° -> 90 at 33.6°. ``district_fidelity.py`` (seeds
+    #: 0-4), mean off of 14, default 2.0 / 3.0 / 2.6 / 2.6 / 2.2 (Krems, Andorra, north-bayreuth, Campo Grande,
+    #: Monaco): at 90, 2.0 / 3.2 (three-way share off on 3 seeds) / 3.4 / 2.6 / 3.4 (Monaco's seeds 1 3 2 1 4 ->
+    #: 7 3 1 2 4); at 105, Monaco 3.4 too (seed 0 1 -> 7 of 14, its three-way share 0.83 above 0.73-0.80).
+    edge_tee: float | None = None
+    #: When set, degrees: as ``edge_tee``, but the cut street is cut back to where the square perimeter street
+    #: leaves it and turns into it there at a right angle (an L; no tee, no stub to the edge, as many junctions):
+    #: the V of, say, 135° becomes a right angle and a bend of 45° where the square street meets the edge. A block
+    #: corner a viewer reads as the town's, but two bends where there was one, so the yardstick gains nothing.
+    #: Off: session 38 (h38c), ``stitching_bends.py --district --seeds 0 1 2 3 4``, off -> 105: Krems curvature KS
+    #: 0.366 -> 0.375, corners over 45° 7.20 -> 7.37 per km; north-bayreuth 0.233 -> 0.230, 8.01 -> 8.11;
+    #: ``district_fidelity.py monaco.osm.gz`` (seeds 0-4) mean off 2.2 -> 2.2, density in range 5/5 -> 4/5 (the
+    #: other towns not run).
+    edge_square: float | None = None
+    #: A seam link is not made between two cut streets that run past each other, each end behind the other
+    #: (:func:`~synth.patches.seams._passing`); their cut ends go on to tees, perimeter streets or the trimming.
+    #: Why: the transition reads such a pair as a straight continuation (the angle between the streets, 2-7°),
+    #: and the link laid between them turns back more than 90° onto both: a hairpin, or a sliver beside one of
+    #: them (Krems' district, seed 0: its two longest links, 52-53 m, 131-157° off their streets). Milder than
+    #: ``seam_jog=90`` (either end behind the other). Off: it costs Monaco's district as ``seam_jog`` did.
+    #: Session 38 (h38c), ``stitching_bends.py --district --seeds 0 1 2 3 4``, off -> on: Krems curvature KS
+    #: 0.366 -> 0.357, corners over 45° 7.20 -> 6.63 per km, joint-seam chords 38 at 47.1° median -> 33 at 26.3°;
+    #: north-bayreuth the same (no such link). ``district_fidelity.py monaco.osm.gz`` (seeds 0-4) mean off
+    #: 2.2 -> 4.4 (1 3 2 1 4 -> 6 5 5 2 4; density and 2-core share in range 4/5). With ``edge_tee=105`` too, the
+    #: five towns (default 2.0 / 3.0 / 2.6 / 2.6 / 2.2): 2.0 / 3.0 / 2.8 / 2.2 / 4.6, corners over 45° per km
+    #: 7.3 -> 6.8, 5.6 -> 4.8, 8.0 -> 7.7, 4.9 -> 3.8, 7.5 -> 6.6; ``stitching_bends.py`` (edge_tee 105 / 90):
+    #: Krems KS 0.334 / 0.327, north-bayreuth 0.222 / 0.222.
+    seam_passing: bool = False
     #: A cut end left over runs on this many spacings to meet a street in a tee ...
     tee_reach: float = 0.6
     #: ... meeting it at this angle or more (degrees).
@@ -370,7 +407,7 @@ class PatchOptions:
         if least is not None and not (is_real_number(least) and math.isfinite(least) and least > 0):
             raise OptionError(f"PatchOptions.edge_min_run must be a finite number of spacings > 0 or unset, "
                               f"got {least!r}")
-        for name in ("edge_turn", "seam_jog"):
+        for name in ("edge_turn", "edge_tee", "edge_square", "seam_jog"):
             bound = getattr(self, name)
             if bound is not None and not (is_real_number(bound) and 0 < bound <= 180):
                 raise OptionError(f"PatchOptions.{name} must be a turn in degrees, > 0 and <= 180, or unset, "
@@ -381,6 +418,8 @@ class PatchOptions:
                               f"got {turn!r}")
         if not isinstance(self.seam_link_turn, bool):
             raise OptionError(f"PatchOptions.seam_link_turn must be true or false, got {self.seam_link_turn!r}")
+        if not isinstance(self.seam_passing, bool):
+            raise OptionError(f"PatchOptions.seam_passing must be true or false, got {self.seam_passing!r}")
         if not isinstance(self.stubs_at_bends, bool):
             raise OptionError(f"PatchOptions.stubs_at_bends must be true or false, got {self.stubs_at_bends!r}")
         if not isinstance(self.typical_of_neighbourhoods, bool):
