@@ -361,7 +361,10 @@ class PatchOptions:
     #: 2.2 -> 4.4 (1 3 2 1 4 -> 6 5 5 2 4; density and 2-core share in range 4/5). With ``edge_tee=105`` too, the
     #: five towns (default 2.0 / 3.0 / 2.6 / 2.6 / 2.2): 2.0 / 3.0 / 2.8 / 2.2 / 4.6, corners over 45° per km
     #: 7.3 -> 6.8, 5.6 -> 4.8, 8.0 -> 7.7, 4.9 -> 3.8, 7.5 -> 6.6; ``stitching_bends.py`` (edge_tee 105 / 90):
-    #: Krems KS 0.334 / 0.327, north-bayreuth 0.222 / 0.222.
+    #: Krems KS 0.334 / 0.327, north-bayreuth 0.222 / 0.222. Monaco's seed 0 with either option takes another site:
+    #: the pipeline's second site, whose district the default joins by 1 street (refused, ``MIN_JOINS``, so it
+    #: goes on to the third, 8 joins), is joined by 2 and kept. At the default's own site (``--same-site``), both
+    #: options: Monaco 2.2 -> 4.0 (three-way share off on 3 seeds, stroke length on 3): not the site alone.
     seam_passing: bool = False
     #: A cut end left over runs on this many spacings to meet a street in a tee ...
     tee_reach: float = 0.6
