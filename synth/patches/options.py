@@ -364,7 +364,11 @@ class PatchOptions:
     #: Krems KS 0.334 / 0.327, north-bayreuth 0.222 / 0.222. Monaco's seed 0 with either option takes another site:
     #: the pipeline's second site, whose district the default joins by 1 street (refused, ``MIN_JOINS``, so it
     #: goes on to the third, 8 joins), is joined by 2 and kept. At the default's own site (``--same-site``), both
-    #: options: Monaco 2.2 -> 4.0 (three-way share off on 3 seeds, stroke length on 3): not the site alone.
+    #: options: Monaco 2.2 -> 4.0 (three-way share off on 3 seeds, stroke length on 3): not the site alone. The
+    #: engine's 30 years with both (``engine_growth.py --seed 0 --measures``, the options set in every era's
+    #: PatchOptions), off of 14 per reference, default -> both: Krems 1 1 1 -> 3 1 1, Andorra 1 1 1 -> 1 1 1,
+    #: north-bayreuth 2 3 2 -> 4 5 4, Monaco 2 3 3 -> 4 4 5 (2-core 0.844 below 0.900), Campo Grande 3 5 4 -> 7 7 8
+    #: (dead-end 0.088 above, 2-core 0.962 below range).
     seam_passing: bool = False
     #: A cut end left over runs on this many spacings to meet a street in a tee ...
     tee_reach: float = 0.6
