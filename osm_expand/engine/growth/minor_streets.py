@@ -52,7 +52,7 @@ from osm_expand.sites import (
     settlement_distance,
     settlement_maps,
 )
-from synth.growth import GrowthPattern
+from synth.growth import Growth, GrowthPattern
 from synth.patches.topology import STUB_LENGTH
 from synth.patterns import PatternOptions, grow_streets
 from synth.street_graph import StreetGraph
@@ -391,6 +391,17 @@ class GrowthOptions:
     #: apart (as :attr:`settlement_neighbourhoods` found). Without its buildings north-bayreuth is unchanged
     #: (its sites' centres lie near the town; the quarter in the fields is its region's, :attr:`district_town_share`).
     district_town_reach: float = 1.5
+    #: An engine district grows only in a region (:func:`osm_expand.sites.district_region`, the piece of free land
+    #: its patches fill) whose land lies a median of at most this many district radii from the town's settlement
+    #: (the land :attr:`district_town_reach` measures from: :func:`_from_the_town`); a region farther out is not
+    #: grown and the next site is tried (:func:`_region_near_the_town`). ``inf``: every region. Why: the site's
+    #: reach bounds its centre, not the land the district takes: the region grows up to 2.5 radii from the centre
+    #: until its piece of free land (cut by the country roads) holds the district, and north-bayreuth's second
+    #: quarter (seed 2, centre 0.86 radii from the town's settlement) grew in the fields a median 1.4 radii from it,
+    #: a third piece of growth 3.3 km from the first. 1 is a disc touching the town's edge (a disc whose edge
+    #: meets a straight edge of the town has half its land nearer than its radius): a region whose land lies
+    #: farther on the median stands off the town. Measured: see the end of this comment.
+    district_edge_reach: float = math.inf
     #: Whether a street pattern's era (``grid``, ``organic``, ``suburban``, ...) aims its connectedness at its
     #: town's neighbourhoods, as the district's topology does (:mod:`synth.patches.topology`): each year, while the
     #: era's streets (measured as the growth verdict measures an era, on their streets' land, against the town's
@@ -416,6 +427,14 @@ class GrowthOptions:
     #: north-bayreuth seed 2's dead-end share slips out by 0.008. Acting only while a share is outside the range was
     #: worse (north-bayreuth seeds 1, 2 both shares out); keeping no stubs left Krems' 2-core out (0.972).
     pattern_aim: bool = True
+    #: With :attr:`pattern_aim`, a named pattern's era also acts on a share out of its town's neighbourhoods' range
+    #: while the other share stays in range (:func:`_withheld`'s ``in_range``): a 2-core share above the range takes
+    #: back run-ons while the dead-end share stays at most its range's top; a dead-end share above it drops
+    #: culs-de-sac while the 2-core share stays at most its top. Why: the aim acts only while both shares sit on
+    #: one side of their medians, which left Krems' ``european`` seed 2 (dead ends 0.154 above [0.027-0.151], 2-core
+    #: above its median too) and the 2-core shares of north-bayreuth, Monaco and Andorra above range (their dead ends
+    #: above the median already). Measured: see the end of this comment.
+    pattern_aim_range: bool = False
 
     def __post_init__(self) -> None:
         whole = isinstance(self.district_candidates, (int, np.integer)) and not isinstance(self.district_candidates,
@@ -444,12 +463,17 @@ class GrowthOptions:
                               f"got {self.district_run_on!r}")
         if not isinstance(self.pattern_aim, (bool, np.bool_)):  # a string "false" would read as on
             raise OptionError(f"growth option pattern_aim must be a bool, got {self.pattern_aim!r}")
+        if not isinstance(self.pattern_aim_range, (bool, np.bool_)):  # a string "false" would read as on
+            raise OptionError(f"growth option pattern_aim_range must be a bool, got {self.pattern_aim_range!r}")
         if not isinstance(self.district_trim_blocked, (bool, np.bool_)):  # a string "false" would read as on
             raise OptionError(f"growth option district_trim_blocked must be a bool, got "
                               f"{self.district_trim_blocked!r}")
         if not (is_real_number(self.district_town_reach) and self.district_town_reach > 0):  # NaN, 0 or negative
             raise OptionError(f"growth option district_town_reach must be a number of district radii > 0 "
                               f"(inf: every site), got {self.district_town_reach!r}")
+        if not (is_real_number(self.district_edge_reach) and self.district_edge_reach > 0):  # NaN, 0 or negative
+            raise OptionError(f"growth option district_edge_reach must be a number of district radii > 0 "
+                              f"(inf: every region), got {self.district_edge_reach!r}")
         if not (is_real_number(self.district_town_share) and self.district_town_share > 0):  # NaN, 0 or negative
             raise OptionError(f"growth option district_town_share must be a share > 0 of the town's settlement "
                               f"(inf: the floor alone), got {self.district_town_share!r}")
@@ -507,14 +531,15 @@ class GrowthYear:
 def grow_street_pattern(city: City, count: int, options: PatternOptions, nuclei: list[Nucleus],
                         memory: GrowthMemory, rng: np.random.Generator, *, year: int, era: str,
                         centre: np.ndarray, reach: float | None = None,
-                        aim: DistrictYardstick | None = None) -> tuple[City, GrowthYear]:
+                        aim: DistrictYardstick | None = None, in_range: bool = False) -> tuple[City, GrowthYear]:
     """Grow ``count`` new streets with a street pattern from the best candidates (003 §3.3.2, 000 §4.2.6).
 
     With ``reach`` (m), the year's stubs run on to the street ahead or go
     (:func:`osm_expand.engine.growth.stubs.close_stubs`): connectedness is the
     town's whatever the pattern. With ``aim`` too, run-ons are taken back while
     the era is more connected than the town's neighbourhoods
-    (:attr:`GrowthOptions.pattern_aim`, :func:`_withheld`)."""
+    (:attr:`GrowthOptions.pattern_aim`, :func:`_withheld`); with ``in_range`` also while one share is out of the
+    neighbourhoods' range and the other stays in it (:attr:`GrowthOptions.pattern_aim_range`)."""
     if count <= 0:
         return city, GrowthYear()
     table = SegmentTable.from_city(city)
@@ -570,7 +595,8 @@ def grow_street_pattern(city: City, count: int, options: PatternOptions, nuclei:
     before = len(city.network.streets)
     grown = added(grown_lines, grown_bridges)
     if aim is not None and reach is not None and (report.ran or report.short or report.stubs):
-        withhold, keep, drop = _withheld(grown, era, aim, lines, report, reach, closes=not _never_closes(options))
+        withhold, keep, drop = _withheld(grown, era, aim, lines, report, reach, closes=not _never_closes(options),
+                                         in_range=in_range)
         if withhold or keep or drop:
             again, again_bridges, _ = close_stubs(lines, bridges, *stub_args, reach=reach,
                                                   loops=_never_closes(options), withhold=withhold, keep=keep,
@@ -597,7 +623,7 @@ def _kept_nodes(city: City, grown: City, kept: list[np.ndarray]) -> set[int]:
 
 
 def _withheld(grown: City, era: str, aim: DistrictYardstick, lines: list[np.ndarray], report: StubReport,
-              reach: float, *, closes: bool = True
+              reach: float, *, closes: bool = True, in_range: bool = False
               ) -> tuple[frozenset[tuple[int, int]], frozenset[int], frozenset[int]]:
     """The stub ends whose run-on is taken back, the short stubs kept and the culs-de-sac dropped (of ``lines``,
     the year's new streets before :func:`~osm_expand.engine.growth.stubs.close_stubs` made ``report``) so that the
@@ -617,26 +643,58 @@ def _withheld(grown: City, era: str, aim: DistrictYardstick, lines: list[np.ndar
     (:func:`_never_closes`: its dead ends stay dead ends): culs-de-sac go, the shortest first, each a dead end, its
     tee and its length. A pattern that closes its trees in later years keeps them (a young grid is all trees).
 
+    With ``in_range`` (:attr:`GrowthOptions.pattern_aim_range`), a share out of the neighbourhoods' range (the
+    verdict's, :meth:`~osm_expand.engine.growth.yardstick.DistrictYardstick.aim`) is acted on whichever side of its
+    median the other share lies, as long as every step keeps the other share within its range: a 2-core share
+    above the range takes back run-ons (longest first) while the dead-end share stays at most the range's top; a
+    dead-end share above it drops culs-de-sac (shortest first; a pattern that closes its trees only until the share
+    is back in range) while the 2-core share stays at most its top. Why: an era's two shares need not sit on
+    one side of both medians (Krems' ``european`` grid, seed 2, had more dead ends *and* more loop length than
+    them, and Monaco's and Andorra's eras a 2-core share above their range with their dead ends above the median),
+    and the rule acting only there left them out of range.
+
     Each step is estimated, not measured again."""
     none: tuple[frozenset[tuple[int, int]], frozenset[int], frozenset[int]] = (frozenset(), frozenset(), frozenset())
     got = aim.aim(*growth_lines(grown, era=era))
     if got is None:
         return none
-    (length, _, dead, counted, core), medians = got
+    (length, _, dead, counted, core), medians, limits = got
     dead_aim, core_aim = float(medians[1]), float(medians[2])
+    dead_top, core_top = float(limits[1, 1]), float(limits[2, 1])
     if not (counted > 0 and length > 0 and np.isfinite(dead_aim) and np.isfinite(core_aim)):
         return none
+    ranged = in_range and np.isfinite(dead_top) and np.isfinite(core_top)
+
+    def looser() -> bool:
+        """Whether the era should lose connectedness: both shares on the connected side of their medians, or
+        (``ranged``) its 2-core share above the range while a dead end more keeps its dead-end share in range."""
+        if core / length <= core_aim:
+            return False
+        if dead / counted < dead_aim:
+            return True
+        return ranged and core / length > core_top and (dead + 1) / counted <= dead_top
+
+    def tighter() -> bool:
+        """Whether the era should lose dead ends: both shares on the tree side of their medians (a pattern that
+        never closes its trees), or (``ranged``) its dead-end share above the range while its 2-core share stays
+        in range."""
+        if dead / counted <= dead_aim:
+            return False
+        if not closes and core / length < core_aim:
+            return True
+        return ranged and dead / counted > dead_top and core / length <= core_top
+
     withhold: set[tuple[int, int]] = set()
     keep: set[int] = set()
     drop: set[int] = set()
-    if dead / counted < dead_aim and core / length > core_aim:
+    if looser():
         least = STUB_LENGTH * reach / STUB_REACH
         candidates = [(polyline_length(lines[k]), False, k, side) for k, side in report.ran
                       if polyline_length(lines[k]) >= reach]
         candidates += [(polyline_length(lines[k]), True, k, -1) for k in report.short
                        if polyline_length(lines[k]) >= least]
         for stub, kept, k, side in sorted(candidates, reverse=True):
-            if dead / counted >= dead_aim or core / length <= core_aim:
+            if not looser():
                 break
             if k in keep or any(j == k for j, _ in withhold):  # one end of a street at most
                 continue
@@ -647,9 +705,11 @@ def _withheld(grown: City, era: str, aim: DistrictYardstick, lines: list[np.ndar
             else:
                 withhold.add((k, side))
                 core -= stub
-    elif not closes and dead / counted > dead_aim and core / length < core_aim:
+    elif tighter():
         for stub, k in sorted((polyline_length(lines[k]), k) for k in report.stubs):
-            if stub >= length or dead / counted <= dead_aim or core / length >= core_aim:
+            if stub >= length or not tighter():
+                break
+            if ranged and core / (length - stub) > core_top:  # the 2-core share would leave its range
                 break
             drop.add(k)
             dead, counted, length = dead - 1, counted - 2, length - stub
@@ -823,6 +883,9 @@ def grow_district(city: City, pattern: GrowthPattern, length: float, density: fl
                        tolerance=options.site_score_tolerance)
     before = len(city.network.streets)
     reach = STUB_REACH * spacing
+    if math.isfinite(options.district_edge_reach) and maps.city.any():  # land at the town's edge, not beyond
+        pattern = _RegionNearTheTown(pattern, lambda region: _region_near_the_town(
+            maps, region, options, options.district_edge_reach * district_radius))
     left, attempts = order.tolist(), 0
     drawn: set[int] = set()  # sites whose district was a candidate once: the next candidate there is the last
     best: tuple[DistrictScore, City] | None = None
@@ -866,6 +929,40 @@ def grow_district(city: City, pattern: GrowthPattern, length: float, density: fl
     new = grown.network.streets[before:]
     made = sum(polyline_length(grown.network.street_xy(s)) for s in new)
     return grown, GrowthYear(streets=len(new), length_m=made, bridges=sum(s.bridge for s in new), districts=1)
+
+
+@dataclass(frozen=True)
+class _RegionNearTheTown:
+    """``pattern`` growing only in a region ``near`` says lies at the town's edge (an empty growth elsewhere, which
+    :func:`osm_expand.district.place_district` refuses as joining nowhere, drawing nothing from the random stream):
+    :attr:`GrowthOptions.district_edge_reach`."""
+
+    pattern: GrowthPattern
+    near: Callable[[shapely.Geometry], bool]
+
+    @property
+    def name(self) -> str:
+        return self.pattern.name
+
+    def grow(self, city: City, region: shapely.Geometry, rng: np.random.Generator) -> Growth:
+        if not self.near(region):
+            return Growth(streets=())
+        return self.pattern.grow(city, region, rng)
+
+
+def _region_near_the_town(maps: DistanceMaps, region: shapely.Geometry, options: GrowthOptions, reach: float
+                          ) -> bool:
+    """Whether the median distance (m) of ``region``'s land to the town's settlement (:func:`_from_the_town`, at
+    the raster's cell centres inside it; its representative point for a region smaller than a cell) is at most
+    ``reach`` (m)."""
+    x0, y0, x1, y1 = region.bounds
+    half = 0.5 * maps.cell
+    xs, ys = np.meshgrid(np.arange(x0 + half, x1, maps.cell), np.arange(y0 + half, y1, maps.cell))
+    inside = shapely.contains_xy(region, xs.ravel(), ys.ravel())
+    points = np.column_stack([xs.ravel()[inside], ys.ravel()[inside]])
+    if not len(points):
+        points = shapely.get_coordinates(region.representative_point())
+    return bool(np.median(_from_the_town(maps, points, options)) <= reach)
 
 
 def _attempt_streams(rng: np.random.Generator, streams: Callable[[int], np.random.Generator] | None, first: int
