@@ -472,48 +472,6 @@ def test_town_nuclei_is_refused_without_a_settlement_gap():
 
 
 
-def test_a_region_standing_off_the_town_is_not_grown_one_at_its_edge_is():
-    """:attr:`GrowthOptions.district_edge_reach`: a region whose land lies a median of more than the reach from the
-    town's settlement is not at the town's edge (its pattern is not asked to grow there); a disc straddling the
-    settlement's edge is. Krems, a 300 m disc with its centre 60 m off the settlement's edge and one 900 m off it."""
-    import shapely
-
-    city, learned = town("krems.osm.gz")
-    maps = distance_maps(city, SiteOptions(), margin=_margin(city))
-    options = GrowthOptions(district_edge_reach=1.0)
-    xs, ys = maps.centres()
-    to_town = minor_streets._from_the_town(maps, np.column_stack([xs.ravel(), ys.ravel()]), options)
-    free = ~(maps.water | maps.city | maps.outside).ravel()
-    radius = 300.0
-
-    def disc(gap: float) -> shapely.Geometry:
-        at = np.flatnonzero(free & (np.abs(to_town - gap) < maps.cell))[0]
-        return shapely.Point(xs.ravel()[at], ys.ravel()[at]).buffer(radius)
-
-    near, far = disc(60.0), disc(900.0)
-    assert minor_streets._region_near_the_town(maps, near, options, radius)
-    assert not minor_streets._region_near_the_town(maps, far, options, radius)
-
-    grown = []
-
-    class Pattern:
-        name = "recorded"
-
-        def grow(self, city, region, rng):
-            grown.append(region)
-            return minor_streets.Growth(streets=())
-
-    pattern = minor_streets._RegionNearTheTown(
-        Pattern(), lambda region: minor_streets._region_near_the_town(maps, region, options, radius))
-    rng = np.random.default_rng(0)
-    assert pattern.name == "recorded"
-    assert pattern.grow(city, far, rng).streets == () and grown == []
-    pattern.grow(city, near, rng)
-    assert grown == [near]
-    with pytest.raises(OptionError, match="district_edge_reach"):
-        GrowthOptions(district_edge_reach=0.0)
-
-
 def test_the_reach_to_the_town_is_measured_on_the_town_drawn_at_a_finer_cell():
     """:attr:`GrowthOptions.district_reach_cell`: the site raster (a tenth of a district's radius, 65 m here) draws
     every cell a frontage strip's outline touches, so north-bayreuth's built-up land and its settlement read larger

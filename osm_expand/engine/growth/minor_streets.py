@@ -52,7 +52,7 @@ from osm_expand.sites import (
     settlement_distance,
     settlement_maps,
 )
-from synth.growth import Growth, GrowthPattern
+from synth.growth import GrowthPattern
 from synth.patches.topology import STUB_LENGTH
 from synth.patterns import PatternOptions, grow_streets
 from synth.street_graph import StreetGraph
@@ -391,20 +391,9 @@ class GrowthOptions:
     #: apart (as :attr:`settlement_neighbourhoods` found). Without its buildings north-bayreuth is unchanged
     #: (its sites' centres lie near the town; the quarter in the fields is its region's, :attr:`district_town_share`).
     district_town_reach: float = 1.5
-    #: An engine district grows only in a region (:func:`osm_expand.sites.district_region`, the piece of free land
-    #: its patches fill) whose land lies a median of at most this many district radii from the town's settlement
-    #: (the land :attr:`district_town_reach` measures from: :func:`_from_the_town`); a region farther out is not
-    #: grown and the next site is tried (:func:`_region_near_the_town`). ``inf``: every region. Why: the site's
-    #: reach bounds its centre, not the land the district takes: the region grows up to 2.5 radii from the centre
-    #: until its piece of free land (cut by the country roads) holds the district, and north-bayreuth's second
-    #: quarter (seed 2, centre 0.86 radii from the town's settlement) grew in the fields a median 1.4 radii from it,
-    #: a third piece of growth 3.3 km from the first. 1 is a disc touching the town's edge (a disc whose edge
-    #: meets a straight edge of the town has half its land nearer than its radius): a region whose land lies
-    #: farther on the median stands off the town. Measured: see the end of this comment.
-    district_edge_reach: float = math.inf
-    #: The raster cell (m) the town's settlement is drawn on for :attr:`district_town_reach` and
-    #: :attr:`district_edge_reach` (:func:`_reach_maps`); 0: the site raster's own (a tenth of the district's
-    #: radius, :attr:`site_cells_per_radius`: 65-93 m on north-bayreuth). Why: the rasters draw every cell a
+    #: The raster cell (m) the town's settlement is drawn on for :attr:`district_town_reach` (:func:`_reach_maps`);
+    #: 0: the site raster's own (a tenth of the district's radius, :attr:`site_cells_per_radius`: 65-93 m on
+    #: north-bayreuth). Why: the rasters draw every cell a
     #: built-up polygon's outline touches, so the thin frontage strips grow by about half a cell each side:
     #: north-bayreuth's built-up land is 8.3 km² at 10 m cells, 11.3 at 65 m and 12.9 at 90 m (Krems 3.9, 5.1,
     #: 5.8), and on the coarse raster the 200 m gaps (:attr:`settlement_gap`) between the town and the villages
@@ -485,9 +474,6 @@ class GrowthOptions:
                 and self.district_reach_cell >= 0):
             raise OptionError(f"growth option district_reach_cell must be a finite number of metres >= 0 "
                               f"(0: the site raster's cell), got {self.district_reach_cell!r}")
-        if not (is_real_number(self.district_edge_reach) and self.district_edge_reach > 0):  # NaN, 0 or negative
-            raise OptionError(f"growth option district_edge_reach must be a number of district radii > 0 "
-                              f"(inf: every region), got {self.district_edge_reach!r}")
         if not (is_real_number(self.district_town_share) and self.district_town_share > 0):  # NaN, 0 or negative
             raise OptionError(f"growth option district_town_share must be a share > 0 of the town's settlement "
                               f"(inf: the floor alone), got {self.district_town_share!r}")
@@ -898,9 +884,6 @@ def grow_district(city: City, pattern: GrowthPattern, length: float, density: fl
                        tolerance=options.site_score_tolerance)
     before = len(city.network.streets)
     reach = STUB_REACH * spacing
-    if math.isfinite(options.district_edge_reach) and maps.city.any():  # land at the town's edge, not beyond
-        pattern = _RegionNearTheTown(pattern, lambda region: _region_near_the_town(
-            reach_maps, region, options, options.district_edge_reach * district_radius))
     left, attempts = order.tolist(), 0
     drawn: set[int] = set()  # sites whose district was a candidate once: the next candidate there is the last
     best: tuple[DistrictScore, City] | None = None
@@ -946,25 +929,6 @@ def grow_district(city: City, pattern: GrowthPattern, length: float, density: fl
     return grown, GrowthYear(streets=len(new), length_m=made, bridges=sum(s.bridge for s in new), districts=1)
 
 
-@dataclass(frozen=True)
-class _RegionNearTheTown:
-    """``pattern`` growing only in a region ``near`` says lies at the town's edge (an empty growth elsewhere, which
-    :func:`osm_expand.district.place_district` refuses as joining nowhere, drawing nothing from the random stream):
-    :attr:`GrowthOptions.district_edge_reach`."""
-
-    pattern: GrowthPattern
-    near: Callable[[shapely.Geometry], bool]
-
-    @property
-    def name(self) -> str:
-        return self.pattern.name
-
-    def grow(self, city: City, region: shapely.Geometry, rng: np.random.Generator) -> Growth:
-        if not self.near(region):
-            return Growth(streets=())
-        return self.pattern.grow(city, region, rng)
-
-
 def _reach_maps(city: City, maps: DistanceMaps, options: GrowthOptions, margin: float) -> DistanceMaps:
     """The rasters the reach to the town's settlement is measured on (:attr:`GrowthOptions.district_reach_cell`):
     ``maps`` themselves, or the town drawn again at the finer cell (with ``maps``' margin), when the reach reads
@@ -974,21 +938,6 @@ def _reach_maps(city: City, maps: DistanceMaps, options: GrowthOptions, margin: 
     if not (cell > 0 and cell < maps.cell) or maps.settlement is not None or options.settlement_gap == 0:
         return maps
     return distance_maps(city, SiteOptions(cell=cell), margin=margin)
-
-
-def _region_near_the_town(maps: DistanceMaps, region: shapely.Geometry, options: GrowthOptions, reach: float
-                          ) -> bool:
-    """Whether the median distance (m) of ``region``'s land to the town's settlement (:func:`_from_the_town`, at
-    the raster's cell centres inside it; its representative point for a region smaller than a cell) is at most
-    ``reach`` (m)."""
-    x0, y0, x1, y1 = region.bounds
-    half = 0.5 * maps.cell
-    xs, ys = np.meshgrid(np.arange(x0 + half, x1, maps.cell), np.arange(y0 + half, y1, maps.cell))
-    inside = shapely.contains_xy(region, xs.ravel(), ys.ravel())
-    points = np.column_stack([xs.ravel()[inside], ys.ravel()[inside]])
-    if not len(points):
-        points = shapely.get_coordinates(region.representative_point())
-    return bool(np.median(_from_the_town(maps, points, options)) <= reach)
 
 
 def _attempt_streams(rng: np.random.Generator, streams: Callable[[int], np.random.Generator] | None, first: int
