@@ -399,7 +399,13 @@ class GrowthOptions:
     #: 5.8), and on the coarse raster the 200 m gaps (:attr:`settlement_gap`) between the town and the villages
     #: north of it close: seed 2's second quarter lay a median 2,095 m from the town's settlement drawn at 10 m
     #: and 1,271 m from the one at 65 m its site was reached from (settlement 5.3 -> 7.0 km²). A finer cell costs
-    #: one more raster of the town a district (the outlines are remembered). Measured: see the end of this comment.
+    #: one more raster of the town a district (the outlines are remembered). Off: measured at 20 (session 38, h38e;
+    #: ``cd fixtures && python ../benchmarks/engine_growth.py --seed S --measures --where --option
+    #: district_reach_cell=20 TOWN``, off of 14 per reference seed, dead-end / 2-core share), seeds 0-2 on Krems,
+    #: Andorra, north-bayreuth and Monaco: the same verdicts on 11 of the 12 runs (their sites within reach either
+    #: way); north-bayreuth seed 2 3 4 2 -> 5 4 4, its second quarter from a median 2,093 m to 308 m from the town's
+    #: settlement (one piece, at the town's edge, as the issue asks), but 2-core 0.729 -> 0.706, below its range
+    #: either way, dead ends 0.265 -> 0.336 (in range). A picture's gain at one run's verdict cost: off.
     district_reach_cell: float = 0.0
     #: Whether a street pattern's era (``grid``, ``organic``, ``suburban``, ...) aims its connectedness at its
     #: town's neighbourhoods, as the district's topology does (:mod:`synth.patches.topology`): each year, while the
@@ -432,7 +438,18 @@ class GrowthOptions:
     #: culs-de-sac while the 2-core share stays at most its top. Why: the aim acts only while both shares sit on
     #: one side of their medians, which left Krems' ``european`` seed 2 (dead ends 0.154 above [0.027-0.151], 2-core
     #: above its median too) and the 2-core shares of north-bayreuth, Monaco and Andorra above range (their dead ends
-    #: above the median already). Measured: see the end of this comment.
+    #: above the median already). Off: measured (session 38, h38e; ``cd fixtures && python
+    #: ../benchmarks/engine_growth.py --seed S --history european --eras --measures --option pattern_aim_range=true
+    #: TOWN``; mean off of 14, dead-end / 2-core share against reference 0's range, off -> on), seeds 0-2: Krems
+    #: s0 11.0 both in, the same; s1 11.3 -> 10.0, both in; s2 11.7, dead ends 0.154 above [0.027-0.151] either way
+    #: (its grid closes its trees; its suburban era's dead ends are dropped by the medians' rule already);
+    #: north-bayreuth s0 12.0 -> 11.3, 2-core 0.892 -> 0.887 (above either way), s1 and s2 the same; Monaco s0
+    #: 12.7, 2-core 0.954 -> 0.941 (above either way), s1 13.0 -> 12.7, 2-core 0.924 above [0.862-0.923] -> 0.924 in
+    #: [0.864-0.924], s2 13.0, 2-core 0.927 -> 0.929 (above either way); Andorra s0-s2 13.0 each, 2-core above its
+    #: range either way and higher (0.922 -> 0.932, 0.903 -> 0.905, 0.908 -> 0.912). Shares in range 13 -> 14 of 24,
+    #: summed mean off 146.7 -> 143.4: Monaco's and Krems' gain, Andorra's small loss (one town's gain at another's
+    #: cost). Where it fired the overall 2-core share moved by -0.013 to +0.010 (it aims each era, and every change
+    #: moves the later years' streets), none of the four above range came into it. Campo Grande not measured.
     pattern_aim_range: bool = False
 
     def __post_init__(self) -> None:
