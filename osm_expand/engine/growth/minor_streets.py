@@ -403,9 +403,10 @@ class GrowthOptions:
     #: ``cd fixtures && python ../benchmarks/engine_growth.py --seed S --measures --where --option
     #: district_reach_cell=20 TOWN``, off of 14 per reference seed, dead-end / 2-core share), seeds 0-2 on Krems,
     #: Andorra, north-bayreuth and Monaco: the same verdicts on 11 of the 12 runs (their sites within reach either
-    #: way); north-bayreuth seed 2 3 4 2 -> 5 4 4, its second quarter from a median 2,093 m to 308 m from the town's
-    #: settlement (one piece, at the town's edge, as the issue asks), but 2-core 0.729 -> 0.706, below its range
-    #: either way, dead ends 0.265 -> 0.336 (in range). A picture's gain at one run's verdict cost: off.
+    #: way), Campo Grande seed 0 3 5 4 the same; north-bayreuth seed 2 3 4 2 -> 5 4 4, its second quarter from a
+    #: median 2,093 m to 308 m from the town's settlement (one piece, at the town's edge, as the issue asks), but
+    #: 2-core 0.729 -> 0.706, below its range either way, dead ends 0.265 -> 0.336 (in range). A picture's gain at
+    #: one run's verdict cost: off.
     district_reach_cell: float = 0.0
     #: Whether a street pattern's era (``grid``, ``organic``, ``suburban``, ...) aims its connectedness at its
     #: town's neighbourhoods, as the district's topology does (:mod:`synth.patches.topology`): each year, while the
