@@ -470,3 +470,26 @@ def test_town_nuclei_is_refused_without_a_settlement_gap():
     with pytest.raises(OptionError, match="town_nuclei needs settlement_gap"):
         GrowthOptions(town_nuclei=True, settlement_gap=0)
 
+
+
+def test_the_reach_to_the_town_is_measured_on_the_town_drawn_at_a_finer_cell():
+    """:attr:`GrowthOptions.district_reach_cell`: the site raster (a tenth of a district's radius, 65 m here) draws
+    every cell a frontage strip's outline touches, so north-bayreuth's built-up land and its settlement read larger
+    than at 20 m; the reach's maps are the town drawn again at the finer cell, or the site maps themselves by
+    default."""
+    from osm_expand.sites import settlement
+
+    city, _ = town("north-bayreuth.osm.gz")
+    margin = _margin(city)
+    coarse = distance_maps(city, SiteOptions(cell=65.0), margin=margin)
+    assert minor_streets._reach_maps(city, coarse, GrowthOptions(), margin) is coarse
+    fine = minor_streets._reach_maps(city, coarse, GrowthOptions(district_reach_cell=20.0), margin)
+    assert fine.cell == pytest.approx(20.0)
+
+    def km2(mask, maps):
+        return float(mask.sum()) * maps.cell ** 2 / 1e6
+
+    assert km2(fine.city, fine) < 0.85 * km2(coarse.city, coarse)
+    assert km2(settlement(fine), fine) < 0.9 * km2(settlement(coarse), coarse)
+    with pytest.raises(OptionError, match="district_reach_cell"):
+        GrowthOptions(district_reach_cell=-1.0)

@@ -6,8 +6,9 @@ import numpy as np
 import pytest
 import shapely
 
-from osm_expand.engine.growth.minor_streets import GrowthOptions, _kept_nodes
-from osm_expand.engine.growth.stubs import close_stubs
+from osm_expand.engine.growth import minor_streets
+from osm_expand.engine.growth.minor_streets import GrowthOptions, _kept_nodes, _withheld
+from osm_expand.engine.growth.stubs import StubReport, close_stubs
 from osm_expand.engine.history import load_history
 from osm_expand.engine.loop import EngineOptions
 from osm_expand.errors import OptionError
@@ -93,3 +94,54 @@ def test_a_kept_stubs_new_nodes_are_spent_as_growth_starts_but_not_the_street_it
     assert (new >= 0).all() and spent == set(new.tolist())
     assert int(match_points(stub[:1], grown.network.xy)[0]) not in spent
     assert _kept_nodes(city, grown, []) == set()
+
+
+class _Aim:
+    """An era's counts (length m, area m², dead ends, junctions and dead ends, 2-core length m), the town's medians
+    and ranges (density, dead-end share, 2-core share), as :meth:`DistrictYardstick.aim` gives them."""
+
+    def __init__(self, counts, medians, limits):
+        self.got = (np.array(counts, dtype=float), np.array(medians, dtype=float), np.array(limits, dtype=float))
+
+    def aim(self, lines, open_points):
+        return self.got
+
+
+#: the town's neighbourhoods: dead-end share median 0.15 in [0.05, 0.30], 2-core median 0.90 in [0.80, 0.95]
+MEDIANS, LIMITS = (10.0, 0.15, 0.90), ((5.0, 15.0), (0.05, 0.30), (0.80, 0.95))
+
+
+@pytest.fixture
+def _no_lines(monkeypatch):
+    monkeypatch.setattr(minor_streets, "growth_lines", lambda grown, era=None: ([], np.zeros((0, 2))))
+
+
+def test_a_two_core_share_above_range_takes_back_a_run_on_while_the_dead_ends_stay_in_range(_no_lines):
+    """Dead ends 0.2 (above the median, in range), 2-core 0.96 above its range: the aim on both medians does nothing;
+    on the range the 270 m run-on is taken back (dead ends 0.3, the range's top, 2-core 0.69)."""
+    aim = _Aim((1000.0, 1e5, 2, 10, 960.0), MEDIANS, LIMITS)
+    report = StubReport(ran=((3, 1),))
+    assert _withheld(None, "grid", aim, LINES, report, 60.0) == (frozenset(), frozenset(), frozenset())
+    assert _withheld(None, "grid", aim, LINES, report, 60.0, in_range=True) == (frozenset({(3, 1)}), frozenset(),
+                                                                               frozenset())
+    # a dead end more would put the dead-end share above its range (0.31 > 0.30): nothing is taken back
+    tight = _Aim((1000.0, 1e5, 2, 10, 960.0), MEDIANS, ((5.0, 15.0), (0.05, 0.29), (0.80, 0.95)))
+    assert _withheld(None, "grid", tight, LINES, report, 60.0, in_range=True) == (frozenset(), frozenset(),
+                                                                                 frozenset())
+
+
+def test_a_dead_end_share_above_range_drops_a_cul_de_sac_while_the_two_core_stays_in_range(_no_lines):
+    """Dead ends 0.4 above their range, 2-core 0.91 above its median (in range): a pattern that never closes its
+    trees keeps its culs-de-sac under the aim on both medians; on the range the 40 m cul-de-sac goes (2-core
+    910 / 960 = 0.948, within its top 0.95). A pattern that closes its trees keeps them (a young grid is all trees),
+    and a drop that would put the 2-core share above its top (930 / 960 = 0.969) is not made."""
+    report = StubReport(stubs=(4,))
+    aim = _Aim((1000.0, 1e5, 4, 10, 910.0), MEDIANS, LIMITS)
+    assert _withheld(None, "suburban", aim, LINES, report, 60.0, closes=False) == (frozenset(), frozenset(),
+                                                                                   frozenset())
+    assert _withheld(None, "suburban", aim, LINES, report, 60.0, closes=False, in_range=True) == (
+        frozenset(), frozenset(), frozenset({4}))
+    assert _withheld(None, "grid", aim, LINES, report, 60.0, in_range=True) == (frozenset(), frozenset(), frozenset())
+    core = _Aim((1000.0, 1e5, 4, 10, 930.0), MEDIANS, LIMITS)
+    assert _withheld(None, "suburban", core, LINES, report, 60.0, closes=False, in_range=True) == (
+        frozenset(), frozenset(), frozenset())

@@ -150,10 +150,12 @@ class DistrictYardstick:
         measured = measure_network(lines, window=window, open_points=open_points, pieces=False, wanted=JUDGED)
         return _counts(measured), list(piece_areas(window, self.min_piece_area))
 
-    def aim(self, lines: Sequence[np.ndarray], open_points: np.ndarray) -> tuple[np.ndarray, np.ndarray] | None:
-        """A growth's counts (:meth:`measured`) and the town's pooled neighbourhoods' median of each judged
-        scalar for it (NaN-skipping): what an era's growth aims at, as the district's topology aims at its
-        town's neighbourhoods' medians (:mod:`synth.patches.topology`); None when the streets make no land."""
+    def aim(self, lines: Sequence[np.ndarray], open_points: np.ndarray
+            ) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
+        """A growth's counts (:meth:`measured`), the town's pooled neighbourhoods' median of each judged scalar
+        for it (NaN-skipping) and the range the verdict allows each (``(len(JUDGED), 2)``, :meth:`limits`): what
+        an era's growth aims at, as the district's topology aims at its town's neighbourhoods' medians
+        (:mod:`synth.patches.topology`), and where it must stay; None when the streets make no land."""
         got = self.measured(lines, open_points)
         if got is None:
             return None
@@ -162,7 +164,8 @@ class DistrictYardstick:
         finite = np.isfinite(pooled)
         medians = np.array([float(np.median(pooled[finite[:, j], j])) if finite[:, j].any() else float("nan")
                             for j in range(pooled.shape[1])])
-        return counts, medians
+        limits = np.array([scalar_range(m, pooled[:, j]) for j, m in enumerate(JUDGED)])
+        return counts, medians, limits
 
     def score(self, lines: Sequence[np.ndarray], open_points: np.ndarray) -> DistrictScore:
         """A growth's streets (each ``(n_i, 2)`` m), open at ``open_points`` ``(K, 2)`` (where they meet the
