@@ -1,7 +1,7 @@
 """Capture the engine's build-out and traffic calls of one run, then replay them: CPU per year, same outputs.
 
     PYTHONPATH=. python benchmarks/stage_replay.py capture OUT.pkl -- FILE -o X.xml --seed 0 -q
-    PYTHONPATH=. python benchmarks/stage_replay.py replay OUT.pkl [--stage buildout|traffic|both] [--no-check]
+    PYTHONPATH=. python benchmarks/stage_replay.py replay OUT.pkl [--stage buildout|traffic|both] [--no-check] [--steps]
 
 ``capture`` runs ``osm-expand`` with the given arguments and pickles every
 ``buildout_year`` and ``traffic_year`` call of the engine (inputs, outputs,
@@ -127,7 +127,32 @@ def _rng(state: dict) -> np.random.Generator:
     return rng
 
 
-def replay(path: Path, stage: str, check: bool) -> None:
+#: The build-out year's steps (names in :mod:`osm_expand.engine.buildout.year`) that ``--steps`` times.
+STEPS = ("_streets", "_demolish", "_build_out_blocks", "_land_use", "_substitute", "_build", "_result")
+
+
+def _timed_steps() -> dict[str, float]:
+    """Wrap the build-out year's steps so that each adds its CPU seconds to the dict returned."""
+    import osm_expand.engine.buildout.year as year
+
+    spent = dict.fromkeys(STEPS, 0.0)
+
+    def timer(name: str, step: Any) -> Any:
+        def timed(*args: Any, **kwargs: Any) -> Any:
+            t = time.process_time()
+            try:
+                return step(*args, **kwargs)
+            finally:
+                spent[name] += time.process_time() - t
+        return timed
+
+    for name in STEPS:
+        setattr(year, name, timer(name, getattr(year, name)))
+    return spent
+
+
+def replay(path: Path, stage: str, check: bool, steps: bool = False) -> None:
+    step_cpu = _timed_steps() if steps else None
     from osm_expand.engine.buildout.year import buildout_year
     from osm_expand.engine.traffic.simulation import traffic_year
 
@@ -171,6 +196,8 @@ def replay(path: Path, stage: str, check: bool) -> None:
             print(f"build-out {c['year']}: {spent:.3f} s CPU {verdict}", flush=True)
             memory, mine, theirs = out[1], out[0], c["out"][0]
         print(f"build-out: {total:.2f} s CPU")
+        if step_cpu is not None:
+            print("build-out steps (CPU s): " + ", ".join(f"{k} {v:.2f}" for k, v in step_cpu.items()))
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -182,11 +209,12 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("pickle", type=Path)
     parser.add_argument("--stage", choices=["buildout", "traffic", "both"], default="both")
     parser.add_argument("--no-check", action="store_true", help="time only")
+    parser.add_argument("--steps", action="store_true", help="also the build-out's CPU per step, over all years")
     args = parser.parse_args(argv)
     if args.command == "capture":
         capture(args.pickle, rest)
     else:
-        replay(args.pickle, args.stage, not args.no_check)
+        replay(args.pickle, args.stage, not args.no_check, steps=args.steps)
     return 0
 
 

@@ -194,6 +194,29 @@ def test_a_new_block_around_a_town_building_is_built_out_beyond_its_clearance():
     assert not any(b.polygon.distance(outline) < clearance for b in generated(after))
 
 
+def test_a_lot_state_changed_but_its_lot_keeps_its_measured_streets_and_frontage():
+    """``LotState.but`` is ``dataclasses.replace`` for a new type or ``tried``, and the streets and
+    frontage measured on the lot come along (the same objects); changing the lot itself is refused."""
+    from osm_expand.engine.buildout.lots import NO_STREET
+    from osm_expand.engine.buildout.lots import Lot as EngineLot
+    from osm_expand.engine.buildout.memory import LotState
+
+    lot = EngineLot(ring=np.array([[0.0, 3.75], [20.0, 3.75], [20.0, 33.75], [0.0, 33.75]]),
+                    edge_street=np.array([1, 2, NO_STREET, 1]))
+    state = LotState(lot=lot, type=0, year=2000, point=(10.0, 20.0), water=1000.0, green=1000.0)
+    fresh = state.but(type=2, tried=(2, (1,)))
+    assert "frontage" not in fresh.__dict__ and fresh.frontage == {1: 50.0, 2: 30.0}  # not measured yet: measured
+    measured = state.frontage
+    kept = state.but(type=1, tried=None)
+    assert kept.__dict__["frontage"] is measured and kept.__dict__["streets"] is state.streets
+    expected = replace(state, type=1, tried=None)
+    for name in ("lot", "type", "year", "point", "water", "green", "tried"):
+        assert getattr(kept, name) == getattr(expected, name)
+    assert kept.frontage == expected.frontage and kept.streets == expected.streets
+    with pytest.raises(ValueError):
+        state.but(lot=lot)
+
+
 def test_a_lot_whose_street_changed_faces_the_street_its_edge_lies_on():
     from osm_expand.engine.buildout.lots import NO_STREET
     from osm_expand.engine.buildout.lots import Lot as EngineLot

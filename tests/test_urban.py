@@ -151,3 +151,23 @@ def test_the_rectangles_made_in_one_batch_are_those_made_one_by_one():
                                                    and rect.tobytes() == want.tobytes())
     assert [got[0], got[51], got[52], got[-1]] == [None] * 4
     assert minimum_rectangles([]) == []
+
+
+def test_outlines_and_coordinates_formatted_at_once_are_each_corner_as_formatted_alone():
+    """The writer formats all corners of all lots or blocks at once (:func:`_outlines`): the same nodes, in
+    the same order, with the same text as each polygon's ring formatted corner by corner; a polygon with
+    a hole gives its outer ring only and an empty one no node."""
+    import shapely
+
+    from osm_expand.export.urban import _fmt, _formatted, _outlines
+
+    rng = np.random.default_rng(3)
+    square = shapely.Polygon([(0, 0), (10.0004, 0), (10, 10), (0, 10.1235)], holes=[[(2, 2), (3, 2), (3, 3)]])
+    polys = [square, shapely.Polygon(), *(shapely.Point(rng.uniform(-5e4, 5e4, 2)).buffer(rng.uniform(1, 50), 3)
+                                          for _ in range(20))]
+    attrs = [{"id": str(k)} for k in range(len(polys))]
+    for poly, el in zip(polys, _outlines("lot", attrs, polys), strict=True):
+        corners = [] if poly.is_empty else np.asarray(poly.exterior.coords)[:-1]
+        assert [(n.get("x"), n.get("y")) for n in el] == [(_fmt(x), _fmt(y)) for x, y in corners]
+    values = rng.uniform(-1e5, 1e5, (50, 2))
+    assert _formatted(values) == [_fmt(v) for v in values.ravel()]

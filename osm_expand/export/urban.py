@@ -19,8 +19,9 @@ land use). The XSD ships with the package (``osm_expand/schemas``).
 from __future__ import annotations
 
 import os
-from collections.abc import Sequence
+from collections.abc import Iterator, Sequence
 from importlib import resources
+from itertools import chain
 
 import numpy as np
 import shapely
@@ -94,12 +95,31 @@ def _block_attrs(block: Block) -> dict[str, str]:
     return xml_attrs(attrs)
 
 
-def _outline(tag: str, attrs: dict[str, str], polygon: shapely.Polygon) -> etree._Element:
-    """An element with one ``node x y`` per corner of the polygon's outer ring (not repeating the first)."""
-    el = etree.Element(tag, attrs)
-    for x, y in np.asarray(polygon.exterior.coords)[:-1]:
-        etree.SubElement(el, "node", x=_fmt(x), y=_fmt(y))
-    return el
+def _formatted(coords: np.ndarray) -> list[str]:
+    """Every number of ``coords`` as :func:`_fmt` writes it, row after row (x, then y): the numbers made
+    Python floats in one call first (formatting numpy scalars one by one was a third of the writer's time
+    on Campo Grande; a numpy float formats as the same float does)."""
+    return [f"{v:.3f}" for v in coords.ravel().tolist()]
+
+
+def _outlines(tag: str, attrs: Sequence[dict[str, str]], polygons: Sequence[shapely.Polygon]
+              ) -> Iterator[etree._Element]:
+    """One element per polygon with one ``node x y`` per corner of its outer ring (not repeating the first).
+
+    The outer rings' corners of all the polygons are read and formatted at once (:func:`_formatted`)."""
+    if not len(polygons):
+        return
+    rings = shapely.get_exterior_ring(np.array(polygons, dtype=object))
+    coords, owner = shapely.get_coordinates(rings, return_index=True)
+    text = _formatted(coords)
+    ends = np.searchsorted(owner, np.arange(1, len(polygons) + 1)).tolist()
+    start = 0
+    for attr, end in zip(attrs, ends):
+        el = etree.Element(tag, attr)
+        for i in range(2 * start, 2 * (end - 1), 2):  # the ring's last point repeats its first
+            etree.SubElement(el, "node", x=text[i], y=text[i + 1])
+        yield el
+        start = end
 
 
 def four_corners(b: Building) -> np.ndarray | None:
@@ -126,32 +146,42 @@ def write_urbanenvironment(city: City, path: str | os.PathLike) -> None:
         with xf.element("urbanenvironment", projection=proj.proj_string,
                         lon0=f"{proj.lon0:.7f}", lat0=f"{proj.lat0:.7f}"):
             with xf.element("streets"):
-                for street in net.streets:
+                sizes = [len(street.nodes) for street in net.streets]
+                nodes = np.fromiter(chain.from_iterable(street.nodes for street in net.streets), dtype=np.intp,
+                                    count=sum(sizes))
+                text = _formatted(net.xy[nodes])  # every street's points at once
+                start = 0
+                for street, size in zip(net.streets, sizes):
                     el = etree.Element("street", _street_attrs(street))
-                    pts = net.street_xy(street)
-                    for (x1, y1), (x2, y2) in zip(pts[:-1], pts[1:]):
-                        etree.SubElement(el, "segment", x1=_fmt(x1), y1=_fmt(y1), x2=_fmt(x2), y2=_fmt(y2))
+                    for i in range(2 * start, 2 * (start + size - 1), 2):  # point i/2 to the next
+                        etree.SubElement(el, "segment", x1=text[i], y1=text[i + 1], x2=text[i + 2], y2=text[i + 3])
                     xf.write(el)
+                    start += size
             with xf.element("buildings"):
                 all_corners = _corners_of(city.buildings)
                 shaped = [c for c in all_corners if c is not None]
                 areas = iter(shapely.area(shapely.polygons(np.array(shaped))).tolist() if shaped else [])
+                numbers = iter(_formatted(np.array(shaped)) if shaped else [])
                 for b, corners in zip(city.buildings, all_corners):
-                    if corners is None or next(areas) < 1.0:
+                    if corners is None:
+                        continue
+                    x0, y0, x1, y1, x2, y2, x3, y3 = (next(numbers) for _ in range(8))
+                    if next(areas) < 1.0:
                         continue  # a footprint without area (a mapping error) has no rectangle
                     el = etree.Element("building", _building_attrs(b))
-                    for x, y in corners:
-                        etree.SubElement(el, "node", x=_fmt(x), y=_fmt(y))
+                    for x, y in ((x0, y0), (x1, y1), (x2, y2), (x3, y3)):
+                        etree.SubElement(el, "node", x=x, y=y)
                     xf.write(el)
             if city.lots:
                 with xf.element("lots"):
-                    for lot in city.lots:
-                        xf.write(_outline("lot", _lot_attrs(lot), lot.polygon))
+                    lots = city.lots
+                    for el in _outlines("lot", [_lot_attrs(lot) for lot in lots], [lot.polygon for lot in lots]):
+                        xf.write(el)
             blocks = [b for b in city.blocks if b.polygon.geom_type == "Polygon" and not b.polygon.is_empty]
             if blocks:
                 with xf.element("blocks"):
-                    for block in blocks:
-                        xf.write(_outline("block", _block_attrs(block), block.polygon))
+                    for el in _outlines("block", [_block_attrs(b) for b in blocks], [b.polygon for b in blocks]):
+                        xf.write(el)
 
 
 def validate(path: str | os.PathLike) -> list[str]:

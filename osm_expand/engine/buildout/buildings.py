@@ -47,7 +47,7 @@ def _substitute(work: _Year, units: _Units) -> None:
     for k, replaced in zip(lots_with, sub.replaced.tolist()):
         if replaced:
             del work.buildings[k]
-            work.states[k] = replace(work.states[k], tried=None)
+            work.states[k] = work.states[k].but(tried=None)
             work.count(buildings_demolished=1)  # a replacement built below turns this into a substitution
             work.substituted.add(k)
 
@@ -84,7 +84,7 @@ def _build(work: _Year, units: _Units) -> None:
     placed = {fp.lot: fp for fp in footprints}
     for i, (k, key) in enumerate(zip(cands, keys)):
         if i not in placed:
-            work.states[k] = replace(work.states[k], tried=key)
+            work.states[k] = work.states[k].but(tried=key)
     if not footprints:
         return
     rows = np.array([units.row(cands[fp.lot]) for fp in footprints], dtype=np.intp)

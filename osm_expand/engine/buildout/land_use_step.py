@@ -47,7 +47,7 @@ def _land_use(work: _Year) -> _Units:
     for j, k in enumerate(ids):
         t = int(lut[n_town + j])
         if t != work.states[k].type:
-            work.states[k] = replace(work.states[k], type=t, tried=None)
+            work.states[k] = work.states[k].but(type=t, tried=None)
     work.memory = replace(memory, town_types=lut[:n_town].copy(), layout=layout, layout_ids=ids,
                           layout_lut=lut.copy())
     return _Units(ids, n_town, area, attrs, lut, luv)
