@@ -249,11 +249,11 @@ def test_b_grown_from_last_year_measures_and_tests_only_the_new_ground(x0, y0, n
     lines = [np.stack([across, np.full(len(across), y)], axis=1) for y in up]
     lines += [np.stack([np.full(len(up), x), up], axis=1) for x in across]
     segs2 = SegmentTable.from_lines(lines, major=[False] * len(lines), width=[6.0] * len(lines))
-    measured = []
-    intersection = shapely.intersection
+    measured = []  # the blocks whose water is looked for (then overlaid where it touches them)
+    intersects = shapely.intersects
     with pytest.MonkeyPatch.context() as monkey:
-        monkey.setattr(built_up_module.shapely, "intersection",
-                       lambda a, b: measured.append(len(np.atleast_1d(a))) or intersection(a, b))
+        monkey.setattr(built_up_module.shapely, "intersects",
+                       lambda a, b: measured.append(len(np.atleast_1d(b))) or intersects(a, b))
         second = built_up_area(blocks_of(segs2), segs2, water=water, previous=first)
     assert sum(measured) == n * more  # the new column's blocks, not the n² unchanged ones
     assert second.added is not None and len(second.added) >= n * more

@@ -153,7 +153,13 @@ def built_up_area(blocks: Sequence[shapely.Geometry], segments: SegmentTable, *,
         ok = area <= opts.terrain_block_area
         if water is not None and not water.is_empty:
             shapely.prepare(water)
-            wet = shapely.area(shapely.intersection(polys[fresh], water))
+            # only a block the water touches has water in it: the overlay of every block with the whole
+            # water was most of B's first year on Campo Grande (0.20 s for 4,738 blocks, 53 touch it);
+            # the others' share is 0 as the overlay gave it
+            wet = np.zeros(len(fresh))
+            touch = np.flatnonzero(shapely.intersects(water, polys[fresh]))
+            if len(touch):
+                wet[touch] = shapely.area(shapely.intersection(polys[fresh[touch]], water))
             ok &= wet <= opts.water_block_share * area
         built[fresh] = ok
     verdicts = dict(zip(keys.tolist(), built.tolist()))

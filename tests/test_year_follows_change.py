@@ -1,0 +1,103 @@
+"""Issue 22, each year costs what changed: the traffic step and B visit what the year changed, with the
+results of visiting everything (on Krems' default run, every year)."""
+from __future__ import annotations
+
+from dataclasses import replace
+
+import numpy as np
+import shapely
+
+from osm_expand.engine.roads.built_up import BuiltUpOptions
+from osm_expand.model import Status
+
+
+def _every_street(city, table, traffic, pending, year, options):
+    """``simulation._streets_follow_traffic`` as it was: every street visited, one by one."""
+    from osm_expand.engine.traffic.trips import update_status, update_widths
+
+    streets = list(city.network.streets)
+    n = len(streets)
+    per_street = table.per_street(traffic, n, "max")
+    built = np.array([s.status == Status.BUILT for s in streets])
+    built_year = np.array([s.year if s.year is not None else -1 for s in streets], dtype=np.int64)
+    now_built, now_year = update_status(built, per_street, built_year, year=year, options=options)
+    width = table.per_street(table.width, n, "max")
+    major = table.per_street(table.major.astype(float), n, "max") > 0
+    since = np.array([pending.get(s.id, -1) for s in streets], dtype=np.int64)
+    old_year = np.where(now_built & ~built, now_year, np.minimum(built_year, year - 1))
+    new_width, since = update_widths(width, per_street, now_built, old_year, since, year=year, major=major,
+                                     options=options)
+    widened = 0
+    for k, s in enumerate(streets):
+        if now_built[k] and not built[k]:
+            streets[k] = replace(s, status=Status.BUILT)
+        if s.is_new and abs(new_width[k] - width[k]) > 0.01 or (not s.is_new and new_width[k] > width[k] + 0.01):
+            streets[k] = replace(streets[k], width=float(new_width[k]))
+            widened += 1
+    pending = {s.id: int(v) for s, v in zip(streets, since) if v >= 0}
+    return tuple(streets), int((now_built & ~built).sum()), widened, pending
+
+
+def _overlaid_verdicts(blocks, water, opts: BuiltUpOptions) -> dict:
+    """Each block's built-up verdict with its water share from the overlay of every block with the water."""
+    polys = np.array([b for b in blocks if b is not None and not b.is_empty], dtype=object)
+    area = shapely.area(polys)
+    ok = (area <= opts.terrain_block_area) & (
+        shapely.area(shapely.intersection(polys, water)) <= opts.water_block_share * area)
+    return dict(zip(shapely.to_wkb(shapely.normalize(polys)).tolist(), ok.tolist()))
+
+
+def test_on_krems_each_year_visits_what_changed_and_gets_what_visiting_everything_gave(monkeypatch):
+    """Every year of Krems' default run: the streets that follow the traffic are those the loop over
+    every street gave (statuses, widths, counts, waiting widths), and B's block verdicts are those
+    of the overlay of every block with the Danube, though only the blocks the water touches are
+    overlaid (the overlay of all of them was most of B's first year on Campo Grande)."""
+    from conftest import FIXTURES, expanded_and_matured
+
+    import osm_expand.engine.roads.built_up as bu
+    import osm_expand.engine.roads.major_roads as mr
+    import osm_expand.engine.traffic.simulation as sim
+    from osm_expand.ingest import load
+
+    follow = sim._streets_follow_traffic
+    years, changed = [], [0]
+
+    def checked_follow(city, table, traffic, pending, year, options):
+        got = follow(city, table, traffic, pending, year, options)
+        want = _every_street(city, table, traffic, pending, year, options)
+        assert got[0].network.streets == want[0] and got[1:] == want[1:]
+        years.append(year)
+        changed[0] += got[1] + got[2]
+        return got
+
+    area_of = mr.built_up_area
+    overlaid: list[int] = []
+    blocks_seen: list[int] = []
+    wet: list[int] = []
+
+    def checked_area(blocks, segments, *, water=None, previous=None, options=None):
+        got = area_of(blocks, segments, water=water, previous=previous, options=options)
+        opts = options or BuiltUpOptions()
+        if water is not None and not water.is_empty:
+            intersection = shapely.intersection
+
+            def counted(a, b, **kw):
+                overlaid.append(len(np.atleast_1d(a)))
+                return intersection(a, b, **kw)
+
+            monkeypatch.setattr(bu.shapely, "intersection", counted)
+            fresh = area_of(blocks, segments, water=water, options=opts)  # every block measured
+            monkeypatch.setattr(bu.shapely, "intersection", intersection)
+            assert fresh.verdicts == _overlaid_verdicts(blocks, water, opts)
+            assert got.verdicts == fresh.verdicts
+            blocks_seen.append(len(blocks))
+            wet.append(int(shapely.intersects(water, np.array(blocks, dtype=object)).sum()))
+        return got
+
+    monkeypatch.setattr(sim, "_streets_follow_traffic", checked_follow)
+    monkeypatch.setattr(mr, "built_up_area", checked_area)
+    expanded_and_matured(load(FIXTURES / "krems.osm.gz"), history="example")
+    assert len(years) >= 20 and changed[0] > 0  # every year, and streets were built or widened
+    assert blocks_seen and wet and min(wet) > 0  # B was made, and the Danube touches some blocks
+    # the overlays took only the blocks the water touches, never every block
+    assert max(overlaid) <= max(wet) < min(blocks_seen)
