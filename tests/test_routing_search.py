@@ -1113,3 +1113,91 @@ def test_a_plain_search_refuses_a_limit_above_its_last_one():
     search.run(10.0)
     search.cut(10.0)
     assert np.array_equal(search.dist, dijkstra(matrix, indices=0, limit=10.0))
+
+
+@settings(max_examples=12, deadline=None)
+@given(st.integers(0, 2**32 - 1), st.sampled_from([8, 16]), st.booleans(), st.integers(1, 5))
+def test_a_search_gone_on_over_grown_tiles_ends_as_the_search_from_scratch_state_for_state(seed, k, ties, cells):
+    """Issue 22 (session 38): the tiled search goes on from its last search when its tiles grow and C
+    holds (``expanded_dijkstra``'s ``resume``, the departures with an edge into the added tiles scanned
+    again, ``routing._again``), where it searched from scratch each time (the synthetic 10,000-street
+    town's first road: four searches of 2.2, 4.6, 9.9 and 20 M states). On random street grids full of
+    routes of exactly equal cost, by A* with the route's tie rule or on reduced costs (the exits'
+    search), every state ends with the distance (and, with the tie rule, the predecessor) the search
+    from scratch over the grown tiles gives."""
+    from osm_expand.engine.roads.expanded_search import Resume
+
+    g, rng = random_map(seed)
+    opts = RoutingOptions(turn_height=float(rng.uniform(20, 900)), heading_bins=k)
+    lat, extra = g.masks()
+    live = g.live_vertices()
+    s, t = (int(v) for v in rng.choice(live, 2, replace=False))
+    with g.restricted(routing.ROAD_KINDS, None) as matrix:
+        d_s, d_t = dijkstra(matrix, indices=[s, t])
+    assume(np.isfinite(d_s[t]))
+    limit = float(rng.uniform(1.2, 3.0)) * d_s[t] + opts.turn_height
+    in_region = d_s + d_t <= limit
+    region = np.flatnonzero(in_region)
+    states = routing._States(len(region), k)
+    numbers = routing._local(g, region, k)
+    tile, shape = routing._tile_of(g, cells)
+    first = np.zeros(shape[0] * shape[1], dtype=bool)
+    first[tile[s]] = True
+    first = routing._dilated(first, shape)
+    grown = first | (rng.random(len(first)) < rng.uniform(0.1, 0.9))
+    penalties = routing._bin_penalties(opts)
+    h = d_t[region] * (1.0 - routing._SHRINK)
+    start = states.hub(int(numbers[s]))
+
+    def search(active: np.ndarray, resume=None):
+        local = numbers.copy()
+        local[~(in_region & active[tile])] = -1
+        return routing._heading_search(g, lat, extra, region, local, penalties, k, start, limit, h=h,
+                                       predecessors=ties, ties=ties, resume=resume)
+
+    before, after = in_region & first[tile], in_region & grown[tile]
+    dist, pred = search(first)
+    seeds = routing._again(g, lat, extra, numbers, before, after & ~before, tile, shape, states,
+                           routing._bins(g.direction_heading, k), routing._bins(g.heading, k),
+                           -(-g.lattice.radius // cells))
+    got, got_pred = search(grown, Resume(dist.copy(), pred.copy(), seeds))
+    want, want_pred = search(grown)
+    assert np.array_equal(got, want)
+    assert np.array_equal(got_pred, want_pred)
+    if (after & ~before).any() and np.isfinite(want).sum() > np.isfinite(dist).sum():
+        assert len(seeds)  # the added tiles were reached through the states scanned again
+
+
+@settings(max_examples=8, deadline=None)
+@given(st.integers(0, 2**32 - 1), st.sampled_from([8, 16]))
+def test_the_tiled_search_going_on_finds_the_routes_and_arrivals_of_searches_from_scratch(seed, k):
+    """Issue 22 (session 38): ``_tiled_search`` going on from its last search as its tiles grow gives the
+    routes (vertex for vertex, the same cost) and the exits' arrival costs that searching each time
+    from scratch gives, and it does go on (tiles of 1–3 vertices, never the region at once)."""
+    g, rng = random_map(seed)
+    opts = RoutingOptions(turn_height=float(rng.uniform(20, 900)), heading_bins=k, whole_region=0,
+                          tile_cells=int(rng.integers(1, 4)))
+    live = g.live_vertices()
+    heading_search = routing._heading_search
+    resumed = []
+
+    def from_scratch(*args, resume=None, **kwargs):
+        return heading_search(*args, **kwargs)
+
+    def counted(*args, resume=None, **kwargs):
+        resumed.append(resume is not None)
+        return heading_search(*args, resume=resume, **kwargs)
+
+    for _ in range(3):
+        s, t = (int(v) for v in rng.choice(live, 2, replace=False))
+        with pytest.MonkeyPatch.context() as monkey:
+            monkey.setattr(routing, "_heading_search", from_scratch)
+            want = routing.find_route(g, s, t, options=opts)
+        with pytest.MonkeyPatch.context() as monkey:
+            monkey.setattr(routing, "_heading_search", counted)
+            got = routing.find_route(g, s, t, options=opts)
+        assert (got is None) == (want is None)
+        if got is not None:
+            assert np.array_equal(got.vertices, want.vertices)
+            assert got.cost == want.cost
+    assume(any(resumed))

@@ -208,22 +208,25 @@ def _search(n: int, k: int, cheap: np.ndarray, cheap_cost: np.ndarray, hub_cost:
             dirs_ptr: np.ndarray, dirs: np.ndarray, table: np.ndarray, plain: np.ndarray, w_kind: np.ndarray,
             e_ptr: np.ndarray,
             e_bin: np.ndarray, e_col: np.ndarray, e_val: np.ndarray, h: np.ndarray, astar: bool, ties: bool,
-            eps: float, start: int, limit: float, pred: np.ndarray) -> np.ndarray:
-    """The distances from ``start`` (and ``pred`` filled, when it has room), each state's row made as it is
-    popped; the arguments are :class:`Expanded`'s fields and :func:`expanded_dijkstra`'s (its docstring)."""
+            eps: float, seeds: np.ndarray, limit: float, dist: np.ndarray, pred: np.ndarray) -> None:
+    """The distances in ``dist`` (and ``pred`` filled, when it has room), each state's row made as it is
+    popped, the search started (or resumed) from the ``seeds`` at their distances in ``dist``; the
+    arguments are :class:`Expanded`'s fields and :func:`expanded_dijkstra`'s (its docstring)."""
     nk = n * k
-    size = n * (2 * k + 1)
     n_dir = lat_kind.shape[1]
     use_table = len(table) > 0
-    dist = np.full(size, np.inf)
     n_cheap = len(cheap)
     # the heap's entries (key, state): a state is exact in a float64 (it is below 2⁵³), and an
     # entry's two halves share a cache line
-    heap = np.empty((4096, 2))
-    dist[start] = 0.0
-    heap[0, 0] = h[start - 2 * nk] if ties else 0.0  # the start is a hub
-    heap[0, 1] = start
-    length = 1
+    heap = np.empty((max(4096, len(seeds)), 2))
+    length = 0
+    for index in range(len(seeds)):  # keyed as a push keys them: g (+ h with ties), within the limit
+        seed = seeds[index]
+        at = seed // k if seed < nk else ((seed - nk) // k if seed < 2 * nk else seed - 2 * nk)  # its vertex
+        first = dist[seed] + h[at] if ties else dist[seed]
+        if first <= limit:
+            _put(heap, length, first, np.float64(seed))
+            length += 1
     while length > 0:
         key = heap[0, 0]
         v = np.int64(heap[0, 1])
@@ -287,7 +290,6 @@ def _search(n: int, k: int, cheap: np.ndarray, cheap_cost: np.ndarray, hub_cost:
             w = _reduced_weight(eps, hu, hu, eps) if astar else eps
             for col in range(nk + u * k, nk + u * k + k):
                 heap, length = _relax(dist, pred, heap, length, col, dv + w, v, limit, ties, hu)
-    return dist
 
 
 @_compiled()
@@ -487,8 +489,19 @@ class Expanded(NamedTuple):
     e_val: np.ndarray  #: float64 weights
 
 
+class Resume(NamedTuple):
+    """A search to go on with (:func:`expanded_dijkstra`'s ``resume``): the distances and predecessors
+    of the last search on the same states with the same limit and bound, whose graph has grown
+    since, and the states to scan again (those with an edge into what was added)."""
+
+    dist: np.ndarray  #: per state, the last search's (taken over and changed in place)
+    pred: np.ndarray  #: per state, the last search's (empty where none were asked for)
+    seeds: np.ndarray  #: int64, states scanned again first (at their distances in ``dist``)
+
+
 def expanded_dijkstra(graph: Expanded, start: int, limit: float, h: np.ndarray | None = None,
-                      return_predecessors: bool = False, ties: bool = False) -> tuple[np.ndarray, np.ndarray]:
+                      return_predecessors: bool = False, ties: bool = False,
+                      resume: Resume | None = None) -> tuple[np.ndarray, np.ndarray]:
     """scipy's ``dijkstra(expanded, indices=start, limit=limit)`` on the heading-expanded graph
     ``graph`` describes, with (given ``h``, per vertex) A*'s reduced weights
     ``max(w + h(col) − h(row), eps)`` (``routing._reduced``).
@@ -502,6 +515,17 @@ def expanded_dijkstra(graph: Expanded, start: int, limit: float, h: np.ndarray |
     those scipy's Dijkstra with the limit on ``g`` gives: the same route, with fewer states
     searched. Elsewhere a distance is an upper bound of scipy's, or ∞ where ``g + h`` exceeds the
     limit.
+
+    With ``resume`` the search goes on from a last one over the same states (numbered alike, the
+    same ``limit`` and ``h``) whose graph has only grown since (edges added, none removed or made
+    dearer): the last distances are upper bounds now, exact on what was there, and a cheaper path
+    passes an added edge, so the states with an edge added (``resume.seeds``) are scanned again,
+    and every state whose distance falls is pushed again and scanned again (label-correcting). The
+    distances end as the search from scratch gives them: each the least sum ``dist[u] + w`` over its
+    in-neighbours scanned, the same floats whatever the order. The predecessors too, with ``ties``
+    (its rule is applied at every relaxation and depends on the final distances and the numbers
+    only); without ``ties`` a predecessor is the first in-neighbour of that distance to relax it,
+    which depends on the order: only the distances are the search's from scratch there.
 
     Returns
     -------
@@ -530,10 +554,22 @@ def expanded_dijkstra(graph: Expanded, start: int, limit: float, h: np.ndarray |
         raise ValueError(f"h holds {len(h)} values, not one per vertex ({g.n})")
     if return_predecessors and size >= 2**31:
         raise ValueError(f"{size} states: more than the predecessors' 32 bits number")
-    pred = np.full(size if return_predecessors else 0, NO_PRED, dtype=np.int32)
+    if resume is None:
+        pred = np.full(size if return_predecessors else 0, NO_PRED, dtype=np.int32)
+        dist = np.full(size, np.inf)
+        dist[start] = 0.0
+        seeds = np.array([start], dtype=np.int64)
+    else:
+        dist, pred, seeds = resume
+        if len(dist) != size or len(pred) != (size if return_predecessors else 0):
+            raise ValueError(f"the search resumed holds {len(dist)} distances and {len(pred)} predecessors, "
+                             f"not those of {size} states")
+        seeds = np.asarray(seeds, dtype=np.int64)
+        if len(seeds) and not (0 <= seeds.min() and seeds.max() < size):
+            raise ValueError(f"a state to scan again is not among the {size} states")
     astar = h is not None and not ties
     hh = np.ascontiguousarray(h, dtype=np.float64) if h is not None else np.zeros(1)
-    dist = _search(g.n, g.k, g.cheap, g.cheap_cost, g.hub_cost, g.region, g.local, g.n_lat, g.lat_kind, g.allowed,
-                   g.offset, g.dirs_ptr, g.dirs, g.table, g.plain, g.w_kind, g.e_ptr, g.e_bin, g.e_col, g.e_val, hh,
-                   astar, ties, g.eps, int(start), float(limit), pred)
+    _search(g.n, g.k, g.cheap, g.cheap_cost, g.hub_cost, g.region, g.local, g.n_lat, g.lat_kind, g.allowed,
+            g.offset, g.dirs_ptr, g.dirs, g.table, g.plain, g.w_kind, g.e_ptr, g.e_bin, g.e_col, g.e_val, hh,
+            astar, ties, g.eps, seeds, float(limit), dist, pred)
     return dist, pred

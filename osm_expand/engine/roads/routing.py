@@ -68,7 +68,7 @@ from osm_expand.errors import InputError, OptionError
 from osm_expand.model.options import require_positive
 
 if TYPE_CHECKING:
-    from osm_expand.engine.roads.expanded_search import Plain
+    from osm_expand.engine.roads.expanded_search import Plain, Resume
 
 __all__ = ["RoutingOptions", "Route", "turn_penalty", "find_route", "route_over_major_roads", "Choice",
            "choose", "route_score"]
@@ -928,14 +928,16 @@ def _lattice_rows(graph: PathGraph, lat: KindMask) -> tuple[np.ndarray, np.ndarr
 
 def _heading_search(graph: PathGraph, lat: KindMask, extra: np.ndarray, region: np.ndarray, local: np.ndarray,
                     penalties: np.ndarray, k: int, start: int, limit: float, h: np.ndarray | None = None,
-                    predecessors: bool = False, ties: bool = False) -> tuple[np.ndarray, np.ndarray]:
+                    predecessors: bool = False, ties: bool = False,
+                    resume: Resume | None = None) -> tuple[np.ndarray, np.ndarray]:
     """scipy's Dijkstra from state ``start`` on the heading-expanded graph over ``region`` (``local``:
     :func:`_local`), up to ``limit``, on A*'s reduced costs with ``h`` (per region vertex, as
     :func:`_reduced` makes them): the distances and (with ``predecessors``, else empty) the predecessors,
     per state. With ``ties``: A* by ``h`` on the graph's own weights up to ``limit`` on ``g + h``,
     which gives the states of a route found below the limit the distances and predecessors scipy's
     Dijkstra up to ``limit`` on ``g`` gives, and searches fewer
-    (:func:`~osm_expand.engine.roads.expanded_search.expanded_dijkstra`).
+    (:func:`~osm_expand.engine.roads.expanded_search.expanded_dijkstra`). With ``resume`` it goes on
+    from the last search over the same states, ``local`` having more vertices since.
 
     The compiled search (:mod:`~osm_expand.engine.roads.expanded_search`) makes each state's row
     when it reaches it: the arrivals' and hubs' from the turn penalties, the departures' lattice
@@ -965,7 +967,7 @@ def _heading_search(graph: PathGraph, lat: KindMask, extra: np.ndarray, region: 
                     allowed=allowed, offset=graph.lattice.direction_offset.astype(np.int64), dirs_ptr=dirs_ptr,
                     dirs=dirs, table=table, plain=plain, w_kind=w_kind, e_ptr=e_ptr, e_bin=e_bin,
                     e_col=local[graph.dst[e]].astype(np.int64) * k + e_bin, e_val=graph.weight[e].astype(np.float64))
-    return expanded_dijkstra(rows, start, limit, h=h, return_predecessors=predecessors, ties=ties)
+    return expanded_dijkstra(rows, start, limit, h=h, return_predecessors=predecessors, ties=ties, resume=resume)
 
 
 def _expanded_search(graph: PathGraph, lat: KindMask, extra: np.ndarray, region: np.ndarray, source: int,
@@ -1092,6 +1094,66 @@ def _dilated(tiles: np.ndarray, shape: tuple[int, int]) -> np.ndarray:
     return binary_dilation(tiles.reshape(shape), structure=np.ones((3, 3), dtype=bool)).ravel()
 
 
+def _goes_on(kept: tuple[float, np.ndarray, np.ndarray, np.ndarray, np.ndarray], cost: float, region: np.ndarray,
+             h: np.ndarray, k: int) -> bool:
+    """Whether :func:`_tiled_search`'s next search (best cost ``cost``, ``region`` its vertices' bound) may
+    go on from the last one (``kept``: the cost it was made with, the region's vertices it numbered,
+    the active ones, its distances and predecessors) rather than start again.
+
+    While C holds, the region, the states' numbers and the limit are the same and the active set only
+    grows: it goes on. Where the last search found a cheaper route, C fell: the limit falls with it
+    and the region loses the vertices whose bound is now above C. A state whose distance came through
+    one of those has ``g + h`` at least that vertex's (h is consistent), so where every state of the
+    vertices left out has ``g + h`` above the new limit, every state within it has the distance (and
+    predecessor) a search without them gives, and those above it are never read as below C (the
+    search's and the growth test's comparisons): it goes on, the states left out are simply no longer
+    searched. Else (possible only by rounding: their bound exceeds C) it starts again."""
+    made, full, inside, dist, _ = kept
+    if cost == made:
+        return True
+    if not cost < made:
+        return False
+    states = _States(len(full), k)
+    out = inside & ~region
+    rows = np.searchsorted(full, np.flatnonzero(out))  # their states' vertex numbers (``full`` is sorted)
+    arrive, depart, hub = states.by_vertex(dist)
+    hy = h[full[rows]] * (1.0 - _SHRINK)  # the bound the search read (``h[full]`` so scaled), vertex by vertex
+    least = np.minimum(np.minimum(arrive[rows].min(axis=1, initial=np.inf), depart[rows].min(axis=1, initial=np.inf)),
+                       hub[rows]) + hy
+    return bool((least > cost + 2 * states.size * _EPS).all())
+
+
+def _again(graph: PathGraph, lat: KindMask, extra: np.ndarray, local: np.ndarray, before: np.ndarray,
+           added: np.ndarray, tile: np.ndarray, shape: tuple[int, int], states: _States, dir_bin: np.ndarray,
+           extra_bin: np.ndarray, rings: int) -> np.ndarray:
+    """The states a search over the vertices ``before`` scans again when it goes on over ``added`` too
+    (:func:`_tiled_search`): the departures ``dep(u, b)`` of the vertices u of ``before`` with an allowed
+    edge of heading bin b into ``added`` (``local``: the states' vertex numbers). A cheaper path than
+    the last search found passes such an edge, so these and the states whose distance then falls are
+    all the search must scan again to end as a search from scratch over both would.
+
+    The lattice's edges are looked for from the tiles within ``rings`` of the added vertices' (an
+    edge spans at most the lattice's radius), the other edges (streets, stitches, long bridges) by
+    their ends."""
+    k, nk = states.k, states.n * states.k
+    near = np.zeros(shape[0] * shape[1], dtype=bool)
+    near[tile[added]] = True
+    for _ in range(rings):
+        near = _dilated(near, shape)
+    n_lat = lat.shape[0]
+    offset = graph.lattice.direction_offset
+    tails = np.flatnonzero(before[:n_lat] & near[tile[:n_lat]])
+    found = [np.zeros(0, dtype=np.int64)]
+    for a in range(0, len(tails), _BLOCK):
+        u = tails[a:a + _BLOCK]
+        r, d = np.nonzero(lat[u])
+        hit = added[u[r] + offset[d]]
+        found.append(nk + local[u[r[hit]]].astype(np.int64) * k + dir_bin[d[hit]])
+    e = np.flatnonzero(extra & before[graph.src] & added[graph.dst])
+    found.append(nk + local[graph.src[e]].astype(np.int64) * k + extra_bin[e])
+    return np.unique(np.concatenate(found))
+
+
 def _vertex_path(pred: np.ndarray, start: int, end: int, verts: np.ndarray, states: _States) -> list[int]:
     """The G′ vertices of the expanded states' path from ``start`` to ``end`` (``verts``: the expanded
     graph's vertices, numbered by ``states``), a vertex once where its arrival and departure follow."""
@@ -1188,8 +1250,13 @@ def _tiled_search(graph: PathGraph, lat: KindMask, extra: np.ndarray, source: in
     on that heading; ``h`` is a consistent lower bound of what is left),
     plus the turns it must still make from heading b at w to reach the
     goal (:func:`_turns_needed`, with ``turn_floor``). Where that is below
-    C, the tile of w and its neighbours become active and the search runs
-    again; when no edge is, no route outside the active set can beat C, and
+    C, the tile of w and its neighbours become active and the search goes
+    on over them (:func:`_goes_on`, :func:`_again`: the states are numbered
+    over the whole region, so the last search's distances and predecessors
+    stay where they are and only the departures with an edge into the added
+    tiles are scanned again; the synthetic 10,000-street town's searches had
+    searched again from scratch each time, 2–6 searches of 2–56 M states);
+    when no edge is, no route outside the active set can beat C, and
     the best route found is the best of the graph. The tiles follow A*'s
     states with ``g + h ≤ C``. Inside them the exits' search (no target),
     and a route's with ``route_astar`` (off by default), run A* on reduced
@@ -1244,57 +1311,84 @@ def _tiled_search(graph: PathGraph, lat: KindMask, extra: np.ndarray, source: in
     need = _turn_floor(penalties) if floor else np.zeros(1)
     turns = bool(need.any())
     arrivals = None
+    # the last search, gone on with while C holds (:func:`_again`): None, or (cost, the region's vertices,
+    # inside, dist, pred); a route search with ``route_astar`` starts again each time (its predecessors
+    # depend on the order of the relaxations)
+    kept: tuple[float, np.ndarray, np.ndarray, np.ndarray, np.ndarray] | None = None
+    goes_on = not (astar and target is not None)
+    from osm_expand.engine.roads.expanded_search import Resume
+
     while True:
-        cost = best[1]
+        cost = made = best[1]
         region = lower <= cost + 1e-9 * cost + 1e-6
         inside = region & active[tile]
         verts = np.flatnonzero(inside)
-        local = _local(graph, verts, k)
-        states = _States(len(verts), k)
-        slack = 2 * states.size * _EPS
+        resume = None
+        if kept is not None and _goes_on(kept, cost, region, h, k):
+            _, full, before, dist, pred = kept
+            states = _States(len(full), k)
+            local = _local(graph, full, k)
+            before = before & region
+            seeds = _again(graph, lat, extra, local, before, inside & ~before, tile, shape, states, dir_bin,
+                           extra_bin, -(-graph.lattice.radius // opts.tile_cells))
+            resume = Resume(dist, pred, seeds)
+        else:
+            # the states numbered over the whole region (a vertex's by its rank there), so that the tiles
+            # grow without numbering them again: the rank in the region and in ``verts`` order two
+            # states alike, which is all the tie rule reads of the numbers
+            full = np.flatnonzero(region)
+            states = _States(len(full), k)
+            local = _local(graph, full, k)
+        kept = None  # the last search's arrays are the resumed search's, or go
+        local[~inside] = -1  # the search reads only the active vertices
+        slack = 2 * states.size * _EPS  # the same limit each time C holds (the whole region's states)
         start = states.hub(local[source])
         if astar:  # A* (reduced costs): the exits' search, or a route's with ``route_astar``
-            ha = h[verts] * (1.0 - _SHRINK)
+            ha = h[full] * (1.0 - _SHRINK)
             hs = float(ha[local[source]])
             seek = target is not None and local[target] >= 0
-            dist, pred = _heading_search(graph, lat, extra, verts, local, penalties, k, start, cost - hs + slack,
-                                         h=ha, predecessors=seek)
-            arrive, depart, hub = states.by_vertex(dist)  # g = distance + h(state) − h(source)
-            arrive += (hs - ha)[:, None]
-            depart += (hs - ha)[:, None]
-            hub += hs - ha
+            dist, pred = _heading_search(graph, lat, extra, full, local, penalties, k, start, cost - hs + slack,
+                                         h=ha, predecessors=seek, resume=resume)
+            shift = hs - ha  # g = distance + h(state) − h(source); ``dist`` stays as searched, to go on with
+            departs = states.by_vertex(dist)[1] + shift[:, None]
             if seek:
-                end = _cheaper_end(dist, states, int(local[target]), cost)
-                if end is not None:
-                    total = _summed_cost(graph, lat, extra, verts, _walk_back(pred, start, end), penalties, k)
+                ends = states.arrivals(int(local[target]))
+                arrive = dist[ends] + shift[local[target]]
+                least = int(np.argmin(arrive))
+                if arrive[least] < cost:
+                    last = int(ends[least])
+                    total = _summed_cost(graph, lat, extra, full, _walk_back(pred, start, last), penalties, k)
                     if total < cost:
-                        best = (_vertex_path(pred, start, end, verts, states), total)
+                        best = (_vertex_path(pred, start, last, full, states), total)
                         cost = best[1]
         else:
             # A* by h on the graph's own weights, scipy's predecessor rule applied as states relax: the
             # route (its states' distances and predecessors) is plain Dijkstra's, and the states with
             # g + h above C are not searched. Where the growth test below reads a departure's g, it is
             # exact wherever g + w + h(w) < C (consistency: then g + h(u) < C), as the test needs.
-            dist, pred = _heading_search(graph, lat, extra, verts, local, penalties, k, start, cost + slack,
-                                         h=h[verts] * (1.0 - _SHRINK), predecessors=True, ties=True)
+            shift = np.zeros(len(full))
+            dist, pred = _heading_search(graph, lat, extra, full, local, penalties, k, start, cost + slack,
+                                         h=h[full] * (1.0 - _SHRINK), predecessors=True, ties=True, resume=resume)
             if target is not None and local[target] >= 0:
                 end = _cheaper_end(dist, states, int(local[target]), cost)
                 if end is not None:
-                    best = (_vertex_path(pred, start, end, verts, states), float(dist[end]))
+                    best = (_vertex_path(pred, start, end, full, states), float(dist[end]))
                     cost = best[1]
-            del pred
+            departs = states.by_vertex(dist)[1]
         if exits is not None:
             at = local[exits].astype(np.int64)
-            arrivals = np.where(at >= 0, states.by_vertex(dist)[0][np.maximum(at, 0)].min(axis=1), np.inf)
+            row = np.maximum(at, 0)
+            arrivals = np.where(at >= 0, (states.by_vertex(dist)[0][row] + shift[row][:, None]).min(axis=1), np.inf)
             arrivals[exits == source] = 0.0
-            arrivals = np.maximum(arrivals - slack, 0.0)
+            # the rounding slack of the states searched (the active ones), as when each search was made
+            # over them alone
+            arrivals = np.maximum(arrivals - 2 * _States(len(verts), k).size * _EPS, 0.0)
         if at_once:  # the whole region was searched: no edge leaves the active set, nothing can grow
             return best, arrivals
         threshold = cost - 1e-9 * cost
-        departs = states.by_vertex(dist)[1]
         outside = region & ~inside
         # lattice edges out of the vertices that may still lead somewhere below C
-        open_ = verts[(verts < n_lat) & (departs.min(axis=1) + h[verts] < threshold)]
+        open_ = verts[(verts < n_lat) & (departs[local[verts]].min(axis=1) + h[verts] < threshold)]
         reached: list[np.ndarray] = []
         for a in range(0, len(open_), _BLOCK):
             u = open_[a:a + _BLOCK]
@@ -1313,9 +1407,12 @@ def _tiled_search(graph: PathGraph, lat: KindMask, extra: np.ndarray, source: in
             lb += _turns_needed(need, extra_bin[e], graph.xy[graph.dst[e]], goal)
         reached.append(graph.dst[e][lb < threshold])
         w = np.concatenate(reached)
-        del dist, departs  # this search's states go before the next graph is made
+        del departs
         if not len(w):
             return best, arrivals
+        if goes_on:  # the next search may go on from this one (:func:`_goes_on`)
+            kept = (made, full, inside, dist, pred)
+        del dist, pred  # this search's states go before the next search's are made (unless it goes on)
         active |= _grown_tiles(active, tile[w], tile[region], shape, len(verts))
 
 
