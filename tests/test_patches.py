@@ -1106,6 +1106,8 @@ def test_edge_square_cuts_a_splayed_cut_street_back_to_a_right_angle():
         assert np.array_equal(square.xy[k][0], quilt.xy[k][0]) and square.xy[k][-1][1] > quilt.xy[k][-1][1] + 5.0
     with pytest.raises(OptionError, match="edge_square"):
         PatchOptions(edge_square=0)
+    with pytest.raises(OptionError, match="edge_tee and edge_square"):
+        PatchOptions(edge_tee=105.0, edge_square=105.0)
 
 
 def test_a_squared_run_that_edge_turn_refuses_leaves_the_cut_streets_as_they_were():
