@@ -62,6 +62,20 @@ def test_pattern_aim_refuses_what_is_not_a_bool(value):
         GrowthOptions(pattern_aim=value)
 
 
+@pytest.mark.parametrize("value", ["false", 1, None])
+def test_pattern_aim_range_refuses_what_is_not_a_bool(value):
+    """A history's string "false" would read as on."""
+    with pytest.raises(OptionError, match="pattern_aim_range must be a bool"):
+        GrowthOptions(pattern_aim_range=value)
+
+
+def test_pattern_aim_range_needs_pattern_aim():
+    """``pattern_aim_range`` widens the aim's rule: without ``pattern_aim`` it would be accepted and do nothing."""
+    with pytest.raises(OptionError, match="pattern_aim_range needs pattern_aim"):
+        GrowthOptions(pattern_aim=False, pattern_aim_range=True)
+    assert GrowthOptions(pattern_aim=True, pattern_aim_range=True).pattern_aim_range
+
+
 def test_krems_european_grid_era_is_no_more_connected_than_krems_neighbourhoods():
     """Krems, ``european``, seed 0, with :attr:`GrowthOptions.pattern_aim`: the gründerzeit grid's run-ons and
     dropped stubs left it 13.1 km with a 2-core share of 0.973 against its neighbourhoods' 0.885-0.959, and the

@@ -495,6 +495,9 @@ class GrowthOptions:
         if not (is_real_number(self.district_town_share) and self.district_town_share > 0):  # NaN, 0 or negative
             raise OptionError(f"growth option district_town_share must be a share > 0 of the town's settlement "
                               f"(inf: the floor alone), got {self.district_town_share!r}")
+        if self.pattern_aim_range and not self.pattern_aim:  # it widens the aim: alone it would do nothing
+            raise OptionError("growth option pattern_aim_range needs pattern_aim (it widens the aim's rule to a "
+                              "share out of range; without the aim nothing acts)")
         if self.town_nuclei and self.settlement_gap == 0:
             raise OptionError("growth option town_nuclei needs settlement_gap > 0 (0 reads every piece of "
                               "built-up land as the town's, so every nucleus is the town's)")
