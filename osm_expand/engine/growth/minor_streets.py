@@ -888,8 +888,8 @@ def grow_district(city: City, pattern: GrowthPattern, length: float, density: fl
         memory.refused = _still_refused(city, memory.refused, reach=2.0 * spacing)
         near = np.full(len(memory.refused), options.refused_near * district_radius)
         avoid = np.column_stack([memory.refused[:, :2], near])
-    reach_maps = _reach_maps(city, maps, options, margin)
     if math.isfinite(options.district_town_reach) and maps.city.any():  # the town's edge, not a hamlet's
+        reach_maps = _reach_maps(city, maps, options, margin)  # a finer raster is drawn only when read
         sites = choose_sites(maps, area, site_options, most=2 * options.sites_tried, avoid=avoid)
         near = _from_the_town(reach_maps, np.array([s.centre for s in sites]).reshape(-1, 2), options)
         sites = [s for s, d in zip(sites, near) if d <= options.district_town_reach * district_radius]
