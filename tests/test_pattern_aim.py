@@ -117,8 +117,9 @@ class _Aim:
     def __init__(self, counts, medians, limits):
         self.got = (np.array(counts, dtype=float), np.array(medians, dtype=float), np.array(limits, dtype=float))
 
-    def aim(self, lines, open_points):
-        return self.got
+    def aim(self, lines, open_points, *, ranges=False):
+        counts, medians, limits = self.got
+        return counts, medians, limits if ranges else None
 
 
 #: the town's neighbourhoods: dead-end share median 0.15 in [0.05, 0.30], 2-core median 0.90 in [0.80, 0.95]

@@ -677,12 +677,12 @@ def _withheld(grown: City, era: str, aim: DistrictYardstick, lines: list[np.ndar
 
     Each step is estimated, not measured again."""
     none: tuple[frozenset[tuple[int, int]], frozenset[int], frozenset[int]] = (frozenset(), frozenset(), frozenset())
-    got = aim.aim(*growth_lines(grown, era=era))
+    got = aim.aim(*growth_lines(grown, era=era), ranges=in_range)
     if got is None:
         return none
     (length, _, dead, counted, core), medians, limits = got
     dead_aim, core_aim = float(medians[1]), float(medians[2])
-    dead_top, core_top = float(limits[1, 1]), float(limits[2, 1])
+    dead_top, core_top = (float(limits[1, 1]), float(limits[2, 1])) if limits is not None else (math.nan, math.nan)
     if not (counted > 0 and length > 0 and np.isfinite(dead_aim) and np.isfinite(core_aim)):
         return none
     ranged = in_range and np.isfinite(dead_top) and np.isfinite(core_top)
