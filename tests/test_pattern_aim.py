@@ -137,12 +137,12 @@ def test_a_two_core_share_above_range_takes_back_a_run_on_while_the_dead_ends_st
     aim = _Aim((1000.0, 1e5, 2, 10, 960.0), MEDIANS, LIMITS)
     report = StubReport(ran=((3, 1),))
     assert _withheld(None, "grid", aim, LINES, report, 60.0) == (frozenset(), frozenset(), frozenset())
-    assert _withheld(None, "grid", aim, LINES, report, 60.0, in_range=True) == (frozenset({(3, 1)}), frozenset(),
-                                                                               frozenset())
+    assert _withheld(None, "grid", aim, LINES, report, 60.0, aim_range=True) == (frozenset({(3, 1)}), frozenset(),
+                                                                                frozenset())
     # a dead end more would put the dead-end share above its range (0.31 > 0.30): nothing is taken back
     tight = _Aim((1000.0, 1e5, 2, 10, 960.0), MEDIANS, ((5.0, 15.0), (0.05, 0.29), (0.80, 0.95)))
-    assert _withheld(None, "grid", tight, LINES, report, 60.0, in_range=True) == (frozenset(), frozenset(),
-                                                                                 frozenset())
+    assert _withheld(None, "grid", tight, LINES, report, 60.0, aim_range=True) == (frozenset(), frozenset(),
+                                                                                  frozenset())
 
 
 def test_a_dead_end_share_above_range_drops_a_cul_de_sac_while_the_two_core_stays_in_range(_no_lines):
@@ -154,9 +154,9 @@ def test_a_dead_end_share_above_range_drops_a_cul_de_sac_while_the_two_core_stay
     aim = _Aim((1000.0, 1e5, 4, 10, 910.0), MEDIANS, LIMITS)
     assert _withheld(None, "suburban", aim, LINES, report, 60.0, closes=False) == (frozenset(), frozenset(),
                                                                                    frozenset())
-    assert _withheld(None, "suburban", aim, LINES, report, 60.0, closes=False, in_range=True) == (
+    assert _withheld(None, "suburban", aim, LINES, report, 60.0, closes=False, aim_range=True) == (
         frozenset(), frozenset(), frozenset({4}))
-    assert _withheld(None, "grid", aim, LINES, report, 60.0, in_range=True) == (frozenset(), frozenset(), frozenset())
+    assert _withheld(None, "grid", aim, LINES, report, 60.0, aim_range=True) == (frozenset(), frozenset(), frozenset())
     core = _Aim((1000.0, 1e5, 4, 10, 930.0), MEDIANS, LIMITS)
-    assert _withheld(None, "suburban", core, LINES, report, 60.0, closes=False, in_range=True) == (
+    assert _withheld(None, "suburban", core, LINES, report, 60.0, closes=False, aim_range=True) == (
         frozenset(), frozenset(), frozenset())

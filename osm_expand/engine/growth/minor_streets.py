@@ -434,7 +434,7 @@ class GrowthOptions:
     #: worse (north-bayreuth seeds 1, 2 both shares out); keeping no stubs left Krems' 2-core out (0.972).
     pattern_aim: bool = True
     #: With :attr:`pattern_aim`, a named pattern's era also acts on a share out of its town's neighbourhoods' range
-    #: while the other share stays in range (:func:`_withheld`'s ``in_range``): a 2-core share above the range takes
+    #: while the other share stays in range (:func:`_withheld`'s ``aim_range``): a 2-core share above the range takes
     #: back run-ons while the dead-end share stays at most its range's top; a dead-end share above it drops
     #: culs-de-sac while the 2-core share stays at most its top. Why: the aim acts only while both shares sit on
     #: one side of their medians, which left Krems' ``european`` seed 2 (dead ends 0.154 above [0.027-0.151], 2-core
@@ -552,14 +552,14 @@ class GrowthYear:
 def grow_street_pattern(city: City, count: int, options: PatternOptions, nuclei: list[Nucleus],
                         memory: GrowthMemory, rng: np.random.Generator, *, year: int, era: str,
                         centre: np.ndarray, reach: float | None = None,
-                        aim: DistrictYardstick | None = None, in_range: bool = False) -> tuple[City, GrowthYear]:
+                        aim: DistrictYardstick | None = None, aim_range: bool = False) -> tuple[City, GrowthYear]:
     """Grow ``count`` new streets with a street pattern from the best candidates (003 §3.3.2, 000 §4.2.6).
 
     With ``reach`` (m), the year's stubs run on to the street ahead or go
     (:func:`osm_expand.engine.growth.stubs.close_stubs`): connectedness is the
     town's whatever the pattern. With ``aim`` too, run-ons are taken back while
     the era is more connected than the town's neighbourhoods
-    (:attr:`GrowthOptions.pattern_aim`, :func:`_withheld`); with ``in_range`` also while one share is out of the
+    (:attr:`GrowthOptions.pattern_aim`, :func:`_withheld`); with ``aim_range`` also while one share is out of the
     neighbourhoods' range and the other stays in it (:attr:`GrowthOptions.pattern_aim_range`)."""
     if count <= 0:
         return city, GrowthYear()
@@ -617,7 +617,7 @@ def grow_street_pattern(city: City, count: int, options: PatternOptions, nuclei:
     grown = added(grown_lines, grown_bridges)
     if aim is not None and reach is not None and (report.ran or report.short or report.stubs):
         withhold, keep, drop = _withheld(grown, era, aim, lines, report, reach, closes=not _never_closes(options),
-                                         in_range=in_range)
+                                         aim_range=aim_range)
         if withhold or keep or drop:
             again, again_bridges, _ = close_stubs(lines, bridges, *stub_args, reach=reach,
                                                   loops=_never_closes(options), withhold=withhold, keep=keep,
@@ -644,7 +644,7 @@ def _kept_nodes(city: City, grown: City, kept: list[np.ndarray]) -> set[int]:
 
 
 def _withheld(grown: City, era: str, aim: DistrictYardstick, lines: list[np.ndarray], report: StubReport,
-              reach: float, *, closes: bool = True, in_range: bool = False
+              reach: float, *, closes: bool = True, aim_range: bool = False
               ) -> tuple[frozenset[tuple[int, int]], frozenset[int], frozenset[int]]:
     """The stub ends whose run-on is taken back, the short stubs kept and the culs-de-sac dropped (of ``lines``,
     the year's new streets before :func:`~osm_expand.engine.growth.stubs.close_stubs` made ``report``) so that the
@@ -664,7 +664,7 @@ def _withheld(grown: City, era: str, aim: DistrictYardstick, lines: list[np.ndar
     (:func:`_never_closes`: its dead ends stay dead ends): culs-de-sac go, the shortest first, each a dead end, its
     tee and its length. A pattern that closes its trees in later years keeps them (a young grid is all trees).
 
-    With ``in_range`` (:attr:`GrowthOptions.pattern_aim_range`), a share out of the neighbourhoods' range (the
+    With ``aim_range`` (:attr:`GrowthOptions.pattern_aim_range`), a share out of the neighbourhoods' range (the
     verdict's, :meth:`~osm_expand.engine.growth.yardstick.DistrictYardstick.aim`) is acted on whichever side of its
     median the other share lies, as long as every step keeps the other share within its range: a 2-core share
     above the range takes back run-ons (longest first) while the dead-end share stays at most the range's top; a
@@ -677,7 +677,7 @@ def _withheld(grown: City, era: str, aim: DistrictYardstick, lines: list[np.ndar
 
     Each step is estimated, not measured again."""
     none: tuple[frozenset[tuple[int, int]], frozenset[int], frozenset[int]] = (frozenset(), frozenset(), frozenset())
-    got = aim.aim(*growth_lines(grown, era=era), ranges=in_range)
+    got = aim.aim(*growth_lines(grown, era=era), ranges=aim_range)
     if got is None:
         return none
     (length, _, dead, counted, core), medians, limits = got
@@ -685,7 +685,7 @@ def _withheld(grown: City, era: str, aim: DistrictYardstick, lines: list[np.ndar
     dead_top, core_top = (float(limits[1, 1]), float(limits[2, 1])) if limits is not None else (math.nan, math.nan)
     if not (counted > 0 and length > 0 and np.isfinite(dead_aim) and np.isfinite(core_aim)):
         return none
-    ranged = in_range and np.isfinite(dead_top) and np.isfinite(core_top)
+    ranged = aim_range and np.isfinite(dead_top) and np.isfinite(core_top)
 
     def looser() -> bool:
         """Whether the era should lose connectedness: both shares on the connected side of their medians, or
