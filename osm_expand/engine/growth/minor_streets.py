@@ -406,7 +406,8 @@ class GrowthOptions:
     #: way), Campo Grande seed 0 3 5 4 the same; north-bayreuth seed 2 3 4 2 -> 5 4 4, its second quarter from a
     #: median 2,093 m to 308 m from the town's settlement (one piece, at the town's edge, as the issue asks), but
     #: 2-core 0.729 -> 0.706, below its range either way, dead ends 0.265 -> 0.336 (in range). A picture's gain at
-    #: one run's verdict cost: off.
+    #: one run's verdict cost: off. Ignored (the site raster read as it is) at or above the site raster's cell, with
+    #: :attr:`settlement_only` (its settlements are kept) and with ``settlement_gap`` 0 (no settlement to draw).
     district_reach_cell: float = 0.0
     #: Whether a street pattern's era (``grid``, ``organic``, ``suburban``, ...) aims its connectedness at its
     #: town's neighbourhoods, as the district's topology does (:mod:`synth.patches.topology`): each year, while the
@@ -436,7 +437,8 @@ class GrowthOptions:
     #: With :attr:`pattern_aim`, a named pattern's era also acts on a share out of its town's neighbourhoods' range
     #: while the other share stays in range (:func:`_withheld`'s ``aim_range``): a 2-core share above the range takes
     #: back run-ons while the dead-end share stays at most its range's top; a dead-end share above it drops
-    #: culs-de-sac while the 2-core share stays at most its top. Why: the aim acts only while both shares sit on
+    #: culs-de-sac (a pattern that never closes its trees only) while the 2-core share stays at most its top.
+    #: Why: the aim acts only while both shares sit on
     #: one side of their medians, which left Krems' ``european`` seed 2 (dead ends 0.154 above [0.027-0.151], 2-core
     #: above its median too) and the 2-core shares of north-bayreuth, Monaco and Andorra above range (their dead ends
     #: above the median already). Off: measured (session 38, h38e; ``cd fixtures && python
