@@ -51,7 +51,11 @@ def test_on_krems_each_year_visits_what_changed_and_gets_what_visiting_everythin
     """Every year of Krems' default run: the streets that follow the traffic are those the loop over
     every street gave (statuses, widths, counts, waiting widths), and B's block verdicts are those
     of the overlay of every block with the Danube, though only the blocks the water touches are
-    overlaid (the overlay of all of them was most of B's first year on Campo Grande)."""
+    overlaid (the overlay of all of them was most of B's first year on Campo Grande).
+
+    The traffic half is an oracle check: the old loop (:func:`_every_street`) is run beside the new
+    step each year and must give the same; some year widens a street with no status changed, so
+    the widening path is compared on its own, not only behind a newly built street."""
     from conftest import FIXTURES, expanded_and_matured
 
     import osm_expand.engine.roads.built_up as bu
@@ -61,6 +65,7 @@ def test_on_krems_each_year_visits_what_changed_and_gets_what_visiting_everythin
 
     follow = sim._streets_follow_traffic
     years, changed = [], [0]
+    widened_alone: list[int] = []  # streets widened in the years no street's status changed
 
     def checked_follow(city, table, traffic, pending, year, options):
         got = follow(city, table, traffic, pending, year, options)
@@ -68,6 +73,8 @@ def test_on_krems_each_year_visits_what_changed_and_gets_what_visiting_everythin
         assert got[0].network.streets == want[0] and got[1:] == want[1:]
         years.append(year)
         changed[0] += got[1] + got[2]
+        if got[1] == 0:
+            widened_alone.append(got[2])
         return got
 
     area_of = mr.built_up_area
@@ -98,6 +105,7 @@ def test_on_krems_each_year_visits_what_changed_and_gets_what_visiting_everythin
     monkeypatch.setattr(mr, "built_up_area", checked_area)
     expanded_and_matured(load(FIXTURES / "krems.osm.gz"), history="example")
     assert len(years) >= 20 and changed[0] > 0  # every year, and streets were built or widened
+    assert max(widened_alone, default=0) > 0  # a street widened in a year with no status change
     assert blocks_seen and wet and min(wet) > 0  # B was made, and the Danube touches some blocks
     # the overlays took only the blocks the water touches, never every block
     assert max(overlaid) <= max(wet) < min(blocks_seen)
