@@ -12,7 +12,8 @@ from osm_expand.model import Status
 
 
 def _every_street(city, table, traffic, pending, year, options):
-    """``simulation._streets_follow_traffic`` as it was: every street visited, one by one."""
+    """``simulation._streets_follow_traffic`` as it was at main aeba056 (this copy frozen from it): every street
+    visited, one by one."""
     from osm_expand.engine.traffic.trips import update_status, update_widths
 
     streets = list(city.network.streets)
