@@ -61,7 +61,8 @@ met square further back, a tee): Krems 0.358, joint edge 94 (43.1°); north-bayr
 (26.3°). ``--option edge_square=105`` (a V cut back to a right angle): Krems 0.375, north-bayreuth 0.230. All off
 (their measurements in :class:`synth.patches.PatchOptions`).
 
-Usage: ``python benchmarks/stitching_bends.py [--seed N | --seeds N ...] [--option NAME=VALUE ...] [--district] [TOWN ...]``
+Usage: ``python benchmarks/stitching_bends.py [--seed N | --seeds N ...] [--option NAME=VALUE ...] [--district]
+[TOWN ...]``
 (default: Krems and north-bayreuth, seed 0; about 15 s CPU each, 4 s with ``--district``; several seeds pool their
 districts' chords per town). ``--option`` (repeatable, a JSON value) sets a :class:`synth.patches.PatchOptions`
 field in every PatchOptions the run makes that does not set it itself (the history's eras take theirs from the
@@ -224,8 +225,9 @@ def _placed(watch: Watch, mapped: object, seed: int, district: bool
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("towns", nargs="*", default=["krems.osm.gz", "north-bayreuth.osm.gz"])
-    ap.add_argument("--seed", type=int, default=0)
-    ap.add_argument("--seeds", type=int, nargs="+", help="several seeds, their districts' chords pooled per town")
+    seeds = ap.add_mutually_exclusive_group()  # one seed, or several pooled
+    seeds.add_argument("--seed", type=int, default=0)
+    seeds.add_argument("--seeds", type=int, nargs="+", help="several seeds, their districts' chords pooled per town")
     ap.add_argument("--option", action="append", default=[], metavar="NAME=VALUE")
     ap.add_argument("--district", action="store_true",
                     help="the pipeline's district (the circle of the README's picture) instead of the engine's "
@@ -278,7 +280,8 @@ def main() -> None:
         d, joint = np.concatenate(degrees), k == "piece joint"
         trimmed = joint & (d >= 3)
         if joint.any():
-            print(f"piece joints where the copy had a junction (an arm trimmed away): {trimmed.sum()} of {joint.sum()}, "
+            print(f"piece joints where the copy had a junction (an arm trimmed away): {trimmed.sum()} of "
+                  f"{joint.sum()}, "
                   f"median {np.median(b[trimmed]) if trimmed.any() else float('nan'):.1f}°, over 20° "
                   f"{np.mean(b[trimmed] > 20) if trimmed.any() else float('nan'):.2f}; the town's own way joints: "
                   f"median {np.median(b[joint & (d < 3)]) if (joint & (d < 3)).any() else float('nan'):.1f}°; "

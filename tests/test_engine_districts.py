@@ -471,7 +471,6 @@ def test_town_nuclei_is_refused_without_a_settlement_gap():
         GrowthOptions(town_nuclei=True, settlement_gap=0)
 
 
-
 def test_the_reach_to_the_town_is_measured_on_the_town_drawn_at_a_finer_cell():
     """:attr:`GrowthOptions.district_reach_cell`: the site raster (a tenth of a district's radius, 65 m here) draws
     every cell a frontage strip's outline touches, so north-bayreuth's built-up land and its settlement read larger

@@ -251,9 +251,14 @@ def test_b_grown_from_last_year_measures_and_tests_only_the_new_ground(x0, y0, n
     segs2 = SegmentTable.from_lines(lines, major=[False] * len(lines), width=[6.0] * len(lines))
     measured = []  # the blocks whose water is looked for (then overlaid where it touches them)
     intersects = shapely.intersects
-    with pytest.MonkeyPatch.context() as monkey:
-        monkey.setattr(built_up_module.shapely, "intersects",
-                       lambda a, b: measured.append(len(np.atleast_1d(b))) or intersects(a, b))
+
+    def counted(a, b, **kw):
+        if isinstance(b, np.ndarray):  # B's blocks against the water; not a scalar call from elsewhere
+            measured.append(len(b))
+        return intersects(a, b, **kw)
+
+    with pytest.MonkeyPatch.context() as monkey:  # hypothesis: no function-scoped monkeypatch fixture
+        monkey.setattr(built_up_module.shapely, "intersects", counted)
         second = built_up_area(blocks_of(segs2), segs2, water=water, previous=first)
     assert sum(measured) == n * more  # the new column's blocks, not the n² unchanged ones
     assert second.added is not None and len(second.added) >= n * more

@@ -1106,6 +1106,49 @@ def test_edge_square_cuts_a_splayed_cut_street_back_to_a_right_angle():
         assert np.array_equal(square.xy[k][0], quilt.xy[k][0]) and square.xy[k][-1][1] > quilt.xy[k][-1][1] + 5.0
     with pytest.raises(OptionError, match="edge_square"):
         PatchOptions(edge_square=0)
+    with pytest.raises(OptionError, match="edge_tee and edge_square"):
+        PatchOptions(edge_tee=105.0, edge_square=105.0)
+
+
+def test_a_squared_run_that_edge_turn_refuses_leaves_the_cut_streets_as_they_were():
+    """``edge_tee`` / ``edge_square`` with ``edge_turn`` below the squared run's 90° joints: the run is refused,
+    and the cut streets stay as they were (no tee split into them, not cut back, their cut ends where they
+    end), open for a later step; squaring them before the run was accepted left splits without a tee, or cut
+    streets shortened with their cut ends still at the old points."""
+    from synth.patches.edges import _edge_streets
+
+    region = shapely.box(0.0, 0.0, 400.0, 200.0)
+    far = shapely.LineString([(5000, 5000), (5100, 5000)])
+    quilt = _cut_quilt([[(200.0, 50.0), (150.5, 0.5)], [(210.0, 50.0), (259.5, 0.5)]], [(0, -1), (1, -1)], [0, 1])
+    for opts in (PatchOptions(edge_tee=105.0, edge_turn=60.0), PatchOptions(edge_square=105.0, edge_turn=60.0)):
+        refused = copy.deepcopy(quilt)
+        assert _edge_streets(refused, region, 100.0, opts, shapely.Polygon(), far) == 0
+        assert not refused.splits and len(refused.xy) == len(quilt.xy)
+        assert all(np.array_equal(got, was) for got, was in zip(refused.xy, quilt.xy))
+        assert all(np.array_equal(got, was) for got, was in zip(refused.cut_xy, quilt.cut_xy))
+        assert len(refused.cut_xy) == 2
+
+
+def test_edge_square_moves_the_cut_end_to_where_its_street_now_ends():
+    """With ``edge_square`` and ring streets a cut end takes two runs: the second starts where the first left
+    the cut street, cut back (its cut end moved there), not at the edge point the street no longer reaches (a
+    run dangling from it, a fourth dead end)."""
+    from synth.patches.edges import _edge_streets
+    from synth.patches.quilt import _network
+
+    region = shapely.box(0.0, 0.0, 400.0, 200.0)
+    far = shapely.LineString([(5000, 5000), (5100, 5000)])
+    quilt = _cut_quilt([[(100.0, 100.0), (100.0, 0.5)], [(250.0, 50.0), (200.5, 0.5)], [(300.0, 100.0), (300.0, 0.5)]],
+                       [(0, -1), (1, -1), (2, -1)], [0, 1, 2])
+    ring = copy.deepcopy(quilt)
+    assert _edge_streets(ring, region, 100.0, PatchOptions(edge_square=105.0, ring_streets=True), shapely.Polygon(),
+                         far) == 2
+    end = ring.xy[1][-1]
+    assert end[1] > 5.0  # the splayed middle street cut back
+    assert sum(np.array_equal(run[0], end) or np.array_equal(run[-1], end) for run in ring.xy[3:]) == 2
+    net = _network(ring)
+    degree = segment_degree(net.streets, len(net.xy))
+    assert int((degree == 1).sum()) == 3 and int((degree == 3).sum()) == 1  # the far ends; the ring's tee
 
 
 def test_krems_seam_links_pass_no_street_by_with_seam_passing(monkeypatch):

@@ -62,6 +62,20 @@ def test_pattern_aim_refuses_what_is_not_a_bool(value):
         GrowthOptions(pattern_aim=value)
 
 
+@pytest.mark.parametrize("value", ["false", 1, None])
+def test_pattern_aim_range_refuses_what_is_not_a_bool(value):
+    """A history's string "false" would read as on."""
+    with pytest.raises(OptionError, match="pattern_aim_range must be a bool"):
+        GrowthOptions(pattern_aim_range=value)
+
+
+def test_pattern_aim_range_needs_pattern_aim():
+    """``pattern_aim_range`` widens the aim's rule: without ``pattern_aim`` it would be accepted and do nothing."""
+    with pytest.raises(OptionError, match="pattern_aim_range needs pattern_aim"):
+        GrowthOptions(pattern_aim=False, pattern_aim_range=True)
+    assert GrowthOptions(pattern_aim=True, pattern_aim_range=True).pattern_aim_range
+
+
 def test_krems_european_grid_era_is_no_more_connected_than_krems_neighbourhoods():
     """Krems, ``european``, seed 0, with :attr:`GrowthOptions.pattern_aim`: the gründerzeit grid's run-ons and
     dropped stubs left it 13.1 km with a 2-core share of 0.973 against its neighbourhoods' 0.885-0.959, and the
@@ -103,8 +117,9 @@ class _Aim:
     def __init__(self, counts, medians, limits):
         self.got = (np.array(counts, dtype=float), np.array(medians, dtype=float), np.array(limits, dtype=float))
 
-    def aim(self, lines, open_points):
-        return self.got
+    def aim(self, lines, open_points, *, ranges=False):
+        counts, medians, limits = self.got
+        return counts, medians, limits if ranges else None
 
 
 #: the town's neighbourhoods: dead-end share median 0.15 in [0.05, 0.30], 2-core median 0.90 in [0.80, 0.95]
@@ -122,12 +137,12 @@ def test_a_two_core_share_above_range_takes_back_a_run_on_while_the_dead_ends_st
     aim = _Aim((1000.0, 1e5, 2, 10, 960.0), MEDIANS, LIMITS)
     report = StubReport(ran=((3, 1),))
     assert _withheld(None, "grid", aim, LINES, report, 60.0) == (frozenset(), frozenset(), frozenset())
-    assert _withheld(None, "grid", aim, LINES, report, 60.0, in_range=True) == (frozenset({(3, 1)}), frozenset(),
-                                                                               frozenset())
+    assert _withheld(None, "grid", aim, LINES, report, 60.0, aim_range=True) == (frozenset({(3, 1)}), frozenset(),
+                                                                                frozenset())
     # a dead end more would put the dead-end share above its range (0.31 > 0.30): nothing is taken back
     tight = _Aim((1000.0, 1e5, 2, 10, 960.0), MEDIANS, ((5.0, 15.0), (0.05, 0.29), (0.80, 0.95)))
-    assert _withheld(None, "grid", tight, LINES, report, 60.0, in_range=True) == (frozenset(), frozenset(),
-                                                                                 frozenset())
+    assert _withheld(None, "grid", tight, LINES, report, 60.0, aim_range=True) == (frozenset(), frozenset(),
+                                                                                  frozenset())
 
 
 def test_a_dead_end_share_above_range_drops_a_cul_de_sac_while_the_two_core_stays_in_range(_no_lines):
@@ -139,9 +154,9 @@ def test_a_dead_end_share_above_range_drops_a_cul_de_sac_while_the_two_core_stay
     aim = _Aim((1000.0, 1e5, 4, 10, 910.0), MEDIANS, LIMITS)
     assert _withheld(None, "suburban", aim, LINES, report, 60.0, closes=False) == (frozenset(), frozenset(),
                                                                                    frozenset())
-    assert _withheld(None, "suburban", aim, LINES, report, 60.0, closes=False, in_range=True) == (
+    assert _withheld(None, "suburban", aim, LINES, report, 60.0, closes=False, aim_range=True) == (
         frozenset(), frozenset(), frozenset({4}))
-    assert _withheld(None, "grid", aim, LINES, report, 60.0, in_range=True) == (frozenset(), frozenset(), frozenset())
+    assert _withheld(None, "grid", aim, LINES, report, 60.0, aim_range=True) == (frozenset(), frozenset(), frozenset())
     core = _Aim((1000.0, 1e5, 4, 10, 930.0), MEDIANS, LIMITS)
-    assert _withheld(None, "suburban", core, LINES, report, 60.0, closes=False, in_range=True) == (
+    assert _withheld(None, "suburban", core, LINES, report, 60.0, closes=False, aim_range=True) == (
         frozenset(), frozenset(), frozenset())

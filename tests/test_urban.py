@@ -159,7 +159,7 @@ def test_outlines_and_coordinates_formatted_at_once_are_each_corner_as_formatted
     a hole gives its outer ring only and an empty one no node."""
     import shapely
 
-    from osm_expand.export.urban import _fmt, _formatted, _outlines
+    from osm_expand.export.urban import _formatted, _outlines
 
     rng = np.random.default_rng(3)
     square = shapely.Polygon([(0, 0), (10.0004, 0), (10, 10), (0, 10.1235)], holes=[[(2, 2), (3, 2), (3, 3)]])
@@ -168,6 +168,6 @@ def test_outlines_and_coordinates_formatted_at_once_are_each_corner_as_formatted
     attrs = [{"id": str(k)} for k in range(len(polys))]
     for poly, el in zip(polys, _outlines("lot", attrs, polys), strict=True):
         corners = [] if poly.is_empty else np.asarray(poly.exterior.coords)[:-1]
-        assert [(n.get("x"), n.get("y")) for n in el] == [(_fmt(x), _fmt(y)) for x, y in corners]
+        assert [(n.get("x"), n.get("y")) for n in el] == [(f"{x:.3f}", f"{y:.3f}") for x, y in corners]
     values = rng.uniform(-1e5, 1e5, (50, 2))
-    assert _formatted(values) == [_fmt(v) for v in values.ravel()]
+    assert _formatted(values) == [f"{v:.3f}" for v in values.ravel()]  # each numpy scalar alone

@@ -12,7 +12,8 @@ from osm_expand.model import Status
 
 
 def _every_street(city, table, traffic, pending, year, options):
-    """``simulation._streets_follow_traffic`` as it was: every street visited, one by one."""
+    """``simulation._streets_follow_traffic`` as it was at main aeba056 (this copy frozen from it): every street
+    visited, one by one."""
     from osm_expand.engine.traffic.trips import update_status, update_widths
 
     streets = list(city.network.streets)
@@ -51,7 +52,11 @@ def test_on_krems_each_year_visits_what_changed_and_gets_what_visiting_everythin
     """Every year of Krems' default run: the streets that follow the traffic are those the loop over
     every street gave (statuses, widths, counts, waiting widths), and B's block verdicts are those
     of the overlay of every block with the Danube, though only the blocks the water touches are
-    overlaid (the overlay of all of them was most of B's first year on Campo Grande)."""
+    overlaid (the overlay of all of them was most of B's first year on Campo Grande).
+
+    The traffic half is an oracle check: the old loop (:func:`_every_street`) is run beside the new
+    step each year and must give the same; some year widens a street with no status changed, so
+    the widening path is compared on its own, not only behind a newly built street."""
     from conftest import FIXTURES, expanded_and_matured
 
     import osm_expand.engine.roads.built_up as bu
@@ -61,6 +66,7 @@ def test_on_krems_each_year_visits_what_changed_and_gets_what_visiting_everythin
 
     follow = sim._streets_follow_traffic
     years, changed = [], [0]
+    widened_alone: list[int] = []  # streets widened in the years no street's status changed
 
     def checked_follow(city, table, traffic, pending, year, options):
         got = follow(city, table, traffic, pending, year, options)
@@ -68,6 +74,8 @@ def test_on_krems_each_year_visits_what_changed_and_gets_what_visiting_everythin
         assert got[0].network.streets == want[0] and got[1:] == want[1:]
         years.append(year)
         changed[0] += got[1] + got[2]
+        if got[1] == 0:
+            widened_alone.append(got[2])
         return got
 
     area_of = mr.built_up_area
@@ -82,12 +90,13 @@ def test_on_krems_each_year_visits_what_changed_and_gets_what_visiting_everythin
             intersection = shapely.intersection
 
             def counted(a, b, **kw):
-                overlaid.append(len(np.atleast_1d(a)))
+                if isinstance(a, np.ndarray):  # B's overlay of blocks; not a scalar call from elsewhere
+                    overlaid.append(len(a))
                 return intersection(a, b, **kw)
 
-            monkeypatch.setattr(bu.shapely, "intersection", counted)
-            fresh = area_of(blocks, segments, water=water, options=opts)  # every block measured
-            monkeypatch.setattr(bu.shapely, "intersection", intersection)
+            with monkeypatch.context() as patch:  # shapely's own function: undone even if B raises
+                patch.setattr(bu.shapely, "intersection", counted)
+                fresh = area_of(blocks, segments, water=water, options=opts)  # every block measured
             assert fresh.verdicts == _overlaid_verdicts(blocks, water, opts)
             assert got.verdicts == fresh.verdicts
             blocks_seen.append(len(blocks))
@@ -98,6 +107,7 @@ def test_on_krems_each_year_visits_what_changed_and_gets_what_visiting_everythin
     monkeypatch.setattr(mr, "built_up_area", checked_area)
     expanded_and_matured(load(FIXTURES / "krems.osm.gz"), history="example")
     assert len(years) >= 20 and changed[0] > 0  # every year, and streets were built or widened
+    assert max(widened_alone, default=0) > 0  # a street widened in a year with no status change
     assert blocks_seen and wet and min(wet) > 0  # B was made, and the Danube touches some blocks
     # the overlays took only the blocks the water touches, never every block
     assert max(overlaid) <= max(wet) < min(blocks_seen)

@@ -376,7 +376,7 @@ def _grow_streets(state: EngineState, era: Era, now: YearValues, year: int, rng:
         aim = state.growth.yardstick
     state.city, grown = grow_street_pattern(state.city, count, opts, state.nuclei, state.growth, rng, year=year,
                                             era=era.name, centre=centre, reach=STUB_REACH * spacing, aim=aim,
-                                            in_range=options.growth.pattern_aim_range)
+                                            aim_range=options.growth.pattern_aim_range)
     return grown
 
 

@@ -42,10 +42,6 @@ def schema() -> etree.XMLSchema:
     return etree.XMLSchema(etree.fromstring(xsd))
 
 
-def _fmt(v: float) -> str:
-    return f"{v:.3f}"
-
-
 def _street_attrs(s: Street) -> dict[str, str]:
     """The street's attributes that the schema knows; layer, bridge and tunnel always."""
     tags = {"layer": "0", "bridge": "no", "tunnel": "no", **street_tags(s)}
@@ -96,9 +92,9 @@ def _block_attrs(block: Block) -> dict[str, str]:
 
 
 def _formatted(coords: np.ndarray) -> list[str]:
-    """Every number of ``coords`` as :func:`_fmt` writes it, row after row (x, then y): the numbers made
-    Python floats in one call first (formatting numpy scalars one by one was a third of the writer's time
-    on Campo Grande; a numpy float formats as the same float does)."""
+    """Every number of ``coords`` to the millimetre (three decimals: the writer's one coordinate format), row
+    after row (x, then y): the numbers made Python floats in one call first (formatting numpy scalars one by
+    one was a third of the writer's time on Campo Grande; a numpy float formats as the same float does)."""
     return [f"{v:.3f}" for v in coords.ravel().tolist()]
 
 

@@ -19,7 +19,7 @@ import shapely
 
 from osm_expand.model.geometry import ring_area, ring_edge_lengths
 from osm_expand.model.land import OPEN_BLOCK, Land, town_blocks
-from osm_expand.model.memo import ContentMemo, IdentityMemo
+from osm_expand.model.memo import ContentMemo, IdentityMemo, replace_keeping
 from osm_expand.model.network import Context, Origin, StreetNetwork, Tags
 from osm_expand.model.projection import LocalProjection
 
@@ -123,11 +123,8 @@ class Lot:
     def placed(self, *, block: int, street: int, land_use: str, people: float, id: int, year: int | None) -> Lot:
         """The lot as the city holds it at a year's end; its polygon and area, once made, come along (the
         build-out hands every lot to the city every year)."""
-        out = replace(self, block=block, street=street, land_use=land_use, people=people, id=id, year=year)
-        for name in ("polygon", "area"):
-            if name in self.__dict__:
-                out.__dict__[name] = self.__dict__[name]
-        return out
+        return replace_keeping(self, ("polygon", "area"), block=block, street=street, land_use=land_use,
+                               people=people, id=id, year=year)
 
 
 @dataclass(frozen=True, eq=False)

@@ -20,10 +20,26 @@ from __future__ import annotations
 
 import hashlib
 from collections.abc import Callable, Hashable
-from typing import Any
+from dataclasses import replace
+from typing import Any, TypeVar
 
 import numpy as np
 import shapely
+
+_D = TypeVar("_D")
+
+
+def replace_keeping(obj: _D, cached: tuple[str, ...], **changes: Any) -> _D:
+    """``dataclasses.replace(obj, **changes)`` with the values of ``obj``'s cached properties ``cached`` that
+    it has measured already carried over, not measured again: for changes that leave what they depend on as it
+    was (the caller's to know). A frozen dataclass's replacement is a new object, so its ``cached_property`` values
+    would be measured again: a lot's frontage 7,000 times in Campo Grande's 30 years, a placed lot's polygon
+    every year."""
+    out = replace(obj, **changes)  # type: ignore[type-var]
+    for name in cached:
+        if name in obj.__dict__:
+            out.__dict__[name] = obj.__dict__[name]
+    return out
 
 
 class IdentityMemo:

@@ -77,9 +77,12 @@ def _edge_streets(quilt: _Quilt, region: shapely.Geometry, spacing: float, opts:
     uses = np.zeros(len(xy), dtype=np.int64)
     most = 2 if opts.ring_streets else 1  # with ring streets a cut end between two runs meets the ring in a tee
     made = 0
+    square_bound = opts.edge_tee if opts.edge_tee is not None else opts.edge_square  # the two never both set
     for a, b, raw in runs:
         if uses[a] >= most or uses[b] >= most:
             continue
+        if not (np.array_equal(raw[0], quilt.cut_xy[a]) and np.array_equal(raw[-1], quilt.cut_xy[b])):
+            raw = np.vstack([quilt.cut_xy[a], raw[1:-1], quilt.cut_xy[b]])  # a cut street cut back by its first run
         if opts.edge_smoothing is not None:  # a gentle curve where it is clear, else the edge as it is
             smooth = _smoothed(raw, opts.edge_smoothing)
             path = smooth if board.clear(smooth) else raw
@@ -87,13 +90,19 @@ def _edge_streets(quilt: _Quilt, region: shapely.Geometry, spacing: float, opts:
             path = next((p for p in _simplified(raw, tolerances) if board.clear(p)), raw)
         if len(path) < 2 or not board.clear(path):
             continue
-        if opts.edge_tee is not None:
-            path = _squared(path, quilt, a, b, opts.edge_tee, spacing, board)
-        elif opts.edge_square is not None:
-            path = _squared(path, quilt, a, b, opts.edge_square, spacing, board, cut_back=True)
+        moves: list[tuple[int, np.ndarray]] = []
+        if square_bound is not None:
+            path, moves = _squared(path, quilt, a, b, square_bound, spacing, board)
         if opts.edge_turn is not None and max(_joint_turns(path, quilt.cut_heading[a], quilt.cut_heading[b])) \
                 > opts.edge_turn:
             continue  # it would double back on a street it ends: a V no street of the town makes
+        for end, at in moves:  # the run is laid: only now do the cut streets change
+            piece = quilt.cut_piece[end]
+            if opts.edge_tee is None:  # edge_square
+                quilt.xy[piece] = _cut_back(quilt.xy[piece], quilt.cut_xy[end], at)
+                quilt.cut_xy[end] = at  # the cut street ends here now: a second run (ring streets) starts here
+            else:
+                quilt.splits.setdefault(piece, []).append(at)
         _lay(board, quilt, path, a)
         uses[a] += 1
         uses[b] += 1
@@ -103,14 +112,17 @@ def _edge_streets(quilt: _Quilt, region: shapely.Geometry, spacing: float, opts:
 
 
 def _squared(path: np.ndarray, quilt: _Quilt, a: int, b: int, bound: float, spacing: float,
-             board: _Board, cut_back: bool = False) -> np.ndarray:
+             board: _Board) -> tuple[np.ndarray, list[tuple[int, np.ndarray]]]:
     """The perimeter street ``path`` from cut end ``a`` to ``b``, each end that would turn more than ``bound``
     degrees off its cut street (a V) moved back along that street to where a street square to it meets the
-    path (:func:`_square_start`); as it was where no such street is clear. The point where it now leaves the
-    cut street is put into it (``quilt.splits``): a tee, the cut street running on to the edge beyond it; with
-    ``cut_back`` the cut street ends there instead (its piece shortened), turning into the perimeter street at a
-    right angle (an L, no tee: the district's junctions stay as many)."""
+    path (:func:`_square_start`); as it was where no such street is clear. Also the (cut end, point) pairs
+    where it now leaves a cut street, for the caller to apply once the run is accepted (the quilt is left as it
+    was): with ``edge_tee`` the point is put into the cut street (``quilt.splits``), a tee, the cut street
+    running on to the edge beyond it; with ``edge_square`` the cut street ends there instead (its piece
+    shortened), turning into the perimeter street at a right angle (an L, no tee: the district's junctions
+    stay as many)."""
     turns = _joint_turns(path, quilt.cut_heading[a], quilt.cut_heading[b])
+    moves = []
     for end, turn, at_start in ((a, turns[0], True), (b, turns[1], False)):
         if turn <= bound:
             continue
@@ -121,11 +133,8 @@ def _squared(path: np.ndarray, quilt: _Quilt, a: int, b: int, bound: float, spac
         moved = square if at_start else square[::-1]
         if board.clear(moved):
             path = moved
-            if cut_back:
-                quilt.xy[piece] = _cut_back(quilt.xy[piece], quilt.cut_xy[end], square[0])
-            else:
-                quilt.splits.setdefault(piece, []).append(square[0])
-    return path
+            moves.append((end, square[0]))
+    return path, moves
 
 
 def _cut_back(street: np.ndarray, end: np.ndarray, at: np.ndarray) -> np.ndarray:
@@ -167,7 +176,6 @@ def _square_start(path: np.ndarray, street: np.ndarray, end: np.ndarray, spacing
         rest = shapely.get_coordinates(shapely.ops.substring(run, at, run.length))
         return np.vstack([p, rest])
     return None
-
 
 
 def _joint_turns(path: np.ndarray, first: np.ndarray, last: np.ndarray) -> tuple[float, float]:

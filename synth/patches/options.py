@@ -419,6 +419,9 @@ class PatchOptions:
             if bound is not None and not (is_real_number(bound) and 0 < bound <= 180):
                 raise OptionError(f"PatchOptions.{name} must be a turn in degrees, > 0 and <= 180, or unset, "
                                   f"got {bound!r}")
+        if self.edge_tee is not None and self.edge_square is not None:  # a squared end is a tee or an L
+            raise OptionError("PatchOptions.edge_tee and edge_square are two ways of squaring a perimeter "
+                              "street's end (a tee, or the cut street cut back to an L): set one of them")
         turn = self.near_join
         if turn is not None and not (is_real_number(turn) and 0 < turn <= 180):
             raise OptionError(f"PatchOptions.near_join must be a turn in degrees, > 0 and <= 180, or unset, "

@@ -7,7 +7,7 @@ The year itself is :func:`osm_expand.engine.buildout.year.buildout_year`.
 from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field
 from functools import cached_property
 
 import numpy as np
@@ -21,6 +21,7 @@ from osm_expand.engine.buildout.lot_values import LotLayout, lot_attributes, lot
 from osm_expand.engine.history import History
 from osm_expand.errors import InputError
 from osm_expand.model import Building, City, Lot
+from osm_expand.model.memo import replace_keeping
 from osm_expand.model.options import require_positive
 
 
@@ -113,11 +114,7 @@ class LotState:
         Campo Grande's 30 years)."""
         if "lot" in changes:
             raise ValueError("LotState.but keeps the lot; replace it with dataclasses.replace")
-        out = replace(self, **changes)  # type: ignore[arg-type]  # the fields' own types are checked there
-        for name in ("streets", "frontage"):
-            if name in self.__dict__:
-                out.__dict__[name] = self.__dict__[name]
-        return out
+        return replace_keeping(self, ("streets", "frontage"), **changes)
 
 
 class _Memo:

@@ -406,7 +406,8 @@ class GrowthOptions:
     #: way), Campo Grande seed 0 3 5 4 the same; north-bayreuth seed 2 3 4 2 -> 5 4 4, its second quarter from a
     #: median 2,093 m to 308 m from the town's settlement (one piece, at the town's edge, as the issue asks), but
     #: 2-core 0.729 -> 0.706, below its range either way, dead ends 0.265 -> 0.336 (in range). A picture's gain at
-    #: one run's verdict cost: off.
+    #: one run's verdict cost: off. Ignored (the site raster read as it is) at or above the site raster's cell, with
+    #: :attr:`settlement_only` (its settlements are kept) and with ``settlement_gap`` 0 (no settlement to draw).
     district_reach_cell: float = 0.0
     #: Whether a street pattern's era (``grid``, ``organic``, ``suburban``, ...) aims its connectedness at its
     #: town's neighbourhoods, as the district's topology does (:mod:`synth.patches.topology`): each year, while the
@@ -434,9 +435,10 @@ class GrowthOptions:
     #: worse (north-bayreuth seeds 1, 2 both shares out); keeping no stubs left Krems' 2-core out (0.972).
     pattern_aim: bool = True
     #: With :attr:`pattern_aim`, a named pattern's era also acts on a share out of its town's neighbourhoods' range
-    #: while the other share stays in range (:func:`_withheld`'s ``in_range``): a 2-core share above the range takes
+    #: while the other share stays in range (:func:`_withheld`'s ``aim_range``): a 2-core share above the range takes
     #: back run-ons while the dead-end share stays at most its range's top; a dead-end share above it drops
-    #: culs-de-sac while the 2-core share stays at most its top. Why: the aim acts only while both shares sit on
+    #: culs-de-sac (a pattern that never closes its trees only) while the 2-core share stays at most its top.
+    #: Why: the aim acts only while both shares sit on
     #: one side of their medians, which left Krems' ``european`` seed 2 (dead ends 0.154 above [0.027-0.151], 2-core
     #: above its median too) and the 2-core shares of north-bayreuth, Monaco and Andorra above range (their dead ends
     #: above the median already). Off: measured (session 38, h38e; ``cd fixtures && python
@@ -495,6 +497,9 @@ class GrowthOptions:
         if not (is_real_number(self.district_town_share) and self.district_town_share > 0):  # NaN, 0 or negative
             raise OptionError(f"growth option district_town_share must be a share > 0 of the town's settlement "
                               f"(inf: the floor alone), got {self.district_town_share!r}")
+        if self.pattern_aim_range and not self.pattern_aim:  # it widens the aim: alone it would do nothing
+            raise OptionError("growth option pattern_aim_range needs pattern_aim (it widens the aim's rule to a "
+                              "share out of range; without the aim nothing acts)")
         if self.town_nuclei and self.settlement_gap == 0:
             raise OptionError("growth option town_nuclei needs settlement_gap > 0 (0 reads every piece of "
                               "built-up land as the town's, so every nucleus is the town's)")
@@ -549,14 +554,14 @@ class GrowthYear:
 def grow_street_pattern(city: City, count: int, options: PatternOptions, nuclei: list[Nucleus],
                         memory: GrowthMemory, rng: np.random.Generator, *, year: int, era: str,
                         centre: np.ndarray, reach: float | None = None,
-                        aim: DistrictYardstick | None = None, in_range: bool = False) -> tuple[City, GrowthYear]:
+                        aim: DistrictYardstick | None = None, aim_range: bool = False) -> tuple[City, GrowthYear]:
     """Grow ``count`` new streets with a street pattern from the best candidates (003 §3.3.2, 000 §4.2.6).
 
     With ``reach`` (m), the year's stubs run on to the street ahead or go
     (:func:`osm_expand.engine.growth.stubs.close_stubs`): connectedness is the
     town's whatever the pattern. With ``aim`` too, run-ons are taken back while
     the era is more connected than the town's neighbourhoods
-    (:attr:`GrowthOptions.pattern_aim`, :func:`_withheld`); with ``in_range`` also while one share is out of the
+    (:attr:`GrowthOptions.pattern_aim`, :func:`_withheld`); with ``aim_range`` also while one share is out of the
     neighbourhoods' range and the other stays in it (:attr:`GrowthOptions.pattern_aim_range`)."""
     if count <= 0:
         return city, GrowthYear()
@@ -614,7 +619,7 @@ def grow_street_pattern(city: City, count: int, options: PatternOptions, nuclei:
     grown = added(grown_lines, grown_bridges)
     if aim is not None and reach is not None and (report.ran or report.short or report.stubs):
         withhold, keep, drop = _withheld(grown, era, aim, lines, report, reach, closes=not _never_closes(options),
-                                         in_range=in_range)
+                                         aim_range=aim_range)
         if withhold or keep or drop:
             again, again_bridges, _ = close_stubs(lines, bridges, *stub_args, reach=reach,
                                                   loops=_never_closes(options), withhold=withhold, keep=keep,
@@ -641,7 +646,7 @@ def _kept_nodes(city: City, grown: City, kept: list[np.ndarray]) -> set[int]:
 
 
 def _withheld(grown: City, era: str, aim: DistrictYardstick, lines: list[np.ndarray], report: StubReport,
-              reach: float, *, closes: bool = True, in_range: bool = False
+              reach: float, *, closes: bool = True, aim_range: bool = False
               ) -> tuple[frozenset[tuple[int, int]], frozenset[int], frozenset[int]]:
     """The stub ends whose run-on is taken back, the short stubs kept and the culs-de-sac dropped (of ``lines``,
     the year's new streets before :func:`~osm_expand.engine.growth.stubs.close_stubs` made ``report``) so that the
@@ -661,7 +666,7 @@ def _withheld(grown: City, era: str, aim: DistrictYardstick, lines: list[np.ndar
     (:func:`_never_closes`: its dead ends stay dead ends): culs-de-sac go, the shortest first, each a dead end, its
     tee and its length. A pattern that closes its trees in later years keeps them (a young grid is all trees).
 
-    With ``in_range`` (:attr:`GrowthOptions.pattern_aim_range`), a share out of the neighbourhoods' range (the
+    With ``aim_range`` (:attr:`GrowthOptions.pattern_aim_range`), a share out of the neighbourhoods' range (the
     verdict's, :meth:`~osm_expand.engine.growth.yardstick.DistrictYardstick.aim`) is acted on whichever side of its
     median the other share lies, as long as every step keeps the other share within its range: a 2-core share
     above the range takes back run-ons (longest first) while the dead-end share stays at most the range's top; a
@@ -674,15 +679,15 @@ def _withheld(grown: City, era: str, aim: DistrictYardstick, lines: list[np.ndar
 
     Each step is estimated, not measured again."""
     none: tuple[frozenset[tuple[int, int]], frozenset[int], frozenset[int]] = (frozenset(), frozenset(), frozenset())
-    got = aim.aim(*growth_lines(grown, era=era))
+    got = aim.aim(*growth_lines(grown, era=era), ranges=aim_range)
     if got is None:
         return none
     (length, _, dead, counted, core), medians, limits = got
     dead_aim, core_aim = float(medians[1]), float(medians[2])
-    dead_top, core_top = float(limits[1, 1]), float(limits[2, 1])
+    dead_top, core_top = (float(limits[1, 1]), float(limits[2, 1])) if limits is not None else (math.nan, math.nan)
     if not (counted > 0 and length > 0 and np.isfinite(dead_aim) and np.isfinite(core_aim)):
         return none
-    ranged = in_range and np.isfinite(dead_top) and np.isfinite(core_top)
+    ranged = aim_range and np.isfinite(dead_top) and np.isfinite(core_top)
 
     def looser() -> bool:
         """Whether the era should lose connectedness: both shares on the connected side of their medians, or
@@ -885,8 +890,8 @@ def grow_district(city: City, pattern: GrowthPattern, length: float, density: fl
         memory.refused = _still_refused(city, memory.refused, reach=2.0 * spacing)
         near = np.full(len(memory.refused), options.refused_near * district_radius)
         avoid = np.column_stack([memory.refused[:, :2], near])
-    reach_maps = _reach_maps(city, maps, options, margin)
     if math.isfinite(options.district_town_reach) and maps.city.any():  # the town's edge, not a hamlet's
+        reach_maps = _reach_maps(city, maps, options, margin)  # a finer raster is drawn only when read
         sites = choose_sites(maps, area, site_options, most=2 * options.sites_tried, avoid=avoid)
         near = _from_the_town(reach_maps, np.array([s.centre for s in sites]).reshape(-1, 2), options)
         sites = [s for s, d in zip(sites, near) if d <= options.district_town_reach * district_radius]

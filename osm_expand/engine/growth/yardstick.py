@@ -137,8 +137,7 @@ class DistrictYardstick:
         """``(len(JUDGED), 2)``: the range the verdict allows each judged scalar for a growth whose pieces stand
         for discs of ``areas`` m² (:func:`osm_expand.growth_fidelity.piece_areas`): the scalars of the discs'
         counts pooled per part (:meth:`pooled`)."""
-        values = self.pooled(areas)
-        return np.array([scalar_range(m, values[:, j]) for j, m in enumerate(JUDGED)])
+        return _ranges(self.pooled(areas))
 
     def measured(self, lines: Sequence[np.ndarray], open_points: np.ndarray) -> tuple[np.ndarray, list[float]] | None:
         """A growth's counts ``(5,)`` (street length m, area m², dead ends, junctions and dead ends, 2-core length m)
@@ -150,12 +149,13 @@ class DistrictYardstick:
         measured = measure_network(lines, window=window, open_points=open_points, pieces=False, wanted=JUDGED)
         return _counts(measured), list(piece_areas(window, self.min_piece_area))
 
-    def aim(self, lines: Sequence[np.ndarray], open_points: np.ndarray
-            ) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
+    def aim(self, lines: Sequence[np.ndarray], open_points: np.ndarray, *, ranges: bool = False
+            ) -> tuple[np.ndarray, np.ndarray, np.ndarray | None] | None:
         """A growth's counts (:meth:`measured`), the town's pooled neighbourhoods' median of each judged scalar
-        for it (NaN-skipping) and the range the verdict allows each (``(len(JUDGED), 2)``, :meth:`limits`): what
-        an era's growth aims at, as the district's topology aims at its town's neighbourhoods' medians
-        (:mod:`synth.patches.topology`), and where it must stay; None when the streets make no land."""
+        for it (NaN-skipping) and, with ``ranges``, the range the verdict allows each (``(len(JUDGED), 2)``, as
+        :meth:`limits`; else None: only the range rule reads it): what an era's growth aims at, as the district's
+        topology aims at its town's neighbourhoods' medians (:mod:`synth.patches.topology`), and where it must
+        stay; None when the streets make no land."""
         got = self.measured(lines, open_points)
         if got is None:
             return None
@@ -164,8 +164,7 @@ class DistrictYardstick:
         finite = np.isfinite(pooled)
         medians = np.array([float(np.median(pooled[finite[:, j], j])) if finite[:, j].any() else float("nan")
                             for j in range(pooled.shape[1])])
-        limits = np.array([scalar_range(m, pooled[:, j]) for j, m in enumerate(JUDGED)])
-        return counts, medians, limits
+        return counts, medians, _ranges(pooled) if ranges else None
 
     def score(self, lines: Sequence[np.ndarray], open_points: np.ndarray) -> DistrictScore:
         """A growth's streets (each ``(n_i, 2)`` m), open at ``open_points`` ``(K, 2)`` (where they meet the
@@ -189,6 +188,12 @@ def _counts(m: NetworkMeasures) -> np.ndarray:
     """``(5,)``: street length (m), area (m²), dead ends, junctions and dead ends, 2-core length (m)."""
     core = m.two_core_share * m.length if m.length > 0 else 0.0
     return np.array([m.length, m.area, m.dead_ends, m.junctions + m.dead_ends, core], dtype=np.float64)
+
+
+def _ranges(pooled: np.ndarray) -> np.ndarray:
+    """``(len(JUDGED), 2)``: the range the verdict allows each judged scalar, of the town's discs' scalars
+    ``pooled`` (``(parts, len(JUDGED))``, :meth:`DistrictYardstick.pooled`)."""
+    return np.array([scalar_range(m, pooled[:, j]) for j, m in enumerate(JUDGED)])
 
 
 def _scalars(counts: np.ndarray) -> np.ndarray:

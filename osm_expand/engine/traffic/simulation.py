@@ -228,15 +228,15 @@ def _streets_follow_traffic(city: City, table: SegmentTable, traffic: np.ndarray
     width = table.per_street(table.width, n, "max")
     major = table.per_street(table.major.astype(float), n, "max") > 0
     since = np.array([pending.get(s.id, -1) for s in streets], dtype=np.int64)
-    old_year = np.where(now_built & ~built, now_year, np.minimum(built_year, year - 1))
+    now = now_built & ~built  # planned streets built this year
+    old_year = np.where(now, now_year, np.minimum(built_year, year - 1))
     new_width, since = update_widths(width, per_street, now_built, old_year, since, year=year, major=major,
                                      options=options)
-    changed_status = int((now_built & ~built).sum())
+    changed_status = int(now.sum())
     # only the streets whose status or width changes are visited (the loop over every street and its numpy
     # scalars was a quarter of this step on Campo Grande; a year changes a few)
     is_new = np.array([s.is_new for s in streets], dtype=bool)
     wider = np.where(is_new, np.abs(new_width - width) > 0.01, new_width > width + 0.01)
-    now = now_built & ~built
     for k in np.flatnonzero(now | wider).tolist():
         if now[k]:
             streets[k] = replace(streets[k], status=Status.BUILT)
