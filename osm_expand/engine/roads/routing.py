@@ -1349,11 +1349,13 @@ def _tiled_search(graph: PathGraph, lat: KindMask, extra: np.ndarray, source: in
             seek = target is not None and local[target] >= 0
             dist, pred = _heading_search(graph, lat, extra, full, local, penalties, k, start, cost - hs + slack,
                                          h=ha, predecessors=seek, resume=resume)
-            shift = hs - ha  # g = distance + h(state) − h(source); ``dist`` stays as searched, to go on with
-            departs = states.by_vertex(dist)[1] + shift[:, None]
+            # g = distance + h(state) − h(source), added where read (the active vertices' rows, not the
+            # whole region's); ``dist`` stays as searched, to go on with
+            up = hs - ha
+            shift: np.ndarray | None = up
             if seek:
                 ends = states.arrivals(int(local[target]))
-                arrive = dist[ends] + shift[local[target]]
+                arrive = dist[ends] + up[local[target]]
                 least = int(np.argmin(arrive))
                 if arrive[least] < cost:
                     last = int(ends[least])
@@ -1366,7 +1368,7 @@ def _tiled_search(graph: PathGraph, lat: KindMask, extra: np.ndarray, source: in
             # route (its states' distances and predecessors) is plain Dijkstra's, and the states with
             # g + h above C are not searched. Where the growth test below reads a departure's g, it is
             # exact wherever g + w + h(w) < C (consistency: then g + h(u) < C), as the test needs.
-            shift = np.zeros(len(full))
+            shift = None
             dist, pred = _heading_search(graph, lat, extra, full, local, penalties, k, start, cost + slack,
                                          h=h[full] * (1.0 - _SHRINK), predecessors=True, ties=True, resume=resume)
             if target is not None and local[target] >= 0:
@@ -1374,11 +1376,14 @@ def _tiled_search(graph: PathGraph, lat: KindMask, extra: np.ndarray, source: in
                 if end is not None:
                     best = (_vertex_path(pred, start, end, full, states), float(dist[end]))
                     cost = best[1]
-            departs = states.by_vertex(dist)[1]
+        departs = states.by_vertex(dist)[1]  # g of the departures (plus ``shift`` for A*), a view
         if exits is not None:
             at = local[exits].astype(np.int64)
             row = np.maximum(at, 0)
-            arrivals = np.where(at >= 0, (states.by_vertex(dist)[0][row] + shift[row][:, None]).min(axis=1), np.inf)
+            came = states.by_vertex(dist)[0][row]
+            if shift is not None:
+                came = came + shift[row][:, None]
+            arrivals = np.where(at >= 0, came.min(axis=1), np.inf)
             arrivals[exits == source] = 0.0
             # the rounding slack of the states searched (the active ones), as when each search was made
             # over them alone
@@ -1388,7 +1393,10 @@ def _tiled_search(graph: PathGraph, lat: KindMask, extra: np.ndarray, source: in
         threshold = cost - 1e-9 * cost
         outside = region & ~inside
         # lattice edges out of the vertices that may still lead somewhere below C
-        open_ = verts[(verts < n_lat) & (departs[local[verts]].min(axis=1) + h[verts] < threshold)]
+        rows = local[verts]
+        gone = departs[rows] if shift is None else departs[rows] + shift[rows][:, None]
+        open_ = verts[(verts < n_lat) & (gone.min(axis=1) + h[verts] < threshold)]
+        del gone
         reached: list[np.ndarray] = []
         for a in range(0, len(open_), _BLOCK):
             u = open_[a:a + _BLOCK]
@@ -1397,12 +1405,18 @@ def _tiled_search(graph: PathGraph, lat: KindMask, extra: np.ndarray, source: in
             w = u[r] + offset[d]
             out = outside[w]
             r, d, w = r[out], d[out], w[out]
-            lb = departs[local[u[r]], dir_bin[d]] + _lattice_weight(graph, u[r], d) + h[w]
+            g = departs[local[u[r]], dir_bin[d]]
+            if shift is not None:
+                g = g + shift[local[u[r]]]
+            lb = g + _lattice_weight(graph, u[r], d) + h[w]
             if turns:
                 lb += _turns_needed(need, dir_bin[d], graph.xy[w], goal)
             reached.append(w[lb < threshold])
         e = np.flatnonzero(extra & inside[graph.src] & outside[graph.dst])
-        lb = departs[local[graph.src[e]], extra_bin[e]] + graph.weight[e] + h[graph.dst[e]]
+        g = departs[local[graph.src[e]], extra_bin[e]]
+        if shift is not None:
+            g = g + shift[local[graph.src[e]]]
+        lb = g + graph.weight[e] + h[graph.dst[e]]
         if turns:
             lb += _turns_needed(need, extra_bin[e], graph.xy[graph.dst[e]], goal)
         reached.append(graph.dst[e][lb < threshold])
