@@ -1196,8 +1196,16 @@ def test_the_tiled_search_going_on_finds_the_routes_and_arrivals_of_searches_fro
         with pytest.MonkeyPatch.context() as monkey:
             monkey.setattr(routing, "_heading_search", counted)
             got = routing.find_route(g, s, t, options=opts)
-        assert (got is None) == (want is None)
-        if got is not None:
+        # above the cap (``resume_states``) each search numbers the active states and starts again
+        capped = len(resumed)
+        with pytest.MonkeyPatch.context() as monkey:
+            monkey.setattr(routing, "_heading_search", counted)
+            alone = routing.find_route(g, s, t, options=replace(opts, resume_states=0))
+        assert not any(resumed[capped:])
+        del resumed[capped:]
+        assert (got is None) == (want is None) == (alone is None)
+        if got is not None and alone is not None:
             assert np.array_equal(got.vertices, want.vertices)
-            assert got.cost == want.cost
+            assert np.array_equal(alone.vertices, want.vertices)
+            assert got.cost == want.cost == alone.cost
     assume(any(resumed))

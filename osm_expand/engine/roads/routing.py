@@ -162,6 +162,13 @@ class RoutingOptions:
     #: streets then fail ``tests/test_engine_districts.py``'s shares: a reshuffle, not a trend, but it is
     #: turned on only with the districts decoupled from the roads' ties (issue 20)
     route_astar: bool = False
+    #: states (``n · (2k + 1)``, 33 a vertex at K = 16) of an exact search's region up to which its
+    #: tiles' searches number them over the whole region and each goes on from the last
+    #: (:func:`_tiled_search`); the distances and predecessors then span the whole region (12 B a
+    #: state: 64 M → 0.77 GB, the synthetic town's 58 M fit) where numbered over the active tiles
+    #: alone they spanned those. Above it (and with ``route_astar``) each search numbers the active
+    #: states and starts again, as before going on was added. Below 2^31 (32-bit state numbers)
+    resume_states: int = 64_000_000
 
     def __post_init__(self) -> None:
         require_positive(self, ("window_margin", "growth_share", "turn_width"))
@@ -169,7 +176,8 @@ class RoutingOptions:
             raise InputError("RoutingOptions: window_share and turn_height must not be negative")
         # counts of lattice vertices: a whole number (not a bool, not nan or 2.5, which failed later
         # in find_route with a TypeError)
-        for name, least in (("bound_cells", 0), ("tile_cells", 1), ("backward_tile_cells", 1)):
+        for name, least in (("bound_cells", 0), ("tile_cells", 1), ("backward_tile_cells", 1),
+                            ("resume_states", 0)):
             value = getattr(self, name)
             if isinstance(value, bool) or not isinstance(value, Integral) or value < least:
                 raise OptionError(f"RoutingOptions.{name} must be a whole number of at least {least}, got {value!r}")
@@ -1316,6 +1324,7 @@ def _tiled_search(graph: PathGraph, lat: KindMask, extra: np.ndarray, source: in
     # depend on the order of the relaxations)
     kept: tuple[float, np.ndarray, np.ndarray, np.ndarray, np.ndarray] | None = None
     goes_on = not (astar and target is not None)
+    cap = min(opts.resume_states, 2**31 - 1)  # the region's states numbered whole up to this many
     from osm_expand.engine.roads.expanded_search import Resume
 
     while True:
@@ -1326,6 +1335,7 @@ def _tiled_search(graph: PathGraph, lat: KindMask, extra: np.ndarray, source: in
         resume = None
         if kept is not None and _goes_on(kept, cost, region, h, k):
             _, full, before, dist, pred = kept
+            whole = True
             states = _States(len(full), k)
             local = _local(graph, full, k)
             before = before & region
@@ -1335,13 +1345,17 @@ def _tiled_search(graph: PathGraph, lat: KindMask, extra: np.ndarray, source: in
         else:
             # the states numbered over the whole region (a vertex's by its rank there), so that the tiles
             # grow without numbering them again: the rank in the region and in ``verts`` order two
-            # states alike, which is all the tie rule reads of the numbers
-            full = np.flatnonzero(region)
+            # states alike, which is all the tie rule reads of the numbers. A region above the cap
+            # (``RoutingOptions.resume_states``), or a search that cannot go on, numbers the active ones
+            whole = goes_on and _States(int(np.count_nonzero(region)), k).size <= cap
+            full = np.flatnonzero(region) if whole else verts
             states = _States(len(full), k)
             local = _local(graph, full, k)
         kept = None  # the last search's arrays are the resumed search's, or go
         local[~inside] = -1  # the search reads only the active vertices
-        slack = 2 * states.size * _EPS  # the same limit each time C holds (the whole region's states)
+        # the rounding slack of the states numbered: the same limit each time C holds where numbered
+        # over the whole region, the active states' (as each search was once made) where not
+        slack = 2 * states.size * _EPS
         start = states.hub(local[source])
         if astar:  # A* (reduced costs): the exits' search, or a route's with ``route_astar``
             ha = h[full] * (1.0 - _SHRINK)
@@ -1424,7 +1438,7 @@ def _tiled_search(graph: PathGraph, lat: KindMask, extra: np.ndarray, source: in
         del departs
         if not len(w):
             return best, arrivals
-        if goes_on:  # the next search may go on from this one (:func:`_goes_on`)
+        if whole:  # numbered over the whole region: the next search may go on from this one (:func:`_goes_on`)
             kept = (made, full, inside, dist, pred)
         del dist, pred  # this search's states go before the next search's are made (unless it goes on)
         active |= _grown_tiles(active, tile[w], tile[region], shape, len(verts))
