@@ -1209,3 +1209,124 @@ def test_the_tiled_search_going_on_finds_the_routes_and_arrivals_of_searches_fro
             assert np.array_equal(alone.vertices, want.vertices)
             assert got.cost == want.cost == alone.cost
     assume(any(resumed))
+
+
+@settings(max_examples=8, deadline=None)
+@given(st.integers(0, 2**32 - 1))
+def test_the_exits_search_going_on_gives_the_arrivals_of_searches_from_scratch(seed):
+    """Issue 22 (session 38): the exits' search (``_tiled_search`` without a target: A* on reduced
+    costs) going on from its last search as its tiles grow gives every exit the very arrival cost
+    that searching each time from scratch gives (tiles of 1–3 vertices, never the region at once)."""
+    g, rng = random_map(seed)
+    opts = RoutingOptions(turn_height=float(rng.uniform(20, 900)), whole_region=0,
+                          tile_cells=int(rng.integers(1, 4)))
+    lat, extra = g.masks()
+    live = g.live_vertices()
+    s, t = (int(v) for v in rng.choice(live, 2, replace=False))
+    c = routing.cheapest_unit_cost(EdgeCosts(), routing.ROAD_KINDS)
+    straight = c * np.hypot(*(g.xy - g.xy[t]).T)
+    from_source = dijkstra(g.matrix(), indices=s)
+    assume(np.isfinite(from_source[t]))
+    penalties = routing._bin_penalties(opts)
+    cost = float(from_source[t] + straight[s] + rng.uniform(0.5, 3.0) * opts.turn_height)
+    exits = rng.choice(live, min(200, len(live)), replace=False)
+    heading_search = routing._heading_search
+    resumed = []
+
+    def from_scratch(*args, resume=None, **kwargs):
+        return heading_search(*args, **kwargs)
+
+    def counted(*args, resume=None, **kwargs):
+        resumed.append(resume is not None)
+        return heading_search(*args, resume=resume, **kwargs)
+
+    def arrivals(search):
+        with pytest.MonkeyPatch.context() as monkey:
+            monkey.setattr(routing, "_heading_search", search)
+            return routing._tiled_search(g, lat, extra, s, None, from_source + straight, straight, ([s], cost),
+                                         np.array([s]), penalties, opts, g.xy[t], exits=exits)[1]
+
+    want, got = arrivals(from_scratch), arrivals(counted)
+    assert np.array_equal(got, want)
+    assume(any(resumed))
+
+
+def test_a_search_goes_on_after_c_falls_only_where_the_states_left_out_lie_above_the_new_limit():
+    """Issue 22 (session 38): ``_goes_on`` goes on while C holds, refuses a dearer C, and after C falls
+    goes on only where every state of the vertices the region loses has ``g + h`` above the new C
+    (plus the slack): here a vertex the source reaches at once is left out, and it must refuse."""
+    g, rng = random_map(3)
+    k = 8
+    opts = RoutingOptions(heading_bins=k)
+    lat, extra = g.masks()
+    live = g.live_vertices()
+    s = int(live[0])
+    region = np.arange(g.n_vertices)
+    states = routing._States(len(region), k)
+    local = routing._local(g, region, k)
+    h = np.zeros(g.n_vertices)
+    dist, pred = routing._heading_search(g, lat, extra, region, local, routing._bin_penalties(opts), k,
+                                         states.hub(int(local[s])), 1e9, h=h, predecessors=True, ties=True)
+    inside = np.ones(g.n_vertices, dtype=bool)
+    kept = (100.0, region, inside, dist, pred)
+    assert routing._goes_on(kept, 100.0, inside, h, k)  # C holds
+    assert not routing._goes_on(kept, 200.0, inside, h, k)  # never a dearer C
+    assert routing._goes_on(kept, 50.0, inside, h, k)  # C fell, no vertex left out
+    arrive, depart, hub = states.by_vertex(dist)
+    far = np.minimum(np.minimum(arrive.min(axis=1), depart.min(axis=1)), hub) > 60.0
+    assert far.any() and not far.all()
+    assert routing._goes_on(kept, 50.0, ~far, h, k)  # the vertices left out: all their states above it
+    near = inside.copy()
+    near[s] = False  # the source's hub: g = 0, below any C
+    assert not routing._goes_on(kept, 50.0, near, h, k)
+
+
+@settings(max_examples=10, deadline=None)
+@given(st.integers(0, 2**32 - 1), st.booleans())
+def test_a_search_gone_on_after_c_falls_has_the_states_of_one_from_scratch_within_the_new_limit(seed, exits):
+    """Issue 22 (session 38): where C falls and ``_tiled_search`` goes on (``_goes_on``), every state
+    within the new limit (``g + h``; the reduced distance on reduced costs) has the distance, and with
+    the tie rule the predecessor, that the search from scratch over the same states gives."""
+    g, rng = random_map(seed)
+    opts = RoutingOptions(turn_height=float(rng.uniform(20, 900)), whole_region=0,
+                          tile_cells=int(rng.integers(1, 4)))
+    live = g.live_vertices()
+    heading_search = routing._heading_search
+    fell = []
+    limits = []
+
+    def checked(graph, lat, extra, full, local, penalties, k, start, limit, *, h, resume=None, **kwargs):
+        if resume is None:
+            limits.append(limit)
+            return heading_search(graph, lat, extra, full, local, penalties, k, start, limit, h=h, **kwargs)
+        want, want_pred = heading_search(graph, lat, extra, full, local, penalties, k, start, limit, h=h, **kwargs)
+        got, got_pred = heading_search(graph, lat, extra, full, local, penalties, k, start, limit, h=h,
+                                       resume=resume, **kwargs)
+        ties = kwargs.get("ties", False)
+        within = want + (routing._States(len(full), k).per_state(h) if ties else 0.0) <= limit
+        assert np.array_equal(got[within], want[within])
+        if ties:
+            assert np.array_equal(got_pred[within], want_pred[within])
+        fell.append(limit < limits[-1])
+        limits.append(limit)
+        return got, got_pred
+
+    with pytest.MonkeyPatch.context() as monkey:
+        monkey.setattr(routing, "_heading_search", checked)
+        for _ in range(3):
+            s, t = (int(v) for v in rng.choice(live, 2, replace=False))
+            if exits:
+                route = routing.find_route(g, s, t, options=opts)
+                if route is None:
+                    continue
+                lat, extra = g.masks()
+                c = routing.cheapest_unit_cost(EdgeCosts(), routing.ROAD_KINDS)
+                straight = c * np.hypot(*(g.xy - g.xy[t]).T)
+                from_source = dijkstra(g.matrix(), indices=s)
+                routing._tiled_search(g, lat, extra, s, None, from_source + straight, straight,
+                                      (route.vertices.tolist(), route.cost * 1.5), route.vertices,
+                                      routing._bin_penalties(opts), opts, g.xy[t],
+                                      exits=rng.choice(live, min(50, len(live)), replace=False))
+            else:
+                routing.find_route(g, s, t, options=opts)
+    assume(any(fell))
