@@ -492,7 +492,9 @@ class Expanded(NamedTuple):
 class Resume(NamedTuple):
     """A search to go on with (:func:`expanded_dijkstra`'s ``resume``): the distances and predecessors
     of the last search on the same states with the same limit and bound, whose graph has grown
-    since, and the states to scan again (those with an edge into what was added)."""
+    since, and the states to scan again (those with an edge into what was added). Or with a lower
+    limit and vertices left out, where every state of those lies above it (``routing._goes_on``):
+    then only the states within the new limit end as a search from scratch gives them."""
 
     dist: np.ndarray  #: per state, the last search's (taken over and changed in place)
     pred: np.ndarray  #: per state, the last search's (empty where none were asked for)
@@ -522,7 +524,8 @@ def expanded_dijkstra(graph: Expanded, start: int, limit: float, h: np.ndarray |
     passes an added edge, so the states with an edge added (``resume.seeds``) are scanned again,
     and every state whose distance falls is pushed again and scanned again (label-correcting). The
     distances end as the search from scratch gives them: each the least sum ``dist[u] + w`` over its
-    in-neighbours scanned, the same floats whatever the order. The predecessors too, with ``ties``
+    in-neighbours scanned, the same floats whatever the order (after a fall of the limit, the states
+    within it: :class:`Resume`). The predecessors too, with ``ties``
     (its rule is applied at every relaxation and depends on the final distances and the numbers
     only); without ``ties`` a predecessor is the first in-neighbour of that distance to relax it,
     which depends on the order: only the distances are the search's from scratch there.

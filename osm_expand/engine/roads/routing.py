@@ -1326,9 +1326,9 @@ def _tiled_search(graph: PathGraph, lat: KindMask, extra: np.ndarray, source: in
     need = _turn_floor(penalties) if floor else np.zeros(1)
     turns = bool(need.any())
     arrivals = None
-    # the last search, gone on with while C holds (:func:`_again`): None, or (cost, the region's vertices,
-    # inside, dist, pred); a route search with ``route_astar`` starts again each time (its predecessors
-    # depend on the order of the relaxations)
+    # the last search, gone on with while C holds or falls (:func:`_goes_on`, :func:`_again`): None, or
+    # (cost, the region's vertices, inside, dist, pred); a route search with ``route_astar`` starts
+    # again each time (its predecessors depend on the order of the relaxations)
     kept: tuple[float, np.ndarray, np.ndarray, np.ndarray, np.ndarray] | None = None
     goes_on = not (astar and target is not None)
     cap = min(opts.resume_states, 2**31 - 1)  # the region's states numbered whole up to this many
