@@ -1279,6 +1279,9 @@ def test_a_search_goes_on_after_c_falls_only_where_the_states_left_out_lie_above
     near = inside.copy()
     near[s] = False  # the source's hub: g = 0, below any C
     assert not routing._goes_on(kept, 50.0, near, h, k)
+    # on A*'s reduced costs (the exits' search) g + h is dist + h(source), not dist + h
+    assert routing._goes_on(kept, 50.0, near, h + 1e6, k)
+    assert not routing._goes_on(kept, 50.0, near, h + 1e6, k, 0.0)
 
 
 @settings(max_examples=10, deadline=None)

@@ -1103,10 +1103,13 @@ def _dilated(tiles: np.ndarray, shape: tuple[int, int]) -> np.ndarray:
 
 
 def _goes_on(kept: tuple[float, np.ndarray, np.ndarray, np.ndarray, np.ndarray], cost: float, region: np.ndarray,
-             h: np.ndarray, k: int) -> bool:
+             h: np.ndarray, k: int, reduced: float | None = None) -> bool:
     """Whether :func:`_tiled_search`'s next search (best cost ``cost``, ``region`` its vertices' bound) may
     go on from the last one (``kept``: the cost it was made with, the region's vertices it numbered,
-    the active ones, its distances and predecessors) rather than start again.
+    the active ones, its distances and predecessors) rather than start again. ``reduced``: None where
+    the distances are g (the route search's, ``g + h`` read as ``dist + h``), else the source's scaled
+    bound ``h(s)`` of a search on A*'s reduced costs (the exits'), whose ``dist = g + h − h(s)``:
+    there ``g + h`` is ``dist + h(s)``.
 
     While C holds, the region, the states' numbers and the limit are the same and the active set only
     grows: it goes on. Where the last search found a cheaper route, C fell: the limit falls with it
@@ -1132,7 +1135,8 @@ def _goes_on(kept: tuple[float, np.ndarray, np.ndarray, np.ndarray, np.ndarray],
     out = inside & ~region
     rows = np.searchsorted(full, np.flatnonzero(out))  # their states' vertex numbers (``full`` is sorted)
     arrive, depart, hub = states.by_vertex(dist)
-    hy = h[full[rows]] * (1.0 - _SHRINK)  # the bound the search read (``h[full]`` so scaled), vertex by vertex
+    # g + h = dist + the bound the search read (``h[full]`` so scaled), vertex by vertex; dist + h(s) on reduced costs
+    hy = h[full[rows]] * (1.0 - _SHRINK) if reduced is None else reduced
     least = np.minimum(np.minimum(arrive[rows].min(axis=1, initial=np.inf), depart[rows].min(axis=1, initial=np.inf)),
                        hub[rows]) + hy
     return bool((least > cost + 2 * states.size * _EPS).all())
@@ -1332,6 +1336,7 @@ def _tiled_search(graph: PathGraph, lat: KindMask, extra: np.ndarray, source: in
     kept: tuple[float, np.ndarray, np.ndarray, np.ndarray, np.ndarray] | None = None
     goes_on = not (astar and target is not None)
     cap = min(opts.resume_states, 2**31 - 1)  # the region's states numbered whole up to this many
+    lift = float(h[source] * (1.0 - _SHRINK)) if astar else None  # g + h = dist + lift on reduced costs
     from osm_expand.engine.roads.expanded_search import Resume
 
     while True:
@@ -1340,7 +1345,7 @@ def _tiled_search(graph: PathGraph, lat: KindMask, extra: np.ndarray, source: in
         inside = region & active[tile]
         verts = np.flatnonzero(inside)
         resume = None
-        if kept is not None and _goes_on(kept, cost, region, h, k):
+        if kept is not None and _goes_on(kept, cost, region, h, k, lift):
             _, full, before, dist, pred = kept
             whole = True
             states = _States(len(full), k)
