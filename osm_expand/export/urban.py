@@ -156,8 +156,9 @@ def write_urbanenvironment(city: City, path: str | os.PathLike) -> None:
             with xf.element("buildings"):
                 all_corners = _corners_of(city.buildings)
                 shaped = [c for c in all_corners if c is not None]
-                areas = iter(shapely.area(shapely.polygons(np.array(shaped))).tolist() if shaped else [])
-                numbers = iter(_formatted(np.array(shaped)) if shaped else [])
+                rings = np.array(shaped)
+                areas = iter(shapely.area(shapely.polygons(rings)).tolist() if shaped else [])
+                numbers = iter(_formatted(rings) if shaped else [])
                 for b, corners in zip(city.buildings, all_corners):
                     if corners is None:
                         continue

@@ -1244,11 +1244,15 @@ def _target_end(dist: np.ndarray, states: _States, target: int) -> int:
     return int(ends[np.argmin(dist[ends])])
 
 
-def _cheaper_end(dist: np.ndarray, states: _States, target: int, cost: float) -> int | None:
-    """:func:`_target_end` when its distance is below ``cost`` (the best so far), else None: one
-    test for both of :func:`_tiled_search`'s route searches."""
-    end = _target_end(dist, states, target)
-    return end if dist[end] < cost else None
+def _cheaper_end(dist: np.ndarray, states: _States, target: int, cost: float, offset: float = 0.0) -> int | None:
+    """The target's cheapest arrival state (the first of equal ones, as :func:`_target_end`) when its
+    cost, ``dist + offset``, is below ``cost`` (the best so far), else None: one test for both of
+    :func:`_tiled_search`'s route searches (``offset``: A*'s shift ``h(s) − h(target)`` on reduced
+    costs, added before the cheapest is chosen, as the costs are compared)."""
+    ends = states.arrivals(target)
+    arrive = dist[ends] + offset if offset else dist[ends]
+    least = int(np.argmin(arrive))
+    return int(ends[least]) if arrive[least] < cost else None
 
 
 def _tiled_search(graph: PathGraph, lat: KindMask, extra: np.ndarray, source: int, target: int | None,
@@ -1380,11 +1384,8 @@ def _tiled_search(graph: PathGraph, lat: KindMask, extra: np.ndarray, source: in
             up = hs - ha
             shift: np.ndarray | None = up
             if seek:
-                ends = states.arrivals(int(local[target]))
-                arrive = dist[ends] + up[local[target]]
-                least = int(np.argmin(arrive))
-                if arrive[least] < cost:
-                    last = int(ends[least])
+                last = _cheaper_end(dist, states, int(local[target]), cost, float(up[local[target]]))
+                if last is not None:
                     total = _summed_cost(graph, lat, extra, full, _walk_back(pred, start, last), penalties, k)
                     if total < cost:
                         best = (_vertex_path(pred, start, last, full, states), total)
