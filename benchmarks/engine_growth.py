@@ -25,7 +25,7 @@ range, infill + edge expansion at least 80 % of the new street length.
 Usage: ``python benchmarks/engine_growth.py [--history european] [--eras] [--measures] [--where]
 [--discs] [--fixed-margin] [--seed N] [--neighbourhoods K] [--option NAME=VALUE ...] [TOWN ...]`` (``--neighbourhoods``:
 :attr:`GrowthOptions.district_neighbourhoods` for the run; ``--option``, repeatable: any other
-:class:`GrowthOptions` field, e.g. ``--option district_streams=true --option district_trim_blocked=true``)
+:class:`GrowthOptions` field, e.g. ``--option pattern_aim=false --option sites_tried=7``)
 (default: Krems, Andorra, north-bayreuth, Monaco, Krems with ``european``, then Campo Grande;
 Campo Grande takes about 5 minutes and 8 GB).
 """
@@ -211,7 +211,7 @@ def main() -> None:
     ap.add_argument("--seed", type=int, default=0, help="the run's seed (default 0; one seed moves the off count "
                                                          "by up to 6)")
     ap.add_argument("--option", type=growth_option, action="append", default=[], metavar="NAME=VALUE",
-                    help="a GrowthOptions field for the run, e.g. district_streams=true (repeatable)")
+                    help="a GrowthOptions field for the run, e.g. pattern_aim=false (repeatable)")
     args = ap.parse_args()
     if args.option:
         print("growth options: " + ", ".join(f"{k}={v}" for k, v in args.option))

@@ -364,40 +364,6 @@ def _run_on_ends(board: _Board, net: StreetNetwork, new: list[int], old: list[in
         board.try_link(_Link(float(dist[i]), False, k, at, old[near[i]], (foot.x, foot.y)), 0.0)
 
 
-def join_dead_ends(city: City, new: Sequence[int], *, reach: float, year: int | None = None,
-                   era: str | None = None) -> tuple[City, int]:
-    """Each dead end of the streets ``new`` (indices) within ``reach`` metres of any other street runs on to
-    it in a joining street, nearest first, with the checks of every joining street (clear of streets and
-    occupied land, a free slot at both ends, little water), and however many places the streets were joined
-    at before: a missed junction, not a join counted against ``most`` (:func:`join_to_town`).
-
-    The engine's finishing of a placed district (:func:`osm_expand.engine.growth.stubs.finish_district`):
-    its streets stop at the patches' clearance from the streets beside them, and the joining step stops at
-    ``most`` places, which a large district's own tees onto the town already are (Campo Grande, seed 0:
-    13 of the engine's 122 dead ends 14.9 m from a street, 0.15 of its spacing). Unlike
-    :func:`join_to_town`'s ``run_on`` it reaches every street that stood before (earlier districts and
-    the major roads too: the yardstick reads a street meeting them as running on), and it comes after the
-    district was accepted, so the acceptance, and with it the district's site, does not change.
-
-    Returns
-    -------
-    (City, int)
-        The city with the joining streets (origin ``join``, ``year`` and ``era`` stamped), and their count.
-    """
-    if not (math.isfinite(reach) and reach >= 0):
-        raise OptionError(f"join_dead_ends reach must be a finite number of metres >= 0, got {reach!r}")
-    net = city.network
-    new = list(new)
-    mine = set(new)
-    old = [k for k in range(len(net.streets)) if k not in mine]
-    if not new or not old or reach <= 0:
-        return city, 0
-    made = occupied_near(city, [net.street_xy(net.streets[k]) for k in new], reach=reach, spread=0.0)
-    board = _Board(net, made.geometry, city.water_geometry(), year, era)
-    _run_on_ends(board, net, new, old, reach)
-    if not board.links:
-        return city, 0
-    return city.replace(network=board.network()), len(board.links)
 
 
 def _border(net: StreetNetwork, old: list[int]) -> np.ndarray:

@@ -9,18 +9,16 @@ import math
 import numpy as np
 import pytest
 
-from osm_expand.district import Placement, Tried
+from osm_expand.district import Placement
 from osm_expand.engine.growth import minor_streets
 from osm_expand.engine.growth.minor_streets import GrowthMemory, GrowthOptions, built_up_density, grow_district
-from osm_expand.engine.growth.nuclei import Nucleus, NucleusKind, nuclei_in_town
-from osm_expand.errors import InputError, OptionError
+from osm_expand.engine.growth.nuclei import Nucleus, NucleusKind
+from osm_expand.errors import OptionError
 from osm_expand.growth_fidelity import city_growth_fidelity
 from osm_expand.growth_patterns import make_pattern
 from osm_expand.ingest import load
-from osm_expand.joins import add_streets
-from osm_expand.model import Origin, Status
 from osm_expand.pipeline import _margin, learn, prepare
-from osm_expand.sites import SiteOptions, choose_sites, distance_maps
+from osm_expand.sites import SiteOptions, distance_maps
 from tests.conftest import FIXTURES, expanded_and_matured
 
 
@@ -70,58 +68,6 @@ def test_monacos_engine_streets_form_no_more_blocks_than_its_neighbourhoods():
     assert g is not None and g.overall is not None
     measures = g.overall.to_dict()["measures"]
     assert measures["two_core_share"]["ok"] and measures["dead_end_share"]["ok"]
-
-
-def test_choose_sites_avoiding_a_site_returns_the_others_as_chosen_without_it():
-    """An avoided site is left out and the rest are the sites chosen without the avoidance (it still keeps
-    the worse ones a radius away), the next one taking its place."""
-    city, learned = town("krems.osm.gz")
-    maps = distance_maps(city, SiteOptions(), margin=_margin(city))
-    area = 30.0 * learned.example.spacing ** 2 * 20
-    every = choose_sites(maps, area, SiteOptions(), most=6)
-    avoid = np.array([[*every[0].centre, 1.0], [*every[2].centre, 1.0]])
-    kept = choose_sites(maps, area, SiteOptions(), most=4, avoid=avoid)
-    assert [tuple(s.centre) for s in kept] == [tuple(s.centre) for s in (every[1], every[3], every[4], every[5])]
-
-
-def test_a_refused_site_is_not_tried_next_year_until_streets_are_built_near_it(monkeypatch):
-    """With :attr:`GrowthOptions.refused_near`, a site whose district was refused is skipped the next year (the
-    next-best site tried instead), and tried again once a street was built near it."""
-    city, learned = town("krems.osm.gz")
-    spacing = learned.example.spacing
-    asked = []
-
-    def refuse_all(city, sites, pattern, **kwargs):
-        asked.append([np.array(s.centre) for s in sites])
-        return Placement(None, tuple(Tried(k, None, 0, False) for k in range(len(sites))))
-
-    monkeypatch.setattr(minor_streets, "place_district", refuse_all)
-    owed = 30.0 * spacing
-    nuclei = [Nucleus(xy=tuple(city.network.xy[0]), strength=0.5, kind=NucleusKind.CENTRE)]
-    memory, options = GrowthMemory(), GrowthOptions(refused_near=0.5, sites_tried=2)
-
-    def year(c, y):
-        grow_district(c, make_pattern("example", learned.example), owed, 2.0 / spacing, nuclei, memory,
-                      np.random.default_rng(0), spacing=spacing, year=y, era="now", options=options)
-        return asked[-1]
-
-    first = year(city, 2000)
-    assert len(first) == 2 and len(memory.refused) == 2
-    radius = memory.refused[0, 2]
-    second = year(city, 2001)  # the same town: neither refused site again
-    assert all(np.hypot(*(c - f)) >= 0.5 * radius for c in second for f in first)
-    assert len(memory.refused) == 4
-    # without the memory the same sites come back
-    assert [tuple(c) for c in choose_again(city, learned, owed)] == [tuple(c) for c in first]
-    # a street built in 2002 through the first refused site: that site is tried again
-    x, y = first[0]
-    line = np.array([[x - spacing, y], [x + spacing, y]])
-    changed = add_streets(city, [line], [{"highway": "residential", "hierarchy": 9, "origin": Origin.ENGINE,
-                                          "status": Status.PLANNED, "year": 2002, "era": "now", "bridge": False,
-                                          "layer": 0}])
-    third = year(changed, 2003)
-    assert any(np.hypot(*(c - first[0])) < 0.5 * radius for c in third)
-    assert not any(np.hypot(*(c - first[1])) < 0.5 * radius for c in third)  # nothing built near the other
 
 
 def choose_again(city, learned, owed):
@@ -430,65 +376,3 @@ def _orders(city, learned, nuclei, options, monkeypatch):
     grow_district(city, make_pattern("example", learned.example), 30.0 * spacing, 2.0 / spacing, nuclei,
                   GrowthMemory(), np.random.default_rng(0), spacing=spacing, year=2000, era="now", options=options)
     return asked[-1]
-
-
-def test_with_town_nuclei_a_nucleus_in_the_fields_does_not_rank_the_engines_sites(monkeypatch):
-    """north-bayreuth: a strong nucleus (a bridge, 0.9) on the site farthest from the town's settlement puts that site
-    first by default (003's rank: distance × (1 − strength)); with :attr:`GrowthOptions.town_nuclei` the nucleus,
-    more than a junction spacing from the town's built-up land, is not the town's, and the sites keep the order
-    the town's own nuclei give them. Every site is offered (``district_town_reach`` inf): with the default reach the
-    site in the fields is not offered at all."""
-    from osm_expand.sites import settlement_distance
-
-    city, learned = town("north-bayreuth.osm.gz")
-    spacing = learned.example.spacing
-    centre = Nucleus(xy=(-3209.75, -886.68), strength=1.0, kind=NucleusKind.CENTRE)  # the engine's, in the town
-    sites, alone = _orders(city, learned, [centre], GrowthOptions(district_town_reach=math.inf), monkeypatch)
-    maps = distance_maps(city, SiteOptions(cell=40.0), margin=_margin(city))
-    away = settlement_distance(maps, np.array(sites))
-    far = int(np.argmax(away))
-    assert away[far] > 3 * spacing and alone[0] != far
-    bridge = Nucleus(xy=tuple(sites[far]), strength=0.9, kind=NucleusKind.BRIDGE)
-    _, default = _orders(city, learned, [centre, bridge], GrowthOptions(district_town_reach=math.inf), monkeypatch)
-    assert default[0] == far  # the nucleus in the fields ranks its site first
-    everywhere = GrowthOptions(town_nuclei=True, district_town_reach=math.inf)
-    _, town_only = _orders(city, learned, [centre, bridge], everywhere, monkeypatch)
-    assert town_only == alone
-
-
-def test_town_nuclei_keeps_those_in_the_town_or_all_when_none_is():
-    a = Nucleus(xy=(0.0, 0.0), strength=1.0, kind=NucleusKind.CENTRE)
-    b = Nucleus(xy=(900.0, 0.0), strength=0.6, kind=NucleusKind.BRIDGE)
-    assert nuclei_in_town([a, b], [True, False]) == [a]
-    assert nuclei_in_town([a, b], [False, False]) == [a, b]
-    with pytest.raises(InputError):
-        nuclei_in_town([a, b], [True])
-
-
-def test_town_nuclei_is_refused_without_a_settlement_gap():
-    """settlement_gap 0 reads every piece of built-up land as the town's: town_nuclei would rank nothing apart."""
-    with pytest.raises(OptionError, match="town_nuclei needs settlement_gap"):
-        GrowthOptions(town_nuclei=True, settlement_gap=0)
-
-
-def test_the_reach_to_the_town_is_measured_on_the_town_drawn_at_a_finer_cell():
-    """:attr:`GrowthOptions.district_reach_cell`: the site raster (a tenth of a district's radius, 65 m here) draws
-    every cell a frontage strip's outline touches, so north-bayreuth's built-up land and its settlement read larger
-    than at 20 m; the reach's maps are the town drawn again at the finer cell, or the site maps themselves by
-    default."""
-    from osm_expand.sites import settlement
-
-    city, _ = town("north-bayreuth.osm.gz")
-    margin = _margin(city)
-    coarse = distance_maps(city, SiteOptions(cell=65.0), margin=margin)
-    assert minor_streets._reach_maps(city, coarse, GrowthOptions(), margin) is coarse
-    fine = minor_streets._reach_maps(city, coarse, GrowthOptions(district_reach_cell=20.0), margin)
-    assert fine.cell == pytest.approx(20.0)
-
-    def km2(mask, maps):
-        return float(mask.sum()) * maps.cell ** 2 / 1e6
-
-    assert km2(fine.city, fine) < 0.85 * km2(coarse.city, coarse)
-    assert km2(settlement(fine), fine) < 0.9 * km2(settlement(coarse), coarse)
-    with pytest.raises(OptionError, match="district_reach_cell"):
-        GrowthOptions(district_reach_cell=-1.0)

@@ -4,7 +4,6 @@ own settlement (built-up land less than 200 m apart merged, the piece with the m
 from __future__ import annotations
 
 import functools
-import math
 
 import numpy as np
 import pytest
@@ -21,7 +20,6 @@ from osm_expand.sites import (
     DistanceMaps,
     SiteOptions,
     _across_water,
-    default_district_area,
     distance_maps,
     far_bank,
     settlement,
@@ -115,10 +113,6 @@ def test_the_settlement_gap_is_the_eeas_200_m_by_default():
     assert GrowthOptions().settlement_gap == SETTLEMENT_GAP == 200.0
 
 
-def test_settlement_only_is_off_by_default():
-    assert GrowthOptions().settlement_only is False
-
-
 def _maps(city: np.ndarray, water: np.ndarray, cell: float = 10.0) -> DistanceMaps:
     """Distance maps of a synthetic raster: ``city`` and ``water`` bool, rows = y."""
     cells, nearest = distance_transform_edt(~city, return_indices=True)
@@ -192,18 +186,10 @@ def test_the_far_bank_on_the_fixtures(name):
         assert not (maps.far_bank & near).any()
 
 
-def test_counting_the_settlement_alone_needs_a_settlement():
-    """``settlement_only`` with ``settlement_gap = 0`` contradicts itself (0 reads all built-up land as the
-    town's): one line, exit 2, not an option silently ignored."""
-    with pytest.raises(OptionError, match="settlement_only"):
-        GrowthOptions(settlement_only=True, settlement_gap=0.0)
-    assert GrowthOptions(settlement_only=True).settlement_only
-
-
 def test_settlements_of_a_neighbourhoods_area_count_beside_the_town_hamlets_do_not():
     """Three pieces of built-up land 1 km apart: the town (0.6 km²), a valley town (0.25 km²) and a hamlet
     (0.04 km²). With a neighbourhood of 0.2 km², the valley town counts beside the town for closeness and
-    contact, the hamlet stays taken land only; with ``inf`` (session 32's ``settlement_only``) the town alone."""
+    contact, the hamlet stays taken land only; with ``inf`` the town alone."""
     cell = 10.0
     city = np.zeros((100, 400), dtype=bool)
     city[10:90, 10:85] = True  # the town, 80 x 75 cells: 0.6 km²
@@ -220,39 +206,3 @@ def test_settlements_of_a_neighbourhoods_area_count_beside_the_town_hamlets_do_n
     assert only.city_distance[50, 360] > 1000.0  # beside the hamlet: 1.25 km from the valley town
     alone = settlement_maps(maps, only=True)
     assert alone.city_distance[50, 240] > 1000.0  # the largest alone: the valley town is not counted
-
-
-@pytest.mark.parametrize("value", [-1.0, float("nan")])
-def test_the_settlements_neighbourhoods_refuse_a_negative_or_nan_count(value):
-    with pytest.raises(OptionError, match="settlement_neighbourhoods"):
-        GrowthOptions(settlement_neighbourhoods=value)
-
-
-def test_north_bayreuth_grows_at_settlements_of_a_neighbourhood_with_settlement_neighbourhoods():
-    """north-bayreuth, seed 0, ``settlement_only`` with ``settlement_neighbourhoods = 1``: the engine's streets
-    grow by the settlements of at least a neighbourhood's area (median distance of their points to that land
-    272 m; with the default options 1,065 m: both quarters in the fields 2.5 km north-east, by a hamlet of
-    0.49 km² of built-up land). On the old code the option does not exist. The district's reach measures from the
-    settlements counted (:attr:`GrowthOptions.district_town_reach`, on); its share of the town is off (``inf``), as
-    when this was measured: it caps a district at half the largest settlement (then 860 m)."""
-    from osm_expand.engine.history import load_history
-    from osm_expand.engine.loop import EngineOptions
-    from osm_expand.maturation import MatureOptions, mature_result
-    from osm_expand.pipeline import ExpandOptions, expand
-
-    growth = GrowthOptions(settlement_only=True, settlement_neighbourhoods=1.0, district_town_share=math.inf)
-    run = mature_result(expand(load(FIXTURES / "north-bayreuth.osm.gz"), ExpandOptions(seed=0, fidelity=False)),
-                        load_history("example"), MatureOptions(fidelity=False, engine=EngineOptions(growth=growth)),
-                        0).city
-    maps = distance_maps(before_the_years(run), SiteOptions(cell=20.0), margin=1500.0)
-    counted = settlements(maps, min_area=default_district_area(SiteOptions(), maps.built_area))
-    assert counted.sum() > settlement(maps).sum()  # more than the town: the other villages count
-    net = run.network
-    lines = [shapely.LineString(net.street_xy(s)) for s in net.streets
-             if s.origin == Origin.ENGINE and not is_major_road(s)]
-    assert sum(line.length for line in lines) > 10_000.0  # the quarters grew
-    points = np.vstack([shapely.get_coordinates(shapely.segmentize(line, 20.0)) for line in lines])
-    col, row = ((points - maps.origin) // maps.cell).astype(int).T
-    away = (distance_transform_edt(~counted) * maps.cell)[row, col]
-    assert np.median(away) <= 500.0, np.median(away)
-

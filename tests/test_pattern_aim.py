@@ -62,20 +62,6 @@ def test_pattern_aim_refuses_what_is_not_a_bool(value):
         GrowthOptions(pattern_aim=value)
 
 
-@pytest.mark.parametrize("value", ["false", 1, None])
-def test_pattern_aim_range_refuses_what_is_not_a_bool(value):
-    """A history's string "false" would read as on."""
-    with pytest.raises(OptionError, match="pattern_aim_range must be a bool"):
-        GrowthOptions(pattern_aim_range=value)
-
-
-def test_pattern_aim_range_needs_pattern_aim():
-    """``pattern_aim_range`` widens the aim's rule: without ``pattern_aim`` it would be accepted and do nothing."""
-    with pytest.raises(OptionError, match="pattern_aim_range needs pattern_aim"):
-        GrowthOptions(pattern_aim=False, pattern_aim_range=True)
-    assert GrowthOptions(pattern_aim=True, pattern_aim_range=True).pattern_aim_range
-
-
 def test_krems_european_grid_era_is_no_more_connected_than_krems_neighbourhoods():
     """Krems, ``european``, seed 0, with :attr:`GrowthOptions.pattern_aim`: the gründerzeit grid's run-ons and
     dropped stubs left it 13.1 km with a 2-core share of 0.973 against its neighbourhoods' 0.885-0.959, and the
@@ -111,19 +97,18 @@ def test_a_kept_stubs_new_nodes_are_spent_as_growth_starts_but_not_the_street_it
 
 
 class _Aim:
-    """An era's counts (length m, area m², dead ends, junctions and dead ends, 2-core length m), the town's medians
-    and ranges (density, dead-end share, 2-core share), as :meth:`DistrictYardstick.aim` gives them."""
+    """An era's counts (length m, area m², dead ends, junctions and dead ends, 2-core length m) and the town's
+    medians (density, dead-end share, 2-core share), as :meth:`DistrictYardstick.aim` gives them."""
 
-    def __init__(self, counts, medians, limits):
-        self.got = (np.array(counts, dtype=float), np.array(medians, dtype=float), np.array(limits, dtype=float))
+    def __init__(self, counts, medians):
+        self.got = (np.array(counts, dtype=float), np.array(medians, dtype=float))
 
-    def aim(self, lines, open_points, *, ranges=False):
-        counts, medians, limits = self.got
-        return counts, medians, limits if ranges else None
+    def aim(self, lines, open_points):
+        return self.got
 
 
-#: the town's neighbourhoods: dead-end share median 0.15 in [0.05, 0.30], 2-core median 0.90 in [0.80, 0.95]
-MEDIANS, LIMITS = (10.0, 0.15, 0.90), ((5.0, 15.0), (0.05, 0.30), (0.80, 0.95))
+#: the town's neighbourhoods: dead-end share median 0.15, 2-core median 0.90
+MEDIANS = (10.0, 0.15, 0.90)
 
 
 @pytest.fixture
@@ -131,32 +116,22 @@ def _no_lines(monkeypatch):
     monkeypatch.setattr(minor_streets, "growth_lines", lambda grown, era=None: ([], np.zeros((0, 2))))
 
 
-def test_a_two_core_share_above_range_takes_back_a_run_on_while_the_dead_ends_stay_in_range(_no_lines):
-    """Dead ends 0.2 (above the median, in range), 2-core 0.96 above its range: the aim on both medians does nothing;
-    on the range the 270 m run-on is taken back (dead ends 0.3, the range's top, 2-core 0.69)."""
-    aim = _Aim((1000.0, 1e5, 2, 10, 960.0), MEDIANS, LIMITS)
+def test_more_connected_than_both_medians_takes_back_a_run_on(_no_lines):
+    """Dead ends 0.1 and 2-core 0.96, both on the connected side of their medians: the 270 m run-on is taken back
+    (a dead end more, 0.2, above the median: then it stops). With the dead ends above the median already nothing
+    is taken back: the rule acts only while both shares sit on one side."""
     report = StubReport(ran=((3, 1),))
-    assert _withheld(None, "grid", aim, LINES, report, 60.0) == (frozenset(), frozenset(), frozenset())
-    assert _withheld(None, "grid", aim, LINES, report, 60.0, aim_range=True) == (frozenset({(3, 1)}), frozenset(),
-                                                                                frozenset())
-    # a dead end more would put the dead-end share above its range (0.31 > 0.30): nothing is taken back
-    tight = _Aim((1000.0, 1e5, 2, 10, 960.0), MEDIANS, ((5.0, 15.0), (0.05, 0.29), (0.80, 0.95)))
-    assert _withheld(None, "grid", tight, LINES, report, 60.0, aim_range=True) == (frozenset(), frozenset(),
-                                                                                  frozenset())
-
-
-def test_a_dead_end_share_above_range_drops_a_cul_de_sac_while_the_two_core_stays_in_range(_no_lines):
-    """Dead ends 0.4 above their range, 2-core 0.91 above its median (in range): a pattern that never closes its
-    trees keeps its culs-de-sac under the aim on both medians; on the range the 40 m cul-de-sac goes (2-core
-    910 / 960 = 0.948, within its top 0.95). A pattern that closes its trees keeps them (a young grid is all trees),
-    and a drop that would put the 2-core share above its top (930 / 960 = 0.969) is not made."""
-    report = StubReport(stubs=(4,))
-    aim = _Aim((1000.0, 1e5, 4, 10, 910.0), MEDIANS, LIMITS)
-    assert _withheld(None, "suburban", aim, LINES, report, 60.0, closes=False) == (frozenset(), frozenset(),
-                                                                                   frozenset())
-    assert _withheld(None, "suburban", aim, LINES, report, 60.0, closes=False, aim_range=True) == (
-        frozenset(), frozenset(), frozenset({4}))
-    assert _withheld(None, "grid", aim, LINES, report, 60.0, aim_range=True) == (frozenset(), frozenset(), frozenset())
-    core = _Aim((1000.0, 1e5, 4, 10, 930.0), MEDIANS, LIMITS)
-    assert _withheld(None, "suburban", core, LINES, report, 60.0, closes=False, aim_range=True) == (
+    assert _withheld(None, "grid", _Aim((1000.0, 1e5, 1, 10, 960.0), MEDIANS), LINES, report, 60.0) == (
+        frozenset({(3, 1)}), frozenset(), frozenset())
+    assert _withheld(None, "grid", _Aim((1000.0, 1e5, 2, 10, 960.0), MEDIANS), LINES, report, 60.0) == (
         frozenset(), frozenset(), frozenset())
+
+
+def test_less_connected_than_both_medians_drops_a_cul_de_sac_of_a_pattern_that_never_closes_its_trees(_no_lines):
+    """Dead ends 0.4 and 2-core 0.80, both on the tree side: a pattern that never closes its trees loses the 40 m
+    cul-de-sac; one that closes them in later years keeps it (a young grid is all trees)."""
+    report = StubReport(stubs=(4,))
+    aim = _Aim((1000.0, 1e5, 4, 10, 800.0), MEDIANS)
+    assert _withheld(None, "suburban", aim, LINES, report, 60.0, closes=False) == (frozenset(), frozenset(),
+                                                                                   frozenset({4}))
+    assert _withheld(None, "grid", aim, LINES, report, 60.0) == (frozenset(), frozenset(), frozenset())

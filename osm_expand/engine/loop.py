@@ -65,22 +65,7 @@ PatternFactory = Callable[[str, object], GrowthPattern]
 STREAMS = ("growth", "traffic", "roads", "buildout", "nuclei")
 #: The first entropy word of the engine's streams beside the run's seed (the district's are ``[seed, site]``).
 ENGINE_STREAM = 0xE9E
-#: The third entropy word of the engine's district streams (:func:`district_stream`), apart from :data:`STREAMS`'
-#: indices.
-DISTRICT_STREAM = 0xD15
 
-
-def district_stream(seed: int, year: int, attempt: int) -> np.random.Generator:
-    """The random stream of the engine's district attempt ``attempt`` (0-based, the sites tried in order) of
-    calendar year ``year`` in a run of ``seed`` (:attr:`GrowthOptions.district_streams`).
-
-    Why its own: drawn from the run's one growth stream, a refused attempt or an earlier district grown
-    otherwise shifts every later district's draws. numpy's ``SeedSequence`` keys it by the spawn key
-    ``(year, attempt)`` under the run's entropy, so no two attempts (nor the loop's :data:`STREAMS`) share a
-    stream.
-    """
-    return np.random.default_rng(np.random.SeedSequence([seed, ENGINE_STREAM, DISTRICT_STREAM],
-                                                        spawn_key=(year, attempt)))
 
 
 @dataclass(frozen=True)
@@ -111,7 +96,8 @@ class EngineContext:
     patterns: PatternFactory  #: the registry of district patterns over the town's example
     streams: Mapping[str, np.random.Generator]
     options: EngineOptions = EngineOptions()
-    #: The run's seed: the engine's district streams (:func:`district_stream`) are made from it, year by year.
+    #: The run's seed: the town's neighbourhoods a named pattern's era aims at are drawn from it
+    #: (:attr:`GrowthOptions.pattern_aim`).
     seed: int = 0
     #: The history year of the run's last step (None: the run's length not known): with
     #: :attr:`GrowthOptions.district_neighbourhoods` the length owed then is grown as an era's end's is, not lost.
@@ -236,9 +222,7 @@ def start(city: City, history: History, *, seed: int, spacing: float, patterns: 
     started = time.perf_counter()
     faces = FaceMemo()
     city = _with_blocks(city, None, faces)
-    # the town's neighbourhoods a candidate district is judged against: measured once a run, on the town as mapped
-    yardstick = DistrictYardstick.of_town(city, seed=seed) if options.growth.district_candidates > 1 else None
-    state = EngineState(city=city, nuclei=_initial_nuclei(city, join_points), growth=GrowthMemory(yardstick=yardstick),
+    state = EngineState(city=city, nuclei=_initial_nuclei(city, join_points), growth=GrowthMemory(),
                         traffic=start_traffic(city, streams["traffic"]), roads=RoadMemory(),
                         buildout=start_buildout(city, history, streams["buildout"]), faces=faces)
     state.seconds["start"] += time.perf_counter() - started
@@ -357,9 +341,7 @@ def _grow_streets(state: EngineState, era: Era, now: YearValues, year: int, rng:
         pattern = state.patterns[era.name]
         state.city, grown = grow_district(state.city, pattern, state.growth.owed, 2.0 / spacing, state.nuclei,
                                           state.growth, rng, spacing=spacing, year=year, era=era.name,
-                                          options=options.growth,
-                                          streams=(lambda attempt: district_stream(seed, year, attempt))
-                                          if options.growth.district_streams else None)
+                                          options=options.growth)
         if grown.districts:
             state.growth.owed = max(state.growth.owed - grown.length_m, 0.0)
             state.growth.due = False
@@ -371,12 +353,11 @@ def _grow_streets(state: EngineState, era: Era, now: YearValues, year: int, rng:
         opts = replace(opts, angle_offset_deg=bearing)  # a world-space grid follows the town's own grid
     aim = None
     if options.growth.pattern_aim and count > 0:
-        if state.growth.yardstick is None:  # measured once a run, from the run's seed, as district_candidates' is
+        if state.growth.yardstick is None:  # measured once a run, from the run's seed
             state.growth.yardstick = DistrictYardstick.of_town(state.city, seed=seed)
         aim = state.growth.yardstick
     state.city, grown = grow_street_pattern(state.city, count, opts, state.nuclei, state.growth, rng, year=year,
-                                            era=era.name, centre=centre, reach=STUB_REACH * spacing, aim=aim,
-                                            aim_range=options.growth.pattern_aim_range)
+                                            era=era.name, centre=centre, reach=STUB_REACH * spacing, aim=aim)
     return grown
 
 

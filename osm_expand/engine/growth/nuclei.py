@@ -41,7 +41,7 @@ from osm_expand.errors import InputError
 
 __all__ = [
     "Candidates", "Nucleus", "NucleiOptions", "NucleusKind", "candidate_points", "candidate_rank",
-    "edge_attenuation", "find_nuclei", "new_junction_nuclei", "nuclei_in_town", "rank_candidates", "rank_sites",
+    "edge_attenuation", "find_nuclei", "new_junction_nuclei", "rank_candidates",
 ]
 
 
@@ -294,44 +294,6 @@ def rank_candidates(candidates_xy: ArrayLike, nuclei: Sequence[Nucleus], *, take
     return order[:take].astype(np.int64)
 
 
-def rank_sites(centres_xy: ArrayLike, scores: ArrayLike, nuclei: Sequence[Nucleus], *,
-               tolerance: float) -> NDArray[np.int64]:
-    """The order to try sites in: the nuclei's rank among the sites as good as the best, then the rest by score.
-
-    A site whose score lies within ``tolerance`` of the best site's is ranked by the nuclei
-    (:func:`rank_candidates`, 003 §3.3.2); the others follow, best score first (ties by index). Why:
-    003's nuclei choose *where* among comparably good land a town grows; a site much worse as land
-    should not be tried first because a nucleus (a bridge or a junction of country roads in the
-    fields) lies near it. ``inf`` ranks every site by the nuclei (003 read literally); 0 the best
-    site's equals only. A site with a NaN score (given by its centre) is as good as the best: it is
-    among those the nuclei rank, and the tolerance is measured from the best known score.
-
-    Examples
-    --------
-    >>> n = [Nucleus((0.0, 0.0), 1.0, NucleusKind.CENTRE)]
-    >>> xy = [[500.0, 0.0], [100.0, 0.0], [50.0, 0.0]]
-    >>> rank_sites(xy, [2.0, 1.95, 1.5], n, tolerance=0.1).tolist()
-    [1, 0, 2]
-    >>> rank_sites(xy, [2.0, 1.95, 1.5], n, tolerance=float("inf")).tolist()
-    [2, 1, 0]
-    """
-    xy = np.asarray(centres_xy, dtype=np.float64).reshape(-1, 2)
-    score = np.asarray(scores, dtype=np.float64).reshape(-1)
-    if len(score) != len(xy):
-        raise InputError(f"rank_sites: {len(score)} scores for {len(xy)} sites")
-    if not tolerance >= 0:  # NaN or negative
-        raise InputError(f"rank_sites: tolerance must be ≥ 0, got {tolerance!r}")
-    if not len(xy):
-        return np.zeros(0, dtype=np.int64)
-    known = ~np.isnan(score)  # a NaN score: a site given by its centre, as good as the best
-    best = score[known].max() if known.any() else 0.0
-    good = ~known | (score >= best - tolerance) if np.isfinite(tolerance) else np.ones(len(score), dtype=bool)
-    score = np.where(known, score, np.inf)
-    first = np.flatnonzero(good)
-    first = first[rank_candidates(xy[first], nuclei, take=len(first))]
-    rest = np.flatnonzero(~good)
-    rest = rest[np.lexsort((rest, -score[rest]))]
-    return np.concatenate([first, rest]).astype(np.int64)
 
 
 def edge_attenuation(xy: ArrayLike, bounds: tuple[float, float, float, float], fraction: float) -> NDArray[np.float64]:
@@ -485,17 +447,3 @@ def new_junction_nuclei(new_junctions: ArrayLike, *, bounds: tuple[float, float,
         pts, strength, kind = pts[far], strength[far], [k for k, f in zip(kind, far) if f]
     return _merge(pts, strength, kind, options.merge_distance_m)
 
-
-def nuclei_in_town(nuclei: Sequence[Nucleus], in_town: ArrayLike) -> list[Nucleus]:
-    """The nuclei of the town's own growth: those ``in_town`` (bool per nucleus), or all when none is.
-
-    Why: 003's nuclei are the junctions of the major roads of a map that starts empty, where every one
-    grows a settlement. On a real extract a bridge or a junction of country roads in the fields by a
-    hamlet is a nucleus of the hamlet's growth, not of the town's; ranking the engine's district sites by
-    it put north-bayreuth's quarters among the villages 1.3 km from the town (issue 20).
-    """
-    keep = np.asarray(in_town, dtype=bool).reshape(-1)
-    if len(keep) != len(nuclei):
-        raise InputError(f"nuclei_in_town: {len(keep)} flags for {len(nuclei)} nuclei")
-    kept = [n for n, k in zip(nuclei, keep.tolist()) if k]
-    return kept if kept else list(nuclei)

@@ -19,12 +19,6 @@ town at one point, a comb's tooth or a cluster of culs-de-sac, goes too
 connectedness decides further: run-ons taken back and short stubs kept while the
 era is more connected than its town's neighbourhoods, culs-de-sac of a pattern
 that never closes them dropped while it is less (``withhold``, ``keep``, ``drop``).
-
-A district pattern's streets are finished once the district is placed
-(:func:`finish_district`): a dead end left short of a street beside it runs
-on to it (a missed junction), and a street that ends against occupied land
-(the town's frontage, a building, water), which the district's topology
-counted as a road out, goes back to its last junction.
 """
 from __future__ import annotations
 
@@ -35,12 +29,8 @@ import shapely
 import shapely.ops
 from scipy.spatial import cKDTree
 
-from osm_expand.errors import OptionError
-from osm_expand.joins import join_dead_ends
-from osm_expand.model import City
 from osm_expand.model.components import component_labels
 from osm_expand.model.geometry import closest_on_segments, match_points, polyline_length, ray_meet
-from osm_expand.model.topology import dangling_chains, segment_degree, without_segments
 
 #: Ends closer than this (m) are the same point.
 SAME = 1e-3
@@ -307,94 +297,4 @@ def _with_vertex(xy: np.ndarray, q: np.ndarray) -> np.ndarray:
     return np.vstack([xy[:i + 1], q, xy[i + 1:]])
 
 
-#: Metres past a district's dead end, along its last segment, where :func:`finish_district` looks for
-#: occupied land: the district's region ends where the occupied land begins
-#: (:func:`osm_expand.sites.district_region`), and its streets stop within a metre of the region's edge
-#: (:data:`synth.patches.topology.ON_EDGE`), so a few metres past the end is inside what stopped it.
-BLOCKED_PROBE = 5.0
 
-
-@dataclass(frozen=True)
-class FinishReport:
-    """What :func:`finish_district` did."""
-
-    links: int = 0  #: dead ends that ran on to a street beside them
-    trimmed: int = 0  #: streets ending against occupied land taken back to their last junction
-    trimmed_m: float = 0.0  #: their length (m)
-
-
-def finish_district(city: City, first: int, *, spacing: float, run_on: float, trim_blocked: bool,
-                    year: int | None = None, era: str | None = None) -> tuple[City, FinishReport]:
-    """A placed district's streets (``city.network.streets[first:]``, the district's and its joining
-    streets) finished: its dead ends within ``run_on`` junction spacings of a street that stood before
-    run on to it (:func:`osm_expand.joins.join_dead_ends`), then, with ``trim_blocked``, a dead end whose
-    street runs into occupied land :data:`BLOCKED_PROBE` metres on goes back to its last junction.
-
-    Why: the district's topology (:mod:`synth.patches.topology`) counts a street cut at the site's edge
-    as a road out, running on into the country, and a dead end within reach of the town as the joining
-    step's to join. Where the edge is the town's occupied land (its presumed frontage: Campo Grande's
-    engine streets ending 71 m from a residential street, its frontage depth) no street runs on, and
-    the joining step stops at ``most`` places: both stay dead-end trees, which the growth verdict prunes
-    (Campo Grande seed 0: 11.9 km of 334 km, its 2-core share 0.9644 below its neighbourhoods' range).
-    Done after the district was accepted and without random numbers, so its own site does not move; the
-    later districts do (the next years' traffic, major roads, nuclei and sites read the finished city:
-    :attr:`~osm_expand.engine.growth.minor_streets.GrowthOptions.district_trim_blocked`).
-
-    Parameters
-    ----------
-    city : City
-        With the district placed and joined.
-    first : int
-        Index of the district's first street in ``city.network.streets``.
-    spacing : float
-        The town's junction spacing (m).
-    run_on : float
-        Junction spacings (0: none run on).
-    trim_blocked : bool
-        Whether streets ending against occupied land go back to their last junction.
-    year, era
-        Stamped on the joining streets.
-
-    Returns
-    -------
-    (City, FinishReport)
-    """
-    if not (np.isfinite(run_on) and run_on >= 0):
-        raise OptionError(f"finish_district run_on must be a finite number of spacings >= 0, got {run_on!r}")
-    new = list(range(first, len(city.network.streets)))
-    links = 0
-    if run_on > 0 and new:
-        city, links = join_dead_ends(city, new, reach=run_on * spacing, year=year, era=era)
-    if not trim_blocked or not new:
-        return city, FinishReport(links=links)
-    net = city.network
-    streets = net.streets
-    degree = segment_degree(streets, len(net.xy))
-    ends: dict[int, np.ndarray] = {}  # dead end -> the point past it
-    for st in streets[first:]:
-        for end, inner in ((st.nodes[0], st.nodes[1]), (st.nodes[-1], st.nodes[-2])):
-            if degree[end] == 1:
-                d = net.xy[end] - net.xy[inner]
-                ends[end] = net.xy[end] + d / max(float(np.hypot(*d)), 1e-12) * BLOCKED_PROBE
-    if not ends:
-        return city, FinishReport(links=links)
-    probes = np.array(list(ends.values()))
-    occupied = city.occupied_within(shapely.MultiPoint(probes).envelope.buffer(1.0))
-    blocked = shapely.contains_xy(occupied, probes[:, 0], probes[:, 1]) if not occupied.is_empty else \
-        np.zeros(len(probes), dtype=bool)
-    leaves = [n for n, b in zip(ends, blocked.tolist()) if b]
-    if not leaves:
-        return city, FinishReport(links=links)
-    before = {(min(a, b), max(a, b)) for st in streets[:first] for a, b in zip(st.nodes[:-1], st.nodes[1:])}
-    drop: set[tuple[int, int]] = set()
-    trimmed = 0
-    for chain in dangling_chains(streets, leaves).values():
-        if chain & before:  # it runs into a street that stood before: not the district's own to take
-            continue
-        drop |= chain
-        trimmed += 1
-    if not drop:
-        return city, FinishReport(links=links)
-    length = sum(float(np.hypot(*(net.xy[a] - net.xy[b]))) for a, b in drop)
-    return (city.replace(network=net.replace(streets=without_segments(streets, drop))),
-            FinishReport(links=links, trimmed=trimmed, trimmed_m=length))

@@ -1,15 +1,14 @@
-"""A grown engine district judged as the growth verdict would judge the growth with it, on its cheap scalars (issue 20).
+"""The town's neighbourhoods as the growth verdict pools them, measured once a run: what a named pattern's era
+aims its connectedness at (issue 20; :attr:`~osm_expand.engine.growth.minor_streets.GrowthOptions.pattern_aim`).
 
-Example-based synthesis matches the example's statistics by drawing again
-until a sample fits: an engine district that puts the engine's street
-growth's density, dead-end share or 2-core share outside the range of the
-town's real neighbourhoods is a draw a town would not have made, so
-:func:`~osm_expand.engine.growth.minor_streets.grow_district` grows another
-candidate and keeps the best
-(:attr:`~osm_expand.engine.growth.minor_streets.GrowthOptions.district_candidates`).
+An era's street growth (the grid, organic or suburban patterns) has no idea of the town's connectedness of its
+own; each year its dead-end and 2-core shares are set beside the medians of the town's real neighbourhoods, as
+the growth verdict would pool them for that growth, and the year's run-ons and stubs are taken back or dropped
+towards them (:func:`~osm_expand.engine.growth.minor_streets._withheld`). Judging whole candidate districts by
+the same yardstick and drawing again was measured and not adopted (``docs/tried.md``).
 
-The judging is the growth verdict's (:mod:`osm_expand.growth_fidelity`) on
-three of its scalars, of everything the engine grew so far with the candidate
+The measuring is the growth verdict's (:mod:`osm_expand.growth_fidelity`) on
+three of its scalars, of everything the engine grew so far
 (its streets and joining streets; the major roads left out, as the verdict
 does):
 
@@ -22,21 +21,16 @@ does):
   land within it (:func:`osm_expand.streets_closing.land_in_disc`); a
   reference part pools one disc per piece, as the verdict's
   (:func:`osm_expand.growth_fidelity.piece_references`) do: its street
-  length, area, dead ends, junctions and 2-core length summed. Pooled
-  discs average out, so the ranges narrow as the growth gains pieces (one
-  district judged against single discs passed every district of
-  north-bayreuth and Andorra whose pooled growth the verdict puts off);
-- the ranges are those the verdict allows (:func:`osm_expand.fidelity.scalar_range`:
-  the 10th–90th percentile of :data:`~osm_expand.fidelity.DEFAULT_PARTS`
-  parts, shares widened by 0.02).
+  length, area, dead ends, junctions and 2-core length summed, and the
+  medians are taken over :data:`~osm_expand.fidelity.DEFAULT_PARTS` parts.
 
 A disc's counts depend on its area, rounded to a bin (:data:`AREA_STEP`),
 and are measured once a run per bin (a few bins per run), from the run's seed,
-not per year or per candidate; a candidate costs its growth's measures in one
+not per year; a year costs its growth's measures in one
 window (the scalars alone: no distributions, strokes, blocks or alignment).
 What this leaves to the verdict: the discs of a part are the j-th of each
 bin (the i-th piece of one bin takes the bin's next disc), not checked for
-overlap, and the eight distributions and three other scalars are not judged.
+overlap, and the eight distributions and three other scalars are not read.
 
 Pure: no files, no printing.
 """
@@ -49,20 +43,20 @@ from dataclasses import dataclass, field
 import numpy as np
 import shapely
 
-from osm_expand.fidelity import DEFAULT_PARTS, FidelityOptions, real_parts, scalar_range
+from osm_expand.fidelity import DEFAULT_PARTS, FidelityOptions, real_parts
 from osm_expand.growth_fidelity import GrowthFidelityOptions, is_major_road, meeting_points, piece_areas
 from osm_expand.measures import LineSet, Measure, NetworkMeasures, measure_network
 from osm_expand.model import City, Origin
 from osm_expand.streets_closing import WINDOW_CLOSE, block_margin, closed_land, land_in_disc
 
-__all__ = ["AREA_STEP", "JUDGED", "DistrictScore", "DistrictYardstick", "growth_lines"]
+__all__ = ["AREA_STEP", "JUDGED", "DistrictYardstick", "growth_lines"]
 
-#: The scalars a candidate district is judged on: the growth verdict's street density, dead-end share and
+#: The scalars an era's growth is measured on: the growth verdict's street density, dead-end share and
 #: 2-core share (issue 20: "its street density, dead-end share and 2-core share within the range of the town's
 #: neighbourhoods"). The other scalars and the distributions are left to the verdict: they cost the strokes,
-#: blocks and alignment of every candidate's window.
+#: blocks and alignment of every year's window.
 JUDGED: tuple[Measure, ...] = (Measure.DENSITY, Measure.DEAD_END_SHARE, Measure.TWO_CORE_SHARE)
-#: Districts whose areas lie within this factor of each other are judged against the same neighbourhood discs
+#: Growth whose pieces' areas lie within this factor of each other is set beside the same neighbourhood discs
 #: (bins of a factor √2, the discs of a bin's geometric middle): density and the shares move with the size of
 #: what is measured, but slowly (the verdict's ranges span 0.3 of a share; a disc √2 larger holds a few more
 #: junctions), and a bin's 32 discs cost one reference (Campo Grande: about a second).
@@ -71,20 +65,6 @@ AREA_STEP = math.sqrt(2.0)
 #: (so judging moves no district's draws).
 YARDSTICK_STREAM = 0x7A2D
 
-
-@dataclass(frozen=True, order=True)
-class DistrictScore:
-    """How far a candidate district lies outside the town's neighbourhoods; smaller is better (ordered)."""
-
-    out: int  #: measures of :data:`JUDGED` out of range (NaN counts as out)
-    #: how far outside, summed: in widths of each range (in the measure's own units where a range has no
-    #: width; 1 per NaN)
-    distance: float
-    values: tuple[float, ...] = field(compare=False, default=())  #: the district's value of each of :data:`JUDGED`
-
-    @property
-    def within(self) -> bool:
-        return self.out == 0
 
 
 @dataclass
@@ -133,12 +113,6 @@ class DistrictYardstick:
             seen[k] = seen.get(k, 0) + 1
         return _scalars(pooled)
 
-    def limits(self, areas: Sequence[float] | np.ndarray) -> np.ndarray:
-        """``(len(JUDGED), 2)``: the range the verdict allows each judged scalar for a growth whose pieces stand
-        for discs of ``areas`` m² (:func:`osm_expand.growth_fidelity.piece_areas`): the scalars of the discs'
-        counts pooled per part (:meth:`pooled`)."""
-        return _ranges(self.pooled(areas))
-
     def measured(self, lines: Sequence[np.ndarray], open_points: np.ndarray) -> tuple[np.ndarray, list[float]] | None:
         """A growth's counts ``(5,)`` (street length m, area m², dead ends, junctions and dead ends, 2-core length m)
         on its streets' land, open at ``open_points``, and the areas (m²) of the pieces that land makes
@@ -149,13 +123,11 @@ class DistrictYardstick:
         measured = measure_network(lines, window=window, open_points=open_points, pieces=False, wanted=JUDGED)
         return _counts(measured), list(piece_areas(window, self.min_piece_area))
 
-    def aim(self, lines: Sequence[np.ndarray], open_points: np.ndarray, *, ranges: bool = False
-            ) -> tuple[np.ndarray, np.ndarray, np.ndarray | None] | None:
-        """A growth's counts (:meth:`measured`), the town's pooled neighbourhoods' median of each judged scalar
-        for it (NaN-skipping) and, with ``ranges``, the range the verdict allows each (``(len(JUDGED), 2)``, as
-        :meth:`limits`; else None: only the range rule reads it): what an era's growth aims at, as the district's
-        topology aims at its town's neighbourhoods' medians (:mod:`synth.patches.topology`), and where it must
-        stay; None when the streets make no land."""
+    def aim(self, lines: Sequence[np.ndarray], open_points: np.ndarray
+            ) -> tuple[np.ndarray, np.ndarray] | None:
+        """A growth's counts (:meth:`measured`) and the town's pooled neighbourhoods' median of each judged scalar
+        for it (NaN-skipping): what an era's growth aims at, as the district's topology aims at its town's
+        neighbourhoods' medians (:mod:`synth.patches.topology`); None when the streets make no land."""
         got = self.measured(lines, open_points)
         if got is None:
             return None
@@ -164,24 +136,8 @@ class DistrictYardstick:
         finite = np.isfinite(pooled)
         medians = np.array([float(np.median(pooled[finite[:, j], j])) if finite[:, j].any() else float("nan")
                             for j in range(pooled.shape[1])])
-        return counts, medians, _ranges(pooled) if ranges else None
+        return counts, medians
 
-    def score(self, lines: Sequence[np.ndarray], open_points: np.ndarray) -> DistrictScore:
-        """A growth's streets (each ``(n_i, 2)`` m), open at ``open_points`` ``(K, 2)`` (where they meet the
-        streets that are not growth), judged on its streets' land against the town's pooled neighbourhoods."""
-        got = self.measured(lines, open_points)
-        if got is None:
-            return DistrictScore(out=len(JUDGED), distance=float(len(JUDGED)))
-        counts, areas = got
-        values = _scalars(counts[None, :])[0]
-        low, high = self.limits(areas).T
-        beyond = np.where(values < low, low - values, np.where(values > high, values - high, 0.0))
-        width = high - low
-        far = np.where(width > 0, beyond / np.where(width > 0, width, 1.0), beyond)
-        unknown = np.isnan(values) | np.isnan(low) | np.isnan(high)
-        far = np.where(unknown, 1.0, far)
-        out = int(((far > 0) | unknown).sum())
-        return DistrictScore(out=out, distance=float(far.sum()), values=tuple(values.tolist()))
 
 
 def _counts(m: NetworkMeasures) -> np.ndarray:
@@ -189,11 +145,6 @@ def _counts(m: NetworkMeasures) -> np.ndarray:
     core = m.two_core_share * m.length if m.length > 0 else 0.0
     return np.array([m.length, m.area, m.dead_ends, m.junctions + m.dead_ends, core], dtype=np.float64)
 
-
-def _ranges(pooled: np.ndarray) -> np.ndarray:
-    """``(len(JUDGED), 2)``: the range the verdict allows each judged scalar, of the town's discs' scalars
-    ``pooled`` (``(parts, len(JUDGED))``, :meth:`DistrictYardstick.pooled`)."""
-    return np.array([scalar_range(m, pooled[:, j]) for j, m in enumerate(JUDGED)])
 
 
 def _scalars(counts: np.ndarray) -> np.ndarray:
