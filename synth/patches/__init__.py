@@ -56,9 +56,9 @@ walk loses (shapes, dead ends, the town's density); patches keep all three.
    round building margins); beyond the rate of corners over 45° per km of
    the town's neighbourhoods as mapped (at the district's size), runs of
    one to three such nodes move onto the straight line between their
-   neighbours, by at most ``corner_reach`` metres (15, a local street's
-   right-of-way) and crossing nothing: positions change, the network does
-   not.
+   neighbours, by at most ``corner_reach`` metres (off by default; 15 is a
+   local street's right-of-way) and crossing nothing: positions change,
+   the network does not.
 
 Nine modules, one idea each: :mod:`~synth.patches.options` (the tunables),
 :mod:`~synth.patches.source` (the town's copyable streets and typical patches),
