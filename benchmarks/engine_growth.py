@@ -11,7 +11,9 @@ reference seed and its mean, the dead-end and 2-core shares with the
 neighbourhoods' range (reference seed 0), the pieces the engine's streets
 make on the map, the Landscape Expansion Index shares of new street length
 (infill / edge expansion / outlying), and the times (wall and CPU) of the
-run and of the judging. ``--eras`` adds a line per era; ``--measures`` a line per town and reference seed
+run and of the judging, and the engine's streets' corners over 45° at nodes of degree two per km beside its town's
+neighbourhoods' (:func:`engine_corners`: the picture's wiggles, which the verdict reads only as one of 14
+measures). ``--eras`` adds a line per era; ``--measures`` a line per town and reference seed
 (and per era, reference seed 0), after the tables, naming each measure off, its value against its range
 and by how much. ``--discs`` judges against the reference
 neighbourhoods measured in their discs (the yardstick before they were measured on their streets' land,
@@ -144,6 +146,29 @@ def where_grown(city) -> list[dict]:  # type: ignore[no-untyped-def]  # a City; 
     return out
 
 
+def engine_corners(result) -> dict:  # type: ignore[no-untyped-def]  # an ExpandResult; imports stay inside
+    """What a viewer sees beside the verdict (issue 20, session 39): the corners sharper than 45° at nodes of
+    degree two of the engine's streets (origin ``engine`` but the major roads) per km, beside the same reading
+    of the town's neighbourhoods (16 discs of the pipeline district's area on the yardstick's junctions, the
+    town's streets as mapped in them: median and 90th percentile, :func:`synth.patches.corners.corners_in_discs`)."""
+    from osm_expand.growth_fidelity import is_major_road
+    from osm_expand.model import Origin, polyline_length
+    from synth.patches.corners import SHARP, corner_turns, corners_in_discs
+    from synth.patches.source import _neighbourhood_points, _source
+
+    net = result.city.network
+    mine = [s for s in net.streets if s.origin == Origin.ENGINE and not is_major_road(s)]
+    km = sum(polyline_length(net.street_xy(s)) for s in mine) / 1000.0
+    count = int((corner_turns(net, np.unique(np.concatenate([np.asarray(s.nodes) for s in mine]))) > SHARP).sum()) \
+        if mine else 0
+    radius = float(np.sqrt(max(result.report.get("district_area_m2", 0.0), 1.0) / np.pi))
+    around = _neighbourhood_points(_source(result.city, result.learned.example, everything=True), 16, radius,
+                                   np.random.default_rng(0))
+    rates = corners_in_discs(net, around, radius)
+    return {"corners": count, "per_km": count / max(km, 1e-9), "town_median": float(np.nanmedian(rates)),
+            "town_p90": float(np.nanpercentile(rates, 90))}
+
+
 def run(name: str, history: str, years: int | None, refs: int, discs: bool = False,
         neighbourhoods: float | None = None, seed: int = 0, fixed_margin: bool = False,
         growth: dict[str, object] | None = None, want_where: bool = False) -> dict:
@@ -174,6 +199,7 @@ def run(name: str, history: str, years: int | None, refs: int, discs: bool = Fal
     eras = [(e["era"], e["districts"], e["street_length_km"]) for e in result.report["engine"]["eras"]]
     where = where_grown(result.city) if want_where else []
     return {"name": name, "history": history, "judged": judged, "eras_grown": eras, "where": where,
+            "corners": engine_corners(result),
             "run_s": run_s, "run_cpu": run_cpu,
             "judge_s": judge_s, "judge_cpu": judge_cpu}
 
@@ -217,8 +243,9 @@ def main() -> None:
         print("growth options: " + ", ".join(f"{k}={v}" for k, v in args.option))
     runs = [(t, args.history) for t in args.towns] if args.towns else RUNS
     print("| town | history | off of 14 per reference | mean off | dead-end share [range] | 2-core share [range] "
-          "| pieces | infill / edge / outlying | street growth km | major roads km | run s (CPU) | judging s (CPU) |")
-    print("|---|---|---|---|---|---|---|---|---|---|---|---|")
+          "| pieces | infill / edge / outlying | street growth km | major roads km | run s (CPU) | judging s (CPU) "
+          "| corners > 45° per km (neighbourhoods' median, p90) |")
+    print("|---|---|---|---|---|---|---|---|---|---|---|---|---|")
     eras: list[str] = []
     off_lines: list[str] = []  # outside the tables: a one-cell row breaks a 12-column markdown table
     era_off_lines: list[str] = []
@@ -237,7 +264,8 @@ def main() -> None:
               f"| {_share(overall, 'dead_end_share')} | {_share(overall, 'two_core_share')} | {overall['pieces']} "
               f"| {lei['infill']} / {lei['edge']} / {lei['outlying']} | {lei['new_length_km']} "
               f"| {first.major_roads_m / 1000:.1f} "
-              f"| {row['run_s']:.0f} ({row['run_cpu']:.0f}) | {row['judge_s']:.1f} ({row['judge_cpu']:.1f}) |",
+              f"| {row['run_s']:.0f} ({row['run_cpu']:.0f}) | {row['judge_s']:.1f} ({row['judge_cpu']:.1f}) "
+              f"| {row['corners']['per_km']:.2f} ({row['corners']['town_median']:.2f}, {row['corners']['town_p90']:.2f}) |",
               flush=True)
         off_lines.append(f"- {name} {history} districts per era (count, km): "
                          + ", ".join(f"{e} {n} ({km:.1f})" for e, n, km in row["eras_grown"]))

@@ -240,10 +240,13 @@ def main() -> None:
     from osm_expand.ingest import load
     from osm_expand.measures import measure_network
     from osm_expand.model import Origin, network_from_lines
+    from osm_expand.pipeline import learn
     from synth.patches import SHARP, corner_turns
+    from synth.patches.corners import corners_in_discs
+    from synth.patches.source import _neighbourhood_points, _source
 
     for name in args.towns:
-        bends, kinds, degrees, corners, km = [], [], [], 0, 0.0
+        bends, kinds, degrees, corners, km, radii = [], [], [], 0, 0.0, []
         mapped_city = load(REPO / "fixtures" / name)
         for seed in args.seeds or [args.seed]:
             placed = _placed(watch, mapped_city, seed, args.district)
@@ -260,6 +263,7 @@ def main() -> None:
                 district = network_from_lines(final, [{"highway": "residential", "origin": Origin.GROWN}] * len(final))
                 corners += int((corner_turns(district) > SHARP).sum())
                 km += district.total_length() / 1000.0
+                radii.append(float(np.sqrt(shapely.MultiLineString(final).convex_hull.area / np.pi)))
         seeds = " ".join(map(str, args.seeds or [args.seed]))
         if not bends:
             print(f"{name} seed {seeds}: no {'district' if args.district else 'engine district'} placed")
@@ -268,8 +272,14 @@ def main() -> None:
         whole = np.sort(measure_network(town, pieces=False).value("curvature"))
         mapped = network_from_lines(town, [{"highway": "residential", "origin": Origin.SOURCE}] * len(town))
         town_rate = (corner_turns(mapped) > SHARP).sum() / (mapped.total_length() / 1000.0)
+        # the same reading in the town's neighbourhoods at the districts' size (their streets' hull): the rate a
+        # district stands beside (session 39; the whole extract's is mostly country roads)
+        around = _neighbourhood_points(_source(mapped_city, learn(mapped_city).example, everything=True), 16,
+                                       float(np.median(radii)), np.random.default_rng(0))
+        hoods = corners_in_discs(mapped_city.network, around, float(np.median(radii)))
         print(f"\n{name} seed {seeds}: {len(b)} chords in the placed districts, median {np.median(b):.1f}°, "
-              f"corners over {SHARP:.0f}° {corners / km:.2f} per km (town {town_rate:.2f})")
+              f"corners over {SHARP:.0f}° {corners / km:.2f} per km (whole extract {town_rate:.2f}; its "
+              f"neighbourhoods' median {np.nanmedian(hoods):.2f}, p90 {np.nanpercentile(hoods, 90):.2f})")
         print("| class | chords | share | median ° | over 20° |\n|---|---|---|---|---|")
         for kind in sorted(set(k), key=lambda c: -np.sum(k == c)):
             m = k == kind

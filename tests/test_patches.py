@@ -238,26 +238,71 @@ def test_krems_district_bends_at_its_degree_2_nodes_within_a_bound_read_from_its
     assert corners / km <= 10.0 * town / town_km, (corners, km, town, town_km)
 
 
-def test_with_corner_reach_the_seams_jogs_are_straightened_and_the_district_is_the_same_network():
-    """Issue 20 (h28d): with ``corner_reach`` the corners beyond the town's rate are straightened within
-    6 m: Krems seed 0 at its default run's site, 41 corners over 45° (8.1 a km) become 28 (5.5 a km),
-    under six times the town's 1.0, and the district keeps its junctions, dead ends and length within
-    1 %."""
-    from osm_expand.growth_patterns import make_pattern
-    from osm_expand.pipeline import learn
+def _neighbourhood_corner_rate(result) -> tuple[float, float]:
+    """Median and 90th percentile of the corners over 45° per km of ``result``'s town as mapped, in 16 of its
+    neighbourhoods at the district's area (:func:`synth.patches.corners.corners_in_discs`)."""
+    from synth.patches.corners import corners_in_discs
+    from synth.patches.source import _neighbourhood_points, _source
 
-    plain = district("krems.osm.gz", 0)
+    radius = float(np.sqrt(result.report["district_area_m2"] / np.pi))
+    around = _neighbourhood_points(_source(result.city, result.learned.example, everything=True), 16, radius,
+                                   np.random.default_rng(0))
+    rates = corners_in_discs(result.city.network, around, radius)
+    return float(np.nanmedian(rates)), float(np.nanpercentile(rates, 90))
+
+
+def test_the_towns_corner_rate_is_read_in_its_neighbourhoods_on_its_streets_as_mapped():
+    """Issue 20 (session 39): the district copies the town's mapped ways, so its corners per km stand beside
+    the same reading of the town's neighbourhoods, not of the simplified example (which drops nodes and
+    merges ways: Krems 1.03 a km there) nor of the whole extract (0.36, mostly country roads). Krems'
+    neighbourhoods at the district's size: 0.7 median; an L street of 2 km with one right-angle corner: 0.5."""
+    median, p90 = _neighbourhood_corner_rate(district("krems.osm.gz", 0))
+    assert 0.4 < median < 1.0 < p90 < 2.5, (median, p90)
+    from synth.patches.corners import corners_in_discs
+
+    ell = network_from_lines([np.array([[0.0, 0.0], [500.0, 0.0], [1000.0, 0.0], [1000.0, 1000.0]])],
+                             [{"highway": "residential"}])
+    assert corners_in_discs(ell, np.array([[500.0, 500.0]]), 2000.0)[0] == pytest.approx(0.5)
+
+
+def test_with_corner_reach_the_districts_corners_fall_to_a_few_times_its_neighbourhoods_rate():
+    """Issue 20 (session 39): Krems seed 0's district reads as a scribble: 41 corners over 45° at nodes of
+    degree two on 5.1 km (8.1 a km, twelve times its neighbourhoods' 0.7), the seams' jogs and spikes and
+    the perimeter streets' steps round building margins. With ``corner_reach`` at 15 m (a local street's
+    right-of-way; off by default, PatchOptions says why) the corners beyond the neighbourhoods' rate move onto
+    the straight line between their neighbours: 17 (3.4 a km, five times). Only positions move: the same
+    length within 2 %, the same dead-end share, no crossing (planar: no two segments meet away from a shared
+    node), and no more street on occupied land than before."""
+    from osm_expand.growth_patterns import make_pattern
+    from osm_expand.pipeline import learn, prepare
+
     city = load(FIXTURES / "krems.osm.gz")
-    pattern = make_pattern("example", learn(city).example, PatchOptions(corner_reach=6.0))
-    at = tuple(plain.report["site_centre"])
-    straight = expand(city, ExpandOptions(seed=0, at=at), pattern=pattern)
+    plain = district("krems.osm.gz", 0)
+    pattern = make_pattern("example", learn(city).example, PatchOptions(corner_reach=15.0))
+    straight = expand(city, ExpandOptions(seed=0, at=tuple(plain.report["site_centre"])), pattern=pattern)
     corners, km = sharp_corners(straight.city.network)
     before, before_km = sharp_corners(plain.city.network)
-    town, town_km = sharp_corners(straight.learned.simplified, new=False)
-    assert corners / km <= 6.0 * town / town_km < before / before_km, (corners, km, before, before_km)
-    assert abs(km / before_km - 1.0) < 0.01
+    median, _ = _neighbourhood_corner_rate(straight)
+    assert corners / km < 6.0 * median < before / before_km, (corners, km, before, before_km, median)
+    assert abs(km / before_km - 1.0) < 0.02
     f, g = straight.report["fidelity"]["measures"], plain.report["fidelity"]["measures"]
     assert f["dead_end_share"]["value"] == g["dead_end_share"]["value"]
+    net = straight.city.network
+    grown = [s for s in net.streets if s.is_new]
+    seg = np.array([(a, b) for s in grown for a, b in zip(s.nodes[:-1], s.nodes[1:]) if a != b])
+    lines = shapely.linestrings(net.xy[seg])
+    left, right = shapely.STRtree(lines).query(lines, predicate="intersects")
+    apart = left < right
+    shares = (seg[left[apart]][:, :, None] == seg[right[apart]][:, None, :]).any(axis=(1, 2))
+    assert shares.all(), int((~shares).sum())
+    town = prepare(load(FIXTURES / "krems.osm.gz"))
+
+    def on_occupied(result) -> float:
+        mine = shapely.MultiLineString([result.city.network.street_xy(s) for s in result.city.network.streets
+                                        if s.is_new])
+        return float(mine.intersection(town.occupied_within(mine.buffer(50.0))).length)
+
+    assert on_occupied(straight) <= on_occupied(plain) + 1.0
 
 
 def test_the_fidelity_report_is_in_the_json_report():

@@ -52,10 +52,13 @@ walk loses (shapes, dead ends, the town's density); patches keep all three.
    them: a road out on the site's outer edge runs on and is none.
 7. **Corners.** The seams leave corners at nodes of degree two that no
    street of the town has (jogs of a seam link a few metres off the street
-   it continues, spikes, Ls of trimmed tees); beyond the town's own rate of
-   corners over 45° per km, runs of one to three such nodes move onto the
-   straight line between their neighbours, by at most ``corner_reach``
-   metres and crossing nothing: positions change, the network does not.
+   it continues, spikes, Ls of trimmed tees, steps of perimeter streets
+   round building margins); beyond the rate of corners over 45° per km of
+   the town's neighbourhoods as mapped (at the district's size), runs of
+   one to three such nodes move onto the straight line between their
+   neighbours, by at most ``corner_reach`` metres (off by default; 15 is a
+   local street's right-of-way) and crossing nothing: positions change,
+   the network does not.
 
 Nine modules, one idea each: :mod:`~synth.patches.options` (the tunables),
 :mod:`~synth.patches.source` (the town's copyable streets and typical patches),

@@ -2,10 +2,13 @@
 town's own rate, and the corners beyond that rate straightened (:func:`_straighten`)."""
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 import shapely
 
 from osm_expand.model import StreetNetwork, polyline_length, turn_angles
+from osm_expand.model.geometry import linestrings_of
 
 
 def corner_turns(net: StreetNetwork, among: np.ndarray | None = None) -> np.ndarray:
@@ -174,3 +177,51 @@ def _clear(xy: np.ndarray, seg: np.ndarray, key: tuple[int, ...], new: np.ndarra
                 and not before.intersection(obstacle).buffer(1e-6).covers(after.intersection(obstacle)):
             return False
     return True
+
+
+
+@dataclass(frozen=True)
+class MappedCorners:
+    """The town's streets as mapped and their corners sharper than :data:`SHARP` at nodes of degree two:
+    read once per network, then counted in any disc (:func:`corners_in_discs`)."""
+
+    lines: np.ndarray  #: shapely LineStrings of the mapped streets
+    tree: shapely.STRtree
+    sharp: np.ndarray  #: (n, 2) the corners' positions
+
+    @classmethod
+    def of(cls, net: StreetNetwork) -> MappedCorners:
+        mapped = [s for s in net.streets if not s.is_new]
+        if not mapped:
+            empty = np.zeros(0, dtype=object)
+            return cls(lines=empty, tree=shapely.STRtree(empty), sharp=np.zeros((0, 2)))
+        nodes = np.unique(np.concatenate([np.asarray(s.nodes) for s in mapped]))
+        turns = corner_turns(net, nodes)
+        seg = np.array([(a, b) for s in net.streets for a, b in zip(s.nodes[:-1], s.nodes[1:]) if a != b],
+                       dtype=np.int64).reshape(-1, 2)
+        degree = np.bincount(seg.ravel(), minlength=len(net.xy))
+        at = nodes[degree[nodes] == 2]  # corner_turns' order: the degree-2 nodes among ``nodes``, ascending
+        lines = linestrings_of([net.street_xy(s) for s in mapped])
+        return cls(lines=lines, tree=shapely.STRtree(lines), sharp=net.xy[at[turns > SHARP]])
+
+
+def corners_in_discs(net: StreetNetwork | MappedCorners, centres: np.ndarray, radius: float) -> np.ndarray:
+    """Corners sharper than :data:`SHARP` per km at degree-2 nodes of ``net``'s streets as mapped, in each disc
+    of ``radius`` metres on ``centres`` (the town's neighbourhoods, drawn as the fidelity yardstick draws them):
+    the rate a district of that area is read beside; NaN for a disc with no street.
+
+    Read on the streets the district copies (the town as mapped, with its nodes), not on the simplified example:
+    simplification drops nodes, merges ways and removes short streets, so a rate read there is not the same
+    reading as the district's (whose pieces are the mapped ways, and whose links are laid every few metres).
+    Krems: 1.03 per km on its simplified streets, 0.36 over the whole extract as mapped, 0.7-0.8 (median) in
+    its neighbourhoods at the district's size; north-bayreuth 1.06, 0.74, 1.0-1.2.
+    """
+    read = net if isinstance(net, MappedCorners) else MappedCorners.of(net)
+    out = np.full(len(centres), np.nan)
+    for k, c in enumerate(np.asarray(centres, dtype=float).reshape(-1, 2)):
+        disc = shapely.Point(c).buffer(radius, 16)
+        near = read.lines[read.tree.query(disc, predicate="intersects")]
+        km = float(shapely.length(shapely.intersection(near, disc)).sum()) / 1000.0
+        if km > 0:
+            out[k] = float((np.hypot(*(read.sharp - c).T) <= radius).sum()) / km
+    return out
