@@ -364,8 +364,6 @@ def _run_on_ends(board: _Board, net: StreetNetwork, new: list[int], old: list[in
         board.try_link(_Link(float(dist[i]), False, k, at, old[near[i]], (foot.x, foot.y)), 0.0)
 
 
-
-
 def _border(net: StreetNetwork, old: list[int]) -> np.ndarray:
     """Ends of the town's streets that are open: dead ends and junctions with a free slot."""
     degree = segment_degree(net.streets, len(net.xy))

@@ -132,10 +132,6 @@ class DistanceMaps:
     corridor: np.ndarray
     #: development cost of the land cover in each cell, 0 (farmland, unmapped) to < 1
     cost: np.ndarray | None = None
-    #: bool: the built-up land a site's closeness and contact count, when not all of :attr:`city`
-    #: (:func:`settlement_maps`: the town's own settlement, not a hamlet's); ``city_distance`` and
-    #: ``nearest_city`` then measure to it, while all of :attr:`city` stays taken
-    settlement: np.ndarray | None = None
     #: bool: land on the far bank from the town (:func:`far_bank`: its piece of land, water as the barrier,
     #: holds none of the town's settlement); when set, what :func:`_across_water` reads instead of the
     #: straight way to the nearest city cell
@@ -219,22 +215,10 @@ def settlement(maps: DistanceMaps, gap: float = SETTLEMENT_GAP) -> np.ndarray:
     The town is the piece with the most built-up area (its centre and most of its streets; on an extract of
     villages, the largest village, where the pipeline's district grows too).
     """
-    return settlements(maps, gap, np.inf)
-
-
-def settlements(maps: DistanceMaps, gap: float = SETTLEMENT_GAP, min_area: float = 0.0) -> np.ndarray:
-    """The built-up land of every settlement (:func:`settlement`'s pieces, less than ``gap`` metres apart
-    counted as one) with at least ``min_area`` m² of built-up land, and always the town's (the largest).
-
-    Why: a settlement large enough to hold a neighbourhood (``min_area`` one of the yardstick's
-    neighbourhood discs, :func:`default_district_area`) is where a town grows a quarter, as Andorra's valley
-    towns (Escaldes, Sant Julià, Encamp) are beside Andorra la Vella; a hamlet of a few houses in the fields
-    north-east of north-bayreuth is not, though its edge is built-up land too (issue 20).
-    """
     if not maps.city.any():
         return maps.city
     pieces, area = _settlement_pieces(maps, gap)
-    keep = area >= min_area
+    keep = np.zeros(len(area), dtype=bool)
     keep[int(np.argmax(area))] = True
     keep[0] = False
     return maps.city & keep[pieces]
@@ -270,29 +254,21 @@ def _settlement_pieces(maps: DistanceMaps, gap: float) -> tuple[np.ndarray, np.n
     return pieces, area
 
 
-def settlement_maps(maps: DistanceMaps, gap: float = SETTLEMENT_GAP, *, only: bool = False,
-                    min_area: float = np.inf) -> DistanceMaps:
+def settlement_maps(maps: DistanceMaps, gap: float = SETTLEMENT_GAP) -> DistanceMaps:
     """``maps`` that measure the far bank from the town's own settlement (:func:`settlement`): a site on land
     that water cuts off from the *town* loses its closeness (:func:`far_bank`, read by :func:`_across_water`),
     however near a village on its own bank lies. Krems' engine quarter grew beside Mautern, across the
-    Danube: the way to Mautern, its nearest built-up land, crosses no water.
-
-    With ``only``, the site's closeness to the town and its contact count the town's settlement alone too
-    (and so do the engine's joins, which read ``city_distance``); the rest of the built-up land stays taken
-    (no site holds it), but a site beside a hamlet is no longer next to the town. With a finite
-    ``min_area`` (m²) as well, every settlement of at least that much built-up land counts beside the town
-    (:func:`settlements`), for closeness, contact and joins and as the land the far bank is cut off from.
+    Danube: the way to Mautern, its nearest built-up land, crosses no water. The site's closeness and contact
+    still count all the built-up land (counting the town's settlement alone was measured and not adopted:
+    ``docs/tried.md``).
     """
-    town = settlements(maps, gap, min_area if only else np.inf)
+    town = settlement(maps, gap)
     if not town.any():
         return maps
     maps = replace(maps, far_bank=far_bank(maps.water, town))
     if town.sum() == maps.city.sum():
         return maps
-    distance, nearest = _nearest(town, maps.cell)
-    if not only:
-        return replace(maps, nearest_city=nearest)
-    return replace(maps, city_distance=distance, nearest_city=nearest, settlement=town)
+    return replace(maps, nearest_city=_nearest(town, maps.cell)[1])
 
 
 def _nearest(mask: np.ndarray, cell: float) -> tuple[np.ndarray, np.ndarray]:
@@ -471,8 +447,8 @@ RADIUS_STEPS = (1.0, 1.25, 1.5, 2.0)
 
 
 def choose_sites(maps: DistanceMaps, area: float, opts: SiteOptions | None = None, *,
-                 direction: str | None = None, at: tuple[float, float] | None = None, most: int = 5,
-                 avoid: np.ndarray | None = None) -> list[Site]:
+                 direction: str | None = None, at: tuple[float, float] | None = None, most: int = 5
+                 ) -> list[Site]:
     """The best places for a district of ``area`` m² of free land, best first; empty when nothing has room.
 
     A site is a disc around a cell holding ``area`` m² of free land (not
@@ -492,10 +468,6 @@ def choose_sites(maps: DistanceMaps, area: float, opts: SiteOptions | None = Non
         Use this centre (metres) and skip the search.
     most : int
         How many sites to return; each is at least a district's radius from the better ones.
-    avoid : (K, 3) array, optional
-        ``x, y, distance`` (m): a site whose centre lies within ``distance`` of ``(x, y)`` is not
-        returned (the engine's sites refused before: :class:`osm_expand.engine.growth.minor_streets.GrowthMemory`),
-        but still keeps the worse sites a radius away, so the others are the sites chosen without it.
     """
     opts = opts or SiteOptions()
     radius = float(np.sqrt(area / np.pi))
@@ -510,15 +482,10 @@ def choose_sites(maps: DistanceMaps, area: float, opts: SiteOptions | None = Non
     if direction:
         score = np.where(_in_sector(maps, xs, ys, DIRECTIONS[direction.upper()]), score, -np.inf)
     flat = score.ravel()
-    avoided = np.zeros((0, 3)) if avoid is None else np.asarray(avoid, dtype=float).reshape(-1, 3)
     sites: list[Site] = []
-    taken: list[np.ndarray] = []  # every site's centre, the avoided ones too
     for i in _best_first(flat):
         centre = np.array([xs.flat[i], ys.flat[i]])
-        if all(np.hypot(*(centre - c)) >= radius for c in taken):
-            taken.append(centre)
-            if len(avoided) and (np.hypot(*(avoided[:, :2] - centre).T) < avoided[:, 2]).any():
-                continue
+        if all(np.hypot(*(centre - s.centre)) >= radius for s in sites):
             sites.append(_disc(centre, float(disc_radius.flat[i]), area, float(flat[i])))
             if len(sites) >= most:
                 break
@@ -633,8 +600,7 @@ def _score(maps: DistanceMaps, radius: float, opts: SiteOptions, rings: _RingSha
     else:
         near_water = np.zeros_like(near_city)
     room = np.clip((maps.free_radius - radius) / radius, 0.0, 1.0)
-    town = maps.city if maps.settlement is None else maps.settlement
-    contact = rings.share(town, radius / maps.cell, (radius + opts.contact_width) / maps.cell)
+    contact = rings.share(maps.city, radius / maps.cell, (radius + opts.contact_width) / maps.cell)
     taken = rings.share(maps.unbuildable, 0.0, radius / maps.cell)
     cover = rings.share(maps.cost, 0.0, radius / maps.cell) if maps.cost is not None else 0.0
     score = (opts.city_weight * near_city + opts.contact_weight * contact + opts.water_weight * near_water

@@ -12,7 +12,7 @@ import pytest
 from osm_expand.district import Placement
 from osm_expand.engine.growth import minor_streets
 from osm_expand.engine.growth.minor_streets import GrowthMemory, GrowthOptions, built_up_density, grow_district
-from osm_expand.engine.growth.nuclei import Nucleus, NucleusKind
+from osm_expand.engine.growth.nuclei import Nucleus, NucleusKind, rank_candidates
 from osm_expand.errors import OptionError
 from osm_expand.growth_fidelity import city_growth_fidelity
 from osm_expand.growth_patterns import make_pattern
@@ -51,7 +51,7 @@ def test_an_engine_district_site_holds_its_owed_length_at_the_towns_density(monk
     monkeypatch.setattr(minor_streets, "place_district", record)
     owed = 30.0 * spacing
     nuclei = [Nucleus(xy=tuple(city.network.xy[0]), strength=0.5, kind=NucleusKind.CENTRE)]
-    grow_district(city, make_pattern("example", learned.example), owed, 2.0 / spacing, nuclei, GrowthMemory(),
+    grow_district(city, make_pattern("example", learned.example), owed, 2.0 / spacing, nuclei,
                   np.random.default_rng(0), spacing=spacing, year=2000, era="now")
     assert asked and asked[0]
     area = asked[0][0].area
@@ -70,21 +70,6 @@ def test_monacos_engine_streets_form_no_more_blocks_than_its_neighbourhoods():
     assert measures["two_core_share"]["ok"] and measures["dead_end_share"]["ok"]
 
 
-def choose_again(city, learned, owed):
-    spacing = learned.example.spacing
-    asked = []
-
-    def record(city, sites, pattern, **kwargs):
-        asked.append([np.array(s.centre) for s in sites])
-        return Placement(None, ())
-
-    with pytest.MonkeyPatch.context() as mp:
-        mp.setattr(minor_streets, "place_district", record)
-        nuclei = [Nucleus(xy=tuple(city.network.xy[0]), strength=0.5, kind=NucleusKind.CENTRE)]
-        grow_district(city, make_pattern("example", learned.example), owed, 2.0 / spacing, nuclei, GrowthMemory(),
-                      np.random.default_rng(0), spacing=spacing, year=2001, era="now",
-                      options=GrowthOptions(sites_tried=2))
-    return asked[-1]
 
 
 def _districts_owed(city, spacing, yearly: float, years: int, *, era_end: int | None, neighbourhoods: float,
@@ -255,7 +240,7 @@ def _sites_offered(monkeypatch, edit=None, **growth) -> tuple[list, np.ndarray]:
     monkeypatch.setattr(minor_streets, "settlement_maps", keep_maps)
     monkeypatch.setattr(minor_streets, "place_district", record)
     nuclei = [Nucleus(xy=tuple(city.network.xy[0]), strength=1.0, kind=NucleusKind.CENTRE)]
-    grow_district(city, make_pattern("example", learned.example), 13_600.0, 2.0 / spacing, nuclei, GrowthMemory(),
+    grow_district(city, make_pattern("example", learned.example), 13_600.0, 2.0 / spacing, nuclei,
                   np.random.default_rng(0), spacing=spacing, year=2029, era="now", options=GrowthOptions(**growth))
     sites = asked[0] if asked else []
     far = settlement_distance(maps_seen[0], np.array([s.centre for s in sites]).reshape(-1, 2))
@@ -374,5 +359,19 @@ def _orders(city, learned, nuclei, options, monkeypatch):
 
     monkeypatch.setattr(minor_streets, "place_district", record)
     grow_district(city, make_pattern("example", learned.example), 30.0 * spacing, 2.0 / spacing, nuclei,
-                  GrowthMemory(), np.random.default_rng(0), spacing=spacing, year=2000, era="now", options=options)
+                  np.random.default_rng(0), spacing=spacing, year=2000, era="now", options=options)
     return asked[-1]
+
+
+def test_the_engine_tries_its_sites_in_the_nuclei_rank(monkeypatch):
+    """003 §3.3.2: the sites a district is tried at are ranked by distance to the nearest nucleus × (1 − its
+    strength), nearest first; a centre nucleus beside the last-scored site puts that one first."""
+    city, learned = town("krems.osm.gz")
+    probe = [Nucleus(xy=tuple(city.network.xy[0]), strength=0.5, kind=NucleusKind.CENTRE)]
+    sites, _ = _orders(city, learned, probe, GrowthOptions(), monkeypatch)
+    assert len(sites) >= 2
+    nuclei = [Nucleus(xy=tuple(sites[-1]), strength=0.5, kind=NucleusKind.CENTRE)]
+    sites, order = _orders(city, learned, nuclei, GrowthOptions(), monkeypatch)
+    assert sorted(order) == list(range(len(sites)))
+    assert order == rank_candidates(np.array(sites), nuclei, take=len(sites)).tolist()
+    assert order[0] == len(sites) - 1

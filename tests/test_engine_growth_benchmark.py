@@ -2,8 +2,11 @@
 not a TypeError minutes into a run."""
 from __future__ import annotations
 
+import argparse
 import importlib.util
 from pathlib import Path
+
+import pytest
 
 _PATH = Path(__file__).resolve().parent.parent / "benchmarks" / "engine_growth.py"
 
@@ -29,3 +32,14 @@ def test_off_measures_prints_nan_values_and_ranges_as_na():
     assert parts[2] == "two_core_share 0.5 [0.8–0.9] (+3.00 widths)"
     assert "in the measure's units" in parts[3]
     assert len(parts) == 4
+
+
+def test_the_benchmark_sets_a_growth_option_by_its_fields_type():
+    module = _module()
+    assert module.growth_option("pattern_aim=true") == ("pattern_aim", True)
+    assert module.growth_option("pattern_aim=False") == ("pattern_aim", False)
+    assert module.growth_option("min_district=12.5") == ("min_district", 12.5)
+    assert module.growth_option("sites_tried=7") == ("sites_tried", 7)
+    for bad in ("pattern_aim=yes", "no_such_field=1", "sites_tried", "sites_tried=x"):
+        with pytest.raises(argparse.ArgumentTypeError):
+            module.growth_option(bad)

@@ -24,7 +24,6 @@ from osm_expand.sites import (
     far_bank,
     settlement,
     settlement_maps,
-    settlements,
 )
 from tests.conftest import FIXTURES, expanded_and_matured
 
@@ -71,18 +70,14 @@ def test_built_up_land_less_than_the_gap_apart_is_one_settlement(gap, one):
     town = settlement(maps)
     assert town[30, 30] and town[30, left + 5] == one
     far_bank = settlement_maps(maps)
-    only = settlement_maps(maps, only=True)
     if one:  # the town is all the built-up land: only the far bank is set (no water: none)
-        for seen in (far_bank, only):
-            assert seen.nearest_city is maps.nearest_city and seen.city_distance is maps.city_distance
-            assert seen.settlement is None and seen.far_bank is not None and not seen.far_bank.any()
+        assert far_bank.nearest_city is maps.nearest_city and far_bank.city_distance is maps.city_distance
+        assert far_bank.far_bank is not None and not far_bank.far_bank.any()
         return
-    # by default only the far bank is seen from the town: the nearest town cell of a cell by the hamlet
+    # only the far bank is seen from the town: the nearest town cell of a cell by the hamlet; the site's
+    # closeness still measures to all the built-up land
     row, col = far_bank.nearest_city[:, 30, left + 25]
-    assert town[row, col] and far_bank.city_distance is maps.city_distance and far_bank.settlement is None
-    # with ``only`` the closeness and contact count the town alone; the hamlet is still taken land
-    assert only.settlement is not None and only.city is maps.city
-    assert only.city_distance[30, left + 5] == pytest.approx(cell * (left + 5 - 59), abs=cell)
+    assert town[row, col] and far_bank.city_distance is maps.city_distance
 
 
 def test_krems_engine_districts_touch_krems_own_settlement():
@@ -184,25 +179,3 @@ def test_the_far_bank_on_the_fixtures(name):
         assert maps.water.any() and maps.far_bank.mean() < 1e-4
         near = distance_transform_edt(~settlement(maps)) * maps.cell < 2000.0
         assert not (maps.far_bank & near).any()
-
-
-def test_settlements_of_a_neighbourhoods_area_count_beside_the_town_hamlets_do_not():
-    """Three pieces of built-up land 1 km apart: the town (0.6 km²), a valley town (0.25 km²) and a hamlet
-    (0.04 km²). With a neighbourhood of 0.2 km², the valley town counts beside the town for closeness and
-    contact, the hamlet stays taken land only; with ``inf`` the town alone."""
-    cell = 10.0
-    city = np.zeros((100, 400), dtype=bool)
-    city[10:90, 10:85] = True  # the town, 80 x 75 cells: 0.6 km²
-    city[25:75, 185:235] = True  # a valley town, 50 x 50 cells: 0.25 km²
-    city[40:60, 335:355] = True  # a hamlet, 20 x 20 cells: 0.04 km²
-    maps = _maps(city, np.zeros_like(city), cell)
-    counted = settlements(maps, min_area=0.2e6)
-    assert counted[50, 50] and counted[50, 200] and not counted[50, 345]
-    assert (settlements(maps, min_area=np.inf) == settlement(maps)).all()  # the town alone
-    assert settlements(maps, min_area=0.0).sum() == city.sum()
-    only = settlement_maps(maps, only=True, min_area=0.2e6)
-    assert only.settlement is not None and (only.settlement == counted).all() and only.city is maps.city
-    assert only.city_distance[50, 240] == pytest.approx(5 * cell, abs=cell)  # beside the valley town: next to it
-    assert only.city_distance[50, 360] > 1000.0  # beside the hamlet: 1.25 km from the valley town
-    alone = settlement_maps(maps, only=True)
-    assert alone.city_distance[50, 240] > 1000.0  # the largest alone: the valley town is not counted

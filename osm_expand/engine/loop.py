@@ -67,7 +67,6 @@ STREAMS = ("growth", "traffic", "roads", "buildout", "nuclei")
 ENGINE_STREAM = 0xE9E
 
 
-
 @dataclass(frozen=True)
 class EngineOptions:
     """How the loop sequences the stages (the stages' own options live in the history)."""
@@ -340,7 +339,7 @@ def _grow_streets(state: EngineState, era: Era, now: YearValues, year: int, rng:
             state.patterns[era.name] = district_pattern(era.pattern, era.options)
         pattern = state.patterns[era.name]
         state.city, grown = grow_district(state.city, pattern, state.growth.owed, 2.0 / spacing, state.nuclei,
-                                          state.growth, rng, spacing=spacing, year=year, era=era.name,
+                                          rng, spacing=spacing, year=year, era=era.name,
                                           options=options.growth)
         if grown.districts:
             state.growth.owed = max(state.growth.owed - grown.length_m, 0.0)

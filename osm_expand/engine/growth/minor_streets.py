@@ -547,7 +547,7 @@ def _new_lines(graph: StreetGraph, splits: list[tuple[np.ndarray, np.ndarray]], 
 
 
 def grow_district(city: City, pattern: GrowthPattern, length: float, density: float, nuclei: list[Nucleus],
-                  memory: GrowthMemory, rng: np.random.Generator, *, spacing: float, year: int, era: str,
+                  rng: np.random.Generator, *, spacing: float, year: int, era: str,
                   options: GrowthOptions = GrowthOptions()) -> tuple[City, GrowthYear]:
     """A district of about ``length`` metres of street on the best free site.
 
@@ -604,13 +604,6 @@ def grow_district(city: City, pattern: GrowthPattern, length: float, density: fl
     new = grown.network.streets[before:]
     made = sum(polyline_length(grown.network.street_xy(s)) for s in new)
     return grown, GrowthYear(streets=len(new), length_m=made, bridges=sum(s.bridge for s in new), districts=1)
-
-
-
-
-
-
-
 
 
 def _from_the_town(maps: DistanceMaps, xy: np.ndarray, options: GrowthOptions) -> np.ndarray:

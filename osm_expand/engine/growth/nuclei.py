@@ -294,8 +294,6 @@ def rank_candidates(candidates_xy: ArrayLike, nuclei: Sequence[Nucleus], *, take
     return order[:take].astype(np.int64)
 
 
-
-
 def edge_attenuation(xy: ArrayLike, bounds: tuple[float, float, float, float], fraction: float) -> NDArray[np.float64]:
     """Strength factor in [0, 1] by the distance to the map edge (003 §3.3.2).
 
@@ -446,4 +444,3 @@ def new_junction_nuclei(new_junctions: ArrayLike, *, bounds: tuple[float, float,
         far = cKDTree(old_xy).query(pts, k=1)[0] > options.merge_distance_m
         pts, strength, kind = pts[far], strength[far], [k for k, f in zip(kind, far) if f]
     return _merge(pts, strength, kind, options.merge_distance_m)
-

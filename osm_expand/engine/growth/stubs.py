@@ -295,6 +295,3 @@ def _with_vertex(xy: np.ndarray, q: np.ndarray) -> np.ndarray:
     if np.hypot(*(xy[i] - q)) < SAME or np.hypot(*(xy[i + 1] - q)) < SAME:
         return xy
     return np.vstack([xy[:i + 1], q, xy[i + 1:]])
-
-
-

@@ -62,9 +62,8 @@ JUDGED: tuple[Measure, ...] = (Measure.DENSITY, Measure.DEAD_END_SHARE, Measure.
 #: junctions), and a bin's 32 discs cost one reference (Campo Grande: about a second).
 AREA_STEP = math.sqrt(2.0)
 #: The third entropy word of a bin's discs beside the run's seed: the discs never draw on the growth's stream
-#: (so judging moves no district's draws).
+#: (so measuring the neighbourhoods moves no street's draws).
 YARDSTICK_STREAM = 0x7A2D
-
 
 
 @dataclass
@@ -139,12 +138,10 @@ class DistrictYardstick:
         return counts, medians
 
 
-
 def _counts(m: NetworkMeasures) -> np.ndarray:
     """``(5,)``: street length (m), area (m²), dead ends, junctions and dead ends, 2-core length (m)."""
     core = m.two_core_share * m.length if m.length > 0 else 0.0
     return np.array([m.length, m.area, m.dead_ends, m.junctions + m.dead_ends, core], dtype=np.float64)
-
 
 
 def _scalars(counts: np.ndarray) -> np.ndarray:
