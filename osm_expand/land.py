@@ -519,6 +519,15 @@ class _Holes:
     def __init__(self, geoms: np.ndarray):
         self.geoms = geoms
         self._unions: dict[bytes, shapely.Geometry] = {}
+        self._centres: np.ndarray | None = None
+
+    @property
+    def centres(self) -> np.ndarray:
+        """The holes' centroids, made once for all the holes (:func:`_covered` asks for those of a few
+        hundred pieces' holes, many of them the same holes)."""
+        if self._centres is None:
+            self._centres = shapely.centroid(self.geoms)
+        return self._centres
 
     def union(self, these: np.ndarray) -> shapely.Geometry:
         """The union of ``geoms[these]`` (indices in the tree's order), made once per list."""
@@ -561,7 +570,7 @@ def _less(claimed: np.ndarray, holes: np.ndarray | _Holes, *, keep: float = 0.0)
     cut = np.flatnonzero(np.r_[True, which[1:] != which[:-1]])
     for start, stop in zip(cut.tolist(), [*cut[1:].tolist(), len(which)]):
         k, these = int(which[start]), near[start:stop]
-        if shut[k] and _covered(claimed[k], holes.geoms[these], min(COVERED, 0.5 * keep)):
+        if shut[k] and _covered(claimed[k], holes.geoms[these], min(COVERED, 0.5 * keep), holes.centres[these]):
             out[k] = shapely.Polygon()
             continue
         out[k] = shapely.difference(claimed[k], holes.union(these))
@@ -593,15 +602,16 @@ def _corners_inside(claimed: np.ndarray, tree: shapely.STRtree) -> np.ndarray:
 CORNER_STEP = 4
 
 
-def _covered(piece: shapely.Geometry, holes: np.ndarray, tiny: float) -> bool:
+def _covered(piece: shapely.Geometry, holes: np.ndarray, tiny: float, centres: np.ndarray | None = None) -> bool:
     """Whether ``holes`` surely cover ``piece`` but for less than ``tiny`` m²: cut from it one after
     another (each time the hole holding a point of what is left, nearest that point), what is left is
     under ``tiny``. Holes cut from a piece one by one leave at least what their union leaves (a
     subset of them, at most, is cut), so the union's cut is under ``tiny`` too, but for rounding. False
     when unsure (a point of what is left in no hole, or :data:`MOST_CUTS` cut): then the union decides.
+    ``centres``: the holes' centroids when the caller has them (:attr:`_Holes.centres`), else made here.
     """
     rest = piece
-    centres = shapely.centroid(holes)
+    centres = shapely.centroid(holes) if centres is None else centres  # the holes' centroids, in their order
     for _ in range(MOST_CUTS):
         if rest.area < tiny:
             return True

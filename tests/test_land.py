@@ -388,3 +388,17 @@ def test_any_within_answers_as_the_dwithin_query_even_at_the_very_distance():
         want[tree.query(geoms, predicate="dwithin", distance=distance)[0]] = True
         assert _any_within(tree, geoms, distance).tolist() == want.tolist()
     assert not _any_within(shapely.STRtree(np.empty(0, dtype=object)), geoms, d).any()
+
+
+def test_covered_with_the_holes_centroids_given_decides_as_without():
+    """:attr:`_Holes.centres` (made once for all holes) gives :func:`_covered` the centroids it made itself,
+    in the holes' order, so every piece is decided alike (a subset of the holes, as :func:`_less` passes)."""
+    import osm_expand.land as land_module
+
+    discs = shapely.buffer(shapely.points([(0.0, 0.0), (20.0, 0.0), (50.0, 3.0), (9.0, 12.0)]), 15.0)
+    holes = land_module._Holes(discs)
+    these = np.array([3, 0, 1])
+    assert shapely.equals_exact(holes.centres[these], shapely.centroid(discs[these]), 0.0).all()
+    for piece in (shapely.box(-5, -5, 25, 5), shapely.box(-5, -5, 40, 5), shapely.box(0, 0, 10, 20)):
+        assert (land_module._covered(piece, discs[these], 1.0, holes.centres[these])
+                == land_module._covered(piece, discs[these], 1.0))
