@@ -25,6 +25,7 @@ globe are an :class:`~osm_expand.errors.InputError` naming the file.
 from __future__ import annotations
 
 import os
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -517,12 +518,29 @@ def _project(coords, proj: LocalProjection) -> np.ndarray:
     return np.column_stack([x, y])
 
 
+def _project_each(seqs: Sequence, proj: LocalProjection) -> list[np.ndarray]:
+    """:func:`_project` of each coordinate sequence in ``seqs``, in one call of the projection: the same
+    numbers (PROJ projects point by point), without its per-call cost (~50 µs: Krems' 1,500 rings and
+    lines took 0.07 s one by one). Each result is a row slice of one array."""
+    arrays = [np.asarray(c, dtype=float).reshape(-1, 2) for c in seqs]
+    if not arrays:
+        return []
+    xy = _project(np.concatenate(arrays), proj)
+    return np.split(xy, np.cumsum([len(a) for a in arrays[:-1]], dtype=np.int64))
+
+
 def _project_lines(lines, proj: LocalProjection) -> list[np.ndarray]:
-    return [_project(c, proj) for c in lines if len(c) >= 2]
+    return _project_each([c for c in lines if len(c) >= 2], proj)
 
 
-def _polygon(rings, proj: LocalProjection) -> shapely.Geometry | None:
-    shell, *holes = [_project(r, proj) for r in rings]
+def _polygons(ring_lists, proj: LocalProjection) -> list[shapely.Geometry | None]:
+    """A polygon per list of rings (shell first), None where the shell has fewer than four points."""
+    xy = iter(_project_each([r for rings in ring_lists for r in rings], proj))
+    return [_polygon([next(xy) for _ in rings]) for rings in ring_lists]
+
+
+def _polygon(rings: list[np.ndarray]) -> shapely.Geometry | None:
+    shell, *holes = rings
     if len(shell) < 4:
         return None
     poly = shapely.Polygon(shell, [h for h in holes if len(h) >= 4])
@@ -530,28 +548,28 @@ def _polygon(rings, proj: LocalProjection) -> shapely.Geometry | None:
 
 
 def _water_polygons(raw: _Raw, proj: LocalProjection) -> tuple:
-    polys = [p for p in (_polygon(rings, proj) for rings in raw.water_areas) if p is not None and not p.is_empty]
-    for coords, width in raw.waterways:
-        polys.append(shapely.buffer(shapely.LineString(_project(coords, proj)), width / 2, cap_style="flat"))
+    polys = [p for p in _polygons(raw.water_areas, proj) if p is not None and not p.is_empty]
+    lines = _project_each([coords for coords, _ in raw.waterways], proj)
+    polys += [shapely.buffer(shapely.LineString(xy), width / 2, cap_style="flat")
+              for xy, (_, width) in zip(lines, raw.waterways)]
     return tuple(polys)
 
 
 def _areas(items, proj: LocalProjection) -> tuple[MappedArea, ...]:
     out = []
-    for rings, key, value, osm_id in items:
-        poly = _polygon(rings, proj)
+    for (_, key, value, osm_id), poly in zip(items, _polygons([rings for rings, *_ in items], proj)):
         if poly is not None and not poly.is_empty and poly.area > 0:
             out.append(MappedArea(polygon=poly, key=key, value=value, osm_id=osm_id))
     return tuple(out)
 
 
 def _buildings(items, proj: LocalProjection) -> tuple[Building, ...]:
+    kept = [item for item in items if len(item[0][0][1]) >= 4]
+    xy = iter(_project_each([coords for rings, *_ in kept for _, coords in rings], proj))
     out = []
-    for rings, tags, osm_type, osm_id in items:
-        if len(rings[0][1]) < 4:
-            continue
+    for rings, tags, osm_type, osm_id in kept:
         out.append(Building(
-            rings=tuple(_project(coords, proj) for _, coords in rings),
+            rings=tuple(next(xy) for _ in rings),
             node_ids=tuple(np.asarray(refs, dtype=np.int64) for refs, _ in rings),
             height=_number(tags.get("height")), levels=_number(tags.get("building:levels")),
             osm_id=osm_id, osm_type=osm_type, tags=tuple(tags.items())))

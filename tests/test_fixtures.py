@@ -198,6 +198,22 @@ def test_street_lines_are_made_once_per_network_and_read_only():
     assert np.allclose(shapely.get_coordinates(moved.street_lines()), shapely.get_coordinates(lines) + 1.0)
 
 
+def test_total_length_is_measured_once_per_network_and_is_the_sum_street_by_street():
+    """A network's length is kept with it (a district's pattern asks the same networks again); it is the very
+    sum of its streets' lengths, and a network made from it (other streets, moved nodes) measures its own."""
+    from osm_expand.model.geometry import polyline_length
+
+    net = pickle.loads(pickle.dumps(loaded("krems.osm.gz")))
+    total = net.total_length()
+    assert total == float(sum(polyline_length(net.street_xy(s)) for s in net.streets))
+    assert net.__dict__["_total_length"] == total and net.total_length() == total
+    fewer = net.replace(streets=net.streets[:10])
+    assert fewer.total_length() == float(sum(polyline_length(net.street_xy(s)) for s in net.streets[:10]))
+    assert net.replace(xy=net.xy * 2.0).total_length() == pytest.approx(2.0 * total, rel=1e-12)
+    added = net.with_new_streets([np.array([[0.0, 0.0], [0.0, 100.0]])], [{}])
+    assert added.total_length() == pytest.approx(total + 100.0, abs=1e-6)
+
+
 def test_new_streets_are_cut_alike_whether_the_segment_keys_were_handed_on_or_made_again():
     """with_new_streets hands its segment keys on to the network it makes (issue 22): a chain of
     additions cuts the new lines where they double a segment exactly as networks made afresh do."""

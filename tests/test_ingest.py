@@ -180,3 +180,21 @@ def test_an_open_coastline_divides_the_box_with_land_on_its_left(angle, reach, o
             continue
         assert not sea.contains(shapely.Point(p + 30 * left))
         assert sea.contains(shapely.Point(p - 30 * left))
+
+
+@pytest.mark.parametrize("name", ["krems.osm.gz", "monaco.osm.gz"])
+def test_rings_projected_together_are_those_projected_one_by_one(name):
+    """:func:`osm_expand.ingest._project_each` projects every ring in one call: each comes back with the very
+    numbers a call of its own gives (PROJ projects point by point), so the buildings' rings are unchanged."""
+    from osm_expand.ingest import _project, _project_each
+
+    city = load(FIXTURES / name)
+    proj = city.projection
+    rings = [np.column_stack(proj.to_lonlat(*r.T)) for b in city.buildings[:300] for r in b.rings]
+    rings.insert(3, np.empty((0, 2)))  # an empty sequence keeps its place
+    together = _project_each(rings, proj)
+    assert len(together) == len(rings)
+    for ring, xy in zip(rings, together):
+        alone = _project(ring, proj)
+        assert xy.shape == alone.shape and xy.tobytes() == alone.tobytes()
+    assert _project_each([], proj) == []

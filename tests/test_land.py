@@ -191,7 +191,7 @@ def test_service_ways_are_land_evidence_and_leave_the_network_as_it_was(name):
 
 
 def _less_piece_by_piece(claimed: np.ndarray, holes: np.ndarray) -> np.ndarray:
-    """``_less`` as it was: a union of the holes for every piece that meets one."""
+    """The survey cut as it was before session 39: each piece less a union of the holes that meet it."""
     which, near = shapely.STRtree(holes).query(claimed, predicate="intersects")
     out = claimed.copy()
     for k in np.unique(which).tolist():
@@ -199,76 +199,42 @@ def _less_piece_by_piece(claimed: np.ndarray, holes: np.ndarray) -> np.ndarray:
     return out
 
 
-def test_each_union_of_survey_discs_is_made_once_with_the_same_land(monkeypatch):
-    """Krems' pieces of frontage often meet the very same survey discs (a strip and the discs at its
-    ends): ``_less`` unions each list of discs once, and cuts the very same polygons (to the bit) as
-    a union per piece did."""
+def _surveyed_piece_by_piece(city: City, opts: LandOptions) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`read_land`'s ``taken`` and ``presumed`` as cut before session 39 (reference only)."""
     import osm_expand.land as land_module
 
-    city = town("krems.osm.gz")
-    footprints = np.array([b.polygon for b in city.buildings], dtype=object)
-    discs = shapely.buffer(footprints, LandOptions().survey_radius, quad_segs=4)
-    claimed = read_land(city).town[:-len(footprints)]  # the frontage and settlement, before the cut
-    which, near = shapely.STRtree(discs).query(claimed, predicate="intersects")
-    lists = {near[which == k].tobytes() for k in np.unique(which).tolist()}
-    made: list[int] = []
-    union_all = shapely.union_all
-    monkeypatch.setattr(land_module.shapely, "union_all", lambda g, **k: made.append(len(g)) or union_all(g, **k))
-    cut = land_module._less(claimed, discs)
-    monkeypatch.setattr(land_module.shapely, "union_all", union_all)
-    assert len(made) == len(lists) < 0.8 * len(np.unique(which))  # was one per piece: 795 on Krems
-    assert shapely.to_wkb(cut).tolist() == shapely.to_wkb(_less_piece_by_piece(claimed, discs)).tolist()
+    depth, _ = frontage_depth(city, opts)
+    footprints = land_module._footprints(city)
+    settlement = [a.polygon for a in city.areas if land_module.matches(a.key, a.value, opts.settlement)]
+    service = np.array(city.service_lines if opts.service_ways else (), dtype=object)
+    frontage, lines, widths, caps = land_module._frontage(city, depth, footprints, settlement, service,
+                                                          opts.dead_end_open_deg)
+    discs = shapely.buffer(footprints, opts.survey_radius, quad_segs=4)
+    empty = land_module._empty_cells(lines, widths, footprints, opts.survey_radius)
+    settled = np.array(settlement + caps, dtype=object)
+
+    def kept(geoms: np.ndarray) -> np.ndarray:
+        parts = shapely.get_parts(geoms)
+        return parts[(shapely.get_type_id(parts) == 3) & (shapely.area(parts) >= opts.min_piece)]
+
+    taken = kept(np.concatenate([_less_piece_by_piece(np.array(frontage, dtype=object), empty),
+                                 _less_piece_by_piece(settled, discs)]))
+    presumed = kept(_less_piece_by_piece(np.array([*frontage, *settlement, *caps], dtype=object), discs))
+    return taken, presumed
 
 
-def _kept(geoms: np.ndarray, keep: float) -> list[list[bytes]]:
-    """Per geometry, its polygons of at least ``keep`` m² as WKB: what :func:`read_land` keeps of a cut."""
-    out = []
-    for g in geoms.tolist():
-        parts = shapely.get_parts(g)
-        parts = parts[(shapely.get_type_id(parts) == 3) & (shapely.area(parts) >= keep)]
-        out.append(shapely.to_wkb(parts).tolist())
-    return out
-
-
-def test_a_piece_the_survey_discs_cover_makes_no_union_and_loses_no_kept_land(monkeypatch):
-    """Half of Krems' frontage lies under the survey discs: with ``keep`` (the pieces the caller keeps,
-    m²) such a piece is an empty polygon without the union of its discs, and every polygon of ``keep`` m²
-    or more is the very one (to the bit) a union per piece cuts."""
-    import osm_expand.land as land_module
-
-    city = town("krems.osm.gz")
-    keep = LandOptions().min_piece
-    footprints = np.array([b.polygon for b in city.buildings], dtype=object)
-    discs = shapely.buffer(footprints, LandOptions().survey_radius, quad_segs=4)
-    claimed = read_land(city).town[:-len(footprints)]  # the frontage and settlement, before the cut
-    made: list[int] = []
-    union_all = shapely.union_all
-    monkeypatch.setattr(land_module.shapely, "union_all", lambda g, **k: made.append(len(g)) or union_all(g, **k))
-    cut = land_module._less(claimed, discs, keep=keep)
-    with_keep = len(made)
-    made.clear()
-    land_module._less(claimed, discs)
-    monkeypatch.setattr(land_module.shapely, "union_all", union_all)
-    assert with_keep < 0.7 * len(made)  # Krems: 222 unions made, where 525 were
-    emptied = shapely.is_empty(cut) & ~shapely.is_empty(claimed)
-    assert emptied.sum() > 0.4 * len(claimed)
-    assert _kept(cut, keep) == _kept(_less_piece_by_piece(claimed, discs), keep)
-
-
-def test_a_piece_is_emptied_only_when_its_holes_cover_it():
-    """Two discs that cover a box between them empty it; one that leaves a corner of it does not, and its
-    cut is the plain difference."""
-    import osm_expand.land as land_module
-
-    discs = shapely.buffer(shapely.points([(0.0, 0.0), (20.0, 0.0)]), 15.0)
-    covered, corner = shapely.box(-5, -5, 25, 5), shapely.box(-5, -5, 40, 5)
-    cut = land_module._less(np.array([covered, corner], dtype=object), discs, keep=10.0)
-    assert cut[0].is_empty
-    assert cut[1].area >= 10.0
-    assert cut[1].equals_exact(shapely.difference(corner, shapely.union_all(discs)), 0.0)
-    plain = land_module._less(np.array([covered], dtype=object), discs)[0]  # keep 0: always the union's cut
-    assert plain.equals_exact(shapely.difference(covered, shapely.union_all(discs)), 0.0)
-    assert land_module._covered(covered, discs, 1.0) and not land_module._covered(corner, discs, 1.0)
+@pytest.mark.parametrize("name", ["krems.osm.gz", "monaco.osm.gz", "north-bayreuth.osm.gz"])
+def test_one_union_of_the_survey_holes_cuts_the_same_land_as_a_union_per_piece(name):
+    """Session 39: read_land cuts the frontage and settlement by one union of all the survey holes (one
+    vectorised difference) instead of a union per piece: the vertices differ in the last bits, the land
+    does not (area to 1e-6, what lies in one and not the other under 1 m²)."""
+    city = town(name)
+    land = read_land(city)
+    for new, old in zip((land.taken, land.presumed), _surveyed_piece_by_piece(city, LandOptions())):
+        a, b = shapely.union_all(new), shapely.union_all(old)
+        assert abs(a.area - b.area) <= 1e-6 * b.area
+        assert shapely.symmetric_difference(a, b).area < 1.0
+        assert len(new) > 0
 
 
 def test_the_default_finds_no_dead_ends_and_caps_on_do(monkeypatch):
@@ -307,24 +273,6 @@ def test_a_dead_end_whose_tip_vertex_is_doubled_keeps_its_cap():
     assert shapely.equals(caps[0], same[0])
     first = _dead_end_caps(np.array([doubled.reverse()], dtype=object), width, np.array([True, False]), 45.0)
     assert shapely.equals(first[0], same[0])  # the first end, the street drawn the other way
-
-
-def test_holes_keep_their_own_unions_across_calls():
-    """Finding 8 of session 31: the unions ``_less`` makes are kept with the very holes they index
-    (:class:`_Holes`), and a second call with them cuts the same bytes without making them again."""
-    import osm_expand.land as land_module
-
-    holes = land_module._Holes(shapely.buffer(shapely.points([(0.0, 0.0), (10.0, 0.0), (50.0, 0.0)]), 8.0))
-    claimed = np.array([shapely.box(-5, -5, 15, 5), shapely.box(0, 3, 12, 20), shapely.box(45, -2, 60, 2)],
-                       dtype=object)
-    fresh = land_module._less(claimed, holes.geoms)
-    once = land_module._less(claimed, holes)
-    made = len(holes._unions)
-    again = land_module._less(claimed[::-1].copy(), holes)
-    assert len(holes._unions) == made == 2  # {0, 1} for the first two, {2} for the last
-    assert shapely.to_wkb(once).tolist() == shapely.to_wkb(fresh).tolist() == shapely.to_wkb(again[::-1]).tolist()
-    other = land_module._Holes(holes.geoms[:1])  # other holes: their own unions, not the first's
-    assert not land_module._less(claimed[:1], other)[0].equals(once[0])
 
 
 def _empty_cells_all_asked(lines, widths, footprints, radius):
@@ -388,3 +336,46 @@ def test_any_within_answers_as_the_dwithin_query_even_at_the_very_distance():
         want[tree.query(geoms, predicate="dwithin", distance=distance)[0]] = True
         assert _any_within(tree, geoms, distance).tolist() == want.tolist()
     assert not _any_within(shapely.STRtree(np.empty(0, dtype=object)), geoms, d).any()
+
+
+def _occupied_within_piece_by_piece(city: City, area: shapely.Geometry, taken: bool = True) -> shapely.Geometry:
+    """:meth:`City.occupied_within` as it was before session 39: the taken land's pieces meeting the box,
+    unioned with the rest at every ask (reference only)."""
+    from osm_expand.model.city import _block_index, _land_parts
+
+    box = shapely.box(*area.bounds)
+    parts, tree = _land_parts(city.water, city.sea, city.unbuildable)
+    near = parts[tree.query(box, predicate="intersects")] if len(parts) else parts
+    blocks, block_tree = _block_index(city.blocks)
+    if len(blocks):
+        blocks = shapely.buffer(city._town_of(blocks[np.sort(block_tree.query(box, predicate="intersects"))]), -1.0)
+    held = city.land.taken_near(box) if city.land is not None and taken else []
+    return shapely.union_all([*near.tolist(), *held, *blocks.tolist()])
+
+
+@cache
+def prepared(name: str) -> City:
+    from osm_expand.pipeline import prepare
+
+    return prepare(town(name))
+
+
+@pytest.mark.parametrize("name", ["krems.osm.gz", "monaco.osm.gz", "north-bayreuth.osm.gz"])
+def test_occupied_land_cut_from_one_union_of_the_taken_land_is_the_same_land(name):
+    """Session 39: :meth:`City.occupied_within` cuts the asked box out of one union of the town's taken
+    land (made once per land) instead of a union of the pieces meeting the box at every ask: inside the
+    asked area the occupied land is the same (area to 1e-6, what lies in one and not the other under 1 m²),
+    on discs across the town and with the taken land left out."""
+    city = prepared(name)
+    x0, y0, x1, y1 = shapely.total_bounds(city.land.taken)
+    asked = 0
+    for fx in (0.25, 0.5, 0.75):
+        for fy in (0.25, 0.5, 0.75):
+            area = shapely.Point(x0 + fx * (x1 - x0), y0 + fy * (y1 - y0)).buffer(400.0)
+            for taken in (True, False):
+                new = shapely.intersection(city.occupied_within(area, taken=taken), area)
+                old = shapely.intersection(_occupied_within_piece_by_piece(city, area, taken), area)
+                assert abs(new.area - old.area) <= 1e-6 * max(old.area, 1.0)
+                assert shapely.symmetric_difference(new, old).area < 1.0
+                asked += old.area > 0
+    assert asked >= 9  # the discs meet the town

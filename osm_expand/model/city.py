@@ -158,6 +158,7 @@ class SourceFile:
 _UNIONS = IdentityMemo()  #: the union of water, sea and unbuildable land, and its parts with a tree
 _FOOTPRINTS = IdentityMemo()  #: the buildings' polygons
 _BLOCKS = IdentityMemo()  #: the blocks' polygons and a tree over them
+_TAKEN = IdentityMemo()  #: the union of the land the town takes (:attr:`Land.taken`)
 #: :meth:`City.occupied_within` by the content of what it unions: a year whose district failed asks for the
 #: land around the same sites again, in a town whose blocks and buildings are new objects but the same there.
 #: 32 entries: a site asks for up to five discs (:data:`osm_expand.sites.REGION_STEPS`) and its joins for a
@@ -184,6 +185,15 @@ def _land_parts(water: tuple, sea: tuple, unbuildable: shapely.Geometry | None
         parts = shapely.get_parts(union) if not union.is_empty else np.empty(0, dtype=object)
         return parts, shapely.STRtree(parts)
     return _UNIONS.get((water, sea, unbuildable), "parts", make)
+
+
+def _taken_union(taken: np.ndarray) -> shapely.Geometry:
+    """The union of the town's taken land (:attr:`Land.taken`), made once for the very same array: the land
+    is read once and shared by every year's City, and :meth:`City.occupied_within` asks for it 18 times on
+    Krems, 35 on Monaco. Cutting each ask's box out of it (0.001-0.002 s) is cheaper than a union of the
+    pieces meeting the box every time: occupied_within Krems 0.84 -> 0.50 s CPU, Monaco 1.54 -> 0.76 s
+    (session 39, h39k's measure)."""
+    return _TAKEN.get((taken,), None, lambda: shapely.union_all(taken))
 
 
 def _footprints(buildings: tuple[Building, ...]) -> np.ndarray:
@@ -327,7 +337,9 @@ class City:
         blocks, block_tree = _block_index(self.blocks)
         if len(blocks):  # those meeting the box, in the blocks' order
             blocks = shapely.buffer(self._town_of(blocks[np.sort(block_tree.query(box, predicate="intersects"))]), -1.0)
-        held = self.land.taken_near(box) if self.land is not None and taken else []
+        # the taken land inside the box: the same land as its pieces meeting the box, but for the last bits
+        held = ([shapely.intersection(_taken_union(self.land.taken), box)]
+                if self.land is not None and taken and len(self.land.taken) else [])
         inputs = [*near.tolist(), *held, *blocks.tolist()]
         return _OCCUPIED.get(ContentMemo.key(inputs), _union_prepared, inputs)
 
