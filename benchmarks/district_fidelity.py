@@ -80,7 +80,7 @@ def eye(result) -> dict:
     whatever its off count (issue 20, session 37)."""
     from osm_expand.measures import LineSet, measure_network
     from osm_expand.model import Origin
-    from synth.patches.corners import corners_in_discs
+    from synth.patches.corners import neighbourhood_corner_rates
     from synth.patches.source import _neighbourhood_points, _source
 
     net = result.city.network
@@ -100,7 +100,7 @@ def eye(result) -> dict:
     around = _neighbourhood_points(_source(result.city, result.learned.example, everything=True), 16, radius,
                                    np.random.default_rng(0))
     town_read = np.array([read(town, shapely.Point(c).buffer(radius)) for c in around])
-    corners = corners_in_discs(net, around, radius)
+    corners = neighbourhood_corner_rates(result.city, result.learned.example, radius)  # the same 16 discs
     return {"straight": straight, "town_straight": float(np.nanmedian(town_read[:, 0])), "blocks_per_km": blocks,
             "town_blocks_per_km": float(np.nanmedian(town_read[:, 1])),
             "town_corners_per_km": float(np.nanmedian(corners)),

@@ -133,7 +133,7 @@ def test_corners_are_counted_at_nodes_of_degree_two_only():
     corner, a bend in a street, never a junction."""
     net = network_from_lines([[(0.0, 0.0), (100.0, 0.0), (100.0, 100.0), (150.0, 150.0)],
                               [(100.0, 100.0), (0.0, 100.0)]])
-    turns = corner_turns(net)
+    turns = corner_turns(net)[1]
     assert turns.round().tolist() == [90.0]  # (100, 0); the tee at (100, 100) is a junction
 
 
@@ -145,9 +145,9 @@ def test_a_jog_of_the_seams_is_straightened_and_a_bend_beyond_reach_is_kept():
     jog = [[(0.0, 0.0), (50.0, 0.0)], [(50.0, 0.0), (52.0, 5.0)], [(52.0, 5.0), (100.0, 5.0)]]
     ell = [[(0.0, 200.0), (100.0, 200.0), (100.0, 300.0)]]
     net = network_from_lines(jog + ell)
-    assert (corner_turns(net) > 45.0).sum() == 3
+    assert (corner_turns(net)[1] > 45.0).sum() == 3
     straight = _straighten(net, 0, 6.0, shapely.MultiLineString(), shapely.Polygon())
-    turns = corner_turns(straight)
+    turns = corner_turns(straight)[1]
     assert (turns > 45.0).sum() == 1 and turns.max() > 89.0  # the L
     assert [s.nodes for s in straight.streets] == [s.nodes for s in net.streets]  # the same network
     assert np.abs(straight.xy - net.xy).max() <= 6.0
@@ -178,7 +178,7 @@ def test_straightening_moves_only_nodes_of_degree_two_within_reach_and_takes_cor
     degree = segment_degree(net.streets, len(net.xy))
     moved = np.hypot(*(straight.xy - net.xy).T)
     assert (moved[degree != 2] == 0.0).all() and (moved <= 6.0 + 1e-9).all()
-    before, after = (corner_turns(net) > 45.0).sum(), (corner_turns(straight) > 45.0).sum()
+    before, after = (corner_turns(net)[1] > 45.0).sum(), (corner_turns(straight)[1] > 45.0).sum()
     assert after <= before and (after <= budget or after < before or straight is net)
 
 
@@ -240,14 +240,11 @@ def test_krems_district_bends_at_its_degree_2_nodes_within_a_bound_read_from_its
 
 def _neighbourhood_corner_rate(result) -> tuple[float, float]:
     """Median and 90th percentile of the corners over 45° per km of ``result``'s town as mapped, in 16 of its
-    neighbourhoods at the district's area (:func:`synth.patches.corners.corners_in_discs`)."""
-    from synth.patches.corners import corners_in_discs
-    from synth.patches.source import _neighbourhood_points, _source
+    neighbourhoods at the district's area (:func:`synth.patches.corners.neighbourhood_corner_rates`)."""
+    from synth.patches.corners import neighbourhood_corner_rates
 
     radius = float(np.sqrt(result.report["district_area_m2"] / np.pi))
-    around = _neighbourhood_points(_source(result.city, result.learned.example, everything=True), 16, radius,
-                                   np.random.default_rng(0))
-    rates = corners_in_discs(result.city.network, around, radius)
+    rates = neighbourhood_corner_rates(result.city, result.learned.example, radius)
     return float(np.nanmedian(rates)), float(np.nanpercentile(rates, 90))
 
 
@@ -884,8 +881,8 @@ def test_stubs_at_bends_keeps_the_cul_de_sac_whose_trimming_would_leave_an_l():
     tee's arm goes, leaving the tee an L (a node of degree two turning 90°, read as the street's bend); with
     the option the tee's arm stays and the crossing's goes (a tee is left): the same dead ends, no L."""
     default, bends = _tee_and_cross(), _tee_and_cross(bends_first=True)
-    assert corner_turns(default).max() == pytest.approx(90.0)
-    assert corner_turns(bends).size == 0 or corner_turns(bends).max() <= 45.0
+    assert corner_turns(default)[1].max() == pytest.approx(90.0)
+    assert corner_turns(bends)[1].size == 0 or corner_turns(bends)[1].max() <= 45.0
     ends = [int((segment_degree(n.streets, len(n.xy)) == 1).sum()) for n in (default, bends)]
     assert ends[0] == ends[1]
     assert default.total_length() == pytest.approx(bends.total_length() - 10.0)
@@ -1086,7 +1083,7 @@ def test_edge_tee_meets_a_splayed_cut_street_square_further_back_and_keeps_the_b
         net = _network(laid)
         degree = segment_degree(net.streets, len(net.xy))
         assert int((degree == 3).sum()) == tees
-        turns = corner_turns(net)
+        turns = corner_turns(net)[1]
         assert (turns.max() > 120.0) == (tees == 0), turns
         if tees:
             path = laid.xy[-1]
@@ -1146,7 +1143,7 @@ def test_edge_square_cuts_a_splayed_cut_street_back_to_a_right_angle():
     net = _network(square)
     degree = segment_degree(net.streets, len(net.xy))
     assert int((degree >= 3).sum()) == 0 and int((degree == 1).sum()) == 2  # the two streets' far ends
-    assert np.allclose(np.sort(corner_turns(net)), [45.0, 45.0, 90.0, 90.0], atol=1.0)
+    assert np.allclose(np.sort(corner_turns(net)[1]), [45.0, 45.0, 90.0, 90.0], atol=1.0)
     for k in (0, 1):  # each cut street shortened, still starting where it did
         assert np.array_equal(square.xy[k][0], quilt.xy[k][0]) and square.xy[k][-1][1] > quilt.xy[k][-1][1] + 5.0
     with pytest.raises(OptionError, match="edge_square"):
