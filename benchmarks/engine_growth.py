@@ -262,7 +262,8 @@ def main() -> None:
               f"| {lei['infill']} / {lei['edge']} / {lei['outlying']} | {lei['new_length_km']} "
               f"| {first.major_roads_m / 1000:.1f} "
               f"| {row['run_s']:.0f} ({row['run_cpu']:.0f}) | {row['judge_s']:.1f} ({row['judge_cpu']:.1f}) "
-              f"| {row['corners']['per_km']:.2f} ({row['corners']['town_median']:.2f}, {row['corners']['town_p90']:.2f}) |",
+              f"| {row['corners']['per_km']:.2f} "
+              f"({row['corners']['town_median']:.2f}, {row['corners']['town_p90']:.2f}) |",
               flush=True)
         off_lines.append(f"- {name} {history} districts per era (count, km): "
                          + ", ".join(f"{e} {n} ({km:.1f})" for e, n, km in row["eras_grown"]))
