@@ -262,6 +262,43 @@ def test_the_towns_corner_rate_is_read_in_its_neighbourhoods_on_its_streets_as_m
     assert corners_in_discs(ell, np.array([[500.0, 500.0]]), 2000.0)[0] == pytest.approx(0.5)
 
 
+def test_the_straightening_budget_is_the_neighbourhoods_median_rate_not_the_simplified_examples():
+    """Issue 20 (session 39): the corners a district may keep (``corner_reach``'s budget, pattern.py) are its
+    length times :meth:`ExamplePatches._corner_rate`: the median of :func:`corners_in_discs` on the town's
+    neighbourhoods as mapped (Krems 0.68 a km), not the simplified example's rate read before (1.03), whose
+    nodes and ways are not those the district copies. Read once per network and kept."""
+    from osm_expand.growth_patterns import make_pattern
+    from synth.patches.corners import MappedCorners, corners_in_discs
+    from synth.patches.source import _neighbourhood_points, _source
+
+    result = district("krems.osm.gz", 0)
+    radius = float(np.sqrt(result.report["district_area_m2"] / np.pi))
+    around = _neighbourhood_points(_source(result.city, None, everything=True), 16, radius,
+                                   np.random.default_rng(0))
+    pattern = make_pattern("example", result.learned.example, PatchOptions(corner_reach=15.0))
+    rate = pattern._corner_rate(result.city.network, around, radius)
+    assert rate == pytest.approx(float(np.nanmedian(corners_in_discs(result.city.network, around, radius))))
+    assert isinstance(pattern.cache["corners"][1], MappedCorners)
+    assert pattern._corner_rate(result.city.network, around, radius) == rate
+    simplified = result.learned.simplified
+    town = (corner_turns(simplified)[1] > 45.0).sum() / (simplified.total_length() / 1000.0)
+    assert 0.4 < rate < 0.8 * town, (rate, town)
+
+
+def test_straightening_stops_at_the_budget():
+    """:func:`_straighten` keeps ``budget`` corners when it could take them all: four spikes of three corners
+    each (a node 12 m off a street of 10 m steps: 100° there, 50° either side), each eased in one move;
+    with a budget of 6 two spikes stay, with 0 none."""
+    xs = np.arange(0.0, 400.0, 10.0)
+    ys = np.where(np.isin(xs, [50.0, 150.0, 250.0, 350.0]), 12.0, 0.0)
+    net = network_from_lines([np.column_stack([xs, ys])], [{"highway": "residential"}])
+    assert (corner_turns(net)[1] > 45.0).sum() == 12
+    empty = shapely.MultiLineString()
+    for budget, left in ((6, 6), (7, 6), (0, 0)):
+        straight = _straighten(net, budget, 15.0, empty, empty)
+        assert (corner_turns(straight)[1] > 45.0).sum() == left, budget
+
+
 def test_with_corner_reach_the_districts_corners_fall_to_a_few_times_its_neighbourhoods_rate():
     """Issue 20 (session 39): Krems seed 0's district reads as a scribble: 41 corners over 45° at nodes of
     degree two on 5.1 km (8.1 a km, twelve times its neighbourhoods' 0.7), the seams' jogs and spikes and
