@@ -229,13 +229,15 @@ def test_a_band_around_the_median_takes_patches_below_it_the_default_only_above(
 def test_krems_district_bends_at_its_degree_2_nodes_within_a_bound_read_from_its_town():
     """Issue 20's curvature defect, counted: corners sharper than 45° at nodes of degree 2, where no
     junction explains a bend (Ls left by trimmed tees, seam links' joints, perimeter streets). Krems'
-    own simplified streets have 1.0 a km, its seed-0 district 8.1 (41 over 5.1 km) as of h27d: a guard
-    that it gets no worse than ten times its town's rate, not yet the town's own rate."""
+    neighbourhoods at the district's size have 0.68 a km (median; as mapped, the reading the district's
+    copied ways stand beside, session 39), its seed-0 district 8.1 (41 over 5.1 km; twelve times) as of
+    h27d: a guard that it gets no worse than fifteen times, not yet the town's own rate (that is
+    ``corner_reach``'s, off by default)."""
     result = district("krems.osm.gz", 0)
     corners, km = sharp_corners(result.city.network)
-    town, town_km = sharp_corners(result.learned.simplified, new=False)
-    assert km > 1.0 and town_km > 10.0
-    assert corners / km <= 10.0 * town / town_km, (corners, km, town, town_km)
+    median, _ = _neighbourhood_corner_rate(result)
+    assert km > 1.0 and median > 0.0
+    assert corners / km <= 15.0 * median, (corners, km, median)
 
 
 def _neighbourhood_corner_rate(result) -> tuple[float, float]:

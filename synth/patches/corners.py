@@ -41,11 +41,11 @@ def corner_turns(net: StreetNetwork, among: np.ndarray | None = None) -> tuple[n
 SHARP = 45.0
 
 
-def sharp_corners(net: StreetNetwork, new: bool = True) -> tuple[int, float]:
-    """The corners sharper than :data:`SHARP` at degree-2 nodes of ``net``'s new streets (``new``) or of
-    its streets as mapped, and those streets' length in km: the count and the length it is read over,
-    so that a district's rate per km can stand beside its town's."""
-    mine = [s for s in net.streets if s.is_new == new]
+def sharp_corners(net: StreetNetwork) -> tuple[int, float]:
+    """The corners sharper than :data:`SHARP` at degree-2 nodes of ``net``'s new streets, and those
+    streets' length in km: the count and the length it is read over, so that a district's rate per km
+    can stand beside its town's (:func:`neighbourhood_corner_rates`)."""
+    mine = [s for s in net.streets if s.is_new]
     if not mine:
         return 0, 0.0
     nodes = np.unique(np.concatenate([np.asarray(s.nodes) for s in mine]))
@@ -64,9 +64,10 @@ def _straighten(net: StreetNetwork, budget: int, reach: float, old: shapely.Geom
     The seams leave corners that no street of the town has: a seam link a few metres off the cut
     street it continues (a jog: two turns of 50-140° a few metres apart), a perimeter street meeting a
     cut street a metre or two from where it was cut (a spike), an L of a trimmed tee. The town's own
-    streets turn more than :data:`SHARP` at a node of degree two about once a km
-    (:func:`sharp_corners`), so the ``budget`` (the caller's: that rate over the district's length)
-    is how many of them a district of the town may keep. Moves are greedy, the one that takes away
+    streets as mapped turn more than :data:`SHARP` at a node of degree two 0.7-1.2 times a km in its
+    neighbourhoods at the district's size (median; :func:`corners_in_discs`, read by
+    ``ExamplePatches._corner_rate``), so the ``budget`` (the caller's: that rate over the district's
+    length) is how many of them a district of the town may keep. Moves are greedy, the one that takes away
     the most corners around it first (then the smallest); only positions change, never which nodes a
     street joins, so dead ends, loops, junctions and pieces stay as they were.
     """
