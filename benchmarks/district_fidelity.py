@@ -76,11 +76,11 @@ def eye(result) -> dict:
     are straight (``STRAIGHT``; its streets and joins), and the blocks closed per km of street in a disc of the
     district's area on the site's centre (every street in it, the town's too), each beside the median of the
     town's neighbourhoods (discs of the district's area on 16 of the yardstick's junctions, the town's mapped
-    streets in them; a block the disc cuts is not counted, in either). A district of short curving pieces and few blocks reads as scraps,
-    whatever its off count (issue 20, session 37)."""
+    streets in them; a block the disc cuts is not counted, in either). A district of short curving pieces and few
+    blocks reads as scraps, whatever its off count (issue 20, session 37)."""
     from osm_expand.measures import LineSet, measure_network
     from osm_expand.model import Origin
-    from synth.patches.corners import corners_in_discs
+    from synth.patches.corners import neighbourhood_corner_rates
     from synth.patches.source import _neighbourhood_points, _source
 
     net = result.city.network
@@ -95,12 +95,13 @@ def eye(result) -> dict:
     straight = read(grown)[0] if grown else float("nan")
     radius = float(np.sqrt(max(result.report["district_area_m2"], 1.0) / np.pi))
     # blocks as the neighbourhoods' are read: every street in a disc of the district's area on the site's centre
-    blocks = read([net.street_xy(s) for s in net.streets], shapely.Point(result.report["site_centre"]).buffer(radius))[1]
+    blocks = read([net.street_xy(s) for s in net.streets],
+                  shapely.Point(result.report["site_centre"]).buffer(radius))[1]
     town = LineSet.from_lines([net.street_xy(s) for s in net.streets if s.origin == Origin.SOURCE])
     around = _neighbourhood_points(_source(result.city, result.learned.example, everything=True), 16, radius,
                                    np.random.default_rng(0))
     town_read = np.array([read(town, shapely.Point(c).buffer(radius)) for c in around])
-    corners = corners_in_discs(net, around, radius)
+    corners = neighbourhood_corner_rates(result.city, result.learned.example, radius)  # the same 16 discs
     return {"straight": straight, "town_straight": float(np.nanmedian(town_read[:, 0])), "blocks_per_km": blocks,
             "town_blocks_per_km": float(np.nanmedian(town_read[:, 1])),
             "town_corners_per_km": float(np.nanmedian(corners)),
@@ -126,16 +127,16 @@ def main() -> None:
     n = len(args.seeds)
     print("| town | off of 14 per seed | mean off | median real neighbourhood | density in range | "
           "dead-end share in range | 2-core share in range | pieces per seed | often off | streets | joins | s/run "
-          "| corners > 45° per seed | per km per seed; mean (neighbourhoods' median, p90) | straight chords per seed (neighbourhoods') | blocks per km per "
-          "seed (neighbourhoods') |")
+          "| corners > 45° per seed | per km per seed; mean (neighbourhoods' median, p90) "
+          "| straight chords per seed (neighbourhoods') | blocks per km per seed (neighbourhoods') |")
     print("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|")
     tables = {}
     for name in args.towns:
         rows = run(name, args.seeds, args.pattern, overrides, args.same_site)
         off = [r["off"] for r in rows]
         often = Counter(k for r in rows for k, v in r["measures"].items() if not v["ok"])
-        in_range = " | ".join(f"{sum(r['ok'][k] for r in rows)}/{n} ({''.join('y' if r['ok'][k] else 'n' for r in rows)})"
-                              for k in IN_RANGE)
+        in_range = " | ".join(f"{sum(r['ok'][k] for r in rows)}/{n} "
+                              f"({''.join('y' if r['ok'][k] else 'n' for r in rows)})" for k in IN_RANGE)
         straight = " ".join(f"{r['straight']:.2f}" for r in rows)
         blocks = " ".join(f"{r['blocks_per_km']:.1f}" for r in rows)
         rates = " ".join(f"{r['corners_per_km']:.1f}" for r in rows)

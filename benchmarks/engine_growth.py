@@ -153,18 +153,15 @@ def engine_corners(result) -> dict:  # type: ignore[no-untyped-def]  # an Expand
     town's streets as mapped in them: median and 90th percentile, :func:`synth.patches.corners.corners_in_discs`)."""
     from osm_expand.growth_fidelity import is_major_road
     from osm_expand.model import Origin, polyline_length
-    from synth.patches.corners import SHARP, corner_turns, corners_in_discs
-    from synth.patches.source import _neighbourhood_points, _source
+    from synth.patches.corners import SHARP, corner_turns, neighbourhood_corner_rates
 
     net = result.city.network
     mine = [s for s in net.streets if s.origin == Origin.ENGINE and not is_major_road(s)]
     km = sum(polyline_length(net.street_xy(s)) for s in mine) / 1000.0
-    count = int((corner_turns(net, np.unique(np.concatenate([np.asarray(s.nodes) for s in mine]))) > SHARP).sum()) \
+    count = int((corner_turns(net, np.unique(np.concatenate([np.asarray(s.nodes) for s in mine])))[1] > SHARP).sum()) \
         if mine else 0
     radius = float(np.sqrt(max(result.report.get("district_area_m2", 0.0), 1.0) / np.pi))
-    around = _neighbourhood_points(_source(result.city, result.learned.example, everything=True), 16, radius,
-                                   np.random.default_rng(0))
-    rates = corners_in_discs(net, around, radius)
+    rates = neighbourhood_corner_rates(result.city, result.learned.example, radius)
     return {"corners": count, "per_km": count / max(km, 1e-9), "town_median": float(np.nanmedian(rates)),
             "town_p90": float(np.nanpercentile(rates, 90))}
 
@@ -265,7 +262,8 @@ def main() -> None:
               f"| {lei['infill']} / {lei['edge']} / {lei['outlying']} | {lei['new_length_km']} "
               f"| {first.major_roads_m / 1000:.1f} "
               f"| {row['run_s']:.0f} ({row['run_cpu']:.0f}) | {row['judge_s']:.1f} ({row['judge_cpu']:.1f}) "
-              f"| {row['corners']['per_km']:.2f} ({row['corners']['town_median']:.2f}, {row['corners']['town_p90']:.2f}) |",
+              f"| {row['corners']['per_km']:.2f} "
+              f"({row['corners']['town_median']:.2f}, {row['corners']['town_p90']:.2f}) |",
               flush=True)
         off_lines.append(f"- {name} {history} districts per era (count, km): "
                          + ", ".join(f"{e} {n} ({km:.1f})" for e, n, km in row["eras_grown"]))

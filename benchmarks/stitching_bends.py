@@ -187,14 +187,22 @@ def copied_degree(watched: dict, middle: np.ndarray) -> np.ndarray:
 
 
 def _placed(watch: Watch, mapped: object, seed: int, district: bool
-            ) -> tuple[list[np.ndarray], list[tuple[dict, np.ndarray, np.ndarray]]] | None:
-    """Grow ``mapped`` (a loaded city) with ``seed``: the town's streets, and per quilting round that was placed
+            ) -> tuple[list[np.ndarray], list[tuple[dict, np.ndarray, np.ndarray]], tuple[int, float], object] | None:
+    """Grow ``mapped`` (a loaded city) with ``seed``: the town's streets, per quilting round that was placed
     (a round whose streets are those grown; a district refused, or an attempt another replaced, is not) the
-    watched round with its chords' bends and points; None when nothing grew."""
+    watched round with its chords' bends and points, the grown streets' corners over :data:`SHARP` and their
+    km, and the pipeline's result (its district's area and example); None when nothing grew.
+
+    The corners are counted on the grown city, as :func:`synth.patches.sharp_corners` counts them: at the
+    grown streets' nodes of degree two in the whole network, so a tee onto the town is a junction (on the
+    district's own lines before its joins it would read as a bend). The engine's: its streets but the major
+    roads, as ``benchmarks/engine_growth.py`` counts them."""
     from osm_expand.engine.history import load_history
+    from osm_expand.growth_fidelity import is_major_road
     from osm_expand.maturation import MatureOptions, mature_result
-    from osm_expand.model import Origin
+    from osm_expand.model import Origin, polyline_length
     from osm_expand.pipeline import ExpandOptions, expand
+    from synth.patches import SHARP, corner_turns
 
     first = len(watch.rounds)
     city = expand(mapped, ExpandOptions(seed=seed, fidelity=False))  # type: ignore[arg-type]
@@ -208,6 +216,10 @@ def _placed(watch: Watch, mapped: object, seed: int, district: bool
     town = [net.street_xy(s) for s in net.streets if s.origin == Origin.SOURCE]
     if not engine:
         return None
+    mine = [s for s in net.streets if s.origin == grew and not (grew == Origin.ENGINE and is_major_road(s))]
+    corners = int((corner_turns(net, np.unique(np.concatenate([np.asarray(s.nodes) for s in mine])))[1] > SHARP)
+                  .sum()) if mine else 0
+    km = sum(polyline_length(net.street_xy(s)) for s in mine) / 1000.0
     grown = shapely.MultiLineString([shapely.LineString(x) for x in engine])
     rounds = []
     for watched in watch.rounds[first:]:
@@ -219,7 +231,7 @@ def _placed(watch: Watch, mapped: object, seed: int, district: bool
             continue
         b, p = chords(final)
         rounds.append((watched, b, p))
-    return town, rounds
+    return town, rounds, (corners, km), city
 
 
 def main() -> None:
@@ -240,30 +252,24 @@ def main() -> None:
     from osm_expand.ingest import load
     from osm_expand.measures import measure_network
     from osm_expand.model import Origin, network_from_lines
-    from osm_expand.pipeline import learn
-    from synth.patches import SHARP, corner_turns
-    from synth.patches.corners import corners_in_discs
-    from synth.patches.source import _neighbourhood_points, _source
+    from synth.patches import SHARP, corner_turns, neighbourhood_corner_rates
 
     for name in args.towns:
-        bends, kinds, degrees, corners, km, radii = [], [], [], 0, 0.0, []
+        bends, kinds, degrees, corners, km, radii, grown = [], [], [], 0, 0.0, [], None
         mapped_city = load(REPO / "fixtures" / name)
         for seed in args.seeds or [args.seed]:
             placed = _placed(watch, mapped_city, seed, args.district)
             if placed is None:
                 continue
-            town, rounds = placed
+            town, rounds, (count, length), grown = placed
+            corners, km = corners + count, km + length
+            radii.append(float(np.sqrt(max(grown.report["district_area_m2"], 1.0) / np.pi)))
             for watched, b, p in rounds:
                 bends.append(b)
                 kinds.append(classify(watched, p))
                 joint = kinds[-1] == "piece joint"
                 degrees.append(np.where(joint, 0, -1))
                 degrees[-1][joint] = copied_degree(watched, p[joint, 1])
-                final = watched["final"]
-                district = network_from_lines(final, [{"highway": "residential", "origin": Origin.GROWN}] * len(final))
-                corners += int((corner_turns(district) > SHARP).sum())
-                km += district.total_length() / 1000.0
-                radii.append(float(np.sqrt(shapely.MultiLineString(final).convex_hull.area / np.pi)))
         seeds = " ".join(map(str, args.seeds or [args.seed]))
         if not bends:
             print(f"{name} seed {seeds}: no {'district' if args.district else 'engine district'} placed")
@@ -271,12 +277,11 @@ def main() -> None:
         b, k = np.concatenate(bends), np.concatenate(kinds)
         whole = np.sort(measure_network(town, pieces=False).value("curvature"))
         mapped = network_from_lines(town, [{"highway": "residential", "origin": Origin.SOURCE}] * len(town))
-        town_rate = (corner_turns(mapped) > SHARP).sum() / (mapped.total_length() / 1000.0)
-        # the same reading in the town's neighbourhoods at the districts' size (their streets' hull): the rate a
-        # district stands beside (session 39; the whole extract's is mostly country roads)
-        around = _neighbourhood_points(_source(mapped_city, learn(mapped_city).example, everything=True), 16,
-                                       float(np.median(radii)), np.random.default_rng(0))
-        hoods = corners_in_discs(mapped_city.network, around, float(np.median(radii)))
+        town_rate = (corner_turns(mapped)[1] > SHARP).sum() / (mapped.total_length() / 1000.0)
+        # the same reading in the town's neighbourhoods at the district's size (the pipeline district's area, as
+        # district_fidelity.py and engine_growth.py read it): the rate a district stands beside (session 39; the
+        # whole extract's is mostly country roads)
+        hoods = neighbourhood_corner_rates(grown.city, grown.learned.example, float(np.median(radii)))
         print(f"\n{name} seed {seeds}: {len(b)} chords in the placed districts, median {np.median(b):.1f}°, "
               f"corners over {SHARP:.0f}° {corners / km:.2f} per km (whole extract {town_rate:.2f}; its "
               f"neighbourhoods' median {np.nanmedian(hoods):.2f}, p90 {np.nanpercentile(hoods, 90):.2f})")

@@ -13,7 +13,7 @@ with L the step length and θ the turn from the previous step (no angle term
 on a walk's first step), times a *consistency* factor beyond the thesis: a
 Gaussian of how far the target record's stored statistics are from the
 walking street's, so a walk keeps to junctions that came from a street like
-itself (on by default; see the README for what it and snapping add).
+itself (on by default).
 
 P is zero when the target has no free record of the walk's level, the step
 would cross a segment already drawn or an obstacle, pass a junction closer

@@ -69,7 +69,7 @@ patch each takes), :mod:`~synth.patches.seams`, :mod:`~synth.patches.edges` (per
 :mod:`~synth.patches.pattern` (:class:`ExamplePatches`, which runs the steps above). Every public name is
 importable from here, as it was when they were one module.
 """
-from synth.patches.corners import SHARP, corner_turns, sharp_corners
+from synth.patches.corners import SHARP, corner_turns, neighbourhood_corner_rates, sharp_corners
 from synth.patches.edges import EDGE_INSET
 from synth.patches.options import NOT_COPIED, PatchOptions
 from synth.patches.pattern import ATTEMPTS, DEAD_END_DISCS, MAX_FILLS, ExamplePatches
@@ -80,5 +80,5 @@ from synth.patches.topology import JOIN_REACH, ON_EDGE, STUB_LENGTH
 __all__ = [
     "ATTEMPTS", "CONNECTOR_STEP", "DEAD_END_DISCS", "EDGE_INSET", "ExamplePatches", "JOIN_REACH",
     "MAX_FILLS", "NOT_COPIED", "ON_EDGE", "PatchOptions", "SHARP", "STUB_LENGTH", "TYPICAL", "corner_turns",
-    "sharp_corners",
+    "neighbourhood_corner_rates", "sharp_corners",
 ]

@@ -7,13 +7,16 @@ from dataclasses import dataclass
 import numpy as np
 import shapely
 
-from osm_expand.model import StreetNetwork, polyline_length, turn_angles
+from osm_expand.model import City, StreetNetwork, polyline_length, turn_angles
 from osm_expand.model.geometry import linestrings_of
+from simplify.example import Example
+from synth.patches.source import _neighbourhood_points, _source
 
 
-def corner_turns(net: StreetNetwork, among: np.ndarray | None = None) -> np.ndarray:
-    """The turn (degrees, 0-180) at every node where exactly two segments meet, of ``among`` nodes only
-    when given (e.g. the district's): how sharply a street bends where no junction explains it.
+def corner_turns(net: StreetNetwork, among: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """The nodes where exactly two segments meet (of ``among`` only when given, e.g. the district's), in
+    ascending order, and the turn (degrees, 0-180) at each: how sharply a street bends where no junction
+    explains it.
 
     The fidelity yardstick reads streets as chains between junctions (:mod:`osm_expand.measures`), so
     a bend at a node of degree 2 is part of one street's curvature however it arose: an L left where a
@@ -31,23 +34,23 @@ def corner_turns(net: StreetNetwork, among: np.ndarray | None = None) -> np.ndar
     order = np.argsort(node[two], kind="stable")
     node, other = node[two][order], other[two][order]
     at, before, after = node[0::2], other[0::2], other[1::2]
-    return turn_angles(net.xy[at] - net.xy[before], net.xy[after] - net.xy[at])
+    return at, turn_angles(net.xy[at] - net.xy[before], net.xy[after] - net.xy[at])
 
 
 #: degrees: a turn sharper than this at a node of degree 2 is a corner (issue 20's count).
 SHARP = 45.0
 
 
-def sharp_corners(net: StreetNetwork, new: bool = True) -> tuple[int, float]:
-    """The corners sharper than :data:`SHARP` at degree-2 nodes of ``net``'s new streets (``new``) or of
-    its streets as mapped, and those streets' length in km: the count and the length it is read over,
-    so that a district's rate per km can stand beside its town's."""
-    mine = [s for s in net.streets if s.is_new == new]
+def sharp_corners(net: StreetNetwork) -> tuple[int, float]:
+    """The corners sharper than :data:`SHARP` at degree-2 nodes of ``net``'s new streets, and those
+    streets' length in km: the count and the length it is read over, so that a district's rate per km
+    can stand beside its town's (:func:`neighbourhood_corner_rates`)."""
+    mine = [s for s in net.streets if s.is_new]
     if not mine:
         return 0, 0.0
     nodes = np.unique(np.concatenate([np.asarray(s.nodes) for s in mine]))
     km = sum(polyline_length(net.street_xy(s)) for s in mine) / 1000.0
-    return int((corner_turns(net, nodes) > SHARP).sum()), float(km)
+    return int((corner_turns(net, nodes)[1] > SHARP).sum()), float(km)
 
 
 def _straighten(net: StreetNetwork, budget: int, reach: float, old: shapely.Geometry,
@@ -61,9 +64,10 @@ def _straighten(net: StreetNetwork, budget: int, reach: float, old: shapely.Geom
     The seams leave corners that no street of the town has: a seam link a few metres off the cut
     street it continues (a jog: two turns of 50-140° a few metres apart), a perimeter street meeting a
     cut street a metre or two from where it was cut (a spike), an L of a trimmed tee. The town's own
-    streets turn more than :data:`SHARP` at a node of degree two about once a km
-    (:func:`sharp_corners`), so the ``budget`` (the caller's: that rate over the district's length)
-    is how many of them a district of the town may keep. Moves are greedy, the one that takes away
+    streets as mapped turn more than :data:`SHARP` at a node of degree two 0.7-1.2 times a km in its
+    neighbourhoods at the district's size (median; :func:`corners_in_discs`, read by
+    ``ExamplePatches._corner_rate``), so the ``budget`` (the caller's: that rate over the district's
+    length) is how many of them a district of the town may keep. Moves are greedy, the one that takes away
     the most corners around it first (then the smallest); only positions change, never which nodes a
     street joins, so dead ends, loops, junctions and pieces stay as they were.
     """
@@ -179,11 +183,14 @@ def _clear(xy: np.ndarray, seg: np.ndarray, key: tuple[int, ...], new: np.ndarra
     return True
 
 
-
 @dataclass(frozen=True)
 class MappedCorners:
     """The town's streets as mapped and their corners sharper than :data:`SHARP` at nodes of degree two:
-    read once per network, then counted in any disc (:func:`corners_in_discs`)."""
+    read once per network, then counted in any disc (:func:`corners_in_discs`).
+
+    Every street as mapped, the motorways and ramps too (:data:`~synth.patches.options.NOT_COPIED`), which a
+    district never copies: the neighbourhoods are read as the verdict reads them (its ``everything``
+    source), so a rate here is the town's as the yardstick sees it, not only of what may be copied."""
 
     lines: np.ndarray  #: shapely LineStrings of the mapped streets
     tree: shapely.STRtree
@@ -195,12 +202,7 @@ class MappedCorners:
         if not mapped:
             empty = np.zeros(0, dtype=object)
             return cls(lines=empty, tree=shapely.STRtree(empty), sharp=np.zeros((0, 2)))
-        nodes = np.unique(np.concatenate([np.asarray(s.nodes) for s in mapped]))
-        turns = corner_turns(net, nodes)
-        seg = np.array([(a, b) for s in net.streets for a, b in zip(s.nodes[:-1], s.nodes[1:]) if a != b],
-                       dtype=np.int64).reshape(-1, 2)
-        degree = np.bincount(seg.ravel(), minlength=len(net.xy))
-        at = nodes[degree[nodes] == 2]  # corner_turns' order: the degree-2 nodes among ``nodes``, ascending
+        at, turns = corner_turns(net, np.unique(np.concatenate([np.asarray(s.nodes) for s in mapped])))
         lines = linestrings_of([net.street_xy(s) for s in mapped])
         return cls(lines=lines, tree=shapely.STRtree(lines), sharp=net.xy[at[turns > SHARP]])
 
@@ -225,3 +227,14 @@ def corners_in_discs(net: StreetNetwork | MappedCorners, centres: np.ndarray, ra
         if km > 0:
             out[k] = float((np.hypot(*(read.sharp - c).T) <= radius).sum()) / km
     return out
+
+
+def neighbourhood_corner_rates(city: City, example: Example | None, radius: float, n: int = 16,
+                               seed: int = 0) -> np.ndarray:
+    """:func:`corners_in_discs` of ``city``'s streets as mapped in ``n`` of its neighbourhoods of ``radius``
+    metres (the yardstick's draw, :func:`~synth.patches.source._neighbourhood_points`, on every street of the
+    town with generator ``seed``): the rates a district of that radius is read beside (their median and 90th
+    percentile in the benchmarks and tests). ``example`` only lends the source its levels, which the draw
+    never reads: None will do."""
+    around = _neighbourhood_points(_source(city, example, everything=True), n, radius, np.random.default_rng(seed))
+    return corners_in_discs(city.network, around, radius)

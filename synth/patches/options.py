@@ -38,7 +38,7 @@ class PatchOptions:
     #: first two eras, seed 0, engine streets off of 14 per reference seed: Andorra 6 8 7 -> 0 0 0,
     #: north-bayreuth 2 1 2 -> 1 1 1, Monaco 7 8 6 -> 5 5 6, but Krems 1 2 1 -> 4 3 3, Campo Grande 6.0 ->
     #: 8.7 (its 2-core share below range) and, with Krems' buildings withheld, 5 real houses crossed
-    #: (0 before): not the default (README, h29e).
+    #: (0 before): not the default (docs/growth-log.md, h29e).
     density_band: tuple[float, float] = (1.0, 2.5)
     #: Keep candidate patches whose street density lies within the range the fidelity verdict allows over
     #: all the candidates (the town's neighbourhoods at the patch's size, by the verdict's own rule:
@@ -52,7 +52,7 @@ class PatchOptions:
     #: 2 1 1, but north-bayreuth 2 1 2 -> 4 4 4 and Campo Grande 6 6 6 -> 9 8 9 (its sparser patches, a
     #: grid town's irregular fringe, add three-way junctions and take four-way ones away); with
     #: ``share_guard`` on all six scalars (``guarded``) Campo Grande 8 8 8, Andorra 3 2 4, Krems 3 1 2,
-    #: north-bayreuth 3 4 3, Monaco 5 5 7 (README, h30e).
+    #: north-bayreuth 3 4 3, Monaco 5 5 7 (docs/growth-log.md, h30e).
     density_from_verdict: bool = False
     #: Keep only candidate patches whose dead-end share and 2-core share lie within the range the fidelity
     #: verdict allows over all the candidates (the town's neighbourhoods at the patch's size; the verdict's
@@ -64,7 +64,7 @@ class PatchOptions:
     #: -> 1 2 2, but north-bayreuth 2 1 2 -> 1 1 1 -> 2 4 3, Monaco 7 8 6 -> 5 5 6 -> 6 6 9 with its 2-core
     #: share below range, and with Krems' buildings withheld an engine district still crosses 5 real houses
     #: (main 0); with the band 0.75-2.5 Campo Grande 8 8 8, Monaco 6 6 6 and Andorra 4 2 4 with their
-    #: 2-core shares out of range, Krems' 5 houses the same (README, h29f).
+    #: 2-core shares out of range, Krems' 5 houses the same (docs/growth-log.md, h29f).
     share_guard: bool = False
     #: The scalar measures ``share_guard`` holds within the verdict's range: by default the dead-end and
     #: 2-core shares; the verdict judges six scalars (:data:`GUARDABLE`: ``density``, ``orientation_entropy``,
@@ -76,7 +76,7 @@ class PatchOptions:
     #: (e.g. ``four_way_share``, ``orientation_entropy``: a grid town's typical patch is a grid). Empty by
     #: default: with ``density_from_verdict`` and these two, seed 0, engine streets off of 14 per reference
     #: seed: Monaco 2 2 3, but Campo Grande 9 8 9, Krems 6 2 7 and north-bayreuth 4 3 2 with their 2-core
-    #: shares below range, Andorra 4 4 5 (README, h30e).
+    #: shares below range, Andorra 4 4 5 (docs/growth-log.md, h30e).
     also_typical: tuple[str, ...] = ()
     #: Rank the candidate patches by their curvature as the fidelity verdict reads it: the KS distance between a
     #: patch's bends per 20 m chord and the mean distribution of all the candidates drawn (the town's
@@ -138,7 +138,7 @@ class PatchOptions:
     #: against the town's 0.9°). Off (the bins' centres): in the example history's eras, seed 0, engine
     #: streets off of 14 per reference seed (main -> this): Campo Grande 4 4 5 -> 2 3 3, but its alignment
     #: does not move (1.7° -> 1.9°), Krems 2 2 4 -> 5 3 4, north-bayreuth 5 5 5 -> 3 3 3 with its 2-core
-    #: share below range, Monaco 2 3 3 -> 3 2 1, Andorra 0 0 0 (README, issue 20, h32n).
+    #: share below range, Monaco 2 3 3 -> 3 2 1, Andorra 0 0 0 (docs/growth-log.md, issue 20, h32n).
     grain_from_bearings: bool = False
     #: Discs of the district's area measured on the town for the target density.
     density_discs: int = 64
@@ -148,7 +148,7 @@ class PatchOptions:
     #: sea, the slopes or the fields across it, and a district filled to that density over its free land
     #: came out sparser than the neighbourhoods it is judged against (Monaco's engine streets: 18.9 km/km²
     #: against 20.3-31.1). Off: it does not raise that density (the target is not what stops the filling):
-    #: Monaco 7 8 6 -> 9 9 10 alone, 3 3 5 with ``density_from_verdict`` (density 17.75) (README, h30e).
+    #: Monaco 7 8 6 -> 9 9 10 alone, 3 3 5 with ``density_from_verdict`` (density 17.75) (docs/growth-log.md, h30e).
     target_on_streets_land: bool = False
     #: Copied streets keep this many spacings from the town's streets (they meet them only in tees).
     clearance: float = 0.15
@@ -193,7 +193,7 @@ class PatchOptions:
     #: 3, Monaco 2 3 3 (the same), Campo Grande 4 4 5 -> 4 4 4 (its 2-core share still below range); seed 1:
     #: north-bayreuth 3 3 3 -> 3 3 2, Andorra 0 0 1 and Krems 4 3 4 the same, Monaco 3 3 2 -> 3 4 6. Straight legs at
     #: 0.15 spacings everywhere (no town's bend): north-bayreuth 2 2 4 but Andorra 7 7 5, its curvature 1.3° against
-    #: 4.1° (README, issue 20, h32n).
+    #: 4.1° (docs/growth-log.md, issue 20, h32n).
     edge_tolerance: float | None = None
     #: Lay a seam link as the straight line between its two cut ends, not the smooth curve of
     #: :func:`~synth.patches.seams._connector` (tangent to both cut streets): the turn between two cut streets

@@ -45,11 +45,12 @@ def _line_xy(lines: np.ndarray) -> list[np.ndarray]:
     return np.split(xy, np.cumsum(shapely.get_num_coordinates(lines))[:-1])
 
 
-def _source(city: City, example: Example, everything: bool = False) -> _Source:
+def _source(city: City, example: Example | None, everything: bool = False) -> _Source:
     """The town's streets that may be copied (``everything``: all its streets, as the fidelity measures
-    them), with the Gravelius level of the example street holding each way."""
+    them), with the Gravelius level of the example street holding each way (all one level without an
+    ``example``: the neighbourhoods' draw reads no level)."""
     level_of: dict[int, int] = {}
-    for s in example.network.streets:
+    for s in example.network.streets if example is not None else ():
         for osm_id in s.osm_ids:
             level_of[osm_id] = min(level_of.get(osm_id, s.hierarchy), s.hierarchy)
     deepest = max(level_of.values(), default=0) + 1
