@@ -25,7 +25,8 @@ Issue 20's targets: off on at most 4 of 14, dead-end and 2-core shares in
 range, infill + edge expansion at least 80 % of the new street length.
 
 Usage: ``python benchmarks/engine_growth.py [--history european] [--eras] [--measures] [--where]
-[--discs] [--fixed-margin] [--seed N] [--neighbourhoods K] [--option NAME=VALUE ...] [TOWN ...]`` (``--neighbourhoods``:
+[--discs] [--fixed-margin] [--seed N | --seeds S ...] [--neighbourhoods K] [--option NAME=VALUE ...] [TOWN ...]``
+(``--seeds 0-5``: a row per seed and a summary per town, the way to judge a rule; ``--neighbourhoods``:
 :attr:`GrowthOptions.district_neighbourhoods` for the run; ``--option``, repeatable: any other
 :class:`GrowthOptions` field, e.g. ``--option pattern_aim=false --option sites_tried=7``)
 (default: Krems, Andorra, north-bayreuth, Monaco, Krems with ``european``, then Campo Grande;
@@ -212,6 +213,21 @@ def _neighbourhoods(text: str) -> float:
     return value
 
 
+def run_seeds(text: str) -> list[int]:
+    """``--seeds``: ``0-5`` (both ends included) or ``0,2,4``; each a seed >= 0."""
+    try:
+        if "-" in text:
+            low, high = (int(part) for part in text.split("-", 1))
+            seeds = list(range(low, high + 1))
+        else:
+            seeds = [int(part) for part in text.split(",")]
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"--seeds: {text!r} is not A-B or A,B,... of whole numbers") from None
+    if not seeds or min(seeds) < 0:
+        raise argparse.ArgumentTypeError(f"--seeds: {text!r} names no seed, or a negative one")
+    return seeds
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("towns", nargs="*", help="fixture names (default: the five towns and Krems european)")
@@ -233,6 +249,10 @@ def main() -> None:
                          "the options' own)")
     ap.add_argument("--seed", type=int, default=0, help="the run's seed (default 0; one seed moves the off count "
                                                          "by up to 6)")
+    ap.add_argument("--seeds", type=run_seeds, default=None, metavar="A-B|A,B,...",
+                    help="several run seeds instead of --seed: a row per town and seed, then per town the mean off "
+                         "over the seeds and the seeds with both shares in range (one seed moves a town's verdict "
+                         "by up to 6: judge a rule on six, 0-5, against the default's own spread)")
     ap.add_argument("--option", type=growth_option, action="append", default=[], metavar="NAME=VALUE",
                     help="a GrowthOptions field for the run, e.g. pattern_aim=false (repeatable)")
     args = ap.parse_args()
@@ -246,18 +266,24 @@ def main() -> None:
     eras: list[str] = []
     off_lines: list[str] = []  # outside the tables: a one-cell row breaks a 12-column markdown table
     era_off_lines: list[str] = []
-    for name, history in runs:
-        row = run(name, history, args.years, args.refs, args.discs, args.neighbourhoods, args.seed,
+    seeds = args.seeds if args.seeds else [args.seed]
+    summary: dict[tuple[str, str], list[tuple[int, float, bool]]] = {}  # per run: (seed, mean off, shares in range)
+    for (name, history), seed in ((r, s) for r in runs for s in seeds):
+        row = run(name, history, args.years, args.refs, args.discs, args.neighbourhoods, seed,
                   args.fixed_margin, dict(args.option), args.where)
+        label = name if len(seeds) == 1 else f"{name} (seed {seed})"
         first = row["judged"][0]
         if first is None or first.overall is None:
-            print(f"| {name} | {history} | no engine street | | | | | | | | "
+            print(f"| {label} | {history} | no engine street | | | | | | | | "
                   f"{row['run_s']:.0f} ({row['run_cpu']:.0f}) | |")
+            summary.setdefault((name, history), []).append((seed, float("nan"), False))
             continue
         offs = [g.overall.off for g in row["judged"]]
         overall = first.overall.to_dict()
         lei = first.lei.to_dict()
-        print(f"| {name} | {history} | {' '.join(map(str, offs))} | {np.mean(offs):.1f} "
+        shares_ok = all(overall["measures"][m]["ok"] for m in ("dead_end_share", "two_core_share"))
+        summary.setdefault((name, history), []).append((seed, float(np.mean(offs)), shares_ok))
+        print(f"| {label} | {history} | {' '.join(map(str, offs))} | {np.mean(offs):.1f} "
               f"| {_share(overall, 'dead_end_share')} | {_share(overall, 'two_core_share')} | {overall['pieces']} "
               f"| {lei['infill']} / {lei['edge']} / {lei['outlying']} | {lei['new_length_km']} "
               f"| {first.major_roads_m / 1000:.1f} "
@@ -265,29 +291,37 @@ def main() -> None:
               f"| {row['corners']['per_km']:.2f} "
               f"({row['corners']['town_median']:.2f}, {row['corners']['town_p90']:.2f}) |",
               flush=True)
-        off_lines.append(f"- {name} {history} districts per era (count, km): "
+        off_lines.append(f"- {label} {history} districts per era (count, km): "
                          + ", ".join(f"{e} {n} ({km:.1f})" for e, n, km in row["eras_grown"]))
         if args.where:
-            off_lines.append(f"- {name} {history} where (year: km, pieces, median m to the town's settlement / to "
+            off_lines.append(f"- {label} {history} where (year: km, pieces, median m to the town's settlement / to "
                              "the growth before): " + "; ".join(
                                  f"{w['year']}: {w['km']:.1f} km, {w['pieces']}, {w['to_town_m']:.0f} / "
                                  f"{w['to_earlier_m']:.0f}" for w in row["where"]))
         if args.measures:
             offs_by = [_off_measures(g.overall.to_dict()) for g in row["judged"]]
-            off_lines += [f"- {name} {history} off (reference {seed}): {line or 'none'}"
-                          for seed, line in enumerate(offs_by)]
+            off_lines += [f"- {label} {history} off (reference {ref}): {line or 'none'}"
+                          for ref, line in enumerate(offs_by)]
         for era, report in first.per_era.items():
             e = first.lei_per_era[era].to_dict()
             if report is None:
-                eras.append(f"| {name} | {history} | {era} | | | | | {e['infill']} / {e['edge']} / {e['outlying']} "
+                eras.append(f"| {label} | {history} | {era} | | | | | {e['infill']} / {e['edge']} / {e['outlying']} "
                             f"| {e['new_length_km']} |")
                 continue
             r = report.to_dict()
-            eras.append(f"| {name} | {history} | {era} | {r['off']} | {_share(r, 'dead_end_share')} "
+            eras.append(f"| {label} | {history} | {era} | {r['off']} | {_share(r, 'dead_end_share')} "
                         f"| {_share(r, 'two_core_share')} | {r['pieces']} "
                         f"| {e['infill']} / {e['edge']} / {e['outlying']} | {e['new_length_km']} |")
             if args.measures:
-                era_off_lines.append(f"- {name} {history} {era} off (reference 0): {_off_measures(r) or 'none'}")
+                era_off_lines.append(f"- {label} {history} {era} off (reference 0): {_off_measures(r) or 'none'}")
+    if len(seeds) > 1:
+        print("\n| town | history | mean off per seed | mean over the seeds | seeds with both shares in range |"
+              "\n|---|---|---|---|---|")
+        for (name, history), got in summary.items():
+            means = np.array([m for _, m, _ in got])
+            overall = f"{np.nanmean(means):.1f}" if np.isfinite(means).any() else "n/a"  # n/a: nothing grew
+            print(f"| {name} | {history} | {' '.join(f'{m:.1f}' for m in means)} | {overall} "
+                  f"| {sum(ok for _, _, ok in got)}/{len(got)} |")
     if off_lines:
         print("\n" + "\n".join(off_lines))
     if args.eras and eras:

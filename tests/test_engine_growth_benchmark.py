@@ -43,3 +43,13 @@ def test_the_benchmark_sets_a_growth_option_by_its_fields_type():
     for bad in ("pattern_aim=yes", "no_such_field=1", "sites_tried", "sites_tried=x"):
         with pytest.raises(argparse.ArgumentTypeError):
             module.growth_option(bad)
+
+
+def test_the_benchmark_reads_a_range_or_a_list_of_run_seeds():
+    module = _module()
+    assert module.run_seeds("0-5") == [0, 1, 2, 3, 4, 5]
+    assert module.run_seeds("3") == [3]
+    assert module.run_seeds("0,2,4") == [0, 2, 4]
+    for bad in ("a-b", "", "5-2", "1,x"):
+        with pytest.raises(argparse.ArgumentTypeError):
+            module.run_seeds(bad)
