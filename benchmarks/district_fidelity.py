@@ -101,7 +101,7 @@ def eye(result) -> dict:
     around = _neighbourhood_points(_source(result.city, result.learned.example, everything=True), 16, radius,
                                    np.random.default_rng(0))
     town_read = np.array([read(town, shapely.Point(c).buffer(radius)) for c in around])
-    corners = neighbourhood_corner_rates(result.city, result.learned.example, radius)  # the same 16 discs
+    corners = neighbourhood_corner_rates(result.city, radius)  # the same 16 discs
     return {"straight": straight, "town_straight": float(np.nanmedian(town_read[:, 0])), "blocks_per_km": blocks,
             "town_blocks_per_km": float(np.nanmedian(town_read[:, 1])),
             "town_corners_per_km": float(np.nanmedian(corners)),

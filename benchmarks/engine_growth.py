@@ -162,7 +162,7 @@ def engine_corners(result) -> dict:  # type: ignore[no-untyped-def]  # an Expand
     count = int((corner_turns(net, np.unique(np.concatenate([np.asarray(s.nodes) for s in mine])))[1] > SHARP).sum()) \
         if mine else 0
     radius = float(np.sqrt(max(result.report.get("district_area_m2", 0.0), 1.0) / np.pi))
-    rates = neighbourhood_corner_rates(result.city, result.learned.example, radius)
+    rates = neighbourhood_corner_rates(result.city, radius)
     return {"corners": count, "per_km": count / max(km, 1e-9), "town_median": float(np.nanmedian(rates)),
             "town_p90": float(np.nanpercentile(rates, 90))}
 

@@ -281,7 +281,7 @@ def main() -> None:
         # the same reading in the town's neighbourhoods at the district's size (the pipeline district's area, as
         # district_fidelity.py and engine_growth.py read it): the rate a district stands beside (session 39; the
         # whole extract's is mostly country roads)
-        hoods = neighbourhood_corner_rates(grown.city, grown.learned.example, float(np.median(radii)))
+        hoods = neighbourhood_corner_rates(grown.city, float(np.median(radii)))
         print(f"\n{name} seed {seeds}: {len(b)} chords in the placed districts, median {np.median(b):.1f}°, "
               f"corners over {SHARP:.0f}° {corners / km:.2f} per km (whole extract {town_rate:.2f}; its "
               f"neighbourhoods' median {np.nanmedian(hoods):.2f}, p90 {np.nanpercentile(hoods, 90):.2f})")

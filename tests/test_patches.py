@@ -246,7 +246,7 @@ def _neighbourhood_corner_rate(result) -> tuple[float, float]:
     from synth.patches.corners import neighbourhood_corner_rates
 
     radius = float(np.sqrt(result.report["district_area_m2"] / np.pi))
-    rates = neighbourhood_corner_rates(result.city, result.learned.example, radius)
+    rates = neighbourhood_corner_rates(result.city, radius)
     return float(np.nanmedian(rates)), float(np.nanpercentile(rates, 90))
 
 

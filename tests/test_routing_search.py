@@ -828,15 +828,11 @@ def test_on_krems_the_compiled_search_is_scipys_state_for_state(krems_town):  # 
             routing._vertex_path(want_pred, start, end, region, states)
 
 
-@settings(max_examples=12, deadline=None)
-@given(st.integers(0, 2**32 - 1), st.sampled_from([8, 16]))
-def test_a_star_with_scipys_tie_rule_walks_back_plain_dijkstras_routes_state_for_state(seed, k):
-    """Issue 22 (session 36): the route search's A* on the graph's own weights (``ties``: keyed by
-    ``g + h``, h the turn-free distance to the target, limit C on ``g + h``), scipy's predecessor rule
-    applied as states relax, gives every state of a route found below C the distance and the
-    predecessor scipy's Dijkstra with the limit C on ``g`` gives: from each of a few targets the
-    route walked back is the same states with the same distances, on street grids full of exactly
-    equal routes, while it searches fewer states."""
+def _route_problem(seed: int, k: int):
+    """A random street grid (:func:`random_map`), turn options of ``k`` heading bins, two of its live vertices
+    ``s`` and ``t`` joined by a road, their plain distances over the roads and a route limit of 1.2-3 times the
+    shortest plus one turn: the set-up the route search's state-for-state tests share (drawn in this order
+    from the map's generator, which the tests draw on after)."""
     g, rng = random_map(seed)
     opts = RoutingOptions(turn_height=float(rng.uniform(20, 900)), heading_bins=k)
     lat, extra = g.masks()
@@ -846,6 +842,19 @@ def test_a_star_with_scipys_tie_rule_walks_back_plain_dijkstras_routes_state_for
         d_s, d_t = dijkstra(matrix, indices=[s, t])
     assume(np.isfinite(d_s[t]))
     limit = float(rng.uniform(1.2, 3.0)) * d_s[t] + opts.turn_height
+    return g, rng, opts, lat, extra, s, t, d_s, d_t, limit
+
+
+@settings(max_examples=12, deadline=None)
+@given(st.integers(0, 2**32 - 1), st.sampled_from([8, 16]))
+def test_a_star_with_scipys_tie_rule_walks_back_plain_dijkstras_routes_state_for_state(seed, k):
+    """Issue 22 (session 36): the route search's A* on the graph's own weights (``ties``: keyed by
+    ``g + h``, h the turn-free distance to the target, limit C on ``g + h``), scipy's predecessor rule
+    applied as states relax, gives every state of a route found below C the distance and the
+    predecessor scipy's Dijkstra with the limit C on ``g`` gives: from each of a few targets the
+    route walked back is the same states with the same distances, on street grids full of exactly
+    equal routes, while it searches fewer states."""
+    g, rng, opts, lat, extra, s, t, d_s, d_t, limit = _route_problem(seed, k)
     region = np.flatnonzero(d_s + d_t <= limit)
     states = routing._States(len(region), k)
     local = routing._local(g, region, k)
@@ -1127,15 +1136,7 @@ def test_a_search_gone_on_over_grown_tiles_ends_as_the_search_from_scratch_state
     from scratch over the grown tiles gives."""
     from osm_expand.engine.roads.expanded_search import Resume
 
-    g, rng = random_map(seed)
-    opts = RoutingOptions(turn_height=float(rng.uniform(20, 900)), heading_bins=k)
-    lat, extra = g.masks()
-    live = g.live_vertices()
-    s, t = (int(v) for v in rng.choice(live, 2, replace=False))
-    with g.restricted(routing.ROAD_KINDS, None) as matrix:
-        d_s, d_t = dijkstra(matrix, indices=[s, t])
-    assume(np.isfinite(d_s[t]))
-    limit = float(rng.uniform(1.2, 3.0)) * d_s[t] + opts.turn_height
+    g, rng, opts, lat, extra, s, t, d_s, d_t, limit = _route_problem(seed, k)
     in_region = d_s + d_t <= limit
     region = np.flatnonzero(in_region)
     states = routing._States(len(region), k)

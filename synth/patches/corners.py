@@ -9,7 +9,6 @@ import shapely
 
 from osm_expand.model import City, StreetNetwork, polyline_length, turn_angles
 from osm_expand.model.geometry import linestrings_of
-from simplify.example import Example
 from synth.patches.source import _neighbourhood_points, _source
 
 
@@ -229,12 +228,10 @@ def corners_in_discs(net: StreetNetwork | MappedCorners, centres: np.ndarray, ra
     return out
 
 
-def neighbourhood_corner_rates(city: City, example: Example | None, radius: float, n: int = 16,
-                               seed: int = 0) -> np.ndarray:
+def neighbourhood_corner_rates(city: City, radius: float, n: int = 16, seed: int = 0) -> np.ndarray:
     """:func:`corners_in_discs` of ``city``'s streets as mapped in ``n`` of its neighbourhoods of ``radius``
     metres (the yardstick's draw, :func:`~synth.patches.source._neighbourhood_points`, on every street of the
     town with generator ``seed``): the rates a district of that radius is read beside (their median and 90th
-    percentile in the benchmarks and tests). ``example`` only lends the source its levels, which the draw
-    never reads: None will do."""
-    around = _neighbourhood_points(_source(city, example, everything=True), n, radius, np.random.default_rng(seed))
+    percentile in the benchmarks and tests). The source needs no example: the draw never reads its levels."""
+    around = _neighbourhood_points(_source(city, None, everything=True), n, radius, np.random.default_rng(seed))
     return corners_in_discs(city.network, around, radius)

@@ -38,6 +38,7 @@ from osm_expand.engine.growth.yardstick import DistrictYardstick, growth_lines
 from osm_expand.errors import OptionError
 from osm_expand.joins import add_streets
 from osm_expand.model import City, Origin, Status, match_points, polyline_length
+from osm_expand.model.memo import IdentityMemo
 from osm_expand.model.options import is_real_number
 from osm_expand.model.segments import SegmentTable
 from osm_expand.sites import (
@@ -462,9 +463,9 @@ def _never_closes(options: PatternOptions) -> bool:
     return not (options.snap_enabled or options.extend_enabled)
 
 
-#: the last town's land (:attr:`~osm_expand.model.land.Land.town`, the very array) and a KD-tree of its
-#: vertices (:func:`_at_the_edge`): a run's land does not change, its years ask again and again
-_TOWN_VERTICES: list = [None, None]
+#: a KD-tree of the vertices of the town's land (:attr:`~osm_expand.model.land.Land.town`, the very array;
+#: :func:`_at_the_edge`): a run's land does not change, its years ask again and again
+_TOWN_VERTICES = IdentityMemo(kept=2)
 
 
 def _at_the_edge(city: City, xy: np.ndarray, reach: float) -> np.ndarray:
@@ -480,9 +481,8 @@ def _at_the_edge(city: City, xy: np.ndarray, reach: float) -> np.ndarray:
         # and only the other points are measured against the polygons (all of them were: 0.66 s a call, 0.11 s
         # now, on Campo Grande's european years, 189 calls; 46,090 of 50,837 points near, the same ones)
         town = city.land.town
-        if _TOWN_VERTICES[0] is not town:
-            _TOWN_VERTICES[:] = [town, cKDTree(shapely.get_coordinates(town))]
-        dist, _ = _TOWN_VERTICES[1].query(xy, k=1, distance_upper_bound=reach)
+        vertices = _TOWN_VERTICES.get((town,), "vertices", lambda: cKDTree(shapely.get_coordinates(town)))
+        dist, _ = vertices.query(xy, k=1, distance_upper_bound=reach)
         near = dist <= reach - 1e-6
         rest = np.flatnonzero(~near)
         near[rest[city.land.town_tree.query(points[rest], predicate="dwithin", distance=reach)[0]]] = True

@@ -440,12 +440,10 @@ def changed_keys(new: np.ndarray, old: np.ndarray) -> np.ndarray:
     Grande's later road years (24,000 segments), this 0.01 s; numpy's ``unique``/``isin`` of void
     keys were slower still.
     """
-    keys = np.ascontiguousarray(np.concatenate([new, old]))
-    n = len(keys)
+    n = len(new) + len(old)
     if not n:
         return np.zeros(0, dtype=np.int64)
-    assert keys.dtype.itemsize % 8 == 0, f"a key of {keys.dtype.itemsize} bytes is not whole 8-byte words"
-    words = np.frombuffer(keys.tobytes(), dtype=np.uint64).reshape(n, keys.dtype.itemsize // 8)
+    words = _words(np.concatenate([new, old]))
     order = np.lexsort(words.T[::-1])
     ranked = words[order]
     start = np.ones(n, dtype=bool)
@@ -459,13 +457,18 @@ def changed_keys(new: np.ndarray, old: np.ndarray) -> np.ndarray:
     return np.flatnonzero(changed).astype(np.int64)
 
 
-def _hash(keys: np.ndarray) -> np.ndarray:
-    """A uint64 hash of each void key (its 8-byte words, mixed one after another)."""
+def _words(keys: np.ndarray) -> np.ndarray:
+    """``(n, w)`` uint64: each void key (of whole 8-byte words) as its words, what :func:`_hash` mixes and
+    :func:`changed_keys` sorts."""
     keys = np.ascontiguousarray(keys)
     assert keys.dtype.itemsize % 8 == 0, f"a key of {keys.dtype.itemsize} bytes is not whole 8-byte words"
-    words = np.frombuffer(keys.tobytes(), dtype=np.uint64).reshape(len(keys), keys.dtype.itemsize // 8)
+    return np.frombuffer(keys.tobytes(), dtype=np.uint64).reshape(len(keys), keys.dtype.itemsize // 8)
+
+
+def _hash(keys: np.ndarray) -> np.ndarray:
+    """A uint64 hash of each void key (its 8-byte words, mixed one after another)."""
     out = np.zeros(len(keys), dtype=np.uint64)
-    for column in words.T:
+    for column in _words(keys).T:
         out = (out ^ column) * np.uint64(0x9E3779B97F4A7C15)  # wraps modulo 2⁶⁴
         out ^= out >> np.uint64(29)
     return out
