@@ -225,6 +225,18 @@ def test_the_expanded_graph_needs_little_more_memory_than_it_keeps():
     assert peak - kept < 12 * made.shape[0]
 
 
+def _exits_problem(g, rng):
+    """The exits' search tests' set-up on a random map ``g``: its masks, live vertices, two of them ``s`` and
+    ``t`` (drawn from ``rng``), the straight-line bound to ``t`` at the cheapest unit cost and the plain
+    distances from ``s`` (infinite where the map does not join them: each test decides)."""
+    lat, extra = g.masks()
+    live = g.live_vertices()
+    s, t = (int(v) for v in rng.choice(live, 2, replace=False))
+    c = routing.cheapest_unit_cost(EdgeCosts(), routing.ROAD_KINDS)
+    straight = c * np.hypot(*(g.xy - g.xy[t]).T)
+    return lat, extra, live, s, t, straight, dijkstra(g.matrix(), indices=s)
+
+
 @settings(max_examples=8, deadline=None)
 @given(st.integers(0, 2**32 - 1))
 def test_the_exits_search_by_a_star_finds_dijkstras_arrival_costs(seed):
@@ -233,12 +245,7 @@ def test_the_exits_search_by_a_star_finds_dijkstras_arrival_costs(seed):
     g, rng = random_map(seed)
     opts = RoutingOptions(turn_height=float(rng.uniform(20, 900)), tile_cells=int(rng.integers(1, 5)),
                           whole_region=int(rng.choice([0, 10**6])))
-    lat, extra = g.masks()
-    live = g.live_vertices()
-    s, t = (int(v) for v in rng.choice(live, 2, replace=False))
-    c = routing.cheapest_unit_cost(EdgeCosts(), routing.ROAD_KINDS)
-    straight = c * np.hypot(*(g.xy - g.xy[t]).T)
-    from_source = dijkstra(g.matrix(), indices=s)
+    lat, extra, live, s, t, straight, from_source = _exits_problem(g, rng)
     if not np.isfinite(from_source[t]):
         return
     penalties = routing._bin_penalties(opts)
@@ -1169,6 +1176,22 @@ def test_a_search_gone_on_over_grown_tiles_ends_as_the_search_from_scratch_state
         assert len(seeds)  # the added tiles were reached through the states scanned again
 
 
+def _heading_searches():
+    """Two stand-ins for ``routing._heading_search``: one that always searches from scratch (its ``resume``
+    dropped) and one that records in the list returned with them whether each call went on."""
+    heading_search = routing._heading_search
+    resumed: list[bool] = []
+
+    def from_scratch(*args, resume=None, **kwargs):
+        return heading_search(*args, **kwargs)
+
+    def counted(*args, resume=None, **kwargs):
+        resumed.append(resume is not None)
+        return heading_search(*args, resume=resume, **kwargs)
+
+    return from_scratch, counted, resumed
+
+
 @settings(max_examples=8, deadline=None)
 @given(st.integers(0, 2**32 - 1), st.sampled_from([8, 16]))
 def test_the_tiled_search_going_on_finds_the_routes_and_arrivals_of_searches_from_scratch(seed, k):
@@ -1179,15 +1202,7 @@ def test_the_tiled_search_going_on_finds_the_routes_and_arrivals_of_searches_fro
     opts = RoutingOptions(turn_height=float(rng.uniform(20, 900)), heading_bins=k, whole_region=0,
                           tile_cells=int(rng.integers(1, 4)))
     live = g.live_vertices()
-    heading_search = routing._heading_search
-    resumed = []
-
-    def from_scratch(*args, resume=None, **kwargs):
-        return heading_search(*args, **kwargs)
-
-    def counted(*args, resume=None, **kwargs):
-        resumed.append(resume is not None)
-        return heading_search(*args, resume=resume, **kwargs)
+    from_scratch, counted, resumed = _heading_searches()
 
     for _ in range(3):
         s, t = (int(v) for v in rng.choice(live, 2, replace=False))
@@ -1221,25 +1236,12 @@ def test_the_exits_search_going_on_gives_the_arrivals_of_searches_from_scratch(s
     g, rng = random_map(seed)
     opts = RoutingOptions(turn_height=float(rng.uniform(20, 900)), whole_region=0,
                           tile_cells=int(rng.integers(1, 4)))
-    lat, extra = g.masks()
-    live = g.live_vertices()
-    s, t = (int(v) for v in rng.choice(live, 2, replace=False))
-    c = routing.cheapest_unit_cost(EdgeCosts(), routing.ROAD_KINDS)
-    straight = c * np.hypot(*(g.xy - g.xy[t]).T)
-    from_source = dijkstra(g.matrix(), indices=s)
+    lat, extra, live, s, t, straight, from_source = _exits_problem(g, rng)
     assume(np.isfinite(from_source[t]))
     penalties = routing._bin_penalties(opts)
     cost = float(from_source[t] + straight[s] + rng.uniform(0.5, 3.0) * opts.turn_height)
     exits = rng.choice(live, min(200, len(live)), replace=False)
-    heading_search = routing._heading_search
-    resumed = []
-
-    def from_scratch(*args, resume=None, **kwargs):
-        return heading_search(*args, **kwargs)
-
-    def counted(*args, resume=None, **kwargs):
-        resumed.append(resume is not None)
-        return heading_search(*args, resume=resume, **kwargs)
+    from_scratch, counted, resumed = _heading_searches()
 
     def arrivals(search):
         with pytest.MonkeyPatch.context() as monkey:
