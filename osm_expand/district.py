@@ -30,7 +30,7 @@ from dataclasses import dataclass
 import numpy as np
 import shapely
 
-from osm_expand.joins import JoinReport, Occupied, join_growth, join_places, occupied_near
+from osm_expand.joins import JoinReport, Occupied, join_candidates, join_growth, occupied_near
 from osm_expand.model import City, Origin
 from osm_expand.sites import Site, district_region
 from synth.growth import Growth, GrowthPattern
@@ -163,9 +163,10 @@ def _joinable(city: City, growth: Growth, spacing: float, accept: Callable[[Join
     if not growth.streets:  # an empty growth joins nowhere
         return False, False, None
     lines = [s.xy for s in growth.streets]
-    places = join_places(city, growth.streets, spacing=spacing)
+    candidates = join_candidates(city, growth.streets, spacing=spacing)  # found once, asked twice
+    places = candidates.places()
     if not accept(JoinReport(joins=len(places), links=0, tees=0, at=places)):
         return False, False, None
     occupied = occupied_near(city, lines, reach=2 * spacing, spread=2 * spacing)
-    clear = join_places(city, growth.streets, spacing=spacing, occupied=occupied)
+    clear = candidates.places(occupied)
     return True, accept(JoinReport(joins=len(clear), links=0, tees=0, at=clear)), occupied

@@ -466,32 +466,57 @@ def join_places(city: City, streets: Sequence, *, spacing: float, occupied: Occu
     -------
     (P, 2) float array, metres; empty when the streets meet no town street.
     """
+    return join_candidates(city, streets, spacing=spacing).places(occupied)
+
+
+@dataclass(frozen=True)
+class JoinCandidates:
+    """What :func:`join_places` finds before it reads the occupied land: the town's streets as lines, the new
+    streets' points on them, and the links :func:`join_to_town` would try (:func:`_candidate_links`).
+
+    Made once, asked for the places with and without the occupied land
+    (:func:`osm_expand.district.place_district` asks both of every grown district: the candidate links
+    were found twice, about a fifth of a failed site's cost on Campo Grande).
+    """
+
+    old_lines: np.ndarray  #: (T,) LineStrings of the town's streets as mapped
+    on_town: np.ndarray  #: (P, 2) the new streets' points on a town street, metres
+    links: list  #: :func:`_candidate_links`' tuples
+
+    def places(self, occupied: Occupied | None = None) -> np.ndarray:
+        """:func:`join_places` with ``occupied``: (P, 2) float array, metres."""
+        links = self.links
+        places = [self.on_town]
+        if links and occupied is not None:
+            starts = np.array([g for *_, g, _j, _o in links])
+            ends = np.array([o for *_, o in links])
+            links = [link for link, blocked in zip(links, _blocked(starts, ends, occupied.geometry)) if not blocked]
+        if links:
+            ends = np.array([o for *_, o in links])
+            places.append(ends)
+            for (*_, j, _o), end in zip(links, ends):  # the town node a link's end snaps to (``_Board.snapped``)
+                pts = shapely.get_coordinates(self.old_lines[j])
+                d = np.hypot(*(pts - end).T)
+                if d.min() <= SNAP + 0.01:
+                    places.append(pts[d <= SNAP + 0.01])
+        return np.concatenate(places).reshape(-1, 2)
+
+
+def join_candidates(city: City, streets: Sequence, *, spacing: float) -> JoinCandidates:
+    """The candidates of :func:`join_places` (which see), before any occupied land is read."""
     net = city.network
     old = [k for k, s in enumerate(net.streets) if s.origin == Origin.SOURCE]
     if not streets or not old:
-        return np.zeros((0, 2))
+        return JoinCandidates(np.empty(0, dtype=object), np.zeros((0, 2)), [])
     old_lines = net.street_lines()[old]
     new_xy = [np.asarray(s.xy, dtype=float) for s in streets]
     new_lines = linestrings_of(new_xy)
     vertices = np.concatenate(new_xy)
     on_town = shapely.STRtree(old_lines).query(shapely.points(vertices), predicate="dwithin",
                                                distance=10 * ON_STREET)[0]
-    places = [vertices[np.unique(on_town)]]
     links = _candidate_links(new_lines.tolist(), old_lines.tolist(), _border(net, old), 2 * spacing, 2 * spacing,
                              longer=0.01)
-    if links and occupied is not None:
-        starts = np.array([g for *_, g, _j, _o in links])
-        ends = np.array([o for *_, o in links])
-        links = [link for link, blocked in zip(links, _blocked(starts, ends, occupied.geometry)) if not blocked]
-    if links:
-        ends = np.array([o for *_, o in links])
-        places.append(ends)
-        for (*_, j, _o), end in zip(links, ends):  # the town node a link's end snaps to (``_Board.snapped``)
-            pts = shapely.get_coordinates(old_lines[j])
-            d = np.hypot(*(pts - end).T)
-            if d.min() <= SNAP + 0.01:
-                places.append(pts[d <= SNAP + 0.01])
-    return np.concatenate(places).reshape(-1, 2)
+    return JoinCandidates(old_lines, vertices[np.unique(on_town)], links)
 
 
 #: Metres between the points of a link tested for occupied land (:func:`_blocked`): a coarser test misses some

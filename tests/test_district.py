@@ -110,6 +110,41 @@ def test_every_join_is_among_the_places_known_before_joining(krems):
     assert checked >= 3
 
 
+def test_a_site_s_join_candidates_are_found_once(krems, monkeypatch):
+    """Issue 22: :func:`place_district` asks a grown district's places to join with and without the occupied
+    land (:func:`osm_expand.district._joinable`); the candidate links are found once for both, and the
+    places are those :func:`osm_expand.joins.join_places` gives each way (it found them twice), to the bit."""
+    import osm_expand.joins as joins
+    from osm_expand.district import _joinable
+
+    city, learned, sites = krems
+    pattern = make_pattern("example", learned.example)
+    spacing = learned.example.spacing
+    found = []
+    monkeypatch.setattr(joins, "_candidate_links",
+                        lambda *a, _f=joins._candidate_links, **k: found.append(1) or _f(*a, **k))
+    asked = []
+    monkeypatch.setattr(joins.JoinCandidates, "places",
+                        lambda self, occupied=None, _f=joins.JoinCandidates.places: asked.append(_f(self, occupied))
+                        or asked[-1])
+    checked = 0
+    for attempt, site in enumerate(sites):
+        growth = pattern.grow(city, district_region(city, site, bounds=city.bounds_polygon),
+                              np.random.default_rng([3, attempt]))
+        if not growth.streets:
+            continue
+        found.clear()
+        asked.clear()
+        joinable, _, occupied = _joinable(city, growth, spacing, at_least(1))
+        assert joinable and len(found) == 1 and len(asked) == 2
+        found.clear()
+        assert np.array_equal(asked[0], joins.join_places(city, growth.streets, spacing=spacing))
+        assert np.array_equal(asked[1], joins.join_places(city, growth.streets, spacing=spacing, occupied=occupied))
+        assert len(found) == 2
+        checked += 1
+    assert checked >= 2
+
+
 def test_a_district_that_cannot_be_accepted_is_not_joined(krems, monkeypatch):
     """Sites whose every possible join place is rejected are reported without joining them (the join was a
     third of a failed engine site's cost on Campo Grande): the joining step is never called."""

@@ -171,3 +171,15 @@ def test_outlines_and_coordinates_formatted_at_once_are_each_corner_as_formatted
         assert [(n.get("x"), n.get("y")) for n in el] == [(f"{x:.3f}", f"{y:.3f}") for x, y in corners]
     values = rng.uniform(-1e5, 1e5, (50, 2))
     assert _formatted(values) == [f"{v:.3f}" for v in values.ravel()]  # each numpy scalar alone
+
+
+def test_xml_attrs_replace_only_what_xml_cannot_hold():
+    """:func:`osm_expand.export.features.xml_attrs`: a clean dict comes back equal (a new dict, one search of
+    all its text), a key or value with a character XML forbids has it replaced by U+FFFD."""
+    from osm_expand.export.features import xml_attrs
+
+    clean = {"name": "Obere Landstraße", "highway": "residential", "year": "2031"}
+    out = xml_attrs(clean)
+    assert out == clean and out is not clean
+    assert xml_attrs({"na\x01me": "a\x02b", "ok": "\U0001F600"}) == {"na\ufffdme": "a\ufffdb", "ok": "\U0001F600"}
+    assert xml_attrs({}) == {}

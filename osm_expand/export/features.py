@@ -33,7 +33,12 @@ def xml_text(text: str) -> str:
 
 
 def xml_attrs(attrs: dict[str, str]) -> dict[str, str]:
-    """Every key and value made safe for XML (:func:`xml_text`)."""
+    """Every key and value made safe for XML (:func:`xml_text`).
+
+    One search of all of them first: almost always none needs a change, and a substitution per key and
+    value was a fifth of the XML writer's time on Campo Grande (16,000 elements)."""
+    if _NOT_XML.search("".join([*attrs, *attrs.values()])) is None:
+        return dict(attrs)
     return {xml_text(k): xml_text(v) for k, v in attrs.items()}
 
 
