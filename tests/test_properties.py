@@ -81,3 +81,20 @@ def test_thinning_keeps_the_ends_and_spaces_the_rest(points, step):
         assert (gaps >= step).all()
     rows = {tuple(p) for p in pts.tolist()}
     assert all(tuple(p) in rows for p in out.tolist())
+
+
+@SETTINGS
+@given(st.lists(st.lists(st.integers(min_value=0, max_value=12), min_size=0, max_size=7), max_size=12),
+       st.integers(min_value=0, max_value=15))
+def test_segment_degree_counts_each_segment_end(runs, n_nodes):
+    """:func:`~osm_expand.model.topology.segment_degree` (three counts of one flat array, issue 22) is the
+    count of segment ends at each node, segment by segment, for any streets: one-node streets, repeated
+    and ringed nodes, nodes past ``n_nodes`` (the count then runs to the largest node that ends a segment)."""
+    from osm_expand.model import Street
+    from osm_expand.model.topology import segment_degree
+
+    streets = [Street(nodes=tuple(r), highway="residential", id=k) for k, r in enumerate(runs)]
+    ends = [n for r in runs for n in (*r[:-1], *r[1:])]
+    expected = np.bincount(np.asarray(ends, dtype=np.int64), minlength=n_nodes)
+    got = segment_degree(streets, n_nodes)
+    assert got.dtype == expected.dtype and np.array_equal(got, expected)

@@ -44,9 +44,21 @@ MAX_DEGREE = 4
 
 
 def segment_degree(streets: Sequence[Street], n_nodes: int) -> np.ndarray:
-    """Segments meeting at each node: a street passing through counts 2, one ending there 1."""
-    ends = [n for s in streets for n in (*s.nodes[:-1], *s.nodes[1:])]
-    return np.bincount(np.asarray(ends, dtype=np.int64), minlength=n_nodes)
+    """Segments meeting at each node: a street passing through counts 2, one ending there 1.
+
+    Each node of a street counts twice, less once at the street's first and last node, in three
+    counts of one flat array: the segments' ends listed one by one took 0.3 s of Campo Grande's run
+    (55 asks of 5,000-10,000 streets). A street of one node has no segment and counts nothing.
+    """
+    runs = [s.nodes for s in streets if len(s.nodes) >= 2]
+    if not runs:
+        return np.zeros(n_nodes, dtype=np.int64)
+    sizes = np.fromiter(map(len, runs), dtype=np.int64, count=len(runs))
+    flat = np.fromiter(chain.from_iterable(runs), dtype=np.int64, count=int(sizes.sum()))
+    last = np.cumsum(sizes) - 1
+    length = max(n_nodes, int(flat.max()) + 1)
+    return (2 * np.bincount(flat, minlength=length) - np.bincount(flat[last - sizes + 1], minlength=length)
+            - np.bincount(flat[last], minlength=length))
 
 
 def junction_mask(streets: Sequence[Street], n_nodes: int, *, flat: tuple[np.ndarray, np.ndarray] | None = None
