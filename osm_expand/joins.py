@@ -475,8 +475,8 @@ class JoinCandidates:
     streets' points on them, and the links :func:`join_to_town` would try (:func:`_candidate_links`).
 
     Made once, asked for the places with and without the occupied land
-    (:func:`osm_expand.district.place_district` asks both of every grown district: the candidate links
-    were found twice, about a fifth of a failed site's cost on Campo Grande).
+    (:func:`osm_expand.district.place_district` asks both of every grown district, and found the candidate
+    links twice).
     """
 
     old_lines: np.ndarray  #: (T,) LineStrings of the town's streets as mapped
