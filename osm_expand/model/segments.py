@@ -19,6 +19,7 @@ these arrays (:meth:`~synth.street_graph.StreetGraph.from_segments`).
 from __future__ import annotations
 
 from collections.abc import Sequence
+from itertools import chain
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -199,22 +200,27 @@ class SegmentTable:
 
     @classmethod
     def _build(cls, city: City) -> SegmentTable:
+        """The table, the streets read in two passes: their nodes as one flat array (each segment a node and
+        the next of the same street), and their fields row by row (a pass per field and an array per
+        street were 7 ms of Campo Grande's 3,600 streets, 38 tables a run)."""
         streets = city.network.streets
-        sizes = np.array([len(s.nodes) - 1 for s in streets], dtype=np.int64)
-        nodes = [np.asarray(s.nodes, dtype=np.int64) for s in streets]
-        uv = np.column_stack([np.concatenate([n[:-1] for n in nodes]), np.concatenate([n[1:] for n in nodes])]) \
-            if streets else np.zeros((0, 2), dtype=np.int64)
+        counts = np.fromiter(map(len, (s.nodes for s in streets)), dtype=np.int64, count=len(streets))
+        sizes = counts - 1
+        flat = np.fromiter(chain.from_iterable(s.nodes for s in streets), dtype=np.int64, count=int(counts.sum()))
+        starts = np.ones(len(flat), dtype=bool)  # a node that starts a segment: all but each street's last
+        starts[np.cumsum(counts)[counts > 0] - 1] = False
+        at = np.flatnonzero(starts)
+        uv = np.column_stack([flat[at], flat[at + 1]]) if streets else np.zeros((0, 2), dtype=np.int64)
         street = np.repeat(np.arange(len(streets)), sizes)
+        rows = [(street_width(s), s.highway in MAJOR, s.status == Status.BUILT, s.bridge,
+                 s.year if s.year is not None and s.is_new else -1, s.id) for s in streets]
+        width, major, built, bridge, year, ids = zip(*rows) if rows else ((),) * 6
         per = lambda values, dtype: np.repeat(np.asarray(values, dtype=dtype), sizes)  # noqa: E731
         xy = city.network.xy
         table = cls(
             xy=xy, uv=uv, street=street, length=np.hypot(*(xy[uv[:, 1]] - xy[uv[:, 0]]).T),
-            width=per([street_width(s) for s in streets], float),
-            major=per([is_major(s) for s in streets], bool),
-            built=per([s.status == Status.BUILT for s in streets], bool),
-            bridge=per([s.bridge for s in streets], bool),
-            year=per([s.year if s.year is not None and s.is_new else -1 for s in streets], np.int64),
-            street_id=per([s.id for s in streets], np.int64),
+            width=per(width, float), major=per(major, bool), built=per(built, bool), bridge=per(bridge, bool),
+            year=per(year, np.int64), street_id=per(ids, np.int64),
             first=np.concatenate([[0], np.cumsum(sizes)]).astype(np.int64),
         )
         for name in ("uv", "street", "length", "width", "major", "built", "bridge", "year", "street_id", "first"):
