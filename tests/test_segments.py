@@ -6,9 +6,9 @@ import dataclasses
 
 import numpy as np
 
+from osm_expand.ingest import load
 from osm_expand.model import Origin, Status
 from osm_expand.model.segments import SegmentTable, is_major, street_width
-from osm_expand.ingest import load
 from tests.conftest import FIXTURES
 
 FIELDS = ("uv", "street", "length", "width", "major", "built", "bridge", "year", "street_id", "first")

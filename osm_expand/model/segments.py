@@ -19,8 +19,8 @@ these arrays (:meth:`~synth.street_graph.StreetGraph.from_segments`).
 from __future__ import annotations
 
 from collections.abc import Sequence
-from itertools import chain
 from dataclasses import dataclass, field
+from itertools import chain
 
 import numpy as np
 import shapely
