@@ -53,3 +53,22 @@ def test_the_table_is_the_one_made_street_by_street():
             got, want = getattr(made, name), reference[name]
             assert got.dtype == want.dtype and got.shape == want.shape and np.array_equal(got, want), name
     assert SegmentTable._build(city.replace(network=grown)).year.max() == 2031
+
+
+def test_the_segment_keys_are_the_ones_made_street_by_street():
+    """:meth:`StreetNetwork._segment_keys` (from :func:`~osm_expand.model.network.segment_nodes`' flat array)
+    equals the keys of each street's segments gathered street by street, on Krems as mapped and with new
+    streets (one running back along a segment it shares, one of a single node), and with no streets."""
+    from osm_expand.model.network import pair_keys
+
+    net = load(FIXTURES / "krems.osm.gz", context=False).network
+    a = net.xy[net.streets[0].nodes[0]]
+    grown = net.with_new_streets([np.array([a, a + [50.0, 0.0], a, a + [0.0, 30.0]])], [{"highway": "residential"}])
+    lone = dataclasses.replace(grown.streets[-1], nodes=(3,), id=grown.next_street_id())
+    for network in (net, grown, grown.replace(streets=(*grown.streets, lone)), net.replace(streets=())):
+        runs = [np.asarray(s.nodes, dtype=np.int64) for s in network.streets if len(s.nodes) >= 2]
+        u = np.concatenate([r[:-1] for r in runs]) if runs else np.zeros(0, np.int64)
+        v = np.concatenate([r[1:] for r in runs]) if runs else np.zeros(0, np.int64)
+        want = np.unique(pair_keys(u, v))
+        got = network.replace()._segment_keys()  # a fresh network: its keys made, not handed on
+        assert got.dtype == want.dtype and np.array_equal(got, want)

@@ -20,7 +20,6 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import dataclass, field
-from itertools import chain
 
 import numpy as np
 import shapely
@@ -28,7 +27,7 @@ import shapely
 from osm_expand.errors import InputError
 from osm_expand.model import highways
 from osm_expand.model.city import City
-from osm_expand.model.network import Status, Street
+from osm_expand.model.network import Status, Street, segment_nodes
 from osm_expand.model.pieces import Pieces
 
 #: Highway classes that are major roads (003's major roads: the trade routes run on them).
@@ -200,17 +199,13 @@ class SegmentTable:
 
     @classmethod
     def _build(cls, city: City) -> SegmentTable:
-        """The table, the streets read in two passes: their nodes as one flat array (each segment a node and
-        the next of the same street), and their fields row by row (a pass per field and an array per
-        street were 7 ms of Campo Grande's 3,600 streets, 38 tables a run)."""
+        """The table, the streets read in two passes: their segments' nodes (:func:`segment_nodes`) and their
+        fields row by row (a pass per field and an array per street: 6.9 ms of Campo Grande's 3,600
+        streets, 5.9 ms so; 38 tables a run)."""
         streets = city.network.streets
-        counts = np.fromiter(map(len, (s.nodes for s in streets)), dtype=np.int64, count=len(streets))
+        counts, u, v = segment_nodes(streets)
         sizes = counts - 1
-        flat = np.fromiter(chain.from_iterable(s.nodes for s in streets), dtype=np.int64, count=int(counts.sum()))
-        starts = np.ones(len(flat), dtype=bool)  # a node that starts a segment: all but each street's last
-        starts[np.cumsum(counts)[counts > 0] - 1] = False
-        at = np.flatnonzero(starts)
-        uv = np.column_stack([flat[at], flat[at + 1]]) if streets else np.zeros((0, 2), dtype=np.int64)
+        uv = np.column_stack([u, v]) if streets else np.zeros((0, 2), dtype=np.int64)
         street = np.repeat(np.arange(len(streets)), sizes)
         rows = [(street_width(s), s.highway in MAJOR, s.status == Status.BUILT, s.bridge,
                  s.year if s.year is not None and s.is_new else -1, s.id) for s in streets]
