@@ -47,8 +47,8 @@ def segment_degree(streets: Sequence[Street], n_nodes: int) -> np.ndarray:
     """Segments meeting at each node: a street passing through counts 2, one ending there 1.
 
     Each node of a street counts twice, less once at the street's first and last node, in three
-    counts of one flat array: the segments' ends listed one by one took 0.3 s of Campo Grande's run
-    (55 asks of 5,000-10,000 streets). A street of one node has no segment and counts nothing.
+    counts of one flat array: the segments' ends listed one by one took 0.3 s of Campo Grande's run (cProfile;
+    55 asks; its 3,600 streets as read: 2.0 -> 0.8 ms an ask). A street of one node has no segment and counts nothing.
     """
     runs = [s.nodes for s in streets if len(s.nodes) >= 2]
     if not runs:
