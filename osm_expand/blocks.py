@@ -98,8 +98,25 @@ def _untouched(streets: Sequence[Street]) -> tuple[list[Street], tuple[np.ndarra
     odd |= np.fromiter((type(s.nodes) is not tuple for s in streets), dtype=bool, count=n)
     if not odd.any():
         return list(streets), flat
-    out = [p for s, split in zip(streets, odd.tolist()) for p in (split_self_touching(s) if split else (s,))]
-    return out, flat_nodes(out)
+    cut = np.flatnonzero(odd)
+    split = [split_self_touching(streets[k]) for k in cut.tolist()]  # the rings, roundabouts, spikes
+    count = np.ones(n, dtype=np.int64)
+    count[cut] = [len(p) for p in split]
+    first = np.cumsum(count) - count  # each street's first piece in the result
+    out: list[Street] = list(streets)
+    for k, pieces in zip(cut[::-1].tolist(), split[::-1]):  # from the end: the places before stay put
+        out[k:k + 1] = pieces
+    # the result's flat nodes: the untouched streets' from ``flat``, the pieces' made here, merged by the
+    # street they came from (a stable sort: a street is one or the other)
+    pieces = [p for ps in split for p in ps]
+    piece_nodes, piece_owner = flat_nodes(pieces)
+    piece_street = np.repeat(cut, count[cut])  # the street each piece came from
+    piece_at = first[piece_street] + np.arange(len(pieces)) - np.repeat(np.cumsum(count[cut]) - count[cut],
+                                                                          count[cut])
+    keep = ~odd[owner]
+    order = np.argsort(np.concatenate([owner[keep], piece_street[piece_owner]]), kind="stable")
+    return out, (np.concatenate([nodes[keep], piece_nodes])[order],
+                 np.concatenate([first[owner[keep]], piece_at[piece_owner]])[order])
 
 
 def faces(net: StreetNetwork) -> list[tuple[np.ndarray, int, np.ndarray]]:
