@@ -81,8 +81,8 @@ def _untouched(streets: Sequence[Street]) -> tuple[list[Street], tuple[np.ndarra
 
     The streets that visit no node twice come back as they are (split_self_touching's own
     first test): they are found in one sort of every (street, node) pair, and only the few
-    others are split street by street (a Python call a street was half of a year's pieces
-    on Campo Grande). The same streets, in the same order.
+    others are split street by street (a Python call a street was 0.96 of the pieces' 1.59 s
+    over Campo Grande's 20 blocks calls under cProfile). The same streets, in the same order.
     """
     nodes, owner = flat = flat_nodes(streets)
     n = len(streets)
