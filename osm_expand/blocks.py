@@ -25,14 +25,14 @@ left out, and then does not become a hole in the block around it.
 """
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
 import shapely
 
 from osm_expand.measures import two_core
-from osm_expand.model import Block, Origin, StreetNetwork
+from osm_expand.model import Block, Origin, Street, StreetNetwork
 from osm_expand.model.topology import flat_nodes, junction_mask, piece_table, split_self_touching
 
 
@@ -62,8 +62,8 @@ class _Pieces:
 
 
 def _pieces(net: StreetNetwork) -> _Pieces:
-    streets = [p for s in net.streets for p in split_self_touching(s)]
-    nodes, owner = flat = flat_nodes(streets)  # once for the junctions, the pieces and their points
+    streets, flat = _untouched(net.streets)
+    nodes, owner = flat  # once for the junctions, the pieces and their points
     table = piece_table(streets, junction_mask(streets, len(net.xy), flat=flat), flat=flat)
     keep = two_core(table["u"], table["v"], len(net.xy))  # pieces on a cycle or between cycles
     street_start = np.concatenate([[0], np.cumsum(np.bincount(owner, minlength=len(streets)))])
@@ -74,6 +74,49 @@ def _pieces(net: StreetNetwork) -> _Pieces:
     ids = np.array([streets[i].id for i in k.tolist()], dtype=np.int64)
     return _Pieces(u=table["u"][keep], v=table["v"][keep], points=net.xy[nodes[index]], offsets=offsets,
                    street_id=ids)
+
+
+def _untouched(streets: Sequence[Street]) -> tuple[list[Street], tuple[np.ndarray, np.ndarray]]:
+    """:func:`split_self_touching` of every street, and :func:`flat_nodes` of the result.
+
+    The streets that visit no node twice come back as they are (split_self_touching's own
+    first test): they are found in one sort of every (street, node) pair, and only the few
+    others are split street by street (a Python call a street was 0.96 of the pieces' 1.59 s
+    over Campo Grande's 20 blocks calls under cProfile). The same streets, in the same order.
+    """
+    nodes, owner = flat = flat_nodes(streets)
+    n = len(streets)
+    sizes = np.bincount(owner, minlength=n)
+    if len(nodes):
+        order = np.lexsort((nodes, owner))
+        repeat = (owner[order][1:] == owner[order][:-1]) & (nodes[order][1:] == nodes[order][:-1])
+        twice = np.zeros(n, dtype=bool)
+        twice[owner[order][1:][repeat]] = True
+    else:
+        twice = np.zeros(n, dtype=bool)
+    odd = twice | (sizes < 2)
+    odd |= np.fromiter((type(s.nodes) is not tuple for s in streets), dtype=bool, count=n)
+    if not odd.any():
+        return list(streets), flat
+    cut = np.flatnonzero(odd)
+    split = [split_self_touching(streets[k]) for k in cut.tolist()]  # the rings, roundabouts, spikes
+    count = np.ones(n, dtype=np.int64)
+    count[cut] = [len(p) for p in split]
+    first = np.cumsum(count) - count  # each street's first piece in the result
+    out: list[Street] = list(streets)
+    for k, pieces in zip(cut[::-1].tolist(), split[::-1]):  # from the end: the places before stay put
+        out[k:k + 1] = pieces
+    # the result's flat nodes: the untouched streets' from ``flat``, the pieces' made here, merged by the
+    # street they came from (a stable sort: a street is one or the other)
+    pieces = [p for ps in split for p in ps]
+    piece_nodes, piece_owner = flat_nodes(pieces)
+    piece_street = np.repeat(cut, count[cut])  # the street each piece came from
+    piece_at = first[piece_street] + np.arange(len(pieces)) - np.repeat(np.cumsum(count[cut]) - count[cut],
+                                                                          count[cut])
+    keep = ~odd[owner]
+    order = np.argsort(np.concatenate([owner[keep], piece_street[piece_owner]]), kind="stable")
+    return out, (np.concatenate([nodes[keep], piece_nodes])[order],
+                 np.concatenate([first[owner[keep]], piece_at[piece_owner]])[order])
 
 
 def faces(net: StreetNetwork) -> list[tuple[np.ndarray, int, np.ndarray]]:
@@ -263,8 +306,6 @@ def blocks(net: StreetNetwork, options: BlockOptions | None = None, *, origin: O
     """
     opts = options or BlockOptions()
     known = memo if memo is not None else FaceMemo()
-    seen: dict[bytes, shapely.Polygon | None] = {}
-    bounded, keys, edge_count, street_ids = [], [], [], []
     found = _face_arrays(net) or _Faces(closed=np.zeros((0, 2)), ring_at=np.zeros(1, dtype=np.int64),
                                         ids=np.zeros(0, dtype=np.int64), id_at=np.zeros(1, dtype=np.int64), edges=[])
     # counter-clockwise rings of at least three edges: the only faces that may be blocks (the memo holds only
@@ -273,18 +314,20 @@ def blocks(net: StreetNetwork, options: BlockOptions | None = None, *, origin: O
     ring_at, id_at = found.ring_at.tolist(), found.id_at.tolist()
     remembered, closed, face_edges = known.polygons, found.closed, found.edges
     faces_may = may.tolist()
-    face_keys = [closed[ring_at[f]:ring_at[f + 1]].tobytes() for f in faces_may]
+    raw = np.ascontiguousarray(closed, dtype=np.float64).tobytes()  # each ring's key cut from one buffer: its
+    step = 2 * 8  # points' bytes, as ``closed[a:b].tobytes()`` gives them, without a numpy slice a face
+    face_keys = [raw[step * ring_at[f]:step * ring_at[f + 1]] for f in faces_may]
     made = [remembered.get(key, _UNKNOWN) for key in face_keys]
     todo = [i for i, poly in enumerate(made) if poly is _UNKNOWN]
     for i, poly in zip(todo, _valid_polygons(found, may[todo])):  # the faces the memo has not seen, at once
         made[i] = poly
-    for f, key, poly in zip(faces_may, face_keys, made):
-        seen[key] = poly
-        if poly is not None:  # a face walking a street twice or crossing a bridge is left out
-            bounded.append(poly)
-            keys.append(key)
-            edge_count.append(face_edges[f])
-            street_ids.append((id_at[f], id_at[f + 1]))  # the ids' slice, cut only for the blocks kept
+    seen = dict(zip(face_keys, made))  # a key twice (duplicated ways): the last face's, as one by one
+    # a face walking a street twice or crossing a bridge (None) is left out; the rest are gathered by
+    # index, not appended one by one (a grown town's 5,000 faces a year)
+    valid = [i for i, poly in enumerate(made) if poly is not None]
+    bounded = [made[i] for i in valid]
+    keys = [face_keys[i] for i in valid]
+    kept_faces = [faces_may[i] for i in valid]
     unique = len(set(keys)) == len(keys)  # two faces on one ring (duplicated ways): ask about every face
     pairs = _settled_pairs(bounded, keys, known if unique else FaceMemo())
     if memo is not None:
@@ -294,12 +337,13 @@ def blocks(net: StreetNetwork, options: BlockOptions | None = None, *, origin: O
     disjoint = _disjoint(bounded, pairs)
     area = shapely.area(np.array([p for _, p in disjoint], dtype=object)).tolist() if disjoint else []
     kept = [(k, p) for (k, p), a in zip(disjoint, area)
-            if edge_count[k] <= opts.max_edges and opts.min_area <= a <= opts.max_area]
+            if face_edges[kept_faces[k]] <= opts.max_edges and opts.min_area <= a <= opts.max_area]
     out = []
     holes = shapely.get_num_interior_rings(np.array([p for _, p in kept], dtype=object)).tolist() if kept else []
     all_ids = found.ids.tolist()
     for i, ((k, p), holed) in enumerate(zip(kept, holes)):  # holes counted at once: p.interiors is slow
-        a, b = street_ids[k]
+        f = kept_faces[k]
+        a, b = id_at[f], id_at[f + 1]  # the ids' slice, cut only for the blocks kept
         ids = tuple(all_ids[a:b]) if not holed else tuple(_edge_streets(p, bounded[k], found.ids[a:b]).tolist())
         how, when = (origin, year) if stamp is None else stamp(ids)
         out.append(Block(polygon=p, street_ids=ids, id=i, origin=how, year=when))

@@ -182,3 +182,30 @@ def test_overlapping_and_nested_faces_found_at_once_are_those_of_all_three_queri
     every = np.sort(np.concatenate(asked), axis=1)
     every = np.unique(every[every[:, 0] != every[:, 1]], axis=0)
     assert len(asked[1]) > 0 and np.array_equal(pairs, every)  # some faces nest: the shortcut is exercised
+
+
+@pytest.mark.parametrize("name", ["krems", "campo-grande"])
+def test_streets_cut_where_they_touch_themselves_at_once_are_those_cut_one_by_one(name):
+    # the blocks' pieces find the streets that visit a node twice (or are rings, or too short) in one sort,
+    # and split only those: the streets and their order are those of split_self_touching street by street
+    from dataclasses import replace
+
+    from osm_expand.blocks import _untouched
+    from osm_expand.ingest import load
+    from osm_expand.model.topology import flat_nodes, split_self_touching
+
+    net = load(f"fixtures/{name}.osm.gz").network
+    s = net.streets
+    # a street that comes back to its middle node, a spike (a-b-a), a ring, a one-node street and a list of nodes
+    extra = (replace(s[0], nodes=(*s[0].nodes, s[0].nodes[len(s[0].nodes) // 2])),
+             replace(s[1], nodes=(s[1].nodes[0], s[1].nodes[1], s[1].nodes[0])),
+             replace(s[2], nodes=(*s[2].nodes, s[2].nodes[0])),
+             replace(s[3], nodes=(s[3].nodes[0],)), replace(s[4], nodes=list(s[4].nodes)))
+    for streets in (s, (*s[:10], *extra, *s[10:])):
+        got, flat = _untouched(streets)
+        want = [p for street in streets for p in split_self_touching(street)]
+        assert [(p.id, tuple(p.nodes)) for p in got] == [(p.id, tuple(p.nodes)) for p in want]
+        assert all(a is b for a, b in zip(got, want) if a.nodes is b.nodes)  # unsplit streets are not copied
+        for mine, theirs in zip(flat, flat_nodes(want)):
+            assert mine.dtype == theirs.dtype and (mine == theirs).all()
+    assert len(_untouched((*s[:10], *extra, *s[10:]))[0]) != len(s) + len(extra)  # the extras were cut

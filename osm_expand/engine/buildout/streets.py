@@ -168,18 +168,21 @@ def _block_keys(blocks: Sequence[Block], memo: _Memo | None = None) -> list[tupl
             memo.block_keys = {}
         return []
     known = memo.block_keys if memo is not None else {}
-    hits = [(b.polygon, known.get(id(b.polygon))) for b in blocks]
-    keys: list[tuple[int, int, int] | None] = [h[1] if h is not None and h[0] is p else None for p, h in hits]
+    polys = [b.polygon for b in blocks]
+    get = known.get
+    hits = [get(id(p)) for p in polys]
+    keys: list[tuple[int, int, int] | None] = [None if h is None or h[0] is not p else h[1]
+                                               for p, h in zip(polys, hits)]
     todo = [k for k, key in enumerate(keys) if key is None]
     if todo:
-        polys = np.array([blocks[k].polygon for k in todo], dtype=object)
-        area = np.rint(shapely.area(polys)).astype(np.int64)
-        centre = np.rint(shapely.get_coordinates(shapely.centroid(polys))).astype(np.int64)
+        new = np.array([polys[k] for k in todo], dtype=object)
+        area = np.rint(shapely.area(new)).astype(np.int64)
+        centre = np.rint(shapely.get_coordinates(shapely.centroid(new))).astype(np.int64)
         for k, key in zip(todo, zip(area.tolist(), centre[:, 0].tolist(), centre[:, 1].tolist())):
             keys[k] = key
     known_keys = cast(list[tuple[int, int, int]], keys)  # every one measured now
     if memo is not None:
-        memo.block_keys = {id(b.polygon): (b.polygon, key) for b, key in zip(blocks, known_keys)}
+        memo.block_keys = dict(zip(map(id, polys), zip(polys, known_keys)))
     return known_keys
 
 

@@ -145,8 +145,10 @@ def built_up_area(blocks: Sequence[shapely.Geometry], segments: SegmentTable, *,
     known = previous.verdicts if previous is not None and _same_basis(previous.basis, (water, opts)) else {}
     # a block as it was last year keeps its verdict: measuring every block's water share again
     # was a quarter of B's year on Campo Grande (5,500 blocks, a few dozen new a year)
-    seen = np.array([k in known for k in keys.tolist()], dtype=bool)
-    built = np.array([known.get(k, True) for k in keys.tolist()], dtype=bool)
+    key_list = keys.tolist()
+    told = [known.get(k) for k in key_list]  # one look-up a block: its verdict last year, None: not seen
+    seen = np.array([v is not None for v in told], dtype=bool)
+    built = np.array([v is None or v for v in told], dtype=bool)
     fresh = np.flatnonzero(~seen)
     if len(fresh):
         area = shapely.area(polys[fresh])
@@ -162,9 +164,9 @@ def built_up_area(blocks: Sequence[shapely.Geometry], segments: SegmentTable, *,
                 wet[touch] = shapely.area(shapely.intersection(polys[fresh[touch]], water))
             ok &= wet <= opts.water_block_share * area
         built[fresh] = ok
-    verdicts = dict(zip(keys.tolist(), built.tolist()))
+    verdicts = dict(zip(key_list, built.tolist()))
     # B grows by the built-up blocks it did not hold as such last year, and the new neighbourhoods
-    was_built = np.array([known.get(k, False) for k in keys.tolist()], dtype=bool)
+    was_built = np.array([v is not None and v for v in told], dtype=bool)
     added = list(polys[built & ~was_built])
     built_blocks, changed = _built_blocks(polys, built, was_built, keys, known, previous)
     grown: list[shapely.Geometry] = []

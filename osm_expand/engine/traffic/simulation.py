@@ -237,11 +237,13 @@ def _streets_follow_traffic(city: City, table: SegmentTable, traffic: np.ndarray
     # scalars was a quarter of this step on Campo Grande; a year changes a few)
     is_new = np.array([s.is_new for s in streets], dtype=bool)
     wider = np.where(is_new, np.abs(new_width - width) > 0.01, new_width > width + 0.01)
+    now_list, wider_list = now.tolist(), wider.tolist()
     for k in np.flatnonzero(now | wider).tolist():
-        if now[k]:
+        if now_list[k]:
             streets[k] = replace(streets[k], status=Status.BUILT)
-        if wider[k]:
+        if wider_list[k]:
             streets[k] = replace(streets[k], width=float(new_width[k]))
     widened = int(wider.sum())
-    pending = {s.id: int(v) for s, v in zip(streets, since) if v >= 0}
+    waiting = np.flatnonzero(since >= 0)  # the few streets whose widening waits, not a numpy scalar per street
+    pending = dict(zip([streets[k].id for k in waiting.tolist()], since[waiting].tolist()))
     return city.replace(network=city.network.replace(streets=tuple(streets))), changed_status, widened, pending
