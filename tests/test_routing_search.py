@@ -1446,3 +1446,53 @@ def test_the_look_ahead_search_refuses_tables_of_another_graph_and_a_search_with
         expanded_dijkstra(rows, start, 1.0, h=h, return_predecessors=True, ahead=ahead)
     with pytest.raises(ValueError, match="look-ahead"):
         expanded_dijkstra(rows, start, 1.0, h=h, return_predecessors=True, ties=True, ahead=no_ahead(k))
+
+
+@settings(max_examples=12, deadline=None)
+@example(4_267_211_612, 16, True)  # seeds keyed (g + h) + T, pops g + (h + T): a resumed seed skipped
+@given(st.integers(0, 2**32 - 1), st.sampled_from([8, 16]), st.booleans())
+def test_the_turns_still_to_make_are_consistent_and_keep_the_routes(seed, k, tiles):
+    """Issue 22 (session 39): the least turn cost from each state to the target (``_turns_to_go``, the
+    expanded graph searched backwards on its turn penalties alone) is consistent on every edge of it
+    (``T(x) ≤ t(x, y) + T(y)``, t the edge's turn cost, 0 for a move) and 0 on the target's
+    arrivals; added to the plain distance as the route search's bound (``RoutingOptions.turn_bound``)
+    it finds the very routes (vertex for vertex, the same cost) of the search by the plain distance
+    alone, whole regions or growing tiles, and searches no more states."""
+    g, rng = random_map(seed)
+    opts = RoutingOptions(turn_height=float(rng.uniform(20, 900)), heading_bins=k,
+                          whole_region=0 if tiles else 100_000, tile_cells=int(rng.integers(1, 4)))
+    lat, extra = g.masks()
+    live = g.live_vertices()
+    s, t = (int(v) for v in rng.choice(live, 2, replace=False))
+    penalties = routing._bin_penalties(opts)
+    region = np.arange(g.n_vertices)
+    states = routing._States(len(region), k)
+    T = routing._turns_to_go(g, lat, extra, region, penalties, k, t)
+    assert (T[states.arrivals(t)] == 0.0).all()
+    made, _ = routing._expanded_graph(g, lat, extra, region, penalties, k)
+    nk = states.n * k
+    rows_of = np.repeat(np.arange(made.shape[0]), np.diff(made.indptr))
+    turn = np.where((rows_of >= nk) & (rows_of < 2 * nk), 0.0, made.data)
+    tail, head = T[rows_of], T[made.indices]
+    reach = np.isfinite(head)
+    assert (tail[reach] <= turn[reach] + head[reach] + 1e-9).all()
+    searched = {}
+    heading_search = routing._heading_search
+
+    def counted(*args, **kwargs):
+        dist, pred = heading_search(*args, **kwargs)
+        if kwargs.get("ties"):
+            key = kwargs.get("turns") is not None
+            searched[key] = searched.get(key, 0) + int(np.isfinite(dist).sum())
+        return dist, pred
+
+    with pytest.MonkeyPatch.context() as monkey:
+        monkey.setattr(routing, "_heading_search", counted)
+        want = routing.find_route(g, s, t, options=opts)
+        got = routing.find_route(g, s, t, options=replace(opts, turn_bound=10**9))
+    assert (want is None) == (got is None)
+    if want is not None:
+        assert np.array_equal(got.vertices, want.vertices)
+        assert got.cost == want.cost
+    if True in searched:
+        assert searched[True] <= searched.get(False, 0)

@@ -285,7 +285,7 @@ def _search(n: int, k: int, cheap: np.ndarray, cheap_cost: np.ndarray, hub_cost:
             e_bin: np.ndarray, e_col: np.ndarray, e_val: np.ndarray, h: np.ndarray, astar: bool, ties: bool,
             eps: float, seeds: np.ndarray, limit: float, dist: np.ndarray, pred: np.ndarray, look: bool,
             to_goal: np.ndarray, scale: float, a_ptr: np.ndarray, a_bin: np.ndarray, a_dst: np.ndarray,
-            a_val: np.ndarray, ahead: np.ndarray) -> None:
+            a_val: np.ndarray, ahead: np.ndarray, turns: np.ndarray) -> None:
     """The distances in ``dist`` (and ``pred`` filled, when it has room), each state's row made as it is
     popped, the search started (or resumed) from the ``seeds`` at their distances in ``dist``; the
     arguments are :class:`Expanded`'s fields and :func:`expanded_dijkstra`'s (its docstring), and with
@@ -297,6 +297,7 @@ def _search(n: int, k: int, cheap: np.ndarray, cheap_cost: np.ndarray, hub_cost:
     n_cheap = len(cheap)
     # the heap's entries (key, state): a state is exact in a float64 (it is below 2⁵³), and an
     # entry's two halves share a cache line
+    has_turns = len(turns) > 0  # a per-state bound added to h (``ties`` only): :func:`expanded_dijkstra`'s ``turns``
     via_hub = (hub_cost + eps) * scale  # an arrival's bound by its hub, less h of its vertex
     hub_bound = 0.0
     heap = np.empty((max(4096, len(seeds)), 2))
@@ -316,7 +317,10 @@ def _search(n: int, k: int, cheap: np.ndarray, cheap_cost: np.ndarray, hub_cost:
             else:
                 first = dist[seed] + (h[at] + eps * scale if h[at] != 0.0 else 0.0)
         else:
-            first = dist[seed] + h[at] if ties else dist[seed]
+            if ties and has_turns:  # g + (h + T), summed as a push sums it (the stale test compares them)
+                first = dist[seed] + (h[at] + turns[seed])
+            else:
+                first = dist[seed] + h[at] if ties else dist[seed]
         if first <= limit:
             _put(heap, length, first, np.float64(seed))
             length += 1
@@ -346,7 +350,8 @@ def _search(n: int, k: int, cheap: np.ndarray, cheap_cost: np.ndarray, hub_cost:
         dv = dist[v]
         # made stale by a later decrease: scanned then (with ties, the key is g + h: an entry whose
         # key equals the state's rescans it with the same distance, which changes nothing)
-        if (dv + hu < key) if ties else (dv < key):
+        hv = hu + turns[v] if has_turns else hu
+        if (dv + hv < key) if ties else (dv < key):
             continue
         if v < nk:  # arrival arr(u, i): its cheap turns, then the hub
             i = v - u * k
@@ -363,7 +368,7 @@ def _search(n: int, k: int, cheap: np.ndarray, cheap_cost: np.ndarray, hub_cost:
                     w = hub_cost
                 if astar:
                     w = _reduced_weight(w, hu, hu, eps)
-                hc = hu
+                hc = hu + turns[col] if has_turns else hu
                 if look and dist[col] > dv + w:  # the departure's (or hub's) own bound, made only where pushed
                     if j < n_cheap:
                         hc = _depart_bound(u, b, region, n_lat, lat_kind, allowed, offset, dirs_ptr, dirs, table,
@@ -387,6 +392,8 @@ def _search(n: int, k: int, cheap: np.ndarray, cheap_cost: np.ndarray, hub_cost:
                     if astar:
                         w = _reduced_weight(w, h[lw], hu, eps)
                     hc = h[lw] if ties else 0.0
+                    if has_turns:
+                        hc += turns[lw * k + b]
                     if look and dist[lw * k + b] > dv + w:
                         hc = _arrive_bound(lw, b, k, cheap, cheap_cost, via_hub, region, n_lat, lat_kind, allowed,
                                            offset, dirs_ptr, dirs, table, plain, w_kind, h, to_goal, scale, a_ptr,
@@ -400,6 +407,8 @@ def _search(n: int, k: int, cheap: np.ndarray, cheap_cost: np.ndarray, hub_cost:
                 if astar:
                     w = _reduced_weight(w, h[col // k], hu, eps)
                 hc = h[col // k] if ties else 0.0
+                if has_turns:
+                    hc += turns[col]
                 if look and dist[col] > dv + w:
                     hc = _arrive_bound(col // k, b, k, cheap, cheap_cost, via_hub, region, n_lat, lat_kind, allowed,
                                        offset, dirs_ptr, dirs, table, plain, w_kind, h, to_goal, scale, a_ptr, a_bin,
@@ -408,7 +417,7 @@ def _search(n: int, k: int, cheap: np.ndarray, cheap_cost: np.ndarray, hub_cost:
         else:  # the hub: every departure, free
             w = _reduced_weight(eps, hu, hu, eps) if astar else eps
             for col in range(nk + u * k, nk + u * k + k):
-                hc = hu
+                hc = hu + turns[col] if has_turns else hu
                 if look and dist[col] > dv + w:
                     hc = _depart_bound(u, col - nk - u * k, region, n_lat, lat_kind, allowed, offset, dirs_ptr, dirs,
                                        table, plain, w_kind, h, to_goal, scale, a_ptr, a_bin, a_dst, a_val, ahead)
@@ -676,7 +685,8 @@ class Resume(NamedTuple):
 
 def expanded_dijkstra(graph: Expanded, start: int, limit: float, h: np.ndarray | None = None,
                       return_predecessors: bool = False, ties: bool = False,
-                      resume: Resume | None = None, ahead: Ahead | None = None) -> tuple[np.ndarray, np.ndarray]:
+                      resume: Resume | None = None, ahead: Ahead | None = None,
+                      turns: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
     """scipy's ``dijkstra(expanded, indices=start, limit=limit)`` on the heading-expanded graph
     ``graph`` describes, with (given ``h``, per vertex) A*'s reduced weights
     ``max(w + h(col) − h(row), eps)`` (``routing._reduced``).
@@ -702,6 +712,10 @@ def expanded_dijkstra(graph: Expanded, start: int, limit: float, h: np.ndarray |
     (its rule is applied at every relaxation and depends on the final distances and the numbers
     only); without ``ties`` a predecessor is the first in-neighbour of that distance to relax it,
     which depends on the order: only the distances are the search's from scratch there.
+
+    With ``turns`` (``ties`` only, per state, ≥ 0, consistent on the turn penalties alone: ``T(x) ≤ t(x, y) +
+    T(y)`` with t the edge's turn cost, 0 for a move) a state's bound is ``h`` of its vertex plus its
+    ``turns``: the sum of two consistent bounds of the two parts of the cost, consistent.
 
     With ``ahead`` (``ties`` only) each state's bound is :class:`Ahead`'s, which counts the turn it
     must make next, in place of ``h`` of its vertex: consistent too, so all of the above holds, and
@@ -732,6 +746,10 @@ def expanded_dijkstra(graph: Expanded, start: int, limit: float, h: np.ndarray |
     if ties and start < 2 * nk:
         raise ValueError(f"with ties the start must be a hub (states {2 * nk} … {size - 1}), not {start}")
     look = ahead is not None
+    if turns is None:
+        turns = np.zeros(0)
+    elif not ties or look or len(turns) != size:
+        raise ValueError("the turns' bound is added to h of a search with ties, one per state, without the look-ahead")
     if ahead is None:
         ahead = no_ahead(g.k)
     elif not ties:
@@ -760,5 +778,6 @@ def expanded_dijkstra(graph: Expanded, start: int, limit: float, h: np.ndarray |
     _search(g.n, g.k, g.cheap, g.cheap_cost, g.hub_cost, g.region, g.local, g.n_lat, g.lat_kind, g.allowed,
             g.offset, g.dirs_ptr, g.dirs, g.table, g.plain, g.w_kind, g.e_ptr, g.e_bin, g.e_col, g.e_val, hh,
             astar, ties, g.eps, seeds, float(limit), dist, pred, look, ahead.to_goal, float(ahead.scale),
-            ahead.a_ptr, ahead.a_bin, ahead.a_dst, ahead.a_val, ahead.ahead)
+            ahead.a_ptr, ahead.a_bin, ahead.a_dst, ahead.a_val, ahead.ahead,
+            np.ascontiguousarray(turns, dtype=np.float64))
     return dist, pred
