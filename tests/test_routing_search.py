@@ -1453,11 +1453,11 @@ def test_the_look_ahead_search_refuses_tables_of_another_graph_and_a_search_with
 @given(st.integers(0, 2**32 - 1), st.sampled_from([8, 16]), st.booleans())
 def test_the_turns_still_to_make_are_consistent_and_keep_the_routes(seed, k, tiles):
     """Issue 22 (session 39): the least turn cost from each state to the target (``_turns_to_go``, the
-    expanded graph searched backwards on its turn penalties alone) is consistent on every edge of it
-    (``T(x) ≤ t(x, y) + T(y)``, t the edge's turn cost, 0 for a move) and 0 on the target's
-    arrivals; added to the plain distance as the route search's bound (``RoutingOptions.turn_bound``)
-    it finds the very routes (vertex for vertex, the same cost) of the search by the plain distance
-    alone, whole regions or growing tiles, and searches no more states."""
+    expanded graph searched backwards on its turn penalties alone, compiled) is consistent on every
+    edge of it (``T(x) ≤ t(x, y) + T(y)``, t the edge's turn cost, 0 for a move), clamped at a limit
+    too, and 0 on the target's arrivals; added to the plain distance as the route search's bound
+    (``RoutingOptions.turn_bound``) it finds the very routes (vertex for vertex, the same cost) of the
+    search by the plain distance alone, whole regions or growing tiles, and searches no more states."""
     g, rng = random_map(seed)
     opts = RoutingOptions(turn_height=float(rng.uniform(20, 900)), heading_bins=k,
                           whole_region=0 if tiles else 100_000, tile_cells=int(rng.integers(1, 4)))
@@ -1476,6 +1476,16 @@ def test_the_turns_still_to_make_are_consistent_and_keep_the_routes(seed, k, til
     tail, head = T[rows_of], T[made.indices]
     reach = np.isfinite(head)
     assert (tail[reach] <= turn[reach] + head[reach] + 1e-9).all()
+    # the least, as scipy finds it backwards on the written graph (a move 10⁻³⁰⁰: scipy reads 0 as no edge)
+    back = csr_matrix((np.maximum(turn, 1e-300), made.indices, made.indptr), shape=made.shape).transpose().tocsr()
+    want = dijkstra(back, indices=states.arrivals(t), min_only=True)
+    assert np.array_equal(np.isfinite(T), np.isfinite(want))
+    assert np.allclose(T[np.isfinite(T)], want[np.isfinite(want)], rtol=0, atol=1e-9)
+    # clamped at a limit (the search's: the turns the best route so far may make) it stays consistent
+    cut = float(np.median(T[np.isfinite(T)])) + 1.0
+    clamped = routing._turns_to_go(g, lat, extra, region, penalties, k, t, cut)
+    assert np.array_equal(clamped, np.minimum(T, cut))
+    assert (clamped[rows_of] <= turn + clamped[made.indices] + 1e-9).all()
     searched = {}
     heading_search = routing._heading_search
 

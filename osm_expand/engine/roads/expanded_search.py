@@ -425,6 +425,104 @@ def _search(n: int, k: int, cheap: np.ndarray, cheap_cost: np.ndarray, hub_cost:
 
 
 @_compiled()
+def _turns_back(n: int, k: int, cheap: np.ndarray, cheap_cost: np.ndarray, hub_cost: float, eps: float,
+                region: np.ndarray, local: np.ndarray, n_lat: int, lat_kind: np.ndarray, allowed: np.ndarray,
+                offset: np.ndarray, dirs_ptr: np.ndarray, dirs: np.ndarray, r_ptr: np.ndarray, r_src: np.ndarray,
+                r_bin: np.ndarray, ends: np.ndarray, limit: float, T: np.ndarray) -> None:
+    """Dijkstra backwards on the heading-expanded graph over ``n`` vertices (``region``, ``local``: all of
+    them numbered), its turn penalties the only weights (moves and other edges cost 0): ``T`` of each
+    state up to ``limit``, from the ``ends`` at 0. A state's in-edges: an arrival ``arr(w, b)``'s from
+    ``dep(u, b)`` for each allowed lattice move u → w of bin b (u = w − the direction's step) and
+    each other edge into w of bin b (``r_*``, by head); a departure ``dep(v, b)``'s from ``arr(v, b −
+    q)`` at P(q) for the cheap turns and from ``hub(v)`` at ε; the hub's from every arrival at S_p."""
+    nk = n * k
+    heap = np.empty((4096, 2))
+    length = 0
+    for index in range(len(ends)):
+        T[ends[index]] = 0.0
+        heap = _push(heap, length, 0.0, np.float64(ends[index]))
+        length += 1
+    while length > 0:
+        key = heap[0, 0]
+        y = np.int64(heap[0, 1])
+        _pop(heap, length)
+        length -= 1
+        if T[y] < key:
+            continue
+        if y < nk:  # arr(w, b): the departures that move into it, free
+            w = y // k
+            b = y - w * k
+            gw = region[w]
+            if gw < n_lat:
+                for t in range(dirs_ptr[b], dirs_ptr[b + 1]):
+                    d = dirs[t]
+                    u = gw - offset[d]
+                    if u < 0 or u >= n_lat or not allowed[lat_kind[u, d]]:
+                        continue
+                    lu = local[u]
+                    if lu < 0:
+                        continue
+                    x = nk + lu * k + b
+                    if T[x] > key:
+                        T[x] = key
+                        heap = _push(heap, length, key, np.float64(x))
+                        length += 1
+            for t in range(r_ptr[w], r_ptr[w + 1]):
+                if r_bin[t] != b:
+                    continue
+                x = nk + r_src[t] * k + b
+                if T[x] > key:
+                    T[x] = key
+                    heap = _push(heap, length, key, np.float64(x))
+                    length += 1
+        elif y < 2 * nk:  # dep(v, b): the arrivals that turn to it, and the hub
+            v = (y - nk) // k
+            b = y - nk - v * k
+            for j in range(len(cheap) + 1):
+                if j < len(cheap):
+                    i = b - cheap[j]
+                    if i < 0:
+                        i += k
+                    x = v * k + i
+                    nv = key + cheap_cost[j]
+                else:
+                    x = 2 * nk + v
+                    nv = key + eps
+                if nv <= limit and T[x] > nv:
+                    T[x] = nv
+                    heap = _push(heap, length, nv, np.float64(x))
+                    length += 1
+        else:  # hub(v): every arrival, at S_p
+            v = y - 2 * nk
+            nv = key + hub_cost
+            if nv <= limit:
+                for i in range(k):
+                    x = v * k + i
+                    if T[x] > nv:
+                        T[x] = nv
+                        heap = _push(heap, length, nv, np.float64(x))
+                        length += 1
+
+
+def turns_to_go(graph: Expanded, ends: np.ndarray, r_ptr: np.ndarray, r_src: np.ndarray, r_bin: np.ndarray,
+                limit: float) -> np.ndarray:
+    """Per state of ``graph`` (its ``local`` numbering every vertex of ``region``), the least turn cost of a
+    path to one of the states ``ends``, up to ``limit`` (:func:`_turns_back`), ``limit`` where above it
+    or none (a clamp that stays a consistent lower bound: a state not reached within the limit has
+    every path's turns above it). ``r_*``: the other edges by head (local numbers), their tails and bins."""
+    g = graph
+    size = g.n * (2 * g.k + 1)
+    ends = np.asarray(ends, dtype=np.int64)
+    if len(ends) and not (0 <= ends.min() and ends.max() < size) or len(r_ptr) != g.n + 1:
+        raise ValueError("the ends or the edges by head are not of this graph's states and vertices")
+    T = np.full(size, np.inf)
+    _turns_back(g.n, g.k, g.cheap, g.cheap_cost, g.hub_cost, g.eps, g.region, g.local, g.n_lat, g.lat_kind, g.allowed,
+                g.offset, g.dirs_ptr, g.dirs, r_ptr, r_src, r_bin, ends, float(limit), T)
+    np.minimum(T, limit, out=T)
+    return T
+
+
+@_compiled()
 def _plain_seeded(dist: np.ndarray, pred: np.ndarray, seeds: np.ndarray, seed_dist: np.ndarray,
                   limit: float) -> tuple[np.ndarray, int]:
     """The heap of a plain search's start: each seed at its distance (scipy's joined source's row, or

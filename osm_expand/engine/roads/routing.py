@@ -68,7 +68,7 @@ from osm_expand.errors import InputError, OptionError
 from osm_expand.model.options import require_positive
 
 if TYPE_CHECKING:
-    from osm_expand.engine.roads.expanded_search import Ahead, Plain, Resume
+    from osm_expand.engine.roads.expanded_search import Ahead, Expanded, Plain, Resume
 
 __all__ = ["RoutingOptions", "Route", "turn_penalty", "find_route", "route_over_major_roads", "Choice",
            "choose", "route_score"]
@@ -181,7 +181,13 @@ class RoutingOptions:
     #: whether a route search (A* with scipy's tie rule, :func:`_tiled_search`) adds to each state's bound
     #: the least turn cost from it to the target (:func:`_turns_to_go`, turns alone, over the region's
     #: expanded graph, searched backwards once per search) where the region has at most ``turn_bound``
-    #: states (0: never). Prototype (scipy, the region's expanded matrix written): measured in the note
+    #: states (0: never; 8 B a state). Off (session 39, ``/tmp/h39s/replay_states.py``): the same routes
+    #: (Campo Grande's 36 captured calls identical) and far fewer states (route states 8.35 → 2.00 M,
+    #: their CPU 5.3 → 1.5 s), but T's search covers the whole region, where A* by D alone reaches a
+    #: small part of it: 8.35 s CPU (call 15: 4.35 s over 7.7 M states, 0.56 µs a state), so the 36
+    #: calls took 18.6 → 24.5 s. The synthetic 10,000-street town's first road: 19.05 → 16.22 M states
+    #: only (its best route trades length for turns: min len + min turns is far below it), T 38.8 s,
+    #: the call 57 → 89 s CPU, peak 2.0 → 3.2 GB. It pays only where T costs less than the states it saves
     turn_bound: int = 0
 
     def __post_init__(self) -> None:
@@ -970,7 +976,19 @@ def _heading_search(graph: PathGraph, lat: KindMask, extra: np.ndarray, region: 
     order the search reads them), and it takes each state's predecessor as scipy does, ties
     included, so the routes keep their bytes. Imported here, so that commands which search no
     route do not import numba."""
-    from osm_expand.engine.roads.expanded_search import Expanded, expanded_dijkstra
+    from osm_expand.engine.roads.expanded_search import expanded_dijkstra
+
+    rows = _expanded_rows(graph, lat, extra, region, local, penalties, k)
+    return expanded_dijkstra(rows, start, limit, h=h, return_predecessors=predecessors, ties=ties, resume=resume,
+                             ahead=ahead, turns=turns)
+
+
+def _expanded_rows(graph: PathGraph, lat: KindMask, extra: np.ndarray, region: np.ndarray, local: np.ndarray,
+                   penalties: np.ndarray, k: int) -> Expanded:
+    """What the compiled searches read of the heading-expanded graph over ``region`` (``local``: the
+    vertices searched numbered, the rest −1), beside the rows they make themselves
+    (:class:`~osm_expand.engine.roads.expanded_search.Expanded`)."""
+    from osm_expand.engine.roads.expanded_search import Expanded
 
     n = len(region)
     dir_bin, by_bin, e, e_bin = _departure_order(graph, extra, local, k)
@@ -990,8 +1008,7 @@ def _heading_search(graph: PathGraph, lat: KindMask, extra: np.ndarray, region: 
                     allowed=allowed, offset=graph.lattice.direction_offset.astype(np.int64), dirs_ptr=dirs_ptr,
                     dirs=dirs, table=table, plain=plain, w_kind=w_kind, e_ptr=e_ptr, e_bin=e_bin,
                     e_col=local[graph.dst[e]].astype(np.int64) * k + e_bin, e_val=graph.weight[e].astype(np.float64))
-    return expanded_dijkstra(rows, start, limit, h=h, return_predecessors=predecessors, ties=ties, resume=resume,
-                             ahead=ahead, turns=turns)
+    return rows
 
 
 def _expanded_search(graph: PathGraph, lat: KindMask, extra: np.ndarray, region: np.ndarray, source: int,
@@ -1210,24 +1227,34 @@ def _ahead(graph: PathGraph, extra: np.ndarray, full: np.ndarray, local: np.ndar
 
 
 def _turns_to_go(graph: PathGraph, lat: KindMask, extra: np.ndarray, region: np.ndarray, penalties: np.ndarray,
-                 k: int, target: int) -> np.ndarray:
+                 k: int, target: int, limit: float = np.inf) -> np.ndarray:
     """Per state of the expanded graph over ``region`` (sorted, :class:`_States`' numbers), the least turn
-    cost T of any path from it to an arrival at ``target`` inside the region (∞: none): Dijkstra
-    backwards from the target's arrivals on the turn penalties alone (every move and other edge
-    costs 0, written as 10⁻³⁰⁰: scipy reads an explicit 0 as no edge).
+    cost T of any path from it to an arrival at ``target`` inside the region, up to ``limit`` (the
+    limit where above it or none): Dijkstra backwards from the target's arrivals on the turn
+    penalties alone, every move and other edge costing 0 (compiled,
+    :func:`~osm_expand.engine.roads.expanded_search.turns_to_go`; no matrix written).
 
-    Consistent on the turns (``T(x) ≤ t(x, y) + T(y)``, t an edge's turn cost) and a lower bound of
-    the turns of every route from x, so ``D + T`` (D the plain distance to the target, consistent
-    on the lengths) is a consistent bound of the whole cost, ``min(len + turns) ≥ min len + min
-    turns``; and it does not change as the tiles grow (it reads every edge of the region). Campo
-    Grande's captured searches: the states with ``g + D + T ≤ C`` are 0.6–13 % of those with
-    ``g + D ≤ C`` (session 39)."""
-    states = _States(len(region), k)
-    nk = states.n * k
-    made, local = _expanded_graph(graph, lat, extra, region, penalties, k)
-    made.data[made.indptr[nk]:made.indptr[2 * nk]] = 1e-300  # the departures' rows: moves, turn-free
-    ends = states.arrivals(int(local[target]))
-    return dijkstra(made.transpose().tocsr(), indices=ends, min_only=True)
+    Consistent on the turns (``T(x) ≤ t(x, y) + T(y)``, t an edge's turn cost; the clamp at the limit
+    keeps it so) and a lower bound of the turns of every route from x, so ``D + T`` (D the plain
+    distance to the target, consistent on the lengths) is a consistent bound of the whole cost,
+    ``min(len + turns) ≥ min len + min turns``; and it does not change as the tiles grow (it reads
+    every edge of the region). Campo Grande's captured searches: the states with ``g + D + T ≤ C``
+    are 0.6–13 % of those with ``g + D ≤ C`` (session 39)."""
+    from osm_expand.engine.roads.expanded_search import turns_to_go
+
+    local = _local(graph, region, k)
+    if local.dtype != np.int32:
+        local = local.astype(np.int32)
+    rows = _expanded_rows(graph, lat, extra, region, local, penalties, k)
+    e = np.flatnonzero(extra & (local[graph.src] >= 0) & (local[graph.dst] >= 0))
+    head = local[graph.dst[e]].astype(np.int64)
+    order = np.argsort(head, kind="stable")
+    e, head = e[order], head[order]
+    r_ptr = np.zeros(len(region) + 1, dtype=np.int64)
+    np.cumsum(np.bincount(head, minlength=len(region)), out=r_ptr[1:])
+    ends = _States(len(region), k).arrivals(int(local[target]))
+    return turns_to_go(rows, ends, r_ptr, local[graph.src[e]].astype(np.int64),
+                       _bins(graph.heading[e], k).astype(np.int64), limit)
 
 
 def _turns_over(to_go: np.ndarray, first: np.ndarray, full: np.ndarray, k: int) -> np.ndarray:
@@ -1418,7 +1445,9 @@ def _tiled_search(graph: PathGraph, lat: KindMask, extra: np.ndarray, source: in
     first_full = np.flatnonzero(lower <= best[1] + 1e-9 * best[1] + 1e-6)
     to_go = None
     if not astar and not look and target is not None and 0 < _States(len(first_full), k).size <= opts.turn_bound:
-        to_go = _turns_to_go(graph, lat, extra, first_full, penalties, k, target)
+        # clamped at the turns the best route so far may make (C − D(s)): a state with more is above C anyway
+        budget = best[1] - float(h[source])
+        to_go = _turns_to_go(graph, lat, extra, first_full, penalties, k, target, budget + 1e-6 * best[1] + 1e-3)
     from osm_expand.engine.roads.expanded_search import Resume
 
     while True:
