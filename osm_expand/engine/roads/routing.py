@@ -1442,9 +1442,11 @@ def _tiled_search(graph: PathGraph, lat: KindMask, extra: np.ndarray, source: in
     look = opts.look_ahead and not astar  # the route search's bound one step ahead (A* on the own weights only)
     ahead: Ahead | None = None
     # the turns still to make, by state of the first region (C only falls: later regions lie within it)
-    first_full = np.flatnonzero(lower <= best[1] + 1e-9 * best[1] + 1e-6)
+    first_full = np.zeros(0, dtype=np.int64)
+    if opts.turn_bound and not astar and not look and target is not None:
+        first_full = np.flatnonzero(lower <= best[1] + 1e-9 * best[1] + 1e-6)
     to_go = None
-    if not astar and not look and target is not None and 0 < _States(len(first_full), k).size <= opts.turn_bound:
+    if target is not None and 0 < _States(len(first_full), k).size <= opts.turn_bound:
         # clamped at the turns the best route so far may make (C − D(s)): a state with more is above C anyway
         budget = best[1] - float(h[source])
         to_go = _turns_to_go(graph, lat, extra, first_full, penalties, k, target, budget + 1e-6 * best[1] + 1e-3)
