@@ -623,11 +623,17 @@ def test_the_exits_bound_through_the_exits_keeps_every_short_exits_arrival(seed)
     assume(checked > 0)
 
 
-@pytest.mark.parametrize("name", ["bound_cells", "tile_cells", "backward_tile_cells"])
+@pytest.mark.parametrize("name", ["bound_cells", "tile_cells", "backward_tile_cells", "turn_bound"])
 @pytest.mark.parametrize("value", [float("nan"), 2.5, 4.0, "4", True, -1, None])
 def test_routing_options_refuse_a_cell_count_that_is_not_a_whole_number(name, value):
     with pytest.raises(OptionError, match=f"RoutingOptions.{name} must be a whole number"):
         RoutingOptions(**{name: value})
+
+
+@pytest.mark.parametrize("share", [0.0, -0.1, 1.5, float("nan")])
+def test_routing_options_refuse_a_turn_share_outside_0_1(share):
+    with pytest.raises(OptionError, match="turn_share must be in"):
+        RoutingOptions(turn_share=share)
 
 
 def test_routing_options_take_whole_cell_counts():
@@ -1452,6 +1458,51 @@ def test_the_look_ahead_search_refuses_tables_of_another_graph_and_a_search_with
 
 
 @settings(max_examples=12, deadline=None)
+@given(st.integers(0, 2**32 - 1), st.sampled_from([8, 16]), st.floats(1.0, 1.5))
+def test_the_turns_in_the_corridor_keep_the_bound_consistent_and_below_the_cost_to_go(seed, k, stretch):
+    """Issue 22 (session 40): the turns still to make searched only in the corridor of a cost C
+    (``_turns_to_go`` with the limit ``C − d_s(v) − D(v)`` per vertex, d_s and D the plain distances
+    from the source and to the target: what the route search gives it) make a bound ``D + T`` that
+    is consistent on every edge of the expanded graph with its own weights, at least D, and never
+    above the exact cost from a state to the target (scipy's Dijkstra backwards on the written
+    graph), whatever C is: the route search's bound stays exact while T's search stays in the
+    states a route within C can reach."""
+    g, rng = random_map(seed)
+    opts = RoutingOptions(turn_height=float(rng.uniform(20, 900)), heading_bins=k)
+    lat, extra = g.masks()
+    live = g.live_vertices()
+    s, t = (int(v) for v in rng.choice(live, 2, replace=False))
+    penalties = routing._bin_penalties(opts)
+    rows = routing._plain_rows(g, lat, extra)
+    from_source, _ = routing._plain_search(rows, [s])
+    from_target, _ = routing._plain_search(rows, [t])
+    lower = from_source + from_target
+    assume(np.isfinite(lower[s]))
+    # C: the plain distance stretched (a route's cost with its turns lies above it)
+    cost = float(lower[s]) * stretch + float(rng.uniform(0, 2)) * float(penalties.max())
+    region = np.flatnonzero(lower <= cost)
+    states = routing._States(len(region), k)
+    local = routing._local(g, region, k)
+    T = routing._turns_to_go(g, lat, extra, region, penalties, k, t, cost - lower[region])
+    assert (T >= 0).all() and np.isfinite(T).all()
+    made, _ = routing._expanded_graph(g, lat, extra, region, penalties, k)
+    bound = from_target[region][states.vertex(np.arange(states.size))] + T
+    rows_of = np.repeat(np.arange(made.shape[0]), np.diff(made.indptr))
+    assert (bound[rows_of] <= made.data + bound[made.indices] + 1e-9).all()
+    back = made.transpose().tocsr()
+    exact = dijkstra(back, indices=states.arrivals(int(local[t])), min_only=True)
+    assert (bound <= exact + 1e-9).all()
+    # stopped after a budget of states (``RoutingOptions.turn_share``): clamped at the cost it had reached,
+    # still consistent and below the cost to go
+    part = routing._turns_to_go(g, lat, extra, region, penalties, k, t, cost - lower[region],
+                                int(rng.integers(0, states.size)))
+    assert np.array_equal(part, np.minimum(T, part.max()))
+    bound = from_target[region][states.vertex(np.arange(states.size))] + part
+    assert (bound[rows_of] <= made.data + bound[made.indices] + 1e-9).all()
+    assert (bound <= exact + 1e-9).all()
+
+
+@settings(max_examples=12, deadline=None)
 @example(4_267_211_612, 16, True)  # seeds keyed (g + h) + T, pops g + (h + T): a resumed seed skipped
 @given(st.integers(0, 2**32 - 1), st.sampled_from([8, 16]), st.booleans())
 def test_the_turns_still_to_make_are_consistent_and_keep_the_routes(seed, k, tiles):
@@ -1479,8 +1530,14 @@ def test_the_turns_still_to_make_are_consistent_and_keep_the_routes(seed, k, til
     tail, head = T[rows_of], T[made.indices]
     reach = np.isfinite(head)
     assert (tail[reach] <= turn[reach] + head[reach] + 1e-9).all()
-    # the least, as scipy finds it backwards on the written graph (a move 10⁻³⁰⁰: scipy reads 0 as no edge)
-    back = csr_matrix((np.maximum(turn, 1e-300), made.indices, made.indptr), shape=made.shape).transpose().tocsr()
+    # the least, as scipy finds it backwards on the written graph with the turns' own costs (without the
+    # floor ε: the arrivals' rows their cheap turns and the hub, first; the hubs' rows last, free; a free
+    # edge 10⁻³⁰⁰: scipy reads 0 as no edge)
+    raw = turn.copy()
+    cheap, _, _ = routing._turn_rows(penalties)
+    raw[:nk * (len(cheap) + 1)].reshape(-1, len(cheap) + 1)[:] = np.append(penalties[cheap], penalties.max())
+    raw[-nk:] = 0.0
+    back = csr_matrix((np.maximum(raw, 1e-300), made.indices, made.indptr), shape=made.shape).transpose().tocsr()
     want = dijkstra(back, indices=states.arrivals(t), min_only=True)
     assert np.array_equal(np.isfinite(T), np.isfinite(want))
     assert np.allclose(T[np.isfinite(T)], want[np.isfinite(want)], rtol=0, atol=1e-9)
@@ -1491,6 +1548,7 @@ def test_the_turns_still_to_make_are_consistent_and_keep_the_routes(seed, k, til
     assert (clamped[rows_of] <= turn + clamped[made.indices] + 1e-9).all()
     searched = {}
     heading_search = routing._heading_search
+    share = float(rng.choice([1.0, 0.3, 0.05]))  # T's search whole in its corridor, or stopped short
 
     def counted(*args, **kwargs):
         dist, pred = heading_search(*args, **kwargs)
@@ -1501,8 +1559,8 @@ def test_the_turns_still_to_make_are_consistent_and_keep_the_routes(seed, k, til
 
     with pytest.MonkeyPatch.context() as monkey:
         monkey.setattr(routing, "_heading_search", counted)
-        want = routing.find_route(g, s, t, options=opts)
-        got = routing.find_route(g, s, t, options=replace(opts, turn_bound=10**9))
+        want = routing.find_route(g, s, t, options=replace(opts, turn_bound=0))
+        got = routing.find_route(g, s, t, options=replace(opts, turn_bound=10**9, turn_share=share))
     assert (want is None) == (got is None)
     if want is not None:
         assert np.array_equal(got.vertices, want.vertices)

@@ -424,101 +424,140 @@ def _search(n: int, k: int, cheap: np.ndarray, cheap_cost: np.ndarray, hub_cost:
                 heap, length = _relax(dist, pred, heap, length, col, dv + w, v, limit, ties, hc)
 
 
+@_compiled(inline="always")
+def _offer(T: np.ndarray, x: int | np.integer, nv: float, key: float, heap: np.ndarray, length: int,
+           stack: np.ndarray, top: int) -> tuple[np.ndarray, int, np.ndarray, int]:
+    """Offer state ``x`` the turn cost ``nv`` (at least ``key``, the one being scanned): where lower than
+    its own, taken, and queued: on the stack where it equals ``key`` (a free edge: scanned before the
+    heap's next entry, which is no lower), else in the heap."""
+    if T[x] > nv:
+        T[x] = nv
+        if nv == key:
+            if top == len(stack):
+                stack = np.concatenate((stack, np.empty_like(stack)))
+            stack[top] = x
+            top += 1
+        else:
+            heap = _push(heap, length, nv, np.float64(x))
+            length += 1
+    return heap, length, stack, top
+
+
 @_compiled()
-def _turns_back(n: int, k: int, cheap: np.ndarray, cheap_cost: np.ndarray, hub_cost: float, eps: float,
-                region: np.ndarray, local: np.ndarray, n_lat: int, lat_kind: np.ndarray, allowed: np.ndarray,
-                offset: np.ndarray, dirs_ptr: np.ndarray, dirs: np.ndarray, r_ptr: np.ndarray, r_src: np.ndarray,
-                r_bin: np.ndarray, ends: np.ndarray, limit: float, T: np.ndarray) -> None:
+def _turns_back(n: int, k: int, cheap: np.ndarray, cheap_cost: np.ndarray, hub_cost: float, region: np.ndarray,
+                local: np.ndarray, n_lat: int, lat_kind: np.ndarray, allowed: np.ndarray, offset: np.ndarray,
+                dirs_ptr: np.ndarray, dirs: np.ndarray, r_ptr: np.ndarray, r_src: np.ndarray, r_bin: np.ndarray,
+                ends: np.ndarray, cap: np.ndarray, budget: int, T: np.ndarray) -> float:
     """Dijkstra backwards on the heading-expanded graph over ``n`` vertices (``region``, ``local``: all of
-    them numbered), its turn penalties the only weights (moves and other edges cost 0): ``T`` of each
-    state up to ``limit``, from the ``ends`` at 0. A state's in-edges: an arrival ``arr(w, b)``'s from
-    ``dep(u, b)`` for each allowed lattice move u → w of bin b (u = w − the direction's step) and
-    each other edge into w of bin b (``r_*``, by head); a departure ``dep(v, b)``'s from ``arr(v, b −
-    q)`` at P(q) for the cheap turns and from ``hub(v)`` at ε; the hub's from every arrival at S_p."""
+    them numbered), its turn penalties the only weights (moves and other edges cost 0, a turn of q
+    bins ``cheap_cost``, an arrival to its hub ``hub_cost``, the hub to a departure 0): ``T`` of each
+    state up to ``cap`` of its vertex (a state above it is neither kept nor searched on), from the
+    arrivals ``ends`` at 0. A state's in-edges: an arrival ``arr(w, b)``'s from ``dep(u, b)`` for
+    each allowed lattice move u → w of bin b (u = w − the direction's step) and each other edge into
+    w of bin b (``r_*``, by head); a departure ``dep(v, b)``'s from ``arr(v, b − q)`` for the cheap
+    turns and from ``hub(v)``; the hub's from every arrival. The states a free edge reaches at the
+    cost being scanned go on a stack, not the heap (most of them: every move is free).
+
+    It stops after scanning ``budget`` states and returns the cost it had reached (∞ where it ran to
+    the end): every state not scanned by then has T at least that."""
     nk = n * k
     heap = np.empty((4096, 2))
     length = 0
+    stack = np.empty(4096, dtype=np.int64)
+    top = 0
     for index in range(len(ends)):
-        T[ends[index]] = 0.0
-        heap = _push(heap, length, 0.0, np.float64(ends[index]))
-        length += 1
+        e = ends[index]
+        if cap[e // k] >= 0.0 and T[e] > 0.0:
+            T[e] = 0.0
+            heap = _push(heap, length, 0.0, np.float64(e))
+            length += 1
+    scanned = 0
     while length > 0:
         key = heap[0, 0]
-        y = np.int64(heap[0, 1])
+        y0 = np.int64(heap[0, 1])
         _pop(heap, length)
         length -= 1
-        if T[y] < key:
+        if T[y0] < key:
             continue
-        if y < nk:  # arr(w, b): the departures that move into it, free
-            w = y // k
-            b = y - w * k
-            gw = region[w]
-            if gw < n_lat:
-                for t in range(dirs_ptr[b], dirs_ptr[b + 1]):
-                    d = dirs[t]
-                    u = gw - offset[d]
-                    if u < 0 or u >= n_lat or not allowed[lat_kind[u, d]]:
+        stack[0] = y0
+        top = 1
+        while top > 0:  # y0, then every state reached from it at the same cost
+            if scanned == budget:
+                return key
+            scanned += 1
+            top -= 1
+            y = stack[top]
+            if y < nk:  # arr(w, b): the departures that move into it, free
+                w = y // k
+                b = y - w * k
+                gw = region[w]
+                if gw < n_lat:
+                    for t in range(dirs_ptr[b], dirs_ptr[b + 1]):
+                        d = dirs[t]
+                        u = gw - offset[d]
+                        if u < 0 or u >= n_lat or not allowed[lat_kind[u, d]]:
+                            continue
+                        lu = local[u]
+                        if lu < 0 or key > cap[lu]:
+                            continue
+                        heap, length, stack, top = _offer(T, nk + lu * k + b, key, key, heap, length, stack, top)
+                for t in range(r_ptr[w], r_ptr[w + 1]):
+                    if r_bin[t] != b or key > cap[r_src[t]]:
                         continue
-                    lu = local[u]
-                    if lu < 0:
-                        continue
-                    x = nk + lu * k + b
-                    if T[x] > key:
-                        T[x] = key
-                        heap = _push(heap, length, key, np.float64(x))
-                        length += 1
-            for t in range(r_ptr[w], r_ptr[w + 1]):
-                if r_bin[t] != b:
-                    continue
-                x = nk + r_src[t] * k + b
-                if T[x] > key:
-                    T[x] = key
-                    heap = _push(heap, length, key, np.float64(x))
-                    length += 1
-        elif y < 2 * nk:  # dep(v, b): the arrivals that turn to it, and the hub
-            v = (y - nk) // k
-            b = y - nk - v * k
-            for j in range(len(cheap) + 1):
-                if j < len(cheap):
+                    heap, length, stack, top = _offer(T, nk + r_src[t] * k + b, key, key, heap, length, stack, top)
+            elif y < 2 * nk:  # dep(v, b): the arrivals that turn to it, and the hub (free)
+                v = (y - nk) // k
+                b = y - nk - v * k
+                for j in range(len(cheap)):
                     i = b - cheap[j]
                     if i < 0:
                         i += k
-                    x = v * k + i
                     nv = key + cheap_cost[j]
-                else:
-                    x = 2 * nk + v
-                    nv = key + eps
-                if nv <= limit and T[x] > nv:
-                    T[x] = nv
-                    heap = _push(heap, length, nv, np.float64(x))
-                    length += 1
-        else:  # hub(v): every arrival, at S_p
-            v = y - 2 * nk
-            nv = key + hub_cost
-            if nv <= limit:
-                for i in range(k):
-                    x = v * k + i
-                    if T[x] > nv:
-                        T[x] = nv
-                        heap = _push(heap, length, nv, np.float64(x))
-                        length += 1
+                    if nv <= cap[v]:
+                        heap, length, stack, top = _offer(T, v * k + i, nv, key, heap, length, stack, top)
+                heap, length, stack, top = _offer(T, 2 * nk + v, key, key, heap, length, stack, top)
+            else:  # hub(v): every arrival, at the hub's cost
+                v = y - 2 * nk
+                nv = key + hub_cost
+                if nv <= cap[v]:
+                    for i in range(k):
+                        heap, length, stack, top = _offer(T, v * k + i, nv, key, heap, length, stack, top)
+    return np.inf
 
 
 def turns_to_go(graph: Expanded, ends: np.ndarray, r_ptr: np.ndarray, r_src: np.ndarray, r_bin: np.ndarray,
-                limit: float) -> np.ndarray:
+                limit: float | np.ndarray, turn_cost: np.ndarray, hub_cost: float,
+                budget: int = -1) -> np.ndarray:
     """Per state of ``graph`` (its ``local`` numbering every vertex of ``region``), the least turn cost of a
-    path to one of the states ``ends``, up to ``limit`` (:func:`_turns_back`), ``limit`` where above it
-    or none (a clamp that stays a consistent lower bound: a state not reached within the limit has
-    every path's turns above it). ``r_*``: the other edges by head (local numbers), their tails and bins."""
+    path to one of the arrivals ``ends`` through states within ``limit`` (one for all, or per vertex;
+    :func:`_turns_back`), clamped at the limit of the state's vertex (a state not reached within it
+    has every such path's turns above it). ``r_*``: the other edges by head (local numbers), their
+    tails and bins; ``turn_cost`` (per cheap turn of ``graph``) and ``hub_cost``: the turns' costs
+    without the search's floor ε (lower, so T stays a lower bound and consistent on the search's
+    costs; with them the free moves and turns cost 0 and go by the stack, not the heap). With a
+    ``budget`` (≥ 0) the search stops after scanning that many states, and every T is clamped at the
+    cost it had reached, τ: ``min(T, τ)`` is consistent too, a lower bound found in bounded time.
+
+    A limit per vertex makes a corridor: ``routing._turns_to_go`` gives each vertex the turns a
+    route through it may make and still cost at most C; that keeps ``D + T`` consistent and below
+    every such route's cost to go (its docstring's proof), while the search stays inside the states
+    a route within C can reach."""
     g = graph
     size = g.n * (2 * g.k + 1)
     ends = np.asarray(ends, dtype=np.int64)
-    if len(ends) and not (0 <= ends.min() and ends.max() < size) or len(r_ptr) != g.n + 1:
-        raise ValueError("the ends or the edges by head are not of this graph's states and vertices")
+    if len(ends) and not (0 <= ends.min() and ends.max() < g.n * g.k) or len(r_ptr) != g.n + 1:
+        raise ValueError("the ends (arrivals) or the edges by head are not of this graph's states and vertices")
+    cap = np.ascontiguousarray(np.broadcast_to(np.asarray(limit, dtype=np.float64), (g.n,)))
     T = np.full(size, np.inf)
-    _turns_back(g.n, g.k, g.cheap, g.cheap_cost, g.hub_cost, g.eps, g.region, g.local, g.n_lat, g.lat_kind, g.allowed,
-                g.offset, g.dirs_ptr, g.dirs, r_ptr, r_src, r_bin, ends, float(limit), T)
-    np.minimum(T, limit, out=T)
+    reached = _turns_back(g.n, g.k, g.cheap, turn_cost, hub_cost, g.region, g.local, g.n_lat, g.lat_kind,
+                          g.allowed, g.offset, g.dirs_ptr, g.dirs, r_ptr, r_src, r_bin, ends, cap, int(budget), T)
+    if reached < np.inf:
+        cap = np.minimum(cap, reached)
+    # the clamp: each state at most its vertex's limit (arrivals and departures k a vertex, then the hubs)
+    nk = g.n * g.k
+    for part in (T[:nk].reshape(g.n, g.k), T[nk:2 * nk].reshape(g.n, g.k)):
+        np.minimum(part, cap[:, None], out=part)
+    np.minimum(T[2 * nk:], cap, out=T[2 * nk:])
     return T
 
 

@@ -178,17 +178,24 @@ class RoutingOptions:
     #: town's first road 19.05 → 18.12 M states (a turn of one bin is free, so the next turn is seldom
     #: forced), each state about twice the CPU (the neighbours' D read for the bound)
     look_ahead: bool = False
-    #: whether a route search (A* with scipy's tie rule, :func:`_tiled_search`) adds to each state's bound
-    #: the least turn cost from it to the target (:func:`_turns_to_go`, turns alone, over the region's
-    #: expanded graph, searched backwards once per search) where the region has at most ``turn_bound``
-    #: states (0: never; 8 B a state). Off (session 39, ``/tmp/h39s/replay_states.py``): the same routes
-    #: (Campo Grande's 36 captured calls identical) and far fewer states (route states 8.35 → 2.00 M,
-    #: their CPU 5.3 → 1.5 s), but T's search covers the whole region, where A* by D alone reaches a
-    #: small part of it: 8.35 s CPU (call 15: 4.35 s over 7.7 M states, 0.56 µs a state), so the 36
-    #: calls took 18.6 → 24.5 s. The synthetic 10,000-street town's first road: 19.05 → 16.22 M states
-    #: only (its best route trades length for turns: min len + min turns is far below it), T 38.8 s,
-    #: the call 57 → 89 s CPU, peak 2.0 → 3.2 GB. It pays only where T costs less than the states it saves
-    turn_bound: int = 0
+    #: the route search (A* with scipy's tie rule, :func:`_tiled_search`) adds to each state's bound the
+    #: least turn cost from it to the target (:func:`_turns_to_go`: turns alone, searched backwards once
+    #: per search over its first region, in the corridor a route within the best cost C can use) where
+    #: that region has at most this many states (0: never; 8 B a state, so also a memory cap). The same
+    #: routes, distances and predecessors (consistent; Campo Grande's 36 captured calls identical).
+    #: Measured (session 40, ``/tmp/h40t/replay.py``, one run, load 5–6): Campo Grande's 36 calls'
+    #: route search plus T 5.16 → 3.07 s CPU (states 8.32 → 3.40 M; regions up to 7.7 M states).
+    #: The synthetic 10,000-street town's first road (a region of 57.9 M states; its route trades
+    #: length for turns, so T cuts little): with T 19.05 → 20.22 M states, 40.3 → 47.5 s CPU, so its
+    #: regions stay above the cap and search as before. Session 39's T over the whole region, one
+    #: limit: Campo Grande's 36 calls 18.6 → 24.5 s (T 8.35 s)
+    turn_bound: int = 16_000_000
+    #: the share of its region's states the turns' backward search (``turn_bound``) may scan before it
+    #: stops; every state's T is then clamped at the turn cost it had reached (consistent, weaker, in
+    #: bounded time). Campo Grande's 36 captured calls (session 40, one run), route search plus T:
+    #: 1.0 (whole corridor) 8.04 s (with numba's compile), 0.10 3.24 s, 0.05 3.07 s, 0.02 3.18 s,
+    #: 0.01 3.45 s, without T 5.16 s
+    turn_share: float = 0.05
 
     def __post_init__(self) -> None:
         require_positive(self, ("window_margin", "growth_share", "turn_width"))
@@ -197,10 +204,12 @@ class RoutingOptions:
         # counts of lattice vertices: a whole number (not a bool, not nan or 2.5, which failed later
         # in find_route with a TypeError)
         for name, least in (("bound_cells", 0), ("tile_cells", 1), ("backward_tile_cells", 1),
-                            ("resume_states", 0)):
+                            ("resume_states", 0), ("turn_bound", 0)):
             value = getattr(self, name)
             if isinstance(value, bool) or not isinstance(value, Integral) or value < least:
                 raise OptionError(f"RoutingOptions.{name} must be a whole number of at least {least}, got {value!r}")
+        if not 0 < self.turn_share <= 1:
+            raise OptionError(f"RoutingOptions.turn_share must be in (0, 1], got {self.turn_share!r}")
         if self.heading_bins < 4:
             raise InputError(f"RoutingOptions.heading_bins must be at least 4, got {self.heading_bins}")
 
@@ -1227,19 +1236,35 @@ def _ahead(graph: PathGraph, extra: np.ndarray, full: np.ndarray, local: np.ndar
 
 
 def _turns_to_go(graph: PathGraph, lat: KindMask, extra: np.ndarray, region: np.ndarray, penalties: np.ndarray,
-                 k: int, target: int, limit: float = np.inf) -> np.ndarray:
+                 k: int, target: int, limit: float | np.ndarray = np.inf, budget: int = -1) -> np.ndarray:
     """Per state of the expanded graph over ``region`` (sorted, :class:`_States`' numbers), the least turn
-    cost T of any path from it to an arrival at ``target`` inside the region, up to ``limit`` (the
-    limit where above it or none): Dijkstra backwards from the target's arrivals on the turn
-    penalties alone, every move and other edge costing 0 (compiled,
-    :func:`~osm_expand.engine.roads.expanded_search.turns_to_go`; no matrix written).
+    cost T of a path from it to an arrival at ``target`` inside the region, through states within
+    ``limit`` (one for all, or per vertex: the region's order), clamped at the limit of its vertex:
+    Dijkstra backwards from the target's arrivals on the turn penalties alone (without the search's
+    floor ε), every move and other edge costing 0 (compiled,
+    :func:`~osm_expand.engine.roads.expanded_search.turns_to_go`; no matrix written). With a
+    ``budget`` (≥ 0) it stops after scanning that many states and clamps every T at the turn cost
+    it had reached (``RoutingOptions.turn_share``).
 
-    Consistent on the turns (``T(x) ≤ t(x, y) + T(y)``, t an edge's turn cost; the clamp at the limit
-    keeps it so) and a lower bound of the turns of every route from x, so ``D + T`` (D the plain
-    distance to the target, consistent on the lengths) is a consistent bound of the whole cost,
-    ``min(len + turns) ≥ min len + min turns``; and it does not change as the tiles grow (it reads
-    every edge of the region). Campo Grande's captured searches: the states with ``g + D + T ≤ C``
-    are 0.6–13 % of those with ``g + D ≤ C`` (session 39)."""
+    With one limit: consistent on the turns (``T(x) ≤ t(x, y) + T(y)``, t an edge's turn cost; the
+    clamp keeps it so) and a lower bound of the turns of every route from x, so ``D + T`` (D the
+    plain distance to the target, consistent on the lengths) is a consistent bound of the whole
+    cost, ``min(len + turns) ≥ min len + min turns`` (session 39, h39s).
+
+    The corridor (session 40): the route search gives each vertex the limit ``C′ − lower(v)``
+    (``lower = d_s + D``, d_s the plain distance from the source; C′ the best cost known, a margin
+    above). The bound is then ``B = min(D + T_r, C′ − d_s)``, T_r the least turns through states
+    kept. Consistent: ``C′ − d_s`` is (``d_s(w) ≤ d_s(v) + c``), and on an edge x → y at c + t
+    where y was kept, ``D(x) + T_r(x) ≤ c + t + D(y) + T_r(y)``; where y was not, B(y) is its
+    ``C′ − d_s``; a minimum of consistent bounds is consistent. Below the cost to go h*(x): where
+    ``d_s(x) + h*(x) > C′``, B ≤ C′ − d_s < h*; else every state p on x's best path to the target
+    has ``d_s(p) + D(p) + T_path(p) ≤ d_s(x) + h*(x) ≤ C′``, so backwards from the target each is
+    kept with T_r(p) ≤ T_path(p), and ``B(x) ≤ D(x) + T_path(x) ≤ h*(x)``. And B ≥ D in the region
+    (its limits ≥ 0). The budget's clamp at τ is a minimum with a constant: consistent too.
+    ``tests/test_routing_search.py`` checks both edge by edge against scipy's backward search.
+
+    Campo Grande's 36 captured searches (session 40, ``/tmp/h40t/replay.py``): one limit (h39s)
+    scanned 92 % of call 15's 7.7 M states (4.3 s), the corridor 34 % (1.2 s)."""
     from osm_expand.engine.roads.expanded_search import turns_to_go
 
     local = _local(graph, region, k)
@@ -1253,8 +1278,9 @@ def _turns_to_go(graph: PathGraph, lat: KindMask, extra: np.ndarray, region: np.
     r_ptr = np.zeros(len(region) + 1, dtype=np.int64)
     np.cumsum(np.bincount(head, minlength=len(region)), out=r_ptr[1:])
     ends = _States(len(region), k).arrivals(int(local[target]))
+    raw = np.maximum(penalties, 0.0)  # the turns without the search's floor ε: lower, so T stays below them
     return turns_to_go(rows, ends, r_ptr, local[graph.src[e]].astype(np.int64),
-                       _bins(graph.heading[e], k).astype(np.int64), limit)
+                       _bins(graph.heading[e], k).astype(np.int64), limit, raw[rows.cheap], float(raw.max()), budget)
 
 
 def _turns_over(to_go: np.ndarray, first: np.ndarray, full: np.ndarray, k: int) -> np.ndarray:
@@ -1447,9 +1473,13 @@ def _tiled_search(graph: PathGraph, lat: KindMask, extra: np.ndarray, source: in
         first_full = np.flatnonzero(lower <= best[1] + 1e-9 * best[1] + 1e-6)
     to_go = None
     if target is not None and 0 < _States(len(first_full), k).size <= opts.turn_bound:
-        # clamped at the turns the best route so far may make (C − D(s)): a state with more is above C anyway
-        budget = best[1] - float(h[source])
-        to_go = _turns_to_go(graph, lat, extra, first_full, penalties, k, target, budget + 1e-6 * best[1] + 1e-3)
+        # in the corridor of the turns a route through each vertex may make and still cost C: C − lower(v)
+        # (lower = d_s + D, so the bound is min(D + T, C − d_s): consistent, :func:`_turns_to_go`)
+        allowed = best[1] + 1e-6 * best[1] + 1e-3
+        size = _States(len(first_full), k).size
+        to_go = _turns_to_go(graph, lat, extra, first_full, penalties, k, target, allowed - lower[first_full],
+                             int(opts.turn_share * size) if opts.turn_share < 1 else -1)
+    still, still_of = None, np.zeros(0, dtype=np.int64)  # T scaled as h is, by state of the region searched
     from osm_expand.engine.roads.expanded_search import Resume
 
     while True:
@@ -1507,7 +1537,8 @@ def _tiled_search(graph: PathGraph, lat: KindMask, extra: np.ndarray, source: in
             # g + h above C are not searched. Where the growth test below reads a departure's g, it is
             # exact wherever g + w + h(w) < C (consistency: then g + h(u) < C), as the test needs.
             shift = None
-            still = None if to_go is None else _turns_over(to_go, first_full, full, k) * (1.0 - _SHRINK)
+            if to_go is not None and not np.array_equal(full, still_of):  # made again where the region changed
+                still, still_of = _turns_over(to_go, first_full, full, k) * (1.0 - _SHRINK), full
             dist, pred = _heading_search(graph, lat, extra, full, local, penalties, k, start, cost + slack,
                                          h=h[full] * (1.0 - _SHRINK), predecessors=True, ties=True, resume=resume,
                                          ahead=ahead, turns=still)
