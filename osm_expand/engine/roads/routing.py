@@ -1479,7 +1479,8 @@ def _tiled_search(graph: PathGraph, lat: KindMask, extra: np.ndarray, source: in
         size = _States(len(first_full), k).size
         to_go = _turns_to_go(graph, lat, extra, first_full, penalties, k, target, allowed - lower[first_full],
                              int(opts.turn_share * size) if opts.turn_share < 1 else -1)
-    still, still_of = None, np.zeros(0, dtype=np.int64)  # T scaled as h is, by state of the region searched
+        to_go *= 1.0 - _SHRINK  # scaled as h is, in place: the first search reads it as it is (no copy)
+    still, still_of = None, np.zeros(0, dtype=np.int64)  # the scaled T by state of the region searched
     from osm_expand.engine.roads.expanded_search import Resume
 
     while True:
@@ -1538,7 +1539,7 @@ def _tiled_search(graph: PathGraph, lat: KindMask, extra: np.ndarray, source: in
             # exact wherever g + w + h(w) < C (consistency: then g + h(u) < C), as the test needs.
             shift = None
             if to_go is not None and not np.array_equal(full, still_of):  # made again where the region changed
-                still, still_of = _turns_over(to_go, first_full, full, k) * (1.0 - _SHRINK), full
+                still, still_of = _turns_over(to_go, first_full, full, k), full
             dist, pred = _heading_search(graph, lat, extra, full, local, penalties, k, start, cost + slack,
                                          h=h[full] * (1.0 - _SHRINK), predecessors=True, ties=True, resume=resume,
                                          ahead=ahead, turns=still)
