@@ -623,11 +623,17 @@ def test_the_exits_bound_through_the_exits_keeps_every_short_exits_arrival(seed)
     assume(checked > 0)
 
 
-@pytest.mark.parametrize("name", ["bound_cells", "tile_cells", "backward_tile_cells"])
+@pytest.mark.parametrize("name", ["bound_cells", "tile_cells", "backward_tile_cells", "turn_bound"])
 @pytest.mark.parametrize("value", [float("nan"), 2.5, 4.0, "4", True, -1, None])
 def test_routing_options_refuse_a_cell_count_that_is_not_a_whole_number(name, value):
     with pytest.raises(OptionError, match=f"RoutingOptions.{name} must be a whole number"):
         RoutingOptions(**{name: value})
+
+
+@pytest.mark.parametrize("share", [0.0, -0.1, 1.5, float("nan")])
+def test_routing_options_refuse_a_turn_share_outside_0_1(share):
+    with pytest.raises(OptionError, match="turn_share must be in"):
+        RoutingOptions(turn_share=share)
 
 
 def test_routing_options_take_whole_cell_counts():
@@ -1336,3 +1342,228 @@ def test_a_search_gone_on_after_c_falls_has_the_states_of_one_from_scratch_withi
             else:
                 routing.find_route(g, s, t, options=opts)
     assume(any(fell))
+
+
+def look_ahead_bounds(made: csr_matrix, states, to_goal: np.ndarray, region: np.ndarray, penalties: np.ndarray,
+                      scale: float) -> tuple[np.ndarray, np.ndarray]:
+    """The look-ahead bound (``expanded_search.Ahead``) written plainly from the expanded graph over every
+    vertex: ``A(u, b)`` the least ``c + D(w)`` over dep(u, b)'s row, and each state's bound from it."""
+    n, k = states.n, states.k
+    nk = n * k
+    A = np.full(nk, np.inf)
+    rows = np.repeat(np.arange(made.shape[0]), np.diff(made.indptr))
+    dep = (rows >= nk) & (rows < 2 * nk)
+    head = region[states.vertex(made.indices[dep])]
+    np.minimum.at(A, rows[dep] - nk, made.data[dep] + to_goal[head])
+    A = A.reshape(n, k)
+    height = penalties.max()
+    cheap = np.flatnonzero(penalties < height - 1e-9)
+    there = to_goal[region] * scale  # the vertex bound
+    arrive = np.full((n, k), (max(height, routing._EPS) + routing._EPS) * scale) + there[:, None]  # by the hub
+    for q in cheap:
+        arrive = np.minimum(arrive, (max(penalties[q], routing._EPS) + np.roll(A, -q, axis=1)) * scale)
+    goal = there == 0.0  # the goal's states: 0 (a route ends on its arrival)
+    depart, hub = A * scale, there + routing._EPS * scale
+    arrive[goal], depart[goal], hub[goal] = 0.0, 0.0, 0.0
+    return np.concatenate([arrive.ravel(), depart.ravel(), hub]), A
+
+
+@settings(max_examples=12, deadline=None)
+@given(st.integers(0, 2**32 - 1), st.sampled_from([8, 16]))
+def test_the_look_ahead_bound_is_consistent_and_keeps_plain_dijkstras_routes(seed, k):
+    """Issue 22 (session 39): the route search's bound one step ahead (``RoutingOptions.look_ahead``:
+    the turn a state must make next and the plain distance on from the edge it leaves by) is
+    consistent on every edge of the expanded graph — lattice moves, streets, stitches, turns, hub —
+    (``h(x) ≤ c(x, y) + h(y)``, state by state, D the code's own plain distance to the target), never
+    below the vertex bound it replaces, and the compiled search's tables hold its values exactly;
+    A* by it with scipy's tie rule walks back plain Dijkstra's route with the same distances and
+    predecessors, searching no more states than A* by the vertex bound."""
+    g, rng = random_map(seed)
+    opts = RoutingOptions(turn_height=float(rng.uniform(20, 900)), heading_bins=k)
+    lat, extra = g.masks()
+    live = g.live_vertices()
+    s, t = (int(v) for v in rng.choice(live, 2, replace=False))
+    rows = routing._plain_rows(g, lat, extra)
+    to_goal, _ = routing._plain_search(rows, [t])
+    d_s, _ = routing._plain_search(rows, [s])
+    assume(np.isfinite(d_s[t]))
+    penalties = routing._bin_penalties(opts)
+    region = np.arange(g.n_vertices)  # every vertex: every edge A reads is in the written graph
+    states = routing._States(len(region), k)
+    made, local = routing._expanded_graph(g, lat, extra, region, penalties, k)
+    scale = 1.0 - routing._SHRINK
+    h, A = look_ahead_bounds(made, states, to_goal, region, penalties, scale)
+    rows_of = np.repeat(np.arange(made.shape[0]), np.diff(made.indptr))
+    tail, head = h[rows_of], h[made.indices]
+    live_edge = np.isfinite(tail)
+    assert (tail[live_edge] <= made.data[live_edge] + head[live_edge] + 1e-9 * tail[live_edge]).all()
+    vertex_bound = states.per_state(to_goal[region] * scale)
+    finite = np.isfinite(vertex_bound)
+    assert (h[finite] >= vertex_bound[finite] * (1.0 - 1e-12)).all()
+    assert not np.isfinite(h[~finite]).any()  # no route to the goal: ∞ both
+    limit = float(rng.uniform(1.2, 3.0)) * d_s[t] + opts.turn_height
+    start = states.hub(int(local[s]))
+    old, old_pred = routing._heading_search(g, lat, extra, region, local, penalties, k, start, limit,
+                                            h=to_goal[region] * scale, predecessors=True, ties=True)
+    ahead = routing._ahead(g, extra, region, local, to_goal, k)
+    dist, pred = routing._heading_search(g, lat, extra, region, local, penalties, k, start, limit,
+                                         h=to_goal[region] * scale, predecessors=True, ties=True, ahead=ahead)
+    made_rows = ~np.isnan(ahead.ahead[:, :k])
+    assert np.array_equal(ahead.ahead[:, :k][made_rows], A[made_rows])
+    made_rows = ~np.isnan(ahead.ahead[:, k:])
+    assert made_rows.any()
+    assert np.array_equal(ahead.ahead[:, k:][made_rows], h[:states.n * k].reshape(-1, k)[made_rows])
+    assert np.isfinite(dist).sum() <= np.isfinite(old).sum()
+    end = routing._target_end(old, states, int(local[t]))
+    assert routing._target_end(dist, states, int(local[t])) == end
+    if np.isfinite(old[end]):
+        path = routing._walk_back(old_pred, start, end)
+        assert routing._walk_back(pred, start, end) == path
+        assert np.array_equal(dist[path], old[path])
+    else:
+        assert not np.isfinite(dist[end])
+
+
+def test_the_look_ahead_search_refuses_tables_of_another_graph_and_a_search_without_ties():
+    """The look-ahead tables are read by the compiled search without bounds checks: tables of another
+    size, or the bound asked of a search on reduced costs, are refused before it runs."""
+    from osm_expand.engine.roads.expanded_search import expanded_dijkstra, no_ahead
+
+    g, _ = random_map(3)
+    k = 8
+    lat, extra = g.masks()
+    region = np.arange(g.n_vertices)
+    made, local = routing._expanded_graph(g, lat, extra, region, routing._bin_penalties(RoutingOptions()), k)
+    ahead = routing._ahead(g, extra, region, local, np.zeros(g.n_vertices), k)
+    captured = {}
+
+    def keep(rows, *args, **kwargs):
+        captured["rows"] = rows
+        return np.zeros(0), np.zeros(0)
+
+    import osm_expand.engine.roads.expanded_search as es
+    original = es.expanded_dijkstra
+    es.expanded_dijkstra = keep
+    try:
+        routing._heading_search(g, lat, extra, region, local, routing._bin_penalties(RoutingOptions()), k, 0, 1.0)
+    finally:
+        es.expanded_dijkstra = original
+    rows = captured["rows"]
+    start = routing._States(len(region), k).hub(0)
+    h = np.zeros(len(region))
+    with pytest.raises(ValueError, match="ties"):
+        expanded_dijkstra(rows, start, 1.0, h=h, return_predecessors=True, ahead=ahead)
+    with pytest.raises(ValueError, match="look-ahead"):
+        expanded_dijkstra(rows, start, 1.0, h=h, return_predecessors=True, ties=True, ahead=no_ahead(k))
+
+
+@settings(max_examples=12, deadline=None)
+@given(st.integers(0, 2**32 - 1), st.sampled_from([8, 16]), st.floats(1.0, 1.5))
+def test_the_turns_in_the_corridor_keep_the_bound_consistent_and_below_the_cost_to_go(seed, k, stretch):
+    """Issue 22 (session 40): the turns still to make searched only in the corridor of a cost C
+    (``_turns_to_go`` with the limit ``C − d_s(v) − D(v)`` per vertex, d_s and D the plain distances
+    from the source and to the target: what the route search gives it) make a bound ``D + T`` that
+    is consistent on every edge of the expanded graph with its own weights, at least D, and never
+    above the exact cost from a state to the target (scipy's Dijkstra backwards on the written
+    graph), whatever C is: the route search's bound stays exact while T's search stays in the
+    states a route within C can reach."""
+    g, rng = random_map(seed)
+    opts = RoutingOptions(turn_height=float(rng.uniform(20, 900)), heading_bins=k)
+    lat, extra = g.masks()
+    live = g.live_vertices()
+    s, t = (int(v) for v in rng.choice(live, 2, replace=False))
+    penalties = routing._bin_penalties(opts)
+    rows = routing._plain_rows(g, lat, extra)
+    from_source, _ = routing._plain_search(rows, [s])
+    from_target, _ = routing._plain_search(rows, [t])
+    lower = from_source + from_target
+    assume(np.isfinite(lower[s]))
+    # C: the plain distance stretched (a route's cost with its turns lies above it)
+    cost = float(lower[s]) * stretch + float(rng.uniform(0, 2)) * float(penalties.max())
+    region = np.flatnonzero(lower <= cost)
+    states = routing._States(len(region), k)
+    local = routing._local(g, region, k)
+    T = routing._turns_to_go(g, lat, extra, region, penalties, k, t, cost - lower[region])
+    assert (T >= 0).all() and np.isfinite(T).all()
+    made, _ = routing._expanded_graph(g, lat, extra, region, penalties, k)
+    bound = from_target[region][states.vertex(np.arange(states.size))] + T
+    rows_of = np.repeat(np.arange(made.shape[0]), np.diff(made.indptr))
+    assert (bound[rows_of] <= made.data + bound[made.indices] + 1e-9).all()
+    back = made.transpose().tocsr()
+    exact = dijkstra(back, indices=states.arrivals(int(local[t])), min_only=True)
+    assert (bound <= exact + 1e-9).all()
+    # stopped after a budget of states (``RoutingOptions.turn_share``): clamped at the cost it had reached,
+    # still consistent and below the cost to go
+    part = routing._turns_to_go(g, lat, extra, region, penalties, k, t, cost - lower[region],
+                                int(rng.integers(0, states.size)))
+    assert np.array_equal(part, np.minimum(T, part.max()))
+    bound = from_target[region][states.vertex(np.arange(states.size))] + part
+    assert (bound[rows_of] <= made.data + bound[made.indices] + 1e-9).all()
+    assert (bound <= exact + 1e-9).all()
+
+
+@settings(max_examples=12, deadline=None)
+@example(4_267_211_612, 16, True)  # seeds keyed (g + h) + T, pops g + (h + T): a resumed seed skipped
+@given(st.integers(0, 2**32 - 1), st.sampled_from([8, 16]), st.booleans())
+def test_the_turns_still_to_make_are_consistent_and_keep_the_routes(seed, k, tiles):
+    """Issue 22 (session 39): the least turn cost from each state to the target (``_turns_to_go``, the
+    expanded graph searched backwards on its turn penalties alone, compiled) is consistent on every
+    edge of it (``T(x) ≤ t(x, y) + T(y)``, t the edge's turn cost, 0 for a move), clamped at a limit
+    too, and 0 on the target's arrivals; added to the plain distance as the route search's bound
+    (``RoutingOptions.turn_bound``) it finds the very routes (vertex for vertex, the same cost) of the
+    search by the plain distance alone, whole regions or growing tiles, and searches no more states."""
+    g, rng = random_map(seed)
+    opts = RoutingOptions(turn_height=float(rng.uniform(20, 900)), heading_bins=k,
+                          whole_region=0 if tiles else 100_000, tile_cells=int(rng.integers(1, 4)))
+    lat, extra = g.masks()
+    live = g.live_vertices()
+    s, t = (int(v) for v in rng.choice(live, 2, replace=False))
+    penalties = routing._bin_penalties(opts)
+    region = np.arange(g.n_vertices)
+    states = routing._States(len(region), k)
+    T = routing._turns_to_go(g, lat, extra, region, penalties, k, t)
+    assert (T[states.arrivals(t)] == 0.0).all()
+    made, _ = routing._expanded_graph(g, lat, extra, region, penalties, k)
+    nk = states.n * k
+    rows_of = np.repeat(np.arange(made.shape[0]), np.diff(made.indptr))
+    turn = np.where((rows_of >= nk) & (rows_of < 2 * nk), 0.0, made.data)
+    tail, head = T[rows_of], T[made.indices]
+    reach = np.isfinite(head)
+    assert (tail[reach] <= turn[reach] + head[reach] + 1e-9).all()
+    # the least, as scipy finds it backwards on the written graph with the turns' own costs (without the
+    # floor ε: the arrivals' rows their cheap turns and the hub, first; the hubs' rows last, free; a free
+    # edge 10⁻³⁰⁰: scipy reads 0 as no edge)
+    raw = turn.copy()
+    cheap, _, _ = routing._turn_rows(penalties)
+    raw[:nk * (len(cheap) + 1)].reshape(-1, len(cheap) + 1)[:] = np.append(penalties[cheap], penalties.max())
+    raw[-nk:] = 0.0
+    back = csr_matrix((np.maximum(raw, 1e-300), made.indices, made.indptr), shape=made.shape).transpose().tocsr()
+    want = dijkstra(back, indices=states.arrivals(t), min_only=True)
+    assert np.array_equal(np.isfinite(T), np.isfinite(want))
+    assert np.allclose(T[np.isfinite(T)], want[np.isfinite(want)], rtol=0, atol=1e-9)
+    # clamped at a limit (the search's: the turns the best route so far may make) it stays consistent
+    cut = float(np.median(T[np.isfinite(T)])) + 1.0
+    clamped = routing._turns_to_go(g, lat, extra, region, penalties, k, t, cut)
+    assert np.array_equal(clamped, np.minimum(T, cut))
+    assert (clamped[rows_of] <= turn + clamped[made.indices] + 1e-9).all()
+    searched = {}
+    heading_search = routing._heading_search
+    share = float(rng.choice([1.0, 0.3, 0.05]))  # T's search whole in its corridor, or stopped short
+
+    def counted(*args, **kwargs):
+        dist, pred = heading_search(*args, **kwargs)
+        if kwargs.get("ties"):
+            key = kwargs.get("turns") is not None
+            searched[key] = searched.get(key, 0) + int(np.isfinite(dist).sum())
+        return dist, pred
+
+    with pytest.MonkeyPatch.context() as monkey:
+        monkey.setattr(routing, "_heading_search", counted)
+        want = routing.find_route(g, s, t, options=replace(opts, turn_bound=0))
+        got = routing.find_route(g, s, t, options=replace(opts, turn_bound=10**9, turn_share=share))
+    assert (want is None) == (got is None)
+    if want is not None:
+        assert np.array_equal(got.vertices, want.vertices)
+        assert got.cost == want.cost
+    if True in searched:
+        assert searched[True] <= searched.get(False, 0)

@@ -68,7 +68,7 @@ from osm_expand.errors import InputError, OptionError
 from osm_expand.model.options import require_positive
 
 if TYPE_CHECKING:
-    from osm_expand.engine.roads.expanded_search import Plain, Resume
+    from osm_expand.engine.roads.expanded_search import Ahead, Expanded, Plain, Resume
 
 __all__ = ["RoutingOptions", "Route", "turn_penalty", "find_route", "route_over_major_roads", "Choice",
            "choose", "route_score"]
@@ -169,6 +169,33 @@ class RoutingOptions:
     #: alone they spanned those. Above it (and with ``route_astar``) each search numbers the active
     #: states and starts again, as before going on was added. Below 2^31 (32-bit state numbers)
     resume_states: int = 64_000_000
+    #: whether a route search (A* with scipy's tie rule, :func:`_tiled_search`) bounds each state by one
+    #: step ahead (:class:`~osm_expand.engine.roads.expanded_search.Ahead`: the turn it must make next
+    #: and the plain distance on from the edge it leaves by) where it bounded by its vertex's plain
+    #: distance to the target alone: consistent too, so the same routes, distances and predecessors,
+    #: fewer states searched. Off: slower (session 39, captured calls replayed, ``/tmp/h39s``): Campo
+    #: Grande's 36 searches' route states 8.35 → 6.46 M but their CPU 17.2 → 22.1 s; the synthetic
+    #: town's first road 19.05 → 18.12 M states (a turn of one bin is free, so the next turn is seldom
+    #: forced), each state about twice the CPU (the neighbours' D read for the bound)
+    look_ahead: bool = False
+    #: the route search (A* with scipy's tie rule, :func:`_tiled_search`) adds to each state's bound the
+    #: least turn cost from it to the target (:func:`_turns_to_go`: turns alone, searched backwards once
+    #: per search over its first region, in the corridor a route within the best cost C can use) where
+    #: that region has at most this many states (0: never; 8 B a state, so also a memory cap). The same
+    #: routes, distances and predecessors (consistent; Campo Grande's 36 captured calls identical).
+    #: Measured (session 40, ``/tmp/h40t/replay.py``, one run, load 5–6): Campo Grande's 36 calls'
+    #: route search plus T 5.16 → 3.07 s CPU (states 8.32 → 3.40 M; regions up to 7.7 M states).
+    #: The synthetic 10,000-street town's first road (a region of 57.9 M states; its route trades
+    #: length for turns, so T cuts little): with T 19.05 → 20.22 M states, 40.3 → 47.5 s CPU, so its
+    #: regions stay above the cap and search as before. Session 39's T over the whole region, one
+    #: limit: Campo Grande's 36 calls 18.6 → 24.5 s (T 8.35 s)
+    turn_bound: int = 16_000_000
+    #: the share of its region's states the turns' backward search (``turn_bound``) may scan before it
+    #: stops; every state's T is then clamped at the turn cost it had reached (consistent, weaker, in
+    #: bounded time). Campo Grande's 36 captured calls (session 40, one run), route search plus T:
+    #: 1.0 (whole corridor) 8.04 s (with numba's compile), 0.10 3.24 s, 0.05 3.07 s, 0.02 3.18 s,
+    #: 0.01 3.45 s, without T 5.16 s
+    turn_share: float = 0.05
 
     def __post_init__(self) -> None:
         require_positive(self, ("window_margin", "growth_share", "turn_width"))
@@ -177,10 +204,12 @@ class RoutingOptions:
         # counts of lattice vertices: a whole number (not a bool, not nan or 2.5, which failed later
         # in find_route with a TypeError)
         for name, least in (("bound_cells", 0), ("tile_cells", 1), ("backward_tile_cells", 1),
-                            ("resume_states", 0)):
+                            ("resume_states", 0), ("turn_bound", 0)):
             value = getattr(self, name)
             if isinstance(value, bool) or not isinstance(value, Integral) or value < least:
                 raise OptionError(f"RoutingOptions.{name} must be a whole number of at least {least}, got {value!r}")
+        if not 0 < self.turn_share <= 1:
+            raise OptionError(f"RoutingOptions.turn_share must be in (0, 1], got {self.turn_share!r}")
         if self.heading_bins < 4:
             raise InputError(f"RoutingOptions.heading_bins must be at least 4, got {self.heading_bins}")
 
@@ -937,7 +966,8 @@ def _lattice_rows(graph: PathGraph, lat: KindMask) -> tuple[np.ndarray, np.ndarr
 def _heading_search(graph: PathGraph, lat: KindMask, extra: np.ndarray, region: np.ndarray, local: np.ndarray,
                     penalties: np.ndarray, k: int, start: int, limit: float, h: np.ndarray | None = None,
                     predecessors: bool = False, ties: bool = False,
-                    resume: Resume | None = None) -> tuple[np.ndarray, np.ndarray]:
+                    resume: Resume | None = None, ahead: Ahead | None = None,
+                    turns: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
     """scipy's Dijkstra from state ``start`` on the heading-expanded graph over ``region`` (``local``:
     :func:`_local`), up to ``limit``, on A*'s reduced costs with ``h`` (per region vertex, as
     :func:`_reduced` makes them): the distances and (with ``predecessors``, else empty) the predecessors,
@@ -955,7 +985,19 @@ def _heading_search(graph: PathGraph, lat: KindMask, extra: np.ndarray, region: 
     order the search reads them), and it takes each state's predecessor as scipy does, ties
     included, so the routes keep their bytes. Imported here, so that commands which search no
     route do not import numba."""
-    from osm_expand.engine.roads.expanded_search import Expanded, expanded_dijkstra
+    from osm_expand.engine.roads.expanded_search import expanded_dijkstra
+
+    rows = _expanded_rows(graph, lat, extra, region, local, penalties, k)
+    return expanded_dijkstra(rows, start, limit, h=h, return_predecessors=predecessors, ties=ties, resume=resume,
+                             ahead=ahead, turns=turns)
+
+
+def _expanded_rows(graph: PathGraph, lat: KindMask, extra: np.ndarray, region: np.ndarray, local: np.ndarray,
+                   penalties: np.ndarray, k: int) -> Expanded:
+    """What the compiled searches read of the heading-expanded graph over ``region`` (``local``: the
+    vertices searched numbered, the rest −1), beside the rows they make themselves
+    (:class:`~osm_expand.engine.roads.expanded_search.Expanded`)."""
+    from osm_expand.engine.roads.expanded_search import Expanded
 
     n = len(region)
     dir_bin, by_bin, e, e_bin = _departure_order(graph, extra, local, k)
@@ -975,7 +1017,7 @@ def _heading_search(graph: PathGraph, lat: KindMask, extra: np.ndarray, region: 
                     allowed=allowed, offset=graph.lattice.direction_offset.astype(np.int64), dirs_ptr=dirs_ptr,
                     dirs=dirs, table=table, plain=plain, w_kind=w_kind, e_ptr=e_ptr, e_bin=e_bin,
                     e_col=local[graph.dst[e]].astype(np.int64) * k + e_bin, e_val=graph.weight[e].astype(np.float64))
-    return expanded_dijkstra(rows, start, limit, h=h, return_predecessors=predecessors, ties=ties, resume=resume)
+    return rows
 
 
 def _expanded_search(graph: PathGraph, lat: KindMask, extra: np.ndarray, region: np.ndarray, source: int,
@@ -1173,6 +1215,88 @@ def _again(graph: PathGraph, lat: KindMask, extra: np.ndarray, local: np.ndarray
     return np.unique(np.concatenate(found))
 
 
+def _ahead(graph: PathGraph, extra: np.ndarray, full: np.ndarray, local: np.ndarray, to_goal: np.ndarray,
+           k: int) -> Ahead:
+    """The look-ahead bound's tables (:class:`~osm_expand.engine.roads.expanded_search.Ahead`) over the
+    states of ``full`` (``local``: their numbers, before any are masked out): every allowed other edge
+    out of them, wherever it leads (the bound must not change as the active tiles grow), and an empty
+    table of A and the arrivals' bounds, made by the search as it reaches each vertex (``2k`` floats a
+    vertex, NaN until made)."""
+    from osm_expand.engine.roads.expanded_search import Ahead
+
+    e = np.flatnonzero(extra & (local[graph.src] >= 0))
+    src = local[graph.src[e]].astype(np.int64)
+    order = np.argsort(src, kind="stable")
+    e, src = e[order], src[order]
+    a_ptr = np.zeros(len(full) + 1, dtype=np.int64)
+    np.cumsum(np.bincount(src, minlength=len(full)), out=a_ptr[1:])
+    return Ahead(to_goal=np.ascontiguousarray(to_goal, dtype=np.float64), scale=1.0 - _SHRINK, a_ptr=a_ptr,
+                 a_bin=_bins(graph.heading[e], k).astype(np.int64), a_dst=graph.dst[e].astype(np.int64),
+                 a_val=graph.weight[e].astype(np.float64), ahead=np.full((len(full), 2 * k), np.nan))
+
+
+def _turns_to_go(graph: PathGraph, lat: KindMask, extra: np.ndarray, region: np.ndarray, penalties: np.ndarray,
+                 k: int, target: int, limit: float | np.ndarray = np.inf, budget: int = -1) -> np.ndarray:
+    """Per state of the expanded graph over ``region`` (sorted, :class:`_States`' numbers), the least turn
+    cost T of a path from it to an arrival at ``target`` inside the region, through states within
+    ``limit`` (one for all, or per vertex: the region's order), clamped at the limit of its vertex:
+    Dijkstra backwards from the target's arrivals on the turn penalties alone (without the search's
+    floor ε), every move and other edge costing 0 (compiled,
+    :func:`~osm_expand.engine.roads.expanded_search.turns_to_go`; no matrix written). With a
+    ``budget`` (≥ 0) it stops after scanning that many states and clamps every T at the turn cost
+    it had reached (``RoutingOptions.turn_share``).
+
+    With one limit: consistent on the turns (``T(x) ≤ t(x, y) + T(y)``, t an edge's turn cost; the
+    clamp keeps it so) and a lower bound of the turns of every route from x, so ``D + T`` (D the
+    plain distance to the target, consistent on the lengths) is a consistent bound of the whole
+    cost, ``min(len + turns) ≥ min len + min turns`` (session 39, h39s).
+
+    The corridor (session 40): the route search gives each vertex the limit ``C′ − lower(v)``
+    (``lower = d_s + D``, d_s the plain distance from the source; C′ the best cost known, a margin
+    above). The bound is then ``B = min(D + T_r, C′ − d_s)``, T_r the least turns through states
+    kept. Consistent: ``C′ − d_s`` is (``d_s(w) ≤ d_s(v) + c``), and on an edge x → y at c + t
+    where y was kept, ``D(x) + T_r(x) ≤ c + t + D(y) + T_r(y)``; where y was not, B(y) is its
+    ``C′ − d_s``; a minimum of consistent bounds is consistent. Below the cost to go h*(x): where
+    ``d_s(x) + h*(x) > C′``, B ≤ C′ − d_s < h*; else every state p on x's best path to the target
+    has ``d_s(p) + D(p) + T_path(p) ≤ d_s(x) + h*(x) ≤ C′``, so backwards from the target each is
+    kept with T_r(p) ≤ T_path(p), and ``B(x) ≤ D(x) + T_path(x) ≤ h*(x)``. And B ≥ D in the region
+    (its limits ≥ 0). The budget's clamp at τ is a minimum with a constant: consistent too.
+    ``tests/test_routing_search.py`` checks both edge by edge against scipy's backward search.
+
+    Campo Grande's 36 captured searches (session 40, ``/tmp/h40t/replay.py``): one limit (h39s)
+    scanned 92 % of call 15's 7.7 M states (4.3 s), the corridor 34 % (1.2 s)."""
+    from osm_expand.engine.roads.expanded_search import turns_to_go
+
+    local = _local(graph, region, k)
+    if local.dtype != np.int32:
+        local = local.astype(np.int32)
+    rows = _expanded_rows(graph, lat, extra, region, local, penalties, k)
+    e = np.flatnonzero(extra & (local[graph.src] >= 0) & (local[graph.dst] >= 0))
+    head = local[graph.dst[e]].astype(np.int64)
+    order = np.argsort(head, kind="stable")
+    e, head = e[order], head[order]
+    r_ptr = np.zeros(len(region) + 1, dtype=np.int64)
+    np.cumsum(np.bincount(head, minlength=len(region)), out=r_ptr[1:])
+    ends = _States(len(region), k).arrivals(int(local[target]))
+    raw = np.maximum(penalties, 0.0)  # the turns without the search's floor ε: lower, so T stays below them
+    return turns_to_go(rows, ends, r_ptr, local[graph.src[e]].astype(np.int64),
+                       _bins(graph.heading[e], k).astype(np.int64), limit, raw[rows.cheap], float(raw.max()), budget)
+
+
+def _turns_over(to_go: np.ndarray, first: np.ndarray, full: np.ndarray, k: int) -> np.ndarray:
+    """:func:`_turns_to_go`'s T (by the states of the region ``first``) for the states of ``full`` (a
+    subset of ``first``, both sorted)."""
+    if len(full) == len(first):
+        return to_go
+    big, small = _States(len(first), k), _States(len(full), k)
+    rank = np.searchsorted(first, full)
+    v = np.repeat(np.arange(len(full)), 2 * k + 1)
+    slot = np.tile(np.arange(2 * k + 1), len(full))
+    out = np.empty(small.size)
+    out[small.state(v, slot)] = to_go[big.state(rank[v], slot)]
+    return out
+
+
 def _vertex_path(pred: np.ndarray, start: int, end: int, verts: np.ndarray, states: _States) -> list[int]:
     """The G′ vertices of the expanded states' path from ``start`` to ``end`` (``verts``: the expanded
     graph's vertices, numbered by ``states``), a vertex once where its arrival and departure follow."""
@@ -1341,6 +1465,22 @@ def _tiled_search(graph: PathGraph, lat: KindMask, extra: np.ndarray, source: in
     goes_on = not (astar and target is not None)
     cap = min(opts.resume_states, 2**31 - 1)  # the region's states numbered whole up to this many
     lift = float(h[source] * (1.0 - _SHRINK)) if astar else None  # g + h = dist + lift on reduced costs
+    look = opts.look_ahead and not astar  # the route search's bound one step ahead (A* on the own weights only)
+    ahead: Ahead | None = None
+    # the turns still to make, by state of the first region (C only falls: later regions lie within it)
+    first_full = np.zeros(0, dtype=np.int64)
+    if opts.turn_bound and not astar and not look and target is not None:
+        first_full = np.flatnonzero(lower <= best[1] + 1e-9 * best[1] + 1e-6)
+    to_go = None
+    if target is not None and 0 < _States(len(first_full), k).size <= opts.turn_bound:
+        # in the corridor of the turns a route through each vertex may make and still cost C: C − lower(v)
+        # (lower = d_s + D, so the bound is min(D + T, C − d_s): consistent, :func:`_turns_to_go`)
+        allowed = best[1] + 1e-6 * best[1] + 1e-3
+        size = _States(len(first_full), k).size
+        to_go = _turns_to_go(graph, lat, extra, first_full, penalties, k, target, allowed - lower[first_full],
+                             int(opts.turn_share * size) if opts.turn_share < 1 else -1)
+        to_go *= 1.0 - _SHRINK  # scaled as h is, in place: the first search reads it as it is (no copy)
+    still, still_of = None, np.zeros(0, dtype=np.int64)  # the scaled T by state of the region searched
     from osm_expand.engine.roads.expanded_search import Resume
 
     while True:
@@ -1358,6 +1498,7 @@ def _tiled_search(graph: PathGraph, lat: KindMask, extra: np.ndarray, source: in
             seeds = _again(graph, lat, extra, local, before, inside & ~before, tile, shape, states, dir_bin,
                            extra_bin, -(-graph.lattice.radius // opts.tile_cells))
             resume = Resume(dist, pred, seeds)
+            # the same states, so the same look-ahead tables (made as the searches reach their vertices)
         else:
             # the states numbered over the whole region (a vertex's by its rank there), so that the tiles
             # grow without numbering them again: the rank in the region and in ``verts`` order two
@@ -1367,6 +1508,7 @@ def _tiled_search(graph: PathGraph, lat: KindMask, extra: np.ndarray, source: in
             full = np.flatnonzero(region) if whole else verts
             states = _States(len(full), k)
             local = _local(graph, full, k)
+            ahead = _ahead(graph, extra, full, local, h, k) if look else None
         kept = None  # the last search's arrays are the resumed search's, or go
         local[~inside] = -1  # the search reads only the active vertices
         # the rounding slack of the states numbered: the same limit each time C holds where numbered
@@ -1396,8 +1538,11 @@ def _tiled_search(graph: PathGraph, lat: KindMask, extra: np.ndarray, source: in
             # g + h above C are not searched. Where the growth test below reads a departure's g, it is
             # exact wherever g + w + h(w) < C (consistency: then g + h(u) < C), as the test needs.
             shift = None
+            if to_go is not None and not np.array_equal(full, still_of):  # made again where the region changed
+                still, still_of = _turns_over(to_go, first_full, full, k), full
             dist, pred = _heading_search(graph, lat, extra, full, local, penalties, k, start, cost + slack,
-                                         h=h[full] * (1.0 - _SHRINK), predecessors=True, ties=True, resume=resume)
+                                         h=h[full] * (1.0 - _SHRINK), predecessors=True, ties=True, resume=resume,
+                                         ahead=ahead, turns=still)
             if target is not None and local[target] >= 0:
                 end = _cheaper_end(dist, states, int(local[target]), cost)
                 if end is not None:
