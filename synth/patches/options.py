@@ -382,6 +382,11 @@ class PatchOptions:
     #: north-bayreuth 2 3 2 -> 4 5 4, Monaco 2 3 3 -> 4 4 5 (2-core 0.844 below 0.900), Campo Grande 3 5 4 -> 7 7 8
     #: (dead-end 0.088 above, 2-core 0.962 below range).
     seam_passing: bool = False
+    #: Grow the district as one whole neighbourhood of the town, fitted to the free land (turned and
+    #: shifted to keep the most of its streets and junctions there), clipped, its cut streets run on to
+    #: the town or trimmed back to their last junction: no cells, seams or perimeter streets
+    #: (:mod:`synth.patches.transplant`). Measurements: see the module and the branch's report.
+    transplant: bool = False
     #: A cut end left over runs on this many spacings to meet a street in a tee ...
     tee_reach: float = 0.6
     #: ... meeting it at this angle or more (degrees).
@@ -440,6 +445,8 @@ class PatchOptions:
                               f"got {turn!r}")
         if not isinstance(self.seam_link_turn, bool):
             raise OptionError(f"PatchOptions.seam_link_turn must be true or false, got {self.seam_link_turn!r}")
+        if not isinstance(self.transplant, bool):
+            raise OptionError(f"PatchOptions.transplant must be true or false, got {self.transplant!r}")
         if not isinstance(self.seam_passing, bool):
             raise OptionError(f"PatchOptions.seam_passing must be true or false, got {self.seam_passing!r}")
         if not isinstance(self.stubs_at_bends, bool):
