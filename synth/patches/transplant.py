@@ -7,23 +7,34 @@ perimeter zig-zags and hooks). A real neighbourhood already has its town's
 density, dead ends, blocks and straight streets, so here one is copied whole:
 
 1. **Fit.** For each of the most typical neighbourhoods (the ranked patch
-   centres, at the site's size), a few turns (none; the one that lays its
-   grid along the town's streets around the site; the one along the free
-   land's long axis; each plus quarter turns) and offsets of its centre on a
-   coarse grid are scored at once on a raster of the free land: street
-   length landing on free land, plus a spacing's worth per junction, capped at
-   the district's target length (a denser copy is no better).
+   centres, at the site's size; :data:`TRIED`), a few turns (none; the one
+   that lays its grid along the town's streets around the site; the one
+   along the free land's long axis; each plus quarter turns) and shifts of
+   its centre on a grid of a quarter spacing are scored at once on a raster
+   of the free land: the street length landing on free land (counted up to
+   a cap) plus :data:`JUNCTION_WEIGHT` spacings per junction. Of the
+   placements within :data:`NEAR_BEST` of the best, the most typical
+   neighbourhood's wins, placed where its streets lie nearest the town.
 2. **Clip.** The best placement's streets are clipped to the free land. A
-   street the clip cut runs on straight to the first street ahead, of the
-   town or of the district, within the joining step's reach (two spacings,
-   :data:`~synth.patches.topology.JOIN_REACH`) when it is that near the town,
-   meeting it in a tee; every other cut street is trimmed back to its last
-   junction (no perimeter street, no seam links).
-3. **Pieces.** Fragments and pieces far from the rest and the town go, as
-   in the quilt (:func:`~synth.patches.topology._keep_joinable`,
+   street the clip cut within the joining step's reach of the town (two
+   spacings, :data:`~synth.patches.topology.JOIN_REACH`) runs on straight to
+   the first street ahead, of the town or of the district, meeting it in a
+   tee (:func:`~synth.patches.seams._tees`); every other cut street is cut
+   back to its last junction, once (:func:`_cut_back`): no perimeter street,
+   no seam links.
+3. **Pieces and dead ends.** Fragments and pieces far from the rest and the
+   town go, as in the quilt (:func:`~synth.patches.topology._keep_joinable`,
    :func:`~synth.patches.topology._connect_pieces`,
-   :func:`~synth.patches.topology._without_scraps`); the joining step after any
-   pattern (:mod:`osm_expand.joins`) joins what is left to the town.
+   :func:`~synth.patches.topology._without_scraps`), and the dead ends the
+   cutting left are brought to the town's neighbourhoods' dead-end and 2-core
+   shares (:func:`~synth.patches.topology._fewer_dead_ends`: without it
+   north-bayreuth's 2-core share was below its range on 5 seeds of 5); the
+   joining step after any pattern (:mod:`osm_expand.joins`) joins what is
+   left to the town.
+4. **Length.** The cap starts at :data:`OVERFILL` times the target length;
+   while the district misses its target by more than :data:`CLOSE_ENOUGH`,
+   the cap is scaled by the miss and the best placement under it placed again
+   (:data:`REFITS`; the fit's scores are made once).
 """
 from __future__ import annotations
 
