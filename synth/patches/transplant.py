@@ -10,7 +10,7 @@ density, dead ends, blocks and straight streets, so here one is copied whole:
    centres, at the site's size; :data:`TRIED`), a few turns (none; the one
    that lays its grid along the town's streets around the site; the one
    along the free land's long axis; each plus quarter turns) and shifts of
-   its centre on a grid of a quarter spacing are scored at once on a raster
+   its centre on a grid (:data:`SHIFTS`) are scored at once on a raster
    of the free land: the street length landing on free land (counted up to
    a cap) plus :data:`JUNCTION_WEIGHT` spacings per junction. Of the
    placements within :data:`NEAR_BEST` of the best, the most typical
@@ -65,6 +65,11 @@ from synth.patches.topology import (
 RASTER_CELLS = 100_000
 #: ... each at least this share of the junction spacing across (the fit's samples lie one cell apart).
 RASTER_CELL = 0.1
+#: ... and at least this many metres (a street's width: finer finds nothing a street could use).
+RASTER_LEAST = 6.0
+#: Shifts of a neighbourhood's centre tried across the site at most (a quarter spacing apart where that is
+#: fewer): Monaco's spacing is small, and a quarter of it took its fit 14 s of CPU over three sites.
+SHIFTS = 24
 #: Ranked neighbourhoods tried (the most typical first).
 TRIED = 6
 
@@ -168,7 +173,7 @@ def _fit(source: _Source, centres: np.ndarray, free: shapely.Geometry, old: shap
     a raster of it: its street length and junctions there, and how far that length lies from the town on
     average (a district grows from the town's edge, where its cut streets become joins, not in the middle of
     its field)."""
-    inside, corner, cell = _raster(free, JOIN_REACH * spacing, RASTER_CELL * spacing)
+    inside, corner, cell = _raster(free, JOIN_REACH * spacing, max(RASTER_CELL * spacing, RASTER_LEAST))
     ny, nx = inside.shape
     to_town = _to_town(old, inside.shape, corner, cell)
     far = np.where(np.isfinite(to_town), to_town, float(to_town[np.isfinite(to_town)].max(initial=0.0)))
@@ -179,7 +184,7 @@ def _fit(source: _Source, centres: np.ndarray, free: shapely.Geometry, old: shap
     # the farthest free land from the middle: streets farther than that and a shift from the centre land nowhere
     reach = float(np.hypot(*(shapely.get_coordinates(free) - middle).T).max())
     size = float(np.sqrt(free.area))
-    step = max(spacing / 4, cell)
+    step = max(spacing / 4, cell, size / SHIFTS)
     grid = np.arange(-size / 2, size / 2 + step / 2, step)
     shifts = np.array([[dx, dy] for dx in grid for dy in grid])
     shifts = shifts[np.hypot(*shifts.T) <= size / 2 + 1e-9]
