@@ -387,14 +387,16 @@ class PatchOptions:
     #: the town or trimmed back to their last junction: no cells, seams or perimeter streets
     #: (:mod:`synth.patches.transplant`). Off: the pipeline's district (``district_fidelity.py --table``,
     #: seeds 0-4, mean off of 14, quilt -> transplant): Krems 2.0 -> 0.6, north-bayreuth 2.6 -> 1.8, Campo
-    #: Grande 2.6 -> 1.2, their density, dead-end and 2-core shares in range on 4-5 of 5 seeds, corners over
-    #: 45 degrees at degree-2 nodes per km 7.3 -> 2.9, 8.0 -> 3.6, 5.0 -> 1.1 (the neighbourhoods' 0.8, 1.1,
-    #: 0.3); but Andorra 3.0 -> 5.6 (density in range 2/5: it copies its straight, dense valley floor, the
-    #: candidates' density band's half; straight chords 0.58-0.69 against the neighbourhoods' 0.31) and
-    #: Monaco 2.4 -> 3.6 (density below its range on 5/5, two pieces on 2 seeds: its free land is a narrow
-    #: slope and cutting back takes half the copy). Krems seed 0 (the harbour site) is a knot of its old
-    #: town's curving lanes, without the quilt's zig-zags and hooks; north-bayreuth's and Campo Grande's
-    #: read as a piece of the town (a spine with side streets and blocks; a grid) (session 40, h40p).
+    #: Grande 2.6 -> 1.0, Monaco 2.4 -> 2.2, their dead-end and 2-core shares in range on 4-5 of 5 seeds,
+    #: one piece each; corners over 45 degrees at degree-2 nodes per km 7.3 -> 2.9, 8.0 -> 3.6, 5.0 -> 1.1,
+    #: 7.6 -> 4.1 (the neighbourhoods' 0.8, 1.1, 0.3, 1.3). But Andorra 3.0 -> 6.4 (density in range 3/5;
+    #: it copies its straight, dense valley floor, the half of the neighbourhoods ``density_band`` keeps:
+    #: straight chords 0.62-0.69 against the neighbourhoods' 0.31, curvature, circuity and junction angles
+    #: off on 5/5) and Monaco's density in range on 2/5 (15.97 against 18.43-28.36 on seed 0: its free land
+    #: is a narrow slope and the cut streets go back to their junctions). Pictures, seed 0: north-bayreuth
+    #: (with and without its buildings) and Campo Grande read as a piece of the town (a spine with side
+    #: streets and blocks; a grid), without the quilt's seam jogs and perimeter zig-zags; Krems' harbour site
+    #: a knot of its old town's curving lanes. Whole table 109.3+12.3 -> 146.2+12.8 s CPU (session 40, h40p).
     transplant: bool = False
     #: A cut end left over runs on this many spacings to meet a street in a tee ...
     tee_reach: float = 0.6
