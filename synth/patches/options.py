@@ -396,7 +396,9 @@ class PatchOptions:
     #: is a narrow slope and the cut streets go back to their junctions). Pictures, seed 0: north-bayreuth
     #: (with and without its buildings) and Campo Grande read as a piece of the town (a spine with side
     #: streets and blocks; a grid), without the quilt's seam jogs and perimeter zig-zags; Krems' harbour site
-    #: a knot of its old town's curving lanes. Whole table 109.3+12.3 -> 146.2+12.8 s CPU (session 40, h40p).
+    #: a knot of its old town's curving lanes. Whole table 109.3+12.3 -> 146.2+12.8 s CPU. With
+    #: ``density_band`` (0.5, 2.0) too: Krems 0.2, north-bayreuth 1.8, Campo Grande 0.6, Monaco 2.6 (density
+    #: in range 1/5), Andorra 4.4 (density 2/5, curvature off 5/5) (session 40, h40p).
     transplant: bool = False
     #: A cut end left over runs on this many spacings to meet a street in a tee ...
     tee_reach: float = 0.6
