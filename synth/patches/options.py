@@ -382,6 +382,24 @@ class PatchOptions:
     #: north-bayreuth 2 3 2 -> 4 5 4, Monaco 2 3 3 -> 4 4 5 (2-core 0.844 below 0.900), Campo Grande 3 5 4 -> 7 7 8
     #: (dead-end 0.088 above, 2-core 0.962 below range).
     seam_passing: bool = False
+    #: Grow the district as one whole neighbourhood of the town, fitted to the free land (turned and
+    #: shifted to keep the most of its streets and junctions there), clipped, its cut streets run on to
+    #: the town or trimmed back to their last junction: no cells, seams or perimeter streets
+    #: (:mod:`synth.patches.transplant`). Off: the pipeline's district (``district_fidelity.py --table``,
+    #: seeds 0-4, mean off of 14, quilt -> transplant): Krems 2.0 -> 0.6, north-bayreuth 2.6 -> 1.8, Campo
+    #: Grande 2.6 -> 1.0, Monaco 2.4 -> 2.2, their dead-end and 2-core shares in range on 4-5 of 5 seeds,
+    #: one piece each; corners over 45 degrees at degree-2 nodes per km 7.3 -> 2.9, 8.0 -> 3.6, 5.0 -> 1.1,
+    #: 7.6 -> 4.1 (the neighbourhoods' 0.8, 1.1, 0.3, 1.3). But Andorra 3.0 -> 6.4 (density in range 3/5;
+    #: it copies its straight, dense valley floor, the half of the neighbourhoods ``density_band`` keeps:
+    #: straight chords 0.62-0.69 against the neighbourhoods' 0.31, curvature, circuity and junction angles
+    #: off on 5/5) and Monaco's density in range on 2/5 (15.97 against 18.43-28.36 on seed 0: its free land
+    #: is a narrow slope and the cut streets go back to their junctions). Pictures, seed 0: north-bayreuth
+    #: (with and without its buildings) and Campo Grande read as a piece of the town (a spine with side
+    #: streets and blocks; a grid), without the quilt's seam jogs and perimeter zig-zags; Krems' harbour site
+    #: a knot of its old town's curving lanes. Whole table 109.3+12.3 -> 146.2+12.8 s CPU. With
+    #: ``density_band`` (0.5, 2.0) too: Krems 0.2, north-bayreuth 1.8, Campo Grande 0.6, Monaco 2.6 (density
+    #: in range 1/5), Andorra 4.4 (density 2/5, curvature off 5/5) (session 40, h40p).
+    transplant: bool = False
     #: A cut end left over runs on this many spacings to meet a street in a tee ...
     tee_reach: float = 0.6
     #: ... meeting it at this angle or more (degrees).
@@ -440,6 +458,8 @@ class PatchOptions:
                               f"got {turn!r}")
         if not isinstance(self.seam_link_turn, bool):
             raise OptionError(f"PatchOptions.seam_link_turn must be true or false, got {self.seam_link_turn!r}")
+        if not isinstance(self.transplant, bool):
+            raise OptionError(f"PatchOptions.transplant must be true or false, got {self.transplant!r}")
         if not isinstance(self.seam_passing, bool):
             raise OptionError(f"PatchOptions.seam_passing must be true or false, got {self.seam_passing!r}")
         if not isinstance(self.stubs_at_bends, bool):

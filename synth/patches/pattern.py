@@ -46,6 +46,7 @@ from synth.patches.topology import (
     _trim,
     _without_scraps,
 )
+from synth.patches.transplant import _transplant
 
 
 @dataclass(frozen=True)
@@ -94,10 +95,17 @@ class ExamplePatches:
             density = _density(everything, around, radius)
         target = float(np.median(density)) * float(free.area)
         aim = self._aim(everything, around, radius, city.network)
+        if opts.transplant:  # one neighbourhood of the site's size, whole (synth.patches.transplant)
+            size = float(np.sqrt(free.area))
         key = round(float(np.log(size)) / 0.05)  # sizes within 5 % share a ranking
         if key not in self.cache:
             self.cache[key] = _candidate_patches(source, size, opts, rng, self.measure, self.limits)
         patches = self.cache[key]
+        if opts.transplant:
+            net, debug = _transplant(source, patches, free, old_geom, occupied, target, spacing, opts, aim)
+            return Growth(streets=tuple(NewStreet(xy=net.street_xy(s), hierarchy=max(s.hierarchy, 0),
+                                                  highway=s.highway) for s in net.streets),
+                          footprint=free, debug={"target_km": round(target / 1000, 2), **debug})
         best = None
         for attempt in range(ATTEMPTS):  # other patches when even every cell filled left too little
             quilt = _Quilt(grid=np.roll(patches, -attempt * len(centres), axis=0))
