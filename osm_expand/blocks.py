@@ -62,7 +62,7 @@ class _Pieces:
 
 
 def _pieces(net: StreetNetwork) -> _Pieces:
-    streets, flat = _untouched(net.streets)
+    streets, flat = _cut_where_self_touching(net.streets)
     nodes, owner = flat  # once for the junctions, the pieces and their points
     table = piece_table(streets, junction_mask(streets, len(net.xy), flat=flat), flat=flat)
     keep = two_core(table["u"], table["v"], len(net.xy))  # pieces on a cycle or between cycles
@@ -76,7 +76,7 @@ def _pieces(net: StreetNetwork) -> _Pieces:
                    street_id=ids)
 
 
-def _untouched(streets: Sequence[Street]) -> tuple[list[Street], tuple[np.ndarray, np.ndarray]]:
+def _cut_where_self_touching(streets: Sequence[Street]) -> tuple[list[Street], tuple[np.ndarray, np.ndarray]]:
     """:func:`split_self_touching` of every street, and :func:`flat_nodes` of the result.
 
     The streets that visit no node twice come back as they are (split_self_touching's own

@@ -94,7 +94,8 @@ def test_a_face_memo_gives_the_blocks_of_a_fresh_run_while_the_network_grows_and
 
     outer = grid(2, 1000.0)
     inner = grid(2, 100.0, origin=(400.0, 400.0))
-    bridge = [[(0.0, 0.0), (450.0, 430.0), (1000.0, 1000.0)]]  # crosses the inner square without a junction: overlapping faces
+    # crosses the inner square without a junction: overlapping faces
+    bridge = [[(0.0, 0.0), (450.0, 430.0), (1000.0, 1000.0)]]
     steps = [grid(4), grid(4) + grid(2, 50.0, origin=(300.0, 300.0)), outer + inner, outer + inner + bridge,
              outer + inner, grid(4)]
     memo = FaceMemo()
@@ -190,7 +191,7 @@ def test_streets_cut_where_they_touch_themselves_at_once_are_those_cut_one_by_on
     # and split only those: the streets and their order are those of split_self_touching street by street
     from dataclasses import replace
 
-    from osm_expand.blocks import _untouched
+    from osm_expand.blocks import _cut_where_self_touching
     from osm_expand.ingest import load
     from osm_expand.model.topology import flat_nodes, split_self_touching
 
@@ -202,10 +203,10 @@ def test_streets_cut_where_they_touch_themselves_at_once_are_those_cut_one_by_on
              replace(s[2], nodes=(*s[2].nodes, s[2].nodes[0])),
              replace(s[3], nodes=(s[3].nodes[0],)), replace(s[4], nodes=list(s[4].nodes)))
     for streets in (s, (*s[:10], *extra, *s[10:])):
-        got, flat = _untouched(streets)
+        got, flat = _cut_where_self_touching(streets)
         want = [p for street in streets for p in split_self_touching(street)]
         assert [(p.id, tuple(p.nodes)) for p in got] == [(p.id, tuple(p.nodes)) for p in want]
         assert all(a is b for a, b in zip(got, want) if a.nodes is b.nodes)  # unsplit streets are not copied
         for mine, theirs in zip(flat, flat_nodes(want)):
             assert mine.dtype == theirs.dtype and (mine == theirs).all()
-    assert len(_untouched((*s[:10], *extra, *s[10:]))[0]) != len(s) + len(extra)  # the extras were cut
+    assert len(_cut_where_self_touching((*s[:10], *extra, *s[10:]))[0]) != len(s) + len(extra)  # the extras were cut

@@ -84,20 +84,25 @@ def test_the_first_accepted_district_is_kept_with_the_origin_year_and_era_asked_
 
 
 
+def _grown_at_each_site(krems):
+    """The example pattern's growth at each of Krems' sites that grows any street (draws ``[3, attempt]``)."""
+    city, learned, sites = krems
+    pattern = make_pattern("example", learned.example)
+    for attempt, site in enumerate(sites):
+        growth = pattern.grow(city, district_region(city, site, bounds=city.bounds_polygon),
+                              np.random.default_rng([3, attempt]))
+        if growth.streets:
+            yield growth
+
+
 def test_every_join_is_among_the_places_known_before_joining(krems):
     """:func:`osm_expand.joins.join_places` (from the grown streets alone) holds every place the joining step
     then joins the district at, on Krems' three sites, so a rule that rejects those rejects the join."""
     from osm_expand.joins import join_growth, join_places, occupied_near
 
-    city, learned, sites = krems
-    pattern = make_pattern("example", learned.example)
-    spacing = learned.example.spacing
+    city, spacing = krems[0], krems[1].example.spacing
     checked = 0
-    for attempt, site in enumerate(sites):
-        growth = pattern.grow(city, district_region(city, site, bounds=city.bounds_polygon),
-                              np.random.default_rng([3, attempt]))
-        if not growth.streets:
-            continue
+    for growth in _grown_at_each_site(krems):
         places = join_places(city, growth.streets, spacing=spacing)
         occupied = occupied_near(city, [s.xy for s in growth.streets], reach=2 * spacing, spread=2 * spacing)
         clear = join_places(city, growth.streets, spacing=spacing, occupied=occupied)
@@ -117,9 +122,7 @@ def test_a_site_s_join_candidates_are_found_once(krems, monkeypatch):
     import osm_expand.joins as joins
     from osm_expand.district import _joinable
 
-    city, learned, sites = krems
-    pattern = make_pattern("example", learned.example)
-    spacing = learned.example.spacing
+    city, spacing = krems[0], krems[1].example.spacing
     found = []
     monkeypatch.setattr(joins, "_candidate_links",
                         lambda *a, _f=joins._candidate_links, **k: found.append(1) or _f(*a, **k))
@@ -128,11 +131,7 @@ def test_a_site_s_join_candidates_are_found_once(krems, monkeypatch):
                         lambda self, occupied=None, _f=joins.JoinCandidates.places: asked.append(_f(self, occupied))
                         or asked[-1])
     checked = 0
-    for attempt, site in enumerate(sites):
-        growth = pattern.grow(city, district_region(city, site, bounds=city.bounds_polygon),
-                              np.random.default_rng([3, attempt]))
-        if not growth.streets:
-            continue
+    for growth in _grown_at_each_site(krems):
         found.clear()
         asked.clear()
         joinable, _, occupied = _joinable(city, growth, spacing, at_least(1))

@@ -14,7 +14,7 @@ from itertools import chain
 import numpy as np
 
 from osm_expand.model.geometry import polyline_length
-from osm_expand.model.network import Street, StreetNetwork
+from osm_expand.model.network import Street, StreetNetwork, segment_nodes
 
 
 def flat_nodes(streets: Sequence[Street | None]) -> tuple[np.ndarray, np.ndarray]:
@@ -46,19 +46,13 @@ MAX_DEGREE = 4
 def segment_degree(streets: Sequence[Street], n_nodes: int) -> np.ndarray:
     """Segments meeting at each node: a street passing through counts 2, one ending there 1.
 
-    Each node of a street counts twice, less once at the street's first and last node, in three
-    counts of one flat array: the segments' ends listed one by one took 0.3 s of Campo Grande's run (cProfile;
-    55 asks; its 3,600 streets as read: 2.0 -> 0.8 ms an ask). A street of one node has no segment and counts nothing.
+    Each segment (:func:`~osm_expand.model.network.segment_nodes`, one flat array of the streets' nodes) counts once
+    at either end: the segments' ends listed one by one took 0.3 s of Campo Grande's run (cProfile; 55 asks; its
+    3,600 streets as read: 2.0 -> 0.8 ms an ask). A street of one node has no segment and counts nothing.
     """
-    runs = [s.nodes for s in streets if len(s.nodes) >= 2]
-    if not runs:
-        return np.zeros(n_nodes, dtype=np.int64)
-    sizes = np.fromiter(map(len, runs), dtype=np.int64, count=len(runs))
-    flat = np.fromiter(chain.from_iterable(runs), dtype=np.int64, count=int(sizes.sum()))
-    last = np.cumsum(sizes) - 1
-    length = max(n_nodes, int(flat.max()) + 1)
-    return (2 * np.bincount(flat, minlength=length) - np.bincount(flat[last - sizes + 1], minlength=length)
-            - np.bincount(flat[last], minlength=length))
+    _, u, v = segment_nodes(streets)
+    length = max(n_nodes, int(max(u.max(), v.max())) + 1) if len(u) else n_nodes
+    return np.bincount(u, minlength=length) + np.bincount(v, minlength=length)
 
 
 def junction_mask(streets: Sequence[Street], n_nodes: int, *, flat: tuple[np.ndarray, np.ndarray] | None = None
