@@ -85,6 +85,18 @@ def test_krems_transplanted_district_has_few_corners_and_forms_blocks():
     assert result.fidelity is not None and result.fidelity.verdict("two_core_share").value > 0.5
 
 
+def test_monaco_transplanted_district_is_as_dense_as_its_neighbourhoods():
+    """Issue 20, Monaco (session 40): its free land is a narrow slope and the clip cuts many of a copied
+    neighbourhood's streets, which go back to their last junction. Chosen on the street length landing on
+    free land before the cutting, seed 0's district kept 8.3 km and its density was 15.97 against the
+    neighbourhoods' 18.43-28.36; judged on what survives the cutting (:func:`synth.patches.transplant._transplant`),
+    its district keeps 10.3 km and is in range."""
+    result = _transplanted("monaco.osm.gz", 0)
+    assert result.fidelity is not None
+    density = result.fidelity.verdict("density")
+    assert density.ok, (density.value, density.low, density.high)
+
+
 def test_a_street_cut_by_the_edge_goes_back_to_its_last_junction_and_no_further():
     """A cross whose east arm the clip cut: the arm goes, the junction keeps its three other streets
     (``_trim`` would go on trimming nothing here, but takes a fringe's whole tree where a trimmed street

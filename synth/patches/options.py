@@ -398,7 +398,17 @@ class PatchOptions:
     #: streets and blocks; a grid), without the quilt's seam jogs and perimeter zig-zags; Krems' harbour site
     #: a knot of its old town's curving lanes. Whole table 109.3+12.3 -> 146.2+12.8 s CPU. With
     #: ``density_band`` (0.5, 2.0) too: Krems 0.2, north-bayreuth 1.8, Campo Grande 0.6, Monaco 2.6 (density
-    #: in range 1/5), Andorra 4.4 (density 2/5, curvature off 5/5) (session 40, h40p).
+    #: in range 1/5), Andorra 4.4 (density 2/5, curvature off 5/5) (session 40, h40p). Each
+    #: neighbourhood's best placement judged on what survives the clip and cut-back (of those within 15 % of
+    #: the target length the best fit, else the nearest miss), not on the length landing before the cutting
+    #: (session 40, h40p2; same table, before -> after): Krems 0.6 -> 0.4, Andorra 6.4 -> 3.0 (density in range
+    #: 5/5; straight chords 0.30-0.56 against 0.62-0.69, neighbourhoods' 0.32; no blocks: 0.0 per km against
+    #: 1.5), north-bayreuth 1.8 -> 1.8, Campo Grande 1.0 -> 1.4 (seeds 0 1 1 2 1 -> 1 1 2 2 1), Monaco 2.2 ->
+    #: 2.2 (density in range 2/5 -> 3/5, dead ends 4/5 -> 5/5); table 146.2+12.8 -> 172.6+14.8 s CPU (under
+    #: load). Tried too: the first typical one near the target (Campo Grande 1.2, north-bayreuth 2.2), the
+    #: nearest miss alone (Campo Grande 1.8); ``typical_of_neighbourhoods`` without it (Andorra 4.8, Campo
+    #: Grande 1.6), with ``density_band`` (0, 100) too (Andorra 3.4, Campo Grande 1.4) and with both and it
+    #: (Krems 0.0, Andorra 3.2, Campo Grande 1.6, Monaco 2.6): not kept.
     transplant: bool = False
     #: A cut end left over runs on this many spacings to meet a street in a tee ...
     tee_reach: float = 0.6
