@@ -68,7 +68,7 @@ from osm_expand.errors import InputError, OptionError
 from osm_expand.model.options import require_positive
 
 if TYPE_CHECKING:
-    from osm_expand.engine.roads.expanded_search import Ahead, Expanded, Plain, Resume
+    from osm_expand.engine.roads.expanded_search import Expanded, Plain, Resume
 
 __all__ = ["RoutingOptions", "Route", "turn_penalty", "find_route", "route_over_major_roads", "Choice",
            "choose", "route_score"]
@@ -169,15 +169,6 @@ class RoutingOptions:
     #: alone they spanned those. Above it (and with ``route_astar``) each search numbers the active
     #: states and starts again, as before going on was added. Below 2^31 (32-bit state numbers)
     resume_states: int = 64_000_000
-    #: whether a route search (A* with scipy's tie rule, :func:`_tiled_search`) bounds each state by one
-    #: step ahead (:class:`~osm_expand.engine.roads.expanded_search.Ahead`: the turn it must make next
-    #: and the plain distance on from the edge it leaves by) where it bounded by its vertex's plain
-    #: distance to the target alone: consistent too, so the same routes, distances and predecessors,
-    #: fewer states searched. Off: slower (session 39, captured calls replayed, ``/tmp/h39s``): Campo
-    #: Grande's 36 searches' route states 8.35 → 6.46 M but their CPU 17.2 → 22.1 s; the synthetic
-    #: town's first road 19.05 → 18.12 M states (a turn of one bin is free, so the next turn is seldom
-    #: forced), each state about twice the CPU (the neighbours' D read for the bound)
-    look_ahead: bool = False
     #: the route search (A* with scipy's tie rule, :func:`_tiled_search`) adds to each state's bound the
     #: least turn cost from it to the target (:func:`_turns_to_go`: turns alone, searched backwards once
     #: per search over its first region, in the corridor a route within the best cost C can use) where
@@ -966,8 +957,7 @@ def _lattice_rows(graph: PathGraph, lat: KindMask) -> tuple[np.ndarray, np.ndarr
 def _heading_search(graph: PathGraph, lat: KindMask, extra: np.ndarray, region: np.ndarray, local: np.ndarray,
                     penalties: np.ndarray, k: int, start: int, limit: float, h: np.ndarray | None = None,
                     predecessors: bool = False, ties: bool = False,
-                    resume: Resume | None = None, ahead: Ahead | None = None,
-                    turns: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+                    resume: Resume | None = None, turns: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
     """scipy's Dijkstra from state ``start`` on the heading-expanded graph over ``region`` (``local``:
     :func:`_local`), up to ``limit``, on A*'s reduced costs with ``h`` (per region vertex, as
     :func:`_reduced` makes them): the distances and (with ``predecessors``, else empty) the predecessors,
@@ -989,7 +979,7 @@ def _heading_search(graph: PathGraph, lat: KindMask, extra: np.ndarray, region: 
 
     rows = _expanded_rows(graph, lat, extra, region, local, penalties, k)
     return expanded_dijkstra(rows, start, limit, h=h, return_predecessors=predecessors, ties=ties, resume=resume,
-                             ahead=ahead, turns=turns)
+                             turns=turns)
 
 
 def _expanded_rows(graph: PathGraph, lat: KindMask, extra: np.ndarray, region: np.ndarray, local: np.ndarray,
@@ -1213,26 +1203,6 @@ def _again(graph: PathGraph, lat: KindMask, extra: np.ndarray, local: np.ndarray
     e = np.flatnonzero(extra & before[graph.src] & added[graph.dst])
     found.append(nk + local[graph.src[e]].astype(np.int64) * k + extra_bin[e])
     return np.unique(np.concatenate(found))
-
-
-def _ahead(graph: PathGraph, extra: np.ndarray, full: np.ndarray, local: np.ndarray, to_goal: np.ndarray,
-           k: int) -> Ahead:
-    """The look-ahead bound's tables (:class:`~osm_expand.engine.roads.expanded_search.Ahead`) over the
-    states of ``full`` (``local``: their numbers, before any are masked out): every allowed other edge
-    out of them, wherever it leads (the bound must not change as the active tiles grow), and an empty
-    table of A and the arrivals' bounds, made by the search as it reaches each vertex (``2k`` floats a
-    vertex, NaN until made)."""
-    from osm_expand.engine.roads.expanded_search import Ahead
-
-    e = np.flatnonzero(extra & (local[graph.src] >= 0))
-    src = local[graph.src[e]].astype(np.int64)
-    order = np.argsort(src, kind="stable")
-    e, src = e[order], src[order]
-    a_ptr = np.zeros(len(full) + 1, dtype=np.int64)
-    np.cumsum(np.bincount(src, minlength=len(full)), out=a_ptr[1:])
-    return Ahead(to_goal=np.ascontiguousarray(to_goal, dtype=np.float64), scale=1.0 - _SHRINK, a_ptr=a_ptr,
-                 a_bin=_bins(graph.heading[e], k).astype(np.int64), a_dst=graph.dst[e].astype(np.int64),
-                 a_val=graph.weight[e].astype(np.float64), ahead=np.full((len(full), 2 * k), np.nan))
 
 
 def _turns_to_go(graph: PathGraph, lat: KindMask, extra: np.ndarray, region: np.ndarray, penalties: np.ndarray,
@@ -1465,11 +1435,9 @@ def _tiled_search(graph: PathGraph, lat: KindMask, extra: np.ndarray, source: in
     goes_on = not (astar and target is not None)
     cap = min(opts.resume_states, 2**31 - 1)  # the region's states numbered whole up to this many
     lift = float(h[source] * (1.0 - _SHRINK)) if astar else None  # g + h = dist + lift on reduced costs
-    look = opts.look_ahead and not astar  # the route search's bound one step ahead (A* on the own weights only)
-    ahead: Ahead | None = None
     # the turns still to make, by state of the first region (C only falls: later regions lie within it)
     first_full = np.zeros(0, dtype=np.int64)
-    if opts.turn_bound and not astar and not look and target is not None:
+    if opts.turn_bound and not astar and target is not None:
         first_full = np.flatnonzero(lower <= best[1] + 1e-9 * best[1] + 1e-6)
     to_go = None
     if target is not None and 0 < _States(len(first_full), k).size <= opts.turn_bound:
@@ -1498,7 +1466,6 @@ def _tiled_search(graph: PathGraph, lat: KindMask, extra: np.ndarray, source: in
             seeds = _again(graph, lat, extra, local, before, inside & ~before, tile, shape, states, dir_bin,
                            extra_bin, -(-graph.lattice.radius // opts.tile_cells))
             resume = Resume(dist, pred, seeds)
-            # the same states, so the same look-ahead tables (made as the searches reach their vertices)
         else:
             # the states numbered over the whole region (a vertex's by its rank there), so that the tiles
             # grow without numbering them again: the rank in the region and in ``verts`` order two
@@ -1508,7 +1475,6 @@ def _tiled_search(graph: PathGraph, lat: KindMask, extra: np.ndarray, source: in
             full = np.flatnonzero(region) if whole else verts
             states = _States(len(full), k)
             local = _local(graph, full, k)
-            ahead = _ahead(graph, extra, full, local, h, k) if look else None
         kept = None  # the last search's arrays are the resumed search's, or go
         local[~inside] = -1  # the search reads only the active vertices
         # the rounding slack of the states numbered: the same limit each time C holds where numbered
@@ -1542,7 +1508,7 @@ def _tiled_search(graph: PathGraph, lat: KindMask, extra: np.ndarray, source: in
                 still, still_of = _turns_over(to_go, first_full, full, k), full
             dist, pred = _heading_search(graph, lat, extra, full, local, penalties, k, start, cost + slack,
                                          h=h[full] * (1.0 - _SHRINK), predecessors=True, ties=True, resume=resume,
-                                         ahead=ahead, turns=still)
+                                         turns=still)
             if target is not None and local[target] >= 0:
                 end = _cheaper_end(dist, states, int(local[target]), cost)
                 if end is not None:
