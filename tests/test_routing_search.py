@@ -1454,3 +1454,29 @@ def test_the_turns_still_to_make_are_consistent_and_keep_the_routes(seed, k, til
         assert got.cost == want.cost
     if True in searched:
         assert searched[True] <= searched.get(False, 0)
+
+
+@settings(max_examples=20, deadline=None)
+@example(0, 8, True)
+@given(st.integers(0, 2**32 - 1), st.sampled_from([2, 8, 16]), st.booleans())
+def test_the_turns_of_a_smaller_region_are_its_states_taken_from_the_first(seed, k, whole):
+    """``_turns_over`` gives each state of a smaller region (a subset of the first, both sorted) the T of
+    the same state (vertex and slot) of the first region, as a state-by-state gather does, and refuses
+    a region not within the first (the compiled search reads T without bounds checks)."""
+    rng = np.random.default_rng(seed)
+    first = np.sort(rng.choice(500, int(rng.integers(1, 60)), replace=False))
+    full = first if whole else np.sort(rng.choice(first, int(rng.integers(0, len(first) + 1)), replace=False))
+    big, small = routing._States(len(first), k), routing._States(len(full), k)
+    to_go = rng.uniform(0, 100, big.size)
+    got = routing._turns_over(to_go, first, full, k)
+    rank = np.searchsorted(first, full)
+    v = np.repeat(np.arange(len(full)), 2 * k + 1)
+    slot = np.tile(np.arange(2 * k + 1), len(full))
+    want = np.empty(small.size)
+    want[small.state(v, slot)] = to_go[big.state(rank[v], slot)]
+    assert np.array_equal(got, want)
+    outside = np.setdiff1d(np.arange(501), first)
+    if len(full):
+        wrong = np.sort(np.append(full[1:], rng.choice(outside)))
+        with pytest.raises(ValueError, match="not within"):
+            routing._turns_over(to_go, first, wrong, k)

@@ -1255,16 +1255,21 @@ def _turns_to_go(graph: PathGraph, lat: KindMask, extra: np.ndarray, region: np.
 
 def _turns_over(to_go: np.ndarray, first: np.ndarray, full: np.ndarray, k: int) -> np.ndarray:
     """:func:`_turns_to_go`'s T (by the states of the region ``first``) for the states of ``full`` (a
-    subset of ``first``, both sorted)."""
+    subset of ``first``, both sorted): the arrivals, departures and hubs of ``full``'s vertices taken
+    by block: 16 B a state at the peak (the three blocks and their concatenation; tracemalloc, 6.6 M
+    states), where a state-by-state gather's index arrays peaked at 66 B a state.
+
+    Raises
+    ------
+    ValueError
+        Where ``full`` is not within ``first``: the compiled search reads T unchecked."""
+    rank = np.searchsorted(first, full)
+    if len(full) and (rank[-1] >= len(first) or not np.array_equal(first[rank], full)):
+        raise ValueError("the region searched is not within the first region the turns were made over")
     if len(full) == len(first):
         return to_go
-    big, small = _States(len(first), k), _States(len(full), k)
-    rank = np.searchsorted(first, full)
-    v = np.repeat(np.arange(len(full)), 2 * k + 1)
-    slot = np.tile(np.arange(2 * k + 1), len(full))
-    out = np.empty(small.size)
-    out[small.state(v, slot)] = to_go[big.state(rank[v], slot)]
-    return out
+    arrive, depart, hub = _States(len(first), k).by_vertex(to_go)
+    return np.concatenate([arrive[rank].ravel(), depart[rank].ravel(), hub[rank]])
 
 
 def _vertex_path(pred: np.ndarray, start: int, end: int, verts: np.ndarray, states: _States) -> list[int]:
