@@ -1480,3 +1480,38 @@ def test_the_turns_of_a_smaller_region_are_its_states_taken_from_the_first(seed,
         wrong = np.sort(np.append(full[1:], rng.choice(outside)))
         with pytest.raises(ValueError, match="not within"):
             routing._turns_over(to_go, first, wrong, k)
+
+
+def test_the_turns_search_refuses_arrays_it_would_read_out_of():
+    """``expanded_search.turns_to_go`` is public and its compiled search reads without bounds checks: edges
+    by head whose counts, tails or bins do not fit the graph, or turn costs not one per cheap turn, are
+    refused before it runs; the arrays ``routing._turns_to_go`` makes are taken."""
+    from osm_expand.engine.roads.expanded_search import turns_to_go
+
+    g, _ = random_map(3)
+    k = 8
+    lat, extra = g.masks()
+    region = np.arange(g.n_vertices)
+    penalties = routing._bin_penalties(RoutingOptions(heading_bins=k))
+    local = routing._local(g, region, k).astype(np.int32)
+    rows = routing._expanded_rows(g, lat, extra, region, local, penalties, k)
+    n = len(region)
+    ends = routing._States(n, k).arrivals(0)
+    ptr = np.zeros(n + 1, dtype=np.int64)
+    ptr[1:] = 1  # one edge into vertex 0
+    src, bins = np.array([1]), np.array([0])
+    cost = np.maximum(penalties, 0.0)[rows.cheap]
+    T = turns_to_go(rows, ends, ptr, src, bins, np.inf, cost, float(penalties.max()))
+    assert len(T) == routing._States(n, k).size and (T[ends] == 0.0).all()
+    bad = [(ptr, src, bins, cost[:-1]),  # a turn cost short
+           (ptr, np.array([1, 2]), bins, cost),  # more tails than the edges counted
+           (ptr, src, np.array([0, 1]), cost),  # more bins than the edges counted
+           (ptr, np.array([n]), bins, cost),  # a tail past the vertices
+           (ptr, np.array([-1]), bins, cost),  # a tail before them
+           (ptr, src, np.array([k]), cost),  # a bin past the k
+           (ptr[:-1], src, bins, cost)]  # not one run per vertex
+    for p, s, b, c in bad:
+        with pytest.raises(ValueError):
+            turns_to_go(rows, ends, p, s, b, np.inf, c, float(penalties.max()))
+    with pytest.raises(ValueError):  # a limit per vertex, one short
+        turns_to_go(rows, ends, ptr, src, bins, np.zeros(n - 1), cost, float(penalties.max()))

@@ -421,12 +421,32 @@ def turns_to_go(graph: Expanded, ends: np.ndarray, r_ptr: np.ndarray, r_src: np.
     A limit per vertex makes a corridor: ``routing._turns_to_go`` gives each vertex the turns a
     route through it may make and still cost at most C; that keeps ``D + T`` consistent and below
     every such route's cost to go (its docstring's proof), while the search stays inside the states
-    a route within C can reach."""
+    a route within C can reach.
+
+    Raises
+    ------
+    ValueError
+        Where the compiled search would read or write out of its arrays (numba checks no bounds):
+        ends not among the arrivals, edges by head not one run per vertex (``r_ptr``) or not as many
+        tails and bins as it counts, a tail not among the vertices or a bin not among the k, turn
+        costs not one per cheap turn, or a limit per vertex not one per vertex.
+    """
     g = graph
     size = g.n * (2 * g.k + 1)
     ends = np.asarray(ends, dtype=np.int64)
+    r_ptr = np.asarray(r_ptr, dtype=np.int64)
+    r_src = np.asarray(r_src, dtype=np.int64)
+    r_bin = np.asarray(r_bin, dtype=np.int64)
+    turn_cost = np.ascontiguousarray(turn_cost, dtype=np.float64)
     if len(ends) and not (0 <= ends.min() and ends.max() < g.n * g.k) or len(r_ptr) != g.n + 1:
         raise ValueError("the ends (arrivals) or the edges by head are not of this graph's states and vertices")
+    if not (r_ptr[0] == 0 and (np.diff(r_ptr) >= 0).all() and len(r_src) == len(r_bin) == r_ptr[-1]):
+        raise ValueError(f"the edges by head count {r_ptr[-1]} edges from {r_ptr[0]}, with {len(r_src)} tails "
+                         f"and {len(r_bin)} bins")
+    if len(r_src) and not (0 <= r_src.min() and r_src.max() < g.n and 0 <= r_bin.min() and r_bin.max() < g.k):
+        raise ValueError(f"an edge's tail is not among the {g.n} vertices or its bin not among the {g.k}")
+    if len(turn_cost) != len(g.cheap):
+        raise ValueError(f"{len(turn_cost)} turn costs for the graph's {len(g.cheap)} cheap turns")
     cap = np.ascontiguousarray(np.broadcast_to(np.asarray(limit, dtype=np.float64), (g.n,)))
     T = np.full(size, np.inf)
     reached = _turns_back(g.n, g.k, g.cheap, turn_cost, hub_cost, g.region, g.local, g.n_lat, g.lat_kind,
@@ -679,9 +699,14 @@ def expanded_dijkstra(graph: Expanded, start: int, limit: float, h: np.ndarray |
     only); without ``ties`` a predecessor is the first in-neighbour of that distance to relax it,
     which depends on the order: only the distances are the search's from scratch there.
 
-    With ``turns`` (``ties`` only, per state, ≥ 0, consistent on the turn penalties alone: ``T(x) ≤ t(x, y) +
-    T(y)`` with t the edge's turn cost, 0 for a move) a state's bound is ``h`` of its vertex plus its
-    ``turns``: the sum of two consistent bounds of the two parts of the cost, consistent.
+    With ``turns`` (``ties`` only, per state, ≥ 0) a state's bound is ``h`` of its vertex plus its
+    ``turns``, and all of the above holds where that sum is consistent on the search's own costs
+    (``h(x) + T(x) ≤ c(x, y) + h(y) + T(y)`` on every edge, c the move's or turn's weight with the
+    floor ε): the precondition is on the sum, not on ``turns`` alone. A ``turns`` consistent on the
+    turn penalties alone (``T(x) ≤ t(x, y) + T(y)``, t the edge's turn cost, 0 for a move) with a
+    consistent ``h`` gives one; the corridor's T of ``routing._turns_to_go`` (clamped at
+    ``C′ − d_s − D`` per vertex) is not consistent alone, only ``D + T`` is, with ``h`` the same D
+    its limits were made with (``routing``'s ``lower = d_s + D``).
 
     Returns
     -------

@@ -172,14 +172,18 @@ class RoutingOptions:
     #: the route search (A* with scipy's tie rule, :func:`_tiled_search`) adds to each state's bound the
     #: least turn cost from it to the target (:func:`_turns_to_go`: turns alone, searched backwards once
     #: per search over its first region, in the corridor a route within the best cost C can use) where
-    #: that region has at most this many states (0: never; 8 B a state, so also a memory cap). The same
-    #: routes, distances and predecessors (consistent; Campo Grande's 36 captured calls identical).
-    #: Measured (session 40, ``/tmp/h40t/replay.py``, one run, load 5–6): Campo Grande's 36 calls'
-    #: route search plus T 5.16 → 3.07 s CPU (states 8.32 → 3.40 M; regions up to 7.7 M states).
-    #: The synthetic 10,000-street town's first road (a region of 57.9 M states; its route trades
-    #: length for turns, so T cuts little): with T 19.05 → 20.22 M states, 40.3 → 47.5 s CPU, so its
-    #: regions stay above the cap and search as before. Session 39's T over the whole region, one
-    #: limit: Campo Grande's 36 calls 18.6 → 24.5 s (T 8.35 s)
+    #: that region has at most this many states (0: never). Also a memory cap: T (8 B a state of the
+    #: first region), a copy of it for each smaller region searched (8 B a state of that one, the
+    #: last kept) and the backward search's heap and stack. Consistent, so each search over the same
+    #: active tiles finds the same routes, distances and predecessors; but the tiles' growth test
+    #: reads ∞ where a search did not scan, so with T fewer tiles may grow, and two routes of exactly
+    #: equal cost through tiles only one of the runs grows could tie the other way (Campo Grande's 36
+    #: captured calls: identical). Measured (session 40, ``benchmarks/route_replay.py``, one run, load
+    #: 5–6): Campo Grande's 36 calls' route search plus T 5.16 → 3.07 s CPU (states summed over the
+    #: tile rounds 8.32 → 3.40 M; regions up to 7.7 M states). The synthetic 10,000-street town's first
+    #: road (a region of 57.9 M states; its route trades length for turns, so T cuts little): with T
+    #: (``turn_share`` 0.05) 40.3 → 47.5 s CPU, so its regions stay above the cap and search as before.
+    #: Session 39's T over the whole region, one limit: Campo Grande's 36 calls 18.6 → 24.5 s (T 8.35 s)
     turn_bound: int = 16_000_000
     #: the share of its region's states the turns' backward search (``turn_bound``) may scan before it
     #: stops; every state's T is then clamped at the turn cost it had reached (consistent, weaker, in
@@ -1507,7 +1511,11 @@ def _tiled_search(graph: PathGraph, lat: KindMask, extra: np.ndarray, source: in
             # A* by h on the graph's own weights, scipy's predecessor rule applied as states relax: the
             # route (its states' distances and predecessors) is plain Dijkstra's, and the states with
             # g + h above C are not searched. Where the growth test below reads a departure's g, it is
-            # exact wherever g + w + h(w) < C (consistency: then g + h(u) < C), as the test needs.
+            # exact wherever g + w + h(w) < C (consistency: then g + h(u) < C), as the test needs. With
+            # T the bound is h + T: a departure it left unscanned has g = ∞ there, and the test lets
+            # nothing grow from it, rightly: T is a lower bound of the turns to go over the whole
+            # first region (admissible: :func:`_turns_to_go`), so any route through that departure
+            # costs more than C.
             shift = None
             if to_go is not None and not np.array_equal(full, still_of):  # made again where the region changed
                 still, still_of = _turns_over(to_go, first_full, full, k), full
