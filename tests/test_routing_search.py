@@ -630,7 +630,7 @@ def test_routing_options_refuse_a_cell_count_that_is_not_a_whole_number(name, va
         RoutingOptions(**{name: value})
 
 
-@pytest.mark.parametrize("share", [0.0, -0.1, 1.5, float("nan")])
+@pytest.mark.parametrize("share", [0.0, -0.1, 1.5, float("nan"), True])
 def test_routing_options_refuse_a_turn_share_outside_0_1(share):
     with pytest.raises(OptionError, match="turn_share must be in"):
         RoutingOptions(turn_share=share)
@@ -1398,7 +1398,10 @@ def test_the_turns_still_to_make_are_consistent_and_keep_the_routes(seed, k, til
     edge of it (``T(x) ≤ t(x, y) + T(y)``, t the edge's turn cost, 0 for a move), clamped at a limit
     too, and 0 on the target's arrivals; added to the plain distance as the route search's bound
     (``RoutingOptions.turn_bound``) it finds the very routes (vertex for vertex, the same cost) of the
-    search by the plain distance alone, whole regions or growing tiles, and searches no more states."""
+    search by the plain distance alone, whole regions or growing tiles (examples where no search used T,
+    a route found at once or a region above the cap, are not counted). The states searched are not
+    compared: summed over the tile rounds they are no invariant (with T the growth test may grow
+    other tiles)."""
     g, rng = random_map(seed)
     opts = RoutingOptions(turn_height=float(rng.uniform(20, 900)), heading_bins=k,
                           whole_region=0 if tiles else 100_000, tile_cells=int(rng.integers(1, 4)))
@@ -1433,27 +1436,23 @@ def test_the_turns_still_to_make_are_consistent_and_keep_the_routes(seed, k, til
     clamped = routing._turns_to_go(g, lat, extra, region, penalties, k, t, cut)
     assert np.array_equal(clamped, np.minimum(T, cut))
     assert (clamped[rows_of] <= turn + clamped[made.indices] + 1e-9).all()
-    searched = {}
+    used = []
     heading_search = routing._heading_search
     share = float(rng.choice([1.0, 0.3, 0.05]))  # T's search whole in its corridor, or stopped short
 
     def counted(*args, **kwargs):
-        dist, pred = heading_search(*args, **kwargs)
-        if kwargs.get("ties"):
-            key = kwargs.get("turns") is not None
-            searched[key] = searched.get(key, 0) + int(np.isfinite(dist).sum())
-        return dist, pred
+        used.append(kwargs.get("turns") is not None)
+        return heading_search(*args, **kwargs)
 
     with pytest.MonkeyPatch.context() as monkey:
         monkey.setattr(routing, "_heading_search", counted)
         want = routing.find_route(g, s, t, options=replace(opts, turn_bound=0))
         got = routing.find_route(g, s, t, options=replace(opts, turn_bound=10**9, turn_share=share))
+    assume(any(used))
     assert (want is None) == (got is None)
     if want is not None:
         assert np.array_equal(got.vertices, want.vertices)
         assert got.cost == want.cost
-    if True in searched:
-        assert searched[True] <= searched.get(False, 0)
 
 
 @settings(max_examples=20, deadline=None)

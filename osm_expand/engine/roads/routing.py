@@ -187,7 +187,8 @@ class RoutingOptions:
     turn_bound: int = 16_000_000
     #: the share of its region's states the turns' backward search (``turn_bound``) may scan before it
     #: stops; every state's T is then clamped at the turn cost it had reached (consistent, weaker, in
-    #: bounded time). Campo Grande's 36 captured calls (session 40, one run), route search plus T:
+    #: bounded time). Campo Grande's 36 captured calls (session 40, ``benchmarks/route_replay.py``, one
+    #: run), route search plus T:
     #: 1.0 (whole corridor) 8.04 s (with numba's compile), 0.10 3.24 s, 0.05 3.07 s, 0.02 3.18 s,
     #: 0.01 3.45 s, without T 5.16 s
     turn_share: float = 0.05
@@ -203,7 +204,7 @@ class RoutingOptions:
             value = getattr(self, name)
             if isinstance(value, bool) or not isinstance(value, Integral) or value < least:
                 raise OptionError(f"RoutingOptions.{name} must be a whole number of at least {least}, got {value!r}")
-        if not 0 < self.turn_share <= 1:
+        if isinstance(self.turn_share, bool) or not 0 < self.turn_share <= 1:
             raise OptionError(f"RoutingOptions.turn_share must be in (0, 1], got {self.turn_share!r}")
         if self.heading_bins < 4:
             raise InputError(f"RoutingOptions.heading_bins must be at least 4, got {self.heading_bins}")
@@ -1237,7 +1238,7 @@ def _turns_to_go(graph: PathGraph, lat: KindMask, extra: np.ndarray, region: np.
     (its limits ≥ 0). The budget's clamp at τ is a minimum with a constant: consistent too.
     ``tests/test_routing_search.py`` checks both edge by edge against scipy's backward search.
 
-    Campo Grande's 36 captured searches (session 40, ``/tmp/h40t/replay.py``): one limit (h39s)
+    Campo Grande's 36 captured searches (session 40, ``benchmarks/route_replay.py``): one limit (h39s)
     scanned 92 % of call 15's 7.7 M states (4.3 s), the corridor 34 % (1.2 s)."""
     from osm_expand.engine.roads.expanded_search import turns_to_go
 
