@@ -1446,19 +1446,19 @@ def _tiled_search(graph: PathGraph, lat: KindMask, extra: np.ndarray, source: in
     cap = min(opts.resume_states, 2**31 - 1)  # the region's states numbered whole up to this many
     lift = float(h[source] * (1.0 - _SHRINK)) if astar else None  # g + h = dist + lift on reduced costs
     # the turns still to make, by state of the first region (C only falls: later regions lie within it)
-    first_full = np.zeros(0, dtype=np.int64)
+    first_region = np.zeros(0, dtype=np.int64)
     if opts.turn_bound and not astar and target is not None:
-        first_full = np.flatnonzero(lower <= best[1] + 1e-9 * best[1] + 1e-6)
+        first_region = np.flatnonzero(lower <= best[1] + 1e-9 * best[1] + 1e-6)
     to_go = None
-    if target is not None and 0 < _States(len(first_full), k).size <= opts.turn_bound:
+    if target is not None and 0 < _States(len(first_region), k).size <= opts.turn_bound:
         # in the corridor of the turns a route through each vertex may make and still cost C: C − lower(v)
         # (lower = d_s + D, so the bound is min(D + T, C − d_s): consistent, :func:`_turns_to_go`)
         allowed = best[1] + 1e-6 * best[1] + 1e-3
-        size = _States(len(first_full), k).size
-        to_go = _turns_to_go(graph, lat, extra, first_full, penalties, k, target, allowed - lower[first_full],
+        size = _States(len(first_region), k).size
+        to_go = _turns_to_go(graph, lat, extra, first_region, penalties, k, target, allowed - lower[first_region],
                              int(opts.turn_share * size) if opts.turn_share < 1 else -1)
         to_go *= 1.0 - _SHRINK  # scaled as h is, in place: the first search reads it as it is (no copy)
-    still, still_of = None, np.zeros(0, dtype=np.int64)  # the scaled T by state of the region searched
+    region_turns, region_turns_of = None, np.zeros(0, dtype=np.int64)  # the scaled T by state of the region searched
     from osm_expand.engine.roads.expanded_search import Resume
 
     while True:
@@ -1518,11 +1518,11 @@ def _tiled_search(graph: PathGraph, lat: KindMask, extra: np.ndarray, source: in
             # first region (admissible: :func:`_turns_to_go`), so any route through that departure
             # costs more than C.
             shift = None
-            if to_go is not None and not np.array_equal(full, still_of):  # made again where the region changed
-                still, still_of = _turns_over(to_go, first_full, full, k), full
+            if to_go is not None and not np.array_equal(full, region_turns_of):  # made again where the region changed
+                region_turns, region_turns_of = _turns_over(to_go, first_region, full, k), full
             dist, pred = _heading_search(graph, lat, extra, full, local, penalties, k, start, cost + slack,
                                          h=h[full] * (1.0 - _SHRINK), predecessors=True, ties=True, resume=resume,
-                                         turns=still)
+                                         turns=region_turns)
             if target is not None and local[target] >= 0:
                 end = _cheaper_end(dist, states, int(local[target]), cost)
                 if end is not None:
