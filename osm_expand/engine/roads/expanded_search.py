@@ -203,94 +203,16 @@ def _relax(dist: np.ndarray, pred: np.ndarray, heap: np.ndarray, length: int, co
 
 
 @_compiled()
-def _look_ahead(u: int | np.integer, b: int | np.integer, gu: int | np.integer, n_lat: int, lat_kind: np.ndarray,
-                allowed: np.ndarray, offset: np.ndarray, dirs_ptr: np.ndarray, dirs: np.ndarray, table: np.ndarray,
-                plain: np.ndarray, w_kind: np.ndarray, to_goal: np.ndarray, a_ptr: np.ndarray, a_bin: np.ndarray,
-                a_dst: np.ndarray, a_val: np.ndarray, ahead: np.ndarray) -> float:
-    """``A(u, b)`` (:class:`Ahead`), written to ``ahead[u, b]``: the least ``c(u, w) + D(w)`` over the
-    allowed edges of heading bin b out of G′ vertex ``gu`` (every lattice move and other edge, inside
-    the searched vertices or not; ∞ where none)."""
-    n_dir = lat_kind.shape[1]
-    least = np.inf
-    if gu < n_lat:
-        for t in range(dirs_ptr[b], dirs_ptr[b + 1]):
-            d = dirs[t]
-            if not allowed[lat_kind[gu, d]]:
-                continue
-            w = table[np.int64(w_kind[gu, d]) * n_dir + d] if len(table) > 0 else np.float64(plain[gu, d])
-            value = w + to_goal[gu + offset[d]]
-            if value < least:
-                least = value
-    for t in range(a_ptr[u], a_ptr[u + 1]):
-        if a_bin[t] == b:
-            value = a_val[t] + to_goal[a_dst[t]]
-            if value < least:
-                least = value
-    ahead[u, b] = least
-    return least
-
-
-@_compiled(inline="always")
-def _depart_bound(u: int | np.integer, b: int | np.integer, region: np.ndarray, n_lat: int, lat_kind: np.ndarray,
-                  allowed: np.ndarray, offset: np.ndarray, dirs_ptr: np.ndarray, dirs: np.ndarray, table: np.ndarray,
-                  plain: np.ndarray, w_kind: np.ndarray, h: np.ndarray, to_goal: np.ndarray, scale: float,
-                  a_ptr: np.ndarray, a_bin: np.ndarray, a_dst: np.ndarray, a_val: np.ndarray, ahead: np.ndarray
-                  ) -> float:
-    """``dep(u, b)``'s look-ahead bound (:class:`Ahead`): ``A(u, b) · scale``, 0 at the goal."""
-    if h[u] == 0.0:
-        return 0.0
-    value = ahead[u, b]
-    if np.isnan(value):
-        value = _look_ahead(u, b, region[u], n_lat, lat_kind, allowed, offset, dirs_ptr, dirs, table, plain, w_kind,
-                            to_goal, a_ptr, a_bin, a_dst, a_val, ahead)
-    return value * scale
-
-
-@_compiled(inline="always")
-def _arrive_bound(u: int | np.integer, i: int | np.integer, k: int, cheap: np.ndarray, cheap_cost: np.ndarray,
-                  via_hub: float, region: np.ndarray, n_lat: int, lat_kind: np.ndarray, allowed: np.ndarray,
-                  offset: np.ndarray, dirs_ptr: np.ndarray, dirs: np.ndarray, table: np.ndarray, plain: np.ndarray,
-                  w_kind: np.ndarray, h: np.ndarray, to_goal: np.ndarray, scale: float, a_ptr: np.ndarray,
-                  a_bin: np.ndarray, a_dst: np.ndarray, a_val: np.ndarray, ahead: np.ndarray) -> float:
-    """``arr(u, i)``'s look-ahead bound (:class:`Ahead`), made once (``ahead[u, k + i]``): the least of
-    ``(P(q) + A(u, i + q)) · scale`` over the cheap turns q and of ``via_hub + h(u)`` (``via_hub``:
-    ``(S_p + ε) · scale``), 0 at the goal."""
-    hu = h[u]
-    if hu == 0.0:
-        return 0.0
-    value = ahead[u, k + i]
-    if not np.isnan(value):
-        return value
-    value = via_hub + hu
-    for j in range(len(cheap)):
-        b = i + cheap[j]
-        if b >= k:
-            b -= k
-        a = ahead[u, b]
-        if np.isnan(a):
-            a = _look_ahead(u, b, region[u], n_lat, lat_kind, allowed, offset, dirs_ptr, dirs, table, plain, w_kind,
-                            to_goal, a_ptr, a_bin, a_dst, a_val, ahead)
-        turned = (cheap_cost[j] + a) * scale
-        if turned < value:
-            value = turned
-    ahead[u, k + i] = value
-    return value
-
-
-@_compiled()
 def _search(n: int, k: int, cheap: np.ndarray, cheap_cost: np.ndarray, hub_cost: float, region: np.ndarray,
             local: np.ndarray, n_lat: int, lat_kind: np.ndarray, allowed: np.ndarray, offset: np.ndarray,
             dirs_ptr: np.ndarray, dirs: np.ndarray, table: np.ndarray, plain: np.ndarray, w_kind: np.ndarray,
             e_ptr: np.ndarray,
             e_bin: np.ndarray, e_col: np.ndarray, e_val: np.ndarray, h: np.ndarray, astar: bool, ties: bool,
-            eps: float, seeds: np.ndarray, limit: float, dist: np.ndarray, pred: np.ndarray, look: bool,
-            to_goal: np.ndarray, scale: float, a_ptr: np.ndarray, a_bin: np.ndarray, a_dst: np.ndarray,
-            a_val: np.ndarray, ahead: np.ndarray, turns: np.ndarray) -> None:
+            eps: float, seeds: np.ndarray, limit: float, dist: np.ndarray, pred: np.ndarray,
+            turns: np.ndarray) -> None:
     """The distances in ``dist`` (and ``pred`` filled, when it has room), each state's row made as it is
     popped, the search started (or resumed) from the ``seeds`` at their distances in ``dist``; the
-    arguments are :class:`Expanded`'s fields and :func:`expanded_dijkstra`'s (its docstring), and with
-    ``look`` (``ties`` only) :class:`Ahead`'s fields: a state's bound is then :func:`_bound`'s, not ``h``
-    of its vertex."""
+    arguments are :class:`Expanded`'s fields and :func:`expanded_dijkstra`'s (its docstring)."""
     nk = n * k
     n_dir = lat_kind.shape[1]
     use_table = len(table) > 0
@@ -298,29 +220,15 @@ def _search(n: int, k: int, cheap: np.ndarray, cheap_cost: np.ndarray, hub_cost:
     # the heap's entries (key, state): a state is exact in a float64 (it is below 2⁵³), and an
     # entry's two halves share a cache line
     has_turns = len(turns) > 0  # a per-state bound added to h (``ties`` only): :func:`expanded_dijkstra`'s ``turns``
-    via_hub = (hub_cost + eps) * scale  # an arrival's bound by its hub, less h of its vertex
-    hub_bound = 0.0
     heap = np.empty((max(4096, len(seeds)), 2))
     length = 0
     for index in range(len(seeds)):  # keyed as a push keys them: g (+ h with ties), within the limit
         seed = seeds[index]
         at = seed // k if seed < nk else ((seed - nk) // k if seed < 2 * nk else seed - 2 * nk)  # its vertex
-        if look:  # keyed by its own bound (:func:`_arrive_bound`, :func:`_depart_bound`, the hub's)
-            if seed < nk:
-                first = dist[seed] + _arrive_bound(at, seed - at * k, k, cheap, cheap_cost, via_hub, region, n_lat,
-                                                   lat_kind, allowed, offset, dirs_ptr, dirs, table, plain, w_kind, h,
-                                                   to_goal, scale, a_ptr, a_bin, a_dst, a_val, ahead)
-            elif seed < 2 * nk:
-                first = dist[seed] + _depart_bound(at, seed - nk - at * k, region, n_lat, lat_kind, allowed, offset,
-                                                   dirs_ptr, dirs, table, plain, w_kind, h, to_goal, scale, a_ptr,
-                                                   a_bin, a_dst, a_val, ahead)
-            else:
-                first = dist[seed] + (h[at] + eps * scale if h[at] != 0.0 else 0.0)
+        if ties and has_turns:  # g + (h + T), summed as a push sums it (the stale test compares them)
+            first = dist[seed] + (h[at] + turns[seed])
         else:
-            if ties and has_turns:  # g + (h + T), summed as a push sums it (the stale test compares them)
-                first = dist[seed] + (h[at] + turns[seed])
-            else:
-                first = dist[seed] + h[at] if ties else dist[seed]
+            first = dist[seed] + h[at] if ties else dist[seed]
         if first <= limit:
             _put(heap, length, first, np.float64(seed))
             length += 1
@@ -336,17 +244,6 @@ def _search(n: int, k: int, cheap: np.ndarray, cheap_cost: np.ndarray, hub_cost:
         else:
             u = v - 2 * nk
         hu = h[u] if astar or ties else 0.0
-        if look:  # the state's own bound (a push keyed it so): the stale test below reads it
-            if v < nk:
-                hu = _arrive_bound(u, v - u * k, k, cheap, cheap_cost, via_hub, region, n_lat, lat_kind, allowed,
-                                   offset, dirs_ptr, dirs, table, plain, w_kind, h, to_goal, scale, a_ptr, a_bin,
-                                   a_dst, a_val, ahead)
-            elif v < 2 * nk:
-                hu = _depart_bound(u, v - nk - u * k, region, n_lat, lat_kind, allowed, offset, dirs_ptr, dirs, table,
-                                   plain, w_kind, h, to_goal, scale, a_ptr, a_bin, a_dst, a_val, ahead)
-            else:
-                hu = h[u] + eps * scale if h[u] != 0.0 else 0.0
-            hub_bound = h[u] + eps * scale if h[u] != 0.0 else 0.0
         dv = dist[v]
         # made stale by a later decrease: scanned then (with ties, the key is g + h: an entry whose
         # key equals the state's rescans it with the same distance, which changes nothing)
@@ -369,12 +266,6 @@ def _search(n: int, k: int, cheap: np.ndarray, cheap_cost: np.ndarray, hub_cost:
                 if astar:
                     w = _reduced_weight(w, hu, hu, eps)
                 hc = hu + turns[col] if has_turns else hu
-                if look and dist[col] > dv + w:  # the departure's (or hub's) own bound, made only where pushed
-                    if j < n_cheap:
-                        hc = _depart_bound(u, b, region, n_lat, lat_kind, allowed, offset, dirs_ptr, dirs, table,
-                                           plain, w_kind, h, to_goal, scale, a_ptr, a_bin, a_dst, a_val, ahead)
-                    else:
-                        hc = hub_bound
                 heap, length = _relax(dist, pred, heap, length, col, dv + w, v, limit, ties, hc)
         elif v < 2 * nk:  # departure dep(u, b): its lattice moves of bin b, then its other edges of bin b
             b = v - nk - u * k
@@ -394,10 +285,6 @@ def _search(n: int, k: int, cheap: np.ndarray, cheap_cost: np.ndarray, hub_cost:
                     hc = h[lw] if ties else 0.0
                     if has_turns:
                         hc += turns[lw * k + b]
-                    if look and dist[lw * k + b] > dv + w:
-                        hc = _arrive_bound(lw, b, k, cheap, cheap_cost, via_hub, region, n_lat, lat_kind, allowed,
-                                           offset, dirs_ptr, dirs, table, plain, w_kind, h, to_goal, scale, a_ptr,
-                                           a_bin, a_dst, a_val, ahead)
                     heap, length = _relax(dist, pred, heap, length, lw * k + b, dv + w, v, limit, ties, hc)
             for t in range(e_ptr[u], e_ptr[u + 1]):
                 if e_bin[t] != b:
@@ -409,18 +296,11 @@ def _search(n: int, k: int, cheap: np.ndarray, cheap_cost: np.ndarray, hub_cost:
                 hc = h[col // k] if ties else 0.0
                 if has_turns:
                     hc += turns[col]
-                if look and dist[col] > dv + w:
-                    hc = _arrive_bound(col // k, b, k, cheap, cheap_cost, via_hub, region, n_lat, lat_kind, allowed,
-                                       offset, dirs_ptr, dirs, table, plain, w_kind, h, to_goal, scale, a_ptr, a_bin,
-                                       a_dst, a_val, ahead)
                 heap, length = _relax(dist, pred, heap, length, col, dv + w, v, limit, ties, hc)
         else:  # the hub: every departure, free
             w = _reduced_weight(eps, hu, hu, eps) if astar else eps
             for col in range(nk + u * k, nk + u * k + k):
                 hc = hu + turns[col] if has_turns else hu
-                if look and dist[col] > dv + w:
-                    hc = _depart_bound(u, col - nk - u * k, region, n_lat, lat_kind, allowed, offset, dirs_ptr, dirs,
-                                       table, plain, w_kind, h, to_goal, scale, a_ptr, a_bin, a_dst, a_val, ahead)
                 heap, length = _relax(dist, pred, heap, length, col, dv + w, v, limit, ties, hc)
 
 
@@ -541,12 +421,32 @@ def turns_to_go(graph: Expanded, ends: np.ndarray, r_ptr: np.ndarray, r_src: np.
     A limit per vertex makes a corridor: ``routing._turns_to_go`` gives each vertex the turns a
     route through it may make and still cost at most C; that keeps ``D + T`` consistent and below
     every such route's cost to go (its docstring's proof), while the search stays inside the states
-    a route within C can reach."""
+    a route within C can reach.
+
+    Raises
+    ------
+    ValueError
+        Where the compiled search would read or write out of its arrays (numba checks no bounds):
+        ends not among the arrivals, edges by head not one run per vertex (``r_ptr``) or not as many
+        tails and bins as it counts, a tail not among the vertices or a bin not among the k, turn
+        costs not one per cheap turn, or a limit per vertex not one per vertex.
+    """
     g = graph
     size = g.n * (2 * g.k + 1)
     ends = np.asarray(ends, dtype=np.int64)
+    r_ptr = np.asarray(r_ptr, dtype=np.int64)
+    r_src = np.asarray(r_src, dtype=np.int64)
+    r_bin = np.asarray(r_bin, dtype=np.int64)
+    turn_cost = np.ascontiguousarray(turn_cost, dtype=np.float64)
     if len(ends) and not (0 <= ends.min() and ends.max() < g.n * g.k) or len(r_ptr) != g.n + 1:
         raise ValueError("the ends (arrivals) or the edges by head are not of this graph's states and vertices")
+    if not (r_ptr[0] == 0 and (np.diff(r_ptr) >= 0).all() and len(r_src) == len(r_bin) == r_ptr[-1]):
+        raise ValueError(f"the edges by head count {r_ptr[-1]} edges from {r_ptr[0]}, with {len(r_src)} tails "
+                         f"and {len(r_bin)} bins")
+    if len(r_src) and not (0 <= r_src.min() and r_src.max() < g.n and 0 <= r_bin.min() and r_bin.max() < g.k):
+        raise ValueError(f"an edge's tail is not among the {g.n} vertices or its bin not among the {g.k}")
+    if len(turn_cost) != len(g.cheap):
+        raise ValueError(f"{len(turn_cost)} turn costs for the graph's {len(g.cheap)} cheap turns")
     cap = np.ascontiguousarray(np.broadcast_to(np.asarray(limit, dtype=np.float64), (g.n,)))
     T = np.full(size, np.inf)
     reached = _turns_back(g.n, g.k, g.cheap, turn_cost, hub_cost, g.region, g.local, g.n_lat, g.lat_kind,
@@ -758,56 +658,6 @@ class Expanded(NamedTuple):
     e_val: np.ndarray  #: float64 weights
 
 
-class Ahead(NamedTuple):
-    """A route search's bound by one step ahead (:func:`expanded_dijkstra`'s ``ahead``, ``ties`` only):
-    with ``D`` the plain (turn-free) distance to the goal, consistent on G′ (``D(v) ≤ c(v, w) + D(w)``
-    for every edge; ``routing``'s ``from_target``, an exact plain Dijkstra over the same edges, G′
-    being symmetric), let ``A(v, b)`` be the least ``c(v, w) + D(w)`` over the allowed edges of
-    heading bin b out of v: every lattice move (read from the lattice's tables, whatever vertex it
-    reaches) and every other edge (streets, stitches, long bridges, ``a_*``) — all of G′'s out of v,
-    not only the searched ones, so the bound does not change as the tiles grow (a search goes on
-    with the bound it was made with: :class:`Resume`). With ``h(v) = D(v)·scale`` the vertex bound it
-    replaces (``scale`` = 1 − 10⁻⁶, for the float sums), a state's bound is what the rest of its route
-    costs at least: ``dep(v, b)`` leaves by an edge of bin b, so ``A(v, b)·scale``; ``hub(v)`` departs
-    at ε on any bin, so ``h(v) + ε·scale``; ``arr(v, i)`` turns to ``dep(v, i + q)`` at P(q) for the
-    cheap turns, or through the hub at ``S_p + ε``, so the least of ``(P(q) + A(v, i + q))·scale``
-    and ``(S_p + ε)·scale + h(v)``; and 0 at a vertex whose D is 0 (the goal, where a route ends on
-    an arrival).
-
-    Consistent on every edge of the expanded graph (``h(x) ≤ c(x, y) + h(y)``; the goal's states
-    have 0 ≤ anything, and an edge into the goal ``h(dep) ≤ c·scale``): a move or other edge
-    ``dep(u, b) → arr(w, b)`` at c: ``A(u, b) ≤ c + D(w)`` (it is one of the edges A minimises
-    over), and ``h(arr(w, b)) ≥ D(w)·scale``, since every ``A(w, ·) ≥ D(w)`` (D consistent) and turns
-    cost ≥ 0; so ``h(dep) ≤ (c + D(w))·scale ≤ c + h(arr)``. A turn ``arr(v, i) → dep(v, i + q)`` at
-    P(q), ``arr → hub`` at S_p, ``hub → dep`` at ε: h(arr) is a minimum over exactly those sums
-    (scaled, scale ≤ 1), and ``h(hub) = (D(v) + ε)·scale ≤ ε + A(v, b)·scale``. And ``h ≥ D·scale``
-    everywhere: ``routing._goes_on``'s test by the vertex bound stays a safe one (it may only refuse
-    more). ``tests/test_routing_search.py`` checks it edge by edge.
-
-    Measured (session 39, ``RoutingOptions.look_ahead``): it counts only the turn a state must make
-    next, and with the default P a turn of one bin (22.5°) is free, so a route can bend round at no
-    cost: the states searched fell by a fifth on Campo Grande's 36 captured searches (8.35 → 6.46 M)
-    and by 5 % on the synthetic town's first road (19.05 → 18.12 M), while each state cost about
-    2.7 times the CPU (0.54 → 1.45 µs on Campo Grande's; the bound's reads of the neighbours' D and
-    its table are more cache misses than the search's own): slower on both (17.2 → 22.1 s CPU).
-    """
-
-    to_goal: np.ndarray  #: float64 (V′,) D of every G′ vertex (∞ where not reached)
-    scale: float  #: the bound's factor (1 − 10⁻⁶)
-    a_ptr: np.ndarray  #: int64 (n + 1,) each vertex's other edges (all allowed ones of G′) below
-    a_bin: np.ndarray  #: int64 their heading bins
-    a_dst: np.ndarray  #: int64 their heads (G′ numbers)
-    a_val: np.ndarray  #: float64 their weights
-    ahead: np.ndarray  #: float64 (n, 2k) A by vertex and bin, then the arrivals' bounds (unscaled); NaN: not made yet
-
-
-def no_ahead(k: int) -> Ahead:
-    """An :class:`Ahead` of empty tables: what the search takes where it bounds by ``h`` per vertex (one
-    set of argument types: the search compiles once)."""
-    empty = np.zeros(0, dtype=np.int64)
-    return Ahead(np.zeros(0), 1.0, np.zeros(1, dtype=np.int64), empty, empty, np.zeros(0), np.zeros((0, 2 * k)))
-
-
 class Resume(NamedTuple):
     """A search to go on with (:func:`expanded_dijkstra`'s ``resume``): the distances and predecessors
     of the last search on the same states with the same limit and bound, whose graph has grown
@@ -822,8 +672,7 @@ class Resume(NamedTuple):
 
 def expanded_dijkstra(graph: Expanded, start: int, limit: float, h: np.ndarray | None = None,
                       return_predecessors: bool = False, ties: bool = False,
-                      resume: Resume | None = None, ahead: Ahead | None = None,
-                      turns: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+                      resume: Resume | None = None, turns: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
     """scipy's ``dijkstra(expanded, indices=start, limit=limit)`` on the heading-expanded graph
     ``graph`` describes, with (given ``h``, per vertex) A*'s reduced weights
     ``max(w + h(col) − h(row), eps)`` (``routing._reduced``).
@@ -850,13 +699,14 @@ def expanded_dijkstra(graph: Expanded, start: int, limit: float, h: np.ndarray |
     only); without ``ties`` a predecessor is the first in-neighbour of that distance to relax it,
     which depends on the order: only the distances are the search's from scratch there.
 
-    With ``turns`` (``ties`` only, per state, ≥ 0, consistent on the turn penalties alone: ``T(x) ≤ t(x, y) +
-    T(y)`` with t the edge's turn cost, 0 for a move) a state's bound is ``h`` of its vertex plus its
-    ``turns``: the sum of two consistent bounds of the two parts of the cost, consistent.
-
-    With ``ahead`` (``ties`` only) each state's bound is :class:`Ahead`'s, which counts the turn it
-    must make next, in place of ``h`` of its vertex: consistent too, so all of the above holds, and
-    the states searched are those with ``g + h ≤ limit`` by the tighter bound.
+    With ``turns`` (``ties`` only, per state, ≥ 0) a state's bound is ``h`` of its vertex plus its
+    ``turns``, and all of the above holds where that sum is consistent on the search's own costs
+    (``h(x) + T(x) ≤ c(x, y) + h(y) + T(y)`` on every edge, c the move's or turn's weight with the
+    floor ε): the precondition is on the sum, not on ``turns`` alone. A ``turns`` consistent on the
+    turn penalties alone (``T(x) ≤ t(x, y) + T(y)``, t the edge's turn cost, 0 for a move) with a
+    consistent ``h`` gives one; the corridor's T of ``routing._turns_to_go`` (clamped at
+    ``C′ − d_s − D`` per vertex) is not consistent alone, only ``D + T`` is, with ``h`` the same D
+    its limits were made with (``routing``'s ``lower = d_s + D``).
 
     Returns
     -------
@@ -866,8 +716,7 @@ def expanded_dijkstra(graph: Expanded, start: int, limit: float, h: np.ndarray |
     Raises
     ------
     ValueError
-        With ``ahead``: without ``ties``, or tables not of this graph's vertices and bins. And
-        where the compiled search would read or write out of its arrays (numba checks no bounds: a
+        Where the compiled search would read or write out of its arrays (numba checks no bounds: a
         start of −1 would wrap round silently, one past the states write beyond them): a start not
         among the states, with ``ties`` a start not a hub (its key reads ``h`` of the hub's vertex),
         an ``h`` not of one value per vertex, or predecessors asked for more states than their
@@ -882,17 +731,10 @@ def expanded_dijkstra(graph: Expanded, start: int, limit: float, h: np.ndarray |
         raise ValueError(f"the start state {start} is not among the {size} states")
     if ties and start < 2 * nk:
         raise ValueError(f"with ties the start must be a hub (states {2 * nk} … {size - 1}), not {start}")
-    look = ahead is not None
     if turns is None:
         turns = np.zeros(0)
-    elif not ties or look or len(turns) != size:
-        raise ValueError("the turns' bound is added to h of a search with ties, one per state, without the look-ahead")
-    if ahead is None:
-        ahead = no_ahead(g.k)
-    elif not ties:
-        raise ValueError("the look-ahead bound is A* on the own weights: it needs ties")
-    elif ahead.ahead.shape != (g.n, 2 * g.k) or len(ahead.a_ptr) != g.n + 1 or len(ahead.to_goal) != len(g.local):
-        raise ValueError("the look-ahead tables are not of this graph's vertices, bins and directions")
+    elif not ties or len(turns) != size:
+        raise ValueError("the turns' bound is added to h of a search with ties, one per state")
     if h is not None and len(h) != g.n:
         raise ValueError(f"h holds {len(h)} values, not one per vertex ({g.n})")
     if return_predecessors and size >= 2**31:
@@ -914,7 +756,5 @@ def expanded_dijkstra(graph: Expanded, start: int, limit: float, h: np.ndarray |
     hh = np.ascontiguousarray(h, dtype=np.float64) if h is not None else np.zeros(1)
     _search(g.n, g.k, g.cheap, g.cheap_cost, g.hub_cost, g.region, g.local, g.n_lat, g.lat_kind, g.allowed,
             g.offset, g.dirs_ptr, g.dirs, g.table, g.plain, g.w_kind, g.e_ptr, g.e_bin, g.e_col, g.e_val, hh,
-            astar, ties, g.eps, seeds, float(limit), dist, pred, look, ahead.to_goal, float(ahead.scale),
-            ahead.a_ptr, ahead.a_bin, ahead.a_dst, ahead.a_val, ahead.ahead,
-            np.ascontiguousarray(turns, dtype=np.float64))
+            astar, ties, g.eps, seeds, float(limit), dist, pred, np.ascontiguousarray(turns, dtype=np.float64))
     return dist, pred

@@ -68,7 +68,7 @@ from osm_expand.errors import InputError, OptionError
 from osm_expand.model.options import require_positive
 
 if TYPE_CHECKING:
-    from osm_expand.engine.roads.expanded_search import Ahead, Expanded, Plain, Resume
+    from osm_expand.engine.roads.expanded_search import Expanded, Plain, Resume
 
 __all__ = ["RoutingOptions", "Route", "turn_penalty", "find_route", "route_over_major_roads", "Choice",
            "choose", "route_score"]
@@ -169,30 +169,26 @@ class RoutingOptions:
     #: alone they spanned those. Above it (and with ``route_astar``) each search numbers the active
     #: states and starts again, as before going on was added. Below 2^31 (32-bit state numbers)
     resume_states: int = 64_000_000
-    #: whether a route search (A* with scipy's tie rule, :func:`_tiled_search`) bounds each state by one
-    #: step ahead (:class:`~osm_expand.engine.roads.expanded_search.Ahead`: the turn it must make next
-    #: and the plain distance on from the edge it leaves by) where it bounded by its vertex's plain
-    #: distance to the target alone: consistent too, so the same routes, distances and predecessors,
-    #: fewer states searched. Off: slower (session 39, captured calls replayed, ``/tmp/h39s``): Campo
-    #: Grande's 36 searches' route states 8.35 → 6.46 M but their CPU 17.2 → 22.1 s; the synthetic
-    #: town's first road 19.05 → 18.12 M states (a turn of one bin is free, so the next turn is seldom
-    #: forced), each state about twice the CPU (the neighbours' D read for the bound)
-    look_ahead: bool = False
     #: the route search (A* with scipy's tie rule, :func:`_tiled_search`) adds to each state's bound the
     #: least turn cost from it to the target (:func:`_turns_to_go`: turns alone, searched backwards once
     #: per search over its first region, in the corridor a route within the best cost C can use) where
-    #: that region has at most this many states (0: never; 8 B a state, so also a memory cap). The same
-    #: routes, distances and predecessors (consistent; Campo Grande's 36 captured calls identical).
-    #: Measured (session 40, ``/tmp/h40t/replay.py``, one run, load 5–6): Campo Grande's 36 calls'
-    #: route search plus T 5.16 → 3.07 s CPU (states 8.32 → 3.40 M; regions up to 7.7 M states).
-    #: The synthetic 10,000-street town's first road (a region of 57.9 M states; its route trades
-    #: length for turns, so T cuts little): with T 19.05 → 20.22 M states, 40.3 → 47.5 s CPU, so its
-    #: regions stay above the cap and search as before. Session 39's T over the whole region, one
-    #: limit: Campo Grande's 36 calls 18.6 → 24.5 s (T 8.35 s)
+    #: that region has at most this many states (0: never). Also a memory cap: T (8 B a state of the
+    #: first region), a copy of it for each smaller region searched (8 B a state of that one, the
+    #: last kept) and the backward search's heap and stack. Consistent, so each search over the same
+    #: active tiles finds the same routes, distances and predecessors; but the tiles' growth test
+    #: reads ∞ where a search did not scan, so with T fewer tiles may grow, and two routes of exactly
+    #: equal cost through tiles only one of the runs grows could tie the other way (Campo Grande's 36
+    #: captured calls: identical). Measured (session 40, ``benchmarks/route_replay.py``, one run, load
+    #: 5–6): Campo Grande's 36 calls' route search plus T 5.16 → 3.07 s CPU (states summed over the
+    #: tile rounds 8.32 → 3.40 M; regions up to 7.7 M states). The synthetic 10,000-street town's first
+    #: road (a region of 57.9 M states; its route trades length for turns, so T cuts little): with T
+    #: (``turn_share`` 0.05) 40.3 → 47.5 s CPU, so its regions stay above the cap and search as before.
+    #: Session 39's T over the whole region, one limit: Campo Grande's 36 calls 18.6 → 24.5 s (T 8.35 s)
     turn_bound: int = 16_000_000
     #: the share of its region's states the turns' backward search (``turn_bound``) may scan before it
     #: stops; every state's T is then clamped at the turn cost it had reached (consistent, weaker, in
-    #: bounded time). Campo Grande's 36 captured calls (session 40, one run), route search plus T:
+    #: bounded time). Campo Grande's 36 captured calls (session 40, ``benchmarks/route_replay.py``, one
+    #: run), route search plus T:
     #: 1.0 (whole corridor) 8.04 s (with numba's compile), 0.10 3.24 s, 0.05 3.07 s, 0.02 3.18 s,
     #: 0.01 3.45 s, without T 5.16 s
     turn_share: float = 0.05
@@ -208,7 +204,7 @@ class RoutingOptions:
             value = getattr(self, name)
             if isinstance(value, bool) or not isinstance(value, Integral) or value < least:
                 raise OptionError(f"RoutingOptions.{name} must be a whole number of at least {least}, got {value!r}")
-        if not 0 < self.turn_share <= 1:
+        if isinstance(self.turn_share, bool) or not 0 < self.turn_share <= 1:
             raise OptionError(f"RoutingOptions.turn_share must be in (0, 1], got {self.turn_share!r}")
         if self.heading_bins < 4:
             raise InputError(f"RoutingOptions.heading_bins must be at least 4, got {self.heading_bins}")
@@ -966,8 +962,7 @@ def _lattice_rows(graph: PathGraph, lat: KindMask) -> tuple[np.ndarray, np.ndarr
 def _heading_search(graph: PathGraph, lat: KindMask, extra: np.ndarray, region: np.ndarray, local: np.ndarray,
                     penalties: np.ndarray, k: int, start: int, limit: float, h: np.ndarray | None = None,
                     predecessors: bool = False, ties: bool = False,
-                    resume: Resume | None = None, ahead: Ahead | None = None,
-                    turns: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+                    resume: Resume | None = None, turns: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
     """scipy's Dijkstra from state ``start`` on the heading-expanded graph over ``region`` (``local``:
     :func:`_local`), up to ``limit``, on A*'s reduced costs with ``h`` (per region vertex, as
     :func:`_reduced` makes them): the distances and (with ``predecessors``, else empty) the predecessors,
@@ -989,7 +984,7 @@ def _heading_search(graph: PathGraph, lat: KindMask, extra: np.ndarray, region: 
 
     rows = _expanded_rows(graph, lat, extra, region, local, penalties, k)
     return expanded_dijkstra(rows, start, limit, h=h, return_predecessors=predecessors, ties=ties, resume=resume,
-                             ahead=ahead, turns=turns)
+                             turns=turns)
 
 
 def _expanded_rows(graph: PathGraph, lat: KindMask, extra: np.ndarray, region: np.ndarray, local: np.ndarray,
@@ -1215,26 +1210,6 @@ def _again(graph: PathGraph, lat: KindMask, extra: np.ndarray, local: np.ndarray
     return np.unique(np.concatenate(found))
 
 
-def _ahead(graph: PathGraph, extra: np.ndarray, full: np.ndarray, local: np.ndarray, to_goal: np.ndarray,
-           k: int) -> Ahead:
-    """The look-ahead bound's tables (:class:`~osm_expand.engine.roads.expanded_search.Ahead`) over the
-    states of ``full`` (``local``: their numbers, before any are masked out): every allowed other edge
-    out of them, wherever it leads (the bound must not change as the active tiles grow), and an empty
-    table of A and the arrivals' bounds, made by the search as it reaches each vertex (``2k`` floats a
-    vertex, NaN until made)."""
-    from osm_expand.engine.roads.expanded_search import Ahead
-
-    e = np.flatnonzero(extra & (local[graph.src] >= 0))
-    src = local[graph.src[e]].astype(np.int64)
-    order = np.argsort(src, kind="stable")
-    e, src = e[order], src[order]
-    a_ptr = np.zeros(len(full) + 1, dtype=np.int64)
-    np.cumsum(np.bincount(src, minlength=len(full)), out=a_ptr[1:])
-    return Ahead(to_goal=np.ascontiguousarray(to_goal, dtype=np.float64), scale=1.0 - _SHRINK, a_ptr=a_ptr,
-                 a_bin=_bins(graph.heading[e], k).astype(np.int64), a_dst=graph.dst[e].astype(np.int64),
-                 a_val=graph.weight[e].astype(np.float64), ahead=np.full((len(full), 2 * k), np.nan))
-
-
 def _turns_to_go(graph: PathGraph, lat: KindMask, extra: np.ndarray, region: np.ndarray, penalties: np.ndarray,
                  k: int, target: int, limit: float | np.ndarray = np.inf, budget: int = -1) -> np.ndarray:
     """Per state of the expanded graph over ``region`` (sorted, :class:`_States`' numbers), the least turn
@@ -1263,7 +1238,7 @@ def _turns_to_go(graph: PathGraph, lat: KindMask, extra: np.ndarray, region: np.
     (its limits ≥ 0). The budget's clamp at τ is a minimum with a constant: consistent too.
     ``tests/test_routing_search.py`` checks both edge by edge against scipy's backward search.
 
-    Campo Grande's 36 captured searches (session 40, ``/tmp/h40t/replay.py``): one limit (h39s)
+    Campo Grande's 36 captured searches (session 40, ``benchmarks/route_replay.py``): one limit (h39s)
     scanned 92 % of call 15's 7.7 M states (4.3 s), the corridor 34 % (1.2 s)."""
     from osm_expand.engine.roads.expanded_search import turns_to_go
 
@@ -1285,16 +1260,21 @@ def _turns_to_go(graph: PathGraph, lat: KindMask, extra: np.ndarray, region: np.
 
 def _turns_over(to_go: np.ndarray, first: np.ndarray, full: np.ndarray, k: int) -> np.ndarray:
     """:func:`_turns_to_go`'s T (by the states of the region ``first``) for the states of ``full`` (a
-    subset of ``first``, both sorted)."""
+    subset of ``first``, both sorted): the arrivals, departures and hubs of ``full``'s vertices taken
+    by block: 16 B a state at the peak (the three blocks and their concatenation; tracemalloc, 6.6 M
+    states), where a state-by-state gather's index arrays peaked at 66 B a state.
+
+    Raises
+    ------
+    ValueError
+        Where ``full`` is not within ``first``: the compiled search reads T unchecked."""
+    rank = np.searchsorted(first, full)
+    if len(full) and (rank[-1] >= len(first) or not np.array_equal(first[rank], full)):
+        raise ValueError("the region searched is not within the first region the turns were made over")
     if len(full) == len(first):
         return to_go
-    big, small = _States(len(first), k), _States(len(full), k)
-    rank = np.searchsorted(first, full)
-    v = np.repeat(np.arange(len(full)), 2 * k + 1)
-    slot = np.tile(np.arange(2 * k + 1), len(full))
-    out = np.empty(small.size)
-    out[small.state(v, slot)] = to_go[big.state(rank[v], slot)]
-    return out
+    arrive, depart, hub = _States(len(first), k).by_vertex(to_go)
+    return np.concatenate([arrive[rank].ravel(), depart[rank].ravel(), hub[rank]])
 
 
 def _vertex_path(pred: np.ndarray, start: int, end: int, verts: np.ndarray, states: _States) -> list[int]:
@@ -1465,22 +1445,20 @@ def _tiled_search(graph: PathGraph, lat: KindMask, extra: np.ndarray, source: in
     goes_on = not (astar and target is not None)
     cap = min(opts.resume_states, 2**31 - 1)  # the region's states numbered whole up to this many
     lift = float(h[source] * (1.0 - _SHRINK)) if astar else None  # g + h = dist + lift on reduced costs
-    look = opts.look_ahead and not astar  # the route search's bound one step ahead (A* on the own weights only)
-    ahead: Ahead | None = None
     # the turns still to make, by state of the first region (C only falls: later regions lie within it)
-    first_full = np.zeros(0, dtype=np.int64)
-    if opts.turn_bound and not astar and not look and target is not None:
-        first_full = np.flatnonzero(lower <= best[1] + 1e-9 * best[1] + 1e-6)
+    first_region = np.zeros(0, dtype=np.int64)
+    if opts.turn_bound and not astar and target is not None:
+        first_region = np.flatnonzero(lower <= best[1] + 1e-9 * best[1] + 1e-6)
     to_go = None
-    if target is not None and 0 < _States(len(first_full), k).size <= opts.turn_bound:
+    if target is not None and 0 < _States(len(first_region), k).size <= opts.turn_bound:
         # in the corridor of the turns a route through each vertex may make and still cost C: C − lower(v)
         # (lower = d_s + D, so the bound is min(D + T, C − d_s): consistent, :func:`_turns_to_go`)
         allowed = best[1] + 1e-6 * best[1] + 1e-3
-        size = _States(len(first_full), k).size
-        to_go = _turns_to_go(graph, lat, extra, first_full, penalties, k, target, allowed - lower[first_full],
+        size = _States(len(first_region), k).size
+        to_go = _turns_to_go(graph, lat, extra, first_region, penalties, k, target, allowed - lower[first_region],
                              int(opts.turn_share * size) if opts.turn_share < 1 else -1)
         to_go *= 1.0 - _SHRINK  # scaled as h is, in place: the first search reads it as it is (no copy)
-    still, still_of = None, np.zeros(0, dtype=np.int64)  # the scaled T by state of the region searched
+    region_turns, region_turns_of = None, np.zeros(0, dtype=np.int64)  # the scaled T by state of the region searched
     from osm_expand.engine.roads.expanded_search import Resume
 
     while True:
@@ -1498,7 +1476,6 @@ def _tiled_search(graph: PathGraph, lat: KindMask, extra: np.ndarray, source: in
             seeds = _again(graph, lat, extra, local, before, inside & ~before, tile, shape, states, dir_bin,
                            extra_bin, -(-graph.lattice.radius // opts.tile_cells))
             resume = Resume(dist, pred, seeds)
-            # the same states, so the same look-ahead tables (made as the searches reach their vertices)
         else:
             # the states numbered over the whole region (a vertex's by its rank there), so that the tiles
             # grow without numbering them again: the rank in the region and in ``verts`` order two
@@ -1508,7 +1485,6 @@ def _tiled_search(graph: PathGraph, lat: KindMask, extra: np.ndarray, source: in
             full = np.flatnonzero(region) if whole else verts
             states = _States(len(full), k)
             local = _local(graph, full, k)
-            ahead = _ahead(graph, extra, full, local, h, k) if look else None
         kept = None  # the last search's arrays are the resumed search's, or go
         local[~inside] = -1  # the search reads only the active vertices
         # the rounding slack of the states numbered: the same limit each time C holds where numbered
@@ -1536,13 +1512,17 @@ def _tiled_search(graph: PathGraph, lat: KindMask, extra: np.ndarray, source: in
             # A* by h on the graph's own weights, scipy's predecessor rule applied as states relax: the
             # route (its states' distances and predecessors) is plain Dijkstra's, and the states with
             # g + h above C are not searched. Where the growth test below reads a departure's g, it is
-            # exact wherever g + w + h(w) < C (consistency: then g + h(u) < C), as the test needs.
+            # exact wherever g + w + h(w) < C (consistency: then g + h(u) < C), as the test needs. With
+            # T the bound is h + T: a departure it left unscanned has g = ∞ there, and the test lets
+            # nothing grow from it, rightly: T is a lower bound of the turns to go over the whole
+            # first region (admissible: :func:`_turns_to_go`), so any route through that departure
+            # costs more than C.
             shift = None
-            if to_go is not None and not np.array_equal(full, still_of):  # made again where the region changed
-                still, still_of = _turns_over(to_go, first_full, full, k), full
+            if to_go is not None and not np.array_equal(full, region_turns_of):  # made again where the region changed
+                region_turns, region_turns_of = _turns_over(to_go, first_region, full, k), full
             dist, pred = _heading_search(graph, lat, extra, full, local, penalties, k, start, cost + slack,
                                          h=h[full] * (1.0 - _SHRINK), predecessors=True, ties=True, resume=resume,
-                                         ahead=ahead, turns=still)
+                                         turns=region_turns)
             if target is not None and local[target] >= 0:
                 end = _cheaper_end(dist, states, int(local[target]), cost)
                 if end is not None:
