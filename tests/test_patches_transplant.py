@@ -98,9 +98,9 @@ def test_monaco_transplanted_district_is_as_dense_as_its_neighbourhoods():
 
 
 def test_a_street_cut_by_the_edge_goes_back_to_its_last_junction_and_no_further():
-    """A cross whose east arm the clip cut: the arm goes, the junction keeps its three other streets
-    (``_trim`` would go on trimming nothing here, but takes a fringe's whole tree where a trimmed street
-    leaves its junction a dead end)."""
+    """A cross whose east and south arms the clip cut: both arms go, and the junction, left with two streets
+    (an L), is not trimmed on: the west and north streets and the loop closing them stay (``_trim`` takes a
+    fringe's whole tree where a trimmed street leaves its junction a dead end)."""
     net = network_from_lines([[(0.0, 0.0), (100.0, 0.0)], [(100.0, 0.0), (200.0, 0.0)],
                               [(100.0, 0.0), (100.0, 100.0)], [(100.0, 0.0), (100.0, -100.0)],
                               [(100.0, 100.0), (0.0, 100.0), (0.0, 0.0)]])

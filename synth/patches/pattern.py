@@ -84,8 +84,6 @@ class ExamplePatches:
         if free.is_empty or not len(source.lines):
             return Growth(streets=(), footprint=free)
         size = max(opts.cell_size * spacing, float(np.sqrt(free.area / opts.cells)))
-        centres = _centres(free, old_geom, size)
-        cells = _cells(free, centres)
         everything = self._source(city, everything=True)
         radius = float(np.sqrt(free.area / np.pi))
         around = _neighbourhood_points(everything, opts.density_discs, radius, rng)
@@ -106,6 +104,8 @@ class ExamplePatches:
             return Growth(streets=tuple(NewStreet(xy=net.street_xy(s), hierarchy=max(s.hierarchy, 0),
                                                   highway=s.highway) for s in net.streets),
                           footprint=free, debug={"target_km": round(target / 1000, 2), **debug})
+        centres = _centres(free, old_geom, size)
+        cells = _cells(free, centres)
         best = None
         for attempt in range(ATTEMPTS):  # other patches when even every cell filled left too little
             quilt = _Quilt(grid=np.roll(patches, -attempt * len(centres), axis=0))

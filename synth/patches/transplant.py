@@ -80,6 +80,18 @@ RASTER_LEAST = 6.0
 SHIFTS = 24
 #: Ranked neighbourhoods tried (the most typical first).
 TRIED = 6
+#: Street length on free land counts up to this many times the target: cutting the cut streets back to their
+#: last junction and the dead ends' topology take about a third of it (Krems seed 0: 6.1 -> 3.9 km).
+OVERFILL = 1.4
+#: A junction on free land scores as this many spacings of street (a neighbourhood is its blocks).
+JUNCTION_WEIGHT = 0.5
+#: Fits tried at most (the cap scaled each time by how far the district missed its target length) ...
+REFITS = 3
+#: ... until the district's street length is within this factor of the target.
+CLOSE_ENOUGH = 1.15
+#: Placements whose score is within this share of the best are as good: of them the most typical
+#: neighbourhood's (the first ranked), placed nearest the town, wins.
+NEAR_BEST = 0.95
 
 
 @dataclasses.dataclass(frozen=True)
@@ -239,20 +251,6 @@ def _fit(source: _Source, centres: np.ndarray, free: shapely.Geometry, old: shap
     return _Fits(streets, junction, distance, ranks, moves)
 
 
-#: Street length on free land counts up to this many times the target: cutting the cut streets back to their
-#: last junction and the dead ends' topology take about a third of it (Krems seed 0: 6.1 -> 3.9 km).
-OVERFILL = 1.4
-#: A junction on free land scores as this many spacings of street (a neighbourhood is its blocks).
-JUNCTION_WEIGHT = 0.5
-#: Fits tried at most (the cap scaled each time by how far the district missed its target length) ...
-REFITS = 3
-#: ... until the district's street length is within this factor of the target.
-CLOSE_ENOUGH = 1.15
-#: Placements whose score is within this share of the best are as good: of them the most typical
-#: neighbourhood's (the first ranked), placed nearest the town, wins.
-NEAR_BEST = 0.95
-
-
 def _transplant(source: _Source, centres: np.ndarray, free: shapely.Geometry, old: shapely.Geometry,
                 occupied: shapely.Geometry, target: float, spacing: float, opts: PatchOptions,
                 aim: _Aim | None = None) -> tuple[StreetNetwork, dict]:
@@ -321,13 +319,13 @@ def _placed(source: _Source, move: _Transform, free: shapely.Geometry, old: shap
     near_town = (shapely.distance(old, shapely.points(cut)) <= reach) if len(cut) and not old.is_empty \
         else np.zeros(len(cut), dtype=bool)
     # the cut ends near the town run on to the street ahead; the others wait to be trimmed
-    far = _Quilt(cut_xy=[quilt.cut_xy[i] for i in np.flatnonzero(~near_town)])
+    far = [quilt.cut_xy[i] for i in np.flatnonzero(~near_town)]
     for name in ("cut_xy", "cut_heading", "cut_cell", "cut_piece"):
         setattr(quilt, name, [getattr(quilt, name)[i] for i in np.flatnonzero(near_town)])
     tees = _tees(quilt, old, spacing, dataclasses.replace(opts, tee_reach=JOIN_REACH), occupied)
-    far.cut_xy.extend(quilt.cut_xy)
+    far.extend(quilt.cut_xy)
     net = _network(quilt)
-    net = _cut_back(net, np.array(far.cut_xy).reshape(-1, 2))
+    net = _cut_back(net, np.array(far).reshape(-1, 2))
     net = _keep_joinable(net, old, spacing, opts)
     net = _connect_pieces(net, old, occupied, opts.link_reach * spacing)
     net = _without_scraps(net, opts.min_land * spacing)
