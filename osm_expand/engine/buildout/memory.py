@@ -144,7 +144,8 @@ class _Memo:
         #: lot id → (the lot's point, the block polygon it was last found within)
         #: (:func:`~osm_expand.engine.buildout.demolition._lot_blocks`)
         self.lot_blocks: dict[int, tuple[tuple[float, float], shapely.Polygon]] = {}
-        #: lot id → (the state's lot, the lot as the city last held it) (:func:`~osm_expand.engine.buildout.year._result`)
+        #: lot id → (the state's lot, the lot as the city last held it)
+        #: (:func:`~osm_expand.engine.buildout.year._placed`)
         self.placed: dict[int, tuple[Lot, Lot]] = {}
 
     def footprint(self, b: Building) -> tuple[shapely.Polygon, float]:
