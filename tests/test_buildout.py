@@ -720,12 +720,15 @@ def test_a_lot_nothing_changed_for_is_handed_to_the_city_as_last_years_object():
 
     start, city, memory, history, _ = built_out("krems.osm.gz")
     clock = history.clock(start.year)
-    now, year = history.values_at(clock.history_year(YEARS)), clock.calendar_year(YEARS)
-    out = {}
-    for name, mem in (("kept", memory), ("fresh", replace(memory, memo=_Memo()))):
-        out[name] = buildout_year(city, mem, history, now, np.random.default_rng(11), year=year,
-                                  traffic=synthetic_traffic(city))[0]
-    kept, fresh = out["kept"].lots, out["fresh"].lots
+
+    def year(city, memory, step):
+        now = history.values_at(clock.history_year(step))
+        return buildout_year(city, memory, history, now, np.random.default_rng(11), year=clock.calendar_year(step),
+                             traffic=synthetic_traffic(city))
+
+    city, memory, _ = year(city, replace(memory, memo=_Memo()), YEARS)  # a memo of this branch's years alone
+    kept = year(city, memory, YEARS + 1)[0].lots
+    fresh = year(city, replace(memory, memo=_Memo()), YEARS + 1)[0].lots
     assert [lot.id for lot in kept] == [lot.id for lot in fresh]
     fields = ("block", "land_use", "street", "people", "id", "year")
     for a, b in zip(kept, fresh):

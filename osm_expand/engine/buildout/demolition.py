@@ -29,8 +29,13 @@ def _demolish(work: _Year, *, check: bool = True) -> set[int]:
     within, block_tree = _lot_blocks(work, order)
     healing: set[int] = set()
     gone = 0
+    changed = streets.changed
     for k, lot_id, hit, blk in zip(range(len(order)), order, crossed.tolist(), within.tolist()):
-        state = None if hit or blk < 0 else _relabel(states[lot_id], streets)
+        state = states[lot_id]
+        if hit or blk < 0:
+            state = None
+        elif changed and not changed.isdisjoint(state.streets):  # most lots: none of their streets changed
+            state = _relabel(state, streets)
         if state is None:
             del states[lot_id]
             gone += 1
