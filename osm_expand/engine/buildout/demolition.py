@@ -10,6 +10,7 @@ import numpy as np
 import shapely
 from numpy.typing import NDArray
 
+from osm_expand.engine.buildout.memory import LotState
 from osm_expand.engine.buildout.streets import _buildings_hit, _lots_hit, _relabel
 from osm_expand.engine.buildout.work import _Year
 
@@ -31,11 +32,10 @@ def _demolish(work: _Year, *, check: bool = True) -> set[int]:
     gone = 0
     changed = streets.changed
     for k, lot_id, hit, blk in zip(range(len(order)), order, crossed.tolist(), within.tolist()):
-        state = states[lot_id]
-        if hit or blk < 0:
-            state = None
-        elif changed and not changed.isdisjoint(state.streets):  # most lots: none of their streets changed
-            state = _relabel(state, streets)
+        was = states[lot_id]
+        state: LotState | None = None
+        if not (hit or blk < 0):  # most lots: none of their streets changed, no call to _relabel
+            state = _relabel(was, streets) if changed and not changed.isdisjoint(was.streets) else was
         if state is None:
             del states[lot_id]
             gone += 1
