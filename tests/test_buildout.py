@@ -710,3 +710,31 @@ def test_a_year_run_again_from_an_older_memory_sees_what_changed_since_that_memo
         year = SimpleNamespace(memory=SimpleNamespace(memo=memo), blocks=found, states=states)
         (k,), _ = _lot_blocks(year, [7])
         assert found[k].polygon.contains(shapely.Point(point))
+
+
+def test_a_lot_nothing_changed_for_is_handed_to_the_city_as_last_years_object():
+    """A year hands the city last year's Lot object where the lot and every field the year sets are the
+    same (not a new one per lot per year), and its lots equal, field for field, those of the same year
+    run with an empty memo (every lot placed anew)."""
+    from osm_expand.engine.buildout.memory import _Memo
+
+    start, city, memory, history, _ = built_out("krems.osm.gz")
+    clock = history.clock(start.year)
+
+    def year(city, memory, step):
+        now = history.values_at(clock.history_year(step))
+        return buildout_year(city, memory, history, now, np.random.default_rng(11), year=clock.calendar_year(step),
+                             traffic=synthetic_traffic(city))
+
+    city, memory, _ = year(city, replace(memory, memo=_Memo()), YEARS)  # a memo of this branch's years alone
+    kept = year(city, memory, YEARS + 1)[0].lots
+    fresh = year(city, replace(memory, memo=_Memo()), YEARS + 1)[0].lots
+    assert [lot.id for lot in kept] == [lot.id for lot in fresh]
+    fields = ("block", "land_use", "street", "people", "id", "year")
+    for a, b in zip(kept, fresh):
+        assert np.array_equal(a.ring, b.ring) and np.array_equal(a.edge_street, b.edge_street)
+        assert [getattr(a, f) for f in fields] == [getattr(b, f) for f in fields]
+    before = {lot.id: lot for lot in city.lots}
+    same = [lot.id for lot in kept if lot is before.get(lot.id)]
+    assert len(same) > len(kept) // 4
+    assert not any(lot is before.get(lot.id) for lot in fresh)

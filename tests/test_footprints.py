@@ -432,3 +432,37 @@ def test_a_footprint_with_a_hull_edge_too_short_to_square_is_measured_without_a_
     assert dims.shape == (1, 3) and np.isfinite(dims).all()
     area, frontage, depth = dims[0]
     assert area == pytest.approx(1.0) and frontage * depth >= area * (1 - 1e-9)
+
+
+def _profiles(lot: shapely.Polygon, length: float, front: float, resolution: float):
+    """The samples and the two depth profiles ``_sweep`` hands to the span search, street edge (0, 0) → (L, 0)."""
+    from osm_expand.engine.buildout.footprints import _depth_profile, _edges, _samples
+
+    a, b, _ = _edges(lot)
+    u = _samples(a, b, length, front, resolution)
+    return u, _depth_profile(a, b, u, front, left=False), _depth_profile(a, b, u, front, left=True)
+
+
+@SWEEP
+@given(st.one_of(convex_lots(), notched_lots(), star_lots()), setback_st, st.sampled_from([2.0, 1.5, 100.0]),
+       st.sampled_from([0.0, 0.0, 3.0]), st.integers(0, 2**31 - 1))
+def test_the_compiled_span_search_gives_the_arrays_span_to_the_bit(lot_and_length, setbacks, max_ratio, min_side,
+                                                                     seed):
+    """The compiled span search (no size target: every lot's room) and the (S, S) arrays' give the same span and
+    the same frontage and depth, on lots' depth profiles and on profiles of a few small whole numbers (ties
+    everywhere: the first best in row-major order wins both)."""
+    from osm_expand.engine.buildout.footprints import _best_span
+    from osm_expand.engine.buildout.sweep_kernel import best_span
+
+    lot, length = lot_and_length
+    front, side, back = setbacks
+    rng = np.random.default_rng(seed)
+    cases = [(length, *_profiles(lot, length, front, 0.5))] if lot.is_valid and lot.area >= 1.0 else []
+    n = int(rng.integers(2, 40))
+    u = np.unique(rng.integers(0, 30, n).astype(float))
+    cases.append((float(u[-1]), u, rng.integers(0, 4, len(u)).astype(float), rng.integers(0, 4, len(u)).astype(float)))
+    for span_length, u, right_of, left_of in cases:
+        want = _best_span(u, right_of, left_of, side, back, max_ratio, min_side, span_length)
+        got = best_span(u, right_of, left_of, side, back, max_ratio, min_side, span_length)
+        assert (int(got[0]), int(got[1])) == want[:2]
+        assert want[0] < 0 or (float(got[2]), float(got[3])) == want[2:]

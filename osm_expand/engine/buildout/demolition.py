@@ -10,6 +10,7 @@ import numpy as np
 import shapely
 from numpy.typing import NDArray
 
+from osm_expand.engine.buildout.memory import LotState
 from osm_expand.engine.buildout.streets import _buildings_hit, _lots_hit, _relabel
 from osm_expand.engine.buildout.work import _Year
 
@@ -29,8 +30,12 @@ def _demolish(work: _Year, *, check: bool = True) -> set[int]:
     within, block_tree = _lot_blocks(work, order)
     healing: set[int] = set()
     gone = 0
+    changed = streets.changed
     for k, lot_id, hit, blk in zip(range(len(order)), order, crossed.tolist(), within.tolist()):
-        state = None if hit or blk < 0 else _relabel(states[lot_id], streets)
+        was = states[lot_id]
+        state: LotState | None = None
+        if not (hit or blk < 0):  # most lots: none of their streets changed, no call to _relabel
+            state = _relabel(was, streets) if changed and not changed.isdisjoint(was.streets) else was
         if state is None:
             del states[lot_id]
             gone += 1

@@ -282,6 +282,24 @@ def _sweep(a: np.ndarray, b: np.ndarray, p: np.ndarray, q: np.ndarray, normal: n
     u = _samples(fa, fb, length, front, resolution)
     right_of = _depth_profile(fa, fb, u, front, left=False)  # h(u+), what a rectangle starting at u sees
     left_of = _depth_profile(fa, fb, u, front, left=True)  # h(u-), what a rectangle ending at u sees
+    if math.isfinite(target_area):
+        i, j, bw, bd = _best_span(u, right_of, left_of, side, back, max_ratio, min_side, length, target_area,
+                                  target_ratio)
+    else:  # every lot's room: the same span, compiled (:mod:`~osm_expand.engine.buildout.sweep_kernel`)
+        from osm_expand.engine.buildout.sweep_kernel import best_span
+
+        i, j, bw, bd = best_span(u, right_of, left_of, float(side), float(back), float(max_ratio),
+                                 float(min_side), length)
+    if i < 0:
+        return None
+    return _rectangle(p, e, n, sign, u[i] + side, u[j] - side, bw, bd, front, length)
+
+
+def _best_span(u: np.ndarray, right_of: np.ndarray, left_of: np.ndarray, side: float, back: float,
+               max_ratio: float, min_side: float, length: float, target_area: float = math.inf,
+               target_ratio: float = 1.0) -> tuple[int, int, float, float]:
+    """The span (i, j) of samples ``u`` with the best building and its frontage and depth (i = -1: none), in
+    (S, S) arrays: :func:`~osm_expand.engine.buildout.sweep_kernel.best_span` with a size target."""
     both = np.minimum(right_of, left_of)
     idx = np.arange(len(u))
     span = np.where(idx[None, :] > idx[:, None], both[None, :], np.inf)
@@ -294,14 +312,18 @@ def _sweep(a: np.ndarray, b: np.ndarray, p: np.ndarray, q: np.ndarray, normal: n
     w, d = _fit(np.maximum(width, 0.0), np.maximum(depth, 0.0), target_area, target_ratio, max_ratio)
     ok = (width > 0) & (depth > 0) & np.isfinite(low) & (np.minimum(w, d) >= max(min_side, 1e-9))
     if not ok.any():
-        return None
+        return -1, -1, 0.0, 0.0
     centre = 0.5 * (u[None, :] + u[:, None])
     # ties (a size target met by many spans) go to the target's shape, then to the middle of the edge
     shape = np.abs(w - math.sqrt(target_area * target_ratio)) if math.isfinite(target_area) else 0.0
     score = np.where(ok, w * d - 1e-3 * shape - 1e-6 * np.abs(centre - 0.5 * length), -np.inf)
     i, j = np.unravel_index(int(np.argmax(score)), score.shape)
-    bw, bd = float(w[i, j]), float(d[i, j])
-    lo, hi = u[i] + side, u[j] - side
+    return int(i), int(j), float(w[i, j]), float(d[i, j])
+
+
+def _rectangle(p: np.ndarray, e: np.ndarray, n: np.ndarray, sign: float, lo: float, hi: float, bw: float,
+               bd: float, front: float, length: float) -> Rectangle:
+    """The building ``bw`` × ``bd`` between ``lo`` and ``hi`` along the edge, in world coordinates."""
     mid = min(max(0.5 * length, lo + 0.5 * bw), hi - 0.5 * bw)  # as central on the edge as the room allows
     u0, u1, v0, v1 = mid - 0.5 * bw, mid + 0.5 * bw, front, front + bd
     order = [(u0, v0), (u1, v0), (u1, v1), (u0, v1)] if sign > 0 else [(u1, v0), (u0, v0), (u0, v1), (u1, v1)]

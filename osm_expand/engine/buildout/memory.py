@@ -132,7 +132,9 @@ class _Memo:
 
     Every memory made from another by ``dataclasses.replace`` shares its memo, so an entry may come
     from a later year than the memory's: each is checked against what it was made from and none
-    says what changed since last year (that is ``BuildoutMemory.signature``).
+    says what changed since last year (that is ``BuildoutMemory.signature``). ``placed``: the lot each
+    lot id was last handed to the city as, with the state's lot it was made from (checked against that
+    object and every field the year sets: most lots keep last year's block, street, type and people).
     """
 
     def __init__(self) -> None:
@@ -142,6 +144,9 @@ class _Memo:
         #: lot id → (the lot's point, the block polygon it was last found within)
         #: (:func:`~osm_expand.engine.buildout.demolition._lot_blocks`)
         self.lot_blocks: dict[int, tuple[tuple[float, float], shapely.Polygon]] = {}
+        #: lot id → (the state's lot, the lot as the city last held it)
+        #: (:func:`~osm_expand.engine.buildout.year._placed`)
+        self.placed: dict[int, tuple[Lot, Lot]] = {}
 
     def footprint(self, b: Building) -> tuple[shapely.Polygon, float]:
         hit = self.footprints.get(id(b))

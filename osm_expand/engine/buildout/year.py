@@ -101,7 +101,7 @@ from osm_expand.engine.buildout.report import buildout_report  # re-exported
 from osm_expand.engine.buildout.streets import _block_keys, _streets
 from osm_expand.engine.buildout.work import _Units, _Year
 from osm_expand.engine.history import History, YearValues
-from osm_expand.model import City, Origin
+from osm_expand.model import City, Lot, Origin
 
 __all__ = ["BuildoutMemory", "BuildoutOptions", "BuildoutYear", "LotState", "buildout_report", "buildout_year",
            "start_buildout", "town_people"]
@@ -178,14 +178,8 @@ def _result(work: _Year, units: _Units, new_ids: list[int]) -> tuple[City, Build
                                         economies=work.history.economies)[units.n_town:]
         fs = np.where(np.isnan(fs), expected, fs)
     people = occupants(fs, lot_area, lut, economies=work.history.economies).people if ids else np.zeros(0)
-    built_ids = work.streets.built_ids
+    lots = _placed(work, ids, people.tolist())
     blocks = work.blocks
-    lots = []
-    for j, k in enumerate(ids):
-        state = work.states[k]
-        lots.append(state.lot.placed(block=int(blocks[work.lot_block[k]].id), street=_access(work, state, built_ids),
-                                     land_use=types[state.type].name, people=float(people[j]), id=k,
-                                     year=state.year))
     generated = [work.buildings[k] for k in sorted(work.buildings)]
     kept = [b for b in work.city.buildings
             if not (b.origin == Origin.ENGINE and b.lot is not None and int(b.lot) in work.memory.lots)]
@@ -197,6 +191,32 @@ def _result(work: _Year, units: _Units, new_ids: list[int]) -> tuple[City, Build
     raw = {k: v for k, v in work.memory.raw.items() if k in work.buildings}  # demolished and replaced ones go
     memory = replace(work.memory, lots=dict(work.states), raw=raw)
     return city, memory, work.report
+
+
+def _placed(work: _Year, ids: tuple[int, ...], people: list[float]) -> list[Lot]:
+    """The lots as the city holds them this year, in ``ids`` order: last year's object where the state's lot
+    and every field the year sets are the same (most lots: a new one per lot per year was O(all lots) a year,
+    619,449 of them in Krems' 150 north-american years)."""
+    types, built_ids, blocks = work.town.types, work.streets.built_ids, work.blocks
+    last = work.memory.memo.placed
+    kept: dict[int, tuple[Lot, Lot]] = {}
+    out = []
+    for k, n in zip(ids, people):
+        state = work.states[k]
+        block, street = int(blocks[work.lot_block[k]].id), _access(work, state, built_ids)
+        name = types[state.type].name
+        hit = last.get(k)
+        if hit is not None and hit[0] is state.lot:
+            lot = hit[1]
+            if not (lot.block == block and lot.street == street and lot.land_use == name and lot.people == n
+                    and lot.year == state.year):
+                lot = state.lot.placed(block=block, street=street, land_use=name, people=n, id=k, year=state.year)
+        else:
+            lot = state.lot.placed(block=block, street=street, land_use=name, people=n, id=k, year=state.year)
+        kept[k] = (state.lot, lot)
+        out.append(lot)
+    work.memory.memo.placed = kept
+    return out
 
 
 def _access(work: _Year, state: LotState, built: frozenset[int]) -> int:
