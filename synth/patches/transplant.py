@@ -251,6 +251,18 @@ def _fit(source: _Source, centres: np.ndarray, free: shapely.Geometry, old: shap
     return _Fits(streets, junction, distance, ranks, moves)
 
 
+@dataclasses.dataclass(frozen=True)
+class _Tried:
+    """One neighbourhood's district: how far its length missed the target (|log| of the ratio), the network, the
+    tees its cut streets made, its placement, and its fit under the first cap (what step 1 ranks by)."""
+
+    miss: float
+    net: StreetNetwork
+    tees: int
+    placement: _Placement
+    fit: float
+
+
 def _transplant(source: _Source, centres: np.ndarray, free: shapely.Geometry, old: shapely.Geometry,
                 occupied: shapely.Geometry, target: float, spacing: float, opts: PatchOptions,
                 aim: _Aim | None = None) -> tuple[StreetNetwork, dict]:
@@ -265,31 +277,31 @@ def _transplant(source: _Source, centres: np.ndarray, free: shapely.Geometry, ol
     fits = _fit(source, centres, free, old, spacing, opts)
     if fits is None:
         return network_from_lines([], []), {"transplanted": None}
-    tried: list[tuple[float, StreetNetwork, int, _Placement, float]] = []
+    tried: list[_Tried] = []
     for rank in np.unique(fits.rank).tolist():  # each neighbourhood's best placement, judged on what survives
-        cap, last, mine = OVERFILL * target, None, None
+        cap, first, last, mine = OVERFILL * target, None, None, None
         for _ in range(REFITS):
             placement = fits.best(cap, rank)
-            if last is not None and placement.move is last:  # the cap no longer binds: the same placement
+            if last is not None and placement.move is last.move:  # the cap no longer binds: the same placement
                 break
-            last = placement.move
+            first, last = first or placement, placement  # the first cap's is the neighbourhood's fit (step 1)
             net, tees = _placed(source, placement.move, free, old, occupied, spacing, opts, aim)
             length = net.total_length()
             miss = abs(float(np.log(max(length, 1.0) / target)))
-            if mine is None or miss < mine[0]:
-                mine = (miss, net, tees, placement)
+            if mine is None or miss < mine.miss:
+                mine = _Tried(miss, net, tees, placement, first.score)
             if miss <= np.log(CLOSE_ENOUGH):
                 break
             cap *= target / max(length, 1.0)
         assert mine is not None  # the loop runs at least once
-        tried.append((*mine, fits.best(OVERFILL * target, rank).score))
-    close = [t for t in tried if t[0] <= np.log(CLOSE_ENOUGH)]
+        tried.append(mine)
+    close = [t for t in tried if t.miss <= np.log(CLOSE_ENOUGH)]
     if close:  # of the districts near their target length, the best fit's (the most typical of the near best)
-        top = max(t[4] for t in close)
-        best = next(t[:4] for t in close if t[4] >= NEAR_BEST * top)
+        top = max(t.fit for t in close)
+        best = next(t for t in close if t.fit >= NEAR_BEST * top)
     else:
-        best = min(tried, key=lambda t: t[0])[:4]
-    _, net, tees, placement = best
+        best = min(tried, key=lambda t: t.miss)
+    net, tees, placement = best.net, best.tees, best.placement
     return net, {"transplanted": placement.rank, "turn_deg": round(float(np.degrees(placement.move.turn)), 1),
                  "fit_km": round(placement.score / 1000, 2), "tees": tees}
 
