@@ -190,8 +190,13 @@ def run(name: str, history: str, years: int | None, refs: int, discs: bool = Fal
     t0, c0 = time.perf_counter(), time.process_time()
     city, story = load(REPO / "fixtures" / name), load_history(history)
     grower = None
-    if patch:
-        story, grower = with_patch_options(city, story, patch)
+    if patch:  # the district grown with the same fields (its pattern made as the pipeline makes it)
+        from osm_expand.growth_patterns import make_pattern
+        from osm_expand.pipeline import learn
+        from synth.patches import PatchOptions
+
+        story = with_patch_options(story, patch)
+        grower = make_pattern("example", learn(city).example, PatchOptions(**patch))
     result = mature_result(expand(city, ExpandOptions(seed=seed, fidelity=False), pattern=grower),
                            story, MatureOptions(years=years, fidelity=False, engine=engine), seed)
     run_s, run_cpu = time.perf_counter() - t0, time.process_time() - c0
@@ -210,19 +215,17 @@ def run(name: str, history: str, years: int | None, refs: int, discs: bool = Fal
             "judge_s": judge_s, "judge_cpu": judge_cpu}
 
 
-def with_patch_options(city, story, patch: dict[str, object]):  # type: ignore[no-untyped-def]  # City, History
+def with_patch_options(story, patch: dict[str, object]):  # type: ignore[no-untyped-def]  # a History
     """``--patch-option``: the history with ``patch`` set on every era's :class:`~synth.patches.PatchOptions`
-    (the ``example`` eras), and the district's grower with the same fields set on the default options, so
-    the run is the one a change of those fields' defaults would make (the district and every era)."""
+    (the ``example`` eras); :func:`run` grows the district with the same fields, so the run is the one a
+    change of those fields' defaults would make (the district and every era)."""
     from dataclasses import replace
 
-    from osm_expand.growth_patterns import make_pattern
-    from osm_expand.pipeline import learn
     from synth.patches import PatchOptions
 
     eras = tuple(replace(e, options=replace(e.options, **patch)) if isinstance(e.options, PatchOptions) else e
                  for e in story.eras)
-    return replace(story, eras=eras), make_pattern("example", learn(city).example, PatchOptions(**patch))
+    return replace(story, eras=eras)
 
 
 def patch_option(text: str) -> tuple[str, object]:
