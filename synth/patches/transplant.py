@@ -53,12 +53,11 @@ import scipy.ndimage
 import shapely
 from scipy.spatial import cKDTree
 
-from osm_expand.model import Origin, StreetNetwork, network_from_lines
-from osm_expand.model.geometry import closest_on_segments
+from osm_expand.model import StreetNetwork, network_from_lines
 from osm_expand.model.topology import dangling_chains, segment_degree, without_segments
 from synth.patches.options import PatchOptions
-from synth.patches.placing import _cell_pieces, _cut_ends, _free_land, _main_direction, _Transform
-from synth.patches.quilt import _insert_points, _network, _planar, _Quilt
+from synth.patches.placing import _cell_pieces, _cut_ends, _main_direction, _Transform
+from synth.patches.quilt import _network, _planar, _Quilt
 from synth.patches.seams import _tees
 from synth.patches.source import _Source
 from synth.patches.topology import (
@@ -93,11 +92,6 @@ CLOSE_ENOUGH = 1.15
 #: Placements whose score is within this share of the best are as good: of them the most typical
 #: neighbourhood's (the first ranked), placed nearest the town, wins.
 NEAR_BEST = 0.95
-#: A district's own land: within this many junction spacings of its streets (a block is about a spacing
-#: across, so every point of its blocks lies within half of one of a street), and the blocks they close.
-OWN_LAND = 0.5
-#: A street's end this near (m) another's line lies on it (a tee's end, met by computation).
-ON_STREET = 1e-3
 
 
 @dataclasses.dataclass(frozen=True)
@@ -271,7 +265,7 @@ class _Tried:
 
 def _transplant(source: _Source, centres: np.ndarray, free: shapely.Geometry, old: shapely.Geometry,
                 occupied: shapely.Geometry, target: float, spacing: float, opts: PatchOptions,
-                aim: _Aim | None = None, second: bool = True) -> tuple[StreetNetwork, dict]:
+                aim: _Aim | None = None) -> tuple[StreetNetwork, dict]:
     """The district: one neighbourhood of the town fitted to the free land, clipped, its cut streets run on
     to the town or trimmed (see the module). The network and what to report.
 
@@ -308,50 +302,8 @@ def _transplant(source: _Source, centres: np.ndarray, free: shapely.Geometry, ol
     else:
         best = min(tried, key=lambda t: t.miss)
     net, tees, placement = best.net, best.tees, best.placement
-    report = {"transplanted": placement.rank, "turn_deg": round(float(np.degrees(placement.move.turn)), 1),
-              "fit_km": round(placement.score / 1000, 2), "tees": tees}
-    length = net.total_length()
-    if second and length * CLOSE_ENOUGH < target and len(net.streets):
-        net, more = _beside(source, centres, net, free, old, occupied, target - length, spacing, opts, aim)
-        if more is not None and abs(np.log(max(net.total_length(), 1.0) / target)) < best.miss:
-            report["beside"] = more
-        else:
-            net = best.net
-    return net, report
-
-
-def _beside(source: _Source, centres: np.ndarray, first: StreetNetwork, free: shapely.Geometry,
-            old: shapely.Geometry, occupied: shapely.Geometry, target: float, spacing: float, opts: PatchOptions,
-            aim: _Aim | None) -> tuple[StreetNetwork, dict | None]:
-    """``first`` and a second neighbourhood transplanted onto the free land it left, for ``target`` metres
-    more, joined to it as to the town (its cut streets near ``first`` run on to it in tees): the network, and
-    the second's report (None when no land is left or nothing grew there).
-
-    On narrow land no neighbourhood's survivors reach the target (Monaco: about 10 km on the 0.52 km² of its
-    third site against 11.5-13.4 km, its density below range on 2 seeds of 5), but land the first one
-    leaves is free land like any other. The first's own land is what lies within :data:`OWN_LAND` spacings
-    of its streets and the blocks they close."""
-    lines = [first.street_xy(st) for st in first.streets]
-    mine = shapely.buffer(shapely.MultiLineString(lines), OWN_LAND * spacing)
-    mine = shapely.union_all([shapely.Polygon(p.exterior) for p in shapely.get_parts(mine)])
-    rest = _free_land(shapely.Polygon(), shapely.difference(free, mine), shapely.MultiLineString(), 0.0, spacing,
-                      opts.min_land)
-    if rest.is_empty or rest.area < opts.min_land * spacing ** 2:
-        return first, None
-    town = shapely.union(old, shapely.MultiLineString(lines)) if not old.is_empty else shapely.MultiLineString(lines)
-    net, report = _transplant(source, centres, rest, town, occupied, target, spacing, opts, aim, second=False)
-    if not len(net.streets):
-        return first, None
-    ends = net.xy[[i for st in net.streets for i in (st.nodes[0], st.nodes[-1])]]
-    merged = []
-    for xy in lines:  # the second's tees end on the first's streets: there the first's street gets a node
-        _, _, d = closest_on_segments(ends[:, None, :], xy[None, :-1], xy[None, 1:])
-        on = ends[d.min(axis=1) < ON_STREET]
-        merged.append(_insert_points(xy, on) if len(on) else xy)
-    attrs = [{"highway": st.highway, "hierarchy": st.hierarchy, "origin": Origin.GROWN}
-             for st in (*first.streets, *net.streets)]
-    both = network_from_lines(merged + [net.street_xy(st) for st in net.streets], attrs)
-    return _planar(both), {**report, "km": round(net.total_length() / 1000, 2), "land_km2": round(rest.area / 1e6, 3)}
+    return net, {"transplanted": placement.rank, "turn_deg": round(float(np.degrees(placement.move.turn)), 1),
+                 "fit_km": round(placement.score / 1000, 2), "tees": tees}
 
 
 def _placed(source: _Source, move: _Transform, free: shapely.Geometry, old: shapely.Geometry,
