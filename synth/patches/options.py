@@ -430,7 +430,11 @@ class PatchOptions:
     #: spacing of its streets and the blocks they close) when the first misses its target by over 15 %: Monaco
     #: 2.2 -> 2.0, density 3/5 -> 3/5, 2-core share 5/5 -> 4/5; the engine's Andorra seed 4 2.7 -> 9.3; eight
     #: more placements per neighbourhood judged on what survives when its best misses: Monaco's density seed 1
-    #: 19.2 -> 20.6 (still below), Andorra 3.0 -> 3.4. Off: Monaco's density and the engine's Andorra.
+    #: 19.2 -> 20.6 (still below), Andorra 3.0 -> 3.4. Then, of the districts near the target, the most typical
+    #: neighbourhood's instead of the best fit's (the fit favours the straight grid that fills the raster
+    #: best): the engine's Andorra -> 1.3 3.3 1.0 1.3 2.7 0.3 (1.7, 6/6), Krems -> 1.1 (6/6), Monaco the same;
+    #: the table's north-bayreuth 1.8 -> 2.2 (2-core share 4/5), Campo Grande 1.4 -> 1.2, the others the same:
+    #: kept. Off: Monaco's density (3/5) and the engine's Monaco (4.3, shares 3/6).
     transplant: bool = False
     #: A cut end left over runs on this many spacings to meet a street in a tee ...
     tee_reach: float = 0.6
