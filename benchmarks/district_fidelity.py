@@ -71,13 +71,24 @@ def run(name: str, seeds: list[int], pattern: str, overrides: dict, same_site: b
 STRAIGHT = 1.0
 
 
+def _centre(lines: list[np.ndarray]) -> np.ndarray:
+    """The centre of the district's streets: the mean of its segments' midpoints weighted by their length.
+
+    Not the site's centre: the pattern grows on the free land of a region round it, and where the site's
+    centre lies in the town the district lies beside it (Andorra seed 0, session 41: the site's centre 500 m
+    east of either pattern's district, its disc holding the town's valley roads and no closed block)."""
+    seg = np.concatenate([np.stack([xy[:-1], xy[1:]], axis=1) for xy in lines if len(xy) > 1])
+    weight = np.hypot(*(seg[:, 1] - seg[:, 0]).T)
+    return (seg.mean(axis=1) * weight[:, None]).sum(axis=0) / max(float(weight.sum()), 1e-9)
+
+
 def eye(result) -> dict:
     """What a viewer sees beside the verdict's KS distances: the share of the district's curvature chords that
     are straight (``STRAIGHT``; its streets and joins), and the blocks closed per km of street in a disc of the
-    district's area on the site's centre (every street in it, the town's too), each beside the median of the
-    town's neighbourhoods (discs of the district's area on 16 of the yardstick's junctions, the town's mapped
-    streets in them; a block the disc cuts is not counted, in either). A district of short curving pieces and few
-    blocks reads as scraps, whatever its off count (issue 20, session 37)."""
+    district's area on the district's centre (:func:`_centre`; every street in it, the town's too), each beside
+    the median of the town's neighbourhoods (discs of the district's area on 16 of the yardstick's junctions, the
+    town's mapped streets in them; a block the disc cuts is not counted, in either). A district of short curving
+    pieces and few blocks reads as scraps, whatever its off count (issue 20, session 37)."""
     from osm_expand.measures import LineSet, measure_network
     from osm_expand.model import Origin
     from synth.patches.corners import neighbourhood_corner_rates
@@ -94,9 +105,9 @@ def eye(result) -> dict:
     grown = [net.street_xy(s) for s in net.streets if s.origin in (Origin.GROWN, Origin.JOIN)]
     straight = read(grown)[0] if grown else float("nan")
     radius = float(np.sqrt(max(result.report["district_area_m2"], 1.0) / np.pi))
-    # blocks as the neighbourhoods' are read: every street in a disc of the district's area on the site's centre
-    blocks = read([net.street_xy(s) for s in net.streets],
-                  shapely.Point(result.report["site_centre"]).buffer(radius))[1]
+    # blocks as the neighbourhoods' are read: every street in a disc of the district's area on its centre
+    blocks = read([net.street_xy(s) for s in net.streets], shapely.Point(_centre(grown)).buffer(radius))[1] \
+        if grown else float("nan")
     town = LineSet.from_lines([net.street_xy(s) for s in net.streets if s.origin == Origin.SOURCE])
     around = _neighbourhood_points(_source(result.city, result.learned.example, everything=True), 16, radius,
                                    np.random.default_rng(0))

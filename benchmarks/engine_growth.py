@@ -25,10 +25,13 @@ Issue 20's targets: off on at most 4 of 14, dead-end and 2-core shares in
 range, infill + edge expansion at least 80 % of the new street length.
 
 Usage: ``python benchmarks/engine_growth.py [--history european] [--eras] [--measures] [--where]
-[--discs] [--fixed-margin] [--seed N | --seeds S ...] [--neighbourhoods K] [--option NAME=VALUE ...] [TOWN ...]``
+[--discs] [--fixed-margin] [--seed N | --seeds S ...] [--neighbourhoods K] [--option NAME=VALUE ...]
+[--patch-option NAME=VALUE ...] [TOWN ...]``
 (``--seeds 0-5``: a row per seed and a summary per town, the way to judge a rule; ``--neighbourhoods``:
 :attr:`GrowthOptions.district_neighbourhoods` for the run; ``--option``, repeatable: any other
-:class:`GrowthOptions` field, e.g. ``--option pattern_aim=false --option sites_tried=7``)
+:class:`GrowthOptions` field, e.g. ``--option pattern_aim=false --option sites_tried=7``; ``--patch-option``,
+repeatable: a :class:`~synth.patches.PatchOptions` field set for the district and every ``example`` era, e.g.
+``--patch-option transplant=true``)
 (default: Krems, Andorra, north-bayreuth, Monaco, Krems with ``european``, then Campo Grande;
 Campo Grande takes about 5 minutes and 8 GB).
 """
@@ -169,7 +172,8 @@ def engine_corners(result) -> dict:  # type: ignore[no-untyped-def]  # an Expand
 
 def run(name: str, history: str, years: int | None, refs: int, discs: bool = False,
         neighbourhoods: float | None = None, seed: int = 0, fixed_margin: bool = False,
-        growth: dict[str, object] | None = None, want_where: bool = False) -> dict:
+        growth: dict[str, object] | None = None, want_where: bool = False,
+        patch: dict[str, object] | None = None) -> dict:
     from osm_expand.engine.growth.minor_streets import GrowthOptions
     from osm_expand.engine.history import load_history
     from osm_expand.engine.loop import EngineOptions
@@ -184,8 +188,17 @@ def run(name: str, history: str, years: int | None, refs: int, discs: bool = Fal
         chosen["district_neighbourhoods"] = neighbourhoods
     engine = EngineOptions(growth=GrowthOptions(**chosen))  # type: ignore[arg-type]  # typed by growth_option
     t0, c0 = time.perf_counter(), time.process_time()
-    result = mature_result(expand(load(REPO / "fixtures" / name), ExpandOptions(seed=seed, fidelity=False)),
-                           load_history(history), MatureOptions(years=years, fidelity=False, engine=engine), seed)
+    city, story = load(REPO / "fixtures" / name), load_history(history)
+    grower = None
+    if patch:  # the district grown with the same fields (its pattern made as the pipeline makes it)
+        from osm_expand.growth_patterns import make_pattern
+        from osm_expand.pipeline import learn
+        from synth.patches import PatchOptions
+
+        story = with_patch_options(story, patch)
+        grower = make_pattern("example", learn(city).example, PatchOptions(**patch))
+    result = mature_result(expand(city, ExpandOptions(seed=seed, fidelity=False), pattern=grower),
+                           story, MatureOptions(years=years, fidelity=False, engine=engine), seed)
     run_s, run_cpu = time.perf_counter() - t0, time.process_time() - c0
     t0, c0 = time.perf_counter(), time.process_time()
     net = result.city.network
@@ -200,6 +213,36 @@ def run(name: str, history: str, years: int | None, refs: int, discs: bool = Fal
             "corners": engine_corners(result),
             "run_s": run_s, "run_cpu": run_cpu,
             "judge_s": judge_s, "judge_cpu": judge_cpu}
+
+
+def with_patch_options(story, patch: dict[str, object]):  # type: ignore[no-untyped-def]  # a History
+    """``--patch-option``: the history with ``patch`` set on every era's :class:`~synth.patches.PatchOptions`
+    (the ``example`` eras); :func:`run` grows the district with the same fields, so the run is the one a
+    change of those fields' defaults would make (the district and every era)."""
+    from dataclasses import replace
+
+    from synth.patches import PatchOptions
+
+    eras = tuple(replace(e, options=replace(e.options, **patch)) if isinstance(e.options, PatchOptions) else e
+                 for e in story.eras)
+    return replace(story, eras=eras)
+
+
+def patch_option(text: str) -> tuple[str, object]:
+    """``--patch-option NAME=VALUE``: a :class:`~synth.patches.PatchOptions` field and its value (JSON: true,
+    0.5, "x"), checked when the options are made."""
+    import json
+    from dataclasses import fields
+
+    from synth.patches import PatchOptions
+
+    name, sep, value = text.partition("=")
+    if not sep or name not in {f.name for f in fields(PatchOptions)}:
+        raise argparse.ArgumentTypeError(f"not NAME=VALUE with NAME a PatchOptions field: {text!r}")
+    try:
+        return name, json.loads(value)
+    except json.JSONDecodeError:
+        raise argparse.ArgumentTypeError(f"--patch-option {name}: {value!r} is not a JSON value") from None
 
 
 def _neighbourhoods(text: str) -> float:
@@ -255,9 +298,14 @@ def main() -> None:
                          "by up to 6: judge a rule on six, 0-5, against the default's own spread)")
     ap.add_argument("--option", type=growth_option, action="append", default=[], metavar="NAME=VALUE",
                     help="a GrowthOptions field for the run, e.g. pattern_aim=false (repeatable)")
+    ap.add_argument("--patch-option", type=patch_option, action="append", default=[], metavar="NAME=VALUE",
+                    help="a PatchOptions field set for the district and every example era, e.g. transplant=true "
+                         "(repeatable)")
     args = ap.parse_args()
     if args.option:
         print("growth options: " + ", ".join(f"{k}={v}" for k, v in args.option))
+    if args.patch_option:
+        print("patch options: " + ", ".join(f"{k}={v}" for k, v in args.patch_option))
     runs = [(t, args.history) for t in args.towns] if args.towns else RUNS
     print("| town | history | off of 14 per reference | mean off | dead-end share [range] | 2-core share [range] "
           "| pieces | infill / edge / outlying | street growth km | major roads km | run s (CPU) | judging s (CPU) "
@@ -270,7 +318,7 @@ def main() -> None:
     summary: dict[tuple[str, str], list[tuple[int, float, bool]]] = {}  # per run: (seed, mean off, shares in range)
     for (name, history), seed in ((r, s) for r in runs for s in seeds):
         row = run(name, history, args.years, args.refs, args.discs, args.neighbourhoods, seed,
-                  args.fixed_margin, dict(args.option), args.where)
+                  args.fixed_margin, dict(args.option), args.where, dict(args.patch_option))
         label = name if len(seeds) == 1 else f"{name} (seed {seed})"
         first = row["judged"][0]
         if first is None or first.overall is None:

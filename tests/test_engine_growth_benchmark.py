@@ -53,3 +53,23 @@ def test_the_benchmark_reads_a_range_or_a_list_of_run_seeds():
     for bad in ("a-b", "", "5-2", "1,x"):
         with pytest.raises(argparse.ArgumentTypeError):
             module.run_seeds(bad)
+
+
+def test_the_benchmark_sets_a_patch_option_on_every_example_era():
+    """``--patch-option transplant=true``: every era growing districts with the example pattern gets the field,
+    the rest of its options kept; a name that is no PatchOptions field is refused at the command line."""
+    from osm_expand.engine.history import load_history
+    from synth.patches import PatchOptions
+
+    module = _module()
+    assert module.patch_option("transplant=true") == ("transplant", True)
+    for bad in ("no_such_field=1", "transplant", "transplant=yes"):
+        with pytest.raises(argparse.ArgumentTypeError):
+            module.patch_option(bad)
+    story = load_history("example")
+    changed = module.with_patch_options(story, {"transplant": True})
+    patched = [(e, f) for e, f in zip(story.eras, changed.eras) if isinstance(e.options, PatchOptions)]
+    assert patched
+    for before, after in patched:
+        assert after.options.transplant and not before.options.transplant
+        assert after.options == PatchOptions(**{**before.options.__dict__, "transplant": True})
