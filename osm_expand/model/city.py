@@ -222,8 +222,9 @@ def _block_index(blocks: tuple[Block, ...]) -> tuple[np.ndarray, shapely.STRtree
 def _overlap(blocks: np.ndarray, buildings: np.ndarray) -> np.ndarray:
     """The areas (m²) of the intersections of ``blocks`` and ``buildings`` pair by pair, each made once for the
     very same two polygons: every year asks which large blocks are town, of a town whose blocks and buildings
-    are mostly last year's objects (Krems' 150 north-american years: 1.7 s a run of the intersections of 13
-    large blocks with the buildings on them, every year)."""
+    are mostly last year's objects (Krems' 150 north-american years, 13 large blocks at the end: with the
+    growth's 1 m shrink of the blocks kept too, :func:`osm_expand.engine.growth.minor_streets._forbidden` went
+    from 3.54 to 1.79 s CPU, the same bytes)."""
     def make(missing: list[int]) -> list[float]:
         return shapely.area(shapely.intersection(blocks[missing], buildings[missing])).tolist()
     return np.array(_OVERLAPS.get(list(zip(blocks.tolist(), buildings.tolist())), make), dtype=np.float64)
