@@ -561,3 +561,49 @@ def test_similarity_is_the_best_match_over_every_window_of_the_reference(seed, h
     expected = float((same.max(axis=1) / counted.sum(axis=1)).mean())
     got = ls.similarity(x, y, n, samples=10_000, nodata=-1 if nodata else None)
     assert got == pytest.approx(expected, rel=1e-12)
+
+
+# --------------------------------------------------------------------------- the layout made from last year's
+
+def _same_layout(a: lv.LotLayout, b: lv.LotLayout) -> None:
+    """Every array of the two layouts the same, to the bit (the CSR structures too)."""
+    for name in ("xy", "area", "attributes", "knn", "weight_sums", "reverse_knn_indptr", "reverse_knn_indices",
+                 "kernel"):
+        x, y = getattr(a, name), getattr(b, name)
+        assert x.dtype == y.dtype and x.shape == y.shape and x.tobytes() == y.tobytes(), name
+    for name in ("weights", "weights_by_source"):
+        x, y = getattr(a, name), getattr(b, name)
+        for part in ("indptr", "indices", "data"):
+            assert getattr(x, part).tobytes() == getattr(y, part).tobytes(), (name, part)
+
+
+@pytest.mark.parametrize("order_kept", [True, False])
+def test_relayout_equals_the_layout_made_afresh_on_krems_lots(order_kept, monkeypatch):
+    """Krems' street nodes as lots; a year takes a few away (and moves one) and adds a few: the layout made
+    from last year's measures only the rows that changed and is the one made afresh, bit for bit; one whose
+    lots did not keep their order is made afresh."""
+    from tests.conftest import loaded
+    net = loaded("krems.osm.gz")
+    rng = np.random.default_rng(3)
+    xy = net.xy[net.used_nodes()][:3000]
+    ids = np.arange(len(xy))
+    area = rng.uniform(200, 1500, len(xy))
+    last = lv.lot_layout(xy, area, lv.lot_attributes(xy, centres=xy.mean(0, keepdims=True)))
+    stay = np.ones(len(xy), dtype=bool)
+    stay[rng.choice(len(xy), 5, replace=False)] = False
+    new_xy = xy[rng.choice(len(xy), 5)] + rng.normal(0, 20, (5, 2))
+    now_ids = np.concatenate([ids[stay], len(xy) + np.arange(5)])
+    now_xy = np.vstack([xy[stay], new_xy])
+    now_area = np.concatenate([area[stay], rng.uniform(200, 1500, 5)])
+    now_xy[7] += 0.5  # a lot that moved is a new one to the caller
+    order = np.argsort(now_ids) if order_kept else rng.permutation(len(now_ids))
+    now_ids, now_xy, now_area = now_ids[order], now_xy[order], now_area[order]
+    old_row = np.where(now_ids < len(xy), now_ids, -1)
+    old_row[(now_xy != np.vstack([xy, new_xy])[now_ids]).any(axis=1)] = -1
+    attrs = lv.lot_attributes(now_xy, centres=xy.mean(0, keepdims=True))
+    afresh = lv.lot_layout(now_xy, now_area, attrs)
+    assert afresh.weights.nnz > 50 * len(now_xy)  # lots have neighbours to carry over
+    made_afresh = []
+    monkeypatch.setattr(lv, "lot_layout", lambda *a, **k: made_afresh.append(1) or afresh)
+    _same_layout(lv.relayout(last, old_row, now_xy, now_area, attrs), afresh)
+    assert len(made_afresh) == (0 if order_kept else 1)

@@ -7,7 +7,7 @@ import pytest
 import shapely
 
 from osm_expand.model.city import _block_index, _land_parts
-from osm_expand.model.memo import IdentityMemo
+from osm_expand.model.memo import EachMemo, IdentityMemo
 
 
 def test_made_once_for_the_same_objects_and_again_for_equal_ones():
@@ -132,3 +132,27 @@ def test_a_town_rebuilt_the_same_around_a_site_finds_its_occupied_land_and_regio
     assert again.network.street_lines()[0] is not city.network.street_lines()[0]
     assert district_region(again, site).wkb == region.wkb
     assert made == []
+
+
+def test_each_memo_makes_a_value_once_per_very_same_object_and_lets_old_ones_go():
+    """Each key's value is made once while its objects are asked for; an equal but new object is made again,
+    to the same bits (a GEOS operation is a pure function of its input); unasked keys go after two spans."""
+    polys = [shapely.Point(x, 0).buffer(3.0) for x in range(6)]
+    memo, made = EachMemo(span=2), []
+
+    def shrink(keys):
+        def make(missing):
+            made.extend(missing)
+            return shapely.buffer(np.array([keys[i][0] for i in missing], dtype=object), -1.0).tolist()
+        return memo.get(keys, make)
+
+    first = shrink([(p,) for p in polys])
+    assert made == list(range(6))
+    again = shrink([(p,) for p in polys[:4]] + [(shapely.Point(9, 0).buffer(3.0),)])
+    assert made == list(range(6)) + [4] and all(a is b for a, b in zip(again[:4], first[:4]))
+    copy = shapely.from_wkb(shapely.to_wkb(polys[0]))
+    (remade,) = shrink([(copy,)])
+    assert remade is not first[0] and shapely.to_wkb(remade) == shapely.to_wkb(first[0])
+    for _ in range(4):
+        shrink([(copy,)])
+    assert len(memo) == 1  # only what the last spans asked for is kept

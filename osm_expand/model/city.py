@@ -19,7 +19,7 @@ import shapely
 
 from osm_expand.model.geometry import ring_area, ring_edge_lengths
 from osm_expand.model.land import OPEN_BLOCK, Land, town_blocks
-from osm_expand.model.memo import ContentMemo, IdentityMemo, replace_keeping
+from osm_expand.model.memo import ContentMemo, EachMemo, IdentityMemo, replace_keeping
 from osm_expand.model.network import Context, Origin, StreetNetwork, Tags
 from osm_expand.model.projection import LocalProjection
 
@@ -167,6 +167,8 @@ _TAKEN = IdentityMemo()  #: the union of the land the town takes (:attr:`Land.ta
 #: land nothing is found again (Campo Grande: 393 asked, none found again), and the memo costs only those
 #: 32 unions' memory.
 _OCCUPIED = ContentMemo(kept=32)
+#: The area of a large block's overlap with each building on it (:func:`_overlap`), per pair of polygons.
+_OVERLAPS = EachMemo()
 
 
 def _land_nobody_takes(water: tuple, sea: tuple, unbuildable: shapely.Geometry | None) -> shapely.Geometry:
@@ -215,6 +217,17 @@ def _block_index(blocks: tuple[Block, ...]) -> tuple[np.ndarray, shapely.STRtree
         polygons = _frozen(np.array([b.polygon for b in blocks], dtype=object))
         return polygons, shapely.STRtree(polygons)
     return _BLOCKS.get((blocks,), None, make)
+
+
+def _overlap(blocks: np.ndarray, buildings: np.ndarray) -> np.ndarray:
+    """The areas (m²) of the intersections of ``blocks`` and ``buildings`` pair by pair, each made once for the
+    very same two polygons: every year asks which large blocks are town, of a town whose blocks and buildings
+    are mostly last year's objects (Krems' 150 north-american years, 13 large blocks at the end: with the
+    growth's 1 m shrink of the blocks kept too, :func:`osm_expand.engine.growth.minor_streets._forbidden` went
+    from 3.54 to 1.79 s CPU, the same bytes)."""
+    def make(missing: list[int]) -> list[float]:
+        return shapely.area(shapely.intersection(blocks[missing], buildings[missing])).tolist()
+    return np.array(_OVERLAPS.get(list(zip(blocks.tolist(), buildings.tolist())), make), dtype=np.float64)
 
 
 def _union_prepared(geoms: list[shapely.Geometry]) -> shapely.Geometry:
@@ -313,7 +326,7 @@ class City:
             return polygons
         large = shapely.area(polygons) > OPEN_BLOCK
         footprints = _footprints(self.buildings) if large.any() else np.empty(0, dtype=object)
-        return polygons[town_blocks(polygons, footprints)]
+        return polygons[town_blocks(polygons, footprints, overlap=_overlap)]
 
     @cached_property
     def occupied(self) -> shapely.Geometry:

@@ -19,7 +19,7 @@ only its last few entries, so what the years left behind is let go.
 from __future__ import annotations
 
 import hashlib
-from collections.abc import Callable, Hashable
+from collections.abc import Callable, Hashable, Sequence
 from dataclasses import replace
 from typing import Any, TypeVar
 
@@ -148,3 +148,47 @@ class ContentMemo:
 
     def __len__(self) -> int:
         return len(self._store)
+
+
+class EachMemo:
+    """A value per object (or per tuple of objects), compared by identity, made once: for an operation a
+    year applies to every one of many objects, most of them last year's very objects (the town's block
+    polygons, the buildings' footprints), so that only the new ones cost the operation.
+
+    A GEOS operation on one geometry (a buffer, an intersection's area) is a pure function of it, so the
+    value kept is the very value the operation would give again, to the bit. Like :class:`IdentityMemo` it
+    holds its objects (their ids are not reused while a value is kept). What is kept lives two generations of
+    ``span`` calls: a value not asked for in the last ``span`` to ``2 · span`` calls goes, so a year's several
+    askers (each block selection of a year) share it and what the years left behind is let go.
+    """
+
+    def __init__(self, span: int = 8):
+        self.span = span
+        self._calls = 0
+        self._new: dict[tuple[int, ...], tuple[tuple[Any, ...], Any]] = {}
+        self._old: dict[tuple[int, ...], tuple[tuple[Any, ...], Any]] = {}
+
+    def get(self, keys: Sequence[tuple[Any, ...]], make: Callable[[list[int]], Sequence[Any]]) -> list[Any]:
+        """The value of each key (a tuple of objects), ``make(missing)`` giving those of the keys at positions
+        ``missing`` not known yet (in that order; called once, and only when one is missing)."""
+        self._calls += 1
+        if self._calls % self.span == 0:
+            self._old, self._new = self._new, {}
+        out: list[Any] = [None] * len(keys)
+        missing = []
+        for i, key in enumerate(keys):
+            ids = tuple(map(id, key))
+            hit = self._new.get(ids) or self._old.get(ids)
+            if hit is not None and all(a is b for a, b in zip(hit[0], key)):
+                self._new[ids] = hit
+                out[i] = hit[1]
+            else:
+                missing.append(i)
+        if missing:
+            for i, value in zip(missing, make(missing)):
+                self._new[tuple(map(id, keys[i]))] = (keys[i], value)
+                out[i] = value
+        return out
+
+    def __len__(self) -> int:
+        return len(self._new.keys() | self._old.keys())

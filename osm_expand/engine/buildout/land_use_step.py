@@ -10,7 +10,7 @@ from numpy.typing import NDArray
 
 from osm_expand.engine.buildout.calibration import TownCalibration
 from osm_expand.engine.buildout.landuse import update_land_use
-from osm_expand.engine.buildout.lot_values import lot_layout, lot_values
+from osm_expand.engine.buildout.lot_values import LotLayout, lot_layout, lot_values, relayout
 from osm_expand.engine.buildout.lots import land_use
 from osm_expand.engine.buildout.work import _attributes, _unit_traffic, _Units, _Year
 
@@ -34,6 +34,9 @@ def _land_use(work: _Year) -> _Units:
         return _Units(ids, n_town, area, attrs, lut, np.zeros(0))
     if memory.layout is not None and memory.layout_ids == ids and memory.layout.n == len(lut):
         layout = replace(memory.layout, attributes=attrs)
+    elif memory.layout is not None and memory.layout.n == n_town + len(memory.layout_ids):
+        layout = relayout(memory.layout, _old_rows(memory.layout, memory.layout_ids, ids, xy, area), xy, area,
+                          attrs, options=lu_opts)
     else:
         layout = lot_layout(xy, area, attrs, options=lu_opts)
     if work.now.land_use_update and len(lut) >= 2:
@@ -51,6 +54,20 @@ def _land_use(work: _Year) -> _Units:
     work.memory = replace(memory, town_types=lut[:n_town].copy(), layout=layout, layout_ids=ids,
                           layout_lut=lut.copy())
     return _Units(ids, n_town, area, attrs, lut, luv)
+
+
+def _old_rows(prev: LotLayout, prev_ids: tuple[int, ...], ids: tuple[int, ...], xy: NDArray[np.float64],
+              area: NDArray[np.float64]) -> NDArray[np.int64]:
+    """Each unit's row in last year's layout ``prev`` (whose lots were ``prev_ids``), −1 where it is new: the
+    town's units, and the lots of the same id at the very same point and area (for
+    :func:`~osm_expand.engine.buildout.lot_values.relayout`)."""
+    n_town = prev.n - len(prev_ids)
+    at = {k: n_town + j for j, k in enumerate(prev_ids)}
+    rows = np.concatenate([np.arange(n_town), np.array([at.get(k, -1) for k in ids], dtype=np.int64)])
+    known = np.flatnonzero(rows >= 0)
+    same = (prev.xy[rows[known]] == xy[known]).all(axis=1) & (prev.area[rows[known]] == area[known])
+    rows[known[~same]] = -1
+    return rows
 
 
 def _allowed(town: TownCalibration, n_town: int, lot_area: NDArray[np.float64]) -> NDArray[np.bool_]:

@@ -188,6 +188,9 @@ class LotLayout:
     reverse_knn_indptr: NDArray[np.int64]
     reverse_knn_indices: NDArray[np.int64]
     tree: cKDTree = field(repr=False)
+    #: the distance kernel ``1 − d/r`` of every entry of ``weights`` (its structure), before the areas:
+    #: what :func:`relayout` carries over for the lots that stay
+    kernel: NDArray[np.float64] = field(default_factory=lambda: np.zeros(0), repr=False)
 
     @property
     def n(self) -> int:
@@ -223,6 +226,84 @@ def lot_layout(xy: NDArray[np.float64], area: NDArray[np.float64],
     -------
     LotLayout
     """
+    xy, area, attributes = _check(xy, area, attributes)
+    n = len(xy)
+    tree = cKDTree(xy)
+    r = options.influence_radius
+    pairs = tree.query_pairs(r, output_type="ndarray") if n > 1 else np.zeros((0, 2), np.int64)
+    kernel = _kernel(xy, pairs[:, 0], pairs[:, 1], r)
+    # the distance kernel is symmetric: one CSR serves both directions (its columns sorted in each row)
+    sym = sparse.coo_matrix((np.concatenate([kernel, kernel]),
+                             (np.concatenate([pairs[:, 0], pairs[:, 1]]),
+                              np.concatenate([pairs[:, 1], pairs[:, 0]]))), shape=(n, n)).tocsr()
+    return _layout(xy, area, attributes, tree, sym.data, sym.indices, sym.indptr, options)
+
+
+def relayout(prev: LotLayout, old_row: NDArray[np.int64], xy: NDArray[np.float64], area: NDArray[np.float64],
+             attributes: NDArray[np.float64], *, options: LandUseOptions = DEFAULT_OPTIONS) -> LotLayout:
+    """:func:`lot_layout` of this year's lots made from last year's layout ``prev``: the same arrays, the
+    kernel measured again only in the rows whose neighbours changed (issue 22: a year costs what it changed).
+
+    ``old_row`` (L,) gives each lot's row in ``prev``, −1 for a lot that is new (the caller's to know: the
+    very same point and area as there). The rows to measure again are the new lots', those within
+    ``influence_radius`` of a new lot and those that had a lot now gone among their neighbours; every other
+    row holds the same neighbours as last year, renumbered (the lots keep their order, so each row's columns
+    stay sorted) with the same kernel values, which depend on the two points alone (:func:`_kernel`). The
+    weights, their sums and the nearest lots are then made from the kernel as :func:`lot_layout` makes them.
+    Where more than half the rows change it is :func:`lot_layout` itself.
+    """
+    xy, area, attributes = _check(xy, area, attributes)
+    n, r = len(xy), options.influence_radius
+    old_row = np.asarray(old_row, dtype=np.int64)
+    if old_row.shape != (n,) or len(prev.kernel) != prev.weights.nnz or n < 2:
+        return lot_layout(xy, area, attributes, options=options)
+    stay = old_row >= 0
+    if not (np.diff(old_row[stay]) > 0).all():  # the lots that stay must keep their order
+        return lot_layout(xy, area, attributes, options=options)
+    new_of_old = np.full(prev.n, -1, dtype=np.int64)
+    new_of_old[old_row[stay]] = np.flatnonzero(stay)
+    tree = cKDTree(xy)
+    redo = ~stay
+    added = np.flatnonzero(~stay)
+    if len(added):
+        near = tree.query_ball_point(xy[added], r)
+        redo[np.fromiter((j for x in near for j in x), dtype=np.int64)] = True
+    gone = np.flatnonzero(new_of_old < 0)
+    if len(gone):
+        _, pos = ragged(prev.weights.indptr, gone)
+        had = new_of_old[prev.weights.indices[pos]]
+        redo[had[had >= 0]] = True
+    if redo.sum() * 2 > n:
+        return lot_layout(xy, area, attributes, options=options)
+    kept, again = np.flatnonzero(~redo), np.flatnonzero(redo)
+    found = tree.query_ball_point(xy[again], r, return_sorted=True)
+    sizes = np.array([len(x) for x in found], dtype=np.int64)
+    row = np.repeat(again, sizes)
+    col = np.fromiter((j for x in found for j in x), dtype=np.int64, count=int(sizes.sum()))
+    other = col != row  # a lot is not its own neighbour
+    row, col = row[other], col[other]
+    lengths = np.zeros(n, dtype=np.int64)
+    was = old_row[kept]
+    lengths[kept] = prev.weights.indptr[was + 1] - prev.weights.indptr[was]
+    lengths[again] = np.bincount(row, minlength=n)[again]
+    indptr = np.zeros(n + 1, dtype=np.int64)
+    np.cumsum(lengths, out=indptr[1:])
+    indices = np.empty(indptr[-1], dtype=np.int64)
+    kernel = np.empty(indptr[-1], dtype=np.float64)
+    # the kept rows' entries, in the same order in both (rows and their columns keep their order)
+    stays = np.zeros(prev.n, dtype=bool)
+    stays[was] = True
+    src = np.repeat(stays, np.diff(prev.weights.indptr))
+    dst = np.repeat(~redo, lengths)
+    indices[dst] = new_of_old[prev.weights.indices[src]]
+    kernel[dst] = prev.kernel[src]
+    indices[~dst] = col
+    kernel[~dst] = _kernel(xy, row, col, r)
+    return _layout(xy, area, attributes, tree, kernel, indices, indptr, options)
+
+
+def _check(xy: NDArray[np.float64], area: NDArray[np.float64], attributes: NDArray[np.float64]
+           ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
     xy = np.asarray(xy, dtype=np.float64).reshape(-1, 2)
     area = np.asarray(area, dtype=np.float64)
     attributes = np.asarray(attributes, dtype=np.float64)
@@ -232,7 +313,23 @@ def lot_layout(xy: NDArray[np.float64], area: NDArray[np.float64],
                          f"got {area.shape} and {attributes.shape}")
     if n and not (area > 0).all():
         raise InputError("land use: lot areas must be positive")
-    tree = cKDTree(xy)
+    return xy, area, attributes
+
+
+def _kernel(xy: NDArray[np.float64], i: NDArray[np.int64], j: NDArray[np.int64], r: float) -> NDArray[np.float64]:
+    """``1 − d/r`` (at least 0) of the pairs ``(i, j)``: the same number whichever of the two comes first
+    (the difference only changes sign)."""
+    d = np.hypot(*(xy[i] - xy[j]).T) if len(i) else np.zeros(0)
+    return np.clip(1.0 - d / r, 0.0, None)
+
+
+def _layout(xy: NDArray[np.float64], area: NDArray[np.float64], attributes: NDArray[np.float64], tree: cKDTree,
+            kernel: NDArray[np.float64], indices: NDArray[np.int64], indptr: NDArray[np.int64],
+            options: LandUseOptions) -> LotLayout:
+    """The layout of the lots whose symmetric distance kernel is the CSR ``(kernel, indices, indptr)``: the
+    weights scaled by the neighbour's area (rows of ``weights``) or the row lot's own (``by_source``), the
+    k nearest lots and who counts whom among them."""
+    n = len(xy)
     k = min(options.cluster_neighbours, max(n - 1, 0))
     if k > 0:
         _, idx = tree.query(xy, k=k + 1)
@@ -245,18 +342,9 @@ def lot_layout(xy: NDArray[np.float64], area: NDArray[np.float64],
         knn = idx[keep].reshape(n, k).astype(np.int64)
     else:
         knn = np.zeros((n, 0), dtype=np.int64)
-    r = options.influence_radius
-    pairs = tree.query_pairs(r, output_type="ndarray") if n > 1 else np.zeros((0, 2), np.int64)
-    d = np.hypot(*(xy[pairs[:, 0]] - xy[pairs[:, 1]]).T) if len(pairs) else np.zeros(0)
-    kernel = np.clip(1.0 - d / r, 0.0, None)
-    # the distance kernel is symmetric: one CSR serves both directions, scaled by
-    # the neighbour's area (rows of ``weights``) or the row lot's own area (``by_source``)
-    sym = sparse.coo_matrix((np.concatenate([kernel, kernel]),
-                             (np.concatenate([pairs[:, 0], pairs[:, 1]]),
-                              np.concatenate([pairs[:, 1], pairs[:, 0]]))), shape=(n, n)).tocsr()
-    row_of = np.repeat(np.arange(n), np.diff(sym.indptr))
-    weights = sparse.csr_matrix((sym.data * area[sym.indices], sym.indices, sym.indptr), shape=(n, n))
-    by_source = sparse.csr_matrix((sym.data * area[row_of], sym.indices, sym.indptr), shape=(n, n))
+    row_of = np.repeat(np.arange(n), np.diff(indptr))
+    weights = sparse.csr_matrix((kernel * area[indices], indices, indptr), shape=(n, n))
+    by_source = sparse.csr_matrix((kernel * area[row_of], indices, indptr), shape=(n, n))
     rows = knn.ravel()
     order = np.argsort(rows, kind="stable")
     rk_indices = np.repeat(np.arange(n, dtype=np.int64), k)[order]
@@ -264,7 +352,7 @@ def lot_layout(xy: NDArray[np.float64], area: NDArray[np.float64],
     np.cumsum(np.bincount(rows, minlength=n), out=rk_indptr[1:])
     return LotLayout(xy=xy, area=area, attributes=attributes, knn=knn, weights=weights,
                      weights_by_source=by_source, weight_sums=np.asarray(weights.sum(axis=1)).ravel(),
-                     reverse_knn_indptr=rk_indptr, reverse_knn_indices=rk_indices, tree=tree)
+                     reverse_knn_indptr=rk_indptr, reverse_knn_indices=rk_indices, tree=tree, kernel=kernel)
 
 
 def ragged(indptr: NDArray[np.int64], rows: NDArray[np.int64]) -> tuple[NDArray[np.int64], NDArray[np.int64]]:

@@ -38,7 +38,7 @@ from osm_expand.engine.growth.yardstick import DistrictYardstick, growth_lines
 from osm_expand.errors import OptionError
 from osm_expand.joins import add_streets
 from osm_expand.model import City, Origin, Status, match_points, polyline_length
-from osm_expand.model.memo import IdentityMemo
+from osm_expand.model.memo import EachMemo, IdentityMemo
 from osm_expand.model.options import is_real_number
 from osm_expand.model.segments import SegmentTable
 from osm_expand.sites import (
@@ -495,6 +495,11 @@ def _at_the_edge(city: City, xy: np.ndarray, reach: float) -> np.ndarray:
     return near
 
 
+#: each town block's polygon shrunk 1 m (:func:`_forbidden`), made once for the very same polygon: the blocks a
+#: street did not change are last year's polygons (Krems' 150 north-american years: 1,008 blocks a year at the end)
+_SHRUNK = EachMemo()
+
+
 def _forbidden(city: City) -> shapely.Geometry:
     """Where no street may go: the blocks that are town (shrunk 1 m), unbuildable land and the land the
     town is presumed to take where no building is mapped near (:attr:`~osm_expand.model.land.Land.presumed`:
@@ -503,7 +508,7 @@ def _forbidden(city: City) -> shapely.Geometry:
     (GEOS ≥ 3.13 answers that for overlapping parts), and the union of Campo Grande's blocks cost a
     second a year."""
     blocks = city.town_block_polygons()
-    parts = shapely.buffer(blocks, -1.0).tolist() if len(blocks) else []
+    parts = _SHRUNK.get([(b,) for b in blocks.tolist()], lambda missing: shapely.buffer(blocks[missing], -1.0).tolist())
     if city.unbuildable is not None:
         parts.append(city.unbuildable)
     if city.land is not None:  # where buildings are mapped, they (unbuildable, with a margin) are what stops a street
