@@ -112,34 +112,31 @@ def _before(key: float, state: float, other_key: float, other_state: float) -> b
 
 
 @_compiled(inline="always")
-def _put(heap: np.ndarray, length: int, key: float, state: float) -> None:
-    """One more entry in ``heap`` (rows ``0 … length − 1`` a 4-ary heap of ``(distance, state)``), which
-    has room for it."""
-    at = length
+def _sift_up(heap: np.ndarray, pos: np.ndarray, at: int, key: float, state: float) -> None:
+    """Put ``(key, state)`` at row ``at`` of ``heap`` (a 4-ary heap of ``(distance, state)``) or above it,
+    the entries that pop later moving down; where ``pos`` is not empty (an indexed heap, :func:`_queue`) it
+    is told each moved entry's row."""
+    tracked = len(pos) > 0
     while at > 0:  # the hole moves up past the entries that pop later
         up = (at - 1) >> 2
         if not _before(key, state, heap[up, 0], heap[up, 1]):
             break
         heap[at, 0] = heap[up, 0]
         heap[at, 1] = heap[up, 1]
+        if tracked:
+            pos[np.int64(heap[at, 1])] = at
         at = up
     heap[at, 0] = key
     heap[at, 1] = state
+    if tracked:
+        pos[np.int64(state)] = at
 
 
 @_compiled(inline="always")
-def _push(heap: np.ndarray, length: int, key: float, state: float) -> np.ndarray:
-    """``heap`` (entries ``(distance, state)``, rows ``0 … length − 1`` a 4-ary heap) with one more
-    entry (grown by doubling when full: the returned array is the heap)."""
-    if length == len(heap):
-        heap = np.concatenate((heap, np.empty_like(heap)))
-    _put(heap, length, key, state)
-    return heap
-
-
-@_compiled(inline="always")
-def _pop(heap: np.ndarray, length: int) -> None:
-    """Drop the heap's first entry (``length`` entries before): its last one sifts down from the top."""
+def _unqueue(heap: np.ndarray, pos: np.ndarray, length: int) -> None:
+    """Drop the heap's first entry (``length`` entries before): its last one sifts down from the top; where
+    ``pos`` is not empty (an indexed heap, :func:`_queue`) it is told each moved entry's row."""
+    tracked = len(pos) > 0
     last = length - 1
     key = heap[last, 0]
     state = heap[last, 1]
@@ -156,27 +153,25 @@ def _pop(heap: np.ndarray, length: int) -> None:
             break
         heap[at, 0] = heap[best, 0]
         heap[at, 1] = heap[best, 1]
+        if tracked:
+            pos[np.int64(heap[at, 1])] = at
         at = best
     heap[at, 0] = key
     heap[at, 1] = state
+    if tracked:
+        pos[np.int64(state)] = at
 
 
 @_compiled(inline="always")
-def _sift_up(heap: np.ndarray, pos: np.ndarray, at: int, key: float, state: float) -> None:
-    """Put ``(key, state)`` at row ``at`` of the indexed heap ``heap`` (a 4-ary heap of
-    ``(distance, state)``, :func:`_queue`) or above it, the entries that pop later moving down; ``pos``
-    told each moved entry's row."""
-    while at > 0:  # the hole moves up past the entries that pop later
-        up = (at - 1) >> 2
-        if not _before(key, state, heap[up, 0], heap[up, 1]):
-            break
-        heap[at, 0] = heap[up, 0]
-        heap[at, 1] = heap[up, 1]
-        pos[np.int64(heap[at, 1])] = at
-        at = up
-    heap[at, 0] = key
-    heap[at, 1] = state
-    pos[np.int64(state)] = at
+def _push(heap: np.ndarray, pos: np.ndarray, length: int, key: float, state: float) -> np.ndarray:
+    """``heap`` (entries ``(distance, state)``, rows ``0 … length − 1`` a 4-ary heap; ``pos`` its index, or
+    empty: the turn bound's search keeps none, its stale entries skipped when popped, most of its states
+    going through its stack, not its heap: an index measured no faster there, session 41) with one more
+    entry (grown by doubling when full: the returned array is the heap)."""
+    if length == len(heap):
+        heap = np.concatenate((heap, np.empty_like(heap)))
+    _sift_up(heap, pos, length, key, state)
+    return heap
 
 
 @_compiled(inline="always")
@@ -197,33 +192,6 @@ def _queue(heap: np.ndarray, pos: np.ndarray, length: int, state: int | np.integ
         return length
     _sift_up(heap, pos, length, key, np.float64(state))
     return length + 1
-
-
-@_compiled(inline="always")
-def _unqueue(heap: np.ndarray, pos: np.ndarray, length: int) -> None:
-    """Drop the indexed heap's first entry (``length`` entries before): its last one sifts down from the
-    top, ``pos`` told each moved entry's row (:func:`_pop` with the rows kept)."""
-    last = length - 1
-    key = heap[last, 0]
-    state = heap[last, 1]
-    at = 0
-    while True:
-        first = 4 * at + 1
-        if first >= last:
-            break
-        best = first
-        for c in range(first + 1, min(first + 4, last)):
-            if _before(heap[c, 0], heap[c, 1], heap[best, 0], heap[best, 1]):
-                best = c
-        if not _before(heap[best, 0], heap[best, 1], key, state):
-            break
-        heap[at, 0] = heap[best, 0]
-        heap[at, 1] = heap[best, 1]
-        pos[np.int64(heap[at, 1])] = at
-        at = best
-    heap[at, 0] = key
-    heap[at, 1] = state
-    pos[np.int64(state)] = at
 
 
 @_compiled(inline="always")
@@ -391,7 +359,7 @@ def _search(n: int, k: int, cheap: np.ndarray, cheap_cost: np.ndarray, hub_cost:
 
 
 @_compiled(inline="always")
-def _offer(T: np.ndarray, x: int | np.integer, nv: float, key: float, heap: np.ndarray, length: int,
+def _offer(T: np.ndarray, x: int | np.integer, nv: float, key: float, heap: np.ndarray, pos: np.ndarray, length: int,
            stack: np.ndarray, top: int) -> tuple[np.ndarray, int, np.ndarray, int]:
     """Offer state ``x`` the turn cost ``nv`` (at least ``key``, the one being scanned): where lower than
     its own, taken, and queued: on the stack where it equals ``key`` (a free edge: scanned before the
@@ -404,7 +372,7 @@ def _offer(T: np.ndarray, x: int | np.integer, nv: float, key: float, heap: np.n
             stack[top] = x
             top += 1
         else:
-            heap = _push(heap, length, nv, np.float64(x))
+            heap = _push(heap, pos, length, nv, np.float64(x))
             length += 1
     return heap, length, stack, top
 
@@ -428,6 +396,7 @@ def _turns_back(n: int, k: int, cheap: np.ndarray, cheap_cost: np.ndarray, hub_c
     the end): every state not scanned by then has T at least that."""
     nk = n * k
     heap = np.empty((4096, 2))
+    no_index = np.empty(0, dtype=np.int32)  # the heap keeps no index (:func:`_push`)
     length = 0
     stack = np.empty(4096, dtype=np.int64)
     top = 0
@@ -435,13 +404,13 @@ def _turns_back(n: int, k: int, cheap: np.ndarray, cheap_cost: np.ndarray, hub_c
         e = ends[index]
         if cap[e // k] >= 0.0 and T[e] > 0.0:
             T[e] = 0.0
-            heap = _push(heap, length, 0.0, np.float64(e))
+            heap = _push(heap, no_index, length, 0.0, np.float64(e))
             length += 1
     scanned = 0
     while length > 0:
         key = heap[0, 0]
         y0 = np.int64(heap[0, 1])
-        _pop(heap, length)
+        _unqueue(heap, no_index, length)
         length -= 1
         if T[y0] < key:
             continue
@@ -466,11 +435,13 @@ def _turns_back(n: int, k: int, cheap: np.ndarray, cheap_cost: np.ndarray, hub_c
                         lu = local[u]
                         if lu < 0 or key > cap[lu]:
                             continue
-                        heap, length, stack, top = _offer(T, nk + lu * k + b, key, key, heap, length, stack, top)
+                        heap, length, stack, top = _offer(T, nk + lu * k + b, key, key, heap, no_index, length,
+                                                          stack, top)
                 for t in range(r_ptr[w], r_ptr[w + 1]):
                     if r_bin[t] != b or key > cap[r_src[t]]:
                         continue
-                    heap, length, stack, top = _offer(T, nk + r_src[t] * k + b, key, key, heap, length, stack, top)
+                    heap, length, stack, top = _offer(T, nk + r_src[t] * k + b, key, key, heap, no_index, length,
+                                                      stack, top)
             elif y < 2 * nk:  # dep(v, b): the arrivals that turn to it, and the hub (free)
                 v = (y - nk) // k
                 b = y - nk - v * k
@@ -480,14 +451,14 @@ def _turns_back(n: int, k: int, cheap: np.ndarray, cheap_cost: np.ndarray, hub_c
                         i += k
                     nv = key + cheap_cost[j]
                     if nv <= cap[v]:
-                        heap, length, stack, top = _offer(T, v * k + i, nv, key, heap, length, stack, top)
-                heap, length, stack, top = _offer(T, 2 * nk + v, key, key, heap, length, stack, top)
+                        heap, length, stack, top = _offer(T, v * k + i, nv, key, heap, no_index, length, stack, top)
+                heap, length, stack, top = _offer(T, 2 * nk + v, key, key, heap, no_index, length, stack, top)
             else:  # hub(v): every arrival, at the hub's cost
                 v = y - 2 * nk
                 nv = key + hub_cost
                 if nv <= cap[v]:
                     for i in range(k):
-                        heap, length, stack, top = _offer(T, v * k + i, nv, key, heap, length, stack, top)
+                        heap, length, stack, top = _offer(T, v * k + i, nv, key, heap, no_index, length, stack, top)
     return np.inf
 
 
