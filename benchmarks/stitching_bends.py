@@ -26,8 +26,8 @@ and without them north-bayreuth's KS falls from 0.15 to 0.08.
 Session 35 (h35b), seed 0, curvature KS against the town (all chords), off -> on: ``--option
 seam_link_turn=true`` Krems 0.372 -> 0.332, north-bayreuth 0.150 -> 0.194 (almost no seam link is made);
 ``--option stubs_at_bends=true`` Krems 0.306, north-bayreuth 0.150; ``--option edge_min_run=0.5`` Krems 0.353,
-north-bayreuth 0.117 (joint-edge chords 46 -> 28). Each moves the engine's districts
-(:class:`synth.patches.PatchOptions`).
+north-bayreuth 0.117 (joint-edge chords 46 -> 28). Each moves the engine's districts (all three options removed
+in session 41: docs/tried.md).
 
 Session 36 (h36c), seed 0: Krems' bends on one piece (median 2.3°) are its patches' own: the density band keeps
 its denser half, the curving old town, and clipping to the cells adds 0.00-0.03 of KS. ``--option
@@ -50,7 +50,7 @@ to its neighbour along the edge whatever its street's heading (Krems' 14 perimet
 between the two cut streets, so streets facing each other far apart sideways get an S or a hook (Krems' two longest
 links turn 77-107° off their streets). ``--option seam_jog=90``: Krems' seam joints 82° -> 17°, KS 0.371 ->
 0.316; ``--option edge_turn=135``: Krems' joint edge 64° -> 21°, north-bayreuth's 57° -> 38° (KS 0.264 -> 0.300,
-its district moved). Both off (:class:`synth.patches.PatchOptions`, their measurements).
+its district moved). Both off, removed in session 41 (their measurements in docs/tried.md).
 
 Session 38 (h38c): ``--seeds`` pools several seeds' districts per town (one seed's district is chaotic: an option that
 changes one street's length can change which attempt of patches the quilting keeps). ``--district --seeds 0 1 2 3
@@ -58,15 +58,15 @@ changes one street's length can change which attempt of patches the quilting kee
 (47.1°); north-bayreuth 931, 0.233, 8.01, joint edge 128 (44.8°), joint seam 5. ``--option edge_tee=105`` (a V-joint
 met square further back, a tee): Krems 0.358, joint edge 94 (43.1°); north-bayreuth 0.223, joint edge 90 (33.6°).
 ``--option seam_passing=true`` (no link between streets running past each other): Krems 0.357, joint seam 33
-(26.3°). ``--option edge_square=105`` (a V cut back to a right angle): Krems 0.375, north-bayreuth 0.230. All off
-(their measurements in :class:`synth.patches.PatchOptions`).
+(26.3°). ``--option edge_square=105`` (a V cut back to a right angle): Krems 0.375, north-bayreuth 0.230. All off,
+removed in session 41 (their measurements in docs/tried.md).
 
 Usage: ``python benchmarks/stitching_bends.py [--seed N | --seeds N ...] [--option NAME=VALUE ...] [--district]
 [TOWN ...]``
 (default: Krems and north-bayreuth, seed 0; about 15 s CPU each, 4 s with ``--district``; several seeds pool their
 districts' chords per town). ``--option`` (repeatable, a JSON value) sets a :class:`synth.patches.PatchOptions`
 field in every PatchOptions the run makes that does not set it itself (the history's eras take theirs from the
-defaults), e.g. ``--option edge_min_run=0.5``.
+defaults), e.g. ``--option typical_of_neighbourhoods=true``.
 """
 from __future__ import annotations
 

@@ -1,12 +1,10 @@
 """Example patches' tunables, and the road classes a patch never copies."""
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 
 from osm_expand.errors import InputError, OptionError
 from osm_expand.model import highways
-from osm_expand.model.options import is_real_number
 
 #: Highway classes never copied into a district: a piece of motorway in a housing estate is no street.
 NOT_COPIED = highways.CORRIDORS
@@ -182,53 +180,6 @@ class PatchOptions:
     #: up to five nodes instead of three change nothing. Session 28 (h28d) measured 6 m: corners Krems 7.3 -> 5.1,
     #: north-bayreuth 8.0 -> 5.7, Monaco seed 0's engine dead-end share 0.045 under its neighbourhoods' 0.052.
     corner_reach: float | None = None
-    #: When set, spacings a perimeter street (:mod:`~synth.patches.edges`) may stray from the district's edge: of the
-    #: edge's Douglas-Peucker simplifications from 4 m (:data:`~synth.patches.edges.EDGE_INSET`, the default's) up to
-    #: this, the district's perimeter streets take the one whose mean bend between 20 m chords is nearest its town's
-    #: neighbourhoods' (``_Aim.curvature``). The edge is the free land's, a union of buffers round occupied land and
-    #: the ``clearance`` strip (0.15 spacings, hence this bound) along the town's streets: its wiggles are the
-    #: buffers', no shape of the town's. Followed to 4 m they bent 15-17° (median, pooled) per 20 m in north-bayreuth's
-    #: districts, whose neighbourhoods bend 1.0-1.4°. Off: in the example history's eras, engine streets off of 14 per
-    #: reference seed, main -> this, seed 0: north-bayreuth 5 5 5 -> 4 3 3, Andorra 0 0 0 -> 3 2 2, Krems 2 2 4 -> 2 3
-    #: 3, Monaco 2 3 3 (the same), Campo Grande 4 4 5 -> 4 4 4 (its 2-core share still below range); seed 1:
-    #: north-bayreuth 3 3 3 -> 3 3 2, Andorra 0 0 1 and Krems 4 3 4 the same, Monaco 3 3 2 -> 3 4 6. Straight legs at
-    #: 0.15 spacings everywhere (no town's bend): north-bayreuth 2 2 4 but Andorra 7 7 5, its curvature 1.3° against
-    #: 4.1° (docs/growth-log.md, issue 20, h32n).
-    edge_tolerance: float | None = None
-    #: Lay a seam link as the straight line between its two cut ends, not the smooth curve of
-    #: :func:`~synth.patches.seams._connector` (tangent to both cut streets): the turn between two cut streets
-    #: is then taken at the two ends, not spread over the link as an S or a hook. Why: the curve bends every
-    #: 20 m chord of the link, 6.8° median on north-bayreuth's engine districts against the town's 1.0° (session 32).
-    #: Off: ``benchmarks/engine_growth.py --seed 0``, engine streets off of 14 per reference seed, main -> on
-    #: (session 33, h33n): Krems 1 1 1 -> 3 2 3 (dead-end share 0.197 above 0.026-0.197), Andorra 0 0 0 -> 3 4 3,
-    #: north-bayreuth 5 5 5 -> 4 5 5, Monaco 2 3 3 -> 2 2 3 (Campo Grande not run). Nor does it straighten the
-    #: district: at its default site (``district_fidelity.py --same-site --seeds 0 1``) north-bayreuth's curvature
-    #: KS 0.282 -> 0.288 (bound 0.120; the turn taken at the link's ends is read as bends too), corners over 45°
-    #: 8.9 -> 9.3 per km, off of 14 3 3 -> 2 3; Andorra 4 7 -> 5 7.
-    straight_seams: bool = False
-    #: When set, degrees: a dead end :func:`~synth.patches.topology._fewer_dead_ends` would run on to a tee but
-    #: that meets nothing straight ahead within ``tee_reach`` joins the nearest street within that reach instead,
-    #: square to it, if the link turns at most this much from the dead end's heading (crossing nothing).
-    #: Off: meant for Campo Grande's engine 2-core share (0.964 below 0.968-0.979), but at 45 it leaves Campo
-    #: Grande's and north-bayreuth's growth the same (the same verdict and km: it made no join there, so their
-    #: engine 2-core share is not lost to dead ends :func:`~synth.patches.topology._fewer_dead_ends` could join
-    #: this way) and changes the others: ``engine_growth.py --seed 0``,
-    #: main -> 45: Krems 1 1 1 -> 1 1 1, Andorra 0 0 0 -> 4 4 4, Monaco 2 3 3 -> 4 4 3 (session 33, h33n).
-    near_join: float | None = None
-    #: When set, metres: a perimeter street (:mod:`~synth.patches.edges`) follows the district's edge smoothed
-    #: along its length by a Gaussian of this spread (:func:`~synth.patches.edges._smoothed`; where the curve is
-    #: not clear, the edge as it is), instead of ``edge_tolerance``'s simplification. The edge's wiggles at a
-    #: few metres are the buffers' (5.4° per 20 m median on 15 % of north-bayreuth's engine streets, session 32);
-    #: the simplification that removed them left straight legs with corners, which cost Andorra its curves.
-    #: Off: on the pipeline's district at its default site (``district_fidelity.py --same-site --seeds 0 1``,
-    #: main -> 20 m) north-bayreuth's corners over 45° fall 35 51 -> 31 31 (8.9 -> 7.3 per km; the town's 1.1) and
-    #: its curvature KS 0.282 -> 0.234 (bound 0.120, still off), off of 14 3 3 -> 2 5; Andorra 4 7 -> 7 6. The
-    #: engine's 30 years (``engine_growth.py``, main -> 20 m) move to other sites: seed 0 north-bayreuth 5 5 5 ->
-    #: 2 1 1 (its growth at the town's western edge, not in the fields north-east: where, not how it bends),
-    #: Krems 1 1 1 -> 2 1 1, Andorra 0 0 0 -> 5 5 6 (8 pieces), Monaco 2 3 3 -> 3 3 3 (2-core 0.869 below
-    #: 0.874); seed 1 Krems 3 3 4 -> 5 5 7, Andorra 0 0 1 -> 1 1 1, north-bayreuth 3 3 3 -> 5 6 6, Monaco
-    #: 3 3 2 -> 5 6 6; at 10 m, seed 0, Andorra 8 8 8, north-bayreuth 3 3 2 (session 33, h33n).
-    edge_smoothing: float | None = None
     #: Whether the district's topology (its stub budget, :func:`~synth.patches.topology._fewer_dead_ends`,
     #: :func:`~synth.patches.topology._more_dead_ends`) reads a road out on the site's edge as a street running on
     #: (the pipeline's district, judged in its region: the yardstick opens it) or, False, as the dead end it is
@@ -238,150 +189,6 @@ class PatchOptions:
     #: reference): north-bayreuth 5 5 5 -> 5 5 5 (2-core share 0.766 -> 0.801), Monaco 2 3 3 -> 4 4 4; seed 2
     #: north-bayreuth's 2-core 0.7233 -> 0.7382.
     roads_out_open: bool = True
-    #: Perimeter streets (:mod:`~synth.patches.edges`) chain into a ring: a cut end between two runs along the
-    #: edge ends both, so its street meets the ring in a tee, instead of each cut end taking one run and its
-    #: street turning into it at a node of degree two (an L, read by the yardstick as the street's bend). Why:
-    #: the copied pieces bend as the town does; the engine's excess curvature is at the joints the stitching
-    #: makes (``benchmarks/stitching_bends.py``, seed 0: north-bayreuth's chords on one copied piece median
-    #: 1.2° against the town's 1.0, at a perimeter street's joint 20°; its curvature KS 0.150, 0.129 without
-    #: those chords, 0.080 without every joint's). Off: it halves the Ls at perimeter streets (north-bayreuth's
-    #: engine district, 25 -> 13 corners over 45°) but lays more of the jagged edge, and moves the districts:
-    #: ``engine_growth.py --seed 0``, off of 14 per reference, off -> on: north-bayreuth 5 5 5 -> 3 4 3, Krems
-    #: 1 1 1 -> 1 0 1, but Andorra 0 0 0 -> 7 7 8 (its districts took its straight valley-floor patches:
-    #: curvature median 1.1° against the town's 4.1°) and Monaco 2 3 3 -> 6 5 5 (Campo Grande not run). At the
-    #: pipeline's own site (``district_fidelity.py --seeds 0 1 --option ring_streets=true --same-site``), off of
-    #: 14 per seed and corners over 45° per km: Krems 1 0 -> 1 0 (6.8 -> 5.9), north-bayreuth 3 3 -> 3 3 (8.9 ->
-    #: 8.6), Andorra 4 7 -> 4 7 (5.3 -> 4.3), Monaco 1 3 -> 5 7 (8.6 -> 8.3): fewer Ls, the same curvature
-    #: verdict, and Monaco's jagged edge laid as streets (session 34, h34n).
-    ring_streets: bool = False
-    #: Read a seam transition's turn (its probability and the ``seam_turn`` bound) as the street's turn through
-    #: the link (:func:`~synth.patches.seams._link_turn`: from the first street onto the straight line between
-    #: the cut ends, and from it onto the second), not only as the angle between the two cut streets. Why: two
-    #: streets that run the same way a few metres apart sideways read as a straight continuation by that
-    #: angle, and the link laid between them is a jog the yardstick reads as bends at both joints (the seam
-    #: links' joints: median 29-31° per 20 m chord on Krems' and north-bayreuth's engine districts, seed 0,
-    #: ``benchmarks/stitching_bends.py``). Off: it makes almost no seam link at all (cut streets seldom face each
-    #: other within 75° so read; the joint-seam chords of the engine districts, seed 0: Krems 21 -> 0,
-    #: north-bayreuth 34 -> 5), the cut ends go to tees, perimeter streets and the trimming instead, and the
-    #: engine's districts move: ``engine_growth.py``, off of 14 per reference, off -> on, seed 0: Krems 1 1 1 -> 1 1
-    #: 2, Andorra 0 0 0 -> 7 9 8, north-bayreuth 5 5 5 -> 2 3 2 (its curvature KS 0.145 -> 0.194, still off),
-    #: Monaco 2 3 3 -> 5 5 5 (2-core 0.862 below range), Campo Grande 4 4 5 -> 7 7 6; seed 1: Krems 3 3 4 -> 0 0 1,
-    #: Andorra 0 0 1 -> 3 2 2, north-bayreuth 3 3 3 -> 5 6 6, Monaco 3 3 2 -> 3 4 4, Campo Grande 4 4 4 -> 4 4 4.
-    #: At the pipeline's own site
-    #: (``district_fidelity.py --seeds 0 1 --same-site``), off of 14 per seed and corners over 45° per km, off ->
-    #: on: Krems 1 0 -> 2 0 (6.8 -> 3.8), north-bayreuth 3 3 -> 4 4 (8.9 -> 9.1), Andorra 4 7 -> 6 2 (5.3 -> 4.3),
-    #: Monaco 1 3 -> 4 3 (8.6 -> 6.4; density out on seed 1) (session 35, h35b).
-    seam_link_turn: bool = False
-    #: When set, degrees: a seam link is not made when the street would turn more than this from either cut
-    #: street onto the straight line between the two cut ends (:func:`~synth.patches.seams._link_turns`); those
-    #: cut ends go to tees, perimeter streets and the trimming. Why: the transition reads only the angle between
-    #: the two cut streets, so two streets facing each other 50 m apart sideways and 10 m ahead are a straight
-    #: continuation to it, and the smooth link between them is an S or a hook (Krems' district, seed 0: its two
-    #: longest links turn 86° and 77°, 107° and 103° off their streets; its seam joints' chords median 82°).
-    #: Milder than ``seam_link_turn`` (which bounds the sum of the two by ``seam_turn``, 75°, and leaves almost no
-    #: link): a link that runs on ahead of both streets, turning gently at each, is kept.
-    #: Off: it takes the kinks away but moves Monaco's district (joins to the town 7 -> 2, density out of range on
-    #: 2 seeds). Session 37 (h37c): ``stitching_bends.py --district`` seed 0, off -> 60 -> 90: Krems' seam joints
-    #: 9 chords at 82° -> 3 at 33° -> 6 at 17°, curvature KS 0.371 -> 0.325 -> 0.316, corners over 45° 8.3 -> 5.2
-    #: per km; north-bayreuth the same (no seam joint). ``district_fidelity.py`` (seeds 0-4, each seed a fresh
-    #: grower: the default table), mean off and corners over 45° per km, off -> 90: Krems 2.0 -> 2.0 (7.3 -> 6.0;
-    #: pieces 1 1 2 1 1 -> all 1), Andorra 3.0 -> 3.2 (5.6 -> 4.4), north-bayreuth 2.6 -> 2.8 (8.0 -> 7.9),
-    #: Campo Grande 2.6 -> 2.2 (4.9 -> 3.7), Monaco 2.2 -> 4.4 (7.5 -> 6.5; density in range 5/5 -> 3/5).
-    #: (Earlier numbers, one grower reused over the seeds, carried seed 0's ranked patches into the others.)
-    seam_jog: float | None = None
-    #: The cul-de-sacs the district keeps of its cut streets (``_stub_budget``: as many as its town's
-    #: neighbourhoods' dead-end share allows) are first those whose trimming would leave their junction an L
-    #: (:func:`~synth.patches.topology._leaves_bend`: a node of degree two turning more than 45°), then, as
-    #: without it, those nearest the town's median cul-de-sac length. Why: a tee of the town whose arm a seam
-    #: cut, trimmed back, is read by the yardstick as one street bending at a right angle; kept as a
-    #: cul-de-sac it stays the town's tee, and the district keeps the same number of dead ends. Off: the mildest
-    #: of session 35's joint rules (Monaco's engine streets the same on seed 0), but no town gets within issue
-    #: 20's targets that was not: ``engine_growth.py``, off of 14 per reference, off -> on, seed 0: Krems 1 1 1 ->
-    #: 1 2 2 (its curvature KS 0.37 -> 0.30, median 5.2° -> 2.7°, still off), Andorra 0 0 0 -> 1 1 1,
-    #: north-bayreuth 5 5 5 -> 5 3 5 (curvature KS 0.145, the same), Monaco 2 3 3 (the same), Campo Grande
-    #: 4 4 5 -> 4 4 2 (2-core 0.9644, the same, below range); seed 1: Krems 3 3 4 -> 4 4 4, Andorra 0 0 1 -> 1 1 1,
-    #: north-bayreuth 3 3 3 -> 5 3 3, Monaco 3 3 2 (the same), Campo Grande 4 4 4 -> 1 3 4 (2-core 0.9705 in
-    #: range, 6 pieces). At the pipeline's own site
-    #: (``district_fidelity.py --seeds 0 1 --same-site``), off of 14 per seed and corners over 45° per km, off ->
-    #: on: Krems 1 0 -> 1 0 (6.8 -> 5.8), north-bayreuth 3 3 -> 4 3 (8.9 -> 9.4), Andorra 4 7 -> 5 6 (5.3 -> 4.6),
-    #: Monaco 1 3 -> 4 1 (8.6 -> 7.0) (session 35, h35b).
-    stubs_at_bends: bool = False
-    #: When set, spacings: a perimeter street (:mod:`~synth.patches.edges`) shorter along the edge than this is
-    #: not laid, and its two cut ends are left to the trimming. Why: such a run closes a sliver between two cut
-    #: streets, a block narrower than the town's (they are about a junction spacing across), with an L at both
-    #: ends that the yardstick reads as bends (the perimeter streets' joints: median 40° per 20 m chord on Krems'
-    #: engine districts, seed 0, a quarter of its runs under 32 m; ``benchmarks/stitching_bends.py``).
-    #: Off: at 0.5 it takes a third of the perimeter streets' joints away (``stitching_bends.py``, seed 0, joint-edge
-    #: chords: Krems 45 -> 28, north-bayreuth 46 -> 28; north-bayreuth's curvature KS against its town 0.150 ->
-    #: 0.117) but breaks Monaco on both seeds, whose narrow free land leaves many short runs: ``engine_growth.py``,
-    #: off of 14 per reference, off -> 0.5, seed 0: Krems 1 1 1 -> 2 1 2, Andorra 0 0 0 -> 6 7 6, north-bayreuth
-    #: 5 5 5 -> 3 2 2, Monaco 2 3 3 -> 7 7 8 (dead-end share 0.200 above and 2-core 0.770 below range), Campo
-    #: Grande 4 4 5 -> 1 2 3 (2-core 0.9705 in range); seed 1: Krems 3 3 4 -> 1 2 3, Andorra 0 0 1 -> 0 1 1,
-    #: north-bayreuth 3 3 3 -> 4 4 4, Monaco 3 3 2 -> 7 8 7 (2-core 0.844 below range), Campo Grande 4 4 4 ->
-    #: 4 6 6 (2-core 0.9633 below range).
-    #: At the pipeline's own site (``district_fidelity.py --seeds 0 1 --same-site``), off of 14 per seed and
-    #: corners over 45° per km, off -> 0.5: Krems 1 0 -> 2 0 (6.8 -> 5.8), north-bayreuth 3 3 -> 2 1 (8.9 -> 5.5),
-    #: Andorra 4 7 -> 4 5 (5.3 -> 4.1), Monaco 1 3 -> 4 4 (8.6 -> 6.8) (session 35, h35b).
-    edge_min_run: float | None = None
-    #: When set, degrees: a perimeter street (:mod:`~synth.patches.edges`) that would turn more than this from a
-    #: cut street it ends (read over its first and last 10 m, :func:`~synth.patches.edges._joint_turns`) is not
-    #: laid; its cut ends go to the other run along the edge, or to the trimming. Why: each cut end is joined to
-    #: its neighbour along the edge whatever its street's heading, and where two cut streets converge on the edge
-    #: the run between them doubles back on both (Krems' district, seed 0: turns at its 14 perimeter joints 28-167°,
-    #: 9 over 105°), a V no street of the town makes; a town's streets meet at about right angles or run on.
-    #: Off: it straightens the joints but costs Andorra's and Monaco's districts their blocks and verdict. Session
-    #: 37 (h37c), ``stitching_bends.py --district`` seed 0, joint-edge chords' median and curvature KS, off -> 105
-    #: -> 135: Krems 64° -> 24° -> 21°, KS 0.371 -> 0.393 -> 0.363; north-bayreuth 57° -> 34° -> 38°, KS 0.264 ->
-    #: 0.274 -> 0.300. ``district_fidelity.py`` (seeds 0-4, each seed a fresh grower: the default table), mean
-    #: off, off -> 135: Krems 2.0 -> 1.6 (corners over 45° 7.3 -> 6.1 per km), Andorra 3.0 -> 3.6 (blocks per km
-    #: 0.1 -> 0.06), north-bayreuth 2.6 -> 3.4 (dead-end and 2-core share in range 5/5 -> 4/5), Campo Grande 2.6
-    #: -> 2.6, Monaco 2.2 -> 4.0 (density in range 5/5 -> 4/5). (Earlier numbers, at 105 too, reused one grower
-    #: over the seeds, which carried seed 0's ranked patches into the others.)
-    edge_turn: float | None = None
-    #: When set, degrees: a perimeter street that would turn more than this off a cut street it ends (a V) leaves
-    #: that street instead further back, square to it, at least 10 m before it meets the edge run
-    #: (:func:`~synth.patches.edges._squared`), and the cut street runs on past that tee to the edge (a road out
-    #: where the edge is the site's outer edge); where no square street is clear, the run is laid as it was. Why:
-    #: ``edge_turn`` refused such runs and cost the districts their blocks; this keeps the run and the block, and
-    #: a tee breaks no curvature chord (the yardstick's edges end at junctions). Off: every square joint adds a
-    #: junction of degree three, and the three-way share leaves the neighbourhoods' range. Session 38 (h38c),
-    #: ``stitching_bends.py --district --seeds 0 1 2 3 4`` (chords pooled), off -> 105: Krems curvature KS 0.366 ->
-    #: 0.358, corners over 45° 7.20 -> 7.16 per km, joint-edge chords 103 at 45.6° median -> 94 at 43.1°;
-    #: north-bayreuth 0.233 -> 0.223, 8.01 -> 7.46, 128 at 44.8° -> 90 at 33.6°. ``district_fidelity.py`` (seeds
-    #: 0-4), mean off of 14, default 2.0 / 3.0 / 2.6 / 2.6 / 2.2 (Krems, Andorra, north-bayreuth, Campo Grande,
-    #: Monaco): at 90, 2.0 / 3.2 (three-way share off on 3 seeds) / 3.4 / 2.6 / 3.4 (Monaco's seeds 1 3 2 1 4 ->
-    #: 7 3 1 2 4); at 105, Monaco 3.4 too (seed 0 1 -> 7 of 14, its three-way share 0.83 above 0.73-0.80).
-    edge_tee: float | None = None
-    #: When set, degrees: as ``edge_tee``, but the cut street is cut back to where the square perimeter street
-    #: leaves it and turns into it there at a right angle (an L; no tee, no stub to the edge, as many junctions):
-    #: the V of, say, 135° becomes a right angle and a bend of 45° where the square street meets the edge. A block
-    #: corner a viewer reads as the town's, but two bends where there was one, so the yardstick gains nothing.
-    #: Off: session 38 (h38c), ``stitching_bends.py --district --seeds 0 1 2 3 4``, off -> 105: Krems curvature KS
-    #: 0.366 -> 0.375, corners over 45° 7.20 -> 7.37 per km; north-bayreuth 0.233 -> 0.230, 8.01 -> 8.11;
-    #: ``district_fidelity.py monaco.osm.gz`` (seeds 0-4) mean off 2.2 -> 2.2, density in range 5/5 -> 4/5 (the
-    #: other towns not run).
-    edge_square: float | None = None
-    #: A seam link is not made between two cut streets that run past each other, each end behind the other
-    #: (:func:`~synth.patches.seams._passing`); their cut ends go on to tees, perimeter streets or the trimming.
-    #: Why: the transition reads such a pair as a straight continuation (the angle between the streets, 2-7°),
-    #: and the link laid between them turns back more than 90° onto both: a hairpin, or a sliver beside one of
-    #: them (Krems' district, seed 0: its two longest links, 52-53 m, 131-157° off their streets). Milder than
-    #: ``seam_jog=90`` (either end behind the other). Off: it costs Monaco's district as ``seam_jog`` did.
-    #: Session 38 (h38c), ``stitching_bends.py --district --seeds 0 1 2 3 4``, off -> on: Krems curvature KS
-    #: 0.366 -> 0.357, corners over 45° 7.20 -> 6.63 per km, joint-seam chords 38 at 47.1° median -> 33 at 26.3°;
-    #: north-bayreuth the same (no such link). ``district_fidelity.py monaco.osm.gz`` (seeds 0-4) mean off
-    #: 2.2 -> 4.4 (1 3 2 1 4 -> 6 5 5 2 4; density and 2-core share in range 4/5). With ``edge_tee=105`` too, the
-    #: five towns (default 2.0 / 3.0 / 2.6 / 2.6 / 2.2): 2.0 / 3.0 / 2.8 / 2.2 / 4.6, corners over 45° per km
-    #: 7.3 -> 6.8, 5.6 -> 4.8, 8.0 -> 7.7, 4.9 -> 3.8, 7.5 -> 6.6; ``stitching_bends.py`` (edge_tee 105 / 90):
-    #: Krems KS 0.334 / 0.327, north-bayreuth 0.222 / 0.222. Monaco's seed 0 with either option takes another site:
-    #: the pipeline's second site, whose district the default joins by 1 street (refused, ``MIN_JOINS``, so it
-    #: goes on to the third, 8 joins), is joined by 2 and kept. At the default's own site (``--same-site``), both
-    #: options: Monaco 2.2 -> 4.0 (three-way share off on 3 seeds, stroke length on 3): not the site alone. The
-    #: engine's 30 years with both (``engine_growth.py --seed 0 --measures``, the options set in every era's
-    #: PatchOptions), off of 14 per reference, default -> both: Krems 1 1 1 -> 3 1 1, Andorra 1 1 1 -> 1 1 1,
-    #: north-bayreuth 2 3 2 -> 4 5 4, Monaco 2 3 3 -> 4 4 5 (2-core 0.844 below 0.900), Campo Grande 3 5 4 -> 7 7 8
-    #: (dead-end 0.088 above, 2-core 0.962 below range).
-    seam_passing: bool = False
     #: Grow the district as one whole neighbourhood of the town, fitted to the free land (turned and
     #: shifted to keep the most of its streets and junctions there), clipped, its cut streets run on to
     #: the town or trimmed back to their last junction: no cells, seams or perimeter streets
@@ -465,48 +272,13 @@ class PatchOptions:
             if unknown:
                 raise InputError(f"PatchOptions.{name}: {', '.join(map(repr, unknown))} not one of "
                                  f"{', '.join(allowed)}")
-        tolerance = self.edge_tolerance
-        if tolerance is not None and not (is_real_number(tolerance) and math.isfinite(tolerance) and tolerance > 0):
-            raise OptionError(f"PatchOptions.edge_tolerance must be a finite number of spacings > 0 or unset, "
-                             f"got {tolerance!r}")
-        smoothing = self.edge_smoothing
-        if smoothing is not None and not (is_real_number(smoothing) and math.isfinite(smoothing) and smoothing > 0):
-            raise OptionError(f"PatchOptions.edge_smoothing must be a finite number of metres > 0 or unset, "
-                              f"got {smoothing!r}")
-        if smoothing is not None and tolerance is not None:  # the smoothed edge replaces the simplified one
-            raise OptionError("PatchOptions.edge_smoothing and edge_tolerance are two ways of laying the "
-                              "perimeter streets: set one of them")
-        least = self.edge_min_run
-        if least is not None and not (is_real_number(least) and math.isfinite(least) and least > 0):
-            raise OptionError(f"PatchOptions.edge_min_run must be a finite number of spacings > 0 or unset, "
-                              f"got {least!r}")
-        for name in ("edge_turn", "edge_tee", "edge_square", "seam_jog"):
-            bound = getattr(self, name)
-            if bound is not None and not (is_real_number(bound) and 0 < bound <= 180):
-                raise OptionError(f"PatchOptions.{name} must be a turn in degrees, > 0 and <= 180, or unset, "
-                                  f"got {bound!r}")
-        if self.edge_tee is not None and self.edge_square is not None:  # a squared end is a tee or an L
-            raise OptionError("PatchOptions.edge_tee and edge_square are two ways of squaring a perimeter "
-                              "street's end (a tee, or the cut street cut back to an L): set one of them")
-        turn = self.near_join
-        if turn is not None and not (is_real_number(turn) and 0 < turn <= 180):
-            raise OptionError(f"PatchOptions.near_join must be a turn in degrees, > 0 and <= 180, or unset, "
-                              f"got {turn!r}")
-        if not isinstance(self.seam_link_turn, bool):
-            raise OptionError(f"PatchOptions.seam_link_turn must be true or false, got {self.seam_link_turn!r}")
         if not isinstance(self.transplant, bool):
             raise OptionError(f"PatchOptions.transplant must be true or false, got {self.transplant!r}")
-        if not isinstance(self.seam_passing, bool):
-            raise OptionError(f"PatchOptions.seam_passing must be true or false, got {self.seam_passing!r}")
-        if not isinstance(self.stubs_at_bends, bool):
-            raise OptionError(f"PatchOptions.stubs_at_bends must be true or false, got {self.stubs_at_bends!r}")
         if not isinstance(self.typical_of_neighbourhoods, bool):
             raise OptionError(f"PatchOptions.typical_of_neighbourhoods must be true or false, "
                               f"got {self.typical_of_neighbourhoods!r}")
         if not isinstance(self.bends_of_neighbourhoods, bool):
             raise OptionError(f"PatchOptions.bends_of_neighbourhoods must be true or false, "
                               f"got {self.bends_of_neighbourhoods!r}")
-        if not isinstance(self.ring_streets, bool):
-            raise OptionError(f"PatchOptions.ring_streets must be true or false, got {self.ring_streets!r}")
         if not isinstance(self.roads_out_open, bool):  # a history's "false" is a string, which Python reads as true
             raise OptionError(f"PatchOptions.roads_out_open must be true or false, got {self.roads_out_open!r}")

@@ -175,7 +175,7 @@ class ExamplePatches:
         return float(np.nanmedian(rates)) if np.isfinite(rates).any() else 0.0
 
     def _aim(self, source: _Source, centres: np.ndarray, radius: float, town: StreetNetwork) -> _Aim | None:
-        """The median dead-end and 2-core shares and the mean curvature of the town's neighbourhoods
+        """The median dead-end and 2-core shares of the town's neighbourhoods
         around ``centres`` (None without a ``measure``): what the district's own should come to."""
         if self.measure is None or not len(centres):
             return None
@@ -191,13 +191,9 @@ class ExamplePatches:
         if not finite.any():
             return None
         dead, core = np.median(shares[finite], axis=0)
-        bends = np.array([float(np.mean(m.value("curvature"))) if len(m.value("curvature")) else np.nan
-                          for m in measured])
-        bend = float(np.median(bends[np.isfinite(bends)])) if np.isfinite(bends).any() else float("nan")
         if "cul_de_sac" not in self.cache:
             self.cache["cul_de_sac"] = _cul_de_sac_length(town)
-        return _Aim(dead_end_share=float(dead), two_core_share=float(core), cul_de_sac=self.cache["cul_de_sac"],
-                    curvature=bend)
+        return _Aim(dead_end_share=float(dead), two_core_share=float(core), cul_de_sac=self.cache["cul_de_sac"])
 
 
 #: Neighbourhoods measured for the district's target dead-end share (spread evenly over the ranked ones).
@@ -221,14 +217,13 @@ def _quilt(source: _Source, quilt: _Quilt, centres: np.ndarray, cells: list, reg
         stitched = copy.deepcopy(quilt)
         links = _walk_seams(stitched, spacing, opts, occupied, old)
         tees = _tees(stitched, old, spacing, opts, occupied)
-        tees += _edge_streets(stitched, region, spacing, opts, occupied, old,
-                              bend=aim.curvature if aim is not None else float("nan"))
+        tees += _edge_streets(stitched, region, spacing, opts, occupied, old)
         stitched_net = _network(stitched)
         edge = _outer_edge(region)
         counted = _roads_out(edge, opts)
         stubs, room = _stub_budget(stitched_net, stitched, aim, old, opts.tee_reach * spacing, counted)
         net = _trim(stitched_net, stitched, edge, opts.keep_out * spacing, keep=stubs, stub=STUB_LENGTH * spacing,
-                    room=room, like=aim.cul_de_sac if aim is not None else 0.0, bends_first=opts.stubs_at_bends)
+                    room=room, like=aim.cul_de_sac if aim is not None else 0.0)
         net = _keep_joinable(net, old, spacing, opts)
         net = _connect_pieces(net, old, occupied, opts.link_reach * spacing)
         net = _without_scraps(net, opts.min_land * spacing)

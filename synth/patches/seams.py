@@ -7,7 +7,6 @@ import shapely
 import shapely.ops
 from scipy.spatial import cKDTree
 
-from osm_expand.model import turn_angles
 from synth.patches.options import PatchOptions
 from synth.patches.quilt import _Board, _close, _lay, _meet, _Quilt
 
@@ -18,7 +17,8 @@ def _walk_seams(quilt: _Quilt, spacing: float, opts: PatchOptions, occupied: sha
 
     A transition's probability is 004's (§3.1) on the gap between the two cut ends and the angle
     between the two cut streets; links that turn more than ``seam_turn``, or that would cross
-    anything, are not made, and those cut ends run on to a tee, along the edge, or are trimmed.
+    anything, are not made, and those cut ends run on to a tee, along the edge, or are trimmed. Other
+    readings of a link's turn, and straight links, were tried: docs/tried.md (session 41).
     """
     if len(quilt.cut_xy) < 2:
         return 0
@@ -30,15 +30,6 @@ def _walk_seams(quilt: _Quilt, spacing: float, opts: PatchOptions, occupied: sha
         return 0
     gap = np.hypot(*(xy[pairs[:, 1]] - xy[pairs[:, 0]]).T)
     turn = np.degrees(np.arccos(np.clip(-(heading[pairs[:, 0]] * heading[pairs[:, 1]]).sum(axis=1), -1.0, 1.0)))
-    if opts.seam_link_turn:
-        turn = _link_turn(xy[pairs[:, 0]], heading[pairs[:, 0]], xy[pairs[:, 1]], heading[pairs[:, 1]])
-    if opts.seam_jog is not None:  # a link turning further off either street is a hook or a sideways jog
-        at_a, at_b = _link_turns(xy[pairs[:, 0]], heading[pairs[:, 0]], xy[pairs[:, 1]], heading[pairs[:, 1]])
-        jog = np.maximum(at_a, at_b) > opts.seam_jog
-    else:
-        jog = np.zeros(len(pairs), dtype=bool)
-    if opts.seam_passing:  # each end behind the other: the two streets pass side by side, a link would double back
-        jog |= _passing(xy[pairs[:, 0]], heading[pairs[:, 0]], xy[pairs[:, 1]], heading[pairs[:, 1]])
     sg, st = opts.seam_sigma
     p = np.exp(-0.5 * (gap / (sg * spacing)) ** 2) * np.exp(-0.5 * (turn / st) ** 2)
     board = _Board(quilt, occupied, old)
@@ -46,10 +37,10 @@ def _walk_seams(quilt: _Quilt, spacing: float, opts: PatchOptions, occupied: sha
     links = 0
     for k in np.argsort(-p, kind="stable").tolist():
         a, b = pairs[k]
-        if used[a] or used[b] or turn[k] > opts.seam_turn or jog[k]:
+        if used[a] or used[b] or turn[k] > opts.seam_turn:
             continue
         if gap[k] > 1e-6:
-            path = np.array([xy[a], xy[b]]) if opts.straight_seams else _connector(xy[a], heading[a], xy[b], heading[b])
+            path = _connector(xy[a], heading[a], xy[b], heading[b])
             if not board.clear(path):
                 continue
             _lay(board, quilt, path, a)
@@ -57,38 +48,6 @@ def _walk_seams(quilt: _Quilt, spacing: float, opts: PatchOptions, occupied: sha
         links += 1
     _close(quilt, used)
     return links
-
-
-def _link_turn(a: np.ndarray, da: np.ndarray, b: np.ndarray, db: np.ndarray) -> np.ndarray:
-    """How much a street turns (degrees) going from cut end ``a`` (heading ``da`` out of its street) across
-    the seam to cut end ``b`` (heading ``db``) and on into ``b``'s street: the turn from ``da`` onto the
-    straight line ``a``-``b`` plus the turn from that line onto ``-db``; 0 where the ends coincide.
-
-    The turn between the two streets alone (``-da . db``) reads two parallel streets a few metres apart
-    sideways as a straight continuation; the link between them is a jog (an S of the smooth connector, two
-    corners of a straight one) that the yardstick reads as bends at both joints."""
-    at_a, at_b = _link_turns(a, da, b, db)
-    return at_a + at_b
-
-
-def _passing(a: np.ndarray, da: np.ndarray, b: np.ndarray, db: np.ndarray) -> np.ndarray:
-    """Whether cut end ``b`` lies behind cut end ``a`` (heading ``da`` out of its street) and ``a`` behind ``b``
-    (heading ``db``): the two streets run past each other side by side, and no street of the town continues
-    one into the other. A link laid between them turns back more than 90° onto both (a hairpin, or a sliver
-    beside one of them: Krems' district, seed 0, its two longest links 52-53 m, turning 131-157° off their
-    streets); the transition's turn (``-da . db``, 2° and 7° there) reads them as a straight continuation."""
-    chord = b - a
-    return ((chord * da).sum(axis=1) < 0.0) & ((chord * db).sum(axis=1) > 0.0)
-
-
-def _link_turns(a: np.ndarray, da: np.ndarray, b: np.ndarray, db: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """The two terms of :func:`_link_turn`: degrees from ``da`` onto the straight line ``a``-``b``, and from
-    it onto ``-db``; 0 where the ends coincide."""
-    chord = b - a
-    gap = np.hypot(*chord.T)
-    u = chord / np.maximum(gap, 1e-12)[:, None]
-    joined = gap > 1e-6
-    return np.where(joined, turn_angles(da, u), 0.0), np.where(joined, turn_angles(u, -db), 0.0)
 
 
 #: Metres between the points of a curved seam connector.

@@ -11,7 +11,6 @@ from scipy.spatial import cKDTree
 
 from osm_expand.model import Origin, StreetNetwork, network_from_lines
 from osm_expand.model.components import component_labels
-from osm_expand.model.geometry import closest_on_segments, turn_angles
 from osm_expand.model.topology import (
     dangling_chain,
     dangling_chains,
@@ -19,7 +18,6 @@ from osm_expand.model.topology import (
     segment_neighbours,
     without_segments,
 )
-from synth.patches.corners import SHARP
 from synth.patches.options import PatchOptions
 from synth.patches.quilt import _Board, _meet, _network, _Quilt
 
@@ -34,9 +32,6 @@ class _Aim:
     #: the town's median cul-de-sac (m, from its dead end back to its junction): the length kept stubs
     #: come nearest first (0: shortest first)
     cul_de_sac: float = 0.0
-    #: the median over the neighbourhoods of their mean curvature (degrees between consecutive 20 m chords,
-    #: the yardstick's ``curvature``): how much a perimeter street bends (:func:`~synth.patches.edges._edge_streets`)
-    curvature: float = float("nan")
 
     def off_core_room(self, net: StreetNetwork, anchored: np.ndarray) -> float:
         """Metres of ``net`` that may still lie off its 2-core (on dead-end trees) for its 2-core share
@@ -128,8 +123,7 @@ def _core_length(net: StreetNetwork, anchored: np.ndarray) -> float:
 
 
 def _trim(net: StreetNetwork, quilt: _Quilt, edge: shapely.Geometry, keep_out: float, *, keep: int = 0,
-          stub: float = 0.0, room: float = float("inf"), like: float = 0.0, bends_first: bool = False
-          ) -> StreetNetwork:
+          stub: float = 0.0, room: float = float("inf"), like: float = 0.0) -> StreetNetwork:
     """Cut ends still open are trimmed back to their last junction, except a street of ``keep_out``
     metres or more that leaves the district at the site's ``edge`` (a road out into the country), and
     up to ``keep`` cut streets of ``stub`` metres or more ending inside the district, which stay as
@@ -137,9 +131,7 @@ def _trim(net: StreetNetwork, quilt: _Quilt, edge: shapely.Geometry, keep_out: f
     town's neighbourhoods; a stub left where the edge cut it would stop at the field's margin),
     those nearest ``like`` metres long first (the town's own cul-de-sacs; a district of 30 m nubs has
     the town's dead-end share but not its edge lengths), and ``room`` metres of them at most (the
-    length its 2-core may lose). With ``bends_first`` the cul-de-sacs kept are first those whose
-    trimming would leave their junction a node of degree two that turns more than
-    :data:`~synth.patches.corners.SHARP` (:func:`_leaves_bend`): the same number kept, where they stop an L.
+    length its 2-core may lose).
 
     A junction whose other streets were all trimmed becomes an end itself and is trimmed in turn:
     only the town's own dead ends stay dead ends.
@@ -155,9 +147,7 @@ def _trim(net: StreetNetwork, quilt: _Quilt, edge: shapely.Geometry, keep_out: f
         drop: set[tuple[int, int]] = set()
         chains = dangling_chains(streets, leaves)
         length = {leaf: _chain_length(net, chain) for leaf, chain in chains.items()}
-        bend = _leaves_bend(net.xy, segment_neighbours(streets), chains) if bends_first and keep > 0 else {}
-        for leaf, chain in sorted(chains.items(), key=lambda c: (not bend.get(c[0], False),
-                                                                 abs(length[c[0]] - like), c[0])):
+        for leaf, chain in sorted(chains.items(), key=lambda c: (abs(length[c[0]] - like), c[0])):
             out_of_town = shapely.distance(edge, shapely.Point(leaves[leaf])) < ON_EDGE
             if out_of_town and length[leaf] >= keep_out:
                 continue
@@ -173,27 +163,6 @@ def _trim(net: StreetNetwork, quilt: _Quilt, edge: shapely.Geometry, keep_out: f
         after = segment_degree(streets, len(net.xy))
         leaves = {int(n): net.xy[n] for n in np.flatnonzero((after == 1) & (before > 1))}
     return net.replace(streets=streets)
-
-
-def _leaves_bend(xy: np.ndarray, neighbours: dict[int, list[int]], chains: dict[int, set[tuple[int, int]]]
-                 ) -> dict[int, bool]:
-    """Per leaf, whether trimming its chain (:func:`~osm_expand.model.topology.dangling_chains`) back to its
-    junction leaves that junction with two segments that turn more than :data:`~synth.patches.corners.SHARP`.
-
-    A tee of the town whose arm a seam cut and the trimming took back reads as an L: two streets meeting at a
-    node of degree two at a right angle, which the yardstick reads as one street bending there (issue 20: the
-    copied pieces bend as the town's streets do; their joints are where the district's excess curvature is)."""
-    out: dict[int, bool] = {}
-    for leaf, chain in chains.items():
-        ends = [n for n, c in zip(*np.unique(np.array(list(chain)).ravel(), return_counts=True)) if c == 1]
-        junction = next((int(n) for n in ends if n != leaf), None)
-        if junction is None:
-            continue
-        gone = {a if b == junction else b for a, b in chain if junction in (a, b)}
-        rest = list(dict.fromkeys(n for n in neighbours.get(junction, []) if n not in gone))
-        if len(rest) == 2:
-            out[leaf] = bool(turn_angles(xy[junction] - xy[rest[0]], xy[rest[1]] - xy[junction]) > SHARP)
-    return out
 
 
 def _keep_joinable(net: StreetNetwork, old: shapely.Geometry, spacing: float, opts: PatchOptions) -> StreetNetwork:
@@ -358,9 +327,6 @@ def _fewer_dead_ends(net: StreetNetwork, old: shapely.Geometry, occupied: shapel
                 for j in board.tree.query(ray, predicate="intersects").tolist() if j != where[e]]
         met = [(m, j) for m, j in hits if m is not None]
         ahead = min(met, key=lambda h: float(np.hypot(*(h[0][0] - p)))) if met else None
-        if (ahead is None or not ahead[0][1] or not board.clear(np.array([p, ahead[0][0]]))) \
-                and opts.near_join is not None:  # missed ahead (or met too flat, or blocked): the street beside
-            ahead = _nearest_street(p, d, reach, quilt, board, where[e], opts.near_join) or ahead
         if ahead is None:
             continue
         (at, fair), j = ahead
@@ -384,31 +350,6 @@ def _fewer_dead_ends(net: StreetNetwork, old: shapely.Geometry, occupied: shapel
             excess -= 1
         net = net.replace(streets=without_segments(net.streets, drop)) if drop else net
     return _shorter_trees(net, old, reach, edge, aim, opts.dead_end_floor)
-
-
-def _nearest_street(p: np.ndarray, d: np.ndarray, reach: float, quilt: _Quilt, board: _Board, own: int,
-                    turn: float) -> tuple[tuple[np.ndarray, bool], int] | None:
-    """The foot of the nearest street of the district (not ``own``) within ``reach`` of the dead end ``p``
-    (heading ``d``), as ``((foot, True), street)``, when the link to it turns at most ``turn`` degrees
-    from ``d`` and crosses nothing; else None. Met at the foot of the perpendicular (or a street's end).
-
-    A dead end whose street ahead is missed by a few degrees, or that stops beside a street, is a
-    cul-de-sac no one would leave: the town's own dead ends are ends of long cul-de-sacs, not ends a few
-    metres from a street."""
-    disc = shapely.Point(p).buffer(reach, 8)
-    best: tuple[float, np.ndarray, int] | None = None
-    for j in board.tree.query(disc, predicate="intersects").tolist():
-        if j == own:
-            continue
-        xy = quilt.xy[j]
-        t, foot, dist = closest_on_segments(p[None, :], xy[:-1], xy[1:])
-        i = int(np.argmin(dist))
-        if dist[i] <= 1e-6 or dist[i] > reach or (best is not None and dist[i] >= best[0]):
-            continue
-        v = (foot[i] - p) / dist[i]
-        if float(np.degrees(np.arccos(np.clip(v @ d, -1.0, 1.0)))) <= turn and board.clear(np.array([p, foot[i]])):
-            best = (float(dist[i]), foot[i], j)
-    return None if best is None else ((best[1], True), best[2])
 
 
 def _shorter_trees(net: StreetNetwork, old: shapely.Geometry, reach: float, edge: shapely.Geometry | None,
