@@ -22,7 +22,7 @@ Usage: ``python benchmarks/district_fidelity.py [--seeds 0 1 2 3 4] [--pattern e
 from __future__ import annotations
 
 import argparse
-import json
+import sys
 import time
 from collections import Counter
 from pathlib import Path
@@ -31,6 +31,10 @@ import numpy as np
 import shapely
 
 REPO = Path(__file__).resolve().parent.parent
+sys.path.insert(0, str(REPO))  # benchmarks.engine_growth's reader of --option, this checkout's packages
+
+from benchmarks.engine_growth import patch_option  # noqa: E402
+
 #: The scalars issue 20 asks to be in range on at least 4 of 5 seeds.
 IN_RANGE = ("density", "dead_end_share", "two_core_share")
 TOWNS = ["krems.osm.gz", "andorra.osm.pbf", "north-bayreuth.osm.gz", "campo-grande.osm.gz", "monaco.osm.gz"]
@@ -125,14 +129,14 @@ def main() -> None:
     ap.add_argument("--seeds", nargs="+", type=int, default=[0, 1, 2, 3, 4])
     ap.add_argument("--pattern", default="example")
     ap.add_argument("--table", action="store_true", help="print every measure of the first seed")
-    ap.add_argument("--option", action="append", default=[], metavar="KEY=VALUE",
+    ap.add_argument("--option", type=patch_option, action="append", default=[], metavar="KEY=VALUE",
                     help="a PatchOptions field for the example pattern (for tuning), e.g. cells=3")
     ap.add_argument("--same-site", action="store_true",
                     help="with --option: grow at the site the default run takes (the pipeline's site loop takes "
                          "the first site whose district joins the town at two points, so a change of the growth "
                          "can move the district, as it moves Monaco's from its 3rd-ranked site to its 2nd)")
     args = ap.parse_args()
-    overrides = {k: json.loads(v) for k, v in (o.split("=", 1) for o in args.option)}
+    overrides = dict(args.option)
     if overrides and args.pattern != "example":
         ap.error("--option sets PatchOptions fields: the example pattern's")
     n = len(args.seeds)

@@ -242,7 +242,7 @@ def patch_option(text: str) -> tuple[str, object]:
     try:
         return name, json.loads(value)
     except json.JSONDecodeError:
-        raise argparse.ArgumentTypeError(f"--patch-option {name}: {value!r} is not a JSON value") from None
+        raise argparse.ArgumentTypeError(f"{name}: {value!r} is not a JSON value") from None
 
 
 def _neighbourhoods(text: str) -> float:
