@@ -62,8 +62,13 @@ def _old_rows(prev: LotLayout, prev_ids: tuple[int, ...], ids: tuple[int, ...], 
     town's units, and the lots of the same id at the very same point and area (for
     :func:`~osm_expand.engine.buildout.lot_values.relayout`)."""
     n_town = prev.n - len(prev_ids)
-    at = {k: n_town + j for j, k in enumerate(prev_ids)}
-    rows = np.concatenate([np.arange(n_town), np.array([at.get(k, -1) for k in ids], dtype=np.int64)])
+    before, now = np.asarray(prev_ids, dtype=np.int64), np.asarray(ids, dtype=np.int64)
+    lots = np.full(len(now), -1, dtype=np.int64)  # each lot's row among last year's (ids are unique)
+    if len(before):
+        order = np.argsort(before)
+        at = order[np.minimum(np.searchsorted(before, now, sorter=order), len(before) - 1)]
+        lots = np.where(before[at] == now, n_town + at, -1)
+    rows = np.concatenate([np.arange(n_town, dtype=np.int64), lots])
     known = np.flatnonzero(rows >= 0)
     same = (prev.xy[rows[known]] == xy[known]).all(axis=1) & (prev.area[rows[known]] == area[known])
     rows[known[~same]] = -1
