@@ -1391,17 +1391,20 @@ def test_the_turns_in_the_corridor_keep_the_bound_consistent_and_below_the_cost_
 
 @settings(max_examples=12, deadline=None)
 @example(4_267_211_612, 16, True)  # seeds keyed (g + h) + T, pops g + (h + T): a resumed seed skipped
+@example(2470, 8, True)  # two routes of equal cost (2,359.73): T's search takes the other one
 @given(st.integers(0, 2**32 - 1), st.sampled_from([8, 16]), st.booleans())
 def test_the_turns_still_to_make_are_consistent_and_keep_the_routes(seed, k, tiles):
     """Issue 22 (session 39): the least turn cost from each state to the target (``_turns_to_go``, the
     expanded graph searched backwards on its turn penalties alone, compiled) is consistent on every
     edge of it (``T(x) ≤ t(x, y) + T(y)``, t the edge's turn cost, 0 for a move), clamped at a limit
     too, and 0 on the target's arrivals; added to the plain distance as the route search's bound
-    (``RoutingOptions.turn_bound``) it finds the very routes (vertex for vertex, the same cost) of the
-    search by the plain distance alone, whole regions or growing tiles (examples where no search used T,
+    (``RoutingOptions.turn_bound``) it finds routes of the very cost of the search by the plain distance
+    alone, between the same ends, whole regions or growing tiles (examples where no search used T,
     a route found at once or a region above the cap, are not counted). The states searched are not
     compared: summed over the tile rounds they are no invariant (with T the growth test may grow
-    other tiles)."""
+    other tiles). Where two routes cost the same to the last bit, the search with T may take the other one
+    (issue 22 asks for a route of equal cost; session 41's CI drew seed 2470: the same 74 vertices' cost,
+    another path): what is compared is the cost found by both and each route's ends."""
     g, rng = random_map(seed)
     opts = RoutingOptions(turn_height=float(rng.uniform(20, 900)), heading_bins=k,
                           whole_region=0 if tiles else 100_000, tile_cells=int(rng.integers(1, 4)))
@@ -1451,8 +1454,8 @@ def test_the_turns_still_to_make_are_consistent_and_keep_the_routes(seed, k, til
     assume(any(used))
     assert (want is None) == (got is None)
     if want is not None:
-        assert np.array_equal(got.vertices, want.vertices)
         assert got.cost == want.cost
+        assert (got.vertices[0], got.vertices[-1]) == (want.vertices[0], want.vertices[-1])
 
 
 @settings(max_examples=20, deadline=None)
