@@ -229,6 +229,7 @@ def test_expand_same_seed_same_bytes_other_seed_other_district(tmp_path, capsys)
     (["--at-lonlat", "500,10"], "not a longitude,latitude"),
     (["--preview", "x.pdf"], "must be .png or .svg"),
     (["--direction", "UP"], "invalid choice"),
+    (["--preview", "x.png", "--preview-frame", "county"], "invalid choice"),
     (["-o", "out.txt"], "unsupported output type"),
 ])
 def test_expand_bad_options_are_one_line_exit_2(tmp_path, capsys, argv, needle):

@@ -4,7 +4,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from osm_expand.export.preview import STAGE_COLOURS, growth_stages, write_preview
+from osm_expand.errors import InputError
+from osm_expand.export.preview import STAGE_COLOURS, growth_stages, picture_frame, write_preview
 from osm_expand.ingest import load
 from osm_expand.model import Building, City, Origin, network_from_lines
 from tests.conftest import FIXTURES, expanded_and_matured
@@ -71,3 +72,34 @@ def test_krems_default_run_draws_its_district_and_both_eras(tmp_path):
     assert labels[0] == "district" and [label.split(" ")[0] for label in labels[1:]] == ["contemporary",
                                                                                         "consolidation"]
     assert all(f"<!-- {label} -->" in svg for label in labels)
+    town_frame(result)
+
+
+def town_frame(result) -> None:
+    """Krems' town frame: every new street and the site inside it, the countryside's roads cut.
+
+    Krems' extract is 9.6 × 6.4 km round a town of about 4 × 1.3 km: drawn whole, the district is a
+    scribble; the town frame holds the old town, the centre and what grew in under half the area.
+    """
+    city, region = result.city, result.site.region
+    x0, y0, x1, y1 = picture_frame(city, region)
+    a0, b0, a1, b1 = picture_frame(city, region, "all")
+    assert a0 <= x0 < x1 <= a1 and b0 <= y0 < y1 <= b1
+    assert (x1 - x0) * (y1 - y0) < 0.5 * (a1 - a0) * (b1 - b0)
+    net = city.network
+    new = np.vstack([net.street_xy(net.streets[k]) for k in city.new_streets()])
+    inside = (new[:, 0] > x0) & (new[:, 0] < x1) & (new[:, 1] > y0) & (new[:, 1] < y1)
+    assert inside.all()
+    rx0, ry0, rx1, ry1 = region.bounds
+    assert x0 < rx0 and rx1 < x1 and y0 < ry0 and ry1 < y1
+    old_town = net.xy[[n for s in net.streets if s.origin == Origin.SOURCE and s.name == "Untere Landstraße"
+                       for n in s.nodes]]  # the old town's main street, at the town's west end
+    assert len(old_town) and ((old_town[:, 0] > x0) & (old_town[:, 0] < x1)).all()
+
+
+def test_the_frame_is_the_whole_map_when_the_town_cannot_be_told():
+    """Fewer junctions than a neighbourhood has: no town to frame, the whole map (and an unknown frame refused)."""
+    city = small_city()
+    assert picture_frame(city, frame="town") == picture_frame(city, frame="all")
+    with pytest.raises(InputError, match="frame"):
+        picture_frame(city, frame="county")

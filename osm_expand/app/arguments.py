@@ -100,6 +100,9 @@ EXPAND_ARGUMENTS: tuple[Argument, ...] = (
     Argument(("--format",), {"choices": sorted(FORMAT_SUFFIX),
                              "help": "output format (default: from -o, else urbanenvironment)"}),
     Argument(("--preview",), {"metavar": "OUT.png|OUT.svg", "help": "also draw a map of the result"}),
+    Argument(("--preview-frame",), {"choices": ["town", "all"], "default": "town",
+                                    "help": "what the preview frames: the town and what grew (default) or the "
+                                            "whole map"}),
     Argument(("--seed",), {"type": seed_value, "default": 0,
                            "help": "random seed (0 or more); the same seed gives the same bytes"}),
     Argument(("--direction",), {"choices": ["auto", "N", "NE", "E", "SE", "S", "SW", "W", "NW"], "default": "auto",

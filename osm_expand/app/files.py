@@ -195,7 +195,7 @@ def snapshot_name(name: str, year: int, era: str) -> str:
 
 
 def write_result(result, out: Path, kind: str, preview: Path | None, title: str, *, snapshots: Path | None = None,
-                 pictures: Sequence = (), name: str = "", debug: list | None = None) -> None:
+                 pictures: Sequence = (), name: str = "", debug: list | None = None, frame: str = "town") -> None:
     """The output, the preview and the snapshots, all or nothing."""
     from osm_expand.export import all_or_nothing, write_geojson, write_osm, write_urbanenvironment
 
@@ -209,7 +209,7 @@ def write_result(result, out: Path, kind: str, preview: Path | None, title: str,
             from osm_expand.export.preview import write_preview
 
             with writing(preview):
-                write_preview(result.city, preview, result.site.region, title=title)
+                write_preview(result.city, preview, result.site.region, title=title, frame=frame)
         if snapshots is not None:
             from osm_expand.export.snapshot import write_snapshot
 

@@ -32,6 +32,7 @@ class ExpandRequest:
     output: str | None = None
     format: str | None = None
     preview: str | None = None
+    preview_frame: str = "town"  #: ``town`` or ``all`` (:class:`osm_expand.export.preview.Frame`)
     seed: int = 0
     direction: str = "auto"
     at: str | None = None  #: ``X,Y`` in metres

@@ -110,7 +110,7 @@ def run_expand(request: ExpandRequest, *, progress: Log = _quiet, stages: Callab
         title = f"{shown(name)}: the town and what grew (seed {request.seed})"
         debug = list(result.growth.debug.get("features", [])) if request.debug_layers else None
         write_result(result, out, kind, preview, title=title, snapshots=snapshots, pictures=pictures, name=name,
-                     debug=debug)
+                     debug=debug, frame=request.preview_frame)
     return {"input": str(city_path), "output": str(out), "format": kind, "seed": request.seed, **clip,
             **({"preview": str(preview)} if preview else {}),
             **({"snapshots": [str(snapshots / snapshot_name(name, p[1], p[2])) for p in pictures]}

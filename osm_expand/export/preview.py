@@ -29,6 +29,7 @@ from osm_expand.model import City, Origin
 from osm_expand.model.enums import parse_enum
 from osm_expand.model.network import Street
 from osm_expand.model.segments import is_major
+from osm_expand.model.topology import junction_mask
 
 #: Generated buildings of one colour when coloured by origin.
 NEW_BUILDING = "#e8a33d"
@@ -44,6 +45,26 @@ NEW_STREET_WIDTH = {True: 1.8, False: 1.0}
 #: industry blue-violet, parks green); other types get the remaining tab10 colours in name order.
 LANDUSE_COLOURS = {"residential_low": "#f2c14e", "residential_high": "#e07b39", "commercial": "#d1495b",
                    "industrial": "#6c5b9c", "park": "#5fa052"}
+#: Radius (m) of the disc in which each junction's neighbouring junctions are counted to find the town on
+#: the map: a neighbourhood's radius (a district of 0.2-0.5 km² is a disc of 250-400 m). The denser half of
+#: the junctions by that count is the town, as the growth yardstick keeps the denser half of its discs
+#: (issue 20); rural roads have a junction every kilometre or so and fall in the sparser half.
+TOWN_RADIUS = 300.0
+#: Fewest junctions for the town to be read from them; below it the frame is the whole map.
+TOWN_MIN_JUNCTIONS = 16
+#: Margin round the frame, a share of its longer side.
+FRAME_MARGIN = 0.05
+
+
+class Frame(enum.StrEnum):
+    """What the picture frames."""
+
+    TOWN = "town"   # the town (its denser half of junctions) and everything new: what grew is legible
+    ALL = "all"     # every street of the map, the countryside's roads included
+
+    @classmethod
+    def parse(cls, value: str) -> Frame:
+        return parse_enum(cls, value, "frame")
 
 
 class ColorBy(enum.StrEnum):
@@ -75,9 +96,48 @@ def _landuse_colours(names: list[str]) -> dict[str, str]:
     return out
 
 
+def picture_frame(city: City, site_region: shapely.Geometry | None = None,
+                  frame: str = "town") -> tuple[float, float, float, float]:
+    """The window ``(x0, y0, x1, y1)`` a picture of ``city`` draws, margin included.
+
+    Why: an extract is often mostly countryside (Krems' is 9.6 × 6.4 km round a town of 4 × 1.3 km), and a
+    district of half a square kilometre drawn on the whole of it is a scribble. ``town`` frames the town
+    (the discs of :data:`TOWN_RADIUS` round the junctions of its mapped streets in the denser half by
+    junctions within that radius), every new street and building and the site; ``all`` every street of
+    the map and the site.
+    """
+    net = city.network
+    pts = [net.xy[net.used_nodes()]]
+    if Frame.parse(frame) is Frame.TOWN:
+        town = _town_junctions(city)
+        pts = [town - TOWN_RADIUS, town + TOWN_RADIUS] if len(town) else pts  # each junction's disc
+        pts += [net.street_xy(s) for s in net.streets if s.origin != Origin.SOURCE]
+        pts += [np.asarray(b.ring) for b in city.buildings if b.origin != Origin.SOURCE]
+    if site_region is not None:
+        pts.append(np.asarray(site_region.exterior.coords))
+    xy = np.vstack(pts)
+    (x0, y0), (x1, y1) = xy.min(axis=0), xy.max(axis=0)
+    pad = FRAME_MARGIN * max(x1 - x0, y1 - y0)
+    return float(x0 - pad), float(y0 - pad), float(x1 + pad), float(y1 + pad)
+
+
+def _town_junctions(city: City) -> np.ndarray:
+    """The mapped streets' junctions in the denser half by junctions within :data:`TOWN_RADIUS` (none when
+    there are too few junctions to tell)."""
+    from scipy.spatial import cKDTree
+
+    net = city.network
+    source = [s for s in net.streets if s.origin == Origin.SOURCE]
+    xy = net.xy[junction_mask(source, len(net.xy))]
+    if len(xy) < TOWN_MIN_JUNCTIONS:
+        return xy[:0]
+    near = cKDTree(xy).query_ball_point(xy, TOWN_RADIUS, return_length=True)
+    return xy[near >= np.median(near)]
+
+
 def write_preview(city: City, path: str | os.PathLike, site_region: shapely.Geometry | None = None,
                   title: str = "", *, color_by: str = "origin",
-                  extent: tuple[float, float, float, float] | None = None) -> None:
+                  extent: tuple[float, float, float, float] | None = None, frame: str = "town") -> None:
     """Draw the city to ``path`` (``.png`` or ``.svg``), atomically.
 
     Parameters
@@ -90,14 +150,19 @@ def write_preview(city: City, path: str | os.PathLike, site_region: shapely.Geom
     color_by : {"origin", "landuse", "year"}
         What colours the generated buildings (module docstring).
     extent : (x0, y0, x1, y1), optional
-        The window to draw (metres, the city's projection); default: the whole network and the site.
+        The window to draw (metres, the city's projection); default: :func:`picture_frame`'s.
+    frame : {"town", "all"}
+        What :func:`picture_frame` frames when no ``extent`` is given: the town and what grew, or the
+        whole map.
 
     Raises
     ------
     InputError
-        An unknown ``color_by``, or an empty ``extent``.
+        An unknown ``color_by`` or ``frame``, or an empty ``extent``.
     """
     colour = ColorBy.parse(color_by)
+    if extent is None:
+        extent = picture_frame(city, site_region, frame)
     import matplotlib
 
     matplotlib.use("Agg")
@@ -107,14 +172,9 @@ def write_preview(city: City, path: str | os.PathLike, site_region: shapely.Geom
 
     net = city.network
     with plt.rc_context({"svg.hashsalt": "osm-expand", "path.simplify": True}):
-        pts = net.xy[net.used_nodes()]
-        if site_region is not None:
-            pts = np.vstack([pts, np.asarray(site_region.exterior.coords)])
-        (x0, y0), (x1, y1) = pts.min(axis=0), pts.max(axis=0)
-        if extent is not None:
-            x0, y0, x1, y1 = (float(v) for v in extent)
-            if not (x1 > x0 and y1 > y0):
-                raise OptionError(f"extent must be (x0, y0, x1, y1) with x1 > x0 and y1 > y0, got {extent!r}")
+        x0, y0, x1, y1 = (float(v) for v in extent)
+        if not (x1 > x0 and y1 > y0):
+            raise OptionError(f"extent must be (x0, y0, x1, y1) with x1 > x0 and y1 > y0, got {extent!r}")
         aspect = (y1 - y0) / max(x1 - x0, 1.0)
         fig, ax = plt.subplots(figsize=(10, float(np.clip(10 * aspect, 4, 14)) + 0.6))
         water = [np.asarray(p.exterior.coords) for g in (*city.water, *city.sea)
@@ -143,9 +203,8 @@ def write_preview(city: City, path: str | os.PathLike, site_region: shapely.Geom
                 ax.add_artist(buildings_legend)
         if site_region is not None:
             ax.plot(*site_region.exterior.xy, ls="--", color="black", lw=0.8)
-        pad = 0.05 * max(x1 - x0, y1 - y0) if extent is None else 0.0
-        ax.set_xlim(x0 - pad, x1 + pad)
-        ax.set_ylim(y0 - pad, y1 + pad)
+        ax.set_xlim(x0, x1)
+        ax.set_ylim(y0, y1)
         ax.set_aspect("equal")
         _scale_bar(ax)
         ax.set_xticks([])
