@@ -74,13 +74,12 @@ def land_in_discs(lines: list, memo: dict | None = None) -> Callable[[shapely.Ge
 
 
 def _example(example: Example, options: Any) -> GrowthPattern:
-    from osm_expand.fidelity import scalar_range
     from synth.patches import ExamplePatches
 
     land = functools.partial(land_in_discs, memo={})  # the town's margin measured once per pattern object
     if options is None:
-        return ExamplePatches(example, measure=measure_in_windows, limits=scalar_range, land=land)
-    return ExamplePatches(example, options=options, measure=measure_in_windows, limits=scalar_range, land=land)
+        return ExamplePatches(example, measure=measure_in_windows, land=land)
+    return ExamplePatches(example, options=options, measure=measure_in_windows, land=land)
 
 
 def _walk(example: Example, options: Any) -> GrowthPattern:

@@ -19,8 +19,7 @@ walk loses (shapes, dead ends, the town's density); patches keep all three.
 3. **Patches.** Each filled cell takes the streets of a patch of the town
    around one of its neighbourhoods' junctions (drawn as the fidelity
    yardstick draws them; patches within ``density_band`` of their median
-   density only, or with ``density_from_verdict`` within the verdict's own
-   range of them),
+   density only),
    translated — never rotated, so the district keeps the town's orientations
    — by an offset of up to half a spacing chosen so that its streets continue
    those of the cells already filled, and clipped to the cell. Motorways,

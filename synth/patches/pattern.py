@@ -59,10 +59,6 @@ class ExamplePatches:
     #: :func:`osm_expand.measures.measure_network`, as ``synth`` knows only the model); without it patches
     #: are not ranked by how typical of the town they are.
     measure: Callable | None = None
-    #: ``limits(name, values)`` gives the range the fidelity verdict allows a scalar measure whose values
-    #: over the town's neighbourhoods are ``values`` (:func:`osm_expand.fidelity.scalar_range`, handed in as
-    #: ``measure`` is): with ``share_guard`` on, candidate patches outside it are not used.
-    limits: Callable | None = None
     #: ``land(lines)`` returns a function giving the streets' land of those lines in a disc (the caller's
     #: :func:`osm_expand.growth_patterns.land_in_discs`: the growth verdict's rule, :mod:`osm_expand.streets_closing`,
     #: handed in as ``measure`` is): what ``target_on_streets_land`` measures the target density on.
@@ -97,7 +93,7 @@ class ExamplePatches:
             size = float(np.sqrt(free.area))
         key = round(float(np.log(size)) / 0.05)  # sizes within 5 % share a ranking
         if key not in self.cache:
-            self.cache[key] = _candidate_patches(source, size, opts, rng, self.measure, self.limits)
+            self.cache[key] = _candidate_patches(source, size, opts, rng, self.measure)
         patches = self.cache[key]
         if opts.transplant:
             net, debug = _transplant(source, patches, free, old_geom, occupied, target, spacing, opts, aim)
