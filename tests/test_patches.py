@@ -443,17 +443,15 @@ def _grid(bearing_deg: float, n: int = 6, step: float = 80.0, at=(0.0, 0.0)) -> 
 
 
 @pytest.mark.parametrize("bearing", [0.4, 12.3, 33.7, 47.6, 89.2])
-def test_a_grids_main_direction_is_its_own_bearing_not_its_bins_centre(bearing):
-    """Issue 20 (h32n): a patch turns to meet its neighbours' grid. Read as the centre of the fullest 5°
-    bin, a grid at 12.3° read 12.5° and one at 33.7° read 32.5°: patches met their neighbours up to 5°
-    askew (Campo Grande's engine districts: alignment median 1.7° against its town's 0.9°). Read from the
-    bearings, within a hundredth of a degree."""
+def test_a_grids_main_direction_is_the_centre_of_its_fullest_bin(bearing):
+    """A patch turns to meet its neighbours' grid, each grid read as the centre of its fullest 5° bin of
+    bearings (mod 90°): within 2.5° of the grid's own bearing. (Session 32's reading from the bearings
+    themselves, ``grain_from_bearings``, measured and left off, is in docs/tried.md.)"""
     from synth.patches.placing import _main_direction
 
-    got = np.degrees(_main_direction(_grid(bearing), 2.0, refine=True))
-    assert abs((got - bearing + 45.0) % 90.0 - 45.0) < 0.01, got
-    binned = np.degrees(_main_direction(_grid(bearing), 2.0))
-    assert binned % 5.0 == pytest.approx(2.5)
+    got = np.degrees(_main_direction(_grid(bearing), 2.0))
+    assert got % 5.0 == pytest.approx(2.5)
+    assert abs((got - bearing + 45.0) % 90.0 - 45.0) <= 2.5 + 1e-9, got
 
 
 def test_each_cut_end_at_the_edge_takes_one_perimeter_run_and_meets_it_in_an_l():

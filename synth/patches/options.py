@@ -32,15 +32,6 @@ class PatchOptions:
     #: A patch turns to match its neighbours' grid only when both have a clear main direction:
     #: the fullest 5° bin of bearings (mod 90°) holds this many times its share.
     orientation_peak: float = 2.0
-    #: ... and the two grids are read as the length-weighted mean bearing (mod 90°) of the streets in the
-    #: fullest bin and its two neighbours, the bins the peak was smoothed over, rather than as that bin's
-    #: centre. With the centres a patch turned by a multiple of 5° and met its neighbours' grid up to 5° askew
-    #: (Campo Grande seed 0, the engine's districts: alignment median 1.7° between neighbouring edges
-    #: against the town's 0.9°). Off (the bins' centres): in the example history's eras, seed 0, engine
-    #: streets off of 14 per reference seed (main -> this): Campo Grande 4 4 5 -> 2 3 3, but its alignment
-    #: does not move (1.7° -> 1.9°), Krems 2 2 4 -> 5 3 4, north-bayreuth 5 5 5 -> 3 3 3 with its 2-core
-    #: share below range, Monaco 2 3 3 -> 3 2 1, Andorra 0 0 0 (docs/growth-log.md, issue 20, h32n).
-    grain_from_bearings: bool = False
     #: Discs of the district's area measured on the town for the target density.
     density_discs: int = 64
     #: Measure the target density on the town's streets' land in those discs (``ExamplePatches.land``: the
