@@ -375,43 +375,16 @@ def test_a_grower_reused_over_seeds_grows_what_a_fresh_one_grows():
 
 
 def test_a_fresh_pattern_keeps_its_options_and_nothing_it_computed():
-    """:meth:`ExamplePatches.fresh`: the same options and helpers, an empty cache and an empty memo of the
-    streets' land margin (each measured from the first district's lines)."""
+    """:meth:`ExamplePatches.fresh`: the same options and helpers, an empty cache (its ranked patches were drawn
+    with the first district's generator)."""
     from osm_expand.growth_patterns import make_pattern
     from synth.growth import for_a_run
 
     pattern = make_pattern("example", district("krems.osm.gz", 0).learned.example, PatchOptions(cells=5))
     pattern.cache["corner_rate"] = 1.0
-    pattern.land.keywords["memo"]["margin"] = 12.0
     fresh = for_a_run(pattern)
-    assert fresh.cache == {} and fresh.land.keywords["memo"] == {} and pattern.cache and pattern.land.keywords["memo"]
+    assert fresh.cache == {} and pattern.cache
     assert fresh.options == pattern.options and fresh.measure is pattern.measure
-    assert fresh.land.func is pattern.land.func
-
-
-def test_the_target_density_on_the_streets_land_leaves_the_sea_out():
-    """Issue 20 (h30e): Monaco's neighbourhood discs hold the sea and the slopes; on its streets' land (the
-    closing the engine's verdict measures its references on, :func:`osm_expand.growth_fidelity.streets_land`,
-    handed in as ``land``) they are denser, and a district grown with ``target_on_streets_land`` aims at
-    more street length than one grown on the same site without it (seed 0: 21.7 km against 17.8)."""
-    from osm_expand.growth_patterns import land_in_discs, make_pattern
-    from osm_expand.pipeline import prepare
-    from synth.patches.source import _density, _density_on_land, _neighbourhood_points, _source
-
-    grown = district("monaco.osm.gz", 0)
-    source = _source(grown.city, grown.learned.example, everything=True)
-    radius = 400.0
-    centres = _neighbourhood_points(source, 32, radius, np.random.default_rng(0))
-    land_in = land_in_discs([np.asarray(ln.coords) for ln in source.lines])
-    disc, on_land = _density(source, centres, radius), _density_on_land(source, centres, radius, land_in)
-    assert np.median(on_land) > 1.15 * np.median(disc), (np.median(on_land), np.median(disc))
-    town = prepare(load(FIXTURES / "monaco.osm.gz"), ExpandOptions().land)  # the town before its district
-    target = {}
-    for on in (False, True):
-        pattern = make_pattern("example", grown.learned.example, PatchOptions(target_on_streets_land=on))
-        growth = pattern.grow(town, grown.site.region, np.random.default_rng(0))
-        target[on] = growth.debug["target_km"]
-    assert target[True] > 1.1 * target[False], target
 
 
 def test_a_history_with_a_bad_patch_option_fails_in_one_line(tmp_path, capsys):

@@ -34,14 +34,6 @@ class PatchOptions:
     orientation_peak: float = 2.0
     #: Discs of the district's area measured on the town for the target density.
     density_discs: int = 64
-    #: Measure the target density on the town's streets' land in those discs (``ExamplePatches.land``: the
-    #: closing the engine's growth verdict measures its reference neighbourhoods on,
-    #: :mod:`osm_expand.streets_closing`), rather than on the whole disc: a disc keeps the
-    #: sea, the slopes or the fields across it, and a district filled to that density over its free land
-    #: came out sparser than the neighbourhoods it is judged against (Monaco's engine streets: 18.9 km/km²
-    #: against 20.3-31.1). Off: it does not raise that density (the target is not what stops the filling):
-    #: Monaco 7 8 6 -> 9 9 10 alone, 3 3 5 with ``density_from_verdict`` (density 17.75) (docs/growth-log.md, h30e).
-    target_on_streets_land: bool = False
     #: Copied streets keep this many spacings from the town's streets (they meet them only in tees).
     clearance: float = 0.15
     #: A seam's cut ends this many spacings apart may continue into each other (in a smooth curve) ...

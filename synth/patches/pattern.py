@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import copy
 import dataclasses
-import functools
 from collections.abc import Callable
 from dataclasses import dataclass, field
 
@@ -24,7 +23,6 @@ from synth.patches.seams import _tees, _walk_seams
 from synth.patches.source import (
     _candidate_patches,
     _density,
-    _density_on_land,
     _lengths,
     _level,
     _line_xy,
@@ -59,10 +57,6 @@ class ExamplePatches:
     #: :func:`osm_expand.measures.measure_network`, as ``synth`` knows only the model); without it patches
     #: are not ranked by how typical of the town they are.
     measure: Callable | None = None
-    #: ``land(lines)`` returns a function giving the streets' land of those lines in a disc (the caller's
-    #: :func:`osm_expand.growth_patterns.land_in_discs`: the growth verdict's rule, :mod:`osm_expand.streets_closing`,
-    #: handed in as ``measure`` is): what ``target_on_streets_land`` measures the target density on.
-    land: Callable | None = None
     name: str = "example"
     #: Ranked patch centres by patch size, kept between districts grown by this object (the year loop
     #: grows many from one town: ranking the town's patches is the slow part, and the town is the same).
@@ -83,10 +77,7 @@ class ExamplePatches:
         everything = self._source(city, everything=True)
         radius = float(np.sqrt(free.area / np.pi))
         around = _neighbourhood_points(everything, opts.density_discs, radius, rng)
-        if opts.target_on_streets_land:
-            density = _density_on_land(everything, around, radius, self._land(everything))
-        else:
-            density = _density(everything, around, radius)
+        density = _density(everything, around, radius)
         target = float(np.median(density)) * float(free.area)
         aim = self._aim(everything, around, radius, city.network)
         if opts.transplant:  # one neighbourhood of the site's size, whole (synth.patches.transplant)
@@ -125,13 +116,9 @@ class ExamplePatches:
 
     def fresh(self) -> ExamplePatches:
         """This pattern with empty caches (:func:`synth.growth.for_a_run`): the ranked patches in
-        :attr:`cache` were drawn with the generator of the first district that needed them, and the
-        ``land`` helper's memo (:func:`osm_expand.growth_patterns.land_in_discs`) keeps the margin of the
-        first lines it was handed; a new run must draw and measure its own."""
-        land = self.land
-        if isinstance(land, functools.partial) and "memo" in land.keywords:
-            land = functools.partial(land.func, *land.args, **{**land.keywords, "memo": {}})
-        return dataclasses.replace(self, land=land, cache={})
+        :attr:`cache` were drawn with the generator of the first district that needed them; a new run must
+        draw its own."""
+        return dataclasses.replace(self, cache={})
 
     def _source(self, city: City, everything: bool = False) -> _Source:
         """:func:`_source` of ``city``, kept for the next district grown on the same network (the engine
@@ -142,18 +129,6 @@ class ExamplePatches:
             return hit[1]
         made = _source(city, self.example, everything=everything)
         self.cache[key] = (city.network, made)
-        return made
-
-    def _land(self, source: _Source) -> Callable[[shapely.Geometry], shapely.Geometry]:
-        """``land(lines)`` of ``source``'s streets (the town's land, closed once), kept while the source is
-        the same object (:meth:`_source` keeps one per network: the sites tried in one year share it)."""
-        if self.land is None:
-            raise ValueError("target_on_streets_land needs the streets' land: ExamplePatches(land=...)")
-        hit = self.cache.get("land")
-        if hit is not None and hit[0] is source:
-            return hit[1]
-        made = self.land(_line_xy(source.lines))
-        self.cache["land"] = (source, made)
         return made
 
     def _corner_rate(self, town: StreetNetwork, around: np.ndarray, radius: float) -> float:

@@ -84,16 +84,6 @@ def _density(source: _Source, centres: np.ndarray, radius: float) -> np.ndarray:
     return _lengths_in(source, discs) / (np.pi * radius ** 2)
 
 
-def _density_on_land(source: _Source, centres: np.ndarray, radius: float,
-                     land_in: Callable[[shapely.Geometry], shapely.Geometry]) -> np.ndarray:
-    """Street length per m² of the streets' land in discs around ``centres``: ``land_in(disc)`` is that land
-    (the caller's :func:`osm_expand.streets_closing.land_in_disc`, the disc itself where no street's land
-    is in it; ``synth`` imports only the model, so the rule is handed in, as ``measure`` is)."""
-    discs = shapely.buffer(shapely.points(centres), radius)
-    areas = np.array([shapely.area(land_in(d)) for d in discs])
-    return _lengths_in(source, discs) / areas
-
-
 def _lengths_in(source: _Source, discs: np.ndarray) -> np.ndarray:
     """The length of the source's streets inside each of ``discs`` (m), each summed in the tree's order.
 
