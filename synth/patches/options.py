@@ -42,30 +42,6 @@ class PatchOptions:
     seam_turn: float = 75.0
     #: Spread of the seam's transition probability: gap (in spacings) and bend (degrees).
     seam_sigma: tuple[float, float] = (0.4, 30.0)
-    #: When set, metres a node of degree two may move to straighten a corner the town would not have
-    #: (:func:`~synth.patches.corners._straighten`, beyond its neighbourhoods' own corners per km, read on its
-    #: streets as mapped at the district's size: :func:`~synth.patches.corners.corners_in_discs`). 15 m is a
-    #: local street's right-of-way between property lines (the common US 50 ft = 15.2 m; German residential
-    #: streets with their footways 10-15 m): a jog, spike or step of the seams and of the perimeter streets
-    #: within it is no shape of the street's, a bend beyond it is. Only positions move, never which nodes a
-    #: street joins, and nothing is crossed that was not (the district's streets, the town's, occupied land).
-    #: Off: the district reads better but Andorra's engine years read worse. Session 39 (h39p), at 15: the
-    #: district's corners over 45° per km, seeds 0-4 (mean; the neighbourhoods' median in brackets;
-    #: ``district_fidelity.py --table``), off -> 15: Krems 7.3 -> 3.3 (0.7), Andorra 5.6 -> 2.4 (1.9),
-    #: north-bayreuth 8.0 -> 3.4 (1.0), Campo Grande 4.9 -> 1.9 (0.3), Monaco 7.5 -> 2.4 (1.2); mean off of 14
-    #: 2.0 -> 1.8, 3.0 -> 2.8, 2.6 -> 2.6, 2.6 -> 2.6, 2.2 -> 2.4 (Monaco's density in range 5/5 -> 4/5),
-    #: pieces <= 2; withheld buildings (``withheld_buildings.py``): Krems 0 %, 0 crossed; north-bayreuth 0.0 %, 1.
-    #: The engine's 30 years (``engine_growth.py``), off of 14 per reference, off -> 15, seed 0: Krems 1 1 1 ->
-    #: 1 1 1, Andorra 1 1 1 -> 3 2 3, north-bayreuth 2 3 2 -> 3 3 4, Monaco 2 3 3 -> 2 2 2, Campo Grande 3 5 4 ->
-    #: 4 4 3 (2-core 0.9649 just under 0.9657); the engine's streets' corners over 45° per km: Krems 6.4 -> 2.1,
-    #: Andorra 3.7 -> 1.7, north-bayreuth 4.3 -> 2.0, Monaco 6.6 -> 3.0, Campo Grande 1.4 after; but seeds 1 and 2:
-    #: Andorra 2 2 2 -> 7 9 9 and 3 3 4 -> 4 5 5 (mean over seeds 0-2 2.1 -> 5.2), north-bayreuth 3 3 3 -> 3 2 2
-    #: and 3 4 2 -> 5 5 3 (2-core below range on both sides). At 10 m Andorra 1 2 0, 9 10 9, 6 5 4 (2-core above
-    #: range). The district's corners left at 15 m are Ls between legs longer than the reach (perimeter streets'
-    #: joints, the copied pieces' own bends): 10 m leaves Krems seeds 0-2 at 4.6 a km, 15 m 3.5, 20 m 2.9; runs of
-    #: up to five nodes instead of three change nothing. Session 28 (h28d) measured 6 m: corners Krems 7.3 -> 5.1,
-    #: north-bayreuth 8.0 -> 5.7, Monaco seed 0's engine dead-end share 0.045 under its neighbourhoods' 0.052.
-    corner_reach: float | None = None
     #: Whether the district's topology (its stub budget, :func:`~synth.patches.topology._fewer_dead_ends`,
     #: :func:`~synth.patches.topology._more_dead_ends`) reads a road out on the site's edge as a street running on
     #: (the pipeline's district, judged in its region: the yardstick opens it) or, False, as the dead end it is

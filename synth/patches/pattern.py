@@ -14,7 +14,6 @@ import shapely.ops
 from osm_expand.model import City, StreetNetwork
 from simplify.example import Example
 from synth.growth import Growth, NewStreet, streets_near
-from synth.patches.corners import MappedCorners, _straighten, corners_in_discs
 from synth.patches.edges import _edge_streets
 from synth.patches.options import PatchOptions
 from synth.patches.placing import _cells, _centres, _free_land, _place
@@ -103,9 +102,6 @@ class ExamplePatches:
                 break
         assert best is not None  # the loop runs at least once
         net, placed, links, tees = best
-        if opts.corner_reach is not None:
-            budget = int(self._corner_rate(city.network, around, radius) * net.total_length() / 1000.0)
-            net = _straighten(net, budget, opts.corner_reach, old_geom, occupied)
         streets = tuple(NewStreet(xy=net.street_xy(s), hierarchy=max(s.hierarchy, 0), highway=s.highway)
                         for s in net.streets)
         return Growth(streets=streets, footprint=free,
@@ -130,20 +126,6 @@ class ExamplePatches:
         made = _source(city, self.example, everything=everything)
         self.cache[key] = (city.network, made)
         return made
-
-    def _corner_rate(self, town: StreetNetwork, around: np.ndarray, radius: float) -> float:
-        """The town's corners sharper than :data:`~synth.patches.corners.SHARP` at nodes of degree two per km
-        of its streets as mapped, median over its neighbourhoods ``around`` at the district's ``radius``
-        (:func:`~synth.patches.corners.corners_in_discs`): how many a district of the town may keep. Read
-        as the district is read (the mapped ways it copies, in a neighbourhood of its size); the simplified
-        example, read before session 39, has other nodes (Krems 1.03 per km there, 0.7-0.8 in its
-        neighbourhoods)."""
-        hit = self.cache.get("corners")
-        if hit is None or hit[0] is not town:
-            hit = (town, MappedCorners.of(town))
-            self.cache["corners"] = hit
-        rates = corners_in_discs(hit[1], around, radius)
-        return float(np.nanmedian(rates)) if np.isfinite(rates).any() else 0.0
 
     def _aim(self, source: _Source, centres: np.ndarray, radius: float, town: StreetNetwork) -> _Aim | None:
         """The median dead-end and 2-core shares of the town's neighbourhoods
