@@ -33,7 +33,7 @@ Session 36 (h36c), seed 0: Krems' bends on one piece (median 2.3°) are its patc
 its denser half, the curving old town, and clipping to the cells adds 0.00-0.03 of KS. ``--option
 bends_of_neighbourhoods=true`` (patches ranked by their bends' KS distance to all the neighbourhoods): Krems
 one piece 2.3° -> 0.3°, curvature KS 0.372 -> 0.256, without every joint's chords 0.245 -> 0.124;
-north-bayreuth 0.150 -> 0.137 (0.080 -> 0.073).
+north-bayreuth 0.150 -> 0.137 (0.080 -> 0.073). Off, removed in session 42 (docs/tried.md).
 
 Session 37 (h37c): ``--district`` classifies the pipeline's district instead (the README picture's circle; no
 years run), and the piece joints are split by what the copy had there before the trimming. Seed 0: Krems'
@@ -42,7 +42,8 @@ district, 180 chords, KS 0.371 (bound 0.259): one piece 51 % (median 2.0°), pie
 corners, 7.9°) and 2 are tees whose arm was trimmed (94°); joint edge 17 chords (64°), joint seam 9 (82°): the
 kinks a viewer sees. Without the piece joints 0.206. north-bayreuth: 149 chords, KS 0.264, joint edge 22 (57°),
 without them 0.181; its 24 piece joints are all the town's way joints (2.4°). ``--option
-typical_of_neighbourhoods=true`` (engine districts, Krems): one piece 2.3° -> 1.0°, KS 0.372 -> 0.282.
+typical_of_neighbourhoods=true`` (engine districts, Krems): one piece 2.3° -> 1.0°, KS 0.372 -> 0.282 (off,
+removed in session 42: docs/tried.md).
 
 Session 37 (h37c, second helper), ``--district``, seed 0: the perimeter joints kink because each cut end is joined
 to its neighbour along the edge whatever its street's heading (Krems' 14 perimeter joints turn 28-167°, 9 over
@@ -66,7 +67,7 @@ Usage: ``python benchmarks/stitching_bends.py [--seed N | --seeds N ...] [--opti
 (default: Krems and north-bayreuth, seed 0; about 15 s CPU each, 4 s with ``--district``; several seeds pool their
 districts' chords per town). ``--option`` (repeatable, a JSON value) sets a :class:`synth.patches.PatchOptions`
 field in every PatchOptions the run makes that does not set it itself (the history's eras take theirs from the
-defaults), e.g. ``--option typical_of_neighbourhoods=true``.
+defaults), e.g. ``--option cells=5``.
 """
 from __future__ import annotations
 

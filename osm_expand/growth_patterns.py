@@ -13,7 +13,6 @@ a pattern's classes are imported when one is made.
 """
 from __future__ import annotations
 
-import functools
 from collections.abc import Callable
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
@@ -46,41 +45,12 @@ def measure_in_windows(lines: list) -> Callable[[shapely.Geometry], NetworkMeasu
     return lambda window: measure_network(indexed, window=window, pieces=False, wanted=wanted)
 
 
-def land_in_discs(lines: list, memo: dict | None = None) -> Callable[[shapely.Geometry], shapely.Geometry]:
-    """The land of ``lines`` in any disc, the lines closed once: what the example patches measure their
-    target density on with ``target_on_streets_land`` (:mod:`osm_expand.streets_closing`, the rule and
-    default tunables of the growth verdict's :func:`~osm_expand.growth_fidelity.streets_land`; ``synth``
-    knows only the model, so the caller hands it in), with the verdict's margin: the town's
-    (:func:`~osm_expand.streets_closing.block_margin` of its blocks).
-
-    The margin is measured once per ``memo`` (``memo["margin"]``; :func:`_example` gives each pattern
-    object one), on the first call's lines: the pattern hands in the town's mapped streets (origin
-    ``SOURCE``), which the years do not grow, but from each year's rebuilt network, so without the memo
-    every block of the town was measured again at each new network. The verdict's margin can be fixed
-    (``GrowthFidelityOptions.window_margin_from_town`` off, the benchmark's ``--fixed-margin``): that does
-    not reach this target, which always takes the town's.
-    """
-    from osm_expand.measures import measure_network
-    from osm_expand.streets_closing import block_margin, closed_land, land_in_disc
-
-    margin = None if memo is None else memo.get("margin")
-    if margin is None:
-        blocks = measure_network(lines, pieces=False, wanted=("block_area",)).block_area
-        margin = block_margin(blocks)
-        if memo is not None:
-            memo["margin"] = margin
-    land = closed_land(lines, margin=margin)
-    return lambda disc: land_in_disc(disc, land)
-
-
 def _example(example: Example, options: Any) -> GrowthPattern:
-    from osm_expand.fidelity import scalar_range
     from synth.patches import ExamplePatches
 
-    land = functools.partial(land_in_discs, memo={})  # the town's margin measured once per pattern object
     if options is None:
-        return ExamplePatches(example, measure=measure_in_windows, limits=scalar_range, land=land)
-    return ExamplePatches(example, options=options, measure=measure_in_windows, limits=scalar_range, land=land)
+        return ExamplePatches(example, measure=measure_in_windows)
+    return ExamplePatches(example, options=options, measure=measure_in_windows)
 
 
 def _walk(example: Example, options: Any) -> GrowthPattern:

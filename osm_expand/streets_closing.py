@@ -1,12 +1,11 @@
 """The land of a set of streets: the streets closed (buffered, shrunk back), and a disc's part of it.
 
-One rule in one place for its two readers: the engine's growth verdict
-(:func:`osm_expand.growth_fidelity.growth_window`, :func:`osm_expand.growth_fidelity.streets_land`, whose
-module docstring says why the window is a closing) and the example patches' target density
-(``PatchOptions.target_on_streets_land``, handed this rule by :mod:`osm_expand.growth_patterns`). It
-imports only the measures' line set, so the pattern registry can hand it in without importing the growth
-verdict (which reaches the engine, whose histories read the registry: an import circle). Both close with
-one margin, the town's (:func:`block_margin`).
+One rule in one place for the engine's growth verdict (:func:`osm_expand.growth_fidelity.growth_window`,
+:func:`osm_expand.growth_fidelity.streets_land`, whose module docstring says why the window is a closing)
+and its piece yardstick (:mod:`osm_expand.engine.growth.yardstick`), which close with one margin, the
+town's (:func:`block_margin`). It imports only the measures' line set. (The example patches' target density
+read it too, ``PatchOptions.target_on_streets_land``, measured, left off and removed in session 42:
+docs/tried.md.)
 """
 from __future__ import annotations
 

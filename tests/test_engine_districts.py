@@ -327,27 +327,6 @@ def test_the_runs_last_year_is_a_history_year_derived_once_by_start():
     assert start(dated, history, **kwargs)[1].last_year is None
 
 
-def test_the_patches_streets_land_measures_the_towns_margin_once_per_pattern(monkeypatch):
-    """``target_on_streets_land``'s land: the town's blocks are measured for its margin once per pattern object
-    (its ``memo``), not at each year's rebuilt network; the land is the one measured afresh."""
-    import shapely
-
-    from osm_expand import growth_patterns, measures
-
-    city, _ = town("krems.osm.gz")
-    lines = [np.asarray(line.coords) for line in city.network.street_lines()]
-    disc = shapely.Point(np.median(city.network.xy, axis=0)).buffer(400.0)
-    fresh = growth_patterns.land_in_discs(lines)(disc)
-    calls: list[int] = []
-    real = measures.measure_network
-    monkeypatch.setattr(measures, "measure_network", lambda *a, **k: calls.append(1) or real(*a, **k))
-    memo: dict = {}
-    first = growth_patterns.land_in_discs(lines, memo)(disc)
-    second = growth_patterns.land_in_discs(lines, memo)(disc)
-    assert len(calls) == 1 and 10.0 < memo["margin"] <= 150.0
-    assert first.equals(fresh) and second.equals(fresh)
-
-
 def _orders(city, learned, nuclei, options, monkeypatch):
     """The sites :func:`grow_district` asks :func:`place_district` to try, and the order it tries them in."""
     spacing = learned.example.spacing

@@ -19,8 +19,7 @@ walk loses (shapes, dead ends, the town's density); patches keep all three.
 3. **Patches.** Each filled cell takes the streets of a patch of the town
    around one of its neighbourhoods' junctions (drawn as the fidelity
    yardstick draws them; patches within ``density_band`` of their median
-   density only, or with ``density_from_verdict`` within the verdict's own
-   range of them),
+   density only),
    translated — never rotated, so the district keeps the town's orientations
    — by an offset of up to half a spacing chosen so that its streets continue
    those of the cells already filled, and clipped to the cell. Motorways,
@@ -50,22 +49,20 @@ walk loses (shapes, dead ends, the town's density); patches keep all three.
    own streets, and too little length on loops closes or prunes the longest
    cul-de-sacs. Dead ends are counted as the fidelity yardstick counts
    them: a road out on the site's outer edge runs on and is none.
-7. **Corners.** The seams leave corners at nodes of degree two that no
-   street of the town has (jogs of a seam link a few metres off the street
-   it continues, spikes, Ls of trimmed tees, steps of perimeter streets
-   round building margins); beyond the rate of corners over 45° per km of
-   the town's neighbourhoods as mapped (at the district's size), runs of
-   one to three such nodes move onto the straight line between their
-   neighbours, by at most ``corner_reach`` metres (off by default; 15 is a
-   local street's right-of-way) and crossing nothing: positions change,
-   the network does not.
+
+The seams leave corners at nodes of degree two that no street of the town
+has (jogs of a seam link, spikes, Ls of trimmed tees, steps of perimeter
+streets round building margins): they are counted
+(:mod:`~synth.patches.corners`: corners over 45° per km beside the town's
+neighbourhoods' rate), not straightened (session 39's ``corner_reach``,
+measured and removed, is in docs/tried.md).
 
 Nine modules, one idea each: :mod:`~synth.patches.options` (the tunables),
 :mod:`~synth.patches.source` (the town's copyable streets and typical patches),
 :mod:`~synth.patches.quilt` (the district being quilted), :mod:`~synth.patches.placing` (cells and the
 patch each takes), :mod:`~synth.patches.seams`, :mod:`~synth.patches.edges` (perimeter streets),
 :mod:`~synth.patches.topology` (trimming, pieces, dead ends and loops), :mod:`~synth.patches.corners`
-(the corner count and the straightening) and
+(the corner count) and
 :mod:`~synth.patches.pattern` (:class:`ExamplePatches`, which runs the steps above). Every public name is
 importable from here, as it was when they were one module.
 """

@@ -3,20 +3,11 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from osm_expand.errors import InputError, OptionError
+from osm_expand.errors import OptionError
 from osm_expand.model import highways
 
 #: Highway classes never copied into a district: a piece of motorway in a housing estate is no street.
 NOT_COPIED = highways.CORRIDORS
-#: The scalars ``guarded`` may name: the verdict's six (:data:`osm_expand.measures.SCALARS`; a distribution has
-#: no range, :func:`osm_expand.fidelity.scalar_range` refuses it). Spelled out: ``synth`` imports only the model
-#: (tests/test_patches.py checks it against the measures).
-GUARDABLE = ("density", "orientation_entropy", "three_way_share", "four_way_share", "dead_end_share",
-             "two_core_share")
-#: The measures ``also_typical`` may name: those :func:`osm_expand.growth_patterns.measure_in_windows` computes
-#: in a candidate's window (it leaves out strokes, blocks and alignment, the costly ones; tests/test_patches.py
-#: checks it).
-RANKABLE = ("edge_length", "circuity", "junction_angle", "curvature", *GUARDABLE)
 
 
 @dataclass(frozen=True)
@@ -38,116 +29,11 @@ class PatchOptions:
     #: 8.7 (its 2-core share below range) and, with Krems' buildings withheld, 5 real houses crossed
     #: (0 before): not the default (docs/growth-log.md, h29e).
     density_band: tuple[float, float] = (1.0, 2.5)
-    #: Keep candidate patches whose street density lies within the range the fidelity verdict allows over
-    #: all the candidates (the town's neighbourhoods at the patch's size, by the verdict's own rule:
-    #: :func:`osm_expand.fidelity.scalar_range`, their 10th-90th percentile) instead of ``density_band``
-    #: around their median: the band is then read from the town's neighbourhoods, not set by a multiplier.
-    #: Not quite the verdict's own yardstick: the candidates' densities are measured on their whole discs,
-    #: the engine's verdict measures its reference neighbourhoods on their streets' land
-    #: (:func:`osm_expand.growth_fidelity.streets_land`). Needs ``limits``. Off: in the default history's
-    #: first two eras, seed 0, engine streets off of 14 per reference seed 0 1 2 (main -> this): Andorra
-    #: 6 8 7 -> 1 1 1, Monaco 7 8 6 -> 4 4 5 (its 2-core share 0.839 below 0.874-0.967), Krems 1 2 1 ->
-    #: 2 1 1, but north-bayreuth 2 1 2 -> 4 4 4 and Campo Grande 6 6 6 -> 9 8 9 (its sparser patches, a
-    #: grid town's irregular fringe, add three-way junctions and take four-way ones away); with
-    #: ``share_guard`` on all six scalars (``guarded``) Campo Grande 8 8 8, Andorra 3 2 4, Krems 3 1 2,
-    #: north-bayreuth 3 4 3, Monaco 5 5 7 (docs/growth-log.md, h30e).
-    density_from_verdict: bool = False
-    #: Keep only candidate patches whose dead-end share and 2-core share lie within the range the fidelity
-    #: verdict allows over all the candidates (the town's neighbourhoods at the patch's size; the verdict's
-    #: own rule, :func:`osm_expand.fidelity.scalar_range`): a patch is a sample of a neighbourhood. Meant for
-    #: a wider ``density_band``, whose sparser patches are, in a grid town, its cul-de-sac fringe. Off: with
-    #: the band 0.5-2 in the default history's first two eras, seed 0, engine streets off of 14 per
-    #: reference seed (main -> band alone -> band and guard): Campo Grande 6.0 -> 8.7 -> 7 8 7, its 2-core
-    #: share back in range (0.974 in 0.970-0.980), Andorra 6 8 7 -> 0 0 0 -> 2 1 2, Krems 1 2 1 -> 4 3 3
-    #: -> 1 2 2, but north-bayreuth 2 1 2 -> 1 1 1 -> 2 4 3, Monaco 7 8 6 -> 5 5 6 -> 6 6 9 with its 2-core
-    #: share below range, and with Krems' buildings withheld an engine district still crosses 5 real houses
-    #: (main 0); with the band 0.75-2.5 Campo Grande 8 8 8, Monaco 6 6 6 and Andorra 4 2 4 with their
-    #: 2-core shares out of range, Krems' 5 houses the same (docs/growth-log.md, h29f).
-    share_guard: bool = False
-    #: The scalar measures ``share_guard`` holds within the verdict's range: by default the dead-end and
-    #: 2-core shares; the verdict judges six scalars (:data:`GUARDABLE`: ``density``, ``orientation_entropy``,
-    #: ``three_way_share``, ``four_way_share`` too), all measured on every candidate anyway. All six with
-    #: ``density_from_verdict``: numbers there.
-    guarded: tuple[str, ...] = ("dead_end_share", "two_core_share")
-    #: Rank the candidate patches by these measures too (of :data:`RANKABLE`), besides
-    #: :data:`synth.patches.TYPICAL`
-    #: (e.g. ``four_way_share``, ``orientation_entropy``: a grid town's typical patch is a grid). Empty by
-    #: default: with ``density_from_verdict`` and these two, seed 0, engine streets off of 14 per reference
-    #: seed: Monaco 2 2 3, but Campo Grande 9 8 9, Krems 6 2 7 and north-bayreuth 4 3 2 with their 2-core
-    #: shares below range, Andorra 4 4 5 (docs/growth-log.md, h30e).
-    also_typical: tuple[str, ...] = ()
-    #: Rank the candidate patches by their curvature as the fidelity verdict reads it: the KS distance between a
-    #: patch's bends per 20 m chord and the mean distribution of all the candidates drawn (the town's
-    #: neighbourhoods, each weighing the same: :func:`~synth.patches.source._apart`), 0 best, scaled by the
-    #: candidates' spread of it, instead of by the distance of its median bend to the median of the patches
-    #: ``density_band`` kept. Why: the band keeps the denser half, which in an old European town is its
-    #: medieval core; the most typical of the core is the most typical core, with its curving lanes (Krems,
-    #: patches of 714 m, seed 0: the kept half's chords bend 2.8° median, their curvature KS against the whole
-    #: town 0.33 median per patch; all the neighbourhoods' 1.9° and 0.25; the top-ranked patches 3.2-3.4°, KS
-    #: 0.32-0.36; the engine's verdict bound 0.18-0.23). Clipping the patches to their cells adds little
-    #: (0.00-0.03 of KS); the rest of the engine's excess is at the stitching's joints (``stitching_bends.py``).
-    #: Off: it straightens Krems' copied pieces (``stitching_bends.py``, seed 0, engine districts:
-    #: chords on one piece median 2.3° -> 0.3°, curvature KS against the town 0.372 -> 0.256, without the joints'
-    #: chords 0.245 -> 0.124; north-bayreuth 0.150 -> 0.137), but moves the engine's districts and takes Andorra
-    #: out: ``engine_growth.py``, off of 14 per reference, off -> on, seed 0: Krems 1 1 1 -> 1 0 3 (curvature KS
-    #: 0.372 -> 0.257, median 5.2° -> 2.2°, bound 0.19-0.23), Andorra 0 0 0 -> 7 6 7 (curvature 1.4° against its
-    #: town's 4.1°: its neighbourhoods are its straight valley floor), north-bayreuth 5 5 5 -> 3 4 3, Monaco 2 3 3
-    #: -> 4 4 4 (dead-end 0.188 above, 2-core 0.850 below range), Campo Grande 3 5 4 -> 4 4 4 (2-core 0.955 below
-    #: range); seed 1: Krems 3 3 4 -> 2 3 2, Andorra 0 0 1 -> 2 4 3, north-bayreuth 3 3 3 -> 1 3 2, Monaco 6 5 5
-    #: -> 2 2 3 (2-core 0.849 below range), Campo Grande 4 5 5 -> 4 4 4; seed 2: Krems 1 2 3 -> 4 4 7, Andorra
-    #: 2 4 3 -> 3 2 2, north-bayreuth 4 4 2 -> 2 3 2, Monaco 4 5 5 -> 1 1 1 (2-core 0.791 below range), Campo
-    #: Grande 3 4 4 -> 7 5 5 (2-core below range): north-bayreuth within the targets on all three seeds (main: one),
-    #: Monaco's 2-core share below range on all three (its straighter patches have fewer blocks). The pipeline's
-    #: district (``district_fidelity.py --table``, seeds 0-4, mean off of 14, off -> on): Krems 2.0 -> 1.4,
-    #: Andorra 3.0 -> 1.2, north-bayreuth 2.6 -> 2.8, Campo Grande 2.6 -> 2.4, but Monaco 2.2 -> 4.4 (over issue
-    #: 20's 3). Against the town's own chords (the
-    #: verdict's reference) instead of the neighbourhoods', no better: seed 0 Krems 1 1 2 (curvature KS 0.370),
-    #: Andorra 7 8 6, north-bayreuth 2 3 3, Monaco 4 4 4 (2-core 0.823 below), Campo Grande 3 7 6; seed 1 Krems
-    #: 7 6 4 (both shares out), Andorra 1 1 1, north-bayreuth 2 2 2, Monaco 4 4 5, Campo Grande 6 6 7 (both shares
-    #: out) (session 36, h36c).
-    bends_of_neighbourhoods: bool = False
-    #: Rank the candidate patches on every measure as the fidelity verdict reads a district against the town's
-    #: neighbourhoods, all of them (the ones drawn, not the ``density_band``'s half): a distribution
-    #: (curvature, circuity, edge length) by its KS distance to their mean distribution, a scalar (dead-end,
-    #: three-way and 2-core shares; the 2-core share, the blocks a patch forms, added to :data:`TYPICAL`) by its
-    #: distance to their median, each scaled by its spread over them
-    #: (:func:`~synth.patches.source._as_the_verdict_reads`). Replaces ``bends_of_neighbourhoods``, which read only
-    #: the curvature so and the rest against the band's own median (the old town's). At the patch level it does
-    #: what it says (top three patches at 1.5 cells, seed 0, pooled curvature KS against the whole town, off ->
-    #: on: Krems 0.310 -> 0.206, Monaco 0.046 -> 0.025, Andorra 0.192 -> 0.141, north-bayreuth 0.104 -> 0.098;
-    #: every top patch's 2-core share within the verdict's range), and the engine's Krems districts straighten
-    #: (``stitching_bends.py``, seed 0: one piece median 2.3° -> 1.0°, curvature KS 0.372 -> 0.282). Off: the
-    #: districts move and the verdicts fall. The pipeline's district (``district_fidelity.py``, seeds 0-4, each
-    #: seed a fresh grower, mean off of 14, off -> on): Krems 2.0 -> 1.4, Andorra 3.0 -> 1.8, north-bayreuth 2.6
-    #: -> 2.2 (2-core in range 5/5 -> 4/5), Campo Grande 2.6 -> 2.8, Monaco 2.2 -> 5.6 (over issue 20's 3;
-    #: density in range 5/5 -> 3/5; the earlier 2.6/1.6/2.4/1.8/3.8 reused one grower over the seeds, which
-    #: carried seed 0's ranked patches into the others); the engine's 30 years
-    #: (``engine_growth.py --seed 0``, off of 14 per reference, main -> on): Krems 1 1 1 -> 5 3 4 (stroke length,
-    #: curvature KS 0.282 against 0.20-0.26), Andorra 1 1 1 -> 6 7 6, north-bayreuth 2 3 2 -> 2 2 3, Monaco 2 3 3
-    #: -> 7 7 9 (dead-end 0.235 above, 2-core 0.822 below range), Campo Grande 3 5 4 -> 6 6 5 (session 37, h37c).
-    typical_of_neighbourhoods: bool = False
     #: A patch turns to match its neighbours' grid only when both have a clear main direction:
     #: the fullest 5° bin of bearings (mod 90°) holds this many times its share.
     orientation_peak: float = 2.0
-    #: ... and the two grids are read as the length-weighted mean bearing (mod 90°) of the streets in the
-    #: fullest bin and its two neighbours, the bins the peak was smoothed over, rather than as that bin's
-    #: centre. With the centres a patch turned by a multiple of 5° and met its neighbours' grid up to 5° askew
-    #: (Campo Grande seed 0, the engine's districts: alignment median 1.7° between neighbouring edges
-    #: against the town's 0.9°). Off (the bins' centres): in the example history's eras, seed 0, engine
-    #: streets off of 14 per reference seed (main -> this): Campo Grande 4 4 5 -> 2 3 3, but its alignment
-    #: does not move (1.7° -> 1.9°), Krems 2 2 4 -> 5 3 4, north-bayreuth 5 5 5 -> 3 3 3 with its 2-core
-    #: share below range, Monaco 2 3 3 -> 3 2 1, Andorra 0 0 0 (docs/growth-log.md, issue 20, h32n).
-    grain_from_bearings: bool = False
     #: Discs of the district's area measured on the town for the target density.
     density_discs: int = 64
-    #: Measure the target density on the town's streets' land in those discs (``ExamplePatches.land``: the
-    #: closing the engine's growth verdict measures its reference neighbourhoods on,
-    #: :mod:`osm_expand.streets_closing`), rather than on the whole disc: a disc keeps the
-    #: sea, the slopes or the fields across it, and a district filled to that density over its free land
-    #: came out sparser than the neighbourhoods it is judged against (Monaco's engine streets: 18.9 km/km²
-    #: against 20.3-31.1). Off: it does not raise that density (the target is not what stops the filling):
-    #: Monaco 7 8 6 -> 9 9 10 alone, 3 3 5 with ``density_from_verdict`` (density 17.75) (docs/growth-log.md, h30e).
-    target_on_streets_land: bool = False
     #: Copied streets keep this many spacings from the town's streets (they meet them only in tees).
     clearance: float = 0.15
     #: A seam's cut ends this many spacings apart may continue into each other (in a smooth curve) ...
@@ -156,30 +42,6 @@ class PatchOptions:
     seam_turn: float = 75.0
     #: Spread of the seam's transition probability: gap (in spacings) and bend (degrees).
     seam_sigma: tuple[float, float] = (0.4, 30.0)
-    #: When set, metres a node of degree two may move to straighten a corner the town would not have
-    #: (:func:`~synth.patches.corners._straighten`, beyond its neighbourhoods' own corners per km, read on its
-    #: streets as mapped at the district's size: :func:`~synth.patches.corners.corners_in_discs`). 15 m is a
-    #: local street's right-of-way between property lines (the common US 50 ft = 15.2 m; German residential
-    #: streets with their footways 10-15 m): a jog, spike or step of the seams and of the perimeter streets
-    #: within it is no shape of the street's, a bend beyond it is. Only positions move, never which nodes a
-    #: street joins, and nothing is crossed that was not (the district's streets, the town's, occupied land).
-    #: Off: the district reads better but Andorra's engine years read worse. Session 39 (h39p), at 15: the
-    #: district's corners over 45° per km, seeds 0-4 (mean; the neighbourhoods' median in brackets;
-    #: ``district_fidelity.py --table``), off -> 15: Krems 7.3 -> 3.3 (0.7), Andorra 5.6 -> 2.4 (1.9),
-    #: north-bayreuth 8.0 -> 3.4 (1.0), Campo Grande 4.9 -> 1.9 (0.3), Monaco 7.5 -> 2.4 (1.2); mean off of 14
-    #: 2.0 -> 1.8, 3.0 -> 2.8, 2.6 -> 2.6, 2.6 -> 2.6, 2.2 -> 2.4 (Monaco's density in range 5/5 -> 4/5),
-    #: pieces <= 2; withheld buildings (``withheld_buildings.py``): Krems 0 %, 0 crossed; north-bayreuth 0.0 %, 1.
-    #: The engine's 30 years (``engine_growth.py``), off of 14 per reference, off -> 15, seed 0: Krems 1 1 1 ->
-    #: 1 1 1, Andorra 1 1 1 -> 3 2 3, north-bayreuth 2 3 2 -> 3 3 4, Monaco 2 3 3 -> 2 2 2, Campo Grande 3 5 4 ->
-    #: 4 4 3 (2-core 0.9649 just under 0.9657); the engine's streets' corners over 45° per km: Krems 6.4 -> 2.1,
-    #: Andorra 3.7 -> 1.7, north-bayreuth 4.3 -> 2.0, Monaco 6.6 -> 3.0, Campo Grande 1.4 after; but seeds 1 and 2:
-    #: Andorra 2 2 2 -> 7 9 9 and 3 3 4 -> 4 5 5 (mean over seeds 0-2 2.1 -> 5.2), north-bayreuth 3 3 3 -> 3 2 2
-    #: and 3 4 2 -> 5 5 3 (2-core below range on both sides). At 10 m Andorra 1 2 0, 9 10 9, 6 5 4 (2-core above
-    #: range). The district's corners left at 15 m are Ls between legs longer than the reach (perimeter streets'
-    #: joints, the copied pieces' own bends): 10 m leaves Krems seeds 0-2 at 4.6 a km, 15 m 3.5, 20 m 2.9; runs of
-    #: up to five nodes instead of three change nothing. Session 28 (h28d) measured 6 m: corners Krems 7.3 -> 5.1,
-    #: north-bayreuth 8.0 -> 5.7, Monaco seed 0's engine dead-end share 0.045 under its neighbourhoods' 0.052.
-    corner_reach: float | None = None
     #: Whether the district's topology (its stub budget, :func:`~synth.patches.topology._fewer_dead_ends`,
     #: :func:`~synth.patches.topology._more_dead_ends`) reads a road out on the site's edge as a street running on
     #: (the pipeline's district, judged in its region: the yardstick opens it) or, False, as the dead end it is
@@ -265,20 +127,7 @@ class PatchOptions:
     dead_end_floor: float = 0.5
 
     def __post_init__(self) -> None:
-        # a misspelt or unmeasured name fails here, at the history's reading (one line, exit 2), not minutes
-        # into a run when the first candidate is measured or ranged
-        for name, allowed in (("guarded", GUARDABLE), ("also_typical", RANKABLE)):
-            unknown = [m for m in getattr(self, name) if m not in allowed]
-            if unknown:
-                raise InputError(f"PatchOptions.{name}: {', '.join(map(repr, unknown))} not one of "
-                                 f"{', '.join(allowed)}")
         if not isinstance(self.transplant, bool):
             raise OptionError(f"PatchOptions.transplant must be true or false, got {self.transplant!r}")
-        if not isinstance(self.typical_of_neighbourhoods, bool):
-            raise OptionError(f"PatchOptions.typical_of_neighbourhoods must be true or false, "
-                              f"got {self.typical_of_neighbourhoods!r}")
-        if not isinstance(self.bends_of_neighbourhoods, bool):
-            raise OptionError(f"PatchOptions.bends_of_neighbourhoods must be true or false, "
-                              f"got {self.bends_of_neighbourhoods!r}")
         if not isinstance(self.roads_out_open, bool):  # a history's "false" is a string, which Python reads as true
             raise OptionError(f"PatchOptions.roads_out_open must be true or false, got {self.roads_out_open!r}")

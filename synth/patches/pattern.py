@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import copy
 import dataclasses
-import functools
 from collections.abc import Callable
 from dataclasses import dataclass, field
 
@@ -15,7 +14,6 @@ import shapely.ops
 from osm_expand.model import City, StreetNetwork
 from simplify.example import Example
 from synth.growth import Growth, NewStreet, streets_near
-from synth.patches.corners import MappedCorners, _straighten, corners_in_discs
 from synth.patches.edges import _edge_streets
 from synth.patches.options import PatchOptions
 from synth.patches.placing import _cells, _centres, _free_land, _place
@@ -24,7 +22,6 @@ from synth.patches.seams import _tees, _walk_seams
 from synth.patches.source import (
     _candidate_patches,
     _density,
-    _density_on_land,
     _lengths,
     _level,
     _line_xy,
@@ -59,14 +56,6 @@ class ExamplePatches:
     #: :func:`osm_expand.measures.measure_network`, as ``synth`` knows only the model); without it patches
     #: are not ranked by how typical of the town they are.
     measure: Callable | None = None
-    #: ``limits(name, values)`` gives the range the fidelity verdict allows a scalar measure whose values
-    #: over the town's neighbourhoods are ``values`` (:func:`osm_expand.fidelity.scalar_range`, handed in as
-    #: ``measure`` is): with ``share_guard`` on, candidate patches outside it are not used.
-    limits: Callable | None = None
-    #: ``land(lines)`` returns a function giving the streets' land of those lines in a disc (the caller's
-    #: :func:`osm_expand.growth_patterns.land_in_discs`: the growth verdict's rule, :mod:`osm_expand.streets_closing`,
-    #: handed in as ``measure`` is): what ``target_on_streets_land`` measures the target density on.
-    land: Callable | None = None
     name: str = "example"
     #: Ranked patch centres by patch size, kept between districts grown by this object (the year loop
     #: grows many from one town: ranking the town's patches is the slow part, and the town is the same).
@@ -87,17 +76,14 @@ class ExamplePatches:
         everything = self._source(city, everything=True)
         radius = float(np.sqrt(free.area / np.pi))
         around = _neighbourhood_points(everything, opts.density_discs, radius, rng)
-        if opts.target_on_streets_land:
-            density = _density_on_land(everything, around, radius, self._land(everything))
-        else:
-            density = _density(everything, around, radius)
+        density = _density(everything, around, radius)
         target = float(np.median(density)) * float(free.area)
         aim = self._aim(everything, around, radius, city.network)
         if opts.transplant:  # one neighbourhood of the site's size, whole (synth.patches.transplant)
             size = float(np.sqrt(free.area))
         key = round(float(np.log(size)) / 0.05)  # sizes within 5 % share a ranking
         if key not in self.cache:
-            self.cache[key] = _candidate_patches(source, size, opts, rng, self.measure, self.limits)
+            self.cache[key] = _candidate_patches(source, size, opts, rng, self.measure)
         patches = self.cache[key]
         if opts.transplant:
             net, debug = _transplant(source, patches, free, old_geom, occupied, target, spacing, opts, aim)
@@ -116,9 +102,6 @@ class ExamplePatches:
                 break
         assert best is not None  # the loop runs at least once
         net, placed, links, tees = best
-        if opts.corner_reach is not None:
-            budget = int(self._corner_rate(city.network, around, radius) * net.total_length() / 1000.0)
-            net = _straighten(net, budget, opts.corner_reach, old_geom, occupied)
         streets = tuple(NewStreet(xy=net.street_xy(s), hierarchy=max(s.hierarchy, 0), highway=s.highway)
                         for s in net.streets)
         return Growth(streets=streets, footprint=free,
@@ -129,13 +112,9 @@ class ExamplePatches:
 
     def fresh(self) -> ExamplePatches:
         """This pattern with empty caches (:func:`synth.growth.for_a_run`): the ranked patches in
-        :attr:`cache` were drawn with the generator of the first district that needed them, and the
-        ``land`` helper's memo (:func:`osm_expand.growth_patterns.land_in_discs`) keeps the margin of the
-        first lines it was handed; a new run must draw and measure its own."""
-        land = self.land
-        if isinstance(land, functools.partial) and "memo" in land.keywords:
-            land = functools.partial(land.func, *land.args, **{**land.keywords, "memo": {}})
-        return dataclasses.replace(self, land=land, cache={})
+        :attr:`cache` were drawn with the generator of the first district that needed them; a new run must
+        draw its own."""
+        return dataclasses.replace(self, cache={})
 
     def _source(self, city: City, everything: bool = False) -> _Source:
         """:func:`_source` of ``city``, kept for the next district grown on the same network (the engine
@@ -147,32 +126,6 @@ class ExamplePatches:
         made = _source(city, self.example, everything=everything)
         self.cache[key] = (city.network, made)
         return made
-
-    def _land(self, source: _Source) -> Callable[[shapely.Geometry], shapely.Geometry]:
-        """``land(lines)`` of ``source``'s streets (the town's land, closed once), kept while the source is
-        the same object (:meth:`_source` keeps one per network: the sites tried in one year share it)."""
-        if self.land is None:
-            raise ValueError("target_on_streets_land needs the streets' land: ExamplePatches(land=...)")
-        hit = self.cache.get("land")
-        if hit is not None and hit[0] is source:
-            return hit[1]
-        made = self.land(_line_xy(source.lines))
-        self.cache["land"] = (source, made)
-        return made
-
-    def _corner_rate(self, town: StreetNetwork, around: np.ndarray, radius: float) -> float:
-        """The town's corners sharper than :data:`~synth.patches.corners.SHARP` at nodes of degree two per km
-        of its streets as mapped, median over its neighbourhoods ``around`` at the district's ``radius``
-        (:func:`~synth.patches.corners.corners_in_discs`): how many a district of the town may keep. Read
-        as the district is read (the mapped ways it copies, in a neighbourhood of its size); the simplified
-        example, read before session 39, has other nodes (Krems 1.03 per km there, 0.7-0.8 in its
-        neighbourhoods)."""
-        hit = self.cache.get("corners")
-        if hit is None or hit[0] is not town:
-            hit = (town, MappedCorners.of(town))
-            self.cache["corners"] = hit
-        rates = corners_in_discs(hit[1], around, radius)
-        return float(np.nanmedian(rates)) if np.isfinite(rates).any() else 0.0
 
     def _aim(self, source: _Source, centres: np.ndarray, radius: float, town: StreetNetwork) -> _Aim | None:
         """The median dead-end and 2-core shares of the town's neighbourhoods

@@ -81,12 +81,9 @@ class _Transform:
         return (xy - self.target_centre) @ self.rotation + self.source_centre
 
 
-def _main_direction(lines: np.ndarray, peak: float, refine: bool = False) -> float | None:
-    """The lines' dominant bearing mod 90° (radians), or None when no 5° bin stands out by ``peak``.
-
-    ``refine``: the length-weighted mean bearing of the lines near the fullest bin
-    (:attr:`PatchOptions.grain_from_bearings`), else that bin's centre.
-    """
+def _main_direction(lines: np.ndarray, peak: float) -> float | None:
+    """The lines' dominant bearing mod 90° (radians): the centre of the fullest 5° bin, or None when no bin
+    stands out by ``peak``."""
     coords, index = shapely.get_coordinates(lines, return_index=True)
     same = index[1:] == index[:-1]
     d = (coords[1:] - coords[:-1])[same]
@@ -99,27 +96,18 @@ def _main_direction(lines: np.ndarray, peak: float, refine: bool = False) -> flo
     k = int(np.argmax(smooth))
     if smooth[k] < peak * smooth.mean():
         return None
-    if not refine:
-        return float(np.radians((k + 0.5) * 5.0))
-    # the grain itself, not its bin's centre: the length-weighted mean (on the 90° circle) of the bearings
-    # within the peak bin and its two neighbours, the bins the smoothing above took together
-    centre = (k + 0.5) * 5.0
-    off = (bearing - centre + 45.0) % 90.0 - 45.0
-    near = np.abs(off) <= 7.5
-    angle = np.radians(off[near] * 4.0)
-    mean = np.degrees(np.arctan2((length[near] * np.sin(angle)).sum(), (length[near] * np.cos(angle)).sum())) / 4.0
-    return float(np.radians((centre + mean) % 90.0))
+    return float(np.radians((k + 0.5) * 5.0))
 
 
 def _turn(source: _Source, src: np.ndarray, cell: shapely.Geometry, neighbours: np.ndarray,
-          size: float, peak: float, refine: bool = False) -> float:
+          size: float, peak: float) -> float:
     """Turn a patch (radians, within ±45°) so its grid runs with its neighbours' grid, when both have one.
 
     ``neighbours``: the streets (LineStrings) of the town and the district near the cell.
     """
     patch = source.lines[source.tree.query(shapely.Point(src).buffer(size / 2))]
-    a = _main_direction(patch, peak, refine) if len(patch) else None
-    b = _main_direction(neighbours, peak, refine) if len(neighbours) else None
+    a = _main_direction(patch, peak) if len(patch) else None
+    b = _main_direction(neighbours, peak) if len(neighbours) else None
     if a is None or b is None:
         return 0.0
     return float((b - a + np.pi / 4) % (np.pi / 2) - np.pi / 4)
@@ -152,7 +140,7 @@ def _place(source: _Source, patches: np.ndarray, centres: np.ndarray, cells: lis
         around = shapely.buffer(cell, size / 2)
         pieces = np.concatenate([pieces, linestrings_of(quilt.xy[len(pieces):])])
         nearby = np.concatenate([town[town_tree.query(around)], pieces[shapely.intersects(pieces, around)]])
-        turn = _turn(source, src, cell, nearby, size, opts.orientation_peak, opts.grain_from_bearings)
+        turn = _turn(source, src, cell, nearby, size, opts.orientation_peak)
         boundary = shapely.boundary(cell)
         waiting = (np.flatnonzero(shapely.distance(boundary, shapely.points(np.reshape(quilt.cut_xy, (-1, 2)))) < 1.0)
                    .tolist())

@@ -84,16 +84,6 @@ def _density(source: _Source, centres: np.ndarray, radius: float) -> np.ndarray:
     return _lengths_in(source, discs) / (np.pi * radius ** 2)
 
 
-def _density_on_land(source: _Source, centres: np.ndarray, radius: float,
-                     land_in: Callable[[shapely.Geometry], shapely.Geometry]) -> np.ndarray:
-    """Street length per m² of the streets' land in discs around ``centres``: ``land_in(disc)`` is that land
-    (the caller's :func:`osm_expand.streets_closing.land_in_disc`, the disc itself where no street's land
-    is in it; ``synth`` imports only the model, so the rule is handed in, as ``measure`` is)."""
-    discs = shapely.buffer(shapely.points(centres), radius)
-    areas = np.array([shapely.area(land_in(d)) for d in discs])
-    return _lengths_in(source, discs) / areas
-
-
 def _lengths_in(source: _Source, discs: np.ndarray) -> np.ndarray:
     """The length of the source's streets inside each of ``discs`` (m), each summed in the tree's order.
 
@@ -140,128 +130,36 @@ TYPICAL = ("curvature", "circuity", "edge_length", "dead_end_share", "three_way_
 
 
 def _candidate_patches(source: _Source, size: float, opts: PatchOptions, rng: np.random.Generator,
-                       measure: Callable | None = None, limits: Callable | None = None) -> np.ndarray:
+                       measure: Callable | None = None) -> np.ndarray:
     """Patch centres on the town's streets, most typical of the town first.
 
     Candidates are discs around the town's neighbourhoods' junctions
     (:func:`_neighbourhood_points`) whose street density is within
     ``density_band`` of the median candidate's (the default keeps the denser
-    side only: :class:`PatchOptions`), or, with ``density_from_verdict`` (and
-    ``limits``), within the range the verdict allows over all the candidates. Each is
+    side only: :class:`PatchOptions`). Each is
     measured (:data:`TYPICAL`: the median of a distribution, or a scalar) and
     ranked by its distance to the median candidate, each measure scaled by
     the candidates' spread, so the district is made of the town's ordinary
     fabric rather than its oddities. A candidate within one patch of a better
-    one goes to the back, so neighbouring cells differ. With
-    ``bends_of_neighbourhoods`` the curvature is ranked by the KS distance of a
-    candidate's bends to all the candidates' (:func:`_apart`), not by its
-    median bend against the kept candidates'; with ``typical_of_neighbourhoods`` every measure is
-    read so, the 2-core share too (:func:`_as_the_verdict_reads`).
-
-    With ``share_guard`` (and ``measure`` and ``limits``), a candidate in the
-    band whose ``guarded`` scalars (default the dead-end and 2-core shares)
-    lie outside the range the verdict allows over all the candidates (the
-    town's neighbourhoods at the patch's size; ``limits``: the verdict's own
-    rule) is not used, unless none is left:
-    a patch is a sample of a neighbourhood, and a sparser band must not bring
-    a grid town's cul-de-sac fringe into its districts.
+    one goes to the back, so neighbouring cells differ.
     """
     centres = _neighbourhood_points(source, opts.candidates, size / 2, rng)
     local = _density(source, centres, size / 2)
     median = float(np.median(local))
-    if opts.density_from_verdict and limits is not None:
-        lo, hi = limits("density", local)
-    else:
-        lo, hi = opts.density_band[0] * median, opts.density_band[1] * median
+    lo, hi = opts.density_band[0] * median, opts.density_band[1] * median
     good = np.flatnonzero((local >= lo) & (local <= hi))
     if not len(good):
         good = np.argsort(np.abs(local - median))[:1]
     if measure is None or len(good) <= 1:
         return _spread(centres, good, size)
     in_window = measure(_line_xy(source.lines))
-    measured: dict[int, object] = {}  # each disc measured once: the guard and the ranking read the same
-
-    def at(i: int):
-        if i not in measured:
-            measured[i] = in_window(shapely.Point(centres[i]).buffer(size / 2))
-        return measured[i]
-
-    if opts.share_guard and limits is not None:
-        shares = np.array([[_level(at(i), name) for name in opts.guarded] for i in range(len(centres))])
-        inside = np.ones(len(centres), dtype=bool)
-        for k, name in enumerate(opts.guarded):
-            lo, hi = limits(name, shares[:, k])
-            inside &= (shares[:, k] >= lo) & (shares[:, k] <= hi)
-        if inside[good].any():
-            good = good[inside[good]]
-    if len(good) > 1:
-        typical = (*TYPICAL, *opts.also_typical)
-        values = np.array([[_level(at(i), m) for m in typical] for i in good.tolist()])
-        centre = np.nanmedian(values, axis=0)
-        spread = np.nanpercentile(values, 75, axis=0) - np.nanpercentile(values, 25, axis=0)
-        if opts.typical_of_neighbourhoods:  # every measure as the verdict reads it, against every neighbourhood
-            typical = (*typical, *(() if "two_core_share" in typical else ("two_core_share",)))
-            values, centre, spread = _as_the_verdict_reads([at(i) for i in range(len(centres))], good, typical)
-        elif opts.bends_of_neighbourhoods:  # the curvature read as the verdict reads it: a KS distance
-            k = typical.index("curvature")
-            ks = _apart([at(i) for i in range(len(centres))])
-            values[:, k], centre[k] = ks[good], 0.0
-            spread[k] = np.nanpercentile(ks, 75) - np.nanpercentile(ks, 25)
-        z = np.nan_to_num(np.abs(values - centre) / np.where(spread > 0, spread, 1.0), nan=3.0)
-        good = good[np.argsort(np.sqrt((z ** 2).sum(axis=1)), kind="stable")]
+    measured = [in_window(shapely.Point(centres[i]).buffer(size / 2)) for i in good.tolist()]
+    values = np.array([[_level(m, name) for name in TYPICAL] for m in measured])
+    centre = np.nanmedian(values, axis=0)
+    spread = np.nanpercentile(values, 75, axis=0) - np.nanpercentile(values, 25, axis=0)
+    z = np.nan_to_num(np.abs(values - centre) / np.where(spread > 0, spread, 1.0), nan=3.0)
+    good = good[np.argsort(np.sqrt((z ** 2).sum(axis=1)), kind="stable")]
     return _spread(centres, good, size)
-
-
-#: The measures :data:`TYPICAL` may rank that are distributions (the verdict reads them as a KS distance).
-DISTRIBUTED = ("edge_length", "circuity", "junction_angle", "curvature")
-
-
-def _as_the_verdict_reads(measured: list, good: np.ndarray,
-                          names: tuple[str, ...]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """The ranking's values, centres and spreads of the candidates ``good`` on ``names``, each read as the
-    fidelity verdict reads a district against *all* the neighbourhoods (``measured``, every candidate drawn):
-    a distribution by its KS distance to their mean distribution (:func:`_apart`; centre 0), a scalar by
-    its distance to their median; each scaled by its spread over all of them (interquartile range).
-
-    Why: ``density_band`` keeps the denser half of the neighbourhoods (in an old European town, its core),
-    and a patch typical of that half is typical of the core: Krems' top patches bent like its old town's
-    lanes. Reading only the curvature so (``bends_of_neighbourhoods``) straightened them, but ranked them on
-    the other measures against the core still, and took Monaco's patches whose edges, circuity and blocks
-    the verdict then found off; every measure read against the same neighbourhoods keeps a patch that is
-    straight *and* forms the town's blocks (its 2-core share is ranked too)."""
-    values = np.full((len(good), len(names)), np.nan)
-    centre = np.zeros(len(names))
-    spread = np.ones(len(names))
-    for k, name in enumerate(names):
-        if name in DISTRIBUTED:
-            every = _apart(measured, name)
-            centre[k] = 0.0
-        else:
-            every = np.array([_level(m, name) for m in measured])
-            centre[k] = np.nanmedian(every) if np.isfinite(every).any() else np.nan
-        values[:, k] = every[good]
-        if np.isfinite(every).sum() > 1:
-            spread[k] = np.nanpercentile(every, 75) - np.nanpercentile(every, 25)
-    return values, centre, spread
-
-
-def _apart(measured: list, name: str = "curvature") -> np.ndarray:
-    """Each patch's KS distance between its distribution ``name`` (by default its curvature chords, bends per
-    20 m, the fidelity measure) and the
-    neighbourhoods' as a whole: the mean of all of ``measured``'s distributions, each neighbourhood weighing
-    the same (pooled chord by chord, the densest would weigh most: in Krems its curving old town). NaN for a
-    patch without a chord. The verdict judges a growth's curvature by such a distance
-    (:func:`osm_expand.fidelity.ks_distance`; ``synth`` imports only the model), not by a median: a patch
-    whose median bend is typical can still lack the town's straight runs."""
-    bends = [np.sort(np.asarray(m.value(name), dtype=np.float64)) for m in measured]
-    have = [i for i, b in enumerate(bends) if len(b)]
-    out = np.full(len(bends), np.nan)
-    if not have:
-        return out
-    grid = np.unique(np.concatenate([bends[i] for i in have]))
-    cdf = np.array([np.searchsorted(bends[i], grid, side="right") / len(bends[i]) for i in have])
-    out[have] = np.abs(cdf - cdf.mean(axis=0)).max(axis=1)
-    return out
 
 
 def _spread(centres: np.ndarray, good: np.ndarray, size: float) -> np.ndarray:
