@@ -114,8 +114,8 @@ class GrowthOptions:
     #: 7 8 6 → 4 4 5, north-bayreuth 2 1 2 → 5 4 5, Krems 1 2 1 → 2 2 3; seed 1: Andorra 6 5 6 → 1 0 0, Monaco
     #: 6 7 8 → 6 5 6, north-bayreuth 6 6 6 → 3 3 2, Krems 1 2 3 → 3 3 5, Campo Grande 8 8 8 → 4 4 4. Better
     #: overall, not on every town, and beyond 4 on three. At 3 Campo Grande stays 6 5 6 (11 districts); with the
-    #: verdict band (PatchOptions ``density_from_verdict``, removed in session 42) at 5 it is 8 7 7 (docs/growth-log.md, "The engine's
-    #: district floor").
+    #: verdict band (PatchOptions ``density_from_verdict``, removed in session 42) at 5 it is 8 7 7
+    #: (docs/growth-log.md, "The engine's district floor").
     #: 0 turns the floor off (main before session 31).
     district_neighbourhoods: float = 5.0
     #: Built-up land less than this far apart (m) is one settlement (:func:`osm_expand.sites.settlement`; the
