@@ -46,7 +46,9 @@ density, dead ends, blocks and straight streets, so here one is copied whole:
    times the target length; while its district misses the target by more
    than :data:`CLOSE_ENOUGH`, the cap is scaled by the miss and its best
    placement under it placed again (:data:`REFITS`; the fit's scores are
-   made once, and placing costs 0.04 s on Monaco).
+   made once, and placing costs 0.04 s on Monaco). The neighbourhoods are
+   fitted and placed in rank order, and the first whose district lands near
+   the target ends the search (no later one could win).
 """
 from __future__ import annotations
 
