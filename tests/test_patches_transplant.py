@@ -155,7 +155,7 @@ def test_the_correlated_score_of_a_shift_is_the_samples_looked_up_there(inside, 
     cells = np.asarray(lo) + np.column_stack([rng.integers(0, box[1], n), rng.integers(0, box[0], n)])
     weight = rng.uniform(0.5, 40.0, n)
     count = data.draw(st.integers(0, n))
-    shifts = _shifts(data.draw(st.floats(0.0, 25.0)))
+    shifts = _shifts(data.draw(st.floats(0.0, 25.0)), data.draw(st.integers(1, 4)))
     board = _Board.of(inside, far, np.asarray(lo), box, shifts)
     got = board.scores(cells, weight, count)
     want = _direct(inside, far, cells, weight, count, shifts)
@@ -163,8 +163,10 @@ def test_the_correlated_score_of_a_shift_is_the_samples_looked_up_there(inside, 
         assert np.allclose(g, w, rtol=1e-9, atol=1e-5)
 
 
-def test_shifts_are_every_whole_cell_within_reach_the_shortest_first():
-    shifts = _shifts(2.5)
+def test_shifts_are_a_grid_of_whole_cells_within_reach_the_shortest_first():
+    shifts = _shifts(2.5, 1)
     length = np.hypot(*shifts.T)
     assert len(shifts) == 21 and (length <= 2.5).all() and (np.diff(length) >= 0).all()
     assert len({tuple(s) for s in shifts.tolist()}) == len(shifts) and (shifts[0] == 0).all()
+    coarse = _shifts(5.0, 2)
+    assert len(coarse) == 21 and (coarse % 2 == 0).all() and (np.hypot(*coarse.T) <= 5.0).all()

@@ -10,8 +10,9 @@ density, dead ends, blocks and straight streets, so here one is copied whole:
    centres, at the site's size; :data:`TRIED`), a few turns (none; the one
    that lays its grid along the town's streets around the site; the one
    along the free land's long axis; each plus quarter turns) and shifts of
-   its centre by every whole raster cell within half the site's size are
-   scored, all shifts of a turn at once (a correlation, :class:`_Board`), on
+   its centre by whole raster cells on a grid within half the site's size
+   (:data:`SHIFTS`) are scored, all shifts of a turn at once (a
+   correlation, :class:`_Board`), on
    a raster of the free land: the street length landing on free land (counted up to
    a cap) plus :data:`JUNCTION_WEIGHT` spacings per junction. Each
    neighbourhood's best placement (placed where its streets lie nearest the
@@ -82,6 +83,11 @@ RASTER_CELLS = 100_000
 RASTER_CELL = 0.1
 #: ... and at least this many metres (a street's width: finer finds nothing a street could use).
 RASTER_LEAST = 6.0
+#: Shifts of a neighbourhood's centre tried across the site at most (a quarter spacing apart where that is
+#: fewer), in whole raster cells. Every cell (session 42, the FFT scores them all at the same cost) put the
+#: engine's Andorra from 1.3 3.3 1.0 1.3 2.7 0.3 off to 6.7 2.0 1.0 2.3 4.7 3.3 (seeds 0-5): of the many more
+#: placements near the best, the one nearest the town is another.
+SHIFTS = 24
 #: Ranked neighbourhoods tried (the most typical first).
 TRIED = 6
 #: Street length on free land counts up to this many times the target: cutting the cut streets back to their
@@ -291,7 +297,7 @@ def _site(free: shapely.Geometry, old: shapely.Geometry, spacing: float) -> _Sit
     radius = reach + size / 2
     lo = np.floor((middle - radius - corner) / cell).astype(np.intp) - 1
     hi = np.floor((middle + radius - corner) / cell).astype(np.intp) + 1
-    shifts = _shifts(size / 2 / cell)
+    shifts = _shifts(size / 2 / cell, max(1, int(round(max(spacing / 4, cell, size / SHIFTS) / cell))))
     board = _Board.of(inside, far, lo, (int(hi[1] - lo[1]) + 1, int(hi[0] - lo[0]) + 1), shifts)
     return _Site(board, corner, cell, middle, size, radius, shifts, lo, around, free)
 
@@ -301,8 +307,7 @@ def _fit(source: _Source, rank: int, c: np.ndarray, site: _Site, spacing: float,
     """Placements of the ranked neighbourhood centred at ``c`` on the site's free land (see the module), each
     scored on its raster: its street length and junctions there, and how far that length lies from the town on
     average (a district grows from the town's edge, where its cut streets become joins, not in the middle of
-    its field). Every shift of the neighbourhood by whole cells within half the site's size is scored, all of
-    one turn at once (:class:`_Board`)."""
+    its field). The site's shifts of the neighbourhood are scored all of one turn at once (:class:`_Board`)."""
     disc = shapely.Point(c).buffer(site.radius, 16)
     lines = shapely.intersection(source.lines[source.tree.query(disc)], disc)
     pts, weight = _samples(np.asarray(shapely.get_parts(lines)), site.cell)
@@ -327,11 +332,11 @@ def _fit(source: _Source, rank: int, c: np.ndarray, site: _Site, spacing: float,
     return _Fits(rank, streets, junction, distance, which, moved, turns)
 
 
-def _shifts(most: float) -> np.ndarray:
-    """The shifts tried (cells, (dx, dy)): every whole one at most ``most`` cells long, the shortest first (it
-    wins ties)."""
-    r = int(np.floor(most))
-    grid = np.arange(-r, r + 1)
+def _shifts(most: float, every: int) -> np.ndarray:
+    """The shifts tried (cells, (dx, dy)): every ``every`` cells each way, at most ``most`` cells long, the
+    shortest first (it wins ties)."""
+    r = int(np.floor(most / every)) * every
+    grid = np.arange(-r, r + 1, every)
     shifts = np.stack(np.meshgrid(grid, grid, indexing="ij"), axis=-1).reshape(-1, 2)
     shifts = shifts[np.hypot(*shifts.T) <= most + 1e-9]
     return shifts[np.argsort(np.hypot(*shifts.T), kind="stable")]
