@@ -84,9 +84,11 @@ RASTER_CELL = 0.1
 #: ... and at least this many metres (a street's width: finer finds nothing a street could use).
 RASTER_LEAST = 6.0
 #: Shifts of a neighbourhood's centre tried across the site at most (a quarter spacing apart where that is
-#: fewer), in whole raster cells. Every cell (session 42, the FFT scores them all at the same cost) put the
-#: engine's Andorra from 1.3 3.3 1.0 1.3 2.7 0.3 off to 6.7 2.0 1.0 2.3 4.7 3.3 (seeds 0-5): of the many more
-#: placements near the best, the one nearest the town is another.
+#: fewer), rounded to whole raster cells (the correlation's step). Every cell, which the FFT scores at the
+#: same cost, was tried (session 42): of the many more placements near the best, the one nearest the town is
+#: another, and the engine's Andorra (seeds 0-5, it on) went from 1.3 3.3 1.0 1.3 2.7 0.3 off to 6.7 2.0 1.0
+#: 2.3 4.7 3.3, its table 3.0 -> 3.4; on this grid 1.3 3.3 1.7 1.3 5.3 5.3 and 3.0 (the grid is the raster's,
+#: not turned with the neighbourhood as before: other placements again).
 SHIFTS = 24
 #: Ranked neighbourhoods tried (the most typical first).
 TRIED = 6
