@@ -9,6 +9,7 @@ import pytest
 import shapely
 from hypothesis import Phase, given, settings
 from hypothesis import strategies as st
+from hypothesis.extra import numpy as hnp
 
 from osm_expand.errors import OptionError
 from osm_expand.growth_patterns import make_pattern
@@ -18,7 +19,7 @@ from osm_expand.model.topology import segment_degree
 from osm_expand.pipeline import ExpandOptions, expand, learn
 from synth.patches import PatchOptions, sharp_corners
 from synth.patches.topology import JOIN_REACH
-from synth.patches.transplant import _cut_back, _samples
+from synth.patches.transplant import _Board, _cut_back, _samples, _shifts
 from tests.conftest import FIXTURES
 
 
@@ -122,3 +123,50 @@ def test_samples_stand_for_the_lines_length():
 def test_transplant_is_read_as_true_or_false(bad):
     with pytest.raises(OptionError):
         PatchOptions(transplant=bad)
+
+
+def _direct(inside: np.ndarray, far: np.ndarray, cells: np.ndarray, weight: np.ndarray, count: int,
+            shifts: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """What :meth:`_Board.scores` stands for (the fit before session 42): each sample looked up on the raster at
+    each shift (nothing lands off it)."""
+    ix = cells[None, :, 0] + shifts[:, None, 0]
+    iy = cells[None, :, 1] + shifts[:, None, 1]
+    ok = (ix >= 0) & (ix < inside.shape[1]) & (iy >= 0) & (iy < inside.shape[0])
+    hit = np.zeros(ix.shape, dtype=bool)
+    hit[ok] = inside[iy[ok], ix[ok]]
+    how_far = np.zeros(ix.shape)
+    how_far[hit] = far[iy[hit], ix[hit]]
+    streets = hit[:, :count].astype(float) @ weight[:count]
+    return streets, hit[:, count:].astype(float) @ weight[count:], (how_far[:, :count] @ weight[:count]) / \
+        np.maximum(streets, 1e-9)
+
+
+@settings(max_examples=60, deadline=None)
+@given(inside=hnp.arrays(bool, hnp.array_shapes(min_dims=2, max_dims=2, min_side=1, max_side=12)),
+       box=st.tuples(st.integers(1, 9), st.integers(1, 9)), lo=st.tuples(st.integers(-12, 14), st.integers(-12, 14)),
+       n=st.integers(1, 30), data=st.data())
+def test_the_correlated_score_of_a_shift_is_the_samples_looked_up_there(inside, box, lo, n, data):
+    """The fit's scores of all shifts at once (FFTs) equal, shift by shift, the samples' weights looked up on the
+    raster (street weight, junction weight, the streets' mean distance to the town where they land), for any
+    raster, samples in their box (several on a cell too), weights and shifts, those whose box misses the
+    raster (scored 0) among them."""
+    rng = np.random.default_rng(data.draw(st.integers(0, 2 ** 32 - 1)))
+    far = rng.uniform(0.0, 500.0, inside.shape)
+    cells = np.asarray(lo) + np.column_stack([rng.integers(0, box[1], n), rng.integers(0, box[0], n)])
+    weight = rng.uniform(0.5, 40.0, n)
+    count = data.draw(st.integers(0, n))
+    shifts = _shifts(data.draw(st.floats(0.0, 25.0)), data.draw(st.integers(1, 4)))
+    board = _Board.of(inside, far, np.asarray(lo), box, shifts)
+    got = board.scores(cells, weight, count)
+    want = _direct(inside, far, cells, weight, count, shifts)
+    for g, w in zip(got, want):
+        assert np.allclose(g, w, rtol=1e-9, atol=1e-5)
+
+
+def test_shifts_are_a_grid_of_whole_cells_within_reach_the_shortest_first():
+    shifts = _shifts(2.5, 1)
+    length = np.hypot(*shifts.T)
+    assert len(shifts) == 21 and (length <= 2.5).all() and (np.diff(length) >= 0).all()
+    assert len({tuple(s) for s in shifts.tolist()}) == len(shifts) and (shifts[0] == 0).all()
+    coarse = _shifts(5.0, 2)
+    assert len(coarse) == 21 and (coarse % 2 == 0).all() and (np.hypot(*coarse.T) <= 5.0).all()

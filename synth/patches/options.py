@@ -103,7 +103,26 @@ class PatchOptions:
     #: neighbourhood's instead of the best fit's (the fit favours the straight grid that fills the raster
     #: best): the engine's Andorra -> 1.3 3.3 1.0 1.3 2.7 0.3 (1.7, 6/6), Krems -> 1.1 (6/6), Monaco the same;
     #: the table's north-bayreuth 1.8 -> 2.2 (2-core share 4/5), Campo Grande 1.4 -> 1.2, the others the same:
-    #: kept. Off: Monaco's density (3/5) and the engine's Monaco (4.3, shares 3/6).
+    #: kept. Off: Monaco's density (3/5) and the engine's Monaco (4.3, shares 3/6). Session 42 (h42f): the fit
+    #: scores all shifts of a turn at once (an FFT correlation of the neighbourhood's samples with the free land,
+    #: :class:`synth.patches.transplant._Board`, on a grid of whole raster cells: before, each shift's samples
+    #: looked up) and stops at the first neighbourhood landing near the target (the same bytes as trying all
+    #: six). Monaco's command (``--seed 0 --preview``) with it on, main -> this, back to back: 28.7 -> 16.5,
+    #: 28.6 -> 14.8 s CPU, user+sys (off 12.4-12.9); Krems' 10.6 -> 9.7, 10.5 -> 10.0 (off 9.0). The grid is the
+    #: raster's (not turned with the neighbourhood), so the placements move: the table (it on, main -> this,
+    #: the same session) Krems 0.4 -> 0.2, Andorra 3.0 -> 3.0, north-bayreuth 2.2 -> 1.2 (2-core share 4/5 ->
+    #: 5/5), Campo Grande 1.2 -> 1.6 (density and 2-core share 5/5 -> 4/5), Monaco 2.2 -> 2.0 (density 3/5 ->
+    #: 3/5), one piece each; the engine (it on, seeds 0-5; main's from session 41) Monaco 4.3 (3/6) -> 3.0 1.0
+    #: 4.7 4.0 2.0 7.0 (3.6, 3/6), Andorra 1.7 (6/6) -> 1.3 3.3 1.7 1.3 5.3 5.3 (3.1, 6/6), Krems 1.1 (6/6) ->
+    #: 3.7 1.0 0.3 0.3 1.3 0.3 (1.2, 6/6): what the transplant gives moves by a seed's worth with the shifts
+    #: tried (:data:`synth.patches.transplant.SHIFTS`). Tried, not kept: placements judged by how their streets
+    #: reach the town (street length on the land off the site, not occupied, within the joining reach of the
+    #: town, weighted by cos² of its angle to the way there, one more correlation; up to three placements of a
+    #: neighbourhood reaching most, of other turns, placed when its best meets the town at fewer than two
+    #: places): Monaco's first site has no such land (occupied all round: no placement joins), its second then
+    #: meets the town once (it was blocked); accepted with that one join (``MIN_JOINS`` 1, a probe), its
+    #: district's density is 15.4 against 19.4 (seeds 1 and 4): the larger site is sparser, not denser. The
+    #: third site's districts lose 3.4 of 14.1 km to the cut-back and 0.7-1.7 km to the dead-end pruning.
     transplant: bool = False
     #: A cut end left over runs on this many spacings to meet a street in a tee ...
     tee_reach: float = 0.6

@@ -10,8 +10,10 @@ density, dead ends, blocks and straight streets, so here one is copied whole:
    centres, at the site's size; :data:`TRIED`), a few turns (none; the one
    that lays its grid along the town's streets around the site; the one
    along the free land's long axis; each plus quarter turns) and shifts of
-   its centre on a grid (:data:`SHIFTS`) are scored at once on a raster
-   of the free land: the street length landing on free land (counted up to
+   its centre by whole raster cells on a grid within half the site's size
+   (:data:`SHIFTS`) are scored, all shifts of a turn at once (a
+   correlation, :class:`_Board`), on
+   a raster of the free land: the street length landing on free land (counted up to
    a cap) plus :data:`JUNCTION_WEIGHT` spacings per junction. Each
    neighbourhood's best placement (placed where its streets lie nearest the
    town) is then judged on what survives steps 2-3: of those whose district
@@ -45,13 +47,16 @@ density, dead ends, blocks and straight streets, so here one is copied whole:
    times the target length; while its district misses the target by more
    than :data:`CLOSE_ENOUGH`, the cap is scaled by the miss and its best
    placement under it placed again (:data:`REFITS`; the fit's scores are
-   made once, and placing costs 0.04 s on Monaco).
+   made once, and placing costs 0.04 s on Monaco). The neighbourhoods are
+   fitted and placed in rank order, and the first whose district lands near
+   the target ends the search (no later one could win).
 """
 from __future__ import annotations
 
 import dataclasses
 
 import numpy as np
+import scipy.fft
 import scipy.ndimage
 import shapely
 from scipy.spatial import cKDTree
@@ -79,7 +84,11 @@ RASTER_CELL = 0.1
 #: ... and at least this many metres (a street's width: finer finds nothing a street could use).
 RASTER_LEAST = 6.0
 #: Shifts of a neighbourhood's centre tried across the site at most (a quarter spacing apart where that is
-#: fewer): Monaco's spacing is small, and a quarter of it took its fit 14 s of CPU over three sites.
+#: fewer), rounded to whole raster cells (the correlation's step). Every cell, which the FFT scores at the
+#: same cost, was tried (session 42): of the many more placements near the best, the one nearest the town is
+#: another, and the engine's Andorra (seeds 0-5, it on) went from 1.3 3.3 1.0 1.3 2.7 0.3 off to 6.7 2.0 1.0
+#: 2.3 4.7 3.3, its table 3.0 -> 3.4; on this grid 1.3 3.3 1.7 1.3 5.3 5.3 and 3.0 (the grid is the raster's,
+#: not turned with the neighbourhood as before: other placements again).
 SHIFTS = 24
 #: Ranked neighbourhoods tried (the most typical first).
 TRIED = 6
@@ -99,34 +108,116 @@ NEAR_BEST = 0.95
 
 @dataclasses.dataclass(frozen=True)
 class _Placement:
-    """Where the neighbourhood goes: its move, and what the fit scored it."""
+    """Where the neighbourhood goes: its move, what the fit scored it, and which of the fit's placements it is."""
 
     move: _Transform
     score: float
     rank: int  #: of the ranked neighbourhoods
+    index: int  #: in :class:`_Fits`
 
 
 @dataclasses.dataclass(frozen=True)
 class _Fits:
-    """Every placement the fit tried: the street length and the junctions' score it lands on free land, the
-    mean distance of that length to the town, the neighbourhood's rank, and its move (:meth:`best` picks)."""
+    """Every placement of one neighbourhood the fit tried: the street length and the junctions' score it lands on
+    free land, the mean distance of that length to the town, and its move: the ``turns``' entry ``turn`` (the
+    neighbourhood's centre, the site's middle, the turn) with its centre moved by ``shift`` (metres; :meth:`best`
+    picks and makes the move)."""
 
+    rank: int  #: of the ranked neighbourhoods
     streets: np.ndarray
     junctions: np.ndarray
     distance: np.ndarray
-    rank: np.ndarray
-    moves: list[_Transform]
+    turn: np.ndarray
+    shift: np.ndarray
+    turns: list[_Transform]
 
-    def best(self, cap: float, rank: int | None = None) -> _Placement:
+    def best(self, cap: float) -> _Placement:
         """The placement with the most street length on free land, counted up to ``cap`` metres, and junctions;
-        of those within :data:`NEAR_BEST` of it the most typical neighbourhood's, placed nearest the town.
-        With ``rank``, of that neighbourhood's placements only."""
+        of those within :data:`NEAR_BEST` of it the one placed nearest the town (of equals, the first tried)."""
         score = np.minimum(self.streets, cap) + self.junctions
-        if rank is not None:
-            score = np.where(self.rank == rank, score, -np.inf)
         good = np.flatnonzero(score >= NEAR_BEST * score.max())
-        k = int(good[np.lexsort((self.distance[good], self.rank[good]))[0]])
-        return _Placement(self.moves[k], float(score[k]), int(self.rank[k]))
+        k = int(good[np.argmin(self.distance[good])])
+        base = self.turns[int(self.turn[k])]
+        move = _Transform(base.source_centre + self.shift[k], base.target_centre, base.turn)
+        return _Placement(move, float(score[k]), self.rank, k)
+
+
+@dataclasses.dataclass(frozen=True)
+class _Site:
+    """The free land as the fit sees it (made once for the neighbourhoods tried): its raster ready to be
+    correlated, the raster's corner and cell, the site's middle and size, how far a street can lie from the
+    middle and still land (the farthest free land plus the longest shift), the shifts, the corner of the
+    samples' box, and the town's streets around."""
+
+    board: _Board
+    corner: np.ndarray
+    cell: float
+    middle: np.ndarray
+    size: float
+    radius: float
+    shifts: np.ndarray
+    lo: np.ndarray
+    around: np.ndarray
+    free: shapely.Geometry
+
+
+@dataclasses.dataclass(frozen=True)
+class _Board:
+    """The free-land raster ready to be correlated with a neighbourhood's samples, all shifts at once.
+
+    A sample on cell ``(ix, iy)`` of the raster, moved by ``(dx, dy)`` cells, lands on free land where
+    ``inside[iy + dy, ix + dx]`` (nothing lands off the raster); the fit sums the samples' weights that land
+    so and their weights times the cell's distance to the town (looking every sample up at every shift
+    took Monaco's fit 13 s of its command's 27). That sum over the samples is the correlation of the samples'
+    weights, added up on a box of cells, with the raster: FFTs of one fixed size, the raster's made once,
+    over the window of it the box reaches at some shift (so no shift wraps round).
+    """
+
+    shifts: np.ndarray  #: (dx, dy) cells, (m, 2)
+    lo: np.ndarray  #: the samples' box's lower corner (ix, iy)
+    box: tuple[int, int]  #: the samples' box of cells (rows, columns)
+    fft: tuple[int, int]  #: the FFTs' shape
+    spectra: np.ndarray  #: conjugate rfft2 of the raster's window and of it times the distance to the town
+
+    @classmethod
+    def of(cls, inside: np.ndarray, far: np.ndarray, lo: np.ndarray, box: tuple[int, int], shifts: np.ndarray
+           ) -> _Board:
+        """``inside`` free land (bool) and ``far`` each cell's distance to the town, (ny, nx); the box of
+        ``box`` cells from ``lo`` holding the samples; the ``shifts`` to score."""
+        first = lo + shifts.min(axis=0)  # the window's lower corner (ix, iy): grid cell first + t is window cell t
+        span = shifts.max(axis=0) - shifts.min(axis=0)
+        rows, cols = box[0] + int(span[1]), box[1] + int(span[0])
+        fft = (scipy.fft.next_fast_len(rows, real=True), scipy.fft.next_fast_len(cols, real=True))
+        window = np.zeros((2, rows, cols))
+        y0, y1 = max(int(first[1]), 0), min(int(first[1]) + rows, inside.shape[0])
+        x0, x1 = max(int(first[0]), 0), min(int(first[0]) + cols, inside.shape[1])
+        if y0 < y1 and x0 < x1:
+            part = inside[y0:y1, x0:x1]
+            rows_at, cols_at = slice(y0 - first[1], y1 - first[1]), slice(x0 - first[0], x1 - first[0])
+            window[:, rows_at, cols_at] = [part, np.where(part, far[y0:y1, x0:x1], 0.0)]
+        return cls(shifts, lo, box, fft, scipy.fft.rfft2(window, s=fft).conj())
+
+    def scores(self, cells: np.ndarray, weight: np.ndarray, count: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """For each shift: the weight of the first ``count`` samples (the streets) landing on free land, of the
+        others (the junctions), and the streets' mean distance to the town there. ``cells``: the samples'
+        cells (ix, iy), in the box."""
+        k = cells - self.lo
+        spread = np.zeros((2, *self.box))
+        np.add.at(spread, (np.repeat([0, 1], [count, len(k) - count]), k[:, 1], k[:, 0]), weight)
+        spectra = scipy.fft.rfft2(spread, s=self.fft)
+        both = np.empty((3, *spectra.shape[1:]), dtype=spectra.dtype)
+        np.multiply(spectra[0], self.spectra[0], out=both[0])
+        np.multiply(spectra[1], self.spectra[0], out=both[1])
+        np.multiply(spectra[0], self.spectra[1], out=both[2])
+        # the window's spectra conjugate: the correlation at shift m (from the window's corner) sits at -m
+        on, junction, near = scipy.fft.irfft2(both, s=self.fft)
+        m = self.shifts - self.shifts.min(axis=0)
+        ey, ex = -m[:, 1] % self.fft[0], -m[:, 0] % self.fft[1]
+        # the FFTs' rounding leaves ~1e-10 where nothing lands: below a millimetre of street is none
+        streets, junctions, far = (np.where(grid[ey, ex] > 1e-3, grid[ey, ex], 0.0) for grid in (on, junction, near))
+        # to the micrometre: shifts the direct look-up scores the same stay tied (the shortest wins), not
+        # ordered by the FFTs' rounding
+        return streets, junctions, np.round(far / np.maximum(streets, 1e-9), 6)
 
 
 def _raster(free: shapely.Geometry, pad: float, least: float) -> tuple[np.ndarray, np.ndarray, float]:
@@ -193,14 +284,9 @@ def _turns(patch: np.ndarray, around: np.ndarray, free: shapely.Geometry, peak: 
     return turns
 
 
-def _fit(source: _Source, centres: np.ndarray, free: shapely.Geometry, old: shapely.Geometry, spacing: float,
-         opts: PatchOptions) -> _Fits | None:
-    """Placements of the ranked neighbourhoods ``centres`` on the ``free`` land (see the module), each scored on
-    a raster of it: its street length and junctions there, and how far that length lies from the town on
-    average (a district grows from the town's edge, where its cut streets become joins, not in the middle of
-    its field)."""
+def _site(free: shapely.Geometry, old: shapely.Geometry, spacing: float) -> _Site:
+    """The ``free`` land rasterised for the fit, with its distances to the town's streets ``old``."""
     inside, corner, cell = _raster(free, JOIN_REACH * spacing, max(RASTER_CELL * spacing, RASTER_LEAST))
-    ny, nx = inside.shape
     to_town = _to_town(old, inside.shape, corner, cell)
     far = np.where(np.isfinite(to_town), to_town, float(to_town[np.isfinite(to_town)].max(initial=0.0)))
     around = np.asarray(shapely.get_parts(old)) if not old.is_empty else np.empty(0, dtype=object)
@@ -210,48 +296,52 @@ def _fit(source: _Source, centres: np.ndarray, free: shapely.Geometry, old: shap
     # the farthest free land from the middle: streets farther than that and a shift from the centre land nowhere
     reach = float(np.hypot(*(shapely.get_coordinates(free) - middle).T).max())
     size = float(np.sqrt(free.area))
-    step = max(spacing / 4, cell, size / SHIFTS)
-    grid = np.arange(-size / 2, size / 2 + step / 2, step)
-    shifts = np.array([[dx, dy] for dx in grid for dy in grid])
-    shifts = shifts[np.hypot(*shifts.T) <= size / 2 + 1e-9]
-    shifts = shifts[np.argsort(np.hypot(*shifts.T), kind="stable")]  # the smallest shift wins ties
-    found: list[tuple[np.ndarray, ...]] = []
-    moves: list[_Transform] = []
-    for rank, c in enumerate(centres[:TRIED]):
-        disc = shapely.Point(c).buffer(reach + size / 2, 16)
-        lines = shapely.intersection(source.lines[source.tree.query(disc)], disc)
-        pts, weight = _samples(np.asarray(shapely.get_parts(lines)), cell)
-        if not len(pts):
-            continue
-        junctions = source.junctions[np.hypot(*(source.junctions - c).T) <= reach + size / 2]
-        count = len(pts)  # the street samples, then the junctions
-        pts = np.concatenate([pts, junctions])
-        weight = np.concatenate([weight, np.full(len(junctions), JUNCTION_WEIGHT * spacing)])
-        patch = source.lines[source.tree.query(shapely.Point(c).buffer(size / 2))]
-        for turn in _turns(patch, around, free, opts.orientation_peak):
-            move = _Transform(c, middle, turn)
-            placed = move.forward(pts)  # the neighbourhood centred on the site
-            offset = shifts @ move.rotation.T  # moving its centre by s moves its streets by -R s
-            streets, junction, distance = np.zeros(len(shifts)), np.zeros(len(shifts)), np.zeros(len(shifts))
-            for lo in range(0, len(shifts), 64):
-                xy = placed[None, :, :] - offset[lo:lo + 64, None, :]
-                ix = np.floor((xy[..., 0] - corner[0]) / cell).astype(np.intp)
-                iy = np.floor((xy[..., 1] - corner[1]) / cell).astype(np.intp)
-                ok = (ix >= 0) & (ix < nx) & (iy >= 0) & (iy < ny)
-                hit = np.zeros(ix.shape, dtype=bool)
-                hit[ok] = inside[iy[ok], ix[ok]]
-                how_far = np.zeros(ix.shape)
-                how_far[hit] = far[iy[hit], ix[hit]]
-                on = hit[:, :count].astype(float) @ weight[:count]
-                streets[lo:lo + 64] = on
-                junction[lo:lo + 64] = hit[:, count:].astype(float) @ weight[count:]
-                distance[lo:lo + 64] = (how_far[:, :count] @ weight[:count]) / np.maximum(on, 1e-9)
-            found.append((streets, junction, distance, np.full(len(shifts), rank)))
-            moves.extend(_Transform(c + s, middle, turn) for s in shifts)
-    if not found:
+    radius = reach + size / 2
+    lo = np.floor((middle - radius - corner) / cell).astype(np.intp) - 1
+    hi = np.floor((middle + radius - corner) / cell).astype(np.intp) + 1
+    shifts = _shifts(size / 2 / cell, max(1, int(round(max(spacing / 4, cell, size / SHIFTS) / cell))))
+    board = _Board.of(inside, far, lo, (int(hi[1] - lo[1]) + 1, int(hi[0] - lo[0]) + 1), shifts)
+    return _Site(board, corner, cell, middle, size, radius, shifts, lo, around, free)
+
+
+def _fit(source: _Source, rank: int, c: np.ndarray, site: _Site, spacing: float, opts: PatchOptions
+         ) -> _Fits | None:
+    """Placements of the ranked neighbourhood centred at ``c`` on the site's free land (see the module), each
+    scored on its raster: its street length and junctions there, and how far that length lies from the town on
+    average (a district grows from the town's edge, where its cut streets become joins, not in the middle of
+    its field). The site's shifts of the neighbourhood are scored all of one turn at once (:class:`_Board`)."""
+    disc = shapely.Point(c).buffer(site.radius, 16)
+    lines = shapely.intersection(source.lines[source.tree.query(disc)], disc)
+    pts, weight = _samples(np.asarray(shapely.get_parts(lines)), site.cell)
+    if not len(pts):
         return None
-    streets, junction, distance, ranks = (np.concatenate(part) for part in zip(*found))
-    return _Fits(streets, junction, distance, ranks, moves)
+    junctions = source.junctions[np.hypot(*(source.junctions - c).T) <= site.radius]
+    count = len(pts)  # the street samples, then the junctions
+    pts = np.concatenate([pts, junctions])
+    weight = np.concatenate([weight, np.full(len(junctions), JUNCTION_WEIGHT * spacing)])
+    patch = source.lines[source.tree.query(shapely.Point(c).buffer(site.size / 2))]
+    found: list[tuple[np.ndarray, ...]] = []
+    turns: list[_Transform] = []
+    for turn in _turns(patch, site.around, site.free, opts.orientation_peak):
+        move = _Transform(c, site.middle, turn)
+        cells = np.floor((move.forward(pts) - site.corner) / site.cell).astype(np.intp)  # centred on the site
+        streets, junction, distance = site.board.scores(cells, weight, count)
+        found.append((streets, junction, distance, np.full(len(site.shifts), len(turns))))
+        turns.append(move)
+    streets, junction, distance, which = (np.concatenate(part) for part in zip(*found))
+    # moving the streets by d cells moves the neighbourhood's centre by -R^T d cells
+    moved = np.concatenate([-(site.shifts * site.cell) @ move.rotation for move in turns])
+    return _Fits(rank, streets, junction, distance, which, moved, turns)
+
+
+def _shifts(most: float, every: int) -> np.ndarray:
+    """The shifts tried (cells, (dx, dy)): every ``every`` cells each way, at most ``most`` cells long, the
+    shortest first (it wins ties)."""
+    r = int(np.floor(most / every)) * every
+    grid = np.arange(-r, r + 1, every)
+    shifts = np.stack(np.meshgrid(grid, grid, indexing="ij"), axis=-1).reshape(-1, 2)
+    shifts = shifts[np.hypot(*shifts.T) <= most + 1e-9]
+    return shifts[np.argsort(np.hypot(*shifts.T), kind="stable")]
 
 
 @dataclasses.dataclass(frozen=True)
@@ -276,15 +366,16 @@ def _transplant(source: _Source, centres: np.ndarray, free: shapely.Geometry, ol
     slope a half), so while the district misses the target by more than :data:`CLOSE_ENOUGH`, the cap is
     scaled by the miss and the best placement under it taken again (the fit itself is made once), for each
     of the ranked neighbourhoods; the one chosen is the most typical of those landing near the target (step 1)."""
-    fits = _fit(source, centres, free, old, spacing, opts)
-    if fits is None:
-        return network_from_lines([], []), {"transplanted": None}
+    site = _site(free, old, spacing)
     tried: list[_Tried] = []
-    for rank in np.unique(fits.rank).tolist():  # each neighbourhood's best placement, judged on what survives
+    for rank, c in enumerate(centres[:TRIED]):  # each neighbourhood's best placement, judged on what survives
+        fits = _fit(source, rank, c, site, spacing, opts)
+        if fits is None:
+            continue
         cap, last, mine = OVERFILL * target, None, None
         for _ in range(REFITS):
-            placement = fits.best(cap, rank)
-            if last is not None and placement.move is last.move:  # the cap no longer binds: the same placement
+            placement = fits.best(cap)
+            if last is not None and placement.index == last.index:  # the cap no longer binds: the same placement
                 break
             last = placement
             net, tees = _placed(source, placement.move, free, old, occupied, spacing, opts, aim)
@@ -297,6 +388,10 @@ def _transplant(source: _Source, centres: np.ndarray, free: shapely.Geometry, ol
             cap *= target / max(length, 1.0)
         assert mine is not None  # the loop runs at least once
         tried.append(mine)
+        if mine.miss <= np.log(CLOSE_ENOUGH):  # the most typical near the target: the later ones cannot win
+            break
+    if not tried:
+        return network_from_lines([], []), {"transplanted": None}
     close = [t for t in tried if t.miss <= np.log(CLOSE_ENOUGH)]  # in rank order: the most typical first
     best = close[0] if close else min(tried, key=lambda t: t.miss)
     net, tees, placement = best.net, best.tees, best.placement
