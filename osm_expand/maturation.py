@@ -39,7 +39,9 @@ class MatureOptions:
     """How long the city lives and what is measured on the way (keyword-only; defaults are the CLI's)."""
 
     years: int | None = None  #: years to simulate; None: the history's own ``years``; 0: none
-    #: judge what the years grew against the town's own neighbourhoods (:mod:`osm_expand.growth_fidelity`)
+    #: judge what the years grew against the town's own neighbourhoods (:mod:`osm_expand.growth_fidelity`) and
+    #: their land use against the town's mapped one (the build-out report's ``similarity``); changes no output
+    #: file, only the report
     fidelity: bool = True
     snapshot_every: int | None = None  #: years between snapshots; None: one at the end of each era
     engine: EngineOptions = field(default_factory=EngineOptions)
@@ -122,7 +124,8 @@ def mature(city: City, history: History, options: MatureOptions | None = None, s
     if snapshot is not None and every is None:
         _take(snapshot, state, eras[-1])
     # the mapped ways a history demolished: the OSM output leaves them out, the report lists them
-    report = {"engine": summary(state, context, eras), "demolished_osm_ways": demolished_ways(state.city)}
+    report = {"engine": summary(state, context, eras, judge=opts.fidelity),
+              "demolished_osm_ways": demolished_ways(state.city)}
     if opts.fidelity:
         from osm_expand.growth_fidelity import city_growth_fidelity
 

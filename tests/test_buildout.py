@@ -23,6 +23,7 @@ from lxml import etree
 
 from osm_expand.blocks import blocks
 from osm_expand.engine.buildout.calibration import CalibrationOptions, find_centres, tag_number, town_units
+from osm_expand.engine.buildout.report import ReportOptions
 from osm_expand.engine.buildout.year import (
     BuildoutOptions,
     BuildoutYear,
@@ -290,6 +291,15 @@ def test_the_similarity_check_is_reported_where_the_town_maps_its_land_use():
     sim = buildout_report(city, memory, history)["similarity"]
     assert sim is not None and 0 <= sim["shuffled"] <= 1 and 0 <= sim["simulated"] <= 1
     assert sim["simulated"] > sim["shuffled"]  # the valuations keep more of the real pattern than chance
+
+
+def test_a_report_not_judged_leaves_the_similarity_out_and_the_rest_the_same():
+    _, city, memory, history, _ = built_out("krems.osm.gz")
+    judged = buildout_report(city, memory, history)
+    counted = buildout_report(city, memory, history, options=ReportOptions(similarity=False))
+    assert judged["similarity"] is not None and counted["similarity"] is None
+    assert {k: v for k, v in judged.items() if k != "similarity"} == {k: v for k, v in counted.items()
+                                                                       if k != "similarity"}
 
 
 # --------------------------------------------------------------------------- the years

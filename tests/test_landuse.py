@@ -255,7 +255,28 @@ def test_local_change_with_externalities_equals_the_change_of_the_system_value()
     counts, sums = lv.type_counts(lay, lut2, len(types))
     np.testing.assert_allclose(state.counts, counts)
     np.testing.assert_allclose(state.sums, sums)
-    np.testing.assert_allclose(state.values, lv.lot_values(lay, lut2, types=types))
+    np.testing.assert_allclose(state.settled(), lv.lot_values(lay, lut2, types=types))
+
+
+def test_values_read_after_changes_are_those_of_the_whole_town_valued_at_once():
+    """The update recomputes a lot's values only when it reads them (``_State.of``); read in chunks of any
+    size after changes all over the town, they are the bits of every lot valued in one batch."""
+    rng = np.random.default_rng(11)
+    xy, area = grid_lots(400, rng)
+    lay = layout_of(xy, area, traffic=rng.gamma(1, 100, 400))
+    types = lt.DEFAULT_TYPES
+    ct = lt.compile_types(types, lay.available)
+    state = lu._State(lay, rng.integers(0, len(types), 400), ct)
+    for _ in range(6):
+        lots = rng.choice(400, size=25, replace=False)
+        state.of(lots[:7])  # some rows read (and recomputed) between the changes
+        state.apply(lots, (state.lut[lots] + rng.integers(1, len(types), 25)) % len(types))
+    assert state.stale.any()
+    whole = lv.term_values(ct, lay.attributes, state.counts, state.sums, lay.weight_sums, state.k)
+    read = np.concatenate([state.of(chunk) for chunk in np.array_split(rng.permutation(400), 9)])
+    assert not state.stale.any()
+    assert state.values.tobytes() == whole.tobytes()
+    assert read.shape == (400, len(types))
 
 
 def _externalities_layer_by_layer(state, lots, old, new):

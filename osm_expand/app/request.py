@@ -53,7 +53,8 @@ class ExpandRequest:
     radius: float | None = None  #: metres
     clip_index: str | None = None
     #: judge what grew against the town's neighbourhoods (the report's ``fidelity`` and
-    #: ``growth_fidelity``); it changes no output file, only the report
+    #: ``growth_fidelity``) and its land use against the town's (the build-out's ``similarity``); it changes
+    #: no output file, only the report
     judge: bool = True
 
     @classmethod

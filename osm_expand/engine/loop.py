@@ -35,7 +35,7 @@ from typing import cast
 import numpy as np
 
 from osm_expand.blocks import FaceMemo, blocks
-from osm_expand.engine.buildout.report import buildout_report
+from osm_expand.engine.buildout.report import ReportOptions, buildout_report
 from osm_expand.engine.buildout.year import BuildoutMemory, BuildoutYear, buildout_year, start_buildout
 from osm_expand.engine.growth.minor_streets import (
     STUB_REACH,
@@ -282,9 +282,10 @@ def step(state: EngineState, context: EngineContext, year: int) -> tuple[EngineS
     return state, YearReport(year=year, era=era.name, growth=grown, traffic=traffic, roads=roads, buildout=built)
 
 
-def summary(state: EngineState, context: EngineContext, eras: list[EraReport]) -> dict:
+def summary(state: EngineState, context: EngineContext, eras: list[EraReport], *, judge: bool = True) -> dict:
     """The run's JSON-ready report: its years, the city's traffic factor, what each era did, the build-out's
-    measures and the wall time per stage."""
+    measures (``judge``: with the similarity of its land use to the town's, :class:`ReportOptions`) and the
+    wall time per stage."""
     first, last = eras[0].first_year, eras[-1].last_year
     return {"history": context.history.name, "years": last - first + 1, "first_year": first, "last_year": last,
             "traffic_factor": round(context.traffic_factor, 4),
@@ -292,7 +293,8 @@ def summary(state: EngineState, context: EngineContext, eras: list[EraReport]) -
             "trade_pairs": int(len(state.traffic.pairs)), "nuclei": len(state.nuclei),
             "eras": [e.to_dict() for e in eras],
             "seconds": {k: round(v, 3) for k, v in sorted(state.seconds.items())},
-            "buildout": buildout_report(state.city, state.buildout, context.history)}
+            "buildout": buildout_report(state.city, state.buildout, context.history,
+                                        options=ReportOptions(similarity=judge))}
 
 def _grow(state: EngineState, era: Era, now: YearValues, year: int, rng: np.random.Generator, *, spacing: float,
           district_pattern: PatternFactory, bearing: float, options: EngineOptions,
