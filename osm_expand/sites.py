@@ -930,8 +930,9 @@ STRIP_PAD = 0.05
 def _strips_back(streets: np.ndarray, disc: shapely.Geometry, clearance: float) -> np.ndarray:
     """The land within ``clearance`` of ``streets`` (a little more: :data:`STRIP_PAD`) in ``disc``, as polygons:
     what a larger step cleared along streets that do not meet the smaller ``disc`` but pass within ``clearance``
-    of it, and the smaller step leaves free (Monaco's smaller steps were made for 1 or 2 such streets whose strips
-    reach a metre into the disc: the rest of its free land ruled them out)."""
+    of it, and the smaller step leaves free. Without them such a step was made whatever the rest of its land
+    showed: Campo Grande's default run made 31 steps, 26 with them (its regions 4.69 -> 4.06 s CPU), Monaco's
+    17 -> 15, the same regions."""
     strips = shapely.buffer(shapely.multilinestrings(streets), clearance * (1.0 + STRIP_PAD) + PINCH)
     return _polygons(shapely.intersection(strips, disc))
 
