@@ -901,23 +901,40 @@ def _rules_out(larger: _Step, disc: shapely.Geometry, need: float, clearance: fl
 
     Within the smaller disc the land is occupied by the same shapes as within the larger (the occupied land
     near a disc is all that meets its box), and the streets kept clear are those that meet it: all among the
-    larger disc's, so its free land is the larger step's free land there, unless a street that meets the
-    larger disc but not the smaller passes within ``clearance`` of it (its cleared strip reaches in: then
-    nothing is ruled out). A piece is connected, so it lies in one part of that free land (parts within
-    :data:`PINCH` counted as one) and is no larger than the largest; ruled out when that falls short of
-    ``need`` by :data:`SLACK`.
+    larger disc's, so its free land is the larger step's free land there, and where a street that meets the
+    larger disc but not the smaller passes within ``clearance`` of it, its cleared strip, which the smaller
+    step does not clear, as well (:func:`_strips_back`). A piece is connected, so it lies in one part of that
+    land (parts within :data:`PINCH` counted as one, the strips overlapping the free land counted twice) and
+    is no larger than the largest; ruled out when that falls short of ``need`` by :data:`SLACK`.
     """
     inside = shapely.intersects(larger.near, disc) if len(larger.near) else np.zeros(0, dtype=bool)
     outside = larger.near[~inside]
-    if len(outside) and shapely.dwithin(outside, disc, clearance + PINCH).any():
-        return False
+    reaching = outside[shapely.dwithin(outside, disc, clearance + PINCH)] if len(outside) else outside
     parts = _polygons(shapely.intersection(_polygons(larger.free), disc))
+    if len(reaching):
+        parts = np.concatenate([parts, _strips_back(reaching, disc, clearance)])
     if not len(parts):
         return True
     i, j = shapely.STRtree(parts).query(parts, predicate="dwithin", distance=PINCH)
     labels = component_labels(len(parts), i, j)
     largest = float(np.bincount(labels, weights=shapely.area(parts)).max())
     return largest < need * (1.0 - 1e-6) - SLACK
+
+
+#: The strips :func:`_strips_back` gives back are this share wider than the clearance (plus :data:`PINCH`): a
+#: buffer's arcs are chords inside the true circle (8 segments a quarter: 5 mm inside at 1 m), so the wider strip
+#: holds the step's own strip whatever its arcs; the more land given back, the looser the bound, never wrong.
+STRIP_PAD = 0.05
+
+
+def _strips_back(streets: np.ndarray, disc: shapely.Geometry, clearance: float) -> np.ndarray:
+    """The land within ``clearance`` of ``streets`` (a little more: :data:`STRIP_PAD`) in ``disc``, as polygons:
+    what a larger step cleared along streets that do not meet the smaller ``disc`` but pass within ``clearance``
+    of it, and the smaller step leaves free. Without them such a step was made whatever the rest of its land
+    showed: Campo Grande's default run made 31 steps, 26 with them (its regions 4.69 -> 4.06 s CPU), Monaco's
+    17 -> 15, the same regions."""
+    strips = shapely.buffer(shapely.multilinestrings(streets), clearance * (1.0 + STRIP_PAD) + PINCH)
+    return _polygons(shapely.intersection(strips, disc))
 
 
 def _polygons(geoms: shapely.Geometry | np.ndarray) -> np.ndarray:

@@ -395,3 +395,39 @@ def test_the_region_is_the_one_the_steps_in_order_give(name, scale):
     assert any(ruled) and not all(ruled)  # the speed-up happened, and a smaller step was still made
     assert len(returned) == 10 and {"before", "at"} <= set(returned)
     assert name != "krems.osm.gz" or "after" in returned
+
+
+@pytest.mark.parametrize("name, scale", [("krems.osm.gz", 0.3), ("monaco.osm.gz", 2.0)])
+def test_the_strips_given_back_hold_the_smaller_steps_free_land(name, scale):
+    """Issue 22: where a street of a larger region step passes within the clearance of a smaller disc without
+    meeting it, the smaller step leaves its strip free; :func:`osm_expand.sites._rules_out` bounds that step's
+    free land by the larger step's there plus the strips :func:`osm_expand.sites._strips_back` gives back. On
+    every such pair of these towns' site steps the smaller step's free land lies within that bound (to 1 mm²),
+    and on Krems the strips hold land (12 m²) the larger step's free land does not: a bound without them would
+    rule out a step that may hold the piece."""
+    import osm_expand.sites as sites
+
+    city = prepare(load(FIXTURES / name))
+    opts = SiteOptions()
+    maps = distance_maps(city, opts)
+    area = scale * default_district_area(opts, maps.built_area)
+    lines = city.network.street_lines()
+    pairs, held = 0, 0.0
+    for site in choose_sites(maps, area, opts, most=5):
+        radius = float(np.sqrt(site.area / np.pi))
+        centre = shapely.Point(site.centre)
+        steps = [sites._region_step(city, centre, k * radius, site.area, lines, 1.0, None) for k in sites.REGION_STEPS]
+        for j, larger in enumerate(steps):
+            for i in range(j):
+                disc = sites._region_disc(centre, sites.REGION_STEPS[i] * radius, None)
+                outside = larger.near[~shapely.intersects(larger.near, disc)]
+                reaching = outside[shapely.dwithin(outside, disc, 1.0 + sites.PINCH)]
+                if not len(reaching):
+                    continue
+                pairs += 1
+                free = sites._polygons(shapely.intersection(sites._polygons(larger.free), disc))
+                bound = shapely.union_all([*free, *sites._strips_back(reaching, disc, 1.0)])
+                assert shapely.difference(steps[i].free, bound).area <= 1e-6
+                held = max(held, shapely.difference(steps[i].free, shapely.union_all(free)).area)
+    assert pairs >= 3
+    assert name != "krems.osm.gz" or held > 1.0
