@@ -100,26 +100,34 @@ def _next_window(growth: routing._Growth, reached: np.ndarray, whole: np.ndarray
 
 
 def test_what_settles_the_next_window_settles_it_whatever_the_exits_search_still_finds():
-    """``_Growth.settles`` says yes to upper bounds of the exits' arrivals (what a paused search has
-    found, ∞ where it has not reached an exit yet) only where the window made from the true arrivals,
-    which are lower and may make more exits short, is the same: the map, or the growth's cap."""
-    fired = {"map": 0, "cap": 0}
-    for seed in range(3000):
+    """``_Growth.settles`` says yes to bounds of the exits' arrivals (what a paused search has found: the
+    scanned exits' own values, above them an upper bound, ∞ where it has not reached an exit yet, and
+    where the search is in its last round a lower bound) only where the window made from the true
+    arrivals, which are lower and may make more exits short, is the one made from the upper bounds:
+    the map, the growth's cap, the window the lower bounds make too, or none (no exit short)."""
+    fired = {"map": 0, "cap": 0, "bracket": 0, "none": 0}
+    for seed in range(4000):
         rng = np.random.default_rng(seed)
         growth, plain, arrive = _growth(rng)
         whole = growth.bounds + rng.uniform(0.5, 3.0) * np.array([-1, -1, 1, 1]) * (growth.bounds[2] - growth.bounds[0])
         least = float(rng.uniform(0.2, 0.8) * routing._seen(whole, whole))
-        found = rng.random(len(plain)) < rng.uniform(0, 1)  # what the search has reached so far, at most
-        upper = np.where(found, arrive + rng.exponential(0.05, len(plain)) * growth.cost, np.inf)
-        if not growth.settles(plain, whole, least, upper):
+        done = rng.random(len(plain)) < rng.uniform(0, 1)  # the exits scanned so far: their own values
+        upper = np.where(done, arrive, np.where(rng.random(len(plain)) < 0.5, np.inf,
+                                                arrive + rng.exponential(0.05, len(plain)) * growth.cost))
+        lower = None
+        if rng.random() < 0.5:
+            lower = np.where(done, arrive, np.maximum(arrive - rng.exponential(0.02, len(plain)) * growth.cost, 0.0))
+        if not growth.settles(plain, whole, least, upper, lower):
             continue
         got = _next_window(growth, np.maximum(plain, upper), whole, least)
         want = _next_window(growth, np.maximum(plain, arrive), whole, least)
-        assert got is not None and want is not None
-        assert np.array_equal(got, want)
-        fired["map" if got is whole else "cap"] += 1
-        assert got is whole or np.array_equal(got, growth.cap)
-    assert fired["map"] >= 20 and fired["cap"] >= 20, fired
+        if got is None:
+            assert want is None
+            fired["none"] += 1
+            continue
+        assert want is not None and np.array_equal(got, want)
+        fired["map" if got is whole else "cap" if np.array_equal(got, growth.cap) else "bracket"] += 1
+    assert fired["none"] >= 1 and min(fired["map"], fired["cap"], fired["bracket"]) >= 100, fired
 
 
 def test_a_window_whose_short_exits_are_all_away_from_its_sides_is_never_settled():
@@ -172,3 +180,45 @@ def test_routes_and_windows_are_those_of_exits_searches_run_to_their_end(monkeyp
             runs.append(found)
         assert runs[0] == runs[1]
     assert sum(stops) >= 5
+
+
+@settings(max_examples=10, deadline=None)
+@given(st.integers(0, 2**32 - 1), st.booleans())
+def test_a_paused_exits_search_bounds_the_arrivals_it_ends_with(seed, at_once):
+    """At every pause of the exits' search (``_tiled_search`` without a target, paused every 16 popped
+    entries here), the bounds ``_arrival_bounds`` makes hold the arrivals the search ends with: never
+    above the upper bound, never below the lower one (made only where the region is searched at once:
+    its one round is its last), and equal to both for the exits already scanned, to the bit."""
+    from tests.test_routing_search import _exits_problem
+
+    g, rng = random_map(seed)
+    opts = RoutingOptions(turn_height=float(rng.uniform(20, 900)), tile_cells=int(rng.integers(1, 5)),
+                          whole_region=10**6 if at_once else 0)
+    lat, extra, live, s, t, straight, from_source = _exits_problem(g, rng)
+    if not np.isfinite(from_source[t]):
+        return
+    penalties = routing._bin_penalties(opts)
+    exits = rng.choice(live, min(200, len(live)), replace=False)
+    cost = float(rng.uniform(1.0, 2.0) * (from_source[t] + opts.turn_height))
+    seen = []
+    real = routing._arrival_bounds
+
+    def recorded(*args):
+        seen.append(real(*args))
+        return seen[-1]
+
+    with pytest.MonkeyPatch.context() as patch:
+        patch.setattr(routing, "_arrival_bounds", recorded)
+        patch.setattr(routing, "_FIRST_PAUSE", 16)
+        _, got = routing._tiled_search(g, lat, extra, s, None, from_source + straight, straight, ([s], cost),
+                                       np.array([s]), penalties, opts, g.xy[t], exits=exits,
+                                       settled=lambda upper, lower: False)
+    assert got is not None
+    for upper, lower in seen:
+        assert (got <= upper).all()
+        assert (lower is None) == (not at_once)
+        if lower is not None:
+            assert (lower <= got).all()
+            exact = lower == upper
+            assert np.array_equal(got[exact], upper[exact])
+    assert len(seen) > 0 or np.isfinite(got).sum() < 3

@@ -574,28 +574,36 @@ class _Growth:
         cap = self.cap
         return np.concatenate([np.maximum(grown[:2], cap[:2]), np.minimum(grown[2:], cap[2:])])
 
-    def settles(self, plain: np.ndarray, whole: np.ndarray, least: float, upper: np.ndarray) -> bool:
-        """Whether exits' arrival costs at most ``upper`` (at least ``plain``) settle the next window
-        whatever the exits' search still finds: it covers more than ``least`` m² of the map (``whole``;
-        it becomes the map), or each side moved as far as one growth may (:attr:`cap`).
+    def settles(self, plain: np.ndarray, whole: np.ndarray, least: float, upper: np.ndarray,
+                lower: np.ndarray | None = None) -> bool:
+        """Whether exits' arrival costs at most ``upper`` (and at least ``lower``, where given; at least
+        ``plain``) settle the next window whatever the exits' search still finds: it covers more than
+        ``least`` m² of the map (``whole``; it becomes the map), each side moved as far as one growth
+        may (:attr:`cap`), or the window made from ``lower`` is the one made from ``upper`` (both
+        None: no exit can be short, the window's route is the map's).
 
         Exact: the search goes on only to lower the arrivals and to find more exits short, and the next
         window only grows with them: a short exit adds its ellipse's box to the others' (:func:`_grown`,
         a union), a lower arrival widens its ellipse, an exit near a side moves that side out, and the
         cap and the map's share are monotone. All but where no short exit is near a side yet:
         :func:`_grown` then doubles the window, which a later exit near a side could undo, so the
-        search does not stop there."""
+        search does not stop there. The window from ``lower`` is the largest the search can still
+        make: it bounds the true one from above as the one from ``upper`` does from below."""
         reached = np.maximum(plain, upper)
         nxt = self.next(reached)
+        widest = None if lower is None else self.next(np.maximum(plain, lower))
+        if lower is not None and widest is None:
+            return True  # no exit short even at its lower bound (nor at its upper: nxt is None too)
         if nxt is None or not _near_sides(self.inside, self.exit_xy[self.short(reached)], self.reach).any():
             return False
-        return bool(np.array_equal(nxt, self.cap) or _seen(nxt, whole) > least)
+        return bool(np.array_equal(nxt, self.cap) or _seen(nxt, whole) > least
+                    or (widest is not None and np.array_equal(nxt, widest)))
 
 
 def _exit_arrivals(window: GraphWindow, kinds: Sequence[EdgeKind], street_ok: np.ndarray | None, s: int,
                    target_xy: np.ndarray, c: float, from_source: np.ndarray, route: Route, penalties: np.ndarray,
                    opts: RoutingOptions, via: np.ndarray | None = None,
-                   settled: Callable[[np.ndarray], bool] | None = None) -> np.ndarray:
+                   settled: Callable[[np.ndarray, np.ndarray | None], bool] | None = None) -> np.ndarray:
     """A(x) of :func:`_implicit_route` for the window's exits: the least turn-penalised arrival
     cost from the source inside the window, where it and ``c·|x − t|`` may be below the route's
     cost (∞ elsewhere), searched by A* towards the target (:func:`_tiled_search` without one).
@@ -606,9 +614,9 @@ def _exit_arrivals(window: GraphWindow, kinds: Sequence[EdgeKind], street_ok: np
     reached along states whose ``g + bound`` is too, so its arrival is the same with either, while
     the tighter bound leaves out the states far from every exit.
 
-    ``settled`` (:meth:`_Growth.settles`) is asked now and then, with upper bounds of the arrivals
-    found so far, whether they already settle the next window; where it says so, the search stops
-    and those bounds are returned (:func:`_tiled_search`)."""
+    ``settled`` (:meth:`_Growth.settles`) is asked now and then, with upper (and lower) bounds of the
+    arrivals the search will end with, whether they already settle the next window; where it says
+    so, the search stops and the upper bounds are returned (:func:`_tiled_search`)."""
     lat_ok, extra_ok = window.graph.masks(kinds, street_ok)
     straight = c * np.hypot(*(window.graph.xy - target_xy).T)
     if via is not None:
@@ -1054,17 +1062,17 @@ def _heading_search(graph: PathGraph, lat: KindMask, extra: np.ndarray, region: 
 
 def _heading_steps(graph: PathGraph, lat: KindMask, extra: np.ndarray, region: np.ndarray, local: np.ndarray,
                    penalties: np.ndarray, k: int, start: int, limit: float, h: np.ndarray,
-                   resume: Resume | None, settled: Callable[[np.ndarray], bool],
-                   read: Callable[[np.ndarray], np.ndarray]) -> tuple[np.ndarray, np.ndarray, bool]:
+                   resume: Resume | None, enough: Callable[[np.ndarray, np.ndarray], bool]
+                   ) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:
     """:func:`_heading_search` on A*'s reduced costs (no predecessors), paused now and then to ask
-    ``settled`` whether what ``read`` makes of the distances so far (upper bounds of their ends)
-    already says enough; the distances, the predecessors (empty) and whether it stopped so, before
-    its end.
+    ``enough`` whether the distances so far (upper bounds of their ends) and the states still queued
+    (no state not yet scanned ends below their least distance) already say enough; the distances,
+    the predecessors (empty) and, where it stopped so before its end, the states it left queued.
 
     The pauses come after ``_FIRST_PAUSE`` popped entries, then each after twice as many as the last
     (a search that runs to the end asks about log₂ of its states / ``_FIRST_PAUSE`` times). Gone on
     with, a paused search scans as one run whole
-    (:func:`~osm_expand.engine.roads.expanded_search.expanded_steps`): where ``settled`` never says
+    (:func:`~osm_expand.engine.roads.expanded_search.expanded_steps`): where ``enough`` never says
     yes, the same distances to the bit."""
     from osm_expand.engine.roads.expanded_search import expanded_steps
 
@@ -1073,9 +1081,9 @@ def _heading_steps(graph: PathGraph, lat: KindMask, extra: np.ndarray, region: n
     while True:
         dist, pred, resume = expanded_steps(rows, start, limit, h=h, resume=resume, budget=budget)
         if resume is None:
-            return dist, pred, False
-        if settled(read(dist)):
-            return dist, pred, True
+            return dist, pred, None
+        if enough(dist, resume.seeds):
+            return dist, pred, resume.seeds
         budget *= 2
 
 
@@ -1461,7 +1469,7 @@ def _cheaper_end(dist: np.ndarray, states: _States, target: int, cost: float, of
 def _tiled_search(graph: PathGraph, lat: KindMask, extra: np.ndarray, source: int, target: int | None,
                   lower: np.ndarray, h: np.ndarray, best: tuple[list[int], float], seed: np.ndarray,
                   penalties: np.ndarray, opts: RoutingOptions, goal: np.ndarray, exits: np.ndarray | None = None,
-                  settled: Callable[[np.ndarray], bool] | None = None
+                  settled: Callable[[np.ndarray, np.ndarray | None], bool] | None = None
                   ) -> tuple[tuple[list[int], float], np.ndarray | None]:
     """The turn-penalised search, the heading-expanded graph made tile by tile as A*'s test reaches them.
 
@@ -1514,8 +1522,9 @@ def _tiled_search(graph: PathGraph, lat: KindMask, extra: np.ndarray, source: in
         Vertices whose least arrival cost below C is returned (∞ when not below C).
     settled
         Without a target, asked as the exits' search goes (:func:`_heading_steps`) whether upper bounds
-        of the exits' arrival costs (their costs so far, which only fall, a margin above) already
-        say enough; where it says so, the search stops and returns those.
+        of the exits' arrival costs (their costs so far, which only fall, a margin above) and, where the
+        region is searched at once, lower bounds (:func:`_arrival_bounds`) already say enough; where it
+        says so, the search stops and returns the upper bounds.
 
     Returns
     -------
@@ -1604,11 +1613,13 @@ def _tiled_search(graph: PathGraph, lat: KindMask, extra: np.ndarray, source: in
             up = hs - ha
             shift: np.ndarray | None = up
             if settled is not None and target is None and exits is not None:
-                at_exits = partial(_upper_arrivals, states, local, exits, source, up)
-                dist, pred, stopped = _heading_steps(graph, lat, extra, full, local, penalties, k, start,
-                                                     cost - hs + slack, ha, resume, settled, at_exits)
-                if stopped:
-                    return best, at_exits(dist)
+                # searched at once, this round is the last: what is still queued bounds the arrivals from below
+                bounds = partial(_arrival_bounds, states, local, exits, source, up,
+                                 2 * _States(len(verts), k).size * _EPS if at_once else None)
+                dist, pred, queued = _heading_steps(graph, lat, extra, full, local, penalties, k, start,
+                                                    cost - hs + slack, ha, resume, partial(_asked, settled, bounds))
+                if queued is not None:
+                    return best, bounds(dist, queued)[0]
             else:
                 dist, pred = _heading_search(graph, lat, extra, full, local, penalties, k, start, cost - hs + slack,
                                              h=ha, predecessors=seek, resume=resume)
@@ -1693,17 +1704,40 @@ def _tiled_search(graph: PathGraph, lat: KindMask, extra: np.ndarray, source: in
         active |= _grown_tiles(active, tile[w], tile[region], shape, len(verts))
 
 
-def _upper_arrivals(states: _States, local: np.ndarray, exits: np.ndarray, source: int, shift: np.ndarray,
-                    dist: np.ndarray) -> np.ndarray:
-    """Upper bounds of the exits' arrival costs from a paused exits' search (:func:`_tiled_search`: A* on
-    reduced costs, g = ``dist + shift``): each exit's least arrival so far (its distances only fall as
-    the search goes on, ∞ where not reached yet), a margin above the float sums of another order."""
+def _asked(settled: Callable[[np.ndarray, np.ndarray | None], bool],
+           bounds: Callable[[np.ndarray, np.ndarray], tuple[np.ndarray, np.ndarray | None]], dist: np.ndarray,
+           queued: np.ndarray) -> bool:
+    """``settled`` asked with the exits' arrival bounds (``bounds``: :func:`_arrival_bounds`) of a paused search."""
+    return settled(*bounds(dist, queued))
+
+
+def _arrival_bounds(states: _States, local: np.ndarray, exits: np.ndarray, source: int, shift: np.ndarray,
+                    slack: float | None, dist: np.ndarray, queued: np.ndarray) -> tuple[np.ndarray, np.ndarray | None]:
+    """Upper and lower bounds of the arrival costs the exits' search (:func:`_tiled_search`: A* on reduced
+    costs, g = ``dist + shift``), paused at ``dist`` with the states ``queued`` left, will end with.
+
+    Upper: each exit's least arrival so far (a distance only falls as the search goes on; ∞ where not
+    reached yet), a margin above the float sums of another order. Lower, where this round is the
+    search's last (``slack``: the rounding slack its arrivals lose at the end; None: tiles may still
+    grow, and a state of a tile added later could end below what is queued): on reduced costs (each
+    at least ε > 0) no state not yet scanned ends below the least distance queued, so an exit ends at
+    no less than that plus its shift, less the slack, a margin below. An exit whose arrival so far lies
+    below that least was scanned: both bounds are then the very value the search ends with (the same
+    float operations as its end's), so where no other exit matters the next window is made from the
+    same floats as after the whole search (:meth:`_Growth.settles`)."""
     at = local[exits].astype(np.int64)
     row = np.maximum(at, 0)
-    came = states.by_vertex(dist)[0][row] + shift[row][:, None]
-    upper = np.where(at >= 0, came.min(axis=1), np.inf)
-    upper[exits == source] = 0.0
-    return upper + (1e-9 * upper + 1e-6)
+    came = states.by_vertex(dist)[0][row].min(axis=1)
+    above = np.where(at >= 0, came + shift[row], np.inf)
+    above[exits == source] = 0.0
+    upper = above + (1e-9 * above + 1e-6)
+    if slack is None:
+        return upper, None
+    least = float(dist[queued].min()) if len(queued) else np.inf
+    final = np.maximum(above - slack, 0.0)  # as the search's end makes them (:func:`_tiled_search`)
+    below = np.where(at >= 0, np.maximum(least + shift[row] - slack, 0.0), np.inf) * (1.0 - 1e-9) - 1e-6
+    done = (came < least) | (exits == source)
+    return np.where(done, final, upper), np.where(done, final, below)
 
 
 def _backward_route(graph: PathGraph, lat: KindMask, extra: np.ndarray, source: int, target: int,
