@@ -44,7 +44,10 @@ A* over a few thousand vertices); the plain route's turns alone made C up
 to 3.7 times the best. C is only a bound: the search still finds its own
 route. The exits' search of a window (costs only, no route) runs A* on
 reduced costs (:func:`_reduced`), bound by the plain distance to an exit
-and the straight line on from there (:func:`_via_exits`).
+and the straight line on from there (:func:`_via_exits`); it pauses now and
+then and stops where the exits it has reached already settle the next window
+(:meth:`_Growth.settles`: the map, the growth's cap, or the same window from
+the arrivals' lower and upper bounds), exact: the same windows to the bit.
 With ``RoutingOptions.backward`` the route's search runs from the target
 instead (:func:`_backward_route`, off: faster on some searches, slower on others).
 """
