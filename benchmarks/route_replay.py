@@ -13,8 +13,11 @@ mode, in one process, and prints per call and in total: the CPU seconds of the
 call, whether the route equals the captured one field by field (vertices,
 xy, kinds, segments, lengths, weights, turn cost), the states the route
 search (A* with scipy's tie rule) reached, summed over its tile rounds, its
-CPU seconds, and the turns' bound T (``RoutingOptions.turn_bound``): its CPU,
-searches and states. The modes set the call's ``RoutingOptions``:
+CPU seconds, the turns' bound T (``RoutingOptions.turn_bound``): its CPU,
+searches and states, and the windows' exits' searches (``routing._exit_arrivals``):
+their CPU, how many and how many stopped early where what they had found
+settled the next window (``routing._Growth.settles``). The modes set the call's
+``RoutingOptions``:
 
 - ``base``: ``turn_bound=0`` (no T: the plain distance alone bounds the search);
 - ``def``: ``turn_bound`` and ``turn_share`` at their defaults;
@@ -110,9 +113,25 @@ def replay(folder: Path, modes: list[str], calls: list[int]) -> None:
         count["Tsize"] += T.size
         return T
 
+    arrivals, settles = routing._exit_arrivals, routing._Growth.settles
+
+    def exits_timed(*args: Any, **kw: Any) -> np.ndarray:
+        t0 = time.process_time()
+        out = arrivals(*args, **kw)
+        count["exits"] += time.process_time() - t0
+        count["exits_n"] += 1
+        return out
+
+    def settled(self: routing._Growth, *args: Any) -> bool:
+        yes = settles(self, *args)
+        count["stopped"] += yes
+        return yes
+
     es.expanded_dijkstra = counted
     routing._turns_to_go = timed
-    total = {m: [0.0, 0.0, 0.0, 0.0] for m in modes}  # CPU, same routes, states, T's CPU
+    routing._exit_arrivals = exits_timed
+    routing._Growth.settles = settled
+    total = {m: [0.0, 0.0, 0.0, 0.0, 0.0] for m in modes}  # CPU, same routes, states, T's CPU, exits' CPU
     for i in calls:
         with open(folder / f"call{i:03d}.pkl", "rb") as f:
             graph, source, target, kw = pickle.load(f)
@@ -124,7 +143,7 @@ def replay(folder: Path, modes: list[str], calls: list[int]) -> None:
         base = kw.get(name, routing.RoutingOptions())
         line = f"{i:3d}"
         for m in modes:
-            count.update(states=0, search=0.0, T=0.0, Tn=0, Tsize=0)
+            count.update(states=0, search=0.0, T=0.0, Tn=0, Tsize=0, exits=0.0, exits_n=0, stopped=0)
             t0 = time.process_time()
             got = routing.find_route(graph, source, target, **{**kw, name: _options(base, m)})
             dt = time.process_time() - t0
@@ -138,15 +157,17 @@ def replay(folder: Path, modes: list[str], calls: list[int]) -> None:
             t[1] += float(same)
             t[2] += count["states"]
             t[3] += count["T"]
+            t[4] += count["exits"]
             line += (f" | {m} {dt:6.2f} s same={int(same)} states {count['states'] / 1e6:6.2f} M"
                      f" search {count['search']:.2f} s T {count['T']:.2f} s/{count['Tn']:.0f}"
-                     f" x {count['Tsize'] / 1e6:.1f} M")
+                     f" x {count['Tsize'] / 1e6:.1f} M exits {count['exits']:.2f} s/{count['exits_n']:.0f}"
+                     f" ({count['stopped']:.0f} stopped)")
         print(line, flush=True)
         del graph
     for m in modes:
-        cpu, routes, states, T = total[m]
+        cpu, routes, states, T, exits = total[m]
         print(f"{m}: {cpu:.2f} s CPU over {len(calls)} calls; same route {routes:.0f}/{len(calls)}; "
-              f"route search states {states / 1e6:.2f} M; T {T:.2f} s CPU")
+              f"route search states {states / 1e6:.2f} M; T {T:.2f} s CPU; exits' searches {exits:.2f} s CPU")
 
 
 def main() -> None:

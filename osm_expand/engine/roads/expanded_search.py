@@ -260,11 +260,12 @@ def _search(n: int, k: int, cheap: np.ndarray, cheap_cost: np.ndarray, hub_cost:
             e_ptr: np.ndarray,
             e_bin: np.ndarray, e_col: np.ndarray, e_val: np.ndarray, h: np.ndarray, astar: bool, ties: bool,
             eps: float, seeds: np.ndarray, limit: float, dist: np.ndarray, pred: np.ndarray,
-            turns: np.ndarray, pos: np.ndarray) -> None:
+            turns: np.ndarray, pos: np.ndarray, budget: int) -> np.ndarray:
     """The distances in ``dist`` (and ``pred`` filled, when it has room), each state's row made as it is
     popped, the search started (or resumed) from the ``seeds`` at their distances in ``dist``; the
-    arguments are :class:`Expanded`'s fields and :func:`expanded_dijkstra`'s (its docstring); ``pos``
-    (one int32 a state, unset) the heap's index (:func:`_queue`)."""
+    arguments are :class:`Expanded`'s fields and :func:`expanded_steps`' (its docstring); ``pos``
+    (one int32 a state, unset) the heap's index (:func:`_queue`). It pauses after popping ``budget``
+    entries (−1: never) and returns the states still queued (empty when it ran to the end)."""
     nk = n * k
     n_dir = lat_kind.shape[1]
     use_table = len(table) > 0
@@ -283,7 +284,11 @@ def _search(n: int, k: int, cheap: np.ndarray, cheap_cost: np.ndarray, hub_cost:
             first = dist[seed] + h[at] if ties else dist[seed]
         if first <= limit:
             length = _queue(heap, pos, length, seed, first)
+    popped = 0
     while length > 0:
+        if popped == budget:  # paused between two pops: the queued states are where it goes on
+            return heap[:length, 1].astype(np.int64)
+        popped += 1
         key = heap[0, 0]
         v = np.int64(heap[0, 1])
         _unqueue(heap, pos, length)
@@ -356,6 +361,7 @@ def _search(n: int, k: int, cheap: np.ndarray, cheap_cost: np.ndarray, hub_cost:
             for col in range(nk + u * k, nk + u * k + k):
                 hc = hu + turns[col] if has_turns else hu
                 length = _relax(dist, pred, heap, pos, length, col, dv + w, v, limit, ties, hc)
+    return np.empty(0, dtype=np.int64)
 
 
 @_compiled(inline="always")
@@ -725,7 +731,8 @@ class Resume(NamedTuple):
     of the last search on the same states with the same limit and bound, whose graph has grown
     since, and the states to scan again (those with an edge into what was added). Or with a lower
     limit and vertices left out, where every state of those lies above it (``routing._goes_on``):
-    then only the states within the new limit end as a search from scratch gives them."""
+    then only the states within the new limit end as a search from scratch gives them. Or a search
+    paused (:func:`expanded_steps`' ``budget``), its seeds the states it left queued."""
 
     dist: np.ndarray  #: per state, the last search's (taken over and changed in place)
     pred: np.ndarray  #: per state, the last search's (empty where none were asked for)
@@ -735,6 +742,14 @@ class Resume(NamedTuple):
 def expanded_dijkstra(graph: Expanded, start: int, limit: float, h: np.ndarray | None = None,
                       return_predecessors: bool = False, ties: bool = False,
                       resume: Resume | None = None, turns: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`expanded_steps` run to the end: the distances and predecessors (its docstring)."""
+    dist, pred, _ = expanded_steps(graph, start, limit, h, return_predecessors, ties, resume, turns)
+    return dist, pred
+
+
+def expanded_steps(graph: Expanded, start: int, limit: float, h: np.ndarray | None = None,
+                   return_predecessors: bool = False, ties: bool = False, resume: Resume | None = None,
+                   turns: np.ndarray | None = None, budget: int = -1) -> tuple[np.ndarray, np.ndarray, Resume | None]:
     """scipy's ``dijkstra(expanded, indices=start, limit=limit)`` on the heading-expanded graph
     ``graph`` describes, with (given ``h``, per vertex) A*'s reduced weights
     ``max(w + h(col) − h(row), eps)`` (``routing._reduced``).
@@ -770,10 +785,21 @@ def expanded_dijkstra(graph: Expanded, start: int, limit: float, h: np.ndarray |
     ``C′ − d_s − D`` per vertex) is not consistent alone, only ``D + T`` is, with ``h`` the same D
     its limits were made with (``routing``'s ``lower = d_s + D``).
 
+    With a ``budget`` (≥ 0) it pauses after popping that many entries and returns where it stands:
+    the distances and predecessors so far (a distance an upper bound of its end, as each only
+    falls) and the :class:`Resume` that goes on from there, its seeds the states still queued. Those
+    are queued again at the keys they had (the pop order, by key then the higher state, is total),
+    so a search paused and gone on with scans the same states in the same order as one run whole:
+    the same distances and predecessors to the bit. The exits' search of a route's window pauses
+    so, to stop where what it found already settles the next window (``routing._tiled_search``).
+
     Returns
     -------
     dist, pred
         Per state, as scipy returns them (∞ and −9999 where not reached; pred empty unless asked).
+    paused
+        Where it paused (``budget`` entries popped and states left queued): the search to go on
+        with; None where it ran to the end.
 
     Raises
     ------
@@ -816,8 +842,8 @@ def expanded_dijkstra(graph: Expanded, start: int, limit: float, h: np.ndarray |
             raise ValueError(f"a state to scan again is not among the {size} states")
     astar = h is not None and not ties
     hh = np.ascontiguousarray(h, dtype=np.float64) if h is not None else np.zeros(1)
-    _search(g.n, g.k, g.cheap, g.cheap_cost, g.hub_cost, g.region, g.local, g.n_lat, g.lat_kind, g.allowed,
-            g.offset, g.dirs_ptr, g.dirs, g.table, g.plain, g.w_kind, g.e_ptr, g.e_bin, g.e_col, g.e_val, hh,
-            astar, ties, g.eps, seeds, float(limit), dist, pred, np.ascontiguousarray(turns, dtype=np.float64),
-            _heap_index(size))
-    return dist, pred
+    left = _search(g.n, g.k, g.cheap, g.cheap_cost, g.hub_cost, g.region, g.local, g.n_lat, g.lat_kind, g.allowed,
+                   g.offset, g.dirs_ptr, g.dirs, g.table, g.plain, g.w_kind, g.e_ptr, g.e_bin, g.e_col, g.e_val, hh,
+                   astar, ties, g.eps, seeds, float(limit), dist, pred,
+                   np.ascontiguousarray(turns, dtype=np.float64), _heap_index(size), int(budget))
+    return dist, pred, (Resume(dist, pred, left) if len(left) else None)

@@ -44,16 +44,20 @@ A* over a few thousand vertices); the plain route's turns alone made C up
 to 3.7 times the best. C is only a bound: the search still finds its own
 route. The exits' search of a window (costs only, no route) runs A* on
 reduced costs (:func:`_reduced`), bound by the plain distance to an exit
-and the straight line on from there (:func:`_via_exits`).
+and the straight line on from there (:func:`_via_exits`); it pauses now and
+then and stops where the exits it has reached already settle the next window
+(:meth:`_Growth.settles`: the map, the growth's cap, or the same window from
+the arrivals' lower and upper bounds), exact: the same windows to the bit.
 With ``RoutingOptions.backward`` the route's search runs from the target
 instead (:func:`_backward_route`, off: faster on some searches, slower on others).
 """
 from __future__ import annotations
 
 import heapq
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, replace
 from enum import StrEnum
+from functools import partial
 from numbers import Integral
 from typing import TYPE_CHECKING
 
@@ -508,10 +512,10 @@ def _implicit_route(graph: ImplicitGraph, source: int, target: int, kinds: Seque
         if window.whole or from_source is None:
             return _on_map(window, route, from_source)
         cost = route.cost if route is not None else np.inf
-        limit = cost - 1e-9 * cost if np.isfinite(cost) else np.inf
+        growth = _Growth(bounds, np.array(window.graph.lattice.bounds), exit_xy, rest, ends[1], cost, c, reach,
+                         opts.growth_share)
         reached = from_source[exits]
-        short = reached + rest < limit
-        if short.any() and route is not None and opts.turn_height > 0:
+        if route is not None and opts.turn_height > 0 and growth.short(reached).any():
             # A route that leaves the window first reaches an exit x, and its part before x lies in the
             # window: it costs at least A(x), the least turn-penalised cost of arriving at x from the
             # source. In a street grid turns are most of a route's cost (Campo Grande: 5,270 of 8,867
@@ -519,29 +523,90 @@ def _implicit_route(graph: ImplicitGraph, source: int, target: int, kinds: Seque
             # max(c·|v − t|, via(v)) (via: the plain distance to an exit and the straight line on from
             # there, :func:`_via_exits`, made when some exit may be short; both consistent, at most
             # c·|x − t| at an exit x), only where A(v) plus that bound may be below the route's cost;
-            # an exit not reached there is not short.
+            # an exit not reached there is not short. The search stops early where the exits it has
+            # reached already settle the next window (:meth:`_Growth.settles`).
+            settled = partial(growth.settles, reached, whole, opts.whole_share * map_area)
             reached = np.maximum(reached, _exit_arrivals(window, kinds, street_ok, s, ends[1], c, from_source,
-                                                         route, penalties, opts, via))
-            short = reached + rest < limit
-        if not short.any():
+                                                         route, penalties, opts, via, settled))
+        grown = growth.next(reached)
+        if grown is None:
             return _on_map(window, route, from_source)
-        grown = _grown(bounds, np.array(window.graph.lattice.bounds), exit_xy[short], reached[short], ends[1],
-                       cost, c, reach)
-        if np.isfinite(cost):
-            # grow a side by at most a share of the window: the exits of a larger window are dearer to
-            # arrive at (more turns), so a step or two of growth usually proves the route, where the
-            # ellipses of the nearer exits would take in most of the map at once
-            size = np.tile(bounds[2:] - bounds[:2], 2)
-            step = np.maximum(opts.growth_share * size, 2.0 * reach) * np.array([-1, -1, 1, 1])
-            grown = np.where(step < 0, np.maximum(grown, bounds + step), np.minimum(grown, bounds + step))
         bounds = grown
         previous = None if route is None else window.to_map(route.vertices)
         del window, route, from_source, via  # the last window's tables go before the next is made
 
 
+@dataclass(frozen=True)
+class _Growth:
+    """What decides the window after one of :func:`_implicit_route` from its exits' arrival costs."""
+
+    bounds: np.ndarray  #: the window's bounds as asked (xmin, ymin, xmax, ymax) m
+    inside: np.ndarray  #: its lattice's bounds
+    exit_xy: np.ndarray  #: (X, 2) m, its exits
+    rest: np.ndarray  #: (X,) at least what is left of a route from each exit to the target
+    target: np.ndarray  #: (2,) m
+    cost: float  #: the window's best route's cost (∞: none)
+    c: float  #: the least cost a metre (:func:`cheapest_unit_cost`)
+    reach: float  #: m, how far an edge of G′ reaches
+    share: float  #: ``RoutingOptions.growth_share``
+
+    def short(self, reached: np.ndarray) -> np.ndarray:
+        """The exits through which a route could still be cheaper than the window's best."""
+        limit = self.cost - 1e-9 * self.cost if np.isfinite(self.cost) else np.inf
+        return reached + self.rest < limit
+
+    @property
+    def cap(self) -> np.ndarray:
+        """The largest window one growth makes: each side moved by at most ``share`` of the window's size
+        (at least ``2 · reach``) while the cost is finite."""
+        size = np.tile(self.bounds[2:] - self.bounds[:2], 2)
+        return self.bounds + np.maximum(self.share * size, 2.0 * self.reach) * np.array([-1, -1, 1, 1])
+
+    def next(self, reached: np.ndarray) -> np.ndarray | None:
+        """The next window's bounds where the exits are reached at ``reached``: None where no exit is short
+        (the window's route is the map's), else :func:`_grown` within :attr:`cap`. The cap: the exits of a
+        larger window are dearer to arrive at (more turns), so a step or two of growth usually proves the
+        route, where the ellipses of the nearer exits would take in most of the map at once."""
+        short = self.short(reached)
+        if not short.any():
+            return None
+        grown = _grown(self.bounds, self.inside, self.exit_xy[short], reached[short], self.target, self.cost,
+                       self.c, self.reach)
+        if not np.isfinite(self.cost):
+            return grown
+        cap = self.cap
+        return np.concatenate([np.maximum(grown[:2], cap[:2]), np.minimum(grown[2:], cap[2:])])
+
+    def settles(self, plain: np.ndarray, whole: np.ndarray, least: float, upper: np.ndarray,
+                lower: np.ndarray | None = None) -> bool:
+        """Whether exits' arrival costs at most ``upper`` (and at least ``lower``, where given; at least
+        ``plain``) settle the next window whatever the exits' search still finds: it covers more than
+        ``least`` m² of the map (``whole``; it becomes the map), each side moved as far as one growth
+        may (:attr:`cap`), or the window made from ``lower`` is the one made from ``upper`` (both
+        None: no exit can be short, the window's route is the map's).
+
+        Exact: the search goes on only to lower the arrivals and to find more exits short, and the next
+        window only grows with them: a short exit adds its ellipse's box to the others' (:func:`_grown`,
+        a union), a lower arrival widens its ellipse, an exit near a side moves that side out, and the
+        cap and the map's share are monotone. All but where no short exit is near a side yet:
+        :func:`_grown` then doubles the window, which a later exit near a side could undo, so the
+        search does not stop there. The window from ``lower`` is the largest the search can still
+        make: it bounds the true one from above as the one from ``upper`` does from below."""
+        reached = np.maximum(plain, upper)
+        nxt = self.next(reached)
+        widest = None if lower is None else self.next(np.maximum(plain, lower))
+        if lower is not None and widest is None:
+            return True  # no exit short even at its lower bound (nor at its upper: nxt is None too)
+        if nxt is None or not _near_sides(self.inside, self.exit_xy[self.short(reached)], self.reach).any():
+            return False
+        return bool(np.array_equal(nxt, self.cap) or _seen(nxt, whole) > least
+                    or (widest is not None and np.array_equal(nxt, widest)))
+
+
 def _exit_arrivals(window: GraphWindow, kinds: Sequence[EdgeKind], street_ok: np.ndarray | None, s: int,
                    target_xy: np.ndarray, c: float, from_source: np.ndarray, route: Route, penalties: np.ndarray,
-                   opts: RoutingOptions, via: np.ndarray | None = None) -> np.ndarray:
+                   opts: RoutingOptions, via: np.ndarray | None = None,
+                   settled: Callable[[np.ndarray, np.ndarray | None], bool] | None = None) -> np.ndarray:
     """A(x) of :func:`_implicit_route` for the window's exits: the least turn-penalised arrival
     cost from the source inside the window, where it and ``c·|x − t|`` may be below the route's
     cost (∞ elsewhere), searched by A* towards the target (:func:`_tiled_search` without one).
@@ -550,7 +615,11 @@ def _exit_arrivals(window: GraphWindow, kinds: Sequence[EdgeKind], street_ok: np
     plain distance to an exit and the straight line on from there), both consistent and at most
     ``c·|x − t|`` at an exit x: an exit whose ``A(x) + c·|x − t|`` is below the route's cost is
     reached along states whose ``g + bound`` is too, so its arrival is the same with either, while
-    the tighter bound leaves out the states far from every exit."""
+    the tighter bound leaves out the states far from every exit.
+
+    ``settled`` (:meth:`_Growth.settles`) is asked now and then, with upper (and lower) bounds of the
+    arrivals the search will end with, whether they already settle the next window; where it says
+    so, the search stops and the upper bounds are returned (:func:`_tiled_search`)."""
     lat_ok, extra_ok = window.graph.masks(kinds, street_ok)
     straight = c * np.hypot(*(window.graph.xy - target_xy).T)
     if via is not None:
@@ -559,7 +628,7 @@ def _exit_arrivals(window: GraphWindow, kinds: Sequence[EdgeKind], street_ok: np
             return np.full(len(window.exits), np.inf)  # A(x) + c·|x − t| ≥ via(s) > the cost at every exit
     _, arrive = _tiled_search(window.graph, lat_ok, extra_ok, s, None, from_source + straight, straight,
                               (route.vertices.tolist(), route.cost), route.vertices, penalties, opts, target_xy,
-                              exits=window.exits)
+                              exits=window.exits, settled=settled)
     if arrive is None:  # exits were given: the search always returns their arrivals
         raise RuntimeError("the exits' search returned no arrivals")
     return arrive
@@ -584,8 +653,7 @@ def _grown(bounds: np.ndarray, inside: np.ndarray, exits: np.ndarray, reached: n
     from x: each box is cut to that square round its exit.
     """
     px, py = exits.T
-    near = np.array([(px < inside[0] + reach).any(), (py < inside[1] + reach).any(),
-                     (px > inside[2] - reach).any(), (py > inside[3] - reach).any()])
+    near = _near_sides(inside, exits, reach)
     step = np.where(near, 2.0 * reach, 0.0) * np.array([-1, -1, 1, 1])
     out = bounds + step
     if not np.isfinite(cost) or not near.any():
@@ -602,6 +670,14 @@ def _grown(bounds: np.ndarray, inside: np.ndarray, exits: np.ndarray, reached: n
     box = np.array([np.maximum(mx - hx, px - r).min() - reach, np.maximum(my - hy, py - r).min() - reach,
                     np.minimum(mx + hx, px + r).max() + reach, np.minimum(my + hy, py + r).max() + reach])
     return np.concatenate([np.minimum(out[:2], box[:2]), np.maximum(out[2:], box[2:])])
+
+
+def _near_sides(inside: np.ndarray, exits: np.ndarray, reach: float) -> np.ndarray:
+    """(4,) bool: which sides of a window's lattice (``inside``: xmin, ymin, xmax, ymax) have an exit of
+    ``exits`` (m) within ``reach`` (:func:`_grown` moves those out)."""
+    px, py = exits.T
+    return np.array([(px < inside[0] + reach).any(), (py < inside[1] + reach).any(),
+                     (px > inside[2] - reach).any(), (py > inside[3] - reach).any()])
 
 
 def _on_map(window: GraphWindow, route: Route | None, *_) -> Route | None:
@@ -987,6 +1063,40 @@ def _heading_search(graph: PathGraph, lat: KindMask, extra: np.ndarray, region: 
                              turns=turns)
 
 
+def _heading_steps(graph: PathGraph, lat: KindMask, extra: np.ndarray, region: np.ndarray, local: np.ndarray,
+                   penalties: np.ndarray, k: int, start: int, limit: float, h: np.ndarray,
+                   resume: Resume | None, enough: Callable[[np.ndarray, np.ndarray], bool]
+                   ) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:
+    """:func:`_heading_search` on A*'s reduced costs (no predecessors), paused now and then to ask
+    ``enough`` whether the distances so far (upper bounds of their ends) and the states still queued
+    (no state not yet scanned ends below their least distance) already say enough; the distances,
+    the predecessors (empty) and, where it stopped so before its end, the states it left queued.
+
+    The pauses come after ``_FIRST_PAUSE`` popped entries, then each after twice as many as the last
+    (a search that runs to the end asks about log₂ of its states / ``_FIRST_PAUSE`` times). Gone on
+    with, a paused search scans as one run whole
+    (:func:`~osm_expand.engine.roads.expanded_search.expanded_steps`): where ``enough`` never says
+    yes, the same distances to the bit."""
+    from osm_expand.engine.roads.expanded_search import expanded_steps
+
+    rows = _expanded_rows(graph, lat, extra, region, local, penalties, k)
+    budget = _FIRST_PAUSE
+    while True:
+        dist, pred, resume = expanded_steps(rows, start, limit, h=h, resume=resume, budget=budget)
+        if resume is None:
+            return dist, pred, None
+        if enough(dist, resume.seeds):
+            return dist, pred, resume.seeds
+        budget *= 2
+
+
+#: entries the exits' search pops before it first asks whether the next window is settled
+#: (:func:`_heading_steps`); Campo Grande's captured calls (session 42) settled it after 0.3–5 % of
+#: searches of 0.2–2.3 M states, so the first asks come early and the doubling keeps a search that
+#: never settles it to a few asks
+_FIRST_PAUSE = 4096
+
+
 def _expanded_rows(graph: PathGraph, lat: KindMask, extra: np.ndarray, region: np.ndarray, local: np.ndarray,
                    penalties: np.ndarray, k: int) -> Expanded:
     """What the compiled searches read of the heading-expanded graph over ``region`` (``local``: the
@@ -1361,8 +1471,9 @@ def _cheaper_end(dist: np.ndarray, states: _States, target: int, cost: float, of
 
 def _tiled_search(graph: PathGraph, lat: KindMask, extra: np.ndarray, source: int, target: int | None,
                   lower: np.ndarray, h: np.ndarray, best: tuple[list[int], float], seed: np.ndarray,
-                  penalties: np.ndarray, opts: RoutingOptions, goal: np.ndarray,
-                  exits: np.ndarray | None = None) -> tuple[tuple[list[int], float], np.ndarray | None]:
+                  penalties: np.ndarray, opts: RoutingOptions, goal: np.ndarray, exits: np.ndarray | None = None,
+                  settled: Callable[[np.ndarray, np.ndarray | None], bool] | None = None
+                  ) -> tuple[tuple[list[int], float], np.ndarray | None]:
     """The turn-penalised search, the heading-expanded graph made tile by tile as A*'s test reaches them.
 
     Each search (:func:`_heading_search`: compiled, no expanded matrix is
@@ -1412,6 +1523,11 @@ def _tiled_search(graph: PathGraph, lat: KindMask, extra: np.ndarray, source: in
         The route's end (None: no route is sought, only the arrivals at ``exits`` below C).
     exits
         Vertices whose least arrival cost below C is returned (∞ when not below C).
+    settled
+        Without a target, asked as the exits' search goes (:func:`_heading_steps`) whether upper bounds
+        of the exits' arrival costs (their costs so far, which only fall, a margin above) and, where the
+        region is searched at once, lower bounds (:func:`_arrival_bounds`) already say enough; where it
+        says so, the search stops and returns the upper bounds.
 
     Returns
     -------
@@ -1495,12 +1611,21 @@ def _tiled_search(graph: PathGraph, lat: KindMask, extra: np.ndarray, source: in
             ha = h[full] * (1.0 - _SHRINK)
             hs = float(ha[local[source]])
             seek = target is not None and local[target] >= 0
-            dist, pred = _heading_search(graph, lat, extra, full, local, penalties, k, start, cost - hs + slack,
-                                         h=ha, predecessors=seek, resume=resume)
             # g = distance + h(state) − h(source), added where read (the active vertices' rows, not the
             # whole region's); ``dist`` stays as searched, to go on with
             up = hs - ha
             shift: np.ndarray | None = up
+            if settled is not None and target is None and exits is not None:
+                # searched at once, this round is the last: what is still queued bounds the arrivals from below
+                bounds = partial(_arrival_bounds, states, local, exits, source, up,
+                                 2 * _States(len(verts), k).size * _EPS if at_once else None)
+                dist, pred, queued = _heading_steps(graph, lat, extra, full, local, penalties, k, start,
+                                                    cost - hs + slack, ha, resume, partial(_asked, settled, bounds))
+                if queued is not None:
+                    return best, bounds(dist, queued)[0]
+            else:
+                dist, pred = _heading_search(graph, lat, extra, full, local, penalties, k, start, cost - hs + slack,
+                                             h=ha, predecessors=seek, resume=resume)
             if seek:
                 last = _cheaper_end(dist, states, int(local[target]), cost, float(up[local[target]]))
                 if last is not None:
@@ -1580,6 +1705,42 @@ def _tiled_search(graph: PathGraph, lat: KindMask, extra: np.ndarray, source: in
             kept = (made, full, inside, dist, pred)
         del dist, pred  # this search's states go before the next search's are made (unless it goes on)
         active |= _grown_tiles(active, tile[w], tile[region], shape, len(verts))
+
+
+def _asked(settled: Callable[[np.ndarray, np.ndarray | None], bool],
+           bounds: Callable[[np.ndarray, np.ndarray], tuple[np.ndarray, np.ndarray | None]], dist: np.ndarray,
+           queued: np.ndarray) -> bool:
+    """``settled`` asked with the exits' arrival bounds (``bounds``: :func:`_arrival_bounds`) of a paused search."""
+    return settled(*bounds(dist, queued))
+
+
+def _arrival_bounds(states: _States, local: np.ndarray, exits: np.ndarray, source: int, shift: np.ndarray,
+                    slack: float | None, dist: np.ndarray, queued: np.ndarray) -> tuple[np.ndarray, np.ndarray | None]:
+    """Upper and lower bounds of the arrival costs the exits' search (:func:`_tiled_search`: A* on reduced
+    costs, g = ``dist + shift``), paused at ``dist`` with the states ``queued`` left, will end with.
+
+    Upper: each exit's least arrival so far (a distance only falls as the search goes on; ∞ where not
+    reached yet), a margin above the float sums of another order. Lower, where this round is the
+    search's last (``slack``: the rounding slack its arrivals lose at the end; None: tiles may still
+    grow, and a state of a tile added later could end below what is queued): on reduced costs (each
+    at least ε > 0) no state not yet scanned ends below the least distance queued, so an exit ends at
+    no less than that plus its shift, less the slack, a margin below. An exit whose arrival so far lies
+    below that least was scanned: both bounds are then the very value the search ends with (the same
+    float operations as its end's), so where no other exit matters the next window is made from the
+    same floats as after the whole search (:meth:`_Growth.settles`)."""
+    at = local[exits].astype(np.int64)
+    row = np.maximum(at, 0)
+    came = states.by_vertex(dist)[0][row].min(axis=1)
+    above = np.where(at >= 0, came + shift[row], np.inf)
+    above[exits == source] = 0.0
+    upper = above + (1e-9 * above + 1e-6)
+    if slack is None:
+        return upper, None
+    least = float(dist[queued].min()) if len(queued) else np.inf
+    final = np.maximum(above - slack, 0.0)  # as the search's end makes them (:func:`_tiled_search`)
+    below = np.where(at >= 0, np.maximum(least + shift[row] - slack, 0.0), np.inf) * (1.0 - 1e-9) - 1e-6
+    done = (came < least) | (exits == source)
+    return np.where(done, final, upper), np.where(done, final, below)
 
 
 def _backward_route(graph: PathGraph, lat: KindMask, extra: np.ndarray, source: int, target: int,
