@@ -170,3 +170,39 @@ def test_shifts_are_a_grid_of_whole_cells_within_reach_the_shortest_first():
     assert len({tuple(s) for s in shifts.tolist()}) == len(shifts) and (shifts[0] == 0).all()
     coarse = _shifts(5.0, 2)
     assert len(coarse) == 21 and (coarse % 2 == 0).all() and (np.hypot(*coarse.T) <= 5.0).all()
+
+
+def test_the_density_floor_is_the_verdicts():
+    """The transplant falls back to the quilt below the floor of the verdict's density range (``synth`` does not
+    import the verdict, so the number is held equal here)."""
+    from osm_expand.fidelity import FidelityOptions
+    from synth.patches.pattern import DENSITY_FLOOR
+    assert DENSITY_FLOOR == FidelityOptions().scalar_low
+
+
+def test_a_transplant_short_of_the_density_floor_falls_back_to_the_quilt(monkeypatch):
+    """A transplant that leaves nothing (far below the floor of the town's neighbourhood densities times the
+    free land) gives way to the quilt on that site: the district is the quilt's, which fills to the target."""
+    import synth.patches.pattern as pattern_module
+    monkeypatch.setattr(pattern_module, "_transplant", lambda *args: (network_from_lines([]), {}))
+    city, learned = _town("krems.osm.gz")
+    pattern = make_pattern("example", learned.example, PatchOptions(transplant=True))
+    result = expand(city, ExpandOptions(seed=0), pattern=pattern)
+    fell_back = result.growth.debug["fell_back"]
+    assert fell_back["transplant_km"] == 0.0 and fell_back["floor_km"] > 0.0
+    assert "cells" in result.growth.debug  # the quilt's report
+    assert sum(shapely.LineString(s.xy).length for s in result.growth.streets) >= 1000.0 * fell_back["floor_km"]
+
+
+def test_a_transplant_reaching_the_density_floor_is_kept():
+    """Krems seed 0's transplanted district (its old-town lanes) is dense enough: no fallback, the verdict's
+    density in range."""
+    result = _transplanted("krems.osm.gz", 0)
+    assert "fell_back" not in result.growth.debug and "cells" not in result.growth.debug
+    assert result.fidelity is not None and result.fidelity.verdict("density").ok
+
+
+@pytest.mark.parametrize("bad", ["true", 1, None])
+def test_transplant_fallback_is_read_as_true_or_false(bad):
+    with pytest.raises(OptionError):
+        PatchOptions(transplant_fallback=bad)

@@ -124,6 +124,13 @@ class PatchOptions:
     #: district's density is 15.4 against 19.4 (seeds 1 and 4): the larger site is sparser, not denser. The
     #: third site's districts lose 3.4 of 14.1 km to the cut-back and 0.7-1.7 km to the dead-end pruning.
     transplant: bool = False
+    #: With :attr:`transplant` on: where the transplanted district's street length falls below the floor of
+    #: the town's neighbourhood densities (:data:`synth.patches.pattern.DENSITY_FLOOR`, the verdict's) times
+    #: the free land's area, the quilt grows on that site instead. The district must be a neighbourhood of
+    #: the town's density; the whole neighbourhood is preferred where it reaches it (Monaco's narrow third
+    #: site keeps about 10 km of any neighbourhood where the floor asks about 10.9). Does nothing with
+    #: :attr:`transplant` off.
+    transplant_fallback: bool = True
     #: A cut end left over runs on this many spacings to meet a street in a tee ...
     tee_reach: float = 0.6
     #: ... meeting it at this angle or more (degrees).
@@ -148,5 +155,8 @@ class PatchOptions:
     def __post_init__(self) -> None:
         if not isinstance(self.transplant, bool):
             raise OptionError(f"PatchOptions.transplant must be true or false, got {self.transplant!r}")
+        if not isinstance(self.transplant_fallback, bool):
+            raise OptionError("PatchOptions.transplant_fallback must be true or false, "
+                              f"got {self.transplant_fallback!r}")
         if not isinstance(self.roads_out_open, bool):  # a history's "false" is a string, which Python reads as true
             raise OptionError(f"PatchOptions.roads_out_open must be true or false, got {self.roads_out_open!r}")
