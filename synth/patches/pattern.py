@@ -79,8 +79,10 @@ class ExamplePatches:
         density = _density(everything, around, radius)
         target = float(np.median(density)) * float(free.area)
         aim = self._aim(everything, around, radius, city.network)
-        fell_back = None
+        fell_back, quilt_rng = None, rng
         if opts.transplant:  # one neighbourhood of the site's size, whole (synth.patches.transplant)
+            # the quilt a fallback grows draws what the default's would on this site (its patch ranking)
+            quilt_rng = copy.deepcopy(rng)
             whole = self._patches(source, float(np.sqrt(free.area)), rng)
             net, debug = _transplant(source, whole, free, old_geom, occupied, target, spacing, opts, aim)
             floor = float(np.percentile(density, DENSITY_FLOOR)) * float(free.area)
@@ -90,7 +92,7 @@ class ExamplePatches:
                               footprint=free, debug={"target_km": round(target / 1000, 2), **debug})
             # too sparse for a neighbourhood of the town: the quilt below, which fills to the target
             fell_back = {"transplant_km": round(net.total_length() / 1000, 2), "floor_km": round(floor / 1000, 2)}
-        patches = self._patches(source, size, rng)
+        patches = self._patches(source, size, quilt_rng)
         centres = _centres(free, old_geom, size)
         cells = _cells(free, centres)
         best = None
