@@ -140,7 +140,7 @@ class PatchOptions:
     #: patches: Monaco 6 2 2 1 3, density 3/5. The 25th percentile as the floor: Monaco 1 3 2 1 5, density
     #: 5/5 but 2-core share 4/5 and quilts on four seeds (corners > 45° per km 5.6-8.7 against 3.5-3.6).
     #: Engine (``engine_growth.py --seeds 0-5 --patch-option transplant=true``, Monaco): 3.0 1.0 4.7 4.0 2.0
-    #: 7.0 (3.6, shares in range 3/6; h42f's figures, not re-run) -> 2.0 3.0 4.7 8.3 3.7 2.3 (4.0, 4/6).
+    #: 7.0 (3.6, shares in range 3/6, re-run back to back) -> 2.0 3.0 4.7 8.3 3.7 2.3 (4.0, 4/6).
     transplant_fallback: bool = True
     #: A cut end left over runs on this many spacings to meet a street in a tee ...
     tee_reach: float = 0.6
