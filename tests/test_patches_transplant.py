@@ -7,7 +7,7 @@ import functools
 import numpy as np
 import pytest
 import shapely
-from hypothesis import Phase, given, settings
+from hypothesis import Phase, example, given, settings
 from hypothesis import strategies as st
 from hypothesis.extra import numpy as hnp
 
@@ -30,9 +30,9 @@ def _town(name: str):
 
 
 @functools.cache
-def _transplanted(name: str, seed: int):
+def _transplanted(name: str, seed: int, fallback: bool = True):
     city, learned = _town(name)
-    pattern = make_pattern("example", learned.example, PatchOptions(transplant=True))
+    pattern = make_pattern("example", learned.example, PatchOptions(transplant=True, transplant_fallback=fallback))
     return expand(city, ExpandOptions(seed=seed), pattern=pattern)
 
 
@@ -56,11 +56,13 @@ def _crossings(lines: list[np.ndarray], new: np.ndarray) -> int:
 
 @settings(max_examples=4, deadline=None, phases=(Phase.explicit, Phase.reuse, Phase.generate))
 @given(seed=st.integers(0, 2 ** 16), name=st.sampled_from(["krems.osm.gz", "monaco.osm.gz"]))
+@example(seed=265, name="monaco.osm.gz")
 def test_a_transplanted_district_is_planar_joined_twice_and_on_free_land(seed, name):
     """Issue 20's district as one network: its streets cross nothing (themselves, the town's), it is joined to
     the town at two places or more, and it lies on the free land it was grown on, but for the straight runs
-    of its cut streets on to the town (at most :data:`JOIN_REACH` spacings each)."""
-    result = _transplanted(name, seed)
+    of its cut streets on to the town (at most :data:`JOIN_REACH` spacings each). The transplant itself: without
+    the fallback to the quilt (Monaco seed 265 falls back; the quilt's edge streets run off the free land)."""
+    result = _transplanted(name, seed, fallback=False)
     assert result.joins.joins >= 2
     net = result.city.network
     grown = [net.street_xy(s) for s in net.streets if s.origin == Origin.GROWN]
@@ -170,3 +172,39 @@ def test_shifts_are_a_grid_of_whole_cells_within_reach_the_shortest_first():
     assert len({tuple(s) for s in shifts.tolist()}) == len(shifts) and (shifts[0] == 0).all()
     coarse = _shifts(5.0, 2)
     assert len(coarse) == 21 and (coarse % 2 == 0).all() and (np.hypot(*coarse.T) <= 5.0).all()
+
+
+def test_the_density_floor_is_the_verdicts():
+    """The transplant falls back to the quilt below the floor of the verdict's density range (``synth`` does not
+    import the verdict, so the number is held equal here)."""
+    from osm_expand.fidelity import FidelityOptions
+    from synth.patches.pattern import DENSITY_FLOOR
+    assert DENSITY_FLOOR == FidelityOptions().scalar_low
+
+
+def test_a_transplant_short_of_the_density_floor_falls_back_to_the_quilt(monkeypatch):
+    """A transplant that leaves nothing (far below the floor of the town's neighbourhood densities times the
+    free land) gives way to the quilt on that site: the district is the quilt's, which fills to the target."""
+    import synth.patches.pattern as pattern_module
+    monkeypatch.setattr(pattern_module, "_transplant", lambda *args: (network_from_lines([]), {}))
+    city, learned = _town("krems.osm.gz")
+    pattern = make_pattern("example", learned.example, PatchOptions(transplant=True))
+    result = expand(city, ExpandOptions(seed=0), pattern=pattern)
+    fell_back = result.growth.debug["fell_back"]
+    assert fell_back["transplant_km"] == 0.0 and fell_back["floor_km"] > 0.0
+    assert "cells" in result.growth.debug  # the quilt's report
+    assert sum(shapely.LineString(s.xy).length for s in result.growth.streets) >= 1000.0 * fell_back["floor_km"]
+
+
+def test_a_transplant_reaching_the_density_floor_is_kept():
+    """Krems seed 0's transplanted district (its old-town lanes) is dense enough: no fallback, the verdict's
+    density in range."""
+    result = _transplanted("krems.osm.gz", 0)
+    assert "fell_back" not in result.growth.debug and "cells" not in result.growth.debug
+    assert result.fidelity is not None and result.fidelity.verdict("density").ok
+
+
+@pytest.mark.parametrize("bad", ["true", 1, None])
+def test_transplant_fallback_is_read_as_true_or_false(bad):
+    with pytest.raises(OptionError):
+        PatchOptions(transplant_fallback=bad)

@@ -124,6 +124,24 @@ class PatchOptions:
     #: district's density is 15.4 against 19.4 (seeds 1 and 4): the larger site is sparser, not denser. The
     #: third site's districts lose 3.4 of 14.1 km to the cut-back and 0.7-1.7 km to the dead-end pruning.
     transplant: bool = False
+    #: With :attr:`transplant` on: where the transplanted district's street length falls below the floor of
+    #: the town's neighbourhood densities (:data:`synth.patches.pattern.DENSITY_FLOOR`, the verdict's) times
+    #: the free land's area, the quilt grows on that site instead. The district must be a neighbourhood of
+    #: the town's density; the whole neighbourhood is preferred where it reaches it (Monaco's narrow third
+    #: site keeps about 10 km of any neighbourhood where the floor asks about 10.9). The fallback's quilt draws
+    #: its patch ranking from the site's generator as it was before the transplant's draw, so it is the quilt
+    #: the default grows there. Does nothing with :attr:`transplant` off (default outputs unchanged). Session 42
+    #: (h42g), with transplant on, without -> with: ``district_fidelity.py --table`` Monaco off 2 2 2 1 3 ->
+    #: 2 2 2 1 5 (mean 2.0 -> 2.4), density in range 3/5 (ynyyn) -> 4/5 (ynyyy: seed 4's first two sites fall back and
+    #: its district is the default's, second site, density 20.81, off 5; seed 1's transplant on the third site, 10.0 km
+    #: on 0.52 km², reaches this floor, 19.3 against grow's own 10th percentile of 17.7-19.2, but not the
+    #: verdict's 21.09: the verdict's 32 parts are another sample), shares 5/5; Krems 0.2 (0 0 0 0 1) and
+    #: Andorra 3.0 (2 1 3 5 4) as without. Without the generator's copy the fallback's quilt drew other
+    #: patches: Monaco 6 2 2 1 3, density 3/5. The 25th percentile as the floor: Monaco 1 3 2 1 5, density
+    #: 5/5 but 2-core share 4/5 and quilts on four seeds (corners > 45° per km 5.6-8.7 against 3.5-3.6).
+    #: Engine (``engine_growth.py --seeds 0-5 --patch-option transplant=true``, Monaco): 3.0 1.0 4.7 4.0 2.0
+    #: 7.0 (3.6, shares in range 3/6, re-run back to back) -> 2.0 3.0 4.7 8.3 3.7 2.3 (4.0, 4/6).
+    transplant_fallback: bool = True
     #: A cut end left over runs on this many spacings to meet a street in a tee ...
     tee_reach: float = 0.6
     #: ... meeting it at this angle or more (degrees).
@@ -148,5 +166,8 @@ class PatchOptions:
     def __post_init__(self) -> None:
         if not isinstance(self.transplant, bool):
             raise OptionError(f"PatchOptions.transplant must be true or false, got {self.transplant!r}")
+        if not isinstance(self.transplant_fallback, bool):
+            raise OptionError("PatchOptions.transplant_fallback must be true or false, "
+                              f"got {self.transplant_fallback!r}")
         if not isinstance(self.roads_out_open, bool):  # a history's "false" is a string, which Python reads as true
             raise OptionError(f"PatchOptions.roads_out_open must be true or false, got {self.roads_out_open!r}")

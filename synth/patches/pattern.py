@@ -79,17 +79,20 @@ class ExamplePatches:
         density = _density(everything, around, radius)
         target = float(np.median(density)) * float(free.area)
         aim = self._aim(everything, around, radius, city.network)
+        fell_back, quilt_rng = None, rng
         if opts.transplant:  # one neighbourhood of the site's size, whole (synth.patches.transplant)
-            size = float(np.sqrt(free.area))
-        key = round(float(np.log(size)) / 0.05)  # sizes within 5 % share a ranking
-        if key not in self.cache:
-            self.cache[key] = _candidate_patches(source, size, opts, rng, self.measure)
-        patches = self.cache[key]
-        if opts.transplant:
-            net, debug = _transplant(source, patches, free, old_geom, occupied, target, spacing, opts, aim)
-            return Growth(streets=tuple(NewStreet(xy=net.street_xy(s), hierarchy=max(s.hierarchy, 0),
-                                                  highway=s.highway) for s in net.streets),
-                          footprint=free, debug={"target_km": round(target / 1000, 2), **debug})
+            # the quilt a fallback grows draws what the default's would on this site (its patch ranking)
+            quilt_rng = copy.deepcopy(rng)
+            whole = self._patches(source, float(np.sqrt(free.area)), rng)
+            net, debug = _transplant(source, whole, free, old_geom, occupied, target, spacing, opts, aim)
+            floor = float(np.percentile(density, DENSITY_FLOOR)) * float(free.area)
+            if not (opts.transplant_fallback and net.total_length() < floor):
+                return Growth(streets=tuple(NewStreet(xy=net.street_xy(s), hierarchy=max(s.hierarchy, 0),
+                                                      highway=s.highway) for s in net.streets),
+                              footprint=free, debug={"target_km": round(target / 1000, 2), **debug})
+            # too sparse for a neighbourhood of the town: the quilt below, which fills to the target
+            fell_back = {"transplant_km": round(net.total_length() / 1000, 2), "floor_km": round(floor / 1000, 2)}
+        patches = self._patches(source, size, quilt_rng)
         centres = _centres(free, old_geom, size)
         cells = _cells(free, centres)
         best = None
@@ -108,7 +111,16 @@ class ExamplePatches:
                       debug={"cells": len(centres), "filled": placed, "target_km": round(target / 1000, 2),
                              "seam_links": links, "tees": tees,
                              "target_dead_end_share": None if aim is None else round(aim.dead_end_share, 3),
-                             "target_two_core_share": None if aim is None else round(aim.two_core_share, 3)})
+                             "target_two_core_share": None if aim is None else round(aim.two_core_share, 3),
+                             **({} if fell_back is None else {"fell_back": fell_back})})
+
+    def _patches(self, source: _Source, size: float, rng: np.random.Generator) -> np.ndarray:
+        """The town's candidate patches of ``size`` ranked (:func:`_candidate_patches`), kept in :attr:`cache`:
+        sizes within 5 % share a ranking."""
+        key = round(float(np.log(size)) / 0.05)
+        if key not in self.cache:
+            self.cache[key] = _candidate_patches(source, size, self.options, rng, self.measure)
+        return self.cache[key]
 
     def fresh(self) -> ExamplePatches:
         """This pattern with empty caches (:func:`synth.growth.for_a_run`): the ranked patches in
@@ -153,6 +165,11 @@ class ExamplePatches:
 DEAD_END_DISCS = 16
 #: Times the cells are filled with other patches when the first patches left the district too sparse.
 ATTEMPTS = 3
+#: Percentile of the town's neighbourhood densities a transplanted district must reach, else the quilt grows
+#: instead (:attr:`PatchOptions.transplant_fallback`): the floor of the fidelity verdict's density range,
+#: :attr:`osm_expand.fidelity.FidelityOptions.scalar_low` (10th-90th percentile of the real parts; a test
+#: holds the two equal, as ``synth`` does not import the verdict).
+DENSITY_FLOOR = 10.0
 
 
 def _misfit(length: float, target: float) -> float:
