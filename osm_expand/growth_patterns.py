@@ -66,10 +66,20 @@ def _colonisation(example: Example, options: Any) -> GrowthPattern:
 
 
 def _example_era() -> Any:
+    """The example pattern's options in a history's era: the district's, but a transplant that falls short of
+    the town's density is not replaced by the quilt (``PatchOptions.transplant_fallback`` off).
+
+    Why: where the transplant cannot fill an era's site at the town's density, the era without the fallback
+    grows no district there (it grows elsewhere or later); with it, it kept a 9–11.5 km quilt on 9 of 18 of
+    Monaco's seeds. With the fallback on the pipeline's district only, Monaco's engine verdict over 18 seeds
+    (transplant on) was 2.8 mean off of 14 with both shares in range on 11, against 3.5 (11) with it everywhere
+    (docs/growth-log.md, session 42). Nothing changes while ``transplant`` is off (the default)."""
+    import dataclasses
+
     from osm_expand.model.options import field_default
     from synth.patches import ExamplePatches
 
-    return field_default(ExamplePatches, "options")
+    return dataclasses.replace(field_default(ExamplePatches, "options"), transplant_fallback=False)
 
 
 def _walk_era() -> Any:

@@ -2,6 +2,7 @@
 land, clipped, its cut streets run on to the town or cut back (:mod:`synth.patches.transplant`)."""
 from __future__ import annotations
 
+import dataclasses
 import functools
 
 import numpy as np
@@ -208,3 +209,23 @@ def test_a_transplant_reaching_the_density_floor_is_kept():
 def test_transplant_fallback_is_read_as_true_or_false(bad):
     with pytest.raises(OptionError):
         PatchOptions(transplant_fallback=bad)
+
+
+def test_a_historys_eras_take_the_fallback_off_and_the_district_keeps_it(tmp_path):
+    """An era whose transplant falls short grows no district there rather than a quilt (``_example_era``);
+    a history may still set it, and the pipeline's district keeps the fallback."""
+    from osm_expand.engine.history import GROWTH_PATTERNS, load_history
+    from synth.patches import PatchOptions
+
+    assert PatchOptions().transplant_fallback is True
+    assert GROWTH_PATTERNS["example"].transplant_fallback is False
+    assert GROWTH_PATTERNS["example"] == dataclasses.replace(PatchOptions(), transplant_fallback=False)
+    eras = [e for e in load_history("example").eras if isinstance(e.options, PatchOptions)]
+    assert eras and all(e.options.transplant_fallback is False for e in eras)
+    text = (FIXTURES.parent / "osm_expand" / "histories" / "example.toml").read_text()
+    era = 'pattern = "example"'
+    path = tmp_path / "h.toml"
+    path.write_text(text.replace(era, era + "\npattern_options = { transplant_fallback = true }", 1))
+    set_here = [e.options.transplant_fallback for e in load_history(str(path)).eras
+                if isinstance(e.options, PatchOptions)]
+    assert set_here[0] is True and all(v is False for v in set_here[1:])

@@ -141,6 +141,8 @@ class PatchOptions:
     #: 5/5 but 2-core share 4/5 and quilts on four seeds (corners > 45° per km 5.6-8.7 against 3.5-3.6).
     #: Engine (``engine_growth.py --seeds 0-5 --patch-option transplant=true``, Monaco): 3.0 1.0 4.7 4.0 2.0
     #: 7.0 (3.6, shares in range 3/6, re-run back to back) -> 2.0 3.0 4.7 8.3 3.7 2.3 (4.0, 4/6).
+    #: A history's eras take it off (:func:`osm_expand.growth_patterns._example_era`: an era grows no district
+    #: there rather than a quilt; Monaco over 18 seeds 3.5 -> 2.8 mean off with it on the district only).
     transplant_fallback: bool = True
     #: A cut end left over runs on this many spacings to meet a street in a tee ...
     tee_reach: float = 0.6
