@@ -145,9 +145,9 @@ class _Fits:
 @dataclasses.dataclass(frozen=True)
 class _Site:
     """The free land as the fit sees it (made once for the neighbourhoods tried): its raster ready to be
-    correlated, the raster's corner and cell, the site's middle and size, how far a street can lie from the
-    middle and still land (the farthest free land plus the longest shift), the shifts, the corner of the
-    samples' box, and the town's streets around."""
+    correlated (with the shifts it scores), the raster's corner and cell, the site's middle and size, how far a
+    street can lie from the middle and still land (the farthest free land plus the longest shift), and the
+    town's streets around."""
 
     board: _Board
     corner: np.ndarray
@@ -155,8 +155,6 @@ class _Site:
     middle: np.ndarray
     size: float
     radius: float
-    shifts: np.ndarray
-    lo: np.ndarray
     around: np.ndarray
     free: shapely.Geometry
 
@@ -301,7 +299,7 @@ def _site(free: shapely.Geometry, old: shapely.Geometry, spacing: float) -> _Sit
     hi = np.floor((middle + radius - corner) / cell).astype(np.intp) + 1
     shifts = _shifts(size / 2 / cell, max(1, int(round(max(spacing / 4, cell, size / SHIFTS) / cell))))
     board = _Board.of(inside, far, lo, (int(hi[1] - lo[1]) + 1, int(hi[0] - lo[0]) + 1), shifts)
-    return _Site(board, corner, cell, middle, size, radius, shifts, lo, around, free)
+    return _Site(board, corner, cell, middle, size, radius, around, free)
 
 
 def _fit(source: _Source, rank: int, c: np.ndarray, site: _Site, spacing: float, opts: PatchOptions
@@ -326,11 +324,11 @@ def _fit(source: _Source, rank: int, c: np.ndarray, site: _Site, spacing: float,
         move = _Transform(c, site.middle, turn)
         cells = np.floor((move.forward(pts) - site.corner) / site.cell).astype(np.intp)  # centred on the site
         streets, junction, distance = site.board.scores(cells, weight, count)
-        found.append((streets, junction, distance, np.full(len(site.shifts), len(turns))))
+        found.append((streets, junction, distance, np.full(len(site.board.shifts), len(turns))))
         turns.append(move)
     streets, junction, distance, which = (np.concatenate(part) for part in zip(*found))
     # moving the streets by d cells moves the neighbourhood's centre by -R^T d cells
-    moved = np.concatenate([-(site.shifts * site.cell) @ move.rotation for move in turns])
+    moved = np.concatenate([-(site.board.shifts * site.cell) @ move.rotation for move in turns])
     return _Fits(rank, streets, junction, distance, which, moved, turns)
 
 
