@@ -123,7 +123,7 @@ class PatchOptions:
     #: meets the town once (it was blocked); accepted with that one join (``MIN_JOINS`` 1, a probe), its
     #: district's density is 15.4 against 19.4 (seeds 1 and 4): the larger site is sparser, not denser. The
     #: third site's districts lose 3.4 of 14.1 km to the cut-back and 0.7-1.7 km to the dead-end pruning.
-    transplant: bool = False
+    transplant: bool = True
     #: With :attr:`transplant` on: where the transplanted district's street length falls below the floor of
     #: the town's neighbourhood densities (:data:`synth.patches.pattern.DENSITY_FLOOR`, the verdict's) times
     #: the free land's area, the quilt grows on that site instead. The district must be a neighbourhood of
