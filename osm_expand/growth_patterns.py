@@ -73,7 +73,7 @@ def _example_era() -> Any:
     grows no district there (it grows elsewhere or later); with it, it kept a 9–11.5 km quilt on 9 of 18 of
     Monaco's seeds. With the fallback on the pipeline's district only, Monaco's engine verdict over 18 seeds
     (transplant on) was 2.8 mean off of 14 with both shares in range on 11, against 3.5 (11) with it everywhere
-    (docs/growth-log.md, session 42). Nothing changes while ``transplant`` is off (the default)."""
+    (docs/growth-log.md, session 42). With ``transplant`` off the fallback does nothing."""
     import dataclasses
 
     from osm_expand.model.options import field_default
