@@ -1,4 +1,6 @@
-"""Example patches: a district quilted from pieces of the town as mapped, its seams walked.
+"""Example patches: a district copied from the town as mapped — by default one whole neighbourhood, fitted to
+the free land (:mod:`synth.patches.transplant`, :attr:`PatchOptions.transplant`); where none fills the site to
+the town's density, a quilt of pieces of it, its seams walked (below).
 
 The growth pattern of Aliaga et al. 2008 and Nishida et al. 2016, which keep
 the look of an example by copying *fragments of the real network* — their

@@ -48,7 +48,8 @@ from synth.patches.transplant import _transplant
 
 @dataclass(frozen=True)
 class ExamplePatches:
-    """The default growth pattern: patches of the town as mapped, quilted, seams walked."""
+    """The default growth pattern: a whole neighbourhood of the town as mapped, transplanted; the quilt of
+    patches, seams walked, where it falls short of the town's density or with ``transplant`` off."""
 
     example: Example
     options: PatchOptions = field(default_factory=PatchOptions)
