@@ -56,7 +56,7 @@ def test_the_benchmark_reads_a_range_or_a_list_of_run_seeds():
 
 
 def test_the_benchmark_sets_a_patch_option_on_every_example_era():
-    """``--patch-option transplant=true``: every era growing districts with the example pattern gets the field,
+    """``--patch-option transplant=false``: every era growing districts with the example pattern gets the field,
     the rest of its options kept; a name that is no PatchOptions field is refused at the command line."""
     from osm_expand.engine.history import load_history
     from synth.patches import PatchOptions
@@ -67,9 +67,9 @@ def test_the_benchmark_sets_a_patch_option_on_every_example_era():
         with pytest.raises(argparse.ArgumentTypeError):
             module.patch_option(bad)
     story = load_history("example")
-    changed = module.with_patch_options(story, {"transplant": True})
+    changed = module.with_patch_options(story, {"transplant": False})  # on by default: set it off
     patched = [(e, f) for e, f in zip(story.eras, changed.eras) if isinstance(e.options, PatchOptions)]
     assert patched
     for before, after in patched:
-        assert after.options.transplant and not before.options.transplant
-        assert after.options == PatchOptions(**{**before.options.__dict__, "transplant": True})
+        assert not after.options.transplant and before.options.transplant
+        assert after.options == PatchOptions(**{**before.options.__dict__, "transplant": False})
