@@ -31,7 +31,9 @@ again from main 899e714 on session 33's fresh machine (numpy 2.4.6, scipy
 1.17.1, shapely 2.2.0): the same code gave other bytes there (7c258439 for
 the default run), while Krems', Monaco's and every simplify output stayed. The three
 ``european`` runs were taken again on session 37's merge (``GrowthOptions.pattern_aim``
-on: a named pattern's era keeps its town's connectedness); every other case stayed. (Earlier baselines:
+on: a named pattern's era keeps its town's connectedness); every other case stayed. Every expand case was
+taken again in session 43 (``PatchOptions.transplant`` on by default: the district and the example pattern's
+engine districts copy one whole neighbourhood); the simplify cases stayed. (Earlier baselines:
 main at 25738d5 for the second refactor, c903331 for the first.)
 """
 
