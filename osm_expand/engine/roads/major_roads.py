@@ -235,10 +235,24 @@ def beyond_the_map(ground: shapely.Geometry, bounds: tuple[float, float, float, 
     return beyond
 
 
+#: The entries of a :class:`SegmentTable`'s cache that depend on its ends alone (``xy``, ``uv``), which
+#: :func:`_segments` leaves as they are: its lines, their keys and their tree.
+_GEOMETRY_CACHE = ("lines", "end_keys", "tree")
+
+
 def _segments(city: City, traffic: TrafficMemory, o2: float) -> SegmentTable:
+    """The traffic's segment table with this year's major roads and trade capacity left.
+
+    The lines, their keys and tree are made on the traffic's table and shared with the result (same
+    ends): a year's calls with the same table (re-routes, years with nothing built: 8 of Campo
+    Grande's 18 G′ calls) made them again for each new table, every call."""
     table = traffic.table
     cap = segment_capacity(table.width) * (o2 / 100.0)
-    return replace(table, major=trade_major(table, city), available=cap - traffic.trade.segment_traffic())
+    out = replace(table, major=trade_major(table, city), available=cap - traffic.trade.segment_traffic())
+    table.lines()
+    table.end_keys()
+    out._cache.update({k: table._cache[k] for k in _GEOMETRY_CACHE if k in table._cache})
+    return out
 
 
 def _graph(city: City, traffic: TrafficMemory, memory: RoadMemory, now: YearValues, history: History):
@@ -281,7 +295,9 @@ def _graph(city: City, traffic: TrafficMemory, memory: RoadMemory, now: YearValu
     built = built_up_area([b.polygon for b in city.blocks], segments, water=city.water_geometry(),
                           previous=memory.built, options=history.options.built_up)
     assert memory.lattice is not None  # built above on the first year
-    lattice = memory.lattice.with_built_up(built.area, built.added)
+    # B did not grow (the very area of the last call): the lattice has it removed already
+    grew = memory.built is None or built.area is not memory.built.area
+    lattice = memory.lattice.with_built_up(built.area, built.added) if grew else memory.lattice
     if made is not None and _same_street_part(made.graph, lattice, built, segments, history):
         # a later year whose streets, blocks and B are as the last G′'s (no street was built since)
         last = made.graph
