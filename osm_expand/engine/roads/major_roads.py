@@ -318,13 +318,15 @@ def _same_street_part(last: ImplicitGraph, lattice: Lattice, built: BuiltUpArea,
     """Whether the G′ ``last`` has the street part this year's would but for the costs C1…C6
     (:func:`~osm_expand.engine.roads.path_graph.street_part_again`): the same lattice with B (the
     very object: B did not grow), the same built-up blocks (the very object: none came or went),
-    the same options, and segments of the same ends, classes, widths and harbours (their capacity
-    left is not read by the street part)."""
+    the same options, and segments of the same ends, widths and harbours. Their capacity left is not
+    read by the street part, nor which are major: only the pieces' kinds and weights, which
+    :func:`street_part_again` works out again (Campo Grande's default run: one more of its 18 calls,
+    a year that only made a street major, gets the last street part; the same street part)."""
     old = last.segments
     if (last.lattice is not lattice or last.streets.blocks is not built.blocks
             or last.options != history.options.graph or len(old) != len(segments)):
         return False
-    same = all(np.array_equal(getattr(old, name), getattr(segments, name)) for name in ("xy", "uv", "major", "width"))
+    same = all(np.array_equal(getattr(old, name), getattr(segments, name)) for name in ("xy", "uv", "width"))
     harbour = (old.harbour is None and segments.harbour is None) or (
         old.harbour is not None and segments.harbour is not None and np.array_equal(old.harbour, segments.harbour))
     return bool(same and harbour)

@@ -522,10 +522,10 @@ def street_part(lattice: Lattice, segments: SegmentTable, built: BuiltUpArea | N
 
 
 def street_part_again(part: StreetPart, lattice: Lattice, segments: SegmentTable, costs: EdgeCosts) -> StreetPart:
-    """``part`` for ``segments`` of the very same ends, classes, widths and harbours, on the same
-    lattice and blocks, with another year's costs and capacities: only the street pieces' weights
-    are worked out again (C1…C6 change from year to year; the points, pieces, stitches and their
-    verdicts do not depend on them)."""
+    """``part`` for ``segments`` of the very same ends, widths and harbours, on the same lattice and
+    blocks, with another year's costs, capacities and major roads: only the street pieces' kinds and
+    weights are worked out again (C1…C6 and which streets are major change from year to year; the
+    points, pieces, stitches and their verdicts do not depend on them)."""
     edges = _segment_part(lattice, segments, part.xy, part.pieces, part.extendible, 0, costs)
     return replace(part, segments=segments, edges=edges)
 
