@@ -1642,3 +1642,29 @@ def test_g_primes_edges_sorted_by_one_key_are_those_of_the_lexsort(seed, n, m, s
                       rng.integers(-1, 20, k), rng.uniform(0, 9, k), weight))
     for got, want in zip(path_graph._sorted_edges(parts, xy), _sorted_edges_by_lexsort(parts, xy)):
         assert got.dtype == want.dtype and np.array_equal(got, want, equal_nan=want.dtype.kind == "f")
+
+
+def test_a_year_that_only_made_streets_major_gets_last_years_street_part_with_the_new_kinds():
+    """Issue 22: which streets are major is read by the street part only for its pieces' kinds and
+    weights, which ``street_part_again`` works out anew: a year whose streets differ from the last
+    G′'s only in that gets its street part again (``_same_street_part``), equal to one made afresh."""
+    from types import SimpleNamespace
+
+    from osm_expand.engine.roads.major_roads import _same_street_part
+    from osm_expand.engine.roads.path_graph import street_part, street_part_again
+
+    extent = (0, 0, 1200, 1200)
+    lat = build_lattice(extent, water=river(extent, 1000, 1060), options=LatticeOptions(radius=2))
+    lattice, segs, built = _grid_year(lat, grid_lines(300, 300, 4, 120.0))
+    graph = implicit_graph(lattice, segs, built)
+    history = SimpleNamespace(options=SimpleNamespace(graph=graph.options))  # all _same_street_part reads of it
+    made_major = replace(segs, major=np.arange(len(segs.uv)) % 3 == 0)
+    assert (made_major.major != segs.major).any()
+    assert _same_street_part(graph, lattice, built, made_major, history)
+    assert not _same_street_part(graph, lattice, built, replace(made_major, width=made_major.width + 1.0), history)
+    costs = EdgeCosts(major=0.3)
+    again = street_part_again(graph.streets, lattice, made_major, costs)
+    fresh = street_part(lattice, made_major, built, costs=costs, options=graph.options)
+    for x, y in zip((*again.edges, *again.shell, *again.sorted_edges), (*fresh.edges, *fresh.shell, *fresh.sorted_edges)):
+        assert np.array_equal(x, y)
+    assert set(np.unique(again.edges[2]).tolist()) == {int(EdgeKind.MAJOR), int(EdgeKind.MINOR)}
