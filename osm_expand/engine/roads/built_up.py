@@ -233,7 +233,7 @@ def _block_keys(blocks: Sequence[shapely.Geometry], previous: BuiltUpArea | None
     out[:] = polys
     key_out = np.empty(len(keys), dtype=object)
     key_out[:] = keys
-    fresh = np.flatnonzero(np.equal(key_out, None))
+    fresh = np.array([i for i, k in enumerate(keys) if k is None], dtype=np.int64)
     if len(fresh):
         key_out[fresh] = shapely.to_wkb(shapely.normalize(out[fresh]))
     return out, key_out
