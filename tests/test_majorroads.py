@@ -1579,3 +1579,97 @@ def test_stitch_tests_against_the_built_up_blocks_are_carried_where_no_block_cha
     old = implicit_graph(lat2, segs2, built2, previous_lattice=last.lattice_verdicts()).window(box).graph
     for name in ("src", "dst", "kind", "weight"):
         assert np.array_equal(getattr(new, name), getattr(old, name))
+
+
+@settings(max_examples=10, deadline=None)
+@given(st.integers(3, 5), st.floats(40, 90), st.integers(0, 2**32 - 1))
+def test_b_of_the_very_blocks_and_segments_of_last_year_is_the_b_made_of_copies(n, size, seed):
+    """Issue 22: B keeps the key of each block that is one of the very polygon objects last year's B
+    was made from, and takes every segment as held when the table shares last year's segment keys
+    (the road step's second call of a year, a year with nothing built): the same B, blocks, verdicts
+    and held segments as from copies of them, which are keyed and tested afresh."""
+    rng = np.random.default_rng(seed)
+    lines = grid_lines(100, 100, n, size)
+    segs = SegmentTable.from_lines(lines, major=[False] * len(lines), width=[6.0] * len(lines))
+    blocks = blocks_of(segs)
+    water = shapely.box(0, 0, 2000, 100 + float(rng.uniform(5, size)))  # wets the first row of blocks
+    first = built_up_area(blocks, segs, water=water)
+    # this year: some of last year's very blocks, one street more (a new block split off), and copies
+    extra = np.array([[100.0, 100.0 + size / 2], [100.0 + size, 100.0 + size / 2]])
+    segs2 = SegmentTable.from_lines([*lines, extra], major=[False] * (len(lines) + 1), width=[6.0] * (len(lines) + 1))
+    keep = [b for b in blocks if rng.random() < 0.7]
+    later = keep + [b for b in blocks_of(segs2) if not any(shapely.equals(b, k) for k in keep)]
+    copies = list(shapely.from_wkb(shapely.to_wkb(np.array(later, dtype=object))))
+    for table in (segs, segs2):
+        same = replace(table, width=table.width.copy())  # another table of the same ends
+        same._cache.update(end_keys=table.end_keys())
+        for made, fresh in ((built_up_area(later, same, water=water, previous=first),
+                             built_up_area(copies, replace(table), water=water, previous=first)),):
+            assert shapely.to_wkb(made.area) == shapely.to_wkb(fresh.area)
+            assert shapely.to_wkb(made.blocks) == shapely.to_wkb(fresh.blocks)
+            assert made.verdicts == fresh.verdicts and made.segments == fresh.segments
+            assert np.array_equal(made.keys, fresh.keys)
+            assert [shapely.to_wkb(g) for g in made.added] == [shapely.to_wkb(g) for g in fresh.added]
+    # nothing changed at all: the very B again, nothing added
+    again = built_up_area(blocks, segs, water=water, previous=first)
+    assert again.area is first.area and again.blocks is first.blocks and not len(again.added)
+
+
+def _sorted_edges_by_lexsort(parts, xy):
+    """The reference order of :func:`path_graph._sorted_edges`: one lexsort by (tail, head, weight)."""
+    src, dst, kind, seg, length, weight = (np.concatenate(c) for c in zip(*parts))
+    heading = np.arctan2(xy[dst, 1] - xy[src, 1], xy[dst, 0] - xy[src, 0])
+    back = np.where(heading > 0, heading - np.pi, heading + np.pi)
+    src, dst = np.concatenate([src, dst]), np.concatenate([dst, src])
+    kind, seg, length, weight = (np.concatenate([a, a]) for a in (kind, seg, length, weight))
+    heading = np.concatenate([heading, back])
+    order = np.lexsort((weight, dst, src))
+    first = np.ones(len(order), dtype=bool)
+    first[1:] = (src[order][1:] != src[order][:-1]) | (dst[order][1:] != dst[order][:-1])
+    order = order[first]
+    return tuple(a[order] for a in (src, dst, kind, seg, length, weight, heading))
+
+
+@settings(max_examples=40, deadline=None)
+@given(st.integers(0, 2**32 - 1), st.integers(2, 300), st.integers(0, 600), st.booleans())
+def test_g_primes_edges_sorted_by_one_key_are_those_of_the_lexsort(seed, n, m, special):
+    """Issue 22: G′'s undirected edges are put in (tail, head) order by one stable sort of an int64
+    key, only the parallel ones ordered by weight: the edges, their order and which of parallel
+    edges is kept (the cheapest, the first of equal weight) are those of the lexsort, with ties,
+    NaN and infinite weights."""
+    rng = np.random.default_rng(seed)
+    xy = rng.uniform(0, 100, (n, 2))
+    parts = []
+    for _ in range(int(rng.integers(1, 3))):
+        k = int(rng.integers(0, m + 1))
+        weight = (rng.choice([1.0, 2.0, np.nan, np.inf], k) if special else np.round(rng.uniform(0, 3, k), 1))
+        parts.append((rng.integers(0, n, k), rng.integers(0, n, k), rng.integers(0, 5, k).astype(np.uint8),
+                      rng.integers(-1, 20, k), rng.uniform(0, 9, k), weight))
+    for got, want in zip(path_graph._sorted_edges(parts, xy), _sorted_edges_by_lexsort(parts, xy)):
+        assert got.dtype == want.dtype and np.array_equal(got, want, equal_nan=want.dtype.kind == "f")
+
+
+def test_a_year_that_only_made_streets_major_gets_last_years_street_part_with_the_new_kinds():
+    """Issue 22: which streets are major is read by the street part only for its pieces' kinds and
+    weights, which ``street_part_again`` works out anew: a year whose streets differ from the last
+    G′'s only in that gets its street part again (``_same_street_part``), equal to one made afresh."""
+    from types import SimpleNamespace
+
+    from osm_expand.engine.roads.major_roads import _same_street_part
+    from osm_expand.engine.roads.path_graph import street_part, street_part_again
+
+    extent = (0, 0, 1200, 1200)
+    lat = build_lattice(extent, water=river(extent, 1000, 1060), options=LatticeOptions(radius=2))
+    lattice, segs, built = _grid_year(lat, grid_lines(300, 300, 4, 120.0))
+    graph = implicit_graph(lattice, segs, built)
+    history = SimpleNamespace(options=SimpleNamespace(graph=graph.options))  # all _same_street_part reads of it
+    made_major = replace(segs, major=np.arange(len(segs.uv)) % 3 == 0)
+    assert (made_major.major != segs.major).any()
+    assert _same_street_part(graph, lattice, built, made_major, history)
+    assert not _same_street_part(graph, lattice, built, replace(made_major, width=made_major.width + 1.0), history)
+    costs = EdgeCosts(major=0.3)
+    again = street_part_again(graph.streets, lattice, made_major, costs)
+    fresh = street_part(lattice, made_major, built, costs=costs, options=graph.options)
+    for x, y in zip((*again.edges, *again.shell, *again.sorted_edges), (*fresh.edges, *fresh.shell, *fresh.sorted_edges)):
+        assert np.array_equal(x, y)
+    assert set(np.unique(again.edges[2]).tolist()) == {int(EdgeKind.MAJOR), int(EdgeKind.MINOR)}

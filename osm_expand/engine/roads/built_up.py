@@ -113,6 +113,13 @@ class BuiltUpArea:
     #: ``blocks`` is ``changed.since`` (``previous.blocks``) but inside ``changed.boxes``; None: made
     #: afresh (what a stitch's test against the blocks may carry)
     changed: BlocksChanged | None = field(default=None, repr=False, compare=False)
+    #: (K,) the block polygons B was made from (the very objects, kept alive) and their normalised WKB:
+    #: next year's blocks that are these objects keep their keys (:func:`_block_keys`)
+    polygons: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=object), repr=False, compare=False)
+    keys: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=object), repr=False, compare=False)
+    #: the segments' :meth:`SegmentTable.end_keys` array B was made with (the very object): a table
+    #: sharing it has the same segments, all held by B
+    segment_keys: np.ndarray | None = field(default=None, repr=False, compare=False)
 
 
 def built_up_area(blocks: Sequence[shapely.Geometry], segments: SegmentTable, *,
@@ -140,8 +147,7 @@ def built_up_area(blocks: Sequence[shapely.Geometry], segments: SegmentTable, *,
         segment; ``blocks`` = the built-up blocks of now.
     """
     opts = options or BuiltUpOptions()
-    polys = np.array([b for b in blocks if b is not None and not b.is_empty], dtype=object)
-    keys = shapely.to_wkb(shapely.normalize(polys)) if len(polys) else np.zeros(0, dtype=object)
+    polys, keys = _block_keys(blocks, previous)
     known = previous.verdicts if previous is not None and _same_basis(previous.basis, (water, opts)) else {}
     # a block as it was last year keeps its verdict: measuring every block's water share again
     # was a quarter of B's year on Campo Grande (5,500 blocks, a few dozen new a year)
@@ -170,8 +176,10 @@ def built_up_area(blocks: Sequence[shapely.Geometry], segments: SegmentTable, *,
     added = list(polys[built & ~was_built])
     built_blocks, changed = _built_blocks(polys, built, was_built, keys, known, previous)
     grown: list[shapely.Geometry] = []
-    seg_keys = segments.end_keys().tolist()
-    if len(segments.uv):
+    key_array = segments.end_keys()
+    same_segments = previous is not None and key_array is previous.segment_keys
+    seg_keys = [] if same_segments else key_array.tolist()
+    if len(segments.uv) and not same_segments:  # the very segments of last year's B: every one held
         lines = segments.lines()
         if previous is not None:  # B never shrinks: only segments it does not hold yet are buffered
             # a segment last year's B was made with (either way round) passed this test then, or its
@@ -199,7 +207,36 @@ def built_up_area(blocks: Sequence[shapely.Geometry], segments: SegmentTable, *,
         area = shapely.union(previous.area, shapely.union_all(added)) if added else previous.area
     return BuiltUpArea(area=area, blocks=built_blocks, verdicts=verdicts, basis=(water, opts),
                        added=None if previous is None else np.array(added, dtype=object).reshape(-1),
-                       segments=frozenset(seg_keys), changed=changed)
+                       segments=previous.segments if same_segments and previous is not None else frozenset(seg_keys),
+                       changed=changed, polygons=polys, keys=keys, segment_keys=key_array)
+
+
+def _block_keys(blocks: Sequence[shapely.Geometry], previous: BuiltUpArea | None) -> tuple[np.ndarray, np.ndarray]:
+    """The non-empty ``blocks`` (an object array) and their normalised WKB, the key of a block's
+    verdict: a polygon that is one of the very objects ``previous`` was made from keeps its key.
+
+    The blocks stage hands an unchanged block on as the same object (on Campo Grande's road years
+    all but the few dozen to few hundred new ones of ~6,000): normalising and writing every block's
+    WKB again was a third of a road year's B. ``previous.polygons`` keeps those objects alive, so an
+    ``id`` found among them is theirs.
+    """
+    known = {} if previous is None else dict(zip(map(id, previous.polygons.tolist()), previous.keys.tolist()))
+    polys: list[shapely.Geometry] = []
+    keys: list[bytes | None] = []
+    for b in blocks:
+        k = known.get(id(b))
+        if k is None and (b is None or b.is_empty):
+            continue
+        polys.append(b)
+        keys.append(k)
+    out = np.empty(len(polys), dtype=object)
+    out[:] = polys
+    key_out = np.empty(len(keys), dtype=object)
+    key_out[:] = keys
+    fresh = np.array([i for i, k in enumerate(keys) if k is None], dtype=np.int64)
+    if len(fresh):
+        key_out[fresh] = shapely.to_wkb(shapely.normalize(out[fresh]))
+    return out, key_out
 
 
 def _built_blocks(polys: np.ndarray, built: np.ndarray, was_built: np.ndarray, keys: np.ndarray,

@@ -235,10 +235,24 @@ def beyond_the_map(ground: shapely.Geometry, bounds: tuple[float, float, float, 
     return beyond
 
 
+#: The entries of a :class:`SegmentTable`'s cache that depend on its ends alone (``xy``, ``uv``), which
+#: :func:`_segments` leaves as they are: its lines, their keys and their tree.
+_GEOMETRY_CACHE = ("lines", "end_keys", "tree")
+
+
 def _segments(city: City, traffic: TrafficMemory, o2: float) -> SegmentTable:
+    """The traffic's segment table with this year's major roads and trade capacity left.
+
+    The lines, their keys and tree are made on the traffic's table and shared with the result (same
+    ends): a year's calls with the same table (re-routes, years with nothing built: 8 of Campo
+    Grande's 18 G′ calls) made them again for each new table, every call."""
     table = traffic.table
     cap = segment_capacity(table.width) * (o2 / 100.0)
-    return replace(table, major=trade_major(table, city), available=cap - traffic.trade.segment_traffic())
+    out = replace(table, major=trade_major(table, city), available=cap - traffic.trade.segment_traffic())
+    table.lines()
+    table.end_keys()
+    out._cache.update({k: table._cache[k] for k in _GEOMETRY_CACHE if k in table._cache})
+    return out
 
 
 def _graph(city: City, traffic: TrafficMemory, memory: RoadMemory, now: YearValues, history: History):
@@ -281,7 +295,9 @@ def _graph(city: City, traffic: TrafficMemory, memory: RoadMemory, now: YearValu
     built = built_up_area([b.polygon for b in city.blocks], segments, water=city.water_geometry(),
                           previous=memory.built, options=history.options.built_up)
     assert memory.lattice is not None  # built above on the first year
-    lattice = memory.lattice.with_built_up(built.area, built.added)
+    # B did not grow (the very area of the last call): the lattice has it removed already
+    grew = memory.built is None or built.area is not memory.built.area
+    lattice = memory.lattice.with_built_up(built.area, built.added) if grew else memory.lattice
     if made is not None and _same_street_part(made.graph, lattice, built, segments, history):
         # a later year whose streets, blocks and B are as the last G′'s (no street was built since)
         last = made.graph
@@ -302,13 +318,15 @@ def _same_street_part(last: ImplicitGraph, lattice: Lattice, built: BuiltUpArea,
     """Whether the G′ ``last`` has the street part this year's would but for the costs C1…C6
     (:func:`~osm_expand.engine.roads.path_graph.street_part_again`): the same lattice with B (the
     very object: B did not grow), the same built-up blocks (the very object: none came or went),
-    the same options, and segments of the same ends, classes, widths and harbours (their capacity
-    left is not read by the street part)."""
+    the same options, and segments of the same ends, widths and harbours. Their capacity left is not
+    read by the street part, nor which are major: only the pieces' kinds and weights, which
+    :func:`street_part_again` works out again (Campo Grande's default run: one more of its 18 calls,
+    a year that only made a street major, gets the last street part; the same street part)."""
     old = last.segments
     if (last.lattice is not lattice or last.streets.blocks is not built.blocks
             or last.options != history.options.graph or len(old) != len(segments)):
         return False
-    same = all(np.array_equal(getattr(old, name), getattr(segments, name)) for name in ("xy", "uv", "major", "width"))
+    same = all(np.array_equal(getattr(old, name), getattr(segments, name)) for name in ("xy", "uv", "width"))
     harbour = (old.harbour is None and segments.harbour is None) or (
         old.harbour is not None and segments.harbour is not None and np.array_equal(old.harbour, segments.harbour))
     return bool(same and harbour)
