@@ -357,7 +357,10 @@ class Lattice:
     #: what the map and all its windows of one B share: ``"live"``, the whole map's live unit edges
     #: ``(D/2, V_map)`` (:func:`_map_live_units`), made once per run and cut by every window
     #: (:func:`_window_directed`); :meth:`with_built_up` carries it to the next B, removing only the
-    #: edges the new ground touches; ``"special"``, the map's bridge and harbour entries
+    #: edges the new ground touches; ``"special"``, the map's bridge and harbour entries;
+    #: ``"directed"``, the map's live directed kinds ``(V_map, D)`` and which of its rows are made
+    #: (:meth:`_map_directed`), a window's table cropped from it, carried with the rows near the new
+    #: ground marked unmade
     _shared: dict = field(default_factory=dict, repr=False, compare=False)
 
     @property
@@ -570,8 +573,12 @@ class Lattice:
             return self
         shared = {}
         table = self._shared.pop("live", None)  # handed on, not copied: this lattice makes it again if asked
+        directed = self._shared.pop("directed", None)  # so is the directed table, its rows near the new ground unmade
         if table is not None:
-            shared["live"] = _without_touched(table, self, fine & ~self.built_up)
+            grown = fine & ~self.built_up
+            shared["live"] = _without_touched(table, self, grown)
+            if directed is not None:
+                shared["directed"] = _unmade_near(directed, self, grown)
         if "special" in self._shared:  # B removes land edges only
             shared["special"] = self._shared["special"]
         return replace(self, built_up=fine, _cache={}, _shared=shared)
@@ -627,8 +634,32 @@ class Lattice:
         again (Campo Grande: 10.3 s of 48 windows, 18 road years), though B changes once a year.
         On flat land an edge's weight is its length (:class:`LatticeWeights`, no table).
         """
-        kind = _window_directed(self._map_table(), self.full_shape, self.offset, self.shape, self.directions)
+        (map_ny, map_nx), row, rows = self.full_shape, self.offset[0], self.shape[0]
+        if map_ny * map_nx * len(self.directions) <= _MAP_DIRECTED_BYTES:
+            kind = _cropped(self._map_directed(row, row + rows), self.full_shape, self.offset, self.shape,
+                            self.directions)
+        else:
+            kind = _window_directed(self._map_table(), self.full_shape, self.offset, self.shape, self.directions)
         return kind, LatticeWeights(kind, self.direction_length)
+
+    def _map_directed(self, row: int, end: int) -> np.ndarray:
+        """The whole map's live directed kinds ``(V_map, D)`` (:func:`_window_directed` of the map), its
+        vertex rows ``row … end − 1`` made: each row once per B, in bands the width of the map, where a
+        window's table was cut from the unit edges afresh each time (:func:`_cropped`)."""
+        (map_ny, map_nx), n_dir = self.full_shape, len(self.directions)
+        if "directed" not in self._shared:  # pages unwritten until their rows are made
+            self._shared["directed"] = (np.empty((map_ny * map_nx, n_dir), dtype=np.uint8),
+                                        np.zeros(map_ny, dtype=bool))
+        table, made = self._shared["directed"]
+        missing = np.flatnonzero(~made[row:end])
+        if len(missing):
+            a, b = row + int(missing[0]), row + int(missing[-1]) + 1
+            # the band reaches ``radius`` rows beyond them: the other end of each of their edges is in it
+            lo, hi = max(a - self.radius, 0), min(b + self.radius, map_ny)
+            band = _window_directed(self._map_table(), self.full_shape, (lo, 0), (hi - lo, map_nx), self.directions)
+            table[a * map_nx:b * map_nx] = band[(a - lo) * map_nx:(b - lo) * map_nx]
+            made[a:b] = True
+        return table
 
 
 def _crop(a: np.ndarray, row: int, col: int, shape: tuple[int, int], value) -> np.ndarray:
@@ -765,6 +796,65 @@ def _window_directed(live: np.ndarray, map_shape: tuple[int, int], offset: tuple
     return out.reshape(ny * nx, n_dir)
 
 
+#: bytes of the map's live directed kinds (:meth:`Lattice._map_directed`, one byte a vertex and direction)
+#: up to which windows crop their tables from it: Campo Grande's 71 MB (595,000 vertices × 120) fit,
+#: the synthetic 10,000-street town's 285 MB do not (its windows cut their tables from the unit edges,
+#: :func:`_window_directed`, as before); the table is kept beside the unit edges (36 MB on Campo Grande)
+#: for the run. Campo Grande's windows: a 626 × 453 window's table 0.113 → 0.059 s CPU cropped, the
+#: whole map's 0.215 → 0.077 s (/tmp/h43r/crop_bench.py, session 43)
+_MAP_DIRECTED_BYTES = 128 * 2**20
+
+
+def _cropped(table: np.ndarray, map_shape: tuple[int, int], offset: tuple[int, int], shape: tuple[int, int],
+             directions: np.ndarray) -> np.ndarray:
+    """A window's live directed kinds ``(V, D)`` (:func:`_window_directed`'s) cropped from the map's
+    (``table``: its rows the window covers made): a copy of the window's rows, then the edges whose
+    other end leaves the window (within ``radius`` of its sides) set to NO_EDGE.
+
+    The map's table holds an edge where both ends are on the map, the window's where both are in the
+    window: the same entries but those. A row of the window is one run of ``nx · D`` bytes of the
+    map's, where cutting it from the ``(D/2, V_map)`` unit edges wrote 120 strided columns."""
+    (map_ny, map_nx), (r0, c0), (ny, nx) = map_shape, offset, shape
+    n_dir = len(directions)
+    half = n_dir // 2
+    out = table.reshape(map_ny, map_nx, n_dir)[r0:r0 + ny, c0:c0 + nx].copy()
+    for k, (dx, dy) in enumerate(directions[:half].tolist()):  # dy ≥ 0 in the first half
+        # from the tail (i, j) to (i + dy, j + dx); at the head (i, j) from (i − dy, j − dx)
+        out[max(ny - dy, 0):, :, k] = NO_EDGE
+        out[:min(dy, ny), :, half + k] = NO_EDGE
+        if dx > 0:
+            out[:, max(nx - dx, 0):, k] = NO_EDGE
+            out[:, :min(dx, nx), half + k] = NO_EDGE
+        elif dx < 0:
+            out[:, :min(-dx, nx), k] = NO_EDGE
+            out[:, max(nx + dx, 0):, half + k] = NO_EDGE
+    return out.reshape(ny * nx, n_dir)
+
+
+def _touched_box(lat: Lattice, grown: np.ndarray) -> tuple[int, int, int, int] | None:
+    """The map's vertex rows and columns ``(r0, r1, c0, c1)`` (ends excluded) of the unit edges that may
+    sample ``grown`` (fine points): those within ``radius`` of its bounding box; None where it is empty."""
+    fi, fj = np.flatnonzero(grown.any(axis=1)), np.flatnonzero(grown.any(axis=0))  # its rows and columns
+    if not len(fi):
+        return None
+    f, radius, (map_ny, map_nx) = lat.samples, lat.radius, lat.full_shape
+    r0, r1 = max(int(fi[0]) // f - radius, 0), min(-(-int(fi[-1]) // f) + radius + 1, map_ny)
+    c0, c1 = max(int(fj[0]) // f - radius, 0), min(-(-int(fj[-1]) // f) + radius + 1, map_nx)
+    return r0, r1, c0, c1
+
+
+def _unmade_near(directed: tuple[np.ndarray, np.ndarray], lat: Lattice,
+                 grown: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The map's directed kinds (:meth:`Lattice._map_directed`) for the next B, ``grown`` the fine points
+    it took in: the rows that may hold an edge it removes (a tail within :func:`_touched_box`, a head
+    within ``radius`` of it) marked unmade, to be made again from the unit edges when a window asks."""
+    box = _touched_box(lat, grown)
+    table, made = directed
+    if box is not None:
+        made[max(box[0] - lat.radius, 0):box[1] + lat.radius] = False
+    return table, made
+
+
 def _without_touched(table: np.ndarray, lat: Lattice, grown: np.ndarray) -> np.ndarray:
     """The map's live unit edges (:func:`_map_live_units`) without the land edges that sample
     ``grown`` (fine points B took in), changed in place and returned.
@@ -772,12 +862,11 @@ def _without_touched(table: np.ndarray, lat: Lattice, grown: np.ndarray) -> np.n
     B only grows, so the edges it removes from one year to the next are those that sample
     the new ground: only the vertices within ``radius`` of its bounding box are looked at.
     """
-    fi, fj = np.flatnonzero(grown.any(axis=1)), np.flatnonzero(grown.any(axis=0))  # its rows and columns
-    if not len(fi):
+    box = _touched_box(lat, grown)
+    if box is None:
         return table
     f, radius, (map_ny, map_nx) = lat.samples, lat.radius, lat.full_shape
-    r0, r1 = max(int(fi[0]) // f - radius, 0), min(-(-int(fi[-1]) // f) + radius + 1, map_ny)
-    c0, c1 = max(int(fj[0]) // f - radius, 0), min(-(-int(fj[-1]) // f) + radius + 1, map_nx)
+    r0, r1, c0, c1 = box
     shape = (r1 - r0, c1 - c0)
     pad = radius * f
     fine_shape = ((shape[0] - 1) * f + 1 + 2 * pad, (shape[1] - 1) * f + 1 + 2 * pad)
