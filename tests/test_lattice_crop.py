@@ -60,11 +60,11 @@ def _grown(rng: np.random.Generator, box: tuple[int, int, int, int], shape: tupl
 @given(st.integers(0, 2**32 - 1))
 def test_windows_growing_year_after_year_crop_the_tables_they_would_cut(seed):
     """As the route search asks for them: windows growing round a first one, then the whole map, B growing
-    between the years. Each window's directed kinds equal those cut from the map's live unit edges for
-    that B (:func:`~osm_expand.engine.roads.lattice._window_directed`) and those its own unit tables give
-    (the rasters sampled in the window); the map's rows are made once per B (the rows a later window
-    shares with an earlier one are not made again), and after B grows only the rows near the new ground
-    are made again."""
+    between the years. Each window's directed kinds equal those cut from the map's live unit edges of
+    that B made afresh (:func:`~osm_expand.engine.roads.lattice._window_directed`) and those its own unit
+    tables give (the rasters sampled in the window); the map's directed table is made once for all the
+    years (carried from B to B, :func:`~osm_expand.engine.roads.lattice._directed_without_touched`) and
+    replaces the unit edges."""
     from dataclasses import replace
 
     rng = np.random.default_rng(seed)
@@ -73,21 +73,15 @@ def test_windows_growing_year_after_year_crop_the_tables_they_would_cut(seed):
     y_lo = float(rng.uniform(100, 450))
     lat = build_lattice(extent, water=river(extent, y_lo, y_lo + 50), forbidden=blobs,
                         options=LatticeOptions(radius=int(rng.integers(1, 5))))
-    bands: list[tuple[int, int]] = []
-    cut = L._window_directed
-
-    def counted(live, map_shape, offset, shape, directions):
-        bands.append((offset[0], offset[0] + shape[0]))
-        return cut(live, map_shape, offset, shape, directions)
-
+    made = []
+    units = L._map_live_units
     with pytest.MonkeyPatch.context() as monkey:
-        monkey.setattr(L, "_window_directed", counted)
-        for year in range(3):
-            lat = lat.with_built_up(shapely.Point(rng.uniform(100, 700), rng.uniform(100, 500)).buffer(40.0))
+        monkey.setattr(L, "_map_live_units", lambda lat: made.append(1) or units(lat))
+        for _ in range(4):
+            for _ in range(int(rng.integers(1, 3))):  # B grows by one or two discs a year
+                x, y = rng.uniform(0, 800), rng.uniform(0, 600)
+                lat = lat.with_built_up(shapely.Point(x, y).buffer(float(rng.uniform(20, 90))))
             ny, nx = lat.shape
-            if year:  # only the rows near the new ground are unmade
-                made = lat._shared["directed"][1]
-                assert not made.all() and made.any()
             r, c = int(rng.integers(0, ny - 4)), int(rng.integers(0, nx - 4))
             box = (r, c, r + int(rng.integers(2, 12)), c + int(rng.integers(2, 12)))
             windows = []
@@ -95,21 +89,16 @@ def test_windows_growing_year_after_year_crop_the_tables_they_would_cut(seed):
                 box = _grown(rng, box, (ny, nx))
                 windows.append(lat.window(box[0], box[1], box[2] - box[0], box[3] - box[1]))
             windows.append(lat)
+            live = units(lat)  # this B's unit edges made afresh
             for window in windows:
-                bands.clear()
-                r0, h = window.offset[0], window.shape[0]
-                before = lat._shared["directed"][1][r0:r0 + h].copy() if "directed" in lat._shared else None
                 kind, _ = window.directed_tables()
-                live = lat._shared["live"]
-                assert np.array_equal(kind, cut(live, lat.full_shape, window.offset, window.shape, lat.directions))
+                assert np.array_equal(kind, L._window_directed(live, lat.full_shape, window.offset, window.shape,
+                                                               lat.directions))
                 sampled = replace(window, map_units=None, _cache={})
                 assert np.array_equal(kind, sampled.directed_tables()[0])
-                # the rows made before are not made again: one band where some were missing, none else
-                assert len(bands) == (0 if before is not None and before.all() else 1)
-                assert lat._shared["directed"][1][r0:r0 + h].all()
-                kind[:] = 0  # G′ edits its copy; the map's rows stay
-            made = lat._shared["directed"][1]
-            assert made.all()  # the whole map was asked for last
+                kind[:] = 0  # G′ edits its copy; the map's table stays
+            assert "directed" in lat._shared and "live" not in lat._shared
+    assert len(made) == 1
 
 
 def test_a_map_above_the_cap_cuts_each_windows_table_from_its_unit_edges(monkeypatch):

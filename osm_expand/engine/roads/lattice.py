@@ -31,7 +31,9 @@ filter needs the whole map) and the map's unit edges; the live unit edges
 (B removed) are one ``(D/2, V)`` table over the map, made when first
 searched and carried from one B to the next (only the edges the new ground
 touches go), and a rectangle of vertices (:meth:`Lattice.window`) makes its
-edges in both directions from it.
+edges in both directions from it; on a map of up to ``_MAP_DIRECTED_BYTES``
+that table becomes the map's ``(V, D)`` directed table, carried alike, and a
+window crops its rows.
 
 The water and forbidden rasters should be drawn generously
 (:meth:`Raster.from_geometry`: a cell is water when water comes within half
@@ -358,9 +360,9 @@ class Lattice:
     #: ``(D/2, V_map)`` (:func:`_map_live_units`), made once per run and cut by every window
     #: (:func:`_window_directed`); :meth:`with_built_up` carries it to the next B, removing only the
     #: edges the new ground touches; ``"special"``, the map's bridge and harbour entries;
-    #: ``"directed"``, the map's live directed kinds ``(V_map, D)`` and which of its rows are made
-    #: (:meth:`_map_directed`), a window's table cropped from it, carried with the rows near the new
-    #: ground marked unmade
+    #: ``"directed"``, the map's live directed kinds ``(V_map, D)`` (:meth:`_map_directed`), which
+    #: replace ``"live"`` once made: every window's table is cropped from it (:func:`_cropped`), and
+    #: :meth:`with_built_up` carries it as it does ``"live"`` (:func:`_directed_without_touched`)
     _shared: dict = field(default_factory=dict, repr=False, compare=False)
 
     @property
@@ -573,12 +575,11 @@ class Lattice:
             return self
         shared = {}
         table = self._shared.pop("live", None)  # handed on, not copied: this lattice makes it again if asked
-        directed = self._shared.pop("directed", None)  # so is the directed table, its rows near the new ground unmade
         if table is not None:
-            grown = fine & ~self.built_up
-            shared["live"] = _without_touched(table, self, grown)
-            if directed is not None:
-                shared["directed"] = _unmade_near(directed, self, grown)
+            shared["live"] = _without_touched(table, self, fine & ~self.built_up)
+        directed = self._shared.pop("directed", None)  # so is the map's directed table, where it replaced it
+        if directed is not None:
+            shared["directed"] = _directed_without_touched(directed, self, fine & ~self.built_up)
         if "special" in self._shared:  # B removes land edges only
             shared["special"] = self._shared["special"]
         return replace(self, built_up=fine, _cache={}, _shared=shared)
@@ -634,32 +635,23 @@ class Lattice:
         again (Campo Grande: 10.3 s of 48 windows, 18 road years), though B changes once a year.
         On flat land an edge's weight is its length (:class:`LatticeWeights`, no table).
         """
-        (map_ny, map_nx), row, rows = self.full_shape, self.offset[0], self.shape[0]
+        map_ny, map_nx = self.full_shape
         if map_ny * map_nx * len(self.directions) <= _MAP_DIRECTED_BYTES:
-            kind = _cropped(self._map_directed(row, row + rows), self.full_shape, self.offset, self.shape,
-                            self.directions)
+            kind = _cropped(self._map_directed(), self.full_shape, self.offset, self.shape, self.directions)
         else:
             kind = _window_directed(self._map_table(), self.full_shape, self.offset, self.shape, self.directions)
         return kind, LatticeWeights(kind, self.direction_length)
 
-    def _map_directed(self, row: int, end: int) -> np.ndarray:
-        """The whole map's live directed kinds ``(V_map, D)`` (:func:`_window_directed` of the map), its
-        vertex rows ``row … end − 1`` made: each row once per B, in bands the width of the map, where a
-        window's table was cut from the unit edges afresh each time (:func:`_cropped`)."""
-        (map_ny, map_nx), n_dir = self.full_shape, len(self.directions)
-        if "directed" not in self._shared:  # pages unwritten until their rows are made
-            self._shared["directed"] = (np.empty((map_ny * map_nx, n_dir), dtype=np.uint8),
-                                        np.zeros(map_ny, dtype=bool))
-        table, made = self._shared["directed"]
-        missing = np.flatnonzero(~made[row:end])
-        if len(missing):
-            a, b = row + int(missing[0]), row + int(missing[-1]) + 1
-            # the band reaches ``radius`` rows beyond them: the other end of each of their edges is in it
-            lo, hi = max(a - self.radius, 0), min(b + self.radius, map_ny)
-            band = _window_directed(self._map_table(), self.full_shape, (lo, 0), (hi - lo, map_nx), self.directions)
-            table[a * map_nx:b * map_nx] = band[(a - lo) * map_nx:(b - lo) * map_nx]
-            made[a:b] = True
-        return table
+    def _map_directed(self) -> np.ndarray:
+        """The whole map's live directed kinds ``(V_map, D)`` of this B (:func:`_window_directed` of the
+        map), made once per run from its live unit edges, which it replaces (twice their size, the
+        same edges), and carried from B to B (:meth:`with_built_up`): a window's table is a crop of it
+        (:func:`_cropped`), where it was cut from the ``(D/2, V_map)`` unit edges afresh each time."""
+        if "directed" not in self._shared:
+            table = _window_directed(self._map_table(), self.full_shape, (0, 0), self.full_shape, self.directions)
+            self._shared["directed"] = table
+            del self._shared["live"]
+        return self._shared["directed"]
 
 
 def _crop(a: np.ndarray, row: int, col: int, shape: tuple[int, int], value) -> np.ndarray:
@@ -799,9 +791,9 @@ def _window_directed(live: np.ndarray, map_shape: tuple[int, int], offset: tuple
 #: bytes of the map's live directed kinds (:meth:`Lattice._map_directed`, one byte a vertex and direction)
 #: up to which windows crop their tables from it: Campo Grande's 71 MB (595,000 vertices × 120) fit,
 #: the synthetic 10,000-street town's 285 MB do not (its windows cut their tables from the unit edges,
-#: :func:`_window_directed`, as before); the table is kept beside the unit edges (36 MB on Campo Grande)
-#: for the run. Campo Grande's windows: a 626 × 453 window's table 0.113 → 0.059 s CPU cropped, the
-#: whole map's 0.215 → 0.077 s (/tmp/h43r/crop_bench.py, session 43)
+#: :func:`_window_directed`, as before). It replaces the map's unit edges (36 MB on Campo Grande) for
+#: the run, so the run holds 36 MB more. Campo Grande's windows: a 626 × 453 window's table 0.113 →
+#: 0.059 s CPU cropped, the whole map's 0.215 → 0.077 s (/tmp/h43r/crop_bench.py, session 43)
 _MAP_DIRECTED_BYTES = 128 * 2**20
 
 
@@ -843,16 +835,34 @@ def _touched_box(lat: Lattice, grown: np.ndarray) -> tuple[int, int, int, int] |
     return r0, r1, c0, c1
 
 
-def _unmade_near(directed: tuple[np.ndarray, np.ndarray], lat: Lattice,
-                 grown: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """The map's directed kinds (:meth:`Lattice._map_directed`) for the next B, ``grown`` the fine points
-    it took in: the rows that may hold an edge it removes (a tail within :func:`_touched_box`, a head
-    within ``radius`` of it) marked unmade, to be made again from the unit edges when a window asks."""
+def _directed_without_touched(table: np.ndarray, lat: Lattice, grown: np.ndarray) -> np.ndarray:
+    """The map's live directed kinds (:meth:`Lattice._map_directed`) without the land edges that sample
+    ``grown`` (fine points B took in), changed in place and returned: :func:`_without_touched` on the
+    edges' tail columns, each removal repeated in its head's column (``k + D/2`` of ``v + d_k``).
+    The same table :func:`_window_directed` makes of the map's unit edges so carried: an edge of the
+    map ends on it, so a head outside it is never live."""
     box = _touched_box(lat, grown)
-    table, made = directed
-    if box is not None:
-        made[max(box[0] - lat.radius, 0):box[1] + lat.radius] = False
-    return table, made
+    if box is None:
+        return table
+    f, radius, (map_ny, map_nx) = lat.samples, lat.radius, lat.full_shape
+    r0, r1, c0, c1 = box
+    shape = (r1 - r0, c1 - c0)
+    pad = radius * f
+    fine_shape = ((shape[0] - 1) * f + 1 + 2 * pad, (shape[1] - 1) * f + 1 + 2 * pad)
+    pg = _crop(grown, r0 * f - pad, c0 * f - pad, fine_shape, False)
+    n_dir = len(lat.directions)
+    half = n_dir // 2
+    cube = table.reshape(map_ny, map_nx, n_dir)
+    for k, (dx, dy) in enumerate(lat.directions[:half].tolist()):
+        part = cube[r0:r1, c0:c1, k]  # a view: the edges from the vertices near the new ground
+        gone = (part == EdgeKind.LAND) & _touched(pg, pad, lat.directions[k], shape, f)
+        part[gone] = NO_EDGE
+        # their heads (r + dy, c + dx), the part of them on the map (dy ≥ 0 in the first half)
+        h0, h1 = r0 + dy, min(r1 + dy, map_ny)
+        g0, g1 = max(c0 + dx, 0), min(c1 + dx, map_nx)
+        if h1 > h0 and g1 > g0:
+            cube[h0:h1, g0:g1, half + k][gone[:h1 - h0, g0 - c0 - dx:g1 - c0 - dx]] = NO_EDGE
+    return table
 
 
 def _without_touched(table: np.ndarray, lat: Lattice, grown: np.ndarray) -> np.ndarray:
