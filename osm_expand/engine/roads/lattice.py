@@ -573,16 +573,24 @@ class Lattice:
                           within=within)
         if np.array_equal(fine, self.built_up):
             return self
+        return replace(self, built_up=fine, _cache={}, _shared=self.handed_on(fine & ~self.built_up))
+
+    def handed_on(self, grown: np.ndarray) -> dict:
+        """What this lattice's map tables become for the next B, ``grown`` the fine points it takes in
+        (:meth:`with_built_up`; ``benchmarks/route_replay.py`` carries them from one captured call to
+        the next so): the live unit edges or directed kinds without the land edges that sample it, the
+        bridge and harbour entries as they are. Handed on, not copied: this lattice makes them again
+        if asked."""
         shared = {}
-        table = self._shared.pop("live", None)  # handed on, not copied: this lattice makes it again if asked
+        table = self._shared.pop("live", None)
         if table is not None:
-            shared["live"] = _without_touched(table, self, fine & ~self.built_up)
-        directed = self._shared.pop("directed", None)  # so is the map's directed table, where it replaced it
+            shared["live"] = _without_touched(table, self, grown)
+        directed = self._shared.pop("directed", None)  # the map's directed table, where it replaced them
         if directed is not None:
-            shared["directed"] = _directed_without_touched(directed, self, fine & ~self.built_up)
+            shared["directed"] = _directed_without_touched(directed, self, grown)
         if "special" in self._shared:  # B removes land edges only
             shared["special"] = self._shared["special"]
-        return replace(self, built_up=fine, _cache={}, _shared=shared)
+        return shared
 
     def directed_tables(self) -> tuple[np.ndarray, np.ndarray | LatticeWeights]:
         """Live unit edges in both directions: ``(V, D)`` kind (uint8, NO_EDGE) and weight (float32).
