@@ -1,7 +1,7 @@
 """Capture the major roads' ``find_route`` calls of one run, then replay them: CPU, states searched, same route.
 
     PYTHONPATH=. python benchmarks/route_replay.py capture DIR -- FILE -o X.xml --seed 0 -q
-    PYTHONPATH=. python benchmarks/route_replay.py replay DIR [--modes base,def] [--calls 0 5 15]
+    PYTHONPATH=. python benchmarks/route_replay.py replay DIR [--modes base,def] [--calls 0 5 15] [--carry]
 
 ``capture`` runs ``osm-expand`` with the given arguments and pickles each
 ``routing.find_route`` call (the path graph, source, target and keywords) to
@@ -23,6 +23,11 @@ settled the next window (``routing._Growth.settles``). The modes set the call's
 - ``def``: ``turn_bound`` and ``turn_share`` at their defaults;
 - ``sNN``: T over any region (``turn_bound=10**9``) with ``turn_share=NN/100``;
 - ``whole``: T over any region, its corridor searched whole (``turn_share=1``).
+
+With ``--carry`` each call takes over the map tables the last one made (its lattice's
+``Lattice.handed_on``, as ``with_built_up`` hands them from one B to the next in the command)
+where its B holds the last one's, instead of the tables its pickle caught: the map's directed
+table (session 43) is made once per run in the command, where each call made it again without.
 
 The CPU seconds of a loaded machine drift by ±5 %: compare modes of one run.
 Session 40's numbers in ``RoutingOptions.turn_bound``'s and ``turn_share``'s
@@ -89,8 +94,21 @@ def _options(base: routing.RoutingOptions, mode: str) -> routing.RoutingOptions:
     raise SystemExit(f"unknown mode {mode!r}: base, def, whole or sNN")
 
 
-def replay(folder: Path, modes: list[str], calls: list[int]) -> None:
-    """Each captured call of ``folder`` again per mode: one line a call, then the totals."""
+def _carried(last: Any, lattice: Any) -> None:
+    """``lattice`` takes over the map tables ``last`` made (``--carry``), as the command's
+    ``with_built_up`` hands them on, where it is the same map with a B that holds last's."""
+    if (not hasattr(last, "handed_on") or last.full_shape != lattice.full_shape
+            or last.built_up.shape != lattice.built_up.shape or (last.built_up & ~lattice.built_up).any()):
+        return
+    tables = last.handed_on(lattice.built_up & ~last.built_up)
+    if "directed" in tables:  # it replaced the unit edges in the command
+        lattice._shared.pop("live", None)
+    lattice._shared.update(tables)
+
+
+def replay(folder: Path, modes: list[str], calls: list[int], carry: bool = False) -> None:
+    """Each captured call of ``folder`` again per mode: one line a call, then the totals; with ``carry``
+    each call takes over the last one's map tables (:func:`_carried`)."""
     count: dict[str, float] = {}
     search = es.expanded_dijkstra
     turns = routing._turns_to_go
@@ -132,9 +150,12 @@ def replay(folder: Path, modes: list[str], calls: list[int]) -> None:
     routing._exit_arrivals = exits_timed
     routing._Growth.settles = settled
     total = {m: [0.0, 0.0, 0.0, 0.0, 0.0] for m in modes}  # CPU, same routes, states, T's CPU, exits' CPU
+    last = None  # the last call's map lattice (``carry``)
     for i in calls:
         with open(folder / f"call{i:03d}.pkl", "rb") as f:
             graph, source, target, kw = pickle.load(f)
+        if carry and last is not None:
+            _carried(last, graph.lattice)
         if getattr(graph.streets, "inner", None) is not None:
             shapely.prepare(graph.streets.inner)
         with open(folder / f"res{i:03d}.pkl", "rb") as f:
@@ -163,6 +184,7 @@ def replay(folder: Path, modes: list[str], calls: list[int]) -> None:
                      f" x {count['Tsize'] / 1e6:.1f} M exits {count['exits']:.2f} s/{count['exits_n']:.0f}"
                      f" ({count['stopped']:.0f} stopped)")
         print(line, flush=True)
+        last = graph.lattice if carry else None
         del graph
     for m in modes:
         cpu, routes, states, T, exits = total[m]
@@ -180,12 +202,13 @@ def main() -> None:
     rep.add_argument("folder", type=Path)
     rep.add_argument("--modes", default="base,def", help="comma-separated: base, def, whole, sNN")
     rep.add_argument("--calls", type=int, nargs="*", help="the call numbers (default: all)")
+    rep.add_argument("--carry", action="store_true", help="each call takes over the last one's map tables")
     args = parser.parse_args()
     if args.what == "capture":
         argv = args.argv[1:] if args.argv[:1] == ["--"] else args.argv
         sys.exit(capture(args.folder, argv))
     calls = args.calls or list(range(len(list(args.folder.glob("call*.pkl")))))
-    replay(args.folder, args.modes.split(","), calls)
+    replay(args.folder, args.modes.split(","), calls, args.carry)
 
 
 if __name__ == "__main__":

@@ -31,7 +31,9 @@ filter needs the whole map) and the map's unit edges; the live unit edges
 (B removed) are one ``(D/2, V)`` table over the map, made when first
 searched and carried from one B to the next (only the edges the new ground
 touches go), and a rectangle of vertices (:meth:`Lattice.window`) makes its
-edges in both directions from it.
+edges in both directions from it; on a map of up to ``_MAP_DIRECTED_BYTES``
+that table becomes the map's ``(V, D)`` directed table, carried alike, and a
+window crops its rows.
 
 The water and forbidden rasters should be drawn generously
 (:meth:`Raster.from_geometry`: a cell is water when water comes within half
@@ -357,7 +359,10 @@ class Lattice:
     #: what the map and all its windows of one B share: ``"live"``, the whole map's live unit edges
     #: ``(D/2, V_map)`` (:func:`_map_live_units`), made once per run and cut by every window
     #: (:func:`_window_directed`); :meth:`with_built_up` carries it to the next B, removing only the
-    #: edges the new ground touches; ``"special"``, the map's bridge and harbour entries
+    #: edges the new ground touches; ``"special"``, the map's bridge and harbour entries;
+    #: ``"directed"``, the map's live directed kinds ``(V_map, D)`` (:meth:`_map_directed`), which
+    #: replace ``"live"`` once made: every window's table is cropped from it (:func:`_cropped`), and
+    #: :meth:`with_built_up` carries it as it does ``"live"`` (:func:`_directed_without_touched`)
     _shared: dict = field(default_factory=dict, repr=False, compare=False)
 
     @property
@@ -568,13 +573,24 @@ class Lattice:
                           within=within)
         if np.array_equal(fine, self.built_up):
             return self
+        return replace(self, built_up=fine, _cache={}, _shared=self.handed_on(fine & ~self.built_up))
+
+    def handed_on(self, grown: np.ndarray) -> dict:
+        """What this lattice's map tables become for the next B, ``grown`` the fine points it takes in
+        (:meth:`with_built_up`; ``benchmarks/route_replay.py`` carries them from one captured call to
+        the next so): the live unit edges or directed kinds without the land edges that sample it, the
+        bridge and harbour entries as they are. Handed on, not copied: this lattice makes them again
+        if asked."""
         shared = {}
-        table = self._shared.pop("live", None)  # handed on, not copied: this lattice makes it again if asked
+        table = self._shared.pop("live", None)
         if table is not None:
-            shared["live"] = _without_touched(table, self, fine & ~self.built_up)
+            shared["live"] = _without_touched(table, self, grown)
+        directed = self._shared.pop("directed", None)  # the map's directed table, where it replaced them
+        if directed is not None:
+            shared["directed"] = _directed_without_touched(directed, self, grown)
         if "special" in self._shared:  # B removes land edges only
             shared["special"] = self._shared["special"]
-        return replace(self, built_up=fine, _cache={}, _shared=shared)
+        return shared
 
     def directed_tables(self) -> tuple[np.ndarray, np.ndarray | LatticeWeights]:
         """Live unit edges in both directions: ``(V, D)`` kind (uint8, NO_EDGE) and weight (float32).
@@ -627,8 +643,23 @@ class Lattice:
         again (Campo Grande: 10.3 s of 48 windows, 18 road years), though B changes once a year.
         On flat land an edge's weight is its length (:class:`LatticeWeights`, no table).
         """
-        kind = _window_directed(self._map_table(), self.full_shape, self.offset, self.shape, self.directions)
+        map_ny, map_nx = self.full_shape
+        if map_ny * map_nx * len(self.directions) <= _MAP_DIRECTED_BYTES:
+            kind = _cropped(self._map_directed(), self.full_shape, self.offset, self.shape, self.directions)
+        else:
+            kind = _window_directed(self._map_table(), self.full_shape, self.offset, self.shape, self.directions)
         return kind, LatticeWeights(kind, self.direction_length)
+
+    def _map_directed(self) -> np.ndarray:
+        """The whole map's live directed kinds ``(V_map, D)`` of this B (:func:`_window_directed` of the
+        map), made once per run from its live unit edges, which it replaces (twice their size, the
+        same edges), and carried from B to B (:meth:`with_built_up`): a window's table is a crop of it
+        (:func:`_cropped`), where it was cut from the ``(D/2, V_map)`` unit edges afresh each time."""
+        if "directed" not in self._shared:
+            table = _window_directed(self._map_table(), self.full_shape, (0, 0), self.full_shape, self.directions)
+            self._shared["directed"] = table
+            del self._shared["live"]
+        return self._shared["directed"]
 
 
 def _crop(a: np.ndarray, row: int, col: int, shape: tuple[int, int], value) -> np.ndarray:
@@ -765,6 +796,85 @@ def _window_directed(live: np.ndarray, map_shape: tuple[int, int], offset: tuple
     return out.reshape(ny * nx, n_dir)
 
 
+#: bytes of the map's live directed kinds (:meth:`Lattice._map_directed`, one byte a vertex and direction)
+#: up to which windows crop their tables from it: Campo Grande's 71 MB (595,000 vertices × 120) fit,
+#: the synthetic 10,000-street town's 285 MB do not (its windows cut their tables from the unit edges,
+#: :func:`_window_directed`, as before). It replaces the map's unit edges (36 MB on Campo Grande) for
+#: the run, so the run holds 36 MB more. Campo Grande's windows: a 626 × 453 window's table 0.113 →
+#: 0.059 s CPU cropped, the whole map's 0.215 → 0.077 s (/tmp/h43r/crop_bench.py, session 43); its
+#: default command (session 43, warm numba cache, runs back to back): the 66 windows' tables 2.23 / 2.41
+#: → 1.08 s CPU, ``with_built_up`` 0.75 / 0.80 → 0.86 s, peak 0.879 → 0.912 GB, the same bytes
+_MAP_DIRECTED_BYTES = 128 * 2**20
+
+
+def _cropped(table: np.ndarray, map_shape: tuple[int, int], offset: tuple[int, int], shape: tuple[int, int],
+             directions: np.ndarray) -> np.ndarray:
+    """A window's live directed kinds ``(V, D)`` (:func:`_window_directed`'s) cropped from the map's
+    (``table``: its rows the window covers made): a copy of the window's rows, then the edges whose
+    other end leaves the window (within ``radius`` of its sides) set to NO_EDGE.
+
+    The map's table holds an edge where both ends are on the map, the window's where both are in the
+    window: the same entries but those. A row of the window is one run of ``nx · D`` bytes of the
+    map's, where cutting it from the ``(D/2, V_map)`` unit edges wrote 120 strided columns."""
+    (map_ny, map_nx), (r0, c0), (ny, nx) = map_shape, offset, shape
+    n_dir = len(directions)
+    half = n_dir // 2
+    out = table.reshape(map_ny, map_nx, n_dir)[r0:r0 + ny, c0:c0 + nx].copy()
+    for k, (dx, dy) in enumerate(directions[:half].tolist()):  # dy ≥ 0 in the first half
+        # from the tail (i, j) to (i + dy, j + dx); at the head (i, j) from (i − dy, j − dx)
+        out[max(ny - dy, 0):, :, k] = NO_EDGE
+        out[:min(dy, ny), :, half + k] = NO_EDGE
+        if dx > 0:
+            out[:, max(nx - dx, 0):, k] = NO_EDGE
+            out[:, :min(dx, nx), half + k] = NO_EDGE
+        elif dx < 0:
+            out[:, :min(-dx, nx), k] = NO_EDGE
+            out[:, max(nx + dx, 0):, half + k] = NO_EDGE
+    return out.reshape(ny * nx, n_dir)
+
+
+def _touched_box(lat: Lattice, grown: np.ndarray) -> tuple[int, int, int, int] | None:
+    """The map's vertex rows and columns ``(r0, r1, c0, c1)`` (ends excluded) of the unit edges that may
+    sample ``grown`` (fine points): those within ``radius`` of its bounding box; None where it is empty."""
+    fi, fj = np.flatnonzero(grown.any(axis=1)), np.flatnonzero(grown.any(axis=0))  # its rows and columns
+    if not len(fi):
+        return None
+    f, radius, (map_ny, map_nx) = lat.samples, lat.radius, lat.full_shape
+    r0, r1 = max(int(fi[0]) // f - radius, 0), min(-(-int(fi[-1]) // f) + radius + 1, map_ny)
+    c0, c1 = max(int(fj[0]) // f - radius, 0), min(-(-int(fj[-1]) // f) + radius + 1, map_nx)
+    return r0, r1, c0, c1
+
+
+def _directed_without_touched(table: np.ndarray, lat: Lattice, grown: np.ndarray) -> np.ndarray:
+    """The map's live directed kinds (:meth:`Lattice._map_directed`) without the land edges that sample
+    ``grown`` (fine points B took in), changed in place and returned: :func:`_without_touched` on the
+    edges' tail columns, each removal repeated in its head's column (``k + D/2`` of ``v + d_k``).
+    The same table :func:`_window_directed` makes of the map's unit edges so carried: an edge of the
+    map ends on it, so a head outside it is never live."""
+    box = _touched_box(lat, grown)
+    if box is None:
+        return table
+    f, radius, (map_ny, map_nx) = lat.samples, lat.radius, lat.full_shape
+    r0, r1, c0, c1 = box
+    shape = (r1 - r0, c1 - c0)
+    pad = radius * f
+    fine_shape = ((shape[0] - 1) * f + 1 + 2 * pad, (shape[1] - 1) * f + 1 + 2 * pad)
+    pg = _crop(grown, r0 * f - pad, c0 * f - pad, fine_shape, False)
+    n_dir = len(lat.directions)
+    half = n_dir // 2
+    cube = table.reshape(map_ny, map_nx, n_dir)
+    for k, (dx, dy) in enumerate(lat.directions[:half].tolist()):
+        part = cube[r0:r1, c0:c1, k]  # a view: the edges from the vertices near the new ground
+        gone = (part == EdgeKind.LAND) & _touched(pg, pad, lat.directions[k], shape, f)
+        part[gone] = NO_EDGE
+        # their heads (r + dy, c + dx), the part of them on the map (dy ≥ 0 in the first half)
+        h0, h1 = r0 + dy, min(r1 + dy, map_ny)
+        g0, g1 = max(c0 + dx, 0), min(c1 + dx, map_nx)
+        if h1 > h0 and g1 > g0:
+            cube[h0:h1, g0:g1, half + k][gone[:h1 - h0, g0 - c0 - dx:g1 - c0 - dx]] = NO_EDGE
+    return table
+
+
 def _without_touched(table: np.ndarray, lat: Lattice, grown: np.ndarray) -> np.ndarray:
     """The map's live unit edges (:func:`_map_live_units`) without the land edges that sample
     ``grown`` (fine points B took in), changed in place and returned.
@@ -772,12 +882,11 @@ def _without_touched(table: np.ndarray, lat: Lattice, grown: np.ndarray) -> np.n
     B only grows, so the edges it removes from one year to the next are those that sample
     the new ground: only the vertices within ``radius`` of its bounding box are looked at.
     """
-    fi, fj = np.flatnonzero(grown.any(axis=1)), np.flatnonzero(grown.any(axis=0))  # its rows and columns
-    if not len(fi):
+    box = _touched_box(lat, grown)
+    if box is None:
         return table
     f, radius, (map_ny, map_nx) = lat.samples, lat.radius, lat.full_shape
-    r0, r1 = max(int(fi[0]) // f - radius, 0), min(-(-int(fi[-1]) // f) + radius + 1, map_ny)
-    c0, c1 = max(int(fj[0]) // f - radius, 0), min(-(-int(fj[-1]) // f) + radius + 1, map_nx)
+    r0, r1, c0, c1 = box
     shape = (r1 - r0, c1 - c0)
     pad = radius * f
     fine_shape = ((shape[0] - 1) * f + 1 + 2 * pad, (shape[1] - 1) * f + 1 + 2 * pad)
