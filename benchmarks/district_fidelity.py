@@ -64,6 +64,8 @@ def run(name: str, seeds: list[int], pattern: str, overrides: dict, same_site: b
         rows.append({"seed": seed, "off": f["off"], "density_ok": f["density_ok"], "typical": f["typical_part_off"],
                      "measures": f["measures"], "streets": result.report["grown_streets"], "seconds": total,
                      "joins": result.report["connections"], "pieces": f["pieces"],
+                     # the transplant fell back to the quilt on this seed (PatchOptions.transplant_fallback)
+                     "fell_back": "fell_back" in (result.growth.debug or {}),
                      "ok": {k: f["measures"][k]["ok"] for k in IN_RANGE},
                      "corners": corners, "corners_per_km": corners / max(km, 1e-9),
                      **eye(result)})
@@ -143,8 +145,9 @@ def main() -> None:
     print("| town | off of 14 per seed | mean off | median real neighbourhood | density in range | "
           "dead-end share in range | 2-core share in range | pieces per seed | often off | streets | joins | s/run "
           "| corners > 45° per seed | per km per seed; mean (neighbourhoods' median, p90) "
-          "| straight chords per seed (neighbourhoods') | blocks per km per seed (neighbourhoods') |")
-    print("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|")
+          "| straight chords per seed (neighbourhoods') | blocks per km per seed (neighbourhoods') "
+          "| the quilt grew (the transplant fell back) per seed |")
+    print("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|")
     tables = {}
     for name in args.towns:
         rows = run(name, args.seeds, args.pattern, overrides, args.same_site)
@@ -162,7 +165,8 @@ def main() -> None:
               f"| {np.mean([r['seconds'] for r in rows]):.1f} | {' '.join(str(r['corners']) for r in rows)} "
               f"| {rates}; mean {np.mean([r['corners_per_km'] for r in rows]):.1f} "
               f"({rows[0]['town_corners_per_km']:.1f}, p90 {rows[0]['town_corners_p90']:.1f}) "
-              f"| {straight} ({rows[0]['town_straight']:.2f}) | {blocks} ({rows[0]['town_blocks_per_km']:.1f}) |",
+              f"| {straight} ({rows[0]['town_straight']:.2f}) | {blocks} ({rows[0]['town_blocks_per_km']:.1f}) "
+              f"| {''.join('y' if r['fell_back'] else 'n' for r in rows)} |",
               flush=True)
         tables[name] = rows[0]["measures"]
     if args.table:
