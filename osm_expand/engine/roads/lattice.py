@@ -845,21 +845,33 @@ def _touched_box(lat: Lattice, grown: np.ndarray) -> tuple[int, int, int, int] |
     return r0, r1, c0, c1
 
 
+def _near_the_new_ground(lat: Lattice, grown: np.ndarray
+                         ) -> tuple[tuple[int, int, int, int], tuple[int, int], int, np.ndarray] | None:
+    """The vertices whose edges may sample ``grown`` (fine points B took in): their box ``(r0, r1, c0,
+    c1)``, its shape, the fine pad (``radius`` vertices of fine samples) and ``grown`` cropped to the box
+    and pad; None when nothing grew."""
+    box = _touched_box(lat, grown)
+    if box is None:
+        return None
+    f = lat.samples
+    r0, r1, c0, c1 = box
+    shape = (r1 - r0, c1 - c0)
+    pad = lat.radius * f
+    fine_shape = ((shape[0] - 1) * f + 1 + 2 * pad, (shape[1] - 1) * f + 1 + 2 * pad)
+    return box, shape, pad, _crop(grown, r0 * f - pad, c0 * f - pad, fine_shape, False)
+
+
 def _directed_without_touched(table: np.ndarray, lat: Lattice, grown: np.ndarray) -> np.ndarray:
     """The map's live directed kinds (:meth:`Lattice._map_directed`) without the land edges that sample
     ``grown`` (fine points B took in), changed in place and returned: :func:`_without_touched` on the
     edges' tail columns, each removal repeated in its head's column (``k + D/2`` of ``v + d_k``).
     The same table :func:`_window_directed` makes of the map's unit edges so carried: an edge of the
     map ends on it, so a head outside it is never live."""
-    box = _touched_box(lat, grown)
-    if box is None:
+    near = _near_the_new_ground(lat, grown)
+    if near is None:
         return table
-    f, radius, (map_ny, map_nx) = lat.samples, lat.radius, lat.full_shape
-    r0, r1, c0, c1 = box
-    shape = (r1 - r0, c1 - c0)
-    pad = radius * f
-    fine_shape = ((shape[0] - 1) * f + 1 + 2 * pad, (shape[1] - 1) * f + 1 + 2 * pad)
-    pg = _crop(grown, r0 * f - pad, c0 * f - pad, fine_shape, False)
+    (r0, r1, c0, c1), shape, pad, pg = near
+    f, (map_ny, map_nx) = lat.samples, lat.full_shape
     n_dir = len(lat.directions)
     half = n_dir // 2
     cube = table.reshape(map_ny, map_nx, n_dir)
@@ -882,15 +894,11 @@ def _without_touched(table: np.ndarray, lat: Lattice, grown: np.ndarray) -> np.n
     B only grows, so the edges it removes from one year to the next are those that sample
     the new ground: only the vertices within ``radius`` of its bounding box are looked at.
     """
-    box = _touched_box(lat, grown)
-    if box is None:
+    near = _near_the_new_ground(lat, grown)
+    if near is None:
         return table
-    f, radius, (map_ny, map_nx) = lat.samples, lat.radius, lat.full_shape
-    r0, r1, c0, c1 = box
-    shape = (r1 - r0, c1 - c0)
-    pad = radius * f
-    fine_shape = ((shape[0] - 1) * f + 1 + 2 * pad, (shape[1] - 1) * f + 1 + 2 * pad)
-    pg = _crop(grown, r0 * f - pad, c0 * f - pad, fine_shape, False)
+    (r0, r1, c0, c1), shape, pad, pg = near
+    f, (map_ny, map_nx) = lat.samples, lat.full_shape
     units = table.reshape(-1, map_ny, map_nx)
     for k in range(len(lat.directions) // 2):
         part = units[k, r0:r1, c0:c1]  # a view: the edges from the vertices near the new ground
