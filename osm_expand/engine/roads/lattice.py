@@ -833,30 +833,20 @@ def _cropped(table: np.ndarray, map_shape: tuple[int, int], offset: tuple[int, i
     return out.reshape(ny * nx, n_dir)
 
 
-def _touched_box(lat: Lattice, grown: np.ndarray) -> tuple[int, int, int, int] | None:
-    """The map's vertex rows and columns ``(r0, r1, c0, c1)`` (ends excluded) of the unit edges that may
-    sample ``grown`` (fine points): those within ``radius`` of its bounding box; None where it is empty."""
+def _near_the_new_ground(lat: Lattice, grown: np.ndarray
+                         ) -> tuple[tuple[int, int, int, int], tuple[int, int], int, np.ndarray] | None:
+    """The vertices whose edges may sample ``grown`` (fine points B took in): their box ``(r0, r1, c0,
+    c1)`` (ends excluded: the vertices within ``radius`` of its bounding box), its shape, the fine pad
+    (``radius`` vertices of fine samples) and ``grown`` cropped to the box and pad; None when nothing grew."""
     fi, fj = np.flatnonzero(grown.any(axis=1)), np.flatnonzero(grown.any(axis=0))  # its rows and columns
     if not len(fi):
         return None
     f, radius, (map_ny, map_nx) = lat.samples, lat.radius, lat.full_shape
     r0, r1 = max(int(fi[0]) // f - radius, 0), min(-(-int(fi[-1]) // f) + radius + 1, map_ny)
     c0, c1 = max(int(fj[0]) // f - radius, 0), min(-(-int(fj[-1]) // f) + radius + 1, map_nx)
-    return r0, r1, c0, c1
-
-
-def _near_the_new_ground(lat: Lattice, grown: np.ndarray
-                         ) -> tuple[tuple[int, int, int, int], tuple[int, int], int, np.ndarray] | None:
-    """The vertices whose edges may sample ``grown`` (fine points B took in): their box ``(r0, r1, c0,
-    c1)``, its shape, the fine pad (``radius`` vertices of fine samples) and ``grown`` cropped to the box
-    and pad; None when nothing grew."""
-    box = _touched_box(lat, grown)
-    if box is None:
-        return None
-    f = lat.samples
-    r0, r1, c0, c1 = box
+    box = (r0, r1, c0, c1)
     shape = (r1 - r0, c1 - c0)
-    pad = lat.radius * f
+    pad = radius * f
     fine_shape = ((shape[0] - 1) * f + 1 + 2 * pad, (shape[1] - 1) * f + 1 + 2 * pad)
     return box, shape, pad, _crop(grown, r0 * f - pad, c0 * f - pad, fine_shape, False)
 
