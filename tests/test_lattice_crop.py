@@ -11,7 +11,7 @@ from hypothesis import strategies as st
 
 from osm_expand.engine.roads import lattice as L
 from osm_expand.engine.roads.lattice import NO_EDGE, LatticeOptions, build_lattice
-from tests.test_majorroads import random_blobs, river
+from tests.test_majorroads import random_blobs, random_river_lattice
 
 
 def _random_live(rng: np.random.Generator, radius: int, map_ny: int, map_nx: int) -> tuple[np.ndarray, np.ndarray]:
@@ -68,11 +68,7 @@ def test_windows_growing_year_after_year_crop_the_tables_they_would_cut(seed):
     from dataclasses import replace
 
     rng = np.random.default_rng(seed)
-    extent = (0, 0, 800, 600)
-    blobs = random_blobs(rng, extent, 4, within=(50, 750), radius=(20, 70))
-    y_lo = float(rng.uniform(100, 450))
-    lat = build_lattice(extent, water=river(extent, y_lo, y_lo + 50), forbidden=blobs,
-                        options=LatticeOptions(radius=int(rng.integers(1, 5))))
+    lat = random_river_lattice(rng)
     made = []
     units = L._map_live_units
     with pytest.MonkeyPatch.context() as monkey:

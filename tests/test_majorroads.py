@@ -70,6 +70,16 @@ def river(extent, y_lo, y_hi) -> Raster:
     return raster(lambda x, y: (y > y_lo) & (y < y_hi), extent)
 
 
+def random_river_lattice(rng: np.random.Generator):
+    """An 800 × 600 m lattice with four forbidden discs, a 50 m river across it at a random height and a
+    random radius of 1-4 (drawn from ``rng`` in that order)."""
+    extent = (0, 0, 800, 600)
+    blobs = random_blobs(rng, extent, 4, within=(50, 750), radius=(20, 70))
+    y_lo = float(rng.uniform(100, 450))
+    return build_lattice(extent, water=river(extent, y_lo, y_lo + 50), forbidden=blobs,
+                         options=LatticeOptions(radius=int(rng.integers(1, 5))))
+
+
 def samples_along(lattice, src, dst, per_edge=40) -> np.ndarray:
     xy = lattice.vertex_xy()
     t = np.linspace(0.0, 1.0, per_edge)[None, :, None]
@@ -983,11 +993,7 @@ def test_a_windows_directed_tables_are_cropped_from_the_maps_made_once_per_b(see
     from dataclasses import replace
 
     rng = np.random.default_rng(seed)
-    extent = (0, 0, 800, 600)
-    blobs = random_blobs(rng, extent, 4, within=(50, 750), radius=(20, 70))
-    y_lo = float(rng.uniform(100, 450))
-    lat = build_lattice(extent, water=river(extent, y_lo, y_lo + 50), forbidden=blobs,
-                        options=LatticeOptions(radius=int(rng.integers(1, 5))))
+    lat = random_river_lattice(rng)
     import osm_expand.engine.roads.lattice as lattice_module
     calls = []
     made = lattice_module._map_live_units
