@@ -610,10 +610,19 @@ def _sorted_edges(parts: Sequence[tuple[np.ndarray, ...]], xy: np.ndarray) -> tu
     src, dst = np.concatenate([src, dst]), np.concatenate([dst, src])
     kind, seg, length, weight = (np.concatenate([a, a]) for a in (kind, seg, length, weight))
     heading = np.concatenate([heading, back])
-    # one stable sort by (tail, head) as one int64, then only the parallel edges (few) are put in weight
-    # order: the order ``np.lexsort((weight, dst, src))`` gives, where its three passes over every edge
-    # were 2-3 times the time (the street part's and each window's own edges on Campo Grande)
-    key = src * np.int64(len(xy)) + dst
+    order = _edge_order(src, dst, weight, len(xy))
+    return tuple(a[order] for a in (src, dst, kind, seg, length, weight, heading))
+
+
+def _edge_order(src: np.ndarray, dst: np.ndarray, weight: np.ndarray, n: int) -> np.ndarray:
+    """The edges ``(src, dst)`` (vertices below ``n``) in (tail, head) order, of parallel edges only the
+    cheapest (the first of equal weight): the order ``np.lexsort((weight, dst, src))`` gives, with its
+    first of each (tail, head) kept.
+
+    One stable sort of (tail, head) as one int64, then only the parallel edges (few) put in weight order:
+    the lexsort's three passes over every edge were 2-3 times the time (the street part's and each
+    window's own edges on Campo Grande)."""
+    key = src * np.int64(n) + dst
     order = np.argsort(key, kind="stable")
     ranked = key[order]
     parallel = np.zeros(len(order), dtype=bool)  # an edge with the (tail, head) of the one before it
@@ -624,8 +633,7 @@ def _sorted_edges(parts: Sequence[tuple[np.ndarray, ...]], xy: np.ndarray) -> tu
         at = np.flatnonzero(group)
         members = order[at]  # each group's edges in their order: lexsort keeps it among equal weights
         order[at] = members[np.lexsort((weight[members], key[members]))]
-    order = order[~parallel]  # of parallel edges keep the cheapest
-    return tuple(a[order] for a in (src, dst, kind, seg, length, weight, heading))
+    return order[~parallel]  # of parallel edges keep the cheapest
 
 
 def _merged_edges(street: tuple[np.ndarray, ...], own: tuple[np.ndarray, ...], n_lat: int,
